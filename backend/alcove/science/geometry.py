@@ -1,0 +1,200 @@
+"""Frames and geometry shared by the multibody model, the oracles and the surrogate.
+
+This module is the single source of truth for where the head and the headrest are.
+Everything here is pure NumPy (plus helpers that accept CasADi symbols) and imports
+neither the web nor the database layer.
+
+Conventions (all SI units: m, s, rad, N, N m)
+---------------------------------------------
+World frame W
+    Origin at the C7/T1 joint. x forward (the way the face looks), z up, y = z x x
+    (to the left). All motion is planar in the x-z plane; rotations are about y.
+
+Head (contact body) frame B
+    Origin at the head centre of gravity (COG). z_B along the head axis (from the joint
+    to the COG), x_B forward. The head's absolute angle ``theta`` is measured from the
+    vertical, positive *toward the headrest* (a backward tilt). In 3D the head
+    orientation is ``R_WB = R_y(-theta)``.
+
+Headrest frame H
+    Fixed in space. Origin on the undeformed front surface of the cushion, x_H = outward
+    surface normal (pointing from the cushion toward the head), z_H up along the
+    surface, y_H = y_W. The headrest is tilted back by ``tilt`` rad: ``R_WH = R_y(-tilt)``.
+
+Forces and moments reported by oracles and predicted by surrogates are the contact
+force on the head and its moment about the head frame origin, expressed in H
+(``fx, fy, fz, mx, my, mz``). A force that pushes the head away from the cushion has
+``fx > 0``.
+
+The planar angle of a body is its backward tilt; a rotation by a planar angle ``phi``
+maps the local (x, z) coordinates to world coordinates as ``[[cos, -sin], [sin, cos]]``
+applied to ``(x, z)`` with ``x -> x cos(phi) - z sin(phi)``, ``z -> x sin(phi) + z cos(phi)``
+(this is R_y(-phi) restricted to the x-z plane).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import asdict, dataclass, field, replace
+from typing import Any
+
+import numpy as np
+
+GRAVITY = 9.81
+
+
+def rot2(phi: float | np.ndarray) -> np.ndarray:
+    """Planar rotation for a backward tilt ``phi`` acting on (x, z) column vectors.
+
+    For an array ``phi`` of shape (n,), returns shape (n, 2, 2).
+    """
+    c, s = np.cos(phi), np.sin(phi)
+    return np.stack([np.stack([c, -s], -1), np.stack([s, c], -1)], -2)
+
+
+def rot3_from_tilt(phi: float | np.ndarray) -> np.ndarray:
+    """3D rotation matrix R_y(-phi) (shape (3, 3) or (n, 3, 3))."""
+    phi = np.asarray(phi, dtype=float)
+    c, s = np.cos(phi), np.sin(phi)
+    z, o = np.zeros_like(phi), np.ones_like(phi)
+    return np.stack(
+        [np.stack([c, z, -s], -1), np.stack([z, o, z], -1), np.stack([s, z, c], -1)], -2
+    )
+
+
+@dataclass(frozen=True)
+class HeadProfile:
+    """Occipital contact profile of the head: an ellipse in head-frame (x, z) coordinates.
+
+    Centre ``(cx, cz)`` and semi-axes ``ax`` (front-back) and ``az`` (up-down). The
+    ellipse is not centred on the head frame origin, so the contact normal does not pass
+    through the moment reference point and the moment is informative.
+    """
+
+    cx: float = 0.0
+    cz: float = -0.035
+    ax: float = 0.095
+    az: float = 0.110
+
+    def back_point(self) -> np.ndarray:
+        """Most posterior point (-x_B direction) in head-frame (x, z)."""
+        return np.array([self.cx - self.ax, self.cz])
+
+    def points(self, n: int = 400, arc: tuple[float, float] = (0.5 * math.pi, 1.5 * math.pi)) -> np.ndarray:
+        """Sample ``n`` points (head-frame x, z) on the back half of the ellipse."""
+        s = np.linspace(arc[0], arc[1], n)
+        return np.stack([self.cx + self.ax * np.cos(s), self.cz + self.az * np.sin(s)], -1)
+
+
+@dataclass(frozen=True)
+class HeadNeckPreset:
+    """The paper's 1-DOF head-neck model and its headrest (preset ``head-neck-1dof``).
+
+    Anthropometry after de Leva (1996), 50th percentile male; all values editable.
+    The headrest is placed so that the head first touches it at ``theta_contact``;
+    ``tilt`` is the headrest's backward inclination.
+    """
+
+    mass: float = 5.0  # kg
+    com_distance: float = 0.12  # m, joint -> head COG
+    inertia_joint: float = 0.10  # kg m^2, about the joint
+    theta_min: float = 0.032  # rad
+    theta_max: float = 0.432  # rad
+    theta0: float = 0.232  # rad, initial angle (at rest, not touching)
+    torque_limit: float = 30.0  # N m
+    gravity: float = GRAVITY
+    theta_contact: float = 0.31  # rad, first contact with the undeformed headrest
+    tilt: float = 0.31  # rad, headrest inclination (x_H = normal)
+    profile: HeadProfile = field(default_factory=HeadProfile)
+
+    # ---- derived geometry -------------------------------------------------------
+    @property
+    def inertia_com(self) -> float:
+        return self.inertia_joint - self.mass * self.com_distance**2
+
+    @property
+    def headrest_origin(self) -> np.ndarray:
+        """World (x, z) of the headrest frame origin: the head's back point at first contact."""
+        return self.head_point_world(self.profile.back_point(), self.theta_contact)
+
+    def head_origin_world(self, theta: Any) -> np.ndarray:
+        """World (x, z) of the head frame origin (COG)."""
+        d = self.com_distance
+        return np.array([-d * np.sin(theta), d * np.cos(theta)])
+
+    def head_point_world(self, p_head: np.ndarray, theta: float) -> np.ndarray:
+        """World (x, z) of a point given in head-frame (x, z)."""
+        return self.head_origin_world(theta) + rot2(theta) @ np.asarray(p_head, float)
+
+    def to_dict(self) -> dict[str, Any]:
+        return asdict(self)
+
+    @classmethod
+    def from_dict(cls, data: dict[str, Any]) -> "HeadNeckPreset":
+        data = dict(data)
+        prof = data.pop("profile", None)
+        obj = cls(**data)
+        if prof is not None:
+            obj = replace(obj, profile=HeadProfile(**prof))
+        return obj
+
+
+@dataclass(frozen=True)
+class RelativeKinematics:
+    """Head relative to the headrest, everything in the headrest frame H.
+
+    Arrays have a leading time axis of length n.
+    r_rel (n, 3), v_rel (n, 3), T_rel (n, 3, 3), omega_rel (n, 3).
+    """
+
+    r_rel: np.ndarray
+    v_rel: np.ndarray
+    T_rel: np.ndarray
+    omega_rel: np.ndarray
+
+    @property
+    def angle(self) -> np.ndarray:
+        """Planar relative tilt (head tilt minus headrest tilt), shape (n,)."""
+        return np.arctan2(-self.T_rel[:, 0, 2], self.T_rel[:, 0, 0])
+
+
+def relative_kinematics(preset: HeadNeckPreset, theta: np.ndarray, theta_dot: np.ndarray) -> RelativeKinematics:
+    """Relative kinematics of the head w.r.t. the headrest for the 1-DOF preset (NumPy)."""
+    theta = np.atleast_1d(np.asarray(theta, float))
+    theta_dot = np.atleast_1d(np.asarray(theta_dot, float))
+    d = preset.com_distance
+    beta = preset.tilt
+    # world position/velocity of the head origin
+    pos = np.stack([-d * np.sin(theta), d * np.cos(theta)], -1) - preset.headrest_origin
+    vel = np.stack([-d * np.cos(theta) * theta_dot, -d * np.sin(theta) * theta_dot], -1)
+    RT = rot2(-beta)  # world -> headrest
+    pos_h = pos @ RT.T
+    vel_h = vel @ RT.T
+    n = theta.shape[0]
+    zeros = np.zeros(n)
+    r_rel = np.stack([pos_h[:, 0], zeros, pos_h[:, 1]], -1)
+    v_rel = np.stack([vel_h[:, 0], zeros, vel_h[:, 1]], -1)
+    T_rel = rot3_from_tilt(theta - beta)
+    omega_rel = np.stack([zeros, -theta_dot, zeros], -1)
+    return RelativeKinematics(r_rel=r_rel, v_rel=v_rel, T_rel=T_rel, omega_rel=omega_rel)
+
+
+def head_pose_in_headrest(preset: HeadNeckPreset, theta: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Planar pose of the head frame in H: (x, z) of its origin, shape (n, 2), and tilt (n,)."""
+    kin = relative_kinematics(preset, theta, np.zeros_like(np.atleast_1d(theta)))
+    return kin.r_rel[:, [0, 2]], np.atleast_1d(np.asarray(theta, float)) - preset.tilt
+
+
+DEFAULT_PRESET = HeadNeckPreset()
+
+__all__ = [
+    "GRAVITY",
+    "DEFAULT_PRESET",
+    "HeadNeckPreset",
+    "HeadProfile",
+    "RelativeKinematics",
+    "head_pose_in_headrest",
+    "relative_kinematics",
+    "rot2",
+    "rot3_from_tilt",
+]

@@ -1,0 +1,85 @@
+"""Run every registered benchmark figure and print one table (also bench/results.json).
+
+Usage: python -m bench.run [--quick] [--only SUBSTRING] [--out bench/results.json]
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import json
+import pkgutil
+import platform
+import statistics
+import sys
+import time
+from pathlib import Path
+
+from rich.console import Console
+from rich.table import Table
+
+from bench import figures as figures_pkg
+from bench.harness import FIGURES, summarize
+
+
+def load_figures() -> None:
+    for mod in sorted(pkgutil.iter_modules(figures_pkg.__path__), key=lambda m: m.name):
+        importlib.import_module(f"bench.figures.{mod.name}")
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__)
+    ap.add_argument("--quick", action="store_true", help="fewer repetitions, skip the long figures (< 2 min)")
+    ap.add_argument("--only", default=None, help="run only figures whose name contains this text")
+    ap.add_argument("--out", default=str(Path(__file__).with_name("results.json")))
+    args = ap.parse_args(argv)
+    load_figures()
+    console = Console()
+    rows = []
+    t_start = time.perf_counter()
+    for fig in FIGURES:
+        if args.only and args.only not in fig.name:
+            continue
+        if args.quick and not fig.quick:
+            continue
+        reason = fig.requires() if fig.requires else None
+        if reason:
+            console.print(f"[yellow]skip[/] {fig.name}: {reason}")
+            row = summarize(fig)
+            row["skipped"] = reason
+            rows.append(row)
+            continue
+        reps = fig.quick_reps if args.quick else fig.reps
+        console.print(f"[bold]{fig.name}[/] ({reps} reps)")
+        ctx = fig.setup() if fig.setup else None
+        for _ in range(reps):
+            fig.values.append(float(fig.run(ctx)))
+        rows.append(summarize(fig))
+    by_name = {r["figure"]: r for r in rows}
+    for r in rows:
+        b = by_name.get(r["baseline"]) if r["baseline"] else None
+        r["ratio_to_baseline"] = (r["median"] / b["median"]) if b and b["median"] and r["median"] is not None else None
+
+    table = Table(title=f"alcove benchmarks ({'quick' if args.quick else 'full'})")
+    for c in ("figure", "unit", "median", "min", "max", "reps", "target", "ok", "ratio"):
+        table.add_column(c, justify="left" if c in ("figure", "unit") else "right")
+    fmt = lambda x: "-" if x is None else (f"{x:.4g}")  # noqa: E731
+    for r in rows:
+        ok = "skip" if r.get("skipped") else ("-" if r["within_target"] is None else ("yes" if r["within_target"] else "NO"))
+        target = "-" if r["target"] is None else f"{r['target_kind']} {r['target']:g}"
+        table.add_row(r["figure"], r["unit"], fmt(r["median"]), fmt(r["min"]), fmt(r["max"]), str(r["repetitions"]), target, ok, fmt(r["ratio_to_baseline"]))
+    console.print(table)
+    out = {
+        "mode": "quick" if args.quick else "full",
+        "python": sys.version.split()[0],
+        "machine": platform.platform(),
+        "wall_time_s": time.perf_counter() - t_start,
+        "figures": rows,
+    }
+    Path(args.out).write_text(json.dumps(out, indent=2))
+    console.print(f"wrote {args.out}")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

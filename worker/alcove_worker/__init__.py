@@ -1,0 +1,1 @@
+"""Thin worker layer: the Celery app, job wrappers calling backend services, the CLI."""

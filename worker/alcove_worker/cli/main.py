@@ -1,0 +1,24 @@
+"""The ``alcove`` command line. Each command group lives in its own module."""
+
+from __future__ import annotations
+
+import typer
+
+from alcove_worker.cli import ocp, oracle, surrogate
+
+app = typer.Typer(name="alcove", help="Active-learning campaigns for contact surrogates.", no_args_is_help=True, add_completion=False)
+app.add_typer(ocp.app, name="ocp")
+app.add_typer(oracle.app, name="oracle")
+app.add_typer(surrogate.app, name="surrogate")
+
+
+@app.command()
+def version() -> None:
+    """Print the alcove version."""
+    import alcove
+
+    typer.echo(alcove.__version__)
+
+
+if __name__ == "__main__":
+    app()
