@@ -195,6 +195,33 @@ __all__ = [
     "RelativeKinematics",
     "head_pose_in_headrest",
     "relative_kinematics",
+    "relative_kinematics_symbolic",
     "rot2",
     "rot3_from_tilt",
 ]
+
+
+def relative_kinematics_symbolic(preset: HeadNeckPreset, theta, theta_dot):  # type: ignore[no-untyped-def]
+    """CasADi (SX/MX) version of :func:`relative_kinematics` for one scalar state.
+
+    Returns ``(r_rel (3,1), v_rel (3,1), T_rel (3,3), omega_rel (3,1))``; used to build
+    feature maps and contact models inside the OCP.
+    """
+    import casadi as ca
+
+    d = preset.com_distance
+    beta = preset.tilt
+    o = preset.headrest_origin
+    px = -d * ca.sin(theta) - o[0]
+    pz = d * ca.cos(theta) - o[1]
+    vx = -d * ca.cos(theta) * theta_dot
+    vz = -d * ca.sin(theta) * theta_dot
+    cb, sb = math.cos(beta), math.sin(beta)
+    # world -> headrest: rot2(-beta)
+    r_rel = ca.vertcat(cb * px + sb * pz, 0, -sb * px + cb * pz)
+    v_rel = ca.vertcat(cb * vx + sb * vz, 0, -sb * vx + cb * vz)
+    a = theta - beta
+    c, s = ca.cos(a), ca.sin(a)
+    T_rel = ca.vertcat(ca.horzcat(c, 0, -s), ca.horzcat(0, 1, 0), ca.horzcat(s, 0, c))
+    omega_rel = ca.vertcat(0, -theta_dot, 0)
+    return r_rel, v_rel, T_rel, omega_rel
