@@ -12,19 +12,27 @@ N); the damping term with d0 in "Ns/mm^2" is not (it yields N/mm), so we take th
 as evaluated in the paper's unit system, i.e. d0 acts as 0.1 N s/mm. In SI:
 k = 6e6 N/m^2, d0 = 100 N s/m, p_ref = 0.002 m. ``tests/science/oracles`` checks
 hand-computed values in both unit systems.
+
+:class:`AuxPenaltyOracle` (type ``aux-penalty``) wraps the model as an oracle: it makes the
+preliminary data set and is the fast oracle of the tests and the ``command`` examples.
 """
 
 from __future__ import annotations
 
+import time
+from typing import ClassVar
+
 import numpy as np
 from pydantic import Field
 
-from alcove.science.geometry import HeadNeckPreset, RelativeKinematics
-from alcove.science.oracles.base import OracleParams
+from alcove.science.geometry import DEFAULT_PRESET, HeadNeckPreset, RelativeKinematics, relative_kinematics
+from alcove.science.oracles.base import CancelCheck, OracleCancelled, OracleInputError, OracleParams, OracleResult
+from alcove.science.series import ForceSeries, Trajectory
 
 K_PAPER_N_PER_MM2 = 6.0
 D0_PAPER_NS_PER_MM = 0.1
 P_REF_PAPER_MM = 2.0
+THETA_TOLERANCE = 1e-6  # rad, slack on the preset's joint range (round-off in CSV files)
 
 
 class AuxPenaltyParams(OracleParams):
@@ -60,3 +68,72 @@ def aux_penalty_wrench(preset: HeadNeckPreset, params: AuxPenaltyParams, kin: Re
     force = np.where(active[:, None], f[:, None] * normal[None, :], 0.0)
     moment = np.cross(arm, force)
     return force, moment
+
+
+def penetration(preset: HeadNeckPreset, params: AuxPenaltyParams, kin: RelativeKinematics) -> tuple[np.ndarray, np.ndarray]:
+    """Penetration p (n,) of the point r_sp into the headrest plane and its rate pdot (n,) [m, m/s]."""
+    arm = np.einsum("nij,j->ni", kin.T_rel, contact_point(preset, params))
+    return -(kin.r_rel + arm)[:, 0], -(kin.v_rel + np.cross(kin.omega_rel, arm))[:, 0]
+
+
+def dissipated_energy(t: np.ndarray, p: np.ndarray, pdot: np.ndarray, fx: np.ndarray, k: float) -> float:
+    """Work done by the head on the contact minus the change of the stored energy k p^3 / 3 [J].
+
+    The work is the trapezoidal integral of fx * pdot (fx is the gated force magnitude along
+    the normal). Non-negative up to quadrature error: the gate only ever withholds force while
+    the head moves out of the plane, and damping only removes energy.
+    """
+    stored = lambda pi: k * max(float(pi), 0.0) ** 3 / 3.0  # noqa: E731
+    return float(np.trapezoid(fx * pdot, t) - (stored(p[-1]) - stored(p[0])))
+
+
+class AuxPenaltyOracle:
+    """The auxiliary penalty model as an oracle (type ``aux-penalty``): fast, closed form.
+
+    Replays a 1-DOF head-neck trajectory (``q_0`` = theta, ``qd_0`` = theta_dot) and returns the
+    force and moment at the trajectory's own time samples. Diagnostics: the point's maximum
+    penetration, the dissipated energy and the number of samples in contact; there are no
+    Newton iterations.
+    """
+
+    type_name: ClassVar[str] = "aux-penalty"
+
+    def __init__(self, params: AuxPenaltyParams | None = None, preset: HeadNeckPreset = DEFAULT_PRESET):
+        self.params = params if params is not None else AuxPenaltyParams()
+        self.preset = preset
+
+    def run(self, trajectory: Trajectory, cancel: CancelCheck | None = None) -> OracleResult:
+        start = time.perf_counter()
+        if cancel is not None and cancel():
+            raise OracleCancelled("aux-penalty run cancelled before it started")
+        theta, theta_dot = self._joint_motion(trajectory)
+        kin = relative_kinematics(self.preset, theta, theta_dot)
+        force, moment = aux_penalty_wrench(self.preset, self.params, kin)
+        p, pdot = penetration(self.preset, self.params, kin)
+        in_contact = force[:, 0] > 0
+        diagnostics = {
+            "max_penetration_m": max(float(p.max()), 0.0),
+            "dissipated_energy_j": dissipated_energy(trajectory.t, p, pdot, force[:, 0], self.params.k),
+            "newton_iterations": None,
+            "contact_samples": int(in_contact.sum()),
+            "first_contact_t": float(trajectory.t[in_contact][0]) if in_contact.any() else None,
+        }
+        return OracleResult(
+            ok=True,
+            forces=ForceSeries(trajectory.t, force, moment),
+            kinematics=kin,
+            diagnostics=diagnostics,
+            wall_time=time.perf_counter() - start,
+        )
+
+    def _joint_motion(self, trajectory: Trajectory) -> tuple[np.ndarray, np.ndarray]:
+        if trajectory.ndof != 1:
+            raise OracleInputError("q", f"the head-neck preset has 1 degree of freedom (q_0 = theta), the trajectory has {trajectory.ndof}")
+        theta = trajectory.q[:, 0]
+        lo, hi = self.preset.theta_min, self.preset.theta_max
+        outside = (theta < lo - THETA_TOLERANCE) | (theta > hi + THETA_TOLERANCE)
+        if outside.any():
+            i = int(np.argmax(outside))
+            raise OracleInputError("q_0", f"theta = {theta[i]:.4g} rad at t = {trajectory.t[i]:.4g} s is outside the preset's range [{lo}, {hi}] rad")
+        return theta, trajectory.qd[:, 0]
+
