@@ -120,7 +120,7 @@ class AuxPenaltyOracle:
         }
         return OracleResult(
             ok=True,
-            forces=ForceSeries(trajectory.t, force, moment),
+            forces=ForceSeries(trajectory.t, force, moment + 0.0),  # + 0.0: no "-0" in CSV files
             kinematics=kin,
             diagnostics=diagnostics,
             wall_time=time.perf_counter() - start,
