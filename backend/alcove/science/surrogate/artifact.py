@@ -1,0 +1,185 @@
+"""Self-contained model artifact: a folder that loads without any database.
+
+``surrogate.json``
+    format and version, feature names, number of degrees of freedom, the geometry preset,
+    the training configuration, both networks (architecture and float64 weights; JSON
+    floats round-trip exactly), the input and output standardisation, and lineage fields
+    (seed, datasets, test sets, metrics, plus whatever the caller adds: campaign,
+    iteration, pool version, parent model version, ...).
+``force.pt``, ``moment.pt``
+    TorchScript modules mapping raw features (n, 19) to force / moment (n, 3) in the
+    headrest frame, normalisation included, for use outside alcove
+    (``torch.jit.load("force.pt")(x)``).
+"""
+
+from __future__ import annotations
+
+import json
+import warnings
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import torch
+from torch import nn
+
+import alcove
+from alcove.science.geometry import HeadNeckPreset
+from alcove.science.surrogate.config import SurrogateConfig
+from alcove.science.surrogate.features import FEATURE_NAMES
+from alcove.science.surrogate.mlp import MLP, Standardization, SurrogateModel
+
+FORMAT = "alcove-surrogate"
+FORMAT_VERSION = 1
+JSON_NAME = "surrogate.json"
+
+
+class ArtifactError(ValueError):
+    """A model artifact cannot be read; ``field`` names what is wrong."""
+
+    def __init__(self, field: str, reason: str):
+        self.field = field
+        self.reason = reason
+        super().__init__(f"{field}: {reason}")
+
+
+class _Scripted(nn.Module):
+    """Raw features -> physical output, normalisation included (scriptable)."""
+
+    def __init__(self, net: MLP, input_norm: Standardization, output_norm: Standardization):
+        super().__init__()
+        self.linears = nn.ModuleList([_copy_linear(lin) for lin in net.linears()])
+        self.activation = net.activation
+        self.register_buffer("x_mean", torch.as_tensor(input_norm.mean, dtype=torch.float64))
+        self.register_buffer("x_scale", torch.as_tensor(input_norm.scale, dtype=torch.float64))
+        self.register_buffer("y_mean", torch.as_tensor(output_norm.mean, dtype=torch.float64))
+        self.register_buffer("y_scale", torch.as_tensor(output_norm.scale, dtype=torch.float64))
+
+    def forward(self, x: torch.Tensor) -> torch.Tensor:
+        h = (x.to(torch.float64) - self.x_mean) / self.x_scale
+        n = len(self.linears)
+        for i, lin in enumerate(self.linears):
+            h = lin(h)
+            if i < n - 1:
+                if self.activation == "softplus":
+                    h = torch.logaddexp(h, torch.zeros_like(h))
+                elif self.activation == "tanh":
+                    h = torch.tanh(h)
+                else:
+                    h = torch.sigmoid(h)
+        return h * self.y_scale + self.y_mean
+
+
+def _copy_linear(lin: nn.Linear) -> nn.Linear:
+    out = nn.Linear(lin.in_features, lin.out_features, dtype=torch.float64)
+    with torch.no_grad():
+        out.weight.copy_(lin.weight)
+        out.bias.copy_(lin.bias)
+    return out
+
+
+def _net_to_dict(net: MLP) -> dict[str, Any]:
+    return {
+        "hidden": list(net.hidden),
+        "activation": net.activation,
+        "layers": [{"weight": lin.weight.detach().double().tolist(), "bias": lin.bias.detach().double().tolist()}
+                   for lin in net.linears()],
+    }
+
+
+def _net_from_dict(d: dict[str, Any], dtype: torch.dtype, field: str) -> MLP:
+    try:
+        net = MLP(d["hidden"], d["activation"], dtype=dtype)
+        linears = net.linears()
+        if len(linears) != len(d["layers"]):
+            raise ArtifactError(f"{field}.layers", f"has {len(d['layers'])} layers, the architecture needs {len(linears)}")
+        with torch.no_grad():
+            for i, (lin, layer) in enumerate(zip(linears, d["layers"])):
+                w = torch.as_tensor(np.asarray(layer["weight"], float), dtype=dtype)
+                b = torch.as_tensor(np.asarray(layer["bias"], float), dtype=dtype)
+                if w.shape != lin.weight.shape or b.shape != lin.bias.shape:
+                    raise ArtifactError(f"{field}.layers.{i}", f"weight {tuple(w.shape)} / bias {tuple(b.shape)} do not fit {tuple(lin.weight.shape)}")
+                lin.weight.copy_(w)
+                lin.bias.copy_(b)
+    except (KeyError, TypeError, ValueError) as exc:
+        if isinstance(exc, ArtifactError):
+            raise
+        raise ArtifactError(field, f"malformed network: {exc}") from None
+    return net
+
+
+def artifact_dict(model: SurrogateModel, lineage: dict[str, Any] | None = None) -> dict[str, Any]:
+    """The JSON document of a model (see the module docstring)."""
+    return {
+        "format": FORMAT,
+        "format_version": FORMAT_VERSION,
+        "feature_names": list(FEATURE_NAMES),
+        "outputs": {"force": ["fx", "fy", "fz"], "moment": ["mx", "my", "mz"]},
+        "frame": "headrest; moment about the head frame origin; SI units",
+        "ndof": model.ndof,
+        "preset": model.preset.to_dict(),
+        "config": model.config.model_dump(mode="json"),
+        "networks": {"force": _net_to_dict(model.force_net), "moment": _net_to_dict(model.moment_net)},
+        "normalization": {"input": model.input_norm.to_dict(), "force": model.force_norm.to_dict(),
+                          "moment": model.moment_norm.to_dict()},
+        "lineage": {**model.lineage, **(lineage or {})},
+        "software": {"alcove": alcove.__version__, "torch": torch.__version__},
+        "torchscript": {"force": "force.pt", "moment": "moment.pt"},
+    }
+
+
+def model_from_dict(doc: dict[str, Any]) -> SurrogateModel:
+    if doc.get("format") != FORMAT:
+        raise ArtifactError("format", f"expected {FORMAT!r}, got {doc.get('format')!r}")
+    if doc.get("format_version") != FORMAT_VERSION:
+        raise ArtifactError("format_version", f"unsupported version {doc.get('format_version')!r} (this alcove reads {FORMAT_VERSION})")
+    if list(doc.get("feature_names", [])) != list(FEATURE_NAMES):
+        raise ArtifactError("feature_names", "do not match the 19 features of this alcove version")
+    try:
+        config = SurrogateConfig.parse(doc["config"])
+        dtype = torch.float64 if config.dtype == "float64" else torch.float32
+        norm = doc["normalization"]
+        return SurrogateModel(
+            force_net=_net_from_dict(doc["networks"]["force"], dtype, "networks.force"),
+            moment_net=_net_from_dict(doc["networks"]["moment"], dtype, "networks.moment"),
+            input_norm=Standardization.from_dict(norm["input"]),
+            force_norm=Standardization.from_dict(norm["force"]),
+            moment_norm=Standardization.from_dict(norm["moment"]),
+            config=config,
+            preset=HeadNeckPreset.from_dict(doc["preset"]),
+            ndof=int(doc["ndof"]),
+            lineage=dict(doc.get("lineage", {})),
+        )
+    except KeyError as exc:
+        raise ArtifactError(str(exc.args[0]), "missing entry") from None
+
+
+def save_artifact(model: SurrogateModel, path: str | Path, lineage: dict[str, Any] | None = None) -> Path:
+    """Write ``surrogate.json``, ``force.pt`` and ``moment.pt`` into the folder ``path``."""
+    root = Path(path)
+    root.mkdir(parents=True, exist_ok=True)
+    doc = artifact_dict(model, lineage)
+    (root / JSON_NAME).write_text(json.dumps(doc, indent=1))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", DeprecationWarning)  # torch.jit.script is deprecated but TorchScript is the contract
+        for key, net, out_norm in (("force", model.force_net, model.force_norm), ("moment", model.moment_net, model.moment_norm)):
+            torch.jit.script(_Scripted(net, model.input_norm, out_norm)).save(str(root / doc["torchscript"][key]))
+    return root
+
+
+def load_artifact(path: str | Path) -> SurrogateModel:
+    """Read a model from its folder (or the ``surrogate.json`` inside it)."""
+    p = Path(path)
+    json_path = p / JSON_NAME if p.is_dir() else p
+    if not json_path.exists():
+        raise ArtifactError("model", f"{json_path} does not exist")
+    try:
+        doc = json.loads(json_path.read_text())
+    except (json.JSONDecodeError, UnicodeDecodeError) as exc:
+        raise ArtifactError(JSON_NAME, f"not valid JSON: {exc}") from None
+    if not isinstance(doc, dict):
+        raise ArtifactError(JSON_NAME, "must be a JSON object")
+    return model_from_dict(doc)
+
+
+__all__ = ["ArtifactError", "FORMAT", "FORMAT_VERSION", "artifact_dict", "load_artifact", "model_from_dict", "save_artifact"]

@@ -1,0 +1,100 @@
+"""Training configuration of a surrogate (architecture and protocol), validated with pydantic.
+
+The defaults are the paper's: force MLP 19-6-6-4-3 and moment MLP 19-6-6-6-4-3 with softplus
+hidden layers, Adam with learning rate 0.01, batch size 1024, early stopping with patience 6;
+70/30 split of the pool by simulation into training and test, the training part split 80/20
+pointwise into train and validation.
+
+Sample weights: each dataset of the pool carries an optional weight; without one, its weight
+comes from its origin: ``preliminary_weight`` for preliminary data (decaying by half every
+``preliminary_halving`` non-preliminary simulations in the pool, if set), 1 otherwise.
+This lets a campaign fade out the preliminary data as oracle data accumulates (a remedy for
+the bias toward low forces the paper reports).
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Annotated, Any, Literal
+
+from pydantic import BaseModel, ConfigDict, Field, ValidationError
+
+Activation = Literal["softplus", "tanh", "sigmoid"]
+
+
+class SurrogateConfigError(ValueError):
+    """Invalid surrogate configuration; ``field`` is the dotted path of the offending entry."""
+
+    def __init__(self, field: str, reason: str):
+        self.field = field
+        self.reason = reason
+        super().__init__(f"{field}: {reason}")
+
+
+class NetworkConfig(BaseModel):
+    """One MLP: hidden layer widths and their activation (the output layer is linear)."""
+
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+    hidden: tuple[Annotated[int, Field(ge=1, le=4096)], ...] = Field(
+        min_length=1, max_length=16, description="widths of the hidden layers"
+    )
+    activation: Activation = Field("softplus", description="activation of the hidden layers")
+
+
+class SurrogateConfig(BaseModel):
+    """Architecture and training protocol of one surrogate model pair."""
+
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+    force: NetworkConfig = Field(default_factory=lambda: NetworkConfig(hidden=(6, 6, 4)))
+    moment: NetworkConfig = Field(default_factory=lambda: NetworkConfig(hidden=(6, 6, 6, 4)))
+    learning_rate: float = Field(0.01, gt=0, le=1, description="Adam learning rate")
+    batch_size: int = Field(1024, ge=1, le=1_000_000)
+    patience: int = Field(6, ge=1, le=1000, description="early stopping: epochs without a better validation loss")
+    max_epochs: int = Field(1000, ge=1, le=100_000)
+    test_fraction: float = Field(0.3, ge=0, lt=1, description="share of the simulations held out as test set")
+    validation_fraction: float = Field(0.2, gt=0, lt=1, description="pointwise share of the training part used for validation")
+    seed: int = Field(0, ge=0, lt=2**63, description="seed of splits, initialisation and batch order")
+    warm_start: bool = Field(True, description="start from the previous model's weights when the architecture matches")
+    normalize_outputs: bool = Field(True, description="train on standardised targets (exported transparently)")
+    preliminary_weight: float = Field(1.0, ge=0, le=1e6, description="sample weight of preliminary data")
+    preliminary_halving: float | None = Field(
+        None, gt=0, description="halve the preliminary weight every this many non-preliminary simulations"
+    )
+    dtype: Literal["float64", "float32"] = "float64"
+
+    @classmethod
+    def parse(cls, data: dict[str, Any]) -> "SurrogateConfig":
+        """Validate a dict; errors become :class:`SurrogateConfigError` with a dotted field path."""
+        try:
+            return cls.model_validate(data)
+        except ValidationError as exc:
+            err = exc.errors()[0]
+            field = ".".join(str(p) for p in err["loc"]) or "config"
+            raise SurrogateConfigError(field, err["msg"]) from None
+
+    @classmethod
+    def from_json(cls, source: str | Path) -> "SurrogateConfig":
+        """Read a JSON file (path) or JSON text."""
+        text = Path(source).read_text() if isinstance(source, Path) or not str(source).lstrip().startswith("{") else str(source)
+        try:
+            data = json.loads(text)
+        except json.JSONDecodeError as exc:
+            raise SurrogateConfigError("config", f"not valid JSON: {exc.msg} at line {exc.lineno}") from None
+        if not isinstance(data, dict):
+            raise SurrogateConfigError("config", "must be a JSON object")
+        return cls.parse(data)
+
+    def weight_for(self, origin: str, n_non_preliminary: int) -> float:
+        """Default sample weight of a dataset of ``origin`` in a pool with that many oracle/upload simulations."""
+        if origin != "preliminary":
+            return 1.0
+        w = self.preliminary_weight
+        if self.preliminary_halving is not None:
+            w *= 0.5 ** (n_non_preliminary / self.preliminary_halving)
+        return w
+
+
+__all__ = ["Activation", "NetworkConfig", "SurrogateConfig", "SurrogateConfigError"]

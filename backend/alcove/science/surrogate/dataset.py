@@ -1,0 +1,280 @@
+"""The in-memory data pool: a list of datasets, one per simulation.
+
+A :class:`PoolDataset` holds one simulation: ``name``, time ``t`` (n,), joint positions
+``q`` and velocities ``qd`` (n, ndof), contact ``force`` and ``moment`` (n, 3) on the head
+(headrest frame, moment about the head frame origin), its ``origin`` (``preliminary``,
+``oracle`` or ``upload``) and an optional sample ``weight``. For preliminary data (no
+time axis) ``t`` is the sample index.
+
+Pool folder (``alcove surrogate train --pool DIR``)
+---------------------------------------------------
+Pairs ``NAME.traj.csv`` + ``NAME.forces.csv`` exactly as ``alcove ocp solve`` and
+``alcove oracle run`` write them (see :mod:`alcove.science.series`), one pair per
+simulation, on the same time grid. An optional ``pool.json``
+``{"NAME": {"origin": "oracle", "weight": 0.5}, ...}`` sets origins and weights; without an
+entry a dataset whose name starts with ``preliminary`` has origin ``preliminary``, any
+other ``oracle``.
+
+Preliminary upload CSV
+----------------------
+One CSV file with a header row; columns in any order:
+
+``simulation`` (optional)
+    label grouping rows into simulations; a simulation is never split between training
+    and test. Without it, rows are independent samples, dealt round-robin into ``chunks``
+    groups named ``upload-00``, ``upload-01``, ...
+``t`` (optional)
+    time [s], strictly increasing within a simulation; without it, the row index.
+``q_0..q_{n-1}``, ``qd_0..qd_{n-1}``
+    joint positions [rad] and velocities [rad/s].
+``fx,fy,fz,mx,my,mz``
+    contact force on the head [N] and its moment about the head frame origin [N m], in
+    the headrest frame.
+
+Every value must be a finite number; errors name the column and the data row.
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import json
+import re
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Literal
+
+import numpy as np
+
+from alcove.science.series import FORCE_COLUMNS, ForceSeries, SeriesFormatError, Trajectory
+
+Origin = Literal["preliminary", "oracle", "upload"]
+ORIGINS: tuple[str, ...] = ("preliminary", "oracle", "upload")
+_NAME = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_.+-]{0,127}$")
+
+
+class PoolDataError(ValueError):
+    """A dataset or pool is malformed; ``field`` names what is wrong."""
+
+    def __init__(self, field: str, reason: str):
+        self.field = field
+        self.reason = reason
+        super().__init__(f"{field}: {reason}")
+
+
+@dataclass(frozen=True)
+class PoolDataset:
+    """One simulation of the pool (see the module docstring)."""
+
+    name: str
+    t: np.ndarray
+    q: np.ndarray
+    qd: np.ndarray
+    force: np.ndarray
+    moment: np.ndarray
+    origin: str = "oracle"
+    weight: float | None = None
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.name, str) or not _NAME.match(self.name):
+            raise PoolDataError("name", f"{self.name!r} is not a valid dataset name (letters, digits, _ . + -, at most 128)")
+        if self.origin not in ORIGINS:
+            raise PoolDataError(f"{self.name}.origin", f"{self.origin!r} is not one of {', '.join(ORIGINS)}")
+        if self.weight is not None and not (np.isfinite(self.weight) and self.weight >= 0):
+            raise PoolDataError(f"{self.name}.weight", f"must be a finite number >= 0, got {self.weight!r}")
+        t = np.asarray(self.t, float)
+        if t.ndim != 1 or t.shape[0] == 0:
+            raise PoolDataError(f"{self.name}.t", "must be a non-empty one-dimensional array (the data set is empty)")
+        n = t.shape[0]
+        arrays = {"t": t}
+        for key in ("q", "qd", "force", "moment"):
+            a = np.asarray(getattr(self, key), float)
+            if a.ndim == 1:
+                a = a[:, None] if key in ("q", "qd") else a.reshape(-1, 3)
+            if a.ndim != 2 or a.shape[0] != n:
+                raise PoolDataError(f"{self.name}.{key}", f"has shape {a.shape}, expected {n} rows")
+            arrays[key] = a
+        for key in ("force", "moment"):
+            if arrays[key].shape[1] != 3:
+                raise PoolDataError(f"{self.name}.{key}", f"must have 3 columns, got {arrays[key].shape[1]}")
+        if arrays["qd"].shape[1] != arrays["q"].shape[1]:
+            raise PoolDataError(f"{self.name}.qd", f"has {arrays['qd'].shape[1]} columns but q has {arrays['q'].shape[1]}")
+        for key, a in arrays.items():
+            bad = ~np.isfinite(a)
+            if bad.any():
+                row = int(np.argwhere(bad)[0][0])
+                raise PoolDataError(f"{self.name}.{key}", f"non-finite value (NaN or inf) at row {row + 1}")
+            object.__setattr__(self, key, a)
+        if n > 1 and np.any(np.diff(t) <= 0):
+            raise PoolDataError(f"{self.name}.t", "time must increase strictly")
+
+    @property
+    def n_samples(self) -> int:
+        return int(self.t.shape[0])
+
+    @property
+    def ndof(self) -> int:
+        return int(self.q.shape[1])
+
+    @classmethod
+    def from_series(cls, name: str, trajectory: Trajectory, forces: ForceSeries, origin: str = "oracle",
+                    weight: float | None = None) -> "PoolDataset":
+        """Pair a trajectory with the forces an oracle computed on the same time grid."""
+        if len(trajectory) != len(forces) or not np.allclose(trajectory.t, forces.t, rtol=0, atol=1e-9):
+            raise PoolDataError(f"{name}.t", f"the trajectory ({len(trajectory)} rows) and the forces ({len(forces)} rows) are not on the same time grid")
+        return cls(name, trajectory.t, trajectory.q, trajectory.qd, forces.force, forces.moment, origin, weight)
+
+    def trajectory(self) -> Trajectory:
+        return Trajectory(self.t, self.q, self.qd)
+
+    def forces(self) -> ForceSeries:
+        return ForceSeries(self.t, self.force, self.moment)
+
+
+def default_origin(name: str) -> str:
+    return "preliminary" if name.startswith("preliminary") else "oracle"
+
+
+def load_pool_dir(path: str | Path) -> list[PoolDataset]:
+    """Read a pool folder of ``NAME.traj.csv`` + ``NAME.forces.csv`` pairs (sorted by name)."""
+    root = Path(path)
+    if not root.is_dir():
+        raise PoolDataError("pool", f"{root} is not a directory")
+    manifest: dict[str, dict] = {}
+    if (root / "pool.json").exists():
+        try:
+            manifest = json.loads((root / "pool.json").read_text())
+        except json.JSONDecodeError as exc:
+            raise PoolDataError("pool.json", f"not valid JSON: {exc.msg}") from None
+        if not isinstance(manifest, dict) or not all(isinstance(v, dict) for v in manifest.values()):
+            raise PoolDataError("pool.json", 'must map dataset names to {"origin": ..., "weight": ...}')
+    names = sorted(p.name[: -len(".traj.csv")] for p in root.glob("*.traj.csv"))
+    orphans = sorted(p.name for p in root.glob("*.forces.csv") if p.name[: -len(".forces.csv")] not in names)
+    if orphans:
+        raise PoolDataError(orphans[0], "forces file without a matching NAME.traj.csv")
+    if not names:
+        raise PoolDataError("pool", f"{root} holds no NAME.traj.csv + NAME.forces.csv pairs (the pool is empty)")
+    pool = []
+    for name in names:
+        forces_path = root / f"{name}.forces.csv"
+        if not forces_path.exists():
+            raise PoolDataError(f"{name}.forces.csv", "missing: every NAME.traj.csv needs its NAME.forces.csv")
+        try:
+            traj = Trajectory.from_csv(root / f"{name}.traj.csv")
+        except SeriesFormatError as exc:
+            raise PoolDataError(f"{name}.traj.csv:{exc.field}", exc.reason) from None
+        try:
+            forces = ForceSeries.from_csv(forces_path)
+        except SeriesFormatError as exc:
+            raise PoolDataError(f"{name}.forces.csv:{exc.field}", exc.reason) from None
+        meta = manifest.get(name, {})
+        pool.append(PoolDataset.from_series(name, traj, forces, meta.get("origin", default_origin(name)), meta.get("weight")))
+    check_pool(pool)
+    return pool
+
+
+def save_pool_dir(pool: list[PoolDataset], path: str | Path) -> Path:
+    """Write a pool as a folder readable by :func:`load_pool_dir` (with ``pool.json``)."""
+    root = Path(path)
+    root.mkdir(parents=True, exist_ok=True)
+    for ds in pool:
+        ds.trajectory().to_csv(root / f"{ds.name}.traj.csv")
+        ds.forces().to_csv(root / f"{ds.name}.forces.csv")
+    manifest = {ds.name: {"origin": ds.origin, **({"weight": ds.weight} if ds.weight is not None else {})} for ds in pool}
+    (root / "pool.json").write_text(json.dumps(manifest, indent=1))
+    return root
+
+
+def check_pool(pool: list[PoolDataset]) -> None:
+    """A usable pool: not empty, unique names, one number of degrees of freedom."""
+    if not pool:
+        raise PoolDataError("pool", "is empty: train needs at least one dataset")
+    seen: set[str] = set()
+    for ds in pool:
+        if not isinstance(ds, PoolDataset):
+            raise PoolDataError("pool", f"holds a {type(ds).__name__}, expected PoolDataset")
+        if ds.name in seen:
+            raise PoolDataError(ds.name, "duplicate dataset name in the pool")
+        seen.add(ds.name)
+        if ds.ndof != pool[0].ndof:
+            raise PoolDataError(f"{ds.name}.q", f"has {ds.ndof} degrees of freedom but {pool[0].name} has {pool[0].ndof}")
+
+
+def load_preliminary_csv(source: str | Path | io.TextIOBase, origin: str = "upload", chunks: int = 10,
+                         prefix: str | None = None) -> list[PoolDataset]:
+    """Read a preliminary upload CSV (format in the module docstring) into pool datasets."""
+    if isinstance(source, (str, Path)):
+        try:
+            text = Path(source).read_text()
+        except FileNotFoundError:
+            raise PoolDataError("file", f"{source} does not exist") from None
+        except UnicodeDecodeError:
+            raise PoolDataError("file", f"{source} is not a UTF-8 text file") from None
+    else:
+        text = source.read()
+    rows = [r for r in csv.reader(io.StringIO(text)) if r and any(c.strip() for c in r)]
+    if not rows:
+        raise PoolDataError("header", "the file is empty")
+    header = [c.strip() for c in rows[0]]
+    body = rows[1:]
+    if not body:
+        raise PoolDataError("rows", "the file has a header but no data rows (the data set is empty)")
+    dup = [c for c in header if header.count(c) > 1]
+    if dup:
+        raise PoolDataError(dup[0], "duplicate column")
+    n_q = sum(1 for c in header if re.fullmatch(r"q_\d+", c))
+    if n_q == 0:
+        raise PoolDataError("q_0", "missing: expected columns q_0..q_{n-1} and qd_0..qd_{n-1}")
+    required = [f"q_{i}" for i in range(n_q)] + [f"qd_{i}" for i in range(n_q)] + list(FORCE_COLUMNS)
+    for c in required:
+        if c not in header:
+            raise PoolDataError(c, "missing column")
+    known = set(required) | {"simulation", "t"}
+    for c in header:
+        if c not in known:
+            raise PoolDataError(c, "unknown column")
+    col = {c: j for j, c in enumerate(header)}
+    numeric = [c for c in header if c != "simulation"]
+    data = np.empty((len(body), len(numeric)))
+    for i, r in enumerate(body):
+        if len(r) != len(header):
+            raise PoolDataError(f"row {i + 2}", f"has {len(r)} fields, the header has {len(header)}")
+        for j, c in enumerate(numeric):
+            try:
+                v = float(r[col[c]])
+            except ValueError:
+                raise PoolDataError(c, f"not a number at data row {i + 1}: {r[col[c]]!r}") from None
+            if not np.isfinite(v):
+                raise PoolDataError(c, f"non-finite value (NaN or inf) at data row {i + 1}")
+            data[i, j] = v
+    num = {c: data[:, j] for j, c in enumerate(numeric)}
+    if "simulation" in col:
+        labels = [r[col["simulation"]].strip() for r in body]
+        groups = {lab: [i for i, x in enumerate(labels) if x == lab] for lab in dict.fromkeys(labels)}
+        named = {(f"{prefix}-{lab}" if prefix else lab): idx for lab, idx in groups.items()}
+    else:
+        k = max(1, min(chunks, len(body)))
+        stem = prefix or origin
+        named = {f"{stem}-{g:02d}": list(range(g, len(body), k)) for g in range(k)}
+    pool = []
+    for name, idx in named.items():
+        idx_a = np.asarray(idx)
+        t = num["t"][idx_a] if "t" in num else np.arange(len(idx_a), dtype=float)
+        take = lambda cols: np.stack([num[c][idx_a] for c in cols], -1)  # noqa: E731
+        pool.append(PoolDataset(name, t, take([f"q_{i}" for i in range(n_q)]), take([f"qd_{i}" for i in range(n_q)]),
+                                take(FORCE_COLUMNS[:3]), take(FORCE_COLUMNS[3:]), origin))
+    check_pool(pool)
+    return pool
+
+
+__all__ = [
+    "ORIGINS",
+    "Origin",
+    "PoolDataError",
+    "PoolDataset",
+    "check_pool",
+    "default_origin",
+    "load_pool_dir",
+    "load_preliminary_csv",
+    "save_pool_dir",
+]

@@ -1,0 +1,132 @@
+"""The two PyTorch MLPs of a surrogate and the model pair with its normalisation.
+
+``MLP``: Linear layers with a smooth activation on the hidden layers and an identity
+output. Softplus is computed as ``max(x, 0) + log1p(exp(-|x|))`` (``torch.logaddexp(x, 0)``),
+exact for all x, unlike ``torch.nn.Softplus`` which switches to the identity above x = 20
+(an error of 2e-9 that would break the 1e-10 parity with the CasADi rebuild).
+
+``SurrogateModel``: force and moment nets, the input standardisation (mean, scale per
+feature, from the training split) and the output standardisation; ``__call__`` maps raw
+features (n, 19) to force (n, 3) and moment (n, 3) in the headrest frame.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+import torch
+from torch import nn
+
+from alcove.science.geometry import HeadNeckPreset
+from alcove.science.surrogate.config import NetworkConfig, SurrogateConfig
+from alcove.science.surrogate.features import N_FEATURES
+
+N_OUTPUTS = 3
+
+
+class Softplus(nn.Module):
+    def forward(self, x: torch.Tensor) -> torch.Tensor:
+        return torch.logaddexp(x, torch.zeros_like(x))
+
+
+_ACTIVATIONS: dict[str, type[nn.Module]] = {"softplus": Softplus, "tanh": nn.Tanh, "sigmoid": nn.Sigmoid}
+
+
+class MLP(nn.Module):
+    """``n_in -> hidden[0] -> ... -> hidden[-1] -> n_out`` with ``activation`` on hidden layers."""
+
+    def __init__(self, hidden: tuple[int, ...] | list[int], activation: str = "softplus", n_in: int = N_FEATURES,
+                 n_out: int = N_OUTPUTS, dtype: torch.dtype = torch.float64):
+        super().__init__()
+        if activation not in _ACTIVATIONS:
+            raise ValueError(f"activation: unknown {activation!r}, expected one of {sorted(_ACTIVATIONS)}")
+        self.hidden = tuple(int(h) for h in hidden)
+        self.activation = activation
+        widths = (n_in, *self.hidden, n_out)
+        layers: list[nn.Module] = []
+        for i, (a, b) in enumerate(zip(widths[:-1], widths[1:])):
+            layers.append(nn.Linear(a, b, dtype=dtype))
+            if i < len(widths) - 2:
+                layers.append(_ACTIVATIONS[activation]())
+        self.layers = nn.Sequential(*layers)
+
+    @classmethod
+    def from_config(cls, cfg: NetworkConfig, dtype: torch.dtype = torch.float64) -> "MLP":
+        return cls(cfg.hidden, cfg.activation, dtype=dtype)
+
+    def forward(self, x: torch.Tensor) -> torch.Tensor:
+        return self.layers(x)
+
+    def linears(self) -> list[nn.Linear]:
+        return [m for m in self.layers if isinstance(m, nn.Linear)]
+
+    def reset_parameters(self, generator: torch.Generator) -> None:
+        """PyTorch's default Linear initialisation, U(-1/sqrt(fan_in), 1/sqrt(fan_in)),
+        drawn from ``generator`` so that the global RNG is never touched."""
+        with torch.no_grad():
+            for lin in self.linears():
+                bound = 1.0 / np.sqrt(lin.in_features)
+                nn.init.uniform_(lin.weight, -bound, bound, generator=generator)
+                nn.init.uniform_(lin.bias, -bound, bound, generator=generator)
+
+    def same_architecture(self, other: "MLP") -> bool:
+        return self.hidden == other.hidden and self.activation == other.activation
+
+
+@dataclass
+class Standardization:
+    """``z = (x - mean) / scale``; a zero-variance column gets scale 1 (never NaN or inf)."""
+
+    mean: np.ndarray
+    scale: np.ndarray
+
+    @classmethod
+    def fit(cls, x: np.ndarray, rel_tol: float = 1e-12) -> "Standardization":
+        mean = x.mean(axis=0)
+        std = x.std(axis=0)
+        # columns constant up to rounding (planar motion: r_y, v_y, T_10, ... ) are only centred
+        tiny = std <= rel_tol * np.maximum(1.0, np.abs(mean))
+        return cls(mean=mean, scale=np.where(tiny, 1.0, std))
+
+    @classmethod
+    def identity(cls, n: int) -> "Standardization":
+        return cls(np.zeros(n), np.ones(n))
+
+    def to_dict(self) -> dict[str, list[float]]:
+        return {"mean": self.mean.tolist(), "scale": self.scale.tolist()}
+
+    @classmethod
+    def from_dict(cls, d: dict[str, Any]) -> "Standardization":
+        return cls(np.asarray(d["mean"], float), np.asarray(d["scale"], float))
+
+
+@dataclass
+class SurrogateModel:
+    """A trained force/moment MLP pair with normalisation, geometry and lineage."""
+
+    force_net: MLP
+    moment_net: MLP
+    input_norm: Standardization
+    force_norm: Standardization
+    moment_norm: Standardization
+    config: SurrogateConfig
+    preset: HeadNeckPreset
+    ndof: int = 1
+    lineage: dict[str, Any] = field(default_factory=dict)
+
+    @property
+    def dtype(self) -> torch.dtype:
+        return next(self.force_net.parameters()).dtype
+
+    def predict_features(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Force (n, 3) and moment (n, 3) for raw features x (n, 19)."""
+        z = torch.as_tensor((np.asarray(x, float) - self.input_norm.mean) / self.input_norm.scale, dtype=self.dtype)
+        with torch.no_grad():
+            f = self.force_net(z).double().numpy()
+            m = self.moment_net(z).double().numpy()
+        return f * self.force_norm.scale + self.force_norm.mean, m * self.moment_norm.scale + self.moment_norm.mean
+
+
+__all__ = ["MLP", "N_OUTPUTS", "Softplus", "Standardization", "SurrogateModel"]

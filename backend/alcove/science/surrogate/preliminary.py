@@ -1,0 +1,65 @@
+"""The preliminary data set that starts the active learning loop (paper, "Active Learning Loop").
+
+``K`` joint configurations and velocities are drawn with a Latin hypercube
+(``scipy.stats.qmc.LatinHypercube``) over the joint range of the preset and a symmetric
+velocity range, and evaluated with the auxiliary penalty model (the ``aux-penalty``
+oracle's formula). Samples are independent points, so they are dealt into ``chunks``
+datasets named ``preliminary-00``, ... of origin ``preliminary``: the 70/30 split by
+simulation then holds out a share of them instead of all or nothing.
+
+Default K: with the default velocity bound of 2 rad/s about a fifth of the samples touch
+the cushion; ``DEFAULT_SAMPLES = 4000`` gives ~800 contact samples, enough for the default
+MLP pair to fit the penalty force to a few percent of its range
+(``tests/science/surrogate/test_preliminary.py`` checks it).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy.stats import qmc
+
+from alcove.science.geometry import HeadNeckPreset, relative_kinematics
+from alcove.science.oracles.aux_penalty import AuxPenaltyParams, aux_penalty_wrench
+from alcove.science.surrogate.dataset import PoolDataError, PoolDataset
+
+DEFAULT_SAMPLES = 4000
+DEFAULT_VELOCITY_BOUND = 2.0  # rad/s
+DEFAULT_CHUNKS = 10
+
+
+def preliminary_pool(
+    preset: HeadNeckPreset,
+    samples: int = DEFAULT_SAMPLES,
+    velocity_bound: float = DEFAULT_VELOCITY_BOUND,
+    q_bounds: tuple[float, float] | None = None,
+    params: AuxPenaltyParams | None = None,
+    seed: int = 0,
+    chunks: int = DEFAULT_CHUNKS,
+) -> list[PoolDataset]:
+    """Latin hypercube preliminary data for the 1-DOF preset (origin ``preliminary``).
+
+    ``q_bounds`` defaults to the preset's range ``(theta_min, theta_max)``; velocities are
+    drawn from ``[-velocity_bound, velocity_bound]``.
+    """
+    if not isinstance(samples, (int, np.integer)) or samples < 2:
+        raise PoolDataError("samples", f"must be an integer >= 2, got {samples!r}")
+    if not (np.isfinite(velocity_bound) and velocity_bound > 0):
+        raise PoolDataError("velocity_bound", f"must be a positive number, got {velocity_bound!r}")
+    lo, hi = q_bounds if q_bounds is not None else (preset.theta_min, preset.theta_max)
+    if not (np.isfinite(lo) and np.isfinite(hi) and lo < hi):
+        raise PoolDataError("q_bounds", f"must be finite with lower < upper, got ({lo!r}, {hi!r})")
+    if not 1 <= chunks <= samples // 2:
+        raise PoolDataError("chunks", f"must lie in 1..{samples // 2} (at least two samples per dataset), got {chunks}")
+    unit = qmc.LatinHypercube(d=2, rng=np.random.default_rng(seed)).random(samples)
+    x = qmc.scale(unit, [lo, -velocity_bound], [hi, velocity_bound])
+    q, qd = x[:, 0], x[:, 1]
+    force, moment = aux_penalty_wrench(preset, params or AuxPenaltyParams(), relative_kinematics(preset, q, qd))
+    pool = []
+    for c in range(chunks):
+        idx = np.arange(c, samples, chunks)
+        pool.append(PoolDataset(f"preliminary-{c:02d}", np.arange(idx.size, dtype=float), q[idx], qd[idx],
+                                force[idx], moment[idx], origin="preliminary"))
+    return pool
+
+
+__all__ = ["DEFAULT_CHUNKS", "DEFAULT_SAMPLES", "DEFAULT_VELOCITY_BOUND", "preliminary_pool"]
