@@ -1,0 +1,277 @@
+"""Planar serial chain of rigid links with revolute joints (Lagrangian mechanics).
+
+Frames and sign conventions are those of :mod:`alcove.science.geometry`: world x forward,
+z up, motion in the x-z plane, rotations about y. A planar angle is a *backward tilt*
+``phi`` (rotation ``R_y(-phi)``), so the angular velocity of a body is ``omega_y = -phi_dot``.
+
+Coordinates. ``q_0`` is the absolute angle of link 0 from the vertical; ``q_i`` (i >= 1) is
+the angle of link i relative to link i-1, so link i has the absolute angle
+``phi_i = q_0 + ... + q_i``. For the one-link head-neck preset ``q_0 = theta``.
+
+Link i starts at its joint, points along its body z axis and carries its centre of gravity
+at ``com_distance`` along that axis; the next joint sits at ``length``. The *contact body*
+is the last link; its frame has its origin at the link's centre of gravity (the head
+frame of the geometry module). The headrest frame H is fixed in space.
+
+Equations of motion (L = T - V)::
+
+    M(q) qdd + C(q, qd) = tau + g(q) + J(q)^T w
+
+with ``M`` the mass matrix, ``C = Mdot qd - dT/dq`` the Coriolis/centrifugal terms,
+``g = -dV/dq`` the generalized gravity force and ``w = [F; M]`` the contact force on the
+contact body and its moment about the body frame origin, both in H. ``J`` (6 x n) maps joint
+velocities to the body twist in H, ``[v; omega] = J qd``; by virtual power its transpose
+maps the wrench to generalized forces.
+
+Everything is written once with CasADi operations, which accept SX/MX symbols and numbers;
+the NumPy entry points evaluate compiled ``casadi.Function`` objects over many samples.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from functools import cached_property
+
+import casadi as ca
+import numpy as np
+
+from alcove.science.geometry import GRAVITY, HeadNeckPreset, RelativeKinematics
+
+
+@dataclass(frozen=True)
+class Link:
+    """A rigid link: mass [kg], joint-to-next-joint length [m], COG distance from its joint
+    along the link axis [m] and moment of inertia about its COG [kg m^2]."""
+
+    mass: float
+    com_distance: float
+    inertia_com: float
+    length: float = 0.0
+
+    def __post_init__(self) -> None:
+        if not self.mass > 0:
+            raise ValueError(f"mass: must be > 0, got {self.mass}")
+        if not self.inertia_com >= 0:
+            raise ValueError(f"inertia_com: must be >= 0, got {self.inertia_com}")
+
+
+@dataclass(frozen=True)
+class Headrest:
+    """Headrest frame H: world (x, z) of its origin and its backward tilt [rad] (x_H = normal)."""
+
+    origin: tuple[float, float] = (0.0, 0.0)
+    tilt: float = 0.0
+
+
+@dataclass(frozen=True, eq=False)
+class PlanarChain:
+    """A planar serial chain of ``n >= 1`` links with joint ranges and torque limits."""
+
+    links: tuple[Link, ...]
+    q_min: tuple[float, ...]
+    q_max: tuple[float, ...]
+    torque_limit: tuple[float, ...]
+    gravity: float = GRAVITY
+    base: tuple[float, float] = (0.0, 0.0)
+    headrest: Headrest = field(default_factory=Headrest)
+
+    def __post_init__(self) -> None:
+        n = len(self.links)
+        if n < 1:
+            raise ValueError("links: a chain needs at least one link")
+        for name in ("q_min", "q_max", "torque_limit"):
+            if len(getattr(self, name)) != n:
+                raise ValueError(f"{name}: expected {n} values, got {len(getattr(self, name))}")
+        for i, (lo, hi) in enumerate(zip(self.q_min, self.q_max)):
+            if not lo < hi:
+                raise ValueError(f"q_min[{i}]: must be below q_max[{i}] ({lo} >= {hi})")
+        if any(not t > 0 for t in self.torque_limit):
+            raise ValueError("torque_limit: every limit must be > 0")
+
+    # ---- construction --------------------------------------------------------------
+    @classmethod
+    def from_preset(cls, preset: HeadNeckPreset) -> "PlanarChain":
+        """The 1-DOF head-neck chain (q_0 = theta) with the preset's headrest."""
+        o = preset.headrest_origin
+        head = Link(preset.mass, preset.com_distance, preset.inertia_com, preset.com_distance)
+        return cls(
+            links=(head,),
+            q_min=(preset.theta_min,),
+            q_max=(preset.theta_max,),
+            torque_limit=(preset.torque_limit,),
+            gravity=preset.gravity,
+            headrest=Headrest((float(o[0]), float(o[1])), preset.tilt),
+        )
+
+    @property
+    def ndof(self) -> int:
+        return len(self.links)
+
+    # ---- kinematics (CasADi expressions; symbols or numbers) ------------------------
+    def angles(self, q):  # type: ignore[no-untyped-def]
+        """Absolute angles phi_i of the links (list of scalars)."""
+        out, phi = [], 0
+        for i in range(self.ndof):
+            phi = phi + q[i]
+            out.append(phi)
+        return out
+
+    def com_positions(self, q):  # type: ignore[no-untyped-def]
+        """World (x, z) of every link's COG (list of 2x1)."""
+        joint = ca.DM(self.base)
+        out = []
+        for link, phi in zip(self.links, self.angles(q)):
+            axis = ca.vertcat(-ca.sin(phi), ca.cos(phi))  # rot2(phi) @ (0, 1)
+            out.append(joint + link.com_distance * axis)
+            joint = joint + link.length * axis
+        return out
+
+    def kinetic_energy(self, q, qd):  # type: ignore[no-untyped-def]
+        qd = ca.vec(qd) if not isinstance(qd, (list, tuple)) else ca.vertcat(*qd)
+        return 0.5 * ca.dot(qd, ca.mtimes(self.mass_matrix_expr(q), qd))
+
+    def potential_energy(self, q):  # type: ignore[no-untyped-def]
+        return sum(link.mass * self.gravity * c[1] for link, c in zip(self.links, self.com_positions(q)))
+
+    def mass_matrix_expr(self, q):  # type: ignore[no-untyped-def]
+        return self._fn_mass(q)
+
+    def contact_pose_world(self, q):  # type: ignore[no-untyped-def]
+        """World (x, z) of the contact body frame origin and its absolute angle."""
+        return self.com_positions(q)[-1], self.angles(q)[-1]
+
+    def relative_kinematics_expr(self, q, qd):  # type: ignore[no-untyped-def]
+        """Contact body relative to the headrest, in H: (r_rel 3x1, v_rel 3x1, T_rel 3x3, omega_rel 3x1)."""
+        r_rel, v_rel, T_rel, omega_rel = self._fn_relkin(q, qd)
+        return r_rel, v_rel, T_rel, omega_rel
+
+    def contact_jacobian_expr(self, q):  # type: ignore[no-untyped-def]
+        """J(q) (6 x n): [v_rel; omega_rel] = J qd, generalized contact force = J^T [F; M]."""
+        return self._fn_jacobian(q)
+
+    def generalized_contact_force_expr(self, q, wrench):  # type: ignore[no-untyped-def]
+        return ca.mtimes(self._fn_jacobian(q).T, wrench)
+
+    # ---- compiled functions ----------------------------------------------------------
+    @cached_property
+    def _sym(self) -> tuple[ca.SX, ca.SX]:
+        return ca.SX.sym("q", self.ndof), ca.SX.sym("qd", self.ndof)
+
+    @cached_property
+    def _fn_mass(self) -> ca.Function:
+        q, _ = self._sym
+        M = ca.SX.zeros(self.ndof, self.ndof)
+        for i, (link, c) in enumerate(zip(self.links, self.com_positions(q))):
+            Jv = ca.jacobian(c, q)
+            Jw = ca.DM([[1.0 if j <= i else 0.0 for j in range(self.ndof)]])
+            M += link.mass * ca.mtimes(Jv.T, Jv) + link.inertia_com * ca.mtimes(Jw.T, Jw)
+        M = 0.5 * (M + M.T)
+        return ca.Function("mass_matrix", [q], [ca.simplify(M)], ["q"], ["M"])
+
+    @cached_property
+    def _fn_relkin(self) -> ca.Function:
+        q, qd = self._sym
+        pos, phi = self.contact_pose_world(q)
+        vel = ca.mtimes(ca.jacobian(pos, q), qd)
+        phid = ca.jacobian(phi, q) @ qd
+        beta = self.headrest.tilt
+        cb, sb = math.cos(beta), math.sin(beta)
+        rel = pos - ca.DM(self.headrest.origin)
+        # world -> headrest: rot2(-beta)
+        r_rel = ca.vertcat(cb * rel[0] + sb * rel[1], 0, -sb * rel[0] + cb * rel[1])
+        v_rel = ca.vertcat(cb * vel[0] + sb * vel[1], 0, -sb * vel[0] + cb * vel[1])
+        c, s = ca.cos(phi - beta), ca.sin(phi - beta)
+        T_rel = ca.vertcat(ca.horzcat(c, 0, -s), ca.horzcat(0, 1, 0), ca.horzcat(s, 0, c))
+        omega_rel = ca.vertcat(0, -phid, 0)
+        return ca.Function(
+            "relative_kinematics", [q, qd], [r_rel, v_rel, T_rel, omega_rel], ["q", "qd"], ["r_rel", "v_rel", "T_rel", "omega_rel"]
+        )
+
+    @cached_property
+    def _fn_jacobian(self) -> ca.Function:
+        q, qd = self._sym
+        r_rel, v_rel, _, omega_rel = self._fn_relkin(q, qd)
+        J = ca.vertcat(ca.jacobian(v_rel, qd), ca.jacobian(omega_rel, qd))
+        return ca.Function("contact_jacobian", [q], [J], ["q"], ["J"])
+
+    @cached_property
+    def mass_matrix(self) -> ca.Function:
+        """M(q) as a casadi.Function (q -> M)."""
+        return self._fn_mass
+
+    @cached_property
+    def coriolis(self) -> ca.Function:
+        """C(q, qd) = Mdot qd - dT/dq as a casadi.Function."""
+        q, qd = self._sym
+        M = self._fn_mass(q)
+        T = 0.5 * ca.dot(qd, ca.mtimes(M, qd))
+        C = ca.mtimes(ca.jacobian(ca.mtimes(M, qd), q), qd) - ca.gradient(T, q)
+        return ca.Function("coriolis", [q, qd], [C], ["q", "qd"], ["C"])
+
+    @cached_property
+    def gravity_force(self) -> ca.Function:
+        """Generalized gravity force g(q) = -dV/dq (on the right-hand side of the EOM)."""
+        q, _ = self._sym
+        return ca.Function("gravity_force", [q], [-ca.gradient(self.potential_energy(q), q)], ["q"], ["g"])
+
+    @cached_property
+    def lagrangian(self) -> ca.Function:
+        q, qd = self._sym
+        L = 0.5 * ca.dot(qd, ca.mtimes(self._fn_mass(q), qd)) - self.potential_energy(q)
+        return ca.Function("lagrangian", [q, qd], [L], ["q", "qd"], ["L"])
+
+    @cached_property
+    def energy(self) -> ca.Function:
+        q, qd = self._sym
+        E = 0.5 * ca.dot(qd, ca.mtimes(self._fn_mass(q), qd)) + self.potential_energy(q)
+        return ca.Function("energy", [q, qd], [E], ["q", "qd"], ["E"])
+
+    @cached_property
+    def relative_kinematics_function(self) -> ca.Function:
+        """(q, qd) -> (r_rel, v_rel, T_rel, omega_rel) of the contact body in H."""
+        return self._fn_relkin
+
+    @cached_property
+    def contact_jacobian(self) -> ca.Function:
+        return self._fn_jacobian
+
+    @cached_property
+    def forward_dynamics(self) -> ca.Function:
+        """(q, qd, tau, wrench) -> qdd."""
+        q, qd = self._sym
+        tau = ca.SX.sym("tau", self.ndof)
+        w = ca.SX.sym("wrench", 6)
+        rhs = tau + self.gravity_force(q) + ca.mtimes(self._fn_jacobian(q).T, w) - self.coriolis(q, qd)
+        qdd = ca.solve(self._fn_mass(q), rhs)
+        return ca.Function("forward_dynamics", [q, qd, tau, w], [qdd], ["q", "qd", "tau", "wrench"], ["qdd"])
+
+    # ---- NumPy evaluation ---------------------------------------------------------
+    def _as_samples(self, x: np.ndarray) -> np.ndarray:
+        x = np.asarray(x, float)
+        if x.ndim == 0 or (x.ndim == 1 and self.ndof == 1):
+            x = x.reshape(-1, 1)
+        elif x.ndim == 1:
+            x = x.reshape(1, -1)
+        if x.shape[1] != self.ndof:
+            raise ValueError(f"q: expected {self.ndof} columns, got {x.shape[1]}")
+        return x
+
+    def relative_kinematics(self, q: np.ndarray, qd: np.ndarray) -> RelativeKinematics:
+        """NumPy relative kinematics for samples q, qd of shape (n, ndof) (or (n,) for 1 DOF)."""
+        q, qd = self._as_samples(q), self._as_samples(qd)
+        n = q.shape[0]
+        r, v, T, w = self._fn_relkin.map(n)(q.T, qd.T)
+        T = np.asarray(T).reshape(3, n, 3).transpose(1, 0, 2)
+        return RelativeKinematics(r_rel=np.asarray(r).T, v_rel=np.asarray(v).T, T_rel=T, omega_rel=np.asarray(w).T)
+
+    def generalized_contact_force(self, q: np.ndarray, wrench: np.ndarray) -> np.ndarray:
+        """J(q)^T w for samples: q (n, ndof), wrench (n, 6) -> (n, ndof)."""
+        q = self._as_samples(q)
+        wrench = np.asarray(wrench, float).reshape(-1, 6)
+        J = self._fn_jacobian.map(q.shape[0])(q.T)
+        J = np.asarray(J).reshape(6, q.shape[0], self.ndof).transpose(1, 0, 2)
+        return np.einsum("nij,ni->nj", J, wrench)
+
+
+__all__ = ["Headrest", "Link", "PlanarChain"]

@@ -1,0 +1,140 @@
+"""Contact models for the OCP: the contact-model slot and its implementations.
+
+The slot is a ``casadi.Function`` with inputs ``q`` (ndof x 1) and ``qd`` (ndof x 1) and one
+output, the wrench (6 x 1) ``[fx, fy, fz, mx, my, mz]``: the contact force on the contact
+body (the head) and its moment about the body frame origin (the head COG), both in the
+headrest frame H. The OCP maps it to generalized forces with ``J(q)^T``
+(:class:`alcove.science.multibody.PlanarChain`). An optional third input ``p`` (a column of
+parameters, e.g. network weights) is passed through as an NLP parameter so a solver can be
+reused when only the parameter values change.
+
+Models:
+
+* ``none``: no contact.
+* ``aux``: a smooth form of the paper's auxiliary penalty model (one point r_sp of the head
+  against the headrest plane). The literal model switches with ``if p > 0 and f > 0``,
+  which IPOPT handles badly; here the penetration goes through a softplus of width
+  ``penetration_width`` and the force through a smooth ramp of width ``force_width``. Both
+  widths -> 0 recover the literal model (tested against
+  :func:`alcove.science.oracles.aux_penalty.aux_penalty_wrench`).
+* ``model:FILE``: a trained surrogate, built by
+  ``alcove.science.surrogate.export.casadi_contact_from_artifact(path, preset)``.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import casadi as ca
+from pydantic import BaseModel, ConfigDict, Field
+
+from alcove.science.geometry import HeadNeckPreset
+from alcove.science.multibody import PlanarChain
+from alcove.science.oracles.aux_penalty import AuxPenaltyParams, contact_point
+
+WRENCH_SIZE = 6
+
+
+class ContactModelError(ValueError):
+    """A contact model is malformed or cannot be built; ``field`` names what is wrong."""
+
+    def __init__(self, field: str, reason: str):
+        self.field = field
+        self.reason = reason
+        super().__init__(f"{field}: {reason}")
+
+
+class AuxSmoothing(BaseModel):
+    """Smoothing widths of the OCP form of the auxiliary penalty model."""
+
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+    penetration_width: float = Field(2e-4, gt=0, le=0.01, description="softplus width of the penetration [m]")
+    force_width: float = Field(0.5, gt=0, le=100, description="width of the smooth ramp max(f, 0) [N]")
+
+
+def softplus(x, width: float = 1.0):  # type: ignore[no-untyped-def]
+    """Smooth max(x, 0) = width * log(1 + exp(x / width)), stable for large |x|."""
+    z = x / width
+    return width * (ca.log1p(ca.exp(-ca.fabs(z))) + ca.fmax(z, 0))
+
+
+def smooth_ramp(x, width: float = 1.0):  # type: ignore[no-untyped-def]
+    """Smooth max(x, 0) that is exactly 0 at x = 0 and tends to 0 for x -> -inf: x * sigmoid(x / width)."""
+    return x * 0.5 * (1 + ca.tanh(0.5 * x / width))
+
+
+def no_contact(ndof: int) -> ca.Function:
+    """The ``none`` model: zero wrench."""
+    q, qd = ca.SX.sym("q", ndof), ca.SX.sym("qd", ndof)
+    return ca.Function("contact_none", [q, qd], [ca.SX.zeros(WRENCH_SIZE)], ["q", "qd"], ["wrench"])
+
+
+def aux_contact(
+    preset: HeadNeckPreset,
+    params: AuxPenaltyParams | None = None,
+    smoothing: AuxSmoothing | None = None,
+    chain: PlanarChain | None = None,
+) -> ca.Function:
+    """The smooth auxiliary penalty model as a contact-model slot function.
+
+    ``chain`` defaults to the 1-DOF chain of ``preset``; the point r_sp is given in the
+    frame of the chain's contact body (the head frame).
+    """
+    params = params or AuxPenaltyParams()
+    smoothing = smoothing or AuxSmoothing()
+    chain = chain or PlanarChain.from_preset(preset)
+    q, qd = ca.SX.sym("q", chain.ndof), ca.SX.sym("qd", chain.ndof)
+    r_rel, v_rel, T_rel, omega_rel = chain.relative_kinematics_function(q, qd)
+    arm = ca.mtimes(T_rel, ca.DM(contact_point(preset, params)))  # r_sp in H
+    point = r_rel + arm
+    point_vel = v_rel + ca.cross(omega_rel, arm)
+    p = softplus(-point[0], smoothing.penetration_width)  # penetration along -x_H
+    pdot = -point_vel[0]
+    f = params.k * p**2 + pdot * params.d0 * (1 - ca.exp(-p / params.p_ref))
+    force = ca.vertcat(smooth_ramp(f, smoothing.force_width), 0, 0)
+    moment = ca.cross(arm, force)
+    return ca.Function("contact_aux", [q, qd], [ca.vertcat(force, moment)], ["q", "qd"], ["wrench"])
+
+
+def check_contact_function(fn: ca.Function, ndof: int) -> None:
+    """Raise :class:`ContactModelError` unless ``fn`` fits the contact-model slot."""
+    if not isinstance(fn, ca.Function):
+        raise ContactModelError("contact", f"expected a casadi.Function, got {type(fn).__name__}")
+    if fn.n_in() not in (2, 3) or fn.n_out() != 1:
+        raise ContactModelError("contact", f"expected inputs (q, qd[, p]) and one output, got {fn.n_in()} inputs and {fn.n_out()} outputs")
+    for i, name in enumerate(("q", "qd")):
+        if fn.size_in(i) != (ndof, 1):
+            raise ContactModelError(f"contact.{name}", f"input {i} must be {ndof}x1, got {fn.size_in(i)[0]}x{fn.size_in(i)[1]}")
+    if fn.n_in() == 3 and fn.size2_in(2) != 1:
+        raise ContactModelError("contact.p", "the parameter input must be a column")
+    if fn.size_out(0) != (WRENCH_SIZE, 1):
+        raise ContactModelError("contact.wrench", f"output must be 6x1, got {fn.size_out(0)[0]}x{fn.size_out(0)[1]}")
+
+
+def contact_from_spec(spec: str, preset: HeadNeckPreset) -> ca.Function | None:
+    """Parse ``aux``, ``none`` or ``model:FILE`` into a contact function (``None`` for none)."""
+    if spec == "none":
+        return None
+    if spec == "aux":
+        return aux_contact(preset)
+    if spec.startswith("model:"):
+        path = Path(spec.removeprefix("model:"))
+        if not path.exists():
+            raise ContactModelError("contact", f"model file {str(path)!r} does not exist")
+        from alcove.science.surrogate.export import casadi_contact_from_artifact  # lazy: delivered by the surrogate issue
+
+        return casadi_contact_from_artifact(path, preset)
+    raise ContactModelError("contact", f"unknown contact model {spec!r}; use aux, none or model:FILE")
+
+
+__all__ = [
+    "AuxSmoothing",
+    "ContactModelError",
+    "aux_contact",
+    "check_contact_function",
+    "contact_from_spec",
+    "no_contact",
+    "smooth_ramp",
+    "softplus",
+]

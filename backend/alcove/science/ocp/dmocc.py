@@ -1,0 +1,346 @@
+"""DMOCC transcription of a multi-phase OCP for a planar chain (Leyendecker et al. 2010).
+
+With joint angles as coordinates a serial chain has no holonomic constraints, so DMOCC
+reduces to DMOC (see ``design/dmocc.md``). On each interval k (step h of its phase)::
+
+    L_d(q_k, q_k+1) = h L(q_k+1/2, v_k),          v_k = (q_k+1 - q_k) / h
+    f_k^- = f_k^+ = h/2 (u_k + J(q_k+1/2)^T w(q_k+1/2, v_k))
+
+and the NLP unknowns are the nodes q_0..q_N and the interval torques u_0..u_N-1 of all
+phases. Constraints::
+
+    start   p_0 + D1 L_d(q_0, q_1) + f_0^- = 0                   (p_0 = M(q_0) qd_0)
+    DEL     D2 L_d(q_k-1, q_k) + f_k-1^+ + D1 L_d(q_k, q_k+1) + f_k^- = 0,   k = 1..N-1
+    end     -p_N + D2 L_d(q_N-1, q_N) + f_N-1^+ = 0
+
+At a phase junction the DEL equation mixes the steps of both phases: that is momentum
+matching. Cost: sum_k h (w_tau u_k^T u_k + w_T T(q_k+1/2, v_k)) + endpoint cost.
+Discrete momenta (discrete Legendre transforms) give the node velocities qd_k = M(q_k)^-1 p_k.
+
+The interval terms are SX functions (the contact function is expanded) and IPOPT uses the exact Hessian.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Callable
+
+import casadi as ca
+import numpy as np
+
+from alcove.science.multibody import PlanarChain
+from alcove.science.ocp.contact import check_contact_function
+
+
+@dataclass(frozen=True)
+class PhaseGrid:
+    """One phase, resolved: duration, intervals, weights, bounds (ndof arrays), target pose at its end."""
+
+    duration: float
+    intervals: int
+    w_tau: float
+    w_T: float
+    q_min: np.ndarray
+    q_max: np.ndarray
+    tau_max: np.ndarray
+    target_q: np.ndarray | None = None
+
+    @property
+    def step(self) -> float:
+        return self.duration / self.intervals
+
+
+@dataclass(frozen=True)
+class DiscreteProblem:
+    """A resolved multi-phase problem. ``None`` boundary entries are free."""
+
+    phases: tuple[PhaseGrid, ...]
+    q_start: np.ndarray | None
+    qd_start: np.ndarray | None
+    q_end: np.ndarray | None = None
+    qd_end: np.ndarray | None = None
+    endpoint_w_q: float = 0.0
+    endpoint_q_ref: np.ndarray | None = None
+    endpoint_w_qd: float = 0.0
+
+    @property
+    def intervals(self) -> int:
+        return sum(ph.intervals for ph in self.phases)
+
+    def steps(self) -> np.ndarray:
+        """Step of every interval (N,)."""
+        return np.concatenate([np.full(ph.intervals, ph.step) for ph in self.phases])
+
+    def time_grid(self) -> np.ndarray:
+        """Node times t_0..t_N (N + 1,)."""
+        return np.concatenate([[0.0], np.cumsum(self.steps())])
+
+    def phase_of_interval(self) -> np.ndarray:
+        return np.concatenate([np.full(ph.intervals, m) for m, ph in enumerate(self.phases)])
+
+    def phase_end_nodes(self) -> list[int]:
+        return list(np.cumsum([ph.intervals for ph in self.phases]))
+
+
+def _interval_functions(chain: PlanarChain, contact: ca.Function | None) -> tuple[ca.Function, ca.Function]:
+    """SX functions of one interval: dynamics (qa, qb, u, h, p) -> (-p_k^-, p_k+1^+) and
+    cost terms (qa, qb, u, h) -> (h u^T u, h T(q_k+1/2, v_k))."""
+    n = chain.ndof
+    qa, qb, u = ca.SX.sym("qa", n), ca.SX.sym("qb", n), ca.SX.sym("u", n)
+    h = ca.SX.sym("h")
+    n_par = contact.size1_in(2) if contact is not None and contact.n_in() == 3 else 0
+    par = ca.SX.sym("p", n_par)
+    qm, v = 0.5 * (qa + qb), (qb - qa) / h
+    Ld = h * chain.lagrangian(qm, v)
+    force = u
+    if contact is not None:
+        wrench = contact(qm, v, par) if n_par else contact(qm, v)
+        force = force + chain.generalized_contact_force_expr(qm, wrench)
+    fd = 0.5 * h * force
+    left = ca.gradient(Ld, qa) + fd  # D1 L_d + f^-  = -p_k^-
+    right = ca.gradient(Ld, qb) + fd  # D2 L_d + f^+ = p_k+1^+
+    kinetic = 0.5 * ca.dot(v, ca.mtimes(chain.mass_matrix(qm), v))
+    args, names = [qa, qb, u, h, par], ["qa", "qb", "u", "h", "p"]
+    dynamics = ca.Function("interval_dynamics", args, [left, right], names, ["left", "right"])
+    cost = ca.Function("interval_cost", args[:4], [h * ca.dot(u, u), h * kinetic], names[:4], ["effort", "kinetic"])
+    return dynamics, cost
+
+
+def _prepare_contact(contact: ca.Function | None, ndof: int) -> ca.Function | None:
+    if contact is None:
+        return None
+    check_contact_function(contact, ndof)
+    if contact.is_a("MXFunction"):
+        try:
+            contact = contact.expand()
+        except RuntimeError:  # not expandable (e.g. external calls): keep as is
+            pass
+    return contact
+
+
+DEFAULT_IPOPT_OPTIONS: dict[str, object] = {
+    "ipopt.print_level": 0,
+    "ipopt.sb": "yes",
+    "print_time": False,
+    "ipopt.hessian_approximation": "exact",
+    "ipopt.max_iter": 1000,
+    "ipopt.tol": 1e-8,
+}
+
+
+@dataclass
+class Transcription:
+    """The NLP of one (chain, problem, contact structure), built once and solved many times.
+
+    The interval terms are SX functions (contact expanded) mapped over the grid. ``graph``
+    chooses the outer expression graph: ``"MX"`` keeps the maps (fast to build: use it when
+    the contact function changes often) and ``"SX"`` inlines everything (slower to build,
+    fastest per IPOPT iteration: use it when one transcription is solved many times).
+    """
+
+    chain: PlanarChain
+    problem: DiscreteProblem
+    contact: ca.Function | None = None
+    ipopt_options: dict[str, object] = field(default_factory=dict)
+    graph: str = "MX"
+
+    def __post_init__(self) -> None:
+        chain, prob = self.chain, self.problem
+        n, N = chain.ndof, prob.intervals
+        if N < 1:
+            raise ValueError("phases: the problem has no intervals")
+        self.contact = _prepare_contact(self.contact, n)
+        self.n_par = self.contact.size1_in(2) if self.contact is not None and self.contact.n_in() == 3 else 0
+        dynamics, interval_cost = _interval_functions(chain, self.contact)
+        self.n_q, self.n_u = n * (N + 1), n * N
+        if self.graph not in ("MX", "SX"):
+            raise ValueError(f"graph: must be 'MX' or 'SX', got {self.graph!r}")
+        sym = ca.MX if self.graph == "MX" else ca.SX
+        x = sym.sym("x", self.n_q + self.n_u)
+        par = sym.sym("p", self.n_par)
+        Q = ca.reshape(x[: self.n_q], n, N + 1)
+        U = ca.reshape(x[self.n_q :], n, N)
+        H = ca.DM(prob.steps()).T
+        phase = prob.phase_of_interval()
+        w_tau = ca.DM([prob.phases[m].w_tau for m in phase]).T
+        w_T = ca.DM([prob.phases[m].w_T for m in phase]).T
+        Pm = ca.repmat(par, 1, N)
+        args = (Q[:, :-1], Q[:, 1:], U, H, Pm)
+        left, right = dynamics.map(N)(*args)
+        effort, kinetic = interval_cost.map(N)(*args[:4])
+        cost = ca.sum2(w_tau * effort) + ca.sum2(w_T * kinetic)
+
+        g, lbg, ubg = [], [], []
+        if prob.qd_start is not None:
+            p0 = ca.mtimes(chain.mass_matrix(Q[:, 0]), ca.DM(prob.qd_start))
+            g.append(p0 + left[:, 0])
+        if N > 1:
+            g.append(ca.vec(right[:, :-1] + left[:, 1:]))
+        if prob.qd_end is not None:
+            pN = ca.mtimes(chain.mass_matrix(Q[:, N]), ca.DM(prob.qd_end))
+            g.append(right[:, N - 1] - pN)
+        g = ca.vertcat(*g)
+        lbg = ubg = np.zeros(g.shape[0])
+
+        # node momenta for the Legendre transforms: p_0 = -left_0, p_k = right_k-1
+        self._momenta = ca.Function("momenta", [x, par], [ca.horzcat(-left[:, 0], right)])
+
+        # endpoint cost
+        qN = Q[:, N]
+        if prob.endpoint_w_q > 0 and prob.endpoint_q_ref is not None:
+            cost = cost + prob.endpoint_w_q * ca.sumsqr(qN - ca.DM(prob.endpoint_q_ref))
+        if prob.endpoint_w_qd > 0:
+            vN = right[:, N - 1]  # momentum at the end node
+            qdN = ca.solve(chain.mass_matrix(qN), vN)
+            cost = cost + prob.endpoint_w_qd * ca.sumsqr(qdN)
+
+        self.lbx, self.ubx = self._variable_bounds()
+        self.lbg, self.ubg = lbg, ubg
+        self._cost_fn = ca.Function("cost", [x, par], [cost])
+        options = {**DEFAULT_IPOPT_OPTIONS, **self.ipopt_options}
+        self.solver = ca.nlpsol("dmocc", "ipopt", {"x": x, "p": par, "f": cost, "g": g}, options)
+
+    # ---- bounds and grid ----------------------------------------------------------
+    def _variable_bounds(self) -> tuple[np.ndarray, np.ndarray]:
+        prob, n, N = self.problem, self.chain.ndof, self.problem.intervals
+        q_lo = np.full((N + 1, n), -np.inf)
+        q_hi = np.full((N + 1, n), np.inf)
+        u_hi = np.zeros((N, n))
+        k = 0
+        for ph in prob.phases:
+            sl = slice(k, k + ph.intervals + 1)  # nodes of this phase (junctions shared)
+            q_lo[sl] = np.maximum(q_lo[sl], ph.q_min)
+            q_hi[sl] = np.minimum(q_hi[sl], ph.q_max)
+            u_hi[k : k + ph.intervals] = ph.tau_max
+            k += ph.intervals
+            if ph.target_q is not None:
+                q_lo[k] = q_hi[k] = ph.target_q
+        if prob.q_start is not None:
+            q_lo[0] = q_hi[0] = prob.q_start
+        if prob.q_end is not None:
+            q_lo[N] = q_hi[N] = prob.q_end
+        lbx = np.concatenate([q_lo.ravel(), -u_hi.ravel()])
+        ubx = np.concatenate([q_hi.ravel(), u_hi.ravel()])
+        return lbx, ubx
+
+    @property
+    def t(self) -> np.ndarray:
+        return self.problem.time_grid()
+
+    # ---- packing ------------------------------------------------------------------
+    def pack(self, q: np.ndarray, u: np.ndarray) -> np.ndarray:
+        """NLP vector from nodes q (N+1, ndof) and torques u (N, ndof)."""
+        return np.concatenate([np.asarray(q, float).ravel(), np.asarray(u, float).ravel()])
+
+    def unpack(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        n, N = self.chain.ndof, self.problem.intervals
+        x = np.asarray(x, float).ravel()
+        return x[: self.n_q].reshape(N + 1, n), x[self.n_q :].reshape(N, n)
+
+    def node_velocities(self, x: np.ndarray, par: np.ndarray | None = None) -> np.ndarray:
+        """qd_k = M(q_k)^-1 p_k from the discrete Legendre transforms, (N+1, ndof)."""
+        par = np.zeros(self.n_par) if par is None else par
+        P = np.asarray(self._momenta(x, par))  # (ndof, N+1)
+        q, _ = self.unpack(x)
+        M = np.asarray(self.chain.mass_matrix.map(q.shape[0])(q.T)).reshape(self.chain.ndof, -1, self.chain.ndof)
+        return np.stack([np.linalg.solve(M[:, k, :], P[:, k]) for k in range(q.shape[0])])
+
+    def constraint_violation(self, x: np.ndarray, g: np.ndarray) -> float:
+        """Largest violation of the constraints and the variable bounds."""
+        x, g = np.asarray(x).ravel(), np.asarray(g).ravel()
+        parts = [np.maximum(self.lbx - x, 0), np.maximum(x - self.ubx, 0), np.maximum(self.lbg - g, 0), np.maximum(g - self.ubg, 0)]
+        return float(max((p.max() if p.size else 0.0) for p in parts))
+
+    def solve(self, x0: np.ndarray, par: np.ndarray | None = None) -> dict[str, object]:
+        """One IPOPT run from ``x0``: returns x, cost, g, stats."""
+        par = np.zeros(self.n_par) if par is None else np.asarray(par, float).ravel()
+        x0 = np.clip(np.asarray(x0, float).ravel(), self.lbx, self.ubx)
+        res = self.solver(x0=x0, p=par, lbx=self.lbx, ubx=self.ubx, lbg=self.lbg, ubg=self.ubg)
+        x = np.asarray(res["x"]).ravel()
+        g = np.asarray(res["g"]).ravel()
+        return {"x": x, "cost": float(res["f"]), "g": g, "stats": self.solver.stats()}
+
+
+def simulate(
+    chain: PlanarChain,
+    q0: np.ndarray,
+    qd0: np.ndarray,
+    step: float | np.ndarray,
+    steps: int | None = None,
+    tau: np.ndarray | Callable[[float, np.ndarray, np.ndarray], np.ndarray] | None = None,
+    contact: ca.Function | None = None,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Integrate the forced discrete Euler-Lagrange equations forward (Newton on each step).
+
+    ``step`` is the step h (with ``steps`` the number of steps) or an array of steps.
+    ``tau`` gives the interval torques: an array (steps, ndof), a feedback law
+    ``tau(t_k, q_k, qd_k)`` evaluated at the start of each interval, or ``None`` (zero).
+    Returns nodes q (steps+1, ndof) and node velocities qd (steps+1, ndof) from the
+    discrete Legendre transforms.
+    """
+    n = chain.ndof
+    hs = np.full(int(steps), float(step)) if np.ndim(step) == 0 else np.asarray(step, float).ravel()
+    contact = _prepare_contact(contact, n)
+    dynamics, _ = _interval_functions(chain, contact)
+    qa, qb, u = ca.SX.sym("qa", n), ca.SX.sym("qb", n), ca.SX.sym("u", n)
+    p_in, h = ca.SX.sym("p_in", n), ca.SX.sym("h")
+    empty = ca.DM.zeros(0, 1)
+    # given q_k and p_k (= -left), find q_k+1: p_k + left(q_k, q_k+1) = 0
+    residual = ca.Function("residual", [qb, ca.vertcat(qa, u, p_in, h)], [p_in + dynamics(qa, qb, u, h, empty)[0]])
+    newton = ca.rootfinder("del_step", "newton", residual, {"abstol": 1e-14, "max_iter": 50})
+    right = ca.Function("right_n", [qa, qb, u, h], [dynamics(qa, qb, u, h, empty)[1]])
+    inv_mass = lambda qk, pk: np.linalg.solve(np.asarray(chain.mass_matrix(qk)), pk)  # noqa: E731
+    N = hs.size
+    q, p, u_all = np.zeros((N + 1, n)), np.zeros((N + 1, n)), np.zeros((N, n))
+    q[0] = np.asarray(q0, float).ravel()
+    p[0] = np.asarray(chain.mass_matrix(q[0])).dot(np.asarray(qd0, float).ravel())
+    t = 0.0
+    for k in range(N):
+        qd_k = inv_mass(q[k], p[k])
+        if callable(tau):
+            u_all[k] = np.asarray(tau(t, q[k], qd_k), float).ravel()
+        elif tau is not None:
+            u_all[k] = np.asarray(tau, float).reshape(N, n)[k]
+        guess = q[k] + hs[k] * qd_k
+        q[k + 1] = np.asarray(newton(guess, np.concatenate([q[k], u_all[k], p[k], [hs[k]]]))).ravel()
+        p[k + 1] = np.asarray(right(q[k], q[k + 1], u_all[k], hs[k])).ravel()
+        t += hs[k]
+    qd = np.stack([inv_mass(q[k], p[k]) for k in range(N + 1)])
+    return q, qd
+
+
+def passive_rollout(
+    chain: PlanarChain,
+    q0: np.ndarray,
+    qd0: np.ndarray,
+    steps: np.ndarray,
+    damping: np.ndarray,
+    tau_max: np.ndarray,
+    contact: ca.Function | None = None,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Passive motion with joint damping, tau_k = clip(-damping * qd_k, +-tau_max), by the DEL
+    equations in one compiled call (rootfinder inside mapaccum). Returns q (N+1, ndof), u (N, ndof)."""
+    n = chain.ndof
+    contact = _prepare_contact(contact, n)
+    dynamics, _ = _interval_functions(chain, contact)
+    qa, qb, u, p_in, h = (ca.SX.sym(name, n) for name in ("qa", "qb", "u", "p_in", "h"))
+    h = ca.SX.sym("h")
+    empty = ca.DM.zeros(0, 1)
+    residual = ca.Function("residual", [qb, ca.vertcat(qa, u, p_in, h)], [p_in + dynamics(qa, qb, u, h, empty)[0]])
+    newton = ca.rootfinder("del_step", "newton", residual, {"abstol": 1e-12, "max_iter": 30, "error_on_fail": False})
+    state, hm = ca.MX.sym("state", 2 * n), ca.MX.sym("h")
+    q, p = state[:n], state[n:]
+    qd = ca.solve(chain.mass_matrix(q), p)
+    tau = ca.fmin(ca.fmax(-ca.DM(damping) * qd, -ca.DM(tau_max)), ca.DM(tau_max))
+    q_next = newton(q + hm * qd, ca.vertcat(q, tau, p, hm))
+    p_next = dynamics(q, q_next, tau, hm, empty)[1]
+    step_fn = ca.Function("passive_step", [state, hm], [ca.vertcat(q_next, p_next), tau])
+    roll = step_fn.mapaccum("passive_rollout", len(steps))
+    q0 = np.asarray(q0, float).ravel()
+    s0 = np.concatenate([q0, np.asarray(chain.mass_matrix(q0)).dot(np.asarray(qd0, float).ravel())])
+    S, U = roll(s0, ca.DM(np.asarray(steps, float)).T)
+    q_all = np.vstack([q0, np.asarray(S)[:n].T])
+    return q_all, np.asarray(U).T
+
+
+__all__ = ["DEFAULT_IPOPT_OPTIONS", "passive_rollout", "DiscreteProblem", "PhaseGrid", "Transcription", "simulate"]

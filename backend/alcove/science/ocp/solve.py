@@ -1,0 +1,277 @@
+"""Solve a task: cached transcriptions, initial guesses, bounded retries, the result object.
+
+``solve_task`` is what the campaign engine calls every iteration. The NLP (SX, IPOPT with
+exact Hessian) is built once per (task, contact structure) and cached; a contact function
+with a third input ``p`` takes its parameters as NLP parameters, so changing them reuses the
+solver. A result always records IPOPT's return status, iterations, cost, constraint
+violation and wall time; ``converged`` is IPOPT's own success flag and a non-converged
+result is returned as such (the caller decides by policy).
+"""
+
+from __future__ import annotations
+
+import time
+from collections import OrderedDict
+from dataclasses import dataclass, field
+from typing import Any, Callable
+
+import casadi as ca
+import numpy as np
+from scipy.interpolate import CubicHermiteSpline
+
+from alcove.science.geometry import RelativeKinematics
+from alcove.science.multibody import PlanarChain
+from alcove.science.ocp.dmocc import Transcription, passive_rollout
+from alcove.science.ocp.task_spec import TaskSpec
+from alcove.science.series import SeriesFormatError, Trajectory
+
+CACHE_SIZE = 8
+_CACHE: "OrderedDict[tuple[str, str, str], Transcription]" = OrderedDict()
+
+
+@dataclass
+class OcpSolution:
+    """Solution on the OCP grid: nodes t (N+1), q, qd (N+1, ndof); interval torques ``controls`` (N, ndof).
+
+    ``tau`` at the nodes is the mean of the torques of the adjacent intervals (the one-sided
+    value at the ends), which is what the discrete forces apply at a node.
+    """
+
+    t: np.ndarray
+    q: np.ndarray
+    qd: np.ndarray
+    controls: np.ndarray
+    status: str
+    converged: bool
+    iterations: int
+    cost: float
+    constraint_violation: float
+    wall_time: float
+    chain: PlanarChain
+    task_name: str = ""
+    attempts: list[dict[str, Any]] = field(default_factory=list)
+    x: np.ndarray | None = None
+
+    @property
+    def tau(self) -> np.ndarray:
+        u = self.controls
+        return np.concatenate([u[:1], 0.5 * (u[:-1] + u[1:]), u[-1:]])
+
+    @property
+    def trajectory(self) -> Trajectory:
+        return Trajectory(self.t, self.q, self.qd, self.tau)
+
+    def resample(self, t_grid: np.ndarray) -> Trajectory:
+        """The solution on ``t_grid``: cubic Hermite q (with qd its derivative), linear tau."""
+        t_grid = np.asarray(t_grid, float)
+        if t_grid.ndim != 1 or t_grid.size == 0:
+            raise SeriesFormatError("t", "the resampling grid must be a non-empty 1-D array")
+        if t_grid.min() < self.t[0] - 1e-12 or t_grid.max() > self.t[-1] + 1e-12:
+            raise SeriesFormatError("t", f"resampling grid leaves the solution's time span [{self.t[0]}, {self.t[-1]}]")
+        t_grid = np.clip(t_grid, self.t[0], self.t[-1])
+        spline = CubicHermiteSpline(self.t, self.q, self.qd, axis=0)
+        tau = np.stack([np.interp(t_grid, self.t, self.tau[:, j]) for j in range(self.q.shape[1])], -1)
+        return Trajectory(t_grid, spline(t_grid), spline.derivative()(t_grid), tau)
+
+    def head_pose(self, t_grid: np.ndarray | None = None) -> RelativeKinematics:
+        """Pose and velocity of the head relative to the headrest (in H) on the OCP grid or ``t_grid``."""
+        tr = self.trajectory if t_grid is None else self.resample(t_grid)
+        return self.chain.relative_kinematics(tr.q, tr.qd)
+
+    def summary(self) -> dict[str, Any]:
+        """JSON-ready summary."""
+        return {
+            "task": self.task_name,
+            "status": self.status,
+            "converged": bool(self.converged),
+            "iterations": int(self.iterations),
+            "cost": float(self.cost),
+            "constraint_violation": float(self.constraint_violation),
+            "wall_time_s": float(self.wall_time),
+            "intervals": int(self.controls.shape[0]),
+            "attempts": self.attempts,
+            "q_range": [float(self.q.min()), float(self.q.max())],
+            "max_abs_tau": float(np.abs(self.controls).max()),
+        }
+
+
+def _contact_key(contact: ca.Function | None) -> str:
+    if contact is None:
+        return "none"
+    try:
+        return contact.serialize()
+    except Exception:  # noqa: BLE001 - functions that cannot be serialized are keyed by identity
+        return f"id:{id(contact)}"
+
+
+def get_transcription(task: TaskSpec, contact: ca.Function | None, ipopt_options: dict[str, Any] | None = None) -> Transcription:
+    """The cached transcription for (task, contact structure, options); built on first use."""
+    key = (task.model_dump_json(), _contact_key(contact), repr(sorted((ipopt_options or {}).items())))
+    if key in _CACHE:
+        _CACHE.move_to_end(key)
+        return _CACHE[key]
+    tr = Transcription(task.chain(), task.discrete_problem(), contact, dict(ipopt_options or {}))
+    _CACHE[key] = tr
+    while len(_CACHE) > CACHE_SIZE:
+        _CACHE.popitem(last=False)
+    return tr
+
+
+def clear_cache() -> None:
+    _CACHE.clear()
+
+
+# ---- initial guesses ------------------------------------------------------------------
+def _holding_torque(chain: PlanarChain, q: np.ndarray) -> np.ndarray:
+    """Torque that holds the chain still at the interval midpoints of nodes q (N+1, ndof)."""
+    qm = 0.5 * (q[:-1] + q[1:])
+    g = np.asarray(chain.gravity_force.map(qm.shape[0])(qm.T)).T
+    return -g
+
+
+def _guess_static(tr: Transcription) -> np.ndarray:
+    """Hold still at the initial pose (or mid-range when it is free)."""
+    lo, hi = tr.unpack(tr.lbx)[0], tr.unpack(tr.ubx)[0]
+    start = tr.problem.q_start if tr.problem.q_start is not None else 0.5 * (lo[0] + hi[0])
+    q = np.clip(np.broadcast_to(start, lo.shape), lo, hi)
+    return tr.pack(q, _holding_torque(tr.chain, q))
+
+
+PASSIVE_TIME_CONSTANT = 0.05  # s, joint damping c_i = M_ii(q0) / PASSIVE_TIME_CONSTANT
+
+
+def _guess_passive(tr: Transcription, contact_params: np.ndarray | None = None) -> np.ndarray:
+    """Let the chain move passively from the initial state (gravity, contact, joint damping).
+
+    A dynamically feasible guess: for the head-headrest task the head falls onto the
+    headrest and settles there. Cached on the transcription (it depends on nothing else).
+    """
+    cached = getattr(tr, "_passive_guess", None)
+    if cached is not None and tr.n_par == 0:
+        return cached
+    prob, chain = tr.problem, tr.chain
+    lo, hi = tr.unpack(tr.lbx)[0], tr.unpack(tr.ubx)[0]
+    q0 = prob.q_start if prob.q_start is not None else 0.5 * (lo[0] + hi[0])
+    qd0 = prob.qd_start if prob.qd_start is not None else np.zeros(chain.ndof)
+    damping = np.diag(np.asarray(chain.mass_matrix(q0))) / PASSIVE_TIME_CONSTANT
+    tau_hi = tr.unpack(tr.ubx)[1][0]
+    contact = tr.contact
+    if tr.n_par:  # freeze the parameters of a parametric contact model
+        qs, qds = ca.SX.sym("q", chain.ndof), ca.SX.sym("qd", chain.ndof)
+        contact = ca.Function("contact_frozen", [qs, qds], [tr.contact(qs, qds, ca.DM(contact_params))])
+    q, u = passive_rollout(chain, q0, qd0, prob.steps(), damping, tau_hi, contact)
+    if not np.all(np.isfinite(q)):
+        return _guess_static(tr)
+    x0 = tr.pack(np.clip(q, lo, hi), u)
+    tr._passive_guess = x0  # type: ignore[attr-defined]
+    return x0
+
+
+def _guess_ramp(tr: Transcription) -> np.ndarray:
+    """Move smoothly toward the upper half of the range during the first phase, then hold."""
+    lo, hi = tr.unpack(tr.lbx)[0], tr.unpack(tr.ubx)[0]
+    start = tr.problem.q_start if tr.problem.q_start is not None else 0.5 * (lo[0] + hi[0])
+    goal = 0.5 * (start + np.where(np.isfinite(hi[-1]), hi[-1], start + 1.0))
+    t = tr.t
+    t1 = tr.problem.phases[0].duration
+    s = np.clip(t / t1, 0, 1)
+    s = s * s * (3 - 2 * s)
+    q = np.clip(start + s[:, None] * (goal - start), lo, hi)
+    return tr.pack(q, _holding_torque(tr.chain, q))
+
+
+def _guess_from_solution(tr: Transcription, previous: "OcpSolution") -> np.ndarray:
+    """A previous solution (possibly on another grid) interpolated onto this grid."""
+    t = tr.t
+    span = previous.t[-1]
+    ts = np.clip(t * span / t[-1], previous.t[0], previous.t[-1])
+    q = previous.resample(ts).q
+    tm = 0.5 * (ts[:-1] + ts[1:])
+    u = np.stack([np.interp(tm, previous.t, previous.tau[:, j]) for j in range(q.shape[1])], -1)
+    return tr.pack(q, u)
+
+
+def initial_guesses(
+    tr: Transcription, previous: OcpSolution | None = None, contact_params: np.ndarray | None = None
+) -> list[tuple[str, np.ndarray]]:
+    """Ordered initial guesses: the previous solution when given, then passive motion, a ramp, holding still."""
+    out: list[tuple[str, np.ndarray]] = []
+    if previous is not None and previous.q.shape[1] == tr.chain.ndof:
+        out.append(("previous", _guess_from_solution(tr, previous)))
+    out.append(("passive", _guess_passive(tr, contact_params)))
+    out.append(("ramp", _guess_ramp(tr)))
+    out.append(("static", _guess_static(tr)))
+    return out
+
+
+# ---- solve ----------------------------------------------------------------------------
+def solve_task(
+    task: TaskSpec,
+    contact: ca.Function | None,
+    initial_guess: OcpSolution | None = None,
+    *,
+    contact_params: np.ndarray | None = None,
+    max_attempts: int = 3,
+    ipopt_options: dict[str, Any] | None = None,
+    on_attempt: Callable[[dict[str, Any]], None] | None = None,
+) -> OcpSolution:
+    """Solve ``task`` with the contact model ``contact`` (``None``: no contact).
+
+    Tries the initial guesses in order (previous solution, passive motion, ramp, static hold) until IPOPT
+    reports success, at most ``max_attempts`` runs. Returns the converged solution, or the
+    attempt with the smallest constraint violation marked ``converged=False``.
+    """
+    if max_attempts < 1:
+        raise ValueError("max_attempts: must be >= 1")
+    t_start = time.perf_counter()
+    tr = get_transcription(task, contact, ipopt_options)
+    if tr.n_par and contact_params is None:
+        raise ValueError("contact_params: the contact function takes parameters; pass their values")
+    attempts: list[dict[str, Any]] = []
+    best: tuple[float, dict[str, Any]] | None = None
+    for name, x0 in initial_guesses(tr, initial_guess, contact_params)[:max_attempts]:
+        t0 = time.perf_counter()
+        res = tr.solve(x0, contact_params)
+        stats = res["stats"]
+        violation = tr.constraint_violation(res["x"], res["g"])
+        record = {
+            "guess": name,
+            "status": str(stats["return_status"]),
+            "success": bool(stats["success"]),
+            "iterations": int(stats["iter_count"]),
+            "cost": float(res["cost"]),
+            "constraint_violation": violation,
+            "wall_time_s": time.perf_counter() - t0,
+        }
+        attempts.append(record)
+        if on_attempt is not None:
+            on_attempt(record)
+        score = violation if np.isfinite(res["cost"]) else np.inf
+        if best is None or record["success"] or score < best[0]:
+            best = (score, {**res, "record": record})
+        if record["success"]:
+            break
+    assert best is not None
+    res = best[1]
+    record = res["record"]
+    q, u = tr.unpack(res["x"])
+    qd = tr.node_velocities(res["x"], contact_params)
+    return OcpSolution(
+        t=tr.t,
+        q=q,
+        qd=qd,
+        controls=u,
+        status=record["status"],
+        converged=record["success"],
+        iterations=sum(a["iterations"] for a in attempts),
+        cost=record["cost"],
+        constraint_violation=record["constraint_violation"],
+        wall_time=time.perf_counter() - t_start,
+        chain=tr.chain,
+        task_name=task.name,
+        attempts=attempts,
+        x=res["x"],
+    )
+
+
+__all__ = ["OcpSolution", "clear_cache", "get_transcription", "initial_guesses", "solve_task"]
