@@ -1,0 +1,89 @@
+"""The complete alcove schema (SQLAlchemy 2.0 typed mappings).
+
+Import models from here; ``Base.metadata`` is what Alembic compares against.
+Alembic migrations in ``migrations/`` are the only way the schema changes.
+"""
+
+from alcove.models import guards as _guards  # noqa: F401  (registers the immutability guard)
+from alcove.models.base import (
+    ITERATION_STEPS,
+    NAMING_CONVENTION,
+    Base,
+    CampaignStatus,
+    DatasetOrigin,
+    IterationStatus,
+    OracleRunStatus,
+    Role,
+    SharePermission,
+    StepName,
+    StepStatus,
+    TokenKind,
+    UTCDateTime,
+    utcnow,
+)
+from alcove.models.campaigns import Campaign, CampaignConfigVersion, CampaignEvent, Iteration, IterationStep
+from alcove.models.data import Blob, Dataset, IterationMetrics, ModelVersion, OcpSolution, OracleRun, PoolVersion, PoolVersionMember, QuarantinedResult
+from alcove.models.definitions import (
+    CommandOracle,
+    OracleDefinition,
+    OracleVersion,
+    SurrogateConfig,
+    SurrogateConfigVersion,
+    TaskDefinition,
+    TaskVersion,
+    canonical_json,
+    spec_hash,
+)
+from alcove.models.guards import ImmutableRowError
+from alcove.models.ops import SmokeCheck, WorkerHeartbeat
+from alcove.models.users import ApiToken, Share, User, hash_password, hash_token, new_token_secret, verify_password
+
+__all__ = [
+    "ITERATION_STEPS",
+    "NAMING_CONVENTION",
+    "ApiToken",
+    "Base",
+    "Blob",
+    "Campaign",
+    "CampaignConfigVersion",
+    "CampaignEvent",
+    "CampaignStatus",
+    "CommandOracle",
+    "Dataset",
+    "DatasetOrigin",
+    "ImmutableRowError",
+    "Iteration",
+    "IterationMetrics",
+    "IterationStatus",
+    "IterationStep",
+    "ModelVersion",
+    "OcpSolution",
+    "OracleDefinition",
+    "OracleRun",
+    "OracleRunStatus",
+    "OracleVersion",
+    "PoolVersion",
+    "PoolVersionMember",
+    "QuarantinedResult",
+    "Role",
+    "Share",
+    "SharePermission",
+    "SmokeCheck",
+    "StepName",
+    "StepStatus",
+    "SurrogateConfig",
+    "SurrogateConfigVersion",
+    "TaskDefinition",
+    "TaskVersion",
+    "TokenKind",
+    "UTCDateTime",
+    "User",
+    "WorkerHeartbeat",
+    "canonical_json",
+    "hash_password",
+    "hash_token",
+    "new_token_secret",
+    "spec_hash",
+    "utcnow",
+    "verify_password",
+]

@@ -1,0 +1,181 @@
+"""Shared fixtures: real PostgreSQL, SQLite and Redis.
+
+* PostgreSQL: ``ALCOVE_TEST_PG_URL`` or ``postgresql+psycopg://{postgres|root}@127.0.0.1:5432/test``.
+  Each test session gets its own schema (``search_path``), migrated with
+  ``alembic upgrade head``; each test using ``pg_session`` runs inside a transaction that
+  is rolled back. The schema is dropped at the end.
+* SQLite: a migrated file in a temporary folder, same per-test rollback.
+* Redis: ``ALCOVE_TEST_REDIS_URL`` or ``redis://127.0.0.1:6379/15`` (flushed per test session).
+
+When a service is down the tests needing it are skipped locally but FAIL under CI
+(``CI`` set): CI must never pass by skipping them.
+"""
+
+from __future__ import annotations
+
+import os
+import uuid
+from collections.abc import Iterator
+from pathlib import Path
+from urllib.parse import quote
+
+import pytest
+import sqlalchemy as sa
+from sqlalchemy.orm import Session
+
+IN_CI = bool(os.environ.get("CI"))
+REPO = Path(__file__).resolve().parents[1]
+
+
+def service_unavailable(what: str, err: BaseException | str) -> None:
+    msg = f"{what} is not available: {err}"
+    if IN_CI:
+        pytest.fail(msg + " (CI requires it)", pytrace=False)
+    pytest.skip(msg)
+
+
+def _pg_candidates() -> list[str]:
+    env = os.environ.get("ALCOVE_TEST_PG_URL")
+    if env:
+        return [env]
+    return [f"postgresql+psycopg://{user}@127.0.0.1:5432/test" for user in ("postgres", "root")]
+
+
+_pg_base_cache: list[str | BaseException] = []
+
+
+def pg_base_url() -> str:
+    """A working PostgreSQL URL (database ``test``), or skip/fail."""
+    if not _pg_base_cache:
+        last: BaseException | None = None
+        for url in _pg_candidates():
+            eng = sa.create_engine(url, poolclass=sa.pool.NullPool, connect_args={"connect_timeout": 3})
+            try:
+                with eng.connect() as c:
+                    c.exec_driver_sql("select 1")
+                _pg_base_cache.append(url)
+                break
+            except Exception as err:  # noqa: BLE001
+                last = err
+            finally:
+                eng.dispose()
+        else:
+            _pg_base_cache.append(last or RuntimeError("no candidate"))
+    got = _pg_base_cache[0]
+    if isinstance(got, BaseException):
+        service_unavailable("PostgreSQL at 127.0.0.1:5432/test", got)
+    return got  # type: ignore[return-value]
+
+
+def with_search_path(url: str, schema: str) -> str:
+    sep = "&" if "?" in url else "?"
+    return f"{url}{sep}options={quote(f'-csearch_path={schema}')}"
+
+
+class PgSchema:
+    """A fresh PostgreSQL schema; ``url`` points at it through search_path."""
+
+    def __init__(self, prefix: str = "t") -> None:
+        self.base = pg_base_url()
+        self.name = f"{prefix}_{os.getpid()}_{uuid.uuid4().hex[:8]}"
+        self.url = with_search_path(self.base, self.name)
+        eng = sa.create_engine(self.base, poolclass=sa.pool.NullPool)
+        with eng.begin() as c:
+            c.exec_driver_sql(f'CREATE SCHEMA "{self.name}"')
+        eng.dispose()
+
+    def drop(self) -> None:
+        from alcove.db import dispose_engines
+
+        dispose_engines(close=True)
+        eng = sa.create_engine(self.base, poolclass=sa.pool.NullPool)
+        with eng.begin() as c:
+            c.exec_driver_sql(f'DROP SCHEMA IF EXISTS "{self.name}" CASCADE')
+        eng.dispose()
+
+
+@pytest.fixture(scope="session")
+def pg_url() -> Iterator[str]:
+    """URL of a migrated PostgreSQL schema private to this test session."""
+    from alcove.db import migrate
+
+    schema = PgSchema("alcove_test")
+    try:
+        migrate.upgrade(schema.url)
+        yield schema.url
+    finally:
+        schema.drop()
+
+
+@pytest.fixture
+def empty_pg_url() -> Iterator[str]:
+    """URL of an empty PostgreSQL schema private to this test."""
+    schema = PgSchema("alcove_empty")
+    try:
+        yield schema.url
+    finally:
+        schema.drop()
+
+
+@pytest.fixture(scope="session")
+def sqlite_url(tmp_path_factory: pytest.TempPathFactory) -> str:
+    """URL of a migrated SQLite file private to this test session."""
+    from alcove.db import migrate
+
+    url = f"sqlite:///{tmp_path_factory.mktemp('sqlite') / 'alcove.db'}"
+    migrate.upgrade(url)
+    return url
+
+
+def _rollback_session(url: str) -> Iterator[Session]:
+    from alcove.db import make_engine
+
+    engine = make_engine(url)
+    conn = engine.connect()
+    outer = conn.begin()
+    session = Session(bind=conn, join_transaction_mode="create_savepoint", expire_on_commit=False)
+    try:
+        yield session
+    finally:
+        session.close()
+        outer.rollback()
+        conn.close()
+        engine.dispose()
+
+
+@pytest.fixture
+def pg_session(pg_url: str) -> Iterator[Session]:
+    """A session on PostgreSQL whose work (even ``commit()``) is rolled back after the test."""
+    yield from _rollback_session(pg_url)
+
+
+@pytest.fixture
+def sqlite_session(sqlite_url: str) -> Iterator[Session]:
+    yield from _rollback_session(sqlite_url)
+
+
+@pytest.fixture(params=["sqlite", "postgresql"])
+def db_url(request: pytest.FixtureRequest) -> str:
+    """Each migrated backend in turn."""
+    return request.getfixturevalue("sqlite_url" if request.param == "sqlite" else "pg_url")
+
+
+@pytest.fixture(params=["sqlite", "postgresql"])
+def db_session(request: pytest.FixtureRequest) -> Session:
+    """A rolled-back session on each backend in turn."""
+    return request.getfixturevalue("sqlite_session" if request.param == "sqlite" else "pg_session")
+
+
+@pytest.fixture(scope="session")
+def redis_url() -> str:
+    url = os.environ.get("ALCOVE_TEST_REDIS_URL", "redis://127.0.0.1:6379/15")
+    import redis
+
+    try:
+        client = redis.Redis.from_url(url, socket_connect_timeout=3)
+        client.ping()
+        client.flushdb()
+        client.close()
+    except Exception as err:  # noqa: BLE001
+        service_unavailable(f"Redis at {url}", err)
+    return url
