@@ -95,6 +95,8 @@ def test_catalogue_errors_name_the_entry_and_key(tmp_path, text, field, reason):
 def test_missing_catalogue_file(tmp_path):
     with pytest.raises(CatalogueError, match="^catalogue: .*does not exist"):
         load_command_catalogue(tmp_path / "nope.yaml")
+    with pytest.raises(CatalogueError, match="^catalogue: cannot read .*: Is a directory"):
+        load_command_catalogue(tmp_path)
 
 
 # ---- templates ---------------------------------------------------------------------------------

@@ -209,6 +209,8 @@ def load_command_catalogue(path: str | Path) -> dict[str, CommandOracleSpec]:
         raw = yaml.safe_load(path.read_text())
     except FileNotFoundError:
         raise CatalogueError("catalogue", f"{path} does not exist") from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise CatalogueError("catalogue", f"cannot read {path}: {getattr(exc, 'strerror', None) or exc}") from None
     except yaml.YAMLError as exc:
         mark = getattr(exc, "problem_mark", None)
         where = f" (line {mark.line + 1})" if mark is not None else ""
