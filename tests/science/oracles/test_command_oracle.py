@@ -278,3 +278,9 @@ def test_lsdyna_postprocessing_converts_units_and_moment_reference(tmp_path):
     assert np.abs(1e-3 * moment_about_origin_nmm - truth.forces.moment).max() > 1.0  # the shift matters [N m]
     np.testing.assert_allclose(back.force, truth.forces.force, atol=1e-12)
     np.testing.assert_allclose(back.moment, truth.forces.moment, atol=1e-9)
+
+
+def test_every_placeholder_is_documented():
+    doc = (EXAMPLES.parents[1] / "docs" / "external-solvers.md").read_text()
+    missing = [name for name in TEMPLATE_PLACEHOLDERS if "{{ " + name + " }}" not in doc]
+    assert not missing
