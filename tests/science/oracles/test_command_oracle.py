@@ -284,3 +284,14 @@ def test_every_placeholder_is_documented():
     doc = (EXAMPLES.parents[1] / "docs" / "external-solvers.md").read_text()
     missing = [name for name in TEMPLATE_PLACEHOLDERS if "{{ " + name + " }}" not in doc]
     assert not missing
+
+
+def test_declared_parameters_are_validated_numbers_and_placeholders():
+    spec = CommandOracleSpec(name="x", argv=["x"], parameters={"foam_scale": {"default": 1.5, "minimum": 0.5, "maximum": 2.0}})
+    model = params_model(spec)
+    traj = push_and_release(11)
+    assert template_values(traj, DEFAULT_PRESET, model(), spec)["foam_scale"] == "1.5"
+    assert render_template("s={{ foam_scale }}", template_values(traj, DEFAULT_PRESET, model(foam_scale=2), spec)) == "s=2"
+    for bad in (2.5, float("nan"), "1; rm -rf /"):
+        with pytest.raises(OracleInputError, match="^params.foam_scale: "):
+            build_oracle("x", {"foam_scale": bad}, catalogue={"x": spec})

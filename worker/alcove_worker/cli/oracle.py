@@ -19,7 +19,6 @@ app = typer.Typer(help="Run oracles (the ground truth of a campaign) and inspect
 
 EXIT_FAILED_RUN = 1
 EXIT_BAD_INPUT = 2
-SUMMARY_KEYS = ("max_penetration_m", "dissipated_energy_j", "newton_iterations")
 
 
 def _bad_input(field: str, reason: str) -> NoReturn:
@@ -73,6 +72,8 @@ def _json_safe(value: Any) -> Any:
 
 def run_summary(oracle_name: str, result: Any, out: Path | None) -> dict[str, Any]:
     """The ``--json`` summary: status, wall time, peak force, max penetration, dissipated energy, Newton iterations."""
+    from alcove.science.oracles.registry import SUMMARY_DIAGNOSTICS as SUMMARY_KEYS
+
     extra = {k: v for k, v in result.diagnostics.items() if k not in SUMMARY_KEYS}
     return _json_safe(
         {

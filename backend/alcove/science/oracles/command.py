@@ -46,6 +46,7 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError, create_model
 
 from alcove.science.geometry import DEFAULT_PRESET, HeadNeckPreset, relative_kinematics
 from alcove.science.oracles.base import CancelCheck, OracleCancelled, OracleInputError, OracleParams, OracleResult
+from alcove.science.oracles.registry import BUILTIN_TYPE_NAMES, SUMMARY_DIAGNOSTICS
 from alcove.science.series import ForceSeries, SeriesFormatError, Trajectory
 
 TRAJECTORY_FILE = "trajectory.csv"
@@ -219,8 +220,6 @@ def load_command_catalogue(path: str | Path) -> dict[str, CommandOracleSpec]:
         raise CatalogueError("command_oracles", f"{path} must have a top-level mapping 'command_oracles: {{name: entry}}'")
     base = path.resolve().parent
     substitute = lambda s: s.replace("{catalogue_dir}", str(base)).replace("{python}", sys.executable)  # noqa: E731
-    from alcove.science.oracles.registry import BUILTIN_TYPE_NAMES  # late: the registry imports this module
-
     catalogue: dict[str, CommandOracleSpec] = {}
     for name, entry in raw["command_oracles"].items():
         field = f"command_oracles.{name}"
@@ -456,7 +455,7 @@ class CommandOracle:
             raise ValueError(f"{DIAGNOSTICS_FILE} is not valid JSON: {exc}") from None
         if not isinstance(data, dict):
             raise ValueError(f"{DIAGNOSTICS_FILE} must hold a JSON object")
-        lifted = {k: data[k] for k in ("max_penetration_m", "dissipated_energy_j", "newton_iterations") if _is_number_or_none(data.get(k))}
+        lifted = {k: data[k] for k in SUMMARY_DIAGNOSTICS if _is_number_or_none(data.get(k))}
         return {**lifted, "solver": data}
 
 
@@ -469,14 +468,14 @@ def _kill_process_group(proc: subprocess.Popen) -> None:
     for sig, grace in ((signal.SIGTERM, TERMINATE_GRACE_SECONDS), (signal.SIGKILL, None)):
         try:
             os.killpg(proc.pid, sig)
-        except ProcessLookupError:
+        except (ProcessLookupError, PermissionError):
             pass
         try:
             proc.wait(timeout=grace)
             # the leader is gone; make sure no child of it survives in the group
             try:
                 os.killpg(proc.pid, signal.SIGKILL)
-            except ProcessLookupError:
+            except (ProcessLookupError, PermissionError):
                 pass
             return
         except subprocess.TimeoutExpired:

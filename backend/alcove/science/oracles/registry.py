@@ -11,15 +11,22 @@ from __future__ import annotations
 import importlib
 from collections.abc import Callable, Iterator, Mapping
 from dataclasses import dataclass
-from typing import Any, NamedTuple
+from typing import TYPE_CHECKING, Any, NamedTuple
 
 from pydantic import ValidationError
 
 from alcove.science.geometry import DEFAULT_PRESET, HeadNeckPreset
 from alcove.science.oracles.base import Oracle, OracleInputError, OracleParams
-from alcove.science.oracles.command import CommandOracle, CommandOracleSpec, params_model
+
+if TYPE_CHECKING:
+    from alcove.science.oracles.command import CommandOracleSpec
 
 OracleFactory = Callable[[OracleParams, HeadNeckPreset], Oracle]
+
+#: Diagnostics every oracle reports (None where it has no such thing), shown by ``alcove
+#: oracle run --json`` and the UI: deepest penetration [m], energy dissipated by the contact
+#: [J], total Newton iterations.
+SUMMARY_DIAGNOSTICS = ("max_penetration_m", "dissipated_energy_j", "newton_iterations")
 
 
 class OracleTypeUnavailable(OracleInputError):
@@ -132,6 +139,8 @@ def _resolve(type_name: str, catalogue: Mapping[str, CommandOracleSpec] | None) 
     if type_name in ORACLE_TYPES:
         return ORACLE_TYPES[type_name]
     if catalogue is not None and type_name in catalogue:
+        from alcove.science.oracles.command import CommandOracle, params_model  # the command module imports this one
+
         spec = catalogue[type_name]
         return params_model(spec), lambda params, preset: CommandOracle(spec, params, preset=preset)
     known = sorted(ORACLE_TYPES) + sorted(catalogue or {})
