@@ -1,7 +1,98 @@
-"""`alcove ocp ...` commands."""
+"""`alcove ocp ...` commands: solve an optimal-control task, list and show task presets.
+
+``alcove ocp solve --task head-headrest-2phase [--task-file F.json] [--contact aux|none|model:FILE]
+[--intervals N] --out traj.csv [--json]`` writes the solution on the OCP grid as a trajectory
+CSV (``t,q_0,..,qd_0,..,tau_0,..``) and prints a summary (status, iterations, cost,
+constraint violation, wall time). Bad input prints ``error: <field>: <reason>`` and exits
+with code 2; a solve that does not converge still writes the CSV but exits with code 1.
+"""
 
 from __future__ import annotations
 
+import json
+from pathlib import Path
+from typing import NoReturn
+
 import typer
 
-app = typer.Typer(help="ocp commands", no_args_is_help=True)
+app = typer.Typer(help="Optimal control of the multibody model (DMOCC + IPOPT).", no_args_is_help=True)
+
+EXIT_NOT_CONVERGED = 1
+EXIT_BAD_INPUT = 2
+
+
+def _bad_input(field: str, reason: str) -> NoReturn:
+    typer.echo(f"error: {field}: {reason}", err=True)
+    raise typer.Exit(EXIT_BAD_INPUT)
+
+
+def _load_task(task: str | None, task_file: Path | None, intervals: int | None):
+    from alcove.science.ocp.task_spec import TaskSpecError, parse_task, task_preset
+
+    try:
+        if task_file is not None:
+            if not task_file.exists():
+                _bad_input("task-file", f"{task_file} does not exist")
+            spec = parse_task(task_file)
+        else:
+            spec = task_preset(task or "head-headrest-2phase")
+        if intervals is not None:
+            spec = spec.with_intervals(intervals)
+    except TaskSpecError as exc:
+        _bad_input(exc.field, exc.reason)
+    return spec
+
+
+@app.command()
+def solve(
+    task: str = typer.Option("head-headrest-2phase", help="task preset name (ignored with --task-file)"),
+    task_file: Path | None = typer.Option(None, "--task-file", help="task definition as JSON (see `alcove ocp show`)"),
+    contact: str = typer.Option("aux", help="contact model: aux, none or model:FILE (a trained surrogate artifact)"),
+    intervals: int | None = typer.Option(None, min=1, help="DMOCC intervals per phase (overrides the task)"),
+    out: Path = typer.Option(..., help="output trajectory CSV on the OCP grid"),
+    as_json: bool = typer.Option(False, "--json", help="print the summary as JSON"),
+) -> None:
+    """Solve a task and write the optimal trajectory."""
+    from alcove.science.ocp.contact import ContactModelError, contact_from_spec
+    from alcove.science.ocp.solve import solve_task
+
+    spec = _load_task(task if task_file is None else None, task_file, intervals)
+    try:
+        contact_fn = contact_from_spec(contact, spec.preset())
+    except ContactModelError as exc:
+        _bad_input(exc.field, exc.reason)
+    except ImportError as exc:
+        _bad_input("contact", f"surrogate models are not available ({exc})")
+    except (ValueError, OSError) as exc:
+        _bad_input("contact", str(exc))
+    solution = solve_task(spec, contact_fn)
+    solution.trajectory.to_csv(out)
+    summary = {**solution.summary(), "contact": contact, "out": str(out)}
+    if as_json:
+        typer.echo(json.dumps(summary, indent=2))
+    else:
+        typer.echo(
+            f"{summary['status']}: {summary['iterations']} iterations, cost {summary['cost']:.6g}, "
+            f"constraint violation {summary['constraint_violation']:.2g}, {summary['wall_time_s']:.3f} s -> {out}"
+        )
+    if not solution.converged:
+        typer.echo("warning: IPOPT did not converge; the trajectory is not an optimum", err=True)
+        raise typer.Exit(EXIT_NOT_CONVERGED)
+
+
+@app.command("tasks")
+def list_tasks() -> None:
+    """List the task presets."""
+    from alcove.science.ocp.task_spec import TASK_PRESETS
+
+    for name, data in TASK_PRESETS.items():
+        typer.echo(f"{name}: {data.get('description', '')}")
+
+
+@app.command()
+def show(
+    task: str = typer.Option("head-headrest-2phase", help="task preset name"),
+) -> None:
+    """Print a task preset as JSON (a starting point for --task-file)."""
+    spec = _load_task(task, None, None)
+    typer.echo(spec.model_dump_json(indent=2))

@@ -23,7 +23,6 @@ The interval terms are SX functions (the contact function is expanded) and IPOPT
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Callable
 
 import casadi as ca
 import numpy as np
@@ -128,6 +127,17 @@ DEFAULT_IPOPT_OPTIONS: dict[str, object] = {
 }
 
 
+WARM_START_OPTIONS: dict[str, object] = {
+    "ipopt.warm_start_init_point": "yes",
+    "ipopt.mu_init": 1e-6,
+    "ipopt.warm_start_bound_push": 1e-9,
+    "ipopt.warm_start_bound_frac": 1e-9,
+    "ipopt.warm_start_slack_bound_push": 1e-9,
+    "ipopt.warm_start_slack_bound_frac": 1e-9,
+    "ipopt.warm_start_mult_bound_push": 1e-9,
+}
+
+
 @dataclass
 class Transcription:
     """The NLP of one (chain, problem, contact structure), built once and solved many times.
@@ -197,8 +207,9 @@ class Transcription:
         self.lbx, self.ubx = self._variable_bounds()
         self.lbg, self.ubg = lbg, ubg
         self._cost_fn = ca.Function("cost", [x, par], [cost])
-        options = {**DEFAULT_IPOPT_OPTIONS, **self.ipopt_options}
-        self.solver = ca.nlpsol("dmocc", "ipopt", {"x": x, "p": par, "f": cost, "g": g}, options)
+        self._nlp = {"x": x, "p": par, "f": cost, "g": g}
+        self.solver = ca.nlpsol("dmocc", "ipopt", self._nlp, {**DEFAULT_IPOPT_OPTIONS, **self.ipopt_options})
+        self._warm_solver: ca.Function | None = None
 
     # ---- bounds and grid ----------------------------------------------------------
     def _variable_bounds(self) -> tuple[np.ndarray, np.ndarray]:
@@ -251,14 +262,61 @@ class Transcription:
         parts = [np.maximum(self.lbx - x, 0), np.maximum(x - self.ubx, 0), np.maximum(self.lbg - g, 0), np.maximum(g - self.ubg, 0)]
         return float(max((p.max() if p.size else 0.0) for p in parts))
 
-    def solve(self, x0: np.ndarray, par: np.ndarray | None = None) -> dict[str, object]:
-        """One IPOPT run from ``x0``: returns x, cost, g, stats."""
+    @property
+    def warm_solver(self) -> ca.Function:
+        """The same NLP with IPOPT set up for a warm start from a primal-dual point (built on first use)."""
+        if self._warm_solver is None:
+            options = {**DEFAULT_IPOPT_OPTIONS, **WARM_START_OPTIONS, **self.ipopt_options}
+            self._warm_solver = ca.nlpsol("dmocc_warm", "ipopt", self._nlp, options)
+        return self._warm_solver
+
+    def solve(
+        self, x0: np.ndarray, par: np.ndarray | None = None, lam_x0: np.ndarray | None = None, lam_g0: np.ndarray | None = None
+    ) -> dict[str, object]:
+        """One IPOPT run from ``x0`` (warm-started when multipliers are given): x, cost, g, multipliers, stats."""
         par = np.zeros(self.n_par) if par is None else np.asarray(par, float).ravel()
         x0 = np.clip(np.asarray(x0, float).ravel(), self.lbx, self.ubx)
-        res = self.solver(x0=x0, p=par, lbx=self.lbx, ubx=self.ubx, lbg=self.lbg, ubg=self.ubg)
-        x = np.asarray(res["x"]).ravel()
-        g = np.asarray(res["g"]).ravel()
-        return {"x": x, "cost": float(res["f"]), "g": g, "stats": self.solver.stats()}
+        args = {"x0": x0, "p": par, "lbx": self.lbx, "ubx": self.ubx, "lbg": self.lbg, "ubg": self.ubg}
+        solver = self.solver
+        if lam_x0 is not None and lam_g0 is not None:
+            solver = self.warm_solver
+            args.update(lam_x0=lam_x0, lam_g0=lam_g0)
+        res = solver(**args)
+        return {
+            "x": np.asarray(res["x"]).ravel(),
+            "cost": float(res["f"]),
+            "g": np.asarray(res["g"]).ravel(),
+            "lam_x": np.asarray(res["lam_x"]).ravel(),
+            "lam_g": np.asarray(res["lam_g"]).ravel(),
+            "stats": solver.stats(),
+        }
+
+
+def _del_step(chain: PlanarChain, contact: ca.Function | None) -> ca.Function:
+    """One step of the forced DEL equations on the state [q; p]: (state, u, h) -> next state.
+
+    Solves p_k + D1 L_d(q_k, q_k+1) + f_k^- = 0 for q_k+1 by Newton's method and returns
+    p_k+1 = D2 L_d(q_k, q_k+1) + f_k^+.
+    """
+    n = chain.ndof
+    dynamics, _ = _interval_functions(chain, _prepare_contact(contact, n))
+    qa, qb, u, p_in = (ca.SX.sym(name, n) for name in ("qa", "qb", "u", "p_in"))
+    h = ca.SX.sym("h")
+    empty = ca.DM.zeros(0, 1)
+    residual = ca.Function("residual", [qb, ca.vertcat(qa, u, p_in, h)], [p_in + dynamics(qa, qb, u, h, empty)[0]])
+    newton = ca.rootfinder("del_newton", "newton", residual, {"abstol": 1e-13, "max_iter": 50, "error_on_fail": False})
+    state, um, hm = ca.MX.sym("state", 2 * n), ca.MX.sym("u", n), ca.MX.sym("h")
+    q, p = state[:n], state[n:]
+    q_next = newton(q + hm * ca.solve(chain.mass_matrix(q), p), ca.vertcat(q, um, p, hm))
+    p_next = dynamics(q, q_next, um, hm, empty)[1]
+    return ca.Function("del_step", [state, um, hm], [ca.vertcat(q_next, p_next)], ["state", "u", "h"], ["next"])
+
+
+def _states_to_nodes(chain: PlanarChain, S: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    n = chain.ndof
+    q, p = S[:, :n], S[:, n:]
+    M = np.asarray(chain.mass_matrix.map(q.shape[0])(q.T)).reshape(n, -1, n).transpose(1, 0, 2)
+    return q, np.linalg.solve(M, p[..., None])[..., 0]
 
 
 def simulate(
@@ -267,46 +325,24 @@ def simulate(
     qd0: np.ndarray,
     step: float | np.ndarray,
     steps: int | None = None,
-    tau: np.ndarray | Callable[[float, np.ndarray, np.ndarray], np.ndarray] | None = None,
+    tau: np.ndarray | None = None,
     contact: ca.Function | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
-    """Integrate the forced discrete Euler-Lagrange equations forward (Newton on each step).
+    """Integrate the forced discrete Euler-Lagrange equations forward (one compiled call).
 
-    ``step`` is the step h (with ``steps`` the number of steps) or an array of steps.
-    ``tau`` gives the interval torques: an array (steps, ndof), a feedback law
-    ``tau(t_k, q_k, qd_k)`` evaluated at the start of each interval, or ``None`` (zero).
-    Returns nodes q (steps+1, ndof) and node velocities qd (steps+1, ndof) from the
-    discrete Legendre transforms.
+    ``step`` is the step h (with ``steps`` the number of steps) or an array of steps;
+    ``tau`` (steps, ndof) are the interval torques (default zero). Returns the nodes
+    q (steps+1, ndof) and node velocities qd (steps+1, ndof) from the discrete Legendre
+    transforms.
     """
     n = chain.ndof
     hs = np.full(int(steps), float(step)) if np.ndim(step) == 0 else np.asarray(step, float).ravel()
-    contact = _prepare_contact(contact, n)
-    dynamics, _ = _interval_functions(chain, contact)
-    qa, qb, u = ca.SX.sym("qa", n), ca.SX.sym("qb", n), ca.SX.sym("u", n)
-    p_in, h = ca.SX.sym("p_in", n), ca.SX.sym("h")
-    empty = ca.DM.zeros(0, 1)
-    # given q_k and p_k (= -left), find q_k+1: p_k + left(q_k, q_k+1) = 0
-    residual = ca.Function("residual", [qb, ca.vertcat(qa, u, p_in, h)], [p_in + dynamics(qa, qb, u, h, empty)[0]])
-    newton = ca.rootfinder("del_step", "newton", residual, {"abstol": 1e-14, "max_iter": 50})
-    right = ca.Function("right_n", [qa, qb, u, h], [dynamics(qa, qb, u, h, empty)[1]])
-    inv_mass = lambda qk, pk: np.linalg.solve(np.asarray(chain.mass_matrix(qk)), pk)  # noqa: E731
     N = hs.size
-    q, p, u_all = np.zeros((N + 1, n)), np.zeros((N + 1, n)), np.zeros((N, n))
-    q[0] = np.asarray(q0, float).ravel()
-    p[0] = np.asarray(chain.mass_matrix(q[0])).dot(np.asarray(qd0, float).ravel())
-    t = 0.0
-    for k in range(N):
-        qd_k = inv_mass(q[k], p[k])
-        if callable(tau):
-            u_all[k] = np.asarray(tau(t, q[k], qd_k), float).ravel()
-        elif tau is not None:
-            u_all[k] = np.asarray(tau, float).reshape(N, n)[k]
-        guess = q[k] + hs[k] * qd_k
-        q[k + 1] = np.asarray(newton(guess, np.concatenate([q[k], u_all[k], p[k], [hs[k]]]))).ravel()
-        p[k + 1] = np.asarray(right(q[k], q[k + 1], u_all[k], hs[k])).ravel()
-        t += hs[k]
-    qd = np.stack([inv_mass(q[k], p[k]) for k in range(N + 1)])
-    return q, qd
+    U = np.zeros((N, n)) if tau is None else np.asarray(tau, float).reshape(N, n)
+    q0 = np.asarray(q0, float).ravel()
+    s0 = np.concatenate([q0, np.asarray(chain.mass_matrix(q0)).dot(np.asarray(qd0, float).ravel())])
+    S = _del_step(chain, contact).mapaccum("del_rollout", N)(s0, U.T, hs[None, :])
+    return _states_to_nodes(chain, np.vstack([s0, np.asarray(S).T]))
 
 
 def passive_rollout(
@@ -319,28 +355,17 @@ def passive_rollout(
     contact: ca.Function | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Passive motion with joint damping, tau_k = clip(-damping * qd_k, +-tau_max), by the DEL
-    equations in one compiled call (rootfinder inside mapaccum). Returns q (N+1, ndof), u (N, ndof)."""
+    equations in one compiled call. Returns q (N+1, ndof) and the interval torques u (N, ndof)."""
     n = chain.ndof
-    contact = _prepare_contact(contact, n)
-    dynamics, _ = _interval_functions(chain, contact)
-    qa, qb, u, p_in, h = (ca.SX.sym(name, n) for name in ("qa", "qb", "u", "p_in", "h"))
-    h = ca.SX.sym("h")
-    empty = ca.DM.zeros(0, 1)
-    residual = ca.Function("residual", [qb, ca.vertcat(qa, u, p_in, h)], [p_in + dynamics(qa, qb, u, h, empty)[0]])
-    newton = ca.rootfinder("del_step", "newton", residual, {"abstol": 1e-12, "max_iter": 30, "error_on_fail": False})
+    step = _del_step(chain, contact)
     state, hm = ca.MX.sym("state", 2 * n), ca.MX.sym("h")
-    q, p = state[:n], state[n:]
-    qd = ca.solve(chain.mass_matrix(q), p)
+    qd = ca.solve(chain.mass_matrix(state[:n]), state[n:])
     tau = ca.fmin(ca.fmax(-ca.DM(damping) * qd, -ca.DM(tau_max)), ca.DM(tau_max))
-    q_next = newton(q + hm * qd, ca.vertcat(q, tau, p, hm))
-    p_next = dynamics(q, q_next, tau, hm, empty)[1]
-    step_fn = ca.Function("passive_step", [state, hm], [ca.vertcat(q_next, p_next), tau])
-    roll = step_fn.mapaccum("passive_rollout", len(steps))
+    passive = ca.Function("passive_step", [state, hm], [step(state, tau, hm), tau])
     q0 = np.asarray(q0, float).ravel()
     s0 = np.concatenate([q0, np.asarray(chain.mass_matrix(q0)).dot(np.asarray(qd0, float).ravel())])
-    S, U = roll(s0, ca.DM(np.asarray(steps, float)).T)
-    q_all = np.vstack([q0, np.asarray(S)[:n].T])
-    return q_all, np.asarray(U).T
+    S, U = passive.mapaccum("passive_rollout", len(steps))(s0, ca.DM(np.asarray(steps, float)).T)
+    return np.vstack([q0, np.asarray(S)[:n].T]), np.asarray(U).T
 
 
 __all__ = ["DEFAULT_IPOPT_OPTIONS", "passive_rollout", "DiscreteProblem", "PhaseGrid", "Transcription", "simulate"]

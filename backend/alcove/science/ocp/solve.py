@@ -51,6 +51,8 @@ class OcpSolution:
     task_name: str = ""
     attempts: list[dict[str, Any]] = field(default_factory=list)
     x: np.ndarray | None = None
+    lam_x: np.ndarray | None = None
+    lam_g: np.ndarray | None = None
 
     @property
     def tau(self) -> np.ndarray:
@@ -204,6 +206,19 @@ def initial_guesses(
     return out
 
 
+def _same_grid(tr: Transcription, previous: OcpSolution | None) -> bool:
+    """A previous solution of the same NLP shape can warm-start IPOPT with its multipliers."""
+    return (
+        previous is not None
+        and previous.x is not None
+        and previous.lam_x is not None
+        and previous.lam_g is not None
+        and previous.x.shape == tr.lbx.shape
+        and previous.lam_g.shape == np.shape(tr.lbg)
+        and np.allclose(previous.t, tr.t)
+    )
+
+
 # ---- solve ----------------------------------------------------------------------------
 def solve_task(
     task: TaskSpec,
@@ -231,7 +246,11 @@ def solve_task(
     best: tuple[float, dict[str, Any]] | None = None
     for name, x0 in initial_guesses(tr, initial_guess, contact_params)[:max_attempts]:
         t0 = time.perf_counter()
-        res = tr.solve(x0, contact_params)
+        lam_x0 = lam_g0 = None
+        if name == "previous" and _same_grid(tr, initial_guess):
+            lam_x0, lam_g0 = initial_guess.lam_x, initial_guess.lam_g  # type: ignore[union-attr]
+            x0 = initial_guess.x  # type: ignore[union-attr]
+        res = tr.solve(x0, contact_params, lam_x0, lam_g0)
         stats = res["stats"]
         violation = tr.constraint_violation(res["x"], res["g"])
         record = {
@@ -271,6 +290,8 @@ def solve_task(
         task_name=task.name,
         attempts=attempts,
         x=res["x"],
+        lam_x=res["lam_x"],
+        lam_g=res["lam_g"],
     )
 
 
