@@ -8,6 +8,8 @@ import math
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 from pydantic import ValidationError
 from scipy.spatial.transform import Rotation
 
@@ -168,6 +170,23 @@ def test_dissipation_is_nonnegative_and_vanishes_without_damping():
     energies = [AuxPenaltyOracle(AuxPenaltyParams(d0=d0)).run(traj).diagnostics["dissipated_energy_j"] for d0 in (0.0, 50.0, 100.0, 200.0)]
     assert abs(energies[0]) < 1e-6 * stored_peak  # elastic only: the work is given back
     assert 0 < energies[1] < energies[2] < energies[3]
+
+
+@settings(max_examples=25, deadline=None)
+@given(
+    amplitudes=st.lists(st.floats(0.0, 0.03), min_size=3, max_size=3),  # theta stays in [0.24, 0.42]
+    frequencies=st.lists(st.floats(0.5, 4.0), min_size=3, max_size=3),
+    d0=st.floats(0.0, 1000.0),
+)
+def test_dissipation_never_negative_for_any_motion(amplitudes, frequencies, d0):
+    t = np.linspace(0.0, 1.0, 4001)
+    w = 2 * np.pi * np.array(frequencies)
+    a = np.array(amplitudes)
+    theta = 0.33 + np.sin(np.outer(t, w)) @ a  # around first contact (0.31)
+    theta_dot = np.cos(np.outer(t, w)) @ (a * w)
+    result = AuxPenaltyOracle(AuxPenaltyParams(d0=d0)).run(Trajectory(t, theta, theta_dot))
+    work_scale = 6e6 * result.diagnostics["max_penetration_m"] ** 3 / 3 + 1e-12
+    assert result.diagnostics["dissipated_energy_j"] >= -1e-4 * work_scale
 
 
 def test_bad_input_names_the_field():

@@ -80,11 +80,12 @@ def dissipated_energy(t: np.ndarray, p: np.ndarray, pdot: np.ndarray, fx: np.nda
     """Work done by the head on the contact minus the change of the stored energy k p^3 / 3 [J].
 
     The work is the trapezoidal integral of fx * pdot (fx is the gated force magnitude along
-    the normal). Non-negative up to quadrature error: the gate only ever withholds force while
-    the head moves out of the plane, and damping only removes energy.
+    the normal). Its rate is d0 (1 - exp(-p/p_ref)) pdot^2 >= 0 while the force acts and
+    -k p^2 pdot > 0 while the gate withholds it (only possible when pdot < 0), so it is
+    non-negative up to quadrature error.
     """
-    stored = lambda pi: k * max(float(pi), 0.0) ** 3 / 3.0  # noqa: E731
-    return float(np.trapezoid(fx * pdot, t) - (stored(p[-1]) - stored(p[0])))
+    stored_start, stored_end = (k * max(float(pi), 0.0) ** 3 / 3.0 for pi in (p[0], p[-1]))
+    return float(np.trapezoid(fx * pdot, t) - (stored_end - stored_start))
 
 
 class AuxPenaltyOracle:
