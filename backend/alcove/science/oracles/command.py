@@ -364,6 +364,8 @@ class CommandOracle:
         except ValueError as exc:
             return failed(f"output: {exc}")
         inside = (forces.t >= trajectory.t[0] - tol) & (forces.t <= trajectory.t[-1] + tol)
+        if inside.sum() < 2:
+            return failed(f"output: {self.spec.output_file} has fewer than 2 samples within the trajectory's time span")
         forces = ForceSeries(forces.t[inside], forces.force[inside], forces.moment[inside])
         sampled = trajectory.resample(np.clip(forces.t, trajectory.t[0], trajectory.t[-1]))
         kinematics = relative_kinematics(self.preset, sampled.q[:, 0], sampled.qd[:, 0])
