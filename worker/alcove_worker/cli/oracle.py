@@ -74,6 +74,9 @@ def run_summary(oracle_name: str, result: Any, out: Path | None) -> dict[str, An
     """The ``--json`` summary: status, wall time, peak force, max penetration, dissipated energy, Newton iterations."""
     from alcove.science.oracles.registry import SUMMARY_DIAGNOSTICS as SUMMARY_KEYS
 
+    headline = {k: result.diagnostics.get(k) for k in SUMMARY_KEYS}
+    if headline["newton_iterations"] is None:  # the FE oracle reports its total under this name
+        headline["newton_iterations"] = result.diagnostics.get("newton_iterations_total")
     extra = {k: v for k, v in result.diagnostics.items() if k not in SUMMARY_KEYS}
     return _json_safe(
         {
@@ -82,7 +85,7 @@ def run_summary(oracle_name: str, result: Any, out: Path | None) -> dict[str, An
             "failure_reason": result.failure_reason,
             "wall_time_s": result.wall_time,
             "peak_force_n": None if result.forces is None else result.forces.peak_force,
-            **{k: result.diagnostics.get(k) for k in SUMMARY_KEYS},
+            **headline,
             "samples": None if result.forces is None else len(result.forces),
             "out": None if out is None else str(out),
             "diagnostics": extra,
