@@ -1,0 +1,256 @@
+"""The ``fe-headrest-2d`` oracle: replay a head trajectory against a plane-strain FE cushion.
+
+The head is rigid and follows the trajectory exactly (poses from
+``alcove.science.geometry``); its occipital profile is the preset's ellipse. The cushion is
+a hyperfoam block whose front face is the plane x_H = 0 and whose back face is tied to
+the rigid headrest bar. Output: the contact force on the head and its moment about the
+moment reference point (default: the head frame origin), both in the headrest frame H, at
+every ``output_dt``; plus the relative kinematics used and run diagnostics. A run that
+fails the quality gate returns ``ok=False`` with the reason and no force data.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass
+from typing import Any, ClassVar
+
+import numpy as np
+
+from alcove.science.geometry import DEFAULT_PRESET, HeadNeckPreset, head_pose_in_headrest, relative_kinematics
+from alcove.science.oracles.base import CancelCheck, OracleCancelled, OracleInputError, OracleResult
+from alcove.science.oracles.fe_headrest.contact import PenaltyContact, RigidEllipse
+from alcove.science.oracles.fe_headrest.foam import Hyperfoam
+from alcove.science.oracles.fe_headrest.mesh import CushionMesh, build_cushion_mesh
+from alcove.science.oracles.fe_headrest.params import FEHeadrestParams
+from alcove.science.oracles.fe_headrest.solver import CushionSolver
+from alcove.science.series import ForceSeries, SeriesFormatError, Trajectory
+
+
+@dataclass(frozen=True)
+class Slice:
+    """One plane-strain section through the head at out-of-plane offset y, of width ``width``."""
+
+    profile: RigidEllipse
+    width: float
+    offset: float
+
+
+def head_slices(preset: HeadNeckPreset, params: FEHeadrestParams) -> list[Slice]:
+    """Sections of the head: its ellipse shrunk as an ellipsoid of half breadth ``head_half_breadth``."""
+    pr = preset.profile
+    if params.slices == 1:
+        return [Slice(RigidEllipse(pr.cx, pr.cz, pr.ax, pr.az), params.out_of_plane_width, 0.0)]
+    hb, n = params.head_half_breadth, params.slices
+    out = []
+    for k in range(n):  # strips over [0, hb], each standing for itself and its mirror image
+        y = (k + 0.5) * hb / n
+        shrink = math.sqrt(1.0 - (y / hb) ** 2)
+        out.append(Slice(RigidEllipse(pr.cx, pr.cz, pr.ax * shrink, pr.az * shrink), 2.0 * hb / n, y))
+    return out
+
+
+def profile_indentation(preset: HeadNeckPreset, theta: np.ndarray) -> np.ndarray:
+    """Depth of the undeformed head profile (ellipse) below the cushion surface x_H = 0 (>= 0)."""
+    r, angle = head_pose_in_headrest(preset, theta)
+    pr = preset.profile
+    c, s = np.cos(angle), np.sin(angle)
+    x_centre = r[:, 0] + c * pr.cx - s * pr.cz
+    reach = np.sqrt((pr.ax * c) ** 2 + (pr.az * s) ** 2)
+    return np.maximum(0.0, reach - x_centre)
+
+
+class FEHeadrestOracle:
+    """Nonlinear plane-strain FE headrest oracle (``fe-headrest-2d``)."""
+
+    type_name: ClassVar[str] = "fe-headrest-2d"
+
+    def __init__(self, params: FEHeadrestParams | None = None, preset: HeadNeckPreset = DEFAULT_PRESET) -> None:
+        self.params = params if params is not None else FEHeadrestParams()
+        self.preset = preset
+        p = self.params
+        self.law = Hyperfoam(tuple(p.foam_mu), tuple(p.foam_alpha), tuple(p.foam_beta))
+        self.mesh: CushionMesh = build_cushion_mesh(
+            p.cushion_thickness, p.cushion_height, p.cushion_bottom, p.element_size_contact, p.element_size_far, p.contact_zone
+        )
+        self.slices = head_slices(preset, p)
+
+    # ---- input -------------------------------------------------------------------------
+    def _validated(self, trajectory: Any) -> Trajectory:
+        try:
+            traj = trajectory if isinstance(trajectory, Trajectory) else Trajectory(trajectory.t, trajectory.q, trajectory.qd)
+            traj = Trajectory(traj.t, traj.q, traj.qd)  # re-validate (time, NaN, shapes)
+        except SeriesFormatError as exc:
+            raise OracleInputError(exc.field, exc.reason) from None
+        except AttributeError:
+            raise OracleInputError("trajectory", "expected a Trajectory with t, q and qd") from None
+        if traj.ndof != 1:
+            raise OracleInputError("q", f"the head-neck preset has 1 degree of freedom (q_0 = theta), got {traj.ndof} columns")
+        span = traj.t[-1] - traj.t[0]
+        if span < self.params.output_dt * (1 - 1e-9):
+            raise OracleInputError("t", f"time span {span:g} s is shorter than one output interval ({self.params.output_dt:g} s)")
+        theta = traj.q[:, 0]
+        pr = self.preset
+        bad = np.flatnonzero((theta < pr.theta_min - 1e-12) | (theta > pr.theta_max + 1e-12))
+        if bad.size:
+            i = int(bad[0])
+            raise OracleInputError(
+                "q_0", f"theta = {theta[i]:.4g} rad at t = {traj.t[i]:.4g} s is outside the model's range [{pr.theta_min}, {pr.theta_max}] rad"
+            )
+        depth = profile_indentation(pr, theta)
+        limit = self.params.max_indentation_fraction * self.params.cushion_thickness
+        if depth.max() > limit:
+            i = int(np.argmax(depth))
+            raise OracleInputError(
+                "q_0",
+                f"at t = {traj.t[i]:.4g} s the head would indent the cushion by {depth[i] * 1e3:.1f} mm, beyond the model's reach "
+                f"({limit * 1e3:.1f} mm = max_indentation_fraction x cushion_thickness)",
+            )
+        self._check_contact_within_cushion(traj, depth)
+        return traj
+
+    def _check_contact_within_cushion(self, traj: Trajectory, depth: np.ndarray) -> None:
+        touching = depth > 0
+        if not np.any(touching):
+            return
+        theta = traj.q[touching, 0]
+        r, angle = head_pose_in_headrest(self.preset, theta)
+        pts = self.preset.profile.points(200)
+        c, s = np.cos(angle)[:, None], np.sin(angle)[:, None]
+        x = r[:, :1] + c * pts[None, :, 0] - s * pts[None, :, 1]
+        z = r[:, 1:] + s * pts[None, :, 0] + c * pts[None, :, 1]
+        zin = z[x < 0]
+        bottom = self.params.cushion_bottom
+        top = bottom + self.params.cushion_height
+        if zin.size and (zin.min() < bottom or zin.max() > top):
+            raise OracleInputError("q_0", f"the head would touch the cushion beyond its ends (z_H in [{bottom:g}, {top:g}] m)")
+
+    # ---- run -----------------------------------------------------------------------------
+    def run(self, trajectory: Trajectory, cancel: CancelCheck | None = None) -> OracleResult:
+        start = time.perf_counter()
+        p = self.params
+        traj = self._validated(trajectory)
+        t0, t1 = float(traj.t[0]), float(traj.t[-1])
+        n_out = int(math.floor((t1 - t0) / p.output_dt + 1e-9)) + 1
+        t_out = t0 + p.output_dt * np.arange(n_out)
+        n_fine = (n_out - 1) * p.substeps + 1
+        dt = p.output_dt / p.substeps
+        t_fine = np.minimum(t0 + dt * np.arange(n_fine), t1)
+        fine = traj.resample(t_fine)
+        theta = fine.q[:, 0]
+        r_all, a_all = head_pose_in_headrest(self.preset, theta)
+
+        solvers = [
+            CushionSolver(
+                self.mesh,
+                self.law,
+                PenaltyContact(
+                    s.profile,
+                    self.mesh.surface_lengths,
+                    p.penalty,
+                    p.friction,
+                    p.friction_regularization_velocity * dt,
+                ),
+                viscosity=p.viscosity,
+                newton_tol=p.newton_tolerance,
+                max_iterations=p.newton_max_iterations,
+            )
+            for s in self.slices
+        ]
+        widths = np.array([s.width for s in self.slices])
+        force = np.zeros((n_fine, 2))
+        moment_origin = np.zeros(n_fine)  # about the head frame origin
+        bar = np.zeros((n_fine, 2))
+        stored = np.zeros(n_fine)
+        max_pen = 0.0
+        it_total = it_max = 0
+        visc = fric = 0.0
+        contact_steps = 0
+        first_contact: float | None = None
+        failure: str | None = None
+        for k in range(n_fine):
+            if cancel is not None and k % p.substeps == 0 and cancel():
+                raise OracleCancelled(f"cancelled at t = {t_fine[k]:.4g} s")
+            pose = (r_all[k], float(a_all[k]))
+            touching = False
+            for j, solver in enumerate(solvers):
+                res = solver.step(pose, dt)
+                w = widths[j]
+                force[k] += w * res.force_on_body
+                moment_origin[k] += w * res.moment_on_body
+                bar[k] += w * res.bar_reaction
+                stored[k] += w * res.stored_energy
+                visc += w * res.viscous_dissipation
+                fric += w * res.friction_dissipation
+                it_total += res.iterations
+                it_max = max(it_max, res.iterations)
+                max_pen = max(max_pen, res.max_penetration)
+                touching |= res.contact_nodes > 0
+                if not res.converged and failure is None:
+                    failure = f"Newton did not converge at t = {t_fine[k]:.4g} s (slice {j}, residual {res.residual:.3g})"
+            if touching:
+                contact_steps += 1
+                if first_contact is None:
+                    first_contact = float(t_fine[k])
+            if failure is not None:
+                break
+
+        # energy balance: work done by the head on the cushion (trapezoid rule) vs stored energy
+        dr = np.diff(r_all, axis=0)
+        da = np.diff(a_all)
+        f_mid = 0.5 * (force[1:] + force[:-1])
+        m_mid = 0.5 * (moment_origin[1:] + moment_origin[:-1])
+        work = float(np.sum(-np.einsum("ij,ij->i", f_mid, dr) + m_mid * da))
+        dissipated = work - float(stored[-1])
+        peak = float(np.max(np.linalg.norm(force, axis=1)))
+        mismatch = float(np.max(np.linalg.norm(force - bar, axis=1)))
+
+        # outputs at output times, moment about the configured reference point
+        idx = np.arange(n_out) * p.substeps
+        r_out, a_out = r_all[idx], a_all[idx]
+        if p.moment_point_frame == "head":
+            c, s = np.cos(a_out), np.sin(a_out)
+            mx, mz = p.moment_point
+            ref = r_out + np.stack([c * mx - s * mz, s * mx + c * mz], -1)
+        else:
+            ref = np.tile(np.asarray(p.moment_point, float), (n_out, 1))
+        d = r_out - ref
+        f_out = force[idx]
+        m_out = moment_origin[idx] + d[:, 1] * f_out[:, 0] - d[:, 0] * f_out[:, 1]
+        zeros = np.zeros(n_out)
+        out = traj.resample(t_out)
+        kin = relative_kinematics(self.preset, out.q[:, 0], out.qd[:, 0])
+
+        energy_ok = dissipated >= -p.energy_tolerance * max(abs(work), 1e-9) - 1e-9
+        if failure is None and max_pen > p.max_penetration:
+            failure = f"penetration {max_pen * 1e3:.3g} mm exceeds max_penetration {p.max_penetration * 1e3:.3g} mm"
+        if failure is None and not energy_ok:
+            failure = f"energy balance violated: dissipation {dissipated:.4g} J < 0 (work by the head {work:.4g} J)"
+        if failure is None and mismatch > p.reaction_tolerance * max(peak, 1.0):
+            failure = f"contact force and bar reaction differ by {mismatch:.3g} N (peak force {peak:.3g} N)"
+        diagnostics: dict[str, Any] = {
+            "max_penetration_m": max_pen,
+            "dissipated_energy_j": dissipated,
+            "viscous_dissipation_j": visc,
+            "friction_dissipation_j": fric,
+            "work_by_head_j": work,
+            "stored_energy_end_j": float(stored[-1]),
+            "energy_balance_ok": bool(energy_ok),
+            "newton_iterations_total": int(it_total),
+            "newton_iterations_max": int(it_max),
+            "steps": int(n_fine),
+            "steps_with_contact": int(contact_steps),
+            "first_contact_time_s": first_contact,
+            "peak_force_n": peak,
+            "peak_moment_nm": float(np.max(np.abs(m_out))),
+            "bar_reaction_mismatch_n": mismatch,
+            "mesh_nodes": self.mesh.n_nodes,
+            "mesh_elements": self.mesh.n_elements,
+            "slices": len(self.slices),
+        }
+        wall = time.perf_counter() - start
+        if failure is not None:
+            return OracleResult(False, None, kin, diagnostics, wall, failure)
+        forces = ForceSeries(t_out, np.stack([f_out[:, 0], zeros, f_out[:, 1]], -1), np.stack([zeros, m_out, zeros], -1))
+        return OracleResult(True, forces, kin, diagnostics, wall, None)

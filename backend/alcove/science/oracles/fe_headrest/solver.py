@@ -1,0 +1,293 @@
+"""Quasi-static finite-strain solver: foam cushion pressed by a prescribed rigid body.
+
+At each time step the displacement minimises the incremental potential
+
+    Pi(u) = sum_qp [W(F) + eta / (2 dt) |E - E_n|^2] w_qp  +  contact penalty + friction
+
+(per unit out-of-plane width; foam inertia is negligible at these densities, so each step
+is an equilibrium). Newton's method with a backtracking (Armijo) line search on Pi,
+warm-started by extrapolating the previous steps and projecting penetrating surface nodes
+onto the body; steps where the body is clear of an unloaded cushion are skipped.
+
+Assembly is vectorised NumPy over elements and quadrature points with a sparsity pattern
+of the free degrees of freedom computed once; element matrices are scattered with
+``np.bincount``. The back face of the cushion is tied to the rigid headrest bar.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+import scipy.sparse as sp
+from scipy.linalg import cho_solve_banded, cholesky_banded
+from scipy.sparse.linalg import splu
+
+from alcove.science.oracles.fe_headrest.contact import PenaltyContact
+from alcove.science.oracles.fe_headrest.foam import Hyperfoam, foam_response, green_lagrange
+from alcove.science.oracles.fe_headrest.mesh import CushionMesh
+
+Pose = tuple[np.ndarray, float]
+
+
+@dataclass
+class StepResult:
+    converged: bool
+    iterations: int
+    skipped: bool
+    force_on_body: np.ndarray  # (2,) contact force on the rigid body [N/m], headrest frame
+    moment_on_body: float  # about the body frame origin, y component [N m/m]
+    bar_reaction: np.ndarray  # (2,) sum of the internal forces at the tied back face [N/m]
+    max_penetration: float  # [m]
+    contact_nodes: int
+    viscous_dissipation: float  # [J/m] this step
+    friction_dissipation: float  # [J/m] this step
+    stored_energy: float  # [J/m] elastic + penalty at the end of the step
+    residual: float = 0.0
+    pressure: np.ndarray = field(default_factory=lambda: np.zeros(0))  # normal force / length [Pa]
+
+
+class CushionSolver:
+    """State and Newton solver of one plane-strain slice of the cushion."""
+
+    def __init__(
+        self,
+        mesh: CushionMesh,
+        law: Hyperfoam,
+        contact: PenaltyContact,
+        viscosity: float = 0.0,
+        newton_tol: float = 1e-7,
+        max_iterations: int = 40,
+    ) -> None:
+        self.mesh = mesh
+        self.law = law
+        self.contact = contact
+        self.viscosity = viscosity
+        self.newton_tol = newton_tol
+        self.max_iterations = max_iterations
+        n_nodes = mesh.n_nodes
+        self.n_dofs = 2 * n_nodes
+        en = mesh.element_nodes
+        self.edofs = np.stack([2 * en, 2 * en + 1], -1).reshape(en.shape[0], 8)
+        fixed = np.zeros(self.n_dofs, bool)
+        fixed[2 * mesh.back_nodes] = True
+        fixed[2 * mesh.back_nodes + 1] = True
+        self.fixed = fixed
+        # free dofs numbered along z then x (then component) so that K is banded
+        node_order = np.lexsort((mesh.nodes[:, 0], mesh.nodes[:, 1]))
+        dof_order = np.stack([2 * node_order, 2 * node_order + 1], -1).ravel()
+        self.free = dof_order[~fixed[dof_order]]
+        free_index = np.full(self.n_dofs, -1)
+        free_index[self.free] = np.arange(self.free.size)
+        self.free_index = free_index
+        # sparsity pattern of the free-free block, computed once
+        rows = np.broadcast_to(self.edofs[:, :, None], (en.shape[0], 8, 8)).ravel()
+        cols = np.broadcast_to(self.edofs[:, None, :], (en.shape[0], 8, 8)).ravel()
+        fr, fc = free_index[rows], free_index[cols]
+        self._elem_mask = (fr >= 0) & (fc >= 0)
+        nf = self.free.size
+        keys = fr[self._elem_mask] * nf + fc[self._elem_mask]
+        self._keys, self._elem_slot = np.unique(keys, return_inverse=True)
+        row_of = self._keys // nf
+        self._indices = (self._keys % nf).astype(np.int32)
+        self._indptr = np.searchsorted(row_of, np.arange(nf + 1)).astype(np.int32)
+        sdofs = np.stack([2 * mesh.surface_nodes, 2 * mesh.surface_nodes + 1], -1)  # (m, 2)
+        sr = free_index[np.broadcast_to(sdofs[:, :, None], (sdofs.shape[0], 2, 2))].ravel()
+        sc = free_index[np.broadcast_to(sdofs[:, None, :], (sdofs.shape[0], 2, 2))].ravel()
+        self._surf_slot = np.searchsorted(self._keys, sr * nf + sc)
+        self.surface_dofs = sdofs
+        # banded (upper) storage of the symmetric free-free block for LAPACK's Cholesky
+        rows_u, cols_u = self._keys // nf, self._keys % nf
+        upper = rows_u <= cols_u
+        self.bandwidth = int(np.max(cols_u - rows_u))
+        self._band_slots = np.flatnonzero(upper)
+        self._band_flat = (self.bandwidth + rows_u[upper] - cols_u[upper]) * nf + cols_u[upper]
+        # sparse gather u -> F (flattened per quadrature point) and its transpose for forces
+        ne_, nq_ = mesh.weights.shape
+        gather_rows = np.arange(ne_ * nq_ * 4).reshape(ne_, nq_, 4)
+        gr, gc, gv = [], [], []
+        for a in range(4):
+            for i in range(2):
+                for J in range(2):
+                    gr.append(gather_rows[:, :, 2 * i + J])
+                    gc.append(np.broadcast_to(self.edofs[:, None, 2 * a + i], (ne_, nq_)))
+                    gv.append(mesh.grad[:, :, a, J])
+        self.gather = sp.csr_matrix(
+            (np.concatenate([v.ravel() for v in gv]), (np.concatenate([r.ravel() for r in gr]), np.concatenate([c.ravel() for c in gc]))),
+            shape=(ne_ * nq_ * 4, self.n_dofs),
+        )
+        self.scatter = self.gather.T.tocsr()
+        # B matrices: dF_iJ / du_(a,k) = delta_ik dN_a/dX_J, F flattened as (F00, F01, F10, F11)
+        B = np.zeros((ne_, nq_, 4, 8))
+        for i in range(2):
+            for J in range(2):
+                B[:, :, 2 * i + J, i::2] = mesh.grad[:, :, :, J]
+        self.B = B
+        self.Bt_w = np.swapaxes(B, -1, -2) * mesh.weights[:, :, None, None]
+        self.reset()
+
+    # ---- state ---------------------------------------------------------------------
+    def reset(self) -> None:
+        ne, nq = self.mesh.weights.shape
+        self.u = np.zeros(self.n_dofs)
+        self.u_old = np.zeros(self.n_dofs)
+        self.E_prev = np.zeros((ne, nq, 2, 2))
+        self.normal_force_prev = np.zeros(self.mesh.surface_nodes.size)
+        self.pose_prev: Pose | None = None
+
+    def surface_positions(self, u: np.ndarray) -> np.ndarray:
+        return self.mesh.nodes[self.mesh.surface_nodes] + u[self.surface_dofs]
+
+    def deformation_gradient(self, u: np.ndarray) -> np.ndarray:
+        ne, nq = self.mesh.weights.shape
+        F = (self.gather @ u).reshape(ne, nq, 2, 2)
+        F[..., 0, 0] += 1.0
+        F[..., 1, 1] += 1.0
+        return F
+
+    # ---- incremental potential -----------------------------------------------------
+    def _foam(self, u: np.ndarray, dt: float, order: int):  # noqa: ANN202
+        eta_dt = self.viscosity / dt if dt > 0 else 0.0
+        return foam_response(self.law, self.deformation_gradient(u), self.E_prev, eta_dt, order)
+
+    def energy(self, u: np.ndarray, pose: Pose, dt: float, local_prev: np.ndarray | None) -> float:
+        foam = self._foam(u, dt, 0)
+        if not foam.valid:
+            return np.inf
+        x = self.surface_positions(u)
+        cs = self.contact.evaluate(x, pose, local_prev, self.normal_force_prev, with_stiffness=False)
+        return float(np.sum(foam.energy * self.mesh.weights)) + cs.energy
+
+    def gradient_and_tangent(self, u: np.ndarray, pose: Pose, dt: float, local_prev: np.ndarray | None):  # noqa: ANN201
+        foam = self._foam(u, dt, 2)
+        if not foam.valid:
+            raise FloatingPointError("inverted element")
+        ne, nq = self.mesh.weights.shape
+        grad = self.scatter @ (foam.stress * self.mesh.weights[:, :, None, None]).ravel()
+        A = foam.tangent.reshape(ne, nq, 4, 4)
+        Ke = (self.Bt_w @ A @ self.B).sum(axis=1).reshape(ne, 64)
+        x = self.surface_positions(u)
+        cs = self.contact.evaluate(x, pose, local_prev, self.normal_force_prev, with_stiffness=True)
+        f_internal = grad.copy()
+        np.add.at(grad, self.surface_dofs.ravel(), -cs.force.ravel())
+        data = np.bincount(self._elem_slot, weights=Ke.ravel()[self._elem_mask], minlength=self._keys.size)
+        data += np.bincount(self._surf_slot, weights=cs.stiffness.ravel(), minlength=self._keys.size)
+        nf = self.free.size
+        K = sp.csr_matrix((data, self._indices, self._indptr), shape=(nf, nf))
+        return grad, K, cs, f_internal, foam
+
+    def _solve(self, K: sp.csr_matrix, rhs: np.ndarray) -> np.ndarray:
+        """Banded Cholesky (LAPACK pbtrf); sparse LU if the tangent is not positive definite."""
+        nf = self.free.size
+        band = np.zeros((self.bandwidth + 1) * nf)
+        band[self._band_flat] = K.data[self._band_slots]
+        try:
+            factor = cholesky_banded(band.reshape(self.bandwidth + 1, nf), check_finite=False)
+            return cho_solve_banded((factor, False), rhs, check_finite=False)
+        except np.linalg.LinAlgError:
+            return splu(K.tocsc()).solve(rhs)
+
+    # ---- one time step ---------------------------------------------------------------
+    def step(self, pose: Pose, dt: float) -> StepResult:
+        pose_prev = self.pose_prev if self.pose_prev is not None else pose
+        x_prev = self.surface_positions(self.u)
+        local_prev = self.contact.local_coordinates(x_prev, pose_prev)
+        gap_now = self.contact.evaluate(x_prev, pose, None, None, with_stiffness=False).gap
+        at_rest = not np.any(self.u) and not np.any(self.u_old)
+        if at_rest and np.all(gap_now > 0):
+            self.pose_prev = pose
+            self.normal_force_prev[:] = 0.0
+            zero = np.zeros(2)
+            return StepResult(True, 0, True, zero, 0.0, zero, 0.0, 0, 0.0, 0.0, 0.0)
+
+        u = self._initial_guess(pose, dt, local_prev)
+        tol = None
+        converged = False
+        iterations = 0
+        res_norm = np.inf
+        e_current = None
+        for iterations in range(self.max_iterations + 1):
+            grad, K, cs, f_internal, foam = self.gradient_and_tangent(u, pose, dt, local_prev)
+            r = grad[self.free]
+            res_norm = float(np.linalg.norm(r))
+            scale = float(np.linalg.norm(cs.force)) + self.law.shear_modulus * self.mesh.thickness * 1e-3
+            tol = self.newton_tol * scale
+            if res_norm <= tol:
+                converged = True
+                break
+            if iterations == self.max_iterations:
+                break
+            du_free = self._solve(K, -r)
+            slope = float(r @ du_free)
+            if slope >= 0:  # not a descent direction: fall back to steepest descent
+                du_free = -r * (self.mesh.thickness / max(self.law.shear_modulus, 1.0))
+                slope = float(r @ du_free)
+            du = np.zeros(self.n_dofs)
+            du[self.free] = du_free
+            e0 = self.energy(u, pose, dt, local_prev) if e_current is None else e_current
+            alpha = 1.0
+            while True:
+                e1 = self.energy(u + alpha * du, pose, dt, local_prev)
+                if e1 <= e0 + 1e-4 * alpha * slope + 1e-12 * abs(e0) or alpha < 1e-6:
+                    break
+                alpha *= 0.5
+            if not np.isfinite(e1):
+                break
+            u = u + alpha * du
+            e_current = e1
+
+        # bookkeeping at the converged state
+        w = self.mesh.weights
+        E_new = green_lagrange(self.deformation_gradient(u))
+        dE = E_new - self.E_prev
+        visc_diss = float(self.viscosity / dt * np.sum((dE**2).sum(axis=(-1, -2)) * w)) if dt > 0 else 0.0
+        fric_diss = float(np.sum(np.abs(-np.einsum("ij,ij->i", cs.force, cs.tangent)) * np.abs(cs.slip)))
+        elastic = float(np.sum(foam.elastic * w))
+        stored = elastic + 0.5 * float(np.sum(self.contact.penalty * self.contact.lengths * np.minimum(cs.gap, 0.0) ** 2))
+        force_on_body = -cs.force.sum(axis=0)
+        x = self.surface_positions(u)
+        points = x - cs.gap[:, None] * cs.normal
+        arm = points - pose[0]
+        moment = float(np.sum(arm[:, 1] * (-cs.force[:, 0]) - arm[:, 0] * (-cs.force[:, 1])))
+        bar = np.array([f_internal[0::2][self.mesh.back_nodes].sum(), f_internal[1::2][self.mesh.back_nodes].sum()])
+        self.u_old = self.u
+        self.u = u
+        self.E_prev = E_new
+        self.normal_force_prev = cs.normal_force.copy()
+        self.pose_prev = pose
+        # a cushion that has relaxed with nothing touching it is put back exactly at rest
+        if np.all(cs.gap > 0) and np.max(np.abs(u)) < 1e-9:
+            self.u = np.zeros(self.n_dofs)
+            self.u_old = np.zeros(self.n_dofs)
+            self.E_prev[:] = 0.0
+        return StepResult(
+            converged=converged,
+            iterations=iterations,
+            skipped=False,
+            force_on_body=force_on_body,
+            moment_on_body=moment,
+            bar_reaction=bar,
+            max_penetration=float(max(0.0, -cs.gap.min())),
+            contact_nodes=int(np.sum(cs.gap < 0)),
+            viscous_dissipation=visc_diss,
+            friction_dissipation=fric_diss,
+            stored_energy=stored,
+            residual=res_norm,
+            pressure=cs.normal_force / self.contact.lengths,
+        )
+
+    def _initial_guess(self, pose: Pose, dt: float, local_prev: np.ndarray) -> np.ndarray:
+        """Extrapolate the last two steps, then move penetrating surface nodes onto the body."""
+        guess = 2.0 * self.u - self.u_old
+        x = self.surface_positions(guess)
+        cs = self.contact.evaluate(x, pose, None, None, with_stiffness=False)
+        inside = cs.gap < 0
+        if np.any(inside):
+            # onto the body, slightly inside it (by the last penalty penetration) so that the
+            # penalty stiffness is active in the first Newton step
+            depth = np.maximum(self.normal_force_prev / (self.contact.penalty * self.contact.lengths), 1e-7)
+            target = np.where(inside, -depth, cs.gap)
+            moved = x - (cs.gap - target)[:, None] * cs.normal
+            guess = guess.copy()
+            guess[self.surface_dofs] = moved - self.mesh.nodes[self.mesh.surface_nodes]
+        return guess
