@@ -295,3 +295,31 @@ def test_declared_parameters_are_validated_numbers_and_placeholders():
     for bad in (2.5, float("nan"), "1; rm -rf /"):
         with pytest.raises(OracleInputError, match="^params.foam_scale: "):
             build_oracle("x", {"foam_scale": bad}, catalogue={"x": spec})
+
+
+def fe_oracle_available() -> bool:
+    from alcove.science.oracles.registry import ORACLE_TYPES, OracleTypeUnavailable
+
+    try:
+        ORACLE_TYPES["fe-headrest-2d"]
+    except OracleTypeUnavailable:
+        return False
+    return True
+
+
+@pytest.mark.slow
+@pytest.mark.skipif(not fe_oracle_available(), reason="the fe-headrest-2d oracle has not landed yet")
+def test_fe_oracle_as_an_external_program_agrees_with_the_in_process_run():
+    """The issue's example: a small script calling the FE oracle in a subprocess (entry fe-replay)."""
+    t = np.linspace(0.0, 0.02, 9)
+    traj = Trajectory(t, DEFAULT_PRESET.theta_contact + 0.5 * t, np.full_like(t, 0.5))  # pushing into the cushion
+    in_process = build_oracle("fe-headrest-2d", {}).run(traj)
+    external = build_oracle("fe-replay", {}, catalogue=load_command_catalogue(EXAMPLES / "catalogue.yaml")).run(traj)
+    assert external.ok == in_process.ok
+    if in_process.ok:
+        assert in_process.forces.peak_force > 0
+        np.testing.assert_allclose(external.forces.force, in_process.forces.force, rtol=1e-9, atol=1e-9)
+        np.testing.assert_allclose(external.forces.moment, in_process.forces.moment, rtol=1e-9, atol=1e-9)
+        assert external.diagnostics["max_penetration_m"] == pytest.approx(in_process.diagnostics["max_penetration_m"])
+    else:
+        assert in_process.failure_reason in external.failure_reason
