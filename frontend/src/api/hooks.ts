@@ -1,0 +1,362 @@
+/**
+ * Every API call the UI makes, as TanStack Query hooks returning view types. This is the
+ * only module that knows routes and response shapes; pages only see the types below.
+ */
+import { keepPreviousData, queryOptions, useMutation, useQuery, useQueryClient } from "@tanstack/react-query";
+import { ApiError, fieldErrors, type FieldError } from "./errors";
+import { storedToken } from "./auth";
+import { mergeMetrics, afterCursor, type MetricPoint } from "../lib/metrics";
+import type { JsonSchema } from "../components/SchemaForm";
+export { downloadFile } from "./client";
+
+const API = "/api/v1";
+export const POLL_MS = 2000;
+
+// ------------------------------------------------------------------ view types
+export interface Me {
+  id: number;
+  username: string;
+  role: string;
+}
+export interface TokenRow {
+  id: number;
+  name: string;
+  created_at: string | null;
+  last_used_at: string | null;
+  expires_at: string | null;
+  revoked: boolean;
+}
+export interface CampaignRow {
+  id: number;
+  name: string;
+  status: string;
+  owner: string | null;
+  task: string | null;
+  oracle: string | null;
+  iteration: number;
+  max_iterations: number | null;
+  force_rmse: number | null;
+  moment_rmse: number | null;
+  force_history: number[];
+  moment_history: number[];
+  started_at: string | null;
+  eta_s: number | null;
+}
+export interface CampaignDetail extends CampaignRow {
+  task_id: number | null;
+  oracle_id: number | null;
+  current_step: string | null;
+  finished_at: string | null;
+  stop_reason: string | null;
+  error: string | null;
+  source_campaign_id: number | null;
+  source_iteration: number | null;
+}
+export interface Phase {
+  name?: string;
+  t_start: number;
+  t_end: number;
+}
+export type Wrench = Partial<Record<"fx" | "fy" | "fz" | "mx" | "my" | "mz", number[]>>;
+export interface IterationCurves {
+  iteration: number;
+  t: number[];
+  t_tau?: number[];
+  q: number[][];
+  qd: number[][];
+  tau: number[][];
+  phases: Phase[];
+  force_t: number[];
+  truth: Wrench | null;
+  predicted: Wrench | null;
+}
+export interface JobRow {
+  id: number;
+  iteration: number;
+  step: string;
+  status: string;
+  worker: string | null;
+  attempts: number;
+  started_at: string | null;
+  duration_s: number | null;
+  error: string | null;
+}
+export interface PoolVersionRow {
+  id: number;
+  version: number;
+  parent_version: number | null;
+  n_datasets: number;
+  n_samples: number;
+  created_at: string | null;
+  parquet_url: string;
+  csv_url: string;
+}
+export interface ModelVersionRow {
+  id: number;
+  version: number;
+  pool_version: number | null;
+  parent_version: number | null;
+  test_force_rmse: number | null;
+  test_moment_rmse: number | null;
+  epochs: number | null;
+  artifact_url: string;
+}
+export type TaskSpecDraft = Record<string, unknown> & { phases?: unknown[]; model?: Record<string, unknown> };
+export interface TaskRow {
+  id: number;
+  name: string;
+  description?: string;
+  version?: number;
+  n_phases?: number;
+  owner?: string | null;
+  updated_at?: string | null;
+  spec: TaskSpecDraft;
+}
+export interface TaskPreset {
+  name: string;
+  spec: TaskSpecDraft;
+}
+export interface OracleRow {
+  id: number;
+  name: string;
+  description?: string;
+  type: string;
+  version?: number;
+  owner?: string | null;
+  updated_at?: string | null;
+  params: Record<string, unknown>;
+}
+export interface OracleType {
+  name: string;
+  kind: string;
+  available: boolean;
+  description: string;
+  schema: JsonSchema;
+}
+export interface OracleTestResult {
+  t: number[];
+  wrench: Wrench;
+  wall_time_s: number | null;
+  message: string;
+}
+export interface SolveResult {
+  success: boolean;
+  status: string;
+  cost: number | null;
+  wall_time_s: number | null;
+  t: number[];
+  t_tau?: number[];
+  q: number[][];
+  tau: number[][];
+}
+
+// ------------------------------------------------------------------ transport
+type Query = Record<string, string | number | boolean | undefined | null>;
+
+export async function api<T>(method: string, path: string, opts: { query?: Query; body?: unknown; token?: string } = {}): Promise<T> {
+  const url = new URL(API + path, window.location.origin);
+  for (const [k, v] of Object.entries(opts.query ?? {})) if (v !== undefined && v !== null && v !== "") url.searchParams.set(k, String(v));
+  const token = opts.token ?? storedToken();
+  const headers: Record<string, string> = { Accept: "application/json" };
+  if (token) headers.Authorization = `Bearer ${token}`;
+  if (opts.body !== undefined) headers["Content-Type"] = "application/json";
+  let response: Response;
+  try {
+    response = await fetch(url, { method, headers, body: opts.body === undefined ? undefined : JSON.stringify(opts.body) });
+  } catch {
+    throw new ApiError(0, null);
+  }
+  if (response.status === 401 && path !== "/auth/login") window.dispatchEvent(new Event("alcove:unauthorized"));
+  const text = await response.text();
+  let body: unknown = null;
+  if (text) {
+    try {
+      body = JSON.parse(text);
+    } catch {
+      body = { detail: text.slice(0, 200) };
+    }
+  }
+  if (!response.ok) throw new ApiError(response.status, body);
+  return body as T;
+}
+
+// ------------------------------------------------------------------ auth
+export async function login(username: string, password: string): Promise<string> {
+  const r = await api<{ access_token: string }>("POST", "/auth/login", { body: { email: username, password } });
+  return r.access_token;
+}
+
+export function useMe() {
+  return useQuery({ queryKey: ["me"], queryFn: () => api<Me>("GET", "/me"), staleTime: 60_000 });
+}
+
+export function useTokens() {
+  return useQuery({ queryKey: ["tokens"], queryFn: () => api<TokenRow[]>("GET", "/me/tokens") });
+}
+export function useCreateToken() {
+  const qc = useQueryClient();
+  return useMutation({
+    mutationFn: (body: { name: string }) => api<{ token: string }>("POST", "/me/tokens", { body }),
+    onSuccess: () => qc.invalidateQueries({ queryKey: ["tokens"] }),
+  });
+}
+export function useRevokeToken() {
+  const qc = useQueryClient();
+  return useMutation({
+    mutationFn: (id: number) => api<void>("DELETE", `/me/tokens/${id}`),
+    onSuccess: () => qc.invalidateQueries({ queryKey: ["tokens"] }),
+  });
+}
+
+// ------------------------------------------------------------------ campaigns
+const LIVE = new Set(["queued", "running", "pausing", "cancelling"]);
+export function isLive(status: string): boolean {
+  return LIVE.has(status);
+}
+
+export function useCampaigns(filters: { status?: string }) {
+  return useQuery({
+    queryKey: ["campaigns", filters],
+    queryFn: () => api<CampaignRow[]>("GET", "/campaigns", { query: { status: filters.status, limit: 200 } }),
+    placeholderData: keepPreviousData,
+    refetchInterval: (q) => (q.state.data?.some((c) => isLive(c.status)) ? POLL_MS * 2 : false),
+  });
+}
+
+export function useCampaign(id: number) {
+  return useQuery({
+    queryKey: ["campaign", id],
+    queryFn: () => api<CampaignDetail>("GET", `/campaigns/${id}`),
+    refetchInterval: (q) => (q.state.data && isLive(q.state.data.status) ? POLL_MS : false),
+  });
+}
+
+/** The RMSE series, polled incrementally: each poll asks only for iterations after the last final one. */
+export function metricsQuery(id: number, live = false) {
+  const key = ["metrics", id] as const;
+  return queryOptions({
+    queryKey: key,
+    queryFn: async ({ client }) => {
+      const known = client.getQueryData<MetricPoint[]>(key);
+      const fresh = await api<MetricPoint[]>("GET", `/campaigns/${id}/metrics`, { query: { after: afterCursor(known) } });
+      return mergeMetrics(known, fresh);
+    },
+    refetchInterval: live ? POLL_MS : false,
+  });
+}
+export function useMetrics(id: number, live: boolean) {
+  return useQuery(metricsQuery(id, live));
+}
+
+export function iterationQuery(id: number, k: number) {
+  return queryOptions({
+    queryKey: ["iteration", id, k],
+    queryFn: () => api<IterationCurves>("GET", `/campaigns/${id}/iterations/${k}/curves`),
+    staleTime: Infinity,
+  });
+}
+
+export function useJobs(id: number, live: boolean) {
+  return useQuery({ queryKey: ["jobs", id], queryFn: () => api<JobRow[]>("GET", `/campaigns/${id}/jobs`), refetchInterval: live ? POLL_MS : false });
+}
+export function usePoolVersions(id: number, live: boolean) {
+  return useQuery({ queryKey: ["pools", id], queryFn: () => api<PoolVersionRow[]>("GET", `/campaigns/${id}/pool-versions`), refetchInterval: live ? POLL_MS * 2 : false });
+}
+export function useModelVersions(id: number, live: boolean) {
+  return useQuery({ queryKey: ["models", id], queryFn: () => api<ModelVersionRow[]>("GET", `/campaigns/${id}/model-versions`), refetchInterval: live ? POLL_MS * 2 : false });
+}
+
+export async function startCampaign(id: number): Promise<void> {
+  await api("POST", `/campaigns/${id}/start`);
+}
+
+export function useCampaignAction(id: number) {
+  const qc = useQueryClient();
+  return useMutation({
+    mutationFn: (action: "start" | "pause" | "resume" | "cancel" | "retry") => api<CampaignDetail>("POST", `/campaigns/${id}/${action}`),
+    onSettled: () => {
+      void qc.invalidateQueries({ queryKey: ["campaign", id] });
+      void qc.invalidateQueries({ queryKey: ["jobs", id] });
+      void qc.invalidateQueries({ queryKey: ["campaigns"] });
+    },
+  });
+}
+
+export function useForkCampaign(id: number) {
+  const qc = useQueryClient();
+  return useMutation({
+    mutationFn: (body: { iteration: number; name: string; max_iterations?: number }) => api<CampaignDetail>("POST", `/campaigns/${id}/fork`, { body }),
+    onSuccess: () => qc.invalidateQueries({ queryKey: ["campaigns"] }),
+  });
+}
+
+export function useCreateCampaign() {
+  const qc = useQueryClient();
+  return useMutation({
+    mutationFn: (body: { name: string; task_id: number; oracle_id: number; max_iterations: number; n_preliminary: number; seed: number }) =>
+      api<CampaignDetail>("POST", "/campaigns", { body }),
+    onSuccess: () => qc.invalidateQueries({ queryKey: ["campaigns"] }),
+  });
+}
+
+// ------------------------------------------------------------------ tasks
+export function useTasks() {
+  return useQuery({ queryKey: ["tasks"], queryFn: () => api<TaskRow[]>("GET", "/tasks") });
+}
+export function useTask(id: number | null) {
+  return useQuery({ queryKey: ["task", id], queryFn: () => api<TaskRow>("GET", `/tasks/${id}`), enabled: id !== null });
+}
+export function useTaskPresets() {
+  return useQuery({ queryKey: ["task-presets"], queryFn: () => api<TaskPreset[]>("GET", "/tasks/presets"), staleTime: Infinity });
+}
+export function useTaskSchema() {
+  return useQuery({ queryKey: ["task-schema"], queryFn: () => api<JsonSchema>("GET", "/tasks/schema"), staleTime: Infinity });
+}
+/** Field-level problems of a draft, without saving (empty list: valid). */
+export async function validateTask(body: { name: string; description: string; spec: TaskSpecDraft }): Promise<FieldError[]> {
+  try {
+    const r = await api<{ valid?: boolean; errors?: unknown[] }>("POST", "/tasks/validate", { body });
+    return fieldErrors(r);
+  } catch (err) {
+    if (err instanceof ApiError && err.status === 422) return err.fieldErrors;
+    throw err;
+  }
+}
+export function useSaveTask(id: number | null) {
+  const qc = useQueryClient();
+  return useMutation({
+    mutationFn: (body: { name: string; description: string; spec: TaskSpecDraft }) => (id === null ? api<TaskRow>("POST", "/tasks", { body }) : api<TaskRow>("PUT", `/tasks/${id}`, { body })),
+    onSuccess: () => {
+      void qc.invalidateQueries({ queryKey: ["tasks"] });
+      void qc.invalidateQueries({ queryKey: ["task", id] });
+    },
+  });
+}
+export function useSolveOnce() {
+  return useMutation({ mutationFn: (body: { spec: TaskSpecDraft }) => api<SolveResult>("POST", "/tasks/solve-once", { body }) });
+}
+
+// ------------------------------------------------------------------ oracles
+export function useOracles() {
+  return useQuery({ queryKey: ["oracles"], queryFn: () => api<OracleRow[]>("GET", "/oracles") });
+}
+export function useOracle(id: number | null) {
+  return useQuery({ queryKey: ["oracle", id], queryFn: () => api<OracleRow>("GET", `/oracles/${id}`), enabled: id !== null });
+}
+export function useOracleTypes() {
+  return useQuery({ queryKey: ["oracle-types"], queryFn: () => api<OracleType[]>("GET", "/oracles/types"), staleTime: Infinity });
+}
+export function useSaveOracle(id: number | null) {
+  const qc = useQueryClient();
+  return useMutation({
+    mutationFn: (body: { name: string; description: string; type: string; params: Record<string, unknown> }) =>
+      id === null ? api<OracleRow>("POST", "/oracles", { body }) : api<OracleRow>("PUT", `/oracles/${id}`, { body }),
+    onSuccess: () => {
+      void qc.invalidateQueries({ queryKey: ["oracles"] });
+      void qc.invalidateQueries({ queryKey: ["oracle", id] });
+    },
+  });
+}
+export function useTestOracle() {
+  return useMutation({ mutationFn: (body: { type: string; params: Record<string, unknown> }) => api<OracleTestResult>("POST", "/oracles/test", { body }) });
+}

@@ -1,0 +1,154 @@
+import { useState } from "react";
+import { downloadFile, useJobs, useModelVersions, usePoolVersions } from "../api/hooks";
+import { Empty, ErrorBox, Loading, StatusBadge } from "../components/States";
+import { fmtDate, fmtDuration, fmtNumber } from "../lib/format";
+import { errorMessage } from "../api/errors";
+
+function DownloadButton({ path, filename, label }: { path: string; filename: string; label: string }) {
+  const [state, setState] = useState<"idle" | "busy" | string>("idle");
+  return (
+    <>
+      <button
+        type="button"
+        className="link"
+        disabled={state === "busy"}
+        onClick={() => {
+          setState("busy");
+          downloadFile(path, filename)
+            .then(() => setState("idle"))
+            .catch((e) => setState(errorMessage(e)));
+        }}
+      >
+        {label}
+      </button>
+      {state !== "idle" && state !== "busy" && <span className="error-text">{state}</span>}
+    </>
+  );
+}
+
+export function JobsTable({ campaignId, live }: { campaignId: number; live: boolean }) {
+  const jobs = useJobs(campaignId, live);
+  if (jobs.isPending) return <Loading label="Loading jobs…" />;
+  if (jobs.isError) return <ErrorBox error={jobs.error} retry={() => void jobs.refetch()} />;
+  if (jobs.data.length === 0) return <Empty title="No jobs yet">Start the campaign to enqueue its first step.</Empty>;
+  return (
+    <table data-testid="jobs-table">
+      <thead>
+        <tr>
+          <th className="num">k</th>
+          <th>Step</th>
+          <th>Status</th>
+          <th>Worker</th>
+          <th className="num">Attempts</th>
+          <th>Started</th>
+          <th className="num">Duration</th>
+          <th>Error</th>
+        </tr>
+      </thead>
+      <tbody>
+        {jobs.data.map((j) => (
+          <tr key={j.id}>
+            <td className="num">{j.iteration}</td>
+            <td>{j.step}</td>
+            <td>
+              <StatusBadge status={j.status} />
+            </td>
+            <td className="mono">{j.worker ?? "—"}</td>
+            <td className="num">{j.attempts}</td>
+            <td>{fmtDate(j.started_at)}</td>
+            <td className="num">{fmtDuration(j.duration_s)}</td>
+            <td className="error-text" title={j.error ?? undefined}>
+              {j.error ? j.error.slice(0, 120) : ""}
+            </td>
+          </tr>
+        ))}
+      </tbody>
+    </table>
+  );
+}
+
+export function VersionsPanel({ campaignId, live }: { campaignId: number; live: boolean }) {
+  const pools = usePoolVersions(campaignId, live);
+  const models = useModelVersions(campaignId, live);
+  return (
+    <div className="grid2">
+      <section aria-labelledby="pool-title">
+        <h3 id="pool-title">Pool versions</h3>
+        {pools.isPending ? (
+          <Loading />
+        ) : pools.isError ? (
+          <ErrorBox error={pools.error} />
+        ) : pools.data.length === 0 ? (
+          <Empty title="No pool yet" />
+        ) : (
+          <table data-testid="pool-table">
+            <thead>
+              <tr>
+                <th className="num">Version</th>
+                <th className="num">Parent</th>
+                <th className="num">Data sets</th>
+                <th className="num">Samples</th>
+                <th>Created</th>
+                <th>Download</th>
+              </tr>
+            </thead>
+            <tbody>
+              {pools.data.map((p) => (
+                <tr key={p.id}>
+                  <td className="num">v{p.version}</td>
+                  <td className="num">{p.parent_version !== null ? `v${p.parent_version}` : "—"}</td>
+                  <td className="num">{p.n_datasets}</td>
+                  <td className="num">{p.n_samples}</td>
+                  <td>{fmtDate(p.created_at)}</td>
+                  <td>
+                    <DownloadButton path={p.parquet_url} filename={`pool-c${campaignId}-v${p.version}.parquet`} label="Parquet" />
+                    <DownloadButton path={p.csv_url} filename={`pool-c${campaignId}-v${p.version}.csv`} label="CSV" />
+                  </td>
+                </tr>
+              ))}
+            </tbody>
+          </table>
+        )}
+      </section>
+      <section aria-labelledby="model-title">
+        <h3 id="model-title">Model versions</h3>
+        {models.isPending ? (
+          <Loading />
+        ) : models.isError ? (
+          <ErrorBox error={models.error} />
+        ) : models.data.length === 0 ? (
+          <Empty title="No model trained yet" />
+        ) : (
+          <table data-testid="model-table">
+            <thead>
+              <tr>
+                <th className="num">Version</th>
+                <th className="num">Pool</th>
+                <th className="num">Warm start</th>
+                <th className="num">Test RMSE F</th>
+                <th className="num">Test RMSE M</th>
+                <th className="num">Epochs</th>
+                <th>Download</th>
+              </tr>
+            </thead>
+            <tbody>
+              {models.data.map((m) => (
+                <tr key={m.id}>
+                  <td className="num">m{m.version}</td>
+                  <td className="num">{m.pool_version !== null ? `v${m.pool_version}` : "—"}</td>
+                  <td className="num">{m.parent_version !== null ? `m${m.parent_version}` : "—"}</td>
+                  <td className="num">{fmtNumber(m.test_force_rmse)}</td>
+                  <td className="num">{fmtNumber(m.test_moment_rmse)}</td>
+                  <td className="num">{m.epochs ?? "—"}</td>
+                  <td>
+                    <DownloadButton path={m.artifact_url} filename={`model-c${campaignId}-m${m.version}.zip`} label="Artifact" />
+                  </td>
+                </tr>
+              ))}
+            </tbody>
+          </table>
+        )}
+      </section>
+    </div>
+  );
+}

@@ -1,0 +1,116 @@
+/**
+ * The one wrapper around plotly.js. Every chart in the UI goes through it, so layout
+ * defaults, PNG export (Plotly's modebar camera button) and the data attributes that tests
+ * read (trace and point counts) live here.
+ */
+import { useEffect, useRef } from "react";
+import type { Config, Data, Layout, PlotlyHTMLElement, PlotMouseEvent, ScatterData, Shape } from "plotly.js-dist-min";
+
+export type Trace = Partial<ScatterData> & { x?: unknown[]; y?: unknown[] };
+
+export interface PlotProps {
+  traces: Trace[];
+  title?: string;
+  xTitle?: string;
+  yTitle?: string;
+  logY?: boolean;
+  height?: number;
+  shapes?: Partial<Shape>[];
+  /** file name (without extension) for the PNG export */
+  exportName?: string;
+  testId?: string;
+  onPointClick?: (x: number, curveNumber: number) => void;
+  extraLayout?: Partial<Layout>;
+}
+
+type PlotlyModule = typeof import("plotly.js-dist-min").default;
+let plotlyModule: Promise<PlotlyModule> | null = null;
+
+/** plotly.js is large: load it once, in its own chunk, in parallel with the page's data. */
+export function loadPlotly(): Promise<PlotlyModule> {
+  plotlyModule ??= import("plotly.js-dist-min").then((m) => m.default);
+  return plotlyModule;
+}
+
+export function pointCount(traces: Trace[]): number {
+  return traces.reduce((n, t) => n + (t.x?.length ?? t.y?.length ?? 0), 0);
+}
+
+export function Plot({
+  traces,
+  title,
+  xTitle,
+  yTitle,
+  logY = false,
+  height = 320,
+  shapes,
+  exportName = "alcove-plot",
+  testId,
+  onPointClick,
+  extraLayout,
+}: PlotProps) {
+  const ref = useRef<HTMLDivElement>(null);
+  const clickRef = useRef(onPointClick);
+  clickRef.current = onPointClick;
+
+  useEffect(() => {
+    const el = ref.current;
+    if (!el) return;
+    const layout: Partial<Layout> = {
+      title: title ? { text: title, font: { size: 14 } } : undefined,
+      height,
+      margin: { l: 64, r: 16, t: title ? 36 : 12, b: 44 },
+      xaxis: { title: { text: xTitle ?? "" }, zeroline: false },
+      yaxis: { title: { text: yTitle ?? "" }, type: logY ? "log" : "linear", exponentformat: "power" },
+      legend: { orientation: "h", y: -0.22 },
+      shapes,
+      paper_bgcolor: "rgba(0,0,0,0)",
+      plot_bgcolor: "#fff",
+      font: { family: "system-ui, sans-serif", size: 12 },
+      uirevision: "keep",
+      ...extraLayout,
+    };
+    const config: Partial<Config> = {
+      responsive: true,
+      displaylogo: false,
+      toImageButtonOptions: { format: "png", filename: exportName, scale: 2 },
+    };
+    let cancelled = false;
+    void loadPlotly()
+      .then((Plotly) => (cancelled ? undefined : Plotly.react(el, traces as Data[], layout, config)))
+      .then(() => {
+      if (cancelled) return;
+      el.dataset.rendered = "true";
+      const plotEl = el as unknown as PlotlyHTMLElement;
+      if (typeof plotEl.removeAllListeners === "function") plotEl.removeAllListeners("plotly_click");
+      if (typeof plotEl.on === "function")
+        plotEl.on("plotly_click", (ev: PlotMouseEvent) => {
+          const p = ev.points?.[0];
+          if (p && clickRef.current) clickRef.current(Number(p.x), p.curveNumber);
+        });
+    });
+    return () => {
+      cancelled = true;
+    };
+  }, [traces, title, xTitle, yTitle, logY, height, shapes, exportName, extraLayout]);
+
+  useEffect(() => {
+    const el = ref.current;
+    return () => {
+      if (el) void loadPlotly().then((Plotly) => Plotly.purge(el));
+    };
+  }, []);
+
+  return (
+    <div
+      ref={ref}
+      className="plot"
+      data-testid={testId}
+      data-traces={traces.length}
+      data-points={pointCount(traces)}
+      data-log-y={logY ? "true" : "false"}
+      role="img"
+      aria-label={title ?? yTitle ?? "plot"}
+    />
+  );
+}

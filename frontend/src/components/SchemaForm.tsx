@@ -1,0 +1,247 @@
+/**
+ * A parameter form generated from a JSON Schema as pydantic emits it: numbers, integers,
+ * strings, booleans, enums, nullable fields (anyOf [.., null]), nested objects ($ref to
+ * $defs) and arrays of numbers. Field errors (dotted paths) are shown next to their input.
+ */
+import { useId } from "react";
+
+export interface JsonSchema {
+  type?: string | string[];
+  title?: string;
+  description?: string;
+  default?: unknown;
+  enum?: unknown[];
+  const?: unknown;
+  minimum?: number;
+  maximum?: number;
+  exclusiveMinimum?: number;
+  exclusiveMaximum?: number;
+  properties?: Record<string, JsonSchema>;
+  required?: string[];
+  items?: JsonSchema;
+  anyOf?: JsonSchema[];
+  oneOf?: JsonSchema[];
+  allOf?: JsonSchema[];
+  $ref?: string;
+  $defs?: Record<string, JsonSchema>;
+  definitions?: Record<string, JsonSchema>;
+  [key: string]: unknown;
+}
+
+type Values = Record<string, unknown>;
+
+export function resolveRef(schema: JsonSchema, root: JsonSchema): JsonSchema {
+  let s = schema;
+  for (let guard = 0; s.$ref && guard < 16; guard++) {
+    const name = s.$ref.split("/").pop() ?? "";
+    const target = root.$defs?.[name] ?? root.definitions?.[name];
+    if (!target) break;
+    const { $ref: _ignored, ...rest } = s;
+    s = { ...target, ...rest };
+  }
+  if (s.allOf?.length === 1) s = { ...resolveRef(s.allOf[0], root), ...s, allOf: undefined };
+  return s;
+}
+
+/** The non-null branch of `anyOf: [X, {type: null}]`, and whether null is allowed. */
+export function unwrapNullable(schema: JsonSchema, root: JsonSchema): { schema: JsonSchema; nullable: boolean } {
+  const s = resolveRef(schema, root);
+  const alts = s.anyOf ?? s.oneOf;
+  if (alts) {
+    const nonNull = alts.filter((a) => a.type !== "null");
+    const nullable = nonNull.length < alts.length;
+    if (nonNull.length === 1) {
+      const { anyOf: _a, oneOf: _o, ...rest } = s;
+      return { schema: { ...resolveRef(nonNull[0], root), ...rest }, nullable };
+    }
+    return { schema: s, nullable };
+  }
+  return { schema: s, nullable: Array.isArray(s.type) && s.type.includes("null") };
+}
+
+/** Default values of every property (recursing into nested objects). */
+export function schemaDefaults(schema: JsonSchema, root: JsonSchema = schema): Values {
+  const s = resolveRef(schema, root);
+  const out: Values = {};
+  for (const [key, prop] of Object.entries(s.properties ?? {})) {
+    const { schema: p } = unwrapNullable(prop, root);
+    if (prop.default !== undefined) out[key] = prop.default;
+    else if (p.default !== undefined) out[key] = p.default;
+    else if (p.type === "object" && p.properties) out[key] = schemaDefaults(p, root);
+  }
+  return out;
+}
+
+function primaryType(s: JsonSchema): string {
+  if (s.enum) return "enum";
+  if (s.const !== undefined) return "const";
+  const t = Array.isArray(s.type) ? s.type.find((x) => x !== "null") : s.type;
+  if (t) return t;
+  if (s.properties) return "object";
+  return "json";
+}
+
+function bounds(s: JsonSchema): string {
+  const parts: string[] = [];
+  if (s.minimum !== undefined) parts.push(`≥ ${s.minimum}`);
+  if (s.exclusiveMinimum !== undefined) parts.push(`> ${s.exclusiveMinimum}`);
+  if (s.maximum !== undefined) parts.push(`≤ ${s.maximum}`);
+  if (s.exclusiveMaximum !== undefined) parts.push(`< ${s.exclusiveMaximum}`);
+  return parts.join(", ");
+}
+
+interface FieldProps {
+  name: string;
+  path: string;
+  schema: JsonSchema;
+  root: JsonSchema;
+  value: unknown;
+  onChange: (v: unknown) => void;
+  errors: Record<string, string>;
+  required: boolean;
+}
+
+function Field({ name, path, schema, root, value, onChange, errors, required }: FieldProps) {
+  const id = useId();
+  const { schema: s, nullable } = unwrapNullable(schema, root);
+  const type = primaryType(s);
+  const label = name;
+  const error = errors[path];
+  const hint = [s.description, bounds(s)].filter(Boolean).join(" · ");
+  const describedBy = [hint ? `${id}-hint` : "", error ? `${id}-err` : ""].filter(Boolean).join(" ") || undefined;
+
+  if (type === "object" && s.properties) {
+    const obj = (value as Values | undefined) ?? {};
+    return (
+      <fieldset className="schema-group">
+        <legend>{label}</legend>
+        {s.description && <p className="hint">{s.description}</p>}
+        {Object.entries(s.properties).map(([k, sub]) => (
+          <Field
+            key={k}
+            name={k}
+            path={`${path}.${k}`}
+            schema={sub}
+            root={root}
+            value={obj[k]}
+            onChange={(v) => onChange({ ...obj, [k]: v })}
+            errors={errors}
+            required={s.required?.includes(k) ?? false}
+          />
+        ))}
+      </fieldset>
+    );
+  }
+
+  let input;
+  if (type === "boolean") {
+    input = <input id={id} type="checkbox" checked={Boolean(value)} onChange={(e) => onChange(e.target.checked)} aria-describedby={describedBy} />;
+  } else if (type === "enum" || type === "const") {
+    const options = s.enum ?? [s.const];
+    input = (
+      <select id={id} value={value === undefined || value === null ? "" : String(value)} onChange={(e) => onChange(e.target.value === "" ? null : options.find((o) => String(o) === e.target.value))} aria-describedby={describedBy} aria-invalid={Boolean(error)}>
+        {(nullable || value === undefined) && <option value="">—</option>}
+        {options.map((o) => (
+          <option key={String(o)} value={String(o)}>
+            {String(o)}
+          </option>
+        ))}
+      </select>
+    );
+  } else if (type === "number" || type === "integer") {
+    input = (
+      <input
+        id={id}
+        type="number"
+        step={type === "integer" ? 1 : "any"}
+        value={value === undefined || value === null ? "" : String(value)}
+        onChange={(e) => {
+          const raw = e.target.value;
+          if (raw === "") onChange(nullable ? null : undefined);
+          else onChange(type === "integer" ? Number.parseInt(raw, 10) : Number(raw));
+        }}
+        required={required && !nullable}
+        aria-describedby={describedBy}
+        aria-invalid={Boolean(error)}
+      />
+    );
+  } else if (type === "array") {
+    const text = Array.isArray(value) ? value.join(", ") : "";
+    const itemType = s.items ? primaryType(resolveRef(s.items, root)) : "string";
+    input = (
+      <input
+        id={id}
+        type="text"
+        defaultValue={text}
+        placeholder="comma-separated"
+        onBlur={(e) => {
+          const parts = e.target.value.split(",").map((x) => x.trim()).filter(Boolean);
+          onChange(itemType === "number" || itemType === "integer" ? parts.map(Number) : parts);
+        }}
+        aria-describedby={describedBy}
+        aria-invalid={Boolean(error)}
+      />
+    );
+  } else if (type === "string") {
+    input = (
+      <input id={id} type="text" value={value === undefined || value === null ? "" : String(value)} onChange={(e) => onChange(e.target.value === "" && nullable ? null : e.target.value)} required={required && !nullable} aria-describedby={describedBy} aria-invalid={Boolean(error)} />
+    );
+  } else {
+    input = (
+      <textarea
+        id={id}
+        rows={3}
+        defaultValue={value === undefined ? "" : JSON.stringify(value, null, 1)}
+        onBlur={(e) => {
+          try {
+            onChange(e.target.value.trim() === "" ? undefined : JSON.parse(e.target.value));
+          } catch {
+            /* keep the last valid value; the API reports the error */
+          }
+        }}
+        aria-describedby={describedBy}
+      />
+    );
+  }
+
+  return (
+    <div className={`field${type === "boolean" ? " field-inline" : ""}`}>
+      <label htmlFor={id}>
+        {label}
+        {required && !nullable && <span aria-hidden="true"> *</span>}
+      </label>
+      {input}
+      {hint && (
+        <small id={`${id}-hint`} className="hint">
+          {hint}
+        </small>
+      )}
+      {error && (
+        <small id={`${id}-err`} className="field-error" role="alert">
+          {error}
+        </small>
+      )}
+    </div>
+  );
+}
+
+export interface SchemaFormProps {
+  schema: JsonSchema;
+  value: Values;
+  onChange: (v: Values) => void;
+  /** errors by dotted path relative to this form (e.g. "stiffness" or "cushion.thickness") */
+  errors?: Record<string, string>;
+}
+
+export function SchemaForm({ schema, value, onChange, errors = {} }: SchemaFormProps) {
+  const root = resolveRef(schema, schema);
+  const props = root.properties ?? {};
+  if (Object.keys(props).length === 0) return <p className="muted">This type has no parameters.</p>;
+  return (
+    <div className="schema-form">
+      {Object.entries(props).map(([k, sub]) => (
+        <Field key={k} name={k} path={k} schema={sub} root={schema} value={value[k]} onChange={(v) => onChange({ ...value, [k]: v })} errors={errors} required={root.required?.includes(k) ?? false} />
+      ))}
+    </div>
+  );
+}

@@ -1,0 +1,33 @@
+/** Per-iteration metrics as the dashboard keeps them: fetched incrementally with ?after=k. */
+export interface MetricPoint {
+  iteration: number;
+  status: string;
+  force_rmse: number | null;
+  moment_rmse: number | null;
+  /** the oracle result of this iteration failed its quality gate */
+  quarantined: boolean;
+}
+
+/** Merge newly fetched points into the known series (by iteration, newer wins), sorted. */
+export function mergeMetrics(known: MetricPoint[] | undefined, fresh: MetricPoint[]): MetricPoint[] {
+  if (!known?.length) return [...fresh].sort((a, b) => a.iteration - b.iteration);
+  if (!fresh.length) return known;
+  const byIteration = new Map(known.map((p) => [p.iteration, p]));
+  for (const p of fresh) byIteration.set(p.iteration, p);
+  return [...byIteration.values()].sort((a, b) => a.iteration - b.iteration);
+}
+
+/** The `after` cursor for the next poll: the last iteration whose metrics are final. */
+export function afterCursor(known: MetricPoint[] | undefined): number | undefined {
+  if (!known?.length) return undefined;
+  let cursor: number | undefined;
+  for (const p of known) {
+    if (p.status === "running" || p.status === "pending") break;
+    cursor = p.iteration;
+  }
+  return cursor;
+}
+
+export function isMarked(p: MetricPoint): boolean {
+  return p.quarantined || p.status === "failed";
+}

@@ -1,0 +1,77 @@
+import { useMemo } from "react";
+import { useQueries } from "@tanstack/react-query";
+import { Link } from "react-router-dom";
+import { metricsQuery, useCampaigns } from "../api/hooks";
+import { Plot, type Trace } from "../components/Plot";
+import { Empty, ErrorBox, Loading } from "../components/States";
+import { isMarked } from "../lib/metrics";
+import { useBoolParam, useIntListParam } from "../lib/urlState";
+
+const COLORS = ["#2f5bd3", "#d3662f", "#1d7a45", "#8a3ffc"];
+
+export function ComparePage() {
+  const [ids, setIds] = useIntListParam("ids");
+  const [logY, setLogY] = useBoolParam("log", true);
+  const campaigns = useCampaigns({});
+  const series = useQueries({ queries: ids.map((id) => metricsQuery(id)) });
+  const names = new Map((campaigns.data ?? []).map((c) => [c.id, c.name]));
+
+  const [force, moment] = useMemo(() => {
+    const f: Trace[] = [];
+    const m: Trace[] = [];
+    ids.forEach((id, i) => {
+      const pts = (series[i]?.data ?? []).filter((p) => !isMarked(p));
+      const name = names.get(id) ?? `campaign ${id}`;
+      const line = { color: COLORS[i % COLORS.length] };
+      f.push({ x: pts.map((p) => p.iteration), y: pts.map((p) => p.force_rmse), name, mode: "lines+markers", type: "scatter", line });
+      m.push({ x: pts.map((p) => p.iteration), y: pts.map((p) => p.moment_rmse), name, mode: "lines+markers", type: "scatter", line });
+    });
+    return [f, m];
+  }, [ids.join(), series.map((s) => s.dataUpdatedAt).join(), campaigns.data]); // eslint-disable-line
+
+  const toggle = (id: number) => setIds(ids.includes(id) ? ids.filter((x) => x !== id) : ids.length >= 4 ? ids : [...ids, id]);
+
+  return (
+    <>
+      <h1>Compare campaigns</h1>
+      <div className="panel">
+        <p className="muted">Select 2 to 4 campaigns.</p>
+        {campaigns.isPending ? (
+          <Loading />
+        ) : campaigns.isError ? (
+          <ErrorBox error={campaigns.error} />
+        ) : campaigns.data.length === 0 ? (
+          <Empty title="No campaigns to compare">
+            <Link to="/campaigns/new">Create a campaign</Link>
+          </Empty>
+        ) : (
+          <div className="checks" role="group" aria-label="Campaigns to compare" style={{ maxHeight: 120 }}>
+            {campaigns.data.map((c) => (
+              <label key={c.id} className="field-inline">
+                <input type="checkbox" checked={ids.includes(c.id)} disabled={!ids.includes(c.id) && ids.length >= 4} onChange={() => toggle(c.id)} />
+                {c.name} <span className="muted">#{c.id}</span>
+              </label>
+            ))}
+          </div>
+        )}
+      </div>
+      {ids.length < 2 ? (
+        <Empty title="Pick at least two campaigns" />
+      ) : (
+        <div className="panel">
+          <div className="toolbar">
+            <span className="spacer" />
+            <label className="field-inline">
+              <input type="checkbox" checked={logY} onChange={(e) => setLogY(e.target.checked)} /> log axis
+            </label>
+          </div>
+          {series.find((s) => s.isError) && <ErrorBox error={series.find((s) => s.isError)!.error} />}
+          <div className="grid2">
+            <Plot testId="compare-force" traces={force} title="Force RMSE [N]" xTitle="iteration k" yTitle="RMSE [N]" logY={logY} exportName="compare-force" />
+            <Plot testId="compare-moment" traces={moment} title="Moment RMSE [N m]" xTitle="iteration k" yTitle="RMSE [N m]" logY={logY} exportName="compare-moment" />
+          </div>
+        </div>
+      )}
+    </>
+  );
+}
