@@ -9,7 +9,7 @@ from alcove.science.geometry import HeadNeckPreset
 from alcove.science.oracles import registry
 from alcove.science.oracles.aux_penalty import AuxPenaltyOracle, AuxPenaltyParams
 from alcove.science.oracles.base import OracleInputError
-from alcove.science.oracles.command import CommandOracle, load_command_catalogue
+from alcove.science.oracles.command import CommandOracle, CommandOracleSpec, load_command_catalogue
 from alcove.science.oracles.registry import ORACLE_TYPES, OracleTypeUnavailable, build_oracle, list_oracle_types, params_json_schema
 from alcove.science.series import Trajectory
 
@@ -70,6 +70,10 @@ def test_command_oracles_come_from_the_catalogue_by_name():
     rows = {row["name"]: row for row in list_oracle_types(catalogue)}
     assert rows["aux-replay"]["kind"] == "command" and rows["aux-penalty"]["kind"] == "builtin"
     assert rows["lsdyna-headrest"]["description"].startswith("LS-DYNA")
+    assert rows["aux-replay"]["available"] is True  # {python}
+    ghost = {"ghost": CommandOracleSpec(name="ghost", argv=["/opt/no-such-solver/bin/dyna"])}
+    (row,) = [r for r in list_oracle_types(ghost) if r["kind"] == "command"]
+    assert row["available"] is False and row["unavailable_reason"] == "/opt/no-such-solver/bin/dyna is not an executable program on this machine"
 
 
 def test_json_schemas_for_the_ui():

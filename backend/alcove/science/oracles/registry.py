@@ -9,6 +9,7 @@ and are addressed by their entry's name.
 from __future__ import annotations
 
 import importlib
+import shutil
 from collections.abc import Callable, Iterator, Mapping
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, NamedTuple
@@ -121,7 +122,11 @@ def params_json_schema(type_name: str, catalogue: Mapping[str, CommandOracleSpec
 
 
 def list_oracle_types(catalogue: Mapping[str, CommandOracleSpec] | None = None) -> list[dict[str, Any]]:
-    """Every type users can choose: name, kind (``builtin``/``command``), description, availability."""
+    """Every type users can choose: name, kind (``builtin``/``command``), description, availability.
+
+    A command entry is available when its program is found here (``shutil.which``): on the API
+    host this says little if the solver is installed on the workers only.
+    """
     rows: list[dict[str, Any]] = []
     for name, entry in _BUILTIN.items():
         try:
@@ -131,7 +136,9 @@ def list_oracle_types(catalogue: Mapping[str, CommandOracleSpec] | None = None) 
             available, reason = False, exc.reason
         rows.append({"name": name, "kind": "builtin", "description": entry.description, "available": available, "unavailable_reason": reason})
     for name, spec in (catalogue or {}).items():
-        rows.append({"name": name, "kind": "command", "description": spec.description, "available": True, "unavailable_reason": None})
+        found = shutil.which(spec.argv[0]) is not None  # on this machine; workers may differ from the API host
+        reason = None if found else f"{spec.argv[0]} is not an executable program on this machine"
+        rows.append({"name": name, "kind": "command", "description": spec.description, "available": found, "unavailable_reason": reason})
     return rows
 
 
