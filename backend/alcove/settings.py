@@ -27,14 +27,21 @@ class Settings(BaseSettings):
     api_host: str = "127.0.0.1"
     api_port: int = 8000
     job_lease_seconds: int = 120
-    broker_visibility_timeout: int = 6 * 3600
+    broker_visibility_timeout: int = Field(default=6 * 3600, description="Redis redelivers an unacknowledged job after this; must exceed the longest job")
+    broker_key_prefix: str = Field(default="", description="Prefix of every Redis key the broker uses (isolates deployments/tests sharing one Redis)")
+    broker_polling_interval: float = Field(default=0.1, description="Seconds between polls of the filesystem broker folders")
+    worker_heartbeat_seconds: float = Field(default=10.0, description="How often a worker refreshes its row in worker_heartbeats")
+    worker_stale_seconds: float = Field(default=60.0, description="A worker not seen for this long counts as gone (readiness, reconciler)")
+    worker_concurrency: int | None = Field(default=None, description="Processes per worker started by `alcove up` (default: CPU count)")
+    static_dir: Path | None = Field(default=None, description="Built frontend served at /; default backend/alcove/static")
+    log_level: str = "INFO"
 
     @model_validator(mode="after")
     def _fill_embedded_defaults(self) -> "Settings":
         if not self.database_url:
             self.database_url = f"sqlite:///{self.data_dir / 'alcove.db'}"
         if not self.broker_url:
-            self.broker_url = "filesystem://"
+            self.broker_url = "filesystem://localhost/"
         return self
 
     @property
@@ -48,6 +55,10 @@ class Settings(BaseSettings):
     @property
     def artifacts_dir(self) -> Path:
         return self.data_dir / "artifacts"
+
+    @property
+    def is_sqlite(self) -> bool:
+        return self.database_url.startswith("sqlite")
 
 
 @lru_cache

@@ -1,0 +1,91 @@
+"""FastAPI application factory."""
+
+from __future__ import annotations
+
+import logging
+from pathlib import Path
+
+from fastapi import APIRouter, FastAPI, Request
+from fastapi.responses import HTMLResponse, JSONResponse
+from fastapi.routing import APIRoute
+from fastapi.staticfiles import StaticFiles
+from sqlalchemy import exc as sa_exc
+from starlette.exceptions import HTTPException as StarletteHTTPException
+from starlette.responses import Response
+from starlette.types import Scope
+
+import alcove
+from alcove.api import health
+from alcove.db.retry import is_retryable_db_error
+from alcove.settings import Settings, get_settings
+
+log = logging.getLogger(__name__)
+
+API_PREFIX = "/api/v1"
+DEFAULT_STATIC_DIR = Path(__file__).resolve().parents[1] / "static"
+
+
+def operation_id(route: APIRoute) -> str:
+    """Stable OpenAPI operation ids: the explicit ``operation_id`` or the route function name."""
+    return route.operation_id or route.name
+
+
+def api_router() -> APIRouter:
+    """All ``/api/v1`` routers. Add new routers here."""
+    router = APIRouter(prefix=API_PREFIX)
+    router.include_router(health.router)
+    return router
+
+
+def create_app(settings: Settings | None = None) -> FastAPI:
+    settings = settings or get_settings()
+    app = FastAPI(
+        title="alcove",
+        version=alcove.__version__,
+        description="Active-learning campaigns for data-driven contact surrogates.",
+        openapi_url=f"{API_PREFIX}/openapi.json",
+        docs_url=f"{API_PREFIX}/docs",
+        redoc_url=None,
+        generate_unique_id_function=operation_id,
+    )
+    app.include_router(api_router())
+
+    @app.exception_handler(sa_exc.OperationalError)
+    async def _db_busy(request: Request, err: sa_exc.OperationalError) -> JSONResponse:
+        # A transaction that lost a race (SQLite "database is locked", PG serialization
+        # failure) after the in-process retries: ask the client to retry, never a 500.
+        if is_retryable_db_error(err):
+            return JSONResponse({"detail": "database busy, retry"}, status_code=503, headers={"Retry-After": "1"})
+        log.exception("database error", exc_info=err)
+        return JSONResponse({"detail": "database unavailable"}, status_code=503, headers={"Retry-After": "5"})
+
+    _mount_frontend(app, settings.static_dir or DEFAULT_STATIC_DIR)
+    return app
+
+
+def _mount_frontend(app: FastAPI, static_dir: Path) -> None:
+    """Serve the built frontend at ``/`` (after the API routes, so they take precedence)."""
+    index = static_dir / "index.html"
+    if index.is_file():
+        app.mount("/", SPAStaticFiles(directory=static_dir, html=True), name="frontend")
+        return
+
+    @app.get("/", include_in_schema=False)
+    def _no_frontend() -> HTMLResponse:
+        return HTMLResponse(
+            "<!doctype html><title>alcove</title><h1>alcove</h1>"
+            f"<p>The API is at <a href='{API_PREFIX}/docs'>{API_PREFIX}/docs</a>. "
+            "The web UI has not been built (see README).</p>"
+        )
+
+
+class SPAStaticFiles(StaticFiles):
+    """Static files with a single-page-app fallback: unknown non-API paths get index.html."""
+
+    async def get_response(self, path: str, scope: Scope) -> Response:
+        try:
+            return await super().get_response(path, scope)
+        except StarletteHTTPException as err:
+            if err.status_code == 404 and not path.startswith(API_PREFIX.strip("/")):
+                return await super().get_response("index.html", scope)
+            raise

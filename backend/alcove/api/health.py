@@ -1,0 +1,111 @@
+"""Health (liveness, no dependencies) and readiness (database, broker, workers seen)."""
+
+from __future__ import annotations
+
+import time
+from typing import Any
+
+import sqlalchemy as sa
+from fastapi import APIRouter, Response, status
+from pydantic import BaseModel
+
+import alcove
+from alcove.settings import Settings, get_settings
+
+router = APIRouter(prefix="/health", tags=["health"])
+
+
+class Health(BaseModel):
+    status: str
+    version: str
+
+
+class Check(BaseModel):
+    ok: bool
+    detail: str = ""
+    latency_ms: float | None = None
+
+
+class Readiness(BaseModel):
+    ready: bool
+    database: Check
+    broker: Check
+    workers: Check
+    workers_seen: int
+    queues_served: list[str]
+
+
+@router.get("", response_model=Health, summary="Liveness", operation_id="health")
+def health() -> Health:
+    return Health(status="ok", version=alcove.__version__)
+
+
+def _timed(fn: Any) -> Check:
+    t0 = time.perf_counter()
+    try:
+        detail = fn() or ""
+        return Check(ok=True, detail=detail, latency_ms=round((time.perf_counter() - t0) * 1e3, 2))
+    except Exception as err:  # noqa: BLE001 - readiness reports, never raises
+        return Check(ok=False, detail=f"{type(err).__name__}: {err}"[:300], latency_ms=round((time.perf_counter() - t0) * 1e3, 2))
+
+
+def check_database() -> str:
+    from alcove.db import get_engine, migrate
+
+    with get_engine().connect() as conn:
+        conn.execute(sa.text("SELECT 1"))
+        from alembic.runtime.migration import MigrationContext
+
+        current = MigrationContext.configure(conn).get_current_revision()
+    head = migrate.head_revision()
+    if current != head:
+        raise RuntimeError(f"schema at revision {current}, code expects {head}: run `alcove db upgrade`")
+    return f"revision {current}"
+
+
+def check_broker(settings: Settings) -> str:
+    if settings.is_embedded_broker:
+        from alcove.jobs import broker_folders
+
+        folder = broker_folders(settings)["data_folder_out"]
+        probe = f"{folder}/.ready-probe"
+        with open(probe, "w") as fh:
+            fh.write("ok")
+        return "filesystem broker"
+    from kombu import Connection
+
+    from alcove.jobs import celery_config
+
+    cfg = celery_config(settings)
+    with Connection(settings.broker_url, connect_timeout=2, transport_options=cfg["broker_transport_options"]) as conn:
+        conn.ensure_connection(max_retries=1, timeout=2)
+    return "redis" if settings.broker_url.startswith("redis") else "connected"
+
+
+@router.get(
+    "/ready",
+    response_model=Readiness,
+    summary="Readiness: database migrated, broker reachable, at least one worker seen",
+    operation_id="readiness",
+    responses={503: {"model": Readiness}},
+)
+def readiness(response: Response) -> Readiness:
+    settings = get_settings()
+    db = _timed(check_database)
+    broker = _timed(lambda: check_broker(settings))
+    seen: list[Any] = []
+
+    def workers() -> str:
+        from alcove.jobs.heartbeat import live_workers
+
+        seen.extend(live_workers(settings.worker_stale_seconds))
+        if not seen:
+            raise RuntimeError(f"no worker seen in the last {settings.worker_stale_seconds:.0f} s")
+        return f"{len(seen)} worker(s)"
+
+    wk = _timed(workers) if db.ok else Check(ok=False, detail="database unavailable")
+    queues = sorted({q for w in seen for q in (w.queues or [])})
+    ready = db.ok and broker.ok and wk.ok
+    if not ready:
+        response.status_code = status.HTTP_503_SERVICE_UNAVAILABLE
+    return Readiness(ready=ready, database=db, broker=broker, workers=wk, workers_seen=len(seen), queues_served=queues)

@@ -1,0 +1,111 @@
+"""Helpers to run real alcove processes (worker, up, CLI) in tests."""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import socket
+import subprocess
+import sys
+import time
+import uuid
+from contextlib import contextmanager
+from collections.abc import Iterator
+from pathlib import Path
+
+import httpx
+
+CLI = [sys.executable, "-m", "alcove_worker.cli.main"]
+
+
+def alcove_env(**settings: str) -> dict[str, str]:
+    """The current environment without ALCOVE_* settings, plus ``settings`` (as ALCOVE_<NAME>)."""
+    env = {k: v for k, v in os.environ.items() if not k.startswith("ALCOVE_") or k.startswith("ALCOVE_TEST_")}
+    env.update({f"ALCOVE_{k.upper()}": str(v) for k, v in settings.items()})
+    env.setdefault("ALCOVE_ADMIN_PASSWORD", "test-admin-password")
+    return env
+
+
+def run_cli(args: list[str], env: dict[str, str], timeout: float = 120) -> subprocess.CompletedProcess[str]:
+    return subprocess.run(CLI + args, env=env, capture_output=True, text=True, timeout=timeout)
+
+
+def free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+class Proc:
+    """A child process in its own session, with its output in a log file."""
+
+    def __init__(self, args: list[str], env: dict[str, str], log: Path) -> None:
+        self.log = log
+        self._fh = open(log, "wb")
+        self.p = subprocess.Popen(CLI + args, env=env, stdout=self._fh, stderr=subprocess.STDOUT, start_new_session=True)
+
+    def output(self) -> str:
+        self._fh.flush()
+        return self.log.read_text(errors="replace")
+
+    def alive(self) -> bool:
+        return self.p.poll() is None
+
+    def stop(self, timeout: float = 30) -> int:
+        if self.p.poll() is None:
+            self.p.send_signal(signal.SIGTERM)
+            try:
+                self.p.wait(timeout=timeout)
+            except subprocess.TimeoutExpired:
+                pass
+        try:
+            os.killpg(self.p.pid, signal.SIGKILL)
+        except ProcessLookupError:
+            pass
+        code = self.p.wait(timeout=10)
+        self._fh.close()
+        return code
+
+
+@contextmanager
+def running(args: list[str], env: dict[str, str], log: Path) -> Iterator[Proc]:
+    proc = Proc(args, env, log)
+    try:
+        yield proc
+    finally:
+        proc.stop()
+
+
+def wait_until(pred, timeout: float, what: str, proc: Proc | None = None, interval: float = 0.1):  # noqa: ANN001, ANN201
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        got = pred()
+        if got:
+            return got
+        if proc is not None and not proc.alive():
+            raise AssertionError(f"process died while waiting for {what}:\n{proc.output()[-4000:]}")
+        time.sleep(interval)
+    raise AssertionError(f"timed out after {timeout} s waiting for {what}" + (f":\n{proc.output()[-4000:]}" if proc else ""))
+
+
+def worker_ready(proc: Proc) -> bool:
+    return " ready." in proc.output()
+
+
+def smoke(env: dict[str, str], queue: str = "default", timeout: float = 60) -> dict:
+    r = run_cli(["smoke", "--json", "--queue", queue, "--timeout", str(timeout)], env, timeout=timeout + 60)
+    assert r.returncode == 0, f"smoke failed ({r.returncode}):\n{r.stdout}\n{r.stderr}"
+    return json.loads(r.stdout.strip().splitlines()[-1])
+
+
+def http_ok(url: str) -> httpx.Response | None:
+    try:
+        r = httpx.get(url, timeout=2)
+        return r if r.status_code == 200 else None
+    except httpx.HTTPError:
+        return None
+
+
+def unique(prefix: str) -> str:
+    return f"{prefix}-{uuid.uuid4().hex[:8]}"
