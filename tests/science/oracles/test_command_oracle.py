@@ -76,6 +76,8 @@ def test_example_catalogue_loads_with_paths_resolved():
         ("command_oracles:\n  aux-penalty: {argv: [x]}", "command_oracles.aux-penalty", "built-in oracle type"),
         ("command_oracles:\n  dyna: {argv: [x], timeout_s: -5}", "command_oracles.dyna.timeout_s", "greater than 0"),
         ("command_oracles:\n  dyna: {argv: [x], output_file: ../../etc/passwd}", "command_oracles.dyna.output_file", "plain file name"),
+        ("command_oracles:\n  dyna: {argv: [x], input_file: stderr.log}", "command_oracles.dyna.input_file", "plain file name"),
+        ("command_oracles:\n  dyna: {argv: [x], input_file: out.csv, output_file: out.csv}", "command_oracles.dyna", "would both be"),
         ("command_oracles:\n  dyna: {argv: [x], template: nowhere.k.tmpl}", "command_oracles.dyna.template", "does not exist"),
         ("command_oracles:\n  dyna: {argv: [x], shell: true}", "command_oracles.dyna.shell", "Extra inputs"),
         ("command_oracles:\n  Dyna Run: {argv: [x]}", "command_oracles.Dyna Run.name", "lower-case"),

@@ -54,6 +54,7 @@ PARAMS_FILE = "params.json"
 DIAGNOSTICS_FILE = "diagnostics.json"
 STDOUT_FILE = "stdout.log"
 STDERR_FILE = "stderr.log"
+RESERVED_FILES = frozenset({TRAJECTORY_FILE, PARAMS_FILE, DIAGNOSTICS_FILE, STDOUT_FILE, STDERR_FILE})
 POLL_SECONDS = 0.05
 TERMINATE_GRACE_SECONDS = 3.0
 
@@ -147,9 +148,15 @@ class CommandOracleSpec(BaseModel):
     @field_validator("input_file", "output_file")
     @classmethod
     def _plain_file_name(cls, v: str | None) -> str | None:
-        if v is not None and (not PLAIN_FILE_NAME.match(v) or v in {TRAJECTORY_FILE, PARAMS_FILE}):
-            raise ValueError(f"must be a plain file name inside the working directory (not {TRAJECTORY_FILE} or {PARAMS_FILE}), got {v!r}")
+        if v is not None and (not PLAIN_FILE_NAME.match(v) or v in RESERVED_FILES):
+            raise ValueError(f"must be a plain file name inside the working directory, not one of {', '.join(sorted(RESERVED_FILES))}; got {v!r}")
         return v
+
+    @model_validator(mode="after")
+    def _distinct_files(self) -> "CommandOracleSpec":
+        if self.rendered_file_name == self.output_file:
+            raise ValueError(f"the rendered template and the output would both be {self.output_file!r}")
+        return self
 
     @field_validator("parameters")
     @classmethod
