@@ -1,0 +1,62 @@
+/** Debian's Chromium driven by playwright-core (never a downloaded browser), fresh profile each run. */
+import { chromium } from "playwright-core";
+import { mkdtempSync, rmSync } from "node:fs";
+import { tmpdir } from "node:os";
+import { join } from "node:path";
+
+export const CHROMIUM = process.env.ALCOVE_CHROMIUM ?? "/usr/bin/chromium";
+const ARGS = [
+  "--headless",
+  "--no-sandbox",
+  "--disable-gpu",
+  "--disable-quic",
+  "--no-first-run",
+  "--disable-background-networking",
+  "--disable-component-update",
+  "--disable-sync",
+];
+
+export async function openBrowser({ width = 1280, height = 900 } = {}) {
+  const profile = mkdtempSync(join(tmpdir(), "alcove-chromium-"));
+  const context = await chromium.launchPersistentContext(profile, {
+    executablePath: CHROMIUM,
+    headless: true,
+    args: ARGS,
+    viewport: { width, height },
+    acceptDownloads: true,
+  });
+  return {
+    context,
+    async close() {
+      await context.close();
+      rmSync(profile, { recursive: true, force: true });
+    },
+  };
+}
+
+export function parseArgs(argv) {
+  const out = {};
+  for (let i = 0; i < argv.length; i++) {
+    const a = argv[i];
+    if (a.startsWith("--")) {
+      const key = a.slice(2);
+      const next = argv[i + 1];
+      if (next === undefined || next.startsWith("--")) out[key] = true;
+      else {
+        out[key] = next;
+        i++;
+      }
+    }
+  }
+  return out;
+}
+
+/** Sign in through the API and put the token where the app keeps it (skips the form). */
+export async function signInByToken(page, baseUrl, email, password) {
+  const r = await page.request.post(`${baseUrl}/api/v1/auth/login`, { data: { email, password } });
+  if (!r.ok()) throw new Error(`login failed: ${r.status()} ${await r.text()}`);
+  const { access_token } = await r.json();
+  await page.goto(`${baseUrl}/signin`);
+  await page.evaluate((t) => localStorage.setItem("alcove.token", t), access_token);
+  return access_token;
+}

@@ -1,0 +1,175 @@
+#!/usr/bin/env node
+/**
+ * End-to-end check of the web UI against a running `alcove up` (API + real worker):
+ * sign in, API token, create a task and an oracle, create and start a campaign, watch the
+ * RMSE plot gain points from >= 2 iterations, open an iteration's force plot, pause and
+ * resume, download a model; screenshot of the campaign page into the artifacts folder.
+ *
+ *   node e2e/run.mjs --base-url http://127.0.0.1:8765 --email admin@alcove.local \
+ *        --password secret --artifacts ../test-artifacts
+ *
+ * Checks chart data (data-points / data-traces of the plot wrapper, Plotly's SVG) and
+ * visible text, never pixels. Exit code 0 = all steps passed.
+ */
+import { mkdirSync, statSync } from "node:fs";
+import { resolve } from "node:path";
+import { openBrowser, parseArgs } from "./browser.mjs";
+
+const args = parseArgs(process.argv.slice(2));
+const baseUrl = String(args["base-url"] ?? "http://127.0.0.1:8000").replace(/\/$/, "");
+const email = String(args.email ?? "admin@alcove.local");
+const password = String(args.password ?? "alcove-admin");
+const artifacts = resolve(String(args.artifacts ?? "test-artifacts"));
+const campaignTimeout = Number(args["campaign-timeout"] ?? 240) * 1000;
+mkdirSync(artifacts, { recursive: true });
+
+const t0 = Date.now();
+function step(name) {
+  console.log(`[e2e ${((Date.now() - t0) / 1000).toFixed(1)} s] ${name}`);
+}
+
+async function plotPoints(page, testId) {
+  return Number((await page.getByTestId(testId).getAttribute("data-points")) ?? 0);
+}
+
+async function waitFor(fn, what, timeout = 30_000, interval = 500) {
+  const deadline = Date.now() + timeout;
+  let last;
+  while (Date.now() < deadline) {
+    try {
+      last = await fn();
+      if (last) return last;
+    } catch (err) {
+      last = err;
+    }
+    await new Promise((r) => setTimeout(r, interval));
+  }
+  throw new Error(`timed out waiting for ${what} (last: ${last})`);
+}
+
+const { context, close } = await openBrowser();
+const page = context.pages()[0] ?? (await context.newPage());
+const consoleErrors = [];
+page.on("console", (m) => m.type() === "error" && consoleErrors.push(m.text()));
+page.on("pageerror", (e) => consoleErrors.push(String(e)));
+const stamp = Date.now().toString(36);
+
+try {
+  step("sign in");
+  await page.goto(`${baseUrl}/`);
+  await page.getByLabel("Email").fill(email);
+  await page.getByLabel("Password").fill(password);
+  await page.getByRole("button", { name: "Sign in" }).click();
+  await page.getByRole("heading", { name: "Campaigns" }).waitFor();
+
+  step("API token: create, shown once, revoke");
+  await page.getByRole("button", { name: /Account|admin/ }).click();
+  await page.getByRole("menuitem", { name: "API tokens" }).click();
+  await page.getByLabel("Name").fill(`e2e-${stamp}`);
+  await page.getByRole("button", { name: "Create token" }).click();
+  const secret = (await page.getByTestId("new-token").textContent())?.trim() ?? "";
+  if (secret.length < 20) throw new Error(`token not shown: "${secret}"`);
+  await page.getByRole("button", { name: "Done" }).click();
+  page.once("dialog", (d) => d.accept());
+  await page.getByRole("row", { name: new RegExp(`e2e-${stamp}`) }).getByRole("button", { name: "Revoke" }).click();
+  await page.getByRole("row", { name: new RegExp(`e2e-${stamp}`) }).getByText("revoked").waitFor();
+
+  step("create a task from the preset, few intervals");
+  await page.getByRole("link", { name: "Tasks" }).click();
+  await page.getByRole("link", { name: "New task" }).click();
+  await page.getByLabel("Name", { exact: true }).fill(`e2e task ${stamp}`);
+  const intervalInputs = page.getByLabel(/^phase \d+ intervals$/);
+  const nPhases = await intervalInputs.count();
+  for (let m = 0; m < nPhases; m++) await intervalInputs.nth(m).fill("10");
+  // an invalid duration shows an inline message from the API's validate endpoint
+  await page.getByLabel("phase 1 duration [s]").fill("-1");
+  await page.getByTestId("validation-state").filter({ hasText: "problem" }).waitFor({ timeout: 15_000 });
+  const durationError = await page.locator("[data-testid=phases-table] .field-error").first().textContent();
+  if (!durationError) throw new Error("no inline error for a negative phase duration");
+  await page.getByLabel("phase 1 duration [s]").fill("0.2");
+  await page.getByTestId("validation-state").filter({ hasText: "valid" }).waitFor({ timeout: 15_000 });
+  await page.getByRole("button", { name: "Create task" }).click();
+  await page.waitForURL(/\/tasks\/\d+$/);
+
+  step("create an aux-penalty oracle");
+  await page.getByRole("link", { name: "Oracles" }).click();
+  await page.getByRole("link", { name: "New oracle" }).click();
+  await page.getByLabel("Name", { exact: true }).fill(`e2e oracle ${stamp}`);
+  await page.getByLabel("Type").selectOption("aux-penalty");
+  await page.getByRole("button", { name: "Create oracle" }).click();
+  await page.waitForURL(/\/oracles\/\d+$/);
+
+  step("create and start a campaign");
+  await page.getByRole("link", { name: "Campaigns" }).click();
+  await page.getByRole("link", { name: "New campaign" }).click();
+  await page.getByLabel("Name").fill(`e2e campaign ${stamp}`);
+  await page.getByLabel("Task").selectOption({ label: new RegExp(`e2e task ${stamp}`) });
+  await page.getByLabel("Oracle").selectOption({ label: new RegExp(`e2e oracle ${stamp}`) });
+  await page.getByLabel("Max iterations").fill("4");
+  await page.getByLabel("Preliminary samples").fill("200");
+  await page.getByRole("button", { name: "Create campaign" }).click();
+  await page.waitForURL(/\/campaigns\/\d+/);
+  const campaignUrl = page.url();
+
+  step("watch the RMSE plot gain points from >= 2 iterations");
+  await waitFor(
+    async () => {
+      const text = (await page.getByTestId("rmse-count").textContent()) ?? "";
+      return Number.parseInt(text, 10) >= 2 ? text : null;
+    },
+    "metrics of 2 iterations",
+    campaignTimeout,
+    1000,
+  );
+  // Plotly drew them: the RMSE plot's SVG has markers
+  await page.locator("[data-testid=rmse-plot] .main-svg").first().waitFor();
+  const rmsePoints = await plotPoints(page, "rmse-plot");
+  if (rmsePoints < 4) throw new Error(`RMSE plot has ${rmsePoints} points, expected >= 4 (force + moment of 2 iterations)`);
+
+  step("pause and resume");
+  await page.getByRole("button", { name: "Pause" }).click();
+  await page.locator(".badge").filter({ hasText: /^(pausing|paused)$/ }).first().waitFor({ timeout: 20_000 });
+  await page.locator(".badge").filter({ hasText: /^paused$/ }).first().waitFor({ timeout: 120_000 });
+  await page.getByRole("button", { name: "Resume" }).click();
+  await page.locator(".badge").filter({ hasText: /^(queued|running|completed)$/ }).first().waitFor({ timeout: 20_000 });
+
+  step("open an iteration's force plot");
+  await page.getByRole("tab", { name: "Forces & moments" }).click();
+  const slider = page.getByLabel("Iteration", { exact: true });
+  await slider.focus();
+  await page.keyboard.press("Home");
+  await page.getByTestId("iteration-value").filter({ hasText: "k = 1" }).waitFor();
+  await waitFor(async () => (await plotPoints(page, "force-plot")) > 0, "force curves of iteration 1");
+  await page.locator("[data-testid=force-plot] .main-svg").first().waitFor();
+  const forceTraces = Number(await page.getByTestId("force-plot").getAttribute("data-traces"));
+  if (forceTraces < 2) throw new Error(`force plot has ${forceTraces} traces, expected oracle and surrogate`);
+
+  step("trajectory with phases");
+  await page.getByRole("tab", { name: "Trajectory" }).click();
+  await waitFor(async () => (await plotPoints(page, "angle-plot")) > 0, "joint angle curve");
+
+  step("download a model");
+  await page.getByRole("tab", { name: "Pool & models" }).click();
+  await page.getByTestId("model-table").waitFor({ timeout: 30_000 });
+  const [download] = await Promise.all([page.waitForEvent("download"), page.getByTestId("model-table").getByRole("button", { name: "Artifact" }).first().click()]);
+  const modelPath = resolve(artifacts, download.suggestedFilename());
+  await download.saveAs(modelPath);
+  const size = statSync(modelPath).size;
+  if (size < 100) throw new Error(`downloaded model is ${size} bytes`);
+
+  step("screenshot of the campaign page");
+  await page.goto(campaignUrl.split("?")[0] + "?tab=forces");
+  await page.locator("[data-testid=rmse-plot] .main-svg").first().waitFor();
+  await page.locator("[data-testid=force-plot] .main-svg").first().waitFor();
+  await page.screenshot({ path: resolve(artifacts, "campaign-page.png"), fullPage: true });
+
+  const relevant = consoleErrors.filter((e) => !/favicon|401/.test(e));
+  if (relevant.length) throw new Error(`console errors: ${relevant.join(" | ")}`);
+  step("all steps passed");
+} catch (err) {
+  await page.screenshot({ path: resolve(artifacts, "e2e-failure.png"), fullPage: true }).catch(() => {});
+  console.error(`[e2e] FAILED at ${page.url()}: ${err?.stack ?? err}`);
+  process.exitCode = 1;
+} finally {
+  await close();
+}

@@ -1,0 +1,49 @@
+import { describe, expect, it, vi } from "vitest";
+import { fireEvent, render, screen } from "@testing-library/react";
+import { SchemaForm, schemaDefaults, type JsonSchema } from "./SchemaForm";
+
+// The aux-penalty parameters as pydantic emits them (see `alcove oracle schema aux-penalty`).
+const AUX: JsonSchema = {
+  type: "object",
+  title: "AuxPenaltyParams",
+  properties: {
+    k: { type: "number", default: 6e6, exclusiveMinimum: 0, description: "quadratic stiffness k [N/m^2]" },
+    d0: { type: "number", default: 100, minimum: 0 },
+    r_sp: { anyOf: [{ type: "array", items: { type: "number" } }, { type: "null" }], default: null },
+    mode: { enum: ["fast", "exact"], type: "string", default: "fast" },
+    nested: { $ref: "#/$defs/Cushion" },
+  },
+  required: ["k"],
+  $defs: { Cushion: { type: "object", properties: { thickness: { type: "number", default: 0.05 }, friction: { type: "boolean", default: true } } } },
+};
+
+describe("SchemaForm", () => {
+  it("collects the defaults, following $ref into nested objects", () => {
+    expect(schemaDefaults(AUX)).toEqual({ k: 6e6, d0: 100, r_sp: null, mode: "fast", nested: { thickness: 0.05, friction: true } });
+  });
+
+  it("renders one labelled input per field with its bounds and description", () => {
+    render(<SchemaForm schema={AUX} value={schemaDefaults(AUX)} onChange={() => {}} />);
+    expect(screen.getByLabelText(/^k/)).toHaveValue(6e6);
+    expect(screen.getByText(/quadratic stiffness k \[N\/m\^2\] · > 0/)).toBeInTheDocument();
+    expect(screen.getByLabelText(/^mode/)).toHaveValue("fast");
+    expect(screen.getByLabelText("thickness")).toHaveValue(0.05);
+    expect(screen.getByLabelText("friction")).toBeChecked();
+  });
+
+  it("emits numbers for number fields and null for a cleared nullable field", () => {
+    const onChange = vi.fn();
+    render(<SchemaForm schema={AUX} value={{ k: 1, d0: 2 }} onChange={onChange} />);
+    fireEvent.change(screen.getByLabelText(/^d0/), { target: { value: "3.5" } });
+    expect(onChange).toHaveBeenLastCalledWith({ k: 1, d0: 3.5 });
+    fireEvent.blur(screen.getByLabelText("r_sp"), { target: { value: "0.1, 0, -0.02" } });
+    expect(onChange).toHaveBeenLastCalledWith({ k: 1, d0: 2, r_sp: [0.1, 0, -0.02] });
+  });
+
+  it("shows the API's field errors next to the field and marks it invalid", () => {
+    render(<SchemaForm schema={AUX} value={{ k: -1 }} onChange={() => {}} errors={{ k: "Input should be greater than 0", "nested.thickness": "too thin" }} />);
+    expect(screen.getByLabelText(/^k/)).toHaveAttribute("aria-invalid", "true");
+    expect(screen.getByText("Input should be greater than 0")).toBeInTheDocument();
+    expect(screen.getByText("too thin")).toBeInTheDocument();
+  });
+});

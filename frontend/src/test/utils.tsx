@@ -1,0 +1,53 @@
+import type { ReactElement } from "react";
+import { render } from "@testing-library/react";
+import { MemoryRouter, Route, Routes } from "react-router-dom";
+import { QueryClient, QueryClientProvider } from "@tanstack/react-query";
+import { vi } from "vitest";
+import { AuthProvider } from "../api/auth";
+
+export type Handler = (url: URL, init: RequestInit) => unknown | Response;
+
+/** Replace fetch with a table of handlers keyed "METHOD /path" (path after /api/v1). */
+export function mockApi(routes: Record<string, Handler | unknown>) {
+  const calls: { method: string; path: string; url: URL; body: unknown }[] = [];
+  const fetchMock = vi.fn(async (input: RequestInfo | URL, init: RequestInit = {}) => {
+    const req = input instanceof Request ? input : null;
+    const url = new URL(req ? req.url : String(input), "http://localhost");
+    const method = (req?.method ?? init.method ?? "GET").toUpperCase();
+    const path = url.pathname.replace(/^\/api\/v1/, "");
+    const rawBody = req ? await req.clone().text() : (init.body as string | undefined);
+    calls.push({ method, path, url, body: rawBody ? JSON.parse(rawBody) : undefined });
+    const key = `${method} ${path}`;
+    const match = Object.entries(routes).find(([pattern]) => new RegExp(`^${pattern.replace(/\{[^}]+\}/g, "[^/]+")}$`).test(key));
+    if (!match) return new Response(JSON.stringify({ detail: `no mock for ${key}` }), { status: 404 });
+    const value = typeof match[1] === "function" ? (match[1] as Handler)(url, init) : match[1];
+    if (value instanceof Response) return value;
+    return new Response(JSON.stringify(value), { status: 200, headers: { "Content-Type": "application/json" } });
+  });
+  vi.stubGlobal("fetch", fetchMock);
+  return { calls, fetchMock };
+}
+
+export function jsonResponse(body: unknown, status = 200): Response {
+  return new Response(JSON.stringify(body), { status, headers: { "Content-Type": "application/json" } });
+}
+
+export function renderPage(ui: ReactElement, { route = "/", path = "*", token = "test-token" }: { route?: string; path?: string; token?: string | null } = {}) {
+  if (token) localStorage.setItem("alcove.token", token);
+  const client = new QueryClient({ defaultOptions: { queries: { retry: false, staleTime: 0 }, mutations: { retry: false } } });
+  return {
+    client,
+    ...render(
+      <QueryClientProvider client={client}>
+        <AuthProvider>
+          <MemoryRouter initialEntries={[route]}>
+            <Routes>
+              <Route path={path} element={ui} />
+              <Route path="*" element={<div data-testid="elsewhere" />} />
+            </Routes>
+          </MemoryRouter>
+        </AuthProvider>
+      </QueryClientProvider>,
+    ),
+  };
+}

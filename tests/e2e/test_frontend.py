@@ -1,0 +1,36 @@
+"""The frontend's own checks, run from pytest so `make test` covers them: the generated API
+client matches the backend's live OpenAPI schema, and the Vitest component tests pass."""
+
+from __future__ import annotations
+
+import os
+import shutil
+import subprocess
+
+import pytest
+
+from tests.e2e.conftest import FRONTEND
+
+
+def _require_node() -> None:
+    reason = None
+    if shutil.which("node") is None:
+        reason = "node is not installed"
+    elif not (FRONTEND / "node_modules" / "openapi-typescript").is_dir():
+        reason = "frontend/node_modules is missing (cd frontend && npm ci)"
+    if reason:
+        if os.environ.get("CI"):
+            pytest.fail(reason)
+        pytest.skip(reason)
+
+
+def test_generated_api_client_matches_the_live_openapi_schema() -> None:
+    _require_node()
+    result = subprocess.run(["node", "scripts/gen-api.mjs", "--check"], cwd=FRONTEND, capture_output=True, text=True, timeout=300)
+    assert result.returncode == 0, result.stderr + result.stdout
+
+
+def test_vitest_component_tests_pass() -> None:
+    _require_node()
+    result = subprocess.run(["npx", "vitest", "--run", "--reporter=dot"], cwd=FRONTEND, capture_output=True, text=True, timeout=600, env={**os.environ, "CI": "true"})
+    assert result.returncode == 0, result.stdout[-6000:] + result.stderr[-3000:]
