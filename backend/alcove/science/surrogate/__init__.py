@@ -4,10 +4,33 @@ Import from the submodules (``features``, ``mlp``, ``config``, ``dataset``, ``tr
 ``artifact``, ``export``, ``preliminary``); the most used names are re-exported here.
 """
 
-from alcove.science.surrogate.config import NetworkConfig, SurrogateConfig, SurrogateConfigError
-from alcove.science.surrogate.dataset import PoolDataError, PoolDataset, load_pool_dir, load_preliminary_csv
-from alcove.science.surrogate.mlp import MLP, SurrogateModel
-from alcove.science.surrogate.training import TrainingCancelled, TrainingResult, predict, train_surrogate
+from importlib import import_module
+from typing import Any
+
+# Re-exports are resolved on first use (PEP 562) so that importing the light submodules
+# (``config``) does not import torch.
+_EXPORTS = {
+    "NetworkConfig": "config",
+    "SurrogateConfig": "config",
+    "SurrogateConfigError": "config",
+    "PoolDataError": "dataset",
+    "PoolDataset": "dataset",
+    "load_pool_dir": "dataset",
+    "load_preliminary_csv": "dataset",
+    "MLP": "mlp",
+    "SurrogateModel": "mlp",
+    "TrainingCancelled": "training",
+    "TrainingResult": "training",
+    "predict": "training",
+    "train_surrogate": "training",
+}
+
+
+def __getattr__(name: str) -> Any:
+    if name in _EXPORTS:
+        return getattr(import_module(f"alcove.science.surrogate.{_EXPORTS[name]}"), name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
 
 __all__ = [
     "MLP",
