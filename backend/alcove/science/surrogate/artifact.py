@@ -51,7 +51,7 @@ class _Scripted(nn.Module):
         self.linears = nn.ModuleList([_copy_linear(lin) for lin in net.linears()])
         self.activation = net.activation
         self.register_buffer("x_mean", torch.as_tensor(input_norm.mean, dtype=torch.float64))
-        self.register_buffer("x_scale", torch.as_tensor(input_norm.scale, dtype=torch.float64))
+        self.register_buffer("x_scale", torch.as_tensor(input_norm.divisor, dtype=torch.float64))
         self.register_buffer("y_mean", torch.as_tensor(output_norm.mean, dtype=torch.float64))
         self.register_buffer("y_scale", torch.as_tensor(output_norm.scale, dtype=torch.float64))
 

@@ -47,7 +47,7 @@ def mlp_symbolic(net: MLP, x: ca.SX) -> ca.SX:
 
 
 def _standardize(norm: Standardization, x: ca.SX) -> ca.SX:
-    return (x - ca.DM(norm.mean)) / ca.DM(norm.scale)
+    return (x - ca.DM(norm.mean)) / ca.DM(norm.divisor)
 
 
 def _destandardize(norm: Standardization, z: ca.SX) -> ca.SX:

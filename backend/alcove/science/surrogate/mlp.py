@@ -77,18 +77,27 @@ class MLP(nn.Module):
 
 @dataclass
 class Standardization:
-    """``z = (x - mean) / scale``; a zero-variance column gets scale 1 (never NaN or inf)."""
+    """``z = (x - mean) / scale``, ``x = z * scale + mean``.
+
+    A column constant on the training data (planar motion makes r_y, v_y, T_10, ...
+    constant; fy, mx, mz vanish) must not give NaN or inf: ``fit`` gives it the scale
+    ``constant_scale``: 1 for inputs (the column is only centred), 0 for outputs (the
+    prediction is exactly the constant). :meth:`divisor` is the safe scale to divide by.
+    """
 
     mean: np.ndarray
     scale: np.ndarray
 
     @classmethod
-    def fit(cls, x: np.ndarray, rel_tol: float = 1e-12) -> "Standardization":
+    def fit(cls, x: np.ndarray, constant_scale: float = 1.0, rel_tol: float = 1e-12) -> "Standardization":
         mean = x.mean(axis=0)
         std = x.std(axis=0)
-        # columns constant up to rounding (planar motion: r_y, v_y, T_10, ... ) are only centred
-        tiny = std <= rel_tol * np.maximum(1.0, np.abs(mean))
-        return cls(mean=mean, scale=np.where(tiny, 1.0, std))
+        constant = std <= rel_tol * np.maximum(1.0, np.abs(mean))
+        return cls(mean=mean, scale=np.where(constant, constant_scale, std))
+
+    @property
+    def divisor(self) -> np.ndarray:
+        return np.where(self.scale == 0, 1.0, self.scale)
 
     @classmethod
     def identity(cls, n: int) -> "Standardization":
@@ -122,7 +131,7 @@ class SurrogateModel:
 
     def predict_features(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Force (n, 3) and moment (n, 3) for raw features x (n, 19)."""
-        z = torch.as_tensor((np.asarray(x, float) - self.input_norm.mean) / self.input_norm.scale, dtype=self.dtype)
+        z = torch.as_tensor((np.asarray(x, float) - self.input_norm.mean) / self.input_norm.divisor, dtype=self.dtype)
         with torch.no_grad():
             f = self.force_net(z).double().numpy()
             m = self.moment_net(z).double().numpy()

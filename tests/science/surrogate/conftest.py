@@ -1,0 +1,43 @@
+"""Pools built from known smooth functions of (q, qd) for the surrogate tests."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from alcove.science.surrogate.config import SurrogateConfig
+from alcove.science.surrogate.dataset import PoolDataset
+
+
+def smooth_wrench(q: np.ndarray, qd: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """A smooth 'contact law' in the planar components; fy, mx, mz vanish (zero variance)."""
+    z = np.zeros_like(q)
+    force = np.stack([40 * np.sin(4 * q) + 8 * q * qd, z, 5 * np.cos(3 * q) - qd], -1)
+    moment = np.stack([z, 2 * q - 0.5 * qd**2, z], -1)
+    return force, moment
+
+
+def make_smooth_pool(n_sims: int = 20, n_samples: int = 100, seed: int = 0, origin: str = "oracle", prefix: str = "sim") -> list[PoolDataset]:
+    rng = np.random.default_rng(seed)
+    t = np.linspace(0.0, 1.0, n_samples)
+    pool = []
+    for i in range(n_sims):
+        a, c, f, ph = rng.uniform(0.05, 0.2), rng.uniform(0.1, 0.35), rng.uniform(0.5, 1.5), rng.uniform(0, 2 * np.pi)
+        q = c + a * np.sin(2 * np.pi * f * t + ph)
+        qd = 2 * np.pi * f * a * np.cos(2 * np.pi * f * t + ph)
+        force, moment = smooth_wrench(q, qd)
+        pool.append(PoolDataset(f"{prefix}-{i:03d}", t, q, qd, force, moment, origin))
+    return pool
+
+
+@pytest.fixture(scope="session")
+def smooth_pool() -> list[PoolDataset]:
+    return make_smooth_pool()
+
+
+@pytest.fixture(scope="session")
+def trained_smooth(smooth_pool):
+    """The default protocol trained once on the smooth pool (shared by several tests)."""
+    from alcove.science.surrogate.training import train_surrogate
+
+    return train_surrogate(smooth_pool, SurrogateConfig(), seed=0)

@@ -1,0 +1,156 @@
+"""Training protocol: splits, a known smooth law, determinism, weights, warm start, errors."""
+
+import numpy as np
+import pytest
+import torch
+from conftest import make_smooth_pool, smooth_wrench
+
+from alcove.science.surrogate.config import SurrogateConfig, SurrogateConfigError
+from alcove.science.surrogate.dataset import PoolDataError, PoolDataset
+from alcove.science.surrogate.mlp import MLP
+from alcove.science.surrogate.training import (
+    TrainingCancelled,
+    predict,
+    sample_weights,
+    set_loss_gradient,
+    split_pool,
+    train_surrogate,
+)
+
+SHORT = SurrogateConfig(max_epochs=4, batch_size=256)
+
+
+def test_split_keeps_whole_simulations_together(smooth_pool):
+    split = split_pool(smooth_pool, SurrogateConfig(), seed=7)
+    labels = np.split(split.sample_split, np.cumsum([ds.n_samples for ds in smooth_pool])[:-1])
+    for ds, lab in zip(smooth_pool, labels):
+        in_test = lab == "test"
+        assert in_test.all() or not in_test.any()
+        assert (ds.name in split.test_sets) == in_test.all()
+    assert len(split.test_sets) == 6  # 30 % of 20 simulations
+    assert sorted(split.training_sets + split.test_sets) == sorted(ds.name for ds in smooth_pool)
+    counts = split.counts()
+    assert counts["validation"] == round(0.2 * (counts["train"] + counts["validation"]))  # pointwise 80/20
+    # points of one training simulation land on both sides of the train/validation split
+    train_sim = labels[[ds.name for ds in smooth_pool].index(split.training_sets[0])]
+    assert {"train", "validation"} <= set(train_sim)
+    assert split_pool(smooth_pool, SurrogateConfig(), seed=8).test_sets != split.test_sets
+
+
+def test_split_of_a_single_simulation_has_no_test_set(smooth_pool):
+    split = split_pool(smooth_pool[:1], SurrogateConfig(), seed=0)
+    assert split.test_sets == [] and split.counts()["test"] == 0
+
+
+def test_learns_a_known_smooth_law(smooth_pool, trained_smooth):
+    result = trained_smooth
+    f_std = np.concatenate([ds.force for ds in smooth_pool]).std(0).max()
+    m_std = np.concatenate([ds.moment for ds in smooth_pool]).std(0).max()
+    rmse = result.metrics.rmse
+    assert rmse["force"]["test"] < 0.02 * f_std
+    assert rmse["moment"]["test"] < 0.05 * m_std
+    assert result.metrics.epochs["force"] > result.metrics.best_epoch["force"]  # stopped early, best kept
+    assert result.metrics.epochs["force"] - result.metrics.best_epoch["force"] == 6  # patience
+    # new trajectory, unseen: predict() agrees with the law
+    t = np.linspace(0, 1, 50)
+    q, qd = 0.25 + 0.1 * np.sin(3 * t), 0.3 * np.cos(3 * t)
+    pred = predict(result.model, t, q, qd)
+    force, moment = smooth_wrench(q, qd)
+    assert np.sqrt(np.mean((pred.force - force) ** 2)) < 0.05 * f_std
+    assert np.all(pred.force[:, 1] == 0) and np.all(pred.moment[:, [0, 2]] == 0)  # zero-variance outputs
+
+
+def test_zero_variance_features_give_finite_models(smooth_pool):
+    result = train_surrogate(smooth_pool[:4], SHORT, seed=0)
+    norm = result.model.input_norm
+    assert np.all(np.isfinite(norm.mean)) and np.all(norm.scale > 0)
+    planar_constant = [1, 4, 7, 9, 10, 11, 12, 14]  # r_y, v_y, T_10, T_01, T_11, T_21, omega_x, omega_z
+    assert np.all(norm.scale[planar_constant] == 1.0)
+    for net in (result.model.force_net, result.model.moment_net):
+        assert all(torch.isfinite(p).all() for p in net.parameters())
+
+
+def test_same_pool_and_seed_give_bit_identical_weights(smooth_pool):
+    a = train_surrogate(smooth_pool, SHORT, seed=3).model
+    b = train_surrogate(smooth_pool, SHORT, seed=3).model
+    c = train_surrogate(smooth_pool, SHORT, seed=4).model
+    for name in ("force_net", "moment_net"):
+        sa, sb, sc = (getattr(m, name).state_dict() for m in (a, b, c))
+        assert all(torch.equal(sa[k], sb[k]) for k in sa)
+        assert not all(torch.equal(sa[k], sc[k]) for k in sa)
+    assert torch.get_num_threads() >= 1
+
+
+@pytest.mark.parametrize("activation", ["softplus", "tanh", "sigmoid"])
+def test_hand_written_gradient_equals_autograd(activation):
+    g = torch.Generator().manual_seed(0)
+    net = MLP((5, 4, 3), activation)
+    net.reset_parameters(g)
+    x = torch.randn(64, 19, dtype=torch.float64, generator=g)
+    y = torch.randn(64, 3, dtype=torch.float64, generator=g)
+    w = torch.rand(64, dtype=torch.float64, generator=g)
+    loss = ((net(x) - y) ** 2).mean(1) @ w / 64
+    expected = torch.autograd.grad(loss, list(net.parameters()))
+    for p in net.parameters():
+        p.grad = None
+    set_loss_gradient(net, x, y, w)
+    for p, e in zip(net.parameters(), expected):
+        torch.testing.assert_close(p.grad, e, rtol=1e-12, atol=1e-15)
+
+
+def test_preliminary_down_weighting():
+    prelim = [PoolDataset(ds.name.replace("sim", "preliminary"), ds.t, ds.q, ds.qd, 0 * ds.force, 0 * ds.moment, "preliminary")
+              for ds in make_smooth_pool(10, seed=1)]
+    oracle = make_smooth_pool(10, seed=2)
+    pool = prelim + oracle
+    cfg = SurrogateConfig(preliminary_weight=0.5, preliminary_halving=5)
+    w = sample_weights(pool, cfg)
+    assert np.all(w[: 10 * 100] == 0.5 * 0.5 ** (10 / 5)) and np.all(w[10 * 100 :] == 1)
+    # contradictory data: preliminary says zero force; with weight 0 the model follows the oracle
+    res = train_surrogate(pool, SurrogateConfig(preliminary_weight=0.0, test_fraction=0.0), seed=0)
+    t = np.linspace(0, 1, 20)
+    q, qd = 0.25 + 0.05 * np.sin(4 * t), 0.2 * np.cos(4 * t)
+    force, _ = smooth_wrench(q, qd)
+    pred = predict(res.model, t, q, qd)
+    assert np.sqrt(np.mean((pred.force - force) ** 2)) < 0.1 * np.abs(force).max()
+    explicit = [PoolDataset(ds.name, ds.t, ds.q, ds.qd, ds.force, ds.moment, ds.origin, weight=2.0) for ds in prelim[:1]]
+    assert np.all(sample_weights(explicit, cfg) == 2.0)  # a dataset's own weight wins
+
+
+def test_warm_start_starts_from_the_previous_weights(smooth_pool, trained_smooth):
+    first = trained_smooth
+    tiny = SurrogateConfig(max_epochs=1, learning_rate=1e-12)
+    warm = train_surrogate(smooth_pool, tiny, seed=1, warm_start=first.model)
+    cold = train_surrogate(smooth_pool, tiny, seed=1)
+    assert warm.model.lineage["warm_start"] is True
+    assert warm.metrics.rmse["force"]["train"] < 0.1 * cold.metrics.rmse["force"]["train"]
+    with pytest.raises(SurrogateConfigError, match="^force.hidden: differs"):
+        train_surrogate(smooth_pool, SurrogateConfig(force={"hidden": [8]}), seed=0, warm_start=first.model)
+
+
+def test_metrics_and_cancel(smooth_pool):
+    res = train_surrogate(smooth_pool, SHORT, seed=0)
+    m = res.metrics.to_dict()
+    assert set(m["rmse"]) == {"force", "moment"} and set(m["rmse"]["force"]) == {"train", "validation", "test"}
+    assert m["epochs"] == {"force": 4, "moment": 4} and m["wall_time_s"] > 0
+    assert sum(m["samples"].values()) == 2000
+    with pytest.raises(TrainingCancelled):
+        train_surrogate(smooth_pool, SHORT, seed=0, cancel=lambda: True)
+
+
+def test_bad_pools_give_clear_errors(smooth_pool):
+    with pytest.raises(PoolDataError, match="^pool: is empty"):
+        train_surrogate([], SurrogateConfig(), seed=0)
+    with pytest.raises(PoolDataError, match="^sim-000: duplicate"):
+        train_surrogate([smooth_pool[0], smooth_pool[0]], SurrogateConfig(), seed=0)
+    one = smooth_pool[0]
+    with pytest.raises(PoolDataError, match="^pool: the training part has 1 sample"):
+        train_surrogate([PoolDataset("a", one.t[:1], one.q[:1], one.qd[:1], one.force[:1], one.moment[:1])], SurrogateConfig(), seed=0)
+    zero = [PoolDataset(ds.name, ds.t, ds.q, ds.qd, ds.force, ds.moment, "preliminary") for ds in smooth_pool[:3]]
+    with pytest.raises(PoolDataError, match="^weight: every training sample has weight 0"):
+        train_surrogate(zero, SurrogateConfig(preliminary_weight=0), seed=0)
+    two_dof = PoolDataset("b", one.t, np.c_[one.q, one.q], np.c_[one.qd, one.qd], one.force, one.moment)
+    with pytest.raises(PoolDataError, match="^b.q: has 2 degrees of freedom"):
+        train_surrogate([one, two_dof], SurrogateConfig(), seed=0)
+    with pytest.raises(PoolDataError, match="^q: the head-neck preset has 1 degree"):
+        train_surrogate([two_dof], SurrogateConfig(), seed=0)
