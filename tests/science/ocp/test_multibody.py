@@ -96,7 +96,7 @@ def test_unforced_dynamics_conserve_energy():
         return np.concatenate([x[3:], np.asarray(fd(x[:3], x[3:], np.zeros(3), np.zeros(6))).ravel()])
 
     x0 = np.array([0.4, -0.3, 0.8, 0.5, 0.0, -1.0])
-    sol = solve_ivp(rhs, (0, 2), x0, rtol=1e-11, atol=1e-12, dense_output=True)
+    sol = solve_ivp(rhs, (0, 1), x0, method="DOP853", rtol=1e-11, atol=1e-12)
     E = [float(chain.energy(x[:3], x[3:])) for x in sol.y.T]
     assert np.ptp(E) < 1e-7 * max(1.0, abs(E[0]))
     assert np.ptp(sol.y[0]) > 0.1  # it actually moved

@@ -124,6 +124,9 @@ DEFAULT_IPOPT_OPTIONS: dict[str, object] = {
     "ipopt.hessian_approximation": "exact",
     "ipopt.max_iter": 1000,
     "ipopt.tol": 1e-8,
+    # the default guess is a dynamically feasible rollout: start with a small barrier
+    # parameter (19 instead of 27 iterations on the head-headrest task, measured)
+    "ipopt.mu_init": 1e-4,
 }
 
 

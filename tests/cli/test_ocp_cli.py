@@ -1,0 +1,73 @@
+"""`alcove ocp solve|tasks|show`: the real console script once, the rest in process."""
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+from typer.testing import CliRunner
+
+from alcove.science.geometry import DEFAULT_PRESET
+from alcove.science.series import Trajectory
+from alcove_worker.cli.main import app
+
+ALCOVE = str(Path(sys.executable).with_name("alcove"))
+runner = CliRunner()
+
+
+def test_solve_writes_the_trajectory_and_a_json_summary(tmp_path):
+    proc = subprocess.run(
+        [ALCOVE, "ocp", "solve", "--task", "head-headrest-2phase", "--contact", "aux", "--intervals", "40", "--out", "traj.csv", "--json"],
+        cwd=tmp_path, capture_output=True, text=True, timeout=120,
+    )
+    assert proc.returncode == 0, proc.stderr
+    summary = json.loads(proc.stdout)
+    assert summary["status"] == "Solve_Succeeded" and summary["converged"] is True
+    for key in ("iterations", "cost", "wall_time_s", "constraint_violation"):
+        assert key in summary
+    text = (tmp_path / "traj.csv").read_text()
+    assert text.splitlines()[0] == "t,q_0,qd_0,tau_0"
+    traj = Trajectory.from_csv(tmp_path / "traj.csv")
+    assert len(traj) == 81 and traj.t[-1] == pytest.approx(2.0)
+    assert traj.q[0, 0] == pytest.approx(DEFAULT_PRESET.theta0) and traj.q.max() > DEFAULT_PRESET.theta_contact
+
+
+def test_task_file_and_no_contact(tmp_path):
+    shown = runner.invoke(app, ["ocp", "show", "--task", "head-headrest-2phase"])
+    assert shown.exit_code == 0
+    data = json.loads(shown.stdout)
+    data["phases"][0]["intervals"] = data["phases"][1]["intervals"] = 20
+    (tmp_path / "task.json").write_text(json.dumps(data))
+    res = runner.invoke(app, ["ocp", "solve", "--task-file", str(tmp_path / "task.json"), "--contact", "none", "--out", str(tmp_path / "t.csv")])
+    assert res.exit_code == 0, res.output
+    assert "Solve_Succeeded" in res.stdout
+    # without the headrest nothing stops the head: it never rests beyond first contact
+    assert Trajectory.from_csv(tmp_path / "t.csv").q[-1, 0] < DEFAULT_PRESET.theta_contact
+    assert "head-headrest-2phase" in runner.invoke(app, ["ocp", "tasks"]).stdout
+
+
+@pytest.mark.parametrize(
+    "args, message",
+    [
+        (["--contact", "bogus"], "error: contact: unknown contact model"),
+        (["--contact", "model:/nonexistent.json"], "error: contact: model file"),
+        (["--task", "nope"], "error: task: unknown task preset"),
+        (["--task-file", "/nonexistent.json"], "error: task-file:"),
+    ],
+)
+def test_bad_input_exits_2_naming_the_field(tmp_path, args, message):
+    res = runner.invoke(app, ["ocp", "solve", "--out", str(tmp_path / "t.csv"), *args])
+    assert res.exit_code == 2
+    assert message in res.stderr
+    assert not (tmp_path / "t.csv").exists()
+
+
+def test_bad_task_file_names_the_field(tmp_path):
+    data = json.loads(runner.invoke(app, ["ocp", "show"]).stdout)
+    data["phases"][1]["w_T"] = -1
+    (tmp_path / "task.json").write_text(json.dumps(data))
+    res = runner.invoke(app, ["ocp", "solve", "--task-file", str(tmp_path / "task.json"), "--out", str(tmp_path / "t.csv")])
+    assert res.exit_code == 2
+    assert "error: phases.1.w_T: " in res.stderr
