@@ -1,0 +1,74 @@
+# alcove: one entry point.
+#   make up     set up .venv, build the web UI (if present), migrate, run `alcove up`
+#   make test   set up .venv, build the web UI (if present), run the whole test suite
+#   make bench  run the benchmarks (bench/run.py)
+# Everything is installed into .venv/ at the repository root, never the system Python.
+
+SHELL := /bin/bash
+VENV := .venv
+PY := $(VENV)/bin/python
+PIP := $(VENV)/bin/pip
+ALCOVE := $(VENV)/bin/alcove
+STAMP := $(VENV)/.alcove-installed
+PYTEST_ARGS ?=
+BENCH_ARGS ?=
+
+HAVE_FRONTEND := $(wildcard frontend/package.json)
+HAVE_NPM := $(shell command -v npm 2>/dev/null)
+FRONTEND_SOURCES := $(shell find frontend/src frontend/index.html frontend/vite.config.ts frontend/tsconfig.json -type f 2>/dev/null)
+FRONTEND_OUT := backend/alcove/static/index.html
+
+.PHONY: install frontend up test bench migrate worker clean-venv help
+.DEFAULT_GOAL := help
+
+help:
+	@echo "make up     - install, build the UI, migrate and start alcove (API + worker) on the embedded default"
+	@echo "make test   - install and run all tests (PostgreSQL and Redis must be running; see .ci/run)"
+	@echo "make bench  - run the benchmarks"
+
+$(STAMP): pyproject.toml
+	test -x $(PY) || python3 -m venv $(VENV)
+	$(PIP) install -e '.[test]'
+	touch $(STAMP)
+
+install: $(STAMP)
+
+ifneq ($(HAVE_FRONTEND),)
+ifeq ($(HAVE_NPM),)
+frontend:
+	@echo "warning: npm not found; the web UI is not built (the API still works)" >&2
+else
+frontend/node_modules/.package-lock.json: frontend/package.json frontend/package-lock.json
+	cd frontend && npm ci --no-audit --no-fund
+	touch $@
+
+$(FRONTEND_OUT): frontend/node_modules/.package-lock.json $(FRONTEND_SOURCES)
+	cd frontend && npm run build
+
+frontend: $(FRONTEND_OUT)
+endif
+else
+frontend:
+	@true
+endif
+
+migrate: install
+	$(ALCOVE) db upgrade
+
+up: install frontend
+	$(ALCOVE) db upgrade
+	$(ALCOVE) up
+
+worker: install
+	$(ALCOVE) worker
+
+test: install frontend
+	@set +e; $(PY) -m pytest tests $(PYTEST_ARGS); rc=$$?; \
+	if [ $$rc -eq 5 ]; then echo "pytest collected no tests: treated as a failure" >&2; fi; \
+	exit $$rc
+
+bench: install
+	$(PY) -m bench.run $(BENCH_ARGS)
+
+clean-venv:
+	rm -rf $(VENV)
