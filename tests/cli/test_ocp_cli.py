@@ -71,3 +71,19 @@ def test_bad_task_file_names_the_field(tmp_path):
     res = runner.invoke(app, ["ocp", "solve", "--task-file", str(tmp_path / "task.json"), "--out", str(tmp_path / "t.csv")])
     assert res.exit_code == 2
     assert "error: phases.1.w_T: " in res.stderr
+
+
+def test_solve_with_a_trained_surrogate_artifact(tmp_path):
+    """--contact model:FILE goes through the surrogate's CasADi export into the contact slot."""
+    from alcove.science.surrogate.artifact import save_artifact
+    from alcove.science.surrogate.config import SurrogateConfig
+    from alcove.science.surrogate.preliminary import preliminary_pool
+    from alcove.science.surrogate.training import train_surrogate
+
+    model = train_surrogate(preliminary_pool(DEFAULT_PRESET, samples=400, chunks=4), SurrogateConfig(max_epochs=5), seed=0).model
+    artifact = save_artifact(model, tmp_path / "model")
+    res = runner.invoke(app, ["ocp", "solve", "--contact", f"model:{artifact}", "--intervals", "20", "--out", str(tmp_path / "t.csv"), "--json"])
+    assert res.exit_code in (0, 1), res.output  # a barely trained surrogate may or may not give a converged OCP
+    summary = json.loads(res.stdout)
+    assert summary["contact"] == f"model:{artifact}" and summary["status"]
+    assert len(Trajectory.from_csv(tmp_path / "t.csv")) == 41
