@@ -35,24 +35,27 @@ class RigidEllipse:
     ax: float
     az: float
 
-    def closest(self, points: np.ndarray, iterations: int = 8) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    def closest(self, points: np.ndarray, iterations: int = 4) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         lx = points[:, 0] - self.cx
         lz = points[:, 1] - self.cz
         a, b = self.ax, self.az
-        s = np.arctan2(lz / b, lx / a)
-        for _ in range(iterations):  # Newton on (l - p(s)) . p'(s) = 0
+        # Newton on f(s) = (l - p(s)) . p'(s) = 0 from the elliptic angle of l: converges
+        # quadratically for the near-surface points that matter for contact
+        s = np.arctan2(lz * a, lx * b)
+        for _ in range(iterations):
             c, sn = np.cos(s), np.sin(s)
             px, pz = a * c, b * sn
-            tx, tz = -a * sn, b * c
-            f = (lx - px) * tx + (lz - pz) * tz
-            df = -(tx * tx + tz * tz) + (lx - px) * (-px) + (lz - pz) * (-pz)
-            df = np.where(df < 0, df, -(tx * tx + tz * tz))
-            s = s - np.clip(f / df, -0.3, 0.3)
+            f = -(lx - px) * a * sn + (lz - pz) * b * c
+            df = -(a * a * sn * sn + b * b * c * c) - (lx - px) * px - (lz - pz) * pz
+            df = np.minimum(df, -(a * a * sn * sn + b * b * c * c))
+            s = s - np.maximum(np.minimum(f / df, 0.3), -0.3)
         c, sn = np.cos(s), np.sin(s)
-        normal = np.stack([b * c, a * sn], -1)
-        normal /= np.linalg.norm(normal, axis=1, keepdims=True)
-        gap = (lx - a * c) * normal[:, 0] + (lz - b * sn) * normal[:, 1]
-        tangent = np.stack([-normal[:, 1], normal[:, 0]], -1)
+        nx, nz = b * c, a * sn
+        norm = np.sqrt(nx * nx + nz * nz)
+        nx, nz = nx / norm, nz / norm
+        gap = (lx - a * c) * nx + (lz - b * sn) * nz
+        normal = np.stack([nx, nz], -1)
+        tangent = np.stack([-nz, nx], -1)
         return gap, normal, tangent
 
 

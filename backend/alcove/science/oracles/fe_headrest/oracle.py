@@ -24,7 +24,7 @@ from alcove.science.oracles.fe_headrest.contact import PenaltyContact, RigidElli
 from alcove.science.oracles.fe_headrest.foam import Hyperfoam
 from alcove.science.oracles.fe_headrest.mesh import CushionMesh, build_cushion_mesh
 from alcove.science.oracles.fe_headrest.params import FEHeadrestParams
-from alcove.science.oracles.fe_headrest.solver import CushionSolver
+from alcove.science.oracles.fe_headrest.solver import CushionSolver, single_threaded_blas
 from alcove.science.series import ForceSeries, SeriesFormatError, Trajectory
 
 
@@ -128,6 +128,10 @@ class FEHeadrestOracle:
 
     # ---- run -----------------------------------------------------------------------------
     def run(self, trajectory: Trajectory, cancel: CancelCheck | None = None) -> OracleResult:
+        with single_threaded_blas():
+            return self._run(trajectory, cancel)
+
+    def _run(self, trajectory: Trajectory, cancel: CancelCheck | None) -> OracleResult:
         start = time.perf_counter()
         p = self.params
         traj = self._validated(trajectory)

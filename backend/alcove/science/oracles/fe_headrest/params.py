@@ -24,8 +24,8 @@ class FEHeadrestParams(OracleParams):
     head_half_breadth: float = Field(0.075, ge=0.04, le=0.12, description="half breadth of the head (ellipsoidal sections) used when slices > 1 [m]")
 
     # ---- mesh ---------------------------------------------------------------------------
-    element_size_contact: float = Field(0.004, ge=0.0005, le=0.02, description="element size in the contact zone and at the front face [m]")
-    element_size_far: float = Field(0.012, ge=0.001, le=0.05, description="element size toward the back face and the cushion ends [m]")
+    element_size_contact: float = Field(0.006, ge=0.0005, le=0.02, description="element size in the contact zone and at the front face [m]")
+    element_size_far: float = Field(0.015, ge=0.001, le=0.05, description="element size toward the back face and the cushion ends [m]")
     contact_zone: tuple[float, float] = Field((-0.06, 0.07), description="z_H range meshed with element_size_contact [m]")
 
     # ---- foam: Ogden-Storakers hyperfoam terms + Kelvin-Voigt viscosity -----------------------

@@ -22,12 +22,19 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.linalg import cho_solve_banded, cholesky_banded
 from scipy.sparse.linalg import splu
+from threadpoolctl import threadpool_limits
 
 from alcove.science.oracles.fe_headrest.contact import PenaltyContact
 from alcove.science.oracles.fe_headrest.foam import Hyperfoam, foam_response, green_lagrange
 from alcove.science.oracles.fe_headrest.mesh import CushionMesh
 
 Pose = tuple[np.ndarray, float]
+
+
+def single_threaded_blas() -> threadpool_limits:
+    """Context limiting BLAS/LAPACK to one thread: the small banded factorizations are ~100x
+    slower with a multithreaded OpenBLAS on a shared machine (thread wake-up dominates)."""
+    return threadpool_limits(limits=1, user_api="blas")
 
 
 @dataclass
@@ -169,7 +176,7 @@ class CushionSolver:
         x = self.surface_positions(u)
         cs = self.contact.evaluate(x, pose, local_prev, self.normal_force_prev, with_stiffness=True)
         f_internal = grad.copy()
-        np.add.at(grad, self.surface_dofs.ravel(), -cs.force.ravel())
+        grad[self.surface_dofs.ravel()] -= cs.force.ravel()  # surface dofs are distinct
         data = np.bincount(self._elem_slot, weights=Ke.ravel()[self._elem_mask], minlength=self._keys.size)
         data += np.bincount(self._surf_slot, weights=cs.stiffness.ravel(), minlength=self._keys.size)
         nf = self.free.size
@@ -206,6 +213,7 @@ class CushionSolver:
         iterations = 0
         res_norm = np.inf
         e_current = None
+        last_step: float | None = None
         for iterations in range(self.max_iterations + 1):
             grad, K, cs, f_internal, foam = self.gradient_and_tangent(u, pose, dt, local_prev)
             r = grad[self.free]
@@ -214,6 +222,9 @@ class CushionSolver:
             tol = self.newton_tol * scale
             if res_norm <= tol:
                 converged = True
+                break
+            if last_step is not None and last_step <= 1e-10 and res_norm <= 1e3 * tol:
+                converged = True  # sub-nanometre updates: the residual is at its round-off floor
                 break
             if iterations == self.max_iterations:
                 break
@@ -224,17 +235,20 @@ class CushionSolver:
                 slope = float(r @ du_free)
             du = np.zeros(self.n_dofs)
             du[self.free] = du_free
-            e0 = self.energy(u, pose, dt, local_prev) if e_current is None else e_current
+            if e_current is None:
+                e_current = self.energy(u, pose, dt, local_prev)
             alpha = 1.0
-            while True:
-                e1 = self.energy(u + alpha * du, pose, dt, local_prev)
-                if e1 <= e0 + 1e-4 * alpha * slope + 1e-12 * abs(e0) or alpha < 1e-6:
+            while True:  # backtracking (Armijo) on the incremental potential
+                e_trial = self.energy(u + alpha * du, pose, dt, local_prev)
+                # the last term: energy differences below round-off do not count
+                if e_trial <= e_current + 1e-4 * alpha * slope + 1e-12 * abs(e_current) or alpha < 1e-6:
                     break
                 alpha *= 0.5
-            if not np.isfinite(e1):
+            if not np.isfinite(e_trial):
                 break
             u = u + alpha * du
-            e_current = e1
+            e_current = e_trial
+            last_step = alpha * float(np.max(np.abs(du_free)))
 
         # bookkeeping at the converged state
         w = self.mesh.weights
