@@ -92,3 +92,34 @@ def test_forced_del_matches_ode_with_constant_torque():
     sol = solve_ivp(lambda t, x: [x[1], 9.81 * np.sin(x[0]) + u], (0, T), [q0, 0.0], method="DOP853", rtol=1e-13, atol=1e-13)
     errors = [abs(simulate(chain, [q0], [0.0], T / N, N, tau=np.full((N, 1), u))[0][-1, 0] - sol.y[0, -1]) for N in (50, 100)]
     assert np.log2(errors[0] / errors[1]) == pytest.approx(2.0, abs=0.15)
+
+
+def test_soft_endpoint_cost_has_the_exact_discrete_optimum():
+    """Free final pose with E = w (q_N - 1)^2: the problem is linear-quadratic, so the
+    rest-to-rest cost of a distance D is c_N D^2 with c_N = 12 N^2 / (N^2 - 1) and the
+    optimum is D* = w / (c_N + w), J* = c_N w / (c_N + w)."""
+    N, w = 20, 5.0
+    grid = (PhaseGrid(1.0, N, 1.0, 0.0, -BIG, BIG, BIG),)
+    zero = np.zeros(1)
+    prob = DiscreteProblem(grid, zero, zero, q_end=None, qd_end=zero, endpoint_w_q=w, endpoint_q_ref=np.ones(1))
+    tr, res = solve(double_integrator(), prob)
+    c = 12 * N**2 / (N**2 - 1)
+    q, _ = tr.unpack(res["x"])
+    assert q[-1, 0] == pytest.approx(w / (c + w), rel=1e-9)
+    assert res["cost"] == pytest.approx(c * w / (c + w), rel=1e-9)
+
+
+def test_phase_target_pose_and_torque_bounds_are_honoured():
+    chain = double_integrator()
+    zero, one = np.zeros(1), np.ones(1)
+    phases = (
+        PhaseGrid(0.5, 10, 1.0, 0.0, -BIG, BIG, np.array([7.0]), target_q=np.array([0.8])),
+        PhaseGrid(0.5, 10, 1.0, 0.0, -BIG, np.array([1.0]), BIG),
+    )
+    tr, res = solve(chain, DiscreteProblem(phases, zero, zero, one, zero))
+    q, u = tr.unpack(res["x"])
+    assert q[10, 0] == pytest.approx(0.8, abs=1e-9)
+    assert np.abs(u[:10]).max() <= 7.0 + 1e-8 and np.isclose(np.abs(u[:10]).max(), 7.0, atol=1e-6)  # the bound is active
+    assert q[10:, 0].max() <= 1.0 + 1e-8
+    free = solve(chain, rest_to_rest([(0.5, 10), (0.5, 10)]))[1]["cost"]
+    assert res["cost"] > free  # constraints cost something

@@ -286,7 +286,8 @@ class Transcription:
             args.update(lam_x0=lam_x0, lam_g0=lam_g0)
         res = solver(**args)
         return {
-            "x": np.asarray(res["x"]).ravel(),
+            # IPOPT relaxes bounds by ~1e-8 relative: report the point inside the original bounds
+            "x": np.clip(np.asarray(res["x"]).ravel(), self.lbx, self.ubx),
             "cost": float(res["f"]),
             "g": np.asarray(res["g"]).ravel(),
             "lam_x": np.asarray(res["lam_x"]).ravel(),
