@@ -7,10 +7,10 @@ oracle's formula). Samples are independent points, so they are dealt into ``chun
 datasets named ``preliminary-00``, ... of origin ``preliminary``: the 70/30 split by
 simulation then holds out a share of them instead of all or nothing.
 
-Default K: with the default velocity bound of 2 rad/s about a fifth of the samples touch
-the cushion; ``DEFAULT_SAMPLES = 4000`` gives ~800 contact samples, enough for the default
-MLP pair to fit the penalty force to a few percent of its range
-(``tests/science/surrogate/test_preliminary.py`` checks it).
+Default K: about 30 % of the samples over the preset's joint range touch the cushion;
+``DEFAULT_SAMPLES = 4000`` gives ~1200 contact samples, enough for the default MLP pair
+to fit the penalty force and moment to ~1-3 % of their range on fresh samples
+(``tests/science/surrogate/test_surrogate_preliminary.py`` checks it).
 """
 
 from __future__ import annotations

@@ -302,9 +302,9 @@ def set_loss_gradient(net: MLP, x: torch.Tensor, y: torch.Tensor, w: torch.Tenso
             g = (g @ lin.weight) * slope(pre[i - 1], post[i - 1])
 
 
-def predict(model: SurrogateModel, t: np.ndarray, q: np.ndarray, qd: np.ndarray,
-            kinematics: KinematicsFn | None = None) -> ForceSeries:
-    """Predicted contact force and moment (headrest frame) along a trajectory."""
+def predict_arrays(model: SurrogateModel, q: np.ndarray, qd: np.ndarray,
+                   kinematics: KinematicsFn | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """Predicted force (n, 3) and moment (n, 3) at states q, qd ((n,) or (n, ndof))."""
     q = np.asarray(q, float)
     qd = np.asarray(qd, float)
     q = q[:, None] if q.ndim == 1 else q
@@ -314,7 +314,13 @@ def predict(model: SurrogateModel, t: np.ndarray, q: np.ndarray, qd: np.ndarray,
     if q.shape[1] != model.ndof:
         raise PoolDataError("q", f"has {q.shape[1]} degrees of freedom, the model was trained on {model.ndof}")
     kin = (kinematics or preset_kinematics(model.preset))(q, qd)
-    force, moment = model.predict_features(features(kin))
+    return model.predict_features(features(kin))
+
+
+def predict(model: SurrogateModel, t: np.ndarray, q: np.ndarray, qd: np.ndarray,
+            kinematics: KinematicsFn | None = None) -> ForceSeries:
+    """Predicted contact force and moment (headrest frame) along a trajectory."""
+    force, moment = predict_arrays(model, q, qd, kinematics)
     return ForceSeries(np.asarray(t, float), force, moment)
 
 
@@ -324,6 +330,7 @@ __all__ = [
     "TrainingMetrics",
     "TrainingResult",
     "predict",
+    "predict_arrays",
     "preset_kinematics",
     "sample_weights",
     "split_pool",
