@@ -1,0 +1,80 @@
+"""Find-or-create the definition versions a campaign needs from built-in presets (used by
+the CLI and tests; the REST API goes through the tasks/oracles services instead).
+
+A definition is reused when the owner already has one from the same preset whose latest
+version has the same content (``spec_hash``); otherwise a new definition is created.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import sqlalchemy as sa
+from sqlalchemy.orm import Session
+
+from alcove.models import (
+    OracleDefinition,
+    OracleVersion,
+    Role,
+    SurrogateConfig,
+    SurrogateConfigVersion,
+    TaskDefinition,
+    TaskVersion,
+    User,
+    spec_hash,
+)
+
+
+def local_user(s: Session, email: str = "admin@alcove.local") -> User:
+    """The first admin (created if there is none) who owns CLI-made campaigns."""
+    user = s.scalar(sa.select(User).where(User.role == Role.admin.value).order_by(User.id).limit(1))
+    if user is None:
+        user = s.scalar(sa.select(User).where(User.email == email))
+    if user is None:
+        user = User(email=email, display_name="Administrator", role=Role.admin.value)
+        s.add(user)
+        s.flush()
+    return user
+
+
+def _find_or_create(s: Session, owner_id: int, definition_cls: Any, version_cls: Any, fk: str, preset_key: str, name: str, spec: dict[str, Any], **version_fields: Any) -> int:
+    h = spec_hash(spec)
+    q = (
+        sa.select(version_cls.id)
+        .join(definition_cls, getattr(version_cls, fk) == definition_cls.id)
+        .where(definition_cls.owner_id == owner_id, definition_cls.preset_key == preset_key, version_cls.spec_hash == h)
+    )
+    for k, v in version_fields.items():
+        q = q.where(getattr(version_cls, k) == v)
+    found = s.scalar(q.order_by(version_cls.id.desc()).limit(1))
+    if found is not None:
+        return found
+    d = definition_cls(owner_id=owner_id, name=name, preset_key=preset_key, latest_version=1)
+    s.add(d)
+    s.flush()
+    v = version_cls(version=1, spec=spec, spec_hash=h, created_by_id=owner_id, **{fk: d.id}, **version_fields)
+    s.add(v)
+    s.flush()
+    return v.id
+
+
+def task_version_from_preset(s: Session, owner_id: int, preset: str, spec: dict[str, Any] | None = None) -> int:
+    from alcove.science.ocp.task_spec import task_preset
+
+    body = spec if spec is not None else task_preset(preset).model_dump(mode="json")
+    return _find_or_create(s, owner_id, TaskDefinition, TaskVersion, "definition_id", preset, preset, body)
+
+
+def oracle_version_for(s: Session, owner_id: int, oracle_type: str, params: dict[str, Any] | None = None) -> int:
+    from alcove.science.oracles.registry import build_oracle
+
+    oracle = build_oracle(oracle_type, params or {})  # validates; raises OracleInputError naming the field
+    body = oracle.params.model_dump(mode="json")
+    return _find_or_create(s, owner_id, OracleDefinition, OracleVersion, "definition_id", oracle_type, oracle_type, body, oracle_type=oracle_type)
+
+
+def surrogate_config_version_for(s: Session, owner_id: int, config: dict[str, Any] | None = None) -> int:
+    from alcove.science.surrogate.config import SurrogateConfig as ScienceConfig
+
+    body = ScienceConfig.parse(config or {}).model_dump(mode="json")
+    return _find_or_create(s, owner_id, SurrogateConfig, SurrogateConfigVersion, "config_id", "paper-default", "surrogate", body)

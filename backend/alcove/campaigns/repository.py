@@ -1,0 +1,219 @@
+"""All campaign queries. Functions take a ``Session`` and never commit."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from datetime import datetime, timedelta
+
+import sqlalchemy as sa
+from sqlalchemy.orm import Session, selectinload
+
+from alcove.models import (
+    Campaign,
+    CampaignConfigVersion,
+    CampaignEvent,
+    Dataset,
+    Iteration,
+    IterationMetrics,
+    IterationStep,
+    ModelVersion,
+    OcpSolution,
+    OracleRun,
+    PoolVersion,
+    StepStatus,
+    utcnow,
+)
+
+
+class NotFound(LookupError):
+    """A row the caller named does not exist; ``field`` names the identifier."""
+
+    def __init__(self, field: str, reason: str):
+        self.field = field
+        self.reason = reason
+        super().__init__(f"{field}: {reason}")
+
+
+def get_campaign(s: Session, campaign_id: int, *, lock: bool = False) -> Campaign:
+    q = sa.select(Campaign).where(Campaign.id == campaign_id)
+    if lock and s.get_bind().dialect.name == "postgresql":
+        q = q.with_for_update()
+    c = s.scalar(q)
+    if c is None:
+        raise NotFound("campaign_id", f"no campaign {campaign_id}")
+    return c
+
+
+def list_campaigns(s: Session, owner_id: int | None = None) -> list[Campaign]:
+    q = sa.select(Campaign).order_by(Campaign.id.desc())
+    if owner_id is not None:
+        q = q.where(Campaign.owner_id == owner_id)
+    return list(s.scalars(q))
+
+
+def config_version(s: Session, campaign: Campaign, version: int | None = None) -> CampaignConfigVersion:
+    v = campaign.config_version if version is None else version
+    row = s.scalar(sa.select(CampaignConfigVersion).where(CampaignConfigVersion.campaign_id == campaign.id, CampaignConfigVersion.version == v))
+    if row is None:
+        raise NotFound("config_version", f"campaign {campaign.id} has no config version {v}")
+    return row
+
+
+def get_iteration(s: Session, campaign_id: int, index: int) -> Iteration | None:
+    return s.scalar(sa.select(Iteration).where(Iteration.campaign_id == campaign_id, Iteration.index == index))
+
+
+def get_iteration_with_steps(s: Session, campaign_id: int, index: int) -> Iteration | None:
+    return s.scalar(sa.select(Iteration).options(selectinload(Iteration.steps)).where(Iteration.campaign_id == campaign_id, Iteration.index == index))
+
+
+def list_iterations(s: Session, campaign_id: int, after: int | None = None) -> list[Iteration]:
+    q = sa.select(Iteration).options(selectinload(Iteration.steps)).where(Iteration.campaign_id == campaign_id).order_by(Iteration.index)
+    if after is not None:
+        q = q.where(Iteration.index > after)
+    return list(s.scalars(q))
+
+
+def get_step(s: Session, campaign_id: int, index: int, step: str) -> IterationStep | None:
+    return s.scalar(
+        sa.select(IterationStep)
+        .join(Iteration, Iteration.id == IterationStep.iteration_id)
+        .where(IterationStep.campaign_id == campaign_id, Iteration.index == index, IterationStep.step == step)
+    )
+
+
+def steps_of_campaign(s: Session, campaign_id: int, statuses: Sequence[str] | None = None) -> list[tuple[int, IterationStep]]:
+    q = (
+        sa.select(Iteration.index, IterationStep)
+        .join(Iteration, Iteration.id == IterationStep.iteration_id)
+        .where(IterationStep.campaign_id == campaign_id)
+        .order_by(Iteration.index, IterationStep.id)
+    )
+    if statuses is not None:
+        q = q.where(IterationStep.status.in_(list(statuses)))
+    return [(i, st) for i, st in s.execute(q)]
+
+
+def claim_step(s: Session, step_id: int, attempt: int, token: str, worker: str, lease_seconds: float) -> bool:
+    """``queued -> running`` for exactly one job: the one whose message carries the next
+    attempt number. A duplicate or stale delivery matches no row and does nothing."""
+    now = utcnow()
+    res = s.execute(
+        sa.update(IterationStep)
+        .where(IterationStep.id == step_id, IterationStep.status == StepStatus.queued.value, IterationStep.attempts == attempt - 1)
+        .values(
+            status=StepStatus.running.value, attempts=attempt, claim_token=token, worker_name=worker,
+            started_at=now, heartbeat_at=now, lease_until=now + timedelta(seconds=lease_seconds), error=None,
+        )
+        .execution_options(synchronize_session=False)
+    )
+    return res.rowcount == 1
+
+
+def extend_lease(s: Session, step_id: int, token: str, lease_seconds: float) -> tuple[bool, bool]:
+    """Heartbeat of a running step. Returns (still ours, cancel requested)."""
+    now = utcnow()
+    res = s.execute(
+        sa.update(IterationStep)
+        .where(IterationStep.id == step_id, IterationStep.claim_token == token, IterationStep.status == StepStatus.running.value)
+        .values(heartbeat_at=now, lease_until=now + timedelta(seconds=lease_seconds))
+        .execution_options(synchronize_session=False)
+    )
+    cancel = s.scalar(
+        sa.select(Campaign.cancel_requested).join(IterationStep, IterationStep.campaign_id == Campaign.id).where(IterationStep.id == step_id)
+    )
+    return res.rowcount == 1, bool(cancel)
+
+
+def owned_running_step(s: Session, step_id: int, token: str) -> IterationStep | None:
+    """The step row if this job still holds it (a reconciler may have taken it over)."""
+    return s.scalar(
+        sa.select(IterationStep).where(IterationStep.id == step_id, IterationStep.claim_token == token, IterationStep.status == StepStatus.running.value)
+    )
+
+
+def expired_running_steps(s: Session, now: datetime) -> list[tuple[int, IterationStep]]:
+    q = (
+        sa.select(Iteration.index, IterationStep)
+        .join(Iteration, Iteration.id == IterationStep.iteration_id)
+        .where(IterationStep.status == StepStatus.running.value, IterationStep.lease_until < now)
+    )
+    return [(i, st) for i, st in s.execute(q)]
+
+
+def stale_queued_steps(s: Session, before: datetime) -> list[tuple[int, IterationStep]]:
+    q = (
+        sa.select(Iteration.index, IterationStep)
+        .join(Iteration, Iteration.id == IterationStep.iteration_id)
+        .where(IterationStep.status == StepStatus.queued.value, IterationStep.queued_at < before)
+    )
+    return [(i, st) for i, st in s.execute(q)]
+
+
+def metrics_series(s: Session, campaign_id: int, after: int | None = None) -> list[IterationMetrics]:
+    q = sa.select(IterationMetrics).where(IterationMetrics.campaign_id == campaign_id).order_by(IterationMetrics.iteration_index)
+    if after is not None:
+        q = q.where(IterationMetrics.iteration_index > after)
+    return list(s.scalars(q))
+
+
+def metrics_of(s: Session, campaign_id: int, index: int) -> IterationMetrics | None:
+    return s.scalar(sa.select(IterationMetrics).where(IterationMetrics.campaign_id == campaign_id, IterationMetrics.iteration_index == index))
+
+
+def finished_iteration_times(s: Session, campaign_id: int) -> list[tuple[int, str, datetime | None, datetime | None]]:
+    q = sa.select(Iteration.index, Iteration.status, Iteration.started_at, Iteration.finished_at).where(
+        Iteration.campaign_id == campaign_id, Iteration.index > 0
+    ).order_by(Iteration.index)
+    return [tuple(r) for r in s.execute(q)]  # type: ignore[misc]
+
+
+def events(s: Session, campaign_id: int, after: int = 0, limit: int = 1000) -> list[CampaignEvent]:
+    q = sa.select(CampaignEvent).where(CampaignEvent.campaign_id == campaign_id, CampaignEvent.id > after).order_by(CampaignEvent.id).limit(limit)
+    return list(s.scalars(q))
+
+
+def add_event(s: Session, campaign_id: int, kind: str, message: str = "", *, iteration: int | None = None, step: str | None = None, data: dict | None = None) -> None:
+    s.add(CampaignEvent(campaign_id=campaign_id, kind=kind, message=message, iteration_index=iteration, step=step, data=data or {}))
+
+
+# ----------------------------------------------------------------------------- data of a campaign
+
+
+def resolve_source(s: Session, campaign: Campaign, index: int) -> tuple[int, int] | None:
+    """(campaign id, index) holding iteration ``index``'s outputs for ``campaign``: its own,
+    or for indices up to a fork's ``source_iteration`` the source campaign's (recursively)."""
+    c = campaign
+    while c.source_campaign_id is not None and c.source_iteration is not None and index <= c.source_iteration:
+        c = get_campaign(s, c.source_campaign_id)
+    return c.id, index
+
+
+def pool_version(s: Session, campaign: Campaign, version: int) -> PoolVersion | None:
+    cid, v = resolve_source(s, campaign, version)  # type: ignore[misc]
+    return s.scalar(sa.select(PoolVersion).where(PoolVersion.campaign_id == cid, PoolVersion.version == v))
+
+
+def model_version(s: Session, campaign: Campaign, version: int) -> ModelVersion | None:
+    cid, v = resolve_source(s, campaign, version)  # type: ignore[misc]
+    return s.scalar(sa.select(ModelVersion).where(ModelVersion.campaign_id == cid, ModelVersion.version == v))
+
+
+def own_pool_versions(s: Session, campaign_id: int) -> list[PoolVersion]:
+    return list(s.scalars(sa.select(PoolVersion).where(PoolVersion.campaign_id == campaign_id).order_by(PoolVersion.version)))
+
+
+def own_model_versions(s: Session, campaign_id: int) -> list[ModelVersion]:
+    return list(s.scalars(sa.select(ModelVersion).where(ModelVersion.campaign_id == campaign_id).order_by(ModelVersion.version)))
+
+
+def latest_ocp_solution(s: Session, iteration_id: int) -> OcpSolution | None:
+    return s.scalar(sa.select(OcpSolution).where(OcpSolution.iteration_id == iteration_id).order_by(OcpSolution.attempt.desc()).limit(1))
+
+
+def oracle_runs(s: Session, iteration_id: int) -> list[OracleRun]:
+    return list(s.scalars(sa.select(OracleRun).where(OracleRun.iteration_id == iteration_id).order_by(OracleRun.attempt)))
+
+
+def iteration_dataset(s: Session, iteration_id: int) -> Dataset | None:
+    return s.scalar(sa.select(Dataset).where(Dataset.iteration_id == iteration_id, Dataset.origin == "oracle"))

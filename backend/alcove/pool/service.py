@@ -1,0 +1,170 @@
+"""Pool versions and datasets: store, version, load for training, tabulate for export.
+
+Arrays live in content-addressed blobs (:mod:`alcove.db.arrays`): ``t`` (n,), ``q``,
+``qd`` (n, ndof) and ``f`` (n, 6: fx fy fz mx my mz in the headrest frame).
+"""
+
+from __future__ import annotations
+
+import csv
+import hashlib
+import io
+import threading
+from collections import OrderedDict
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+from sqlalchemy.orm import Session
+
+from alcove.db.arrays import get_arrays, put_arrays
+from alcove.models import Dataset, PoolVersion, PoolVersionMember
+from alcove.pool import repository as repo
+
+if TYPE_CHECKING:
+    from alcove.science.surrogate.dataset import PoolDataset
+
+FORCE_COLUMNS = ("fx", "fy", "fz", "mx", "my", "mz")
+
+_cache_lock = threading.Lock()
+_array_cache: "OrderedDict[str, dict[str, np.ndarray]]" = OrderedDict()
+_ARRAY_CACHE_SIZE = 2048
+
+
+def dataset_arrays(s: Session, dataset: Dataset) -> dict[str, np.ndarray]:
+    """The arrays of a dataset (cached per process: blobs are immutable)."""
+    key = dataset.content_sha256
+    with _cache_lock:
+        got = _array_cache.get(key)
+        if got is not None:
+            _array_cache.move_to_end(key)
+            return got
+    arrays = get_arrays(s, key)
+    with _cache_lock:
+        _array_cache[key] = arrays
+        while len(_array_cache) > _ARRAY_CACHE_SIZE:
+            _array_cache.popitem(last=False)
+    return arrays
+
+
+def store_dataset(
+    s: Session, *, t: np.ndarray, q: np.ndarray, qd: np.ndarray, f: np.ndarray, origin: str, name: str,
+    campaign_id: int | None = None, iteration_id: int | None = None, oracle_run_id: int | None = None,
+    owner_id: int | None = None, meta: dict[str, Any] | None = None,
+) -> Dataset:
+    q2 = np.asarray(q, float).reshape(len(t), -1)
+    arrays = {"t": np.asarray(t, float), "q": q2, "qd": np.asarray(qd, float).reshape(q2.shape), "f": np.asarray(f, float).reshape(len(t), 6)}
+    sha = put_arrays(s, arrays)
+    ds = Dataset(
+        origin=origin, content_sha256=sha, campaign_id=campaign_id, iteration_id=iteration_id, oracle_run_id=oracle_run_id,
+        owner_id=owner_id, name=name, n_samples=int(len(t)), n_trajectories=1, meta=meta or {},
+    )
+    s.add(ds)
+    s.flush()
+    return ds
+
+
+def create_version(
+    s: Session, *, campaign_id: int, iteration_id: int, version: int, parent: PoolVersion | None, new_datasets: list[Dataset]
+) -> PoolVersion:
+    """Pool version ``version`` = ``parent``'s members + ``new_datasets`` (a dataset that is
+    already a member is not added again)."""
+    base = repo.members(s, parent.id) if parent is not None else []
+    have = {d.id for _, d in base}
+    ordered = [d for _, d in base]
+    added = []
+    for d in new_datasets:
+        if d.id not in have:
+            have.add(d.id)
+            ordered.append(d)
+            added.append(d.id)
+    h = hashlib.sha256()
+    for d in ordered:
+        h.update(d.content_sha256.encode())
+    pv = PoolVersion(
+        campaign_id=campaign_id, iteration_id=iteration_id, version=version, parent_id=parent.id if parent is not None else None,
+        n_datasets=len(ordered), n_samples=int(sum(d.n_samples for d in ordered)), content_hash=h.hexdigest(),
+    )
+    s.add(pv)
+    s.flush()
+    added_set = set(added)
+    s.add_all(PoolVersionMember(pool_version_id=pv.id, dataset_id=d.id, position=i, added_in_this_version=d.id in added_set) for i, d in enumerate(ordered))
+    s.flush()
+    return pv
+
+
+def _pool_name(d: Dataset) -> str:
+    base = d.name or f"dataset-{d.id}"
+    return f"{base}.{d.id}" if not base.endswith(f".{d.id}") else base
+
+
+def load_training_pool(s: Session, pool_version: PoolVersion) -> "list[PoolDataset]":
+    """The version's datasets as :class:`PoolDataset` objects (names unique: ``name.id``)."""
+    from alcove.science.surrogate.dataset import PoolDataset
+
+    out = []
+    for _, d in repo.members(s, pool_version.id):
+        a = dataset_arrays(s, d)
+        origin = d.origin if d.origin in ("preliminary", "oracle", "upload") else "oracle"
+        out.append(PoolDataset(_pool_name(d), a["t"], a["q"], a["qd"], a["f"][:, :3], a["f"][:, 3:], origin))
+    return out
+
+
+def pool_table_columns(ndof: int) -> list[str]:
+    return ["dataset_id", "dataset", "origin", "added_in_this_version", "t", *[f"q_{i}" for i in range(ndof)], *[f"qd_{i}" for i in range(ndof)], *FORCE_COLUMNS]
+
+
+def pool_version_columns(s: Session, pool_version: PoolVersion) -> dict[str, list[Any]]:
+    """One row per sample: dataset id/name/origin, t, q_i, qd_i, fx..mz."""
+    cols: dict[str, list[Any]] | None = None
+    for m, d in repo.members(s, pool_version.id):
+        a = dataset_arrays(s, d)
+        ndof = a["q"].shape[1]
+        if cols is None:
+            cols = {c: [] for c in pool_table_columns(ndof)}
+        n = len(a["t"])
+        cols["dataset_id"] += [d.id] * n
+        cols["dataset"] += [d.name] * n
+        cols["origin"] += [d.origin] * n
+        cols["added_in_this_version"] += [bool(m.added_in_this_version)] * n
+        cols["t"] += a["t"].tolist()
+        for i in range(ndof):
+            cols[f"q_{i}"] += a["q"][:, i].tolist()
+            cols[f"qd_{i}"] += a["qd"][:, i].tolist()
+        for j, c in enumerate(FORCE_COLUMNS):
+            cols[c] += a["f"][:, j].tolist()
+    return cols or {c: [] for c in pool_table_columns(1)}
+
+
+def pool_version_table(s: Session, pool_version: PoolVersion, fmt: str = "csv") -> bytes:
+    """The version's samples as CSV or Parquet bytes."""
+    cols = pool_version_columns(s, pool_version)
+    if fmt == "parquet":
+        import pyarrow as pa
+        import pyarrow.parquet as pq
+
+        buf = io.BytesIO()
+        pq.write_table(pa.table(cols), buf)
+        return buf.getvalue()
+    if fmt != "csv":
+        raise ValueError(f"format: expected csv or parquet, got {fmt!r}")
+    out = io.StringIO()
+    w = csv.writer(out, lineterminator="\n")
+    names = list(cols)
+    w.writerow(names)
+    for row in zip(*(cols[c] for c in names)):
+        w.writerow([repr(v) if isinstance(v, float) else v for v in row])
+    return out.getvalue().encode()
+
+
+def upload_preliminary_dataset(s: Session, owner_id: int, source: str | io.TextIOBase, name: str = "upload", chunks: int = 10) -> list[Dataset]:
+    """Store a preliminary-data CSV (columns ``[simulation,] [t,] q_i, qd_i, fx..mz``) as
+    upload datasets; pass their ids as ``preliminary.dataset_ids`` of a campaign."""
+    from alcove.science.surrogate.dataset import load_preliminary_csv
+
+    text = source if isinstance(source, io.TextIOBase) else io.StringIO(source)
+    pool = load_preliminary_csv(text, origin="upload", chunks=chunks, prefix=name)
+    out = []
+    for ds in pool:
+        out.append(store_dataset(s, t=ds.t, q=ds.q, qd=ds.qd, f=np.hstack([ds.force, ds.moment]), origin="upload", name=ds.name, owner_id=owner_id,
+                                 meta={"source": name}))
+    return out

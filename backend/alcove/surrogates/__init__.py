@@ -1,0 +1,1 @@
+"""Model versions: trained surrogates with lineage, stored as JSON artifacts in blobs."""

@@ -1,0 +1,129 @@
+"""Store and load trained surrogates.
+
+A model version keeps two blobs: ``weights_sha256`` (``.npz`` of every parameter, for
+diffing and numerical use) and ``artifact_sha256`` (the artifact JSON of
+:mod:`alcove.science.surrogate.artifact`, from which the model is rebuilt exactly; JSON
+floats round-trip). ``artifact_zip`` adds the TorchScript files for use outside alcove.
+Torch is imported only inside the functions that need it.
+"""
+
+from __future__ import annotations
+
+import io
+import json
+import platform
+import tempfile
+import threading
+import zipfile
+from collections import OrderedDict
+from functools import lru_cache
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+from sqlalchemy.orm import Session
+
+import alcove
+from alcove.db.arrays import get_bytes, put_arrays, put_bytes
+from alcove.models import ModelVersion
+
+if TYPE_CHECKING:
+    from alcove.science.surrogate.mlp import SurrogateModel
+    from alcove.science.surrogate.training import TrainingResult
+
+ARTIFACT_MEDIA_TYPE = "application/vnd.alcove.surrogate+json"
+
+_lock = threading.Lock()
+_models: "OrderedDict[str, SurrogateModel]" = OrderedDict()
+
+
+@lru_cache
+def code_version() -> str:
+    """alcove's version plus the git commit when running from a checkout."""
+    import subprocess
+
+    root = Path(alcove.__file__).resolve().parents[2]
+    try:
+        commit = subprocess.run(["git", "-C", str(root), "rev-parse", "--short", "HEAD"], capture_output=True, text=True, timeout=5).stdout.strip()
+    except (OSError, subprocess.SubprocessError):
+        commit = ""
+    return f"{alcove.__version__}+{commit}" if commit else alcove.__version__
+
+
+@lru_cache
+def library_versions() -> dict[str, str]:
+    import casadi
+    import scipy
+    import torch
+
+    return {"python": platform.python_version(), "numpy": np.__version__, "scipy": scipy.__version__, "torch": torch.__version__, "casadi": casadi.__version__}
+
+
+def store_model(
+    s: Session, result: "TrainingResult", *, campaign_id: int, iteration_id: int, version: int, pool_version_id: int,
+    parent_model_id: int | None, surrogate_config_version_id: int | None, seed: int, lineage: dict[str, Any] | None = None,
+) -> ModelVersion:
+    from alcove.science.surrogate.artifact import artifact_dict
+
+    model = result.model
+    weights = {f"{k}.{n}": p.detach().double().numpy() for k, net in (("force", model.force_net), ("moment", model.moment_net)) for n, p in net.state_dict().items()}
+    weights_sha = put_arrays(s, weights)
+    doc = artifact_dict(model, {**(lineage or {}), "campaign_id": campaign_id, "iteration": version, "pool_version_id": pool_version_id, "parent_model_id": parent_model_id})
+    artifact_sha = put_bytes(s, json.dumps(doc, sort_keys=True).encode(), ARTIFACT_MEDIA_TYPE)
+    m = result.metrics
+    mv = ModelVersion(
+        campaign_id=campaign_id, iteration_id=iteration_id, version=version, pool_version_id=pool_version_id, parent_model_id=parent_model_id,
+        surrogate_config_version_id=surrogate_config_version_id, seed=int(seed),
+        architecture={"force": doc["networks"]["force"]["hidden"], "moment": doc["networks"]["moment"]["hidden"],
+                      "activation": {"force": model.force_net.activation, "moment": model.moment_net.activation}, "dtype": model.config.dtype},
+        normalisation=doc["normalization"]["input"],
+        training_config=model.config.model_dump(mode="json"),
+        training_metrics={**m.to_dict(), "test_sets": result.split.test_sets, "history": result.history},
+        test_force_rmse=m.rmse["force"]["test"], test_moment_rmse=m.rmse["moment"]["test"],
+        epochs=max(m.epochs.values()) if m.epochs else None, train_wall_time_s=m.wall_time_s,
+        weights_sha256=weights_sha, artifact_sha256=artifact_sha, code_version=code_version(), library_versions=library_versions(),
+    )
+    s.add(mv)
+    s.flush()
+    with _lock:
+        _models[artifact_sha] = model
+    return mv
+
+
+def artifact_document(s: Session, mv: ModelVersion) -> dict[str, Any]:
+    if mv.artifact_sha256 is None:
+        raise ValueError(f"model version {mv.id} has no artifact")
+    return json.loads(get_bytes(s, mv.artifact_sha256))
+
+
+def load_model(s: Session, mv: ModelVersion) -> "SurrogateModel":
+    """The trained model of a version (cached per process: artifacts are immutable)."""
+    from alcove.science.surrogate.artifact import model_from_dict
+
+    key = mv.artifact_sha256 or ""
+    with _lock:
+        got = _models.get(key)
+        if got is not None:
+            _models.move_to_end(key)
+            return got
+    model = model_from_dict(artifact_document(s, mv))
+    with _lock:
+        _models[key] = model
+        while len(_models) > 16:
+            _models.popitem(last=False)
+    return model
+
+
+def model_artifact_bytes(s: Session, mv: ModelVersion) -> bytes:
+    """A zip of the self-contained artifact folder (surrogate.json, force.pt, moment.pt)."""
+    from alcove.science.surrogate.artifact import save_artifact
+
+    model = load_model(s, mv)
+    doc = artifact_document(s, mv)
+    with tempfile.TemporaryDirectory() as tmp:
+        root = save_artifact(model, Path(tmp) / "model", lineage=doc.get("lineage"))
+        buf = io.BytesIO()
+        with zipfile.ZipFile(buf, "w", zipfile.ZIP_DEFLATED) as zf:
+            for p in sorted(root.iterdir()):
+                zf.write(p, p.name)
+        return buf.getvalue()
