@@ -208,11 +208,13 @@ class CushionSolver:
             return StepResult(True, 0, True, zero, 0.0, zero, 0.0, 0, 0.0, 0.0, 0.0)
 
         u = self._initial_guess(pose, dt, local_prev)
+        e_current: float | None = self.energy(u, pose, dt, local_prev)
+        if not np.isfinite(e_current):  # the guess inverted an element: start from the last state
+            u, e_current = self.u.copy(), None
         tol = None
         converged = False
         iterations = 0
         res_norm = np.inf
-        e_current = None
         last_step: float | None = None
         for iterations in range(self.max_iterations + 1):
             grad, K, cs, f_internal, foam = self.gradient_and_tangent(u, pose, dt, local_prev)
