@@ -16,6 +16,7 @@ from starlette.types import Scope
 
 import alcove
 from alcove.api import health
+from alcove.api.errors import BodySizeLimit, install_error_handlers
 from alcove.db.retry import is_retryable_db_error
 from alcove.settings import Settings, get_settings
 
@@ -32,8 +33,20 @@ def operation_id(route: APIRoute) -> str:
 
 def api_router() -> APIRouter:
     """All ``/api/v1`` routers. Add new routers here."""
+    from alcove.api import campaigns
+    from alcove.oracles.router import admin_router as command_oracles_router
+    from alcove.oracles.router import router as oracles_router
+    from alcove.tasks.router import router as tasks_router
+    from alcove.users.router import router as users_router
+
     router = APIRouter(prefix=API_PREFIX)
     router.include_router(health.router)
+    router.include_router(users_router)
+    router.include_router(tasks_router)
+    router.include_router(oracles_router)
+    router.include_router(command_oracles_router)
+    for sub in campaigns.routers():
+        router.include_router(sub)
     return router
 
 
@@ -49,6 +62,8 @@ def create_app(settings: Settings | None = None) -> FastAPI:
         generate_unique_id_function=operation_id,
     )
     app.include_router(api_router())
+    install_error_handlers(app)
+    app.add_middleware(BodySizeLimit)
 
     @app.exception_handler(sa_exc.OperationalError)
     async def _db_busy(request: Request, err: sa_exc.OperationalError) -> JSONResponse:

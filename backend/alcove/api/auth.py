@@ -1,0 +1,53 @@
+"""Authentication dependencies: ``Authorization: Bearer <token>`` (a login session token
+or a personal API token). Every route except health and login depends on
+:data:`CurrentUser`; admin-only routes on :data:`AdminUser`."""
+
+from __future__ import annotations
+
+from typing import Annotated
+
+from fastapi import Depends, HTTPException, Request, status
+from fastapi.security import HTTPAuthorizationCredentials, HTTPBearer
+
+from alcove.api.deps import SessionDep
+from alcove.models import ApiToken, User, utcnow
+from alcove.users import service
+
+bearer_scheme = HTTPBearer(auto_error=False, description="A token from `POST /api/v1/auth/login` or a personal API token (`alc_...`).")
+
+
+def _unauthorized(detail: str) -> HTTPException:
+    return HTTPException(status.HTTP_401_UNAUTHORIZED, detail=detail, headers={"WWW-Authenticate": "Bearer"})
+
+
+def current_token(
+    request: Request,
+    session: SessionDep,
+    credentials: Annotated[HTTPAuthorizationCredentials | None, Depends(bearer_scheme)],
+) -> ApiToken:
+    if credentials is None or credentials.scheme.lower() != "bearer" or not credentials.credentials:
+        raise _unauthorized("not authenticated: send Authorization: Bearer <token>")
+    found = service.authenticate(session, credentials.credentials)
+    if found is None:
+        raise _unauthorized("invalid, expired or revoked token")
+    token, user = found
+    if service.needs_touch(token):
+        token.last_used_at = utcnow()
+        session.commit()  # nothing else happened in this session yet
+    request.state.user = user
+    return token
+
+
+def current_user(request: Request, token: Annotated[ApiToken, Depends(current_token)]) -> User:
+    return request.state.user
+
+
+def admin_user(user: Annotated[User, Depends(current_user)]) -> User:
+    if not user.is_admin:
+        raise HTTPException(status.HTTP_403_FORBIDDEN, detail="administrators only")
+    return user
+
+
+CurrentToken = Annotated[ApiToken, Depends(current_token)]
+CurrentUser = Annotated[User, Depends(current_user)]
+AdminUser = Annotated[User, Depends(admin_user)]

@@ -1,0 +1,147 @@
+"""Error handlers and request-size limits.
+
+Every client mistake gets a 4xx with a readable body, never a 500:
+
+* 422 ``{"detail": [{"loc": [...], "field": "spec.phases.1.duration", "msg": ..., "type": ...}]}``
+  for request validation (FastAPI) and for the services' :class:`~alcove.errors.InvalidInput`;
+* 404 / 403 / 409 / 413 / 429 / 401 ``{"detail": "..."}`` for the other domain errors;
+* 409 for integrity violations (e.g. a duplicate name) and for edits of immutable rows.
+"""
+
+from __future__ import annotations
+
+import logging
+from typing import Any
+
+from fastapi import FastAPI, Request
+from fastapi.encoders import jsonable_encoder
+from fastapi.exceptions import RequestValidationError
+from fastapi.responses import JSONResponse
+from pydantic import ValidationError
+from sqlalchemy import exc as sa_exc
+from starlette.types import ASGIApp, Message, Receive, Scope, Send
+
+from alcove.errors import (
+    AuthenticationFailed,
+    Conflict,
+    InvalidInput,
+    LoginLocked,
+    NotFound,
+    PermissionDenied,
+    TooLarge,
+    field_errors_from_pydantic,
+    merge_message_path,
+)
+from alcove.models import ImmutableRowError
+
+log = logging.getLogger(__name__)
+
+#: Largest JSON request body (a command oracle's template text can be a few MB).
+MAX_JSON_BODY_BYTES = 8 * 1024 * 1024
+#: Largest upload (a preliminary data set CSV).
+MAX_UPLOAD_BODY_BYTES = 64 * 1024 * 1024
+UPLOAD_PATH_SUFFIXES = ("/uploads", "/preliminary-datasets")
+
+
+def _validation_detail(errors: list[Any]) -> list[dict[str, Any]]:
+    out = []
+    for e in errors:
+        loc, msg = merge_message_path(list(e.get("loc", ())), str(e.get("msg", "invalid")))
+        item = {"loc": loc, "field": ".".join(str(p) for p in loc if p not in ("body", "query", "path", "header")), "msg": msg, "type": e.get("type", "value_error")}
+        out.append(item)
+    return jsonable_encoder(out)
+
+
+def install_error_handlers(app: FastAPI) -> None:
+    @app.exception_handler(RequestValidationError)
+    async def _request_validation(request: Request, err: RequestValidationError) -> JSONResponse:
+        return JSONResponse({"detail": _validation_detail(list(err.errors()))}, status_code=422)
+
+    @app.exception_handler(InvalidInput)
+    async def _invalid(request: Request, err: InvalidInput) -> JSONResponse:
+        return JSONResponse({"detail": jsonable_encoder(err.detail())}, status_code=422)
+
+    @app.exception_handler(ValidationError)
+    async def _pydantic(request: Request, err: ValidationError) -> JSONResponse:
+        # a pydantic model validated inside a service (the request body itself was fine)
+        return JSONResponse({"detail": jsonable_encoder([e.as_dict(("body",)) for e in field_errors_from_pydantic(err)])}, status_code=422)
+
+    def simple(status: int, headers: dict[str, str] | None = None):  # noqa: ANN202
+        async def handler(request: Request, err: Exception) -> JSONResponse:
+            return JSONResponse({"detail": getattr(err, "message", str(err))}, status_code=status, headers=headers)
+
+        return handler
+
+    app.add_exception_handler(NotFound, simple(404))
+    app.add_exception_handler(PermissionDenied, simple(403))
+    app.add_exception_handler(Conflict, simple(409))
+    app.add_exception_handler(ImmutableRowError, simple(409))
+    app.add_exception_handler(TooLarge, simple(413))
+    app.add_exception_handler(AuthenticationFailed, simple(401, {"WWW-Authenticate": "Bearer"}))
+
+    @app.exception_handler(LoginLocked)
+    async def _locked(request: Request, err: LoginLocked) -> JSONResponse:
+        return JSONResponse({"detail": err.message}, status_code=429, headers={"Retry-After": str(err.retry_after_s)})
+
+    @app.exception_handler(sa_exc.IntegrityError)
+    async def _integrity(request: Request, err: sa_exc.IntegrityError) -> JSONResponse:
+        log.info("integrity error answered 409: %s", err.orig)
+        return JSONResponse({"detail": "conflicts with existing data (duplicate or still referenced)"}, status_code=409)
+
+
+class BodySizeLimit:
+    """Pure ASGI middleware: 413 when a request body exceeds its limit (declared or streamed)."""
+
+    def __init__(self, app: ASGIApp, max_json: int = MAX_JSON_BODY_BYTES, max_upload: int = MAX_UPLOAD_BODY_BYTES) -> None:
+        self.app = app
+        self.max_json = max_json
+        self.max_upload = max_upload
+
+    async def __call__(self, scope: Scope, receive: Receive, send: Send) -> None:
+        if scope["type"] != "http":
+            await self.app(scope, receive, send)
+            return
+        path: str = scope.get("path", "")
+        limit = self.max_upload if path.endswith(UPLOAD_PATH_SUFFIXES) else self.max_json
+        for name, value in scope.get("headers", ()):
+            if name == b"content-length":
+                try:
+                    declared = int(value)
+                except ValueError:
+                    declared = 0
+                if declared > limit:
+                    await _too_large(send, limit)
+                    return
+        received = 0
+        started = False
+
+        async def limited_receive() -> Message:
+            nonlocal received
+            message = await receive()
+            if message["type"] == "http.request":
+                received += len(message.get("body", b""))
+                if received > limit:
+                    raise _BodyTooLarge
+            return message
+
+        async def tracking_send(message: Message) -> None:
+            nonlocal started
+            if message["type"] == "http.response.start":
+                started = True
+            await send(message)
+
+        try:
+            await self.app(scope, limited_receive, tracking_send)
+        except _BodyTooLarge:
+            if not started:
+                await _too_large(send, limit)
+
+
+class _BodyTooLarge(Exception):
+    pass
+
+
+async def _too_large(send: Send, limit: int) -> None:
+    body = JSONResponse({"detail": f"request body larger than {limit} bytes"}, status_code=413).body
+    await send({"type": "http.response.start", "status": 413, "headers": [(b"content-type", b"application/json"), (b"content-length", str(len(body)).encode())]})
+    await send({"type": "http.response.body", "body": body})

@@ -1,0 +1,29 @@
+"""The application's route table, flattened (for tests, docs and the CLI)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from fastapi import FastAPI
+from fastapi.routing import APIRoute, iter_route_contexts
+
+
+@dataclass(frozen=True)
+class RouteInfo:
+    method: str
+    path: str  # full path with {placeholders}
+    operation_id: str
+    route: APIRoute
+
+
+def api_routes(app: FastAPI) -> list[RouteInfo]:
+    """Every (method, path) of every API route, including those hidden from the schema."""
+    out: list[RouteInfo] = []
+    for ctx in iter_route_contexts(app.routes):
+        route = ctx.original_route
+        if not isinstance(route, APIRoute):
+            continue
+        path = ctx.path_format or ctx.path or route.path_format
+        for method in sorted(route.methods - {"HEAD", "OPTIONS"}):
+            out.append(RouteInfo(method, path, route.operation_id or route.name, route))
+    return out

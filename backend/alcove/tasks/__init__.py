@@ -1,0 +1,1 @@
+"""Task definitions (the user's OCP task) with versions; presets; validation."""

@@ -1,0 +1,125 @@
+"""Routes ``/tasks``: versioned task definitions, presets, JSON Schema, validation."""
+
+from __future__ import annotations
+
+from typing import Annotated, Any
+
+from fastapi import APIRouter, Path, Response, status
+
+from alcove import versioning
+from alcove.api.auth import CurrentUser
+from alcove.api.deps import SessionDep
+from alcove.api.params import Limit, ObjectId, Offset, VersionNumber
+from alcove.models import TaskDefinition, User
+from alcove.science.ocp.task_spec import TaskSpec
+from alcove.tasks import service
+from alcove.tasks.schemas import CopyPreset, FieldErrorOut, TaskDraft, TaskIn, TaskOut, TaskPresetOut, TaskUpdate, TaskVersionOut, ValidationReport
+from alcove.users.access import can_edit, get_for
+
+router = APIRouter(prefix="/tasks", tags=["tasks"])
+PresetKey = Annotated[str, Path(min_length=1, max_length=100)]
+
+
+def task_out(session: SessionDep, definition: TaskDefinition, version: Any, user: User, owner_email: str | None = None) -> TaskOut:
+    spec = TaskSpec.model_validate(version.spec)
+    return TaskOut(
+        id=definition.id,
+        name=definition.name,
+        description=definition.description,
+        owner_id=definition.owner_id,
+        owner=owner_email or (definition.owner.email if definition.owner else None),
+        preset_key=definition.preset_key,
+        version=version.version,
+        version_locked=versioning.is_used(session, service.KIND, version),
+        can_edit=can_edit(session, definition, user),
+        archived=definition.archived_at is not None,
+        created_at=definition.created_at,
+        updated_at=definition.updated_at,
+        spec=version.spec,
+        n_phases=len(spec.phases),
+        duration_s=spec.duration,
+        intervals=spec.intervals,
+    )
+
+
+def version_out(session: SessionDep, version: Any) -> TaskVersionOut:
+    return TaskVersionOut(
+        version=version.version, spec_hash=version.spec_hash, note=version.note, locked=versioning.is_used(session, service.KIND, version), created_at=version.created_at, spec=version.spec
+    )
+
+
+@router.get("", response_model=list[TaskOut], operation_id="list_tasks")
+def list_tasks(user: CurrentUser, session: SessionDep, include_archived: bool = False, limit: Limit = 100, offset: Offset = 0) -> list[TaskOut]:
+    """Your task definitions and those shared with you (latest versions), newest first."""
+    rows = versioning.list_visible(session, service.KIND, user, include_archived=include_archived, limit=limit, offset=offset)
+    return [task_out(session, d, v, user, email) for d, v, email in rows]
+
+
+@router.post("", response_model=TaskOut, status_code=status.HTTP_201_CREATED, operation_id="create_task")
+def create_task(body: TaskIn, user: CurrentUser, session: SessionDep) -> TaskOut:
+    definition, version = service.create(session, user, name=body.name, description=body.description, spec=body.spec, note=body.note)
+    session.commit()
+    return task_out(session, definition, version, user, user.email)
+
+
+@router.get("/presets", response_model=list[TaskPresetOut], operation_id="list_task_presets")
+def list_task_presets(user: CurrentUser) -> list[TaskPresetOut]:
+    """Built-in tasks (e.g. ``head-headrest-2phase``, the paper's proof of concept)."""
+    return [TaskPresetOut(**p) for p in service.presets()]
+
+
+@router.post("/presets/{key}/copy", response_model=TaskOut, status_code=status.HTTP_201_CREATED, operation_id="copy_task_preset")
+def copy_task_preset(key: PresetKey, user: CurrentUser, session: SessionDep, body: CopyPreset | None = None) -> TaskOut:
+    """Create your own editable task from a preset."""
+    definition, version = service.copy_preset(session, user, key, body.name if body else None)
+    session.commit()
+    return task_out(session, definition, version, user, user.email)
+
+
+@router.get("/schema", response_model=dict[str, Any], operation_id="get_task_schema")
+def get_task_schema(user: CurrentUser) -> dict[str, Any]:
+    """JSON Schema of a task's ``spec`` (for rendering the form)."""
+    return service.json_schema()
+
+
+@router.post("/validate", response_model=ValidationReport, operation_id="validate_task")
+def validate_task(body: TaskDraft, user: CurrentUser) -> ValidationReport:
+    """Check a draft without saving: field-level errors (paths like ``spec.phases.1.duration``)."""
+    valid, errors, normalized = service.validate_draft(body.spec)
+    return ValidationReport(valid=valid, errors=[FieldErrorOut.of(e) for e in errors], normalized=normalized)
+
+
+@router.get("/{task_id}", response_model=TaskOut, operation_id="get_task")
+def get_task(task_id: ObjectId, user: CurrentUser, session: SessionDep) -> TaskOut:
+    definition = get_for(session, TaskDefinition, task_id, user)
+    return task_out(session, definition, versioning.latest(session, service.KIND, definition), user)
+
+
+@router.put("/{task_id}", response_model=TaskOut, operation_id="update_task")
+def update_task(task_id: ObjectId, body: TaskUpdate, user: CurrentUser, session: SessionDep) -> TaskOut:
+    """Rename or edit. A changed ``spec`` edits the latest version while no campaign uses it,
+    and otherwise creates a new version (used versions never change)."""
+    definition, version, _ = service.update(session, user, task_id, name=body.name, description=body.description, spec=body.spec, note=body.note)
+    session.commit()
+    return task_out(session, definition, version, user)
+
+
+@router.delete("/{task_id}", status_code=status.HTTP_204_NO_CONTENT, operation_id="delete_task")
+def delete_task(task_id: ObjectId, user: CurrentUser, session: SessionDep) -> Response:
+    """Delete; a task used by a campaign is archived instead (hidden, kept for its campaigns)."""
+    definition = get_for(session, TaskDefinition, task_id, user, need="owner")
+    versioning.delete(session, service.KIND, definition)
+    session.commit()
+    return Response(status_code=status.HTTP_204_NO_CONTENT)
+
+
+@router.get("/{task_id}/versions", response_model=list[TaskVersionOut], operation_id="list_task_versions")
+def list_task_versions(task_id: ObjectId, user: CurrentUser, session: SessionDep) -> list[TaskVersionOut]:
+    definition = get_for(session, TaskDefinition, task_id, user)
+    return [version_out(session, v) for v in versioning.versions(session, service.KIND, definition)]
+
+
+@router.get("/{task_id}/versions/{version}", response_model=TaskVersionOut, operation_id="get_task_version")
+def get_task_version(task_id: ObjectId, version: VersionNumber, user: CurrentUser, session: SessionDep) -> TaskVersionOut:
+    definition = get_for(session, TaskDefinition, task_id, user)
+    return version_out(session, versioning.get_version(session, service.KIND, definition, version))

@@ -1,0 +1,101 @@
+"""Bodies of the task-definition routes. ``spec`` is :class:`alcove.science.ocp.task_spec.TaskSpec`."""
+
+from __future__ import annotations
+
+from datetime import datetime
+from typing import Any
+
+from pydantic import BaseModel, ConfigDict, Field
+
+from alcove.errors import FieldError
+from alcove.science.ocp.task_spec import TaskSpec
+
+
+class _In(BaseModel):
+    model_config = ConfigDict(extra="forbid")
+
+
+class DefinitionMeta(BaseModel):
+    """What every versioned definition (task, oracle, surrogate config) shows."""
+
+    id: int
+    name: str
+    description: str
+    owner_id: int
+    owner: str | None = Field(None, description="owner's e-mail")
+    preset_key: str | None
+    version: int = Field(description="latest version number")
+    version_locked: bool = Field(description="the latest version is used by a campaign: the next edit of the content creates a new version")
+    can_edit: bool
+    archived: bool
+    created_at: datetime
+    updated_at: datetime
+
+
+class VersionMeta(BaseModel):
+    version: int
+    spec_hash: str
+    note: str
+    locked: bool
+    created_at: datetime
+
+
+class TaskIn(_In):
+    name: str = Field(min_length=1, max_length=200)
+    description: str = Field("", max_length=20_000)
+    spec: TaskSpec
+    note: str = Field("", max_length=2000, description="change note stored with the version")
+
+
+class TaskUpdate(_In):
+    name: str | None = Field(None, min_length=1, max_length=200)
+    description: str | None = Field(None, max_length=20_000)
+    spec: TaskSpec | None = None
+    note: str = Field("", max_length=2000)
+
+
+class TaskDraft(_In):
+    """A task to check without saving (any JSON: nothing is validated before the check)."""
+
+    name: str | None = None
+    description: str | None = None
+    spec: dict[str, Any]
+
+
+class TaskOut(DefinitionMeta):
+    spec: dict[str, Any]
+    n_phases: int
+    duration_s: float
+    intervals: int
+
+
+class TaskVersionOut(VersionMeta):
+    spec: dict[str, Any]
+
+
+class TaskPresetOut(BaseModel):
+    key: str
+    name: str
+    description: str
+    spec: dict[str, Any]
+
+
+class FieldErrorOut(BaseModel):
+    loc: list[str | int]
+    field: str
+    msg: str
+    type: str
+
+    @classmethod
+    def of(cls, e: FieldError) -> "FieldErrorOut":
+        return cls(**e.as_dict())
+
+
+class ValidationReport(BaseModel):
+    valid: bool
+    errors: list[FieldErrorOut] = Field(description="field-level problems (paths relative to the request body)")
+    normalized: dict[str, Any] | None = Field(None, description="the validated content with defaults filled in, when valid")
+
+
+class CopyPreset(_In):
+    name: str | None = Field(None, min_length=1, max_length=200, description="name of the copy (default: the preset's)")

@@ -1,0 +1,75 @@
+"""Task definitions: validation against :class:`TaskSpec`, versioned CRUD, presets."""
+
+from __future__ import annotations
+
+from typing import Any
+
+from pydantic import ValidationError
+from sqlalchemy.orm import Session
+
+from alcove import versioning
+from alcove.errors import FieldError, InvalidInput, NotFound, field_errors_from_pydantic
+from alcove.models import TaskDefinition, User
+from alcove.science.ocp.task_spec import TASK_PRESETS, TaskSpec
+from alcove.users.access import can_edit, get_for
+
+KIND = versioning.TASKS
+
+
+def check_spec(spec: Any) -> tuple[TaskSpec | None, list[FieldError]]:
+    """Validate a task spec; returns (spec, []) or (None, field errors under ``spec``)."""
+    try:
+        return TaskSpec.model_validate(spec), []
+    except ValidationError as err:
+        return None, field_errors_from_pydantic(err, base=("spec",))
+    except (TypeError, ValueError) as err:  # defensive: a validator failing in an unexpected way
+        return None, [FieldError(("spec",), str(err))]
+
+
+def dump(spec: TaskSpec) -> dict[str, Any]:
+    return spec.model_dump(mode="json")
+
+
+def create(session: Session, owner: User, *, name: str, description: str, spec: TaskSpec, note: str = "", preset_key: str | None = None) -> tuple[TaskDefinition, Any]:
+    return versioning.create(session, KIND, owner, name=name, description=description, spec=dump(spec), preset_key=preset_key, note=note)
+
+
+def update(session: Session, user: User, task_id: int, *, name: str | None, description: str | None, spec: TaskSpec | None, note: str) -> tuple[TaskDefinition, Any, bool]:
+    definition = get_for(session, TaskDefinition, task_id, user, need="edit")
+    version, created = versioning.update(session, KIND, definition, user, name=name, description=description, spec=None if spec is None else dump(spec), note=note)
+    return definition, version, created
+
+
+def presets() -> list[dict[str, Any]]:
+    out = []
+    for key, raw in TASK_PRESETS.items():
+        spec = TaskSpec.model_validate(raw)
+        out.append({"key": key, "name": spec.name, "description": spec.description, "spec": dump(spec)})
+    return out
+
+
+def copy_preset(session: Session, owner: User, key: str, name: str | None) -> tuple[TaskDefinition, Any]:
+    if key not in TASK_PRESETS:
+        raise NotFound("task preset", key)
+    spec = TaskSpec.model_validate(TASK_PRESETS[key])
+    return create(session, owner, name=name or spec.name, description=spec.description, spec=spec, preset_key=key, note=f"copied from preset {key}")
+
+
+def json_schema() -> dict[str, Any]:
+    return TaskSpec.model_json_schema()
+
+
+def validate_draft(spec: Any) -> tuple[bool, list[FieldError], dict[str, Any] | None]:
+    parsed, errors = check_spec(spec)
+    return parsed is not None, errors, dump(parsed) if parsed is not None else None
+
+
+def editable(session: Session, definition: TaskDefinition, user: User) -> bool:
+    return can_edit(session, definition, user)
+
+
+def require_valid(spec: Any) -> TaskSpec:
+    parsed, errors = check_spec(spec)
+    if parsed is None:
+        raise InvalidInput(errors)
+    return parsed

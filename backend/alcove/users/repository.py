@@ -1,0 +1,38 @@
+"""Queries on users, tokens and shares."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import sqlalchemy as sa
+from sqlalchemy.orm import Session
+
+from alcove.models import ApiToken, Share, User, hash_token
+
+
+def user_by_email(session: Session, email: str) -> User | None:
+    return session.scalar(sa.select(User).where(User.email == email.strip().lower()))
+
+
+def user_by_id(session: Session, user_id: int) -> User | None:
+    return session.get(User, user_id)
+
+
+def list_users(session: Session) -> Sequence[User]:
+    return session.scalars(sa.select(User).order_by(User.id)).all()
+
+
+def token_with_user(session: Session, secret: str) -> tuple[ApiToken, User] | None:
+    row = session.execute(sa.select(ApiToken, User).join(User, ApiToken.user_id == User.id).where(ApiToken.token_hash == hash_token(secret))).first()
+    return (row[0], row[1]) if row else None
+
+
+def list_tokens(session: Session, user: User, *, include_sessions: bool = False) -> Sequence[ApiToken]:
+    q = sa.select(ApiToken).where(ApiToken.user_id == user.id)
+    if not include_sessions:
+        q = q.where(ApiToken.kind == "personal")
+    return session.scalars(q.order_by(ApiToken.id)).all()
+
+
+def shares_of(session: Session, column: sa.ColumnElement, object_id: int) -> Sequence[tuple[Share, User]]:
+    return session.execute(sa.select(Share, User).join(User, Share.user_id == User.id).where(column == object_id).order_by(Share.id)).all()  # type: ignore[return-value]

@@ -1,0 +1,145 @@
+"""Routes: login/logout, ``/me`` and personal tokens, user administration, sharing."""
+
+from __future__ import annotations
+
+from typing import Annotated
+
+from fastapi import APIRouter, Query, Response, status
+
+from alcove.api.params import MAX_ID, ObjectId
+
+from alcove.api.auth import AdminUser, CurrentToken, CurrentUser
+from alcove.api.deps import SessionDep
+from alcove.users import repository as repo
+from alcove.users import service
+from alcove.users.schemas import (
+    LoginIn,
+    LoginOut,
+    MeUpdate,
+    ObjectType,
+    ShareCreate,
+    ShareOut,
+    TokenCreate,
+    TokenCreated,
+    TokenOut,
+    UserCreate,
+    UserOut,
+    UserUpdate,
+)
+
+router = APIRouter()
+
+AUTH_ERRORS = {401: {"description": "wrong e-mail or password"}, 429: {"description": "too many failed logins (see Retry-After)"}}
+
+
+def _token_out(token, secret: str | None = None) -> TokenOut:  # noqa: ANN001
+    data = {c: getattr(token, c) for c in ("id", "name", "kind", "token_prefix", "created_at", "last_used_at", "expires_at", "revoked_at")}
+    data["revoked"] = token.revoked_at is not None
+    return TokenCreated(**data, token=secret) if secret else TokenOut(**data)
+
+
+@router.post("/auth/login", response_model=LoginOut, tags=["auth"], operation_id="login", responses=AUTH_ERRORS)
+def login(body: LoginIn, session: SessionDep) -> LoginOut:
+    """Exchange e-mail and password for a bearer token (valid 12 h). Five failures in a row
+    lock the account for 5 minutes (429)."""
+    try:
+        token, secret = service.login(session, body.email, body.password)
+    except Exception:
+        session.commit()  # keep the failure count
+        raise
+    session.commit()
+    return LoginOut(access_token=secret, expires_at=token.expires_at)
+
+
+@router.post("/auth/logout", status_code=status.HTTP_204_NO_CONTENT, tags=["auth"], operation_id="logout")
+def logout(token: CurrentToken, session: SessionDep) -> Response:
+    """Revoke the token this request was made with."""
+    service.revoke(session, session.merge(token))
+    session.commit()
+    return Response(status_code=status.HTTP_204_NO_CONTENT)
+
+
+@router.get("/me", response_model=UserOut, tags=["me"], operation_id="get_me")
+def get_me(user: CurrentUser) -> UserOut:
+    return UserOut.model_validate(user)
+
+
+@router.patch("/me", response_model=UserOut, tags=["me"], operation_id="update_me")
+def update_me(body: MeUpdate, user: CurrentUser, session: SessionDep) -> UserOut:
+    service.update_me(session, user, body.display_name, body.new_password, body.current_password)
+    session.commit()
+    return UserOut.model_validate(user)
+
+
+@router.get("/me/tokens", response_model=list[TokenOut], tags=["me"], operation_id="list_tokens")
+def list_tokens(user: CurrentUser, session: SessionDep, include_sessions: bool = False) -> list[TokenOut]:
+    """Your personal API tokens (never their secrets)."""
+    return [_token_out(t) for t in repo.list_tokens(session, user, include_sessions=include_sessions)]
+
+
+@router.post("/me/tokens", response_model=TokenCreated, status_code=status.HTTP_201_CREATED, tags=["me"], operation_id="create_token")
+def create_token(body: TokenCreate, user: CurrentUser, session: SessionDep) -> TokenOut:
+    """Create a personal API token. The secret is in this response only."""
+    token, secret = service.create_token(session, user, body.name, body.expires_in_days)
+    session.commit()
+    return _token_out(token, secret)
+
+
+@router.delete("/me/tokens/{token_id}", status_code=status.HTTP_204_NO_CONTENT, tags=["me"], operation_id="revoke_token")
+def revoke_token(token_id: ObjectId, user: CurrentUser, session: SessionDep) -> Response:
+    service.revoke_token(session, user, token_id)
+    session.commit()
+    return Response(status_code=status.HTTP_204_NO_CONTENT)
+
+
+# ----------------------------------------------------------------------------- admin: users
+
+
+@router.get("/users", response_model=list[UserOut], tags=["users"], operation_id="list_users")
+def list_users(admin: AdminUser, session: SessionDep) -> list[UserOut]:
+    return [UserOut.model_validate(u) for u in repo.list_users(session)]
+
+
+@router.post("/users", response_model=UserOut, status_code=status.HTTP_201_CREATED, tags=["users"], operation_id="create_user")
+def create_user(body: UserCreate, admin: AdminUser, session: SessionDep) -> UserOut:
+    user = service.create_user(session, body)
+    session.commit()
+    return UserOut.model_validate(user)
+
+
+@router.get("/users/{user_id}", response_model=UserOut, tags=["users"], operation_id="get_user")
+def get_user(user_id: ObjectId, admin: AdminUser, session: SessionDep) -> UserOut:
+    return UserOut.model_validate(service.get_user(session, user_id))
+
+
+@router.patch("/users/{user_id}", response_model=UserOut, tags=["users"], operation_id="update_user")
+def update_user(user_id: ObjectId, body: UserUpdate, admin: AdminUser, session: SessionDep) -> UserOut:
+    user = service.update_user(session, admin, user_id, body)
+    session.commit()
+    return UserOut.model_validate(user)
+
+
+# ----------------------------------------------------------------------------- sharing
+
+
+@router.post("/shares", response_model=ShareOut, status_code=status.HTTP_201_CREATED, tags=["sharing"], operation_id="create_share")
+def create_share(body: ShareCreate, user: CurrentUser, session: SessionDep) -> ShareOut:
+    """Share one of your objects with another user (view or edit); sharing again updates the permission."""
+    out = service.share(session, user, body)
+    session.commit()
+    return out
+
+
+@router.get("/shares", response_model=list[ShareOut], tags=["sharing"], operation_id="list_shares")
+def list_shares(
+    object_type: ObjectType, object_id: Annotated[int, Query(ge=1, le=MAX_ID)], user: CurrentUser, session: SessionDep
+) -> list[ShareOut]:
+    """Who one of your objects is shared with."""
+    return service.list_shares(session, user, object_type, object_id)
+
+
+@router.delete("/shares/{share_id}", status_code=status.HTTP_204_NO_CONTENT, tags=["sharing"], operation_id="delete_share")
+def delete_share(share_id: ObjectId, user: CurrentUser, session: SessionDep) -> Response:
+    service.delete_share(session, user, share_id)
+    session.commit()
+    return Response(status_code=status.HTTP_204_NO_CONTENT)

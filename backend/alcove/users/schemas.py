@@ -1,0 +1,104 @@
+"""Request and response bodies of the user, token and sharing routes."""
+
+from __future__ import annotations
+
+from datetime import datetime
+from typing import Literal
+
+from pydantic import BaseModel, ConfigDict, Field, field_validator
+
+EMAIL_PATTERN = r"^[^@\s]+@[^@\s]+$"
+
+ObjectType = Literal["task", "oracle", "surrogate_config", "campaign"]
+
+
+class _In(BaseModel):
+    model_config = ConfigDict(extra="forbid")
+
+
+class LoginIn(_In):
+    email: str = Field(min_length=3, max_length=320, description="account e-mail (case-insensitive)")
+    password: str = Field(min_length=1, max_length=1024)
+
+
+class LoginOut(BaseModel):
+    access_token: str = Field(description="bearer token: send it as `Authorization: Bearer <token>`")
+    token_type: Literal["bearer"] = "bearer"
+    expires_at: datetime
+
+
+class UserOut(BaseModel):
+    model_config = ConfigDict(from_attributes=True)
+
+    id: int
+    email: str
+    display_name: str
+    role: Literal["admin", "member"]
+    is_active: bool
+    created_at: datetime
+    last_login_at: datetime | None = None
+
+
+class UserCreate(_In):
+    email: str = Field(min_length=3, max_length=320, pattern=EMAIL_PATTERN)
+    password: str = Field(min_length=8, max_length=1024)
+    display_name: str = Field("", max_length=200)
+    role: Literal["admin", "member"] = "member"
+
+    @field_validator("email")
+    @classmethod
+    def _lower(cls, v: str) -> str:
+        return v.strip().lower()
+
+
+class UserUpdate(_In):
+    display_name: str | None = Field(None, max_length=200)
+    role: Literal["admin", "member"] | None = None
+    is_active: bool | None = None
+    password: str | None = Field(None, min_length=8, max_length=1024, description="set a new password (and lift a login lockout)")
+
+
+class MeUpdate(_In):
+    display_name: str | None = Field(None, max_length=200)
+    new_password: str | None = Field(None, min_length=8, max_length=1024)
+    current_password: str | None = Field(None, max_length=1024, description="required with new_password")
+
+
+class TokenCreate(_In):
+    name: str = Field(min_length=1, max_length=200, description="what the token is for, e.g. 'notebook'")
+    expires_in_days: int | None = Field(None, ge=1, le=3650, description="null = does not expire")
+
+
+class TokenOut(BaseModel):
+    model_config = ConfigDict(from_attributes=True)
+
+    id: int
+    name: str
+    kind: Literal["session", "personal"]
+    token_prefix: str = Field(description="first characters of the token, to recognise it")
+    created_at: datetime
+    last_used_at: datetime | None
+    expires_at: datetime | None
+    revoked_at: datetime | None
+    revoked: bool
+
+
+class TokenCreated(TokenOut):
+    token: str = Field(description="the secret: shown once, only its hash is stored")
+
+
+class ShareCreate(_In):
+    object_type: ObjectType
+    object_id: int = Field(ge=1, le=2**31 - 1)
+    email: str = Field(min_length=3, max_length=320, description="the user to share with")
+    permission: Literal["view", "edit"] = "view"
+
+
+class ShareOut(BaseModel):
+    id: int
+    object_type: ObjectType
+    object_id: int
+    user_id: int
+    email: str
+    permission: Literal["view", "edit"]
+    created_at: datetime

@@ -1,0 +1,201 @@
+"""Login with lockout, bearer tokens, user administration and sharing. Services never commit."""
+
+from __future__ import annotations
+
+from datetime import timedelta
+
+import sqlalchemy as sa
+from sqlalchemy.orm import Session
+
+from alcove.errors import AuthenticationFailed, Conflict, InvalidInput, LoginLocked, NotFound, PermissionDenied
+from alcove.models import ApiToken, Role, Share, TokenKind, User, hash_password, utcnow
+from alcove.users import repository as repo
+from alcove.users.access import LABEL, OBJECT_TYPES, SHARE_COLUMN, get_for
+from alcove.users.schemas import ShareCreate, ShareOut, UserCreate, UserUpdate
+
+#: Failed password logins in a row before the account is locked ...
+MAX_FAILED_LOGINS = 5
+#: ... for this long (each further failure while locked restarts it).
+LOCKOUT = timedelta(minutes=5)
+#: Lifetime of a token issued by password login.
+SESSION_TOKEN_LIFETIME = timedelta(hours=12)
+#: ``last_used_at`` of a token is refreshed at most this often (no write per request).
+LAST_USED_RESOLUTION = timedelta(minutes=1)
+
+_DUMMY_HASH: list[str] = []
+
+
+def _burn_a_hash(password: str) -> None:
+    """Verify against a dummy hash so that unknown e-mails take as long as wrong passwords."""
+    from alcove.models.users import verify_password
+
+    if not _DUMMY_HASH:
+        _DUMMY_HASH.append(hash_password("not-a-real-password"))
+    verify_password(password, _DUMMY_HASH[0])
+
+
+def login(session: Session, email: str, password: str) -> tuple[ApiToken, str]:
+    """Check the password and issue a session token. Raises :class:`AuthenticationFailed`
+    (same message for an unknown e-mail and a wrong password) or :class:`LoginLocked`."""
+    user = repo.user_by_email(session, email)
+    now = utcnow()
+    if user is None or not user.is_active or not user.password_hash:
+        _burn_a_hash(password)
+        raise AuthenticationFailed("wrong e-mail or password")
+    if user.locked_until is not None and user.locked_until > now:
+        raise LoginLocked("too many failed logins: account locked for a while", int((user.locked_until - now).total_seconds()) + 1)
+    if not user.check_password(password):
+        user.failed_login_count += 1
+        if user.failed_login_count >= MAX_FAILED_LOGINS:
+            user.locked_until = now + LOCKOUT
+        session.flush()
+        raise AuthenticationFailed("wrong e-mail or password")
+    user.failed_login_count = 0
+    user.locked_until = None
+    user.last_login_at = now
+    token, secret = ApiToken.issue(user, kind=TokenKind.session, name="login", expires_at=now + SESSION_TOKEN_LIFETIME)
+    session.add(token)
+    session.flush()
+    return token, secret
+
+
+def authenticate(session: Session, secret: str) -> tuple[ApiToken, User] | None:
+    """The valid token and its active user, or None. Refreshes ``last_used_at`` coarsely
+    (the caller commits when :func:`needs_touch` said so)."""
+    found = repo.token_with_user(session, secret)
+    if found is None:
+        return None
+    token, user = found
+    if not token.is_valid() or not user.is_active:
+        return None
+    return token, user
+
+
+def needs_touch(token: ApiToken) -> bool:
+    return token.last_used_at is None or utcnow() - token.last_used_at > LAST_USED_RESOLUTION
+
+
+def create_token(session: Session, user: User, name: str, expires_in_days: int | None) -> tuple[ApiToken, str]:
+    expires = utcnow() + timedelta(days=expires_in_days) if expires_in_days else None
+    token, secret = ApiToken.issue(user, kind=TokenKind.personal, name=name, expires_at=expires)
+    session.add(token)
+    session.flush()
+    return token, secret
+
+
+def revoke_token(session: Session, user: User, token_id: int) -> ApiToken:
+    token = session.get(ApiToken, token_id)
+    if token is None or token.user_id != user.id:
+        raise NotFound("token", token_id)
+    if token.revoked_at is None:
+        token.revoked_at = utcnow()
+        session.flush()
+    return token
+
+
+def revoke(session: Session, token: ApiToken) -> None:
+    token.revoked_at = utcnow()
+    session.flush()
+
+
+# ----------------------------------------------------------------------------- users
+
+
+def create_user(session: Session, body: UserCreate) -> User:
+    if repo.user_by_email(session, body.email) is not None:
+        raise Conflict(f"a user with e-mail {body.email} exists")
+    user = User(email=body.email, display_name=body.display_name, role=body.role)
+    user.set_password(body.password)
+    session.add(user)
+    session.flush()
+    return user
+
+
+def get_user(session: Session, user_id: int) -> User:
+    user = repo.user_by_id(session, user_id)
+    if user is None:
+        raise NotFound("user", user_id)
+    return user
+
+
+def update_user(session: Session, admin: User, user_id: int, body: UserUpdate) -> User:
+    user = get_user(session, user_id)
+    if user.id == admin.id and (body.role == Role.member.value or body.is_active is False):
+        raise Conflict("an administrator cannot demote or deactivate themselves")
+    if body.display_name is not None:
+        user.display_name = body.display_name
+    if body.role is not None:
+        user.role = body.role
+    if body.is_active is not None:
+        user.is_active = body.is_active
+    if body.password is not None:
+        user.set_password(body.password)
+        user.failed_login_count = 0
+        user.locked_until = None
+    session.flush()
+    return user
+
+
+def update_me(session: Session, user: User, display_name: str | None, new_password: str | None, current_password: str | None) -> User:
+    if display_name is not None:
+        user.display_name = display_name
+    if new_password is not None:
+        if not current_password or not user.check_password(current_password):
+            raise InvalidInput.one("current_password", "does not match your current password")
+        user.set_password(new_password)
+    session.flush()
+    return user
+
+
+# ----------------------------------------------------------------------------- sharing
+
+
+def _share_out(share: Share, grantee: User) -> ShareOut:
+    for object_type, model in OBJECT_TYPES.items():
+        object_id = getattr(share, SHARE_COLUMN[model].key)
+        if object_id is not None:
+            return ShareOut(id=share.id, object_type=object_type, object_id=object_id, user_id=grantee.id, email=grantee.email, permission=share.permission, created_at=share.created_at)  # type: ignore[arg-type]
+    raise AssertionError("share without object")
+
+
+def share(session: Session, owner: User, body: ShareCreate) -> ShareOut:
+    model = OBJECT_TYPES[body.object_type]
+    obj = get_for(session, model, body.object_id, owner, need="owner")
+    grantee = repo.user_by_email(session, body.email)
+    if grantee is None or not grantee.is_active:
+        raise InvalidInput.one("email", "no active user with this e-mail")
+    if grantee.id == obj.owner_id:
+        raise InvalidInput.one("email", f"this user owns the {LABEL[model]}")
+    column = SHARE_COLUMN[model]
+    existing = session.scalar(sa.select(Share).where(Share.user_id == grantee.id, column == obj.id))
+    if existing is None:
+        existing = Share(user_id=grantee.id, permission=body.permission, created_by_id=owner.id, **{column.key: obj.id})
+        session.add(existing)
+    else:
+        existing.permission = body.permission
+    session.flush()
+    return _share_out(existing, grantee)
+
+
+def list_shares(session: Session, user: User, object_type: str, object_id: int) -> list[ShareOut]:
+    model = OBJECT_TYPES[object_type]
+    get_for(session, model, object_id, user, need="owner")
+    return [_share_out(s, u) for s, u in repo.shares_of(session, SHARE_COLUMN[model], object_id)]
+
+
+def delete_share(session: Session, user: User, share_id: int) -> None:
+    """The object's owner removes a share, or the grantee gives it up."""
+    row = session.get(Share, share_id)
+    if row is None:
+        raise NotFound("share", share_id)
+    if row.user_id != user.id:
+        out = _share_out(row, row.user)
+        model = OBJECT_TYPES[out.object_type]
+        try:
+            get_for(session, model, out.object_id, user, need="owner")
+        except PermissionDenied:
+            raise NotFound("share", share_id) from None
+        except NotFound:
+            raise NotFound("share", share_id) from None
+    session.delete(row)
+    session.flush()

@@ -1,0 +1,58 @@
+"""Helpers shared by the API tests."""
+
+from __future__ import annotations
+
+import uuid
+from dataclasses import dataclass
+from pathlib import Path
+
+
+@dataclass
+class Account:
+    id: int
+    email: str
+    password: str
+    token: str
+    role: str
+
+    @property
+    def headers(self) -> dict[str, str]:
+        return {"Authorization": f"Bearer {self.token}"}
+
+
+def make_account(role: str = "member", prefix: str = "user") -> Account:
+    from alcove.db import session_scope
+    from alcove.models import ApiToken, TokenKind, User
+
+    email = f"{prefix}-{uuid.uuid4().hex[:8]}@example.org"
+    password = "correct horse battery"
+    with session_scope() as s:
+        user = User(email=email, display_name=prefix, role=role)
+        user.set_password(password)
+        s.add(user)
+        token, secret = ApiToken.issue(user, kind=TokenKind.personal, name="tests")
+        s.add(token)
+        s.flush()
+        uid = user.id
+    return Account(uid, email, password, secret, role)
+
+
+def unique(prefix: str) -> str:
+    return f"{prefix}-{uuid.uuid4().hex[:6]}"
+
+
+PRESET_TASK = "head-headrest-2phase"
+
+
+def small_task_spec(intervals: int = 8) -> dict:
+    """The paper's task with few intervals (quick OCPs)."""
+    from alcove.tasks.service import presets
+
+    spec = next(p for p in presets() if p["key"] == PRESET_TASK)["spec"]
+    for ph in spec["phases"]:
+        ph["intervals"] = intervals
+    return spec
+
+
+def repo_root() -> Path:
+    return Path(__file__).resolve().parents[2]

@@ -1,0 +1,86 @@
+"""Login, lockout, personal tokens (shown once, stored hashed, revocable), /me, admin."""
+
+from __future__ import annotations
+
+import sqlalchemy as sa
+
+from .helpers import Account, make_account
+
+
+def test_login_gives_a_bearer_token_that_authenticates(client, owner: Account) -> None:
+    r = client.post("/api/v1/auth/login", json={"email": owner.email.upper(), "password": owner.password})
+    assert r.status_code == 200, r.text
+    token = r.json()["access_token"]
+    me = client.get("/api/v1/me", headers={"Authorization": f"Bearer {token}"})
+    assert me.status_code == 200 and me.json()["email"] == owner.email and me.json()["role"] == "member"
+    assert client.post("/api/v1/auth/logout", headers={"Authorization": f"Bearer {token}"}).status_code == 204
+    assert client.get("/api/v1/me", headers={"Authorization": f"Bearer {token}"}).status_code == 401
+
+
+def test_wrong_password_and_unknown_email_get_the_same_401(client, owner: Account) -> None:
+    a = client.post("/api/v1/auth/login", json={"email": owner.email, "password": "wrong"})
+    b = client.post("/api/v1/auth/login", json={"email": "nobody@example.org", "password": "wrong"})
+    assert a.status_code == b.status_code == 401 and a.json() == b.json()
+    assert client.post("/api/v1/auth/login", json={"email": owner.email, "password": owner.password}).status_code == 200
+
+
+def test_repeated_failures_lock_the_account_until_an_admin_resets_it(client, admin: Account) -> None:
+    victim = make_account("member", "victim")
+    for _ in range(5):
+        assert client.post("/api/v1/auth/login", json={"email": victim.email, "password": "guess"}).status_code == 401
+    locked = client.post("/api/v1/auth/login", json={"email": victim.email, "password": victim.password})
+    assert locked.status_code == 429 and int(locked.headers["Retry-After"]) > 0
+    r = client.patch(f"/api/v1/users/{victim.id}", json={"password": "a brand new secret"}, headers=admin.headers)
+    assert r.status_code == 200, r.text
+    assert client.post("/api/v1/auth/login", json={"email": victim.email, "password": "a brand new secret"}).status_code == 200
+
+
+def test_missing_or_bad_tokens_are_401_with_www_authenticate(client) -> None:
+    for headers in ({}, {"Authorization": "Bearer alc_nonsense"}, {"Authorization": "Basic Zm9vOmJhcg=="}):
+        r = client.get("/api/v1/me", headers=headers)
+        assert r.status_code == 401 and r.headers.get("www-authenticate") == "Bearer"
+
+
+def test_personal_tokens_are_shown_once_stored_hashed_and_revocable(client, owner: Account) -> None:
+    from alcove.db import session_scope
+    from alcove.models import ApiToken
+
+    r = client.post("/api/v1/me/tokens", json={"name": "notebook", "expires_in_days": 30}, headers=owner.headers)
+    assert r.status_code == 201, r.text
+    created = r.json()
+    secret = created["token"]
+    assert secret.startswith(created["token_prefix"])
+    listed = client.get("/api/v1/me/tokens", headers=owner.headers).json()
+    row = next(t for t in listed if t["id"] == created["id"])
+    assert "token" not in row and not row["revoked"]
+    with session_scope() as s:
+        stored = s.scalar(sa.select(ApiToken).where(ApiToken.id == created["id"]))
+        assert secret not in (stored.token_hash, stored.token_prefix, stored.name)
+    headers = {"Authorization": f"Bearer {secret}"}
+    assert client.get("/api/v1/me", headers=headers).json()["id"] == owner.id
+    assert client.delete(f"/api/v1/me/tokens/{created['id']}", headers=owner.headers).status_code == 204
+    assert client.get("/api/v1/me", headers=headers).status_code == 401
+    assert next(t for t in client.get("/api/v1/me/tokens", headers=owner.headers).json() if t["id"] == created["id"])["revoked"]
+
+
+def test_admin_manages_users_members_may_not(client, admin: Account, other: Account) -> None:
+    body = {"email": "New.Person@Example.org", "password": "long enough pw", "role": "member"}
+    assert client.post("/api/v1/users", json=body, headers=other.headers).status_code == 403
+    r = client.post("/api/v1/users", json=body, headers=admin.headers)
+    assert r.status_code in (201, 409), r.text
+    if r.status_code == 201:
+        assert r.json()["email"] == "new.person@example.org"
+    again = client.post("/api/v1/users", json=body, headers=admin.headers)
+    assert again.status_code == 409
+    short = client.post("/api/v1/users", json={**body, "password": "short"}, headers=admin.headers)
+    assert short.status_code == 422 and short.json()["detail"][0]["field"] == "password"
+    assert client.patch(f"/api/v1/users/{admin.id}", json={"role": "member"}, headers=admin.headers).status_code == 409
+
+
+def test_changing_my_password_needs_the_current_one(client) -> None:
+    me = make_account("member", "pw")
+    r = client.patch("/api/v1/me", json={"new_password": "another long one", "current_password": "wrong"}, headers=me.headers)
+    assert r.status_code == 422 and r.json()["detail"][0]["field"] == "current_password"
+    r = client.patch("/api/v1/me", json={"new_password": "another long one", "current_password": me.password, "display_name": "Pat"}, headers=me.headers)
+    assert r.status_code == 200 and r.json()["display_name"] == "Pat"
+    assert client.post("/api/v1/auth/login", json={"email": me.email, "password": "another long one"}).status_code == 200
