@@ -25,11 +25,13 @@ export function fieldErrors(body: unknown): FieldError[] {
   const list = Array.isArray(raw.detail) ? raw.detail : Array.isArray(raw.errors) ? raw.errors : [];
   return list.map((e: { loc?: unknown[]; field?: string; path?: string; msg?: string; message?: string; reason?: string }) => {
     let loc: string;
-    if (Array.isArray(e.loc)) {
+    if (typeof e.field === "string") {
+      loc = e.field;
+    } else if (Array.isArray(e.loc)) {
       const parts = e.loc.map(String);
       loc = (LOCATION_PREFIXES.has(parts[0]) ? parts.slice(1) : parts).join(".");
     } else {
-      loc = e.field ?? e.path ?? "";
+      loc = e.path ?? "";
     }
     return { field: loc, message: e.msg ?? e.message ?? e.reason ?? "invalid" };
   });

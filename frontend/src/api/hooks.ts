@@ -51,6 +51,8 @@ export interface CampaignDetail extends CampaignRow {
   error: string | null;
   source_campaign_id: number | null;
   source_iteration: number | null;
+  /** the editable settings (preliminary, stopping, policies, settings) */
+  config: Record<string, Record<string, unknown>> | null;
 }
 export interface Phase {
   name?: string;
@@ -104,6 +106,8 @@ export interface ModelVersionRow {
 export type TaskSpecDraft = Record<string, unknown> & { phases?: unknown[]; model?: Record<string, unknown> };
 export interface TaskRow {
   id: number;
+  /** id of the latest version (what a campaign references) */
+  version_id: number;
   name: string;
   description?: string;
   version?: number;
@@ -118,6 +122,7 @@ export interface TaskPreset {
 }
 export interface OracleRow {
   id: number;
+  version_id: number;
   name: string;
   description?: string;
   type: string;
@@ -125,6 +130,12 @@ export interface OracleRow {
   owner?: string | null;
   updated_at?: string | null;
   params: Record<string, unknown>;
+}
+export interface SurrogateConfigRow {
+  id: number;
+  version_id: number;
+  name: string;
+  version: number;
 }
 export interface OracleType {
   name: string;
@@ -187,7 +198,14 @@ export async function login(username: string, password: string): Promise<string>
 }
 
 export function useMe() {
-  return useQuery({ queryKey: ["me"], queryFn: () => api<Me>("GET", "/me"), staleTime: 60_000 });
+  return useQuery({
+    queryKey: ["me"],
+    queryFn: async (): Promise<Me> => {
+      const u = await api<{ id: number; email: string; display_name: string; role: string }>("GET", "/me");
+      return { id: u.id, username: u.display_name || u.email, role: u.role };
+    },
+    staleTime: 60_000,
+  });
 }
 
 export function useTokens() {
@@ -285,7 +303,7 @@ export function useCampaignAction(id: number) {
 export function useForkCampaign(id: number) {
   const qc = useQueryClient();
   return useMutation({
-    mutationFn: (body: { iteration: number; name: string; max_iterations?: number }) => api<CampaignDetail>("POST", `/campaigns/${id}/fork`, { body }),
+    mutationFn: (body: { iteration: number; name: string } & Record<string, unknown>) => api<CampaignDetail>("POST", `/campaigns/${id}/fork`, { body }),
     onSuccess: () => qc.invalidateQueries({ queryKey: ["campaigns"] }),
   });
 }
@@ -293,10 +311,29 @@ export function useForkCampaign(id: number) {
 export function useCreateCampaign() {
   const qc = useQueryClient();
   return useMutation({
-    mutationFn: (body: { name: string; task_id: number; oracle_id: number; max_iterations: number; n_preliminary: number; seed: number }) =>
+    mutationFn: (body: { name: string; task_version_id: number; oracle_version_id: number; surrogate_config_version_id: number; seed: number } & Record<string, unknown>) =>
       api<CampaignDetail>("POST", "/campaigns", { body }),
     onSuccess: () => qc.invalidateQueries({ queryKey: ["campaigns"] }),
   });
+}
+
+// ------------------------------------------------------------------ schema
+export interface OpenApiDocument {
+  components?: { schemas?: Record<string, JsonSchema> };
+}
+/** The API's own OpenAPI document: forms for settings are generated from its component schemas. */
+export function useOpenApi() {
+  return useQuery({ queryKey: ["openapi"], queryFn: () => api<OpenApiDocument>("GET", "/openapi.json"), staleTime: Infinity });
+}
+export function componentSchema(doc: OpenApiDocument | undefined, name: string): JsonSchema | null {
+  const schemas = doc?.components?.schemas;
+  const schema = schemas?.[name];
+  return schema ? { ...schema, $defs: schemas } : null;
+}
+
+// ------------------------------------------------------------------ surrogate configs
+export function useSurrogateConfigs() {
+  return useQuery({ queryKey: ["surrogate-configs"], queryFn: () => api<SurrogateConfigRow[]>("GET", "/surrogate-configs") });
 }
 
 // ------------------------------------------------------------------ tasks
@@ -308,6 +345,10 @@ export function useTask(id: number | null) {
 }
 export function useTaskPresets() {
   return useQuery({ queryKey: ["task-presets"], queryFn: () => api<TaskPreset[]>("GET", "/tasks/presets"), staleTime: Infinity });
+}
+/** Whether the API offers a route (optional features such as "solve once" appear when it does). */
+export function hasRoute(doc: OpenApiDocument | undefined, method: string, path: string): boolean {
+  return Boolean((doc as { paths?: Record<string, Record<string, unknown>> } | undefined)?.paths?.[API + path]?.[method.toLowerCase()]);
 }
 export function useTaskSchema() {
   return useQuery({ queryKey: ["task-schema"], queryFn: () => api<JsonSchema>("GET", "/tasks/schema"), staleTime: Infinity });
@@ -332,8 +373,10 @@ export function useSaveTask(id: number | null) {
     },
   });
 }
+/** Optional: "solve once" preview (the UI shows the button only when the API has the route). */
+export const SOLVE_ONCE_ROUTE = "/tasks/solve";
 export function useSolveOnce() {
-  return useMutation({ mutationFn: (body: { spec: TaskSpecDraft }) => api<SolveResult>("POST", "/tasks/solve-once", { body }) });
+  return useMutation({ mutationFn: (body: { spec: TaskSpecDraft }) => api<SolveResult>("POST", SOLVE_ONCE_ROUTE, { body }) });
 }
 
 // ------------------------------------------------------------------ oracles
@@ -344,7 +387,23 @@ export function useOracle(id: number | null) {
   return useQuery({ queryKey: ["oracle", id], queryFn: () => api<OracleRow>("GET", `/oracles/${id}`), enabled: id !== null });
 }
 export function useOracleTypes() {
-  return useQuery({ queryKey: ["oracle-types"], queryFn: () => api<OracleType[]>("GET", "/oracles/types"), staleTime: Infinity });
+  return useQuery({
+    queryKey: ["oracle-types"],
+    queryFn: async (): Promise<OracleType[]> => {
+      const rows = await api<{ name: string; kind: string; description: string; available: boolean; unavailable_reason?: string | null; params_schema: JsonSchema }[]>("GET", "/oracles/types");
+      return rows.map((r) => ({ name: r.name, kind: r.kind, description: r.available ? r.description : `${r.description} (${r.unavailable_reason ?? "unavailable"})`, available: r.available, schema: r.params_schema }));
+    },
+    staleTime: 60_000,
+  });
+}
+/** Field-level problems of an oracle's type and parameters, without saving. */
+export async function validateOracle(body: { type: string; params: Record<string, unknown> }): Promise<FieldError[]> {
+  try {
+    return fieldErrors(await api<{ valid?: boolean; errors?: unknown[] }>("POST", "/oracles/validate", { body }));
+  } catch (err) {
+    if (err instanceof ApiError && err.status === 422) return err.fieldErrors;
+    throw err;
+  }
 }
 export function useSaveOracle(id: number | null) {
   const qc = useQueryClient();
@@ -357,6 +416,8 @@ export function useSaveOracle(id: number | null) {
     },
   });
 }
+/** Optional: "test on a sample trajectory" (shown only when the API has the route). */
+export const ORACLE_TEST_ROUTE = "/oracles/test";
 export function useTestOracle() {
-  return useMutation({ mutationFn: (body: { type: string; params: Record<string, unknown> }) => api<OracleTestResult>("POST", "/oracles/test", { body }) });
+  return useMutation({ mutationFn: (body: { type: string; params: Record<string, unknown> }) => api<OracleTestResult>("POST", ORACLE_TEST_ROUTE, { body }) });
 }

@@ -1,7 +1,8 @@
 import { useRef, useState, type FormEvent } from "react";
 import { useNavigate } from "react-router-dom";
 import { downloadFile, useCampaignAction, useForkCampaign, type CampaignDetail } from "../api/hooks";
-import { errorMessage } from "../api/errors";
+import { ApiError, errorMessage } from "../api/errors";
+import { ConfigSections, type ConfigDraft } from "../pages/NewCampaignPage";
 
 type Action = "start" | "pause" | "resume" | "cancel" | "retry";
 
@@ -33,13 +34,14 @@ export function Controls({ campaign, lastIteration }: { campaign: CampaignDetail
   const dialog = useRef<HTMLDialogElement>(null);
   const [forkFrom, setForkFrom] = useState(lastIteration);
   const [forkName, setForkName] = useState(`${campaign.name} (fork)`);
-  const [forkMax, setForkMax] = useState<string>("");
+  const [forkConfig, setForkConfig] = useState<ConfigDraft>(() => structuredClone(campaign.config ?? {}));
   const [exportError, setExportError] = useState<string | null>(null);
   const allowed = allowedActions(campaign.status);
 
   async function submitFork(e: FormEvent) {
     e.preventDefault();
-    const created = await fork.mutateAsync({ iteration: forkFrom, name: forkName, max_iterations: forkMax ? Number(forkMax) : undefined });
+    const { stopping, settings, policies } = forkConfig;
+    const created = await fork.mutateAsync({ iteration: forkFrom, name: forkName, stopping, settings, policies });
     dialog.current?.close();
     navigate(`/campaigns/${created.id}`);
   }
@@ -82,7 +84,7 @@ export function Controls({ campaign, lastIteration }: { campaign: CampaignDetail
           Export: {exportError}
         </span>
       )}
-      <dialog ref={dialog} aria-labelledby="fork-title">
+      <dialog ref={dialog} aria-labelledby="fork-title" style={{ width: 900, maxWidth: "95vw" }}>
         <form onSubmit={submitFork}>
           <h2 id="fork-title">Fork from an iteration</h2>
           <p className="muted">The new campaign starts from this campaign's pool and model at iteration k.</p>
@@ -94,10 +96,7 @@ export function Controls({ campaign, lastIteration }: { campaign: CampaignDetail
             <label htmlFor="fork-name">Name</label>
             <input id="fork-name" value={forkName} onChange={(e) => setForkName(e.target.value)} required />
           </div>
-          <div className="field">
-            <label htmlFor="fork-max">Max iterations (blank: keep)</label>
-            <input id="fork-max" type="number" min={1} value={forkMax} onChange={(e) => setForkMax(e.target.value)} />
-          </div>
+          <ConfigSections value={forkConfig} onChange={setForkConfig} errors={fork.error instanceof ApiError ? Object.fromEntries(fork.error.fieldErrors.map((e) => [e.field, e.message])) : {}} only={["stopping", "settings", "policies"]} />
           {fork.isError && (
             <p className="error-text" role="alert">
               {errorMessage(fork.error)}

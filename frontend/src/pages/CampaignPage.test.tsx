@@ -30,6 +30,7 @@ function campaign(status: string, iteration = 2): CampaignDetail {
     error: null,
     source_campaign_id: null,
     source_iteration: null,
+    config: { stopping: { max_iterations: 10 } },
   };
 }
 

@@ -2,6 +2,7 @@ import { Link, useParams } from "react-router-dom";
 import { isLive, useCampaign, useMetrics } from "../api/hooks";
 import { ErrorBox, Loading, StatusBadge } from "../components/States";
 import { RmsePlot } from "../campaign/RmsePlot";
+import { loadPlotly } from "../components/Plot";
 import { ForcesPanel } from "../campaign/ForcesPanel";
 import { TrajectoryPanel } from "../campaign/TrajectoryPanel";
 import { JobsTable, VersionsPanel } from "../campaign/JobsAndVersions";
@@ -17,6 +18,7 @@ const TABS = [
 ] as const;
 
 export function CampaignPage() {
+  void loadPlotly(); // fetch and parse plotly.js while the campaign's data loads
   const id = Number(useParams().id);
   const campaign = useCampaign(id);
   const live = campaign.data ? isLive(campaign.data.status) : false;

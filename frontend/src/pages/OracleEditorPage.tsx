@@ -1,7 +1,7 @@
-import { useEffect, useMemo, useState, type FormEvent } from "react";
+import { useEffect, useMemo, useRef, useState, type FormEvent } from "react";
 import { useNavigate, useParams } from "react-router-dom";
-import { useOracle, useOracleTypes, useSaveOracle, useTestOracle, type OracleTestResult } from "../api/hooks";
-import { ApiError, errorMessage } from "../api/errors";
+import { hasRoute, useOpenApi, useOracle, useOracleTypes, useSaveOracle, useTestOracle, validateOracle, ORACLE_TEST_ROUTE, type OracleTestResult } from "../api/hooks";
+import { ApiError, errorMessage, type FieldError } from "../api/errors";
 import { SchemaForm, schemaDefaults } from "../components/SchemaForm";
 import { ErrorBox, Loading } from "../components/States";
 import { Plot, type Trace } from "../components/Plot";
@@ -53,6 +53,22 @@ export function OracleEditorPage() {
   const [description, setDescription] = useState("");
   const [type, setType] = useState("");
   const [params, setParams] = useState<Record<string, unknown>>({});
+  const [validation, setValidation] = useState<FieldError[]>([]);
+  const seq = useRef(0);
+  const openapi = useOpenApi();
+  const canTest = hasRoute(openapi.data, "post", ORACLE_TEST_ROUTE);
+
+  // Inline validation by the API, 400 ms after the last edit.
+  useEffect(() => {
+    if (!type) return;
+    const mine = ++seq.current;
+    const timer = setTimeout(() => {
+      validateOracle({ type, params })
+        .then((errors) => mine === seq.current && setValidation(errors))
+        .catch((err) => mine === seq.current && setValidation([{ field: "", message: errorMessage(err) }]));
+    }, 400);
+    return () => clearTimeout(timer);
+  }, [type, params]);
 
   useEffect(() => {
     if (existing.data) {
@@ -72,7 +88,11 @@ export function OracleEditorPage() {
     }
   }, [types.data, type, editing]);
 
-  const fieldErrors = { ...errorsByField(save.error, "params."), ...errorsByField(test.error, "params.") };
+  const fieldErrors = {
+    ...Object.fromEntries(validation.map((e) => [e.field.replace(/^params\./, ""), e.message])),
+    ...errorsByField(save.error, "params."),
+    ...errorsByField(test.error, "params."),
+  };
 
   async function submit(e: FormEvent) {
     e.preventDefault();
@@ -90,9 +110,14 @@ export function OracleEditorPage() {
         <h1 style={{ margin: 0 }}>{editing ? `Oracle: ${name}` : "New oracle"}</h1>
         {existing.data?.version !== undefined && <span className="badge">version {existing.data.version}</span>}
         <span className="spacer" />
-        <button type="button" disabled={test.isPending || !type} onClick={() => test.mutate({ type, params })}>
-          {test.isPending ? "Testing…" : "Test on a sample trajectory"}
-        </button>
+        <span className={validation.length ? "badge bad" : "badge ok"} data-testid="validation-state" aria-live="polite">
+          {validation.length ? `${validation.length} problem(s)` : "valid"}
+        </span>
+        {canTest && (
+          <button type="button" disabled={test.isPending || !type} onClick={() => test.mutate({ type, params })}>
+            {test.isPending ? "Testing…" : "Test on a sample trajectory"}
+          </button>
+        )}
         <button type="submit" className="primary" disabled={save.isPending}>
           {editing ? "Save (new version if used)" : "Create oracle"}
         </button>
@@ -101,6 +126,18 @@ export function OracleEditorPage() {
         <p className="error-text" role="alert">
           {errorMessage(save.error)}
         </p>
+      )}
+      {validation.some((e) => !e.field.startsWith("params.")) && (
+        <ul className="error-text" role="alert">
+          {validation
+            .filter((e) => !e.field.startsWith("params."))
+            .map((e, i) => (
+              <li key={i}>
+                {e.field ? `${e.field}: ` : ""}
+                {e.message}
+              </li>
+            ))}
+        </ul>
       )}
       <section className="panel">
         <div className="row">

@@ -1,6 +1,6 @@
 import { useEffect, useMemo, useRef, useState, type FormEvent } from "react";
 import { useNavigate, useParams } from "react-router-dom";
-import { useSaveTask, useSolveOnce, useTask, useTaskPresets, useTaskSchema, validateTask, type SolveResult, type TaskSpecDraft } from "../api/hooks";
+import { hasRoute, useOpenApi, useSaveTask, useSolveOnce, useTask, useTaskPresets, useTaskSchema, validateTask, SOLVE_ONCE_ROUTE, type SolveResult, type TaskSpecDraft } from "../api/hooks";
 import { ApiError, errorMessage, type FieldError } from "../api/errors";
 import { SchemaForm, type JsonSchema } from "../components/SchemaForm";
 import { PhasesTable, type PhaseRow } from "../task/PhasesTable";
@@ -55,6 +55,8 @@ export function TaskEditorPage() {
   const existing = useTask(editing ? Number(id) : null);
   const save = useSaveTask(editing ? Number(id) : null);
   const solve = useSolveOnce();
+  const openapi = useOpenApi();
+  const canSolve = hasRoute(openapi.data, "post", SOLVE_ONCE_ROUTE);
   const [name, setName] = useState("");
   const [description, setDescription] = useState("");
   const [spec, setSpec] = useState<TaskSpecDraft | null>(null);
@@ -130,9 +132,11 @@ export function TaskEditorPage() {
             </select>
           </>
         )}
-        <button type="button" disabled={solve.isPending || validation.length > 0} onClick={() => solve.mutate({ spec })}>
-          {solve.isPending ? "Solving…" : "Solve once"}
-        </button>
+        {canSolve && (
+          <button type="button" disabled={solve.isPending || validation.length > 0} onClick={() => solve.mutate({ spec })}>
+            {solve.isPending ? "Solving…" : "Solve once"}
+          </button>
+        )}
         <button type="submit" className="primary" disabled={save.isPending}>
           {editing ? "Save (new version if used)" : "Create task"}
         </button>
