@@ -1,7 +1,221 @@
-"""`alcove surrogate ...` commands."""
+"""`alcove surrogate ...` commands: train a model pair, predict with it, write preliminary data.
+
+``alcove surrogate train --pool DIR|--campaign ID [--config F.json] [--seed N] --out model-dir [--json]``
+    trains the force and moment MLPs (the paper's protocol unless the config says
+    otherwise) and writes the self-contained artifact (``surrogate.json``, ``force.pt``,
+    ``moment.pt``). A pool folder holds pairs ``NAME.traj.csv`` + ``NAME.forces.csv`` as
+    ``alcove ocp solve`` and ``alcove oracle run`` write them; ``--campaign`` trains on the
+    campaign's latest pool version with its surrogate config, task geometry and seed.
+``alcove surrogate predict --model model-dir --trajectory traj.csv --out pred.csv``
+    writes ``t,fx,fy,fz,mx,my,mz`` (N, N m, headrest frame).
+``alcove surrogate preliminary --out DIR [--samples K] [--velocity-bound V] [--seed N]``
+    writes the Latin hypercube aux-penalty preliminary data as a pool folder.
+
+Bad input prints one line ``error: <field>: <reason>`` and exits with code 2.
+"""
 
 from __future__ import annotations
 
+import json
+from pathlib import Path
+from typing import Any, NoReturn
+
 import typer
 
-app = typer.Typer(help="surrogate commands", no_args_is_help=True)
+app = typer.Typer(help="Train contact surrogates (two MLPs), predict with them, write preliminary data.", no_args_is_help=True)
+
+EXIT_BAD_INPUT = 2
+
+
+def _bad_input(field: str, reason: str) -> NoReturn:
+    typer.echo(f"error: {field}: {reason}", err=True)
+    raise typer.Exit(EXIT_BAD_INPUT)
+
+
+def _task_preset(task: str | None, task_file: Path | None):  # type: ignore[no-untyped-def]
+    from alcove.science.geometry import DEFAULT_PRESET
+
+    if task is None and task_file is None:
+        return DEFAULT_PRESET
+    from alcove.science.ocp.task_spec import TaskSpecError, parse_task, task_preset
+
+    try:
+        if task_file is not None:
+            if not task_file.exists():
+                _bad_input("task-file", f"{task_file} does not exist")
+            return parse_task(task_file).preset()
+        return task_preset(task).preset()  # type: ignore[arg-type]
+    except TaskSpecError as exc:
+        _bad_input(exc.field, exc.reason)
+
+
+def _campaign_inputs(campaign_id: int, database_url: str | None) -> tuple[list, dict[str, Any], Any, int, dict[str, Any]]:
+    """Pool, surrogate config, preset, seed and lineage of a campaign's latest pool version."""
+    try:
+        import sqlalchemy as sa
+
+        from alcove.db.session import session_scope
+        from alcove.models import Campaign, PoolVersion
+        from alcove.pool.service import load_training_pool
+        from alcove.science.ocp.task_spec import TaskSpecError, parse_task
+    except ImportError as exc:  # pragma: no cover - a worker without the database layer
+        _bad_input("campaign", f"the database layer is not available ({exc})")
+    try:
+        with session_scope(database_url) as s:
+            campaign = s.get(Campaign, campaign_id)
+            if campaign is None:
+                _bad_input("campaign", f"no campaign with id {campaign_id}")
+            pv = s.scalars(sa.select(PoolVersion).where(PoolVersion.campaign_id == campaign_id).order_by(PoolVersion.version.desc()).limit(1)).first()
+            if pv is None:
+                _bad_input("campaign", f"campaign {campaign_id} has no pool version yet (its preliminary data is built when it starts)")
+            pool = load_training_pool(s, pv)
+            config = dict(campaign.surrogate_config_version.spec or {})
+            try:
+                preset = parse_task(campaign.task_version.spec).preset()
+            except TaskSpecError as exc:
+                _bad_input(f"campaign task: {exc.field}", exc.reason)
+            lineage = {"campaign_id": campaign_id, "pool_version_id": pv.id, "pool_version": pv.version, "pool_content_hash": pv.content_hash}
+            return pool, config, preset, int(campaign.seed), lineage
+    except sa.exc.SQLAlchemyError as exc:
+        _bad_input("campaign", f"cannot read the database ({type(exc).__name__}: {str(exc).splitlines()[0]})")
+
+
+def _print_metrics(metrics: dict[str, Any], out: Path) -> None:
+    from rich.console import Console
+    from rich.table import Table
+
+    table = Table(title=f"surrogate trained -> {out}")
+    table.add_column("net")
+    for split in ("train", "validation", "test"):
+        table.add_column(f"RMSE {split}", justify="right")
+    table.add_column("epochs (best)", justify="right")
+    fmt = lambda v: "-" if v is None else f"{v:.4g}"  # noqa: E731
+    for net, unit in (("force", "N"), ("moment", "N m")):
+        r = metrics["rmse"][net]
+        table.add_row(f"{net} [{unit}]", fmt(r["train"]), fmt(r["validation"]), fmt(r["test"]), f"{metrics['epochs'][net]} ({metrics['best_epoch'][net]})")
+    console = Console()
+    console.print(table)
+    s = metrics["samples"]
+    console.print(f"samples: {s['train']} train, {s['validation']} validation, {s['test']} test; wall time {metrics['wall_time_s']:.2f} s")
+
+
+@app.command()
+def train(
+    pool_dir: Path | None = typer.Option(None, "--pool", help="pool folder of NAME.traj.csv + NAME.forces.csv pairs"),
+    campaign: int | None = typer.Option(None, "--campaign", help="train on this campaign's latest pool version (needs the database)"),
+    config_file: Path | None = typer.Option(None, "--config", help="surrogate configuration as JSON (default: the paper's protocol)"),
+    seed: int | None = typer.Option(None, "--seed", min=0, help="seed of splits, initialisation and batch order (default: the config's / campaign's)"),
+    task: str | None = typer.Option(None, "--task", help="task preset whose geometry the pool refers to (default: head-neck-1dof)"),
+    task_file: Path | None = typer.Option(None, "--task-file", help="task definition as JSON (instead of --task)"),
+    out: Path = typer.Option(..., "--out", help="model folder to write (surrogate.json, force.pt, moment.pt)"),
+    json_output: bool = typer.Option(False, "--json", help="print a JSON summary on stdout"),
+    database_url: str | None = typer.Option(None, "--database-url", envvar="ALCOVE_DATABASE_URL", hidden=True),
+) -> None:
+    """Train the force and moment MLPs on a pool and write the model artifact."""
+    from alcove.science.surrogate.artifact import save_artifact
+    from alcove.science.surrogate.config import SurrogateConfig, SurrogateConfigError
+    from alcove.science.surrogate.dataset import PoolDataError, load_pool_dir
+    from alcove.science.surrogate.training import train_surrogate
+
+    if (pool_dir is None) == (campaign is None):
+        _bad_input("pool", "give exactly one of --pool DIR and --campaign ID")
+    if out.exists() and not out.is_dir():
+        _bad_input("out", f"{out} exists and is not a folder")
+    lineage: dict[str, Any] = {}
+    config_data: dict[str, Any] = {}
+    if campaign is not None:
+        pool, config_data, preset, default_seed, lineage = _campaign_inputs(campaign, database_url)
+    else:
+        preset = _task_preset(task, task_file)
+        try:
+            pool = load_pool_dir(pool_dir)  # type: ignore[arg-type]
+        except PoolDataError as exc:
+            _bad_input(f"pool: {exc.field}", exc.reason)
+        default_seed = None
+        lineage = {"pool_dir": str(pool_dir)}
+    try:
+        if config_file is not None:
+            if not config_file.exists():
+                _bad_input("config", f"{config_file} does not exist")
+            config = SurrogateConfig.from_json(config_file)
+        else:
+            config = SurrogateConfig.parse(config_data)
+    except SurrogateConfigError as exc:
+        _bad_input(f"config: {exc.field}", exc.reason)
+    run_seed = seed if seed is not None else (default_seed if default_seed is not None else config.seed)
+    try:
+        result = train_surrogate(pool, config, run_seed, preset=preset)
+    except PoolDataError as exc:
+        _bad_input(f"pool: {exc.field}", exc.reason)
+    except SurrogateConfigError as exc:
+        _bad_input(f"config: {exc.field}", exc.reason)
+    save_artifact(result.model, out, lineage=lineage)
+    metrics = result.metrics.to_dict()
+    if json_output:
+        summary = {"status": "ok", "out": str(out), "seed": run_seed, "datasets": len(pool), "test_sets": result.split.test_sets, **metrics}
+        typer.echo(json.dumps(summary, indent=2))
+    else:
+        _print_metrics(metrics, out)
+
+
+@app.command()
+def predict(
+    model: Path = typer.Option(..., "--model", help="model folder written by `alcove surrogate train`"),
+    trajectory: Path = typer.Option(..., "--trajectory", help="trajectory CSV (t,q_0,..,qd_0,..[,tau_0,..])"),
+    out: Path = typer.Option(..., "--out", help="forces CSV to write (t,fx,fy,fz,mx,my,mz)"),
+) -> None:
+    """Predict the contact force and moment along a trajectory."""
+    from alcove.science.series import SeriesFormatError, Trajectory
+    from alcove.science.surrogate.artifact import ArtifactError, load_artifact
+    from alcove.science.surrogate.dataset import PoolDataError
+    from alcove.science.surrogate.training import predict as predict_series
+
+    try:
+        surrogate = load_artifact(model)
+    except ArtifactError as exc:
+        _bad_input(f"model: {exc.field}" if exc.field != "model" else "model", exc.reason)
+    try:
+        traj = Trajectory.from_csv(trajectory)
+    except SeriesFormatError as exc:
+        _bad_input(f"trajectory: {exc.field}", exc.reason)
+    if not out.parent.is_dir():
+        _bad_input("out", f"folder {out.parent} does not exist")
+    try:
+        forces = predict_series(surrogate, traj.t, traj.q, traj.qd)
+    except PoolDataError as exc:
+        _bad_input(f"trajectory: {exc.field}", exc.reason)
+    forces.to_csv(out)
+    typer.echo(f"{len(forces)} samples, peak force {forces.peak_force:.4g} N -> {out}")
+
+
+@app.command()
+def preliminary(
+    out: Path = typer.Option(..., "--out", help="pool folder to write (preliminary-NN.traj.csv + .forces.csv, pool.json)"),
+    samples: int | None = typer.Option(None, "--samples", help="number K of Latin hypercube samples (default 4000)"),
+    velocity_bound: float | None = typer.Option(None, "--velocity-bound", help="joint velocities drawn from [-V, V] rad/s (default 2)"),
+    chunks: int | None = typer.Option(None, "--chunks", help="datasets the samples are dealt into (default 10)"),
+    seed: int = typer.Option(0, "--seed", min=0),
+    task: str | None = typer.Option(None, "--task", help="task preset whose geometry and joint range to use (default: head-neck-1dof)"),
+    task_file: Path | None = typer.Option(None, "--task-file", help="task definition as JSON (instead of --task)"),
+) -> None:
+    """Write the aux-penalty Latin hypercube preliminary data set as a pool folder."""
+    from alcove.science.surrogate.dataset import PoolDataError, save_pool_dir
+    from alcove.science.surrogate.preliminary import DEFAULT_CHUNKS, DEFAULT_SAMPLES, DEFAULT_VELOCITY_BOUND, preliminary_pool
+
+    preset = _task_preset(task, task_file)
+    try:
+        pool = preliminary_pool(
+            preset,
+            samples=DEFAULT_SAMPLES if samples is None else samples,
+            velocity_bound=DEFAULT_VELOCITY_BOUND if velocity_bound is None else velocity_bound,
+            seed=seed,
+            chunks=DEFAULT_CHUNKS if chunks is None else chunks,
+        )
+    except PoolDataError as exc:
+        _bad_input(exc.field.replace("_", "-"), exc.reason)
+    if out.exists() and not out.is_dir():
+        _bad_input("out", f"{out} exists and is not a folder")
+    save_pool_dir(pool, out)
+    n = sum(ds.n_samples for ds in pool)
+    in_contact = sum(int((ds.force[:, 0] > 0).sum()) for ds in pool)
+    typer.echo(f"{n} samples ({in_contact} in contact) in {len(pool)} datasets -> {out}")
