@@ -81,3 +81,34 @@ def test_slot_checks_name_the_problem():
     with pytest.raises(ContactModelError, match="does not exist"):
         contact_from_spec("model:/nonexistent/surrogate.json", DEFAULT_PRESET)
     assert contact_from_spec("none", DEFAULT_PRESET) is None
+
+
+class _OpaqueContact(ca.Callback):
+    """A contact computed in Python: CasADi cannot see (or differentiate) inside it."""
+
+    def __init__(self):
+        ca.Callback.__init__(self)
+        self.construct("opaque", {})
+
+    def get_n_in(self):
+        return 2
+
+    def get_n_out(self):
+        return 1
+
+    def get_sparsity_out(self, i):
+        return ca.Sparsity.dense(6, 1)
+
+    def eval(self, arg):
+        return [ca.DM.zeros(6, 1)]
+
+
+def test_a_contact_without_symbolic_derivatives_is_rejected_clearly():
+    from alcove.science.ocp.solve import solve_task
+    from alcove.science.ocp.task_spec import task_preset
+
+    opaque = _OpaqueContact()
+    q, qd = ca.MX.sym("q"), ca.MX.sym("qd")
+    wrapped = ca.Function("wrapped", [q, qd], [opaque(q, qd)])
+    with pytest.raises(ContactModelError, match="^contact: must be twice differentiable"):
+        solve_task(task_preset("head-headrest-2phase").with_intervals(5), wrapped)

@@ -28,7 +28,7 @@ import casadi as ca
 import numpy as np
 
 from alcove.science.multibody import PlanarChain
-from alcove.science.ocp.contact import check_contact_function
+from alcove.science.ocp.contact import ContactModelError, check_contact_function
 
 
 @dataclass(frozen=True)
@@ -109,11 +109,17 @@ def _prepare_contact(contact: ca.Function | None, ndof: int) -> ca.Function | No
     if contact is None:
         return None
     check_contact_function(contact, ndof)
-    if contact.is_a("MXFunction"):
+    if not contact.is_a("SXFunction"):
         try:
             contact = contact.expand()
-        except RuntimeError:  # not expandable (e.g. external calls): keep as is
-            pass
+        except RuntimeError as exc:
+            raise ContactModelError("contact", f"must be expandable to SX (scalar operations only): {exc}") from exc
+    q, qd = ca.SX.sym("q", ndof), ca.SX.sym("qd", ndof)
+    p = ca.SX.sym("p", contact.size1_in(2)) if contact.n_in() == 3 else None
+    try:  # IPOPT gets exact Hessians: the contact needs symbolic second derivatives
+        ca.hessian(ca.sum1(contact(q, qd, p) if p is not None else contact(q, qd)), ca.vertcat(q, qd))
+    except RuntimeError as exc:
+        raise ContactModelError("contact", f"must be twice differentiable by CasADi (exact Hessians): {exc}") from exc
     return contact
 
 

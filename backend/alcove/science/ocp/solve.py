@@ -10,6 +10,7 @@ result is returned as such (the caller decides by policy).
 
 from __future__ import annotations
 
+import threading
 import time
 from collections import OrderedDict
 from dataclasses import dataclass, field
@@ -26,7 +27,13 @@ from alcove.science.ocp.task_spec import TaskSpec
 from alcove.science.series import SeriesFormatError, Trajectory
 
 CACHE_SIZE = 8
-_CACHE: "OrderedDict[tuple[str, str, str], Transcription]" = OrderedDict()
+_LOCAL = threading.local()  # IPOPT solver objects are not for concurrent use: one cache per thread
+
+
+def _cache() -> "OrderedDict[tuple[str, str, str, str], Transcription]":
+    if not hasattr(_LOCAL, "cache"):
+        _LOCAL.cache = OrderedDict()
+    return _LOCAL.cache
 
 
 @dataclass
@@ -106,21 +113,28 @@ def _contact_key(contact: ca.Function | None) -> str:
         return f"id:{id(contact)}"
 
 
-def get_transcription(task: TaskSpec, contact: ca.Function | None, ipopt_options: dict[str, Any] | None = None) -> Transcription:
-    """The cached transcription for (task, contact structure, options); built on first use."""
-    key = (task.model_dump_json(), _contact_key(contact), repr(sorted((ipopt_options or {}).items())))
-    if key in _CACHE:
-        _CACHE.move_to_end(key)
-        return _CACHE[key]
-    tr = Transcription(task.chain(), task.discrete_problem(), contact, dict(ipopt_options or {}))
-    _CACHE[key] = tr
-    while len(_CACHE) > CACHE_SIZE:
-        _CACHE.popitem(last=False)
+def get_transcription(
+    task: TaskSpec, contact: ca.Function | None, ipopt_options: dict[str, Any] | None = None, graph: str = "MX"
+) -> Transcription:
+    """The cached transcription for (task, contact structure, options, graph); built on first use.
+
+    The cache holds the last ``CACHE_SIZE`` transcriptions of the calling thread.
+    """
+    cache = _cache()
+    key = (task.model_dump_json(), _contact_key(contact), repr(sorted((ipopt_options or {}).items())), graph)
+    if key in cache:
+        cache.move_to_end(key)
+        return cache[key]
+    tr = Transcription(task.chain(), task.discrete_problem(), contact, dict(ipopt_options or {}), graph)
+    cache[key] = tr
+    while len(cache) > CACHE_SIZE:
+        cache.popitem(last=False)
     return tr
 
 
 def clear_cache() -> None:
-    _CACHE.clear()
+    """Forget the cached transcriptions of the calling thread."""
+    _cache().clear()
 
 
 # ---- initial guesses ------------------------------------------------------------------
@@ -228,6 +242,7 @@ def solve_task(
     contact_params: np.ndarray | None = None,
     max_attempts: int = 3,
     ipopt_options: dict[str, Any] | None = None,
+    graph: str = "MX",
     on_attempt: Callable[[dict[str, Any]], None] | None = None,
 ) -> OcpSolution:
     """Solve ``task`` with the contact model ``contact`` (``None``: no contact).
@@ -235,11 +250,18 @@ def solve_task(
     Tries the initial guesses in order (previous solution, passive motion, ramp, static hold) until IPOPT
     reports success, at most ``max_attempts`` runs. Returns the converged solution, or the
     attempt with the smallest constraint violation marked ``converged=False``.
+
+    ``initial_guess``: a previous solution (any grid); on the same grid its multipliers
+    warm-start IPOPT. ``contact_params``: values of the third input of a parametric contact
+    function. ``graph``: ``"MX"`` (fast build, default) or ``"SX"`` (slow build, faster
+    iterations; worth it when one task and contact are solved many times).
+    ``ipopt_options`` are merged into the nlpsol options. ``on_attempt`` receives the
+    record of every IPOPT run.
     """
     if max_attempts < 1:
         raise ValueError("max_attempts: must be >= 1")
     t_start = time.perf_counter()
-    tr = get_transcription(task, contact, ipopt_options)
+    tr = get_transcription(task, contact, ipopt_options, graph)
     if tr.n_par and contact_params is None:
         raise ValueError("contact_params: the contact function takes parameters; pass their values")
     attempts: list[dict[str, Any]] = []
