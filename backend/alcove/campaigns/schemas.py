@@ -66,8 +66,12 @@ class RunSettings(_Strict):
     """Other settings that change results."""
 
     replay_phases: int = Field(1, ge=1, le=100, description="the oracle replays the first N phases of the OCP trajectory (paper: 1)")
+    replay_dt: float | None = Field(0.0025, gt=0, le=0.1, description="the replayed trajectory is resampled (cubic Hermite) at this step [s]; None: the OCP grid")
     ocp_intervals: int | None = Field(None, ge=2, le=20000, description="override the task's intervals per phase (None: as the task says)")
-    fault_injection: dict[str, Any] = Field(default_factory=dict, description="tests only: {step: {'raise_attempts': n} | {'sleep_s': s}}")
+    fault_injection: dict[str, Any] = Field(
+        default_factory=dict,
+        description="tests only, per step name: raise_attempts (raise on attempts <= n), sleep_s (+ iterations: [k...]), ipopt_max_iter (ocp), gate_fail (oracle)",
+    )
 
 
 class CampaignConfig(_Strict):
