@@ -7,7 +7,11 @@ import { ApiError, fieldErrors, type FieldError } from "./errors";
 import { storedToken } from "./auth";
 import { mergeMetrics, afterCursor, type MetricPoint } from "../lib/metrics";
 import type { JsonSchema } from "../components/SchemaForm";
+import { client, unwrap } from "./client";
+import type { components } from "./schema";
 export { downloadFile } from "./client";
+
+type Schemas = components["schemas"];
 
 const API = "/api/v1";
 export const POLL_MS = 2000;
@@ -192,8 +196,8 @@ export async function api<T>(method: string, path: string, opts: { query?: Query
 }
 
 // ------------------------------------------------------------------ auth
-export async function login(username: string, password: string): Promise<string> {
-  const r = await api<{ access_token: string }>("POST", "/auth/login", { body: { email: username, password } });
+export async function login(email: string, password: string): Promise<string> {
+  const r = unwrap(await client.POST("/api/v1/auth/login", { body: { email, password } }));
   return r.access_token;
 }
 
@@ -201,7 +205,7 @@ export function useMe() {
   return useQuery({
     queryKey: ["me"],
     queryFn: async (): Promise<Me> => {
-      const u = await api<{ id: number; email: string; display_name: string; role: string }>("GET", "/me");
+      const u = unwrap(await client.GET("/api/v1/me"));
       return { id: u.id, username: u.display_name || u.email, role: u.role };
     },
     staleTime: 60_000,
@@ -209,19 +213,25 @@ export function useMe() {
 }
 
 export function useTokens() {
-  return useQuery({ queryKey: ["tokens"], queryFn: () => api<TokenRow[]>("GET", "/me/tokens") });
+  return useQuery({
+    queryKey: ["tokens"],
+    queryFn: async (): Promise<TokenRow[]> => unwrap(await client.GET("/api/v1/me/tokens")),
+  });
 }
 export function useCreateToken() {
   const qc = useQueryClient();
   return useMutation({
-    mutationFn: (body: { name: string }) => api<{ token: string }>("POST", "/me/tokens", { body }),
+    mutationFn: async (body: { name: string }) => unwrap(await client.POST("/api/v1/me/tokens", { body })),
     onSuccess: () => qc.invalidateQueries({ queryKey: ["tokens"] }),
   });
 }
 export function useRevokeToken() {
   const qc = useQueryClient();
   return useMutation({
-    mutationFn: (id: number) => api<void>("DELETE", `/me/tokens/${id}`),
+    mutationFn: async (id: number) => {
+      const r = await client.DELETE("/api/v1/me/tokens/{token_id}", { params: { path: { token_id: id } } });
+      if (!r.response.ok) unwrap(r);
+    },
     onSuccess: () => qc.invalidateQueries({ queryKey: ["tokens"] }),
   });
 }
@@ -337,27 +347,38 @@ export function useSurrogateConfigs() {
 }
 
 // ------------------------------------------------------------------ tasks
+function taskRow(t: Schemas["TaskOut"]): TaskRow {
+  const versionId = (t as { version_id?: number }).version_id;
+  return { ...t, version_id: versionId ?? t.id, spec: t.spec as TaskSpecDraft };
+}
 export function useTasks() {
-  return useQuery({ queryKey: ["tasks"], queryFn: () => api<TaskRow[]>("GET", "/tasks") });
+  return useQuery({ queryKey: ["tasks"], queryFn: async () => unwrap(await client.GET("/api/v1/tasks", { params: { query: { limit: 500 } } })).map(taskRow) });
 }
 export function useTask(id: number | null) {
-  return useQuery({ queryKey: ["task", id], queryFn: () => api<TaskRow>("GET", `/tasks/${id}`), enabled: id !== null });
+  return useQuery({
+    queryKey: ["task", id],
+    queryFn: async () => taskRow(unwrap(await client.GET("/api/v1/tasks/{task_id}", { params: { path: { task_id: id ?? 0 } } }))),
+    enabled: id !== null,
+  });
 }
 export function useTaskPresets() {
-  return useQuery({ queryKey: ["task-presets"], queryFn: () => api<TaskPreset[]>("GET", "/tasks/presets"), staleTime: Infinity });
+  return useQuery({
+    queryKey: ["task-presets"],
+    queryFn: async (): Promise<TaskPreset[]> => unwrap(await client.GET("/api/v1/tasks/presets")).map((p) => ({ name: p.key, spec: p.spec as TaskSpecDraft })),
+    staleTime: Infinity,
+  });
 }
 /** Whether the API offers a route (optional features such as "solve once" appear when it does). */
 export function hasRoute(doc: OpenApiDocument | undefined, method: string, path: string): boolean {
   return Boolean((doc as { paths?: Record<string, Record<string, unknown>> } | undefined)?.paths?.[API + path]?.[method.toLowerCase()]);
 }
 export function useTaskSchema() {
-  return useQuery({ queryKey: ["task-schema"], queryFn: () => api<JsonSchema>("GET", "/tasks/schema"), staleTime: Infinity });
+  return useQuery({ queryKey: ["task-schema"], queryFn: async () => unwrap(await client.GET("/api/v1/tasks/schema")) as JsonSchema, staleTime: Infinity });
 }
 /** Field-level problems of a draft, without saving (empty list: valid). */
 export async function validateTask(body: { name: string; description: string; spec: TaskSpecDraft }): Promise<FieldError[]> {
   try {
-    const r = await api<{ valid?: boolean; errors?: unknown[] }>("POST", "/tasks/validate", { body });
-    return fieldErrors(r);
+    return fieldErrors(unwrap(await client.POST("/api/v1/tasks/validate", { body })));
   } catch (err) {
     if (err instanceof ApiError && err.status === 422) return err.fieldErrors;
     throw err;
@@ -366,7 +387,14 @@ export async function validateTask(body: { name: string; description: string; sp
 export function useSaveTask(id: number | null) {
   const qc = useQueryClient();
   return useMutation({
-    mutationFn: (body: { name: string; description: string; spec: TaskSpecDraft }) => (id === null ? api<TaskRow>("POST", "/tasks", { body }) : api<TaskRow>("PUT", `/tasks/${id}`, { body })),
+    mutationFn: async (body: { name: string; description: string; spec: TaskSpecDraft }) => {
+      const spec = body.spec as unknown as Schemas["TaskSpec"];
+      const saved =
+        id === null
+          ? unwrap(await client.POST("/api/v1/tasks", { body: { ...body, spec } }))
+          : unwrap(await client.PUT("/api/v1/tasks/{task_id}", { params: { path: { task_id: id } }, body: { ...body, spec } }));
+      return taskRow(saved);
+    },
     onSuccess: () => {
       void qc.invalidateQueries({ queryKey: ["tasks"] });
       void qc.invalidateQueries({ queryKey: ["task", id] });
@@ -380,18 +408,32 @@ export function useSolveOnce() {
 }
 
 // ------------------------------------------------------------------ oracles
+function oracleRow(o: Schemas["OracleOut"]): OracleRow {
+  const versionId = (o as { version_id?: number }).version_id;
+  return { ...o, version_id: versionId ?? o.id };
+}
 export function useOracles() {
-  return useQuery({ queryKey: ["oracles"], queryFn: () => api<OracleRow[]>("GET", "/oracles") });
+  return useQuery({ queryKey: ["oracles"], queryFn: async () => unwrap(await client.GET("/api/v1/oracles", { params: { query: { limit: 500 } } })).map(oracleRow) });
 }
 export function useOracle(id: number | null) {
-  return useQuery({ queryKey: ["oracle", id], queryFn: () => api<OracleRow>("GET", `/oracles/${id}`), enabled: id !== null });
+  return useQuery({
+    queryKey: ["oracle", id],
+    queryFn: async () => oracleRow(unwrap(await client.GET("/api/v1/oracles/{oracle_id}", { params: { path: { oracle_id: id ?? 0 } } }))),
+    enabled: id !== null,
+  });
 }
 export function useOracleTypes() {
   return useQuery({
     queryKey: ["oracle-types"],
     queryFn: async (): Promise<OracleType[]> => {
-      const rows = await api<{ name: string; kind: string; description: string; available: boolean; unavailable_reason?: string | null; params_schema: JsonSchema }[]>("GET", "/oracles/types");
-      return rows.map((r) => ({ name: r.name, kind: r.kind, description: r.available ? r.description : `${r.description} (${r.unavailable_reason ?? "unavailable"})`, available: r.available, schema: r.params_schema }));
+      const rows = unwrap(await client.GET("/api/v1/oracles/types"));
+      return rows.map((r) => ({
+        name: r.name,
+        kind: r.kind,
+        description: r.available ? r.description : `${r.description} (${r.unavailable_reason ?? "unavailable"})`,
+        available: r.available,
+        schema: r.params_schema as JsonSchema,
+      }));
     },
     staleTime: 60_000,
   });
@@ -399,7 +441,7 @@ export function useOracleTypes() {
 /** Field-level problems of an oracle's type and parameters, without saving. */
 export async function validateOracle(body: { type: string; params: Record<string, unknown> }): Promise<FieldError[]> {
   try {
-    return fieldErrors(await api<{ valid?: boolean; errors?: unknown[] }>("POST", "/oracles/validate", { body }));
+    return fieldErrors(unwrap(await client.POST("/api/v1/oracles/validate", { body })));
   } catch (err) {
     if (err instanceof ApiError && err.status === 422) return err.fieldErrors;
     throw err;
@@ -408,8 +450,12 @@ export async function validateOracle(body: { type: string; params: Record<string
 export function useSaveOracle(id: number | null) {
   const qc = useQueryClient();
   return useMutation({
-    mutationFn: (body: { name: string; description: string; type: string; params: Record<string, unknown> }) =>
-      id === null ? api<OracleRow>("POST", "/oracles", { body }) : api<OracleRow>("PUT", `/oracles/${id}`, { body }),
+    mutationFn: async (body: { name: string; description: string; type: string; params: Record<string, unknown> }) =>
+      oracleRow(
+        id === null
+          ? unwrap(await client.POST("/api/v1/oracles", { body }))
+          : unwrap(await client.PUT("/api/v1/oracles/{oracle_id}", { params: { path: { oracle_id: id } }, body })),
+      ),
     onSuccess: () => {
       void qc.invalidateQueries({ queryKey: ["oracles"] });
       void qc.invalidateQueries({ queryKey: ["oracle", id] });
