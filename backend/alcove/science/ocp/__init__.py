@@ -6,9 +6,30 @@
 * :mod:`.solve` -- ``solve_task`` (cached NLPs, initial guesses, retries) and ``OcpSolution``.
 """
 
-from alcove.science.ocp.contact import ContactModelError, aux_contact, contact_from_spec, no_contact
-from alcove.science.ocp.solve import OcpSolution, solve_task
-from alcove.science.ocp.task_spec import TaskSpec, TaskSpecError, parse_task, task_preset
+from importlib import import_module
+from typing import Any
+
+# Re-exports resolve on first use (PEP 562): importing ``task_spec`` alone (e.g. to validate a
+# task in the API process) must not import CasADi.
+_EXPORTS = {
+    "ContactModelError": "contact",
+    "aux_contact": "contact",
+    "contact_from_spec": "contact",
+    "no_contact": "contact",
+    "OcpSolution": "solve",
+    "solve_task": "solve",
+    "TaskSpec": "task_spec",
+    "TaskSpecError": "task_spec",
+    "parse_task": "task_spec",
+    "task_preset": "task_spec",
+}
+
+
+def __getattr__(name: str) -> Any:
+    if name in _EXPORTS:
+        return getattr(import_module(f"alcove.science.ocp.{_EXPORTS[name]}"), name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
 
 __all__ = [
     "ContactModelError",
