@@ -197,6 +197,8 @@ class FEHeadrestOracle:
                 contact_steps += 1
                 if first_contact is None:
                     first_contact = float(t_fine[k])
+            if failure is None and max_pen > p.max_penetration:
+                failure = f"penetration {max_pen * 1e3:.3g} mm exceeds max_penetration {p.max_penetration * 1e3:.3g} mm at t = {t_fine[k]:.4g} s"
             if failure is not None:
                 break
 
