@@ -18,3 +18,76 @@ def smoke(self: Any, token: str, sent_at: float | None = None) -> int:
     from alcove.jobs.smoke import run_smoke
 
     return run_smoke(token, worker_name=self.request.hostname or "unknown", sent_at=sent_at)
+
+
+# ----------------------------------------------------------------------------- campaign steps
+# One job per step type; the message is (campaign_id, iteration, step, attempt). The job
+# claims its step row first, so a duplicate delivery is a no-op (see alcove.campaigns.flows).
+
+from celery import signals  # noqa: E402
+
+from alcove.jobs.campaign import RECONCILE_JOB, STEP_JOBS  # noqa: E402
+
+
+def _run_step(job: Any, campaign_id: int, iteration: int, step: str, attempt: int) -> dict:
+    from alcove.campaigns.flows import run_step
+
+    return run_step(int(campaign_id), int(iteration), str(step), int(attempt), worker_name=job.request.hostname or "unknown")
+
+
+@app.task(name=STEP_JOBS["preliminary"], bind=True, acks_late=True)
+def preliminary_step(self: Any, campaign_id: int, iteration: int, step: str, attempt: int) -> dict:
+    return _run_step(self, campaign_id, iteration, step, attempt)
+
+
+@app.task(name=STEP_JOBS["train"], bind=True, acks_late=True)
+def train_step(self: Any, campaign_id: int, iteration: int, step: str, attempt: int) -> dict:
+    return _run_step(self, campaign_id, iteration, step, attempt)
+
+
+@app.task(name=STEP_JOBS["ocp"], bind=True, acks_late=True)
+def ocp_step(self: Any, campaign_id: int, iteration: int, step: str, attempt: int) -> dict:
+    return _run_step(self, campaign_id, iteration, step, attempt)
+
+
+@app.task(name=STEP_JOBS["oracle"], bind=True, acks_late=True)
+def oracle_step(self: Any, campaign_id: int, iteration: int, step: str, attempt: int) -> dict:
+    return _run_step(self, campaign_id, iteration, step, attempt)
+
+
+@app.task(name=STEP_JOBS["evaluate"], bind=True, acks_late=True)
+def evaluate_step(self: Any, campaign_id: int, iteration: int, step: str, attempt: int) -> dict:
+    return _run_step(self, campaign_id, iteration, step, attempt)
+
+
+@app.task(name=STEP_JOBS["append"], bind=True, acks_late=True)
+def append_step(self: Any, campaign_id: int, iteration: int, step: str, attempt: int) -> dict:
+    return _run_step(self, campaign_id, iteration, step, attempt)
+
+
+@app.task(name=RECONCILE_JOB, bind=True)
+def reconcile(self: Any) -> int:
+    """One reconciliation pass (also runs periodically inside every worker)."""
+    from alcove.campaigns.reconciler import reconcile_and_enqueue
+
+    return len(reconcile_and_enqueue())
+
+
+_reconciler: Any = None
+
+
+@signals.worker_ready.connect
+def _start_reconciler(sender: Any = None, **_: Any) -> None:
+    """Reconcile at worker start (steps of a worker that died), then every lease/4 s."""
+    global _reconciler
+    from alcove.campaigns.reconciler import ReconcilerThread
+    from alcove.settings import get_settings
+
+    _reconciler = ReconcilerThread(interval=max(1.0, get_settings().job_lease_seconds / 4))
+    _reconciler.start()
+
+
+@signals.worker_shutdown.connect
+def _stop_reconciler(**_: Any) -> None:
+    if _reconciler is not None:
+        _reconciler.stop()

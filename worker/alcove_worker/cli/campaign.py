@@ -1,0 +1,378 @@
+"""`alcove campaign ...`: run and control active-learning campaigns without the REST API.
+
+``alcove campaign run`` creates a campaign, starts it and follows it to the end with a Rich
+progress display. The steps go through Celery exactly as for web-driven campaigns: a
+worker process is spawned (``--worker``, the default) or external workers
+(``alcove worker``) pick them up (``--no-worker``).
+
+``--config F.yaml`` (or JSON) may hold: ``name``, ``seed``, ``preliminary``, ``stopping``,
+``policies``, ``settings`` (see :mod:`alcove.campaigns.schemas`), ``surrogate`` (the
+surrogate config), ``oracle_params`` (parameters of the oracle type) and ``task_spec``
+(a full task instead of the preset).
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+import uuid
+from pathlib import Path
+from typing import Any
+
+import typer
+
+app = typer.Typer(help="Active-learning campaigns: run, create, start, pause, resume, cancel, retry, fork, status, export.", no_args_is_help=True)
+
+TERMINAL = {"completed", "cancelled", "failed"}
+
+
+def _fail(field: str, reason: str, code: int = 2) -> None:
+    typer.echo(f"error: {field}: {reason}", err=True)
+    raise typer.Exit(code)
+
+
+def _read_config(path: Path | None) -> dict[str, Any]:
+    if path is None:
+        return {}
+    if not path.exists():
+        _fail("--config", f"{path} does not exist")
+    text = path.read_text()
+    try:
+        if path.suffix.lower() == ".json":
+            data = json.loads(text)
+        else:
+            import yaml
+
+            data = yaml.safe_load(text)
+    except Exception as exc:  # noqa: BLE001
+        _fail("--config", f"cannot parse {path}: {exc}")
+    if data is None:
+        return {}
+    if not isinstance(data, dict):
+        _fail("--config", "must be a mapping")
+    known = {"name", "description", "seed", "preliminary", "stopping", "policies", "settings", "surrogate", "oracle_params", "task_spec"}
+    unknown = sorted(set(data) - known)
+    if unknown:
+        _fail(f"--config.{unknown[0]}", f"unknown key (known: {', '.join(sorted(known))})")
+    return data
+
+
+def _ensure_database() -> None:
+    from alcove.db import migrate
+    from alcove.settings import get_settings
+
+    s = get_settings()
+    if s.is_sqlite:
+        s.data_dir.mkdir(parents=True, exist_ok=True)
+        migrate.upgrade()
+    elif not migrate.is_up_to_date():
+        _fail("database", "not migrated to the code's head revision; run `alcove db upgrade`")
+
+
+def _create(task: str, oracle: str, iterations: int | None, cfg: dict[str, Any], name: str | None, seed: int | None) -> int:
+    from pydantic import ValidationError
+
+    from alcove.campaigns import presets, service
+    from alcove.campaigns.schemas import CampaignCreate
+    from alcove.db import transaction
+
+    def work(s: Any) -> int:
+        user = presets.local_user(s)
+        tv = presets.task_version_from_preset(s, user.id, task, cfg.get("task_spec"))
+        ov = presets.oracle_version_for(s, user.id, oracle, cfg.get("oracle_params"))
+        sv = presets.surrogate_config_version_for(s, user.id, cfg.get("surrogate"))
+        stopping = dict(cfg.get("stopping") or {})
+        if iterations is not None:
+            stopping["max_iterations"] = iterations
+        data = CampaignCreate(
+            name=name or cfg.get("name") or f"{task} x {oracle}", description=cfg.get("description", ""), task_version_id=tv, oracle_version_id=ov,
+            surrogate_config_version_id=sv, seed=seed if seed is not None else cfg.get("seed", 0), preliminary=cfg.get("preliminary") or {},
+            stopping=stopping, policies=cfg.get("policies") or {}, settings=cfg.get("settings") or {},
+        )
+        return service.create_campaign(s, user.id, data).id
+
+    try:
+        return transaction(work)
+    except ValidationError as exc:
+        err = exc.errors()[0]
+        _fail(".".join(str(p) for p in err["loc"]) or "config", err["msg"])
+    except ValueError as exc:  # the science modules' input errors name the field
+        _fail(getattr(exc, "field", "config"), getattr(exc, "reason", str(exc)))
+    raise AssertionError("unreachable")
+
+
+def _control(action: str, campaign_id: int, **kwargs: Any) -> Any:
+    from alcove.campaigns import service
+    from alcove.db import transaction
+    from alcove.jobs.campaign import enqueue
+
+    fn = getattr(service, action)
+    try:
+        obj, jobs = transaction(lambda s: fn(s, campaign_id, **kwargs))
+    except (service.InvalidTransition, service.NotFound) as exc:
+        _fail("campaign", str(exc))
+    enqueue(jobs)
+    return obj
+
+
+def _detail(campaign_id: int) -> Any:
+    from alcove.campaigns import service
+    from alcove.db import session_scope
+
+    with session_scope() as s:
+        return service.get_detail(s, campaign_id)
+
+
+def _metrics(campaign_id: int) -> list[dict[str, Any]]:
+    from alcove.campaigns import service
+    from alcove.db import session_scope
+
+    with session_scope() as s:
+        return [m.model_dump(mode="json") for m in service.metrics_series(s, campaign_id)]
+
+
+def spawn_worker(concurrency: int = 1, queues: str = "default,ocp,oracle,train", log_path: Path | None = None) -> subprocess.Popen[bytes]:
+    """An `alcove worker` child process in its own session (stopped by :func:`stop_worker`)."""
+    argv = [sys.executable, "-m", "alcove_worker.cli.main", "worker", "--queues", queues, "--concurrency", str(concurrency),
+            "--name", f"campaign-run-{uuid.uuid4().hex[:6]}", "--loglevel", "WARNING"]
+    out = open(log_path, "ab") if log_path else subprocess.DEVNULL  # noqa: SIM115
+    return subprocess.Popen(argv, stdout=out, stderr=subprocess.STDOUT, start_new_session=True)
+
+
+def stop_worker(p: subprocess.Popen[bytes], timeout: float = 20.0) -> None:
+    if p.poll() is None:
+        p.send_signal(signal.SIGTERM)
+        try:
+            p.wait(timeout=timeout)
+        except subprocess.TimeoutExpired:
+            pass
+    try:
+        os.killpg(p.pid, signal.SIGKILL)
+    except ProcessLookupError:
+        pass
+    p.wait(timeout=5)
+
+
+def follow(campaign_id: int, *, quiet: bool = False, poll: float = 0.25, worker: subprocess.Popen[bytes] | None = None) -> Any:
+    """Poll the campaign until it reaches a terminal state (or paused), with a progress display."""
+    from rich.console import Console
+    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
+
+    console = Console(stderr=True)
+    detail = _detail(campaign_id)
+    total = detail.config.stopping.max_iterations
+    start_k = detail.campaign.source_iteration or 0
+    with Progress(TextColumn("[bold]{task.description}"), BarColumn(), MofNCompleteColumn(), TextColumn("{task.fields[info]}"), TimeElapsedColumn(),
+                  console=console, disable=quiet, transient=False) as progress:
+        bar = progress.add_task(f"campaign {campaign_id}", total=(total - start_k) if total else None, info="")
+        while True:
+            detail = _detail(campaign_id)
+            c = detail.campaign
+            m = detail.latest_metrics
+            rmse = f"F {m.force_rmse:.3g} N  M {m.moment_rmse:.3g} N m" if m and m.force_rmse is not None else "-"
+            eta = f"ETA {detail.eta_s:.0f} s" if detail.eta_s is not None else "ETA -"
+            progress.update(bar, completed=detail.iterations_finished + detail.iterations_failed,
+                            description=f"campaign {campaign_id} · k={c.current_iteration} {c.current_step or ''} · {c.status.value}", info=f"{rmse} · {eta}")
+            if c.status.value in TERMINAL or c.status.value == "paused":
+                return detail
+            if worker is not None and worker.poll() is not None:
+                console.print(f"[red]the worker exited with code {worker.returncode}[/red]")
+                return detail
+            time.sleep(poll)
+
+
+def _summary(detail: Any, metrics: list[dict[str, Any]], wall: float | None = None) -> dict[str, Any]:
+    c = detail.campaign
+    out = {"campaign_id": c.id, "status": c.status.value, "stop_reason": c.stop_reason, "error": c.error, "iterations_finished": detail.iterations_finished,
+           "iterations_failed": detail.iterations_failed, "mean_iteration_s": detail.mean_iteration_s, "oracle_wall_time_s": c.oracle_wall_time_s}
+    if wall is not None:
+        out["wall_time_s"] = wall
+    if metrics:
+        out["first"] = {k: metrics[0][k] for k in ("iteration_index", "force_rmse", "moment_rmse")}
+        out["last"] = {k: metrics[-1][k] for k in ("iteration_index", "force_rmse", "moment_rmse")}
+    return out
+
+
+@app.command()
+def run(
+    task: str = typer.Option("head-headrest-2phase", help="task preset"),
+    oracle: str = typer.Option("fe-headrest-2d", help="oracle type: fe-headrest-2d, aux-penalty or a command-catalogue entry"),
+    iterations: int | None = typer.Option(None, "--iterations", "-n", min=1, help="max_iterations stopping rule (default: the config's, else 200)"),
+    config: Path | None = typer.Option(None, "--config", help="YAML/JSON campaign settings"),
+    name: str | None = typer.Option(None, help="campaign name"),
+    seed: int | None = typer.Option(None, min=0, help="campaign seed"),
+    as_json: bool = typer.Option(False, "--json", help="print the per-iteration metrics as JSON at the end"),
+    spawn: bool = typer.Option(True, "--worker/--no-worker", help="spawn a worker process (off: external `alcove worker`s run the steps)"),
+    concurrency: int = typer.Option(1, "--concurrency", "-c", min=1, help="processes of the spawned worker"),
+    worker_log: Path | None = typer.Option(None, help="file for the spawned worker's log"),
+) -> None:
+    """Create a campaign, run it to the end through Celery, and report its metrics."""
+    from alcove.jobs.campaign import enqueue
+
+    _ensure_database()
+    cfg = _read_config(config)
+    campaign_id = _create(task, oracle, iterations, cfg, name, seed)
+    proc = spawn_worker(concurrency, log_path=worker_log) if spawn else None
+    t0 = time.perf_counter()
+    try:
+        _control("start", campaign_id)
+        try:
+            detail = follow(campaign_id, quiet=as_json, worker=proc)
+        except KeyboardInterrupt:
+            _control("pause", campaign_id)
+            typer.echo(f"\npausing campaign {campaign_id} after the running step; continue with `alcove campaign resume {campaign_id}`", err=True)
+            detail = follow(campaign_id, quiet=True, worker=proc)
+    finally:
+        if proc is not None:
+            stop_worker(proc)
+    wall = time.perf_counter() - t0
+    metrics = _metrics(campaign_id)
+    summary = _summary(detail, metrics, wall)
+    if as_json:
+        typer.echo(json.dumps({**summary, "metrics": metrics}))
+    else:
+        typer.echo(json.dumps(summary, indent=1))
+    if detail.campaign.status.value == "failed":
+        raise typer.Exit(1)
+
+
+@app.command()
+def create(
+    task: str = typer.Option("head-headrest-2phase"),
+    oracle: str = typer.Option("fe-headrest-2d"),
+    iterations: int | None = typer.Option(None, "--iterations", "-n", min=1),
+    config: Path | None = typer.Option(None, "--config"),
+    name: str | None = typer.Option(None),
+    seed: int | None = typer.Option(None, min=0),
+) -> None:
+    """Create a draft campaign and print its id."""
+    _ensure_database()
+    typer.echo(_create(task, oracle, iterations, _read_config(config), name, seed))
+
+
+def _print_status(campaign_id: int, as_json: bool) -> None:
+    detail = _detail(campaign_id)
+    if as_json:
+        typer.echo(detail.model_dump_json())
+        return
+    c = detail.campaign
+    m = detail.latest_metrics
+    typer.echo(f"campaign {c.id} '{c.name}': {c.status.value}" + (f" ({c.stop_reason})" if c.stop_reason else "") +
+               f" · iteration {c.current_iteration} {c.current_step or ''} · finished {detail.iterations_finished}, failed {detail.iterations_failed}" +
+               (f" · last RMSE F {m.force_rmse:.4g} N, M {m.moment_rmse:.4g} N m" if m and m.force_rmse is not None else "") +
+               (f" · ETA {detail.eta_s:.0f} s" if detail.eta_s is not None else ""))
+    if c.error:
+        typer.echo(f"error: {c.error}")
+
+
+def _id_arg() -> Any:
+    return typer.Argument(..., help="campaign id")
+
+
+@app.command()
+def start(campaign_id: int = _id_arg()) -> None:
+    """Start a draft campaign (workers must be running)."""
+    _control("start", campaign_id)
+    _print_status(campaign_id, False)
+
+
+@app.command()
+def pause(campaign_id: int = _id_arg()) -> None:
+    """Pause after the running step."""
+    _control("pause", campaign_id)
+    _print_status(campaign_id, False)
+
+
+@app.command()
+def resume(campaign_id: int = _id_arg()) -> None:
+    """Resume a paused campaign."""
+    _control("resume", campaign_id)
+    _print_status(campaign_id, False)
+
+
+@app.command()
+def cancel(campaign_id: int = _id_arg()) -> None:
+    """Cancel (cooperatively: the running job stops at its next check)."""
+    _control("cancel", campaign_id)
+    _print_status(campaign_id, False)
+
+
+@app.command()
+def retry(campaign_id: int = _id_arg(), iteration: int | None = typer.Option(None), step: str | None = typer.Option(None)) -> None:
+    """Run the failed step of a failed campaign again."""
+    _control("retry_step", campaign_id, iteration=iteration, step=step)
+    _print_status(campaign_id, False)
+
+
+@app.command()
+def fork(
+    campaign_id: int = _id_arg(),
+    iteration: int = typer.Option(..., "--iteration", "-k", min=0, help="continue from this iteration's pool version and model"),
+    iterations: int | None = typer.Option(None, "--iterations", "-n", min=1, help="max_iterations of the fork"),
+    config: Path | None = typer.Option(None, "--config", help="settings to change (stopping, policies, settings, surrogate, seed, name)"),
+    start_it: bool = typer.Option(False, "--start", help="start the fork at once"),
+) -> None:
+    """Create a new campaign continuing from iteration K of this one; prints its id."""
+    from alcove.campaigns import presets
+    from alcove.campaigns.schemas import ForkRequest, StoppingRules
+    from alcove.db import transaction
+
+    cfg = _read_config(config)
+    detail = _detail(campaign_id)
+    stopping = dict(cfg.get("stopping") or detail.config.stopping.model_dump())
+    if iterations is not None:
+        stopping["max_iterations"] = iterations
+
+    def scv(s: Any) -> int | None:
+        return presets.surrogate_config_version_for(s, presets.local_user(s).id, cfg["surrogate"]) if "surrogate" in cfg else None
+
+    req = ForkRequest(iteration=iteration, name=cfg.get("name"), seed=cfg.get("seed"), stopping=StoppingRules(**stopping), policies=cfg.get("policies"),
+                      settings=cfg.get("settings"), surrogate_config_version_id=transaction(scv), start=start_it)
+    new = _control("fork", campaign_id, req=req, owner_id=detail.campaign.owner_id)
+    typer.echo(new.id)
+
+
+@app.command()
+def status(campaign_id: int = _id_arg(), as_json: bool = typer.Option(False, "--json")) -> None:
+    """Status, current iteration and step, latest RMSE, ETA."""
+    _print_status(campaign_id, as_json)
+
+
+@app.command(name="list")
+def list_(as_json: bool = typer.Option(False, "--json")) -> None:
+    """All campaigns."""
+    from alcove.campaigns import service
+    from alcove.db import session_scope
+
+    with session_scope() as s:
+        rows = service.list_campaigns(s)
+    if as_json:
+        typer.echo(json.dumps([r.model_dump(mode="json") for r in rows]))
+        return
+    for r in rows:
+        typer.echo(f"{r.id:5d}  {r.status.value:10s}  k={r.current_iteration:<4d} {r.name}")
+
+
+@app.command()
+def export(
+    campaign_id: int = _id_arg(),
+    out: Path = typer.Option(..., "--out", "-o", help="folder to write into"),
+    fmt: str = typer.Option("parquet", "--format", help="pool tables: parquet or csv"),
+    models: bool = typer.Option(True, "--models/--no-models", help="include the model artifacts"),
+) -> None:
+    """Write pool versions (Parquet/CSV), models, metrics and curves to a folder."""
+    from alcove.campaigns import service
+    from alcove.db import session_scope
+
+    if fmt not in ("parquet", "csv"):
+        _fail("--format", f"expected parquet or csv, got {fmt!r}")
+    with session_scope() as s:
+        try:
+            root = service.export_campaign(s, campaign_id, out, pool_format=fmt, models=models)
+        except service.NotFound as exc:
+            _fail("campaign", str(exc))
+    typer.echo(str(root))
