@@ -23,6 +23,11 @@ const artifacts = resolve(String(args.artifacts ?? "test-artifacts"));
 const campaignTimeout = Number(args["campaign-timeout"] ?? 240) * 1000;
 mkdirSync(artifacts, { recursive: true });
 
+const stopAfter = args["stop-after"] ? String(args["stop-after"]) : null;
+class StopEarly extends Error {}
+function checkpoint(name) {
+  if (stopAfter === name) throw new StopEarly(name);
+}
 const t0 = Date.now();
 function step(name) {
   console.log(`[e2e ${((Date.now() - t0) / 1000).toFixed(1)} s] ${name}`);
@@ -90,6 +95,7 @@ try {
   await page.getByTestId("validation-state").filter({ hasText: "valid" }).waitFor({ timeout: 15_000 });
   await page.getByRole("button", { name: "Create task" }).click();
   await page.waitForURL(/\/tasks\/\d+$/);
+  checkpoint("task");
 
   step("create an aux-penalty oracle");
   await page.getByRole("link", { name: "Oracles" }).click();
@@ -98,6 +104,7 @@ try {
   await page.getByLabel("Type").selectOption("aux-penalty");
   await page.getByRole("button", { name: "Create oracle" }).click();
   await page.waitForURL(/\/oracles\/\d+$/);
+  checkpoint("oracle");
 
   step("create and start a campaign");
   await page.getByRole("link", { name: "Campaigns" }).click();
@@ -167,6 +174,11 @@ try {
   if (relevant.length) throw new Error(`console errors: ${relevant.join(" | ")}`);
   step("all steps passed");
 } catch (err) {
+  if (err instanceof StopEarly) {
+    step(`stopped after ${err.message} (--stop-after)`);
+    await close();
+    process.exit(0);
+  }
   await page.screenshot({ path: resolve(artifacts, "e2e-failure.png"), fullPage: true }).catch(() => {});
   console.error(`[e2e] FAILED at ${page.url()}: ${err?.stack ?? err}`);
   process.exitCode = 1;
