@@ -29,6 +29,7 @@ import numpy as np
 
 from alcove.science.multibody import PlanarChain
 from alcove.science.ocp.contact import ContactModelError, check_contact_function
+from alcove.science.ocp.derivatives import structured_derivatives
 
 
 @dataclass(frozen=True)
@@ -155,6 +156,9 @@ class Transcription:
     chooses the outer expression graph: ``"MX"`` keeps the maps (fast to build: use it when
     the contact function changes often) and ``"SX"`` inlines everything (slower to build,
     fastest per IPOPT iteration: use it when one transcription is solved many times).
+    ``derivatives``: ``"structured"`` assembles the exact Jacobian and Hessian from local
+    interval blocks (:mod:`.derivatives`, MX graph only), ``"casadi"`` lets CasADi derive
+    them, ``"auto"`` picks structured for MX.
     """
 
     chain: PlanarChain
@@ -162,6 +166,7 @@ class Transcription:
     contact: ca.Function | None = None
     ipopt_options: dict[str, object] = field(default_factory=dict)
     graph: str = "MX"
+    derivatives: str = "auto"
 
     def __post_init__(self) -> None:
         chain, prob = self.chain, self.problem
@@ -217,7 +222,24 @@ class Transcription:
         self.lbg, self.ubg = lbg, ubg
         self._cost_fn = ca.Function("cost", [x, par], [cost])
         self._nlp = {"x": x, "p": par, "f": cost, "g": g}
-        self.solver = ca.nlpsol("dmocc", "ipopt", self._nlp, {**DEFAULT_IPOPT_OPTIONS, **self.ipopt_options})
+        self._derivative_options: dict[str, object] = {}
+        if self.derivatives == "auto":
+            self.derivatives = "structured" if self.graph == "MX" else "casadi"
+        if self.derivatives == "structured":
+            if self.graph != "MX":
+                raise ValueError("derivatives: 'structured' needs graph='MX'")
+            off = n if prob.qd_start is not None else 0
+            node_rows = np.full((N + 1, n), -1)
+            if prob.qd_start is not None:
+                node_rows[0] = np.arange(n)
+            node_rows[1:N] = off + np.arange(n * (N - 1)).reshape(N - 1, n)
+            if prob.qd_end is not None:
+                node_rows[N] = off + n * (N - 1) + np.arange(n)
+            jac_g, hess_lag = structured_derivatives(chain, prob, dynamics, interval_cost, self.n_par, x, par, g, node_rows)
+            self._derivative_options = {"jac_g": jac_g, "hess_lag": hess_lag}
+        elif self.derivatives != "casadi":
+            raise ValueError(f"derivatives: must be 'structured' or 'casadi', got {self.derivatives!r}")
+        self.solver = ca.nlpsol("dmocc", "ipopt", self._nlp, {**DEFAULT_IPOPT_OPTIONS, **self._derivative_options, **self.ipopt_options})
         self._warm_solver: ca.Function | None = None
 
     # ---- bounds and grid ----------------------------------------------------------
@@ -275,7 +297,7 @@ class Transcription:
     def warm_solver(self) -> ca.Function:
         """The same NLP with IPOPT set up for a warm start from a primal-dual point (built on first use)."""
         if self._warm_solver is None:
-            options = {**DEFAULT_IPOPT_OPTIONS, **WARM_START_OPTIONS, **self.ipopt_options}
+            options = {**DEFAULT_IPOPT_OPTIONS, **WARM_START_OPTIONS, **self._derivative_options, **self.ipopt_options}
             self._warm_solver = ca.nlpsol("dmocc_warm", "ipopt", self._nlp, options)
         return self._warm_solver
 
