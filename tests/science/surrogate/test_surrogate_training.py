@@ -9,6 +9,7 @@ from alcove.science.surrogate.config import SurrogateConfig, SurrogateConfigErro
 from alcove.science.surrogate.dataset import PoolDataError, PoolDataset
 from alcove.science.surrogate.mlp import MLP
 from alcove.science.surrogate.training import (
+    FlatAdam,
     TrainingCancelled,
     predict,
     sample_weights,
@@ -154,3 +155,18 @@ def test_bad_pools_give_clear_errors(smooth_pool):
         train_surrogate([one, two_dof], SurrogateConfig(), seed=0)
     with pytest.raises(PoolDataError, match="^q: the head-neck preset has 1 degree"):
         train_surrogate([two_dof], SurrogateConfig(), seed=0)
+
+
+def test_flat_adam_is_torch_adam():
+    g = torch.Generator().manual_seed(1)
+    a = torch.nn.Parameter(torch.randn(50, dtype=torch.float64, generator=g))
+    b = torch.nn.Parameter(a.detach().clone())
+    reference = torch.optim.Adam([a], lr=0.01)
+    ours = FlatAdam(b, lr=0.01)
+    for _ in range(100):
+        grad = torch.randn(50, dtype=torch.float64, generator=g)
+        a.grad, b.grad = grad.clone(), grad.clone()
+        reference.step()
+        ours.step()
+    torch.testing.assert_close(b.detach(), a.detach(), rtol=1e-13, atol=1e-15)
+    assert not torch.equal(b.detach(), torch.zeros(50, dtype=torch.float64))

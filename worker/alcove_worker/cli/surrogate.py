@@ -60,6 +60,12 @@ def _campaign_inputs(campaign_id: int, database_url: str | None) -> tuple[list, 
         from alcove.science.ocp.task_spec import TaskSpecError, parse_task
     except ImportError as exc:  # pragma: no cover - a worker without the database layer
         _bad_input("campaign", f"the database layer is not available ({exc})")
+    if not database_url:
+        from alcove.settings import get_settings
+
+        database_url = get_settings().database_url
+    if database_url.startswith("sqlite:///") and not Path(database_url[len("sqlite:///") :]).exists():
+        _bad_input("campaign", f"no database at {database_url} (set ALCOVE_DATABASE_URL)")
     try:
         with session_scope(database_url) as s:
             campaign = s.get(Campaign, campaign_id)

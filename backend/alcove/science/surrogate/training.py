@@ -17,6 +17,7 @@
 from __future__ import annotations
 
 import copy
+import math
 import time
 from dataclasses import asdict, dataclass, field
 from typing import Any, Callable
@@ -202,7 +203,7 @@ def _fit(nets: dict[str, MLP], z: torch.Tensor, y: dict[str, torch.Tensor], w: t
          y_val: dict[str, torch.Tensor], w_val: torch.Tensor, w_val_sum: float, config: SurrogateConfig,
          generator: torch.Generator, cancel: Callable[[], bool] | None) -> tuple[dict, dict, dict]:
     flat = _FlatParameters([p for k in NETS for p in nets[k].parameters()])
-    optimizer = torch.optim.Adam([flat.parameter], lr=config.learning_rate, fused=True)
+    optimizer = FlatAdam(flat.parameter, lr=config.learning_rate)
     active = list(NETS)
     best = {k: float("inf") for k in NETS}
     best_state = {k: copy.deepcopy(nets[k].state_dict()) for k in NETS}
@@ -237,6 +238,34 @@ def _fit(nets: dict[str, MLP], z: torch.Tensor, y: dict[str, torch.Tensor], w: t
     for k in NETS:
         nets[k].load_state_dict(best_state[k])
     return history, epochs, best_epoch
+
+
+class FlatAdam:
+    """Adam (Kingma & Ba; the update of ``torch.optim.Adam`` with its defaults) on one flat tensor.
+
+    ``torch.optim`` imports ``torch._dynamo`` on first use, 2-7 s per process on this
+    machine, which a one-shot CLI call or a fresh worker pays on every training; the update
+    itself is five tensor operations. ``tests/science/surrogate`` checks it against
+    ``torch.optim.Adam``.
+    """
+
+    def __init__(self, param: torch.Tensor, lr: float, betas: tuple[float, float] = (0.9, 0.999), eps: float = 1e-8):
+        self.param, self.lr, self.betas, self.eps = param, lr, betas, eps
+        self.exp_avg = torch.zeros_like(param)
+        self.exp_avg_sq = torch.zeros_like(param)
+        self.steps = 0
+
+    @torch.no_grad()
+    def step(self) -> None:
+        grad = self.param.grad
+        assert grad is not None
+        b1, b2 = self.betas
+        self.steps += 1
+        self.exp_avg.lerp_(grad, 1 - b1)
+        self.exp_avg_sq.mul_(b2).addcmul_(grad, grad, value=1 - b2)
+        bias1, bias2 = 1 - b1**self.steps, 1 - b2**self.steps
+        denom = (self.exp_avg_sq.sqrt() / math.sqrt(bias2)).add_(self.eps)
+        self.param.addcdiv_(self.exp_avg, denom, value=-self.lr / bias1)
 
 
 class _FlatParameters:
@@ -325,6 +354,7 @@ def predict(model: SurrogateModel, t: np.ndarray, q: np.ndarray, qd: np.ndarray,
 
 
 __all__ = [
+    "FlatAdam",
     "PoolSplit",
     "TrainingCancelled",
     "TrainingMetrics",
