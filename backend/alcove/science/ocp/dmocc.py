@@ -235,7 +235,9 @@ class Transcription:
             node_rows[1:N] = off + np.arange(n * (N - 1)).reshape(N - 1, n)
             if prob.qd_end is not None:
                 node_rows[N] = off + n * (N - 1) + np.arange(n)
-            jac_g, hess_lag = structured_derivatives(chain, prob, dynamics, interval_cost, self.n_par, x, par, g, node_rows)
+            jac_g, hess_lag = structured_derivatives(
+                chain, prob, dynamics, _interval_functions(chain, None)[0], self.contact, interval_cost, self.n_par, x, par, g, node_rows
+            )
             self._derivative_options = {"jac_g": jac_g, "hess_lag": hess_lag}
         elif self.derivatives != "casadi":
             raise ValueError(f"derivatives: must be 'structured' or 'casadi', got {self.derivatives!r}")
