@@ -163,18 +163,20 @@ def foam_response(
     elastic = law.energy(s1, s2)
     energy = elastic + visc_energy if visc else elastic
     W1, W2, W11, W12, W22, Dm, Dp = law.derivatives(s1, s2)
-    # frame matrices M_ab = u_a (x) v_b, flattened (00, 01, 10, 11)
+    # frame matrices M_ab = u_a (x) v_b flattened (00, 01, 10, 11), u_0 = (cu, su), u_1 = (-su, cu)
+    Mmat = np.empty(J.shape + (4, 4))  # rows: M_00, M_11, M_01, M_10
     u = ((cu, su), (-su, cu))
     v = ((cv, sv), (-sv, cv))
-    M = {(a, b): np.stack([u[a][0] * v[b][0], u[a][0] * v[b][1], u[a][1] * v[b][0], u[a][1] * v[b][1]], -1) for a in range(2) for b in range(2)}
-    P = (W1[..., None] * M[0, 0] + W2[..., None] * M[1, 1]).reshape(F.shape)
+    for row, (a, b) in enumerate(((0, 0), (1, 1), (0, 1), (1, 0))):
+        for col, (i, j) in enumerate(((0, 0), (0, 1), (1, 0), (1, 1))):
+            Mmat[..., row, col] = u[a][i] * v[b][j]
+    P = (W1[..., None] * Mmat[..., 0, :] + W2[..., None] * Mmat[..., 1, :]).reshape(F.shape)
     if visc:
         S_v = viscosity_over_dt * dE
         P = P + F @ S_v
     if order == 1:
         return FoamResponse(energy, elastic, P, None, True)
     # tangent = M^T C M with C the singular-frame tangent on (00, 11, 01, 10)
-    Mmat = np.stack([M[0, 0], M[1, 1], M[0, 1], M[1, 0]], -2)
     C = np.zeros(J.shape + (4, 4))
     C[..., 0, 0] = W11
     C[..., 0, 1] = W12

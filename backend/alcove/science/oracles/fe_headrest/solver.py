@@ -24,8 +24,8 @@ from scipy.linalg import cho_solve_banded, cholesky_banded
 from scipy.sparse.linalg import splu
 from threadpoolctl import threadpool_limits
 
-from alcove.science.oracles.fe_headrest.contact import PenaltyContact
-from alcove.science.oracles.fe_headrest.foam import Hyperfoam, foam_response, green_lagrange
+from alcove.science.oracles.fe_headrest.contact import ContactState, PenaltyContact
+from alcove.science.oracles.fe_headrest.foam import FoamResponse, Hyperfoam, foam_response, green_lagrange
 from alcove.science.oracles.fe_headrest.mesh import CushionMesh
 
 Pose = tuple[np.ndarray, float]
@@ -52,6 +52,16 @@ class StepResult:
     stored_energy: float  # [J/m] elastic + penalty at the end of the step
     residual: float = 0.0
     pressure: np.ndarray = field(default_factory=lambda: np.zeros(0))  # normal force / length [Pa]
+
+
+@dataclass
+class Evaluation:
+    energy: float
+    grad: np.ndarray | None  # (n_dofs,) gradient of the incremental potential
+    f_internal: np.ndarray | None  # (n_dofs,) internal (foam) forces alone
+    contact: ContactState
+    foam: FoamResponse
+    K: sp.csr_matrix | None  # tangent on the free dofs
 
 
 class CushionSolver:
@@ -157,31 +167,32 @@ class CushionSolver:
         eta_dt = self.viscosity / dt if dt > 0 else 0.0
         return foam_response(self.law, self.deformation_gradient(u), self.E_prev, eta_dt, order)
 
-    def energy(self, u: np.ndarray, pose: Pose, dt: float, local_prev: np.ndarray | None) -> float:
-        foam = self._foam(u, dt, 0)
-        if not foam.valid:
-            return np.inf
+    def evaluate(self, u: np.ndarray, pose: Pose, dt: float, local_prev: np.ndarray | None, order: int) -> "Evaluation":
+        """Incremental potential (order 0), plus its gradient (1), plus the tangent on the free dofs (2)."""
+        foam = self._foam(u, dt, order)
         x = self.surface_positions(u)
-        cs = self.contact.evaluate(x, pose, local_prev, self.normal_force_prev, with_stiffness=False)
-        return float(np.sum(foam.energy * self.mesh.weights)) + cs.energy
-
-    def gradient_and_tangent(self, u: np.ndarray, pose: Pose, dt: float, local_prev: np.ndarray | None):  # noqa: ANN201
-        foam = self._foam(u, dt, 2)
+        cs = self.contact.evaluate(x, pose, local_prev, self.normal_force_prev, with_stiffness=order >= 2)
         if not foam.valid:
-            raise FloatingPointError("inverted element")
-        ne, nq = self.mesh.weights.shape
-        grad = self.scatter @ (foam.stress * self.mesh.weights[:, :, None, None]).ravel()
-        A = foam.tangent.reshape(ne, nq, 4, 4)
-        Ke = (self.Bt_w @ A @ self.B).sum(axis=1).reshape(ne, 64)
-        x = self.surface_positions(u)
-        cs = self.contact.evaluate(x, pose, local_prev, self.normal_force_prev, with_stiffness=True)
-        f_internal = grad.copy()
+            return Evaluation(np.inf, None, None, cs, foam, None)
+        energy = float(np.sum(foam.energy * self.mesh.weights)) + cs.energy
+        if order == 0:
+            return Evaluation(energy, None, None, cs, foam, None)
+        f_internal = self.scatter @ (foam.stress * self.mesh.weights[:, :, None, None]).ravel()
+        grad = f_internal.copy()
         grad[self.surface_dofs.ravel()] -= cs.force.ravel()  # surface dofs are distinct
-        data = np.bincount(self._elem_slot, weights=Ke.ravel()[self._elem_mask], minlength=self._keys.size)
-        data += np.bincount(self._surf_slot, weights=cs.stiffness.ravel(), minlength=self._keys.size)
-        nf = self.free.size
-        K = sp.csr_matrix((data, self._indices, self._indptr), shape=(nf, nf))
-        return grad, K, cs, f_internal, foam
+        K = None
+        if order >= 2:
+            ne, nq = self.mesh.weights.shape
+            A = foam.tangent.reshape(ne, nq, 4, 4)
+            Ke = (self.Bt_w @ A @ self.B).sum(axis=1).reshape(ne, 64)
+            data = np.bincount(self._elem_slot, weights=Ke.ravel()[self._elem_mask], minlength=self._keys.size)
+            data += np.bincount(self._surf_slot, weights=cs.stiffness.ravel(), minlength=self._keys.size)
+            nf = self.free.size
+            K = sp.csr_matrix((data, self._indices, self._indptr), shape=(nf, nf))
+        return Evaluation(energy, grad, f_internal, cs, foam, K)
+
+    def energy(self, u: np.ndarray, pose: Pose, dt: float, local_prev: np.ndarray | None) -> float:
+        return self.evaluate(u, pose, dt, local_prev, 0).energy
 
     def _solve(self, K: sp.csr_matrix, rhs: np.ndarray) -> np.ndarray:
         """Banded Cholesky (LAPACK pbtrf); sparse LU if the tangent is not positive definite."""
@@ -199,28 +210,27 @@ class CushionSolver:
         pose_prev = self.pose_prev if self.pose_prev is not None else pose
         x_prev = self.surface_positions(self.u)
         local_prev = self.contact.local_coordinates(x_prev, pose_prev)
-        gap_now = self.contact.evaluate(x_prev, pose, None, None, with_stiffness=False).gap
         at_rest = not np.any(self.u) and not np.any(self.u_old)
-        if at_rest and np.all(gap_now > 0):
+        if at_rest and np.all(self.contact.evaluate(x_prev, pose, None, None, with_stiffness=False).gap > 0):
             self.pose_prev = pose
             self.normal_force_prev[:] = 0.0
             zero = np.zeros(2)
             return StepResult(True, 0, True, zero, 0.0, zero, 0.0, 0, 0.0, 0.0, 0.0)
 
         u = self._initial_guess(pose, dt, local_prev)
-        e_current: float | None = self.energy(u, pose, dt, local_prev)
-        if not np.isfinite(e_current):  # the guess inverted an element: start from the last state
-            u, e_current = self.u.copy(), None
-        tol = None
+        # every evaluation includes the tangent: an accepted line-search trial is the next iterate
+        ev = self.evaluate(u, pose, dt, local_prev, 2)
+        if not np.isfinite(ev.energy):  # the guess inverted an element: start from the last state
+            u = self.u.copy()
+            ev = self.evaluate(u, pose, dt, local_prev, 2)
         converged = False
         iterations = 0
         res_norm = np.inf
         last_step: float | None = None
         for iterations in range(self.max_iterations + 1):
-            grad, K, cs, f_internal, foam = self.gradient_and_tangent(u, pose, dt, local_prev)
-            r = grad[self.free]
+            r = ev.grad[self.free]
             res_norm = float(np.linalg.norm(r))
-            scale = float(np.linalg.norm(cs.force)) + self.law.shear_modulus * self.mesh.thickness * 1e-3
+            scale = float(np.linalg.norm(ev.contact.force)) + self.law.shear_modulus * self.mesh.thickness * 1e-3
             tol = self.newton_tol * scale
             if res_norm <= tol:
                 converged = True
@@ -230,27 +240,26 @@ class CushionSolver:
                 break
             if iterations == self.max_iterations:
                 break
-            du_free = self._solve(K, -r)
+            du_free = self._solve(ev.K, -r)
             slope = float(r @ du_free)
             if slope >= 0:  # not a descent direction: fall back to steepest descent
                 du_free = -r * (self.mesh.thickness / max(self.law.shear_modulus, 1.0))
                 slope = float(r @ du_free)
             du = np.zeros(self.n_dofs)
             du[self.free] = du_free
-            if e_current is None:
-                e_current = self.energy(u, pose, dt, local_prev)
             alpha = 1.0
             while True:  # backtracking (Armijo) on the incremental potential
-                e_trial = self.energy(u + alpha * du, pose, dt, local_prev)
+                trial = self.evaluate(u + alpha * du, pose, dt, local_prev, 2)
                 # the last term: energy differences below round-off do not count
-                if e_trial <= e_current + 1e-4 * alpha * slope + 1e-12 * abs(e_current) or alpha < 1e-6:
+                if trial.energy <= ev.energy + 1e-4 * alpha * slope + 1e-12 * abs(ev.energy) or alpha < 1e-6:
                     break
                 alpha *= 0.5
-            if not np.isfinite(e_trial):
+            if not np.isfinite(trial.energy):
                 break
             u = u + alpha * du
-            e_current = e_trial
+            ev = trial
             last_step = alpha * float(np.max(np.abs(du_free)))
+        cs, foam, f_internal = ev.contact, ev.foam, ev.f_internal
 
         # bookkeeping at the converged state
         w = self.mesh.weights
