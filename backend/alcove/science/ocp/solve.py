@@ -209,14 +209,15 @@ def _guess_from_solution(tr: Transcription, previous: "OcpSolution") -> np.ndarr
 
 def initial_guesses(
     tr: Transcription, previous: OcpSolution | None = None, contact_params: np.ndarray | None = None
-) -> list[tuple[str, np.ndarray]]:
-    """Ordered initial guesses: the previous solution when given, then passive motion, a ramp, holding still."""
-    out: list[tuple[str, np.ndarray]] = []
+) -> list[tuple[str, Callable[[], np.ndarray]]]:
+    """Ordered initial guesses, computed on demand: the previous solution when given, then
+    passive motion, a ramp, holding still."""
+    out: list[tuple[str, Callable[[], np.ndarray]]] = []
     if previous is not None and previous.q.shape[1] == tr.chain.ndof:
-        out.append(("previous", _guess_from_solution(tr, previous)))
-    out.append(("passive", _guess_passive(tr, contact_params)))
-    out.append(("ramp", _guess_ramp(tr)))
-    out.append(("static", _guess_static(tr)))
+        out.append(("previous", lambda: _guess_from_solution(tr, previous)))
+    out.append(("passive", lambda: _guess_passive(tr, contact_params)))
+    out.append(("ramp", lambda: _guess_ramp(tr)))
+    out.append(("static", lambda: _guess_static(tr)))
     return out
 
 
@@ -266,12 +267,14 @@ def solve_task(
         raise ValueError("contact_params: the contact function takes parameters; pass their values")
     attempts: list[dict[str, Any]] = []
     best: tuple[float, dict[str, Any]] | None = None
-    for name, x0 in initial_guesses(tr, initial_guess, contact_params)[:max_attempts]:
+    for name, make_guess in initial_guesses(tr, initial_guess, contact_params)[:max_attempts]:
         t0 = time.perf_counter()
         lam_x0 = lam_g0 = None
         if name == "previous" and _same_grid(tr, initial_guess):
             lam_x0, lam_g0 = initial_guess.lam_x, initial_guess.lam_g  # type: ignore[union-attr]
             x0 = initial_guess.x  # type: ignore[union-attr]
+        else:
+            x0 = make_guess()
         res = tr.solve(x0, contact_params, lam_x0, lam_g0)
         stats = res["stats"]
         violation = tr.constraint_violation(res["x"], res["g"])
