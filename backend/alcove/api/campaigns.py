@@ -1,9 +1,597 @@
-"""Campaign, iteration, pool-version and model-version routes (on the campaign engine's services)."""
+"""Routes ``/campaigns/...`` (lifecycle, metrics, iterations, jobs, events, pool and model
+versions, downloads, export) and ``/preliminary-datasets`` (CSV upload), on the campaign
+engine's services (:mod:`alcove.campaigns.service`). The route opens the transaction,
+calls the service, commits, then sends the jobs the commit made necessary."""
 
 from __future__ import annotations
 
-from fastapi import APIRouter
+import asyncio
+import io
+import logging
+import zipfile
+from datetime import datetime
+from typing import Annotated, Any, Literal
+
+import sqlalchemy as sa
+from fastapi import APIRouter, Body, File, Form, Query, Request, Response, UploadFile, status
+from fastapi.responses import StreamingResponse
+from pydantic import BaseModel, ConfigDict, Field
+from sqlalchemy.orm import Session
+
+from alcove.api.auth import CurrentUser
+from alcove.api.deps import SessionDep
+from alcove.api.params import MAX_ID, IterationIndex, Limit, ObjectId, Offset, VersionNumber
+from alcove.campaigns import service as campaigns
+from alcove.campaigns.schemas import (
+    CampaignConfigUpdate,
+    CampaignDetail,
+    EventRead,
+    ForkRequest,
+    IterationCurves,
+    IterationRead,
+    MetricsRead,
+    ModelVersionRead,
+    PoolVersionRead,
+    Policies,
+    PreliminaryConfig,
+    RunSettings,
+    StepRead,
+    StoppingRules,
+)
+from alcove.errors import InvalidInput, NotFound
+from alcove.models import (
+    Campaign,
+    CampaignStatus,
+    Dataset,
+    IterationMetrics,
+    ModelVersion,
+    OracleDefinition,
+    OracleVersion,
+    StepName,
+    SurrogateConfig,
+    SurrogateConfigVersion,
+    TaskDefinition,
+    TaskVersion,
+    User,
+)
+from alcove.users.access import can_edit, get_for, visible_clause
+
+log = logging.getLogger(__name__)
+
+router = APIRouter(prefix="/campaigns", tags=["campaigns"])
+uploads = APIRouter(prefix="/preliminary-datasets", tags=["datasets"])
+
+#: Largest preliminary-data CSV accepted (the body limit for this path is larger still).
+MAX_UPLOAD_BYTES = 50 * 1024 * 1024
 
 
 def routers() -> list[APIRouter]:
-    return []
+    return [router, uploads]
+
+
+# ----------------------------------------------------------------------------- bodies
+
+
+class _In(BaseModel):
+    model_config = ConfigDict(extra="forbid")
+
+
+class CampaignCreateIn(_In):
+    """A campaign of one of your (or shared) tasks and oracles. Versions default to the latest;
+    the surrogate config defaults to the paper's."""
+
+    name: str = Field(min_length=1, max_length=200)
+    description: str = Field("", max_length=20_000)
+    task_id: int = Field(ge=1, le=MAX_ID)
+    task_version: int | None = Field(None, ge=1, le=MAX_ID)
+    oracle_id: int = Field(ge=1, le=MAX_ID)
+    oracle_version: int | None = Field(None, ge=1, le=MAX_ID)
+    surrogate_config_id: int | None = Field(None, ge=1, le=MAX_ID)
+    surrogate_config_version: int | None = Field(None, ge=1, le=MAX_ID)
+    seed: int = Field(0, ge=0, lt=2**62)
+    preliminary: PreliminaryConfig = Field(default_factory=PreliminaryConfig)
+    stopping: StoppingRules = Field(default_factory=StoppingRules)
+    policies: Policies = Field(default_factory=Policies)
+    settings: RunSettings = Field(default_factory=RunSettings)
+    start: bool = Field(False, description="start right away")
+
+
+class RetryIn(_In):
+    iteration: int | None = Field(None, ge=0, le=MAX_ID)
+    step: StepName | None = None
+
+
+class CampaignSummary(BaseModel):
+    id: int
+    name: str
+    status: CampaignStatus
+    owner_id: int
+    owner: str
+    task_id: int
+    task: str
+    task_version: int
+    oracle_id: int
+    oracle: str
+    oracle_type: str
+    oracle_version: int
+    current_iteration: int
+    current_step: str | None
+    max_iterations: int | None
+    force_rmse: float | None = Field(description="latest iteration's force RMSE [N]")
+    moment_rmse: float | None = Field(description="latest iteration's moment RMSE [N m]")
+    source_campaign_id: int | None
+    source_iteration: int | None
+    created_at: datetime
+    started_at: datetime | None
+    finished_at: datetime | None
+
+
+class CampaignOut(CampaignDetail):
+    id: int = Field(description="the campaign's id (= campaign.id)")
+    owner: str
+    can_edit: bool
+    task_id: int
+    task_version: int
+    oracle_id: int
+    oracle_version: int
+
+
+class JobOut(StepRead):
+    iteration: int
+
+
+class DatasetOut(BaseModel):
+    model_config = ConfigDict(from_attributes=True)
+
+    id: int
+    name: str
+    origin: str
+    n_samples: int
+    created_at: datetime
+
+
+class UploadOut(BaseModel):
+    datasets: list[DatasetOut]
+    dataset_ids: list[int] = Field(description="pass as `preliminary.dataset_ids` of a campaign")
+    n_samples: int
+
+
+# ----------------------------------------------------------------------------- helpers
+
+
+def _send(jobs: list[Any]) -> None:
+    """Send jobs after commit. A failed send is not lost: the steps are queued in the
+    database and the reconciler re-sends queued steps nobody claimed."""
+    if not jobs:
+        return
+    from alcove.jobs.campaign import enqueue
+
+    try:
+        enqueue(jobs)
+    except Exception:  # noqa: BLE001
+        log.exception("sending %d job(s) failed; the reconciler will re-send them", len(jobs))
+
+
+def _version_id(session: Session, user: User, definition_model: type, version_model: type, parent_key: str, definition_id: int, number: int | None, field: str) -> int:
+    try:
+        d = get_for(session, definition_model, definition_id, user)
+    except NotFound:
+        raise InvalidInput.one(field, f"no such {field.removesuffix('_id')} (or not shared with you)") from None
+    n = number or d.latest_version
+    vid = session.scalar(sa.select(version_model.id).where(getattr(version_model, parent_key) == d.id, version_model.version == n))
+    if vid is None:
+        raise InvalidInput.one(field.removesuffix("_id") + "_version", f"version {n} does not exist")
+    return vid
+
+
+def _check_version_ids(session: Session, user: User, body: Any, fields: dict[str, tuple[type, type, str]]) -> None:
+    """Version ids given directly (config update, fork) must belong to visible definitions."""
+    for field, (version_model, definition_model, parent_key) in fields.items():
+        vid = getattr(body, field, None)
+        if vid is None:
+            continue
+        row = session.get(version_model, vid) if 1 <= vid <= MAX_ID else None
+        try:
+            if row is None:
+                raise NotFound(field, vid)
+            get_for(session, definition_model, getattr(row, parent_key), user)
+        except NotFound:
+            raise InvalidInput.one(field, f"no such version {vid} (or not shared with you)") from None
+
+
+VERSION_FIELDS = {
+    "task_version_id": (TaskVersion, TaskDefinition, "definition_id"),
+    "oracle_version_id": (OracleVersion, OracleDefinition, "definition_id"),
+    "surrogate_config_version_id": (SurrogateConfigVersion, SurrogateConfig, "config_id"),
+}
+
+
+def _check_datasets(session: Session, user: User, ids: list[int] | None) -> None:
+    if not ids:
+        return
+    owned = set(session.scalars(sa.select(Dataset.id).where(Dataset.id.in_(ids), Dataset.owner_id == user.id)))
+    for i, ident in enumerate(ids):
+        if ident not in owned:
+            raise InvalidInput.one(f"preliminary.dataset_ids.{i}", f"no uploaded dataset {ident} of yours")
+
+
+def _campaign_out(session: Session, campaign: Campaign, user: User) -> CampaignOut:
+    detail = campaigns.get_detail(session, campaign.id)
+    tv = session.get(TaskVersion, campaign.task_version_id)
+    ov = session.get(OracleVersion, campaign.oracle_version_id)
+    owner = session.get(User, campaign.owner_id)
+    return CampaignOut(
+        **detail.model_dump(),
+        id=campaign.id,
+        owner=owner.email if owner else "",
+        can_edit=can_edit(session, campaign, user),
+        task_id=tv.definition_id,
+        task_version=tv.version,
+        oracle_id=ov.definition_id,
+        oracle_version=ov.version,
+    )
+
+
+def _download(data: bytes, filename: str, media_type: str) -> Response:
+    return Response(content=data, media_type=media_type, headers={"Content-Disposition": f'attachment; filename="{filename}"'})
+
+
+BINARY = {"content": {"application/octet-stream": {"schema": {"type": "string", "format": "binary"}}}, "description": "file download"}
+
+
+# ----------------------------------------------------------------------------- campaigns
+
+
+@router.get("", response_model=list[CampaignSummary], operation_id="list_campaigns")
+def list_campaigns(
+    user: CurrentUser,
+    session: SessionDep,
+    status_: Annotated[CampaignStatus | None, Query(alias="status")] = None,
+    owner: Literal["any", "me", "shared"] = "any",
+    task_id: Annotated[int | None, Query(ge=1, le=MAX_ID)] = None,
+    limit: Limit = 100,
+    offset: Offset = 0,
+) -> list[CampaignSummary]:
+    """Campaigns you own or that are shared with you, newest first, with their latest RMSE."""
+    latest = (
+        sa.select(IterationMetrics.campaign_id, sa.func.max(IterationMetrics.iteration_index).label("k")).group_by(IterationMetrics.campaign_id).subquery()
+    )
+    q = (
+        sa.select(Campaign, User.email, TaskVersion, TaskDefinition.name, OracleVersion, OracleDefinition.name, IterationMetrics.force_rmse, IterationMetrics.moment_rmse)
+        .join(User, User.id == Campaign.owner_id)
+        .join(TaskVersion, TaskVersion.id == Campaign.task_version_id)
+        .join(TaskDefinition, TaskDefinition.id == TaskVersion.definition_id)
+        .join(OracleVersion, OracleVersion.id == Campaign.oracle_version_id)
+        .join(OracleDefinition, OracleDefinition.id == OracleVersion.definition_id)
+        .outerjoin(latest, latest.c.campaign_id == Campaign.id)
+        .outerjoin(IterationMetrics, sa.and_(IterationMetrics.campaign_id == Campaign.id, IterationMetrics.iteration_index == latest.c.k))
+        .where(visible_clause(Campaign, user))
+        .order_by(Campaign.id.desc())
+        .limit(limit)
+        .offset(offset)
+    )
+    if status_ is not None:
+        q = q.where(Campaign.status == status_.value)
+    if owner == "me":
+        q = q.where(Campaign.owner_id == user.id)
+    elif owner == "shared":
+        q = q.where(Campaign.owner_id != user.id)
+    if task_id is not None:
+        q = q.where(TaskVersion.definition_id == task_id)
+    out = []
+    for c, email, tv, tname, ov, oname, frmse, mrmse in session.execute(q):
+        out.append(
+            CampaignSummary(
+                id=c.id, name=c.name, status=c.status, owner_id=c.owner_id, owner=email, task_id=tv.definition_id, task=tname, task_version=tv.version,
+                oracle_id=ov.definition_id, oracle=oname, oracle_type=ov.oracle_type, oracle_version=ov.version, current_iteration=c.current_iteration,
+                current_step=c.current_step, max_iterations=(c.stopping_rules or {}).get("max_iterations"), force_rmse=frmse, moment_rmse=mrmse,
+                source_campaign_id=c.source_campaign_id, source_iteration=c.source_iteration, created_at=c.created_at, started_at=c.started_at, finished_at=c.finished_at,
+            )
+        )
+    return out
+
+
+@router.post("", response_model=CampaignOut, status_code=status.HTTP_201_CREATED, operation_id="create_campaign")
+def create_campaign(body: CampaignCreateIn, user: CurrentUser, session: SessionDep) -> CampaignOut:
+    from alcove.campaigns.schemas import CampaignCreate
+
+    task_version_id = _version_id(session, user, TaskDefinition, TaskVersion, "definition_id", body.task_id, body.task_version, "task_id")
+    oracle_version_id = _version_id(session, user, OracleDefinition, OracleVersion, "definition_id", body.oracle_id, body.oracle_version, "oracle_id")
+    if body.surrogate_config_id is not None:
+        scv_id = _version_id(session, user, SurrogateConfig, SurrogateConfigVersion, "config_id", body.surrogate_config_id, body.surrogate_config_version, "surrogate_config_id")
+    else:
+        from alcove.campaigns.presets import surrogate_config_version_for
+
+        scv_id = surrogate_config_version_for(session, user.id, None)
+    _check_datasets(session, user, body.preliminary.dataset_ids)
+    data = CampaignCreate(
+        name=body.name, description=body.description, task_version_id=task_version_id, oracle_version_id=oracle_version_id,
+        surrogate_config_version_id=scv_id, seed=body.seed, preliminary=body.preliminary, stopping=body.stopping, policies=body.policies, settings=body.settings,
+    )
+    campaign = campaigns.create_campaign(session, user.id, data)
+    jobs: list[Any] = []
+    if body.start:
+        campaign, jobs = campaigns.start(session, campaign.id)
+    session.commit()
+    _send(jobs)
+    return _campaign_out(session, campaign, user)
+
+
+@router.get("/{campaign_id}", response_model=CampaignOut, operation_id="get_campaign")
+def get_campaign(campaign_id: ObjectId, user: CurrentUser, session: SessionDep) -> CampaignOut:
+    """Status, current iteration and step, latest metrics, ETA."""
+    return _campaign_out(session, get_for(session, Campaign, campaign_id, user), user)
+
+
+@router.patch("/{campaign_id}/config", response_model=CampaignOut, operation_id="update_campaign_config")
+def update_campaign_config(campaign_id: ObjectId, body: CampaignConfigUpdate, user: CurrentUser, session: SessionDep) -> CampaignOut:
+    """Edit settings: records a new config version, used by iterations created from now on."""
+    campaign = get_for(session, Campaign, campaign_id, user, need="edit")
+    _check_version_ids(session, user, body, {"surrogate_config_version_id": VERSION_FIELDS["surrogate_config_version_id"]})
+    campaigns.update_config(session, campaign.id, body, user.id)
+    session.commit()
+    return _campaign_out(session, campaign, user)
+
+
+def _action(name: str, summary: str):  # noqa: ANN202
+    fn = getattr(campaigns, name)
+
+    def route(campaign_id: ObjectId, user: CurrentUser, session: SessionDep) -> CampaignOut:
+        campaign = get_for(session, Campaign, campaign_id, user, need="edit")
+        campaign, jobs = fn(session, campaign.id)
+        session.commit()
+        _send(jobs)
+        return _campaign_out(session, campaign, user)
+
+    route.__name__ = f"{name}_campaign"
+    route.__doc__ = summary
+    router.add_api_route(f"/{{campaign_id}}/{name}", route, methods=["POST"], response_model=CampaignOut, operation_id=f"{name}_campaign", summary=summary.split(".")[0])
+
+
+_action("start", "Start a draft campaign: the preliminary step (or, for a fork, the first training) is queued.")
+_action("pause", "Pause after the running step finishes.")
+_action("resume", "Resume a paused campaign.")
+_action("cancel", "Cancel: queued steps are dropped, a running job stops at its next check.")
+
+
+@router.post("/{campaign_id}/retry", response_model=CampaignOut, operation_id="retry_campaign_step")
+def retry_campaign_step(campaign_id: ObjectId, user: CurrentUser, session: SessionDep, body: Annotated[RetryIn | None, Body()] = None) -> CampaignOut:
+    """Run a failed step again (default: the step that failed the campaign)."""
+    campaign = get_for(session, Campaign, campaign_id, user, need="edit")
+    body = body or RetryIn()
+    if (body.iteration is None) != (body.step is None):
+        raise InvalidInput.one("step" if body.step is None else "iteration", "give both iteration and step, or neither")
+    campaign, jobs = campaigns.retry_step(session, campaign.id, body.iteration, body.step.value if body.step else None)
+    session.commit()
+    _send(jobs)
+    return _campaign_out(session, campaign, user)
+
+
+@router.post("/{campaign_id}/fork", response_model=CampaignOut, status_code=status.HTTP_201_CREATED, operation_id="fork_campaign")
+def fork_campaign(campaign_id: ObjectId, body: ForkRequest, user: CurrentUser, session: SessionDep) -> CampaignOut:
+    """A new campaign of yours continuing from iteration k of this one (its pool and model),
+    with changed settings."""
+    source = get_for(session, Campaign, campaign_id, user)
+    _check_version_ids(session, user, body, VERSION_FIELDS)
+    if body.iteration > MAX_ID:
+        raise InvalidInput.one("iteration", "too large")
+    campaign, jobs = campaigns.fork(session, source.id, body, user.id)
+    session.commit()
+    _send(jobs)
+    return _campaign_out(session, campaign, user)
+
+
+# ----------------------------------------------------------------------------- iterations, metrics, jobs, events
+
+After = Annotated[int | None, Query(ge=-1, le=MAX_ID, description="only iterations with index > after (poll incrementally)")]
+
+
+@router.get("/{campaign_id}/metrics", response_model=list[MetricsRead], operation_id="list_campaign_metrics")
+def list_campaign_metrics(campaign_id: ObjectId, user: CurrentUser, session: SessionDep, after: After = None) -> list[MetricsRead]:
+    """Per-iteration metrics (force/moment RMSE, max errors, OCP and oracle figures);
+    ``?after=k`` returns only iterations after k, so a dashboard polls cheaply."""
+    get_for(session, Campaign, campaign_id, user)
+    return campaigns.metrics_series(session, campaign_id, after)
+
+
+@router.get("/{campaign_id}/iterations", response_model=list[IterationRead], operation_id="list_campaign_iterations")
+def list_campaign_iterations(campaign_id: ObjectId, user: CurrentUser, session: SessionDep, after: After = None) -> list[IterationRead]:
+    get_for(session, Campaign, campaign_id, user)
+    return campaigns.list_iterations(session, campaign_id, after)
+
+
+@router.get("/{campaign_id}/iterations/{iteration}/curves", response_model=IterationCurves, operation_id="get_iteration_curves")
+def get_iteration_curves(campaign_id: ObjectId, iteration: IterationIndex, user: CurrentUser, session: SessionDep) -> IterationCurves:
+    """Iteration k's trajectory (t, q, qd) with the oracle's forces and model k's prediction
+    (columns fx fy fz mx my mz in the headrest frame)."""
+    get_for(session, Campaign, campaign_id, user)
+    return campaigns.iteration_curves(session, campaign_id, iteration)
+
+
+@router.get("/{campaign_id}/jobs", response_model=list[JobOut], operation_id="list_campaign_jobs")
+def list_campaign_jobs(
+    campaign_id: ObjectId, user: CurrentUser, session: SessionDep, status_: Annotated[list[str] | None, Query(alias="status", max_length=10)] = None
+) -> list[JobOut]:
+    """Every step (the unit of worker work): status, worker, attempts, timings, error."""
+    get_for(session, Campaign, campaign_id, user)
+    return [JobOut(**row) for row in campaigns.list_jobs(session, campaign_id, status_)]
+
+
+@router.get("/{campaign_id}/events", response_model=list[EventRead], operation_id="list_campaign_events")
+def list_campaign_events(
+    campaign_id: ObjectId, user: CurrentUser, session: SessionDep, after: Annotated[int, Query(ge=0, le=MAX_ID, description="only events with id > after")] = 0
+) -> list[EventRead]:
+    get_for(session, Campaign, campaign_id, user)
+    return campaigns.list_events(session, campaign_id, after)
+
+
+@router.get(
+    "/{campaign_id}/events/stream",
+    operation_id="stream_campaign_events",
+    response_class=StreamingResponse,
+    responses={200: {"content": {"text/event-stream": {"schema": {"type": "string"}}}, "description": "Server-Sent Events"}},
+)
+async def stream_campaign_events(
+    campaign_id: ObjectId,
+    user: CurrentUser,
+    request: Request,
+    after: Annotated[int, Query(ge=0, le=MAX_ID)] = 0,
+    timeout: Annotated[float, Query(ge=0, le=3600, description="close the stream after this many seconds")] = 300,
+) -> StreamingResponse:
+    """Campaign events as Server-Sent Events (``id`` = event id, ``event`` = kind); the
+    stream ends when the campaign reaches a terminal state or after ``timeout``. Reconnect
+    with ``?after=<last id>`` (or the Last-Event-ID header)."""
+    from alcove.db import get_sessionmaker
+
+    factory = get_sessionmaker()
+    with factory() as s:
+        get_for(s, Campaign, campaign_id, user)
+    last = request.headers.get("last-event-id")
+    cursor = max(after, int(last)) if last and last.isdigit() and int(last) <= MAX_ID else after
+
+    async def events():  # noqa: ANN202
+        nonlocal cursor
+        loop = asyncio.get_running_loop()
+        deadline = loop.time() + timeout
+        while True:
+            def poll() -> tuple[list[EventRead], bool]:
+                with factory() as s:
+                    rows = campaigns.list_events(s, campaign_id, cursor)
+                    c = s.get(Campaign, campaign_id)
+                    return rows, c is None or c.is_terminal
+
+            rows, done = await asyncio.to_thread(poll)
+            for e in rows:
+                cursor = e.id
+                yield f"id: {e.id}\nevent: {e.kind}\ndata: {e.model_dump_json()}\n\n"
+            if done or loop.time() >= deadline or await request.is_disconnected():
+                return
+            yield ": keep-alive\n\n"
+            await asyncio.sleep(1.0)
+
+    return StreamingResponse(events(), media_type="text/event-stream", headers={"Cache-Control": "no-cache", "X-Accel-Buffering": "no"})
+
+
+# ----------------------------------------------------------------------------- pool and model versions
+
+
+@router.get("/{campaign_id}/pool-versions", response_model=list[PoolVersionRead], operation_id="list_pool_versions")
+def list_pool_versions(campaign_id: ObjectId, user: CurrentUser, session: SessionDep) -> list[PoolVersionRead]:
+    """Immutable pool versions (lineage: ``parent_id``; version k = k-1 + iteration k's data)."""
+    get_for(session, Campaign, campaign_id, user)
+    return campaigns.list_pool_versions(session, campaign_id)
+
+
+@router.get("/{campaign_id}/pool-versions/{version}/download", operation_id="download_pool_version", response_class=Response, responses={200: BINARY})
+def download_pool_version(
+    campaign_id: ObjectId, version: IterationIndex, user: CurrentUser, session: SessionDep, format: Literal["parquet", "csv"] = "parquet"
+) -> Response:
+    """One row per sample: dataset, origin, t, q_i, qd_i, fx..mz (Parquet or CSV)."""
+    get_for(session, Campaign, campaign_id, user)
+    data = campaigns.pool_version_table(session, campaign_id, version, format)
+    media = "application/vnd.apache.parquet" if format == "parquet" else "text/csv"
+    return _download(data, f"campaign-{campaign_id}-pool-{version:04d}.{format}", media)
+
+
+@router.get("/{campaign_id}/model-versions", response_model=list[ModelVersionRead], operation_id="list_model_versions")
+def list_model_versions(campaign_id: ObjectId, user: CurrentUser, session: SessionDep) -> list[ModelVersionRead]:
+    """Trained models with lineage (pool version, parent model, seed, code and library versions)."""
+    get_for(session, Campaign, campaign_id, user)
+    return campaigns.list_model_versions(session, campaign_id)
+
+
+def _model_version(session: Session, campaign_id: int, version: int) -> ModelVersion:
+    from alcove.campaigns import repository as crepo
+
+    mv = crepo.model_version(session, crepo.get_campaign(session, campaign_id), version)
+    if mv is None:
+        raise NotFound(f"model version {version} of campaign", campaign_id)
+    return mv
+
+
+@router.get("/{campaign_id}/model-versions/{version}/artifact", response_model=dict[str, Any], operation_id="get_model_artifact")
+def get_model_artifact(campaign_id: ObjectId, version: VersionNumber, user: CurrentUser, session: SessionDep) -> dict[str, Any]:
+    """The self-contained artifact document (architecture, weights, normalisation, lineage) as JSON."""
+    from alcove.surrogates.service import artifact_document
+
+    get_for(session, Campaign, campaign_id, user)
+    return artifact_document(session, _model_version(session, campaign_id, version))
+
+
+@router.get("/{campaign_id}/model-versions/{version}/artifact.zip", operation_id="download_model_artifact", response_class=Response, responses={200: BINARY})
+def download_model_artifact(campaign_id: ObjectId, version: VersionNumber, user: CurrentUser, session: SessionDep) -> Response:
+    """The artifact as a zip: ``surrogate.json`` + TorchScript ``force.pt`` / ``moment.pt``
+    (built once by a child process, then cached)."""
+    from alcove.api.artifact_export import artifact_zip_paths
+
+    get_for(session, Campaign, campaign_id, user)
+    mv = _model_version(session, campaign_id, version)
+    path = artifact_zip_paths([mv])[mv.id]
+    return _download(path.read_bytes(), f"campaign-{campaign_id}-model-{version:04d}.zip", "application/zip")
+
+
+@router.get("/{campaign_id}/export", operation_id="export_campaign", response_class=Response, responses={200: BINARY})
+def export_campaign(
+    campaign_id: ObjectId, user: CurrentUser, session: SessionDep, pool_format: Literal["parquet", "csv"] = "parquet", models: bool = True
+) -> Response:
+    """Everything the campaign produced as one zip: settings and config versions, metrics
+    (CSV + JSON), iterations, pool versions, model artifacts, curves."""
+    from alcove.api.artifact_export import artifact_zip_paths
+    from alcove.campaigns import repository as crepo
+
+    get_for(session, Campaign, campaign_id, user)
+    data = campaigns.export_campaign(session, campaign_id, pool_format=pool_format, models=False)
+    assert isinstance(data, bytes)
+    if models:
+        versions = [mv for mv in crepo.own_model_versions(session, campaign_id) if mv.artifact_sha256]
+        if versions:
+            paths = artifact_zip_paths(versions)
+            buf = io.BytesIO(data)
+            with zipfile.ZipFile(buf, "a", zipfile.ZIP_DEFLATED) as zf:
+                for mv in versions:
+                    zf.write(paths[mv.id], f"campaign-{campaign_id}/models/model-{mv.version:04d}.zip")
+            data = buf.getvalue()
+    return _download(data, f"campaign-{campaign_id}.zip", "application/zip")
+
+
+# ----------------------------------------------------------------------------- preliminary data upload
+
+
+@uploads.post("", response_model=UploadOut, status_code=status.HTTP_201_CREATED, operation_id="upload_preliminary_dataset")
+def upload_preliminary_dataset(
+    user: CurrentUser,
+    session: SessionDep,
+    file: Annotated[UploadFile, File(description="CSV with columns [simulation,] [t,] q_i, qd_i, fx, fy, fz, mx, my, mz")],
+    name: Annotated[str, Form(min_length=1, max_length=100)] = "upload",
+    chunks: Annotated[int, Form(ge=1, le=1000)] = 10,
+) -> UploadOut:
+    """Store a preliminary data set (validated); use the returned ids as a campaign's
+    ``preliminary.dataset_ids``."""
+    from alcove.science.series import SeriesFormatError
+    from alcove.science.surrogate.dataset import PoolDataError
+
+    raw = file.file.read(MAX_UPLOAD_BYTES + 1)
+    if len(raw) > MAX_UPLOAD_BYTES:
+        from alcove.errors import TooLarge
+
+        raise TooLarge(f"the file is larger than {MAX_UPLOAD_BYTES} bytes")
+    try:
+        text = raw.decode("utf-8-sig")
+    except UnicodeDecodeError:
+        raise InvalidInput.one("file", "is not UTF-8 text") from None
+    try:
+        rows = campaigns.upload_preliminary_dataset(session, user.id, text, name=name, chunks=chunks)
+    except (PoolDataError, SeriesFormatError) as err:
+        raise InvalidInput.one(f"file.{err.field}", err.reason) from None
+    except (ValueError, IndexError) as err:
+        raise InvalidInput.one("file", str(err)) from None
+    session.commit()
+    out = [DatasetOut.model_validate(d) for d in rows]
+    return UploadOut(datasets=out, dataset_ids=[d.id for d in out], n_samples=sum(d.n_samples for d in out))
+
+
+@uploads.get("", response_model=list[DatasetOut], operation_id="list_preliminary_datasets")
+def list_preliminary_datasets(user: CurrentUser, session: SessionDep, limit: Limit = 100, offset: Offset = 0) -> list[DatasetOut]:
+    """Your uploaded data sets."""
+    rows = session.scalars(sa.select(Dataset).where(Dataset.owner_id == user.id, Dataset.origin == "upload").order_by(Dataset.id.desc()).limit(limit).offset(offset))
+    return [DatasetOut.model_validate(d) for d in rows]

@@ -83,6 +83,20 @@ def install_error_handlers(app: FastAPI) -> None:
     async def _locked(request: Request, err: LoginLocked) -> JSONResponse:
         return JSONResponse({"detail": err.message}, status_code=429, headers={"Retry-After": str(err.retry_after_s)})
 
+    from alcove.campaigns.repository import NotFound as RowNotFound
+    from alcove.campaigns.state_machine import InvalidTransition
+
+    @app.exception_handler(RowNotFound)
+    async def _row_not_found(request: Request, err: RowNotFound) -> JSONResponse:
+        return JSONResponse({"detail": str(err)}, status_code=404)
+
+    app.add_exception_handler(InvalidTransition, simple(409))
+
+    @app.exception_handler(sa_exc.DataError)
+    async def _data_error(request: Request, err: sa_exc.DataError) -> JSONResponse:
+        log.info("data error answered 422: %s", err.orig)
+        return JSONResponse({"detail": [{"loc": [], "field": "", "msg": "a value is out of range for the database", "type": "value_error"}]}, status_code=422)
+
     @app.exception_handler(sa_exc.IntegrityError)
     async def _integrity(request: Request, err: sa_exc.IntegrityError) -> JSONResponse:
         log.info("integrity error answered 409: %s", err.orig)
