@@ -10,7 +10,7 @@ from alcove.science.oracles.aux_penalty import AuxPenaltyParams, contact_point
 from alcove.science.ocp.contact import aux_contact
 from alcove.science.ocp.solve import OcpSolution, get_transcription, solve_task
 from alcove.science.ocp.task_spec import task_preset
-from alcove.science.series import SeriesFormatError
+from alcove.science.series import SeriesFormatError, Trajectory
 
 
 @pytest.fixture(scope="module")
@@ -121,3 +121,19 @@ def test_slot_with_a_parametric_and_a_hand_made_contact(task, aux):
     hand = ca.Function("hand", [qm, qdm], [ca.vertcat(push, 0, 0, 0, 0, 0)])
     sol = solve_task(small, hand)
     assert sol.converged and sol.q.max() > 0.31
+
+
+def test_warm_start_survives_json_and_accepts_a_stored_trajectory(task, aux, solution):
+    """The campaign keeps solutions between jobs: to_dict/from_dict through JSON keep the
+    primal-dual warm start; a bare trajectory (e.g. read from CSV) is a primal guess."""
+    data = json.loads(json.dumps(solution.to_dict()))
+    restored = OcpSolution.from_dict(data, task.chain())
+    np.testing.assert_array_equal(restored.q, solution.q)
+    again = solve_task(task, aux, initial_guess=restored)
+    assert again.converged and again.attempts[0]["guess"] == "previous"
+    assert again.iterations <= 3  # started at the optimum with its multipliers
+    from_csv = solve_task(task, aux, initial_guess=solution.trajectory.window(0.0, 2.0))
+    assert from_csv.converged and from_csv.attempts[0]["guess"] == "previous"
+    assert from_csv.cost == pytest.approx(solution.cost, rel=1e-3)
+    no_torques = Trajectory(solution.t, solution.q, solution.qd)  # e.g. an oracle-side file
+    assert solve_task(task, aux, initial_guess=no_torques).converged

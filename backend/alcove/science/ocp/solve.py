@@ -87,6 +87,22 @@ class OcpSolution:
         tr = self.trajectory if t_grid is None else self.resample(t_grid)
         return self.chain.relative_kinematics(tr.q, tr.qd)
 
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-ready state (grid, states, torques, multipliers) to warm-start a later solve elsewhere."""
+        arrays = {k: getattr(self, k) for k in ("t", "q", "qd", "controls", "x", "lam_x", "lam_g")}
+        return {**self.summary(), **{k: None if v is None else np.asarray(v).tolist() for k, v in arrays.items()}}
+
+    @classmethod
+    def from_dict(cls, data: dict[str, Any], chain: PlanarChain) -> "OcpSolution":
+        """Inverse of :meth:`to_dict` (``chain``: the task's chain, e.g. ``task.chain()``)."""
+        arr = lambda k: None if data.get(k) is None else np.asarray(data[k], float)  # noqa: E731
+        return cls(
+            t=arr("t"), q=arr("q"), qd=arr("qd"), controls=arr("controls"), status=data["status"], converged=data["converged"],
+            iterations=data["iterations"], cost=data["cost"], constraint_violation=data["constraint_violation"],
+            wall_time=data["wall_time_s"], chain=chain, task_name=data.get("task", ""), attempts=list(data.get("attempts", [])),
+            x=arr("x"), lam_x=arr("lam_x"), lam_g=arr("lam_g"),
+        )
+
     def summary(self) -> dict[str, Any]:
         """JSON-ready summary."""
         return {
@@ -196,19 +212,24 @@ def _guess_ramp(tr: Transcription) -> np.ndarray:
     return tr.pack(q, _holding_torque(tr.chain, q))
 
 
-def _guess_from_solution(tr: Transcription, previous: "OcpSolution") -> np.ndarray:
-    """A previous solution (possibly on another grid) interpolated onto this grid."""
+def _guess_from_solution(tr: Transcription, previous: "OcpSolution | Trajectory") -> np.ndarray:
+    """A previous solution or trajectory (any grid, scaled to this horizon) interpolated onto this grid.
+
+    A trajectory without torques gets the torques that hold its poses still.
+    """
     t = tr.t
-    span = previous.t[-1]
-    ts = np.clip(t * span / t[-1], previous.t[0], previous.t[-1])
+    t0, t1 = previous.t[0], previous.t[-1]
+    ts = np.clip(t0 + t * (t1 - t0) / t[-1], t0, t1)
     q = previous.resample(ts).q
+    if previous.tau is None:
+        return tr.pack(q, _holding_torque(tr.chain, q))
     tm = 0.5 * (ts[:-1] + ts[1:])
     u = np.stack([np.interp(tm, previous.t, previous.tau[:, j]) for j in range(q.shape[1])], -1)
     return tr.pack(q, u)
 
 
 def initial_guesses(
-    tr: Transcription, previous: OcpSolution | None = None, contact_params: np.ndarray | None = None
+    tr: Transcription, previous: OcpSolution | Trajectory | None = None, contact_params: np.ndarray | None = None
 ) -> list[tuple[str, Callable[[], np.ndarray]]]:
     """Ordered initial guesses, computed on demand: the previous solution when given, then
     passive motion, a ramp, holding still."""
@@ -221,10 +242,10 @@ def initial_guesses(
     return out
 
 
-def _same_grid(tr: Transcription, previous: OcpSolution | None) -> bool:
+def _same_grid(tr: Transcription, previous: OcpSolution | Trajectory | None) -> bool:
     """A previous solution of the same NLP shape can warm-start IPOPT with its multipliers."""
     return (
-        previous is not None
+        isinstance(previous, OcpSolution)
         and previous.x is not None
         and previous.lam_x is not None
         and previous.lam_g is not None
@@ -238,7 +259,7 @@ def _same_grid(tr: Transcription, previous: OcpSolution | None) -> bool:
 def solve_task(
     task: TaskSpec,
     contact: ca.Function | None,
-    initial_guess: OcpSolution | None = None,
+    initial_guess: OcpSolution | Trajectory | None = None,
     *,
     contact_params: np.ndarray | None = None,
     max_attempts: int = 3,
@@ -252,8 +273,8 @@ def solve_task(
     reports success, at most ``max_attempts`` runs. Returns the converged solution, or the
     attempt with the smallest constraint violation marked ``converged=False``.
 
-    ``initial_guess``: a previous solution (any grid); on the same grid its multipliers
-    warm-start IPOPT. ``contact_params``: values of the third input of a parametric contact
+    ``initial_guess``: a previous solution (any grid; on the same grid its multipliers
+    warm-start IPOPT) or a stored trajectory. ``contact_params``: values of the third input of a parametric contact
     function. ``graph``: ``"MX"`` (fast build, default) or ``"SX"`` (slow build, faster
     iterations; worth it when one task and contact are solved many times).
     ``ipopt_options`` are merged into the nlpsol options. ``on_attempt`` receives the
