@@ -129,7 +129,7 @@ DEFAULT_IPOPT_OPTIONS: dict[str, object] = {
     "ipopt.sb": "yes",
     "print_time": False,
     "ipopt.hessian_approximation": "exact",
-    "ipopt.max_iter": 1000,
+    "ipopt.max_iter": 500,  # bounds a failing attempt (the stiffest aux variants need ~250)
     "ipopt.tol": 1e-8,
     # the default guess is a dynamically feasible rollout: start with a small barrier
     # parameter (19 instead of 27 iterations on the head-headrest task, measured)
