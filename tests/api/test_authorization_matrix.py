@@ -49,6 +49,9 @@ class Objects:
     def oracle(self) -> int:
         return self.post("/oracles/presets/aux-penalty/copy")["id"]
 
+    def surrogate(self) -> int:
+        return self.post("/surrogate-configs", {"name": "s", "spec": {"max_epochs": 10}})["id"]
+
     def campaign(self, start: bool = False) -> int:
         body = {"name": "c", "task_id": self.task(), "oracle_id": self.oracle(), "stopping": {"max_iterations": 2}, "start": start}
         return self.post("/campaigns", body)["id"]
@@ -156,6 +159,16 @@ SPECS: dict[str, Spec] = {
     "get_command_oracle": ("admin", lambda o, a: Call(path={"entry_id": o.command_entry(a)}), OK),
     "update_command_oracle": ("admin", lambda o, a: Call(path={"entry_id": (i := o.command_entry(a))}, json={"name": o.client.get(f"{API}/admin/command-oracles/{i}", headers=a.headers).json()["name"], "argv": ["/bin/false"]}), OK),
     "delete_command_oracle": ("admin", lambda o, a: Call(path={"entry_id": o.command_entry(a)}), NO_CONTENT),
+    # ---- surrogate configs
+    "list_surrogate_configs": ("any", lambda o, a: Call(), OK),
+    "create_surrogate_config": ("any", lambda o, a: Call(json={"name": "s", "spec": {"max_epochs": 10}}), CREATED),
+    "get_surrogate_config_schema": ("any", lambda o, a: Call(), OK),
+    "validate_surrogate_config": ("any", lambda o, a: Call(json={"spec": {"patience": 3}}), OK),
+    "get_surrogate_config": ("owned", lambda o, a: Call(path={"config_id": o.surrogate()}), OK),
+    "update_surrogate_config": ("owned", lambda o, a: Call(path={"config_id": o.surrogate()}, json={"spec": {"max_epochs": 20}}), OK),
+    "delete_surrogate_config": ("owned", lambda o, a: Call(path={"config_id": o.surrogate()}), NO_CONTENT),
+    "list_surrogate_config_versions": ("owned", lambda o, a: Call(path={"config_id": o.surrogate()}), OK),
+    "get_surrogate_config_version": ("owned", lambda o, a: Call(path={"config_id": o.surrogate(), "version": 1}), OK),
     # ---- campaigns
     "list_campaigns": ("any", lambda o, a: Call(params={"status": "completed"}), OK),
     "create_campaign": ("owned_ref", lambda o, a: Call(json={"name": "c", "task_id": o.task(), "oracle_id": o.oracle()}), CREATED),

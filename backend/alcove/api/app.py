@@ -33,7 +33,7 @@ def operation_id(route: APIRoute) -> str:
 
 def api_router() -> APIRouter:
     """All ``/api/v1`` routers. Add new routers here."""
-    from alcove.api import campaigns
+    from alcove.api import campaigns, surrogate_configs
     from alcove.oracles.router import admin_router as command_oracles_router
     from alcove.oracles.router import router as oracles_router
     from alcove.tasks.router import router as tasks_router
@@ -45,6 +45,7 @@ def api_router() -> APIRouter:
     router.include_router(tasks_router)
     router.include_router(oracles_router)
     router.include_router(command_oracles_router)
+    router.include_router(surrogate_configs.router)
     for sub in campaigns.routers():
         router.include_router(sub)
     return router

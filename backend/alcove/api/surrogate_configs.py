@@ -1,0 +1,129 @@
+"""Routes ``/surrogate-configs``: versioned surrogate settings (architectures, training
+protocol), validated by :class:`alcove.science.surrogate.config.SurrogateConfig`."""
+
+from __future__ import annotations
+
+from typing import Any
+
+from fastapi import APIRouter, Response, status
+from pydantic import BaseModel, ConfigDict, Field, ValidationError
+
+from alcove import versioning
+from alcove.api.auth import CurrentUser
+from alcove.api.deps import SessionDep
+from alcove.api.params import Limit, ObjectId, Offset, VersionNumber
+from alcove.errors import field_errors_from_pydantic
+from alcove.models import SurrogateConfig, User
+from alcove.science.surrogate.config import SurrogateConfig as SurrogateSpec
+from alcove.tasks.schemas import DefinitionMeta, FieldErrorOut, ValidationReport, VersionMeta
+from alcove.users.access import can_edit, get_for
+
+router = APIRouter(prefix="/surrogate-configs", tags=["surrogate-configs"])
+KIND = versioning.SURROGATE_CONFIGS
+
+
+class _In(BaseModel):
+    model_config = ConfigDict(extra="forbid")
+
+
+class SurrogateConfigIn(_In):
+    name: str = Field(min_length=1, max_length=200)
+    description: str = Field("", max_length=20_000)
+    spec: SurrogateSpec = Field(default_factory=SurrogateSpec, description="defaults: the paper's networks and training protocol")
+    note: str = Field("", max_length=2000)
+
+
+class SurrogateConfigUpdate(_In):
+    name: str | None = Field(None, min_length=1, max_length=200)
+    description: str | None = Field(None, max_length=20_000)
+    spec: SurrogateSpec | None = None
+    note: str = Field("", max_length=2000)
+
+
+class SurrogateConfigDraft(_In):
+    spec: dict[str, Any]
+
+
+class SurrogateConfigOut(DefinitionMeta):
+    spec: dict[str, Any]
+
+
+class SurrogateConfigVersionOut(VersionMeta):
+    spec: dict[str, Any]
+
+
+def config_out(session: SessionDep, definition: SurrogateConfig, version: Any, user: User, owner_email: str | None = None) -> SurrogateConfigOut:
+    return SurrogateConfigOut(
+        id=definition.id, name=definition.name, description=definition.description, owner_id=definition.owner_id,
+        owner=owner_email or (definition.owner.email if definition.owner else None), preset_key=definition.preset_key, version=version.version,
+        version_locked=versioning.is_used(session, KIND, version), can_edit=can_edit(session, definition, user), archived=definition.archived_at is not None,
+        created_at=definition.created_at, updated_at=definition.updated_at, spec=version.spec,
+    )
+
+
+def version_out(session: SessionDep, version: Any) -> SurrogateConfigVersionOut:
+    return SurrogateConfigVersionOut(
+        version=version.version, spec_hash=version.spec_hash, note=version.note, locked=versioning.is_used(session, KIND, version), created_at=version.created_at, spec=version.spec
+    )
+
+
+@router.get("", response_model=list[SurrogateConfigOut], operation_id="list_surrogate_configs")
+def list_surrogate_configs(user: CurrentUser, session: SessionDep, include_archived: bool = False, limit: Limit = 100, offset: Offset = 0) -> list[SurrogateConfigOut]:
+    rows = versioning.list_visible(session, KIND, user, include_archived=include_archived, limit=limit, offset=offset)
+    return [config_out(session, d, v, user, email) for d, v, email in rows]
+
+
+@router.post("", response_model=SurrogateConfigOut, status_code=status.HTTP_201_CREATED, operation_id="create_surrogate_config")
+def create_surrogate_config(body: SurrogateConfigIn, user: CurrentUser, session: SessionDep) -> SurrogateConfigOut:
+    definition, version = versioning.create(session, KIND, user, name=body.name, description=body.description, spec=body.spec.model_dump(mode="json"), note=body.note)
+    session.commit()
+    return config_out(session, definition, version, user, user.email)
+
+
+@router.get("/schema", response_model=dict[str, Any], operation_id="get_surrogate_config_schema")
+def get_surrogate_config_schema(user: CurrentUser) -> dict[str, Any]:
+    return SurrogateSpec.model_json_schema()
+
+
+@router.post("/validate", response_model=ValidationReport, operation_id="validate_surrogate_config")
+def validate_surrogate_config(body: SurrogateConfigDraft, user: CurrentUser) -> ValidationReport:
+    try:
+        spec = SurrogateSpec.model_validate(body.spec)
+    except ValidationError as err:
+        errors = field_errors_from_pydantic(err, base=("spec",))
+        return ValidationReport(valid=False, errors=[FieldErrorOut.of(e) for e in errors])
+    return ValidationReport(valid=True, errors=[], normalized=spec.model_dump(mode="json"))
+
+
+@router.get("/{config_id}", response_model=SurrogateConfigOut, operation_id="get_surrogate_config")
+def get_surrogate_config(config_id: ObjectId, user: CurrentUser, session: SessionDep) -> SurrogateConfigOut:
+    definition = get_for(session, SurrogateConfig, config_id, user)
+    return config_out(session, definition, versioning.latest(session, KIND, definition), user)
+
+
+@router.put("/{config_id}", response_model=SurrogateConfigOut, operation_id="update_surrogate_config")
+def update_surrogate_config(config_id: ObjectId, body: SurrogateConfigUpdate, user: CurrentUser, session: SessionDep) -> SurrogateConfigOut:
+    definition = get_for(session, SurrogateConfig, config_id, user, need="edit")
+    spec = None if body.spec is None else body.spec.model_dump(mode="json")
+    version, _ = versioning.update(session, KIND, definition, user, name=body.name, description=body.description, spec=spec, note=body.note)
+    session.commit()
+    return config_out(session, definition, version, user)
+
+
+@router.delete("/{config_id}", status_code=status.HTTP_204_NO_CONTENT, operation_id="delete_surrogate_config")
+def delete_surrogate_config(config_id: ObjectId, user: CurrentUser, session: SessionDep) -> Response:
+    versioning.delete(session, KIND, get_for(session, SurrogateConfig, config_id, user, need="owner"))
+    session.commit()
+    return Response(status_code=status.HTTP_204_NO_CONTENT)
+
+
+@router.get("/{config_id}/versions", response_model=list[SurrogateConfigVersionOut], operation_id="list_surrogate_config_versions")
+def list_surrogate_config_versions(config_id: ObjectId, user: CurrentUser, session: SessionDep) -> list[SurrogateConfigVersionOut]:
+    definition = get_for(session, SurrogateConfig, config_id, user)
+    return [version_out(session, v) for v in versioning.versions(session, KIND, definition)]
+
+
+@router.get("/{config_id}/versions/{version}", response_model=SurrogateConfigVersionOut, operation_id="get_surrogate_config_version")
+def get_surrogate_config_version(config_id: ObjectId, version: VersionNumber, user: CurrentUser, session: SessionDep) -> SurrogateConfigVersionOut:
+    definition = get_for(session, SurrogateConfig, config_id, user)
+    return version_out(session, versioning.get_version(session, KIND, definition, version))
