@@ -137,3 +137,13 @@ def test_warm_start_survives_json_and_accepts_a_stored_trajectory(task, aux, sol
     assert from_csv.cost == pytest.approx(solution.cost, rel=1e-3)
     no_torques = Trajectory(solution.t, solution.q, solution.qd)  # e.g. an oracle-side file
     assert solve_task(task, aux, initial_guess=no_torques).converged
+
+
+def test_resampling_stays_within_the_joint_range(task):
+    """Without contact the head tips back onto the lower joint limit; between nodes on the
+    limit the interpolant must not leave the range."""
+    sol = solve_task(task.with_intervals(40), None)
+    p = task.preset()
+    assert sol.converged and np.isclose(sol.q.min(), p.theta_min, atol=1e-8)
+    fine = sol.resample(np.linspace(0, 2, 2001))
+    assert fine.q.min() >= p.theta_min and fine.q.max() <= p.theta_max

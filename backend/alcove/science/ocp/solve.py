@@ -71,7 +71,8 @@ class OcpSolution:
         return Trajectory(self.t, self.q, self.qd, self.tau)
 
     def resample(self, t_grid: np.ndarray) -> Trajectory:
-        """The solution on ``t_grid``: cubic Hermite q (with qd its derivative), linear tau."""
+        """The solution on ``t_grid``: cubic Hermite q (with qd its derivative) kept within the
+        joint range, linear tau."""
         t_grid = np.asarray(t_grid, float)
         if t_grid.ndim != 1 or t_grid.size == 0:
             raise SeriesFormatError("t", "the resampling grid must be a non-empty 1-D array")
@@ -80,7 +81,9 @@ class OcpSolution:
         t_grid = np.clip(t_grid, self.t[0], self.t[-1])
         spline = CubicHermiteSpline(self.t, self.q, self.qd, axis=0)
         tau = np.stack([np.interp(t_grid, self.t, self.tau[:, j]) for j in range(self.q.shape[1])], -1)
-        return Trajectory(t_grid, spline(t_grid), spline.derivative()(t_grid), tau)
+        # between nodes that sit on a joint limit the cubic may overshoot it slightly
+        q = np.clip(spline(t_grid), self.chain.q_min, self.chain.q_max)
+        return Trajectory(t_grid, q, spline.derivative()(t_grid), tau)
 
     def head_pose(self, t_grid: np.ndarray | None = None) -> RelativeKinematics:
         """Pose and velocity of the head relative to the headrest (in H) on the OCP grid or ``t_grid``."""
