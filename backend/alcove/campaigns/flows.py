@@ -254,7 +254,7 @@ def _claim(s: Session, campaign_id: int, ref: StepRef, attempt: int, token: str,
     if c.status == CampaignStatus.queued.value:
         service.apply_decision(s, c, service.Decision(CampaignStatus.running), note="first step claimed")
     it = s.get(Iteration, row.iteration_id)
-    cv = s.get(CampaignConfigVersion, it.config_version_id) if it else None
+    cv = s.get(CampaignConfigVersion, row.config_version_id or it.config_version_id)
     config = service.config_from_version(cv) if cv is not None else service.current_config(s, c)
     repo.add_event(s, campaign_id, "step_started", worker, iteration=ref.iteration, step=ref.step.value, data={"attempt": attempt})
     return "claimed", row.id, config, []
@@ -509,7 +509,7 @@ def execute_ocp(ctx: StepContext) -> StepOutput:
     ctx.check_cancel()
     task = d["task"]
     contact = casadi_contact_function(d["model"], task.preset())
-    ipopt = {"max_iter": int(fault["ipopt_max_iter"])} if fault.get("ipopt_max_iter") else None
+    ipopt = {"ipopt.max_iter": int(fault["ipopt_max_iter"])} if fault.get("ipopt_max_iter") else None
     t0 = time.perf_counter()
     sol = solve_task(task, contact, initial_guess=d["previous"], max_attempts=ctx.config.policies.ocp_initial_guesses, ipopt_options=ipopt)
     compute = time.perf_counter() - t0
@@ -548,11 +548,17 @@ def replay_trajectory(arrays: dict[str, np.ndarray], task: Any, phases: int, dt:
     if dt is None:
         m = t <= t_end + 1e-9
         return Trajectory(t[m], q[m], qd[m], tau[m])
+    # a grid of step dt from t0 to t_end (t_end included)
     n = int(math.floor((t_end - t[0]) / dt + 1e-9)) + 1
     grid = np.minimum(t[0] + dt * np.arange(n), t_end)
     spline = CubicHermiteSpline(t, q, qd, axis=0)
     tau_g = np.stack([np.interp(grid, t, tau[:, j]) for j in range(q.shape[1])], -1)
-    return Trajectory(grid, spline(grid), spline.derivative()(grid), tau_g)
+    q_g = spline(grid)
+    preset = task.preset()
+    if q.shape[1] == 1 and hasattr(preset, "theta_min"):
+        # the cubic may overshoot the joint range between nodes that sit on a bound
+        q_g = np.clip(q_g, preset.theta_min, preset.theta_max)
+    return Trajectory(grid, q_g, spline.derivative()(grid), tau_g)
 
 
 def execute_oracle(ctx: StepContext) -> StepOutput:

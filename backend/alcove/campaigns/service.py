@@ -176,10 +176,11 @@ def create_campaign(s: Session, owner_id: int, data: CampaignCreate, *, source_c
 
 
 def update_config(s: Session, campaign_id: int, update: CampaignConfigUpdate, user_id: int | None = None) -> CampaignConfigVersion:
-    """Record a new config version; iterations created from now on use it."""
+    """Record a new config version; iterations created from now on use it (and a retried
+    step). A failed campaign can be edited before :func:`retry_step`."""
     c = repo.get_campaign(s, campaign_id, lock=True)
-    if c.is_terminal:
-        raise InvalidTransition(c.status, "edit")
+    if c.status in (CampaignStatus.completed.value, CampaignStatus.cancelled.value):
+        raise InvalidTransition(c.status, "edit", "fork it instead")
     cfg = current_config(s, c)
     changes = update.model_dump(exclude_none=True, exclude={"note", "surrogate_config_version_id"})
     new = cfg.model_copy(update={k: getattr(update, k) for k in changes})
@@ -343,6 +344,7 @@ def retry_step(s: Session, campaign_id: int, iteration: int | None = None, step:
     d = transition(_state(c), RetryStep(ref))
     row.max_attempts = row.attempts + getattr(current_config(s, c).policies, _ATTEMPTS_FIELD[ref.step])
     row.error = None
+    row.config_version_id = repo.config_version(s, c).id  # a retry runs with the current settings (e.g. after an edit)
     it = repo.get_iteration(s, c.id, k)
     if it is not None:
         it.status, it.finished_at, it.error = IterationStatus.running.value, None, None

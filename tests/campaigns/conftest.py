@@ -1,0 +1,87 @@
+"""Fixtures for campaign tests: settings pointed at a migrated database, quick campaigns."""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+from typing import Any
+
+import pytest
+
+#: a campaign small enough for tests: few LHS samples, coarse OCP grid, short training
+QUICK: dict[str, Any] = {
+    "preliminary": {"samples": 400, "chunks": 4},
+    "settings": {"ocp_intervals": 20, "replay_dt": 0.01},
+    "stopping": {"max_iterations": 2},
+}
+QUICK_SURROGATE = {"max_epochs": 60}
+
+
+def _use(monkeypatch: pytest.MonkeyPatch, tmp_path: Any, url: str, lease: int) -> None:
+    from alcove.db import dispose_engines
+    from alcove.jobs import reset_sender
+    from alcove.settings import get_settings
+
+    monkeypatch.setenv("ALCOVE_DATABASE_URL", url)
+    monkeypatch.setenv("ALCOVE_DATA_DIR", str(tmp_path / "data"))
+    monkeypatch.setenv("ALCOVE_JOB_LEASE_SECONDS", str(lease))
+    monkeypatch.delenv("ALCOVE_BROKER_URL", raising=False)
+    get_settings.cache_clear()
+    dispose_engines(close=True)
+    reset_sender()
+
+
+@pytest.fixture
+def campaign_db(db_url: str, monkeypatch: pytest.MonkeyPatch, tmp_path: Any) -> Iterator[str]:
+    """Process settings pointed at each migrated backend in turn (SQLite, PostgreSQL)."""
+    from alcove.db import dispose_engines
+    from alcove.settings import get_settings
+
+    _use(monkeypatch, tmp_path, db_url, lease=2)
+    yield db_url
+    get_settings.cache_clear()
+    dispose_engines(close=True)
+
+
+@pytest.fixture
+def sqlite_campaign_db(sqlite_url: str, monkeypatch: pytest.MonkeyPatch, tmp_path: Any) -> Iterator[str]:
+    from alcove.db import dispose_engines
+    from alcove.settings import get_settings
+
+    _use(monkeypatch, tmp_path, sqlite_url, lease=2)
+    yield sqlite_url
+    get_settings.cache_clear()
+    dispose_engines(close=True)
+
+
+def new_campaign(oracle: str = "aux-penalty", surrogate: dict | None = None, start: bool = True, **overrides: Any):  # noqa: ANN201
+    """Create (and start) a quick campaign; returns (campaign id, jobs to run)."""
+    from alcove.campaigns import presets, service
+    from alcove.campaigns.schemas import CampaignCreate
+    from alcove.db import transaction
+
+    cfg = {k: dict(v) for k, v in QUICK.items()}
+    for key, value in overrides.items():
+        if isinstance(value, dict) and key in cfg:
+            cfg[key].update(value)
+        else:
+            cfg[key] = value
+
+    def work(s: Any) -> tuple[int, list]:
+        u = presets.local_user(s)
+        data = CampaignCreate(
+            name=cfg.pop("name", "test"), task_version_id=presets.task_version_from_preset(s, u.id, "head-headrest-2phase"),
+            oracle_version_id=presets.oracle_version_for(s, u.id, oracle),
+            surrogate_config_version_id=presets.surrogate_config_version_for(s, u.id, {**QUICK_SURROGATE, **(surrogate or {})}), **cfg,
+        )
+        c = service.create_campaign(s, u.id, data)
+        if not start:
+            return c.id, []
+        return c.id, service.start(s, c.id)[1]
+
+    return transaction(work)
+
+
+@pytest.fixture
+def make_campaign():  # noqa: ANN201
+    """:func:`new_campaign` as a fixture (test modules cannot import conftest)."""
+    return new_campaign

@@ -1,0 +1,341 @@
+"""The loop's steps through the real protocol (claim, compute, complete, next job) on
+SQLite and PostgreSQL, driven in-process (the Celery wrappers only call ``run_step``)."""
+
+from __future__ import annotations
+
+import threading
+import time
+from datetime import timedelta
+
+import numpy as np
+import pytest
+import sqlalchemy as sa
+
+from alcove.campaigns import flows, repository, service
+from alcove.campaigns.reconciler import reconcile
+from alcove.campaigns.schemas import CampaignConfigUpdate, ForkRequest, StoppingRules
+from alcove.db import session_scope, transaction
+from alcove.db.arrays import get_arrays
+from alcove.models import (
+    Dataset,
+    Iteration,
+    IterationStep,
+    ModelVersion,
+    OcpSolution,
+    OracleRun,
+    PoolVersion,
+    PoolVersionMember,
+    QuarantinedResult,
+    utcnow,
+)
+
+
+def members(s, pv: PoolVersion) -> list[int]:  # noqa: ANN001
+    return list(s.scalars(sa.select(PoolVersionMember.dataset_id).where(PoolVersionMember.pool_version_id == pv.id).order_by(PoolVersionMember.position)))
+
+
+def mine(jobs: list, cid: int) -> list:
+    """The reconciler works on every campaign of the (shared) test database."""
+    return [j for j in jobs if j.campaign_id == cid]
+
+
+def status(cid: int) -> tuple[str, str | None]:
+    with session_scope() as s:
+        c = repository.get_campaign(s, cid)
+        return c.status, c.stop_reason
+
+
+def test_a_short_campaign_leaves_a_complete_versioned_record(campaign_db: str, make_campaign) -> None:
+    from alcove.science.geometry import relative_kinematics
+    from alcove.science.ocp.task_spec import task_preset
+    from alcove.science.oracles.aux_penalty import AuxPenaltyParams, aux_penalty_wrench
+    from alcove.science.surrogate.training import predict
+    from alcove.surrogates.service import load_model
+
+    cid, jobs = make_campaign()
+    flows.drive_inline(cid, jobs)
+    assert status(cid) == ("completed", "max_iterations")
+    preset = task_preset("head-headrest-2phase").preset()
+    with session_scope() as s:
+        pools = repository.own_pool_versions(s, cid)
+        models = repository.own_model_versions(s, cid)
+        metrics = repository.metrics_series(s, cid)
+        assert [p.version for p in pools] == [0, 1, 2]
+        assert [m.version for m in models] == [1, 2]
+        assert [m.iteration_index for m in metrics] == [1, 2]
+        assert pools[0].parent_id is None and pools[0].n_datasets == 4 and pools[0].n_samples == 400
+        for k in (1, 2):
+            it = repository.get_iteration(s, cid, k)
+            ds = repository.iteration_dataset(s, it.id)
+            prev, cur, model = pools[k - 1], pools[k], models[k - 1]
+            # pool version k = version k-1 + the dataset of iteration k, exactly once
+            assert cur.parent_id == prev.id
+            assert members(s, cur) == members(s, prev) + [ds.id]
+            assert cur.n_samples == prev.n_samples + ds.n_samples
+            added = s.scalars(sa.select(PoolVersionMember.dataset_id).where(PoolVersionMember.pool_version_id == cur.id, PoolVersionMember.added_in_this_version)).all()
+            assert added == [ds.id]
+            # model k was trained on pool version k-1 (the new trajectory is unseen by it) and warm-started from model k-1
+            assert model.pool_version_id == prev.id and ds.id not in members(s, prev)
+            assert model.parent_model_id == (models[k - 2].id if k > 1 else None)
+            assert model.code_version and {"torch", "numpy", "casadi"} <= set(model.library_versions)
+            assert it.status == "succeeded" and it.config_version_id is not None
+            # the oracle replayed phase 1 (the first second) of the OCP solution
+            sol = repository.latest_ocp_solution(s, it.id)
+            traj = get_arrays(s, sol.trajectory_sha256)
+            data = get_arrays(s, ds.content_sha256)
+            assert data["t"][0] == 0.0 and data["t"][-1] == pytest.approx(1.0)
+            on_nodes = np.isin(np.round(data["t"], 9), np.round(traj["t"], 9))
+            assert on_nodes.sum() == np.sum(traj["t"] <= 1.0 + 1e-9)
+            np.testing.assert_allclose(data["q"][on_nodes], traj["q"][traj["t"] <= 1.0 + 1e-9], atol=1e-12)
+            # the truth is the aux-penalty oracle's, the prediction is model k's
+            kin = relative_kinematics(preset, data["q"][:, 0], data["qd"][:, 0])
+            force, moment = aux_penalty_wrench(preset, AuxPenaltyParams(), kin)
+            curves = get_arrays(s, metrics[k - 1].curves_sha256)
+            np.testing.assert_allclose(curves["f_true"], np.hstack([force, moment]), atol=1e-9)
+            pred = predict(load_model(s, model), data["t"], data["q"], data["qd"])
+            np.testing.assert_allclose(curves["f_pred"], np.hstack([pred.force, pred.moment]), atol=1e-9)
+            m = metrics[k - 1]
+            assert m.force_rmse == pytest.approx(np.sqrt(np.mean((curves["f_pred"][:, :3] - curves["f_true"][:, :3]) ** 2)))
+            assert m.moment_rmse == pytest.approx(np.sqrt(np.mean((curves["f_pred"][:, 3:] - curves["f_true"][:, 3:]) ** 2)))
+            assert m.model_version_id == model.id and m.dataset_id == ds.id and m.ocp_success
+        steps = service.list_jobs(s, cid)
+        assert len(steps) == 1 + 5 * 2 and all(j["status"] == "succeeded" and j["attempts"] == 1 for j in steps)
+        detail = service.get_detail(s, cid)
+        assert detail.iterations_finished == 2 and detail.eta_s is None
+        curves = service.iteration_curves(s, cid, 2)
+        assert len(curves.t) == len(curves.f_true) == len(curves.f_pred)
+
+
+def test_the_same_seed_gives_the_same_pool_and_another_seed_another(sqlite_campaign_db: str, make_campaign) -> None:
+    runs = {}
+    for name, seed in (("a", 3), ("b", 3), ("c", 4)):
+        cid, jobs = make_campaign(seed=seed, stopping={"max_iterations": 1})
+        flows.drive_inline(cid, jobs)
+        with session_scope() as s:
+            runs[name] = [p.content_hash for p in repository.own_pool_versions(s, cid)]
+    assert runs["a"] == runs["b"]
+    assert runs["a"][0] != runs["c"][0]
+
+
+def test_a_duplicate_or_stale_delivery_of_a_step_is_a_no_op(sqlite_campaign_db: str, make_campaign) -> None:
+    cid, jobs = make_campaign(start=True)
+    (job,) = jobs
+    sent: list = []
+    first = flows.run_step(cid, 0, "preliminary", 1, send=sent.extend)
+    again = flows.run_step(cid, 0, "preliminary", 1, send=sent.extend)
+    assert first["status"] == "done" and again["status"] == "duplicate"
+    assert len(sent) == 1 and sent[0].step.value == "train"
+    with session_scope() as s:
+        assert len(repository.own_pool_versions(s, cid)) == 1
+        assert s.scalar(sa.select(sa.func.count()).select_from(Dataset).where(Dataset.campaign_id == cid)) == 4
+    # a message for an attempt that is not the next one is ignored too
+    assert flows.run_step(cid, 1, "train", 2, send=sent.extend)["status"] == "duplicate"
+    assert flows.run_step(cid, 1, "ocp", 1, send=sent.extend)["status"] == "missing"
+
+
+def test_pause_parks_the_next_step_and_resume_continues_where_it_stopped(sqlite_campaign_db: str, make_campaign) -> None:
+    cid, jobs = make_campaign(stopping={"max_iterations": 1})
+    queue: list = list(jobs)
+    flows.run_step(cid, 0, "preliminary", 1, send=queue.extend)
+    with session_scope() as s:
+        c, more = service.pause(s, cid)
+        assert c.status == "pausing" and more == []
+    train = queue[-1]
+    assert flows.run_step(cid, 1, "train", train.attempt)["status"] == "paused"
+    with session_scope() as s:
+        assert repository.get_campaign(s, cid).status == "paused"
+        assert repository.get_step(s, cid, 1, "train").status == "pending"
+        c, jobs = service.resume(s, cid)
+    assert [str(j.step.value) for j in jobs] == ["train"] and jobs[0].attempt == 1
+    flows.drive_inline(cid, jobs)
+    assert status(cid) == ("completed", "max_iterations")
+
+
+def test_cancel_reaches_a_running_step_through_its_lease_heartbeat(sqlite_campaign_db: str, make_campaign) -> None:
+    cid, jobs = make_campaign(settings={"fault_injection": {"train": {"sleep_s": 30}}})
+    queue: list = list(jobs)
+    flows.run_step(cid, 0, "preliminary", 1, send=queue.extend)
+    result: dict = {}
+    worker = threading.Thread(target=lambda: result.update(flows.run_step(cid, 1, "train", 1, send=queue.extend)))
+    t0 = time.monotonic()
+    worker.start()
+    time.sleep(0.5)
+    with session_scope() as s:
+        c, _ = service.cancel(s, cid)
+        assert c.status == "cancelling"
+    worker.join(timeout=20)
+    assert result["status"] == "cancelled" and time.monotonic() - t0 < 10
+    with session_scope() as s:
+        assert repository.get_campaign(s, cid).status == "cancelled"
+        assert repository.get_step(s, cid, 1, "train").status == "cancelled"
+        assert repository.get_iteration(s, cid, 1).status == "cancelled"
+        assert not repository.own_model_versions(s, cid)
+
+
+def test_a_failed_ocp_under_policy_continue_fails_only_its_iteration(sqlite_campaign_db: str, make_campaign) -> None:
+    cid, jobs = make_campaign(settings={"fault_injection": {"ocp": {"ipopt_max_iter": 1, "iterations": [1]}}})
+    flows.drive_inline(cid, jobs)
+    assert status(cid) == ("completed", "max_iterations")
+    with session_scope() as s:
+        it1 = repository.get_iteration_with_steps(s, cid, 1)
+        assert it1.status == "failed" and "did not converge" in it1.error
+        assert {st.step: st.status for st in it1.steps} == {"train": "succeeded", "ocp": "failed", "oracle": "skipped", "evaluate": "skipped", "append": "succeeded"}
+        sol = repository.latest_ocp_solution(s, it1.id)
+        assert sol is not None and not sol.success
+        pools = repository.own_pool_versions(s, cid)
+        assert pools[1].content_hash == pools[0].content_hash  # nothing appended by the failed iteration
+        assert [m.iteration_index for m in repository.metrics_series(s, cid)] == [2]
+        assert repository.get_iteration(s, cid, 2).status == "succeeded"
+
+
+def test_a_failed_ocp_under_policy_stop_fails_the_campaign_and_retry_runs_it_again(sqlite_campaign_db: str, make_campaign) -> None:
+    cid, jobs = make_campaign(policies={"ocp_on_failure": "stop"}, settings={"fault_injection": {"ocp": {"ipopt_max_iter": 1, "iterations": [1]}}})
+    flows.drive_inline(cid, jobs)
+    with session_scope() as s:
+        c = repository.get_campaign(s, cid)
+        assert (c.status, c.stop_reason) == ("failed", "error") and "did not converge" in c.error
+        # the fault is edited away and the failed step retried with the new config version
+        row = service.update_config(s, cid, CampaignConfigUpdate(settings={"ocp_intervals": 20, "replay_dt": 0.01}))
+        c, jobs = service.retry_step(s, cid)
+        assert c.status == "running" and (jobs[0].iteration, jobs[0].step.value, jobs[0].attempt) == (1, "ocp", 2)
+    flows.drive_inline(cid, jobs)
+    assert status(cid) == ("completed", "max_iterations")
+    with session_scope() as s:
+        step = repository.get_step(s, cid, 1, "ocp")
+        assert step.status == "succeeded" and step.config_version_id == row.id
+        assert [sol.success for sol in s.scalars(sa.select(OcpSolution).where(OcpSolution.iteration_id == step.iteration_id).order_by(OcpSolution.attempt))] == [False, True]
+
+
+def test_an_oracle_that_keeps_raising_is_retried_then_its_iteration_fails(sqlite_campaign_db: str, make_campaign) -> None:
+    cid, jobs = make_campaign(stopping={"max_iterations": 1}, policies={"oracle_max_attempts": 2},
+                             settings={"fault_injection": {"oracle": {"raise_attempts": 99}}})
+    flows.drive_inline(cid, jobs)
+    assert status(cid) == ("completed", "max_iterations")
+    with session_scope() as s:
+        step = repository.get_step(s, cid, 1, "oracle")
+        assert (step.status, step.attempts) == ("failed", 2) and "fault injection" in step.error
+        kinds = [e.kind for e in repository.events(s, cid)]
+        assert kinds.count("step_retry") == 1
+        assert repository.get_iteration(s, cid, 1).status == "failed"
+
+
+def test_an_oracle_result_failing_the_quality_gate_is_quarantined_never_appended(sqlite_campaign_db: str, make_campaign) -> None:
+    cid, jobs = make_campaign(stopping={"max_iterations": 1}, settings={"fault_injection": {"oracle": {"gate_fail": True}}})
+    flows.drive_inline(cid, jobs)
+    with session_scope() as s:
+        it = repository.get_iteration(s, cid, 1)
+        (run,) = repository.oracle_runs(s, it.id)
+        q = s.scalar(sa.select(QuarantinedResult).where(QuarantinedResult.oracle_run_id == run.id))
+        assert run.status == "quarantined" and q is not None and "quality gate" in q.reason
+        assert repository.iteration_dataset(s, it.id) is None
+        pools = repository.own_pool_versions(s, cid)
+        assert pools[1].n_samples == pools[0].n_samples
+
+
+def test_the_reconciler_requeues_a_step_whose_worker_died_and_ignores_the_dead_job(sqlite_campaign_db: str, make_campaign) -> None:
+    cid, jobs = make_campaign(stopping={"max_iterations": 1})
+    queue: list = list(jobs)
+    flows.run_step(cid, 0, "preliminary", 1, send=queue.extend)
+    # a worker claims train and dies: its lease runs out
+    with session_scope() as s:
+        step = repository.get_step(s, cid, 1, "train")
+        assert repository.claim_step(s, step.id, 1, "dead-token", "dead@host", lease_seconds=60)
+    with session_scope() as s:
+        assert mine(reconcile(s, stale_queued_s=60), cid) == []  # lease still valid: nothing to do
+        s.execute(sa.update(IterationStep).where(IterationStep.id == step.id).values(lease_until=utcnow() - timedelta(seconds=1)))
+    with session_scope() as s:
+        (job,) = mine(reconcile(s, stale_queued_s=60), cid)
+    assert (job.iteration, job.step.value, job.attempt) == (1, "train", 2)
+    # the dead job's old message is stale; the new one runs, and the campaign completes
+    assert flows.run_step(cid, 1, "train", 1)["status"] == "duplicate"
+    flows.drive_inline(cid, [job])
+    assert status(cid) == ("completed", "max_iterations")
+    with session_scope() as s:
+        assert repository.get_step(s, cid, 1, "train").attempts == 2
+        assert len(repository.own_model_versions(s, cid)) == 1
+
+
+def test_the_reconciler_resends_a_queued_step_whose_message_was_lost(sqlite_campaign_db: str, make_campaign) -> None:
+    cid, jobs = make_campaign(stopping={"max_iterations": 1})
+    with session_scope() as s:
+        assert mine(reconcile(s, stale_queued_s=60), cid) == []
+        (job,) = mine(reconcile(s, stale_queued_s=0), cid)
+    assert (job.iteration, job.step.value, job.attempt) == (0, "preliminary", 1)
+    flows.drive_inline(cid, [job, *jobs])  # both messages arrive: the second is a no-op
+    assert status(cid) == ("completed", "max_iterations")
+
+
+def test_a_fork_continues_from_the_source_pool_and_model_with_its_own_settings(campaign_db: str, make_campaign) -> None:
+    src, jobs = make_campaign(stopping={"max_iterations": 1})
+    flows.drive_inline(src, jobs)
+    with session_scope() as s:
+        fork, jobs = service.fork(s, src, ForkRequest(iteration=1, stopping=StoppingRules(max_iterations=2), start=True), owner_id=repository.get_campaign(s, src).owner_id)
+        fid = fork.id
+    assert [(j.iteration, j.step.value) for j in jobs] == [(2, "train")]
+    flows.drive_inline(fid, jobs)
+    assert status(fid) == ("completed", "max_iterations")
+    with session_scope() as s:
+        src_pool1 = repository.pool_version(s, repository.get_campaign(s, src), 1)
+        src_model1 = repository.own_model_versions(s, src)[0]
+        (pv2,) = repository.own_pool_versions(s, fid)
+        (mv2,) = repository.own_model_versions(s, fid)
+        assert pv2.version == 2 and pv2.parent_id == src_pool1.id
+        assert mv2.pool_version_id == src_pool1.id and mv2.parent_model_id == src_model1.id
+        assert len(repository.own_pool_versions(s, src)) == 2  # the source is untouched
+
+
+def test_a_config_edit_creates_a_version_used_by_the_iterations_after_it(sqlite_campaign_db: str, make_campaign) -> None:
+    cid, jobs = make_campaign(stopping={"max_iterations": 2})
+    queue: list = list(jobs)
+    for _ in range(3):  # preliminary, train 1, ocp 1
+        j = queue.pop(0)
+        flows.run_step(cid, j.iteration, j.step.value, j.attempt, send=queue.extend)
+    with session_scope() as s:
+        row = service.update_config(s, cid, CampaignConfigUpdate(stopping=StoppingRules(max_iterations=2, target_force_rmse=1e6), note="looser"))
+        assert row.version == 2
+    flows.drive_inline(cid, queue)
+    with session_scope() as s:
+        c = repository.get_campaign(s, cid)
+        assert (c.status, c.stop_reason, c.config_version) == ("completed", "target_rmse", 2)  # edited rules apply at once
+        versions = {i.index: s.get(service.CampaignConfigVersion, i.config_version_id).version for i in repository.list_iterations(s, cid)}
+        assert versions == {0: 1, 1: 1}
+
+
+def test_export_and_tables_hold_every_pool_version_model_and_metric(sqlite_campaign_db: str, tmp_path, make_campaign) -> None:  # noqa: ANN001
+    import csv
+    import io
+    import json
+    import zipfile
+
+    import pyarrow.parquet as pq
+
+    cid, jobs = make_campaign(stopping={"max_iterations": 1})
+    flows.drive_inline(cid, jobs)
+    with session_scope() as s:
+        root = service.export_campaign(s, cid, tmp_path / "out")
+        table = service.pool_version_table(s, cid, 1, "csv")
+        pv1 = repository.pool_version(s, repository.get_campaign(s, cid), 1)
+        art = service.model_artifact_bytes(s, cid, 1)
+    names = sorted(str(p.relative_to(root)) for p in root.rglob("*") if p.is_file())
+    assert names == ["campaign.json", "curves/iteration-0001.npz", "iterations.json", "metrics.csv", "metrics.json", "models/model-0001.zip",
+                     "pool/version-0000.parquet", "pool/version-0001.parquet"]
+    assert pq.read_table(root / "pool/version-0001.parquet").num_rows == pv1.n_samples
+    rows = list(csv.DictReader(io.StringIO(table.decode())))
+    assert len(rows) == pv1.n_samples and {"t", "q_0", "qd_0", "fx", "mz", "origin"} <= set(rows[0])
+    assert sorted(zipfile.ZipFile(io.BytesIO(art)).namelist()) == ["force.pt", "moment.pt", "surrogate.json"]
+    meta = json.loads((root / "campaign.json").read_text())
+    assert [p["version"] for p in meta["pool_versions"]] == [0, 1] and meta["campaign"]["status"] == "completed"
+
+
+def test_bad_requests_name_the_field(sqlite_campaign_db: str, make_campaign) -> None:
+    with session_scope() as s:
+        with pytest.raises(service.NotFound, match="campaign_id"):
+            service.start(s, 10**9)
+    cid, _ = make_campaign(start=False)
+    with session_scope() as s:
+        with pytest.raises(service.InvalidTransition, match="resume"):
+            service.resume(s, cid)
+        with pytest.raises(service.NotFound, match="iteration"):
+            service.fork(s, cid, ForkRequest(iteration=3), owner_id=1)
+        with pytest.raises(service.NotFound, match="step"):
+            service.retry_step(s, cid)

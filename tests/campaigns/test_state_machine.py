@@ -1,0 +1,203 @@
+"""The campaign state machine, without Celery or a database."""
+
+from __future__ import annotations
+
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from alcove.campaigns.schemas import StoppingRules
+from alcove.campaigns.state_machine import (
+    Cancel,
+    InvalidTransition,
+    IterationRecord,
+    Outcome,
+    Pause,
+    Resume,
+    RetryStep,
+    Start,
+    State,
+    StepFinished,
+    StepRef,
+    stop_reason,
+    transition,
+)
+from alcove.models import CampaignStatus as S
+from alcove.models import StepName as N
+
+LOOP = [N.train, N.ocp, N.oracle, N.evaluate, N.append]
+
+
+def run_loop(iterations: int, *, stop_at: int | None = None) -> list[StepRef]:
+    """Drive the machine through a campaign; returns every enqueued step in order."""
+    state = State(S.draft)
+    d = transition(state, Start(StepRef(0, N.preliminary)))
+    sent = list(d.enqueue)
+    while d.enqueue:
+        ref = d.enqueue[0]
+        reason = "max_iterations" if ref.step is N.append and ref.iteration == (stop_at or iterations) else None
+        d = transition(State(d.status), StepFinished(ref, Outcome.succeeded, reason))
+        sent += d.enqueue
+    assert d.status is S.completed and d.stop_reason == "max_iterations"
+    return sent
+
+
+def test_a_campaign_runs_preliminary_then_the_five_steps_of_every_iteration_in_order() -> None:
+    sent = run_loop(3)
+    assert sent == [StepRef(0, N.preliminary)] + [StepRef(k, s) for k in (1, 2, 3) for s in LOOP]
+
+
+def test_step_refs_refuse_a_preliminary_step_outside_iteration_zero_and_the_loop_steps_in_it() -> None:
+    with pytest.raises(ValueError, match="preliminary"):
+        StepRef(2, N.preliminary)
+    with pytest.raises(ValueError, match="train"):
+        StepRef(0, N.train)
+
+
+def test_a_fork_starts_with_the_train_step_after_its_source_iteration() -> None:
+    d = transition(State(S.draft), Start(StepRef(5, N.train)))
+    assert d.status is S.queued and d.enqueue == (StepRef(5, N.train),)
+
+
+def test_only_a_draft_starts() -> None:
+    for status in set(S) - {S.draft}:
+        with pytest.raises(InvalidTransition, match="start"):
+            transition(State(status), Start(StepRef(0, N.preliminary)))
+
+
+def test_pause_lets_the_running_step_finish_then_parks_the_next_step_until_resume() -> None:
+    d = transition(State(S.running), Pause())
+    assert d.status is S.pausing and d.pause_requested and not d.enqueue
+    d = transition(State(S.pausing, pause_requested=True), StepFinished(StepRef(1, N.ocp), Outcome.succeeded))
+    assert d.status is S.paused and d.enqueue == () and d.pending == StepRef(1, N.oracle)
+    d = transition(State(S.paused), Resume(StepRef(1, N.oracle)))
+    assert d.status is S.running and d.enqueue == (StepRef(1, N.oracle),)
+
+
+def test_resume_while_still_pausing_forgets_the_request_and_sends_nothing() -> None:
+    d = transition(State(S.pausing, pause_requested=True), Resume(None))
+    assert d.status is S.running and not d.pause_requested and d.enqueue == ()
+
+
+def test_cancel_is_cooperative_when_a_step_runs_and_immediate_otherwise() -> None:
+    d = transition(State(S.running), Cancel(step_running=True))
+    assert d.status is S.cancelling and d.cancel_requested and not d.is_terminal
+    d = transition(State(S.cancelling, cancel_requested=True), StepFinished(StepRef(2, N.train), Outcome.succeeded))
+    assert d.status is S.cancelled and d.enqueue == () and d.stop_reason == "cancelled"
+    for status in (S.draft, S.queued, S.paused):
+        d = transition(State(status), Cancel(step_running=False))
+        assert d.status is S.cancelled and d.is_terminal
+    for status in S.terminal():
+        with pytest.raises(InvalidTransition):
+            transition(State(status), Cancel(step_running=False))
+
+
+def test_a_failed_ocp_or_oracle_under_policy_continue_skips_to_append_and_the_loop_goes_on() -> None:
+    for step, skipped in ((N.ocp, [N.oracle, N.evaluate]), (N.oracle, [N.evaluate])):
+        d = transition(State(S.running), StepFinished(StepRef(4, step), Outcome.iteration_failed, error="x"))
+        assert d.status is S.running
+        assert d.enqueue == (StepRef(4, N.append),)
+        assert d.skip == tuple(StepRef(4, s) for s in skipped)
+        d = transition(State(S.running), StepFinished(StepRef(4, N.append), Outcome.succeeded))
+        assert d.enqueue == (StepRef(5, N.train),)
+
+
+def test_a_step_failure_under_policy_stop_fails_the_campaign_and_retry_resumes_it() -> None:
+    d = transition(State(S.running), StepFinished(StepRef(3, N.oracle), Outcome.failed, error="oracle exploded"))
+    assert d.status is S.failed and d.error == "oracle exploded" and d.stop_reason == "error" and d.enqueue == ()
+    d = transition(State(S.failed), RetryStep(StepRef(3, N.oracle)))
+    assert d.status is S.running and d.enqueue == (StepRef(3, N.oracle),)
+    with pytest.raises(InvalidTransition, match="retry"):
+        transition(State(S.running), RetryStep(StepRef(3, N.oracle)))
+
+
+def test_train_and_append_cannot_fail_an_iteration_only_the_campaign() -> None:
+    for step in (N.train, N.append):
+        d = transition(State(S.running), StepFinished(StepRef(2, step), Outcome.iteration_failed))
+        assert d.status is S.failed
+
+
+def test_a_finished_step_of_a_terminal_campaign_is_refused() -> None:
+    for status in S.terminal():
+        with pytest.raises(InvalidTransition):
+            transition(State(status), StepFinished(StepRef(1, N.train), Outcome.succeeded))
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.lists(st.sampled_from(["ok", "fail_ocp", "fail_oracle", "pause", "resume"]), min_size=1, max_size=60))
+def test_whatever_happens_each_iteration_ends_in_exactly_one_append_and_steps_never_go_backwards(script: list[str]) -> None:
+    state = State(S.draft)
+    d = transition(state, Start(StepRef(0, N.preliminary)))
+    state, pending, order = State(d.status), list(d.enqueue), []
+    appends: dict[int, int] = {}
+    waiting = None
+    for action in script:
+        if action == "pause" and state.status in (S.queued, S.running):
+            state = State(transition(state, Pause()).status, pause_requested=True)
+            continue
+        if action == "resume" and state.status is S.paused:
+            d = transition(state, Resume(waiting))
+            state, pending, waiting = State(d.status), list(d.enqueue), None
+            continue
+        if not pending:
+            continue
+        ref = pending.pop(0)
+        order.append(ref)
+        outcome = Outcome.succeeded
+        if (action == "fail_ocp" and ref.step is N.ocp) or (action == "fail_oracle" and ref.step is N.oracle):
+            outcome = Outcome.iteration_failed
+        d = transition(state, StepFinished(ref, outcome))
+        if ref.step is N.append:
+            appends[ref.iteration] = appends.get(ref.iteration, 0) + 1
+        state, pending, waiting = State(d.status), list(d.enqueue), d.pending or waiting
+        assert len(pending) <= 1
+    assert all(n == 1 for n in appends.values())
+    assert order == sorted(order, key=lambda r: (r.iteration, [N.preliminary, *LOOP].index(r.step)))
+    assert sorted(appends) == list(range(1, len(appends) + 1))
+
+
+# ----------------------------------------------------------------------------- stopping rules
+
+
+def hist(*pairs: tuple[float, float]) -> list[IterationRecord]:
+    return [IterationRecord(k + 1, f, m) for k, (f, m) in enumerate(pairs)]
+
+
+def test_max_iterations_fires_at_the_iteration_index() -> None:
+    rules = StoppingRules(max_iterations=3)
+    assert stop_reason(rules, 2, hist((5, 1), (4, 1)), 0.0) is None
+    assert stop_reason(rules, 3, hist((5, 1), (4, 1), (3, 1)), 0.0) == "max_iterations"
+
+
+def test_target_rmse_needs_every_target_that_is_set() -> None:
+    rules = StoppingRules(max_iterations=None, target_force_rmse=1.0, target_moment_rmse=0.1)
+    assert stop_reason(rules, 1, hist((0.9, 0.2)), 0.0) is None
+    assert stop_reason(rules, 2, hist((0.9, 0.2), (0.9, 0.05)), 0.0) == "target_rmse"
+    only_force = StoppingRules(max_iterations=None, target_force_rmse=1.0)
+    assert stop_reason(only_force, 1, hist((0.99, 50.0)), 0.0) == "target_rmse"
+
+
+def test_target_rmse_looks_only_at_the_iteration_that_just_finished() -> None:
+    """A failed iteration has no metrics; an older good RMSE must not stop the campaign."""
+    rules = StoppingRules(max_iterations=None, target_force_rmse=1.0)
+    assert stop_reason(rules, 2, hist((0.5, 0.1)), 0.0) is None
+
+
+def test_plateau_fires_when_the_last_window_does_not_beat_the_best_before_it() -> None:
+    rules = StoppingRules(max_iterations=None, plateau_window=3, plateau_tolerance=0.05)
+    improving = hist((10, 1), (8, 1), (6, 1), (4, 1), (2, 1))
+    assert stop_reason(rules, 5, improving, 0.0) is None
+    flat = hist((10, 1), (5, 1), (5.2, 1), (4.9, 1), (5.1, 1))
+    assert stop_reason(rules, 5, flat, 0.0) == "plateau"
+    assert stop_reason(rules, 3, flat[:3], 0.0) is None  # not enough history yet
+
+
+def test_oracle_budget_fires_on_the_total_oracle_wall_time() -> None:
+    rules = StoppingRules(max_iterations=100, oracle_budget_s=60.0)
+    assert stop_reason(rules, 4, hist((1, 1)), 59.9) is None
+    assert stop_reason(rules, 4, hist((1, 1)), 60.0) == "oracle_budget"
+
+
+def test_stopping_rules_need_at_least_one_rule() -> None:
+    with pytest.raises(ValueError, match="at least one stopping rule"):
+        StoppingRules(max_iterations=None)
