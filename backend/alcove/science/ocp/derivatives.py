@@ -54,12 +54,11 @@ def _scatter(nrow: int, ncol: int, blocks: Sequence[tuple[ca.MX, np.ndarray, np.
         parts.append(ca.vec(values))
         offset += r * c * K
     grow, gcol, vidx = np.concatenate(grow), np.concatenate(gcol), np.concatenate(vidx)
-    # nonzeros in column-major (CCS) order
-    pairs = np.unique(np.stack([gcol, grow], 1), axis=0)
-    sparsity = ca.Sparsity.triplet(nrow, ncol, pairs[:, 1].tolist(), pairs[:, 0].tolist())
-    nz_of_pair = {(int(cc), int(rr)): t for t, (cc, rr) in enumerate(pairs)}
-    nz = np.array([nz_of_pair[(int(cc), int(rr))] for cc, rr in zip(gcol, grow)])
-    A = sps.csc_matrix((np.ones(nz.size), (nz, vidx)), shape=(pairs.shape[0], offset))
+    # nonzeros in column-major (CCS) order: sort by the linear index col * nrow + row
+    keys = gcol.astype(np.int64) * nrow + grow
+    unique_keys, nz = np.unique(keys, return_inverse=True)
+    sparsity = ca.Sparsity.triplet(nrow, ncol, (unique_keys % nrow).tolist(), (unique_keys // nrow).tolist())
+    A = sps.csc_matrix((np.ones(nz.size), (nz.ravel(), vidx)), shape=(unique_keys.size, offset))
     A_dm = ca.DM(ca.Sparsity(A.shape[0], A.shape[1], A.indptr.tolist(), A.indices.tolist()), A.data.tolist())
     return ca.MX(sparsity, ca.mtimes(A_dm, ca.vertcat(*parts)))
 
@@ -92,7 +91,7 @@ def structured_derivatives(
     h, wt, wk, sigma = ca.SX.sym("h"), ca.SX.sym("w_tau"), ca.SX.sym("w_T"), ca.SX.sym("sigma")
     p = ca.SX.sym("p", n_par)
     lam_a, lam_b, lam_e = ca.SX.sym("lam_a", n), ca.SX.sym("lam_b", n), ca.SX.sym("lam_e", n)
-    left, right = dynamics(qa, qb, u, h, p)
+    _, right = dynamics(qa, qb, u, h, p)
     effort, kinetic = interval_cost(qa, qb, u, h)
     # mechanical part (inertia, gravity, torque) differentiated in z directly
     mech_left, mech_right = mechanics(qa, qb, u, h, ca.DM.zeros(0, 1))
