@@ -245,3 +245,17 @@ def test_wrong_csv_columns_name_the_column(tmp_path):
 def test_parameters_out_of_range_are_rejected(bad):
     with pytest.raises(ValidationError):
         FEHeadrestParams(**bad)
+
+
+def test_a_trajectory_starting_in_contact_starts_from_static_equilibrium():
+    """Holding the head still inside the cushion from t = 0: the cushion is pre-loaded
+    quasi-statically, so the force is constant (no viscous spike) and nothing is dissipated."""
+    t = np.arange(0.0, 0.05 + 1e-9, 0.0025)
+    result = FEHeadrestOracle(FEHeadrestParams(friction=0.0)).run(Trajectory(t, np.full_like(t, 0.36), np.zeros_like(t)))
+    assert result.ok, result.failure_reason
+    f = result.forces.force
+    assert f[0, 0] > 10.0
+    np.testing.assert_allclose(f, np.broadcast_to(f[0], f.shape), rtol=1e-5, atol=1e-6 * f[0, 0])
+    d = result.diagnostics
+    assert d["first_contact_time_s"] == 0.0 and d["stored_energy_start_j"] > 0
+    assert abs(d["dissipated_energy_j"]) < 1e-6 * d["stored_energy_start_j"]

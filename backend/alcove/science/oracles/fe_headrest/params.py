@@ -46,7 +46,7 @@ class FEHeadrestParams(OracleParams):
     moment_point_frame: Literal["head", "headrest"] = Field("head", description="frame of moment_point: 'head' (moves with the head; default the head frame origin) or 'headrest'")
 
     # ---- solver and quality gate ------------------------------------------------------------
-    newton_tolerance: float = Field(1e-7, ge=1e-12, le=1e-3, description="Newton residual tolerance relative to the contact force")
+    newton_tolerance: float = Field(1e-6, ge=1e-12, le=1e-3, description="Newton residual tolerance relative to the contact force")
     newton_max_iterations: int = Field(40, ge=2, le=200, description="Newton iterations allowed per step before the run fails")
     max_penetration: float = Field(1e-3, gt=0.0, le=0.01, description="gate: largest allowed penalty penetration [m]")
     energy_tolerance: float = Field(0.02, ge=0.0, le=0.5, description="gate: allowed negative dissipation relative to the work done by the head")
