@@ -21,7 +21,11 @@ const auth: Middleware = {
   },
 };
 
-export const client = createClient<paths>({ baseUrl: typeof window === "undefined" ? "http://localhost" : window.location.origin });
+export const client = createClient<paths>({
+  baseUrl: typeof window === "undefined" ? "http://localhost" : window.location.origin,
+  // resolved per call (tests replace the global fetch)
+  fetch: (request: Request) => globalThis.fetch(request),
+});
 client.use(auth);
 
 /** The data of an openapi-fetch answer, or an ApiError. */

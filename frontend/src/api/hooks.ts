@@ -5,7 +5,7 @@
 import { keepPreviousData, queryOptions, useMutation, useQuery, useQueryClient } from "@tanstack/react-query";
 import { ApiError, fieldErrors, type FieldError } from "./errors";
 import { storedToken } from "./auth";
-import { mergeMetrics, afterCursor, type MetricPoint } from "../lib/metrics";
+import { mergeMetrics, type MetricPoint } from "../lib/metrics";
 import type { JsonSchema } from "../components/SchemaForm";
 import { client, unwrap } from "./client";
 import type { components } from "./schema";
@@ -57,6 +57,9 @@ export interface CampaignDetail extends CampaignRow {
   source_iteration: number | null;
   /** the editable settings (preliminary, stopping, policies, settings) */
   config: Record<string, Record<string, unknown>> | null;
+  task_version?: number;
+  can_edit?: boolean;
+  iterations_failed?: number;
 }
 export interface Phase {
   name?: string;
@@ -242,21 +245,123 @@ export function isLive(status: string): boolean {
   return LIVE.has(status);
 }
 
+function campaignRow(c: Schemas["CampaignSummary"]): CampaignRow {
+  return {
+    id: c.id,
+    name: c.name,
+    status: c.status,
+    owner: c.owner,
+    task: `${c.task} v${c.task_version}`,
+    oracle: `${c.oracle} (${c.oracle_type})`,
+    iteration: c.current_iteration,
+    max_iterations: c.max_iterations ?? null,
+    force_rmse: c.force_rmse ?? null,
+    moment_rmse: c.moment_rmse ?? null,
+    force_history: [],
+    moment_history: [],
+    started_at: c.started_at ?? null,
+    eta_s: null,
+  };
+}
+
 export function useCampaigns(filters: { status?: string }) {
   return useQuery({
     queryKey: ["campaigns", filters],
-    queryFn: () => api<CampaignRow[]>("GET", "/campaigns", { query: { status: filters.status, limit: 200 } }),
+    queryFn: async () => {
+      const status = (filters.status || undefined) as Schemas["CampaignStatus"] | undefined;
+      return unwrap(await client.GET("/api/v1/campaigns", { params: { query: { status, limit: 500 } } })).map(campaignRow);
+    },
     placeholderData: keepPreviousData,
     refetchInterval: (q) => (q.state.data?.some((c) => isLive(c.status)) ? POLL_MS * 2 : false),
   });
 }
 
+function campaignDetail(c: Schemas["CampaignOut"]): CampaignDetail {
+  const r = c.campaign;
+  const config = c.config as unknown as Record<string, Record<string, unknown>>;
+  return {
+    id: c.id,
+    name: r.name,
+    status: r.status,
+    owner: c.owner,
+    task: null,
+    task_id: c.task_id,
+    task_version: c.task_version,
+    oracle: null,
+    oracle_id: c.oracle_id,
+    iteration: r.current_iteration,
+    max_iterations: (config?.stopping?.max_iterations as number | null | undefined) ?? null,
+    force_rmse: c.latest_metrics?.force_rmse ?? null,
+    moment_rmse: c.latest_metrics?.moment_rmse ?? null,
+    force_history: [],
+    moment_history: [],
+    started_at: r.started_at ?? null,
+    eta_s: c.eta_s ?? null,
+    current_step: r.current_step ?? null,
+    finished_at: r.finished_at ?? null,
+    stop_reason: r.stop_reason ?? null,
+    error: r.error ?? null,
+    source_campaign_id: r.source_campaign_id ?? null,
+    source_iteration: r.source_iteration ?? null,
+    config,
+    can_edit: c.can_edit,
+    iterations_failed: c.iterations_failed,
+  };
+}
+
 export function useCampaign(id: number) {
   return useQuery({
     queryKey: ["campaign", id],
-    queryFn: () => api<CampaignDetail>("GET", `/campaigns/${id}`),
+    queryFn: async () => campaignDetail(unwrap(await client.GET("/api/v1/campaigns/{campaign_id}", { params: { path: { campaign_id: id } } }))),
     refetchInterval: (q) => (q.state.data && isLive(q.state.data.status) ? POLL_MS : false),
   });
+}
+
+/** Iteration statuses (to mark failed and quarantined iterations), fetched incrementally. */
+interface IterationState {
+  iteration: number;
+  status: string;
+  error: string | null;
+}
+interface MetricsCache {
+  metrics: Schemas["MetricsRead"][];
+  iterations: IterationState[];
+  points: MetricPoint[];
+}
+
+const FINAL_ITERATION = new Set(["succeeded", "failed", "cancelled"]);
+
+function lastFinal<T>(rows: T[], index: (r: T) => number, final: (r: T) => boolean): number | undefined {
+  let cursor: number | undefined;
+  for (const r of rows) {
+    if (!final(r)) break;
+    cursor = index(r);
+  }
+  return cursor;
+}
+
+function upsert<T>(known: T[], fresh: T[], key: (r: T) => number): T[] {
+  if (!fresh.length) return known;
+  const m = new Map(known.map((r) => [key(r), r]));
+  for (const r of fresh) m.set(key(r), r);
+  return [...m.values()].sort((a, b) => key(a) - key(b));
+}
+
+export function toPoints(metrics: Schemas["MetricsRead"][], iterations: IterationState[]): MetricPoint[] {
+  const byIndex = new Map(iterations.map((it) => [it.iteration, it]));
+  const points: MetricPoint[] = metrics.map((m) => ({
+    iteration: m.iteration_index,
+    status: byIndex.get(m.iteration_index)?.status ?? "succeeded",
+    force_rmse: m.force_rmse ?? null,
+    moment_rmse: m.moment_rmse ?? null,
+    quarantined: false,
+  }));
+  const withMetrics = new Set(points.map((p) => p.iteration));
+  for (const it of iterations) {
+    if (withMetrics.has(it.iteration) || it.status !== "failed") continue;
+    points.push({ iteration: it.iteration, status: "failed", force_rmse: null, moment_rmse: null, quarantined: /quarantin/i.test(it.error ?? "") });
+  }
+  return mergeMetrics(undefined, points);
 }
 
 /** The RMSE series, polled incrementally: each poll asks only for iterations after the last final one. */
@@ -264,10 +369,23 @@ export function metricsQuery(id: number, live = false) {
   const key = ["metrics", id] as const;
   return queryOptions({
     queryKey: key,
-    queryFn: async ({ client }) => {
-      const known = client.getQueryData<MetricPoint[]>(key);
-      const fresh = await api<MetricPoint[]>("GET", `/campaigns/${id}/metrics`, { query: { after: afterCursor(known) } });
-      return mergeMetrics(known, fresh);
+    queryFn: async ({ client: qc }): Promise<MetricPoint[]> => {
+      const cacheKey = ["metrics-raw", id];
+      const known = qc.getQueryData<MetricsCache>(cacheKey) ?? { metrics: [], iterations: [], points: [] };
+      const afterMetrics = known.metrics.length ? known.metrics[known.metrics.length - 1].iteration_index : undefined;
+      const afterIterations = lastFinal(known.iterations, (r) => r.iteration, (r) => FINAL_ITERATION.has(r.status));
+      const [m, its] = await Promise.all([
+        client.GET("/api/v1/campaigns/{campaign_id}/metrics", { params: { path: { campaign_id: id }, query: { after: afterMetrics } } }),
+        client.GET("/api/v1/campaigns/{campaign_id}/iterations", { params: { path: { campaign_id: id }, query: { after: afterIterations } } }),
+      ]);
+      const freshMetrics = unwrap(m);
+      const freshIterations = unwrap(its).map((it) => ({ iteration: it.index, status: it.status, error: it.error ?? null }));
+      if (!freshMetrics.length && freshIterations.every((it) => known.iterations.some((k) => k.iteration === it.iteration && k.status === it.status))) return known.points;
+      const metrics = upsert(known.metrics, freshMetrics, (r) => r.iteration_index);
+      const iterations = upsert(known.iterations, freshIterations, (r) => r.iteration);
+      const points = toPoints(metrics, iterations);
+      qc.setQueryData(cacheKey, { metrics, iterations, points });
+      return points;
     },
     refetchInterval: live ? POLL_MS : false,
   });
@@ -276,32 +394,134 @@ export function useMetrics(id: number, live: boolean) {
   return useQuery(metricsQuery(id, live));
 }
 
+/** Rows (time) x columns -> one array per column. */
+export function columns(rows: number[][]): number[][] {
+  if (!rows.length) return [];
+  return rows[0].map((_, j) => rows.map((r) => r[j]));
+}
+const WRENCH = ["fx", "fy", "fz", "mx", "my", "mz"] as const;
+
 export function iterationQuery(id: number, k: number) {
   return queryOptions({
     queryKey: ["iteration", id, k],
-    queryFn: () => api<IterationCurves>("GET", `/campaigns/${id}/iterations/${k}/curves`),
+    queryFn: async (): Promise<IterationCurves> => {
+      const c = unwrap(await client.GET("/api/v1/campaigns/{campaign_id}/iterations/{iteration}/curves", { params: { path: { campaign_id: id, iteration: k } } }));
+      const truth = columns(c.f_true);
+      const pred = columns(c.f_pred);
+      return {
+        iteration: c.iteration_index,
+        t: c.t,
+        q: columns(c.q),
+        qd: columns(c.qd),
+        tau: [],
+        phases: [],
+        force_t: c.t,
+        truth: Object.fromEntries(WRENCH.map((w, j) => [w, truth[j] ?? []])),
+        predicted: Object.fromEntries(WRENCH.map((w, j) => [w, pred[j] ?? []])),
+      };
+    },
     staleTime: Infinity,
   });
 }
 
 export function useJobs(id: number, live: boolean) {
-  return useQuery({ queryKey: ["jobs", id], queryFn: () => api<JobRow[]>("GET", `/campaigns/${id}/jobs`), refetchInterval: live ? POLL_MS : false });
+  return useQuery({
+    queryKey: ["jobs", id],
+    queryFn: async (): Promise<JobRow[]> =>
+      unwrap(await client.GET("/api/v1/campaigns/{campaign_id}/jobs", { params: { path: { campaign_id: id } } }))
+        .map((j) => ({
+          id: j.id,
+          iteration: j.iteration,
+          step: j.step,
+          status: j.status,
+          worker: j.worker_name ?? null,
+          attempts: j.attempts,
+          started_at: j.started_at ?? null,
+          duration_s: j.wall_time_s ?? null,
+          error: j.error ?? null,
+        }))
+        .reverse(),
+    refetchInterval: live ? POLL_MS : false,
+  });
 }
+
 export function usePoolVersions(id: number, live: boolean) {
-  return useQuery({ queryKey: ["pools", id], queryFn: () => api<PoolVersionRow[]>("GET", `/campaigns/${id}/pool-versions`), refetchInterval: live ? POLL_MS * 2 : false });
+  return useQuery({
+    queryKey: ["pools", id],
+    queryFn: async (): Promise<PoolVersionRow[]> => {
+      const rows = unwrap(await client.GET("/api/v1/campaigns/{campaign_id}/pool-versions", { params: { path: { campaign_id: id } } }));
+      const versionOf = new Map(rows.map((p) => [p.id, p.version]));
+      const base = `${API}/campaigns/${id}/pool-versions`;
+      return rows
+        .map((p) => ({
+          id: p.id,
+          version: p.version,
+          parent_version: p.parent_id ? (versionOf.get(p.parent_id) ?? null) : null,
+          n_datasets: p.n_datasets,
+          n_samples: p.n_samples,
+          created_at: p.created_at,
+          parquet_url: `${base}/${p.version}/download?format=parquet`,
+          csv_url: `${base}/${p.version}/download?format=csv`,
+        }))
+        .reverse();
+    },
+    refetchInterval: live ? POLL_MS * 2 : false,
+  });
 }
+
 export function useModelVersions(id: number, live: boolean) {
-  return useQuery({ queryKey: ["models", id], queryFn: () => api<ModelVersionRow[]>("GET", `/campaigns/${id}/model-versions`), refetchInterval: live ? POLL_MS * 2 : false });
+  return useQuery({
+    queryKey: ["models", id],
+    queryFn: async (): Promise<ModelVersionRow[]> => {
+      const [models, pools] = await Promise.all([
+        client.GET("/api/v1/campaigns/{campaign_id}/model-versions", { params: { path: { campaign_id: id } } }).then(unwrap),
+        client.GET("/api/v1/campaigns/{campaign_id}/pool-versions", { params: { path: { campaign_id: id } } }).then(unwrap),
+      ]);
+      const poolVersion = new Map(pools.map((p) => [p.id, p.version]));
+      const modelVersion = new Map(models.map((m) => [m.id, m.version]));
+      return models
+        .map((m) => ({
+          id: m.id,
+          version: m.version,
+          pool_version: poolVersion.get(m.pool_version_id) ?? null,
+          parent_version: m.parent_model_id ? (modelVersion.get(m.parent_model_id) ?? null) : null,
+          test_force_rmse: m.test_force_rmse ?? null,
+          test_moment_rmse: m.test_moment_rmse ?? null,
+          epochs: m.epochs ?? null,
+          artifact_url: `${API}/campaigns/${id}/model-versions/${m.version}/artifact.zip`,
+        }))
+        .reverse();
+    },
+    refetchInterval: live ? POLL_MS * 2 : false,
+  });
+}
+
+type Action = "start" | "pause" | "resume" | "cancel" | "retry";
+async function campaignAction(id: number, action: Action) {
+  const path = { params: { path: { campaign_id: id } } };
+  switch (action) {
+    case "start":
+      return unwrap(await client.POST("/api/v1/campaigns/{campaign_id}/start", path));
+    case "pause":
+      return unwrap(await client.POST("/api/v1/campaigns/{campaign_id}/pause", path));
+    case "resume":
+      return unwrap(await client.POST("/api/v1/campaigns/{campaign_id}/resume", path));
+    case "cancel":
+      return unwrap(await client.POST("/api/v1/campaigns/{campaign_id}/cancel", path));
+    case "retry":
+      return unwrap(await client.POST("/api/v1/campaigns/{campaign_id}/retry", path));
+  }
 }
 
 export async function startCampaign(id: number): Promise<void> {
-  await api("POST", `/campaigns/${id}/start`);
+  await campaignAction(id, "start");
 }
 
 export function useCampaignAction(id: number) {
   const qc = useQueryClient();
   return useMutation({
-    mutationFn: (action: "start" | "pause" | "resume" | "cancel" | "retry") => api<CampaignDetail>("POST", `/campaigns/${id}/${action}`),
+    mutationFn: async (action: Action) => campaignDetail(await campaignAction(id, action)),
+    onSuccess: (detail) => qc.setQueryData(["campaign", id], detail),
     onSettled: () => {
       void qc.invalidateQueries({ queryKey: ["campaign", id] });
       void qc.invalidateQueries({ queryKey: ["jobs", id] });
@@ -313,7 +533,8 @@ export function useCampaignAction(id: number) {
 export function useForkCampaign(id: number) {
   const qc = useQueryClient();
   return useMutation({
-    mutationFn: (body: { iteration: number; name: string } & Record<string, unknown>) => api<CampaignDetail>("POST", `/campaigns/${id}/fork`, { body }),
+    mutationFn: async (body: Schemas["ForkRequest"]) =>
+      campaignDetail(unwrap(await client.POST("/api/v1/campaigns/{campaign_id}/fork", { params: { path: { campaign_id: id } }, body }))),
     onSuccess: () => qc.invalidateQueries({ queryKey: ["campaigns"] }),
   });
 }
@@ -321,8 +542,7 @@ export function useForkCampaign(id: number) {
 export function useCreateCampaign() {
   const qc = useQueryClient();
   return useMutation({
-    mutationFn: (body: { name: string; task_version_id: number; oracle_version_id: number; surrogate_config_version_id: number; seed: number } & Record<string, unknown>) =>
-      api<CampaignDetail>("POST", "/campaigns", { body }),
+    mutationFn: async (body: Schemas["CampaignCreateIn"]) => campaignDetail(unwrap(await client.POST("/api/v1/campaigns", { body }))),
     onSuccess: () => qc.invalidateQueries({ queryKey: ["campaigns"] }),
   });
 }
@@ -342,8 +562,9 @@ export function componentSchema(doc: OpenApiDocument | undefined, name: string):
 }
 
 // ------------------------------------------------------------------ surrogate configs
-export function useSurrogateConfigs() {
-  return useQuery({ queryKey: ["surrogate-configs"], queryFn: () => api<SurrogateConfigRow[]>("GET", "/surrogate-configs") });
+/** Optional: the API may list surrogate configurations; without it campaigns use the paper's default. */
+export function useSurrogateConfigs(enabled: boolean) {
+  return useQuery({ queryKey: ["surrogate-configs"], queryFn: () => api<SurrogateConfigRow[]>("GET", "/surrogate-configs"), enabled });
 }
 
 // ------------------------------------------------------------------ tasks
@@ -359,6 +580,16 @@ export function useTask(id: number | null) {
     queryKey: ["task", id],
     queryFn: async () => taskRow(unwrap(await client.GET("/api/v1/tasks/{task_id}", { params: { path: { task_id: id ?? 0 } } }))),
     enabled: id !== null,
+  });
+}
+/** One version of a task (the exact spec a campaign runs). */
+export function useTaskVersion(id: number | null | undefined, version: number | null | undefined) {
+  return useQuery({
+    queryKey: ["task-version", id, version],
+    queryFn: async () =>
+      unwrap(await client.GET("/api/v1/tasks/{task_id}/versions/{version}", { params: { path: { task_id: id ?? 0, version: version ?? 1 } } })),
+    enabled: Boolean(id && version),
+    staleTime: Infinity,
   });
 }
 export function useTaskPresets() {

@@ -85,6 +85,428 @@ export interface paths {
         patch?: never;
         trace?: never;
     };
+    "/api/v1/campaigns": {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        /**
+         * List Campaigns
+         * @description Campaigns you own or that are shared with you, newest first, with their latest RMSE.
+         */
+        get: operations["list_campaigns"];
+        put?: never;
+        /** Create Campaign */
+        post: operations["create_campaign"];
+        delete?: never;
+        options?: never;
+        head?: never;
+        patch?: never;
+        trace?: never;
+    };
+    "/api/v1/campaigns/{campaign_id}": {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        /**
+         * Get Campaign
+         * @description Status, current iteration and step, latest metrics, ETA.
+         */
+        get: operations["get_campaign"];
+        put?: never;
+        post?: never;
+        delete?: never;
+        options?: never;
+        head?: never;
+        patch?: never;
+        trace?: never;
+    };
+    "/api/v1/campaigns/{campaign_id}/cancel": {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        get?: never;
+        put?: never;
+        /**
+         * Cancel: queued steps are dropped, a running job stops at its next check
+         * @description Cancel: queued steps are dropped, a running job stops at its next check.
+         */
+        post: operations["cancel_campaign"];
+        delete?: never;
+        options?: never;
+        head?: never;
+        patch?: never;
+        trace?: never;
+    };
+    "/api/v1/campaigns/{campaign_id}/config": {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        get?: never;
+        put?: never;
+        post?: never;
+        delete?: never;
+        options?: never;
+        head?: never;
+        /**
+         * Update Campaign Config
+         * @description Edit settings: records a new config version, used by iterations created from now on.
+         */
+        patch: operations["update_campaign_config"];
+        trace?: never;
+    };
+    "/api/v1/campaigns/{campaign_id}/events": {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        /** List Campaign Events */
+        get: operations["list_campaign_events"];
+        put?: never;
+        post?: never;
+        delete?: never;
+        options?: never;
+        head?: never;
+        patch?: never;
+        trace?: never;
+    };
+    "/api/v1/campaigns/{campaign_id}/events/stream": {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        /**
+         * Stream Campaign Events
+         * @description Campaign events as Server-Sent Events (``id`` = event id, ``event`` = kind); the
+         *     stream ends when the campaign reaches a terminal state or after ``timeout``. Reconnect
+         *     with ``?after=<last id>`` (or the Last-Event-ID header).
+         */
+        get: operations["stream_campaign_events"];
+        put?: never;
+        post?: never;
+        delete?: never;
+        options?: never;
+        head?: never;
+        patch?: never;
+        trace?: never;
+    };
+    "/api/v1/campaigns/{campaign_id}/export": {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        /**
+         * Export Campaign
+         * @description Everything the campaign produced as one zip: settings and config versions, metrics
+         *     (CSV + JSON), iterations, pool versions, model artifacts, curves.
+         */
+        get: operations["export_campaign"];
+        put?: never;
+        post?: never;
+        delete?: never;
+        options?: never;
+        head?: never;
+        patch?: never;
+        trace?: never;
+    };
+    "/api/v1/campaigns/{campaign_id}/fork": {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        get?: never;
+        put?: never;
+        /**
+         * Fork Campaign
+         * @description A new campaign of yours continuing from iteration k of this one (its pool and model),
+         *     with changed settings.
+         */
+        post: operations["fork_campaign"];
+        delete?: never;
+        options?: never;
+        head?: never;
+        patch?: never;
+        trace?: never;
+    };
+    "/api/v1/campaigns/{campaign_id}/iterations": {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        /** List Campaign Iterations */
+        get: operations["list_campaign_iterations"];
+        put?: never;
+        post?: never;
+        delete?: never;
+        options?: never;
+        head?: never;
+        patch?: never;
+        trace?: never;
+    };
+    "/api/v1/campaigns/{campaign_id}/iterations/{iteration}/curves": {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        /**
+         * Get Iteration Curves
+         * @description Iteration k's trajectory (t, q, qd) with the oracle's forces and model k's prediction
+         *     (columns fx fy fz mx my mz in the headrest frame).
+         */
+        get: operations["get_iteration_curves"];
+        put?: never;
+        post?: never;
+        delete?: never;
+        options?: never;
+        head?: never;
+        patch?: never;
+        trace?: never;
+    };
+    "/api/v1/campaigns/{campaign_id}/jobs": {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        /**
+         * List Campaign Jobs
+         * @description Every step (the unit of worker work): status, worker, attempts, timings, error.
+         */
+        get: operations["list_campaign_jobs"];
+        put?: never;
+        post?: never;
+        delete?: never;
+        options?: never;
+        head?: never;
+        patch?: never;
+        trace?: never;
+    };
+    "/api/v1/campaigns/{campaign_id}/metrics": {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        /**
+         * List Campaign Metrics
+         * @description Per-iteration metrics (force/moment RMSE, max errors, OCP and oracle figures);
+         *     ``?after=k`` returns only iterations after k, so a dashboard polls cheaply.
+         */
+        get: operations["list_campaign_metrics"];
+        put?: never;
+        post?: never;
+        delete?: never;
+        options?: never;
+        head?: never;
+        patch?: never;
+        trace?: never;
+    };
+    "/api/v1/campaigns/{campaign_id}/model-versions": {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        /**
+         * List Model Versions
+         * @description Trained models with lineage (pool version, parent model, seed, code and library versions).
+         */
+        get: operations["list_model_versions"];
+        put?: never;
+        post?: never;
+        delete?: never;
+        options?: never;
+        head?: never;
+        patch?: never;
+        trace?: never;
+    };
+    "/api/v1/campaigns/{campaign_id}/model-versions/{version}/artifact": {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        /**
+         * Get Model Artifact
+         * @description The self-contained artifact document (architecture, weights, normalisation, lineage) as JSON.
+         */
+        get: operations["get_model_artifact"];
+        put?: never;
+        post?: never;
+        delete?: never;
+        options?: never;
+        head?: never;
+        patch?: never;
+        trace?: never;
+    };
+    "/api/v1/campaigns/{campaign_id}/model-versions/{version}/artifact.zip": {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        /**
+         * Download Model Artifact
+         * @description The artifact as a zip: ``surrogate.json`` + TorchScript ``force.pt`` / ``moment.pt``
+         *     (built once by a child process, then cached).
+         */
+        get: operations["download_model_artifact"];
+        put?: never;
+        post?: never;
+        delete?: never;
+        options?: never;
+        head?: never;
+        patch?: never;
+        trace?: never;
+    };
+    "/api/v1/campaigns/{campaign_id}/pause": {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        get?: never;
+        put?: never;
+        /**
+         * Pause after the running step finishes
+         * @description Pause after the running step finishes.
+         */
+        post: operations["pause_campaign"];
+        delete?: never;
+        options?: never;
+        head?: never;
+        patch?: never;
+        trace?: never;
+    };
+    "/api/v1/campaigns/{campaign_id}/pool-versions": {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        /**
+         * List Pool Versions
+         * @description Immutable pool versions (lineage: ``parent_id``; version k = k-1 + iteration k's data).
+         */
+        get: operations["list_pool_versions"];
+        put?: never;
+        post?: never;
+        delete?: never;
+        options?: never;
+        head?: never;
+        patch?: never;
+        trace?: never;
+    };
+    "/api/v1/campaigns/{campaign_id}/pool-versions/{version}/download": {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        /**
+         * Download Pool Version
+         * @description One row per sample: dataset, origin, t, q_i, qd_i, fx..mz (Parquet or CSV).
+         */
+        get: operations["download_pool_version"];
+        put?: never;
+        post?: never;
+        delete?: never;
+        options?: never;
+        head?: never;
+        patch?: never;
+        trace?: never;
+    };
+    "/api/v1/campaigns/{campaign_id}/resume": {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        get?: never;
+        put?: never;
+        /**
+         * Resume a paused campaign
+         * @description Resume a paused campaign.
+         */
+        post: operations["resume_campaign"];
+        delete?: never;
+        options?: never;
+        head?: never;
+        patch?: never;
+        trace?: never;
+    };
+    "/api/v1/campaigns/{campaign_id}/retry": {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        get?: never;
+        put?: never;
+        /**
+         * Retry Campaign Step
+         * @description Run a failed step again (default: the step that failed the campaign).
+         */
+        post: operations["retry_campaign_step"];
+        delete?: never;
+        options?: never;
+        head?: never;
+        patch?: never;
+        trace?: never;
+    };
+    "/api/v1/campaigns/{campaign_id}/start": {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        get?: never;
+        put?: never;
+        /**
+         * Start a draft campaign: the preliminary step (or, for a fork, the first training) is queued
+         * @description Start a draft campaign: the preliminary step (or, for a fork, the first training) is queued.
+         */
+        post: operations["start_campaign"];
+        delete?: never;
+        options?: never;
+        head?: never;
+        patch?: never;
+        trace?: never;
+    };
     "/api/v1/health": {
         parameters: {
             query?: never;
@@ -343,6 +765,31 @@ export interface paths {
         patch?: never;
         trace?: never;
     };
+    "/api/v1/preliminary-datasets": {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        /**
+         * List Preliminary Datasets
+         * @description Your uploaded data sets.
+         */
+        get: operations["list_preliminary_datasets"];
+        put?: never;
+        /**
+         * Upload Preliminary Dataset
+         * @description Store a preliminary data set (validated); use the returned ids as a campaign's
+         *     ``preliminary.dataset_ids``.
+         */
+        post: operations["upload_preliminary_dataset"];
+        delete?: never;
+        options?: never;
+        head?: never;
+        patch?: never;
+        trace?: never;
+    };
     "/api/v1/shares": {
         parameters: {
             query?: never;
@@ -585,6 +1032,236 @@ export interface paths {
 export type webhooks = Record<string, never>;
 export interface components {
     schemas: {
+        /** Body_upload_preliminary_dataset */
+        Body_upload_preliminary_dataset: {
+            /**
+             * Chunks
+             * @default 10
+             */
+            chunks?: number;
+            /**
+             * File
+             * @description CSV with columns [simulation,] [t,] q_i, qd_i, fx, fy, fz, mx, my, mz
+             */
+            file: string;
+            /**
+             * Name
+             * @default upload
+             */
+            name?: string;
+        };
+        /**
+         * CampaignConfig
+         * @description The editable part of a campaign; a snapshot of it is a campaign config version.
+         */
+        CampaignConfig: {
+            policies?: components["schemas"]["Policies"];
+            preliminary?: components["schemas"]["PreliminaryConfig"];
+            settings?: components["schemas"]["RunSettings"];
+            stopping?: components["schemas"]["StoppingRules"];
+        };
+        /**
+         * CampaignConfigUpdate
+         * @description Edit of a campaign's settings: each given part replaces the current one and a new
+         *     config version is recorded; iterations created afterwards use it.
+         */
+        CampaignConfigUpdate: {
+            /**
+             * Note
+             * @default
+             */
+            note?: string;
+            policies?: components["schemas"]["Policies"] | null;
+            settings?: components["schemas"]["RunSettings"] | null;
+            stopping?: components["schemas"]["StoppingRules"] | null;
+            /** Surrogate Config Version Id */
+            surrogate_config_version_id?: number | null;
+        };
+        /**
+         * CampaignCreateIn
+         * @description A campaign of one of your (or shared) tasks and oracles. Versions default to the latest;
+         *     the surrogate config defaults to the paper's.
+         */
+        CampaignCreateIn: {
+            /**
+             * Description
+             * @default
+             */
+            description?: string;
+            /** Name */
+            name: string;
+            /** Oracle Id */
+            oracle_id: number;
+            /** Oracle Version */
+            oracle_version?: number | null;
+            policies?: components["schemas"]["Policies"];
+            preliminary?: components["schemas"]["PreliminaryConfig"];
+            /**
+             * Seed
+             * @default 0
+             */
+            seed?: number;
+            settings?: components["schemas"]["RunSettings"];
+            /**
+             * Start
+             * @description start right away
+             * @default false
+             */
+            start?: boolean;
+            stopping?: components["schemas"]["StoppingRules"];
+            /** Surrogate Config Id */
+            surrogate_config_id?: number | null;
+            /** Surrogate Config Version */
+            surrogate_config_version?: number | null;
+            /** Task Id */
+            task_id: number;
+            /** Task Version */
+            task_version?: number | null;
+        };
+        /** CampaignOut */
+        CampaignOut: {
+            campaign: components["schemas"]["CampaignRead"];
+            /** Can Edit */
+            can_edit: boolean;
+            config: components["schemas"]["CampaignConfig"];
+            current: components["schemas"]["IterationRead"] | null;
+            /**
+             * Eta S
+             * @description remaining iterations (max_iterations rule) x mean iteration time
+             */
+            eta_s?: number | null;
+            /**
+             * Id
+             * @description the campaign's id (= campaign.id)
+             */
+            id: number;
+            /** Iterations Failed */
+            iterations_failed: number;
+            /** Iterations Finished */
+            iterations_finished: number;
+            latest_metrics: components["schemas"]["MetricsRead"] | null;
+            /** Mean Iteration S */
+            mean_iteration_s: number | null;
+            /** Oracle Id */
+            oracle_id: number;
+            /** Oracle Version */
+            oracle_version: number;
+            /** Owner */
+            owner: string;
+            /** Task Id */
+            task_id: number;
+            /** Task Version */
+            task_version: number;
+        };
+        /** CampaignRead */
+        CampaignRead: {
+            /** Cancel Requested */
+            cancel_requested: boolean;
+            /** Config Version */
+            config_version: number;
+            /**
+             * Created At
+             * Format: date-time
+             */
+            created_at: string;
+            /** Current Iteration */
+            current_iteration: number;
+            /** Current Step */
+            current_step: string | null;
+            /** Description */
+            description: string;
+            /** Error */
+            error: string | null;
+            /** Finished At */
+            finished_at: string | null;
+            /** Id */
+            id: number;
+            /** Name */
+            name: string;
+            /** Oracle Version Id */
+            oracle_version_id: number;
+            /** Oracle Wall Time S */
+            oracle_wall_time_s: number;
+            /** Owner Id */
+            owner_id: number;
+            /** Pause Requested */
+            pause_requested: boolean;
+            /** Seed */
+            seed: number;
+            /** Source Campaign Id */
+            source_campaign_id: number | null;
+            /** Source Iteration */
+            source_iteration: number | null;
+            /** Started At */
+            started_at: string | null;
+            status: components["schemas"]["CampaignStatus"];
+            /** Stop Reason */
+            stop_reason: string | null;
+            /** Surrogate Config Version Id */
+            surrogate_config_version_id: number;
+            /** Task Version Id */
+            task_version_id: number;
+        };
+        /**
+         * CampaignStatus
+         * @enum {string}
+         */
+        CampaignStatus: "draft" | "queued" | "running" | "pausing" | "paused" | "cancelling" | "cancelled" | "completed" | "failed";
+        /** CampaignSummary */
+        CampaignSummary: {
+            /**
+             * Created At
+             * Format: date-time
+             */
+            created_at: string;
+            /** Current Iteration */
+            current_iteration: number;
+            /** Current Step */
+            current_step: string | null;
+            /** Finished At */
+            finished_at: string | null;
+            /**
+             * Force Rmse
+             * @description latest iteration's force RMSE [N]
+             */
+            force_rmse: number | null;
+            /** Id */
+            id: number;
+            /** Max Iterations */
+            max_iterations: number | null;
+            /**
+             * Moment Rmse
+             * @description latest iteration's moment RMSE [N m]
+             */
+            moment_rmse: number | null;
+            /** Name */
+            name: string;
+            /** Oracle */
+            oracle: string;
+            /** Oracle Id */
+            oracle_id: number;
+            /** Oracle Type */
+            oracle_type: string;
+            /** Oracle Version */
+            oracle_version: number;
+            /** Owner */
+            owner: string;
+            /** Owner Id */
+            owner_id: number;
+            /** Source Campaign Id */
+            source_campaign_id: number | null;
+            /** Source Iteration */
+            source_iteration: number | null;
+            /** Started At */
+            started_at: string | null;
+            status: components["schemas"]["CampaignStatus"];
+            /** Task */
+            task: string;
+            /** Task Id */
+            task_id: number;
+            /** Task Version */
+            task_version: number;
+        };
         /** Check */
         Check: {
             /**
@@ -672,6 +1349,22 @@ export interface components {
              */
             name?: string | null;
         };
+        /** DatasetOut */
+        DatasetOut: {
+            /**
+             * Created At
+             * Format: date-time
+             */
+            created_at: string;
+            /** Id */
+            id: number;
+            /** N Samples */
+            n_samples: number;
+            /** Name */
+            name: string;
+            /** Origin */
+            origin: string;
+        };
         /**
          * EndpointCost
          * @description E = w_q |q(t_F) - q_ref|^2 + w_qd |qd(t_F)|^2.
@@ -689,6 +1382,28 @@ export interface components {
              * @default 0
              */
             w_qd?: number;
+        };
+        /** EventRead */
+        EventRead: {
+            /**
+             * Created At
+             * Format: date-time
+             */
+            created_at: string;
+            /** Data */
+            data: {
+                [key: string]: unknown;
+            };
+            /** Id */
+            id: number;
+            /** Iteration Index */
+            iteration_index: number | null;
+            /** Kind */
+            kind: string;
+            /** Message */
+            message: string;
+            /** Step */
+            step: string | null;
         };
         /** FieldErrorOut */
         FieldErrorOut: {
@@ -717,6 +1432,33 @@ export interface components {
              * @enum {string}
              */
             velocity?: "rest" | "free";
+        };
+        /**
+         * ForkRequest
+         * @description A new campaign continuing from ``iteration`` of the source (its pool version and
+         *     model at that iteration), with changed settings.
+         */
+        ForkRequest: {
+            /** Iteration */
+            iteration: number;
+            /** Name */
+            name?: string | null;
+            /** Oracle Version Id */
+            oracle_version_id?: number | null;
+            policies?: components["schemas"]["Policies"] | null;
+            /** Seed */
+            seed?: number | null;
+            settings?: components["schemas"]["RunSettings"] | null;
+            /**
+             * Start
+             * @default false
+             */
+            start?: boolean;
+            stopping?: components["schemas"]["StoppingRules"] | null;
+            /** Surrogate Config Version Id */
+            surrogate_config_version_id?: number | null;
+            /** Task Version Id */
+            task_version_id?: number | null;
         };
         /** HTTPValidationError */
         HTTPValidationError: {
@@ -749,6 +1491,90 @@ export interface components {
              * @enum {string}
              */
             velocity?: "given" | "free";
+        };
+        /**
+         * IterationCurves
+         * @description Model k's prediction and the oracle's truth along iteration k's trajectory.
+         */
+        IterationCurves: {
+            /** F Pred */
+            f_pred: number[][];
+            /**
+             * F True
+             * @description (n, 6): fx fy fz mx my mz
+             */
+            f_true: number[][];
+            /** Iteration Index */
+            iteration_index: number;
+            /** Q */
+            q: number[][];
+            /** Qd */
+            qd: number[][];
+            /** T */
+            t: number[];
+        };
+        /** IterationRead */
+        IterationRead: {
+            /** Config Version Id */
+            config_version_id: number;
+            /** Current Step */
+            current_step: string | null;
+            /** Error */
+            error: string | null;
+            /** Finished At */
+            finished_at: string | null;
+            /** Id */
+            id: number;
+            /** Index */
+            index: number;
+            /** Started At */
+            started_at: string | null;
+            status: components["schemas"]["IterationStatus"];
+            /**
+             * Steps
+             * @default []
+             */
+            steps?: components["schemas"]["StepRead"][];
+        };
+        /**
+         * IterationStatus
+         * @enum {string}
+         */
+        IterationStatus: "pending" | "running" | "succeeded" | "failed" | "cancelled";
+        /** JobOut */
+        JobOut: {
+            /** Attempts */
+            attempts: number;
+            /** Error */
+            error: string | null;
+            /** Finished At */
+            finished_at: string | null;
+            /** Heartbeat At */
+            heartbeat_at: string | null;
+            /** Id */
+            id: number;
+            /** Iteration */
+            iteration: number;
+            /** Lease Until */
+            lease_until: string | null;
+            /** Max Attempts */
+            max_attempts: number;
+            /** Queue */
+            queue: string;
+            /** Queued At */
+            queued_at: string | null;
+            /** Result */
+            result: {
+                [key: string]: unknown;
+            };
+            /** Started At */
+            started_at: string | null;
+            status: components["schemas"]["StepStatus"];
+            step: components["schemas"]["StepName"];
+            /** Wall Time S */
+            wall_time_s: number | null;
+            /** Worker Name */
+            worker_name: string | null;
         };
         /** LoginIn */
         LoginIn: {
@@ -790,6 +1616,43 @@ export interface components {
             display_name?: string | null;
             /** New Password */
             new_password?: string | null;
+        };
+        /** MetricsRead */
+        MetricsRead: {
+            /** Dataset Id */
+            dataset_id: number | null;
+            /** Extra */
+            extra: {
+                [key: string]: unknown;
+            };
+            /** Force Max Error */
+            force_max_error: number | null;
+            /** Force Rmse */
+            force_rmse: number | null;
+            /** Iteration Index */
+            iteration_index: number;
+            /** Model Version Id */
+            model_version_id: number | null;
+            /** Moment Max Error */
+            moment_max_error: number | null;
+            /** Moment Rmse */
+            moment_rmse: number | null;
+            /** N Pool Samples */
+            n_pool_samples: number | null;
+            /** Ocp Cost */
+            ocp_cost: number | null;
+            /** Ocp Iterations */
+            ocp_iterations: number | null;
+            /** Ocp Status */
+            ocp_status: string | null;
+            /** Ocp Success */
+            ocp_success: boolean | null;
+            /** Ocp Wall Time S */
+            ocp_wall_time_s: number | null;
+            /** Oracle Wall Time S */
+            oracle_wall_time_s: number | null;
+            /** Train Wall Time S */
+            train_wall_time_s: number | null;
         };
         /**
          * ModelSpec
@@ -862,6 +1725,50 @@ export interface components {
              * @default 30
              */
             torque_limit?: number;
+        };
+        /** ModelVersionRead */
+        ModelVersionRead: {
+            /** Architecture */
+            architecture: {
+                [key: string]: unknown;
+            };
+            /** Campaign Id */
+            campaign_id: number | null;
+            /** Code Version */
+            code_version: string;
+            /**
+             * Created At
+             * Format: date-time
+             */
+            created_at: string;
+            /** Epochs */
+            epochs: number | null;
+            /** Id */
+            id: number;
+            /** Library Versions */
+            library_versions: {
+                [key: string]: unknown;
+            };
+            /** Parent Model Id */
+            parent_model_id: number | null;
+            /** Pool Version Id */
+            pool_version_id: number;
+            /** Seed */
+            seed: number;
+            /** Surrogate Config Version Id */
+            surrogate_config_version_id: number | null;
+            /** Test Force Rmse */
+            test_force_rmse: number | null;
+            /** Test Moment Rmse */
+            test_moment_rmse: number | null;
+            /** Train Wall Time S */
+            train_wall_time_s: number | null;
+            /** Training Metrics */
+            training_metrics: {
+                [key: string]: unknown;
+            };
+            /** Version */
+            version: number;
         };
         /** OracleDraft */
         OracleDraft: {
@@ -1077,6 +1984,117 @@ export interface components {
              */
             w_tau: number;
         };
+        /**
+         * Policies
+         * @description What happens when a step fails.
+         */
+        Policies: {
+            /**
+             * Append Max Attempts
+             * @default 3
+             */
+            append_max_attempts?: number;
+            /**
+             * Evaluate Max Attempts
+             * @default 3
+             */
+            evaluate_max_attempts?: number;
+            /**
+             * Ocp Initial Guesses
+             * @description IPOPT runs with different initial guesses (previous solution, passive, ramp, static)
+             * @default 3
+             */
+            ocp_initial_guesses?: number;
+            /**
+             * Ocp Max Attempts
+             * @description attempts of an ocp job that raised
+             * @default 2
+             */
+            ocp_max_attempts?: number;
+            /**
+             * Ocp On Failure
+             * @description no converged solution: mark the iteration failed and continue, or stop the campaign
+             * @default continue
+             * @enum {string}
+             */
+            ocp_on_failure?: "continue" | "stop";
+            /**
+             * Oracle Max Attempts
+             * @description attempts of an oracle job that raised or timed out
+             * @default 3
+             */
+            oracle_max_attempts?: number;
+            /**
+             * Oracle On Failure
+             * @description oracle failed (attempts exhausted) or its result was quarantined by the quality gate
+             * @default continue
+             * @enum {string}
+             */
+            oracle_on_failure?: "continue" | "stop";
+            /**
+             * Train Max Attempts
+             * @description attempts of a train job that raised
+             * @default 2
+             */
+            train_max_attempts?: number;
+        };
+        /** PoolVersionRead */
+        PoolVersionRead: {
+            /** Campaign Id */
+            campaign_id: number;
+            /** Content Hash */
+            content_hash: string;
+            /**
+             * Created At
+             * Format: date-time
+             */
+            created_at: string;
+            /** Id */
+            id: number;
+            /** N Datasets */
+            n_datasets: number;
+            /** N Samples */
+            n_samples: number;
+            /** Parent Id */
+            parent_id: number | null;
+            /** Version */
+            version: number;
+        };
+        /**
+         * PreliminaryConfig
+         * @description Where pool version 0 comes from: Latin-hypercube samples evaluated with the auxiliary
+         *     penalty model (the paper), or uploaded datasets (``dataset_ids``).
+         */
+        PreliminaryConfig: {
+            /**
+             * Chunks
+             * @description datasets the samples are dealt into (for the split by simulation)
+             * @default 10
+             */
+            chunks?: number;
+            /**
+             * Dataset Ids
+             * @description uploaded datasets to use instead of LHS samples
+             */
+            dataset_ids?: number[] | null;
+            /**
+             * Samples
+             * @description LHS sample count K
+             * @default 4000
+             */
+            samples?: number;
+            /**
+             * Seed
+             * @description LHS seed (default: the campaign seed)
+             */
+            seed?: number | null;
+            /**
+             * Velocity Bound
+             * @description |qd| bound of the samples [rad/s]
+             * @default 2
+             */
+            velocity_bound?: number;
+        };
         /** Readiness */
         Readiness: {
             broker: components["schemas"]["Check"];
@@ -1088,6 +2106,42 @@ export interface components {
             workers: components["schemas"]["Check"];
             /** Workers Seen */
             workers_seen: number;
+        };
+        /** RetryIn */
+        RetryIn: {
+            /** Iteration */
+            iteration?: number | null;
+            step?: components["schemas"]["StepName"] | null;
+        };
+        /**
+         * RunSettings
+         * @description Other settings that change results.
+         */
+        RunSettings: {
+            /**
+             * Fault Injection
+             * @description tests only, per step name: raise_attempts (raise on attempts <= n), sleep_s (+ iterations: [k...]), ipopt_max_iter (ocp), gate_fail (oracle)
+             */
+            fault_injection?: {
+                [key: string]: unknown;
+            };
+            /**
+             * Ocp Intervals
+             * @description override the task's intervals per phase (None: as the task says)
+             */
+            ocp_intervals?: number | null;
+            /**
+             * Replay Dt
+             * @description the replayed trajectory is resampled (cubic Hermite) at this step [s]; None: the OCP grid
+             * @default 0.0025
+             */
+            replay_dt?: number | null;
+            /**
+             * Replay Phases
+             * @description the oracle replays the first N phases of the OCP trajectory (paper: 1)
+             * @default 1
+             */
+            replay_phases?: number;
         };
         /** ShareCreate */
         ShareCreate: {
@@ -1135,6 +2189,88 @@ export interface components {
             permission: "view" | "edit";
             /** User Id */
             user_id: number;
+        };
+        /**
+         * StepName
+         * @description Steps of an iteration, in order. ``preliminary`` only occurs in iteration 0.
+         * @enum {string}
+         */
+        StepName: "preliminary" | "train" | "ocp" | "oracle" | "evaluate" | "append";
+        /** StepRead */
+        StepRead: {
+            /** Attempts */
+            attempts: number;
+            /** Error */
+            error: string | null;
+            /** Finished At */
+            finished_at: string | null;
+            /** Heartbeat At */
+            heartbeat_at: string | null;
+            /** Id */
+            id: number;
+            /** Lease Until */
+            lease_until: string | null;
+            /** Max Attempts */
+            max_attempts: number;
+            /** Queue */
+            queue: string;
+            /** Queued At */
+            queued_at: string | null;
+            /** Result */
+            result: {
+                [key: string]: unknown;
+            };
+            /** Started At */
+            started_at: string | null;
+            status: components["schemas"]["StepStatus"];
+            step: components["schemas"]["StepName"];
+            /** Wall Time S */
+            wall_time_s: number | null;
+            /** Worker Name */
+            worker_name: string | null;
+        };
+        /**
+         * StepStatus
+         * @enum {string}
+         */
+        StepStatus: "pending" | "queued" | "running" | "succeeded" | "failed" | "cancelled" | "skipped";
+        /**
+         * StoppingRules
+         * @description Any combination; the first that fires after an iteration stops the campaign.
+         */
+        StoppingRules: {
+            /**
+             * Max Iterations
+             * @description stop after iteration k = max_iterations (paper: 200)
+             * @default 200
+             */
+            max_iterations?: number | null;
+            /**
+             * Oracle Budget S
+             * @description stop when the oracle's total wall time reaches this [s]
+             */
+            oracle_budget_s?: number | null;
+            /**
+             * Plateau Tolerance
+             * @description relative improvement that still counts as progress
+             * @default 0.01
+             */
+            plateau_tolerance?: number;
+            /**
+             * Plateau Window
+             * @description stop when the best force RMSE of the last W iterations is no better than before
+             */
+            plateau_window?: number | null;
+            /**
+             * Target Force Rmse
+             * @description stop when the iteration's force RMSE [N] is at most this
+             */
+            target_force_rmse?: number | null;
+            /**
+             * Target Moment Rmse
+             * @description stop when the iteration's moment RMSE [N m] is at most this
+             */
+            target_moment_rmse?: number | null;
         };
         /**
          * TaskDraft
@@ -1364,6 +2500,18 @@ export interface components {
              * @description first characters of the token, to recognise it
              */
             token_prefix: string;
+        };
+        /** UploadOut */
+        UploadOut: {
+            /**
+             * Dataset Ids
+             * @description pass as `preliminary.dataset_ids` of a campaign
+             */
+            dataset_ids: number[];
+            /** Datasets */
+            datasets: components["schemas"]["DatasetOut"][];
+            /** N Samples */
+            n_samples: number;
         };
         /** UserCreate */
         UserCreate: {
@@ -1672,6 +2820,758 @@ export interface operations {
                     [name: string]: unknown;
                 };
                 content?: never;
+            };
+        };
+    };
+    list_campaigns: {
+        parameters: {
+            query?: {
+                status?: components["schemas"]["CampaignStatus"] | null;
+                owner?: "any" | "me" | "shared";
+                task_id?: number | null;
+                /** @description page size */
+                limit?: number;
+                /** @description rows to skip */
+                offset?: number;
+            };
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        requestBody?: never;
+        responses: {
+            /** @description Successful Response */
+            200: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["CampaignSummary"][];
+                };
+            };
+            /** @description Validation Error */
+            422: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["HTTPValidationError"];
+                };
+            };
+        };
+    };
+    create_campaign: {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        requestBody: {
+            content: {
+                "application/json": components["schemas"]["CampaignCreateIn"];
+            };
+        };
+        responses: {
+            /** @description Successful Response */
+            201: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["CampaignOut"];
+                };
+            };
+            /** @description Validation Error */
+            422: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["HTTPValidationError"];
+                };
+            };
+        };
+    };
+    get_campaign: {
+        parameters: {
+            query?: never;
+            header?: never;
+            path: {
+                /** @description object id */
+                campaign_id: number;
+            };
+            cookie?: never;
+        };
+        requestBody?: never;
+        responses: {
+            /** @description Successful Response */
+            200: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["CampaignOut"];
+                };
+            };
+            /** @description Validation Error */
+            422: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["HTTPValidationError"];
+                };
+            };
+        };
+    };
+    cancel_campaign: {
+        parameters: {
+            query?: never;
+            header?: never;
+            path: {
+                /** @description object id */
+                campaign_id: number;
+            };
+            cookie?: never;
+        };
+        requestBody?: never;
+        responses: {
+            /** @description Successful Response */
+            200: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["CampaignOut"];
+                };
+            };
+            /** @description Validation Error */
+            422: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["HTTPValidationError"];
+                };
+            };
+        };
+    };
+    update_campaign_config: {
+        parameters: {
+            query?: never;
+            header?: never;
+            path: {
+                /** @description object id */
+                campaign_id: number;
+            };
+            cookie?: never;
+        };
+        requestBody: {
+            content: {
+                "application/json": components["schemas"]["CampaignConfigUpdate"];
+            };
+        };
+        responses: {
+            /** @description Successful Response */
+            200: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["CampaignOut"];
+                };
+            };
+            /** @description Validation Error */
+            422: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["HTTPValidationError"];
+                };
+            };
+        };
+    };
+    list_campaign_events: {
+        parameters: {
+            query?: {
+                /** @description only events with id > after */
+                after?: number;
+            };
+            header?: never;
+            path: {
+                /** @description object id */
+                campaign_id: number;
+            };
+            cookie?: never;
+        };
+        requestBody?: never;
+        responses: {
+            /** @description Successful Response */
+            200: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["EventRead"][];
+                };
+            };
+            /** @description Validation Error */
+            422: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["HTTPValidationError"];
+                };
+            };
+        };
+    };
+    stream_campaign_events: {
+        parameters: {
+            query?: {
+                after?: number;
+                /** @description close the stream after this many seconds */
+                timeout?: number;
+            };
+            header?: never;
+            path: {
+                /** @description object id */
+                campaign_id: number;
+            };
+            cookie?: never;
+        };
+        requestBody?: never;
+        responses: {
+            /** @description Server-Sent Events */
+            200: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "text/event-stream": string;
+                };
+            };
+            /** @description Validation Error */
+            422: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["HTTPValidationError"];
+                };
+            };
+        };
+    };
+    export_campaign: {
+        parameters: {
+            query?: {
+                pool_format?: "parquet" | "csv";
+                models?: boolean;
+            };
+            header?: never;
+            path: {
+                /** @description object id */
+                campaign_id: number;
+            };
+            cookie?: never;
+        };
+        requestBody?: never;
+        responses: {
+            /** @description file download */
+            200: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/octet-stream": string;
+                };
+            };
+            /** @description Validation Error */
+            422: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["HTTPValidationError"];
+                };
+            };
+        };
+    };
+    fork_campaign: {
+        parameters: {
+            query?: never;
+            header?: never;
+            path: {
+                /** @description object id */
+                campaign_id: number;
+            };
+            cookie?: never;
+        };
+        requestBody: {
+            content: {
+                "application/json": components["schemas"]["ForkRequest"];
+            };
+        };
+        responses: {
+            /** @description Successful Response */
+            201: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["CampaignOut"];
+                };
+            };
+            /** @description Validation Error */
+            422: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["HTTPValidationError"];
+                };
+            };
+        };
+    };
+    list_campaign_iterations: {
+        parameters: {
+            query?: {
+                /** @description only iterations with index > after (poll incrementally) */
+                after?: number | null;
+            };
+            header?: never;
+            path: {
+                /** @description object id */
+                campaign_id: number;
+            };
+            cookie?: never;
+        };
+        requestBody?: never;
+        responses: {
+            /** @description Successful Response */
+            200: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["IterationRead"][];
+                };
+            };
+            /** @description Validation Error */
+            422: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["HTTPValidationError"];
+                };
+            };
+        };
+    };
+    get_iteration_curves: {
+        parameters: {
+            query?: never;
+            header?: never;
+            path: {
+                /** @description object id */
+                campaign_id: number;
+                /** @description iteration index k (0 = preliminary data) */
+                iteration: number;
+            };
+            cookie?: never;
+        };
+        requestBody?: never;
+        responses: {
+            /** @description Successful Response */
+            200: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["IterationCurves"];
+                };
+            };
+            /** @description Validation Error */
+            422: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["HTTPValidationError"];
+                };
+            };
+        };
+    };
+    list_campaign_jobs: {
+        parameters: {
+            query?: {
+                status?: string[] | null;
+            };
+            header?: never;
+            path: {
+                /** @description object id */
+                campaign_id: number;
+            };
+            cookie?: never;
+        };
+        requestBody?: never;
+        responses: {
+            /** @description Successful Response */
+            200: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["JobOut"][];
+                };
+            };
+            /** @description Validation Error */
+            422: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["HTTPValidationError"];
+                };
+            };
+        };
+    };
+    list_campaign_metrics: {
+        parameters: {
+            query?: {
+                /** @description only iterations with index > after (poll incrementally) */
+                after?: number | null;
+            };
+            header?: never;
+            path: {
+                /** @description object id */
+                campaign_id: number;
+            };
+            cookie?: never;
+        };
+        requestBody?: never;
+        responses: {
+            /** @description Successful Response */
+            200: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["MetricsRead"][];
+                };
+            };
+            /** @description Validation Error */
+            422: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["HTTPValidationError"];
+                };
+            };
+        };
+    };
+    list_model_versions: {
+        parameters: {
+            query?: never;
+            header?: never;
+            path: {
+                /** @description object id */
+                campaign_id: number;
+            };
+            cookie?: never;
+        };
+        requestBody?: never;
+        responses: {
+            /** @description Successful Response */
+            200: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ModelVersionRead"][];
+                };
+            };
+            /** @description Validation Error */
+            422: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["HTTPValidationError"];
+                };
+            };
+        };
+    };
+    get_model_artifact: {
+        parameters: {
+            query?: never;
+            header?: never;
+            path: {
+                /** @description object id */
+                campaign_id: number;
+                /** @description version number (1, 2, ...) */
+                version: number;
+            };
+            cookie?: never;
+        };
+        requestBody?: never;
+        responses: {
+            /** @description Successful Response */
+            200: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": {
+                        [key: string]: unknown;
+                    };
+                };
+            };
+            /** @description Validation Error */
+            422: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["HTTPValidationError"];
+                };
+            };
+        };
+    };
+    download_model_artifact: {
+        parameters: {
+            query?: never;
+            header?: never;
+            path: {
+                /** @description object id */
+                campaign_id: number;
+                /** @description version number (1, 2, ...) */
+                version: number;
+            };
+            cookie?: never;
+        };
+        requestBody?: never;
+        responses: {
+            /** @description file download */
+            200: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/octet-stream": string;
+                };
+            };
+            /** @description Validation Error */
+            422: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["HTTPValidationError"];
+                };
+            };
+        };
+    };
+    pause_campaign: {
+        parameters: {
+            query?: never;
+            header?: never;
+            path: {
+                /** @description object id */
+                campaign_id: number;
+            };
+            cookie?: never;
+        };
+        requestBody?: never;
+        responses: {
+            /** @description Successful Response */
+            200: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["CampaignOut"];
+                };
+            };
+            /** @description Validation Error */
+            422: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["HTTPValidationError"];
+                };
+            };
+        };
+    };
+    list_pool_versions: {
+        parameters: {
+            query?: never;
+            header?: never;
+            path: {
+                /** @description object id */
+                campaign_id: number;
+            };
+            cookie?: never;
+        };
+        requestBody?: never;
+        responses: {
+            /** @description Successful Response */
+            200: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["PoolVersionRead"][];
+                };
+            };
+            /** @description Validation Error */
+            422: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["HTTPValidationError"];
+                };
+            };
+        };
+    };
+    download_pool_version: {
+        parameters: {
+            query?: {
+                format?: "parquet" | "csv";
+            };
+            header?: never;
+            path: {
+                /** @description object id */
+                campaign_id: number;
+                /** @description iteration index k (0 = preliminary data) */
+                version: number;
+            };
+            cookie?: never;
+        };
+        requestBody?: never;
+        responses: {
+            /** @description file download */
+            200: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/octet-stream": string;
+                };
+            };
+            /** @description Validation Error */
+            422: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["HTTPValidationError"];
+                };
+            };
+        };
+    };
+    resume_campaign: {
+        parameters: {
+            query?: never;
+            header?: never;
+            path: {
+                /** @description object id */
+                campaign_id: number;
+            };
+            cookie?: never;
+        };
+        requestBody?: never;
+        responses: {
+            /** @description Successful Response */
+            200: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["CampaignOut"];
+                };
+            };
+            /** @description Validation Error */
+            422: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["HTTPValidationError"];
+                };
+            };
+        };
+    };
+    retry_campaign_step: {
+        parameters: {
+            query?: never;
+            header?: never;
+            path: {
+                /** @description object id */
+                campaign_id: number;
+            };
+            cookie?: never;
+        };
+        requestBody?: {
+            content: {
+                "application/json": components["schemas"]["RetryIn"] | null;
+            };
+        };
+        responses: {
+            /** @description Successful Response */
+            200: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["CampaignOut"];
+                };
+            };
+            /** @description Validation Error */
+            422: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["HTTPValidationError"];
+                };
+            };
+        };
+    };
+    start_campaign: {
+        parameters: {
+            query?: never;
+            header?: never;
+            path: {
+                /** @description object id */
+                campaign_id: number;
+            };
+            cookie?: never;
+        };
+        requestBody?: never;
+        responses: {
+            /** @description Successful Response */
+            200: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["CampaignOut"];
+                };
+            };
+            /** @description Validation Error */
+            422: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["HTTPValidationError"];
+                };
             };
         };
     };
@@ -2231,6 +4131,73 @@ export interface operations {
                 };
                 content: {
                     "application/json": components["schemas"]["OracleVersionOut"];
+                };
+            };
+            /** @description Validation Error */
+            422: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["HTTPValidationError"];
+                };
+            };
+        };
+    };
+    list_preliminary_datasets: {
+        parameters: {
+            query?: {
+                /** @description page size */
+                limit?: number;
+                /** @description rows to skip */
+                offset?: number;
+            };
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        requestBody?: never;
+        responses: {
+            /** @description Successful Response */
+            200: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["DatasetOut"][];
+                };
+            };
+            /** @description Validation Error */
+            422: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["HTTPValidationError"];
+                };
+            };
+        };
+    };
+    upload_preliminary_dataset: {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        requestBody: {
+            content: {
+                "multipart/form-data": components["schemas"]["Body_upload_preliminary_dataset"];
+            };
+        };
+        responses: {
+            /** @description Successful Response */
+            201: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["UploadOut"];
                 };
             };
             /** @description Validation Error */

@@ -2,7 +2,7 @@ import { useMemo } from "react";
 import { useQuery } from "@tanstack/react-query";
 import type { Shape } from "plotly.js-dist-min";
 import { Plot, type Trace } from "../components/Plot";
-import { iterationQuery, type IterationCurves, type Phase } from "../api/hooks";
+import { iterationQuery, type Phase } from "../api/hooks";
 import { Empty, ErrorBox, Loading } from "../components/States";
 
 const PHASE_FILLS = ["rgba(47,91,211,0.07)", "rgba(211,102,47,0.09)", "rgba(29,122,69,0.08)", "rgba(138,63,252,0.07)"];
@@ -23,17 +23,29 @@ export function phaseShapes(phases: Phase[]): Partial<Shape>[] {
   })) as Partial<Shape>[];
 }
 
-function seriesTraces(c: IterationCurves, which: "q" | "tau", unit: string): Trace[] {
-  const rows = which === "q" ? c.q : c.tau;
-  const t = which === "q" ? c.t : (c.t_tau ?? c.t);
-  return rows.map((y, j) => ({ x: t, y, name: `${which}_${j} [${unit}]`, mode: "lines", type: "scatter" }));
+function seriesTraces(t: number[], rows: number[][], name: string, unit: string): Trace[] {
+  return rows.map((y, j) => ({ x: t, y, name: rows.length > 1 ? `${name}_${j} [${unit}]` : `${name} [${unit}]`, mode: "lines", type: "scatter" }));
 }
 
-export function TrajectoryPanel({ campaignId, iteration }: { campaignId: number; iteration: number | null }) {
+/** Phase spans [t_start, t_end] from the phase durations of a task spec. */
+export function phaseSpans(phases: { name?: string; duration?: unknown }[]): Phase[] {
+  let t = 0;
+  return phases.map((p, i) => {
+    const span = { name: p.name || `phase ${i + 1}`, t_start: t, t_end: t + (Number(p.duration) || 0) };
+    t = span.t_end;
+    return span;
+  });
+}
+
+export function TrajectoryPanel({ campaignId, iteration, phases }: { campaignId: number; iteration: number | null; phases: Phase[] }) {
   const q = useQuery({ ...iterationQuery(campaignId, iteration ?? 0), enabled: iteration !== null });
-  const shapes = useMemo(() => phaseShapes(q.data?.phases ?? []), [q.data]);
-  const angle = useMemo(() => (q.data ? seriesTraces(q.data, "q", "rad") : []), [q.data]);
-  const torque = useMemo(() => (q.data ? seriesTraces(q.data, "tau", "N m") : []), [q.data]);
+  const shapes = useMemo(() => phaseShapes(q.data?.phases.length ? q.data.phases : phases), [q.data, phases]);
+  const angle = useMemo(() => (q.data ? seriesTraces(q.data.t, q.data.q, "θ", "rad") : []), [q.data]);
+  const hasTorque = Boolean(q.data?.tau.length);
+  const second = useMemo(
+    () => (q.data ? (hasTorque ? seriesTraces(q.data.t_tau ?? q.data.t, q.data.tau, "τ", "N m") : seriesTraces(q.data.t, q.data.qd, "θ̇", "rad/s")) : []),
+    [q.data, hasTorque],
+  );
   if (iteration === null) return <Empty title="No trajectory yet" />;
   if (q.isPending) return <Loading label="Loading trajectory…" />;
   if (q.isError) return <ErrorBox error={q.error} retry={() => void q.refetch()} />;
@@ -41,7 +53,14 @@ export function TrajectoryPanel({ campaignId, iteration }: { campaignId: number;
   return (
     <div className="grid2" data-testid="trajectory-panel">
       <Plot testId="angle-plot" traces={angle} shapes={shapes} xTitle="t [s]" yTitle="joint angle θ [rad]" exportName={`angle-k${iteration}`} height={280} />
-      <Plot testId="torque-plot" traces={torque} shapes={shapes} xTitle="t [s]" yTitle="joint torque τ [N m]" exportName={`torque-k${iteration}`} height={280} />
+      {hasTorque ? (
+        <Plot testId="torque-plot" traces={second} shapes={shapes} xTitle="t [s]" yTitle="joint torque τ [N m]" exportName={`torque-k${iteration}`} height={280} />
+      ) : (
+        <div>
+          <Plot testId="velocity-plot" traces={second} shapes={shapes} xTitle="t [s]" yTitle="joint velocity θ̇ [rad/s]" exportName={`velocity-k${iteration}`} height={280} />
+          <p className="hint">The API's iteration curves carry t, θ and θ̇ of the replayed motion; the torque τ is not among them.</p>
+        </div>
+      )}
     </div>
   );
 }

@@ -108,6 +108,7 @@ export function Plot({
       data-testid={testId}
       data-traces={traces.length}
       data-points={pointCount(traces)}
+      data-shapes={shapes?.length ?? 0}
       data-log-y={logY ? "true" : "false"}
       role="img"
       aria-label={title ?? yTitle ?? "plot"}

@@ -3,64 +3,86 @@ import { screen, waitFor, within } from "@testing-library/react";
 import userEvent from "@testing-library/user-event";
 import { CampaignPage } from "./CampaignPage";
 import { mockApi, renderPage } from "../test/utils";
-import type { CampaignDetail, IterationCurves } from "../api/hooks";
-import type { MetricPoint } from "../lib/metrics";
 
-function campaign(status: string, iteration = 2): CampaignDetail {
+function campaign(status: string, iteration = 2) {
   return {
     id: 7,
-    name: "headrest study",
-    status,
+    campaign: {
+      id: 7,
+      owner_id: 1,
+      name: "headrest study",
+      description: "",
+      status,
+      stop_reason: null,
+      error: null,
+      task_version_id: 3,
+      oracle_version_id: 4,
+      surrogate_config_version_id: 5,
+      seed: 0,
+      config_version: 1,
+      source_campaign_id: null,
+      source_iteration: null,
+      current_iteration: iteration,
+      current_step: "ocp",
+      pause_requested: false,
+      cancel_requested: false,
+      oracle_wall_time_s: 1,
+      created_at: "2026-11-21T22:00:00Z",
+      started_at: "2026-11-21T22:00:00Z",
+      finished_at: null,
+    },
+    config: { stopping: { max_iterations: 10 }, preliminary: {}, policies: {}, settings: {} },
+    current: null,
+    latest_metrics: null,
+    iterations_finished: iteration,
+    iterations_failed: 0,
+    mean_iteration_s: 10,
+    eta_s: 80,
     owner: "ana@lab",
-    task: "two-phase",
+    can_edit: true,
     task_id: 1,
-    oracle: "aux",
+    task_version: 1,
     oracle_id: 2,
-    iteration,
-    max_iterations: 10,
-    force_rmse: 0.5,
-    moment_rmse: 0.01,
-    force_history: [],
-    moment_history: [],
-    started_at: "2026-11-21T22:00:00Z",
-    eta_s: 120,
-    current_step: "ocp",
-    finished_at: null,
-    stop_reason: null,
-    error: null,
-    source_campaign_id: null,
-    source_iteration: null,
-    config: { stopping: { max_iterations: 10 } },
+    oracle_version: 1,
   };
 }
 
-const point = (k: number, extra: Partial<MetricPoint> = {}): MetricPoint => ({ iteration: k, status: "succeeded", force_rmse: 1 / (k + 1), moment_rmse: 0.1 / (k + 1), quarantined: false, ...extra });
+const metric = (k: number) => ({ iteration_index: k, force_rmse: 1 / (k + 1), moment_rmse: 0.1 / (k + 1), extra: {} });
+const iteration = (k: number, status = "succeeded", error: string | null = null) => ({ id: k + 100, index: k, status, error, current_step: null, config_version_id: 1, started_at: null, finished_at: null, steps: [] });
 
-const curves = (k: number): IterationCurves => ({
-  iteration: k,
+// rows are time samples: q (n, 1), f (n, 6)
+const curves = (k: number) => ({
+  iteration_index: k,
   t: [0, 0.1, 0.2],
-  q: [[0.2, 0.3, 0.35]],
-  qd: [[0, 1, 0]],
-  tau: [[1, 2, 3]],
-  phases: [
-    { name: "lean back", t_start: 0, t_end: 0.1 },
-    { name: "hold", t_start: 0.1, t_end: 0.2 },
+  q: [[0.2], [0.3], [0.35]],
+  qd: [[0], [1], [0]],
+  f_true: [
+    [0, 0, 0, 0, 0, 0],
+    [5, 0, 1, 0, 0.1, 0],
+    [9, 0, 2, 0, 0.2, 0],
   ],
-  force_t: [0, 0.1, 0.2],
-  truth: { fx: [0, 5, 9], fy: [0, 0, 0], fz: [0, 1, 2], mx: [0, 0, 0], my: [0, 0.1, 0.2], mz: [0, 0, 0] },
-  predicted: { fx: [0, 4, 8], fy: [0, 0, 0], fz: [0, 1, 1], mx: [0, 0, 0], my: [0, 0.1, 0.1], mz: [0, 0, 0] },
+  f_pred: [
+    [0, 0, 0, 0, 0, 0],
+    [4, 0, 1, 0, 0.1, 0],
+    [8, 0, 1, 0, 0.1, 0],
+  ],
 });
+
+const TASK_VERSION = { version: 1, spec_hash: "x", note: "", locked: true, created_at: "2026-11-21T22:00:00Z", spec: { name: "two-phase", phases: [{ name: "lean back", duration: 0.1 }, { name: "hold", duration: 0.1 }] } };
+const CURVES_ROUTE = "GET /campaigns/7/iterations/{k}/curves";
+const curvesHandler = (url: URL) => curves(Number(url.pathname.split("/")[6]));
 
 describe("campaign page", () => {
   it("polls only new iterations while the campaign runs and draws them on a log axis", async () => {
-    let served = [point(0), point(1)];
+    let metrics = [metric(0), metric(1)];
+    let iterations = [iteration(0), iteration(1), iteration(2, "running")];
+    const after = (url: URL) => Number(url.searchParams.get("after") ?? -1);
     const { calls } = mockApi({
       "GET /campaigns/7": () => campaign("running"),
-      "GET /campaigns/7/metrics": (url: URL) => {
-        const after = url.searchParams.get("after");
-        return served.filter((p) => after === null || p.iteration > Number(after));
-      },
-      "GET /campaigns/7/iterations/{k}/curves": (url: URL) => curves(Number(url.pathname.split("/")[6])),
+      "GET /campaigns/7/metrics": (url: URL) => metrics.filter((m) => m.iteration_index > after(url)),
+      "GET /campaigns/7/iterations": (url: URL) => iterations.filter((it) => it.index > after(url)),
+      "GET /tasks/1/versions/1": TASK_VERSION,
+      [CURVES_ROUTE]: curvesHandler,
     });
     renderPage(<CampaignPage />, { route: "/campaigns/7", path: "/campaigns/:id" });
     expect(await screen.findByRole("heading", { name: "headrest study" })).toBeInTheDocument();
@@ -68,20 +90,27 @@ describe("campaign page", () => {
     expect(screen.getByTestId("rmse-plot")).toHaveAttribute("data-log-y", "true");
     expect(screen.getByTestId("rmse-plot")).toHaveAttribute("data-points", "4");
 
-    served = [...served, point(2, { quarantined: true })];
+    // iteration 2 fails (quarantined oracle result), iteration 3 succeeds
+    iterations = [iteration(0), iteration(1), iteration(2, "failed", "oracle result quarantined: penetration too deep"), iteration(3)];
+    metrics = [...metrics, metric(3)];
     await waitFor(() => expect(screen.getByTestId("rmse-count")).toHaveTextContent("3 iterations"), { timeout: 4000 });
     const metricCalls = calls.filter((c) => c.path === "/campaigns/7/metrics");
+    const iterationCalls = calls.filter((c) => c.path === "/campaigns/7/iterations");
     expect(metricCalls[0].url.searchParams.get("after")).toBeNull();
     expect(metricCalls[metricCalls.length - 1].url.searchParams.get("after")).toBe("1");
+    // the running iteration 2 is asked for again, the finished ones are not
+    expect(iterationCalls[iterationCalls.length - 1].url.searchParams.get("after")).toBe("1");
     // the quarantined iteration is drawn as a separate marked trace
-    expect(screen.getByTestId("rmse-plot")).toHaveAttribute("data-traces", "3");
+    await waitFor(() => expect(screen.getByTestId("rmse-plot")).toHaveAttribute("data-traces", "3"));
   });
 
   it("does not poll a finished campaign, keeps the log toggle in the URL, shows forces and controls", async () => {
     const { calls } = mockApi({
       "GET /campaigns/7": () => campaign("completed", 2),
-      "GET /campaigns/7/metrics": () => [point(0), point(1), point(2)],
-      "GET /campaigns/7/iterations/{k}/curves": (url: URL) => curves(Number(url.pathname.split("/")[6])),
+      "GET /campaigns/7/metrics": () => [metric(0), metric(1), metric(2)],
+      "GET /campaigns/7/iterations": () => [iteration(0), iteration(1), iteration(2)],
+      "GET /tasks/1/versions/1": TASK_VERSION,
+      [CURVES_ROUTE]: curvesHandler,
     });
     renderPage(<CampaignPage />, { route: "/campaigns/7?log=0", path: "/campaigns/:id" });
     await screen.findByRole("heading", { name: "headrest study" });
@@ -103,17 +132,21 @@ describe("campaign page", () => {
 
     await new Promise((r) => setTimeout(r, 2300));
     expect(calls.filter((c) => c.path === "/campaigns/7/metrics")).toHaveLength(1);
+    expect(calls.some((c) => c.path.startsWith("/campaigns/7/") && c.path.endsWith("/pause"))).toBe(false);
   });
 
   it("shades the phases of the iteration's trajectory", async () => {
     mockApi({
       "GET /campaigns/7": () => campaign("completed", 1),
-      "GET /campaigns/7/metrics": () => [point(0), point(1)],
-      "GET /campaigns/7/iterations/{k}/curves": () => curves(1),
+      "GET /campaigns/7/metrics": () => [metric(0), metric(1)],
+      "GET /campaigns/7/iterations": () => [iteration(0), iteration(1)],
+      "GET /tasks/1/versions/1": TASK_VERSION,
+      [CURVES_ROUTE]: curvesHandler,
     });
     renderPage(<CampaignPage />, { route: "/campaigns/7?tab=trajectory", path: "/campaigns/:id" });
     await waitFor(() => expect(screen.getByTestId("angle-plot")).toHaveAttribute("data-points", "3"));
-    expect(screen.getByTestId("torque-plot")).toHaveAttribute("data-points", "3");
+    expect(screen.getByTestId("velocity-plot")).toHaveAttribute("data-points", "3");
+    await waitFor(() => expect(screen.getByTestId("angle-plot")).toHaveAttribute("data-shapes", "2"));
   });
 
   it("shows the API's error instead of a blank page", async () => {

@@ -1,10 +1,11 @@
 import { Link, useParams } from "react-router-dom";
-import { isLive, useCampaign, useMetrics } from "../api/hooks";
+import { isLive, useCampaign, useMetrics, useOracle, useTaskVersion } from "../api/hooks";
+import { useMemo } from "react";
 import { ErrorBox, Loading, StatusBadge } from "../components/States";
 import { RmsePlot } from "../campaign/RmsePlot";
 import { loadPlotly } from "../components/Plot";
 import { ForcesPanel } from "../campaign/ForcesPanel";
-import { TrajectoryPanel } from "../campaign/TrajectoryPanel";
+import { phaseSpans, TrajectoryPanel } from "../campaign/TrajectoryPanel";
 import { JobsTable, VersionsPanel } from "../campaign/JobsAndVersions";
 import { Controls } from "../campaign/Controls";
 import { fmtDate, fmtDuration, fmtNumber } from "../lib/format";
@@ -27,6 +28,9 @@ export function CampaignPage() {
   const [selected, setSelected] = useIntListParam("k");
   const [overlay, setOverlay] = useIntListParam("overlay");
   const [tab, setTab] = useStringParam("tab", "forces");
+  const taskVersion = useTaskVersion(campaign.data?.task_id, campaign.data?.task_version);
+  const oracle = useOracle(campaign.data?.oracle_id ?? null);
+  const phases = useMemo(() => phaseSpans(((taskVersion.data?.spec as { phases?: { name?: string; duration?: number }[] } | undefined)?.phases ?? [])), [taskVersion.data]);
 
   if (!Number.isInteger(id)) return <ErrorBox error="invalid campaign id" />;
   if (campaign.isPending) return <Loading label="Loading campaign…" />;
@@ -58,9 +62,17 @@ export function CampaignPage() {
             {c.max_iterations ? ` / ${c.max_iterations}` : ""} {c.current_step ? `(${c.current_step})` : ""}
           </dd>
           <dt>Task</dt>
-          <dd>{c.task ? <Link to={`/tasks/${c.task_id}`}>{c.task}</Link> : "—"}</dd>
+          <dd>
+            {c.task_id ? (
+              <Link to={`/tasks/${c.task_id}`}>
+                {(taskVersion.data?.spec as { name?: string } | undefined)?.name ?? c.task ?? `task ${c.task_id}`} v{c.task_version}
+              </Link>
+            ) : (
+              "—"
+            )}
+          </dd>
           <dt>Oracle</dt>
-          <dd>{c.oracle ? <Link to={`/oracles/${c.oracle_id}`}>{c.oracle}</Link> : "—"}</dd>
+          <dd>{c.oracle_id ? <Link to={`/oracles/${c.oracle_id}`}>{oracle.data ? `${oracle.data.name} (${oracle.data.type})` : `oracle ${c.oracle_id}`}</Link> : "—"}</dd>
           <dt>Force RMSE</dt>
           <dd>{fmtNumber(c.force_rmse)} N</dd>
           <dt>Moment RMSE</dt>
@@ -119,7 +131,7 @@ export function CampaignPage() {
         </div>
         <div role="tabpanel" id={`panel-${tab}`} aria-labelledby={`tab-${tab}`}>
           {tab === "forces" && <ForcesPanel campaignId={id} points={points} iteration={k} setIteration={(it) => setSelected([it])} overlay={overlay} setOverlay={setOverlay} />}
-          {tab === "trajectory" && <TrajectoryPanel campaignId={id} iteration={trajectoryK} />}
+          {tab === "trajectory" && <TrajectoryPanel campaignId={id} iteration={trajectoryK} phases={phases} />}
           {tab === "jobs" && <JobsTable campaignId={id} live={live} />}
           {tab === "versions" && <VersionsPanel campaignId={id} live={live} />}
         </div>

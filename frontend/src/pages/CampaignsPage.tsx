@@ -1,6 +1,8 @@
 import { useMemo, useState } from "react";
 import { Link, useNavigate } from "react-router-dom";
-import { useCampaigns, type CampaignRow } from "../api/hooks";
+import { useQueries } from "@tanstack/react-query";
+import { metricsQuery, useCampaigns, type CampaignRow } from "../api/hooks";
+import { isMarked } from "../lib/metrics";
 import { Empty, ErrorBox, Loading, StatusBadge } from "../components/States";
 import { Sparkline } from "../components/Sparkline";
 import { fmtDate, fmtDuration, fmtNumber } from "../lib/format";
@@ -48,6 +50,15 @@ export function CampaignsPage() {
         {sortKey === key ? (descending ? " ▼" : " ▲") : ""}
       </button>
     </th>
+  );
+
+  // sparklines: the RMSE series of the first 50 rows (cached, refreshed at most every 10 s)
+  const histories = useQueries({ queries: rows.slice(0, 50).map((r) => ({ ...metricsQuery(r.id), staleTime: 10_000 })) });
+  const historyOf = new Map(
+    rows.slice(0, 50).map((r, i) => {
+      const pts = (histories[i]?.data ?? []).filter((p) => !isMarked(p));
+      return [r.id, { force: pts.map((p) => p.force_rmse ?? NaN), moment: pts.map((p) => p.moment_rmse ?? NaN) }];
+    }),
   );
 
   const toggle = (id: number) => setSelected((s) => (s.includes(id) ? s.filter((x) => x !== id) : s.length >= 4 ? s : [...s, id]));
@@ -128,10 +139,10 @@ export function CampaignsPage() {
                     {c.max_iterations ? `/${c.max_iterations}` : ""}
                   </td>
                   <td className="num">
-                    {fmtNumber(c.force_rmse)} <Sparkline values={c.force_history} label={`force RMSE history of ${c.name}`} />
+                    {fmtNumber(c.force_rmse)} <Sparkline values={historyOf.get(c.id)?.force ?? c.force_history} label={`force RMSE history of ${c.name}`} />
                   </td>
                   <td className="num">
-                    {fmtNumber(c.moment_rmse)} <Sparkline values={c.moment_history} label={`moment RMSE history of ${c.name}`} />
+                    {fmtNumber(c.moment_rmse)} <Sparkline values={historyOf.get(c.id)?.moment ?? c.moment_history} label={`moment RMSE history of ${c.name}`} />
                   </td>
                   <td>{fmtDate(c.started_at)}</td>
                   <td>{c.eta_s !== null && c.eta_s !== undefined ? fmtDuration(c.eta_s) : "—"}</td>

@@ -1,6 +1,6 @@
 import { useEffect, useState, type FormEvent } from "react";
 import { Link, useNavigate } from "react-router-dom";
-import { componentSchema, startCampaign, useCreateCampaign, useOpenApi, useOracles, useSurrogateConfigs, useTasks } from "../api/hooks";
+import { componentSchema, hasRoute, useCreateCampaign, useOpenApi, useOracles, useSurrogateConfigs, useTasks } from "../api/hooks";
 import { ApiError, errorMessage } from "../api/errors";
 import { ErrorBox, Loading } from "../components/States";
 import { SchemaForm, schemaDefaults } from "../components/SchemaForm";
@@ -73,27 +73,25 @@ export function NewCampaignPage() {
   const navigate = useNavigate();
   const tasks = useTasks();
   const oracles = useOracles();
-  const surrogates = useSurrogateConfigs();
+  const openapi = useOpenApi();
+  const hasSurrogateConfigs = hasRoute(openapi.data, "get", "/surrogate-configs");
+  const surrogates = useSurrogateConfigs(hasSurrogateConfigs);
   const create = useCreateCampaign();
   const defaults = useConfigDefaults();
   const [name, setName] = useState("");
-  const [taskVersion, setTaskVersion] = useState<number | "">("");
-  const [oracleVersion, setOracleVersion] = useState<number | "">("");
-  const [surrogateVersion, setSurrogateVersion] = useState<number | "">("");
+  const [taskId, setTaskId] = useState<number | "">("");
+  const [oracleId, setOracleId] = useState<number | "">("");
+  const [surrogateId, setSurrogateId] = useState<number | "">("");
   const [seed, setSeed] = useState(0);
   const [config, setConfig] = useState<ConfigDraft | null>(null);
   const [startNow, setStartNow] = useState(true);
-  const [startError, setStartError] = useState<string | null>(null);
 
   useEffect(() => {
-    if (taskVersion === "" && tasks.data?.length) setTaskVersion(tasks.data[0].version_id);
-  }, [tasks.data, taskVersion]);
+    if (taskId === "" && tasks.data?.length) setTaskId(tasks.data[0].id);
+  }, [tasks.data, taskId]);
   useEffect(() => {
-    if (oracleVersion === "" && oracles.data?.length) setOracleVersion(oracles.data[0].version_id);
-  }, [oracles.data, oracleVersion]);
-  useEffect(() => {
-    if (surrogateVersion === "" && surrogates.data?.length) setSurrogateVersion(surrogates.data[0].version_id);
-  }, [surrogates.data, surrogateVersion]);
+    if (oracleId === "" && oracles.data?.length) setOracleId(oracles.data[0].id);
+  }, [oracles.data, oracleId]);
   useEffect(() => {
     if (config === null && defaults) setConfig(defaults);
   }, [defaults, config]);
@@ -102,27 +100,20 @@ export function NewCampaignPage() {
 
   async function submit(e: FormEvent) {
     e.preventDefault();
-    if (taskVersion === "" || oracleVersion === "" || surrogateVersion === "" || !config) return;
+    if (taskId === "" || oracleId === "" || !config) return;
     const created = await create.mutateAsync({
       name,
-      task_version_id: taskVersion,
-      oracle_version_id: oracleVersion,
-      surrogate_config_version_id: surrogateVersion,
+      task_id: taskId,
+      oracle_id: oracleId,
+      surrogate_config_id: surrogateId === "" ? null : surrogateId,
       seed,
+      start: startNow,
       ...config,
     });
-    if (startNow) {
-      try {
-        await startCampaign(created.id);
-      } catch (err) {
-        setStartError(errorMessage(err));
-        return;
-      }
-    }
     navigate(`/campaigns/${created.id}`);
   }
 
-  if (tasks.isPending || oracles.isPending || surrogates.isPending) return <Loading />;
+  if (tasks.isPending || oracles.isPending) return <Loading />;
   const failed = [tasks, oracles, surrogates].find((q) => q.isError);
   if (failed) return <ErrorBox error={failed.error} />;
   const t = tasks.data ?? [];
@@ -153,11 +144,6 @@ export function NewCampaignPage() {
           {errorMessage(create.error)}
         </p>
       )}
-      {startError && (
-        <p className="error-text" role="alert">
-          Created, but not started: {startError}
-        </p>
-      )}
       <section className="panel">
         <div className="row">
           <div className="field grow">
@@ -174,36 +160,37 @@ export function NewCampaignPage() {
         <div className="row">
           <div className="field grow">
             <label htmlFor="campaign-task">Task</label>
-            <select id="campaign-task" value={taskVersion} onChange={(e) => setTaskVersion(Number(e.target.value))} required>
+            <select id="campaign-task" value={taskId} onChange={(e) => setTaskId(Number(e.target.value))} required>
               {t.map((x) => (
-                <option key={x.id} value={x.version_id}>
+                <option key={x.id} value={x.id}>
                   {x.name} (v{x.version})
                 </option>
               ))}
             </select>
-            {err("task_version_id")}
+            {err("task_id")}
           </div>
           <div className="field grow">
             <label htmlFor="campaign-oracle">Oracle</label>
-            <select id="campaign-oracle" value={oracleVersion} onChange={(e) => setOracleVersion(Number(e.target.value))} required>
+            <select id="campaign-oracle" value={oracleId} onChange={(e) => setOracleId(Number(e.target.value))} required>
               {o.map((x) => (
-                <option key={x.id} value={x.version_id}>
+                <option key={x.id} value={x.id}>
                   {x.name} · {x.type} (v{x.version})
                 </option>
               ))}
             </select>
-            {err("oracle_version_id")}
+            {err("oracle_id")}
           </div>
           <div className="field grow">
             <label htmlFor="campaign-surrogate">Surrogate configuration</label>
-            <select id="campaign-surrogate" value={surrogateVersion} onChange={(e) => setSurrogateVersion(Number(e.target.value))} required>
+            <select id="campaign-surrogate" value={surrogateId} onChange={(e) => setSurrogateId(e.target.value === "" ? "" : Number(e.target.value))}>
+              <option value="">the paper's default</option>
               {s.map((x) => (
-                <option key={x.id} value={x.version_id}>
+                <option key={x.id} value={x.id}>
                   {x.name} (v{x.version})
                 </option>
               ))}
             </select>
-            {err("surrogate_config_version_id")}
+            {err("surrogate_config_id")}
           </div>
         </div>
       </section>
