@@ -28,7 +28,7 @@ N_OUTPUTS = 3
 
 class Softplus(nn.Module):
     def forward(self, x: torch.Tensor) -> torch.Tensor:
-        return torch.logaddexp(x, torch.zeros_like(x))
+        return torch.logaddexp(x, x.new_zeros(()))
 
 
 _ACTIVATIONS: dict[str, type[nn.Module]] = {"softplus": Softplus, "tanh": nn.Tanh, "sigmoid": nn.Sigmoid}

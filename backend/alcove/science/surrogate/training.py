@@ -211,15 +211,18 @@ def _fit(nets: dict[str, MLP], z: torch.Tensor, y: dict[str, torch.Tensor], w: t
     epochs = {k: 0 for k in NETS}
     history: dict[str, list[float]] = {k: [] for k in NETS}
     n, bs = z.shape[0], config.batch_size
+    # one gather per batch: features, both targets and the weights side by side
+    table = torch.cat([z, y["force"], y["moment"], w[:, None]], dim=1)
+    columns = {"force": slice(z.shape[1], z.shape[1] + 3), "moment": slice(z.shape[1] + 3, z.shape[1] + 6)}
     for epoch in range(1, config.max_epochs + 1):
         if cancel is not None and cancel():
             raise TrainingCancelled(f"training cancelled in epoch {epoch}")
         perm = torch.randperm(n, generator=generator)
         for start in range(0, n, bs):
-            idx = perm[start : start + bs]
-            zb, wb = z.index_select(0, idx), w.index_select(0, idx)
+            batch = table.index_select(0, perm[start : start + bs])
+            zb, wb = batch[:, : z.shape[1]], batch[:, -1]
             for k in active:
-                set_loss_gradient(nets[k], zb, y[k].index_select(0, idx), wb)
+                set_loss_gradient(nets[k], zb, batch[:, columns[k]], wb)
             optimizer.step()
         for k in list(active):
             val = float(((nets[k](z_val) - y_val[k]) ** 2).mean(1) @ w_val) / w_val_sum

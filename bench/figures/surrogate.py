@@ -1,0 +1,80 @@
+"""Surrogate figures: training one model pair, prediction, building the CasADi export.
+
+The training pool has the size the paper's loop reaches after 200 iterations: the default
+preliminary Latin hypercube (4,000 samples) and 190 simulated trajectories of 400 samples,
+head motions toward the headrest and back replayed with the aux-penalty model. The
+OCP-with-surrogate figures live in ``bench/figures/ocp.py``.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from bench.harness import figure, timed
+
+
+def _training_pool() -> list[Any]:
+    from alcove.science.geometry import DEFAULT_PRESET as P
+    from alcove.science.geometry import relative_kinematics
+    from alcove.science.oracles.aux_penalty import AuxPenaltyParams, aux_penalty_wrench
+    from alcove.science.surrogate.dataset import PoolDataset
+    from alcove.science.surrogate.preliminary import preliminary_pool
+
+    rng = np.random.default_rng(0)
+    pool = preliminary_pool(P)
+    t = np.linspace(0.0, 1.0, 400)
+    for i in range(190):
+        # rest -> into the cushion (to a random depth, at a random time) -> back, smooth
+        depth, t_peak, width = rng.uniform(0.32, 0.42), rng.uniform(0.3, 0.7), rng.uniform(0.1, 0.25)
+        bump = np.exp(-0.5 * ((t - t_peak) / width) ** 2)
+        q = P.theta0 + (depth - P.theta0) * bump
+        qd = -(depth - P.theta0) * bump * (t - t_peak) / width**2
+        force, moment = aux_penalty_wrench(P, AuxPenaltyParams(), relative_kinematics(P, q, qd))
+        pool.append(PoolDataset(f"sim-{i:03d}", t, q, qd, force, moment))
+    assert sum(ds.n_samples for ds in pool) == 80_000
+    return pool
+
+
+def _trained_model() -> Any:
+    from alcove.science.geometry import DEFAULT_PRESET
+    from alcove.science.surrogate.config import SurrogateConfig
+    from alcove.science.surrogate.preliminary import preliminary_pool
+    from alcove.science.surrogate.training import train_surrogate
+
+    return train_surrogate(preliminary_pool(DEFAULT_PRESET, samples=2000), SurrogateConfig(max_epochs=50), seed=0).model
+
+
+@figure(
+    "surrogate training, one model pair on 80,000 samples (paper protocol)", "s", target=3.0, setup=_training_pool,
+    reps=5, quick_reps=2, group="surrogate", notes="float64, batch 1024, early stopping (patience 6) on both nets",
+)
+def surrogate_training(pool: Any) -> float:
+    from alcove.science.surrogate.config import SurrogateConfig
+    from alcove.science.surrogate.training import train_surrogate
+
+    return timed(lambda: train_surrogate(pool, SurrogateConfig(), seed=0))
+
+
+def _predict_setup() -> tuple[Any, np.ndarray, np.ndarray, np.ndarray]:
+    from alcove.science.geometry import DEFAULT_PRESET as P
+
+    t = np.linspace(0.0, 1.0, 401)
+    return _trained_model(), t, P.theta0 + 0.15 * np.sin(np.pi * t), 0.15 * np.pi * np.cos(np.pi * t)
+
+
+@figure("surrogate predict, 401 samples (features + both nets)", "ms", target=5.0, setup=_predict_setup, reps=31, quick_reps=11, group="surrogate")
+def surrogate_predict(ctx: Any) -> float:
+    from alcove.science.surrogate.training import predict
+
+    model, t, q, qd = ctx
+    return 1e3 * timed(lambda: predict(model, t, q, qd))
+
+
+@figure("surrogate CasADi export: build the (q, qd) -> wrench function", "s", target=0.2, setup=_trained_model, reps=11, quick_reps=5, group="surrogate")
+def surrogate_casadi_build(model: Any) -> float:
+    from alcove.science.geometry import DEFAULT_PRESET
+    from alcove.science.surrogate.export import casadi_contact_function
+
+    return timed(lambda: casadi_contact_function(model, DEFAULT_PRESET))
