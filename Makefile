@@ -70,5 +70,8 @@ test: install frontend
 bench: install
 	$(PY) -m bench.run $(BENCH_ARGS)
 
+reproduce: install
+	$(PY) scripts/reproduce.py $(REPRODUCE_ARGS)
+
 clean-venv:
 	rm -rf $(VENV)

@@ -1,0 +1,55 @@
+"""``scripts/reproduce.py --quick`` writes the reproduction page with all parts, figures and a
+comparison table whose alcove column holds numbers (a smoke run of the whole pipeline:
+OCP, FE replay, campaigns through the campaign service, remedies)."""
+
+from __future__ import annotations
+
+import math
+import os
+import re
+import subprocess
+import sys
+from pathlib import Path
+
+REPO = Path(__file__).resolve().parents[1]
+SECTIONS = ("## 1. The multibody solution", "## 2. FE replay", "## 3. The active-learning loop", "## 4. Remedies against the baseline",
+            "## Comparison with the paper", "## Where our model differs from the paper's")
+FIGURES = ("multibody.png", "fe_replay.png", "campaign_rmse.png", "campaign_last.png", "remedies.png")
+
+
+def _table(markdown: str) -> list[list[str]]:
+    """Rows of the comparison table, cells split on unescaped pipes."""
+    body = markdown.split("## Comparison with the paper", 1)[1].split("\n## ", 1)[0]
+    rows = [ln for ln in body.splitlines() if ln.startswith("| ") and not ln.startswith("| part ")]
+    return [[c.strip().replace("\\|", "|") for c in re.split(r"(?<!\\)\|", ln)[1:-1]] for ln in rows]
+
+
+def test_quick_reproduction_writes_page_figures_and_numeric_table(tmp_path: Path) -> None:
+    out = tmp_path / "docs"
+    env = {k: v for k, v in os.environ.items() if not k.startswith("ALCOVE_")}
+    proc = subprocess.run([sys.executable, str(REPO / "scripts" / "reproduce.py"), "--quick", "--out", str(out), "--data-dir", str(tmp_path / "data")],
+                          cwd=tmp_path, env=env, capture_output=True, text=True, timeout=300)
+    assert proc.returncode == 0, proc.stderr[-3000:]
+
+    md = (out / "reproduction.md").read_text()
+    for heading in SECTIONS:
+        assert heading in md, heading
+    assert "This part failed" not in md
+    for png in FIGURES:
+        data = (out / "reproduction" / png).read_bytes()
+        assert data[:8] == b"\x89PNG\r\n\x1a\n", png
+        assert f"](reproduction/{png})" in md, png
+
+    rows = _table(md)
+    assert {r[0] for r in rows} == {"multibody", "fe", "campaign", "remedies"}
+    values: dict[str, float] = {}
+    for section, quantity, paper, cell, _note in rows:
+        number = float(cell.split()[0])
+        assert math.isfinite(number), (quantity, cell)
+        values[quantity] = number
+    # a few laws the numbers must obey, whatever the run
+    assert values["max |torque|, phase 2"] < values["max |torque|, phase 1"]
+    first_contact = next(v for q, v in values.items() if q.startswith("first contact"))
+    assert 0.0 <= first_contact <= 1.0
+    assert all(v > 0 for q, v in values.items() if q.startswith(("force RMSE", "moment RMSE", "mean force RMSE", "mean moment RMSE")))
+    assert -1.0 <= values["Spearman rank correlation of force RMSE with k"] <= 1.0
