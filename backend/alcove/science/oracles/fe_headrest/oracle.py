@@ -270,8 +270,8 @@ class FEHeadrestOracle:
         diagnostics: dict[str, Any] = {
             "max_penetration_m": max_pen,
             "dissipated_energy_j": dissipated,
-            "viscous_dissipation_j": visc,
-            "friction_dissipation_j": fric,
+            "viscous_dissipation_j": float(visc),
+            "friction_dissipation_j": float(fric),
             "work_by_head_j": work,
             "stored_energy_end_j": float(stored[-1]),
             "stored_energy_start_j": stored_start,

@@ -217,7 +217,7 @@ class CushionSolver:
             zero = np.zeros(2)
             return StepResult(True, 0, True, zero, 0.0, zero, 0.0, 0, 0.0, 0.0, 0.0)
 
-        u = self._initial_guess(pose, dt, local_prev)
+        u = self._initial_guess(pose)
         # every evaluation includes the tangent: an accepted line-search trial is the next iterate
         ev = self.evaluate(u, pose, dt, local_prev, 2)
         if not np.isfinite(ev.energy):  # the guess inverted an element: start from the last state
@@ -266,7 +266,7 @@ class CushionSolver:
         E_new = green_lagrange(self.deformation_gradient(u))
         dE = E_new - self.E_prev
         visc_diss = float(self.viscosity / dt * np.sum((dE**2).sum(axis=(-1, -2)) * w)) if dt > 0 else 0.0
-        fric_diss = float(np.sum(np.abs(-np.einsum("ij,ij->i", cs.force, cs.tangent)) * np.abs(cs.slip)))
+        fric_diss = float(np.sum(np.abs(np.einsum("ij,ij->i", cs.force, cs.tangent) * cs.slip)))  # |f_t s| >= 0
         elastic = float(np.sum(foam.elastic * w))
         stored = elastic + 0.5 * float(np.sum(self.contact.penalty * self.contact.lengths * np.minimum(cs.gap, 0.0) ** 2))
         force_on_body = -cs.force.sum(axis=0)
@@ -301,7 +301,7 @@ class CushionSolver:
             pressure=cs.normal_force / self.contact.lengths,
         )
 
-    def _initial_guess(self, pose: Pose, dt: float, local_prev: np.ndarray) -> np.ndarray:
+    def _initial_guess(self, pose: Pose) -> np.ndarray:
         """Extrapolate the last two steps, then move penetrating surface nodes onto the body."""
         guess = 2.0 * self.u - self.u_old
         x = self.surface_positions(guess)
