@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import sys
 from pathlib import Path
+from typing import Any
 
 import typer
 import typer.main
@@ -28,10 +29,24 @@ variables (see the README); concepts are explained in [concepts.md](concepts.md)
 """
 
 
+def _machine_independent_defaults(command: Any) -> None:
+    """Defaults computed from this machine (``--concurrency`` = the CPU count) would make
+    the page differ between machines: show them by their meaning instead."""
+    import os
+
+    cpus = os.cpu_count()
+    for param in getattr(command, "params", []):
+        if param.name == "concurrency" and param.default == cpus:
+            param.show_default = "the CPU count"
+    for sub in getattr(command, "commands", {}).values():
+        _machine_independent_defaults(sub)
+
+
 def render() -> str:
     from alcove_worker.cli.main import app
 
     command = typer.main.get_command(app)
+    _machine_independent_defaults(command)
     ctx = typer.Context(command, info_name="alcove")
     body = get_docs_for_click(obj=command, ctx=ctx, name="alcove", title="`alcove` command line reference")
     # a help text may end its lines with spaces; they carry no meaning in Markdown here
