@@ -1,0 +1,259 @@
+"""Campaigns through real Celery worker processes.
+
+* the embedded default (SQLite + filesystem broker): ``alcove campaign run`` end to end;
+* PostgreSQL + Redis: SIGKILL of the worker in the middle of an oracle job, then a new
+  worker: the campaign completes and its pool holds exactly the rows of an uninterrupted
+  run with the same seed; the same when Redis restarts (losing its messages) mid-campaign.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import signal
+import socket
+import subprocess
+import sys
+import time
+import uuid
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Any
+
+import pytest
+import sqlalchemy as sa
+
+pytestmark = [pytest.mark.integration, pytest.mark.slow]
+
+CLI = [sys.executable, "-m", "alcove_worker.cli.main"]
+QUICK_YAML = """
+preliminary: {samples: 400, chunks: 4}
+settings: {ocp_intervals: 20, replay_dt: 0.01}
+surrogate: {max_epochs: 60}
+"""
+
+
+def env_for(**settings: Any) -> dict[str, str]:
+    env = {k: v for k, v in os.environ.items() if not k.startswith("ALCOVE_") or k.startswith("ALCOVE_TEST_")}
+    env.update({f"ALCOVE_{k.upper()}": str(v) for k, v in settings.items()})
+    env["ALCOVE_BROKER_POLLING_INTERVAL"] = "0.05"
+    return env
+
+
+class Worker:
+    def __init__(self, env: dict[str, str], log: Path, name: str) -> None:
+        self.log = log
+        self._fh = open(log, "ab")  # noqa: SIM115
+        self.p = subprocess.Popen(CLI + ["worker", "--queues", "default,ocp,oracle,train", "--concurrency", "1", "--name", name, "--loglevel", "INFO"],
+                                  env=env, stdout=self._fh, stderr=subprocess.STDOUT, start_new_session=True)
+
+    def kill(self) -> None:
+        """SIGKILL the worker and its pool processes (no warm shutdown, no acks)."""
+        try:
+            os.killpg(self.p.pid, signal.SIGKILL)
+        except ProcessLookupError:
+            pass
+        self.p.wait(timeout=10)
+        self._fh.close()
+
+    def stop(self) -> None:
+        if self.p.poll() is None:
+            self.p.send_signal(signal.SIGTERM)
+            try:
+                self.p.wait(timeout=20)
+            except subprocess.TimeoutExpired:
+                pass
+        self.kill()
+
+    def output(self) -> str:
+        return self.log.read_text(errors="replace")
+
+
+def wait_for(pred: Any, timeout: float, what: str, worker: Worker | None = None) -> Any:
+    end = time.monotonic() + timeout
+    while time.monotonic() < end:
+        got = pred()
+        if got:
+            return got
+        time.sleep(0.1)
+    raise AssertionError(f"timed out waiting for {what}" + (f"\n{worker.output()[-3000:]}" if worker else ""))
+
+
+def rows(url: str, sql: str, **params: Any) -> list[tuple]:
+    from alcove.db import make_engine
+
+    eng = make_engine(url)
+    try:
+        with eng.connect() as c:
+            return [tuple(r) for r in c.execute(sa.text(sql), params)]
+    finally:
+        eng.dispose()
+
+
+def pool_hashes(url: str, cid: int) -> list[tuple[int, str, int]]:
+    return rows(url, "SELECT version, content_hash, n_samples FROM pool_versions WHERE campaign_id = :c ORDER BY version", c=cid)
+
+
+def test_alcove_campaign_run_on_the_embedded_default(tmp_path: Path) -> None:
+    cfg = tmp_path / "quick.yaml"
+    cfg.write_text(QUICK_YAML)
+    env = env_for(data_dir=tmp_path / "data")
+    r = subprocess.run(CLI + ["campaign", "run", "--oracle", "aux-penalty", "--iterations", "2", "--config", str(cfg), "--json", "--seed", "5",
+                              "--worker-log", str(tmp_path / "worker.log")], env=env, capture_output=True, text=True, timeout=300)
+    assert r.returncode == 0, r.stderr[-3000:] + (tmp_path / "worker.log").read_text()[-3000:]
+    out = json.loads(r.stdout.strip().splitlines()[-1])
+    assert (out["status"], out["stop_reason"], out["iterations_finished"]) == ("completed", "max_iterations", 2)
+    assert [m["iteration_index"] for m in out["metrics"]] == [1, 2] and all(m["force_rmse"] >= 0 for m in out["metrics"])
+    url = f"sqlite:///{tmp_path / 'data' / 'alcove.db'}"
+    cid = out["campaign_id"]
+    assert [v for v, _, _ in pool_hashes(url, cid)] == [0, 1, 2]
+    assert rows(url, "SELECT version, parent_model_id IS NULL FROM model_versions WHERE campaign_id = :c ORDER BY version", c=cid) == [(1, 1), (2, 0)]
+    # every step ran in the spawned worker, not in the CLI process
+    workers = {w for (w,) in rows(url, "SELECT DISTINCT worker_name FROM iteration_steps WHERE campaign_id = :c", c=cid)}
+    assert len(workers) == 1 and workers.pop().startswith("campaign-run-")
+    # the other commands on the same database
+    st = subprocess.run(CLI + ["campaign", "status", str(cid), "--json"], env=env, capture_output=True, text=True, timeout=60)
+    assert json.loads(st.stdout)["campaign"]["status"] == "completed"
+    ex = subprocess.run(CLI + ["campaign", "export", str(cid), "--out", str(tmp_path / "export"), "--format", "csv", "--no-models"], env=env,
+                        capture_output=True, text=True, timeout=120)
+    assert ex.returncode == 0, ex.stderr
+    assert (tmp_path / "export" / "pool" / "version-0002.csv").exists() and (tmp_path / "export" / "metrics.csv").exists()
+    bad = subprocess.run(CLI + ["campaign", "resume", str(cid)], env=env, capture_output=True, text=True, timeout=60)
+    assert bad.returncode == 2 and "cannot resume a campaign that is completed" in bad.stderr
+
+
+# ----------------------------------------------------------------------------- PostgreSQL + Redis
+
+
+@pytest.fixture
+def pg_redis(pg_url: str, redis_url: str, tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Iterator[dict[str, str]]:
+    """This process and its workers on PostgreSQL + Redis (private key prefix), 3 s leases."""
+    from alcove.db import dispose_engines
+    from alcove.jobs import reset_sender
+    from alcove.settings import get_settings
+
+    settings = {"database_url": pg_url, "broker_url": redis_url, "broker_key_prefix": f"t-{uuid.uuid4().hex[:8]}:", "data_dir": str(tmp_path / "data"),
+                "job_lease_seconds": "3"}
+    for k, v in settings.items():
+        monkeypatch.setenv(f"ALCOVE_{k.upper()}", v)
+    get_settings.cache_clear()
+    dispose_engines(close=True)
+    reset_sender()
+    yield env_for(**settings)
+    get_settings.cache_clear()
+    dispose_engines(close=True)
+    reset_sender()
+
+
+def quick_campaign(make_campaign: Any, seed: int, iterations: int, fault: dict | None = None, start: bool = True) -> tuple[int, list]:
+    return make_campaign(seed=seed, stopping={"max_iterations": iterations}, settings={"fault_injection": fault or {}}, start=start)
+
+
+def reference_pool(make_campaign: Any, seed: int, iterations: int, url: str) -> list[tuple[int, str, int]]:
+    from alcove.campaigns import flows
+
+    cid, jobs = quick_campaign(make_campaign, seed, iterations)
+    flows.drive_inline(cid, jobs)
+    return pool_hashes(url, cid)
+
+
+def test_sigkill_of_a_worker_during_an_oracle_job_loses_and_duplicates_nothing(pg_redis: dict[str, str], pg_url: str, tmp_path: Path, make_campaign: Any) -> None:
+    from alcove.jobs.campaign import enqueue
+
+    expected = reference_pool(make_campaign, seed=11, iterations=3, url=pg_url)
+    cid, jobs = quick_campaign(make_campaign, 11, 3, fault={"oracle": {"sleep_s": 3, "iterations": [2]}})
+    w1 = Worker(pg_redis, tmp_path / "w1.log", f"w1-{uuid.uuid4().hex[:4]}")
+    try:
+        enqueue(jobs)
+        wait_for(lambda: rows(pg_url, "SELECT 1 FROM iteration_steps s JOIN iterations i ON i.id = s.iteration_id "
+                                      "WHERE s.campaign_id = :c AND i.index = 2 AND s.step = 'oracle' AND s.status = 'running'", c=cid),
+                 180, "the oracle job of iteration 2", w1)
+        time.sleep(0.5)
+        w1.kill()
+    finally:
+        w1.stop()
+    w2 = Worker(pg_redis, tmp_path / "w2.log", f"w2-{uuid.uuid4().hex[:4]}")
+    try:
+        wait_for(lambda: rows(pg_url, "SELECT 1 FROM campaigns WHERE id = :c AND status IN ('completed', 'failed', 'cancelled')", c=cid), 180, "the campaign to end", w2)
+    finally:
+        w2.stop()
+    assert rows(pg_url, "SELECT status, stop_reason FROM campaigns WHERE id = :c", c=cid) == [("completed", "max_iterations")]
+    assert pool_hashes(pg_url, cid) == expected
+    # the oracle step of iteration 2 was requeued by the reconciler and ran once more, on the new worker
+    (attempts, worker), = rows(pg_url, "SELECT s.attempts, s.worker_name FROM iteration_steps s JOIN iterations i ON i.id = s.iteration_id "
+                                       "WHERE s.campaign_id = :c AND i.index = 2 AND s.step = 'oracle'", c=cid)
+    assert attempts == 2 and worker.startswith("w2-")
+    assert rows(pg_url, "SELECT count(*) FROM campaign_events WHERE campaign_id = :c AND kind = 'step_requeued'", c=cid) == [(1,)]
+    assert rows(pg_url, "SELECT count(*) FROM datasets WHERE campaign_id = :c AND origin = 'oracle'", c=cid) == [(3,)]
+
+
+def _free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+class PrivateRedis:
+    """A redis-server of our own (no persistence): restarting it loses every message."""
+
+    def __init__(self, workdir: Path) -> None:
+        self.port = _free_port()
+        self.workdir = workdir
+        self.p: subprocess.Popen[bytes] | None = None
+
+    def start(self) -> None:
+        self.p = subprocess.Popen(["redis-server", "--port", str(self.port), "--save", "", "--appendonly", "no", "--dir", str(self.workdir)],
+                                  stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        import redis
+
+        wait_for(lambda: _ping(redis.Redis(port=self.port)), 10, "redis-server")
+
+    def stop(self) -> None:
+        if self.p is not None and self.p.poll() is None:
+            self.p.terminate()
+            self.p.wait(timeout=10)
+
+    @property
+    def url(self) -> str:
+        return f"redis://127.0.0.1:{self.port}/0"
+
+
+def _ping(client: Any) -> bool:
+    try:
+        return bool(client.ping())
+    except Exception:  # noqa: BLE001
+        return False
+
+
+@pytest.mark.skipif(shutil.which("redis-server") is None, reason="needs the redis-server program")
+def test_a_redis_restart_mid_campaign_loses_no_step(pg_redis: dict[str, str], pg_url: str, tmp_path: Path, make_campaign: Any,
+                                                    monkeypatch: pytest.MonkeyPatch) -> None:
+    from alcove.jobs import reset_sender
+    from alcove.jobs.campaign import enqueue
+    from alcove.settings import get_settings
+
+    redis_server = PrivateRedis(tmp_path)
+    redis_server.start()
+    monkeypatch.setenv("ALCOVE_BROKER_URL", redis_server.url)
+    get_settings.cache_clear()
+    reset_sender()
+    env = {**pg_redis, "ALCOVE_BROKER_URL": redis_server.url}
+    expected = reference_pool(make_campaign, seed=12, iterations=2, url=pg_url)
+    cid, jobs = quick_campaign(make_campaign, 12, 2, fault={"train": {"sleep_s": 2, "iterations": [2]}})
+    w = Worker(env, tmp_path / "w.log", f"wr-{uuid.uuid4().hex[:4]}")
+    try:
+        enqueue(jobs)
+        wait_for(lambda: rows(pg_url, "SELECT 1 FROM iteration_steps s JOIN iterations i ON i.id = s.iteration_id "
+                                      "WHERE s.campaign_id = :c AND i.index = 2 AND s.step = 'train' AND s.status = 'running'", c=cid),
+                 180, "the train job of iteration 2", w)
+        redis_server.stop()  # the next message (ocp of iteration 2) is sent while Redis is down or lost with it
+        time.sleep(3)
+        redis_server.start()
+        wait_for(lambda: rows(pg_url, "SELECT 1 FROM campaigns WHERE id = :c AND status IN ('completed', 'failed', 'cancelled')", c=cid), 240,
+                 "the campaign to end", w)
+    finally:
+        w.stop()
+        redis_server.stop()
+    assert rows(pg_url, "SELECT status FROM campaigns WHERE id = :c", c=cid) == [("completed",)]
+    assert pool_hashes(pg_url, cid) == expected
