@@ -241,7 +241,7 @@ class Transcription:
             self._derivative_options = {"jac_g": jac_g, "hess_lag": hess_lag}
         elif self.derivatives != "casadi":
             raise ValueError(f"derivatives: must be 'structured' or 'casadi', got {self.derivatives!r}")
-        self.solver = ca.nlpsol("dmocc", "ipopt", self._nlp, {**DEFAULT_IPOPT_OPTIONS, **self._derivative_options, **self.ipopt_options})
+        self._solver: ca.Function | None = None
         self._warm_solver: ca.Function | None = None
 
     # ---- bounds and grid ----------------------------------------------------------
@@ -294,6 +294,14 @@ class Transcription:
         x, g = np.asarray(x).ravel(), np.asarray(g).ravel()
         parts = [np.maximum(self.lbx - x, 0), np.maximum(x - self.ubx, 0), np.maximum(self.lbg - g, 0), np.maximum(g - self.ubg, 0)]
         return float(max((p.max() if p.size else 0.0) for p in parts))
+
+    @property
+    def solver(self) -> ca.Function:
+        """IPOPT on this NLP (built on first use)."""
+        if self._solver is None:
+            options = {**DEFAULT_IPOPT_OPTIONS, **self._derivative_options, **self.ipopt_options}
+            self._solver = ca.nlpsol("dmocc", "ipopt", self._nlp, options)
+        return self._solver
 
     @property
     def warm_solver(self) -> ca.Function:
