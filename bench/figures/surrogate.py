@@ -57,6 +57,28 @@ def surrogate_training(pool: Any) -> float:
     return timed(lambda: train_surrogate(pool, SurrogateConfig(), seed=0))
 
 
+def _warm_setup() -> tuple[list[Any], Any]:
+    from alcove.science.surrogate.config import SurrogateConfig
+    from alcove.science.surrogate.training import train_surrogate
+
+    pool = _training_pool()
+    previous = train_surrogate(pool[:-1], SurrogateConfig(), seed=0).model  # the model before the last append
+    return pool, previous
+
+
+@figure(
+    "surrogate training, 80,000 samples, warm start from the previous iteration's model", "s", target=3.0, setup=_warm_setup,
+    reps=5, quick=False, group="surrogate", baseline="surrogate training, one model pair on 80,000 samples (paper protocol)",
+    notes="the campaign's case: one trajectory appended, weights carried over",
+)
+def surrogate_training_warm(ctx: Any) -> float:
+    from alcove.science.surrogate.config import SurrogateConfig
+    from alcove.science.surrogate.training import train_surrogate
+
+    pool, previous = ctx
+    return timed(lambda: train_surrogate(pool, SurrogateConfig(), seed=1, warm_start=previous))
+
+
 def _predict_setup() -> tuple[Any, np.ndarray, np.ndarray, np.ndarray]:
     from alcove.science.geometry import DEFAULT_PRESET as P
 

@@ -5,7 +5,7 @@ import pytest
 import torch
 from conftest import make_smooth_pool, smooth_wrench
 
-from alcove.science.surrogate.config import SurrogateConfig, SurrogateConfigError
+from alcove.science.surrogate.config import NetworkConfig, SurrogateConfig
 from alcove.science.surrogate.dataset import PoolDataError, PoolDataset
 from alcove.science.surrogate.mlp import MLP
 from alcove.science.surrogate.training import (
@@ -123,10 +123,14 @@ def test_warm_start_starts_from_the_previous_weights(smooth_pool, trained_smooth
     tiny = SurrogateConfig(max_epochs=1, learning_rate=1e-12)
     warm = train_surrogate(smooth_pool, tiny, seed=1, warm_start=first.model)
     cold = train_surrogate(smooth_pool, tiny, seed=1)
-    assert warm.model.lineage["warm_start"] is True
+    assert warm.model.lineage["warm_start"] == {"force": True, "moment": True}
+    assert cold.model.lineage["warm_start"] is False
     assert warm.metrics.rmse["force"]["train"] < 0.1 * cold.metrics.rmse["force"]["train"]
-    with pytest.raises(SurrogateConfigError, match="^force.hidden: differs"):
-        train_surrogate(smooth_pool, SurrogateConfig(force={"hidden": [8]}), seed=0, warm_start=first.model)
+    # an architecture changed during the campaign: that net starts afresh, the other is carried over
+    changed = train_surrogate(smooth_pool, tiny.model_copy(update={"force": NetworkConfig(hidden=(8,))}), seed=1, warm_start=first.model)
+    assert changed.model.lineage["warm_start"]["moment"] is True
+    assert changed.model.lineage["warm_start"]["force"].startswith("cold: architecture (6, 6, 4)/softplus -> (8,)/softplus")
+    assert changed.metrics.rmse["moment"]["train"] == pytest.approx(warm.metrics.rmse["moment"]["train"], rel=1e-6)
 
 
 def test_metrics_and_cancel(smooth_pool):

@@ -27,7 +27,7 @@ import torch
 
 from alcove.science.geometry import DEFAULT_PRESET, HeadNeckPreset, RelativeKinematics, relative_kinematics
 from alcove.science.series import ForceSeries
-from alcove.science.surrogate.config import SurrogateConfig, SurrogateConfigError
+from alcove.science.surrogate.config import SurrogateConfig
 from alcove.science.surrogate.dataset import PoolDataError, PoolDataset, check_pool
 from alcove.science.surrogate.features import features
 from alcove.science.surrogate.mlp import MLP, Standardization, SurrogateModel
@@ -150,13 +150,16 @@ def train_surrogate(
     dtype = torch.float64 if config.dtype == "float64" else torch.float32
     generator = torch.Generator().manual_seed(int(seed))
     nets = {k: MLP.from_config(getattr(config, k), dtype=dtype) for k in NETS}
+    warm: dict[str, bool | str] = {}
     for k in NETS:
         nets[k].reset_parameters(generator)
         if warm_start is not None and config.warm_start:
             previous = getattr(warm_start, f"{k}_net")
-            if not nets[k].same_architecture(previous):
-                raise SurrogateConfigError(f"{k}.hidden", "differs from the warm-start model's architecture; set warm_start to false")
-            nets[k].load_state_dict({n: p.to(dtype) for n, p in previous.state_dict().items()})
+            if nets[k].same_architecture(previous):
+                nets[k].load_state_dict({n: p.to(dtype) for n, p in previous.state_dict().items()})
+                warm[k] = True
+            else:  # the campaign changed the architecture: this net starts afresh
+                warm[k] = f"cold: architecture {previous.hidden}/{previous.activation} -> {nets[k].hidden}/{nets[k].activation}"
 
     def tensor(a: np.ndarray) -> torch.Tensor:
         return torch.as_tensor(np.ascontiguousarray(a), dtype=dtype)
@@ -185,7 +188,7 @@ def train_surrogate(
         force_norm=out_norm["force"], moment_norm=out_norm["moment"], config=config, preset=preset,
         ndof=pool[0].ndof,
         lineage={"seed": int(seed), "datasets": [ds.name for ds in pool], "test_sets": split.test_sets,
-                 "samples": int(x.shape[0]), "warm_start": warm_start is not None and config.warm_start},
+                 "samples": int(x.shape[0]), "warm_start": warm or False},
     )
     rmse: dict[str, dict[str, float | None]] = {k: {} for k in NETS}
     pred = dict(zip(NETS, model.predict_features(x)))
