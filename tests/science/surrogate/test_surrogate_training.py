@@ -108,7 +108,7 @@ def test_preliminary_down_weighting():
     w = sample_weights(pool, cfg)
     assert np.all(w[: 10 * 100] == 0.5 * 0.5 ** (10 / 5)) and np.all(w[10 * 100 :] == 1)
     # contradictory data: preliminary says zero force; with weight 0 the model follows the oracle
-    res = train_surrogate(pool, SurrogateConfig(preliminary_weight=0.0, test_fraction=0.0), seed=0)
+    res = train_surrogate(pool, SurrogateConfig(preliminary_weight=0.0, test_fraction=0.0, batch_size=256, max_epochs=60), seed=0)
     t = np.linspace(0, 1, 20)
     q, qd = 0.25 + 0.05 * np.sin(4 * t), 0.2 * np.cos(4 * t)
     force, _ = smooth_wrench(q, qd)
