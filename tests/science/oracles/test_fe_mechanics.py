@@ -41,6 +41,7 @@ def test_flat_plate_compression_reproduces_the_foam_law_exactly(mesh_name, visco
             assert res.force_on_body[0] == pytest.approx(-H * nominal, rel=1e-7)  # pushes the plate away (+x)
             assert abs(res.force_on_body[1]) < 1e-9 * res.force_on_body[0]
             np.testing.assert_allclose(res.bar_reaction, res.force_on_body, rtol=1e-7, atol=1e-9)
+            assert res.bar_moment == pytest.approx(res.moment_on_body, rel=1e-6, abs=1e-9 * H * res.force_on_body[0])
             # homogeneous: every front node at the same depth, no vertical motion anywhere
             assert np.ptp(solver.u[0::2][mesh.surface_nodes]) < 1e-9 * depth
             assert np.max(np.abs(solver.u[1::2])) < 1e-9 * depth

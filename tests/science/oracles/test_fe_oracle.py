@@ -47,6 +47,7 @@ def test_reference_motion_forces_are_of_the_papers_order_and_pass_the_gate(refer
     assert 5.0 < np.linalg.norm(f.force[-1]) < 60.0  # resting on the headrest: a few tens of N
     assert d["max_penetration_m"] < 1e-4  # far below the 1 mm bound and the ~8 mm indentation
     assert d["energy_balance_ok"] and d["bar_reaction_mismatch_n"] < 1e-3 * d["peak_force_n"]
+    assert d["bar_moment_mismatch_nm"] < 1e-3 * d["peak_moment_nm"]  # moment balance with the bar
     assert d["newton_iterations_max"] <= 10
     # out-of-plane components vanish in a planar model
     assert np.all(f.force[:, 1] == 0) and np.all(f.moment[:, [0, 2]] == 0)

@@ -193,6 +193,7 @@ class FEHeadrestOracle:
         force = np.zeros((n_fine, 2))
         moment_origin = np.zeros(n_fine)  # about the head frame origin
         bar = np.zeros((n_fine, 2))
+        bar_moment = np.zeros(n_fine)
         stored = np.zeros(n_fine)
         max_pen = 0.0
         it_total = it_max = 0
@@ -216,6 +217,7 @@ class FEHeadrestOracle:
                 force[k] += w * res.force_on_body
                 moment_origin[k] += w * res.moment_on_body
                 bar[k] += w * res.bar_reaction
+                bar_moment[k] += w * res.bar_moment
                 stored[k] += w * res.stored_energy
                 visc += w * res.viscous_dissipation
                 fric += w * res.friction_dissipation
@@ -243,6 +245,8 @@ class FEHeadrestOracle:
         dissipated = work - (float(stored[-1]) - stored_start)
         peak = float(np.max(np.linalg.norm(force, axis=1)))
         mismatch = float(np.max(np.linalg.norm(force - bar, axis=1)))
+        mismatch_moment = float(np.max(np.abs(moment_origin - bar_moment)))
+        moment_scale = max(float(np.max(np.abs(moment_origin))), 0.1 * peak, 0.1)  # 0.1 m: a head-sized lever
 
         # outputs at output times, moment about the configured reference point
         idx = np.arange(n_out) * p.substeps
@@ -267,6 +271,8 @@ class FEHeadrestOracle:
             failure = f"energy balance violated: dissipation {dissipated:.4g} J < 0 (work by the head {work:.4g} J)"
         if failure is None and mismatch > p.reaction_tolerance * max(peak, 1.0):
             failure = f"contact force and bar reaction differ by {mismatch:.3g} N (peak force {peak:.3g} N)"
+        if failure is None and mismatch_moment > p.reaction_tolerance * moment_scale:
+            failure = f"contact moment and bar reaction moment differ by {mismatch_moment:.3g} N m"
         diagnostics: dict[str, Any] = {
             "max_penetration_m": max_pen,
             "dissipated_energy_j": dissipated,
@@ -284,6 +290,7 @@ class FEHeadrestOracle:
             "peak_force_n": peak,
             "peak_moment_nm": float(np.max(np.abs(m_out))),
             "bar_reaction_mismatch_n": mismatch,
+            "bar_moment_mismatch_nm": mismatch_moment,
             "mesh_nodes": self.mesh.n_nodes,
             "mesh_elements": self.mesh.n_elements,
             "slices": len(self.slices),

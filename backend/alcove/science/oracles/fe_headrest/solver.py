@@ -45,6 +45,7 @@ class StepResult:
     force_on_body: np.ndarray  # (2,) contact force on the rigid body [N/m], headrest frame
     moment_on_body: float  # about the body frame origin, y component [N m/m]
     bar_reaction: np.ndarray  # (2,) sum of the internal forces at the tied back face [N/m]
+    bar_moment: float  # their moment about the body frame origin, y component [N m/m]
     max_penetration: float  # [m]
     contact_nodes: int
     viscous_dissipation: float  # [J/m] this step
@@ -215,7 +216,7 @@ class CushionSolver:
             self.pose_prev = pose
             self.normal_force_prev[:] = 0.0
             zero = np.zeros(2)
-            return StepResult(True, 0, True, zero, 0.0, zero, 0.0, 0, 0.0, 0.0, 0.0)
+            return StepResult(True, 0, True, zero, 0.0, zero, 0.0, 0.0, 0, 0.0, 0.0, 0.0)
 
         u = self._initial_guess(pose)
         # every evaluation includes the tangent: an accepted line-search trial is the next iterate
@@ -274,7 +275,11 @@ class CushionSolver:
         points = x - cs.gap[:, None] * cs.normal
         arm = points - pose[0]
         moment = float(np.sum(arm[:, 1] * (-cs.force[:, 0]) - arm[:, 0] * (-cs.force[:, 1])))
-        bar = np.array([f_internal[0::2][self.mesh.back_nodes].sum(), f_internal[1::2][self.mesh.back_nodes].sum()])
+        back = self.mesh.back_nodes
+        f_bar = np.stack([f_internal[0::2][back], f_internal[1::2][back]], -1)
+        bar = f_bar.sum(axis=0)
+        bar_arm = self.mesh.nodes[back] - pose[0]
+        bar_moment = float(np.sum(bar_arm[:, 1] * f_bar[:, 0] - bar_arm[:, 0] * f_bar[:, 1]))
         self.u_old = self.u
         self.u = u
         self.E_prev = E_new
@@ -292,6 +297,7 @@ class CushionSolver:
             force_on_body=force_on_body,
             moment_on_body=moment,
             bar_reaction=bar,
+            bar_moment=bar_moment,
             max_penetration=float(max(0.0, -cs.gap.min())),
             contact_nodes=int(np.sum(cs.gap < 0)),
             viscous_dissipation=visc_diss,
