@@ -7,7 +7,8 @@ pointwise into train and validation.
 
 Sample weights: each dataset of the pool carries an optional weight; without one, its weight
 comes from its origin: ``preliminary_weight`` for preliminary data (decaying by half every
-``preliminary_halving`` non-preliminary simulations in the pool, if set), 1 otherwise.
+``preliminary_halving`` oracle simulations in the pool, if set), 1 otherwise (oracle and
+uploaded data).
 This lets a campaign fade out the preliminary data as oracle data accumulates (a remedy for
 the bias toward low forces the paper reports).
 """
@@ -61,7 +62,7 @@ class SurrogateConfig(BaseModel):
     normalize_outputs: bool = Field(True, description="train on standardised targets (exported transparently)")
     preliminary_weight: float = Field(1.0, ge=0, le=1e6, description="sample weight of preliminary data")
     preliminary_halving: float | None = Field(
-        None, gt=0, description="halve the preliminary weight every this many non-preliminary simulations"
+        None, gt=0, description="halve the preliminary weight every this many oracle simulations in the pool"
     )
     dtype: Literal["float64", "float32"] = "float64"
 
@@ -78,7 +79,13 @@ class SurrogateConfig(BaseModel):
     @classmethod
     def from_json(cls, source: str | Path) -> "SurrogateConfig":
         """Read a JSON file (path) or JSON text."""
-        text = Path(source).read_text() if isinstance(source, Path) or not str(source).lstrip().startswith("{") else str(source)
+        if isinstance(source, Path) or not str(source).lstrip().startswith("{"):
+            try:
+                text = Path(source).read_text()
+            except (FileNotFoundError, IsADirectoryError, UnicodeDecodeError) as exc:
+                raise SurrogateConfigError("config", f"cannot read {source}: {type(exc).__name__}") from None
+        else:
+            text = str(source)
         try:
             data = json.loads(text)
         except json.JSONDecodeError as exc:
@@ -87,13 +94,13 @@ class SurrogateConfig(BaseModel):
             raise SurrogateConfigError("config", "must be a JSON object")
         return cls.parse(data)
 
-    def weight_for(self, origin: str, n_non_preliminary: int) -> float:
-        """Default sample weight of a dataset of ``origin`` in a pool with that many oracle/upload simulations."""
+    def weight_for(self, origin: str, n_oracle: int) -> float:
+        """Default sample weight of a dataset of ``origin`` in a pool holding ``n_oracle`` oracle simulations."""
         if origin != "preliminary":
             return 1.0
         w = self.preliminary_weight
         if self.preliminary_halving is not None:
-            w *= 0.5 ** (n_non_preliminary / self.preliminary_halving)
+            w *= 0.5 ** (n_oracle / self.preliminary_halving)
         return w
 
 
