@@ -17,7 +17,9 @@ At a phase junction the DEL equation mixes the steps of both phases: that is mom
 matching. Cost: sum_k h (w_tau u_k^T u_k + w_T T(q_k+1/2, v_k)) + endpoint cost.
 Discrete momenta (discrete Legendre transforms) give the node velocities qd_k = M(q_k)^-1 p_k.
 
-The interval terms are SX functions (the contact function is expanded) and IPOPT uses the exact Hessian.
+The interval terms are SX functions (the contact function is expanded) mapped over the grid;
+IPOPT gets the exact Jacobian and Hessian, assembled from local interval blocks
+(:mod:`.derivatives`).
 """
 
 from __future__ import annotations
@@ -194,7 +196,7 @@ class Transcription:
         effort, kinetic = interval_cost.map(N)(*args[:4])
         cost = ca.sum2(w_tau * effort) + ca.sum2(w_T * kinetic)
 
-        g, lbg, ubg = [], [], []
+        g = []
         if prob.qd_start is not None:
             p0 = ca.mtimes(chain.mass_matrix(Q[:, 0]), ca.DM(prob.qd_start))
             g.append(p0 + left[:, 0])
@@ -204,7 +206,6 @@ class Transcription:
             pN = ca.mtimes(chain.mass_matrix(Q[:, N]), ca.DM(prob.qd_end))
             g.append(right[:, N - 1] - pN)
         g = ca.vertcat(*g)
-        lbg = ubg = np.zeros(g.shape[0])
 
         # node momenta for the Legendre transforms: p_0 = -left_0, p_k = right_k-1
         self._momenta = ca.Function("momenta", [x, par], [ca.horzcat(-left[:, 0], right)])
@@ -219,8 +220,7 @@ class Transcription:
             cost = cost + prob.endpoint_w_qd * ca.sumsqr(qdN)
 
         self.lbx, self.ubx = self._variable_bounds()
-        self.lbg, self.ubg = lbg, ubg
-        self._cost_fn = ca.Function("cost", [x, par], [cost])
+        self.lbg = self.ubg = np.zeros(g.shape[0])
         self._nlp = {"x": x, "p": par, "f": cost, "g": g}
         self._derivative_options: dict[str, object] = {}
         if self.derivatives == "auto":
