@@ -16,7 +16,7 @@ from starlette.types import Scope
 
 import alcove
 from alcove.api import health
-from alcove.api.errors import BodySizeLimit, install_error_handlers
+from alcove.api.errors import COMMON_RESPONSES, BodySizeLimit, install_error_handlers
 from alcove.db.retry import is_retryable_db_error
 from alcove.settings import Settings, get_settings
 
@@ -41,13 +41,8 @@ def api_router() -> APIRouter:
 
     router = APIRouter(prefix=API_PREFIX)
     router.include_router(health.router)
-    router.include_router(users_router)
-    router.include_router(tasks_router)
-    router.include_router(oracles_router)
-    router.include_router(command_oracles_router)
-    router.include_router(surrogate_configs.router)
-    for sub in campaigns.routers():
-        router.include_router(sub)
+    for sub in (users_router, tasks_router, oracles_router, command_oracles_router, surrogate_configs.router, *campaigns.routers()):
+        router.include_router(sub, responses=COMMON_RESPONSES)
     return router
 
 

@@ -17,7 +17,7 @@ from fastapi import FastAPI, Request
 from fastapi.encoders import jsonable_encoder
 from fastapi.exceptions import RequestValidationError
 from fastapi.responses import JSONResponse
-from pydantic import ValidationError
+from pydantic import BaseModel, Field, ValidationError
 from sqlalchemy import exc as sa_exc
 from starlette.types import ASGIApp, Message, Receive, Scope, Send
 
@@ -41,6 +41,33 @@ MAX_JSON_BODY_BYTES = 8 * 1024 * 1024
 #: Largest upload (a preliminary data set CSV).
 MAX_UPLOAD_BODY_BYTES = 64 * 1024 * 1024
 UPLOAD_PATH_SUFFIXES = ("/uploads", "/preliminary-datasets")
+
+
+class ErrorOut(BaseModel):
+    detail: str
+
+
+class FieldErrorItem(BaseModel):
+    loc: list[str | int] = Field(description="where: e.g. ['body', 'spec', 'phases', 1, 'duration']")
+    field: str = Field(description="the same as a dotted path without the location, e.g. 'spec.phases.1.duration'")
+    msg: str = Field(description="the reason")
+    type: str
+
+
+class ValidationErrorOut(BaseModel):
+    detail: list[FieldErrorItem]
+
+
+#: Documented on every authenticated route (status codes the error handlers produce).
+COMMON_RESPONSES: dict[int | str, dict[str, Any]] = {
+    401: {"model": ErrorOut, "description": "not authenticated (missing, invalid, expired or revoked token)"},
+    403: {"model": ErrorOut, "description": "not allowed (admin-only route, or an object shared with you for viewing only)"},
+    404: {"model": ErrorOut, "description": "no such object, or not visible to you"},
+    409: {"model": ErrorOut, "description": "conflicts with the current state (e.g. a campaign transition, a duplicate)"},
+    413: {"model": ErrorOut, "description": "request body too large"},
+    422: {"model": ValidationErrorOut, "description": "invalid input: field paths and reasons"},
+    503: {"model": ErrorOut, "description": "database busy or unavailable: retry"},
+}
 
 
 def _validation_detail(errors: list[Any]) -> list[dict[str, Any]]:
@@ -91,6 +118,12 @@ def install_error_handlers(app: FastAPI) -> None:
         return JSONResponse({"detail": str(err)}, status_code=404)
 
     app.add_exception_handler(InvalidTransition, simple(409))
+
+    @app.exception_handler(ArithmeticError)
+    async def _arithmetic(request: Request, err: ArithmeticError) -> JSONResponse:
+        # e.g. a validator squaring a huge number someone entered: bad input, not a server fault
+        log.info("arithmetic error answered 422: %s", err)
+        return JSONResponse({"detail": [{"loc": ["body"], "field": "", "msg": f"a number is out of range ({err})", "type": "value_error.overflow"}]}, status_code=422)
 
     @app.exception_handler(sa_exc.DataError)
     async def _data_error(request: Request, err: sa_exc.DataError) -> JSONResponse:

@@ -10,6 +10,7 @@ from alcove.api.params import MAX_ID, ObjectId
 
 from alcove.api.auth import AdminUser, CurrentToken, CurrentUser
 from alcove.api.deps import SessionDep
+from alcove.api.errors import ErrorOut
 from alcove.users import repository as repo
 from alcove.users import service
 from alcove.users.schemas import (
@@ -29,7 +30,7 @@ from alcove.users.schemas import (
 
 router = APIRouter()
 
-AUTH_ERRORS = {401: {"description": "wrong e-mail or password"}, 429: {"description": "too many failed logins (see Retry-After)"}}
+AUTH_ERRORS = {401: {"model": ErrorOut, "description": "wrong e-mail or password"}, 429: {"model": ErrorOut, "description": "too many failed logins (see Retry-After)"}}
 
 
 def _token_out(token, secret: str | None = None) -> TokenOut:  # noqa: ANN001
