@@ -33,6 +33,8 @@ def test_latin_hypercube_over_the_ranges():
     np.testing.assert_array_equal(moment, m)
     in_contact = force[:, 0] > 0
     assert 0.1 < in_contact.mean() < 0.5 and np.all(q[in_contact, 0] > P.theta_contact)
+    one_sided = np.concatenate([ds.qd for ds in preliminary_pool(P, samples=K, velocity_bound=(0.0, 0.5))])
+    assert one_sided.min() >= 0.0 and one_sided.max() <= 0.5
     other = preliminary_pool(P, samples=K, seed=1)
     assert not np.array_equal(stacked(other).__next__(), q)
 
@@ -56,6 +58,7 @@ def test_default_samples_give_a_usable_first_model():
     [
         ({"samples": 1}, "^samples: must be an integer >= 2"),
         ({"velocity_bound": 0.0}, "^velocity_bound: must be a positive number"),
+        ({"velocity_bound": (1.0, -1.0)}, "^velocity_bound: must be finite with lower < upper"),
         ({"q_bounds": (0.4, 0.1)}, "^q_bounds: must be finite with lower < upper"),
         ({"samples": 10, "chunks": 6}, r"^chunks: must lie in 1..5"),
     ],

@@ -30,7 +30,7 @@ DEFAULT_CHUNKS = 10
 def preliminary_pool(
     preset: HeadNeckPreset,
     samples: int = DEFAULT_SAMPLES,
-    velocity_bound: float = DEFAULT_VELOCITY_BOUND,
+    velocity_bound: float | tuple[float, float] = DEFAULT_VELOCITY_BOUND,
     q_bounds: tuple[float, float] | None = None,
     params: AuxPenaltyParams | None = None,
     seed: int = 0,
@@ -39,11 +39,17 @@ def preliminary_pool(
     """Latin hypercube preliminary data for the 1-DOF preset (origin ``preliminary``).
 
     ``q_bounds`` defaults to the preset's range ``(theta_min, theta_max)``; velocities are
-    drawn from ``[-velocity_bound, velocity_bound]``.
+    drawn from ``[-velocity_bound, velocity_bound]``, or from ``[lo, hi]`` for a pair.
     """
     if not isinstance(samples, (int, np.integer)) or samples < 2:
         raise PoolDataError("samples", f"must be an integer >= 2, got {samples!r}")
-    if not (np.isfinite(velocity_bound) and velocity_bound > 0):
+    if isinstance(velocity_bound, (tuple, list)):
+        v_lo, v_hi = (float(v) for v in velocity_bound)
+        if not (np.isfinite(v_lo) and np.isfinite(v_hi) and v_lo < v_hi):
+            raise PoolDataError("velocity_bound", f"must be finite with lower < upper, got ({v_lo!r}, {v_hi!r})")
+    elif np.isfinite(velocity_bound) and velocity_bound > 0:
+        v_lo, v_hi = -float(velocity_bound), float(velocity_bound)
+    else:
         raise PoolDataError("velocity_bound", f"must be a positive number, got {velocity_bound!r}")
     lo, hi = q_bounds if q_bounds is not None else (preset.theta_min, preset.theta_max)
     if not (np.isfinite(lo) and np.isfinite(hi) and lo < hi):
@@ -51,7 +57,7 @@ def preliminary_pool(
     if not 1 <= chunks <= samples // 2:
         raise PoolDataError("chunks", f"must lie in 1..{samples // 2} (at least two samples per dataset), got {chunks}")
     unit = qmc.LatinHypercube(d=2, rng=np.random.default_rng(seed)).random(samples)
-    x = qmc.scale(unit, [lo, -velocity_bound], [hi, velocity_bound])
+    x = qmc.scale(unit, [lo, v_lo], [hi, v_hi])
     q, qd = x[:, 0], x[:, 1]
     force, moment = aux_penalty_wrench(preset, params or AuxPenaltyParams(), relative_kinematics(preset, q, qd))
     pool = []
