@@ -127,30 +127,16 @@ class PlanarChain:
             joint = joint + link.length * axis
         return out
 
-    def kinetic_energy(self, q, qd):  # type: ignore[no-untyped-def]
-        qd = ca.vec(qd) if not isinstance(qd, (list, tuple)) else ca.vertcat(*qd)
-        return 0.5 * ca.dot(qd, ca.mtimes(self.mass_matrix_expr(q), qd))
-
     def potential_energy(self, q):  # type: ignore[no-untyped-def]
+        """V(q) = sum m_i g z_i (zero at the height of the base joint)."""
         return sum(link.mass * self.gravity * c[1] for link, c in zip(self.links, self.com_positions(q)))
-
-    def mass_matrix_expr(self, q):  # type: ignore[no-untyped-def]
-        return self._fn_mass(q)
 
     def contact_pose_world(self, q):  # type: ignore[no-untyped-def]
         """World (x, z) of the contact body frame origin and its absolute angle."""
         return self.com_positions(q)[-1], self.angles(q)[-1]
 
-    def relative_kinematics_expr(self, q, qd):  # type: ignore[no-untyped-def]
-        """Contact body relative to the headrest, in H: (r_rel 3x1, v_rel 3x1, T_rel 3x3, omega_rel 3x1)."""
-        r_rel, v_rel, T_rel, omega_rel = self._fn_relkin(q, qd)
-        return r_rel, v_rel, T_rel, omega_rel
-
-    def contact_jacobian_expr(self, q):  # type: ignore[no-untyped-def]
-        """J(q) (6 x n): [v_rel; omega_rel] = J qd, generalized contact force = J^T [F; M]."""
-        return self._fn_jacobian(q)
-
     def generalized_contact_force_expr(self, q, wrench):  # type: ignore[no-untyped-def]
+        """J(q)^T w for symbols (or numbers)."""
         return ca.mtimes(self._fn_jacobian(q).T, wrench)
 
     # ---- compiled functions ----------------------------------------------------------
@@ -229,11 +215,13 @@ class PlanarChain:
 
     @cached_property
     def relative_kinematics_function(self) -> ca.Function:
-        """(q, qd) -> (r_rel, v_rel, T_rel, omega_rel) of the contact body in H."""
+        """(q, qd) -> (r_rel, v_rel, T_rel, omega_rel) of the contact body in H (callable on
+        SX/MX symbols: the symbolic kinematics a surrogate needs for this chain)."""
         return self._fn_relkin
 
     @cached_property
     def contact_jacobian(self) -> ca.Function:
+        """q -> J (6 x n) with [v_rel; omega_rel] = J qd in H."""
         return self._fn_jacobian
 
     @cached_property
