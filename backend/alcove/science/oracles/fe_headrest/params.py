@@ -49,7 +49,7 @@ class FEHeadrestParams(OracleParams):
     newton_tolerance: float = Field(1e-6, ge=1e-12, le=1e-3, description="Newton residual tolerance relative to the contact force")
     newton_max_iterations: int = Field(40, ge=2, le=200, description="Newton iterations allowed per step before the run fails")
     max_penetration: float = Field(1e-3, gt=0.0, le=0.01, description="gate: largest allowed penalty penetration [m]")
-    energy_tolerance: float = Field(0.02, ge=0.0, le=0.5, description="gate: allowed negative dissipation relative to the work done by the head")
+    energy_tolerance: float = Field(0.02, ge=0.0, le=0.5, description="gate: allowed negative dissipation relative to the largest energy put in by the head")
     reaction_tolerance: float = Field(1e-3, ge=0.0, le=0.1, description="gate: allowed mismatch of head force and bar reaction relative to the peak force")
     max_indentation_fraction: float = Field(0.6, gt=0.0, le=0.9, description="reach: deepest allowed indentation of the undeformed head profile, as a fraction of the cushion thickness")
 

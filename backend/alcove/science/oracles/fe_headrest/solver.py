@@ -149,6 +149,7 @@ class CushionSolver:
         ne, nq = self.mesh.weights.shape
         self.u = np.zeros(self.n_dofs)
         self.u_old = np.zeros(self.n_dofs)
+        self.u_older = np.zeros(self.n_dofs)
         self.E_prev = np.zeros((ne, nq, 2, 2))
         self.normal_force_prev = np.zeros(self.mesh.surface_nodes.size)
         self.pose_prev: Pose | None = None
@@ -280,6 +281,7 @@ class CushionSolver:
         bar = f_bar.sum(axis=0)
         bar_arm = self.mesh.nodes[back] - pose[0]
         bar_moment = float(np.sum(bar_arm[:, 1] * f_bar[:, 0] - bar_arm[:, 0] * f_bar[:, 1]))
+        self.u_older = self.u_old
         self.u_old = self.u
         self.u = u
         self.E_prev = E_new
@@ -289,6 +291,7 @@ class CushionSolver:
         if np.all(cs.gap > 0) and np.max(np.abs(u)) < 1e-9:
             self.u = np.zeros(self.n_dofs)
             self.u_old = np.zeros(self.n_dofs)
+            self.u_older = np.zeros(self.n_dofs)
             self.E_prev[:] = 0.0
         return StepResult(
             converged=converged,
@@ -309,7 +312,7 @@ class CushionSolver:
 
     def _initial_guess(self, pose: Pose) -> np.ndarray:
         """Extrapolate the last two steps, then move penetrating surface nodes onto the body."""
-        guess = 2.0 * self.u - self.u_old
+        guess = 3.0 * (self.u - self.u_old) + self.u_older  # quadratic extrapolation
         x = self.surface_positions(guess)
         cs = self.contact.evaluate(x, pose, None, None, with_stiffness=False)
         inside = cs.gap < 0
