@@ -147,3 +147,25 @@ def test_resampling_stays_within_the_joint_range(task):
     assert sol.converged and np.isclose(sol.q.min(), p.theta_min, atol=1e-8)
     fine = sol.resample(np.linspace(0, 2, 2001))
     assert fine.q.min() >= p.theta_min and fine.q.max() <= p.theta_max
+
+
+def test_task_level_targets_bounds_and_free_end(task, aux):
+    """Phase target pose, tighter phase bounds and torque limit, free final velocity with an
+    endpoint cost: all reach the NLP and hold in the solution."""
+    data = task.model_dump()
+    for ph in data["phases"]:
+        ph["intervals"] = 30
+    data["phases"][0].update(target_q=[0.30], tau_max=[2.0])
+    data["phases"][1].update(q_max=[0.40])
+    data["final"] = {"velocity": "free"}
+    data["endpoint_cost"] = {"w_q": 10.0, "q_ref": [0.38], "w_qd": 0.1}
+    from alcove.science.ocp.task_spec import parse_task
+
+    sol = solve_task(parse_task(data), aux)
+    data["endpoint_cost"] = None
+    without = solve_task(parse_task(data), aux)
+    assert sol.converged and without.converged
+    assert sol.q[30, 0] == pytest.approx(0.30, abs=1e-9)  # target at the end of phase 1
+    assert np.abs(sol.controls[:30]).max() <= 2.0
+    assert sol.q[30:, 0].max() <= 0.40
+    assert sol.q[-1, 0] > without.q[-1, 0] + 1e-3  # the endpoint cost pulls toward 0.38, into the cushion
