@@ -508,9 +508,9 @@ def execute_ocp(ctx: StepContext) -> StepOutput:
     d = _read(inputs)
     ctx.check_cancel()
     task = d["task"]
+    t0 = time.perf_counter()
     contact = casadi_contact_function(d["model"], task.preset())
     ipopt = {"ipopt.max_iter": int(fault["ipopt_max_iter"])} if fault.get("ipopt_max_iter") else None
-    t0 = time.perf_counter()
     sol = solve_task(task, contact, initial_guess=d["previous"], max_attempts=ctx.config.policies.ocp_initial_guesses, ipopt_options=ipopt)
     compute = time.perf_counter() - t0
     arrays = {"t": sol.t, "q": sol.q, "qd": sol.qd, "tau": sol.tau, "controls": sol.controls}
