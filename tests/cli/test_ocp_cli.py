@@ -83,7 +83,7 @@ def test_solve_with_a_trained_surrogate_artifact(tmp_path):
     model = train_surrogate(preliminary_pool(DEFAULT_PRESET, samples=400, chunks=4), SurrogateConfig(max_epochs=5), seed=0).model
     artifact = save_artifact(model, tmp_path / "model")
     res = runner.invoke(app, ["ocp", "solve", "--contact", f"model:{artifact}", "--intervals", "20", "--out", str(tmp_path / "t.csv"), "--json"])
-    assert res.exit_code in (0, 1), res.output  # a barely trained surrogate may or may not give a converged OCP
+    assert res.exit_code == 0, res.output
     summary = json.loads(res.stdout)
-    assert summary["contact"] == f"model:{artifact}" and summary["status"]
+    assert summary["contact"] == f"model:{artifact}" and summary["converged"] is True
     assert len(Trajectory.from_csv(tmp_path / "t.csv")) == 41
