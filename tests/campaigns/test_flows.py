@@ -98,6 +98,7 @@ def test_a_short_campaign_leaves_a_complete_versioned_record(campaign_db: str, m
             assert m.force_rmse == pytest.approx(np.sqrt(np.mean((curves["f_pred"][:, :3] - curves["f_true"][:, :3]) ** 2)))
             assert m.moment_rmse == pytest.approx(np.sqrt(np.mean((curves["f_pred"][:, 3:] - curves["f_true"][:, 3:]) ** 2)))
             assert m.model_version_id == model.id and m.dataset_id == ds.id and m.ocp_success
+            assert m.extra["code_version"] == model.code_version and m.extra["model_seed"] == model.seed
         steps = service.list_jobs(s, cid)
         assert len(steps) == 1 + 5 * 2 and all(j["status"] == "succeeded" and j["attempts"] == 1 for j in steps)
         detail = service.get_detail(s, cid)

@@ -365,6 +365,13 @@ def _json_safe(obj: Any) -> Any:
     return str(obj)
 
 
+def software_versions() -> dict[str, Any]:
+    """Code and library versions recorded with every iteration (and every model version)."""
+    from alcove.surrogates.service import code_version, library_versions
+
+    return {"code_version": code_version(), "library_versions": library_versions()}
+
+
 def _fault(ctx: StepContext) -> dict[str, Any]:
     f = ctx.fault
     if f.get("sleep_s"):
@@ -660,7 +667,7 @@ def execute_evaluate(ctx: StepContext) -> StepOutput:
             ocp_success=sol.success if sol else None, ocp_status=sol.solver_status if sol else None, ocp_iterations=sol.n_iterations if sol else None,
             ocp_cost=sol.cost if sol else None, ocp_wall_time_s=sol.wall_time_s if sol else None, oracle_wall_time_s=runs[-1].wall_time_s if runs else None,
             train_wall_time_s=mv.train_wall_time_s, n_pool_samples=pv_prev.n_samples if pv_prev else None,
-            extra={"rmse_components": per_component, "step_wall_time_s": timings, "n_samples": int(len(a["t"])),
+            extra={**software_versions(), "model_seed": mv.seed, "rmse_components": per_component, "step_wall_time_s": timings, "n_samples": int(len(a["t"])),
                    "model_test_rmse": {"force": mv.test_force_rmse, "moment": mv.test_moment_rmse}, "config_version_id": it.config_version_id},
             curves_sha256=curves,
         )
@@ -687,7 +694,8 @@ def execute_append(ctx: StepContext) -> StepOutput:
         history = [IterationRecord(m.iteration_index, m.force_rmse, m.moment_rmse) for m in repo.metrics_series(s, c.id)]
         rules = service.current_config(s, c).stopping  # stopping rules edited during the run apply at once
         reason = stop_reason(rules, k, history, c.oracle_wall_time_s or 0.0)
-        return {"pool_version_id": pv.id, "n_datasets": pv.n_datasets, "n_samples": pv.n_samples, "appended": ds.id if ds else None, "stop_reason": reason}, reason
+        return {"pool_version_id": pv.id, "n_datasets": pv.n_datasets, "n_samples": pv.n_samples, "appended": ds.id if ds else None, "stop_reason": reason,
+                **software_versions()}, reason
 
     return StepOutput(write)
 

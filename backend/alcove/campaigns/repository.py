@@ -132,13 +132,20 @@ def owned_running_step(s: Session, step_id: int, token: str) -> IterationStep | 
     )
 
 
+def _skip_locked(s: Session, q: sa.Select) -> sa.Select:
+    """On PostgreSQL, concurrent reconcilers (one per worker) each take different rows."""
+    if s.get_bind().dialect.name == "postgresql":
+        return q.with_for_update(skip_locked=True, of=IterationStep)
+    return q
+
+
 def expired_running_steps(s: Session, now: datetime) -> list[tuple[int, IterationStep]]:
     q = (
         sa.select(Iteration.index, IterationStep)
         .join(Iteration, Iteration.id == IterationStep.iteration_id)
         .where(IterationStep.status == StepStatus.running.value, IterationStep.lease_until < now)
     )
-    return [(i, st) for i, st in s.execute(q)]
+    return [(i, st) for i, st in s.execute(_skip_locked(s, q))]
 
 
 def stale_queued_steps(s: Session, before: datetime) -> list[tuple[int, IterationStep]]:
@@ -147,7 +154,7 @@ def stale_queued_steps(s: Session, before: datetime) -> list[tuple[int, Iteratio
         .join(Iteration, Iteration.id == IterationStep.iteration_id)
         .where(IterationStep.status == StepStatus.queued.value, IterationStep.queued_at < before)
     )
-    return [(i, st) for i, st in s.execute(q)]
+    return [(i, st) for i, st in s.execute(_skip_locked(s, q))]
 
 
 def metrics_series(s: Session, campaign_id: int, after: int | None = None) -> list[IterationMetrics]:
