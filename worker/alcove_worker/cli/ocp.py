@@ -4,7 +4,8 @@
 [--intervals N] --out traj.csv [--json]`` writes the solution on the OCP grid as a trajectory
 CSV (``t,q_0,..,qd_0,..,tau_0,..``) and prints a summary (status, iterations, cost,
 constraint violation, wall time). Bad input prints ``error: <field>: <reason>`` and exits
-with code 2; a solve that does not converge still writes the CSV but exits with code 1.
+with code 2; a solve that does not converge still writes the CSV (when its numbers are
+finite) but exits with code 1.
 """
 
 from __future__ import annotations
@@ -55,6 +56,7 @@ def solve(
     """Solve a task and write the optimal trajectory."""
     from alcove.science.ocp.contact import ContactModelError, contact_from_spec
     from alcove.science.ocp.solve import solve_task
+    from alcove.science.series import SeriesFormatError
 
     spec = _load_task(task if task_file is None else None, task_file, intervals)
     try:
@@ -66,8 +68,13 @@ def solve(
     except (ValueError, OSError) as exc:
         _bad_input("contact", str(exc))
     solution = solve_task(spec, contact_fn)
-    solution.trajectory.to_csv(out)
-    summary = {**solution.summary(), "contact": contact, "out": str(out)}
+    try:
+        solution.trajectory.to_csv(out)
+        written = str(out)
+    except SeriesFormatError as exc:  # a failed solve may hold non-finite numbers
+        typer.echo(f"warning: no trajectory written ({exc})", err=True)
+        written = None
+    summary = {**solution.summary(), "contact": contact, "out": written}
     if as_json:
         typer.echo(json.dumps(summary, indent=2))
     else:
