@@ -48,6 +48,15 @@ def test_task_file_and_no_contact(tmp_path):
     assert "head-headrest-2phase" in runner.invoke(app, ["ocp", "tasks"]).stdout
 
 
+def test_not_converged_exits_1_and_says_so(tmp_path):
+    res = runner.invoke(app, ["ocp", "solve", "--intervals", "20", "--max-iter", "2", "--json", "--out", str(tmp_path / "t.csv")])
+    assert res.exit_code == 1
+    summary = json.loads(res.stdout)
+    assert summary["converged"] is False and summary["status"] == "Maximum_Iterations_Exceeded"
+    assert len(summary["attempts"]) == 3  # bounded retries with the other initial guesses
+    assert "did not converge" in res.stderr
+
+
 @pytest.mark.parametrize(
     "args, message",
     [

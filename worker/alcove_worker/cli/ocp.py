@@ -50,6 +50,7 @@ def solve(
     task_file: Path | None = typer.Option(None, "--task-file", help="task definition as JSON (see `alcove ocp show`)"),
     contact: str = typer.Option("aux", help="contact model: aux, none or model:FILE (a trained surrogate artifact)"),
     intervals: int | None = typer.Option(None, min=1, help="DMOCC intervals per phase (overrides the task)"),
+    max_iter: int | None = typer.Option(None, "--max-iter", min=1, help="IPOPT iterations per attempt (default 500)"),
     out: Path = typer.Option(..., help="output trajectory CSV on the OCP grid"),
     as_json: bool = typer.Option(False, "--json", help="print the summary as JSON"),
 ) -> None:
@@ -67,7 +68,7 @@ def solve(
         _bad_input("contact", f"surrogate models are not available ({exc})")
     except (ValueError, OSError) as exc:
         _bad_input("contact", str(exc))
-    solution = solve_task(spec, contact_fn)
+    solution = solve_task(spec, contact_fn, ipopt_options=None if max_iter is None else {"ipopt.max_iter": max_iter})
     try:
         solution.trajectory.to_csv(out)
         written = str(out)
