@@ -257,3 +257,48 @@ def test_a_redis_restart_mid_campaign_loses_no_step(pg_redis: dict[str, str], pg
         redis_server.stop()
     assert rows(pg_url, "SELECT status FROM campaigns WHERE id = :c", c=cid) == [("completed",)]
     assert pool_hashes(pg_url, cid) == expected
+
+
+def test_killing_the_controlling_process_leaves_a_campaign_that_a_new_worker_finishes(tmp_path: Path) -> None:
+    """SIGKILL of `alcove campaign run` (the API-side process): its worker shuts down with
+    it; the campaign lives in the database and a worker started later completes it."""
+    cfg = tmp_path / "quick.yaml"
+    cfg.write_text(QUICK_YAML.replace("settings: {ocp_intervals: 20, replay_dt: 0.01}",
+                                      "settings: {ocp_intervals: 20, replay_dt: 0.01, fault_injection: {train: {sleep_s: 2, iterations: [2]}}}"))
+    env = env_for(data_dir=tmp_path / "data", job_lease_seconds=4)
+    url = f"sqlite:///{tmp_path / 'data' / 'alcove.db'}"
+    cli = subprocess.Popen(CLI + ["campaign", "run", "--oracle", "aux-penalty", "--iterations", "3", "--config", str(cfg), "--json",
+                                  "--worker-log", str(tmp_path / "spawned.log")], env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    try:
+        wait_for(lambda: (tmp_path / "data" / "alcove.db").exists() and rows(
+            url, "SELECT 1 FROM iteration_steps s JOIN iterations i ON i.id = s.iteration_id WHERE i.\"index\" = 2 AND s.step = 'train' AND s.status = 'running'"),
+            180, "the train job of iteration 2")
+        pids = [p for (p,) in rows(url, "SELECT pid FROM worker_heartbeats")]
+        cli.kill()
+        cli.wait(timeout=10)
+        wait_for(lambda: not any(_alive(p) for p in pids), 60, "the spawned worker to exit with its parent")
+    finally:
+        if cli.poll() is None:
+            cli.kill()
+    (cid, status), = rows(url, "SELECT id, status FROM campaigns")
+    assert status == "running"
+    w = Worker(env, tmp_path / "w.log", f"later-{uuid.uuid4().hex[:4]}")
+    try:
+        wait_for(lambda: rows(url, "SELECT 1 FROM campaigns WHERE status IN ('completed', 'failed', 'cancelled')"), 180, "the campaign to end", w)
+    finally:
+        w.stop()
+    assert rows(url, "SELECT status, stop_reason FROM campaigns") == [("completed", "max_iterations")]
+    assert [v for v, _, _ in pool_hashes(url, cid)] == [0, 1, 2, 3]
+    assert rows(url, "SELECT count(*), count(DISTINCT iteration_id) FROM datasets WHERE origin = 'oracle'") == [(3, 3)]
+
+
+def _alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    try:
+        with open(f"/proc/{pid}/stat") as fh:
+            return fh.read().split()[2] != "Z"
+    except FileNotFoundError:
+        return False
