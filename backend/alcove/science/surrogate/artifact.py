@@ -62,7 +62,7 @@ class _Scripted(nn.Module):
             h = lin(h)
             if i < n - 1:
                 if self.activation == "softplus":
-                    h = torch.logaddexp(h, torch.zeros_like(h))
+                    h = torch.nn.functional.softplus(h, beta=1.0, threshold=40.0)
                 elif self.activation == "tanh":
                     h = torch.tanh(h)
                 else:
