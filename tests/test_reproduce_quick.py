@@ -11,9 +11,11 @@ import subprocess
 import sys
 from pathlib import Path
 
+import pytest
+
 REPO = Path(__file__).resolve().parents[1]
 SECTIONS = ("## 1. The multibody solution", "## 2. FE replay", "## 3. The active-learning loop", "## 4. Remedies against the baseline",
-            "## Comparison with the paper", "## Where our model differs from the paper's")
+            "## Comparison with the paper", "## What this run shows", "## Where our model differs from the paper's")
 FIGURES = ("multibody.png", "fe_replay.png", "campaign_rmse.png", "campaign_last.png", "remedies.png")
 
 
@@ -24,6 +26,7 @@ def _table(markdown: str) -> list[list[str]]:
     return [[c.strip().replace("\\|", "|") for c in re.split(r"(?<!\\)\|", ln)[1:-1]] for ln in rows]
 
 
+@pytest.mark.slow
 def test_quick_reproduction_writes_page_figures_and_numeric_table(tmp_path: Path) -> None:
     out = tmp_path / "docs"
     env = {k: v for k, v in os.environ.items() if not k.startswith("ALCOVE_")}
