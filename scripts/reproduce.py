@@ -163,10 +163,9 @@ def part_multibody(rep: Report) -> Any:
         raise RuntimeError(f"the OCP did not converge: {sol.status}")
     phases = phase_bounds(task)
     dq = sol.q[:, 0] - sol.q[0, 0]
-    tau = sol.tau[:, 0]
     t1 = phases[0][2]
     p1, p2 = sol.t <= t1 + 1e-9, sol.t > t1 + 1e-9
-    # the torque at the nodes averages neighbouring intervals; phase 2 uses its own intervals
+    # interval torques (piecewise constant), assigned to a phase by the interval's midpoint
     u = sol.controls[:, 0]
     t_mid = 0.5 * (sol.t[:-1] + sol.t[1:])
     u2 = u[t_mid > t1]
@@ -591,26 +590,33 @@ DIFFERENCES = """\
 ## Where our model differs from the paper's, and what that means
 
 - **FE model.** The paper replays the motion in LS-DYNA with the THUMS v4.1 head (parietal and
-  occipital bones and skin) against the Toyota Camry 2012 passenger headrest, a 3D mesh with
-  `*MAT_LOW_DENSITY_FOAM`. alcove's `fe-headrest-2d` is a 2D plane-strain cushion (Ogden-Storakers
-  hyperfoam with Kelvin-Voigt viscosity, penalty contact with friction) against the rigid elliptic
-  occipital profile of the shared geometry, scaled by an out-of-plane width (one slice by default,
-  or several slices through an ellipsoidal head). Its foam constants are literature values for a
-  seat foam, not the Camry headrest's. Forces and moments therefore agree with the paper only in
-  kind (sign, timing, shape, order of magnitude at best), not in value; see `docs/fe-oracle.md`.
-- **Frames and signs.** alcove reports the contact force on the head and its moment about the
-  head COG in the headrest frame H (x_H the outward cushion normal, so fx > 0 pushes the head away;
-  the planar model has only fx, fz and my). The paper plots "the relevant coordinates" in its own
-  headrest system; signs and the moment's reference point may differ, so compare magnitudes.
+  occipital bones and skin) against the 2012 Toyota Camry passenger headrest, a 3D mesh with
+  `*MAT_LOW_DENSITY_FOAM`. alcove's `fe-headrest-2d` is a 2D plane-strain cushion block
+  (Ogden-Storakers hyperfoam with Kelvin-Voigt viscosity, penalty contact with friction, a
+  quasi-static implicit solve per step) against the rigid elliptic occipital profile of the
+  shared geometry, turned into newtons by an out-of-plane width (one slice by default, or
+  several slices through an ellipsoidal head). Its foam curve is a firm PU headrest foam chosen
+  within the range of the literature, not data of the Camry foam. Forces therefore agree with the
+  paper in kind (sign, timing, shape) and order of magnitude, not in value. Details:
+  [fe-oracle.md](fe-oracle.md#how-this-differs-from-the-papers-ls-dyna-model).
+- **Moments.** alcove's moment is taken about the head frame origin (the head COG). With the
+  preset's head profile the contact resultant passes a few centimetres from it, which gives a
+  few N m per 100 N; the paper's 10-30 N m come from its own head geometry and reference
+  point, which it does not state. Compare the moment's shape and sign, not its size.
+- **Frames and signs.** alcove reports the contact force on the head in the headrest frame H
+  (x_H the outward cushion normal, so fx > 0 pushes the head away; the planar model has only
+  fx, fz and my). The paper plots "the relevant coordinates" in its own headrest system; signs
+  may differ, so compare magnitudes.
 - **The motion.** The paper's FE figure shows an exemplary motion with first contact at 0.29 s.
   alcove's `reference_motion()` is a reconstruction of it (at rest, contact at 0.29 s, pressed in,
-  eased back), not the paper's data. The OCP solution of section 1 is a different motion (found with
+  eased back), not the paper's data. The OCP solution of part 1 is a different motion (found with
   the auxiliary contact), so its first contact time need not be 0.29 s.
 - **The RMSE.** The paper's final RMSE (3.32 N, 0.265 N m) is measured against its LS-DYNA model;
-  ours is against `fe-headrest-2d`. With a softer or stiffer oracle, smaller or larger forces,
-  the absolute RMSE scales with them; the relative error and the trend are what carry over.
-- **Remedies.** The paper names down-weighting (implicitly, as the cause of its bias) and warm
-  starts as ideas; it reports no numbers, so the table has nothing to compare them with.
+  ours against `fe-headrest-2d`. The absolute RMSE scales with the forces of the oracle; the
+  relative error (RMSE over the peak) and the trend are what carry over.
+- **Remedies.** The paper names down-weighting the preliminary data (as the cause of its bias)
+  and warm starts from a previous loop as ideas and reports no numbers for them, so part 4
+  compares them with our own baseline only.
 """
 
 
