@@ -166,6 +166,7 @@ def test_sigkill_of_a_worker_during_an_oracle_job_loses_and_duplicates_nothing(p
     w1 = Worker(pg_redis, tmp_path / "w1.log", f"w1-{uuid.uuid4().hex[:4]}")
     try:
         enqueue(jobs)
+        enqueue(jobs)  # a duplicate delivery of the first step: the second message does nothing
         wait_for(lambda: rows(pg_url, "SELECT 1 FROM iteration_steps s JOIN iterations i ON i.id = s.iteration_id "
                                       "WHERE s.campaign_id = :c AND i.index = 2 AND s.step = 'oracle' AND s.status = 'running'", c=cid),
                  180, "the oracle job of iteration 2", w1)
@@ -186,6 +187,9 @@ def test_sigkill_of_a_worker_during_an_oracle_job_loses_and_duplicates_nothing(p
     assert attempts == 2 and worker.startswith("w2-")
     assert rows(pg_url, "SELECT count(*) FROM campaign_events WHERE campaign_id = :c AND kind = 'step_requeued'", c=cid) == [(1,)]
     assert rows(pg_url, "SELECT count(*) FROM datasets WHERE campaign_id = :c AND origin = 'oracle'", c=cid) == [(3,)]
+    assert rows(pg_url, "SELECT count(*) FROM campaign_events WHERE campaign_id = :c AND kind = 'step_started' AND step = 'preliminary'", c=cid) == [(1,)]
+    assert rows(pg_url, "SELECT count(*) FROM datasets WHERE campaign_id = :c AND origin = 'preliminary'", c=cid) == [(4,)]
+    assert "duplicate" in w1.output() + w2.output()
 
 
 def _free_port() -> int:
