@@ -218,6 +218,8 @@ def test_an_oracle_that_keeps_raising_is_retried_then_its_iteration_fails(sqlite
         kinds = [e.kind for e in repository.events(s, cid)]
         assert kinds.count("step_retry") == 1
         assert repository.get_iteration(s, cid, 1).status == "failed"
+        runs = repository.oracle_runs(s, step.iteration_id)
+        assert [(r.attempt, r.status) for r in runs] == [(1, "failed"), (2, "failed")] and "fault injection" in runs[0].failure_reason
 
 
 def test_an_oracle_result_failing_the_quality_gate_is_quarantined_never_appended(sqlite_campaign_db: str, make_campaign) -> None:

@@ -218,6 +218,9 @@ def run_step(campaign_id: int, iteration: int, step: str, attempt: int, *, worke
         outcome, message, extra = failure  # type: ignore[misc]
         if outcome is None:  # an exception: retry while attempts remain (unless bad input)
             bad_input = extra
+            if ref.step is StepName.oracle:  # every oracle attempt leaves a run row
+                s.add(OracleRun(campaign_id=c.id, iteration_id=it.id, oracle_version_id=c.oracle_version_id, attempt=row.attempts, status="failed",
+                                worker_name=worker_name, started_at=row.started_at, finished_at=utcnow(), failure_reason=message))
             if row.attempts < row.max_attempts and not bad_input:
                 return _requeue(s, c, ref, row, message)
             outcome = _policy_outcome(config, ref)
