@@ -9,6 +9,8 @@ from typing import Any, Literal
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 
 from alcove.models.base import CampaignStatus, IterationStatus, StepName, StepStatus
+from alcove.pool.schemas import PoolVersionRead
+from alcove.surrogates.schemas import ModelVersionRead
 
 
 class _Strict(BaseModel):
@@ -234,36 +236,6 @@ class IterationCurves(BaseModel):
     qd: list[list[float]]
     f_true: list[list[float]] = Field(description="(n, 6): fx fy fz mx my mz")
     f_pred: list[list[float]]
-
-
-class PoolVersionRead(_Read):
-    id: int
-    campaign_id: int
-    version: int
-    parent_id: int | None
-    n_datasets: int
-    n_samples: int
-    content_hash: str
-    created_at: datetime
-
-
-class ModelVersionRead(_Read):
-    id: int
-    campaign_id: int | None
-    version: int
-    pool_version_id: int
-    parent_model_id: int | None
-    surrogate_config_version_id: int | None
-    seed: int
-    test_force_rmse: float | None
-    test_moment_rmse: float | None
-    epochs: int | None
-    train_wall_time_s: float | None
-    code_version: str
-    library_versions: dict[str, Any]
-    architecture: dict[str, Any]
-    training_metrics: dict[str, Any]
-    created_at: datetime
 
 
 class EventRead(_Read):

@@ -1,0 +1,34 @@
+"""Pydantic schemas of model versions."""
+
+from __future__ import annotations
+
+from datetime import datetime
+from typing import Any
+
+from pydantic import BaseModel, ConfigDict
+
+
+class _Read(BaseModel):
+    model_config = ConfigDict(from_attributes=True)
+
+
+class ModelVersionRead(_Read):
+    id: int
+    campaign_id: int | None
+    version: int
+    pool_version_id: int
+    parent_model_id: int | None
+    surrogate_config_version_id: int | None
+    seed: int
+    test_force_rmse: float | None
+    test_moment_rmse: float | None
+    epochs: int | None
+    train_wall_time_s: float | None
+    code_version: str
+    library_versions: dict[str, Any]
+    architecture: dict[str, Any]
+    training_metrics: dict[str, Any]
+    created_at: datetime
+
+
+__all__ = ["ModelVersionRead"]
