@@ -1,5 +1,8 @@
 """Wall time of the ``fe-headrest-2d`` oracle on the paper's example motion (target <= 5 s).
 
+Run with ``python -m bench.run --only fe-oracle`` (``--only fe-headrest`` also selects the
+campaign figures, which run whole campaigns).
+
 The motion is ``alcove.science.oracles.fe_headrest.reference_motion()``: 1 s, 401 outputs
 at 0.0025 s, head at rest at theta0 = 0.232 rad, first contact at t = 0.29 s, pressed in to
 theta = 0.40 rad at t = 0.6 s and eased back to rest on the cushion at theta = 0.33 rad
@@ -32,7 +35,7 @@ def _setup() -> tuple[Any, Any]:
 
 
 @figure(
-    "fe-headrest-2d paper example motion, 1 s / 401 outputs, default mesh",
+    "fe-oracle: fe-headrest-2d on the paper example motion (1 s, 401 outputs), default mesh",
     "s",
     target=5.0,
     setup=_setup,
