@@ -190,6 +190,14 @@ def test_sigkill_of_a_worker_during_an_oracle_job_loses_and_duplicates_nothing(p
     assert rows(pg_url, "SELECT count(*) FROM campaign_events WHERE campaign_id = :c AND kind = 'step_started' AND step = 'preliminary'", c=cid) == [(1,)]
     assert rows(pg_url, "SELECT count(*) FROM datasets WHERE campaign_id = :c AND origin = 'preliminary'", c=cid) == [(4,)]
     assert "duplicate" in w1.output() + w2.output()
+    # N iterations with metrics and curves, N model versions, all lineage links
+    assert rows(pg_url, "SELECT iteration_index, curves_sha256 IS NOT NULL, model_version_id IS NOT NULL, dataset_id IS NOT NULL "
+                        "FROM iteration_metrics WHERE campaign_id = :c ORDER BY iteration_index", c=cid) == [(k, True, True, True) for k in (1, 2, 3)]
+    lineage = rows(pg_url, "SELECT m.version, p.version, pm.version FROM model_versions m JOIN pool_versions p ON p.id = m.pool_version_id "
+                           "LEFT JOIN model_versions pm ON pm.id = m.parent_model_id WHERE m.campaign_id = :c ORDER BY m.version", c=cid)
+    assert lineage == [(1, 0, None), (2, 1, 1), (3, 2, 2)]
+    assert rows(pg_url, "SELECT p.version, pp.version FROM pool_versions p LEFT JOIN pool_versions pp ON pp.id = p.parent_id "
+                        "WHERE p.campaign_id = :c ORDER BY p.version", c=cid) == [(0, None), (1, 0), (2, 1), (3, 2)]
 
 
 def _free_port() -> int:
