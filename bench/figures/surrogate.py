@@ -64,6 +64,22 @@ def surrogate_training(ctx: Any) -> float:
     return timed(lambda: train_surrogate(pool, SurrogateConfig(), seed=next(seeds)))
 
 
+@figure(
+    "surrogate training, 80,000 samples: CPU time of the training process", "s", target=3.0, setup=_seeded_pool, reps=3,
+    quick=False, group="surrogate", notes="training is single-threaded, so on an idle machine wall time ~ CPU time; less sensitive to load",
+)
+def surrogate_training_cpu(ctx: Any) -> float:
+    import time
+
+    from alcove.science.surrogate.config import SurrogateConfig
+    from alcove.science.surrogate.training import train_surrogate
+
+    pool, seeds = ctx
+    start = time.process_time()
+    train_surrogate(pool, SurrogateConfig(), seed=next(seeds))
+    return time.process_time() - start
+
+
 def _warm_setup() -> tuple[list[Any], Any]:
     from alcove.science.surrogate.config import SurrogateConfig
     from alcove.science.surrogate.training import train_surrogate
