@@ -57,7 +57,8 @@ def test_personal_tokens_are_shown_once_stored_hashed_and_revocable(client, owne
         stored = s.scalar(sa.select(ApiToken).where(ApiToken.id == created["id"]))
         assert secret not in (stored.token_hash, stored.token_prefix, stored.name)
     headers = {"Authorization": f"Bearer {secret}"}
-    assert client.get("/api/v1/me", headers=headers).json()["id"] == owner.id
+    for _ in range(3):  # the token is now also in the API's short-lived token cache
+        assert client.get("/api/v1/me", headers=headers).json()["id"] == owner.id
     assert client.delete(f"/api/v1/me/tokens/{created['id']}", headers=owner.headers).status_code == 204
     assert client.get("/api/v1/me", headers=headers).status_code == 401
     assert next(t for t in client.get("/api/v1/me/tokens", headers=owner.headers).json() if t["id"] == created["id"])["revoked"]
@@ -84,3 +85,12 @@ def test_changing_my_password_needs_the_current_one(client) -> None:
     r = client.patch("/api/v1/me", json={"new_password": "another long one", "current_password": me.password, "display_name": "Pat"}, headers=me.headers)
     assert r.status_code == 200 and r.json()["display_name"] == "Pat"
     assert client.post("/api/v1/auth/login", json={"email": me.email, "password": "another long one"}).status_code == 200
+
+
+def test_deactivating_a_user_shuts_out_their_tokens_at_once(client, admin: Account) -> None:
+    user = make_account("member", "leaver")
+    for _ in range(3):
+        assert client.get("/api/v1/me", headers=user.headers).status_code == 200
+    assert client.patch(f"/api/v1/users/{user.id}", json={"is_active": False}, headers=admin.headers).status_code == 200
+    assert client.get("/api/v1/me", headers=user.headers).status_code == 401
+    assert client.post("/api/v1/auth/login", json={"email": user.email, "password": user.password}).status_code == 401

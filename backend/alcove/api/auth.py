@@ -32,17 +32,17 @@ def current_token(
         raise _unauthorized("invalid, expired or revoked token")
     token, user = found
     if service.needs_touch(token):
-        token.last_used_at = utcnow()
+        session.merge(token).last_used_at = utcnow()
         session.commit()  # nothing else happened in this session yet
     request.state.user = user
     return token
 
 
-def current_user(request: Request, token: Annotated[ApiToken, Depends(current_token)]) -> User:
+async def current_user(request: Request, token: Annotated[ApiToken, Depends(current_token)]) -> User:
     return request.state.user
 
 
-def admin_user(user: Annotated[User, Depends(current_user)]) -> User:
+async def admin_user(user: Annotated[User, Depends(current_user)]) -> User:
     if not user.is_admin:
         raise HTTPException(status.HTTP_403_FORBIDDEN, detail="administrators only")
     return user

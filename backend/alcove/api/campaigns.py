@@ -8,14 +8,17 @@ from __future__ import annotations
 import asyncio
 import io
 import logging
+import threading
 import zipfile
+from collections import OrderedDict
+from collections.abc import Callable
 from datetime import datetime
 from typing import Annotated, Any, Literal
 
 import sqlalchemy as sa
 from fastapi import APIRouter, Body, File, Form, Query, Request, Response, UploadFile, status
 from fastapi.responses import StreamingResponse
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import BaseModel, ConfigDict, Field, TypeAdapter
 from sqlalchemy.orm import Session
 
 from alcove.api.auth import CurrentUser
@@ -157,6 +160,34 @@ class UploadOut(BaseModel):
 
 
 # ----------------------------------------------------------------------------- helpers
+
+
+class ResponseCache:
+    """A small thread-safe LRU of serialized JSON bodies. Keys carry what makes an entry
+    stale (content hashes, row counts, the campaign's ``updated_at``), so entries are never
+    invalidated explicitly; a hot dashboard poll costs the access check and one count."""
+
+    def __init__(self, max_entries: int = 256) -> None:
+        self.max_entries = max_entries
+        self._data: OrderedDict[Any, bytes] = OrderedDict()
+        self._lock = threading.Lock()
+
+    def get_or_build(self, key: Any, build: Callable[[], bytes]) -> bytes:
+        with self._lock:
+            body = self._data.get(key)
+            if body is not None:
+                self._data.move_to_end(key)
+                return body
+        body = build()
+        with self._lock:
+            self._data[key] = body
+            while len(self._data) > self.max_entries:
+                self._data.popitem(last=False)
+        return body
+
+
+RESPONSES = ResponseCache()
+METRICS_LIST = TypeAdapter(list[MetricsRead])
 
 
 def _send(jobs: list[Any]) -> None:
@@ -387,11 +418,16 @@ After = Annotated[int | None, Query(ge=-1, le=MAX_ID, description="only iteratio
 
 
 @router.get("/{campaign_id}/metrics", response_model=list[MetricsRead], operation_id="list_campaign_metrics")
-def list_campaign_metrics(campaign_id: ObjectId, user: CurrentUser, session: SessionDep, after: After = None) -> list[MetricsRead]:
+def list_campaign_metrics(campaign_id: ObjectId, user: CurrentUser, session: SessionDep, after: After = None) -> Response:
     """Per-iteration metrics (force/moment RMSE, max errors, OCP and oracle figures);
     ``?after=k`` returns only iterations after k, so a dashboard polls cheaply."""
-    get_for(session, Campaign, campaign_id, user)
-    return campaigns.metrics_series(session, campaign_id, after)
+    campaign = get_for(session, Campaign, campaign_id, user)
+    count, last_id = session.execute(
+        sa.select(sa.func.count(), sa.func.max(IterationMetrics.id)).where(IterationMetrics.campaign_id == campaign_id)
+    ).one()
+    key = ("metrics", campaign_id, after, campaign.updated_at, count, last_id)
+    body = RESPONSES.get_or_build(key, lambda: METRICS_LIST.dump_json(campaigns.metrics_series(session, campaign_id, after)))
+    return Response(body, media_type="application/json")
 
 
 @router.get("/{campaign_id}/iterations", response_model=list[IterationRead], operation_id="list_campaign_iterations")
@@ -401,11 +437,18 @@ def list_campaign_iterations(campaign_id: ObjectId, user: CurrentUser, session: 
 
 
 @router.get("/{campaign_id}/iterations/{iteration}/curves", response_model=IterationCurves, operation_id="get_iteration_curves")
-def get_iteration_curves(campaign_id: ObjectId, iteration: IterationIndex, user: CurrentUser, session: SessionDep) -> IterationCurves:
+def get_iteration_curves(campaign_id: ObjectId, iteration: IterationIndex, user: CurrentUser, session: SessionDep) -> Response:
     """Iteration k's trajectory (t, q, qd) with the oracle's forces and model k's prediction
     (columns fx fy fz mx my mz in the headrest frame)."""
+    from alcove.campaigns import repository as crepo
+
     get_for(session, Campaign, campaign_id, user)
-    return campaigns.iteration_curves(session, campaign_id, iteration)
+    metrics = crepo.metrics_of(session, campaign_id, iteration)
+    if metrics is None or metrics.curves_sha256 is None:
+        raise NotFound(f"evaluated iteration {iteration} of campaign", campaign_id)
+    key = ("curves", metrics.curves_sha256, iteration)  # content-addressed: never stale
+    body = RESPONSES.get_or_build(key, lambda: campaigns.iteration_curves(session, campaign_id, iteration).model_dump_json().encode())
+    return Response(body, media_type="application/json")
 
 
 @router.get("/{campaign_id}/jobs", response_model=list[JobOut], operation_id="list_campaign_jobs")

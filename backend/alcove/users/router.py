@@ -55,7 +55,7 @@ def login(body: LoginIn, session: SessionDep) -> LoginOut:
 @router.post("/auth/logout", status_code=status.HTTP_204_NO_CONTENT, tags=["auth"], operation_id="logout")
 def logout(token: CurrentToken, session: SessionDep) -> Response:
     """Revoke the token this request was made with."""
-    service.revoke(session, session.merge(token))
+    service.revoke(session, token)
     session.commit()
     return Response(status_code=status.HTTP_204_NO_CONTENT)
 
@@ -67,6 +67,7 @@ def get_me(user: CurrentUser) -> UserOut:
 
 @router.patch("/me", response_model=UserOut, tags=["me"], operation_id="update_me")
 def update_me(body: MeUpdate, user: CurrentUser, session: SessionDep) -> UserOut:
+    user = session.merge(user)
     service.update_me(session, user, body.display_name, body.new_password, body.current_password)
     session.commit()
     return UserOut.model_validate(user)

@@ -2,16 +2,22 @@
 
 from __future__ import annotations
 
+import threading
+import time
 from datetime import timedelta
+from typing import TypeVar
 
 import sqlalchemy as sa
-from sqlalchemy.orm import Session
+from sqlalchemy.orm import Session, make_transient_to_detached
+from sqlalchemy.orm.attributes import set_committed_value
 
 from alcove.errors import AuthenticationFailed, Conflict, InvalidInput, LoginLocked, NotFound, PermissionDenied
-from alcove.models import ApiToken, Role, Share, TokenKind, User, hash_password, utcnow
+from alcove.models import ApiToken, Role, Share, TokenKind, User, hash_password, hash_token, utcnow
 from alcove.users import repository as repo
 from alcove.users.access import LABEL, OBJECT_TYPES, SHARE_COLUMN, get_for
 from alcove.users.schemas import ShareCreate, ShareOut, UserCreate, UserUpdate
+
+T = TypeVar("T", ApiToken, User)
 
 #: Failed password logins in a row before the account is locked ...
 MAX_FAILED_LOGINS = 5
@@ -59,16 +65,69 @@ def login(session: Session, email: str, password: str) -> tuple[ApiToken, str]:
     return token, secret
 
 
+class _TokenCache:
+    """Recently verified tokens (by hash) for :data:`TOKEN_CACHE_SECONDS`, so a polling
+    dashboard does not pay a token lookup per request. Revoking a token or changing a user
+    through this process drops the entries at once; another API process notices within
+    ``TOKEN_CACHE_SECONDS``."""
+
+    def __init__(self, ttl_s: float, max_entries: int = 4096) -> None:
+        self.ttl_s = ttl_s
+        self.max_entries = max_entries
+        self._data: dict[str, tuple[float, ApiToken, User]] = {}
+        self._lock = threading.Lock()
+
+    def get(self, key: str) -> tuple[ApiToken, User] | None:
+        with self._lock:
+            hit = self._data.get(key)
+        if hit is None or hit[0] < time.monotonic():
+            return None
+        return hit[1], hit[2]
+
+    def put(self, key: str, token: ApiToken, user: User) -> None:
+        with self._lock:
+            if len(self._data) >= self.max_entries:
+                self._data.clear()
+            self._data[key] = (time.monotonic() + self.ttl_s, token, user)
+
+    def drop(self, *, token_id: int | None = None, user_id: int | None = None) -> None:
+        with self._lock:
+            for key in [k for k, (_, t, u) in self._data.items() if t.id == token_id or u.id == user_id]:
+                del self._data[key]
+
+
+#: Seconds a verified token is trusted without a database lookup (per API process).
+TOKEN_CACHE_SECONDS = 5.0
+TOKENS = _TokenCache(TOKEN_CACHE_SECONDS)
+
+
 def authenticate(session: Session, secret: str) -> tuple[ApiToken, User] | None:
-    """The valid token and its active user, or None. Refreshes ``last_used_at`` coarsely
-    (the caller commits when :func:`needs_touch` said so)."""
+    """The valid token and its active user, or None. The rows returned may come from the
+    short-lived cache (detached: read their attributes, merge them to change them)."""
+    key = hash_token(secret)
+    hit = TOKENS.get(key)
+    if hit is not None and hit[0].is_valid():
+        # per-request instances, attached to this session without a query
+        return session.merge(_detached_copy(hit[0]), load=False), session.merge(_detached_copy(hit[1]), load=False)
     found = repo.token_with_user(session, secret)
     if found is None:
         return None
     token, user = found
     if not token.is_valid() or not user.is_active:
         return None
+    if not needs_touch(token):
+        TOKENS.put(key, _detached_copy(token), _detached_copy(user))
     return token, user
+
+
+def _detached_copy(obj: T) -> T:
+    """A detached instance with the same column values (no relationships loaded)."""
+    mapper = sa.inspect(type(obj))
+    copy = mapper.class_manager.new_instance()
+    for attr in mapper.column_attrs:
+        set_committed_value(copy, attr.key, getattr(obj, attr.key))
+    make_transient_to_detached(copy)
+    return copy
 
 
 def needs_touch(token: ApiToken) -> bool:
@@ -90,12 +149,15 @@ def revoke_token(session: Session, user: User, token_id: int) -> ApiToken:
     if token.revoked_at is None:
         token.revoked_at = utcnow()
         session.flush()
+    TOKENS.drop(token_id=token.id)
     return token
 
 
 def revoke(session: Session, token: ApiToken) -> None:
+    token = session.merge(token)
     token.revoked_at = utcnow()
     session.flush()
+    TOKENS.drop(token_id=token.id)
 
 
 # ----------------------------------------------------------------------------- users
@@ -133,6 +195,7 @@ def update_user(session: Session, admin: User, user_id: int, body: UserUpdate) -
         user.failed_login_count = 0
         user.locked_until = None
     session.flush()
+    TOKENS.drop(user_id=user.id)
     return user
 
 
