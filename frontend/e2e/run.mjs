@@ -52,6 +52,13 @@ async function waitFor(fn, what, timeout = 30_000, interval = 500) {
   throw new Error(`timed out waiting for ${what} (last: ${last})`);
 }
 
+async function selectByText(select, text) {
+  const options = await select.locator("option").allTextContents();
+  const label = options.find((o) => o.includes(text));
+  if (!label) throw new Error(`no option containing "${text}" in [${options.join(" | ")}]`);
+  await select.selectOption({ label });
+}
+
 const { context, close } = await openBrowser();
 const page = context.pages()[0] ?? (await context.newPage());
 const consoleErrors = [];
@@ -109,14 +116,16 @@ try {
   step("create and start a campaign");
   await page.getByRole("link", { name: "Campaigns" }).click();
   await page.getByRole("link", { name: "New campaign" }).click();
-  await page.getByLabel("Name").fill(`e2e campaign ${stamp}`);
-  await page.getByLabel("Task").selectOption({ label: new RegExp(`e2e task ${stamp}`) });
-  await page.getByLabel("Oracle").selectOption({ label: new RegExp(`e2e oracle ${stamp}`) });
-  await page.getByLabel("Max iterations").fill("4");
-  await page.getByLabel("Preliminary samples").fill("200");
+  await page.getByLabel("Name", { exact: true }).fill(`e2e campaign ${stamp}`);
+  await selectByText(page.getByLabel("Task", { exact: true }), `e2e task ${stamp}`);
+  await selectByText(page.getByLabel("Oracle", { exact: true }), `e2e oracle ${stamp}`);
+  // settings forms are generated from the API's schemas; labels are the field names
+  await page.getByLabel("samples", { exact: true }).fill(String(args.samples ?? 300));
+  await page.getByLabel("max_iterations", { exact: true }).fill(String(args.iterations ?? 4));
   await page.getByRole("button", { name: "Create campaign" }).click();
   await page.waitForURL(/\/campaigns\/\d+/);
   const campaignUrl = page.url();
+  checkpoint("campaign");
 
   step("watch the RMSE plot gain points from >= 2 iterations");
   await waitFor(

@@ -4,11 +4,16 @@ import { BrowserRouter } from "react-router-dom";
 import { QueryClient, QueryClientProvider } from "@tanstack/react-query";
 import { AuthProvider } from "./api/auth";
 import { App } from "./App";
+import { shouldRetry, retryDelay } from "./api/retry";
 import "./styles.css";
+import { loadPlotly } from "./components/Plot";
+
+// Pages with charts: start fetching and compiling plotly.js before React renders.
+if (/^\/(campaigns\/\d+|compare)/.test(window.location.pathname)) void loadPlotly();
 
 const queryClient = new QueryClient({
   defaultOptions: {
-    queries: { staleTime: 1000, retry: (n, err) => n < 2 && !((err as { status?: number }).status! >= 400), refetchOnWindowFocus: false },
+    queries: { staleTime: 1000, retry: shouldRetry, retryDelay, refetchOnWindowFocus: false },
   },
 });
 

@@ -2,6 +2,7 @@
  * Every API call the UI makes, as TanStack Query hooks returning view types. This is the
  * only module that knows routes and response shapes; pages only see the types below.
  */
+import { useMemo } from "react";
 import { keepPreviousData, queryOptions, useMutation, useQuery, useQueryClient } from "@tanstack/react-query";
 import { ApiError, fieldErrors, type FieldError } from "./errors";
 import { storedToken } from "./auth";
@@ -323,11 +324,6 @@ interface IterationState {
   status: string;
   error: string | null;
 }
-interface MetricsCache {
-  metrics: Schemas["MetricsRead"][];
-  iterations: IterationState[];
-  points: MetricPoint[];
-}
 
 const FINAL_ITERATION = new Set(["succeeded", "failed", "cancelled"]);
 
@@ -364,34 +360,51 @@ export function toPoints(metrics: Schemas["MetricsRead"][], iterations: Iteratio
   return mergeMetrics(undefined, points);
 }
 
-/** The RMSE series, polled incrementally: each poll asks only for iterations after the last final one. */
-export function metricsQuery(id: number, live = false) {
+/** Per-iteration metrics, polled incrementally: each poll asks only for iterations after the last one known. */
+export function rawMetricsQuery(id: number, live = false) {
   const key = ["metrics", id] as const;
   return queryOptions({
     queryKey: key,
-    queryFn: async ({ client: qc }): Promise<MetricPoint[]> => {
-      const cacheKey = ["metrics-raw", id];
-      const known = qc.getQueryData<MetricsCache>(cacheKey) ?? { metrics: [], iterations: [], points: [] };
-      const afterMetrics = known.metrics.length ? known.metrics[known.metrics.length - 1].iteration_index : undefined;
-      const afterIterations = lastFinal(known.iterations, (r) => r.iteration, (r) => FINAL_ITERATION.has(r.status));
-      const [m, its] = await Promise.all([
-        client.GET("/api/v1/campaigns/{campaign_id}/metrics", { params: { path: { campaign_id: id }, query: { after: afterMetrics } } }),
-        client.GET("/api/v1/campaigns/{campaign_id}/iterations", { params: { path: { campaign_id: id }, query: { after: afterIterations } } }),
-      ]);
-      const freshMetrics = unwrap(m);
-      const freshIterations = unwrap(its).map((it) => ({ iteration: it.index, status: it.status, error: it.error ?? null }));
-      if (!freshMetrics.length && freshIterations.every((it) => known.iterations.some((k) => k.iteration === it.iteration && k.status === it.status))) return known.points;
-      const metrics = upsert(known.metrics, freshMetrics, (r) => r.iteration_index);
-      const iterations = upsert(known.iterations, freshIterations, (r) => r.iteration);
-      const points = toPoints(metrics, iterations);
-      qc.setQueryData(cacheKey, { metrics, iterations, points });
-      return points;
+    queryFn: async ({ client: qc }): Promise<Schemas["MetricsRead"][]> => {
+      const known = qc.getQueryData<Schemas["MetricsRead"][]>(key) ?? [];
+      const after = known.length ? known[known.length - 1].iteration_index : undefined;
+      const fresh = unwrap(await client.GET("/api/v1/campaigns/{campaign_id}/metrics", { params: { path: { campaign_id: id }, query: { after } } }));
+      return upsert(known, fresh, (r) => r.iteration_index);
     },
     refetchInterval: live ? POLL_MS : false,
   });
 }
+
+/** Iteration statuses (to mark failed and quarantined iterations), polled after the last final one. */
+export function iterationStatesQuery(id: number, live = false) {
+  const key = ["iteration-states", id] as const;
+  return queryOptions({
+    queryKey: key,
+    queryFn: async ({ client: qc }): Promise<IterationState[]> => {
+      const known = qc.getQueryData<IterationState[]>(key) ?? [];
+      const after = lastFinal(known, (r) => r.iteration, (r) => FINAL_ITERATION.has(r.status));
+      const fresh = unwrap(await client.GET("/api/v1/campaigns/{campaign_id}/iterations", { params: { path: { campaign_id: id }, query: { after } } }));
+      return upsert(
+        known,
+        fresh.map((it) => ({ iteration: it.index, status: it.status, error: it.error ?? null })),
+        (r) => r.iteration,
+      );
+    },
+    refetchInterval: live ? POLL_MS : false,
+  });
+}
+
+/** RMSE series without failure marks (sparklines, comparisons). */
+export function metricsQuery(id: number, live = false) {
+  return queryOptions({ ...rawMetricsQuery(id, live), select: (rows: Schemas["MetricsRead"][]) => toPoints(rows, []) });
+}
+
+/** The campaign page's series: metrics as soon as they arrive, failure marks when the statuses do. */
 export function useMetrics(id: number, live: boolean) {
-  return useQuery(metricsQuery(id, live));
+  const metrics = useQuery(rawMetricsQuery(id, live));
+  const states = useQuery(iterationStatesQuery(id, live));
+  const data = useMemo(() => (metrics.data ? toPoints(metrics.data, states.data ?? []) : undefined), [metrics.data, states.data]);
+  return { data, isPending: metrics.isPending, isError: metrics.isError, error: metrics.error, refetch: metrics.refetch };
 }
 
 /** Rows (time) x columns -> one array per column. */

@@ -35,6 +35,7 @@ export function Controls({ campaign, lastIteration }: { campaign: CampaignDetail
   const [forkFrom, setForkFrom] = useState(lastIteration);
   const [forkName, setForkName] = useState(`${campaign.name} (fork)`);
   const [forkConfig, setForkConfig] = useState<ConfigDraft>(() => structuredClone(campaign.config ?? {}));
+  const [forkOpen, setForkOpen] = useState(false);
   const [exportError, setExportError] = useState<string | null>(null);
   const allowed = allowedActions(campaign.status);
 
@@ -62,7 +63,14 @@ export function Controls({ campaign, lastIteration }: { campaign: CampaignDetail
           {LABELS[a]}
         </button>
       ))}
-      <button type="button" onClick={() => dialog.current?.showModal()} disabled={lastIteration < 0}>
+      <button
+        type="button"
+        onClick={() => {
+          setForkOpen(true);
+          dialog.current?.showModal();
+        }}
+        disabled={lastIteration < 0}
+      >
         Fork…
       </button>
       <button
@@ -84,7 +92,8 @@ export function Controls({ campaign, lastIteration }: { campaign: CampaignDetail
           Export: {exportError}
         </span>
       )}
-      <dialog ref={dialog} aria-labelledby="fork-title" style={{ width: 900, maxWidth: "95vw" }}>
+      <dialog ref={dialog} aria-labelledby="fork-title" style={{ width: 900, maxWidth: "95vw" }} onClose={() => setForkOpen(false)}>
+        {forkOpen && (
         <form onSubmit={submitFork}>
           <h2 id="fork-title">Fork from an iteration</h2>
           <p className="muted">The new campaign starts from this campaign's pool and model at iteration k.</p>
@@ -111,6 +120,7 @@ export function Controls({ campaign, lastIteration }: { campaign: CampaignDetail
             </button>
           </div>
         </form>
+        )}
       </dialog>
     </div>
   );

@@ -103,13 +103,13 @@ export function ForcesPanel({
             <div className="toolbar" role="group" aria-label="Force components">
               {compToggle(forceComps, setForceComps, FORCE_COMPONENTS)}
             </div>
-            <Plot testId="force-plot" traces={forceTraces} xTitle="t [s]" yTitle="force on the head [N]" exportName={`forces-k${k}`} height={300} />
+            <Plot testId="force-plot" traces={forceTraces} xTitle="t [s]" yTitle="force [N]" exportName={`forces-k${k}`} height={300} />
           </div>
           <div>
             <div className="toolbar" role="group" aria-label="Moment components">
               {compToggle(momentComps, setMomentComps, MOMENT_COMPONENTS)}
             </div>
-            <Plot testId="moment-plot" traces={momentTraces} xTitle="t [s]" yTitle="moment about the head COG [N m]" exportName={`moments-k${k}`} height={300} />
+            <Plot testId="moment-plot" traces={momentTraces} xTitle="t [s]" yTitle="moment [N m]" exportName={`moments-k${k}`} height={300} />
           </div>
         </div>
       )}

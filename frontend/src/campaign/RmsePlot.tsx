@@ -25,6 +25,8 @@ export function rmseTraces(points: MetricPoint[], name = ""): Trace[] {
 
 export function RmsePlot({ points, logY, onSelect }: { points: MetricPoint[]; logY: boolean; onSelect?: (k: number) => void }) {
   const traces = useMemo(() => rmseTraces(points), [points]);
+  const few = points.length > 0 && points[points.length - 1].iteration <= 12;
+  const xLayout = useMemo(() => ({ xaxis: { title: { text: "iteration k" }, dtick: few ? 1 : undefined, zeroline: false } }), [few]);
   return (
     <Plot
       testId="rmse-plot"
@@ -35,6 +37,7 @@ export function RmsePlot({ points, logY, onSelect }: { points: MetricPoint[]; lo
       exportName="rmse"
       onPointClick={(x) => onSelect?.(x)}
       height={300}
+      extraLayout={xLayout}
     />
   );
 }

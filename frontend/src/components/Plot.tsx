@@ -28,7 +28,10 @@ let plotlyModule: Promise<PlotlyModule> | null = null;
 
 /** plotly.js is large: load it once, in its own chunk, in parallel with the page's data. */
 export function loadPlotly(): Promise<PlotlyModule> {
-  plotlyModule ??= import("plotly.js-dist-min").then((m) => m.default);
+  plotlyModule ??= import("plotly.js-dist-min").then((m) => {
+    performance.mark("alcove:plotly-loaded");
+    return m.default;
+  });
   return plotlyModule;
 }
 
@@ -59,10 +62,10 @@ export function Plot({
     const layout: Partial<Layout> = {
       title: title ? { text: title, font: { size: 14 } } : undefined,
       height,
-      margin: { l: 64, r: 16, t: title ? 36 : 12, b: 44 },
+      margin: { l: 64, r: 16, t: title ? 56 : 32, b: 44 },
       xaxis: { title: { text: xTitle ?? "" }, zeroline: false },
       yaxis: { title: { text: yTitle ?? "" }, type: logY ? "log" : "linear", exponentformat: "power" },
-      legend: { orientation: "h", y: -0.22 },
+      legend: { orientation: "h", x: 0, y: 1.02, xanchor: "left", yanchor: "bottom" },
       shapes,
       paper_bgcolor: "rgba(0,0,0,0)",
       plot_bgcolor: "#fff",
@@ -76,11 +79,15 @@ export function Plot({
       toImageButtonOptions: { format: "png", filename: exportName, scale: 2 },
     };
     let cancelled = false;
+    const started = performance.now();
+    performance.mark(`alcove:plot-effect:${testId ?? "plot"}`);
     void loadPlotly()
       .then((Plotly) => (cancelled ? undefined : Plotly.react(el, traces as Data[], layout, config)))
       .then(() => {
       if (cancelled) return;
       el.dataset.rendered = "true";
+      el.dataset.renderMs = (performance.now() - started).toFixed(0);
+      performance.mark(`alcove:plot-rendered:${testId ?? "plot"}`);
       const plotEl = el as unknown as PlotlyHTMLElement;
       if (typeof plotEl.removeAllListeners === "function") plotEl.removeAllListeners("plotly_click");
       if (typeof plotEl.on === "function")
@@ -92,7 +99,7 @@ export function Plot({
     return () => {
       cancelled = true;
     };
-  }, [traces, title, xTitle, yTitle, logY, height, shapes, exportName, extraLayout]);
+  }, [traces, title, xTitle, yTitle, logY, height, shapes, exportName, extraLayout, testId]);
 
   useEffect(() => {
     const el = ref.current;
