@@ -91,6 +91,14 @@ def rows(url: str, sql: str, **params: Any) -> list[tuple]:
         eng.dispose()
 
 
+def maybe_rows(url: str, sql: str, **params: Any) -> list[tuple]:
+    """``rows``, or nothing while the database is still being created and migrated."""
+    try:
+        return rows(url, sql, **params)
+    except sa.exc.OperationalError:
+        return []
+
+
 def pool_hashes(url: str, cid: int) -> list[tuple[int, str, int]]:
     return rows(url, "SELECT version, content_hash, n_samples FROM pool_versions WHERE campaign_id = :c ORDER BY version", c=cid)
 
@@ -282,7 +290,7 @@ def test_killing_the_controlling_process_leaves_a_campaign_that_a_new_worker_fin
     cli = subprocess.Popen(CLI + ["campaign", "run", "--oracle", "aux-penalty", "--iterations", "3", "--config", str(cfg), "--json",
                                   "--worker-log", str(tmp_path / "spawned.log")], env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     try:
-        wait_for(lambda: (tmp_path / "data" / "alcove.db").exists() and rows(
+        wait_for(lambda: maybe_rows(
             url, "SELECT 1 FROM iteration_steps s JOIN iterations i ON i.id = s.iteration_id WHERE i.\"index\" = 2 AND s.step = 'train' AND s.status = 'running'"),
             180, "the train job of iteration 2")
         pids = [p for (p,) in rows(url, "SELECT pid FROM worker_heartbeats")]
