@@ -1,7 +1,9 @@
 """The HTTP API (FastAPI). ``create_app()`` builds it; routers live in this package.
 
-The API process stays light: it imports neither torch nor casadi nor the science code,
-and sends jobs to the workers by name (:func:`alcove.jobs.send_job`).
+The API process stays light: it imports neither torch nor casadi (it validates with the
+science package's pydantic schemas only), and sends jobs to the workers by name
+(:func:`alcove.jobs.send_job`). Model artifacts with TorchScript are built in a child
+process (:mod:`alcove.api.artifact_export`).
 """
 
 from alcove.api.app import create_app
