@@ -342,3 +342,31 @@ def test_bad_requests_name_the_field(sqlite_campaign_db: str, make_campaign) -> 
             service.fork(s, cid, ForkRequest(iteration=3), owner_id=1)
         with pytest.raises(service.NotFound, match="step"):
             service.retry_step(s, cid)
+
+
+def test_an_uploaded_preliminary_dataset_becomes_pool_version_zero(sqlite_campaign_db: str, make_campaign) -> None:  # noqa: ANN001
+    from alcove.campaigns import presets
+    from alcove.science.geometry import relative_kinematics
+    from alcove.science.ocp.task_spec import task_preset
+    from alcove.science.oracles.aux_penalty import AuxPenaltyParams, aux_penalty_wrench
+    from alcove.science.surrogate.dataset import PoolDataError
+
+    preset = task_preset("head-headrest-2phase").preset()
+    rng = np.random.default_rng(0)
+    q = rng.uniform(preset.theta_min, preset.theta_max, 300)
+    qd = rng.uniform(-2, 2, 300)
+    force, moment = aux_penalty_wrench(preset, AuxPenaltyParams(), relative_kinematics(preset, q, qd))
+    lines = ["q_0,qd_0,fx,fy,fz,mx,my,mz"] + [",".join(repr(float(v)) for v in (q[i], qd[i], *force[i], *moment[i])) for i in range(300)]
+    with session_scope() as s:
+        owner = presets.local_user(s).id
+        with pytest.raises(PoolDataError, match="fx"):
+            service.upload_preliminary_dataset(s, owner, "q_0,qd_0\n0.1,0.2\n", name="bad")
+        ids = [d.id for d in service.upload_preliminary_dataset(s, owner, "\n".join(lines) + "\n", name="lab", chunks=3)]
+    assert len(ids) == 3
+    cid, jobs = make_campaign(preliminary={"dataset_ids": ids}, stopping={"max_iterations": 1})
+    flows.drive_inline(cid, jobs)
+    assert status(cid) == ("completed", "max_iterations")
+    with session_scope() as s:
+        pv0 = repository.pool_version(s, repository.get_campaign(s, cid), 0)
+        assert members(s, pv0) == ids and pv0.n_samples == 300
+        assert {d.origin for d in s.scalars(sa.select(Dataset).where(Dataset.id.in_(ids)))} == {"upload"}
