@@ -521,7 +521,8 @@ def execute_ocp(ctx: StepContext) -> StepOutput:
     t0 = time.perf_counter()
     contact = casadi_contact_function(d["model"], task.preset())
     ipopt = {"ipopt.max_iter": int(fault["ipopt_max_iter"])} if fault.get("ipopt_max_iter") else None
-    sol = solve_task(task, contact, initial_guess=d["previous"], max_attempts=ctx.config.policies.ocp_initial_guesses, ipopt_options=ipopt)
+    sol = solve_task(task, contact, initial_guess=d["previous"], max_attempts=ctx.config.policies.ocp_initial_guesses, ipopt_options=ipopt,
+                     on_attempt=lambda _attempt: ctx.check_cancel())  # cancel between IPOPT runs
     compute = time.perf_counter() - t0
     arrays = {"t": sol.t, "q": sol.q, "qd": sol.qd, "tau": sol.tau, "controls": sol.controls}
     if sol.converged and sol.x is not None:
