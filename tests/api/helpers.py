@@ -20,6 +20,18 @@ class Account:
         return {"Authorization": f"Bearer {self.token}"}
 
 
+_HASHES: dict[str, str] = {}
+
+
+def _password_hash(password: str) -> str:
+    """argon2 is slow on purpose: hash the shared test password once per session."""
+    from alcove.models import hash_password
+
+    if password not in _HASHES:
+        _HASHES[password] = hash_password(password)
+    return _HASHES[password]
+
+
 def make_account(role: str = "member", prefix: str = "user") -> Account:
     from alcove.db import session_scope
     from alcove.models import ApiToken, TokenKind, User
@@ -27,8 +39,7 @@ def make_account(role: str = "member", prefix: str = "user") -> Account:
     email = f"{prefix}-{uuid.uuid4().hex[:8]}@example.org"
     password = "correct horse battery"
     with session_scope() as s:
-        user = User(email=email, display_name=prefix, role=role)
-        user.set_password(password)
+        user = User(email=email, display_name=prefix, role=role, password_hash=_password_hash(password))
         s.add(user)
         token, secret = ApiToken.issue(user, kind=TokenKind.personal, name="tests")
         s.add(token)
