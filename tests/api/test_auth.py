@@ -94,3 +94,14 @@ def test_deactivating_a_user_shuts_out_their_tokens_at_once(client, admin: Accou
     assert client.patch(f"/api/v1/users/{user.id}", json={"is_active": False}, headers=admin.headers).status_code == 200
     assert client.get("/api/v1/me", headers=user.headers).status_code == 401
     assert client.post("/api/v1/auth/login", json={"email": user.email, "password": user.password}).status_code == 401
+
+
+def test_many_failures_from_one_address_are_rate_limited(client, owner: Account, monkeypatch) -> None:  # noqa: ANN001
+    from alcove.users import ratelimit, router
+
+    window = ratelimit.FailureWindow(limit=3, window_s=60)
+    monkeypatch.setattr(router, "LOGIN_FAILURES", window)
+    for i in range(3):  # a different account each time: no account lockout applies
+        assert client.post("/api/v1/auth/login", json={"email": f"spray-{i}@example.org", "password": "x"}).status_code == 401
+    blocked = client.post("/api/v1/auth/login", json={"email": owner.email, "password": owner.password})
+    assert blocked.status_code == 429 and 0 < int(blocked.headers["Retry-After"]) <= 61

@@ -4,15 +4,17 @@ from __future__ import annotations
 
 from typing import Annotated
 
-from fastapi import APIRouter, Query, Response, status
+from fastapi import APIRouter, Query, Request, Response, status
 
 from alcove.api.params import MAX_ID, ObjectId
 
 from alcove.api.auth import AdminUser, CurrentToken, CurrentUser
 from alcove.api.deps import SessionDep
 from alcove.api.errors import ErrorOut
+from alcove.errors import AuthenticationFailed, LoginLocked
 from alcove.users import repository as repo
 from alcove.users import service
+from alcove.users.ratelimit import LOGIN_FAILURES
 from alcove.users.schemas import (
     LoginIn,
     LoginOut,
@@ -40,13 +42,19 @@ def _token_out(token, secret: str | None = None) -> TokenOut:  # noqa: ANN001
 
 
 @router.post("/auth/login", response_model=LoginOut, tags=["auth"], operation_id="login", responses=AUTH_ERRORS)
-def login(body: LoginIn, session: SessionDep) -> LoginOut:
+def login(body: LoginIn, request: Request, session: SessionDep) -> LoginOut:
     """Exchange e-mail and password for a bearer token (valid 12 h). Five failures in a row
-    lock the account for 5 minutes (429)."""
+    lock the account for 5 minutes, and 30 failures from one client address within 5
+    minutes block that address for a while (both 429 with Retry-After)."""
+    client = request.client.host if request.client else "unknown"
+    wait = LOGIN_FAILURES.retry_after(client)
+    if wait:
+        raise LoginLocked("too many failed logins from this address: try again later", wait)
     try:
         token, secret = service.login(session, body.email, body.password)
-    except Exception:
-        session.commit()  # keep the failure count
+    except AuthenticationFailed:
+        LOGIN_FAILURES.failed(client)
+        session.commit()  # keep the account's failure count
         raise
     session.commit()
     return LoginOut(access_token=secret, expires_at=token.expires_at)
