@@ -1,0 +1,119 @@
+"""Campaign routes on synthesized data (no worker): polling with ?after=, the response
+cache following new rows, curves, state conflicts, references to others' objects,
+preliminary-data upload validation."""
+
+from __future__ import annotations
+
+import io
+
+import numpy as np
+import pytest
+
+from .helpers import Account, make_account, small_task_spec
+
+API = "/api/v1"
+
+
+@pytest.fixture(scope="module")
+def finished(owner: Account) -> int:
+    from alcove.db import session_scope
+
+    from .synthetic import synthesize_campaign
+
+    with session_scope() as s:
+        return synthesize_campaign(s, owner.id, iterations=3, name="api-campaigns").id
+
+
+def add_iteration(cid: int, k: int) -> None:
+    """What the engine's evaluate step writes for a new iteration."""
+    from alcove.db import session_scope
+    from alcove.db.arrays import put_arrays
+    from alcove.models import Campaign, Iteration, IterationMetrics
+
+    from .synthetic import curve_arrays
+
+    with session_scope() as s:
+        c = s.get(Campaign, cid)
+        it = Iteration(campaign_id=cid, index=k, config_version_id=c.config_versions[-1].id, status="succeeded")
+        s.add(it)
+        s.flush()
+        s.add(IterationMetrics(campaign_id=cid, iteration_id=it.id, iteration_index=k, force_rmse=0.5, moment_rmse=0.05,
+                               curves_sha256=put_arrays(s, curve_arrays(k, 11, np.random.default_rng(k)))))
+
+
+def test_metrics_poll_returns_only_new_iterations_and_follows_new_rows(client, owner: Account, finished: int) -> None:
+    url = f"{API}/campaigns/{finished}/metrics"
+    full = client.get(url, headers=owner.headers).json()
+    assert [m["iteration_index"] for m in full] == [1, 2, 3]
+    assert [m["iteration_index"] for m in client.get(url, params={"after": 1}, headers=owner.headers).json()] == [2, 3]
+    assert client.get(url, params={"after": 3}, headers=owner.headers).json() == []
+    add_iteration(finished, 4)  # a cached answer must not hide it
+    assert [m["iteration_index"] for m in client.get(url, params={"after": 3}, headers=owner.headers).json()] == [4]
+    assert [m["iteration_index"] for m in client.get(url, headers=owner.headers).json()] == [1, 2, 3, 4]
+    assert client.get(url, params={"after": -2}, headers=owner.headers).status_code == 422
+
+
+def test_curves_match_the_reported_rmse(client, owner: Account, finished: int) -> None:
+    metrics = {m["iteration_index"]: m for m in client.get(f"{API}/campaigns/{finished}/metrics", headers=owner.headers).json()}
+    curves = client.get(f"{API}/campaigns/{finished}/iterations/2/curves", headers=owner.headers).json()
+    err = np.array(curves["f_pred"]) - np.array(curves["f_true"])
+    assert np.sqrt(np.mean(err[:, :3] ** 2)) == pytest.approx(metrics[2]["force_rmse"])
+    assert client.get(f"{API}/campaigns/{finished}/iterations/0/curves", headers=owner.headers).status_code == 404
+    assert client.get(f"{API}/campaigns/{finished}/iterations/99/curves", headers=owner.headers).status_code == 404
+
+
+def test_list_filters_and_detail(client, owner: Account, finished: int) -> None:
+    rows = client.get(f"{API}/campaigns", params={"status": "completed", "owner": "me"}, headers=owner.headers).json()
+    row = next(r for r in rows if r["id"] == finished)
+    assert row["task"] == "head-headrest-2phase" and row["oracle_type"] == "aux-penalty" and row["force_rmse"] is not None
+    assert all(r["status"] == "completed" for r in rows)
+    assert finished not in {r["id"] for r in client.get(f"{API}/campaigns", params={"status": "running"}, headers=owner.headers).json()}
+    assert client.get(f"{API}/campaigns", params={"status": "nonsense"}, headers=owner.headers).status_code == 422
+    detail = client.get(f"{API}/campaigns/{finished}", headers=owner.headers).json()
+    assert detail["campaign"]["status"] == "completed" and detail["latest_metrics"]["iteration_index"] >= 3
+    pools = client.get(f"{API}/campaigns/{finished}/pool-versions", headers=owner.headers).json()
+    assert [p["version"] for p in pools] == [0, 1, 2, 3] and pools[3]["parent_id"] == pools[2]["id"]
+
+
+def test_invalid_transitions_are_409(client, owner: Account, finished: int) -> None:
+    assert client.post(f"{API}/campaigns/{finished}/resume", headers=owner.headers).status_code == 409
+    assert client.post(f"{API}/campaigns/{finished}/start", headers=owner.headers).status_code == 409
+
+
+def test_a_shared_campaign_is_readable_but_not_controllable(client, owner: Account, finished: int) -> None:
+    viewer = make_account("member", "viewer")
+    assert client.get(f"{API}/campaigns/{finished}/metrics", headers=viewer.headers).status_code == 404
+    r = client.post(f"{API}/shares", json={"object_type": "campaign", "object_id": finished, "email": viewer.email}, headers=owner.headers)
+    assert r.status_code == 201
+    assert client.get(f"{API}/campaigns/{finished}/metrics", headers=viewer.headers).status_code == 200
+    assert client.post(f"{API}/campaigns/{finished}/cancel", headers=viewer.headers).status_code == 403
+    fork = client.post(f"{API}/campaigns/{finished}/fork", json={"iteration": 2, "name": "my fork"}, headers=viewer.headers)
+    assert fork.status_code == 201 and fork.json()["campaign"]["owner_id"] == viewer.id and fork.json()["campaign"]["source_iteration"] == 2
+
+
+def test_campaign_bodies_cannot_reference_others_objects(client, owner: Account, other: Account) -> None:
+    task = client.post(f"{API}/tasks", json={"name": "t", "spec": small_task_spec()}, headers=owner.headers).json()
+    oracle = client.post(f"{API}/oracles/presets/aux-penalty/copy", headers=owner.headers).json()
+    mine = client.post(f"{API}/oracles/presets/aux-penalty/copy", headers=other.headers).json()
+    r = client.post(f"{API}/campaigns", json={"name": "x", "task_id": task["id"], "oracle_id": mine["id"]}, headers=other.headers)
+    assert r.status_code == 422 and r.json()["detail"][0]["field"] == "task_id"
+    upload = client.post(f"{API}/preliminary-datasets", files={"file": ("p.csv", b"t,q_0,qd_0,fx,fy,fz,mx,my,mz\n0,0.3,0,1,0,0,0,0,0\n0.1,0.3,0,1,0,0,0,0,0\n", "text/csv")},
+                         data={"chunks": "1"}, headers=owner.headers)
+    assert upload.status_code == 201, upload.text
+    ids = upload.json()["dataset_ids"]
+    r = client.post(f"{API}/campaigns", json={"name": "x", "task_id": task["id"], "oracle_id": oracle["id"], "preliminary": {"dataset_ids": ids}}, headers=owner.headers)
+    assert r.status_code == 201
+    theirs = client.post(f"{API}/campaigns", json={"name": "x", "task_id": client.post(f"{API}/tasks", json={"name": "t", "spec": small_task_spec()}, headers=other.headers).json()["id"],
+                                                   "oracle_id": mine["id"], "preliminary": {"dataset_ids": ids}}, headers=other.headers)
+    assert theirs.status_code == 422 and theirs.json()["detail"][0]["field"] == "preliminary.dataset_ids.0"
+
+
+@pytest.mark.parametrize(("content", "field"), [
+    (b"t,q_0,qd_0,fx,fy,fz,mx,my\n0,0.3,0,1,0,0,0,0\n", "file"),
+    (b"t,q_0,qd_0,fx,fy,fz,mx,my,mz\n0,abc,0,1,0,0,0,0,0\n", "file"),
+    (b"\xff\xfe\x00garbage", "file"),
+])
+def test_bad_uploads_are_422_naming_the_file(client, owner: Account, content: bytes, field: str) -> None:
+    r = client.post(f"{API}/preliminary-datasets", files={"file": ("p.csv", io.BytesIO(content), "text/csv")}, headers=owner.headers)
+    assert r.status_code == 422, r.text
+    assert r.json()["detail"][0]["field"].startswith(field)
