@@ -203,9 +203,27 @@ def _summary(detail: Any, metrics: list[dict[str, Any]], wall: float | None = No
            "iterations_failed": detail.iterations_failed, "mean_iteration_s": detail.mean_iteration_s, "oracle_wall_time_s": c.oracle_wall_time_s}
     if wall is not None:
         out["wall_time_s"] = wall
+    out["step_median_s"] = _step_medians(c.id)
     if metrics:
         out["first"] = {k: metrics[0][k] for k in ("iteration_index", "force_rmse", "moment_rmse")}
         out["last"] = {k: metrics[-1][k] for k in ("iteration_index", "force_rmse", "moment_rmse")}
+    return out
+
+
+def _step_medians(campaign_id: int) -> dict[str, dict[str, float]]:
+    """Median wall time and bare compute of each step type (the per-step breakdown)."""
+    import statistics
+
+    from alcove.campaigns import service
+    from alcove.db import session_scope
+
+    with session_scope() as s:
+        jobs = [j for j in service.list_jobs(s, campaign_id, ["succeeded"]) if j["iteration"] > 0 and j["wall_time_s"] is not None]
+    out: dict[str, dict[str, float]] = {}
+    for step in ("train", "ocp", "oracle", "evaluate", "append"):
+        mine = [j for j in jobs if j["step"].value == step]
+        if mine:
+            out[step] = {"wall": statistics.median(j["wall_time_s"] for j in mine), "compute": statistics.median(j["result"].get("compute_s", 0.0) for j in mine)}
     return out
 
 
