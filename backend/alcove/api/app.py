@@ -31,19 +31,17 @@ def operation_id(route: APIRoute) -> str:
     return route.operation_id or route.name
 
 
-def api_router() -> APIRouter:
-    """All ``/api/v1`` routers. Add new routers here."""
+def api_routers() -> list[APIRouter]:
+    """All ``/api/v1`` routers, each included into the app directly with the prefix (a
+    flat route table: FastAPI matches nested routers noticeably slower). The most polled
+    routers come first. Add new routers here."""
     from alcove.api import campaigns, surrogate_configs
     from alcove.oracles.router import admin_router as command_oracles_router
     from alcove.oracles.router import router as oracles_router
     from alcove.tasks.router import router as tasks_router
     from alcove.users.router import router as users_router
 
-    router = APIRouter(prefix=API_PREFIX)
-    router.include_router(health.router)
-    for sub in (users_router, tasks_router, oracles_router, command_oracles_router, surrogate_configs.router, *campaigns.routers()):
-        router.include_router(sub, responses=COMMON_RESPONSES)
-    return router
+    return [*campaigns.routers(), users_router, tasks_router, oracles_router, surrogate_configs.router, command_oracles_router]
 
 
 def create_app(settings: Settings | None = None) -> FastAPI:
@@ -57,7 +55,9 @@ def create_app(settings: Settings | None = None) -> FastAPI:
         redoc_url=None,
         generate_unique_id_function=operation_id,
     )
-    app.include_router(api_router())
+    app.include_router(health.router, prefix=API_PREFIX)
+    for router in api_routers():
+        app.include_router(router, prefix=API_PREFIX, responses=COMMON_RESPONSES)
     install_error_handlers(app)
     app.add_middleware(BodySizeLimit)
 
