@@ -121,7 +121,7 @@ try {
   await selectByText(page.getByLabel("Oracle", { exact: true }), `e2e oracle ${stamp}`);
   // settings forms are generated from the API's schemas; labels are the field names
   await page.getByLabel("samples", { exact: true }).fill(String(args.samples ?? 300));
-  await page.getByLabel("max_iterations", { exact: true }).fill(String(args.iterations ?? 4));
+  await page.getByLabel("max_iterations", { exact: true }).fill(String(args.iterations ?? 40));
   await page.getByRole("button", { name: "Create campaign" }).click();
   await page.waitForURL(/\/campaigns\/\d+/);
   const campaignUrl = page.url();

@@ -4,7 +4,7 @@ import { BrowserRouter } from "react-router-dom";
 import { QueryClient, QueryClientProvider } from "@tanstack/react-query";
 import { AuthProvider } from "./api/auth";
 import { App } from "./App";
-import { shouldRetry, retryDelay } from "./api/retry";
+import { shouldRetry, shouldRetryWrite, retryDelay } from "./api/retry";
 import "./styles.css";
 import { loadPlotly } from "./components/Plot";
 
@@ -14,6 +14,7 @@ if (/^\/(campaigns\/\d+|compare)/.test(window.location.pathname)) void loadPlotl
 const queryClient = new QueryClient({
   defaultOptions: {
     queries: { staleTime: 1000, retry: shouldRetry, retryDelay, refetchOnWindowFocus: false },
+    mutations: { retry: shouldRetryWrite, retryDelay },
   },
 });
 

@@ -6,9 +6,9 @@ import subprocess
 
 import pytest
 
-from tests.e2e.conftest import ADMIN_EMAIL, ADMIN_PASSWORD, ARTIFACTS, FRONTEND, Server
+from .conftest import ADMIN_EMAIL, ADMIN_PASSWORD, ARTIFACTS, FRONTEND, Server
 
-pytestmark = pytest.mark.slow
+pytestmark = [pytest.mark.slow, pytest.mark.e2e]
 
 
 def test_campaign_lifecycle_in_the_browser(alcove_server: Server) -> None:

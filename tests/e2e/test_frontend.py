@@ -9,7 +9,7 @@ import subprocess
 
 import pytest
 
-from tests.e2e.conftest import FRONTEND
+from .conftest import FRONTEND
 
 
 def _require_node() -> None:

@@ -14,3 +14,8 @@ export function shouldRetry(failureCount: number, error: unknown): boolean {
 export function retryDelay(attempt: number): number {
   return Math.min(200 * 2 ** attempt, 3000);
 }
+
+/** Writes are retried only when the server said the transaction did not happen (503 busy). */
+export function shouldRetryWrite(failureCount: number, error: unknown): boolean {
+  return (error as { status?: number } | null)?.status === 503 && failureCount < 5;
+}
