@@ -9,7 +9,8 @@ store (SQLite + artifacts in ``--data-dir``, a temporary folder by default):
    curves, peaks), and of the paper's example motion (``reference_motion``);
 3. an active-learning campaign over ``--iterations`` iterations (default 200, the paper's)
    through the campaign service, step by step with the same protocol and rows as the
-   Celery workers (``drive_inline``): force and moment RMSE per iteration on a log axis with
+   Celery workers (``drive_inline``; ``--celery`` sends the steps to a spawned
+   ``alcove worker`` through the broker instead): force and moment RMSE per iteration on a log axis with
    a rolling median, and the last iteration's true vs predicted curves;
 4. the paper's remedy ideas against the baseline over ``--remedy-iterations`` iterations:
    down-weighting the preliminary data, and warm-starting a campaign on an adjusted task
@@ -87,6 +88,7 @@ class Report:
     errors: dict[str, str] = field(default_factory=dict)
     timings: dict[str, float] = field(default_factory=dict)
     facts: dict[str, float] = field(default_factory=dict)  # named values for the verdict
+    timings_note: str = ""
 
     def add(self, section: str, quantity: str, paper: str, value: float, unit: str, note: str = "") -> None:
         self.rows.append(Row(section, quantity, paper, float(value), unit, note))
@@ -303,12 +305,38 @@ def _store(data_dir: Path) -> None:
     migrate.upgrade()
 
 
+#: set by ``--celery``: the spawned `alcove worker` process that runs the steps
+WORKER: dict[str, Any] = {}
+
+
+def _wait_for_workers(campaign_id: int, poll: float = 0.5) -> None:
+    from alcove.campaigns import service
+    from alcove.db import session_scope
+
+    proc = WORKER["process"]
+    while True:
+        with session_scope() as s:
+            status = service.get_campaign(s, campaign_id).status.value
+        if status in ("completed", "cancelled", "failed"):
+            return
+        if proc.poll() is not None:
+            raise RuntimeError(f"the alcove worker exited with code {proc.returncode} (log: {WORKER['log']})")
+        time.sleep(poll)
+
+
 def _drive(campaign_id: int, jobs: list[Any], label: str, t0: float) -> CampaignRun:
+    """Run the campaign's steps to its end: in this process (default) or by the Celery worker."""
     from alcove.campaigns import service
     from alcove.campaigns.flows import drive_inline
     from alcove.db import session_scope
 
-    drive_inline(campaign_id, jobs)
+    if WORKER:
+        from alcove.jobs.campaign import enqueue
+
+        enqueue(jobs)
+        _wait_for_workers(campaign_id)
+    else:
+        drive_inline(campaign_id, jobs)
     wall = time.perf_counter() - t0
     with session_scope() as s:
         c = service.get_campaign(s, campaign_id)
@@ -695,7 +723,7 @@ def write_markdown(rep: Report, info: dict[str, str], args: dict[str, Any], tota
     lines += [f"| date (UTC) | {dt.datetime.now(dt.timezone.utc).strftime('%Y-%m-%d %H:%M')} |"]
     lines += [f"| command | `{args['command']}` |"]
     lines += [f"| {k} | {v} |" for k, v in info.items()]
-    lines += [f"| total wall time | {total:.1f} s |", ""]
+    lines += [f"| campaign steps | {rep.timings_note} |", f"| total wall time | {total:.1f} s |", ""]
     lines += ["Wall times (the machine may be shared; they are as measured, under whatever load there was):", "", "| part | wall time [s] |", "|---|---|"]
     lines += [f"| {k} | {v:.2f} |" for k, v in rep.timings.items()]
     lines += ["", "## Comparison with the paper", "", "| part | quantity | paper | alcove (this run) | note |", "|---|---|---|---|---|"]
@@ -705,7 +733,9 @@ def write_markdown(rep: Report, info: dict[str, str], args: dict[str, Any], tota
     lines.append("")
     for key, title in SECTION_TITLES.items():
         lines += [f"## {title}", ""]
-        if key in rep.errors:
+        if rep.errors.get(key, "").startswith("skipped"):
+            lines += ["*Skipped in this run (`--skip`).*", ""]
+        elif key in rep.errors:
             lines += ["**This part failed in this run:**", "", "```", rep.errors[key].strip(), "```", ""]
         lines += rep.sections.get(key, [])
         if rep.sections.get(key):
@@ -735,6 +765,8 @@ def main(
     out: Path = typer.Option(REPO / "docs", help="folder for reproduction.md and reproduction/*.png"),
     data_dir: Path | None = typer.Option(None, help="alcove data dir for the run's database and artifacts (default: a fresh temporary folder)"),
     skip: list[str] = typer.Option([], help="parts to skip: multibody, fe, campaign, remedies"),
+    celery: bool = typer.Option(False, "--celery", help="run the campaign steps through Celery with a spawned `alcove worker` (default: in this process, same protocol and rows)"),
+    concurrency: int = typer.Option(1, min=1, help="processes of the spawned worker (with --celery)"),
 ) -> None:
     """Run the paper's proof of concept with alcove and write OUT/reproduction.md with figures."""
     n = iterations or (3 if quick else 200)
@@ -770,15 +802,25 @@ def main(
         elif "fe" not in skip:
             rep.errors["fe"] = "needs the multibody solution (part 1 failed)"
         _store(data_dir)
+        if celery:
+            from alcove_worker.cli.campaign import spawn_worker
+
+            WORKER["log"] = data_dir / "worker.log"
+            WORKER["process"] = spawn_worker(concurrency, log_path=WORKER["log"])
         base = part("campaign", lambda: part_campaign(rep, n, oracle))
         if base is not None:
             part("remedies", lambda: part_remedies(rep, base, m, oracle, preliminary_weight))
         elif "remedies" not in skip:
             rep.errors["remedies"] = "needs the baseline campaign (part 3 failed)"
         argv = " ".join(["scripts/reproduce.py", *sys.argv[1:]])
+        rep.timings_note = "steps run by a spawned Celery worker" if celery else "steps run in this process (flows.drive_inline)"
         path = write_markdown(rep, info, {"command": argv, "iterations": n, "remedy_iterations": m}, time.perf_counter() - t_start)
         typer.echo(f"[reproduce] wrote {path}", err=True)
     finally:
+        if WORKER:
+            from alcove_worker.cli.campaign import stop_worker
+
+            stop_worker(WORKER.pop("process"))
         if tmp is not None:
             from alcove.db import dispose_engines
 
