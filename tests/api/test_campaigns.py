@@ -117,3 +117,15 @@ def test_bad_uploads_are_422_naming_the_file(client, owner: Account, content: by
     r = client.post(f"{API}/preliminary-datasets", files={"file": ("p.csv", io.BytesIO(content), "text/csv")}, headers=owner.headers)
     assert r.status_code == 422, r.text
     assert r.json()["detail"][0]["field"].startswith(field)
+
+
+def test_event_stream_sends_server_sent_events_and_ends_for_a_finished_campaign(client, owner: Account, finished: int) -> None:
+    events = client.get(f"{API}/campaigns/{finished}/events", headers=owner.headers).json()
+    assert events and events[0]["kind"] == "status"
+    with client.stream("GET", f"{API}/campaigns/{finished}/events/stream", headers=owner.headers) as r:
+        assert r.status_code == 200 and r.headers["content-type"].startswith("text/event-stream")
+        text = "".join(r.iter_text())
+    ids = [int(line[4:]) for line in text.splitlines() if line.startswith("id: ")]
+    assert ids == [e["id"] for e in events]
+    with client.stream("GET", f"{API}/campaigns/{finished}/events/stream", headers={**owner.headers, "Last-Event-ID": str(ids[-1])}) as r:
+        assert "id: " not in "".join(r.iter_text())
