@@ -1,5 +1,5 @@
 import { Link, useParams } from "react-router-dom";
-import { isLive, useCampaign, useMetrics, useOracle, useTaskVersion } from "../api/hooks";
+import { isLive, useCampaign, useMetrics, useOracle, useTask, useTaskVersion } from "../api/hooks";
 import { useMemo } from "react";
 import { ErrorBox, Loading, StatusBadge } from "../components/States";
 import { RmsePlot } from "../campaign/RmsePlot";
@@ -30,6 +30,7 @@ export function CampaignPage() {
   const [tab, setTab] = useStringParam("tab", "forces");
   const taskVersion = useTaskVersion(campaign.data?.task_id, campaign.data?.task_version);
   const oracle = useOracle(campaign.data?.oracle_id ?? null);
+  const task = useTask(campaign.data?.task_id ?? null);
   const phases = useMemo(() => phaseSpans(((taskVersion.data?.spec as { phases?: { name?: string; duration?: number }[] } | undefined)?.phases ?? [])), [taskVersion.data]);
 
   if (!Number.isInteger(id)) return <ErrorBox error="invalid campaign id" />;
@@ -65,7 +66,7 @@ export function CampaignPage() {
           <dd>
             {c.task_id ? (
               <Link to={`/tasks/${c.task_id}`}>
-                {(taskVersion.data?.spec as { name?: string } | undefined)?.name ?? c.task ?? `task ${c.task_id}`} v{c.task_version}
+                {task.data?.name ?? `task ${c.task_id}`} v{c.task_version}
               </Link>
             ) : (
               "—"

@@ -5,7 +5,7 @@ import { QueryClient, QueryClientProvider } from "@tanstack/react-query";
 import { vi } from "vitest";
 import { AuthProvider } from "../api/auth";
 
-export type Handler = (url: URL, init: RequestInit) => unknown | Response;
+export type Handler = (url: URL, body: any) => unknown | Response; // eslint-disable-line @typescript-eslint/no-explicit-any
 
 /** Replace fetch with a table of handlers keyed "METHOD /path" (path after /api/v1). */
 export function mockApi(routes: Record<string, Handler | unknown>) {
@@ -16,11 +16,12 @@ export function mockApi(routes: Record<string, Handler | unknown>) {
     const method = (req?.method ?? init.method ?? "GET").toUpperCase();
     const path = url.pathname.replace(/^\/api\/v1/, "");
     const rawBody = req ? await req.clone().text() : (init.body as string | undefined);
-    calls.push({ method, path, url, body: rawBody ? JSON.parse(rawBody) : undefined });
+    const body = rawBody ? JSON.parse(rawBody) : undefined;
+    calls.push({ method, path, url, body });
     const key = `${method} ${path}`;
     const match = Object.entries(routes).find(([pattern]) => new RegExp(`^${pattern.replace(/\{[^}]+\}/g, "[^/]+")}$`).test(key));
     if (!match) return new Response(JSON.stringify({ detail: `no mock for ${key}` }), { status: 404 });
-    const value = typeof match[1] === "function" ? (match[1] as Handler)(url, init) : match[1];
+    const value = typeof match[1] === "function" ? (match[1] as Handler)(url, body) : match[1];
     if (value instanceof Response) return value;
     return new Response(JSON.stringify(value), { status: 200, headers: { "Content-Type": "application/json" } });
   });

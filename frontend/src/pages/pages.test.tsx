@@ -1,0 +1,141 @@
+import { describe, expect, it } from "vitest";
+import { fireEvent, screen, waitFor, within } from "@testing-library/react";
+import userEvent from "@testing-library/user-event";
+import { CampaignsPage, sortCampaigns } from "./CampaignsPage";
+import { TaskEditorPage } from "./TaskEditorPage";
+import { TokensPage } from "./TokensPage";
+import { SignInPage } from "./SignInPage";
+import { jsonResponse, mockApi, renderPage } from "../test/utils";
+import type { CampaignRow } from "../api/hooks";
+
+const summary = (id: number, name: string, status: string, force: number | null) => ({
+  id,
+  name,
+  status,
+  owner_id: 1,
+  owner: "ana@lab",
+  task_id: 1,
+  task: "two-phase",
+  task_version: 1,
+  oracle_id: 1,
+  oracle: "aux",
+  oracle_type: "aux-penalty",
+  oracle_version: 1,
+  current_iteration: id,
+  current_step: null,
+  max_iterations: 10,
+  force_rmse: force,
+  moment_rmse: force === null ? null : force / 10,
+  source_campaign_id: null,
+  source_iteration: null,
+  created_at: "2026-11-21T22:00:00Z",
+  started_at: `2026-11-21T2${id}:00:00Z`,
+  finished_at: null,
+});
+
+describe("campaigns list", () => {
+  it("shows status, iteration k/N and latest RMSE, filters by text and sorts by RMSE", async () => {
+    mockApi({
+      "GET /campaigns": [summary(1, "baseline", "completed", 0.4), summary(2, "stiff foam", "running", 1.2), summary(3, "draft one", "draft", null)],
+      "GET /campaigns/{id}/metrics": [],
+    });
+    renderPage(<CampaignsPage />, { route: "/campaigns" });
+    const table = await screen.findByTestId("campaigns-table");
+    expect(within(table).getAllByRole("row")).toHaveLength(4);
+    const running = within(table).getByRole("row", { name: /stiff foam/ });
+    expect(running).toHaveTextContent("running");
+    expect(running).toHaveTextContent("2/10");
+    expect(running).toHaveTextContent("1.20");
+
+    await userEvent.click(screen.getByRole("button", { name: /Force RMSE/ }));
+    const names = within(table).getAllByRole("link").map((a) => a.textContent);
+    expect(names).toEqual(["baseline", "stiff foam", "draft one"]);
+
+    fireEvent.change(screen.getByLabelText("Search"), { target: { value: "foam" } });
+    await waitFor(() => expect(within(screen.getByTestId("campaigns-table")).getAllByRole("row")).toHaveLength(2));
+  });
+
+  it("has an empty state that points to tasks and oracles", async () => {
+    mockApi({ "GET /campaigns": [] });
+    renderPage(<CampaignsPage />, { route: "/campaigns" });
+    expect(await screen.findByText("No campaigns yet")).toBeInTheDocument();
+    expect(screen.getByRole("link", { name: "task" })).toHaveAttribute("href", "/tasks/new");
+  });
+
+  it("sorts missing values last", () => {
+    const rows = [{ id: 1, force_rmse: null }, { id: 2, force_rmse: 3 }, { id: 3, force_rmse: 1 }] as unknown as CampaignRow[];
+    expect(sortCampaigns(rows, "force_rmse", false).map((r) => r.id)).toEqual([3, 2, 1]);
+    expect(sortCampaigns(rows, "force_rmse", true).map((r) => r.id)).toEqual([2, 3, 1]);
+  });
+});
+
+const PRESET = {
+  key: "head-headrest-2phase",
+  name: "head-headrest-2phase",
+  description: "",
+  spec: { name: "two", model: { mass: 5 }, phases: [{ name: "approach", duration: 1, intervals: 100, w_tau: 0.001, w_T: 0.0001 }, { name: "rest", duration: 1, intervals: 100, w_tau: 1, w_T: 1 }] },
+};
+const TASK_SCHEMA = { type: "object", properties: {}, $defs: { ModelSpec: { type: "object", properties: { mass: { type: "number", exclusiveMinimum: 0, description: "head mass [kg]" } } } } };
+
+describe("task editor", () => {
+  it("shows the API's validation message at the phase cell it concerns", async () => {
+    mockApi({
+      "GET /tasks/presets": [PRESET],
+      "GET /tasks/schema": TASK_SCHEMA,
+      "GET /openapi.json": { paths: {} },
+      "POST /tasks/validate": (_url: URL, body: { spec?: { phases?: { duration: number }[] } }) => {
+        const bad = (body.spec?.phases?.[0]?.duration ?? 1) <= 0;
+        return { valid: !bad, errors: bad ? [{ loc: ["spec", "phases", 0, "duration"], field: "spec.phases.0.duration", msg: "Input should be greater than 0", type: "greater_than" }] : [] };
+      },
+    });
+    renderPage(<TaskEditorPage />, { route: "/tasks/new" });
+    const duration = await screen.findByLabelText("phase 1 duration [s]");
+    await waitFor(() => expect(screen.getByTestId("validation-state")).toHaveTextContent("valid"), { timeout: 3000 });
+    fireEvent.change(duration, { target: { value: "-1" } });
+    expect(await screen.findByText("Input should be greater than 0", {}, { timeout: 3000 })).toBeInTheDocument();
+    expect(screen.getByLabelText("phase 1 duration [s]")).toHaveAttribute("aria-invalid", "true");
+    expect(screen.getByTestId("validation-state")).toHaveTextContent("1 problem");
+    // "solve once" appears only when the API offers it
+    expect(screen.queryByRole("button", { name: "Solve once" })).toBeNull();
+    expect(screen.getByLabelText(/^mass/)).toHaveValue(5);
+  });
+});
+
+describe("tokens and sign-in", () => {
+  it("shows a new token once and lists tokens with a revoke button", async () => {
+    let tokens = [{ id: 1, name: "old", kind: "personal", token_prefix: "alc_ab", created_at: "2026-11-20T10:00:00Z", last_used_at: null, expires_at: null, revoked_at: null, revoked: false }];
+    mockApi({
+      "GET /me/tokens": () => tokens,
+      "POST /me/tokens": () => {
+        const t = { ...tokens[0], id: 2, name: "notebook" };
+        tokens = [...tokens, t];
+        return jsonResponse({ ...t, token: "alc_secret_value_shown_once_1234567890" }, 201);
+      },
+    });
+    renderPage(<TokensPage />, { route: "/tokens" });
+    expect(await screen.findByRole("row", { name: /old/ })).toHaveTextContent("Revoke");
+    await userEvent.type(screen.getByLabelText("Name"), "notebook");
+    await userEvent.click(screen.getByRole("button", { name: "Create token" }));
+    expect(await screen.findByTestId("new-token")).toHaveTextContent("alc_secret_value_shown_once_1234567890");
+    await userEvent.click(screen.getByRole("button", { name: "Done" }));
+    expect(screen.queryByTestId("new-token")).toBeNull();
+    expect(await screen.findByRole("row", { name: /notebook/ })).toBeInTheDocument();
+  });
+
+  it("signs in with e-mail and password and keeps the token; shows the API's refusal", async () => {
+    mockApi({
+      "POST /auth/login": (_url: URL, body: { password: string }) => {
+        return body.password === "right" ? { access_token: "tok-123", token_type: "bearer", expires_at: "2026-11-22T10:00:00Z" } : jsonResponse({ detail: "wrong e-mail or password" }, 401);
+      },
+    });
+    renderPage(<SignInPage />, { route: "/signin?next=/campaigns/4", token: null });
+    await userEvent.type(screen.getByLabelText("Email"), "ana@lab.org");
+    await userEvent.type(screen.getByLabelText("Password"), "wrong");
+    await userEvent.click(screen.getByRole("button", { name: "Sign in" }));
+    expect(await screen.findByRole("alert")).toHaveTextContent("wrong e-mail or password");
+    await userEvent.clear(screen.getByLabelText("Password"));
+    await userEvent.type(screen.getByLabelText("Password"), "right");
+    await userEvent.click(screen.getByRole("button", { name: "Sign in" }));
+    await waitFor(() => expect(localStorage.getItem("alcove.token")).toBe("tok-123"));
+  });
+});
