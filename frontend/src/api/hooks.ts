@@ -575,9 +575,14 @@ export function componentSchema(doc: OpenApiDocument | undefined, name: string):
 }
 
 // ------------------------------------------------------------------ surrogate configs
-/** Optional: the API may list surrogate configurations; without it campaigns use the paper's default. */
-export function useSurrogateConfigs(enabled: boolean) {
-  return useQuery({ queryKey: ["surrogate-configs"], queryFn: () => api<SurrogateConfigRow[]>("GET", "/surrogate-configs"), enabled });
+/** Surrogate configurations you can use (campaigns default to the paper's). */
+export function useSurrogateConfigs(enabled = true) {
+  return useQuery({
+    queryKey: ["surrogate-configs"],
+    queryFn: async (): Promise<SurrogateConfigRow[]> =>
+      unwrap(await client.GET("/api/v1/surrogate-configs", { params: { query: { limit: 500 } } })).map((c) => ({ id: c.id, version_id: c.id, name: c.name, version: c.version })),
+    enabled,
+  });
 }
 
 // ------------------------------------------------------------------ tasks

@@ -1,6 +1,6 @@
 import { useEffect, useState, type FormEvent } from "react";
 import { Link, useNavigate } from "react-router-dom";
-import { componentSchema, hasRoute, useCreateCampaign, useOpenApi, useOracles, useSurrogateConfigs, useTasks } from "../api/hooks";
+import { componentSchema, useCreateCampaign, useOpenApi, useOracles, useSurrogateConfigs, useTasks } from "../api/hooks";
 import { ApiError, errorMessage } from "../api/errors";
 import { ErrorBox, Loading } from "../components/States";
 import { SchemaForm, schemaDefaults } from "../components/SchemaForm";
@@ -73,9 +73,7 @@ export function NewCampaignPage() {
   const navigate = useNavigate();
   const tasks = useTasks();
   const oracles = useOracles();
-  const openapi = useOpenApi();
-  const hasSurrogateConfigs = hasRoute(openapi.data, "get", "/surrogate-configs");
-  const surrogates = useSurrogateConfigs(hasSurrogateConfigs);
+  const surrogates = useSurrogateConfigs();
   const create = useCreateCampaign();
   const defaults = useConfigDefaults();
   const [name, setName] = useState("");
