@@ -8,6 +8,8 @@ from typing import Annotated
 
 from fastapi import Depends, HTTPException, Request, status
 from fastapi.security import HTTPAuthorizationCredentials, HTTPBearer
+from sqlalchemy.orm import Session
+from starlette.concurrency import run_in_threadpool
 
 from alcove.api.deps import SessionDep
 from alcove.models import ApiToken, User, utcnow
@@ -20,22 +22,29 @@ def _unauthorized(detail: str) -> HTTPException:
     return HTTPException(status.HTTP_401_UNAUTHORIZED, detail=detail, headers={"WWW-Authenticate": "Bearer"})
 
 
-def current_token(
+async def current_token(
     request: Request,
     session: SessionDep,
     credentials: Annotated[HTTPAuthorizationCredentials | None, Depends(bearer_scheme)],
 ) -> ApiToken:
     if credentials is None or credentials.scheme.lower() != "bearer" or not credentials.credentials:
         raise _unauthorized("not authenticated: send Authorization: Bearer <token>")
-    found = service.authenticate(session, credentials.credentials)
+    secret = credentials.credentials
+    # a recently verified token needs no database (no thread hop); otherwise look it up
+    found = service.cached_authentication(session, secret) or await run_in_threadpool(_lookup, session, secret)
     if found is None:
         raise _unauthorized("invalid, expired or revoked token")
     token, user = found
-    if service.needs_touch(token):
-        session.merge(token).last_used_at = utcnow()
-        session.commit()  # nothing else happened in this session yet
     request.state.user = user
     return token
+
+
+def _lookup(session: Session, secret: str) -> tuple[ApiToken, User] | None:
+    found = service.authenticate(session, secret)
+    if found is not None and service.needs_touch(found[0]):
+        found[0].last_used_at = utcnow()
+        session.commit()  # nothing else happened in this session yet
+    return found
 
 
 async def current_user(request: Request, token: Annotated[ApiToken, Depends(current_token)]) -> User:

@@ -2,10 +2,11 @@
 
 from __future__ import annotations
 
-from collections.abc import Iterator
+from collections.abc import AsyncIterator
 from typing import Annotated
 
 from fastapi import Depends
+from starlette.concurrency import run_in_threadpool
 from sqlalchemy.orm import Session
 
 from alcove.db import get_sessionmaker
@@ -16,12 +17,22 @@ def settings_dep() -> Settings:
     return get_settings()
 
 
-def get_session() -> Iterator[Session]:
+async def get_session() -> AsyncIterator[Session]:
     """One session per request. The route (or the service it calls) decides when to commit;
-    anything not committed is rolled back at the end of the request."""
-    factory = get_sessionmaker()
-    with factory() as session:
+    anything not committed is rolled back at the end of the request.
+
+    Opening a session does no I/O (a connection is taken at the first query), so it happens
+    on the event loop; closing is sent to the thread pool only when the session holds a
+    connection. This saves two thread hops per request, which dominate the cost of a
+    polled route on a busy machine."""
+    session = get_sessionmaker()()
+    try:
         yield session
+    finally:
+        if session.in_transaction():
+            await run_in_threadpool(session.close)
+        else:
+            session.close()
 
 
 SessionDep = Annotated[Session, Depends(get_session)]

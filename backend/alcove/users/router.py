@@ -69,7 +69,7 @@ def logout(token: CurrentToken, session: SessionDep) -> Response:
 
 
 @router.get("/me", response_model=UserOut, tags=["me"], operation_id="get_me")
-def get_me(user: CurrentUser) -> UserOut:
+async def get_me(user: CurrentUser) -> UserOut:
     return UserOut.model_validate(user)
 
 

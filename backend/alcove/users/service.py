@@ -101,14 +101,21 @@ TOKEN_CACHE_SECONDS = 5.0
 TOKENS = _TokenCache(TOKEN_CACHE_SECONDS)
 
 
-def authenticate(session: Session, secret: str) -> tuple[ApiToken, User] | None:
-    """The valid token and its active user, or None. The rows returned may come from the
-    short-lived cache (detached: read their attributes, merge them to change them)."""
-    key = hash_token(secret)
-    hit = TOKENS.get(key)
+def cached_authentication(session: Session, secret: str) -> tuple[ApiToken, User] | None:
+    """The token and user from the short-lived cache (no I/O), as fresh detached instances
+    private to this request (``session.merge`` them to change them); None when not cached."""
+    hit = TOKENS.get(hash_token(secret))
     if hit is not None and hit[0].is_valid():
-        # per-request instances, attached to this session without a query
-        return session.merge(_detached_copy(hit[0]), load=False), session.merge(_detached_copy(hit[1]), load=False)
+        return _detached_copy(hit[0]), _detached_copy(hit[1])
+    return None
+
+
+def authenticate(session: Session, secret: str) -> tuple[ApiToken, User] | None:
+    """The valid token and its active user, or None (from the cache or the database)."""
+    cached = cached_authentication(session, secret)
+    if cached is not None:
+        return cached
+    key = hash_token(secret)
     found = repo.token_with_user(session, secret)
     if found is None:
         return None
