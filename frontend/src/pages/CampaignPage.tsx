@@ -123,9 +123,30 @@ export function CampaignPage() {
         )}
       </section>
       <section className="panel">
-        <div className="tabs" role="tablist" aria-label="Campaign details">
+        <div
+          className="tabs"
+          role="tablist"
+          aria-label="Campaign details"
+          onKeyDown={(e) => {
+            // arrow keys move between tabs (WAI-ARIA tabs pattern)
+            if (e.key !== "ArrowRight" && e.key !== "ArrowLeft") return;
+            const i = TABS.findIndex(([key]) => key === tab);
+            const next = TABS[(i + (e.key === "ArrowRight" ? 1 : TABS.length - 1)) % TABS.length][0];
+            setTab(next);
+            document.getElementById(`tab-${next}`)?.focus();
+          }}
+        >
           {TABS.map(([key, label]) => (
-            <button key={key} type="button" role="tab" id={`tab-${key}`} aria-selected={tab === key} aria-controls={`panel-${key}`} onClick={() => setTab(key)}>
+            <button
+              key={key}
+              type="button"
+              role="tab"
+              id={`tab-${key}`}
+              aria-selected={tab === key}
+              aria-controls={`panel-${key}`}
+              tabIndex={tab === key ? 0 : -1}
+              onClick={() => setTab(key)}
+            >
               {label}
             </button>
           ))}
