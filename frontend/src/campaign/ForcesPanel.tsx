@@ -40,7 +40,8 @@ export function ForcesPanel({
   overlay: number[];
   setOverlay: (ks: number[]) => void;
 }) {
-  const available = points.filter((p) => p.iteration > 0).map((p) => p.iteration);
+  // iterations with oracle data (failed ones have no curves)
+  const available = points.filter((p) => p.iteration > 0 && p.force_rmse !== null).map((p) => p.iteration);
   const k = iteration ?? available[available.length - 1] ?? null;
   const shown = useMemo(() => (k === null ? [] : [k, ...overlay.filter((x) => x !== k)]), [k, overlay]);
   const [forceComps, setForceComps] = useState<Component[]>(["fx", "fz"]);

@@ -40,7 +40,7 @@ export function CampaignPage() {
   const points = metrics.data ?? [];
   const last = points.length ? points[points.length - 1].iteration : -1;
   const k = selected[0] ?? null;
-  const trajectoryK = k ?? (points.filter((p) => p.iteration > 0).pop()?.iteration ?? null);
+  const trajectoryK = k ?? (points.filter((p) => p.iteration > 0 && p.force_rmse !== null).pop()?.iteration ?? null);
 
   return (
     <>
