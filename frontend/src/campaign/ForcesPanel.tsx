@@ -72,7 +72,11 @@ export function ForcesPanel({
           max={available[available.length - 1]}
           step={1}
           value={k ?? 0}
-          onChange={(e) => setIteration(Number(e.target.value))}
+          onChange={(e) => {
+            // snap to the nearest iteration with oracle data (failed ones leave gaps)
+            const want = Number(e.target.value);
+            setIteration(available.reduce((best, it) => (Math.abs(it - want) < Math.abs(best - want) ? it : best), available[0]));
+          }}
           aria-valuetext={`iteration ${k}`}
         />
         <output htmlFor="iteration-slider" data-testid="iteration-value">
