@@ -99,7 +99,11 @@ def test_concurrent_writers_on_sqlite_all_commit(tmp_path: Path) -> None:
 
 
 def test_first_admin_is_created_once(db_session) -> None:  # noqa: ANN001
+    # the session database is shared with tests that commit users: start (inside this
+    # rolled-back transaction) from a state without any admin
+    db_session.execute(sa.update(m.User).where(m.User.role == "admin").values(role="member"))
+    n_users = db_session.scalar(sa.select(sa.func.count()).select_from(m.User))
     u = ensure_first_admin(db_session, "Boss@Example.org", "pw-long-enough")
     assert u is not None and u.email == "boss@example.org" and u.role == "admin" and u.check_password("pw-long-enough")
     assert ensure_first_admin(db_session, "other@example.org", "x") is None
-    assert db_session.scalar(sa.select(sa.func.count()).select_from(m.User)) == 1
+    assert db_session.scalar(sa.select(sa.func.count()).select_from(m.User)) == n_users + 1

@@ -78,7 +78,7 @@ def test_full_lineage_roundtrip(db_session: Session) -> None:
     pv = s.scalars(sa.select(m.PoolVersion).where(m.PoolVersion.version == 1, m.PoolVersion.campaign_id == c.id)).one()
     assert [mem.dataset.origin for mem in pv.members] == ["preliminary", "oracle"]
     assert pv.parent.version == 0
-    back = arrays.get_arrays(s, s.get(m.IterationMetrics, s.scalars(sa.select(m.IterationMetrics.id)).first()).curves_sha256)
+    back = arrays.get_arrays(s, s.get(m.IterationMetrics, s.scalars(sa.select(m.IterationMetrics.id).where(m.IterationMetrics.campaign_id == c.id)).one()).curves_sha256)
     np.testing.assert_array_equal(back["f_pred"], np.ones((3, 6)))
     assert s.get(m.ModelVersion, mv.id).pool_version.version == 0
 
