@@ -161,9 +161,9 @@ def test_cancel_reaches_a_running_step_through_its_lease_heartbeat(sqlite_campai
     t0 = time.monotonic()
     worker.start()
     time.sleep(0.5)
-    with session_scope() as s:
-        c, _ = service.cancel(s, cid)
-        assert c.status == "cancelling"
+    # a write next to a running job: BEGIN IMMEDIATE and retry on a busy SQLite (what the API and CLI do)
+    c, _ = transaction(lambda s: service.cancel(s, cid))
+    assert c.status == "cancelling"
     worker.join(timeout=20)
     assert result["status"] == "cancelled" and time.monotonic() - t0 < 10
     with session_scope() as s:
