@@ -341,14 +341,10 @@ def load_oracle(s: Session, c: Campaign, preset: Any):  # noqa: ANN201
 
 
 def _command_catalogue(s: Session):  # noqa: ANN202
-    from alcove.settings import get_settings
+    """Command oracles: the settings' YAML catalogue plus the admins' enabled entries."""
+    from alcove.oracles.service import command_catalogue
 
-    path = get_settings().command_oracles_file
-    if path is None:
-        return None
-    from alcove.science.oracles.command import load_command_catalogue
-
-    return load_command_catalogue(path)
+    return command_catalogue(s)
 
 
 def _json_safe(obj: Any) -> Any:
