@@ -1,7 +1,7 @@
 import { Link, useParams } from "react-router-dom";
 import { isLive, useCampaign, useMetrics, useOracle, useTask, useTaskVersion } from "../api/hooks";
 import { useMemo } from "react";
-import { ErrorBox, Loading, StatusBadge } from "../components/States";
+import { Empty, ErrorBox, Loading, StatusBadge } from "../components/States";
 import { RmsePlot } from "../campaign/RmsePlot";
 import { loadPlotly } from "../components/Plot";
 import { ForcesPanel } from "../campaign/ForcesPanel";
@@ -118,6 +118,10 @@ export function CampaignPage() {
           <ErrorBox error={metrics.error} retry={() => void metrics.refetch()} />
         ) : metrics.isPending ? (
           <Loading label="Loading metrics…" />
+        ) : points.length === 0 ? (
+          <Empty title="No iteration has finished yet">
+            {c.status === "draft" ? "Start the campaign to run its first iteration." : "The RMSE of each iteration appears here as soon as it is evaluated."}
+          </Empty>
         ) : (
           <RmsePlot points={points} logY={logY} onSelect={(it) => { setSelected([it]); setTab("forces"); }} />
         )}
