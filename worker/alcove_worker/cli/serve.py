@@ -154,6 +154,7 @@ def up(
     if migrate_db:
         migrate.upgrade()
     _ensure_admin()
+    _reconcile_at_start()
     host = host or s.api_host
     port = port or s.api_port
     _check_port_free(host, port)
@@ -174,6 +175,19 @@ def up(
     finally:
         if wp is not None:
             wp.stop()
+
+
+def _reconcile_at_start() -> None:
+    """Re-enqueue steps whose worker died while no API or worker was running."""
+    from alcove.campaigns.reconciler import reconcile_and_enqueue
+
+    try:
+        jobs = reconcile_and_enqueue()
+    except Exception as err:  # noqa: BLE001 - a failed pass is retried by every worker's reconciler
+        typer.echo(f"warning: reconciliation at start failed: {err}", err=True)
+        return
+    if jobs:
+        typer.echo(f"re-enqueued {len(jobs)} step(s) whose worker had died")
 
 
 def _exit_on_sigterm(signum: int, frame: object) -> None:
