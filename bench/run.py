@@ -34,7 +34,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--out", default=str(Path(__file__).with_name("results.json")))
     args = ap.parse_args(argv)
     load_figures()
-    console = Console()
+    # a wide table when written to a file or pipe (a terminal keeps its own width)
+    console = Console() if sys.stdout.isatty() else Console(width=220)
     rows = []
     t_start = time.perf_counter()
     for fig in FIGURES:
