@@ -8,15 +8,12 @@ from pathlib import Path
 from fastapi import APIRouter, FastAPI, Request
 from fastapi.responses import HTMLResponse, JSONResponse
 from fastapi.routing import APIRoute
-from fastapi.staticfiles import StaticFiles
 from sqlalchemy import exc as sa_exc
-from starlette.exceptions import HTTPException as StarletteHTTPException
-from starlette.responses import Response
-from starlette.types import Scope
 
 import alcove
 from alcove.api import health
 from alcove.api.errors import COMMON_RESPONSES, BodySizeLimit, install_error_handlers
+from alcove.api.static import SPAStaticFiles
 from alcove.db.retry import is_retryable_db_error
 from alcove.settings import Settings, get_settings
 
@@ -78,7 +75,7 @@ def _mount_frontend(app: FastAPI, static_dir: Path) -> None:
     """Serve the built frontend at ``/`` (after the API routes, so they take precedence)."""
     index = static_dir / "index.html"
     if index.is_file():
-        app.mount("/", SPAStaticFiles(directory=static_dir, html=True), name="frontend")
+        app.mount("/", SPAStaticFiles(directory=static_dir, api_prefix=API_PREFIX), name="frontend")
         return
 
     @app.get("/", include_in_schema=False)
@@ -89,14 +86,3 @@ def _mount_frontend(app: FastAPI, static_dir: Path) -> None:
             "The web UI has not been built (see README).</p>"
         )
 
-
-class SPAStaticFiles(StaticFiles):
-    """Static files with a single-page-app fallback: unknown non-API paths get index.html."""
-
-    async def get_response(self, path: str, scope: Scope) -> Response:
-        try:
-            return await super().get_response(path, scope)
-        except StarletteHTTPException as err:
-            if err.status_code == 404 and not path.startswith(API_PREFIX.strip("/")):
-                return await super().get_response("index.html", scope)
-            raise
