@@ -129,3 +129,73 @@ def test_event_stream_sends_server_sent_events_and_ends_for_a_finished_campaign(
     assert ids == [e["id"] for e in events]
     with client.stream("GET", f"{API}/campaigns/{finished}/events/stream", headers={**owner.headers, "Last-Event-ID": str(ids[-1])}) as r:
         assert "id: " not in "".join(r.iter_text())
+
+
+def test_list_items_carry_the_eta_of_the_detail(client, owner: Account) -> None:
+    """A running campaign with 3 finished iterations of 9 s each and max_iterations 10:
+    7 to go x 9 s = 63 s, in the list row and in the detail alike."""
+    from alcove.campaigns import service as campaigns
+    from alcove.campaigns.schemas import CampaignConfigUpdate, StoppingRules
+    from alcove.db import session_scope
+    from alcove.models import Campaign
+
+    from .synthetic import synthesize_campaign
+
+    with session_scope() as s:
+        cid = synthesize_campaign(s, owner.id, iterations=3, name="api-eta").id
+        c = s.get(Campaign, cid)
+        c.status, c.finished_at, c.stop_reason = "running", None, None
+        s.flush()
+        campaigns.update_config(s, cid, CampaignConfigUpdate(stopping=StoppingRules(max_iterations=10)))
+    row = next(r for r in client.get(f"{API}/campaigns", params={"owner": "me"}, headers=owner.headers).json() if r["id"] == cid)
+    detail = client.get(f"{API}/campaigns/{cid}", headers=owner.headers).json()
+    assert row["eta_s"] == pytest.approx(63.0) and detail["eta_s"] == pytest.approx(63.0)
+    assert row["mean_iteration_s"] == pytest.approx(9.0) and row["latest_iteration"] == 3 and row["current_iteration"] == 3
+    assert row["max_iterations"] == 10
+
+
+def test_retry_with_nothing_failed_is_409(client, owner: Account, finished: int) -> None:
+    r = client.post(f"{API}/campaigns/{finished}/retry", headers=owner.headers)
+    assert r.status_code == 409 and "nothing to retry" in r.json()["detail"]
+    r = client.post(f"{API}/campaigns/{finished}/retry", json={"iteration": 2, "step": "ocp"}, headers=owner.headers)
+    assert r.status_code == 409 and "ocp of iteration 2 has not failed" in r.json()["detail"]
+    assert client.post(f"{API}/campaigns/999999/retry", headers=owner.headers).status_code == 404
+
+
+def test_series_and_iterations_are_compact_unless_asked(client, owner: Account, finished: int) -> None:
+    series = client.get(f"{API}/campaigns/{finished}/metrics", headers=owner.headers).json()
+    assert series and all(m["extra"] is None for m in series)
+    full = client.get(f"{API}/campaigns/{finished}/metrics", params={"extra": "true"}, headers=owner.headers).json()
+    assert [m["iteration_index"] for m in full] == [m["iteration_index"] for m in series] and all(isinstance(m["extra"], dict) for m in full)
+    its = client.get(f"{API}/campaigns/{finished}/iterations", headers=owner.headers).json()
+    assert [i["index"] for i in its][:4] == [0, 1, 2, 3] and all(i["steps"] is None and i["status"] for i in its)
+    assert [i["index"] for i in client.get(f"{API}/campaigns/{finished}/iterations", params={"after": 2}, headers=owner.headers).json()][:1] == [3]
+    with_steps = client.get(f"{API}/campaigns/{finished}/iterations", params={"steps": "true"}, headers=owner.headers).json()
+    assert {s["step"] for s in with_steps[1]["steps"]} == {"train", "ocp", "oracle", "evaluate", "append"}
+
+
+def test_curves_carry_the_replayed_torque(client, owner: Account) -> None:
+    """tau on the curves' grid is the replayed motion's torque interpolated linearly: a torque
+    linear in time must come back exactly on any grid."""
+    from alcove.db import session_scope
+    from alcove.db.arrays import put_arrays
+    from alcove.models import IterationMetrics, OracleRun
+
+    from .synthetic import synthesize_campaign
+
+    with session_scope() as s:
+        cid = synthesize_campaign(s, owner.id, iterations=1, name="api-tau", curve_samples=21).id
+        m = s.query(IterationMetrics).filter_by(campaign_id=cid, iteration_index=1).one()
+        t = np.linspace(0.0, 1.0, 7)
+        s.add(OracleRun(campaign_id=cid, iteration_id=m.iteration_id, oracle_version_id=_oracle_version(s, cid),
+                        attempt=1, status="ok", input_sha256=put_arrays(s, {"t": t, "q": 0.3 + 0 * t[:, None], "qd": 0 * t[:, None], "tau": (2.0 - 3.0 * t)[:, None]})))
+    curves = client.get(f"{API}/campaigns/{cid}/iterations/1/curves", headers=owner.headers).json()
+    tau = np.array(curves["tau"])
+    assert tau.shape == (21, 1)
+    np.testing.assert_allclose(tau[:, 0], 2.0 - 3.0 * np.array(curves["t"]), atol=1e-12)
+
+
+def _oracle_version(s, cid: int) -> int:  # noqa: ANN001
+    from alcove.models import Campaign
+
+    return s.get(Campaign, cid).oracle_version_id

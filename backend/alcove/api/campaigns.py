@@ -41,12 +41,14 @@ from alcove.campaigns.schemas import (
     StepRead,
     StoppingRules,
 )
-from alcove.errors import InvalidInput, NotFound
+from alcove.errors import Conflict, InvalidInput, NotFound
 from alcove.models import (
     Campaign,
     CampaignStatus,
     Dataset,
+    Iteration,
     IterationMetrics,
+    IterationStatus,
     ModelVersion,
     OracleDefinition,
     OracleVersion,
@@ -120,8 +122,11 @@ class CampaignSummary(BaseModel):
     current_iteration: int
     current_step: str | None
     max_iterations: int | None
+    latest_iteration: int | None = Field(None, description="index of the latest iteration with metrics")
     force_rmse: float | None = Field(description="latest iteration's force RMSE [N]")
     moment_rmse: float | None = Field(description="latest iteration's moment RMSE [N m]")
+    mean_iteration_s: float | None = Field(None, description="mean wall time of the last 20 finished iterations [s]")
+    eta_s: float | None = Field(None, description="remaining iterations (max_iterations rule) x mean iteration time [s]; null when finished or unknown")
     source_campaign_id: int | None
     source_iteration: int | None
     created_at: datetime
@@ -188,6 +193,7 @@ class ResponseCache:
 
 RESPONSES = ResponseCache()
 METRICS_LIST = TypeAdapter(list[MetricsRead])
+ITERATION_LIST = TypeAdapter(list[IterationRead])
 
 
 def _send(jobs: list[Any]) -> None:
@@ -288,7 +294,7 @@ def list_campaigns(
         sa.select(IterationMetrics.campaign_id, sa.func.max(IterationMetrics.iteration_index).label("k")).group_by(IterationMetrics.campaign_id).subquery()
     )
     q = (
-        sa.select(Campaign, User.email, TaskVersion, TaskDefinition.name, OracleVersion, OracleDefinition.name, IterationMetrics.force_rmse, IterationMetrics.moment_rmse)
+        sa.select(Campaign, User.email, TaskVersion, TaskDefinition.name, OracleVersion, OracleDefinition.name, latest.c.k, IterationMetrics.force_rmse, IterationMetrics.moment_rmse)
         .join(User, User.id == Campaign.owner_id)
         .join(TaskVersion, TaskVersion.id == Campaign.task_version_id)
         .join(TaskDefinition, TaskDefinition.id == TaskVersion.definition_id)
@@ -309,17 +315,53 @@ def list_campaigns(
         q = q.where(Campaign.owner_id != user.id)
     if task_id is not None:
         q = q.where(TaskVersion.definition_id == task_id)
+    rows = session.execute(q).all()
+    timing = _iteration_timing(session, [r[0].id for r in rows])
     out = []
-    for c, email, tv, tname, ov, oname, frmse, mrmse in session.execute(q):
+    for c, email, tv, tname, ov, oname, k_latest, frmse, mrmse in rows:
+        max_iterations = (c.stopping_rules or {}).get("max_iterations")
+        mean, eta = _eta(c, max_iterations, *timing.get(c.id, (None, None)))
         out.append(
             CampaignSummary(
                 id=c.id, name=c.name, status=c.status, owner_id=c.owner_id, owner=email, task_id=tv.definition_id, task=tname, task_version=tv.version,
                 oracle_id=ov.definition_id, oracle=oname, oracle_type=ov.oracle_type, oracle_version=ov.version, current_iteration=c.current_iteration,
-                current_step=c.current_step, max_iterations=(c.stopping_rules or {}).get("max_iterations"), force_rmse=frmse, moment_rmse=mrmse,
+                current_step=c.current_step, max_iterations=max_iterations, latest_iteration=k_latest, force_rmse=frmse, moment_rmse=mrmse,
+                mean_iteration_s=mean, eta_s=eta,
                 source_campaign_id=c.source_campaign_id, source_iteration=c.source_iteration, created_at=c.created_at, started_at=c.started_at, finished_at=c.finished_at,
             )
         )
     return out
+
+
+def _iteration_timing(session: Session, campaign_ids: list[int]) -> dict[int, tuple[int, list[float]]]:
+    """For each campaign: the index of its last finished iteration and the wall times of its
+    last 20 finished iterations (one query for the whole page; the same rule as the detail's ETA)."""
+    if not campaign_ids:
+        return {}
+    finished = (IterationStatus.succeeded.value, IterationStatus.failed.value)
+    ranked = (
+        sa.select(
+            Iteration.campaign_id, Iteration.index, Iteration.started_at, Iteration.finished_at,
+            sa.func.row_number().over(partition_by=Iteration.campaign_id, order_by=Iteration.index.desc()).label("rn"),
+        )
+        .where(Iteration.campaign_id.in_(campaign_ids), Iteration.index > 0, Iteration.status.in_(finished),
+               Iteration.started_at.is_not(None), Iteration.finished_at.is_not(None))
+        .subquery()
+    )
+    out: dict[int, tuple[int, list[float]]] = {}
+    for cid, k, a, b, _ in session.execute(sa.select(ranked).where(ranked.c.rn <= 20).order_by(ranked.c.campaign_id, ranked.c.rn)):
+        last, times = out.setdefault(cid, (k, []))
+        times.append((b - a).total_seconds())
+    return out
+
+
+def _eta(c: Campaign, max_iterations: int | None, last_done: int | None, times: list[float] | None) -> tuple[float | None, float | None]:
+    if not times:
+        return None, None
+    mean = sum(times) / len(times)
+    if max_iterations is None or c.is_terminal:
+        return mean, None
+    return mean, max(max_iterations - (last_done if last_done is not None else (c.source_iteration or 0)), 0) * mean
 
 
 @router.post("", response_model=CampaignOut, status_code=status.HTTP_201_CREATED, operation_id="create_campaign")
@@ -387,12 +429,20 @@ _action("cancel", "Cancel: queued steps are dropped, a running job stops at its 
 
 @router.post("/{campaign_id}/retry", response_model=CampaignOut, operation_id="retry_campaign_step")
 def retry_campaign_step(campaign_id: ObjectId, user: CurrentUser, session: SessionDep, body: Annotated[RetryIn | None, Body()] = None) -> CampaignOut:
-    """Run a failed step again (default: the step that failed the campaign)."""
+    """Run a failed step again (default: the step that failed the campaign); 409 when nothing has failed."""
     campaign = get_for(session, Campaign, campaign_id, user, need="edit")
     body = body or RetryIn()
     if (body.iteration is None) != (body.step is None):
         raise InvalidInput.one("step" if body.step is None else "iteration", "give both iteration and step, or neither")
-    campaign, jobs = campaigns.retry_step(session, campaign.id, body.iteration, body.step.value if body.step else None)
+    from alcove.campaigns.repository import NotFound as NoSuchRow
+
+    try:
+        campaign, jobs = campaigns.retry_step(session, campaign.id, body.iteration, body.step.value if body.step else None)
+    except (NotFound, NoSuchRow):
+        # the campaign exists and is visible (checked above): nothing has failed
+        if body.iteration is None:
+            raise Conflict(f"nothing to retry: no step of campaign {campaign_id} has failed (campaign status: {campaign.status})") from None
+        raise Conflict(f"nothing to retry: step {body.step.value} of iteration {body.iteration} has not failed") from None
     session.commit()
     _send(jobs)
     return _campaign_out(session, campaign, user)
@@ -418,28 +468,56 @@ After = Annotated[int | None, Query(ge=-1, le=MAX_ID, description="only iteratio
 
 
 @router.get("/{campaign_id}/metrics", response_model=list[MetricsRead], operation_id="list_campaign_metrics")
-def list_campaign_metrics(campaign_id: ObjectId, user: CurrentUser, session: SessionDep, after: After = None) -> Response:
+def list_campaign_metrics(
+    campaign_id: ObjectId, user: CurrentUser, session: SessionDep, after: After = None,
+    extra: Annotated[bool, Query(description="include each row's `extra` (software versions, per-component RMSE, step timings); null otherwise")] = False,
+) -> Response:
     """Per-iteration metrics (force/moment RMSE, max errors, OCP and oracle figures);
-    ``?after=k`` returns only iterations after k, so a dashboard polls cheaply."""
+    ``?after=k`` returns only iterations after k, so a dashboard polls cheaply. Compact by
+    default: ``extra`` is null unless ``?extra=true``."""
     campaign = get_for(session, Campaign, campaign_id, user)
     count, last_id = session.execute(
         sa.select(sa.func.count(), sa.func.max(IterationMetrics.id)).where(IterationMetrics.campaign_id == campaign_id)
     ).one()
-    key = ("metrics", campaign_id, after, campaign.updated_at, count, last_id)
-    body = RESPONSES.get_or_build(key, lambda: METRICS_LIST.dump_json(campaigns.metrics_series(session, campaign_id, after)))
-    return Response(body, media_type="application/json")
+    key = ("metrics", campaign_id, after, extra, campaign.updated_at, count, last_id)
+
+    def build() -> bytes:
+        rows = campaigns.metrics_series(session, campaign_id, after)
+        if not extra:
+            rows = [m.model_copy(update={"extra": None}) for m in rows]
+        return METRICS_LIST.dump_json(rows)
+
+    return Response(RESPONSES.get_or_build(key, build), media_type="application/json")
 
 
 @router.get("/{campaign_id}/iterations", response_model=list[IterationRead], operation_id="list_campaign_iterations")
-def list_campaign_iterations(campaign_id: ObjectId, user: CurrentUser, session: SessionDep, after: After = None) -> list[IterationRead]:
+def list_campaign_iterations(
+    campaign_id: ObjectId, user: CurrentUser, session: SessionDep, after: After = None,
+    steps: Annotated[bool, Query(description="include each iteration's steps (status, worker, attempts, timings, result); null otherwise")] = False,
+) -> Response:
+    """Iterations (status, current step, error, times); ``?after=k`` for polling. Compact by
+    default: ``steps`` is null unless ``?steps=true`` (or see ``/jobs``)."""
     get_for(session, Campaign, campaign_id, user)
-    return campaigns.list_iterations(session, campaign_id, after)
+    # not cached: an iteration's status can change without the campaign row changing
+    if steps:
+        rows = campaigns.list_iterations(session, campaign_id, after)
+    else:
+        cols = [getattr(Iteration, k) for k in _ITERATION_FIELDS]
+        q = sa.select(*cols).where(Iteration.campaign_id == campaign_id).order_by(Iteration.index)
+        if after is not None:
+            q = q.where(Iteration.index > after)
+        rows = [IterationRead.model_validate({**r._mapping, "steps": None}) for r in session.execute(q)]
+    return Response(ITERATION_LIST.dump_json(rows), media_type="application/json")
+
+
+_ITERATION_FIELDS = ("id", "index", "status", "current_step", "config_version_id", "error", "started_at", "finished_at")
 
 
 @router.get("/{campaign_id}/iterations/{iteration}/curves", response_model=IterationCurves, operation_id="get_iteration_curves")
 def get_iteration_curves(campaign_id: ObjectId, iteration: IterationIndex, user: CurrentUser, session: SessionDep) -> Response:
-    """Iteration k's trajectory (t, q, qd) with the oracle's forces and model k's prediction
-    (columns fx fy fz mx my mz in the headrest frame)."""
+    """Iteration k's trajectory (t, q, qd, tau: the motion replayed by the oracle, on the
+    oracle's time grid) with the oracle's forces and model k's prediction (columns fx fy fz
+    mx my mz in the headrest frame)."""
     from alcove.campaigns import repository as crepo
 
     get_for(session, Campaign, campaign_id, user)

@@ -194,7 +194,7 @@ class IterationRead(_Read):
     error: str | None
     started_at: datetime | None
     finished_at: datetime | None
-    steps: list[StepRead] = []
+    steps: list[StepRead] | None = Field(None, description="the iteration's steps (null in the compact list: ask with ?steps=true)")
 
 
 class MetricsRead(_Read):
@@ -213,7 +213,7 @@ class MetricsRead(_Read):
     n_pool_samples: int | None
     model_version_id: int | None
     dataset_id: int | None
-    extra: dict[str, Any]
+    extra: dict[str, Any] | None = Field(None, description="software versions, per-component RMSE, step timings (only with ?extra=true on the series)")
 
 
 class CampaignDetail(BaseModel):
@@ -234,6 +234,7 @@ class IterationCurves(BaseModel):
     t: list[float]
     q: list[list[float]]
     qd: list[list[float]]
+    tau: list[list[float]] | None = Field(None, description="(n, ndof) joint torque of the replayed motion [N m] on the same grid; null without an oracle run (iteration 0)")
     f_true: list[list[float]] = Field(description="(n, 6): fx fy fz mx my mz")
     f_pred: list[list[float]]
 

@@ -459,7 +459,24 @@ def iteration_curves(s: Session, campaign_id: int, iteration: int) -> IterationC
     if m is None or m.curves_sha256 is None:
         raise NotFound("iteration", f"campaign {campaign_id} has no evaluated iteration {iteration}")
     a = get_arrays(s, m.curves_sha256)
-    return IterationCurves(iteration_index=iteration, t=a["t"].tolist(), q=a["q"].tolist(), qd=a["qd"].tolist(), f_true=a["f_true"].tolist(), f_pred=a["f_pred"].tolist())
+    tau = a["tau"] if "tau" in a else _replayed_tau(s, m.iteration_id, a["t"])
+    return IterationCurves(iteration_index=iteration, t=a["t"].tolist(), q=a["q"].tolist(), qd=a["qd"].tolist(), tau=None if tau is None else tau.tolist(),
+                           f_true=a["f_true"].tolist(), f_pred=a["f_pred"].tolist())
+
+
+def _replayed_tau(s: Session, iteration_id: int, t: np.ndarray) -> np.ndarray | None:
+    """The joint torque of the motion the oracle replayed in this iteration, on the grid
+    ``t`` of the curves (linear, as the replay itself interpolates torque)."""
+    from alcove.models import OracleRun
+
+    sha = s.scalar(sa.select(OracleRun.input_sha256).where(OracleRun.iteration_id == iteration_id, OracleRun.status == "ok").order_by(OracleRun.id.desc()).limit(1))
+    if sha is None:
+        return None
+    r = get_arrays(s, sha)
+    if r.get("tau") is None:
+        return None
+    tau = np.asarray(r["tau"], float).reshape(len(r["t"]), -1)
+    return np.stack([np.interp(t, r["t"], tau[:, j]) for j in range(tau.shape[1])], -1)
 
 
 def list_jobs(s: Session, campaign_id: int, statuses: list[str] | None = None) -> list[dict[str, Any]]:

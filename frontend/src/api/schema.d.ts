@@ -255,7 +255,11 @@ export interface paths {
             path?: never;
             cookie?: never;
         };
-        /** List Campaign Iterations */
+        /**
+         * List Campaign Iterations
+         * @description Iterations (status, current step, error, times); ``?after=k`` for polling. Compact by
+         *     default: ``steps`` is null unless ``?steps=true`` (or see ``/jobs``).
+         */
         get: operations["list_campaign_iterations"];
         put?: never;
         post?: never;
@@ -274,8 +278,9 @@ export interface paths {
         };
         /**
          * Get Iteration Curves
-         * @description Iteration k's trajectory (t, q, qd) with the oracle's forces and model k's prediction
-         *     (columns fx fy fz mx my mz in the headrest frame).
+         * @description Iteration k's trajectory (t, q, qd, tau: the motion replayed by the oracle, on the
+         *     oracle's time grid) with the oracle's forces and model k's prediction (columns fx fy fz
+         *     mx my mz in the headrest frame).
          */
         get: operations["get_iteration_curves"];
         put?: never;
@@ -316,7 +321,8 @@ export interface paths {
         /**
          * List Campaign Metrics
          * @description Per-iteration metrics (force/moment RMSE, max errors, OCP and oracle figures);
-         *     ``?after=k`` returns only iterations after k, so a dashboard polls cheaply.
+         *     ``?after=k`` returns only iterations after k, so a dashboard polls cheaply. Compact by
+         *     default: ``extra`` is null unless ``?extra=true``.
          */
         get: operations["list_campaign_metrics"];
         put?: never;
@@ -479,7 +485,7 @@ export interface paths {
         put?: never;
         /**
          * Retry Campaign Step
-         * @description Run a failed step again (default: the step that failed the campaign).
+         * @description Run a failed step again (default: the step that failed the campaign); 409 when nothing has failed.
          */
         post: operations["retry_campaign_step"];
         delete?: never;
@@ -1324,6 +1330,11 @@ export interface components {
             current_iteration: number;
             /** Current Step */
             current_step: string | null;
+            /**
+             * Eta S
+             * @description remaining iterations (max_iterations rule) x mean iteration time [s]; null when finished or unknown
+             */
+            eta_s?: number | null;
             /** Finished At */
             finished_at: string | null;
             /**
@@ -1333,8 +1344,18 @@ export interface components {
             force_rmse: number | null;
             /** Id */
             id: number;
+            /**
+             * Latest Iteration
+             * @description index of the latest iteration with metrics
+             */
+            latest_iteration?: number | null;
             /** Max Iterations */
             max_iterations: number | null;
+            /**
+             * Mean Iteration S
+             * @description mean wall time of the last 20 finished iterations [s]
+             */
+            mean_iteration_s?: number | null;
             /**
              * Moment Rmse
              * @description latest iteration's moment RMSE [N m]
@@ -1638,6 +1659,11 @@ export interface components {
             qd: number[][];
             /** T */
             t: number[];
+            /**
+             * Tau
+             * @description (n, ndof) joint torque of the replayed motion [N m] on the same grid; null without an oracle run (iteration 0)
+             */
+            tau?: number[][] | null;
         };
         /** IterationRead */
         IterationRead: {
@@ -1658,9 +1684,9 @@ export interface components {
             status: components["schemas"]["IterationStatus"];
             /**
              * Steps
-             * @default []
+             * @description the iteration's steps (null in the compact list: ask with ?steps=true)
              */
-            steps?: components["schemas"]["StepRead"][];
+            steps?: components["schemas"]["StepRead"][] | null;
         };
         /**
          * IterationStatus
@@ -1747,10 +1773,13 @@ export interface components {
         MetricsRead: {
             /** Dataset Id */
             dataset_id: number | null;
-            /** Extra */
-            extra: {
+            /**
+             * Extra
+             * @description software versions, per-component RMSE, step timings (only with ?extra=true on the series)
+             */
+            extra?: {
                 [key: string]: unknown;
-            };
+            } | null;
             /** Force Max Error */
             force_max_error: number | null;
             /** Force Rmse */
@@ -4333,6 +4362,8 @@ export interface operations {
             query?: {
                 /** @description only iterations with index > after (poll incrementally) */
                 after?: number | null;
+                /** @description include each iteration's steps (status, worker, attempts, timings, result); null otherwise */
+                steps?: boolean;
             };
             header?: never;
             path: {
@@ -4598,6 +4629,8 @@ export interface operations {
             query?: {
                 /** @description only iterations with index > after (poll incrementally) */
                 after?: number | null;
+                /** @description include each row's `extra` (software versions, per-component RMSE, step timings); null otherwise */
+                extra?: boolean;
             };
             header?: never;
             path: {
