@@ -691,7 +691,7 @@ def execute_append(ctx: StepContext) -> StepOutput:
             raise RuntimeError(f"pool version {k - 1} does not exist")
         ds = repo.iteration_dataset(s, it.id)
         pv = pool_service.create_version(s, campaign_id=c.id, iteration_id=it.id, version=k, parent=parent, new_datasets=[ds] if ds is not None else [])
-        history = [IterationRecord(m.iteration_index, m.force_rmse, m.moment_rmse) for m in repo.metrics_series(s, c.id)]
+        history = [IterationRecord(*row) for row in repo.rmse_history(s, c.id)]
         rules = service.current_config(s, c).stopping  # stopping rules edited during the run apply at once
         reason = stop_reason(rules, k, history, c.oracle_wall_time_s or 0.0)
         return {"pool_version_id": pv.id, "n_datasets": pv.n_datasets, "n_samples": pv.n_samples, "appended": ds.id if ds else None, "stop_reason": reason,

@@ -164,6 +164,17 @@ def metrics_series(s: Session, campaign_id: int, after: int | None = None) -> li
     return list(s.scalars(q))
 
 
+def rmse_history(s: Session, campaign_id: int) -> list[tuple[int, float | None, float | None]]:
+    """(iteration, force RMSE, moment RMSE) in order: what the stopping rules need, no ORM rows."""
+    q = sa.select(IterationMetrics.iteration_index, IterationMetrics.force_rmse, IterationMetrics.moment_rmse).where(
+        IterationMetrics.campaign_id == campaign_id).order_by(IterationMetrics.iteration_index)
+    return [(int(k), f, m) for k, f, m in s.execute(q)]
+
+
+def latest_metrics(s: Session, campaign_id: int) -> IterationMetrics | None:
+    return s.scalar(sa.select(IterationMetrics).where(IterationMetrics.campaign_id == campaign_id).order_by(IterationMetrics.iteration_index.desc()).limit(1))
+
+
 def metrics_of(s: Session, campaign_id: int, index: int) -> IterationMetrics | None:
     return s.scalar(sa.select(IterationMetrics).where(IterationMetrics.campaign_id == campaign_id, IterationMetrics.iteration_index == index))
 

@@ -415,7 +415,7 @@ def get_detail(s: Session, campaign_id: int) -> CampaignDetail:
     c = repo.get_campaign(s, campaign_id)
     cfg = current_config(s, c)
     it = repo.get_iteration_with_steps(s, c.id, c.current_iteration)
-    series = repo.metrics_series(s, c.id)
+    latest = repo.latest_metrics(s, c.id)
     times = repo.finished_iteration_times(s, c.id)
     done = [(k, st, a, b) for k, st, a, b in times if st in (IterationStatus.succeeded.value, IterationStatus.failed.value) and a and b]
     recent = [(b - a).total_seconds() for _, _, a, b in done[-20:]]
@@ -426,7 +426,7 @@ def get_detail(s: Session, campaign_id: int) -> CampaignDetail:
         eta = max(cfg.stopping.max_iterations - last_done, 0) * mean
     return CampaignDetail(
         campaign=CampaignRead.model_validate(c), config=cfg, current=IterationRead.model_validate(it) if it is not None else None,
-        latest_metrics=_metrics_read(series[-1]) if series else None,
+        latest_metrics=_metrics_read(latest) if latest is not None else None,
         iterations_finished=sum(1 for d in done if d[1] == IterationStatus.succeeded.value),
         iterations_failed=sum(1 for d in done if d[1] == IterationStatus.failed.value), mean_iteration_s=mean, eta_s=eta,
     )

@@ -30,3 +30,26 @@ def datasets(s: Session, ids: list[int]) -> list[Dataset]:
 
         raise NotFound("dataset_ids", f"no dataset {missing[0]}")
     return [rows[i] for i in ids]
+
+
+def member_summaries(s: Session, pool_version_id: int) -> list[tuple[int, str, int]]:
+    """(dataset id, content hash, n_samples) of the members in order: no ORM objects (cheap
+    for pools of hundreds of datasets)."""
+    q = (
+        sa.select(Dataset.id, Dataset.content_sha256, Dataset.n_samples)
+        .join(PoolVersionMember, PoolVersionMember.dataset_id == Dataset.id)
+        .where(PoolVersionMember.pool_version_id == pool_version_id)
+        .order_by(PoolVersionMember.position)
+    )
+    return [(int(i), str(h), int(n)) for i, h, n in s.execute(q)]
+
+
+def added_members(s: Session, pool_version_id: int) -> list[Dataset]:
+    """The datasets a version added to its parent, in order."""
+    q = (
+        sa.select(Dataset)
+        .join(PoolVersionMember, PoolVersionMember.dataset_id == Dataset.id)
+        .where(PoolVersionMember.pool_version_id == pool_version_id, PoolVersionMember.added_in_this_version.is_(True))
+        .order_by(PoolVersionMember.position)
+    )
+    return list(s.scalars(q))

@@ -14,6 +14,7 @@ from collections import OrderedDict
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
+import sqlalchemy as sa
 from sqlalchemy.orm import Session
 
 from alcove.db.arrays import get_arrays, put_arrays
@@ -67,28 +68,29 @@ def create_version(
     s: Session, *, campaign_id: int, iteration_id: int, version: int, parent: PoolVersion | None, new_datasets: list[Dataset]
 ) -> PoolVersion:
     """Pool version ``version`` = ``parent``'s members + ``new_datasets`` (a dataset that is
-    already a member is not added again)."""
-    base = repo.members(s, parent.id) if parent is not None else []
-    have = {d.id for _, d in base}
-    ordered = [d for _, d in base]
-    added = []
+    already a member is not added again). The member rows are inserted in one executemany."""
+    base = repo.member_summaries(s, parent.id) if parent is not None else []
+    have = {i for i, _, _ in base}
+    ordered = list(base)
+    added: set[int] = set()
     for d in new_datasets:
         if d.id not in have:
             have.add(d.id)
-            ordered.append(d)
-            added.append(d.id)
+            ordered.append((d.id, d.content_sha256, int(d.n_samples)))
+            added.add(d.id)
     h = hashlib.sha256()
-    for d in ordered:
-        h.update(d.content_sha256.encode())
+    for _, sha, _ in ordered:
+        h.update(sha.encode())
     pv = PoolVersion(
         campaign_id=campaign_id, iteration_id=iteration_id, version=version, parent_id=parent.id if parent is not None else None,
-        n_datasets=len(ordered), n_samples=int(sum(d.n_samples for d in ordered)), content_hash=h.hexdigest(),
+        n_datasets=len(ordered), n_samples=int(sum(n for _, _, n in ordered)), content_hash=h.hexdigest(),
     )
     s.add(pv)
     s.flush()
-    added_set = set(added)
-    s.add_all(PoolVersionMember(pool_version_id=pv.id, dataset_id=d.id, position=i, added_in_this_version=d.id in added_set) for i, d in enumerate(ordered))
-    s.flush()
+    if ordered:
+        s.execute(sa.insert(PoolVersionMember), [
+            {"pool_version_id": pv.id, "dataset_id": i, "position": k, "added_in_this_version": i in added} for k, (i, _, _) in enumerate(ordered)
+        ])
     return pv
 
 
@@ -97,16 +99,50 @@ def _pool_name(d: Dataset) -> str:
     return f"{base}.{d.id}" if not base.endswith(f".{d.id}") else base
 
 
-def load_training_pool(s: Session, pool_version: PoolVersion) -> "list[PoolDataset]":
-    """The version's datasets as :class:`PoolDataset` objects (names unique: ``name.id``)."""
+#: (database URL, pool version id) -> (content hash, datasets); the hash guards against a
+#: different database that reuses the id (tests)
+_pool_cache: "OrderedDict[tuple[str, int], tuple[str, list[PoolDataset]]]" = OrderedDict()
+_POOL_CACHE_SIZE = 4
+
+
+def _training_dataset(s: Session, d: Dataset) -> "PoolDataset":
     from alcove.science.surrogate.dataset import PoolDataset
 
-    out = []
-    for _, d in repo.members(s, pool_version.id):
-        a = dataset_arrays(s, d)
-        origin = d.origin if d.origin in ("preliminary", "oracle", "upload") else "oracle"
-        out.append(PoolDataset(_pool_name(d), a["t"], a["q"], a["qd"], a["f"][:, :3], a["f"][:, 3:], origin))
-    return out
+    a = dataset_arrays(s, d)
+    origin = d.origin if d.origin in ("preliminary", "oracle", "upload") else "oracle"
+    return PoolDataset(_pool_name(d), a["t"], a["q"], a["qd"], a["f"][:, :3], a["f"][:, 3:], origin)
+
+
+def _cached_pool(url: str, pool_version_id: int, content_hash: str) -> "list[PoolDataset] | None":
+    with _cache_lock:
+        got = _pool_cache.get((url, pool_version_id))
+    return got[1] if got is not None and got[0] == content_hash else None
+
+
+def load_training_pool(s: Session, pool_version: PoolVersion) -> "list[PoolDataset]":
+    """The version's datasets as :class:`PoolDataset` objects (names unique: ``name.id``).
+
+    Cached per process by pool version (versions are immutable): version k is built from a
+    cached version k-1 plus the datasets k added, so a worker training iteration after
+    iteration reads only the new rows, not the whole pool."""
+    url = str(s.get_bind().url)
+    got = _cached_pool(url, pool_version.id, pool_version.content_hash)
+    if got is not None:
+        return list(got)
+    out: list[PoolDataset] | None = None
+    parent_row = s.get(PoolVersion, pool_version.parent_id) if pool_version.parent_id is not None else None
+    parent = _cached_pool(url, parent_row.id, parent_row.content_hash) if parent_row is not None else None
+    if parent is not None:
+        out = parent + [_training_dataset(s, d) for d in repo.added_members(s, pool_version.id)]
+        if len(out) != pool_version.n_datasets:  # not a pure extension of its parent: read it whole
+            out = None
+    if out is None:
+        out = [_training_dataset(s, d) for _, d in repo.members(s, pool_version.id)]
+    with _cache_lock:
+        _pool_cache[(url, pool_version.id)] = (pool_version.content_hash, out)
+        while len(_pool_cache) > _POOL_CACHE_SIZE:
+            _pool_cache.popitem(last=False)
+    return list(out)
 
 
 def pool_table_columns(ndof: int) -> list[str]:
