@@ -1,0 +1,58 @@
+"""Pool versions: membership chain and the worker's per-process training-pool cache."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+
+def test_training_pool_from_cached_parent_equals_a_fresh_read(sqlite_campaign_db: str, monkeypatch: Any) -> None:
+    """Version k built from the cached version k-1 plus k's new rows is the same pool, in the
+    same order, as reading version k whole; a version is never served for another one."""
+    from alcove.campaigns.presets import local_user
+    from alcove.db import transaction
+    from alcove.db.migrate import upgrade
+    from alcove.pool import repository as pool_repo
+    from alcove.pool import service as pool_service
+    from alcove.models import PoolVersion
+    from tests.api.synthetic import synthesize_campaign
+
+    upgrade()
+
+    def build(s: Any) -> list[int]:
+        c = synthesize_campaign(s, local_user(s).id, iterations=4, pool_samples=20)
+        return [pv.id for pv in s.query(PoolVersion).filter_by(campaign_id=c.id).order_by(PoolVersion.version)]
+
+    ids = transaction(build)
+
+    def load_all(s: Any) -> list[list[Any]]:
+        return [pool_service.load_training_pool(s, s.get(PoolVersion, i)) for i in ids]
+
+    whole_reads: list[int] = []
+    read_whole = pool_repo.members
+    monkeypatch.setattr(pool_repo, "members", lambda s, i: whole_reads.append(i) or read_whole(s, i))
+    pool_service._pool_cache.clear()
+    chained = transaction(load_all)  # each version after the first comes from its cached parent
+    assert whole_reads == ids[:1]
+    fresh = []
+    for i in ids:
+        pool_service._pool_cache.clear()
+        fresh.append(transaction(lambda s, i=i: pool_service.load_training_pool(s, s.get(PoolVersion, i))))
+    for k, (a, b) in enumerate(zip(chained, fresh)):
+        assert [d.name for d in a] == [d.name for d in b]
+        assert len(a) == k + 1
+        for da, db in zip(a, b):
+            np.testing.assert_array_equal(da.force, db.force)
+            np.testing.assert_array_equal(da.q, db.q)
+    # membership rows: version k has k+1 members, the last one added in it
+    def members(s: Any) -> list[list[tuple[int, bool]]]:
+        return [[(m.position, m.added_in_this_version) for m, _ in pool_repo.members(s, i)] for i in ids]
+
+    for k, rows in enumerate(transaction(members)):
+        assert rows == [(j, j == k) for j in range(k + 1)]
+    # a cached entry whose content hash does not match the row is not used
+    key = next(iter(pool_service._pool_cache))
+    pool_service._pool_cache[key] = ("not-the-hash", [])
+    again = transaction(lambda s: pool_service.load_training_pool(s, s.get(PoolVersion, key[1])))
+    assert len(again) > 0
