@@ -14,6 +14,12 @@ from dataclasses import dataclass, field
 from typing import Any, Callable
 
 FIGURES: list["Figure"] = []
+#: "quick" or "full", set by bench.run before the figures run (a figure may trim its setup in quick mode)
+MODE = "full"
+
+
+def quick() -> bool:
+    return MODE == "quick"
 
 
 @dataclass

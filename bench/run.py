@@ -14,11 +14,13 @@ import statistics
 import sys
 import time
 from pathlib import Path
+from typing import Any
 
 from rich.console import Console
 from rich.table import Table
 
 from bench import figures as figures_pkg
+from bench import harness
 from bench.harness import FIGURES, summarize
 
 
@@ -38,6 +40,9 @@ def main(argv: list[str] | None = None) -> int:
     console = Console() if sys.stdout.isatty() else Console(width=220)
     rows = []
     t_start = time.perf_counter()
+    harness.MODE = "quick" if args.quick else "full"
+    # a setup shared by several figures (the same function) runs once per bench run
+    setups: dict[Any, Any] = {}
     for fig in FIGURES:
         if args.only and args.only not in fig.name:
             continue
@@ -52,10 +57,18 @@ def main(argv: list[str] | None = None) -> int:
             continue
         reps = fig.quick_reps if args.quick else fig.reps
         console.print(f"[bold]{fig.name}[/] ({reps} reps)")
-        ctx = fig.setup() if fig.setup else None
+        t_fig = time.perf_counter()
+        ctx = None
+        if fig.setup is not None:
+            if fig.setup not in setups:
+                setups[fig.setup] = fig.setup()
+            ctx = setups[fig.setup]
+        t_setup = time.perf_counter() - t_fig
         for _ in range(reps):
             fig.values.append(float(fig.run(ctx)))
-        rows.append(summarize(fig))
+        row = summarize(fig)
+        row["bench_setup_s"], row["bench_total_s"] = t_setup, time.perf_counter() - t_fig
+        rows.append(row)
     by_name = {r["figure"]: r for r in rows}
     for r in rows:
         b = by_name.get(r["baseline"]) if r["baseline"] else None
@@ -70,6 +83,10 @@ def main(argv: list[str] | None = None) -> int:
         target = "-" if r["target"] is None else f"{r['target_kind']} {r['target']:g}"
         table.add_row(r["figure"], r["unit"], fmt(r["median"]), fmt(r["min"]), fmt(r["max"]), str(r["repetitions"]), target, ok, fmt(r["ratio_to_baseline"]))
     console.print(table)
+    slow = sorted((r for r in rows if r.get("bench_total_s")), key=lambda r: -r["bench_total_s"])[:8]
+    if slow:
+        console.print("slowest figures (setup + repetitions): " + "; ".join(f"{r['figure'][:60]} {r['bench_total_s']:.1f} s (setup {r['bench_setup_s']:.1f} s)" for r in slow))
+    console.print(f"bench wall time {time.perf_counter() - t_start:.1f} s")
     out = {
         "mode": "quick" if args.quick else "full",
         "python": sys.version.split()[0],

@@ -2,8 +2,8 @@
 wall time, and the paper's 200-iteration campaign (full mode only).
 
 Every campaign here runs the real path: ``alcove campaign run`` in a subprocess, which
-spawns one ``alcove worker`` on the embedded default (SQLite + filesystem broker, polling
-every 0.05 s) in a temporary ``ALCOVE_DATA_DIR``. The numbers come from the step rows:
+spawns one ``alcove worker`` on the embedded default (SQLite + filesystem broker, with the
+polling interval ``alcove campaign run`` gives its worker) in a temporary ``ALCOVE_DATA_DIR``. The numbers come from the step rows:
 
 * bare compute = the science call of a step (``result.compute_s``: training, IPOPT, the
   oracle, the metrics);
@@ -24,14 +24,21 @@ import tempfile
 from pathlib import Path
 from typing import Any
 
+from bench import harness
 from bench.harness import figure
 
 SHORT_ITERATIONS = 4
+STEPS = ("train", "ocp", "oracle", "evaluate", "append")
+
+
+def short_iterations() -> int:
+    """Iterations of the short campaigns: 4 (3 in --quick: iterations 2 and 3 are measured)."""
+    return 3 if harness.quick() else SHORT_ITERATIONS
 
 
 def _env(data_dir: Path) -> dict[str, str]:
     env = {k: v for k, v in os.environ.items() if not k.startswith("ALCOVE_")}
-    env.update(ALCOVE_DATA_DIR=str(data_dir), ALCOVE_BROKER_POLLING_INTERVAL="0.05")
+    env.update(ALCOVE_DATA_DIR=str(data_dir))
     return env
 
 
@@ -72,6 +79,7 @@ def _seconds(a: Any, b: Any) -> float:
 def breakdown(run: dict[str, Any]) -> dict[str, Any]:
     """Per-step overhead and per-iteration shares (iterations k >= 2: the worker is warm)."""
     per_step, per_iteration = [], {}
+    step_compute: dict[str, list[float]] = {}
     for st in run["steps"]:
         if st["k"] < 1 or st["wall_time_s"] is None:
             continue
@@ -84,6 +92,7 @@ def breakdown(run: dict[str, Any]) -> dict[str, Any]:
         it["last_finished"] = st["finished_at"]
         if st["k"] >= 2:
             per_step.append((st["step"], overhead))
+            step_compute.setdefault(st["step"], []).append(compute)
     shares, walls = [], []
     for k, it in per_iteration.items():
         if k < 2:
@@ -95,22 +104,25 @@ def breakdown(run: dict[str, Any]) -> dict[str, Any]:
     for name, o in per_step:
         by_step.setdefault(name, []).append(o)
     return {"step_overhead_ms": [1000 * o for _, o in per_step], "by_step_ms": {k: 1000 * statistics.median(v) for k, v in by_step.items()},
+            "compute_by_step_s": {k: statistics.median(v) for k, v in step_compute.items()},
+            "overhead_per_iteration_ms": [1000 * it["overhead"] for k, it in per_iteration.items() if k >= 2],
             "share_percent": shares, "iteration_s": walls, "compute_s": [it["compute"] for k, it in per_iteration.items() if k >= 2]}
 
 
 @functools.lru_cache
 def short_campaign() -> dict[str, Any]:
-    """fe-headrest-2d, the paper's settings, SHORT_ITERATIONS iterations."""
-    run = run_campaign("fe-headrest-2d", SHORT_ITERATIONS)
+    """fe-headrest-2d, the paper's settings, short_iterations() iterations."""
+    run = run_campaign("fe-headrest-2d", short_iterations())
     run["breakdown"] = breakdown(run)
     b = run["breakdown"]
-    print(f"  per-step overhead medians [ms]: {json.dumps({k: round(v, 1) for k, v in b['by_step_ms'].items()})}; "
+    print(f"  per-step compute medians [s]: {json.dumps({k: round(v, 3) for k, v in b['compute_by_step_s'].items()})}; "
+          f"per-step overhead medians [ms]: {json.dumps({k: round(v, 1) for k, v in b['by_step_ms'].items()})}; "
           f"iteration wall {['%.2f' % w for w in b['iteration_s']]} s, overhead share {['%.1f' % s for s in b['share_percent']]} %")
     return run
 
 
 @figure("campaign: orchestration overhead per step (median, fe-headrest-2d)", "ms", target=100.0, setup=short_campaign, reps=1, quick_reps=1,
-        group="campaign", notes=f"steps of iterations 2..{SHORT_ITERATIONS}; queue latency + job wall - compute; embedded default, 1 spawned worker")
+        group="campaign", notes=f"steps of iterations 2..{SHORT_ITERATIONS} (3 in --quick); queue latency + job wall - compute; embedded default, 1 spawned worker")
 def step_overhead(run: dict[str, Any]) -> float:
     return statistics.median(run["breakdown"]["step_overhead_ms"])
 
@@ -118,6 +130,24 @@ def step_overhead(run: dict[str, Any]) -> float:
 @figure("campaign: orchestration overhead per step (max)", "ms", target=100.0, setup=short_campaign, reps=1, quick_reps=1, group="campaign")
 def step_overhead_max(run: dict[str, Any]) -> float:
     return max(run["breakdown"]["step_overhead_ms"])
+
+
+def _step_compute(step: str):  # noqa: ANN202
+    def fn(run: dict[str, Any]) -> float:
+        return run["breakdown"]["compute_by_step_s"].get(step, float("nan"))
+
+    return fn
+
+
+for _step in STEPS:
+    figure(f"campaign: {_step} step bare compute (median, fe-headrest-2d)", "s", setup=short_campaign, reps=1, quick_reps=1, group="campaign",
+           notes="the science call of the step (result.compute_s), iterations >= 2")(_step_compute(_step))
+
+
+@figure("campaign: orchestration per iteration (median, sum over its 5 steps)", "ms", setup=short_campaign, reps=1, quick_reps=1, group="campaign",
+        notes="its share of the iteration wall time is the next figure; the bare compute baseline is measured in the same run")
+def iteration_overhead(run: dict[str, Any]) -> float:
+    return statistics.median(run["breakdown"]["overhead_per_iteration_ms"])
 
 
 @figure("campaign: orchestration share of an iteration (median)", "%", target=5.0, setup=short_campaign, reps=1, quick_reps=1, group="campaign",
@@ -138,10 +168,10 @@ def iteration_wall(run: dict[str, Any]) -> float:
     return statistics.median(run["breakdown"]["iteration_s"])
 
 
-@figure(f"campaign: short campaign wall time (aux-penalty, {SHORT_ITERATIONS} iterations, 30 intervals per phase, 1000 LHS samples)", "s", reps=1, quick_reps=1,
+@figure(f"campaign: short campaign wall time (aux-penalty, {SHORT_ITERATIONS} iterations (3 in --quick), 30 intervals per phase, 1000 LHS samples)", "s", reps=1, quick_reps=1,
         group="campaign", notes="`alcove campaign run` end to end, including worker start-up and migrations")
 def short_campaign_wall(_: Any) -> float:
-    run = run_campaign("aux-penalty", SHORT_ITERATIONS, "preliminary: {samples: 1000}\nsettings: {ocp_intervals: 30}\n")
+    run = run_campaign("aux-penalty", short_iterations(), "preliminary: {samples: 1000}\nsettings: {ocp_intervals: 30}\n")
     return float(run["wall_time_s"])
 
 
