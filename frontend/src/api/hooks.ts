@@ -261,7 +261,7 @@ function campaignRow(c: Schemas["CampaignSummary"]): CampaignRow {
     force_history: [],
     moment_history: [],
     started_at: c.started_at ?? null,
-    eta_s: null,
+    eta_s: c.eta_s ?? null,
   };
 }
 
@@ -426,7 +426,7 @@ export function iterationQuery(id: number, k: number) {
         t: c.t,
         q: columns(c.q),
         qd: columns(c.qd),
-        tau: [],
+        tau: c.tau ? columns(c.tau) : [],
         phases: [],
         force_t: c.t,
         truth: Object.fromEntries(WRENCH.map((w, j) => [w, truth[j] ?? []])),

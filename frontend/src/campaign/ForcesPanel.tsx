@@ -118,7 +118,7 @@ export function ForcesPanel({
           </div>
         </div>
       )}
-      <p className="hint">Solid: oracle (truth). Dashed: surrogate prediction of model k−1 on the same trajectory. Forces and moments act on the head, in the headrest frame.</p>
+      <p className="hint">Solid: oracle (truth). Dashed: prediction of surrogate model k (trained on pool version k−1, the contact model of iteration k's OCP) on the same trajectory, data it has not seen. Forces and moments act on the head, in the headrest frame.</p>
     </div>
   );
 }

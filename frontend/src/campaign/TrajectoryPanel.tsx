@@ -58,7 +58,7 @@ export function TrajectoryPanel({ campaignId, iteration, phases }: { campaignId:
       ) : (
         <div>
           <Plot testId="velocity-plot" traces={second} shapes={shapes} xTitle="t [s]" yTitle="joint velocity θ̇ [rad/s]" exportName={`velocity-k${iteration}`} height={280} />
-          <p className="hint">The API's iteration curves carry t, θ and θ̇ of the replayed motion; the torque τ is not among them.</p>
+          <p className="hint">No joint torque for this iteration (iteration 0 has no oracle run); showing the joint velocity.</p>
         </div>
       )}
     </div>

@@ -56,6 +56,8 @@ const curves = (k: number) => ({
   t: [0, 0.1, 0.2],
   q: [[0.2], [0.3], [0.35]],
   qd: [[0], [1], [0]],
+  // the replayed motion's joint torque; iteration 0 (no oracle run) has none
+  tau: k > 0 ? [[-1], [-2.5], [-3]] : null,
   f_true: [
     [0, 0, 0, 0, 0, 0],
     [5, 0, 1, 0, 0.1, 0],
@@ -135,7 +137,7 @@ describe("campaign page", () => {
     expect(calls.some((c) => c.path.startsWith("/campaigns/7/") && c.path.endsWith("/pause"))).toBe(false);
   });
 
-  it("shades the phases of the iteration's trajectory", async () => {
+  it("plots joint angle and torque of the iteration's trajectory with the phases shaded", async () => {
     mockApi({
       "GET /campaigns/7": () => campaign("completed", 1),
       "GET /campaigns/7/metrics": () => [metric(0), metric(1)],
@@ -145,8 +147,23 @@ describe("campaign page", () => {
     });
     renderPage(<CampaignPage />, { route: "/campaigns/7?tab=trajectory", path: "/campaigns/:id" });
     await waitFor(() => expect(screen.getByTestId("angle-plot")).toHaveAttribute("data-points", "3"));
-    expect(screen.getByTestId("velocity-plot")).toHaveAttribute("data-points", "3");
+    expect(screen.getByTestId("torque-plot")).toHaveAttribute("data-points", "3");
+    expect(screen.queryByTestId("velocity-plot")).not.toBeInTheDocument();
     await waitFor(() => expect(screen.getByTestId("angle-plot")).toHaveAttribute("data-shapes", "2"));
+    expect(screen.getByTestId("torque-plot")).toHaveAttribute("data-shapes", "2");
+  });
+
+  it("falls back to the joint velocity for an iteration without torque", async () => {
+    mockApi({
+      "GET /campaigns/7": () => campaign("completed", 1),
+      "GET /campaigns/7/metrics": () => [metric(0), metric(1)],
+      "GET /campaigns/7/iterations": () => [iteration(0), iteration(1)],
+      "GET /tasks/1/versions/1": TASK_VERSION,
+      [CURVES_ROUTE]: curvesHandler,
+    });
+    renderPage(<CampaignPage />, { route: "/campaigns/7?tab=trajectory&k=0", path: "/campaigns/:id" });
+    await waitFor(() => expect(screen.getByTestId("velocity-plot")).toHaveAttribute("data-points", "3"));
+    expect(screen.queryByTestId("torque-plot")).not.toBeInTheDocument();
   });
 
   it("shows the API's error instead of a blank page", async () => {

@@ -31,6 +31,8 @@ const summary = (id: number, name: string, status: string, force: number | null)
   created_at: "2026-11-21T22:00:00Z",
   started_at: `2026-11-21T2${id}:00:00Z`,
   finished_at: null,
+  // 8 iterations left x 15 s each while running; unknown otherwise
+  eta_s: status === "running" ? 120 : null,
 });
 
 describe("campaigns list", () => {
@@ -46,6 +48,8 @@ describe("campaigns list", () => {
     expect(running).toHaveTextContent("running");
     expect(running).toHaveTextContent("2/10");
     expect(running).toHaveTextContent("1.20");
+    expect(running).toHaveTextContent("2 min 0 s"); // ETA
+    expect(within(table).getByRole("row", { name: /baseline/ })).not.toHaveTextContent(/\d min/);
 
     await userEvent.click(screen.getByRole("button", { name: /Force RMSE/ }));
     const names = within(table).getAllByRole("link").map((a) => a.textContent);
