@@ -93,6 +93,17 @@ class Objects:
                 (cache_dir() / f"{mv.artifact_sha256}.zip").write_bytes(model_artifact_bytes(s, mv))
         return self._finished
 
+    def preview(self) -> int:
+        """A finished preview of the owner's (made in the database: the API limits pending previews)."""
+        from alcove.db import session_scope
+        from alcove.models import Preview
+
+        with session_scope() as s:
+            row = Preview(owner_id=self.owner.id, kind="task", status="failed", error="made by the test", spec=small_task_spec(), options={"intervals": 4})
+            s.add(row)
+            s.flush()
+            return row.id
+
     def token(self) -> int:
         return self.post("/me/tokens", {"name": "matrix"})["id"]
 
@@ -192,6 +203,11 @@ SPECS: dict[str, Spec] = {
     "get_model_artifact": ("owned", lambda o, a: Call(path={**o.finished(), "version": 1}), OK),
     "download_model_artifact": ("owned", lambda o, a: Call(path={**o.finished(), "version": 1}), OK),
     "export_campaign": ("owned", lambda o, a: Call(path=o.finished(), params={"pool_format": "csv"}), OK),
+    # ---- editor previews (run by workers; here they stay pending)
+    "create_task_preview": ("owned", lambda o, a: Call(path={"task_id": o.task()}, json={"intervals": 4}), {202}),
+    "create_oracle_preview": ("owned", lambda o, a: Call(path={"oracle_id": o.oracle()}), {202}),
+    "get_preview": ("owned", lambda o, a: Call(path={"preview_id": o.preview()}), OK),
+    "list_previews": ("any", lambda o, a: Call(), OK),
     # ---- uploads
     "upload_preliminary_dataset": ("any", lambda o, a: Call(files=csv_upload(), data={"name": "prelim", "chunks": "2"}), CREATED),
     "list_preliminary_datasets": ("any", lambda o, a: Call(), OK),

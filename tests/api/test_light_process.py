@@ -1,5 +1,5 @@
 """The API process imports neither torch nor casadi, even after serving requests that
-validate tasks, oracles and campaigns (checked in a fresh interpreter)."""
+validate tasks, oracles and campaigns and queue previews (checked in a fresh interpreter)."""
 
 from __future__ import annotations
 
@@ -39,6 +39,9 @@ SCRIPT = textwrap.dedent(
     camp = call("campaign", "POST", "/campaigns", json={"name": "c", "task_id": task["id"], "oracle_id": oracle["id"]})
     call("list", "GET", "/campaigns")
     call("metrics", "GET", f"/campaigns/{camp['id']}/metrics")
+    preview = call("task preview", "POST", f"/tasks/{task['id']}/previews", json={"spec": preset, "intervals": 4})
+    call("oracle preview", "POST", f"/oracles/{oracle['id']}/previews", json={"params": {}})
+    call("preview", "GET", f"/previews/{preview['id']}")
     heavy = sorted(m for m in ("torch", "casadi") if m in sys.modules)
     print(json.dumps({"codes": codes, "heavy": heavy}))
     """

@@ -65,6 +65,28 @@ def append_step(self: Any, campaign_id: int, iteration: int, step: str, attempt:
     return _run_step(self, campaign_id, iteration, step, attempt)
 
 
+# ----------------------------------------------------------------------------- editor previews
+# The message is the preview id; the job claims the row first (a duplicate is a no-op).
+
+from alcove.previews.service import ORACLE_PREVIEW_JOB, TASK_PREVIEW_JOB  # noqa: E402
+
+
+@app.task(name=TASK_PREVIEW_JOB, bind=True, acks_late=True)
+def task_preview(self: Any, preview_id: int) -> str:
+    """Solve a task once with the auxiliary contact (queue ocp)."""
+    from alcove.previews.service import run_preview
+
+    return run_preview(int(preview_id), worker_name=self.request.hostname or "unknown")
+
+
+@app.task(name=ORACLE_PREVIEW_JOB, bind=True, acks_late=True)
+def oracle_preview(self: Any, preview_id: int) -> str:
+    """Replay the sample trajectory through an oracle (queue oracle)."""
+    from alcove.previews.service import run_preview
+
+    return run_preview(int(preview_id), worker_name=self.request.hostname or "unknown")
+
+
 @app.task(name=RECONCILE_JOB, bind=True)
 def reconcile(self: Any) -> int:
     """One reconciliation pass (also runs periodically inside every worker)."""

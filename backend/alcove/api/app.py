@@ -35,10 +35,11 @@ def api_routers() -> list[APIRouter]:
     from alcove.api import campaigns, surrogate_configs
     from alcove.oracles.router import admin_router as command_oracles_router
     from alcove.oracles.router import router as oracles_router
+    from alcove.previews.router import router as previews_router
     from alcove.tasks.router import router as tasks_router
     from alcove.users.router import router as users_router
 
-    return [*campaigns.routers(), users_router, tasks_router, oracles_router, surrogate_configs.router, command_oracles_router]
+    return [*campaigns.routers(), users_router, tasks_router, oracles_router, surrogate_configs.router, previews_router, command_oracles_router]
 
 
 def create_app(settings: Settings | None = None) -> FastAPI:

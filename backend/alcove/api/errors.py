@@ -110,6 +110,12 @@ def install_error_handlers(app: FastAPI) -> None:
     async def _locked(request: Request, err: LoginLocked) -> JSONResponse:
         return JSONResponse({"detail": err.message}, status_code=429, headers={"Retry-After": str(err.retry_after_s)})
 
+    from alcove.previews.service import TooManyPreviews
+
+    @app.exception_handler(TooManyPreviews)
+    async def _too_many(request: Request, err: TooManyPreviews) -> JSONResponse:
+        return JSONResponse({"detail": err.message}, status_code=429, headers={"Retry-After": str(err.retry_after_s)})
+
     from alcove.campaigns.repository import NotFound as RowNotFound
     from alcove.campaigns.state_machine import InvalidTransition
 

@@ -36,6 +36,7 @@ from alcove.models.definitions import (
 )
 from alcove.models.guards import ImmutableRowError
 from alcove.models.ops import SmokeCheck, WorkerHeartbeat
+from alcove.models.previews import Preview, PreviewKind, PreviewStatus
 from alcove.models.users import ApiToken, Share, User, hash_password, hash_token, new_token_secret, verify_password
 
 __all__ = [
@@ -64,6 +65,9 @@ __all__ = [
     "OracleVersion",
     "PoolVersion",
     "PoolVersionMember",
+    "Preview",
+    "PreviewKind",
+    "PreviewStatus",
     "QuarantinedResult",
     "Role",
     "Share",

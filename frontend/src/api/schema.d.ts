@@ -738,6 +738,27 @@ export interface paths {
         patch?: never;
         trace?: never;
     };
+    "/api/v1/oracles/{oracle_id}/previews": {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        get?: never;
+        put?: never;
+        /**
+         * Create Oracle Preview
+         * @description Replay a sample trajectory (the FE reference head motion) through the oracle, on a
+         *     worker (queue ``oracle``); poll ``GET /previews/{id}`` for t, fx..mz and diagnostics.
+         */
+        post: operations["create_oracle_preview"];
+        delete?: never;
+        options?: never;
+        head?: never;
+        patch?: never;
+        trace?: never;
+    };
     "/api/v1/oracles/{oracle_id}/versions": {
         parameters: {
             query?: never;
@@ -791,6 +812,46 @@ export interface paths {
          *     ``preliminary.dataset_ids``.
          */
         post: operations["upload_preliminary_dataset"];
+        delete?: never;
+        options?: never;
+        head?: never;
+        patch?: never;
+        trace?: never;
+    };
+    "/api/v1/previews": {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        /**
+         * List Previews
+         * @description Your recent previews, newest first (without their results).
+         */
+        get: operations["list_previews"];
+        put?: never;
+        post?: never;
+        delete?: never;
+        options?: never;
+        head?: never;
+        patch?: never;
+        trace?: never;
+    };
+    "/api/v1/previews/{preview_id}": {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        /**
+         * Get Preview
+         * @description One of your previews: status pending | running | succeeded | failed, result, error.
+         */
+        get: operations["get_preview"];
+        put?: never;
+        post?: never;
         delete?: never;
         options?: never;
         head?: never;
@@ -1065,6 +1126,27 @@ export interface paths {
          * @description Delete; a task used by a campaign is archived instead (hidden, kept for its campaigns).
          */
         delete: operations["delete_task"];
+        options?: never;
+        head?: never;
+        patch?: never;
+        trace?: never;
+    };
+    "/api/v1/tasks/{task_id}/previews": {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        get?: never;
+        put?: never;
+        /**
+         * Create Task Preview
+         * @description Solve the task once with the auxiliary contact, on a worker (queue ``ocp``); poll
+         *     ``GET /previews/{id}`` for t, q, qd, tau and the solver's status, cost, iterations.
+         */
+        post: operations["create_task_preview"];
+        delete?: never;
         options?: never;
         head?: never;
         patch?: never;
@@ -2045,6 +2127,61 @@ export interface components {
             /** Type */
             type: string;
         };
+        /** OraclePreviewIn */
+        OraclePreviewIn: {
+            /**
+             * Dt
+             * @description sampling step of the sample trajectory [s] (the FE reference motion, 1 s)
+             * @default 0.0025
+             */
+            dt?: number;
+            /**
+             * Params
+             * @description an unsaved edit of the oracle's parameters to preview instead of the saved ones
+             */
+            params?: {
+                [key: string]: unknown;
+            } | null;
+            /**
+             * Version
+             * @description oracle version (default: the latest)
+             */
+            version?: number | null;
+        };
+        /**
+         * OraclePreviewResult
+         * @description The sample motion, the oracle's force and moment on the head (headrest frame; null
+         *     when the run failed) and its diagnostics.
+         */
+        OraclePreviewResult: {
+            /** Diagnostics */
+            diagnostics: {
+                [key: string]: unknown;
+            };
+            /** Failure Reason */
+            failure_reason: string | null;
+            /** Fx */
+            fx: (number | null)[] | null;
+            /** Fy */
+            fy: (number | null)[] | null;
+            /** Fz */
+            fz: (number | null)[] | null;
+            /** Mx */
+            mx: (number | null)[] | null;
+            /** My */
+            my: (number | null)[] | null;
+            /** Mz */
+            mz: (number | null)[] | null;
+            /** Ok */
+            ok: boolean;
+            /** Peak Force N */
+            peak_force_n: number | null;
+            /** T */
+            t: number[] | null;
+            trajectory: components["schemas"]["SampleTrajectory"];
+            /** Wall Time S */
+            wall_time_s: number;
+        };
         /** OracleTypeOut */
         OracleTypeOut: {
             /** Available */
@@ -2268,6 +2405,56 @@ export interface components {
              */
             velocity_bound?: number;
         };
+        /** PreviewOut */
+        PreviewOut: {
+            /**
+             * Created At
+             * Format: date-time
+             */
+            created_at: string;
+            /**
+             * Draft
+             * @description an unsaved edit was previewed
+             */
+            draft: boolean;
+            /**
+             * Error
+             * @description why it failed (bad input found by the worker, solver or oracle error)
+             */
+            error: string | null;
+            /** Finished At */
+            finished_at: string | null;
+            /** Id */
+            id: number;
+            /**
+             * Kind
+             * @enum {string}
+             */
+            kind: "task" | "oracle";
+            /** Options */
+            options: {
+                [key: string]: unknown;
+            };
+            /** Oracle Version Id */
+            oracle_version_id: number | null;
+            /**
+             * Result
+             * @description set when succeeded (null in the list)
+             */
+            result?: components["schemas"]["TaskPreviewResult"] | components["schemas"]["OraclePreviewResult"] | null;
+            /** Started At */
+            started_at: string | null;
+            status: components["schemas"]["PreviewStatus"];
+            /** Task Version Id */
+            task_version_id: number | null;
+            /** Worker Name */
+            worker_name: string | null;
+        };
+        /**
+         * PreviewStatus
+         * @enum {string}
+         */
+        PreviewStatus: "pending" | "running" | "succeeded" | "failed";
         /** Readiness */
         Readiness: {
             broker: components["schemas"]["Check"];
@@ -2315,6 +2502,15 @@ export interface components {
              * @default 1
              */
             replay_phases?: number;
+        };
+        /** SampleTrajectory */
+        SampleTrajectory: {
+            /** Q */
+            q: (number | null)[][];
+            /** Qd */
+            qd: (number | null)[][];
+            /** T */
+            t: number[];
         };
         /** ShareCreate */
         ShareCreate: {
@@ -2720,6 +2916,58 @@ export interface components {
             spec: {
                 [key: string]: unknown;
             };
+        };
+        /** TaskPreviewIn */
+        TaskPreviewIn: {
+            /**
+             * Intervals
+             * @description DMOCC intervals per phase for this solve
+             * @default 20
+             */
+            intervals?: number;
+            /**
+             * Spec
+             * @description an unsaved edit of the task's spec to preview instead of the saved one
+             */
+            spec?: {
+                [key: string]: unknown;
+            } | null;
+            /**
+             * Version
+             * @description task version (default: the latest)
+             */
+            version?: number | null;
+        };
+        /**
+         * TaskPreviewResult
+         * @description The solution on the OCP grid and the solver's summary.
+         */
+        TaskPreviewResult: {
+            /** Constraint Violation */
+            constraint_violation: number | null;
+            /** Converged */
+            converged: boolean;
+            /** Cost */
+            cost: number | null;
+            /** Intervals */
+            intervals: number;
+            /** Iterations */
+            iterations: number;
+            /** Q */
+            q: (number | null)[][];
+            /** Qd */
+            qd: (number | null)[][];
+            /** Status */
+            status: string;
+            /** T */
+            t: number[];
+            /**
+             * Tau
+             * @description joint torque at the nodes [N m]
+             */
+            tau: (number | null)[][];
+            /** Wall Time S */
+            wall_time_s: number;
         };
         /**
          * TaskSpec
@@ -6843,6 +7091,107 @@ export interface operations {
             };
         };
     };
+    create_oracle_preview: {
+        parameters: {
+            query?: never;
+            header?: never;
+            path: {
+                /** @description object id */
+                oracle_id: number;
+            };
+            cookie?: never;
+        };
+        requestBody?: {
+            content: {
+                "application/json": components["schemas"]["OraclePreviewIn"] | null;
+            };
+        };
+        responses: {
+            /** @description Successful Response */
+            202: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["PreviewOut"];
+                };
+            };
+            /** @description not authenticated (missing, invalid, expired or revoked token) */
+            401: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorOut"];
+                };
+            };
+            /** @description not allowed (admin-only route, or an object shared with you for viewing only) */
+            403: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorOut"];
+                };
+            };
+            /** @description no such object, or not visible to you */
+            404: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorOut"];
+                };
+            };
+            /** @description conflicts with the current state (e.g. a campaign transition, a duplicate) */
+            409: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorOut"];
+                };
+            };
+            /** @description request body too large */
+            413: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorOut"];
+                };
+            };
+            /** @description invalid input: field paths and reasons */
+            422: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ValidationErrorOut"];
+                };
+            };
+            /** @description too many previews pending (at most 3): retry later */
+            429: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": {
+                        detail?: string;
+                    };
+                };
+            };
+            /** @description database busy or unavailable: retry */
+            503: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorOut"];
+                };
+            };
+        };
+    };
     list_oracle_versions: {
         parameters: {
             query?: never;
@@ -7125,6 +7474,177 @@ export interface operations {
                 };
                 content: {
                     "application/json": components["schemas"]["UploadOut"];
+                };
+            };
+            /** @description not authenticated (missing, invalid, expired or revoked token) */
+            401: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorOut"];
+                };
+            };
+            /** @description not allowed (admin-only route, or an object shared with you for viewing only) */
+            403: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorOut"];
+                };
+            };
+            /** @description no such object, or not visible to you */
+            404: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorOut"];
+                };
+            };
+            /** @description conflicts with the current state (e.g. a campaign transition, a duplicate) */
+            409: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorOut"];
+                };
+            };
+            /** @description request body too large */
+            413: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorOut"];
+                };
+            };
+            /** @description invalid input: field paths and reasons */
+            422: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ValidationErrorOut"];
+                };
+            };
+            /** @description database busy or unavailable: retry */
+            503: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorOut"];
+                };
+            };
+        };
+    };
+    list_previews: {
+        parameters: {
+            query?: {
+                limit?: number;
+            };
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        requestBody?: never;
+        responses: {
+            /** @description Successful Response */
+            200: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["PreviewOut"][];
+                };
+            };
+            /** @description not authenticated (missing, invalid, expired or revoked token) */
+            401: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorOut"];
+                };
+            };
+            /** @description not allowed (admin-only route, or an object shared with you for viewing only) */
+            403: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorOut"];
+                };
+            };
+            /** @description no such object, or not visible to you */
+            404: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorOut"];
+                };
+            };
+            /** @description conflicts with the current state (e.g. a campaign transition, a duplicate) */
+            409: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorOut"];
+                };
+            };
+            /** @description request body too large */
+            413: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorOut"];
+                };
+            };
+            /** @description invalid input: field paths and reasons */
+            422: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ValidationErrorOut"];
+                };
+            };
+            /** @description database busy or unavailable: retry */
+            503: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorOut"];
+                };
+            };
+        };
+    };
+    get_preview: {
+        parameters: {
+            query?: never;
+            header?: never;
+            path: {
+                /** @description object id */
+                preview_id: number;
+            };
+            cookie?: never;
+        };
+        requestBody?: never;
+        responses: {
+            /** @description Successful Response */
+            200: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["PreviewOut"];
                 };
             };
             /** @description not authenticated (missing, invalid, expired or revoked token) */
@@ -8998,6 +9518,107 @@ export interface operations {
                 };
                 content: {
                     "application/json": components["schemas"]["ValidationErrorOut"];
+                };
+            };
+            /** @description database busy or unavailable: retry */
+            503: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorOut"];
+                };
+            };
+        };
+    };
+    create_task_preview: {
+        parameters: {
+            query?: never;
+            header?: never;
+            path: {
+                /** @description object id */
+                task_id: number;
+            };
+            cookie?: never;
+        };
+        requestBody?: {
+            content: {
+                "application/json": components["schemas"]["TaskPreviewIn"] | null;
+            };
+        };
+        responses: {
+            /** @description Successful Response */
+            202: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["PreviewOut"];
+                };
+            };
+            /** @description not authenticated (missing, invalid, expired or revoked token) */
+            401: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorOut"];
+                };
+            };
+            /** @description not allowed (admin-only route, or an object shared with you for viewing only) */
+            403: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorOut"];
+                };
+            };
+            /** @description no such object, or not visible to you */
+            404: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorOut"];
+                };
+            };
+            /** @description conflicts with the current state (e.g. a campaign transition, a duplicate) */
+            409: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorOut"];
+                };
+            };
+            /** @description request body too large */
+            413: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorOut"];
+                };
+            };
+            /** @description invalid input: field paths and reasons */
+            422: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ValidationErrorOut"];
+                };
+            };
+            /** @description too many previews pending (at most 3): retry later */
+            429: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": {
+                        detail?: string;
+                    };
                 };
             };
             /** @description database busy or unavailable: retry */

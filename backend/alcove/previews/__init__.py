@@ -1,0 +1,1 @@
+"""Editor previews run by workers (see :mod:`alcove.previews.service`)."""

@@ -1,0 +1,290 @@
+"""Editor previews: "solve once" for a task (queue ``ocp``) and "test on a sample
+trajectory" for an oracle (queue ``oracle``).
+
+The API side (:func:`create_task_preview`, :func:`create_oracle_preview`, :func:`get`)
+validates, snapshots what to run into a ``previews`` row and returns it; the route commits
+and only then sends the job by name (:func:`send`). The worker side (:func:`run_preview`)
+claims the row with a conditional update (a duplicate delivery does nothing), computes
+outside any transaction and records the result or the error. Importing this module
+imports neither torch nor casadi (the science is imported inside :func:`run_preview`).
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+import time
+from datetime import timedelta
+from typing import Any
+
+import sqlalchemy as sa
+from sqlalchemy.orm import Session
+
+from alcove.errors import DomainError, InvalidInput, NotFound
+from alcove.models import OracleDefinition, OracleVersion, Preview, PreviewKind, PreviewStatus, TaskDefinition, TaskVersion, User, utcnow
+from alcove.users.access import get_for
+
+log = logging.getLogger(__name__)
+
+#: Job names (``alcove.<queue>.<what>`` routes them to their queue).
+TASK_PREVIEW_JOB = "alcove.ocp.preview"
+ORACLE_PREVIEW_JOB = "alcove.oracle.preview"
+JOB_FOR = {PreviewKind.task.value: TASK_PREVIEW_JOB, PreviewKind.oracle.value: ORACLE_PREVIEW_JOB}
+
+#: At most this many previews of one user may be pending or running at once (429 beyond).
+MAX_ACTIVE_PER_USER = 3
+#: A pending/running preview older than this no longer counts toward the limit (no worker
+#: took it, or its worker died) and may be claimed again by a worker.
+STALE_AFTER = timedelta(minutes=10)
+#: Finished previews kept per user (older ones are deleted when a new one is made).
+KEEP_PER_USER = 50
+#: Intervals per phase for a task preview (small: a preview is a quick look).
+DEFAULT_PREVIEW_INTERVALS = 20
+MAX_PREVIEW_INTERVALS = 200
+#: IPOPT iteration cap of a preview solve.
+PREVIEW_IPOPT_MAX_ITER = 1000
+
+
+class TooManyPreviews(DomainError):
+    """More than :data:`MAX_ACTIVE_PER_USER` previews pending: answered 429."""
+
+    retry_after_s = 10
+
+
+# ----------------------------------------------------------------------------- API side
+
+
+def _check_capacity(session: Session, user: User) -> None:
+    active = session.scalar(
+        sa.select(sa.func.count()).select_from(Preview).where(
+            Preview.owner_id == user.id, Preview.status.in_((PreviewStatus.pending.value, PreviewStatus.running.value)),
+            Preview.created_at > utcnow() - STALE_AFTER,
+        )
+    )
+    if active >= MAX_ACTIVE_PER_USER:
+        raise TooManyPreviews(f"you have {active} previews pending or running (at most {MAX_ACTIVE_PER_USER}); wait for one to finish")
+
+
+def _prune(session: Session, user: User) -> None:
+    keep = sa.select(Preview.id).where(Preview.owner_id == user.id).order_by(Preview.id.desc()).limit(KEEP_PER_USER).scalar_subquery()
+    session.execute(
+        sa.delete(Preview).where(Preview.owner_id == user.id, Preview.status.in_((PreviewStatus.succeeded.value, PreviewStatus.failed.value)), Preview.id.not_in(keep))
+    )
+
+
+def _version(session: Session, model: type, parent: str, definition: Any, number: int | None) -> Any:
+    n = number or definition.latest_version
+    row = session.scalar(sa.select(model).where(getattr(model, parent) == definition.id, model.version == n))
+    if row is None:
+        raise InvalidInput.one("version", f"version {n} does not exist")
+    return row
+
+
+def create_task_preview(session: Session, user: User, task_id: int, *, version: int | None, spec: Any | None, intervals: int | None) -> Preview:
+    """A "solve once" of task ``task_id`` (its latest or given version, or ``spec``: an
+    unsaved edit of it) with the auxiliary contact, ``intervals`` per phase."""
+    from alcove.tasks.service import check_spec
+
+    definition = get_for(session, TaskDefinition, task_id, user)
+    tv = _version(session, TaskVersion, "definition_id", definition, version)
+    if spec is not None:
+        parsed, errors = check_spec(spec)
+        if parsed is None:
+            raise InvalidInput(errors)
+        snapshot = parsed.model_dump(mode="json")
+    else:
+        snapshot = tv.spec
+    _check_capacity(session, user)
+    _prune(session, user)
+    row = Preview(owner_id=user.id, kind=PreviewKind.task.value, task_version_id=tv.id, draft=spec is not None, spec=snapshot,
+                  options={"intervals": intervals or DEFAULT_PREVIEW_INTERVALS})
+    session.add(row)
+    session.flush()
+    return row
+
+
+def create_oracle_preview(session: Session, user: User, oracle_id: int, *, version: int | None, params: Any | None, dt: float) -> Preview:
+    """A "test on a sample trajectory" of oracle ``oracle_id`` (its latest or given version, or
+    ``params``: an unsaved edit of its parameters) on the FE reference head motion sampled
+    every ``dt`` seconds. A command oracle runs the administrator's command as configured."""
+    from alcove.oracles.service import check
+
+    definition = get_for(session, OracleDefinition, oracle_id, user)
+    ov = _version(session, OracleVersion, "definition_id", definition, version)
+    if params is not None:
+        normalized, errors = check(session, ov.oracle_type, params)
+        if normalized is None:
+            raise InvalidInput(errors)
+    else:
+        normalized = ov.spec
+    _check_capacity(session, user)
+    _prune(session, user)
+    row = Preview(owner_id=user.id, kind=PreviewKind.oracle.value, oracle_version_id=ov.id, draft=params is not None,
+                  spec={"type": ov.oracle_type, "params": normalized}, options={"dt": dt})
+    session.add(row)
+    session.flush()
+    return row
+
+
+def get(session: Session, user: User, preview_id: int) -> Preview:
+    """The user's own preview; anybody else's is "not found"."""
+    row = session.get(Preview, preview_id)
+    if row is None or row.owner_id != user.id:
+        raise NotFound("preview", preview_id)
+    return row
+
+
+def list_for(session: Session, user: User, limit: int) -> list[Preview]:
+    return list(session.scalars(sa.select(Preview).where(Preview.owner_id == user.id).order_by(Preview.id.desc()).limit(limit)))
+
+
+def send(row_id: int, kind: str) -> None:
+    """Send the job after the commit. A failed send leaves the row pending; it stops counting
+    toward the limit after :data:`STALE_AFTER` (the user can simply ask again)."""
+    from alcove.jobs import send_job
+
+    try:
+        send_job(JOB_FOR[kind], row_id, task_id=f"preview-{row_id}")
+    except Exception:  # noqa: BLE001
+        log.exception("sending preview %d failed", row_id)
+
+
+# ----------------------------------------------------------------------------- worker side
+
+
+def claim(session: Session, preview_id: int, worker_name: str) -> int | None:
+    """Take the row (pending, or running but stale); returns the attempt number or None."""
+    now = utcnow()
+    res = session.execute(
+        sa.update(Preview)
+        .where(Preview.id == preview_id, sa.or_(Preview.status == PreviewStatus.pending.value,
+                                                 sa.and_(Preview.status == PreviewStatus.running.value, Preview.started_at < now - STALE_AFTER)))
+        .values(status=PreviewStatus.running.value, started_at=now, worker_name=worker_name, attempts=Preview.attempts + 1)
+        .returning(Preview.attempts)
+    ).first()
+    return None if res is None else int(res[0])
+
+
+def run_preview(preview_id: int, worker_name: str) -> str:
+    """The worker's job: claim, compute, record. Returns the final status (or ``skipped``)."""
+    from alcove.db import transaction
+
+    attempt = transaction(lambda s: claim(s, preview_id, worker_name))
+    if attempt is None:
+        return "skipped"  # a duplicate delivery, or already done
+    row = transaction(lambda s: _snapshot(s, preview_id))
+    try:
+        result = _compute(row["kind"], row["spec"], row["options"], row["catalogue"])
+        status, error = PreviewStatus.succeeded.value, None
+    except Exception as err:  # noqa: BLE001  (any failure is the preview's answer)
+        log.info("preview %d failed: %s", preview_id, err, exc_info=not isinstance(err, ValueError))
+        result, status, error = None, PreviewStatus.failed.value, _error_text(err)
+
+    def record(s: Session) -> None:
+        s.execute(
+            sa.update(Preview).where(Preview.id == preview_id, Preview.status == PreviewStatus.running.value, Preview.attempts == attempt)
+            .values(status=status, result=result, error=error, finished_at=utcnow())
+        )
+
+    transaction(record)
+    return status
+
+
+def _error_text(err: BaseException) -> str:
+    field = getattr(err, "field", None)
+    reason = getattr(err, "reason", None)
+    if field and reason:
+        return f"{field}: {reason}"
+    return f"{type(err).__name__}: {err}"[:2000]
+
+
+def _snapshot(s: Session, preview_id: int) -> dict[str, Any]:
+    row = s.get(Preview, preview_id)
+    catalogue = None
+    if row.kind == PreviewKind.oracle.value and row.spec.get("type") not in ("fe-headrest-2d", "aux-penalty"):
+        from alcove.oracles.service import command_catalogue
+
+        catalogue = command_catalogue(s)  # the administrator's entries: the command run is theirs
+    return {"kind": row.kind, "spec": dict(row.spec), "options": dict(row.options), "catalogue": catalogue}
+
+
+def _finite(values: Any) -> Any:
+    """Lists of floats for JSON (non-finite numbers become null)."""
+    import numpy as np
+
+    a = np.asarray(values, float)
+    out = a.tolist()
+    if np.isfinite(a).all():
+        return out
+
+    def clean(v: Any) -> Any:
+        return [clean(x) for x in v] if isinstance(v, list) else (v if math.isfinite(v) else None)
+
+    return clean(out)
+
+
+def _scalar(v: Any) -> Any:
+    v = float(v)
+    return v if math.isfinite(v) else None
+
+
+def _compute(kind: str, spec: dict[str, Any], options: dict[str, Any], catalogue: Any) -> dict[str, Any]:
+    if kind == PreviewKind.task.value:
+        return solve_task_once(spec, int(options.get("intervals") or DEFAULT_PREVIEW_INTERVALS))
+    return test_oracle(spec["type"], spec.get("params") or {}, float(options.get("dt") or 0.0025), catalogue)
+
+
+def solve_task_once(spec: dict[str, Any], intervals: int) -> dict[str, Any]:
+    """Solve the task once with the auxiliary (penalty) contact: the trajectory on the OCP
+    grid (t, q, qd, node torques tau) and the solver's status, cost, iterations, wall time."""
+    from alcove.science.ocp.contact import aux_contact
+    from alcove.science.ocp.solve import solve_task
+    from alcove.science.ocp.task_spec import parse_task
+
+    task = parse_task(spec).with_intervals(intervals)
+    t0 = time.perf_counter()
+    sol = solve_task(task, aux_contact(task.preset()), max_attempts=1, ipopt_options={"ipopt.max_iter": PREVIEW_IPOPT_MAX_ITER})
+    return {
+        "t": _finite(sol.t), "q": _finite(sol.q), "qd": _finite(sol.qd), "tau": _finite(sol.tau),
+        "status": sol.status, "converged": bool(sol.converged), "cost": _scalar(sol.cost), "iterations": int(sol.iterations),
+        "constraint_violation": _scalar(sol.constraint_violation), "wall_time_s": float(time.perf_counter() - t0), "intervals": int(sol.controls.shape[0]),
+    }
+
+
+def test_oracle(type_name: str, params: dict[str, Any], dt: float, catalogue: Any) -> dict[str, Any]:
+    """Replay the FE reference head motion (1 s: clear of the headrest, into the cushion and
+    back) sampled every ``dt`` through the oracle: t, the motion (q, qd), the force and moment
+    on the head (fx..mz, headrest frame) and the oracle's diagnostics."""
+    import numpy as np
+
+    from alcove.science.geometry import DEFAULT_PRESET
+    from alcove.science.oracles.fe_headrest.reference import reference_motion
+    from alcove.science.oracles.registry import build_oracle
+
+    oracle = build_oracle(type_name, params, DEFAULT_PRESET, catalogue=catalogue)
+    traj = reference_motion(DEFAULT_PRESET, dt=dt)
+    res = oracle.run(traj)
+    out: dict[str, Any] = {
+        "ok": bool(res.ok), "failure_reason": res.failure_reason, "wall_time_s": float(res.wall_time),
+        "trajectory": {"t": _finite(traj.t), "q": _finite(traj.q), "qd": _finite(traj.qd)},
+        "diagnostics": _json_safe(res.diagnostics),
+        "t": None, "fx": None, "fy": None, "fz": None, "mx": None, "my": None, "mz": None, "peak_force_n": None,
+    }
+    if res.forces is not None:
+        f = np.hstack([res.forces.force, res.forces.moment])
+        out.update(t=_finite(res.forces.t), peak_force_n=_scalar(res.forces.peak_force), **{c: _finite(f[:, j]) for j, c in enumerate(("fx", "fy", "fz", "mx", "my", "mz"))})
+    return out
+
+
+def _json_safe(value: Any) -> Any:
+    if isinstance(value, dict):
+        return {str(k): _json_safe(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_json_safe(v) for v in value]
+    if hasattr(value, "item") and callable(value.item):
+        value = value.item()
+    if isinstance(value, float) and not math.isfinite(value):
+        return None
+    if value is None or isinstance(value, (bool, int, float, str)):
+        return value
+    return str(value)

@@ -1,0 +1,152 @@
+"""Editor previews: "solve once" for a task and "test on a sample trajectory" for an oracle.
+
+Without a worker (the session's embedded broker only stores the message): 202 + pending,
+owner-only (404 for others), unsaved edits validated like a save (422 naming the field),
+at most 3 pending per user (429). The job itself, run in this process: a duplicate delivery
+is a no-op, the solve converges with the auxiliary contact and the oracle's force is zero
+while the head is clear of the headrest. Through a real worker process (PostgreSQL + Redis):
+both previews end ``succeeded``, and a command oracle (the administrator's command, which
+replays with the built-in aux-penalty model) gives the built-in oracle's forces."""
+
+from __future__ import annotations
+
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from .helpers import Account, make_account, small_task_spec, unique
+
+API = "/api/v1"
+EXAMPLES = Path(__file__).resolve().parents[2] / "examples" / "command-oracle"
+
+
+def _task_and_oracle(client, who: Account) -> tuple[int, int]:  # noqa: ANN001
+    task = client.post(f"{API}/tasks", json={"name": "pv", "spec": small_task_spec()}, headers=who.headers)
+    oracle = client.post(f"{API}/oracles/presets/aux-penalty/copy", headers=who.headers)
+    assert task.status_code == 201 and oracle.status_code == 201, (task.text, oracle.text)
+    return task.json()["id"], oracle.json()["id"]
+
+
+def test_previews_are_accepted_private_validated_and_limited(client) -> None:  # noqa: ANN001
+    me, someone = make_account("member", "pv"), make_account("member", "pv-other")
+    task_id, oracle_id = _task_and_oracle(client, me)
+
+    r = client.post(f"{API}/tasks/{task_id}/previews", json={"intervals": 6}, headers=me.headers)
+    assert r.status_code == 202, r.text
+    p = r.json()
+    assert p["status"] == "pending" and p["kind"] == "task" and p["result"] is None and p["options"] == {"intervals": 6} and not p["draft"]
+    assert client.get(f"{API}/previews/{p['id']}", headers=me.headers).json()["status"] == "pending"
+    assert client.get(f"{API}/previews/{p['id']}", headers=someone.headers).status_code == 404
+    assert client.post(f"{API}/tasks/{task_id}/previews", headers=someone.headers).status_code == 404  # not shared with them
+    assert client.post(f"{API}/oracles/{oracle_id}/previews", headers=someone.headers).status_code == 404
+
+    bad = small_task_spec()
+    bad["phases"][0]["duration"] = -1
+    r = client.post(f"{API}/tasks/{task_id}/previews", json={"spec": bad}, headers=me.headers)
+    assert r.status_code == 422 and r.json()["detail"][0]["field"] == "spec.phases.0.duration", r.text
+    r = client.post(f"{API}/oracles/{oracle_id}/previews", json={"params": {"k": -5}}, headers=me.headers)
+    assert r.status_code == 422 and r.json()["detail"][0]["field"].startswith("params."), r.text
+    assert client.post(f"{API}/tasks/{task_id}/previews", json={"intervals": 0}, headers=me.headers).status_code == 422
+    assert client.post(f"{API}/tasks/{task_id}/previews", json={"version": 9}, headers=me.headers).status_code == 422
+
+    draft = client.post(f"{API}/oracles/{oracle_id}/previews", json={"params": {}, "dt": 0.01}, headers=me.headers)
+    assert draft.status_code == 202 and draft.json()["draft"] and draft.json()["kind"] == "oracle"
+    third = client.post(f"{API}/tasks/{task_id}/previews", headers=me.headers)
+    assert third.status_code == 202
+    limited = client.post(f"{API}/tasks/{task_id}/previews", headers=me.headers)
+    assert limited.status_code == 429 and "at most 3" in limited.json()["detail"] and limited.headers["Retry-After"]
+    assert client.post(f"{API}/tasks/{task_id}/previews", headers=someone.headers).status_code == 404
+    listed = client.get(f"{API}/previews", headers=me.headers).json()
+    assert [x["id"] for x in listed] == [third.json()["id"], draft.json()["id"], p["id"]]
+    assert client.get(f"{API}/previews", headers=someone.headers).json() == []
+
+
+def test_the_jobs_compute_the_science_and_ignore_duplicates(client) -> None:  # noqa: ANN001
+    from alcove.db import session_scope
+    from alcove.models import Preview
+    from alcove.previews.service import run_preview
+
+    me = make_account("member", "pv-job")
+    task_id, oracle_id = _task_and_oracle(client, me)
+    tp = client.post(f"{API}/tasks/{task_id}/previews", json={"intervals": 8}, headers=me.headers).json()["id"]
+    op = client.post(f"{API}/oracles/{oracle_id}/previews", json={"dt": 0.01}, headers=me.headers).json()["id"]
+    assert run_preview(tp, "test@host") == "succeeded"
+    assert run_preview(tp, "test@host") == "skipped"  # a redelivered message does nothing
+    assert run_preview(op, "test@host") == "succeeded"
+
+    task = client.get(f"{API}/previews/{tp}", headers=me.headers).json()
+    assert task["status"] == "succeeded" and task["worker_name"] == "test@host" and task["finished_at"]
+    res = task["result"]
+    assert res["converged"] and res["status"] == "Solve_Succeeded" and res["intervals"] == 16 and res["iterations"] > 0
+    t, q, tau = np.array(res["t"]), np.array(res["q"]), np.array(res["tau"])
+    assert t.shape == (17,) and q.shape == tau.shape == (17, 1) and np.all(np.diff(t) > 0)
+    spec = small_task_spec()
+    assert t[-1] == pytest.approx(sum(ph["duration"] for ph in spec["phases"]))
+
+    oracle = client.get(f"{API}/previews/{op}", headers=me.headers).json()["result"]
+    assert oracle["ok"] and len(oracle["t"]) == len(oracle["fx"]) == 101
+    force = np.linalg.norm(np.array([oracle["fx"], oracle["fy"], oracle["fz"]]).T, axis=1)
+    first = oracle["diagnostics"]["first_contact_t"]
+    t = np.array(oracle["t"])
+    assert np.all(force[t < first - 1e-9] == 0.0) and force.max() == pytest.approx(oracle["peak_force_n"]) and force.max() > 0
+    with session_scope() as s:
+        assert s.get(Preview, tp).attempts == 1
+
+
+# ----------------------------------------------------------------------------- through a worker process
+
+
+@pytest.fixture
+def live(tmp_path: Path, pg_url: str, redis_url: str, api_settings: None, monkeypatch: pytest.MonkeyPatch):  # noqa: ANN201
+    from fastapi.testclient import TestClient
+
+    from alcove.api import create_app
+    from alcove.jobs import reset_sender
+    from alcove.settings import get_settings
+    from tests.integration.procs import alcove_env, running, unique as unique_name, wait_until, worker_ready
+
+    settings = {"database_url": pg_url, "broker_url": redis_url, "broker_key_prefix": unique_name("alcove-pv") + ":", "data_dir": str(tmp_path / "data")}
+    for k, v in settings.items():
+        monkeypatch.setenv(f"ALCOVE_{k.upper()}", v)
+    get_settings.cache_clear()
+    reset_sender()
+    with running(["worker", "--queues", "ocp,oracle", "--concurrency", "1", "--name", unique_name("pv")], alcove_env(**settings), tmp_path / "worker.log") as worker:
+        wait_until(lambda: worker_ready(worker), 90, "worker ready", worker)
+        yield TestClient(create_app(get_settings().model_copy(update={"static_dir": tmp_path}))), worker
+    get_settings.cache_clear()
+    reset_sender()
+
+
+@pytest.mark.integration
+@pytest.mark.slow
+def test_previews_run_on_a_worker(live) -> None:  # noqa: ANN001
+    client, worker = live
+    me, admin = make_account("member", "pv-live"), make_account("admin", "pv-admin")
+    task_id, oracle_id = _task_and_oracle(client, me)
+    name = unique("replay")
+    entry = {"name": name, "argv": [sys.executable, str(EXAMPLES / "replay_with_alcove.py"), "aux-penalty"], "timeout_s": 120}
+    assert client.post(f"{API}/admin/command-oracles", json=entry, headers=admin.headers).status_code == 201
+    command = client.post(f"{API}/oracles", json={"name": "ext", "type": name, "params": {}}, headers=me.headers)
+    assert command.status_code == 201, command.text
+
+    ids = [
+        client.post(f"{API}/tasks/{task_id}/previews", json={"intervals": 8}, headers=me.headers).json()["id"],
+        client.post(f"{API}/oracles/{oracle_id}/previews", json={"dt": 0.01}, headers=me.headers).json()["id"],
+        client.post(f"{API}/oracles/{command.json()['id']}/previews", json={"dt": 0.01}, headers=me.headers).json()["id"],
+    ]
+    deadline, done = time.monotonic() + 240, {}
+    while time.monotonic() < deadline and len(done) < len(ids):
+        for i in ids:
+            p = client.get(f"{API}/previews/{i}", headers=me.headers).json()
+            if p["status"] in ("succeeded", "failed"):
+                done[i] = p
+        time.sleep(0.5)
+    assert len(done) == 3, worker.output()[-4000:]
+    task, builtin, external = (done[i] for i in ids)
+    assert all(p["status"] == "succeeded" for p in done.values()), [(p["status"], p["error"]) for p in done.values()]
+    assert task["result"]["converged"] and task["worker_name"] != "test@host"
+    np.testing.assert_allclose(external["result"]["t"], builtin["result"]["t"], atol=1e-9)
+    np.testing.assert_allclose(external["result"]["fx"], builtin["result"]["fx"], rtol=1e-4, atol=1e-6 * builtin["result"]["peak_force_n"])
