@@ -496,7 +496,7 @@ def _previous_converged_solution(s: Session, c: Campaign, k: int) -> OcpSolution
 
 def execute_ocp(ctx: StepContext) -> StepOutput:
     from alcove.science.ocp.solve import solve_task
-    from alcove.science.surrogate.export import casadi_contact_function
+    from alcove.science.surrogate.export import surrogate_contact
     from alcove.surrogates.service import load_model
 
     fault = _fault(ctx)
@@ -515,10 +515,11 @@ def execute_ocp(ctx: StepContext) -> StepOutput:
     ctx.check_cancel()
     task = d["task"]
     t0 = time.perf_counter()
-    contact = casadi_contact_function(d["model"], task.preset())
+    # weights as NLP parameters: the NLP and IPOPT solver of this architecture are reused across iterations
+    contact, contact_params = surrogate_contact(d["model"], task.preset())
     ipopt = {"ipopt.max_iter": int(fault["ipopt_max_iter"])} if fault.get("ipopt_max_iter") else None
-    sol = solve_task(task, contact, initial_guess=d["previous"], max_attempts=ctx.config.policies.ocp_initial_guesses, ipopt_options=ipopt,
-                     on_attempt=lambda _attempt: ctx.check_cancel())  # cancel between IPOPT runs
+    sol = solve_task(task, contact, initial_guess=d["previous"], contact_params=contact_params, max_attempts=ctx.config.policies.ocp_initial_guesses,
+                     ipopt_options=ipopt, on_attempt=lambda _attempt: ctx.check_cancel())  # cancel between IPOPT runs
     compute = time.perf_counter() - t0
     arrays = {"t": sol.t, "q": sol.q, "qd": sol.qd, "tau": sol.tau, "controls": sol.controls}
     if sol.converged and sol.x is not None:

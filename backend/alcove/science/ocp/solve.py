@@ -123,13 +123,28 @@ class OcpSolution:
         }
 
 
+_CONTACT_KEYS: "OrderedDict[int, tuple[ca.Function, str]]" = OrderedDict()  # id -> (function kept alive, key)
+_CONTACT_KEYS_LOCK = threading.Lock()
+
+
 def _contact_key(contact: ca.Function | None) -> str:
+    """The contact function's structure as a cache key (its serialization, memoized per object:
+    serializing a surrogate takes ~10 ms and a parametric one is passed again every iteration)."""
     if contact is None:
         return "none"
+    with _CONTACT_KEYS_LOCK:
+        hit = _CONTACT_KEYS.get(id(contact))
+    if hit is not None and hit[0] is contact:
+        return hit[1]
     try:
-        return contact.serialize()
+        key = contact.serialize()
     except Exception:  # noqa: BLE001 - functions that cannot be serialized are keyed by identity
-        return f"id:{id(contact)}"
+        key = f"id:{id(contact)}"
+    with _CONTACT_KEYS_LOCK:
+        _CONTACT_KEYS[id(contact)] = (contact, key)
+        while len(_CONTACT_KEYS) > 4 * CACHE_SIZE:
+            _CONTACT_KEYS.popitem(last=False)
+    return key
 
 
 def get_transcription(

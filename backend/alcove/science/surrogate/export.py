@@ -9,14 +9,20 @@ to rounding; ``alpha_rel^2`` uses the smooth small-angle branch of :mod:`.featur
 The function is the OCP's contact-model slot: inputs ``q`` and ``qd`` (ndof x 1), one
 output ``wrench`` (6 x 1) ``[fx, fy, fz, mx, my, mz]`` in the headrest frame, the moment
 about the head frame origin. The generalized force is ``J^T [F; M]`` (the OCP's job).
+
+:func:`surrogate_contact` gives the same map with the weights and normalisations as a third
+input ``p`` (:func:`surrogate_parameters`): one function per architecture, so the OCP's NLP
+and IPOPT solver are built once and reused for every model version of that architecture.
 """
 
 from __future__ import annotations
 
+from functools import lru_cache
 from pathlib import Path
 from typing import Any, Callable
 
 import casadi as ca
+import numpy as np
 from alcove.science.geometry import HeadNeckPreset, relative_kinematics_symbolic
 from alcove.science.surrogate.features import N_FEATURES, features_symbolic
 from alcove.science.surrogate.mlp import MLP, Standardization, SurrogateModel
@@ -89,6 +95,95 @@ def casadi_contact_function(model: SurrogateModel, preset: HeadNeckPreset,
     return ca.Function("contact_surrogate", [q, qd], [wrench], ["q", "qd"], ["wrench"])
 
 
+# ---- parametric form: the weights as an input -------------------------------------------
+def _net_architecture(net: MLP) -> tuple[str, tuple[tuple[int, int], ...]]:
+    return net.activation, tuple((lin.out_features, lin.in_features) for lin in net.linears())
+
+
+def surrogate_architecture(model: SurrogateModel) -> tuple[Any, ...]:
+    """What the parametric contact function depends on besides the parameter values."""
+    return (model.ndof, len(model.input_norm.mean), _net_architecture(model.force_net), len(model.force_norm.mean),
+            _net_architecture(model.moment_net), len(model.moment_norm.mean))
+
+
+def _net_parameters(net: MLP, input_norm: Standardization) -> list[np.ndarray]:
+    """Layers as (weights column-major, biases); the input standardisation folded into the
+    first layer: W (x - mean) / divisor + b = (W / divisor) x + (b - (W / divisor) mean)."""
+    out = []
+    for i, lin in enumerate(net.linears()):
+        W, b = lin.weight.detach().double().numpy(), lin.bias.detach().double().numpy()
+        if i == 0:
+            W = W / np.asarray(input_norm.divisor, float)[None, :]
+            b = b - W @ np.asarray(input_norm.mean, float)
+        out += [W.ravel(order="F"), b.ravel()]
+    return out
+
+
+def surrogate_parameters(model: SurrogateModel) -> np.ndarray:
+    """The parameter vector ``p`` of :func:`surrogate_contact` for ``model``: per network
+    (force, then moment) its layers (weights column-major, then biases; the input
+    standardisation folded into the first layer) and its output scale and mean."""
+    parts: list[np.ndarray] = []
+    for net, norm in ((model.force_net, model.force_norm), (model.moment_net, model.moment_norm)):
+        parts += _net_parameters(net, model.input_norm) + [norm.scale, norm.mean]
+    return np.concatenate([np.asarray(a, float).ravel() for a in parts])
+
+
+class _Reader:
+    """Consecutive slices of a symbolic parameter column."""
+
+    def __init__(self, p: ca.SX):
+        self.p, self.at = p, 0
+
+    def take(self, rows: int, cols: int = 1) -> ca.SX:
+        block = ca.reshape(self.p[self.at : self.at + rows * cols], rows, cols)
+        self.at += rows * cols
+        return block
+
+
+def _mlp_parametric(arch: tuple[str, tuple[tuple[int, int], ...]], x: ca.SX, read: _Reader) -> ca.SX:
+    activation, shapes = arch
+    for i, (rows, cols) in enumerate(shapes):
+        W, b = read.take(rows, cols), read.take(rows)
+        x = ca.mtimes(W, x) + b
+        if i < len(shapes) - 1:
+            x = _activation(activation, x)
+    return x
+
+
+@lru_cache(maxsize=16)
+def _parametric_contact(architecture: tuple[Any, ...], preset: HeadNeckPreset) -> ca.Function:
+    ndof, _, force_arch, n_force, moment_arch, n_moment = architecture
+    if ndof != 1:
+        raise ValueError(f"kinematics: the model has {ndof} degrees of freedom; the parametric export supports the 1-DOF preset")
+    n_par = 2 * (n_force + n_moment) + sum(r * c + r for arch in (force_arch, moment_arch) for r, c in arch[1])
+    q, qd, p = ca.SX.sym("q", ndof), ca.SX.sym("qd", ndof), ca.SX.sym("p", n_par)
+    read = _Reader(p)
+    feats = features_symbolic(*relative_kinematics_symbolic(preset, q[0], qd[0]))
+    # structurally zero features (planar motion) drop out of the first layer
+    force = _mlp_parametric(force_arch, feats, read)
+    force = force * read.take(n_force) + read.take(n_force)
+    moment = _mlp_parametric(moment_arch, feats, read)
+    moment = moment * read.take(n_moment) + read.take(n_moment)
+    assert read.at == n_par
+    return ca.Function("contact_surrogate_p", [q, qd, p], [ca.vertcat(force, moment)], ["q", "qd", "p"], ["wrench"])
+
+
+def surrogate_contact(model: SurrogateModel, preset: HeadNeckPreset) -> tuple[ca.Function, np.ndarray]:
+    """``((q, qd, p) -> wrench, p values)``: the contact-model slot with the weights as parameters.
+
+    The function depends only on the architecture and the preset (one cached object per
+    pair), so ``solve_task(task, fn, contact_params=p)`` reuses one NLP for every model
+    version of an architecture. Same values as :func:`casadi_contact_function`.
+    """
+    if len(model.force_norm.mean) != model.force_net.linears()[-1].out_features or \
+            len(model.moment_norm.mean) != model.moment_net.linears()[-1].out_features:
+        raise ValueError("model: the output normalisation does not match the networks' outputs")
+    if model.force_net.linears()[0].in_features != N_FEATURES or model.moment_net.linears()[0].in_features != N_FEATURES:
+        raise ValueError(f"model: the networks must take the {N_FEATURES} contact features")
+    return _parametric_contact(surrogate_architecture(model), preset), surrogate_parameters(model)
+
+
 def casadi_contact_from_artifact(path: str | Path, preset: HeadNeckPreset) -> ca.Function:
     """Load a model artifact (directory or its ``surrogate.json``) and export it."""
     from alcove.science.surrogate.artifact import load_artifact
@@ -101,5 +196,8 @@ __all__ = [
     "casadi_contact_function",
     "casadi_network_function",
     "mlp_symbolic",
+    "surrogate_architecture",
+    "surrogate_contact",
+    "surrogate_parameters",
     "wrench_symbolic",
 ]

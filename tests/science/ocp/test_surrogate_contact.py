@@ -1,0 +1,94 @@
+"""A trained surrogate as the OCP's contact: the weights as NLP parameters.
+
+One contact function per architecture, so the NLP and IPOPT solver are built once and every
+new model version only changes the parameter values; the optimum is the one of the
+surrogate with its weights as constants.
+"""
+
+import casadi as ca
+import numpy as np
+import pytest
+
+from alcove.science.ocp.solve import get_transcription, solve_task
+from alcove.science.ocp.task_spec import task_preset
+from alcove.science.surrogate.config import SurrogateConfig
+from alcove.science.surrogate.export import casadi_contact_function, surrogate_contact, surrogate_parameters
+from alcove.science.surrogate.preliminary import preliminary_pool
+from alcove.science.surrogate.training import train_surrogate
+
+
+@pytest.fixture(scope="module")
+def task():
+    return task_preset("head-headrest-2phase").with_intervals(50)
+
+
+@pytest.fixture(scope="module")
+def models(task):
+    """Two consecutive model versions (the second warm-started from the first), as in a campaign."""
+    preset = task.preset()
+    pool = preliminary_pool(preset, samples=600)
+    config = SurrogateConfig(max_epochs=60)
+    first = train_surrogate(pool, config, seed=0, preset=preset).model
+    second = train_surrogate(pool, config, seed=1, preset=preset, warm_start=first).model
+    return first, second
+
+
+def test_parametric_export_has_the_values_and_derivatives_of_the_constant_one(task, models):
+    preset = task.preset()
+    rng = np.random.default_rng(0)
+    q = rng.uniform(preset.theta_min, preset.theta_max, 40)[None, :]
+    qd = rng.uniform(-3, 3, 40)[None, :]
+    for model in models:
+        fixed = casadi_contact_function(model, preset)
+        fn, p = surrogate_contact(model, preset)
+        assert fn.name_in() == ["q", "qd", "p"] and p.shape == (fn.size1_in(2),)
+        a = np.asarray(fixed.map(40)(q, qd))
+        b = np.asarray(fn.map(40)(q, qd, ca.repmat(ca.DM(p), 1, 40)))
+        np.testing.assert_allclose(b, a, rtol=1e-10, atol=1e-10 * np.abs(a).max())
+        # the OCP differentiates in (q, qd): the Jacobians agree too
+        y = ca.SX.sym("y", 2)
+        jf = ca.Function("jf", [y], [ca.jacobian(fixed(y[0], y[1]), y)])
+        jp = ca.Function("jp", [y], [ca.jacobian(fn(y[0], y[1], ca.DM(p)), y)])
+        for k in range(0, 40, 8):
+            ja, jb = np.asarray(jf([q[0, k], qd[0, k]])), np.asarray(jp([q[0, k], qd[0, k]]))
+            np.testing.assert_allclose(jb, ja, rtol=1e-9, atol=1e-9 * np.abs(ja).max())
+
+
+def test_one_function_per_architecture_and_parameters_per_model(task, models):
+    preset = task.preset()
+    (fn1, p1), (fn2, p2) = (surrogate_contact(m, preset) for m in models)
+    assert fn1 is fn2  # same architecture: same function, same NLP
+    assert p1.shape == p2.shape and not np.allclose(p1, p2)
+    np.testing.assert_array_equal(surrogate_parameters(models[1]), p2)
+    # another architecture is another function
+    other = SurrogateConfig(force={"hidden": [5]}, moment={"hidden": [4, 3]}, max_epochs=2)
+    small = train_surrogate(preliminary_pool(preset, samples=100), other, seed=0, preset=preset).model
+    fn3, p3 = surrogate_contact(small, preset)
+    assert fn3 is not fn1 and p3.size == fn3.size1_in(2) != p1.size
+
+
+def test_a_new_model_version_reuses_the_nlp_and_finds_the_same_optimum(task, models):
+    preset = task.preset()
+    first, second = models
+    (fn, p1), (_, p2) = (surrogate_contact(m, preset) for m in models)
+    previous = solve_task(task, fn, contact_params=p1)
+    assert previous.converged
+    tr = get_transcription(task, fn)
+    current = solve_task(task, fn, contact_params=p2, initial_guess=previous)
+    assert get_transcription(task, fn) is tr  # no rebuild for the new weights
+    reference = solve_task(task, casadi_contact_function(second, preset))  # weights as constants
+    assert current.converged and reference.converged
+    assert current.cost == pytest.approx(reference.cost, rel=1e-6)
+    np.testing.assert_allclose(current.q, reference.q, atol=1e-6)
+    np.testing.assert_allclose(current.controls, reference.controls, atol=1e-4 * np.abs(reference.controls).max())
+    # the parameters matter: the first model's optimum is another one
+    assert abs(previous.cost - current.cost) > 1e-6 * abs(current.cost) or np.abs(previous.q - current.q).max() > 1e-6
+
+
+def test_output_normalisation_must_match_the_networks(task, models):
+    import copy
+
+    broken = copy.deepcopy(models[0])
+    broken.force_norm = type(broken.force_norm)(np.zeros(2), np.ones(2))
+    with pytest.raises(ValueError, match="^model: "):
+        surrogate_contact(broken, task.preset())
