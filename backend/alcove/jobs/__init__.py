@@ -14,7 +14,8 @@ another worker while it still runs). Workers never rely on Celery to avoid a dup
 delivery: every job claims its row with a conditional update first.
 
 The embedded default uses kombu's filesystem transport (folders under
-``ALCOVE_DATA_DIR/broker``, no server). Note its limits: a message is taken out of the
+``ALCOVE_DATA_DIR/broker``, no server; :mod:`alcove.jobs.fs_transport` makes writing a
+message atomic, so a worker polling every few ms never reads a half-written file). Note its limits: a message is taken out of the
 folder when a worker fetches it, so a worker killed with SIGKILL loses it; the
 campaign reconciler (lease expiry in the database) is what re-enqueues such steps.
 """
@@ -72,6 +73,8 @@ def celery_config(settings: Settings | None = None) -> dict[str, Any]:
     exchange = Exchange("alcove", type="direct")
     return {
         "broker_url": s.broker_url,
+        # the embedded broker: kombu's filesystem transport with atomic message files (see fs_transport)
+        "broker_transport": "alcove.jobs.fs_transport:Transport" if s.is_embedded_broker else None,
         "broker_transport_options": transport_options,
         "broker_connection_retry_on_startup": True,
         "result_backend": None,
