@@ -7,13 +7,13 @@ from conftest import make_smooth_pool, smooth_wrench
 
 from alcove.science.surrogate.config import NetworkConfig, SurrogateConfig
 from alcove.science.surrogate.dataset import PoolDataError, PoolDataset
+from alcove.science.surrogate.fused import FusedNets
 from alcove.science.surrogate.mlp import MLP
 from alcove.science.surrogate.training import (
     FlatAdam,
     TrainingCancelled,
     predict,
     sample_weights,
-    set_loss_gradient,
     split_pool,
     train_surrogate,
 )
@@ -82,21 +82,81 @@ def test_same_pool_and_seed_give_bit_identical_weights(smooth_pool):
     assert torch.get_num_threads() >= 1
 
 
-@pytest.mark.parametrize("activation", ["softplus", "tanh", "sigmoid"])
-def test_hand_written_gradient_equals_autograd(activation):
+def _autograd_and_fused(nets, x, ys, w, fast=True):
+    losses = [((net(x) - y) ** 2).mean(1) @ w / x.shape[0] for net, y in zip(nets, ys)]
+    expected = [torch.autograd.grad(loss, list(net.parameters())) for net, loss in zip(nets, losses)]
+    fused = FusedNets(nets)
+    fused.set_loss_gradient(x, ys, w, fast=fast)
+    return fused, expected
+
+
+def _fused_grads(fused, k):
+    fused_views = fused._block_views(fused.grad, k)
+    return [t for wb in fused_views for t in wb]
+
+
+@pytest.mark.parametrize(
+    "architectures",
+    [
+        [((6, 6, 4), "softplus"), ((6, 6, 6, 4), "softplus")],  # the paper's pair (moment deeper)
+        [((5, 4, 3), "tanh"), ((8,), "sigmoid")],  # force deeper, other activations
+        [((5, 4), "softplus"), ((3, 7), "tanh")],  # same depth, mixed activations in one fused layer
+    ],
+)
+@pytest.mark.parametrize("fast", [True, False])
+def test_fused_hand_written_gradient_equals_autograd(architectures, fast):
     g = torch.Generator().manual_seed(0)
-    net = MLP((5, 4, 3), activation)
-    net.reset_parameters(g)
+    nets = [MLP(hidden, act) for hidden, act in architectures]
+    for net in nets:
+        net.reset_parameters(g)
     x = torch.randn(64, 19, dtype=torch.float64, generator=g)
-    y = torch.randn(64, 3, dtype=torch.float64, generator=g)
+    ys = [torch.randn(64, 3, dtype=torch.float64, generator=g) for _ in nets]
     w = torch.rand(64, dtype=torch.float64, generator=g)
-    loss = ((net(x) - y) ** 2).mean(1) @ w / 64
-    expected = torch.autograd.grad(loss, list(net.parameters()))
-    for p in net.parameters():
-        p.grad = None
-    set_loss_gradient(net, x, y, w)
-    for p, e in zip(net.parameters(), expected):
-        torch.testing.assert_close(p.grad, e, rtol=1e-12, atol=1e-15)
+    fused, expected = _autograd_and_fused(nets, x, ys, w, fast)
+    for k in range(len(nets)):
+        for got, e in zip(_fused_grads(fused, k), expected[k]):
+            torch.testing.assert_close(got, e, rtol=1e-12, atol=1e-15)
+    # the fused forward is both nets, and only the blocks carry weights or gradients
+    for out, net in zip(fused.forward(x), nets):
+        torch.testing.assert_close(out, net(x), rtol=1e-13, atol=1e-14)
+    assert torch.count_nonzero(fused.grad) <= sum(p.numel() for net in nets for p in net.parameters())
+    assert torch.all(fused.grad[fused.mask == 0] == 0) and torch.all(fused.parameter[fused.mask == 0] == 0)
+    # a frozen net gets no gradient, the other the same as before
+    fused.freeze(0)
+    fused.set_loss_gradient(x, ys, w, fast=fast)
+    assert all(torch.all(t == 0) for t in _fused_grads(fused, 0))
+    for got, e in zip(_fused_grads(fused, 1), expected[1]):
+        torch.testing.assert_close(got, e, rtol=1e-12, atol=1e-15)
+
+
+def test_fused_softplus_beyond_the_exp_range_falls_back_to_the_exact_function():
+    g = torch.Generator().manual_seed(2)
+    nets = [MLP((6, 6, 4)), MLP((6, 6, 6, 4))]
+    for net in nets:
+        net.reset_parameters(g)
+    x = 3000.0 * torch.randn(32, 19, dtype=torch.float64, generator=g)  # pre-activations far beyond 709
+    ys = [torch.randn(32, 3, dtype=torch.float64, generator=g) for _ in nets]
+    w = torch.rand(32, dtype=torch.float64, generator=g)
+    assert max(float(net.linears()[0](x).max()) for net in nets) > 1000
+    fused, expected = _autograd_and_fused(nets, x, ys, w, fast=True)
+    assert torch.all(torch.isfinite(fused.grad))
+    for k in range(2):
+        for got, e in zip(_fused_grads(fused, k), expected[k]):
+            torch.testing.assert_close(got, e, rtol=1e-12, atol=1e-12)
+
+
+def test_fused_weights_round_trip_to_the_nets():
+    g = torch.Generator().manual_seed(3)
+    nets = [MLP((6, 6, 4)), MLP((6, 6, 6, 4))]
+    for net in nets:
+        net.reset_parameters(g)
+    before = [{n: p.clone() for n, p in net.state_dict().items()} for net in nets]
+    fused = FusedNets(nets)
+    fused.parameter.add_(fused.mask)  # move every block entry by 1
+    for k, net in enumerate(nets):
+        fused.store(k)
+        for n, p in net.state_dict().items():
+            assert torch.equal(p, before[k][n] + 1)
 
 
 def test_preliminary_down_weighting():

@@ -16,7 +16,6 @@
 
 from __future__ import annotations
 
-import copy
 import math
 import time
 from dataclasses import asdict, dataclass, field
@@ -30,6 +29,7 @@ from alcove.science.series import ForceSeries
 from alcove.science.surrogate.config import SurrogateConfig
 from alcove.science.surrogate.dataset import PoolDataError, PoolDataset, check_pool
 from alcove.science.surrogate.features import features
+from alcove.science.surrogate.fused import FusedNets
 from alcove.science.surrogate.mlp import MLP, Standardization, SurrogateModel
 
 KinematicsFn = Callable[[np.ndarray, np.ndarray], RelativeKinematics]
@@ -205,44 +205,41 @@ def train_surrogate(
 def _fit(nets: dict[str, MLP], z: torch.Tensor, y: dict[str, torch.Tensor], w: torch.Tensor, z_val: torch.Tensor,
          y_val: dict[str, torch.Tensor], w_val: torch.Tensor, w_val_sum: float, config: SurrogateConfig,
          generator: torch.Generator, cancel: Callable[[], bool] | None) -> tuple[dict, dict, dict]:
-    flat = _FlatParameters([p for k in NETS for p in nets[k].parameters()])
-    optimizer = FlatAdam(flat.parameter, lr=config.learning_rate)
+    fused = FusedNets([nets[k] for k in NETS])
+    optimizer = FlatAdam(fused.parameter, lr=config.learning_rate, grad=fused.grad)
     active = list(NETS)
     best = {k: float("inf") for k in NETS}
-    best_state = {k: copy.deepcopy(nets[k].state_dict()) for k in NETS}
+    best_params = {k: fused.parameter.clone() for k in NETS}
     best_epoch = {k: 0 for k in NETS}
     epochs = {k: 0 for k in NETS}
     history: dict[str, list[float]] = {k: [] for k in NETS}
-    n, bs = z.shape[0], config.batch_size
+    n, bs, n_in = z.shape[0], config.batch_size, z.shape[1]
     # one gather per batch: features, both targets and the weights side by side
     table = torch.cat([z, y["force"], y["moment"], w[:, None]], dim=1)
-    columns = {"force": slice(z.shape[1], z.shape[1] + 3), "moment": slice(z.shape[1] + 3, z.shape[1] + 6)}
+    columns = {"force": slice(n_in, n_in + 3), "moment": slice(n_in + 3, n_in + 6)}
     for epoch in range(1, config.max_epochs + 1):
         if cancel is not None and cancel():
             raise TrainingCancelled(f"training cancelled in epoch {epoch}")
         perm = torch.randperm(n, generator=generator)
         for start in range(0, n, bs):
             batch = table.index_select(0, perm[start : start + bs])
-            zb, wb = batch[:, : z.shape[1]], batch[:, -1]
-            for k in active:
-                set_loss_gradient(nets[k], zb, batch[:, columns[k]], wb)
+            fused.set_loss_gradient(batch[:, :n_in], [batch[:, columns[k]] for k in NETS], batch[:, -1])
             optimizer.step()
+        outputs = dict(zip(NETS, fused.forward(z_val)))
         for k in list(active):
-            val = float(((nets[k](z_val) - y_val[k]) ** 2).mean(1) @ w_val) / w_val_sum
+            val = float(((outputs[k] - y_val[k]) ** 2).mean(1) @ w_val) / w_val_sum
             history[k].append(val)
             epochs[k] = epoch
             if val < best[k]:
                 best[k], best_epoch[k] = val, epoch
-                best_state[k] = copy.deepcopy(nets[k].state_dict())
+                best_params[k] = fused.parameter.clone()
             elif epoch - best_epoch[k] >= config.patience:
                 active.remove(k)
-                for p in nets[k].parameters():
-                    p.grad.zero_()  # type: ignore[union-attr]  # its best weights are restored below
+                fused.freeze(NETS.index(k))  # its best weights are restored below
         if not active:
             break
-    flat.release()
-    for k in NETS:
-        nets[k].load_state_dict(best_state[k])
+    for i, k in enumerate(NETS):
+        fused.store(i, best_params[k])
     return history, epochs, best_epoch
 
 
@@ -255,15 +252,17 @@ class FlatAdam:
     ``torch.optim.Adam``.
     """
 
-    def __init__(self, param: torch.Tensor, lr: float, betas: tuple[float, float] = (0.9, 0.999), eps: float = 1e-8):
+    def __init__(self, param: torch.Tensor, lr: float, betas: tuple[float, float] = (0.9, 0.999), eps: float = 1e-8,
+                 grad: torch.Tensor | None = None):
         self.param, self.lr, self.betas, self.eps = param, lr, betas, eps
+        self.grad = grad  # where the gradient is stored (default: param.grad)
         self.exp_avg = torch.zeros_like(param)
         self.exp_avg_sq = torch.zeros_like(param)
         self.steps = 0
 
     @torch.no_grad()
     def step(self) -> None:
-        grad = self.param.grad
+        grad = self.param.grad if self.grad is None else self.grad
         assert grad is not None
         b1, b2 = self.betas
         self.steps += 1
@@ -272,69 +271,6 @@ class FlatAdam:
         bias1, bias2 = 1 - b1**self.steps, 1 - b2**self.steps
         denom = (self.exp_avg_sq.sqrt() / math.sqrt(bias2)).add_(self.eps)
         self.param.addcdiv_(self.exp_avg, denom, value=-self.lr / bias1)
-
-
-class _FlatParameters:
-    """All parameters of both nets as views into one flat tensor (and their gradients into
-    another), so that Adam updates a single tensor per step: Adam is elementwise, so this
-    gives the same numbers as per-parameter updates with a fraction of the overhead."""
-
-    def __init__(self, params: list[torch.nn.Parameter]):
-        self.params = params
-        self.parameter = torch.nn.Parameter(torch.cat([p.detach().reshape(-1) for p in params]))
-        self.parameter.grad = torch.zeros_like(self.parameter)
-        offset = 0
-        for p in params:
-            n = p.numel()
-            p.data = self.parameter.data[offset : offset + n].view_as(p)
-            p.grad = self.parameter.grad[offset : offset + n].view_as(p)
-            offset += n
-
-    def release(self) -> None:
-        for p in self.params:
-            p.data = p.data.clone()
-            p.grad = None
-
-
-_ACTIVATION_SLOPE = {
-    # derivative of the activation from its input a and output h
-    "softplus": lambda a, h: torch.sigmoid(a),
-    "tanh": lambda a, h: 1.0 - h * h,
-    "sigmoid": lambda a, h: h * (1.0 - h),
-}
-
-
-@torch.no_grad()
-def set_loss_gradient(net: MLP, x: torch.Tensor, y: torch.Tensor, w: torch.Tensor) -> None:
-    """Store in ``p.grad`` the gradient of the batch loss ``sum_i w_i mean_c (net(x_i) - y_i)_c^2 / n``.
-
-    Hand-written backpropagation through the MLP: for these tiny layers the cost is the
-    per-operation overhead, and skipping autograd's bookkeeping makes a step ~2x faster.
-    ``tests/science/surrogate/test_training.py`` checks it against autograd.
-    """
-    linears = net.linears()
-    slope = _ACTIVATION_SLOPE[net.activation]
-    act = net.layers[1] if len(linears) > 1 else None
-    inputs, pre, post = [x], [], []
-    h = x
-    for i, lin in enumerate(linears):
-        a = torch.mm(h, lin.weight.t()).add_(lin.bias)  # faster than addmm for these shapes
-        if i < len(linears) - 1:
-            h = act(a)  # type: ignore[misc]
-            pre.append(a)
-            post.append(h)
-            inputs.append(h)
-        else:
-            h = a
-    g = (h - y) * (w * (2.0 / (y.shape[1] * x.shape[0])))[:, None]
-    for i in range(len(linears) - 1, -1, -1):
-        lin = linears[i]
-        if lin.weight.grad is None or lin.bias.grad is None:
-            lin.weight.grad, lin.bias.grad = torch.zeros_like(lin.weight), torch.zeros_like(lin.bias)
-        torch.mm(g.t(), inputs[i], out=lin.weight.grad)
-        torch.sum(g, 0, out=lin.bias.grad)
-        if i > 0:
-            g = (g @ lin.weight) * slope(pre[i - 1], post[i - 1])
 
 
 def predict_arrays(model: SurrogateModel, q: np.ndarray, qd: np.ndarray,
