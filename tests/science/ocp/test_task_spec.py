@@ -60,6 +60,14 @@ def bad(mutate):
         (lambda d: d.update(final={"q": [0.01]}), "final.q", "outside"),
         (lambda d: d.update(endpoint_cost={"w_q": 1.0}), "endpoint_cost.q_ref", "required"),
         (lambda d: d["phases"][0].update(speed=3), "phases.0.speed", "Extra inputs"),
+        # non-finite numbers pass bounds like gt=0 unless rejected explicitly
+        (lambda d: d["phases"][0].update(duration=float("inf")), "phases.0.duration", "finite number"),
+        (lambda d: d["phases"][1].update(w_T=float("inf")), "phases.1.w_T", "finite number"),
+        (lambda d: d["model"].update(tilt=float("nan")), "model.tilt", "finite number"),
+        (lambda d: d["model"].update(theta_min=float("-inf")), "model.theta_min", "finite number"),
+        (lambda d: d["model"].update(gravity=float("inf")), "model.gravity", "finite number"),
+        (lambda d: d.update(endpoint_cost={"w_qd": float("nan")}), "endpoint_cost.w_qd", "finite number"),
+        (lambda d: d["phases"][0].update(tau_max=[float("inf")]), "phases.0.tau_max.0", "finite number"),
     ],
 )
 def test_bad_input_names_the_field(mutate, field, reason):
@@ -78,3 +86,9 @@ def test_unknown_preset_and_unreadable_file(tmp_path):
         parse_task(f)
     f.write_text(json.dumps(TASK_PRESETS["head-headrest-2phase"]))
     assert parse_task(f).name == "head-headrest-2phase"
+    # JSON's non-standard Infinity (Python's json writes it) is rejected from a file too
+    data = copy.deepcopy(TASK_PRESETS["head-headrest-2phase"])
+    data["phases"][1]["duration"] = float("inf")
+    f.write_text(json.dumps(data))
+    with pytest.raises(TaskSpecError, match="^phases.1.duration: .*finite"):
+        parse_task(f)

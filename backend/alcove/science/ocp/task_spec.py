@@ -38,7 +38,8 @@ class TaskSpecError(ValueError):
 
 
 class _Strict(BaseModel):
-    model_config = ConfigDict(extra="forbid", frozen=True)
+    # inf / NaN pass bounds like gt=0 (an infinite duration, a NaN headrest tilt): reject them
+    model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
 
 
 def _fail(field: str, reason: str) -> None:
