@@ -207,8 +207,9 @@ def part_multibody(rep: Report) -> Any:
 
 
 def fe_params(quick: bool) -> dict[str, Any]:
-    # quick: 12 mm elements in the contact zone and a 5 ms step (the default is 6 mm / 2.5 ms)
-    return {"element_size_contact": 0.012, "element_size_far": 0.03, "output_dt": 0.005} if quick else {}
+    # quick: 10 mm elements in the contact zone (the coarsest the oracle accepts: 4 elements through
+    # the 40 mm foam) and a 5 ms step (the default is 6 mm / 2.5 ms)
+    return {"element_size_contact": 0.01, "element_size_far": 0.03, "output_dt": 0.005} if quick else {}
 
 
 def part_fe(rep: Report, task: Any, sol: Any) -> None:
@@ -291,6 +292,8 @@ class CampaignRun:
     metrics: list[Any]
     curves: Any | None
     iterations_failed: int = 0
+    steps: list[dict[str, Any]] = field(default_factory=list)
+    breakdown: dict[str, Any] = field(default_factory=dict)
 
 
 def _store(data_dir: Path) -> None:
@@ -310,7 +313,33 @@ def _store(data_dir: Path) -> None:
 WORKER: dict[str, Any] = {}
 
 
-def _wait_for_workers(campaign_id: int, poll: float = 0.5) -> None:
+class Progress:
+    """A progress line on stderr at most every ``every`` s: iteration, RMSE, elapsed, ETA."""
+
+    def __init__(self, campaign_id: int, label: str, t0: float, every: float = 30.0):
+        self.campaign_id, self.label, self.t0, self.every = campaign_id, label, t0, every
+        self.last = 0.0
+
+    def __call__(self, force: bool = False) -> str:
+        from alcove.campaigns import service
+        from alcove.db import session_scope
+
+        now = time.perf_counter()
+        if not force and now - self.last < self.every:
+            return ""
+        self.last = now
+        with session_scope() as s:
+            d = service.get_detail(s, self.campaign_id)
+        c, m = d.campaign, d.latest_metrics
+        total = d.config.stopping.max_iterations
+        rmse = f"force RMSE {m.force_rmse:.3g} N, moment RMSE {m.moment_rmse:.3g} N m" if m is not None and m.force_rmse is not None else "no RMSE yet"
+        eta = f", ETA {d.eta_s / 60:.1f} min" if d.eta_s is not None else ""
+        typer.echo(f"[reproduce]   {self.label}: iteration {c.current_iteration}/{total} ({c.status.value}), {rmse}, "
+                   f"{(now - self.t0) / 60:.1f} min{eta}", err=True)
+        return c.status.value
+
+
+def _wait_for_workers(campaign_id: int, progress: Progress, poll: float = 0.5) -> None:
     from alcove.campaigns import service
     from alcove.db import session_scope
 
@@ -322,30 +351,66 @@ def _wait_for_workers(campaign_id: int, poll: float = 0.5) -> None:
             return
         if proc.poll() is not None:
             raise RuntimeError(f"the alcove worker exited with code {proc.returncode} (log: {WORKER['log']})")
+        progress()
         time.sleep(poll)
 
 
 def _drive(campaign_id: int, jobs: list[Any], label: str, t0: float) -> CampaignRun:
-    """Run the campaign's steps to its end: in this process (default) or by the Celery worker."""
+    """Run the campaign's steps to its end: by the spawned Celery worker (default) or in this process."""
     from alcove.campaigns import service
-    from alcove.campaigns.flows import drive_inline
+    from alcove.campaigns.flows import run_step
     from alcove.db import session_scope
 
+    progress = Progress(campaign_id, label, t0)
     if WORKER:
         from alcove.jobs.campaign import enqueue
 
         enqueue(jobs)
-        _wait_for_workers(campaign_id)
-    else:
-        drive_inline(campaign_id, jobs)
+        _wait_for_workers(campaign_id, progress)
+    else:  # flows.drive_inline with a progress line
+        queue = list(jobs)
+        while queue:
+            j = queue.pop(0)
+            run_step(j.campaign_id, j.iteration, j.step.value, j.attempt, worker_name="inline", send=queue.extend)
+            progress()
     wall = time.perf_counter() - t0
+    progress(force=True)
     with session_scope() as s:
         c = service.get_campaign(s, campaign_id)
         failed = service.get_detail(s, campaign_id).iterations_failed
         metrics = service.metrics_series(s, campaign_id)
         done = [m for m in metrics if m.force_rmse is not None]
         curves = service.iteration_curves(s, campaign_id, done[-1].iteration_index) if done else None
-    return CampaignRun(campaign_id, label, c.status.value, c.stop_reason, c.error, wall, metrics, curves, failed)
+        steps = [j for j in service.list_jobs(s, campaign_id, ["succeeded"]) if j["iteration"] > 0]
+    return CampaignRun(campaign_id, label, c.status.value, c.stop_reason, c.error, wall, metrics, curves, failed, steps)
+
+
+def step_breakdown(steps: list[dict[str, Any]]) -> dict[str, Any]:
+    """Per-step median wall and bare compute, per-iteration wall times and the orchestration
+    share (queue latency + job wall - compute, summed over the steps, over the campaign's
+    step time from the first queued message to the last finished step)."""
+    import numpy as np
+
+    by_step: dict[str, dict[str, list[float]]] = {}
+    overhead, iterations = 0.0, {}
+    for j in steps:
+        if j["wall_time_s"] is None:
+            continue
+        name = getattr(j["step"], "value", j["step"])
+        compute = float((j["result"] or {}).get("compute_s", 0.0))
+        latency = (j["started_at"] - j["queued_at"]).total_seconds() if j["started_at"] and j["queued_at"] else 0.0
+        d = by_step.setdefault(name, {"wall": [], "compute": []})
+        d["wall"].append(float(j["wall_time_s"]))
+        d["compute"].append(compute)
+        overhead += max(latency, 0.0) + max(float(j["wall_time_s"]) - compute, 0.0)
+        if j["queued_at"] is None or j["finished_at"] is None:
+            continue
+        it = iterations.setdefault(j["iteration"], [j["queued_at"], j["finished_at"]])
+        it[0], it[1] = min(it[0], j["queued_at"]), max(it[1], j["finished_at"])
+    walls = {k: (b - a).total_seconds() for k, (a, b) in iterations.items() if a and b}
+    span = sum(walls.values())
+    return {"steps": {k: {"wall": float(np.median(v["wall"])), "compute": float(np.median(v["compute"]))} for k, v in by_step.items()},
+            "iteration_wall": walls, "overhead_s": overhead, "share": 100.0 * overhead / span if span else float("nan")}
 
 
 def run_campaign(label: str, *, oracle: str, oracle_params: dict[str, Any], iterations: int, surrogate: dict[str, Any],
@@ -454,8 +519,11 @@ def part_campaign(rep: Report, iterations: int, oracle: str) -> CampaignRun:
         plt.close(fig)
 
     s = "campaign"
-    last = [x for x in run.metrics if x.force_rmse is not None][-1]
+    evaluated = [x for x in run.metrics if x.force_rmse is not None]
+    first, last = evaluated[0], evaluated[-1]
     failed = run.iterations_failed
+    rep.add(s, f"force RMSE, first iteration ({first.iteration_index})", "n/a (not reported)", first.force_rmse, "N", "model 1: preliminary data only")
+    rep.add(s, f"moment RMSE, first iteration ({first.iteration_index})", "n/a (not reported)", first.moment_rmse, "N m", "model 1: preliminary data only")
     rep.add(s, f"force RMSE, last iteration ({last.iteration_index})", PAPER["force_rmse"], last.force_rmse, "N")
     rep.add(s, f"moment RMSE, last iteration ({last.iteration_index})", PAPER["moment_rmse"], last.moment_rmse, "N m")
     tenth = max(1, len(f) // 10)
@@ -465,9 +533,14 @@ def part_campaign(rep: Report, iterations: int, oracle: str) -> CampaignRun:
     rep.add(s, "moment RMSE, median of the last 10 % of iterations", PAPER["moment_rmse"], float(np.nanmedian(m[-tenth:])), "N m")
     rep.add(s, "Spearman rank correlation of force RMSE with k", PAPER["trend"], _trend(k, f), "", "negative: decreasing")
     rep.add(s, "Spearman rank correlation of moment RMSE with k", PAPER["trend"], _trend(k, m), "", "negative: decreasing")
+    peaks = None
     if run.curves is not None:
         ft, fp = np.asarray(run.curves.f_true), np.asarray(run.curves.f_pred)
-        peak_f, peak_m = np.linalg.norm(ft[:, :3], axis=1).max(), np.linalg.norm(ft[:, 3:], axis=1).max()
+        peaks = np.linalg.norm(ft[:, :3], axis=1).max(), np.linalg.norm(ft[:, 3:], axis=1).max()
+    if peaks is not None and min(peaks) <= 0.0:
+        rep.text(s, "The last iteration's trajectory made no contact in the oracle (zero true force): no relative RMSE.")
+    elif peaks is not None:
+        peak_f, peak_m = peaks
         rep.add(s, "force RMSE / peak |F|, last iteration", PAPER["relative_rmse"], 100 * last.force_rmse / peak_f, "%", f"peak {fmt(peak_f)} N")
         rep.add(s, "moment RMSE / peak |M|, last iteration", PAPER["relative_rmse"], 100 * last.moment_rmse / peak_m, "%", f"peak {fmt(peak_m)} N m")
         ratio = np.linalg.norm(fp[:, :3], axis=1).max() / peak_f
@@ -479,16 +552,20 @@ def part_campaign(rep: Report, iterations: int, oracle: str) -> CampaignRun:
     rep.add(s, "iterations with force RMSE above 2x its rolling median", PAPER["trend"], spikes, "", "spikes")
     rep.add(s, "failed iterations (OCP not converged or oracle failed)", "n/a", failed, "")
     per_it = run.wall / iterations
-    rep.add(s, "campaign wall time per iteration", "n/a", per_it, "s", f"{iterations} iterations and the preliminary step in {run.wall:.1f} s")
-    step_times: dict[str, list[float]] = {}
-    for x in run.metrics:
-        for step, sec in (x.extra or {}).get("step_wall_time_s", {}).items():
-            step_times.setdefault(step, []).append(sec)
+    rep.add(s, "campaign wall time", "about 10 h of FE runs alone (alcove issue 6 target: <= 30 min for 200 iterations)", run.wall / 60.0, "min",
+            f"{iterations} iterations and the preliminary step; {rep.timings_note}")
+    rep.add(s, "campaign wall time per iteration", "about 3 min per FE run", per_it, "s", f"{iterations} iterations and the preliminary step in {run.wall:.1f} s")
+    b = step_breakdown(run.steps)
+    run.breakdown = b
+    if b["steps"]:
+        rep.add(s, "orchestration share of the iteration wall time", "n/a (alcove issue 6 target: <= 5 %)", b["share"], "%",
+                "queue latency + job wall - bare compute, summed over the steps")
     rep.text(
         s,
         f"Campaign {run.campaign_id}: {run.status} ({run.stop_reason}), {iterations} iterations, {failed} failed, "
         f"oracle `{cs['oracle']}`, {run.metrics[-1].n_pool_samples} samples in the last pool.",
-        "Median wall time per step: " + ", ".join(f"{k_} {np.median(v):.2f} s" for k_, v in step_times.items()) + ".",
+        "Per-step breakdown (median per iteration): " + ", ".join(f"{k_} {v['wall']:.2f} s wall ({v['compute']:.2f} s bare compute)" for k_, v in b["steps"].items())
+        + f"; orchestration (everything but the compute, including the broker hand-over) {1000 * b['overhead_s'] / max(iterations, 1):.0f} ms per iteration.",
     )
     return run
 
@@ -505,6 +582,29 @@ def adjusted_task() -> dict[str, Any]:
     spec["initial"]["q"] = [round(theta0 - 0.05, 6)]
     spec["name"] = f"{TASK}-start-{theta0 - 0.05:.3f}"
     return spec
+
+
+def remedy_budget(baseline: CampaignRun, n: int, remaining_s: float, margin_s: float = 60.0, floor: int = 10) -> int:
+    """The most remedy iterations m <= n whose estimated time fits in ``remaining_s``.
+
+    Estimated from the baseline's own iteration wall times: the two remedy campaigns that
+    start from the preliminary data (down-weighted, adjusted task) cost like the baseline's
+    iterations 1..m each, plus its preliminary step; the warm start continues from the
+    baseline's last pool, so each of its iterations costs like the baseline's last ones.
+    At least ``floor`` (or n) iterations, so the comparison means something."""
+    walls = baseline.breakdown.get("iteration_wall", {}) if baseline.breakdown else {}
+    if not walls:
+        return min(floor, n)
+    ks = sorted(walls)
+    late = sorted(walls[k] for k in ks[-20:])[len(ks[-20:]) // 2]  # median of the last 20
+    prelim = 2 * max(baseline.wall - sum(walls.values()), 0.0)
+    best, cum = min(floor, n), 0.0
+    for m in range(1, n + 1):
+        cum += walls.get(m, late)
+        if prelim + 2 * cum + m * late + margin_s > remaining_s:
+            break
+        best = max(best, m)
+    return min(best, n)
 
 
 def part_remedies(rep: Report, baseline: CampaignRun, iterations: int, oracle: str, preliminary_weight: float) -> None:
@@ -724,6 +824,7 @@ def write_markdown(rep: Report, info: dict[str, str], args: dict[str, Any], tota
     lines += ["## The run", "", "| | |", "|---|---|"]
     lines += [f"| date (UTC) | {dt.datetime.now(dt.timezone.utc).strftime('%Y-%m-%d %H:%M')} |"]
     lines += [f"| command | `{args['command']}` |"]
+    lines += [f"| baseline campaign | {args['iterations']} iterations |", f"| each remedy campaign | {args['remedy_iterations']} iterations |"]
     lines += [f"| {k} | {v} |" for k, v in info.items()]
     lines += [f"| campaign steps | {rep.timings_note} |", f"| total wall time | {total:.1f} s |", ""]
     lines += ["Wall times (the machine may be shared; they are as measured, under whatever load there was):", "", "| part | wall time [s] |", "|---|---|"]
@@ -761,18 +862,21 @@ app = typer.Typer(add_completion=False)
 def main(
     quick: bool = typer.Option(False, "--quick", help="smoke run: coarse FE, aux-penalty campaigns, few iterations"),
     iterations: int | None = typer.Option(None, "--iterations", "-n", min=1, help="baseline campaign iterations (default 200, quick 3)"),
-    remedy_iterations: int | None = typer.Option(None, "--remedy-iterations", min=1, help="iterations of each remedy campaign (default 20, quick 1; at most --iterations)"),
+    remedy_iterations: int | None = typer.Option(None, "--remedy-iterations", min=1,
+                                                 help="iterations of each remedy campaign (at most --iterations; default: as many as fit in --budget-min, quick 1)"),
+    budget_min: float = typer.Option(35.0, "--budget-min", min=1.0, help="wall-time budget of the whole run in minutes: sets the default --remedy-iterations"),
     oracle: str = typer.Option("fe-headrest-2d", help="oracle of the campaigns (quick: aux-penalty)"),
     preliminary_weight: float = typer.Option(0.1, min=0.0, help="sample weight of the preliminary data in the down-weighting remedy"),
     out: Path = typer.Option(REPO / "docs", help="folder for reproduction.md and reproduction/*.png"),
     data_dir: Path | None = typer.Option(None, help="alcove data dir for the run's database and artifacts (default: a fresh temporary folder)"),
     skip: list[str] = typer.Option([], help="parts to skip: multibody, fe, campaign, remedies"),
-    celery: bool = typer.Option(False, "--celery", help="run the campaign steps through Celery with a spawned `alcove worker` (default: in this process, same protocol and rows)"),
+    celery: bool = typer.Option(True, "--celery/--inline", help="campaign steps through Celery with a spawned `alcove worker` on the embedded broker "
+                                "(default, as `alcove campaign run`), or in this process (--inline: same protocol and rows, no broker)"),
     concurrency: int = typer.Option(1, min=1, help="processes of the spawned worker (with --celery)"),
 ) -> None:
     """Run the paper's proof of concept with alcove and write OUT/reproduction.md with figures."""
     n = iterations or (3 if quick else 200)
-    m = min(remedy_iterations or (1 if quick else 20), n)
+    m = min(remedy_iterations, n) if remedy_iterations else (1 if quick else None)  # None: chosen after the baseline from the budget
     (out / "reproduction").mkdir(parents=True, exist_ok=True)
     tmp = None
     if data_dir is None:
@@ -809,14 +913,17 @@ def main(
 
             WORKER["log"] = data_dir / "worker.log"
             WORKER["process"] = spawn_worker(concurrency, log_path=WORKER["log"])
+        rep.timings_note = "steps run by a spawned Celery worker (embedded default: SQLite + filesystem broker)" if celery else "steps run in this process (flows.drive_inline)"
         base = part("campaign", lambda: part_campaign(rep, n, oracle))
         if base is not None:
+            if m is None:
+                m = remedy_budget(base, n, budget_min * 60.0 - (time.perf_counter() - t_start))
+                typer.echo(f"[reproduce] {m} iterations per remedy campaign (as many as fit in the {budget_min:g} min budget; --remedy-iterations to choose)", err=True)
             part("remedies", lambda: part_remedies(rep, base, m, oracle, preliminary_weight))
         elif "remedies" not in skip:
             rep.errors["remedies"] = "needs the baseline campaign (part 3 failed)"
         argv = " ".join(["scripts/reproduce.py", *sys.argv[1:]])
-        rep.timings_note = "steps run by a spawned Celery worker" if celery else "steps run in this process (flows.drive_inline)"
-        path = write_markdown(rep, info, {"command": argv, "iterations": n, "remedy_iterations": m}, time.perf_counter() - t_start)
+        path = write_markdown(rep, info, {"command": argv, "iterations": n, "remedy_iterations": m or 0}, time.perf_counter() - t_start)
         typer.echo(f"[reproduce] wrote {path}", err=True)
     finally:
         if WORKER:

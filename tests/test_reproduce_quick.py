@@ -56,3 +56,33 @@ def test_quick_reproduction_writes_page_figures_and_numeric_table(tmp_path: Path
     assert 0.0 <= first_contact <= 1.0
     assert all(v > 0 for q, v in values.items() if q.startswith(("force RMSE", "moment RMSE", "mean force RMSE", "mean moment RMSE")))
     assert -1.0 <= values["Spearman rank correlation of force RMSE with k"] <= 1.0
+
+
+def _reproduce_module():  # noqa: ANN202
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location("reproduce_script", REPO / "scripts" / "reproduce.py")
+    mod = importlib.util.module_from_spec(spec)
+    sys.modules["reproduce_script"] = mod  # dataclasses look their module up
+    spec.loader.exec_module(mod)  # type: ignore[union-attr]
+    return mod
+
+
+def test_remedy_iterations_fit_the_remaining_budget() -> None:
+    """The default number of remedy iterations: the largest m whose estimate (two campaigns like
+    the baseline's first m iterations, one like its last ones) fits the time left; more time,
+    more iterations; never more than the baseline's, never fewer than the floor."""
+    mod = _reproduce_module()
+    walls = {k: 3.0 + 0.02 * k for k in range(1, 201)}  # iterations get slower as the pool grows
+    base = mod.CampaignRun(1, "baseline", "completed", "max_iterations", None, sum(walls.values()) + 1.0, [], None, breakdown={"iteration_wall": walls})
+    late = 3.0 + 0.02 * 191  # the median of the last 20
+
+    def cost(m: int) -> float:
+        return 2 * 1.0 + 2 * sum(walls[k] for k in range(1, m + 1)) + m * late + 60.0
+
+    chosen = [mod.remedy_budget(base, 200, budget) for budget in (0.0, 600.0, 1200.0, 2400.0, 1e6)]
+    assert chosen[0] == 10 and chosen[-1] == 200
+    assert chosen == sorted(chosen)
+    for budget, m in zip((600.0, 1200.0, 2400.0), chosen[1:4]):
+        assert cost(m) <= budget < cost(m + 1)
+    assert mod.remedy_budget(base, 5, 0.0) == 5
