@@ -29,6 +29,13 @@ def load_figures() -> None:
         importlib.import_module(f"bench.figures.{mod.name}")
 
 
+def _cpu_seconds() -> float:
+    import resource
+
+    own, children = resource.getrusage(resource.RUSAGE_SELF), resource.getrusage(resource.RUSAGE_CHILDREN)
+    return own.ru_utime + own.ru_stime + children.ru_utime + children.ru_stime
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__)
     ap.add_argument("--quick", action="store_true", help="fewer repetitions, skip the long figures (< 2 min)")
@@ -40,6 +47,7 @@ def main(argv: list[str] | None = None) -> int:
     console = Console() if sys.stdout.isatty() else Console(width=220)
     rows = []
     t_start = time.perf_counter()
+    cpu_start = _cpu_seconds()
     harness.MODE = "quick" if args.quick else "full"
     # a setup shared by several figures (the same function) runs once per bench run
     setups: dict[Any, Any] = {}
@@ -86,12 +94,15 @@ def main(argv: list[str] | None = None) -> int:
     slow = sorted((r for r in rows if r.get("bench_total_s")), key=lambda r: -r["bench_total_s"])[:8]
     if slow:
         console.print("slowest figures (setup + repetitions): " + "; ".join(f"{r['figure'][:60]} {r['bench_total_s']:.1f} s (setup {r['bench_setup_s']:.1f} s)" for r in slow))
-    console.print(f"bench wall time {time.perf_counter() - t_start:.1f} s")
+    cpu = _cpu_seconds() - cpu_start
+    console.print(f"bench wall time {time.perf_counter() - t_start:.1f} s, CPU time {cpu:.1f} s (this process and its finished children: "
+                  "less sensitive to the machine's load than the wall time)")
     out = {
         "mode": "quick" if args.quick else "full",
         "python": sys.version.split()[0],
         "machine": platform.platform(),
         "wall_time_s": time.perf_counter() - t_start,
+        "cpu_time_s": _cpu_seconds() - cpu_start,
         "figures": rows,
     }
     Path(args.out).write_text(json.dumps(out, indent=2))
