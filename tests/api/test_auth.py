@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import time
+
 import sqlalchemy as sa
 
 from .helpers import Account, make_account
@@ -105,3 +107,25 @@ def test_many_failures_from_one_address_are_rate_limited(client, owner: Account,
         assert client.post("/api/v1/auth/login", json={"email": f"spray-{i}@example.org", "password": "x"}).status_code == 401
     blocked = client.post("/api/v1/auth/login", json={"email": owner.email, "password": owner.password})
     assert blocked.status_code == 429 and 0 < int(blocked.headers["Retry-After"]) <= 61
+
+
+def test_a_token_revoked_by_another_process_stops_working_within_the_cache_time(client, monkeypatch) -> None:  # noqa: ANN001
+    """The verified-token cache trusts a token for TOKEN_CACHE_SECONDS per process; a
+    revocation written by another process (here: straight to the database) takes effect
+    once that has passed (shortened to 0.5 s for the test)."""
+    from alcove.db import session_scope
+    from alcove.models import ApiToken, utcnow
+    from alcove.users import service
+
+    from .helpers import make_account
+
+    assert service.TOKEN_CACHE_SECONDS <= 5.0
+    monkeypatch.setattr(service.TOKENS, "ttl_s", 0.5)
+    me = make_account("member", "revoked")
+    assert client.get("/api/v1/me", headers=me.headers).status_code == 200
+    assert client.get("/api/v1/me", headers=me.headers).status_code == 200  # cached now
+    with session_scope() as s:
+        s.query(ApiToken).filter_by(user_id=me.id).update({"revoked_at": utcnow()})
+    time.sleep(0.6)
+    r = client.get("/api/v1/me", headers=me.headers)
+    assert r.status_code == 401 and r.headers["WWW-Authenticate"] == "Bearer"

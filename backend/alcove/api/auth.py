@@ -4,16 +4,21 @@ or a personal API token). Every route except health and login depends on
 
 from __future__ import annotations
 
+import logging
+from datetime import datetime
 from typing import Annotated
 
 from fastapi import Depends, HTTPException, Request, status
 from fastapi.security import HTTPAuthorizationCredentials, HTTPBearer
 from sqlalchemy.orm import Session
+from sqlalchemy.orm.attributes import set_committed_value
 from starlette.concurrency import run_in_threadpool
 
 from alcove.api.deps import SessionDep
 from alcove.models import ApiToken, User, utcnow
 from alcove.users import service
+
+log = logging.getLogger(__name__)
 
 bearer_scheme = HTTPBearer(auto_error=False, description="A token from `POST /api/v1/auth/login` or a personal API token (`alc_...`).")
 
@@ -42,9 +47,35 @@ async def current_token(
 def _lookup(session: Session, secret: str) -> tuple[ApiToken, User] | None:
     found = service.authenticate(session, secret)
     if found is not None and service.needs_touch(found[0]):
-        found[0].last_used_at = utcnow()
-        session.commit()  # nothing else happened in this session yet
+        if session.get_bind().dialect.name == "sqlite" and not _is_immediate(session):
+            # a read-only request: record the use in its own short write transaction (an
+            # upgrade of this read transaction fails if a worker committed meanwhile)
+            now = _touch(found[0].id)
+            set_committed_value(found[0], "last_used_at", now)  # not a pending change of this session
+        else:
+            found[0].last_used_at = utcnow()
+            session.commit()  # nothing else happened in this session yet
     return found
+
+
+def _is_immediate(session: Session) -> bool:
+    from alcove.db import get_engine
+
+    return session.get_bind() is get_engine(immediate=True)
+
+
+def _touch(token_id: int) -> datetime:
+    """Best effort: ``last_used_at`` is informational, a busy database must not fail the request."""
+    from sqlalchemy import exc, update
+
+    from alcove.db import transaction
+
+    now = utcnow()
+    try:
+        transaction(lambda s: s.execute(update(ApiToken).where(ApiToken.id == token_id).values(last_used_at=now)), attempts=3)
+    except exc.OperationalError:
+        log.warning("could not record the use of token %d (database busy)", token_id)
+    return now
 
 
 async def current_user(request: Request, token: Annotated[ApiToken, Depends(current_token)]) -> User:
