@@ -9,12 +9,8 @@
 from __future__ import annotations
 
 import json
-import os
 import shutil
-import signal
-import socket
 import subprocess
-import sys
 import time
 import uuid
 from collections.abc import Iterator
@@ -24,9 +20,11 @@ from typing import Any
 import pytest
 import sqlalchemy as sa
 
+from tests.integration.procs import CLI, alcove_env, db_rows, free_port, pid_alive, start_worker
+from tests.integration.procs import wait_until as wait_for
+
 pytestmark = [pytest.mark.integration, pytest.mark.slow]
 
-CLI = [sys.executable, "-m", "alcove_worker.cli.main"]
 QUICK_YAML = """
 preliminary: {samples: 400, chunks: 4}
 settings: {ocp_intervals: 20, replay_dt: 0.01}
@@ -35,60 +33,11 @@ surrogate: {max_epochs: 60}
 
 
 def env_for(**settings: Any) -> dict[str, str]:
-    env = {k: v for k, v in os.environ.items() if not k.startswith("ALCOVE_") or k.startswith("ALCOVE_TEST_")}
-    env.update({f"ALCOVE_{k.upper()}": str(v) for k, v in settings.items()})
-    env["ALCOVE_BROKER_POLLING_INTERVAL"] = "0.05"
-    return env
-
-
-class Worker:
-    def __init__(self, env: dict[str, str], log: Path, name: str) -> None:
-        self.log = log
-        self._fh = open(log, "ab")  # noqa: SIM115
-        self.p = subprocess.Popen(CLI + ["worker", "--queues", "default,ocp,oracle,train", "--concurrency", "1", "--name", name, "--loglevel", "INFO"],
-                                  env=env, stdout=self._fh, stderr=subprocess.STDOUT, start_new_session=True)
-
-    def kill(self) -> None:
-        """SIGKILL the worker and its pool processes (no warm shutdown, no acks)."""
-        try:
-            os.killpg(self.p.pid, signal.SIGKILL)
-        except ProcessLookupError:
-            pass
-        self.p.wait(timeout=10)
-        self._fh.close()
-
-    def stop(self) -> None:
-        if self.p.poll() is None:
-            self.p.send_signal(signal.SIGTERM)
-            try:
-                self.p.wait(timeout=20)
-            except subprocess.TimeoutExpired:
-                pass
-        self.kill()
-
-    def output(self) -> str:
-        return self.log.read_text(errors="replace")
-
-
-def wait_for(pred: Any, timeout: float, what: str, worker: Worker | None = None) -> Any:
-    end = time.monotonic() + timeout
-    while time.monotonic() < end:
-        got = pred()
-        if got:
-            return got
-        time.sleep(0.1)
-    raise AssertionError(f"timed out waiting for {what}" + (f"\n{worker.output()[-3000:]}" if worker else ""))
+    return alcove_env(**settings, broker_polling_interval="0.05")
 
 
 def rows(url: str, sql: str, **params: Any) -> list[tuple]:
-    from alcove.db import make_engine
-
-    eng = make_engine(url)
-    try:
-        with eng.connect() as c:
-            return [tuple(r) for r in c.execute(sa.text(sql), params)]
-    finally:
-        eng.dispose()
+    return db_rows(url, sql, **params)
 
 
 def maybe_rows(url: str, sql: str, **params: Any) -> list[tuple]:
@@ -171,7 +120,7 @@ def test_sigkill_of_a_worker_during_an_oracle_job_loses_and_duplicates_nothing(p
 
     expected = reference_pool(make_campaign, seed=11, iterations=3, url=pg_url)
     cid, jobs = quick_campaign(make_campaign, 11, 3, fault={"oracle": {"sleep_s": 3, "iterations": [2]}})
-    w1 = Worker(pg_redis, tmp_path / "w1.log", f"w1-{uuid.uuid4().hex[:4]}")
+    w1 = start_worker(pg_redis, tmp_path / "w1.log", f"w1-{uuid.uuid4().hex[:4]}")
     try:
         enqueue(jobs)
         enqueue(jobs)  # a duplicate delivery of the first step: the second message does nothing
@@ -182,7 +131,7 @@ def test_sigkill_of_a_worker_during_an_oracle_job_loses_and_duplicates_nothing(p
         w1.kill()
     finally:
         w1.stop()
-    w2 = Worker(pg_redis, tmp_path / "w2.log", f"w2-{uuid.uuid4().hex[:4]}")
+    w2 = start_worker(pg_redis, tmp_path / "w2.log", f"w2-{uuid.uuid4().hex[:4]}")
     try:
         wait_for(lambda: rows(pg_url, "SELECT 1 FROM campaigns WHERE id = :c AND status IN ('completed', 'failed', 'cancelled')", c=cid), 180, "the campaign to end", w2)
     finally:
@@ -208,17 +157,11 @@ def test_sigkill_of_a_worker_during_an_oracle_job_loses_and_duplicates_nothing(p
                         "WHERE p.campaign_id = :c ORDER BY p.version", c=cid) == [(0, None), (1, 0), (2, 1), (3, 2)]
 
 
-def _free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
-
-
 class PrivateRedis:
     """A redis-server of our own (no persistence): restarting it loses every message."""
 
     def __init__(self, workdir: Path) -> None:
-        self.port = _free_port()
+        self.port = free_port()
         self.workdir = workdir
         self.p: subprocess.Popen[bytes] | None = None
 
@@ -261,7 +204,7 @@ def test_a_redis_restart_mid_campaign_loses_no_step(pg_redis: dict[str, str], pg
     env = {**pg_redis, "ALCOVE_BROKER_URL": redis_server.url}
     expected = reference_pool(make_campaign, seed=12, iterations=2, url=pg_url)
     cid, jobs = quick_campaign(make_campaign, 12, 2, fault={"train": {"sleep_s": 2, "iterations": [2]}})
-    w = Worker(env, tmp_path / "w.log", f"wr-{uuid.uuid4().hex[:4]}")
+    w = start_worker(env, tmp_path / "w.log", f"wr-{uuid.uuid4().hex[:4]}")
     try:
         enqueue(jobs)
         wait_for(lambda: rows(pg_url, "SELECT 1 FROM iteration_steps s JOIN iterations i ON i.id = s.iteration_id "
@@ -296,13 +239,13 @@ def test_killing_the_controlling_process_leaves_a_campaign_that_a_new_worker_fin
         pids = [p for (p,) in rows(url, "SELECT pid FROM worker_heartbeats")]
         cli.kill()
         cli.wait(timeout=10)
-        wait_for(lambda: not any(_alive(p) for p in pids), 60, "the spawned worker to exit with its parent")
+        wait_for(lambda: not any(pid_alive(p) for p in pids), 60, "the spawned worker to exit with its parent")
     finally:
         if cli.poll() is None:
             cli.kill()
     (cid, status), = rows(url, "SELECT id, status FROM campaigns")
     assert status == "running"
-    w = Worker(env, tmp_path / "w.log", f"later-{uuid.uuid4().hex[:4]}")
+    w = start_worker(env, tmp_path / "w.log", f"later-{uuid.uuid4().hex[:4]}")
     try:
         wait_for(lambda: rows(url, "SELECT 1 FROM campaigns WHERE status IN ('completed', 'failed', 'cancelled')"), 180, "the campaign to end", w)
     finally:
@@ -310,15 +253,3 @@ def test_killing_the_controlling_process_leaves_a_campaign_that_a_new_worker_fin
     assert rows(url, "SELECT status, stop_reason FROM campaigns") == [("completed", "max_iterations")]
     assert [v for v, _, _ in pool_hashes(url, cid)] == [0, 1, 2, 3]
     assert rows(url, "SELECT count(*), count(DISTINCT iteration_id) FROM datasets WHERE origin = 'oracle'") == [(3, 3)]
-
-
-def _alive(pid: int) -> bool:
-    try:
-        os.kill(pid, 0)
-    except ProcessLookupError:
-        return False
-    try:
-        with open(f"/proc/{pid}/stat") as fh:
-            return fh.read().split()[2] != "Z"
-    except FileNotFoundError:
-        return False

@@ -46,11 +46,21 @@ class Proc:
         self.p = subprocess.Popen(CLI + args, env=env, stdout=self._fh, stderr=subprocess.STDOUT, start_new_session=True)
 
     def output(self) -> str:
-        self._fh.flush()
+        if not self._fh.closed:
+            self._fh.flush()
         return self.log.read_text(errors="replace")
 
     def alive(self) -> bool:
         return self.p.poll() is None
+
+    def kill(self) -> None:
+        """SIGKILL the process and its children (no warm shutdown, no acks)."""
+        try:
+            os.killpg(self.p.pid, signal.SIGKILL)
+        except ProcessLookupError:
+            pass
+        self.p.wait(timeout=10)
+        self._fh.close()
 
     def stop(self, timeout: float = 30) -> int:
         if self.p.poll() is None:
@@ -87,6 +97,38 @@ def wait_until(pred, timeout: float, what: str, proc: Proc | None = None, interv
             raise AssertionError(f"process died while waiting for {what}:\n{proc.output()[-4000:]}")
         time.sleep(interval)
     raise AssertionError(f"timed out after {timeout} s waiting for {what}" + (f":\n{proc.output()[-4000:]}" if proc else ""))
+
+
+def start_worker(env: dict[str, str], log: Path, name: str, queues: str = "default,ocp,oracle,train", concurrency: int = 1, loglevel: str = "INFO") -> Proc:
+    """An `alcove worker` process (stop it with ``.stop()``, or ``.kill()`` for a SIGKILL)."""
+    return Proc(["worker", "--queues", queues, "--concurrency", str(concurrency), "--name", name, "--loglevel", loglevel], env, log)
+
+
+def db_rows(url: str, sql: str, **params: object) -> list[tuple]:
+    """Rows of ``sql`` on the database at ``url`` (a fresh engine: sees other processes' commits)."""
+    import sqlalchemy as sa
+
+    from alcove.db import make_engine
+
+    eng = make_engine(url)
+    try:
+        with eng.connect() as c:
+            return [tuple(r) for r in c.execute(sa.text(sql), params)]
+    finally:
+        eng.dispose()
+
+
+def pid_alive(pid: int) -> bool:
+    """The process exists and is not a zombie."""
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    try:
+        with open(f"/proc/{pid}/stat") as fh:
+            return fh.read().split()[2] != "Z"
+    except FileNotFoundError:
+        return False
 
 
 def worker_ready(proc: Proc) -> bool:

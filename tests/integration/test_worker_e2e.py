@@ -8,25 +8,13 @@
 
 from __future__ import annotations
 
-import os
 from pathlib import Path
 
 import pytest
-import sqlalchemy as sa
 
-from alcove.db import make_engine
-from tests.integration.procs import alcove_env, free_port, http_ok, run_cli, running, smoke, unique, wait_until, worker_ready
+from tests.integration.procs import alcove_env, db_rows, free_port, http_ok, pid_alive, run_cli, running, smoke, unique, wait_until, worker_ready
 
 pytestmark = [pytest.mark.integration, pytest.mark.slow]
-
-
-def _rows(url: str, sql: str) -> list[tuple]:
-    eng = make_engine(url)
-    try:
-        with eng.connect() as c:
-            return [tuple(r) for r in c.execute(sa.text(sql))]
-    finally:
-        eng.dispose()
 
 
 def test_embedded_worker_round_trip(tmp_path: Path) -> None:
@@ -38,10 +26,10 @@ def test_embedded_worker_round_trip(tmp_path: Path) -> None:
             got = smoke(env, queue=queue)
             assert got["ok"] and got["worker_name"].startswith("embedded-test@")
         url = f"sqlite:///{tmp_path / 'data' / 'alcove.db'}"
-        assert len(_rows(url, "SELECT token FROM smoke_checks")) == 2
-        wait_until(lambda: _rows(url, "SELECT name FROM worker_heartbeats WHERE stopped_at IS NULL"), 30, "heartbeat row")
+        assert len(db_rows(url, "SELECT token FROM smoke_checks")) == 2
+        wait_until(lambda: db_rows(url, "SELECT name FROM worker_heartbeats WHERE stopped_at IS NULL"), 30, "heartbeat row")
     # warm shutdown marks the worker stopped
-    assert _rows(url, "SELECT stopped_at IS NOT NULL FROM worker_heartbeats WHERE name LIKE 'embedded-test@%'") == [(1,)]
+    assert db_rows(url, "SELECT stopped_at IS NOT NULL FROM worker_heartbeats WHERE name LIKE 'embedded-test@%'") == [(1,)]
 
 
 def test_postgres_redis_worker_round_trip(tmp_path: Path, pg_url: str, redis_url: str) -> None:
@@ -49,7 +37,7 @@ def test_postgres_redis_worker_round_trip(tmp_path: Path, pg_url: str, redis_url
     with running(["worker", "--queues", "ocp,oracle,train,default", "--concurrency", "2", "--name", unique("pg-redis")], env, tmp_path / "worker.log") as w:
         wait_until(lambda: worker_ready(w), 60, "worker ready", w)
         tokens = [smoke(env, queue=q)["token"] for q in ("ocp", "oracle", "train", "default")]
-        got = _rows(pg_url, "SELECT token, worker_name FROM smoke_checks")
+        got = db_rows(pg_url, "SELECT token, worker_name FROM smoke_checks")
         assert {t for t, _ in got} >= set(tokens)
         assert "Connected to redis://" in w.output()
     assert not (tmp_path / "data" / "alcove.db").exists(), "the worker must not fall back to SQLite"
@@ -72,7 +60,7 @@ def test_duplicate_delivery_of_the_smoke_job_is_a_no_op(tmp_path: Path, pg_url: 
         r = subprocess.run([sys.executable, "-c", code, token], env=env, capture_output=True, text=True, timeout=120)
         assert r.returncode == 0, r.stderr
         wait_until(lambda: "succeeded" in w.output() and w.output().count("alcove.default.smoke[") >= 4, 30, "both deliveries handled", w)
-    assert _rows(pg_url, f"SELECT count(*) FROM smoke_checks WHERE token = 'dup-{token}'") == [(1,)]
+    assert db_rows(pg_url, f"SELECT count(*) FROM smoke_checks WHERE token = 'dup-{token}'") == [(1,)]
 
 
 def test_alcove_up_embedded(tmp_path: Path) -> None:
@@ -88,22 +76,10 @@ def test_alcove_up_embedded(tmp_path: Path) -> None:
         got = smoke(env)
         assert got["ok"]
         url = f"sqlite:///{tmp_path / 'data' / 'alcove.db'}"
-        assert _rows(url, "SELECT email, role FROM users") == [("root@example.org", "admin")]
-        worker_pids = [int(p) for (p,) in _rows(url, "SELECT pid FROM worker_heartbeats")]
+        assert db_rows(url, "SELECT email, role FROM users") == [("root@example.org", "admin")]
+        worker_pids = [int(p) for (p,) in db_rows(url, "SELECT pid FROM worker_heartbeats")]
         code = up.stop()
     assert code == 0, up.output()[-3000:]
     for pid in worker_pids:  # the bundled worker went down with `alcove up`
-        assert not _pid_alive(pid), f"worker {pid} survived `alcove up`"
-    assert _rows(url, "SELECT count(*) FROM worker_heartbeats WHERE stopped_at IS NULL") == [(0,)]
-
-
-def _pid_alive(pid: int) -> bool:
-    try:
-        os.kill(pid, 0)
-    except ProcessLookupError:
-        return False
-    try:
-        with open(f"/proc/{pid}/stat") as fh:
-            return fh.read().split()[2] != "Z"
-    except FileNotFoundError:
-        return False
+        assert not pid_alive(pid), f"worker {pid} survived `alcove up`"
+    assert db_rows(url, "SELECT count(*) FROM worker_heartbeats WHERE stopped_at IS NULL") == [(0,)]
