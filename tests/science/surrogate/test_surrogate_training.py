@@ -221,12 +221,14 @@ def test_bad_pools_give_clear_errors(smooth_pool):
         train_surrogate([two_dof], SurrogateConfig(), seed=0)
 
 
-def test_flat_adam_is_torch_adam():
+@pytest.mark.parametrize("fused", [True, False])
+def test_flat_adam_is_torch_adam(fused):
     g = torch.Generator().manual_seed(1)
     a = torch.nn.Parameter(torch.randn(50, dtype=torch.float64, generator=g))
     b = torch.nn.Parameter(a.detach().clone())
     reference = torch.optim.Adam([a], lr=0.01)
-    ours = FlatAdam(b, lr=0.01)
+    ours = FlatAdam(b, lr=0.01, fused=fused)
+    assert ours.fused == fused
     for _ in range(100):
         grad = torch.randn(50, dtype=torch.float64, generator=g)
         a.grad, b.grad = grad.clone(), grad.clone()
@@ -234,3 +236,36 @@ def test_flat_adam_is_torch_adam():
         ours.step()
     torch.testing.assert_close(b.detach(), a.detach(), rtol=1e-13, atol=1e-15)
     assert not torch.equal(b.detach(), torch.zeros(50, dtype=torch.float64))
+
+
+
+def _weights_digest(model) -> str:
+    import hashlib
+
+    h = hashlib.sha256()
+    for net in (model.force_net, model.moment_net):
+        for p in net.state_dict().values():
+            h.update(p.numpy().tobytes())
+    return h.hexdigest()
+
+
+_DIGEST_SCRIPT = """
+import sys
+sys.path.insert(0, sys.argv[1])
+from conftest import make_smooth_pool
+from test_surrogate_training import _weights_digest
+from alcove.science.surrogate.config import SurrogateConfig
+from alcove.science.surrogate.training import train_surrogate
+print(_weights_digest(train_surrogate(make_smooth_pool(6), SurrogateConfig(max_epochs=3, batch_size=64), seed=5).model))
+"""
+
+
+def test_bit_identical_weights_in_another_process():
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    other = subprocess.run([sys.executable, "-c", _DIGEST_SCRIPT, str(Path(__file__).parent)], capture_output=True, text=True,
+                           check=True).stdout.strip()
+    here = _weights_digest(train_surrogate(make_smooth_pool(6), SurrogateConfig(max_epochs=3, batch_size=64), seed=5).model)
+    assert other == here

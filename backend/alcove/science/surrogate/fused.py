@@ -58,6 +58,7 @@ class _Group:
     weight_t: torch.Tensor  # weight.t(), prebuilt
     blocks: list[_Block]
     activations: list[tuple[slice, str]]  # hidden only: column segments and their activation
+    whole_input: bool = False  # rows are all the columns of the layer input (no slicing needed)
 
 
 class FusedNets:
@@ -76,9 +77,11 @@ class FusedNets:
         shapes: list[tuple[int, int]] = []  # (in, out) of each fused weight, in flat order
         plan: list[tuple[bool, slice, list[_Block], list[tuple[slice, str]]]] = []
         self.layers: list[list[int]] = []  # layer -> indices into plan
+        input_width: list[int] = []  # width of each layer's input
         width_in = n_in.pop()
         in_cols = {k: slice(0, width_in) for k in range(len(nets))}  # where each net reads its input
         for i in range(depth):
+            input_width.append(max(c.stop for c in in_cols.values()))
             present = [k for k in range(len(nets)) if len(linears[k]) > i]
             continuing = [k for k in present if len(linears[k]) > i + 1]
             layer = []
@@ -114,13 +117,14 @@ class FusedNets:
         self.mask = torch.zeros(n_params, dtype=self.dtype)
         self.groups: list[_Group] = []
         offset = 0
-        for (hidden, rows, blocks, acts), (a, b) in zip(plan, shapes):
+        layer_of = {gi: i for i, layer in enumerate(self.layers) for gi in layer}
+        for gi, ((hidden, rows, blocks, acts), (a, b)) in enumerate(zip(plan, shapes)):
             def view(t: torch.Tensor, start: int, shape: tuple[int, ...]) -> torch.Tensor:
                 return t[start : start + math.prod(shape)].view(shape)
 
             w, bias = view(self.parameter, offset, (a, b)), view(self.parameter, offset + a * b, (b,))
             self.groups.append(_Group(hidden, rows, w, bias, view(self.grad, offset, (a, b)), view(self.grad, offset + a * b, (b,)),
-                                      w.t(), blocks, acts))
+                                      w.t(), blocks, acts, rows.start == 0 and rows.stop == input_width[layer_of[gi]]))
             offset += a * b + b
         self.active = [True] * len(nets)
         self.load()
@@ -170,16 +174,23 @@ class FusedNets:
     # -- forward / backward ------------------------------------------------------------------
 
     def forward(self, z: torch.Tensor) -> list[torch.Tensor]:
-        """Outputs (n, n_out) of every net for standardised inputs ``z`` (exact activations, no gradient)."""
+        """Outputs (n, n_out) of every net for standardised inputs ``z`` (no gradient)."""
+        outputs = self._forward(z, fast=True)
+        if not all(math.isfinite(float(out.sum())) for out in outputs):
+            outputs = self._forward(z, fast=False)  # exp overflowed: exact functions
+        return outputs
+
+    def _forward(self, z: torch.Tensor, fast: bool) -> list[torch.Tensor]:
         outputs: list[torch.Tensor] = [torch.empty(0)] * len(self.nets)
         h = z
         for layer in self.layers:
             h_next = h
             for gi in layer:
                 g = self.groups[gi]
-                a = torch.mm(h[:, g.rows], g.weight).add_(g.bias)
+                a = torch.mm(h if g.whole_input else h[:, g.rows], g.weight).add_(g.bias)
                 if g.hidden:
-                    h_next = _cat([_ACTIVATION[act](a[:, cols]) for cols, act in g.activations])
+                    h_next = _cat([(_softplus_value_fast if fast and act == "softplus" else _ACTIVATION[act])(a[:, cols])
+                                   for cols, act in g.activations])
                 else:
                     outputs[g.blocks[0].net] = a
             h = h_next
@@ -204,7 +215,7 @@ class FusedNets:
             h_next = h
             for gi in layer:
                 g = self.groups[gi]
-                a = torch.mm(h if g.rows.start == 0 and g.rows.stop == h.shape[1] else h[:, g.rows], g.weight).add_(g.bias)
+                a = torch.mm(h if g.whole_input else h[:, g.rows], g.weight).add_(g.bias)
                 if g.hidden:
                     pairs = [(_softplus_fast if fast and act == "softplus" else _WITH_SLOPE[act])(a if len(g.activations) == 1 else a[:, cols])
                              for cols, act in g.activations]
@@ -227,7 +238,7 @@ class FusedNets:
                     grad_a = d_h.mul_(slopes[i])
                 else:
                     grad_a = residual[gi]
-                x = inputs[i] if g.rows.start == 0 and g.rows.stop == inputs[i].shape[1] else inputs[i][:, g.rows]
+                x = inputs[i] if g.whole_input else inputs[i][:, g.rows]
                 torch.mm(x.t(), grad_a, out=g.weight_grad)
                 torch.sum(grad_a, 0, out=g.bias_grad)
                 if i > 0:
@@ -263,6 +274,10 @@ def _softplus_fast(a: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
     d = torch.add(e, 1.0)
     slope = e.div_(d)  # e^a / (1 + e^a), before d is overwritten
     return d.log_(), slope  # log(1 + e^a)
+
+
+def _softplus_value_fast(a: torch.Tensor) -> torch.Tensor:
+    return torch.exp(a).add_(1.0).log_()
 
 
 def _softplus(a: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
