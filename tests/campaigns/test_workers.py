@@ -3,7 +3,8 @@
 * the embedded default (SQLite + filesystem broker): ``alcove campaign run`` end to end;
 * PostgreSQL + Redis: SIGKILL of the worker in the middle of an oracle job, then a new
   worker: the campaign completes and its pool holds exactly the rows of an uninterrupted
-  run with the same seed; the same when Redis restarts (losing its messages) mid-campaign.
+  run with the same seed; the same when Redis restarts (losing its messages) mid-campaign,
+  and when the API process is killed and restarted (the new one pauses and resumes it).
 """
 
 from __future__ import annotations
@@ -20,7 +21,7 @@ from typing import Any
 import pytest
 import sqlalchemy as sa
 
-from tests.integration.procs import CLI, alcove_env, db_rows, free_port, pid_alive, start_worker
+from tests.integration.procs import CLI, Proc, alcove_env, db_rows, free_port, http_ok, pid_alive, start_worker
 from tests.integration.procs import wait_until as wait_for
 
 pytestmark = [pytest.mark.integration, pytest.mark.slow]
@@ -253,3 +254,53 @@ def test_killing_the_controlling_process_leaves_a_campaign_that_a_new_worker_fin
     assert rows(url, "SELECT status, stop_reason FROM campaigns") == [("completed", "max_iterations")]
     assert [v for v, _, _ in pool_hashes(url, cid)] == [0, 1, 2, 3]
     assert rows(url, "SELECT count(*), count(DISTINCT iteration_id) FROM datasets WHERE origin = 'oracle'") == [(3, 3)]
+
+
+def test_an_api_restart_mid_campaign_changes_nothing_and_the_new_api_controls_it(pg_redis: dict[str, str], pg_url: str, tmp_path: Path,
+                                                                                make_campaign: Any) -> None:
+    """SIGKILL of the API process (`alcove serve`) while a campaign it started runs: the
+    workers carry on (the state is in the database, the next message is sent by the job
+    that finished), a restarted API pauses and resumes it, and the pool is exactly the
+    pool of an uninterrupted run with the same seed."""
+    import httpx
+
+    from alcove.campaigns.presets import local_user
+    from alcove.db import transaction
+    from alcove.users import service as users
+
+    expected = reference_pool(make_campaign, seed=13, iterations=3, url=pg_url)
+    cid, _ = quick_campaign(make_campaign, 13, 3, fault={"train": {"sleep_s": 2, "iterations": [2, 3]}}, start=False)
+    token = transaction(lambda s: users.create_token(s, local_user(s), "api-restart-test", None)[1])
+    port = free_port()
+    base, headers = f"http://127.0.0.1:{port}/api/v1", {"Authorization": f"Bearer {token}"}
+    env = {**pg_redis, "ALCOVE_API_HOST": "127.0.0.1", "ALCOVE_API_PORT": str(port)}
+
+    def serve(log: str) -> Any:
+        api = Proc(["serve", "--workers", "1", "--no-migrate"], env, tmp_path / log)
+        wait_for(lambda: http_ok(f"{base}/health"), 60, "the API", api)
+        return api
+
+    def at(iteration: int, step: str, status: str) -> list[tuple]:
+        return rows(pg_url, "SELECT 1 FROM iteration_steps s JOIN iterations i ON i.id = s.iteration_id "
+                            "WHERE s.campaign_id = :c AND i.index = :k AND s.step = :st AND s.status = :status", c=cid, k=iteration, st=step, status=status)
+
+    w = start_worker(pg_redis, tmp_path / "w.log", f"wa-{uuid.uuid4().hex[:4]}")
+    api = serve("api1.log")
+    try:
+        assert httpx.post(f"{base}/campaigns/{cid}/start", headers=headers, timeout=30).status_code == 200
+        wait_for(lambda: at(2, "train", "running"), 180, "the train job of iteration 2", w)
+        api.kill()  # no shutdown of any kind
+        api = serve("api2.log")
+        r = httpx.post(f"{base}/campaigns/{cid}/pause", headers=headers, timeout=30)
+        assert r.status_code == 200 and r.json()["campaign"]["status"] in ("pausing", "paused"), r.text
+        wait_for(lambda: rows(pg_url, "SELECT 1 FROM campaigns WHERE id = :c AND status = 'paused'", c=cid), 120, "the pause", w)
+        assert httpx.post(f"{base}/campaigns/{cid}/resume", headers=headers, timeout=30).status_code == 200
+        wait_for(lambda: rows(pg_url, "SELECT 1 FROM campaigns WHERE id = :c AND status IN ('completed', 'failed', 'cancelled')", c=cid), 180,
+                 "the campaign to end", w)
+        assert httpx.get(f"{base}/campaigns/{cid}", headers=headers, timeout=30).json()["campaign"]["status"] == "completed"
+    finally:
+        api.stop()
+        w.stop()
+    assert rows(pg_url, "SELECT status, stop_reason FROM campaigns WHERE id = :c", c=cid) == [("completed", "max_iterations")]
+    assert pool_hashes(pg_url, cid) == expected
+    assert rows(pg_url, "SELECT count(*) FROM datasets WHERE campaign_id = :c AND origin = 'oracle'", c=cid) == [(3,)]
