@@ -73,6 +73,14 @@ def test_bad_input_exits_2_naming_the_field(tmp_path, args, message):
     assert not (tmp_path / "t.csv").exists()
 
 
+@pytest.mark.parametrize("where, message", [("missing/t.csv", "error: out: directory"), (".", "is a directory")])
+def test_unwritable_out_is_rejected_before_solving(tmp_path, where, message):
+    res = runner.invoke(app, ["ocp", "solve", "--out", str(tmp_path / where)])
+    assert res.exit_code == 2
+    assert message in res.stderr
+    assert not (tmp_path / "missing").exists()
+
+
 def test_bad_task_file_names_the_field(tmp_path):
     data = json.loads(runner.invoke(app, ["ocp", "show"]).stdout)
     data["phases"][1]["w_T"] = -1

@@ -59,6 +59,10 @@ def solve(
     from alcove.science.ocp.solve import solve_task
     from alcove.science.series import SeriesFormatError
 
+    if out.is_dir():
+        _bad_input("out", f"{out} is a directory; give the CSV file to write")
+    if not out.parent.is_dir():
+        _bad_input("out", f"directory {out.parent} does not exist")
     spec = _load_task(task if task_file is None else None, task_file, intervals)
     try:
         contact_fn = contact_from_spec(contact, spec.preset())
