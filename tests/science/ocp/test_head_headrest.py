@@ -117,6 +117,12 @@ def test_slot_with_a_parametric_and_a_hand_made_contact(task, aux):
     assert get_transcription(small, scaled) is get_transcription(small, scaled)
     with pytest.raises(ValueError, match="^contact_params"):
         solve_task(small, scaled)
+    with pytest.raises(ValueError, match="^contact_params: the contact function takes 1 parameter"):
+        solve_task(small, scaled, contact_params=np.array([1.0, 2.0]))
+    with pytest.raises(ValueError, match="^contact_params: the contact function takes 0 parameter"):
+        solve_task(small, aux, contact_params=np.array([1.0]))
+    with pytest.raises(ValueError, match="^contact_params: values must be finite"):
+        solve_task(small, scaled, contact_params=np.array([np.nan]))
     # a hand-made MX contact: a linear torsional cushion beyond theta = 0.31 acting as a normal force
     qm, qdm = ca.MX.sym("q"), ca.MX.sym("qd")
     push = 400.0 * ca.log1p(ca.exp((qm - 0.31) / 0.002)) * 0.002 + 5.0 * qdm * (qm > 0.31)

@@ -304,6 +304,12 @@ def solve_task(
     tr = get_transcription(task, contact, ipopt_options, graph)
     if tr.n_par and contact_params is None:
         raise ValueError("contact_params: the contact function takes parameters; pass their values")
+    if contact_params is not None:
+        contact_params = np.asarray(contact_params, float).ravel()
+        if contact_params.size != tr.n_par:
+            raise ValueError(f"contact_params: the contact function takes {tr.n_par} parameter(s), got {contact_params.size}")
+        if not np.all(np.isfinite(contact_params)):
+            raise ValueError("contact_params: values must be finite")
     attempts: list[dict[str, Any]] = []
     best: tuple[float, dict[str, Any]] | None = None
     for name, make_guess in initial_guesses(tr, initial_guess, contact_params)[:max_attempts]:
