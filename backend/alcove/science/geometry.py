@@ -69,10 +69,17 @@ class HeadProfile:
     Centre ``(cx, cz)`` and semi-axes ``ax`` (front-back) and ``az`` (up-down). The
     ellipse is not centred on the head frame origin, so the contact normal does not pass
     through the moment reference point and the moment is informative.
+
+    Its most posterior point, where the head first touches the headrest, lies ``ax`` =
+    9.5 cm behind and ``-cz`` = 5 cm below the head COG: the head COG is 2.2-4.3 cm above
+    the Frankfort plane (Beier et al. 1980, 21 cadaver heads), while the occiput that bears
+    on a headrest (around and below the inion) lies near the level of the ear canals, and
+    headrests are only required to reach about the head COG height (FMVSS 202a), so the
+    contact is on the lower back of the head (docs/fe-oracle.md).
     """
 
     cx: float = 0.0
-    cz: float = -0.035
+    cz: float = -0.05
     ax: float = 0.095
     az: float = 0.110
 

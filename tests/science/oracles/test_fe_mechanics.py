@@ -6,13 +6,15 @@ import pytest
 from alcove.science.oracles.fe_headrest.contact import PenaltyContact, RigidEllipse, RigidHalfPlane
 from alcove.science.oracles.fe_headrest.foam import Hyperfoam
 from alcove.science.oracles.fe_headrest.mesh import build_cushion_mesh
+from alcove.science.oracles.fe_headrest.params import FEHeadrestParams
 from alcove.science.oracles.fe_headrest.solver import CushionSolver, single_threaded_blas
 
-FOAM = Hyperfoam((66.0e3, 0.77e3), (16.4, -2.04), (0.0, 0.0))
+DEFAULT = FEHeadrestParams()
+FOAM = Hyperfoam(DEFAULT.foam_mu, DEFAULT.foam_alpha, DEFAULT.foam_beta)
 PLATE_POSE_ANGLE = np.pi  # the half-plane body x <= 0 turned to face the cushion (normal -x_H)
 
 MESHES = {
-    "default-graded": dict(thickness=0.05, height=0.22, z_bottom=-0.10, h_contact=0.006, h_far=0.015, contact_zone=(-0.06, 0.07)),
+    "default-graded": dict(thickness=0.04, height=0.22, z_bottom=-0.10, h_contact=0.006, h_far=0.015, contact_zone=(-0.06, 0.07)),
     "coarse-skewed": dict(thickness=0.07, height=0.15, z_bottom=-0.02, h_contact=0.011, h_far=0.03, contact_zone=(0.0, 0.03)),
 }
 

@@ -286,8 +286,9 @@ class FEHeadrestOracle:
             "stored_energy_end_j": float(stored[-1]),
             "stored_energy_start_j": stored_start,
             "energy_balance_ok": bool(energy_ok),
+            "newton_iterations": int(it_total),  # the summary key every oracle reports (registry.SUMMARY_DIAGNOSTICS)
             "newton_iterations_total": int(it_total),
-            "newton_iterations_max": int(it_max),
+            "newton_iterations_max": int(it_max),  # most iterations in one step (one slice)
             "steps": int(n_fine),
             "steps_with_contact": int(contact_steps),
             "first_contact_time_s": first_contact,

@@ -16,7 +16,7 @@ class FEHeadrestParams(OracleParams):
     """Plane-strain headrest cushion model: geometry, mesh, foam, contact, stepping, quality gate."""
 
     # ---- cushion geometry (headrest frame H: front face x = 0, cushion at x < 0) -------------
-    cushion_thickness: float = Field(0.05, ge=0.02, le=0.15, description="foam thickness along -x_H, front face to the tied back face [m]")
+    cushion_thickness: float = Field(0.04, ge=0.02, le=0.15, description="foam thickness along -x_H, front face to the tied back face [m]")
     cushion_height: float = Field(0.22, ge=0.08, le=0.40, description="cushion extent along z_H [m]")
     cushion_bottom: float = Field(-0.10, ge=-0.30, le=0.0, description="z_H of the cushion's bottom face (the first-contact point is z_H = 0) [m]")
     out_of_plane_width: float = Field(0.13, ge=0.02, le=0.40, description="out-of-plane width that turns N/m into N (one slice) [m]")
@@ -29,7 +29,7 @@ class FEHeadrestParams(OracleParams):
     contact_zone: tuple[float, float] = Field((-0.06, 0.07), description="z_H range meshed with element_size_contact [m]")
 
     # ---- foam: Ogden-Storakers hyperfoam terms + Kelvin-Voigt viscosity -----------------------
-    foam_mu: tuple[float, ...] = Field((66.0e3, 0.77e3), min_length=1, max_length=3, description="hyperfoam moduli mu_i [Pa]")
+    foam_mu: tuple[float, ...] = Field((132.0e3, 1.54e3), min_length=1, max_length=3, description="hyperfoam moduli mu_i [Pa]")
     foam_alpha: tuple[float, ...] = Field((16.4, -2.04), min_length=1, max_length=3, description="hyperfoam exponents alpha_i [-]")
     foam_beta: tuple[float, ...] = Field((0.0, 0.0), min_length=1, max_length=3, description="hyperfoam beta_i = nu_i / (1 - 2 nu_i) [-]")
     viscosity: float = Field(300.0, ge=0.0, le=1e5, description="Kelvin-Voigt viscosity on the Green-Lagrange strain rate [Pa s]")

@@ -3,7 +3,8 @@
 There is no published trajectory file, so this is built to the paper's description: the
 head starts at rest at theta0 = 0.232 rad clear of the headrest, swings back along its
 circular path, touches the cushion at about t = 0.29 s (theta_contact = 0.31 rad),
-presses in up to ``theta_peak`` at ``t_peak`` and eases back to ``theta_end`` (resting on
+presses in firmly, up to ``theta_peak`` = 0.43 rad (the end of the joint range, 0.432 rad)
+at ``t_peak`` = 0.65 s, and eases back to ``theta_end`` (resting on
 the cushion) at t = 1 s. Both legs are C2 quintic blends (zero velocity and acceleration
 at their ends), sampled at 0.0025 s (401 samples), with the exact angular velocity.
 """
@@ -24,8 +25,8 @@ def _blend(s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 def reference_motion(
     preset: HeadNeckPreset = DEFAULT_PRESET,
-    theta_peak: float = 0.40,
-    t_peak: float = 0.60,
+    theta_peak: float = 0.43,
+    t_peak: float = 0.65,
     theta_end: float = 0.33,
     duration: float = 1.0,
     dt: float = 0.0025,
