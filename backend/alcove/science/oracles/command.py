@@ -283,12 +283,32 @@ def curve_lines(t: np.ndarray, y: np.ndarray) -> str:
     return "\n".join(f"{a:20.12e}{b:20.12e}" for a, b in zip(t, y))
 
 
+def card_number(value: float, width: int = 10) -> str:
+    """``value`` with as many significant digits (at most 12) as fit in ``width`` characters.
+
+    Fixed-format keyword cards (LS-DYNA: 10-character fields; also the limit of a value in a
+    comma-separated free-format card) cannot hold 12 significant digits.
+    """
+    v = float(value)
+    for digits in range(12, 0, -1):
+        text = format(v, f".{digits}g")
+        if len(text) <= width:
+            return text
+    raise ValueError(f"{v!r} does not fit in {width} characters")
+
+
 def template_values(trajectory: Trajectory, preset: HeadNeckPreset, params: CommandOracleParams, spec: CommandOracleSpec) -> dict[str, str]:
-    """The values of the fixed placeholders (and the entry's parameters) for one trajectory."""
+    """The values of the fixed placeholders (and the entry's parameters) for one trajectory.
+
+    SI values (``head_x0``, ``theta_start``, ...) have 12 significant digits; the values meant
+    for card fields (mm, degrees, times, ``dt_out`` and the entry's parameters) fit in 10
+    characters (:func:`card_number`).
+    """
     t, theta = trajectory.t, trajectory.q[:, 0]
     kin = relative_kinematics(preset, theta, trajectory.qd[:, 0])
     x, z = kin.r_rel[:, 0], kin.r_rel[:, 2]
     number = lambda v: format(float(v), ".12g")  # noqa: E731
+    card = card_number
     values = {
         "motion_curve": curve_lines(t, theta),
         "head_x_curve": curve_lines(t, x - x[0]),
@@ -296,21 +316,21 @@ def template_values(trajectory: Trajectory, preset: HeadNeckPreset, params: Comm
         "head_rotation_curve": curve_lines(t, theta[0] - theta),
         "head_x0": number(x[0]),
         "head_z0": number(z[0]),
-        "head_x0_mm": number(1e3 * x[0]),
-        "head_z0_mm": number(1e3 * z[0]),
+        "head_x0_mm": card(1e3 * x[0]),
+        "head_z0_mm": card(1e3 * z[0]),
         "head_rotation0": number(preset.tilt - theta[0]),
-        "head_rotation0_deg": number(np.degrees(preset.tilt - theta[0])),
+        "head_rotation0_deg": card(np.degrees(preset.tilt - theta[0])),
         "theta_start": number(theta[0]),
         "headrest_tilt": number(preset.tilt),
-        "t_start": number(t[0]),
-        "t_end": number(t[-1]),
-        "duration": number(t[-1] - t[0]),
+        "t_start": card(t[0]),
+        "t_end": card(t[-1]),
+        "duration": card(t[-1] - t[0]),
         "n_samples": str(len(t)),
-        "dt_out": number(params.dt_out),
+        "dt_out": card(params.dt_out),
         "trajectory_file": TRAJECTORY_FILE,
         "output_file": spec.output_file,
     }
-    values.update({key: number(getattr(params, key)) for key in spec.parameters})
+    values.update({key: card(getattr(params, key)) for key in spec.parameters})
     return values
 
 
