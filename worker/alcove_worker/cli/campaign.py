@@ -123,8 +123,11 @@ def _detail(campaign_id: int) -> Any:
     from alcove.campaigns import service
     from alcove.db import session_scope
 
-    with session_scope() as s:
-        return service.get_detail(s, campaign_id)
+    try:
+        with session_scope() as s:
+            return service.get_detail(s, campaign_id)
+    except service.NotFound as exc:
+        _fail("campaign", exc.reason)
 
 
 def _metrics(campaign_id: int) -> list[dict[str, Any]]:

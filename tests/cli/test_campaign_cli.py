@@ -1,0 +1,116 @@
+"""`alcove campaign create|start|pause|resume|cancel|fork|status|export` on the embedded
+default (a fresh SQLite store). The steps are run in this process with the workers' protocol
+(flows.drive_inline) instead of a worker, so the test stays fast; `alcove campaign run`
+through a real worker is tested in tests/campaigns/test_workers.py."""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Any
+
+import pytest
+from typer.testing import CliRunner
+
+runner = CliRunner()
+QUICK_YAML = """
+preliminary: {samples: 300, chunks: 3}
+settings: {ocp_intervals: 20, replay_dt: 0.01}
+surrogate: {max_epochs: 30}
+"""
+
+
+@pytest.fixture
+def store(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Iterator[Path]:
+    from alcove.db import dispose_engines
+    from alcove.jobs import reset_sender
+    from alcove.settings import get_settings
+
+    for k in ("ALCOVE_DATABASE_URL", "ALCOVE_BROKER_URL"):
+        monkeypatch.delenv(k, raising=False)
+    monkeypatch.setenv("ALCOVE_DATA_DIR", str(tmp_path / "data"))
+    get_settings.cache_clear()
+    dispose_engines(close=True)
+    reset_sender()
+    (tmp_path / "quick.yaml").write_text(QUICK_YAML)
+    yield tmp_path
+    get_settings.cache_clear()
+    dispose_engines(close=True)
+    reset_sender()
+
+
+def cli(*args: str) -> Any:
+    from alcove_worker.cli.main import app
+
+    r = runner.invoke(app, ["campaign", *args])
+    return r
+
+
+def ok(*args: str) -> str:
+    r = cli(*args)
+    assert r.exit_code == 0, (args, r.output)
+    return r.output
+
+
+def status(cid: int) -> dict[str, Any]:
+    return json.loads(ok("status", str(cid), "--json"))
+
+
+def run_queued_steps(cid: int) -> None:
+    """What a worker would do with the messages `start`/`resume` sent: run the queued step to the end."""
+    from alcove.campaigns.flows import drive_inline
+    from alcove.campaigns.schemas import StepJob
+    from alcove.db import session_scope
+    from alcove.models import Iteration, IterationStep, StepName
+
+    with session_scope() as s:
+        queued = s.query(Iteration.index, IterationStep).join(IterationStep, IterationStep.iteration_id == Iteration.id).filter(
+            IterationStep.campaign_id == cid, IterationStep.status == "queued").all()
+        jobs = [StepJob(campaign_id=cid, iteration=k, step=StepName(st.step), attempt=st.attempts + 1) for k, st in queued]
+    drive_inline(cid, jobs)
+
+
+def test_create_start_status_fork_export_on_the_embedded_default(store: Path) -> None:
+    cid = int(ok("create", "--oracle", "aux-penalty", "--iterations", "2", "--config", str(store / "quick.yaml"), "--seed", "3").strip().splitlines()[-1])
+    assert status(cid)["campaign"]["status"] == "draft"
+    assert "queued" in ok("start", str(cid))
+    run_queued_steps(cid)
+    d = status(cid)
+    assert (d["campaign"]["status"], d["campaign"]["stop_reason"], d["iterations_finished"]) == ("completed", "max_iterations", 2)
+
+    # a fork from iteration 1 with one more iteration: its own campaign on the source's pool version 1 and model 1
+    fork_id = int(ok("fork", str(cid), "--iteration", "1", "--iterations", "3", "--start").strip().splitlines()[-1])
+    run_queued_steps(fork_id)
+    f = status(fork_id)
+    assert f["campaign"]["status"] == "completed" and f["campaign"]["source_iteration"] == 1
+    assert f["iterations_finished"] == 2  # iterations 2 and 3
+
+    out = store / "export"
+    ok("export", str(cid), "--out", str(out), "--format", "parquet")
+    import pyarrow.parquet as pq
+
+    metrics = json.loads((out / "metrics.json").read_text()) if (out / "metrics.json").exists() else None
+    tables = sorted(p.name for p in (out / "pool").iterdir())
+    assert tables == ["version-0000.parquet", "version-0001.parquet", "version-0002.parquet"]
+    n = [pq.read_table(out / "pool" / t).num_rows for t in tables]
+    assert n[0] > 0 and n[0] < n[1] < n[2]  # every version is its parent plus the new oracle rows
+    assert metrics is None or len(metrics) == 2
+
+
+def test_pause_resume_cancel_and_bad_transitions_name_the_reason(store: Path) -> None:
+    cid = int(ok("create", "--oracle", "aux-penalty", "--iterations", "3", "--config", str(store / "quick.yaml")).strip().splitlines()[-1])
+    bad = cli("resume", str(cid))
+    assert bad.exit_code == 2 and "cannot resume a campaign that is draft" in bad.output
+    ok("start", str(cid))
+    assert "pausing" in ok("pause", str(cid))  # nothing has claimed the first step yet
+    run_queued_steps(cid)  # the job sees the pause and parks its step
+    assert status(cid)["campaign"]["status"] == "paused"
+    ok("resume", str(cid))
+    assert status(cid)["campaign"]["status"] == "running"
+    assert "cancelled" in ok("cancel", str(cid))  # no step running: cancelled at once
+    run_queued_steps(cid)  # the message resume sent: a no-op now
+    d = status(cid)
+    assert (d["campaign"]["status"], d["campaign"]["stop_reason"]) == ("cancelled", "cancelled")
+    missing = cli("status", "999999")
+    assert missing.exit_code == 2 and "campaign" in missing.output and "999999" in missing.output, missing.output
