@@ -90,12 +90,13 @@ def test_create_start_status_fork_export_on_the_embedded_default(store: Path) ->
     ok("export", str(cid), "--out", str(out), "--format", "parquet")
     import pyarrow.parquet as pq
 
-    metrics = json.loads((out / "metrics.json").read_text()) if (out / "metrics.json").exists() else None
+    metrics = json.loads((out / "metrics.json").read_text())
     tables = sorted(p.name for p in (out / "pool").iterdir())
     assert tables == ["version-0000.parquet", "version-0001.parquet", "version-0002.parquet"]
     n = [pq.read_table(out / "pool" / t).num_rows for t in tables]
     assert n[0] > 0 and n[0] < n[1] < n[2]  # every version is its parent plus the new oracle rows
-    assert metrics is None or len(metrics) == 2
+    assert [m["iteration_index"] for m in metrics] == [1, 2] and (out / "metrics.csv").exists() and (out / "campaign.json").exists()
+    assert sorted(p.name for p in (out / "models").iterdir()) == ["model-0001.zip", "model-0002.zip"]
 
 
 def test_pause_resume_cancel_and_bad_transitions_name_the_reason(store: Path) -> None:
