@@ -8,14 +8,18 @@ store (SQLite + artifacts in ``--data-dir``, a temporary folder by default):
 2. an FE replay of that motion with ``fe-headrest-2d`` (first contact, force and moment
    curves, peaks), and of the paper's example motion (``reference_motion``);
 3. an active-learning campaign over ``--iterations`` iterations (default 200, the paper's)
-   through the campaign service, step by step with the same protocol and rows as the
-   Celery workers (``drive_inline``; ``--celery`` sends the steps to a spawned
-   ``alcove worker`` through the broker instead): force and moment RMSE per iteration on a log axis with
-   a rolling median, and the last iteration's true vs predicted curves;
-4. the paper's remedy ideas against the baseline over ``--remedy-iterations`` iterations:
-   down-weighting the preliminary data, and warm-starting a campaign on an adjusted task
-   from the baseline campaign (a fork) instead of from the preliminary data.
+   through a spawned ``alcove worker`` on the embedded broker, as ``alcove campaign run`` does
+   (``--inline`` runs the steps in this process instead: same protocol and rows, no broker):
+   force and moment RMSE per iteration on a log axis with a rolling median, the last
+   iteration's true vs predicted curves, the first and last RMSE, the campaign's wall time
+   and its per-step breakdown (bare compute vs orchestration);
+4. the paper's remedy ideas against the baseline at the same iteration count: down-weighting
+   the preliminary data, and warm-starting a campaign on an adjusted task from the baseline
+   campaign (a fork) instead of from the preliminary data. ``--remedy-iterations`` defaults
+   to as many as fit in ``--budget-min`` (35 min for the whole run), estimated from the
+   baseline's own iteration times.
 
+Progress goes to stderr (a line per part and, during a campaign, every 30 s).
 Every number in the markdown comes from this run. ``--quick`` is a smoke run (coarse FE mesh
 and a larger FE step for the replay, the aux-penalty oracle and a small preliminary set for
 the campaigns, 3 + 1 iterations); its output is not a reproduction.
