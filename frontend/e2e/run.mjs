@@ -3,15 +3,18 @@
  * End-to-end check of the web UI against a running `alcove up` (API + real worker):
  * sign in, API token, create a task and an oracle, create and start a campaign, watch the
  * RMSE plot gain points from >= 2 iterations, open an iteration's force plot, pause and
- * resume, download a model; screenshot of the campaign page into the artifacts folder.
+ * resume, download a model. Polling is checked on the network: every metrics poll after the
+ * first asks `?after=k` and gets only iterations after k. Screenshots (the campaign page and
+ * the tour of docs/quickstart.md and docs/ui.md) go into the artifacts folder and, with
+ * --docs-images DIR, into DIR as well (the docs' images come from this run).
  *
  *   node e2e/run.mjs --base-url http://127.0.0.1:8765 --email admin@alcove.local \
- *        --password secret --artifacts ../test-artifacts
+ *        --password secret --artifacts ../test-artifacts [--docs-images ../docs/images]
  *
  * Checks chart data (data-points / data-traces of the plot wrapper, Plotly's SVG) and
  * visible text, never pixels. Exit code 0 = all steps passed.
  */
-import { mkdirSync, statSync } from "node:fs";
+import { copyFileSync, mkdirSync, statSync } from "node:fs";
 import { resolve } from "node:path";
 import { openBrowser, parseArgs } from "./browser.mjs";
 
@@ -22,6 +25,16 @@ const password = String(args.password ?? "alcove-admin");
 const artifacts = resolve(String(args.artifacts ?? "test-artifacts"));
 const campaignTimeout = Number(args["campaign-timeout"] ?? 240) * 1000;
 mkdirSync(artifacts, { recursive: true });
+const docsImages = args["docs-images"] ? resolve(String(args["docs-images"])) : null;
+if (docsImages) mkdirSync(docsImages, { recursive: true });
+
+/** Screenshot into the artifacts folder and, when asked, the docs' image folder. */
+async function screenshot(page, name, { fullPage = false } = {}) {
+  const path = resolve(artifacts, name);
+  await page.screenshot({ path, fullPage, animations: "disabled" });
+  if (docsImages) copyFileSync(path, resolve(docsImages, name));
+  return path;
+}
 
 const stopAfter = args["stop-after"] ? String(args["stop-after"]) : null;
 class StopEarly extends Error {}
@@ -66,6 +79,21 @@ page.on("console", (m) => m.type() === "error" && consoleErrors.push(m.text()));
 page.on("pageerror", (e) => consoleErrors.push(String(e)));
 const stamp = Date.now().toString(36);
 
+// Every answer to a metrics poll: the `after` it asked with and the iterations it got.
+const metricPolls = [];
+page.on("response", (r) => {
+  const url = new URL(r.url());
+  const match = /^\/api\/v1\/campaigns\/(\d+)\/metrics$/.exec(url.pathname);
+  if (!match || r.request().method() !== "GET" || !r.ok()) return;
+  const after = url.searchParams.get("after");
+  metricPolls.push(
+    r.json().then(
+      (rows) => ({ campaign: match[1], after: after === null ? null : Number(after), iterations: rows.map((m) => m.iteration_index) }),
+      () => null,
+    ),
+  );
+});
+
 try {
   step("sign in");
   await page.goto(`${baseUrl}/`);
@@ -102,6 +130,8 @@ try {
   await page.getByTestId("validation-state").filter({ hasText: "valid" }).waitFor({ timeout: 15_000 });
   await page.getByRole("button", { name: "Create task" }).click();
   await page.waitForURL(/\/tasks\/\d+$/);
+  await page.getByTestId("phases-table").waitFor();
+  await screenshot(page, "task-editor.png");
   checkpoint("task");
 
   step("create an aux-penalty oracle");
@@ -111,6 +141,7 @@ try {
   await page.getByLabel("Type").selectOption("aux-penalty");
   await page.getByRole("button", { name: "Create oracle" }).click();
   await page.waitForURL(/\/oracles\/\d+$/);
+  await screenshot(page, "oracle-editor.png");
   checkpoint("oracle");
 
   step("create and start a campaign");
@@ -122,6 +153,7 @@ try {
   // settings forms are generated from the API's schemas; labels are the field names
   await page.getByLabel("samples", { exact: true }).fill(String(args.samples ?? 300));
   await page.getByLabel("max_iterations", { exact: true }).fill(String(args.iterations ?? 40));
+  await screenshot(page, "new-campaign.png");
   await page.getByRole("button", { name: "Create campaign" }).click();
   await page.waitForURL(/\/campaigns\/\d+/);
   const campaignUrl = page.url();
@@ -142,6 +174,20 @@ try {
   const rmsePoints = await plotPoints(page, "rmse-plot");
   if (rmsePoints < 4) throw new Error(`RMSE plot has ${rmsePoints} points, expected >= 4 (force + moment of 2 iterations)`);
 
+  step("polling transfers only new iterations");
+  const campaignId = /\/campaigns\/(\d+)/.exec(campaignUrl)[1];
+  const polls = (await Promise.all(metricPolls)).filter((p) => p && p.campaign === campaignId);
+  if (polls.length < 2) throw new Error(`expected several metrics polls, saw ${polls.length}`);
+  const seen = new Set();
+  for (const [i, p] of polls.entries()) {
+    if (i > 0 && seen.size && p.after === null) throw new Error(`metrics poll ${i} asked for the whole series again`);
+    const stale = p.iterations.filter((k) => (p.after !== null && k <= p.after) || seen.has(k));
+    if (stale.length) throw new Error(`metrics poll ${i} (after=${p.after}) transferred known iterations ${stale}`);
+    p.iterations.forEach((k) => seen.add(k));
+  }
+  const empty = polls.filter((p) => !p.iterations.length).length;
+  step(`  ${polls.length} metrics polls, ${seen.size} iterations transferred once each, ${empty} polls empty`);
+
   step("pause and resume");
   await page.getByRole("button", { name: "Pause" }).click();
   await page.locator(".badge").filter({ hasText: /^(pausing|paused)$/ }).first().waitFor({ timeout: 20_000 });
@@ -160,9 +206,14 @@ try {
   const forceTraces = Number(await page.getByTestId("force-plot").getAttribute("data-traces"));
   if (forceTraces < 2) throw new Error(`force plot has ${forceTraces} traces, expected oracle and surrogate`);
 
-  step("trajectory with phases");
+  step("trajectory: joint angle and torque with phases");
   await page.getByRole("tab", { name: "Trajectory" }).click();
   await waitFor(async () => (await plotPoints(page, "angle-plot")) > 0, "joint angle curve");
+  await waitFor(async () => (await plotPoints(page, "torque-plot")) > 0, "joint torque curve of iteration 1");
+  const shaded = Number(await page.getByTestId("torque-plot").getAttribute("data-shapes"));
+  if (shaded < 1) throw new Error("the torque plot has no shaded phases");
+  await page.locator("[data-testid=torque-plot] .main-svg").first().waitFor();
+  await screenshot(page, "campaign-trajectory.png");
 
   step("download a model");
   await page.getByRole("tab", { name: "Pool & models" }).click();
@@ -173,11 +224,14 @@ try {
   const size = statSync(modelPath).size;
   if (size < 100) throw new Error(`downloaded model is ${size} bytes`);
 
-  step("screenshot of the campaign page");
+  step("screenshots of the campaign page and the campaigns list");
   await page.goto(campaignUrl.split("?")[0] + "?tab=forces");
   await page.locator("[data-testid=rmse-plot] .main-svg").first().waitFor();
   await page.locator("[data-testid=force-plot] .main-svg").first().waitFor();
-  await page.screenshot({ path: resolve(artifacts, "campaign-page.png"), fullPage: true });
+  await screenshot(page, "campaign-page.png", { fullPage: true });
+  await page.getByRole("link", { name: "Campaigns" }).click();
+  await page.getByTestId("campaigns-table").waitFor();
+  await screenshot(page, "campaigns-list.png");
 
   // The browser logs every non-2xx answer; 503 "database busy, retry" (SQLite contention with
   // the worker) is retried by the UI, so it is reported but not a failure.

@@ -3,20 +3,27 @@
 from __future__ import annotations
 
 import subprocess
+import time
 
 import pytest
 
-from .conftest import ADMIN_EMAIL, ADMIN_PASSWORD, ARTIFACTS, FRONTEND, Server
+from .conftest import ADMIN_EMAIL, ADMIN_PASSWORD, ARTIFACTS, FRONTEND, REPO, Server
+
+DOCS_IMAGES = REPO / "docs" / "images"
+# written by the run into test-artifacts/ and docs/images/ (the docs show these)
+SCREENSHOTS = ("campaign-page.png", "campaign-trajectory.png", "campaigns-list.png", "task-editor.png", "oracle-editor.png", "new-campaign.png")
 
 pytestmark = [pytest.mark.slow, pytest.mark.e2e]
 
 
 def test_campaign_lifecycle_in_the_browser(alcove_server: Server) -> None:
-    """Sign in, token, task, oracle, campaign with >= 2 iterations on the RMSE plot, force
-    plot, pause/resume, model download, screenshot (see frontend/e2e/run.mjs)."""
+    """Sign in, token, task, oracle, campaign with >= 2 iterations on the RMSE plot (metrics
+    polls transfer only new iterations), force plot, angle and torque, pause/resume, model
+    download, screenshots for the docs (see frontend/e2e/run.mjs)."""
     ARTIFACTS.mkdir(exist_ok=True)
+    started = time.time() - 1
     result = subprocess.run(
-        ["node", "e2e/run.mjs", "--base-url", alcove_server.base_url, "--email", ADMIN_EMAIL, "--password", ADMIN_PASSWORD, "--artifacts", str(ARTIFACTS)],
+        ["node", "e2e/run.mjs", "--base-url", alcove_server.base_url, "--email", ADMIN_EMAIL, "--password", ADMIN_PASSWORD, "--artifacts", str(ARTIFACTS), "--docs-images", str(DOCS_IMAGES)],
         cwd=FRONTEND,
         capture_output=True,
         text=True,
@@ -25,5 +32,7 @@ def test_campaign_lifecycle_in_the_browser(alcove_server: Server) -> None:
     if result.returncode != 0:
         server_log = alcove_server.log.read_text()[-3000:] if alcove_server.log.exists() else ""
         pytest.fail(f"browser run failed:\n{result.stdout[-4000:]}\n{result.stderr[-4000:]}\n--- alcove up log ---\n{server_log}")
-    screenshot = ARTIFACTS / "campaign-page.png"
-    assert screenshot.stat().st_size > 10_000
+    for name in SCREENSHOTS:
+        for folder in (ARTIFACTS, DOCS_IMAGES):
+            shot = folder / name
+            assert shot.stat().st_size > 10_000 and shot.stat().st_mtime >= started, shot

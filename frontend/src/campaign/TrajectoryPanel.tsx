@@ -27,6 +27,21 @@ function seriesTraces(t: number[], rows: number[][], name: string, unit: string)
   return rows.map((y, j) => ({ x: t, y, name: rows.length > 1 ? `${name}_${j} [${unit}]` : `${name} [${unit}]`, mode: "lines", type: "scatter" }));
 }
 
+/**
+ * The phases within the time range of the curves, clipped to it: the oracle replays only the
+ * first phase(s) of the OCP trajectory (settings.replay_phases), so later phases would only
+ * stretch the time axis over an empty plot.
+ */
+export function clipPhases(phases: Phase[], t: number[]): Phase[] {
+  if (!t.length) return phases;
+  const lo = t[0];
+  const hi = t[t.length - 1];
+  const eps = 1e-9 * Math.max(1, Math.abs(hi));
+  return phases
+    .filter((p) => p.t_end > lo + eps && p.t_start < hi - eps)
+    .map((p) => ({ ...p, t_start: Math.max(p.t_start, lo), t_end: Math.min(p.t_end, hi) }));
+}
+
 /** Phase spans [t_start, t_end] from the phase durations of a task spec. */
 export function phaseSpans(phases: { name?: string; duration?: unknown }[]): Phase[] {
   let t = 0;
@@ -39,7 +54,9 @@ export function phaseSpans(phases: { name?: string; duration?: unknown }[]): Pha
 
 export function TrajectoryPanel({ campaignId, iteration, phases }: { campaignId: number; iteration: number | null; phases: Phase[] }) {
   const q = useQuery({ ...iterationQuery(campaignId, iteration ?? 0), enabled: iteration !== null });
-  const shapes = useMemo(() => phaseShapes(q.data?.phases.length ? q.data.phases : phases), [q.data, phases]);
+  const allPhases = q.data?.phases.length ? q.data.phases : phases;
+  const shown = useMemo(() => clipPhases(allPhases, q.data?.t ?? []), [allPhases, q.data]);
+  const shapes = useMemo(() => phaseShapes(shown), [shown]);
   const angle = useMemo(() => (q.data ? seriesTraces(q.data.t, q.data.q, "θ", "rad") : []), [q.data]);
   const hasTorque = Boolean(q.data?.tau.length);
   const second = useMemo(
@@ -50,17 +67,26 @@ export function TrajectoryPanel({ campaignId, iteration, phases }: { campaignId:
   if (q.isPending) return <Loading label="Loading trajectory…" />;
   if (q.isError) return <ErrorBox error={q.error} retry={() => void q.refetch()} />;
   if (!q.data.t.length) return <Empty title={`Iteration ${iteration} has no OCP trajectory`}>The OCP step failed or has not run yet.</Empty>;
+  const notReplayed = allPhases.length - shown.length;
   return (
-    <div className="grid2" data-testid="trajectory-panel">
-      <Plot testId="angle-plot" traces={angle} shapes={shapes} xTitle="t [s]" yTitle="joint angle θ [rad]" exportName={`angle-k${iteration}`} height={280} />
-      {hasTorque ? (
-        <Plot testId="torque-plot" traces={second} shapes={shapes} xTitle="t [s]" yTitle="joint torque τ [N m]" exportName={`torque-k${iteration}`} height={280} />
-      ) : (
-        <div>
-          <Plot testId="velocity-plot" traces={second} shapes={shapes} xTitle="t [s]" yTitle="joint velocity θ̇ [rad/s]" exportName={`velocity-k${iteration}`} height={280} />
-          <p className="hint">No joint torque for this iteration (iteration 0 has no oracle run); showing the joint velocity.</p>
-        </div>
+    <div data-testid="trajectory-panel">
+      {notReplayed > 0 && (
+        <p className="hint" data-testid="phases-not-replayed">
+          The motion the oracle replayed (t ≤ {q.data.t[q.data.t.length - 1].toFixed(3)} s): {shown.map((p) => p.name).join(", ")}. The
+          task's later {notReplayed === 1 ? "phase is" : `${notReplayed} phases are`} not replayed.
+        </p>
       )}
+      <div className="grid2">
+        <Plot testId="angle-plot" traces={angle} shapes={shapes} xTitle="t [s]" yTitle="joint angle θ [rad]" exportName={`angle-k${iteration}`} height={280} />
+        {hasTorque ? (
+          <Plot testId="torque-plot" traces={second} shapes={shapes} xTitle="t [s]" yTitle="joint torque τ [N m]" exportName={`torque-k${iteration}`} height={280} />
+        ) : (
+          <div>
+            <Plot testId="velocity-plot" traces={second} shapes={shapes} xTitle="t [s]" yTitle="joint velocity θ̇ [rad/s]" exportName={`velocity-k${iteration}`} height={280} />
+            <p className="hint">No joint torque for this iteration (iteration 0 has no oracle run); showing the joint velocity.</p>
+          </div>
+        )}
+      </div>
     </div>
   );
 }

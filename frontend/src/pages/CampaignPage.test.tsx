@@ -137,12 +137,14 @@ describe("campaign page", () => {
     expect(calls.some((c) => c.path.startsWith("/campaigns/7/") && c.path.endsWith("/pause"))).toBe(false);
   });
 
-  it("plots joint angle and torque of the iteration's trajectory with the phases shaded", async () => {
+  it("plots joint angle and torque of the iteration's trajectory with the replayed phases shaded", async () => {
+    // a third phase after the replayed motion (t <= 0.2 s) is not shaded
+    const threePhases = { ...TASK_VERSION, spec: { ...TASK_VERSION.spec, phases: [...TASK_VERSION.spec.phases, { name: "rest", duration: 1 }] } };
     mockApi({
       "GET /campaigns/7": () => campaign("completed", 1),
       "GET /campaigns/7/metrics": () => [metric(0), metric(1)],
       "GET /campaigns/7/iterations": () => [iteration(0), iteration(1)],
-      "GET /tasks/1/versions/1": TASK_VERSION,
+      "GET /tasks/1/versions/1": threePhases,
       [CURVES_ROUTE]: curvesHandler,
     });
     renderPage(<CampaignPage />, { route: "/campaigns/7?tab=trajectory", path: "/campaigns/:id" });
@@ -151,6 +153,7 @@ describe("campaign page", () => {
     expect(screen.queryByTestId("velocity-plot")).not.toBeInTheDocument();
     await waitFor(() => expect(screen.getByTestId("angle-plot")).toHaveAttribute("data-shapes", "2"));
     expect(screen.getByTestId("torque-plot")).toHaveAttribute("data-shapes", "2");
+    expect(screen.getByTestId("phases-not-replayed")).toHaveTextContent("lean back, hold. The task's later phase is not replayed.");
   });
 
   it("falls back to the joint velocity for an iteration without torque", async () => {
