@@ -5,6 +5,8 @@ new model version only changes the parameter values; the optimum is the one of t
 surrogate with its weights as constants.
 """
 
+from concurrent.futures import ThreadPoolExecutor
+
 import casadi as ca
 import numpy as np
 import pytest
@@ -58,6 +60,9 @@ def test_one_function_per_architecture_and_parameters_per_model(task, models):
     preset = task.preset()
     (fn1, p1), (fn2, p2) = (surrogate_contact(m, preset) for m in models)
     assert fn1 is fn2  # same architecture: same function, same NLP
+    with ThreadPoolExecutor(1) as pool:  # SX graphs are not shared between threads
+        elsewhere = pool.submit(lambda: surrogate_contact(models[0], preset)[0]).result()
+    assert elsewhere is not fn1 and elsewhere.serialize() == fn1.serialize()
     assert p1.shape == p2.shape and not np.allclose(p1, p2)
     np.testing.assert_array_equal(surrogate_parameters(models[1]), p2)
     # another architecture is another function

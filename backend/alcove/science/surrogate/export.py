@@ -17,7 +17,7 @@ and IPOPT solver are built once and reused for every model version of that archi
 
 from __future__ import annotations
 
-from functools import lru_cache
+import threading
 from pathlib import Path
 from typing import Any, Callable
 
@@ -151,8 +151,20 @@ def _mlp_parametric(arch: tuple[str, tuple[tuple[int, int], ...]], x: ca.SX, rea
     return x
 
 
-@lru_cache(maxsize=16)
+_LOCAL = threading.local()  # SX graphs are not for concurrent use: one cache per thread, as the OCP's
+
+
 def _parametric_contact(architecture: tuple[Any, ...], preset: HeadNeckPreset) -> ca.Function:
+    cache = _LOCAL.__dict__.setdefault("contacts", {})
+    key = (architecture, preset)
+    if key not in cache:
+        if len(cache) >= 16:
+            cache.pop(next(iter(cache)))
+        cache[key] = _build_parametric_contact(architecture, preset)
+    return cache[key]
+
+
+def _build_parametric_contact(architecture: tuple[Any, ...], preset: HeadNeckPreset) -> ca.Function:
     ndof, _, force_arch, n_force, moment_arch, n_moment = architecture
     if ndof != 1:
         raise ValueError(f"kinematics: the model has {ndof} degrees of freedom; the parametric export supports the 1-DOF preset")
@@ -173,7 +185,7 @@ def surrogate_contact(model: SurrogateModel, preset: HeadNeckPreset) -> tuple[ca
     """``((q, qd, p) -> wrench, p values)``: the contact-model slot with the weights as parameters.
 
     The function depends only on the architecture and the preset (one cached object per
-    pair), so ``solve_task(task, fn, contact_params=p)`` reuses one NLP for every model
+    pair and thread), so ``solve_task(task, fn, contact_params=p)`` reuses one NLP for every model
     version of an architecture. Same values as :func:`casadi_contact_function`.
     """
     if len(model.force_norm.mean) != model.force_net.linears()[-1].out_features or \
