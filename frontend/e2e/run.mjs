@@ -213,7 +213,7 @@ try {
   const shaded = Number(await page.getByTestId("torque-plot").getAttribute("data-shapes"));
   if (shaded < 1) throw new Error("the torque plot has no shaded phases");
   await page.locator("[data-testid=torque-plot] .main-svg").first().waitFor();
-  await screenshot(page, "campaign-trajectory.png");
+  await screenshot(page, "campaign-trajectory.png", { fullPage: true });
 
   step("download a model");
   await page.getByRole("tab", { name: "Pool & models" }).click();
