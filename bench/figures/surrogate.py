@@ -54,7 +54,7 @@ def _seeded_pool() -> tuple[list[Any], Any]:
 @figure(
     "surrogate training, one model pair on 80,000 samples (paper protocol)", "s", target=3.0, setup=_seeded_pool,
     reps=5, quick_reps=2, group="surrogate",
-    notes="float64, batch 1024, early stopping (patience 6) on both nets; seed = repetition (the epoch count varies with it)",
+    notes="float64, batch 1024, early stopping (patience 6) on both nets; seed = repetition (the epoch count, 70-120, varies with it)",
 )
 def surrogate_training(ctx: Any) -> float:
     from alcove.science.surrogate.config import SurrogateConfig
@@ -78,6 +78,49 @@ def surrogate_training_cpu(ctx: Any) -> float:
     start = time.process_time()
     train_surrogate(pool, SurrogateConfig(), seed=next(seeds))
     return time.process_time() - start
+
+
+def _step_setup() -> Any:
+    import torch
+
+    from alcove.science.surrogate.config import SurrogateConfig
+    from alcove.science.surrogate.fused import FusedNets
+    from alcove.science.surrogate.mlp import MLP
+    from alcove.science.surrogate.training import FlatAdam
+
+    cfg = SurrogateConfig()
+    generator = torch.Generator().manual_seed(0)
+    nets = [MLP.from_config(cfg.force), MLP.from_config(cfg.moment)]
+    for net in nets:
+        net.reset_parameters(generator)
+    fused = FusedNets(nets)
+    optimizer = FlatAdam(fused.parameter, lr=cfg.learning_rate, grad=fused.grad)
+    batches = [torch.randn(cfg.batch_size, 26, dtype=torch.float64, generator=generator) for _ in range(44)]  # one epoch
+    return fused, optimizer, batches
+
+
+@figure(
+    "surrogate training step: both nets, batch 1024 (CPU time per step)", "ms", target=None, setup=_step_setup, reps=5,
+    quick_reps=3, group="surrogate",
+    notes="gradient of both nets (fused, hand-written backpropagation) + Adam; one epoch of 44 steps per repetition, one thread; "
+          "a training on 80,000 samples takes 70-120 epochs",
+)
+def surrogate_training_step(ctx: Any) -> float:
+    import time
+
+    import torch
+
+    fused, optimizer, batches = ctx
+    threads = torch.get_num_threads()
+    torch.set_num_threads(1)
+    try:
+        start = time.process_time()
+        for b in batches:
+            fused.set_loss_gradient(b[:, :19], [b[:, 19:22], b[:, 22:25]], 1.0 + 0.1 * b[:, 25].abs())
+            optimizer.step()
+        return 1e3 * (time.process_time() - start) / len(batches)
+    finally:
+        torch.set_num_threads(threads)
 
 
 def _warm_setup() -> tuple[list[Any], Any]:

@@ -4,8 +4,9 @@ For nets this small (19-6-6-4-3 and 19-6-6-6-4-3) a training step costs the per-
 overhead of PyTorch, not arithmetic. :class:`FusedNets` therefore steps both nets in one
 pass: layer ``i`` of every net that has one becomes a single matrix product with a
 block-structured weight (the first layer's blocks side by side, since both nets read the
-same features; later layers block-diagonal), so a step issues about half the operations of
-two separate nets. The fused weights are stored pre-transposed, ``(in, out)``, as views into
+same features; later layers block-diagonal; a net whose output layer this is puts its
+outputs in the first columns, the hidden units of the deeper net follow), so a step issues
+about half the operations of two separate nets. The fused weights are stored pre-transposed, ``(in, out)``, as views into
 one flat parameter tensor, so that Adam updates one tensor per step (:class:`FlatAdam` in
 :mod:`.training`). Entries outside the blocks start at 0 and their gradient is masked to 0, so
 Adam never moves them (its update is ``lr * m / (sqrt(v) + eps)`` with ``m = v = 0``): the
@@ -34,31 +35,26 @@ from alcove.science.surrogate.mlp import SOFTPLUS_THRESHOLD, MLP
 
 @dataclass
 class _Block:
-    """Net ``net``'s layer ``layer`` inside a fused weight: rows ``rows`` (inputs), columns ``cols``."""
+    """Net ``net``'s layer in a fused weight: rows ``rows`` (inputs), columns ``cols`` (outputs)."""
 
     net: int
-    layer: int
     rows: slice
     cols: slice
 
 
 @dataclass
-class _Group:
-    """One fused matrix product ``A = H_in[:, rows] @ W + b``.
+class _Layer:
+    """``A = H_in @ weight + bias``; columns ``[outputs of the nets ending here | hidden units]``."""
 
-    ``hidden``: the hidden layer ``i`` of every net continuing past it (activation applied,
-    output feeds layer ``i + 1``); otherwise the output layer of net ``blocks[0].net``."""
-
-    hidden: bool
-    rows: slice  # columns of the layer input this product reads
     weight: torch.Tensor  # (in, out) view into the flat parameters
     bias: torch.Tensor
     weight_grad: torch.Tensor
     bias_grad: torch.Tensor
     weight_t: torch.Tensor  # weight.t(), prebuilt
     blocks: list[_Block]
-    activations: list[tuple[slice, str]]  # hidden only: column segments and their activation
-    whole_input: bool = False  # rows are all the columns of the layer input (no slicing needed)
+    outputs: list[tuple[int, slice]]  # (net, columns) of the nets whose output layer this is
+    n_outputs: int  # hidden units start at this column
+    activations: list[tuple[slice, str]]  # column segments of the hidden part (relative to it) and their activation
 
 
 class FusedNets:
@@ -71,60 +67,44 @@ class FusedNets:
         self.nets = nets
         self.dtype = nets[0].linears()[0].weight.dtype
         linears = [net.linears() for net in nets]
-        depth = max(len(ls) for ls in linears)
-        # plan: per layer, the hidden group of continuing nets and the output group of each ending net;
-        # the hidden output of layer i holds the continuing nets side by side in net order
-        shapes: list[tuple[int, int]] = []  # (in, out) of each fused weight, in flat order
-        plan: list[tuple[bool, slice, list[_Block], list[tuple[slice, str]]]] = []
-        self.layers: list[list[int]] = []  # layer -> indices into plan
-        input_width: list[int] = []  # width of each layer's input
         width_in = n_in.pop()
-        in_cols = {k: slice(0, width_in) for k in range(len(nets))}  # where each net reads its input
-        for i in range(depth):
-            input_width.append(max(c.stop for c in in_cols.values()))
-            present = [k for k in range(len(nets)) if len(linears[k]) > i]
-            continuing = [k for k in present if len(linears[k]) > i + 1]
-            layer = []
-            for k in present:
-                if k not in continuing:
-                    lin = linears[k][i]
-                    rows = in_cols[k]
-                    plan.append((False, rows, [_Block(k, i, slice(0, lin.in_features), slice(0, lin.out_features))], []))
-                    shapes.append((lin.in_features, lin.out_features))
-                    layer.append(len(plan) - 1)
-            if continuing:
-                lo, hi = min(in_cols[k].start for k in continuing), max(in_cols[k].stop for k in continuing)
-                blocks, acts, col, next_cols = [], [], 0, {}
-                for k in continuing:
-                    lin = linears[k][i]
-                    cols = slice(col, col + lin.out_features)
-                    blocks.append(_Block(k, i, slice(in_cols[k].start - lo, in_cols[k].stop - lo), cols))
-                    activation = nets[k].activation
-                    if acts and acts[-1][1] == activation:
-                        acts[-1] = (slice(acts[-1][0].start, cols.stop), activation)
-                    else:
-                        acts.append((cols, activation))
-                    next_cols[k] = cols
-                    col = cols.stop
-                plan.append((True, slice(lo, hi), blocks, acts))
-                shapes.append((hi - lo, col))
-                layer.append(len(plan) - 1)
-                in_cols = next_cols
-            self.layers.append(layer)
-        n_params = sum(a * b + b for a, b in shapes)
+        in_rows = {k: slice(0, width_in) for k in range(len(nets))}  # where each net reads the layer input
+        plan: list[tuple[int, int, list[_Block], list[tuple[int, slice]], int, list[tuple[slice, str]]]] = []
+        for i in range(max(len(ls) for ls in linears)):
+            present = [k for k in range(len(nets)) if len(linears[k]) > i]  # = the nets in the layer input
+            ending = [k for k in present if len(linears[k]) == i + 1]
+            continuing = [k for k in present if k not in ending]
+            blocks, outputs, acts, col = [], [], [], 0
+            for k in ending + continuing:
+                cols = slice(col, col + linears[k][i].out_features)
+                blocks.append(_Block(k, in_rows[k], cols))
+                col = cols.stop
+                if k in ending:
+                    outputs.append((k, cols))
+            n_outputs = sum(c.stop - c.start for _, c in outputs)
+            in_rows = {}  # the hidden units of this layer are the next layer's input
+            for blk in blocks[len(ending) :]:
+                rel = slice(blk.cols.start - n_outputs, blk.cols.stop - n_outputs)
+                in_rows[blk.net] = rel
+                activation = nets[blk.net].activation
+                if acts and acts[-1][1] == activation:
+                    acts[-1] = (slice(acts[-1][0].start, rel.stop), activation)
+                else:
+                    acts.append((rel, activation))
+            plan.append((max(r.stop for r in (b.rows for b in blocks)), col, blocks, outputs, n_outputs, acts))
+        n_params = sum(a * b + b for a, b, *_ in plan)
         self.parameter = torch.zeros(n_params, dtype=self.dtype)
         self.grad = torch.zeros(n_params, dtype=self.dtype)
         self.mask = torch.zeros(n_params, dtype=self.dtype)
-        self.groups: list[_Group] = []
+        self.layers: list[_Layer] = []
         offset = 0
-        layer_of = {gi: i for i, layer in enumerate(self.layers) for gi in layer}
-        for gi, ((hidden, rows, blocks, acts), (a, b)) in enumerate(zip(plan, shapes)):
+        for a, b, blocks, outputs, n_outputs, acts in plan:
             def view(t: torch.Tensor, start: int, shape: tuple[int, ...]) -> torch.Tensor:
                 return t[start : start + math.prod(shape)].view(shape)
 
-            w, bias = view(self.parameter, offset, (a, b)), view(self.parameter, offset + a * b, (b,))
-            self.groups.append(_Group(hidden, rows, w, bias, view(self.grad, offset, (a, b)), view(self.grad, offset + a * b, (b,)),
-                                      w.t(), blocks, acts, rows.start == 0 and rows.stop == input_width[layer_of[gi]]))
+            w = view(self.parameter, offset, (a, b))
+            self.layers.append(_Layer(w, view(self.parameter, offset + a * b, (b,)), view(self.grad, offset, (a, b)),
+                                      view(self.grad, offset + a * b, (b,)), w.t(), blocks, outputs, n_outputs, acts))
             offset += a * b + b
         self.active = [True] * len(nets)
         self.load()
@@ -135,12 +115,12 @@ class FusedNets:
         """(weight (out, in), bias) of net ``k``'s layers as views into ``flat`` (parameter-shaped)."""
         out: list[tuple[torch.Tensor, torch.Tensor]] = []
         offset = 0
-        for g in self.groups:
-            a, b = g.weight.shape
-            for blk in g.blocks:
+        for layer in self.layers:
+            a, b = layer.weight.shape
+            for blk in layer.blocks:
                 if blk.net == k:
-                    w = flat[offset : offset + a * b].view(a, b)[blk.rows, blk.cols].t()
-                    out.append((w, flat[offset + a * b : offset + a * b + b][blk.cols]))
+                    out.append((flat[offset : offset + a * b].view(a, b)[blk.rows, blk.cols].t(),
+                                flat[offset + a * b : offset + a * b + b][blk.cols]))
             offset += a * b + b
         return out
 
@@ -184,16 +164,13 @@ class FusedNets:
         outputs: list[torch.Tensor] = [torch.empty(0)] * len(self.nets)
         h = z
         for layer in self.layers:
-            h_next = h
-            for gi in layer:
-                g = self.groups[gi]
-                a = torch.mm(h if g.whole_input else h[:, g.rows], g.weight).add_(g.bias)
-                if g.hidden:
-                    h_next = _cat([(_softplus_value_fast if fast and act == "softplus" else _ACTIVATION[act])(a[:, cols])
-                                   for cols, act in g.activations])
-                else:
-                    outputs[g.blocks[0].net] = a
-            h = h_next
+            a = torch.mm(h, layer.weight).add_(layer.bias)
+            for k, cols in layer.outputs:
+                outputs[k] = a[:, cols]
+            if layer.activations:
+                pre = a[:, layer.n_outputs :].contiguous() if layer.n_outputs else a
+                h = _cat([(_softplus_value_fast if fast and act == "softplus" else _ACTIVATION[act])(pre[:, cols])
+                          for cols, act in layer.activations])
         return outputs
 
     def set_loss_gradient(self, z: torch.Tensor, targets: list[torch.Tensor], w: torch.Tensor, fast: bool = True) -> None:
@@ -206,67 +183,47 @@ class FusedNets:
     def _gradient(self, z: torch.Tensor, targets: list[torch.Tensor], w: torch.Tensor, fast: bool) -> None:
         n = z.shape[0]
         inputs: list[torch.Tensor] = []  # input of each layer
-        slopes: list[torch.Tensor] = []  # activation derivative of each hidden output
-        residual: dict[int, torch.Tensor] = {}  # output group -> dLoss/dOutput
+        slopes: list[torch.Tensor | None] = []  # activation derivative of each layer's hidden units
+        residuals: list[list[torch.Tensor]] = []  # dLoss/dOutput of the nets ending at each layer
         scale: dict[int, torch.Tensor] = {}
         h = z
         for layer in self.layers:
             inputs.append(h)
-            h_next = h
-            for gi in layer:
-                g = self.groups[gi]
-                a = torch.mm(h if g.whole_input else h[:, g.rows], g.weight).add_(g.bias)
-                if g.hidden:
-                    pairs = [(_softplus_fast if fast and act == "softplus" else _WITH_SLOPE[act])(a if len(g.activations) == 1 else a[:, cols])
-                             for cols, act in g.activations]
-                    h_next, slope = _cat([p[0] for p in pairs]), _cat([p[1] for p in pairs])
-                    slopes.append(slope)
-                else:
-                    y = targets[g.blocks[0].net]
-                    n_out = y.shape[1]
-                    if n_out not in scale:
-                        scale[n_out] = (w * (2.0 / (n_out * n)))[:, None]
-                    residual[gi] = a.sub_(y).mul_(scale[n_out])
-            h = h_next
-        d_h: torch.Tensor | None = None  # dLoss/d(hidden output) of the layer being processed
+            a = torch.mm(h, layer.weight).add_(layer.bias)
+            res = []
+            for k, cols in layer.outputs:
+                y = targets[k]
+                n_out = y.shape[1]
+                if n_out not in scale:
+                    scale[n_out] = (w * (2.0 / (n_out * n)))[:, None]
+                res.append((a.sub_(y) if len(layer.outputs) == 1 and not layer.activations else torch.sub(a[:, cols], y)).mul_(scale[n_out]))
+            residuals.append(res)
+            if layer.activations:
+                pre = a[:, layer.n_outputs :].contiguous() if layer.n_outputs else a
+                pairs = [(_softplus_fast if fast and act == "softplus" else _WITH_SLOPE[act])(pre if len(layer.activations) == 1 else pre[:, cols])
+                         for cols, act in layer.activations]
+                h = _cat([p[0] for p in pairs])
+                slopes.append(_cat([p[1] for p in pairs]))
+            else:
+                slopes.append(None)
+        d_h: torch.Tensor | None = None  # dLoss/d(hidden units) of the layer being processed
         for i in range(len(self.layers) - 1, -1, -1):
-            pieces: list[tuple[int, torch.Tensor]] = []  # (first input column, dLoss/dInput part)
-            for gi in self.layers[i]:
-                g = self.groups[gi]
-                if g.hidden:
-                    assert d_h is not None
-                    grad_a = d_h.mul_(slopes[i])
-                else:
-                    grad_a = residual[gi]
-                x = inputs[i] if g.whole_input else inputs[i][:, g.rows]
-                torch.mm(x.t(), grad_a, out=g.weight_grad)
-                torch.sum(grad_a, 0, out=g.bias_grad)
-                if i > 0:
-                    pieces.append((g.rows.start, torch.mm(grad_a, g.weight_t)))
+            layer = self.layers[i]
+            slope = slopes[i]
+            if slope is None:
+                grad_a = _cat(residuals[i])
+            else:
+                assert d_h is not None
+                grad_a = _cat([*residuals[i], d_h.mul_(slope)])
+            torch.mm(inputs[i].t(), grad_a, out=layer.weight_grad)
+            torch.sum(grad_a, 0, out=layer.bias_grad)
             if i > 0:
-                d_h = _assemble(pieces, inputs[i].shape[1], n, self.dtype)
+                d_h = torch.mm(grad_a, layer.weight_t)
         self.grad.mul_(self.mask)
 
 
 def _cat(parts: list[torch.Tensor]) -> torch.Tensor:
     return parts[0] if len(parts) == 1 else torch.cat(parts, 1)
-
-
-def _assemble(pieces: list[tuple[int, torch.Tensor]], width: int, n: int, dtype: torch.dtype) -> torch.Tensor:
-    """The (n, width) sum of column pieces; a concatenation when they tile the columns."""
-    pieces.sort(key=lambda p: p[0])
-    col = 0
-    for start, t in pieces:
-        if start != col:
-            break
-        col += t.shape[1]
-    else:
-        if col == width:
-            return _cat([t for _, t in pieces])
-    total = torch.zeros(n, width, dtype=dtype)
-    for start, t in pieces:
-        total[:, start : start + t.shape[1]].add_(t)
-    return total
 
 
 def _softplus_fast(a: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
