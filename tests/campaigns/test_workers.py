@@ -258,7 +258,7 @@ def test_killing_the_controlling_process_leaves_a_campaign_that_a_new_worker_fin
 
 def test_an_api_restart_mid_campaign_changes_nothing_and_the_new_api_controls_it(pg_redis: dict[str, str], pg_url: str, tmp_path: Path,
                                                                                 make_campaign: Any) -> None:
-    """SIGKILL of the API process (`alcove serve`) while a campaign it started runs: the
+    """SIGKILL of the API process (`alcove up --no-worker`) while a campaign it started runs: the
     workers carry on (the state is in the database, the next message is sent by the job
     that finished), a restarted API pauses and resumes it, and the pool is exactly the
     pool of an uninterrupted run with the same seed."""
@@ -276,7 +276,7 @@ def test_an_api_restart_mid_campaign_changes_nothing_and_the_new_api_controls_it
     env = {**pg_redis, "ALCOVE_API_HOST": "127.0.0.1", "ALCOVE_API_PORT": str(port)}
 
     def serve(log: str) -> Any:
-        api = Proc(["serve", "--workers", "1", "--no-migrate"], env, tmp_path / log)
+        api = Proc(["up", "--no-worker", "--no-migrate"], env, tmp_path / log)  # the API process alone
         wait_for(lambda: http_ok(f"{base}/health"), 60, "the API", api)
         return api
 
