@@ -269,3 +269,30 @@ def test_bit_identical_weights_in_another_process():
                            check=True).stdout.strip()
     here = _weights_digest(train_surrogate(make_smooth_pool(6), SurrogateConfig(max_epochs=3, batch_size=64), seed=5).model)
     assert other == here
+
+
+def test_a_stopped_net_leaves_the_fused_network_and_the_other_continues_unchanged():
+    from alcove.science.surrogate.training import _without_stopped
+
+    g = torch.Generator().manual_seed(4)
+    nets = [MLP((6, 6, 4)), MLP((6, 6, 6, 4))]
+    for net in nets:
+        net.reset_parameters(g)
+    batches = [torch.randn(128, 26, dtype=torch.float64, generator=g) for _ in range(6)]
+
+    def step(fused, adam, b, k_targets):
+        fused.set_loss_gradient(b[:, :19], [b[:, c] for c in k_targets], b[:, -1].abs())
+        adam.step()
+
+    full = FusedNets(nets)
+    adam = FlatAdam(full.parameter, lr=0.01, grad=full.grad)
+    for b in batches[:3]:
+        step(full, adam, b, [slice(19, 22), slice(22, 25)])
+    full.freeze(0)
+    smaller, smaller_adam = _without_stopped(full, adam, [nets[1]])
+    assert smaller_adam.steps == 3 and smaller.parameter.numel() < full.parameter.numel()
+    for b in batches[3:]:
+        step(full, adam, b, [slice(19, 22), slice(22, 25)])
+        step(smaller, smaller_adam, b, [slice(22, 25)])
+    for a, b in zip(full.weights(1), smaller.weights(0)):
+        torch.testing.assert_close(a, b, rtol=1e-12, atol=1e-14)

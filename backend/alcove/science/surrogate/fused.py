@@ -144,6 +144,19 @@ class FusedNets:
                 lin.weight.copy_(w)
                 lin.bias.copy_(b)
 
+    def weights(self, k: int) -> list[torch.Tensor]:
+        """A copy of net ``k``'s current weights and biases, in ``net.parameters()`` order."""
+        return [t.clone() for wb in self._block_views(self.parameter, k) for t in wb]
+
+    def transfer(self, src: torch.Tensor, other: "FusedNets", dst: torch.Tensor) -> None:
+        """Copy the blocks of every net of ``other`` from ``src`` (laid out as this network's
+        parameters) to ``dst`` (laid out as ``other``'s): parameters or Adam moments."""
+        for j, net in enumerate(other.nets):
+            i = next(i for i, mine in enumerate(self.nets) if mine is net)
+            for (ws, bs), (wd, bd) in zip(self._block_views(src, i), other._block_views(dst, j)):
+                wd.copy_(ws)
+                bd.copy_(bs)
+
     def freeze(self, k: int) -> None:
         """Net ``k`` stops training: its gradient is 0 from now on."""
         self.active[k] = False

@@ -207,11 +207,11 @@ def train_surrogate(
 def _fit(nets: dict[str, MLP], z: torch.Tensor, y: dict[str, torch.Tensor], w: torch.Tensor, z_val: torch.Tensor,
          y_val: dict[str, torch.Tensor], w_val: torch.Tensor, w_val_sum: float, config: SurrogateConfig,
          generator: torch.Generator, cancel: Callable[[], bool] | None) -> tuple[dict, dict, dict]:
-    fused = FusedNets([nets[k] for k in NETS])
+    active = list(NETS)  # the nets still training, in the fused network's order
+    fused = FusedNets([nets[k] for k in active])
     optimizer = FlatAdam(fused.parameter, lr=config.learning_rate, grad=fused.grad)
-    active = list(NETS)
     best = {k: float("inf") for k in NETS}
-    best_params = {k: fused.parameter.clone() for k in NETS}
+    best_weights = {k: fused.weights(i) for i, k in enumerate(active)}
     best_epoch = {k: 0 for k in NETS}
     epochs = {k: 0 for k in NETS}
     history: dict[str, list[float]] = {k: [] for k in NETS}
@@ -224,26 +224,44 @@ def _fit(nets: dict[str, MLP], z: torch.Tensor, y: dict[str, torch.Tensor], w: t
             raise TrainingCancelled(f"training cancelled in epoch {epoch}")
         # shuffled once per epoch: batches are contiguous slices, not one scattered gather each
         shuffled = table.index_select(0, torch.randperm(n, generator=generator))
+        targets = [columns[k] for k in active]
         for start in range(0, n, bs):
             batch = shuffled[start : start + bs]
-            fused.set_loss_gradient(batch[:, :n_in], [batch[:, columns[k]] for k in NETS], batch[:, -1])
+            fused.set_loss_gradient(batch[:, :n_in], [batch[:, c] for c in targets], batch[:, -1])
             optimizer.step()
-        outputs = dict(zip(NETS, fused.forward(z_val)))
-        for k in list(active):
-            val = float(((outputs[k] - y_val[k]) ** 2).mean(1) @ w_val) / w_val_sum
+        stopped = []
+        for i, (k, out) in enumerate(zip(active, fused.forward(z_val))):
+            val = float(((out - y_val[k]) ** 2).mean(1) @ w_val) / w_val_sum
             history[k].append(val)
             epochs[k] = epoch
             if val < best[k]:
                 best[k], best_epoch[k] = val, epoch
-                best_params[k] = fused.parameter.clone()
+                best_weights[k] = fused.weights(i)
             elif epoch - best_epoch[k] >= config.patience:
-                active.remove(k)
-                fused.freeze(NETS.index(k))  # its best weights are restored below
-        if not active:
-            break
-    for i, k in enumerate(NETS):
-        fused.store(i, best_params[k])
+                stopped.append(k)
+        if stopped:
+            active = [k for k in active if k not in stopped]
+            if not active:
+                break
+            # the nets still training continue alone (same updates, fewer operations per step)
+            fused, optimizer = _without_stopped(fused, optimizer, [nets[k] for k in active])
+    for k in NETS:
+        with torch.no_grad():
+            for p, best_p in zip(nets[k].parameters(), best_weights[k]):
+                p.copy_(best_p)
     return history, epochs, best_epoch
+
+
+def _without_stopped(fused: FusedNets, optimizer: "FlatAdam", remaining: list[MLP]) -> tuple[FusedNets, "FlatAdam"]:
+    """A fused network of the ``remaining`` nets carrying over their weights and Adam state."""
+    smaller = FusedNets(remaining)
+    fused.transfer(fused.parameter, smaller, smaller.parameter)
+    adam = FlatAdam(smaller.parameter, lr=optimizer.lr, betas=optimizer.betas, eps=optimizer.eps, grad=smaller.grad,
+                    fused=optimizer.fused)
+    fused.transfer(optimizer.exp_avg, smaller, adam.exp_avg)
+    fused.transfer(optimizer.exp_avg_sq, smaller, adam.exp_avg_sq)
+    adam.steps = optimizer.steps
+    return smaller, adam
 
 
 class FlatAdam:
