@@ -3,7 +3,8 @@
  * End-to-end check of the web UI against a running `alcove up` (API + real worker):
  * sign in, API token, create a task and an oracle, create and start a campaign, watch the
  * RMSE plot gain points from >= 2 iterations, open an iteration's force plot, pause and
- * resume, download a model. Polling is checked on the network: every metrics poll after the
+ * resume, download a model; the editors' previews ("solve once", "test on a sample
+ * trajectory") run by the worker. Polling is checked on the network: every metrics poll after the
  * first asks `?after=k` and gets only iterations after k. Screenshots (the campaign page and
  * the tour of docs/quickstart.md and docs/ui.md) go into the artifacts folder and, with
  * --docs-images DIR, into DIR as well (the docs' images come from this run).
@@ -65,11 +66,17 @@ async function waitFor(fn, what, timeout = 30_000, interval = 500) {
   throw new Error(`timed out waiting for ${what} (last: ${last})`);
 }
 
-async function selectByText(select, text) {
-  const options = await select.locator("option").allTextContents();
-  const label = options.find((o) => o.includes(text));
-  if (!label) throw new Error(`no option containing "${text}" in [${options.join(" | ")}]`);
-  await select.selectOption({ label });
+async function selectByText(select, text, timeout = 15_000) {
+  // the options arrive with the list query: wait for them
+  const deadline = Date.now() + timeout;
+  let options = [];
+  while (Date.now() < deadline) {
+    options = await select.locator("option").allTextContents();
+    const label = options.find((o) => o.includes(text));
+    if (label) return select.selectOption({ label });
+    await new Promise((r) => setTimeout(r, 200));
+  }
+  throw new Error(`no option containing "${text}" in [${options.join(" | ")}]`);
 }
 
 const { context, close } = await openBrowser();
@@ -131,7 +138,17 @@ try {
   await page.getByRole("button", { name: "Create task" }).click();
   await page.waitForURL(/\/tasks\/\d+$/);
   await page.getByTestId("phases-table").waitFor();
-  await screenshot(page, "task-editor.png");
+
+  step("solve the task once (preview run by the worker)");
+  await page.getByTestId("validation-state").filter({ hasText: "valid" }).waitFor({ timeout: 15_000 });
+  await page.getByRole("button", { name: "Solve once" }).click();
+  await page.locator("[data-testid=preview-panel][data-status=succeeded], [data-testid=preview-panel][data-status=failed]").waitFor({ timeout: 120_000 });
+  if ((await page.getByTestId("preview-panel").getAttribute("data-status")) !== "succeeded")
+    throw new Error(`solve-once preview failed: ${await page.getByTestId("preview-panel").innerText()}`);
+  await waitFor(async () => (await plotPoints(page, "preview-torque")) > 0, "torque of the solve-once preview");
+  await page.locator("[data-testid=preview-torque] .main-svg").first().waitFor();
+  step(`  ${(await page.getByTestId("solve-summary").innerText()).trim()}`);
+  await screenshot(page, "task-editor.png", { fullPage: true });
   checkpoint("task");
 
   step("create an aux-penalty oracle");
@@ -141,7 +158,15 @@ try {
   await page.getByLabel("Type").selectOption("aux-penalty");
   await page.getByRole("button", { name: "Create oracle" }).click();
   await page.waitForURL(/\/oracles\/\d+$/);
-  await screenshot(page, "oracle-editor.png");
+
+  step("test the oracle on a sample trajectory (preview run by the worker)");
+  await page.getByRole("button", { name: "Test on a sample trajectory" }).click();
+  await page.locator("[data-testid=preview-panel][data-status=succeeded], [data-testid=preview-panel][data-status=failed]").waitFor({ timeout: 120_000 });
+  if ((await page.getByTestId("preview-panel").getAttribute("data-status")) !== "succeeded")
+    throw new Error(`oracle preview failed: ${await page.getByTestId("preview-panel").innerText()}`);
+  await waitFor(async () => (await plotPoints(page, "oracle-test-plot")) > 0, "force of the oracle preview");
+  await page.locator("[data-testid=oracle-test-plot] .main-svg").first().waitFor();
+  await screenshot(page, "oracle-editor.png", { fullPage: true });
   checkpoint("oracle");
 
   step("create and start a campaign");

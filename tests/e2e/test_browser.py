@@ -29,6 +29,7 @@ def test_campaign_lifecycle_in_the_browser(alcove_server: Server) -> None:
         text=True,
         timeout=600,
     )
+    print(result.stdout)  # the steps with their times (pytest -s)
     if result.returncode != 0:
         server_log = alcove_server.log.read_text()[-3000:] if alcove_server.log.exists() else ""
         pytest.fail(f"browser run failed:\n{result.stdout[-4000:]}\n{result.stderr[-4000:]}\n--- alcove up log ---\n{server_log}")

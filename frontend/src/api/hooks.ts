@@ -152,22 +152,9 @@ export interface OracleType {
   description: string;
   schema: JsonSchema;
 }
-export interface OracleTestResult {
-  t: number[];
-  wrench: Wrench;
-  wall_time_s: number | null;
-  message: string;
-}
-export interface SolveResult {
-  success: boolean;
-  status: string;
-  cost: number | null;
-  wall_time_s: number | null;
-  t: number[];
-  t_tau?: number[];
-  q: number[][];
-  tau: number[][];
-}
+export type Preview = Schemas["PreviewOut"];
+export type TaskPreviewResult = Schemas["TaskPreviewResult"];
+export type OraclePreviewResult = Schemas["OraclePreviewResult"];
 
 // ------------------------------------------------------------------ transport
 type Query = Record<string, string | number | boolean | undefined | null>;
@@ -650,10 +637,33 @@ export function useSaveTask(id: number | null) {
     },
   });
 }
-/** Optional: "solve once" preview (the UI shows the button only when the API has the route). */
-export const SOLVE_ONCE_ROUTE = "/tasks/solve";
-export function useSolveOnce() {
-  return useMutation({ mutationFn: (body: { spec: TaskSpecDraft }) => api<SolveResult>("POST", SOLVE_ONCE_ROUTE, { body }) });
+// ------------------------------------------------------------------ editor previews
+/**
+ * Previews run by a worker: POST creates one (202, pending), then GET /previews/{id} is polled
+ * until it succeeded or failed. The preview of an unsaved edit sends the edit in the body.
+ */
+export const PREVIEW_POLL_MS = 1000;
+const PREVIEW_FINAL = new Set(["succeeded", "failed"]);
+export function isPreviewFinal(p: Preview | undefined): boolean {
+  return Boolean(p && PREVIEW_FINAL.has(p.status));
+}
+export function usePreview(id: number | null) {
+  return useQuery({
+    queryKey: ["preview", id],
+    queryFn: async () => unwrap(await client.GET("/api/v1/previews/{preview_id}", { params: { path: { preview_id: id as number } } })),
+    enabled: id !== null,
+    refetchInterval: (q) => (isPreviewFinal(q.state.data) ? false : PREVIEW_POLL_MS),
+    staleTime: Infinity,
+  });
+}
+/** "Solve once": the task (or its unsaved edit `spec`) solved with the auxiliary contact. */
+export function useCreateTaskPreview(taskId: number | null) {
+  const qc = useQueryClient();
+  return useMutation({
+    mutationFn: async (body: { spec?: TaskSpecDraft; intervals?: number }) =>
+      unwrap(await client.POST("/api/v1/tasks/{task_id}/previews", { params: { path: { task_id: taskId as number } }, body: body as Schemas["TaskPreviewIn"] })),
+    onSuccess: (p) => qc.setQueryData(["preview", p.id], p),
+  });
 }
 
 // ------------------------------------------------------------------ oracles
@@ -711,8 +721,12 @@ export function useSaveOracle(id: number | null) {
     },
   });
 }
-/** Optional: "test on a sample trajectory" (shown only when the API has the route). */
-export const ORACLE_TEST_ROUTE = "/oracles/test";
-export function useTestOracle() {
-  return useMutation({ mutationFn: (body: { type: string; params: Record<string, unknown> }) => api<OracleTestResult>("POST", ORACLE_TEST_ROUTE, { body }) });
+/** "Test on a sample trajectory": the FE reference head motion replayed through the oracle (or its unsaved `params`). */
+export function useCreateOraclePreview(oracleId: number | null) {
+  const qc = useQueryClient();
+  return useMutation({
+    mutationFn: async (body: { params?: Record<string, unknown> }) =>
+      unwrap(await client.POST("/api/v1/oracles/{oracle_id}/previews", { params: { path: { oracle_id: oracleId as number } }, body })),
+    onSuccess: (p) => qc.setQueryData(["preview", p.id], p),
+  });
 }

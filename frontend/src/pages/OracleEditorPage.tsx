@@ -1,10 +1,11 @@
 import { useEffect, useMemo, useRef, useState, type FormEvent } from "react";
 import { useNavigate, useParams } from "react-router-dom";
-import { hasRoute, useOpenApi, useOracle, useOracleTypes, useSaveOracle, useTestOracle, validateOracle, ORACLE_TEST_ROUTE, type OracleTestResult } from "../api/hooks";
+import { columns, isPreviewFinal, useCreateOraclePreview, useOracle, useOracleTypes, usePreview, useSaveOracle, validateOracle, type OraclePreviewResult } from "../api/hooks";
 import { ApiError, errorMessage, type FieldError } from "../api/errors";
 import { SchemaForm, schemaDefaults } from "../components/SchemaForm";
 import { ErrorBox, Loading } from "../components/States";
 import { Plot, type Trace } from "../components/Plot";
+import { PreviewPanel } from "../components/PreviewPanel";
 
 function errorsByField(error: unknown, prefix: string): Record<string, string> {
   if (!(error instanceof ApiError)) return {};
@@ -16,27 +17,41 @@ function errorsByField(error: unknown, prefix: string): Record<string, string> {
   return out;
 }
 
-function TestPreview({ result }: { result: OracleTestResult }) {
-  const traces: Trace[] = useMemo(
-    () =>
-      (["fx", "fz", "my"] as const)
-        .filter((c) => result.wrench[c])
-        .map((c) => ({ x: result.t, y: result.wrench[c], name: c === "my" ? "my [N m]" : `${c} [N]`, mode: "lines", type: "scatter", yaxis: c === "my" ? "y2" : "y" })),
-    [result],
-  );
+const FORCE = ["fx", "fy", "fz"] as const;
+const MOMENT = ["mx", "my", "mz"] as const;
+const Y2 = { yaxis2: { title: { text: "moment [N m]" }, overlaying: "y" as const, side: "right" as const }, margin: { l: 64, r: 72, t: 32, b: 44 } };
+const seconds = (s: number) => (s < 0.1 ? `${(s * 1000).toFixed(0)} ms` : `${s.toFixed(2)} s`);
+
+function TestPreview({ result }: { result: OraclePreviewResult }) {
+  const motion: Trace[] = useMemo(() => {
+    const q = columns(result.trajectory.q as number[][]);
+    return q.map((y, j) => ({ x: result.trajectory.t, y, name: q.length > 1 ? `θ_${j} [rad]` : "θ [rad]", mode: "lines", type: "scatter" }));
+  }, [result]);
+  const wrench: Trace[] = useMemo(() => {
+    if (!result.t) return [];
+    const t = result.t;
+    // components that are zero throughout (e.g. fy, mx, mz of a planar oracle) are left out
+    const nonzero = (y: (number | null)[] | null | undefined): y is (number | null)[] => Boolean(y?.some((v) => v !== null && v !== 0));
+    return [
+      ...FORCE.filter((c) => nonzero(result[c])).map((c): Trace => ({ x: t, y: result[c] as number[], name: `${c} [N]`, mode: "lines", type: "scatter" })),
+      ...MOMENT.filter((c) => nonzero(result[c])).map((c): Trace => ({ x: t, y: result[c] as number[], name: `${c} [N m]`, mode: "lines", type: "scatter", line: { dash: "dot" }, yaxis: "y2" })),
+    ];
+  }, [result]);
   return (
     <div data-testid="oracle-test-result">
-      <p className="muted">
-        Ran in {result.wall_time_s?.toFixed(2) ?? "?"} s on the sample trajectory. {result.message}
+      <p className={result.ok ? "muted" : "error-text"} data-testid="oracle-test-summary">
+        {result.ok ? "The oracle ran" : `The oracle failed: ${result.failure_reason ?? "no reason given"}`} in {seconds(result.wall_time_s)} on the sample trajectory (the FE
+        reference head motion: clear of the headrest, into the cushion and back)
+        {result.peak_force_n !== null && result.peak_force_n !== undefined ? `; peak force ${result.peak_force_n.toFixed(1)} N` : ""}.
       </p>
-      <Plot
-        testId="oracle-test-plot"
-        traces={traces}
-        xTitle="t [s]"
-        yTitle="force on the head [N]"
-        exportName="oracle-test"
-        extraLayout={{ yaxis2: { title: { text: "moment [N m]" }, overlaying: "y", side: "right" } }}
-      />
+      <div className="grid2">
+        <Plot testId="oracle-test-motion" traces={motion} xTitle="t [s]" yTitle="joint angle θ [rad]" exportName="oracle-test-motion" height={280} />
+        {wrench.length > 0 ? (
+          <Plot testId="oracle-test-plot" traces={wrench} xTitle="t [s]" yTitle="force on the head [N]" exportName="oracle-test" height={280} extraLayout={Y2} />
+        ) : (
+          <p className="muted">No force and moment: the run failed.</p>
+        )}
+      </div>
     </div>
   );
 }
@@ -48,15 +63,16 @@ export function OracleEditorPage() {
   const types = useOracleTypes();
   const existing = useOracle(editing ? Number(id) : null);
   const save = useSaveOracle(editing ? Number(id) : null);
-  const test = useTestOracle();
+  const test = useCreateOraclePreview(editing ? Number(id) : null);
+  const [previewId, setPreviewId] = useState<number | null>(null);
+  const preview = usePreview(previewId);
+  const testing = test.isPending || (previewId !== null && !isPreviewFinal(preview.data));
   const [name, setName] = useState("");
   const [description, setDescription] = useState("");
   const [type, setType] = useState("");
   const [params, setParams] = useState<Record<string, unknown>>({});
   const [validation, setValidation] = useState<FieldError[]>([]);
   const seq = useRef(0);
-  const openapi = useOpenApi();
-  const canTest = hasRoute(openapi.data, "post", ORACLE_TEST_ROUTE);
 
   // Inline validation by the API, 400 ms after the last edit.
   useEffect(() => {
@@ -113,11 +129,19 @@ export function OracleEditorPage() {
         <span className={validation.length ? "badge bad" : "badge ok"} data-testid="validation-state" aria-live="polite">
           {validation.length ? `${validation.length} problem(s)` : "valid"}
         </span>
-        {canTest && (
-          <button type="button" disabled={test.isPending || !type} onClick={() => test.mutate({ type, params })}>
-            {test.isPending ? "Testing…" : "Test on a sample trajectory"}
-          </button>
-        )}
+        <button
+          type="button"
+          disabled={!editing || testing || validation.length > 0}
+          title={editing ? "Run the oracle with the parameters as shown on a sample trajectory, on a worker" : "Create the oracle first; then edits can be tested before saving"}
+          onClick={() => {
+            setPreviewId(null);
+            // the parameters as shown; unchanged ones: the saved version
+            const edited = JSON.stringify(params) !== JSON.stringify(existing.data?.params ?? {});
+            test.mutate(edited ? { params } : {}, { onSuccess: (p) => setPreviewId(p.id) });
+          }}
+        >
+          {testing ? "Testing…" : "Test on a sample trajectory"}
+        </button>
         <button type="submit" className="primary" disabled={save.isPending}>
           {editing ? "Save (new version if used)" : "Create oracle"}
         </button>
@@ -178,12 +202,7 @@ export function OracleEditorPage() {
         <h2 id="params-title">Parameters</h2>
         {typeInfo ? <SchemaForm schema={typeInfo.schema} value={params} onChange={setParams} errors={fieldErrors} /> : <p className="muted">Choose a type.</p>}
       </section>
-      {(test.data || test.isError) && (
-        <section className="panel" aria-labelledby="test-title">
-          <h2 id="test-title">Test run</h2>
-          {test.isError ? <ErrorBox error={test.error} /> : test.data ? <TestPreview result={test.data} /> : null}
-        </section>
-      )}
+      <PreviewPanel<OraclePreviewResult> id={previewId} title="Test on a sample trajectory" startError={test.error} render={(result) => <TestPreview result={result} />} />
     </form>
   );
 }

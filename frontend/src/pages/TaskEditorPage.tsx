@@ -1,12 +1,13 @@
 import { useEffect, useMemo, useRef, useState, type FormEvent } from "react";
 import { useNavigate, useParams } from "react-router-dom";
-import { hasRoute, useOpenApi, useSaveTask, useSolveOnce, useTask, useTaskPresets, useTaskSchema, validateTask, SOLVE_ONCE_ROUTE, type SolveResult, type TaskSpecDraft } from "../api/hooks";
+import { columns, isPreviewFinal, useCreateTaskPreview, usePreview, useSaveTask, useTask, useTaskPresets, useTaskSchema, validateTask, type TaskPreviewResult, type TaskSpecDraft } from "../api/hooks";
 import { ApiError, errorMessage, type FieldError } from "../api/errors";
 import { SchemaForm, type JsonSchema } from "../components/SchemaForm";
 import { PhasesTable, type PhaseRow } from "../task/PhasesTable";
 import { ErrorBox, Loading } from "../components/States";
 import { Plot, type Trace } from "../components/Plot";
 import { phaseShapes } from "../campaign/TrajectoryPanel";
+import { PreviewPanel } from "../components/PreviewPanel";
 
 function toMap(errors: FieldError[], prefix = ""): Record<string, string> {
   const out: Record<string, string> = {};
@@ -27,16 +28,24 @@ export function phaseSpans(phases: PhaseRow[]): { name?: string; t_start: number
   });
 }
 
-function SolvePreview({ result, phases }: { result: SolveResult; phases: PhaseRow[] }) {
+/** Rows (time) x joints -> one trace per joint (null samples are gaps). */
+function jointTraces(t: number[], rows: (number | null)[][], name: string, unit: string): Trace[] {
+  const cols = columns(rows as number[][]);
+  return cols.map((y, j) => ({ x: t, y, name: cols.length > 1 ? `${name}_${j} [${unit}]` : `${name} [${unit}]`, mode: "lines", type: "scatter" }));
+}
+
+function SolvePreview({ result, phases }: { result: TaskPreviewResult; phases: PhaseRow[] }) {
   const shapes = useMemo(() => phaseShapes(phaseSpans(phases)), [phases]);
-  const angle: Trace[] = useMemo(() => result.q.map((y, j) => ({ x: result.t, y, name: `q_${j} [rad]`, mode: "lines", type: "scatter" })), [result]);
-  const torque: Trace[] = useMemo(() => result.tau.map((y, j) => ({ x: result.t_tau ?? result.t, y, name: `tau_${j} [N m]`, mode: "lines", type: "scatter" })), [result]);
+  const angle = useMemo(() => jointTraces(result.t, result.q, "θ", "rad"), [result]);
+  const torque = useMemo(() => jointTraces(result.t, result.tau, "τ", "N m"), [result]);
   return (
     <div data-testid="solve-preview">
-      <p className={result.success ? "muted" : "error-text"}>
+      <p className={result.converged ? "muted" : "error-text"} data-testid="solve-summary">
         IPOPT: {result.status}
+        {result.converged ? "" : " (not converged)"} · {result.iterations} iterations
         {result.cost !== null && result.cost !== undefined ? ` · cost ${result.cost.toPrecision(4)}` : ""}
-        {result.wall_time_s ? ` · ${result.wall_time_s.toFixed(2)} s` : ""}
+        {result.constraint_violation !== null && result.constraint_violation !== undefined ? ` · constraint violation ${result.constraint_violation.toExponential(1)}` : ""}
+        {` · ${result.intervals} intervals · ${result.wall_time_s.toFixed(2)} s`}
       </p>
       <div className="grid2">
         <Plot testId="preview-angle" traces={angle} shapes={shapes} xTitle="t [s]" yTitle="joint angle θ [rad]" exportName="solve-angle" height={260} />
@@ -54,9 +63,10 @@ export function TaskEditorPage() {
   const schema = useTaskSchema();
   const existing = useTask(editing ? Number(id) : null);
   const save = useSaveTask(editing ? Number(id) : null);
-  const solve = useSolveOnce();
-  const openapi = useOpenApi();
-  const canSolve = hasRoute(openapi.data, "post", SOLVE_ONCE_ROUTE);
+  const solve = useCreateTaskPreview(editing ? Number(id) : null);
+  const [previewId, setPreviewId] = useState<number | null>(null);
+  const preview = usePreview(previewId);
+  const solving = solve.isPending || (previewId !== null && !isPreviewFinal(preview.data));
   const [name, setName] = useState("");
   const [description, setDescription] = useState("");
   const [spec, setSpec] = useState<TaskSpecDraft | null>(null);
@@ -91,8 +101,17 @@ export function TaskEditorPage() {
 
   const errors = useMemo(() => {
     const fromSave = save.error instanceof ApiError ? save.error.fieldErrors : [];
-    return toMap([...validation, ...fromSave], "spec.");
-  }, [validation, save.error]);
+    const fromSolve = solve.error instanceof ApiError ? solve.error.fieldErrors : [];
+    return toMap([...validation, ...fromSave, ...fromSolve], "spec.");
+  }, [validation, save.error, solve.error]);
+
+  function solveOnce() {
+    if (!spec) return;
+    setPreviewId(null);
+    // the task as it is on screen: an unsaved edit is sent along, else the saved version is solved
+    const edited = JSON.stringify(spec) !== JSON.stringify(existing.data?.spec);
+    solve.mutate(edited ? { spec } : {}, { onSuccess: (p) => setPreviewId(p.id) });
+  }
 
   async function submit(e: FormEvent) {
     e.preventDefault();
@@ -132,11 +151,14 @@ export function TaskEditorPage() {
             </select>
           </>
         )}
-        {canSolve && (
-          <button type="button" disabled={solve.isPending || validation.length > 0} onClick={() => solve.mutate({ spec })}>
-            {solve.isPending ? "Solving…" : "Solve once"}
-          </button>
-        )}
+        <button
+          type="button"
+          disabled={!editing || solving || validation.length > 0}
+          title={editing ? "Solve the task as shown once with the auxiliary contact, on a worker" : "Create the task first; then edits can be previewed before saving"}
+          onClick={solveOnce}
+        >
+          {solving ? "Solving…" : "Solve once"}
+        </button>
         <button type="submit" className="primary" disabled={save.isPending}>
           {editing ? "Save (new version if used)" : "Create task"}
         </button>
@@ -194,12 +216,12 @@ export function TaskEditorPage() {
           <BoundaryFields title="Final condition" value={(spec.final ?? {}) as Record<string, unknown>} fields={["q"]} velocityOptions={["rest", "free"]} errors={errors} prefix="final" onChange={(final) => setSpec({ ...spec, final })} />
         </div>
       </section>
-      {(solve.data || solve.isError) && (
-        <section className="panel" aria-labelledby="solve-title">
-          <h2 id="solve-title">Solve once (auxiliary contact)</h2>
-          {solve.isError ? <ErrorBox error={solve.error} /> : solve.data ? <SolvePreview result={solve.data} phases={phases} /> : null}
-        </section>
-      )}
+      <PreviewPanel<TaskPreviewResult>
+        id={previewId}
+        title="Solve once (auxiliary contact)"
+        startError={solve.error}
+        render={(result) => <SolvePreview result={result} phases={phases} />}
+      />
     </form>
   );
 }
