@@ -347,14 +347,22 @@ def _wait_for_workers(campaign_id: int, progress: Progress, poll: float = 0.5) -
     from alcove.campaigns import service
     from alcove.db import session_scope
 
-    proc = WORKER["process"]
     while True:
         with session_scope() as s:
             status = service.get_campaign(s, campaign_id).status.value
         if status in ("completed", "cancelled", "failed"):
             return
+        proc = WORKER["process"]
         if proc.poll() is not None:
-            raise RuntimeError(f"the alcove worker exited with code {proc.returncode} (log: {WORKER['log']})")
+            # a worker that died is replaced (twice at most): the campaign lives in the database
+            # and the new worker's reconciler re-enqueues the step it was running once its lease expires
+            WORKER["restarts"] = WORKER.get("restarts", 0) + 1
+            if WORKER["restarts"] > 2:
+                raise RuntimeError(f"the alcove worker exited with code {proc.returncode} (log: {WORKER['log']})")
+            from alcove_worker.cli.campaign import spawn_worker
+
+            typer.echo(f"[reproduce]   the worker exited with code {proc.returncode}; starting another one (log: {WORKER['log']})", err=True)
+            WORKER["process"] = spawn_worker(WORKER["concurrency"], log_path=WORKER["log"])
         progress()
         time.sleep(poll)
 
@@ -915,7 +923,7 @@ def main(
         if celery:
             from alcove_worker.cli.campaign import spawn_worker
 
-            WORKER["log"] = data_dir / "worker.log"
+            WORKER["log"], WORKER["concurrency"] = data_dir / "worker.log", concurrency
             WORKER["process"] = spawn_worker(concurrency, log_path=WORKER["log"])
         rep.timings_note = "steps run by a spawned Celery worker (embedded default: SQLite + filesystem broker)" if celery else "steps run in this process (flows.drive_inline)"
         base = part("campaign", lambda: part_campaign(rep, n, oracle))
@@ -934,6 +942,7 @@ def main(
             from alcove_worker.cli.campaign import stop_worker
 
             stop_worker(WORKER.pop("process"))
+            WORKER.clear()
         if tmp is not None:
             from alcove.db import dispose_engines
 
