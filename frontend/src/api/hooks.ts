@@ -604,10 +604,6 @@ export function useTaskPresets() {
     staleTime: Infinity,
   });
 }
-/** Whether the API offers a route (optional features such as "solve once" appear when it does). */
-export function hasRoute(doc: OpenApiDocument | undefined, method: string, path: string): boolean {
-  return Boolean((doc as { paths?: Record<string, Record<string, unknown>> } | undefined)?.paths?.[API + path]?.[method.toLowerCase()]);
-}
 export function useTaskSchema() {
   return useQuery({ queryKey: ["task-schema"], queryFn: async () => unwrap(await client.GET("/api/v1/tasks/schema")) as JsonSchema, staleTime: Infinity });
 }
