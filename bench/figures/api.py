@@ -2,20 +2,31 @@
 
 Setup (untimed): a private PostgreSQL schema, migrated, holding a 200-iteration campaign
 synthesized through the services/repositories (``tests/api/synthetic.py``: iterations,
-steps, metrics with 401-sample curves, pool versions), and a real uvicorn server on
-loopback. Each repetition: 20 concurrent clients (httpx async, keep-alive) each make
-25 authenticated GETs; the figure is the p95 of the per-request latency. p50/p99 and
-payload sizes are reported from the same measurement.
+steps, metrics with 401-sample curves, pool versions), and the API served the way
+``alcove serve`` does it: uvicorn with ``API_WORKERS`` processes on loopback.
+
+Load: 20 concurrent keep-alive connections, authenticated (a personal token), each sending
+its next GET as soon as the previous answer arrived (a closed loop: latency = 20 /
+throughput), for ``DURATION_S`` seconds per repetition. The generator is ``wrk`` (C, two
+threads; Debian package ``wrk``) with its latency distribution; if it is missing, an httpx
+async client in Python (it eats much of the same 2 cores: its figures are pessimistic),
+and the table's notes say which one ran. Reported: p50/p95/p99, throughput, payload
+sizes, the cost of an empty ``?after=200`` poll, and the API processes' CPU time per
+request (from /proc: much less sensitive to the machine's load than latencies).
 """
 
 from __future__ import annotations
 
 import asyncio
 import functools
+import json
 import os
+import re
+import shutil
 import statistics
 import subprocess
 import sys
+import tempfile
 import time
 import uuid
 from pathlib import Path
@@ -26,7 +37,9 @@ from bench.harness import figure
 
 ITERATIONS = 200
 CLIENTS = 20
-REQUESTS_PER_CLIENT = 25
+REQUESTS_PER_CLIENT = 25  # httpx fallback
+DURATION_S = float(os.environ.get("ALCOVE_BENCH_API_SECONDS", "4"))
+API_WORKERS = int(os.environ.get("ALCOVE_BENCH_API_WORKERS", "0")) or None  # None: alcove serve's default
 PG_URL = os.environ.get("ALCOVE_BENCH_PG_URL", "postgresql+psycopg://postgres@127.0.0.1:5432/test")
 REPO = Path(__file__).resolve().parents[2]
 
@@ -81,14 +94,21 @@ def server() -> dict[str, Any]:
         sock.bind(("127.0.0.1", 0))
         port = sock.getsockname()[1]
     env = {**os.environ, "ALCOVE_DATABASE_URL": url, "ALCOVE_LOG_LEVEL": "WARNING"}
+    from alcove_worker.cli.serve import default_api_workers
+
+    workers = API_WORKERS or default_api_workers()
     proc = subprocess.Popen(
-        [sys.executable, "-m", "uvicorn", "alcove.api.app:create_app", "--factory", "--host", "127.0.0.1", "--port", str(port), "--log-level", "warning", "--no-access-log", "--timeout-keep-alive", "120"],
-        env=env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
+        [sys.executable, "-m", "alcove_worker.cli.main", "serve", "--host", "127.0.0.1", "--port", str(port), "--workers", str(workers), "--no-migrate"],
+        env=env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, start_new_session=True,
     )
 
     def stop() -> None:
         proc.terminate()
-        proc.wait(timeout=10)
+        try:
+            proc.wait(timeout=15)
+        except subprocess.TimeoutExpired:
+            proc.kill()
+            proc.wait(timeout=5)
         with base.begin() as c:
             c.exec_driver_sql(f'DROP SCHEMA IF EXISTS "{schema}" CASCADE')
         base.dispose()
@@ -103,17 +123,61 @@ def server() -> dict[str, Any]:
             time.sleep(0.1)
     else:
         raise RuntimeError("the API server did not start")
-    return {"root": root, "headers": {"Authorization": f"Bearer {secret}"}, "campaign_id": cid, "results": {}}
+    return {"root": root, "headers": {"Authorization": f"Bearer {secret}"}, "campaign_id": cid, "results": {}, "pid": proc.pid, "workers": workers,
+            "tool": "wrk" if shutil.which("wrk") else "httpx"}
 
 
-async def _load(root: str, headers: dict[str, str], path: str) -> tuple[list[float], int]:
+# ----------------------------------------------------------------------------- load generators
+
+WRK_REPORT = """
+done = function(summary, latency, requests)
+  io.write(string.format("WRK_JSON {\\"p50\\": %d, \\"p95\\": %d, \\"p99\\": %d, \\"requests\\": %d, \\"duration_us\\": %d, \\"bytes\\": %d, \\"errors\\": %d, \\"non2xx\\": %d}\\n",
+    latency:percentile(50), latency:percentile(95), latency:percentile(99), summary.requests, summary.duration, summary.bytes,
+    summary.errors.connect + summary.errors.read + summary.errors.write + summary.errors.timeout, summary.errors.status))
+end
+"""
+
+
+def _wrk(url: str, headers: dict[str, str]) -> dict[str, Any]:
+    with tempfile.NamedTemporaryFile("w", suffix=".lua", delete=False) as f:
+        f.write(WRK_REPORT)
+    try:
+        cmd = ["wrk", "-t2", f"-c{CLIENTS}", f"-d{DURATION_S:g}s", "--timeout", "10s", "-s", f.name]
+        for k, v in headers.items():
+            cmd += ["-H", f"{k}: {v}"]
+        out = subprocess.run([*cmd, url], capture_output=True, text=True, timeout=DURATION_S + 60)
+    finally:
+        os.unlink(f.name)
+    m = re.search(r"WRK_JSON (\{.*\})", out.stdout)
+    if m is None:
+        raise RuntimeError(f"wrk gave no report: {out.stdout[-500:]} {out.stderr[-500:]}")
+    r = json.loads(m.group(1))
+    if r["errors"] or r["non2xx"]:
+        raise RuntimeError(f"wrk: {r['errors']} socket errors, {r['non2xx']} non-2xx answers for {url}")
+    return {"p50": r["p50"] / 1e3, "p95": r["p95"] / 1e3, "p99": r["p99"] / 1e3, "requests": r["requests"], "seconds": r["duration_us"] / 1e6}
+
+
+def _proc_cpu_s(pid: int) -> float:
+    """CPU time (user + system) of the process group of the server (its workers included)."""
+    total = 0.0
+    tick = os.sysconf("SC_CLK_TCK")
+    for d in Path("/proc").iterdir():
+        if not d.name.isdigit():
+            continue
+        try:
+            fields = (d / "stat").read_text().rsplit(")", 1)[1].split()
+        except OSError:
+            continue
+        if int(fields[2]) == pid or int(d.name) == pid:  # fields[2] = pgrp (the server leads its own session)
+            total += (int(fields[11]) + int(fields[12])) / tick
+    return total
+
+
+async def _httpx_load(root: str, headers: dict[str, str], path: str) -> dict[str, Any]:
     import httpx
 
     limits = httpx.Limits(max_connections=CLIENTS, max_keepalive_connections=CLIENTS)
     async with httpx.AsyncClient(base_url=root, headers=headers, limits=limits, timeout=30) as client:
-        r = await client.get(path)  # warm-up (and payload size)
-        r.raise_for_status()
-        size = len(r.content)
         latencies: list[float] = []
 
         async def one_client() -> None:
@@ -123,8 +187,10 @@ async def _load(root: str, headers: dict[str, str], path: str) -> tuple[list[flo
                 latencies.append((time.perf_counter() - t0) * 1e3)
                 resp.raise_for_status()
 
+        t0 = time.perf_counter()
         await asyncio.gather(*(one_client() for _ in range(CLIENTS)))
-    return latencies, size
+        seconds = time.perf_counter() - t0
+    return {"p50": _quantile(latencies, 50), "p95": _quantile(latencies, 95), "p99": _quantile(latencies, 99), "requests": len(latencies), "seconds": seconds}
 
 
 def _quantile(values: list[float], q: float) -> float:
@@ -132,15 +198,39 @@ def _quantile(values: list[float], q: float) -> float:
 
 
 def _measure(ctx: dict[str, Any], key: str, path: str) -> float:
-    latencies, size = asyncio.run(_load(ctx["root"], ctx["headers"], path.format(cid=ctx["campaign_id"])))
-    ctx["results"].setdefault(key, {"latencies": [], "size": size})["latencies"].extend(latencies)
-    return _quantile(latencies, 95)
+    import httpx
+
+    path = path.format(cid=ctx["campaign_id"])
+    r = httpx.get(ctx["root"] + path, headers=ctx["headers"], timeout=30)  # warm-up (and payload size)
+    r.raise_for_status()
+    cpu0 = _proc_cpu_s(ctx["pid"])
+    if ctx["tool"] == "wrk":
+        got = _wrk(ctx["root"] + path, ctx["headers"])
+    else:
+        got = asyncio.run(_httpx_load(ctx["root"], ctx["headers"], path))
+    got["cpu_ms"] = (_proc_cpu_s(ctx["pid"]) - cpu0) / max(got["requests"], 1) * 1e3
+    got["size"] = len(r.content)
+    ctx["results"].setdefault(key, []).append(got)
+    _note(ctx)
+    return got["p95"]
+
+
+def _note(ctx: dict[str, Any]) -> None:
+    from bench.harness import FIGURES
+
+    how = (f"load: wrk, 2 threads, {CLIENTS} keep-alive connections, {DURATION_S:g} s" if ctx["tool"] == "wrk"
+           else f"load: wrk NOT FOUND, httpx fallback ({CLIENTS} clients x {REQUESTS_PER_CLIENT} requests, in Python on the same cores: pessimistic)")
+    for fig in FIGURES:
+        if fig.group == "api" and fig.name.startswith("api: GET"):
+            fig.notes = f"{how}; API: {ctx['workers']} uvicorn worker(s)"
 
 
 HEALTH = "/health"
 METRICS = "/campaigns/{cid}/metrics"
+POLL = "/campaigns/{cid}/metrics?after=200"
 CURVES = "/campaigns/{cid}/iterations/137/curves"
 COMMON = {"setup": server, "requires": _pg_missing, "group": "api", "reps": 3, "quick_reps": 1}
+PATHS = {"health": HEALTH, "metrics": METRICS, "poll": POLL, "curves": CURVES}
 
 
 @figure("api: GET /health (no auth, no database), p95 at 20 clients", "ms", **COMMON,
@@ -159,19 +249,27 @@ def curves_p95(ctx: dict[str, Any]) -> float:
     return _measure(ctx, "curves", CURVES)
 
 
+@figure("api: GET metrics ?after=200 (empty poll), p95 at 20 clients", "ms", baseline="api: GET /health (no auth, no database), p95 at 20 clients", **COMMON)
+def poll_p95(ctx: dict[str, Any]) -> float:
+    return _measure(ctx, "poll", POLL)
+
+
 def _from(key: str, what: str):  # noqa: ANN202
     def run(ctx: dict[str, Any]) -> float:
         got = ctx["results"].get(key)
         if not got:
-            _measure(ctx, key, {"metrics": METRICS, "curves": CURVES, "health": HEALTH}[key])
+            _measure(ctx, key, PATHS[key])
             got = ctx["results"][key]
-        lat = got["latencies"]
-        return {"p50": lambda: _quantile(lat, 50), "p99": lambda: _quantile(lat, 99), "kb": lambda: got["size"] / 1024}[what]()
+        values = {"p50": [g["p50"] for g in got], "p99": [g["p99"] for g in got], "rps": [g["requests"] / g["seconds"] for g in got],
+                  "cpu": [g["cpu_ms"] for g in got], "kb": [g["size"] / 1024 for g in got]}[what]
+        return statistics.median(values)
 
     return run
 
 
-for _key, _label in (("health", "/health"), ("metrics", "metrics series"), ("curves", "curves")):
+for _key, _label in (("health", "/health"), ("metrics", "metrics series"), ("curves", "curves"), ("poll", "metrics ?after=200")):
     figure(f"api: GET {_label}, p50 at 20 clients", "ms", **{**COMMON, "reps": 1})(_from(_key, "p50"))
     figure(f"api: GET {_label}, p99 at 20 clients", "ms", **{**COMMON, "reps": 1})(_from(_key, "p99"))
+    figure(f"api: GET {_label}, throughput at 20 clients", "req/s", higher_is_better=True, **{**COMMON, "reps": 1})(_from(_key, "rps"))
+    figure(f"api: GET {_label}, API CPU per request", "ms", **{**COMMON, "reps": 1})(_from(_key, "cpu"))
     figure(f"api: GET {_label}, payload", "KiB", **{**COMMON, "reps": 1})(_from(_key, "kb"))

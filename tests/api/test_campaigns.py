@@ -5,6 +5,7 @@ preliminary-data upload validation."""
 from __future__ import annotations
 
 import io
+import time
 
 import numpy as np
 import pytest
@@ -25,7 +26,8 @@ def finished(owner: Account) -> int:
 
 
 def add_iteration(cid: int, k: int) -> None:
-    """What the engine's evaluate step writes for a new iteration."""
+    """What the engine's evaluate step writes for a new iteration (visible to polls once the
+    API's short revision reuse has passed)."""
     from alcove.db import session_scope
     from alcove.db.arrays import put_arrays
     from alcove.models import Campaign, Iteration, IterationMetrics
@@ -39,6 +41,9 @@ def add_iteration(cid: int, k: int) -> None:
         s.flush()
         s.add(IterationMetrics(campaign_id=cid, iteration_id=it.id, iteration_index=k, force_rmse=0.5, moment_rmse=0.05,
                                curves_sha256=put_arrays(s, curve_arrays(k, 11, np.random.default_rng(k)))))
+    from alcove.api.campaigns import REVISION_TTL_S
+
+    time.sleep(REVISION_TTL_S + 0.05)
 
 
 def test_metrics_poll_returns_only_new_iterations_and_follows_new_rows(client, owner: Account, finished: int) -> None:
@@ -199,3 +204,26 @@ def _oracle_version(s, cid: int) -> int:  # noqa: ANN001
     from alcove.models import Campaign
 
     return s.get(Campaign, cid).oracle_version_id
+
+
+def test_polls_with_the_etag_get_a_bodiless_304_until_something_changes(client, owner: Account, other: Account) -> None:
+    from alcove.db import session_scope
+
+    from .synthetic import synthesize_campaign
+
+    with session_scope() as s:
+        cid = synthesize_campaign(s, owner.id, iterations=2, name="api-etag", curve_samples=11).id
+    url = f"{API}/campaigns/{cid}/metrics"
+    first = client.get(url, headers=owner.headers)
+    etag = first.headers["ETag"]
+    again = client.get(url, headers={**owner.headers, "If-None-Match": etag})
+    assert again.status_code == 304 and again.content == b"" and again.headers["ETag"] == etag
+    assert client.get(url, headers={"If-None-Match": etag}).status_code == 401  # still authenticated
+    assert client.get(url, headers={**other.headers, "If-None-Match": etag}).status_code == 404  # and authorized
+    assert client.get(url, params={"after": 1}, headers={**owner.headers, "If-None-Match": etag}).status_code == 200  # another query
+    add_iteration(cid, 3)
+    changed = client.get(url, headers={**owner.headers, "If-None-Match": etag})
+    assert changed.status_code == 200 and [m["iteration_index"] for m in changed.json()] == [1, 2, 3] and changed.headers["ETag"] != etag
+    curves = client.get(f"{API}/campaigns/{cid}/iterations/2/curves", headers=owner.headers)
+    assert client.get(f"{API}/campaigns/{cid}/iterations/2/curves", headers={**owner.headers, "If-None-Match": curves.headers["ETag"]}).status_code == 304
+    assert client.get(f"{API}/campaigns/{cid}/iterations/1/curves", headers={**owner.headers, "If-None-Match": curves.headers["ETag"]}).status_code == 200

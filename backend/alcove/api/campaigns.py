@@ -6,9 +6,11 @@ calls the service, commits, then sends the jobs the commit made necessary."""
 from __future__ import annotations
 
 import asyncio
+import hashlib
 import io
 import logging
 import threading
+import time
 import zipfile
 from collections import OrderedDict
 from collections.abc import Callable
@@ -20,6 +22,7 @@ from fastapi import APIRouter, Body, File, Form, Query, Request, Response, Uploa
 from fastapi.responses import StreamingResponse
 from pydantic import BaseModel, ConfigDict, Field, TypeAdapter
 from sqlalchemy.orm import Session
+from starlette.concurrency import run_in_threadpool
 
 from alcove.api.auth import CurrentUser
 from alcove.api.deps import SessionDep
@@ -41,6 +44,7 @@ from alcove.campaigns.schemas import (
     StepRead,
     StoppingRules,
 )
+from alcove.db import get_engine, get_sessionmaker
 from alcove.errors import Conflict, InvalidInput, NotFound
 from alcove.models import (
     Campaign,
@@ -50,6 +54,7 @@ from alcove.models import (
     IterationMetrics,
     IterationStatus,
     ModelVersion,
+    Share,
     OracleDefinition,
     OracleVersion,
     StepName,
@@ -176,6 +181,13 @@ class ResponseCache:
         self.max_entries = max_entries
         self._data: OrderedDict[Any, bytes] = OrderedDict()
         self._lock = threading.Lock()
+
+    def get(self, key: Any) -> bytes | None:
+        with self._lock:
+            body = self._data.get(key)
+            if body is not None:
+                self._data.move_to_end(key)
+            return body
 
     def get_or_build(self, key: Any, build: Callable[[], bytes]) -> bytes:
         with self._lock:
@@ -467,27 +479,33 @@ def fork_campaign(campaign_id: ObjectId, body: ForkRequest, user: CurrentUser, s
 After = Annotated[int | None, Query(ge=-1, le=MAX_ID, description="only iterations with index > after (poll incrementally)")]
 
 
-@router.get("/{campaign_id}/metrics", response_model=list[MetricsRead], operation_id="list_campaign_metrics")
-def list_campaign_metrics(
-    campaign_id: ObjectId, user: CurrentUser, session: SessionDep, after: After = None,
+@router.get("/{campaign_id}/metrics", response_model=list[MetricsRead], operation_id="list_campaign_metrics",
+            responses={304: {"description": "not modified (the `If-None-Match` ETag still matches)"}})
+async def list_campaign_metrics(
+    campaign_id: ObjectId, user: CurrentUser, request: Request, after: After = None,
     extra: Annotated[bool, Query(description="include each row's `extra` (software versions, per-component RMSE, step timings); null otherwise")] = False,
 ) -> Response:
     """Per-iteration metrics (force/moment RMSE, max errors, OCP and oracle figures);
     ``?after=k`` returns only iterations after k, so a dashboard polls cheaply. Compact by
-    default: ``extra`` is null unless ``?extra=true``."""
-    campaign = get_for(session, Campaign, campaign_id, user)
-    count, last_id = session.execute(
-        sa.select(sa.func.count(), sa.func.max(IterationMetrics.id)).where(IterationMetrics.campaign_id == campaign_id)
-    ).one()
-    key = ("metrics", campaign_id, after, extra, campaign.updated_at, count, last_id)
+    default: ``extra`` is null unless ``?extra=true``. Answers carry an ``ETag``: send it back
+    as ``If-None-Match`` and an unchanged series is a bodiless 304."""
+    revision = REVISIONS.get(("metrics", campaign_id, user.id))
+    if revision is None:
+        revision = await run_in_threadpool(_read, _metrics_revision, campaign_id, user.id)
+        if revision is not None:
+            REVISIONS.put(("metrics", campaign_id, user.id), revision, REVISION_TTL_S)
+    if revision is None:
+        raise NotFound("campaign", campaign_id)
+    key = ("metrics", campaign_id, after, extra, *revision)
 
     def build() -> bytes:
-        rows = campaigns.metrics_series(session, campaign_id, after)
+        with get_sessionmaker()() as session:
+            rows = campaigns.metrics_series(session, campaign_id, after)
         if not extra:
             rows = [m.model_copy(update={"extra": None}) for m in rows]
         return METRICS_LIST.dump_json(rows)
 
-    return Response(RESPONSES.get_or_build(key, build), media_type="application/json")
+    return await _cached_json(request, key, build)
 
 
 @router.get("/{campaign_id}/iterations", response_model=list[IterationRead], operation_id="list_campaign_iterations")
@@ -513,20 +531,152 @@ def list_campaign_iterations(
 _ITERATION_FIELDS = ("id", "index", "status", "current_step", "config_version_id", "error", "started_at", "finished_at")
 
 
-@router.get("/{campaign_id}/iterations/{iteration}/curves", response_model=IterationCurves, operation_id="get_iteration_curves")
-def get_iteration_curves(campaign_id: ObjectId, iteration: IterationIndex, user: CurrentUser, session: SessionDep) -> Response:
+@router.get("/{campaign_id}/iterations/{iteration}/curves", response_model=IterationCurves, operation_id="get_iteration_curves",
+            responses={304: {"description": "not modified (the `If-None-Match` ETag still matches)"}})
+async def get_iteration_curves(campaign_id: ObjectId, iteration: IterationIndex, user: CurrentUser, request: Request) -> Response:
     """Iteration k's trajectory (t, q, qd, tau: the motion replayed by the oracle, on the
     oracle's time grid) with the oracle's forces and model k's prediction (columns fx fy fz
-    mx my mz in the headrest frame)."""
-    from alcove.campaigns import repository as crepo
+    mx my mz in the headrest frame). Immutable once there: cached, with an ``ETag``."""
+    sha = REVISIONS.get(("curves", campaign_id, iteration, user.id))
+    if sha is None:
+        sha = await run_in_threadpool(_read, _curves_sha, campaign_id, iteration, user.id)
+        if sha is not None:
+            REVISIONS.put(("curves", campaign_id, iteration, user.id), sha, CURVES_ACCESS_TTL_S)
+    if sha is None:
+        def why() -> None:  # the slow path only for the 404's message
+            with get_sessionmaker()() as session:
+                get_for(session, Campaign, campaign_id, user)
+            raise NotFound(f"evaluated iteration {iteration} of campaign", campaign_id)
 
-    get_for(session, Campaign, campaign_id, user)
-    metrics = crepo.metrics_of(session, campaign_id, iteration)
-    if metrics is None or metrics.curves_sha256 is None:
-        raise NotFound(f"evaluated iteration {iteration} of campaign", campaign_id)
-    key = ("curves", metrics.curves_sha256, iteration)  # content-addressed: never stale
-    body = RESPONSES.get_or_build(key, lambda: campaigns.iteration_curves(session, campaign_id, iteration).model_dump_json().encode())
-    return Response(body, media_type="application/json")
+        await run_in_threadpool(why)
+    key = ("curves", campaign_id, iteration, sha)  # content-addressed: never stale
+
+    def build() -> bytes:
+        with get_sessionmaker()() as session:
+            return campaigns.iteration_curves(session, campaign_id, iteration).model_dump_json().encode()
+
+    return await _cached_json(request, key, build)
+
+
+# The two most polled routes read with one lean query on a pooled connection (no ORM
+# objects, one thread hop), answer from the serialized-bytes cache, and give ETags.
+
+
+class TtlCache:
+    """Tiny thread-safe map whose entries expire (per API process)."""
+
+    def __init__(self, max_entries: int = 4096) -> None:
+        self.max_entries = max_entries
+        self._data: dict[Any, tuple[float, Any]] = {}
+        self._lock = threading.Lock()
+
+    def get(self, key: Any) -> Any:
+        hit = self._data.get(key)
+        if hit is None or hit[0] < time.monotonic():
+            return None
+        return hit[1]
+
+    def put(self, key: Any, value: Any, ttl_s: float) -> None:
+        if ttl_s <= 0:
+            return
+        with self._lock:
+            if len(self._data) >= self.max_entries:
+                self._data.clear()
+            self._data[key] = (time.monotonic() + ttl_s, value)
+
+    def clear(self) -> None:
+        with self._lock:
+            self._data.clear()
+
+
+#: How long a process reuses a campaign's metrics revision (and the access check that came
+#: with it) for one user: new iterations show up at most this late, and a dashboard's burst
+#: of polls costs no database round trip.
+REVISION_TTL_S = 0.5
+#: How long a process remembers that a user may read an iteration's (immutable) curves:
+#: removing a share takes effect within this time, like a revoked token.
+CURVES_ACCESS_TTL_S = 5.0
+REVISIONS = TtlCache()
+
+
+def _read(query: Callable[..., Any], *args: Any) -> Any:
+    for attempt in (1, 2):
+        try:
+            with _read_engine().connect() as conn:
+                return query(conn, *args)
+        except sa.exc.DBAPIError as err:
+            # no pre-ping on this pool: a connection the server closed (restart, idle
+            # timeout) fails here once, is discarded, and the query runs again on a new one
+            if attempt == 2 or not err.connection_invalidated:
+                raise
+    raise AssertionError("unreachable")
+
+
+_READ_ENGINES: dict[sa.Engine, sa.Engine] = {}
+_read_lock = threading.Lock()
+
+
+def _read_engine() -> sa.Engine:
+    """An engine for the single-SELECT reads of the polled routes. On PostgreSQL: its own
+    small pool in autocommit mode without pre-ping (a SELECT needs no transaction; returning
+    the connection costs no ROLLBACK and taking it no extra round trip). On SQLite: the
+    request engine."""
+    engine = key = get_engine()
+    proxy = _READ_ENGINES.get(key)
+    if proxy is None:
+        with _read_lock:
+            proxy = _READ_ENGINES.get(key)
+            if proxy is None:
+                if engine.dialect.name == "postgresql":
+                    from alcove.db.engine import make_engine
+
+                    proxy = make_engine(engine.url, pool_pre_ping=False, pool_size=4, max_overflow=8, pool_recycle=1800,
+                                        isolation_level="AUTOCOMMIT")
+                else:
+                    proxy = engine
+                _READ_ENGINES[key] = proxy
+    return proxy
+
+
+def _visible_campaign() -> sa.ColumnElement[bool]:
+    return sa.and_(Campaign.id == sa.bindparam("cid"),
+                   sa.or_(Campaign.owner_id == sa.bindparam("uid"), Campaign.id.in_(sa.select(Share.campaign_id).where(Share.user_id == sa.bindparam("uid")))))
+
+
+# built once: building a statement costs several times more than executing a cached one
+_REVISION = sa.select(
+    Campaign.updated_at,
+    sa.select(sa.func.count()).where(IterationMetrics.campaign_id == Campaign.id).scalar_subquery(),
+    sa.select(sa.func.max(IterationMetrics.id)).where(IterationMetrics.campaign_id == Campaign.id).scalar_subquery(),
+).where(_visible_campaign())
+_CURVES_SHA = (
+    sa.select(IterationMetrics.curves_sha256).join(Campaign, Campaign.id == IterationMetrics.campaign_id)
+    .where(IterationMetrics.campaign_id == sa.bindparam("cid"), IterationMetrics.iteration_index == sa.bindparam("k"), IterationMetrics.curves_sha256.is_not(None), _visible_campaign())
+)
+
+
+def _metrics_revision(conn: sa.Connection, campaign_id: int, user_id: int) -> tuple[Any, ...] | None:
+    """What makes the cached series stale: the campaign's ``updated_at``, the count and last
+    id of its metrics rows (None: no such campaign visible to the user)."""
+    row = conn.execute(_REVISION, {"cid": campaign_id, "uid": user_id}).first()
+    return None if row is None else tuple(row)
+
+
+def _curves_sha(conn: sa.Connection, campaign_id: int, iteration: int, user_id: int) -> str | None:
+    return conn.execute(_CURVES_SHA, {"cid": campaign_id, "k": iteration, "uid": user_id}).scalar()
+
+
+async def _cached_json(request: Request, key: tuple[Any, ...], build: Callable[[], bytes]) -> Response:
+    """The cached body for ``key`` (built in the thread pool on a miss) with a weak ETag
+    derived from the key; 304 without a body when the client already has it."""
+    etag = 'W/"' + hashlib.blake2b(repr(key).encode(), digest_size=12).hexdigest() + '"'
+    headers = {"ETag": etag, "Cache-Control": "private, no-cache"}
+    if etag in request.headers.get("if-none-match", ""):
+        return Response(status_code=304, headers=headers)
+    body = RESPONSES.get(key)
+    if body is None:
+        body = await run_in_threadpool(RESPONSES.get_or_build, key, build)
+    return Response(body, media_type="application/json", headers=headers)
 
 
 @router.get("/{campaign_id}/jobs", response_model=list[JobOut], operation_id="list_campaign_jobs")

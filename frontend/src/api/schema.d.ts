@@ -280,7 +280,7 @@ export interface paths {
          * Get Iteration Curves
          * @description Iteration k's trajectory (t, q, qd, tau: the motion replayed by the oracle, on the
          *     oracle's time grid) with the oracle's forces and model k's prediction (columns fx fy fz
-         *     mx my mz in the headrest frame).
+         *     mx my mz in the headrest frame). Immutable once there: cached, with an ``ETag``.
          */
         get: operations["get_iteration_curves"];
         put?: never;
@@ -322,7 +322,8 @@ export interface paths {
          * List Campaign Metrics
          * @description Per-iteration metrics (force/moment RMSE, max errors, OCP and oracle figures);
          *     ``?after=k`` returns only iterations after k, so a dashboard polls cheaply. Compact by
-         *     default: ``extra`` is null unless ``?extra=true``.
+         *     default: ``extra`` is null unless ``?extra=true``. Answers carry an ``ETag``: send it back
+         *     as ``If-None-Match`` and an unchanged series is a bodiless 304.
          */
         get: operations["list_campaign_metrics"];
         put?: never;
@@ -4719,6 +4720,13 @@ export interface operations {
                     "application/json": components["schemas"]["IterationCurves"];
                 };
             };
+            /** @description not modified (the `If-None-Match` ETag still matches) */
+            304: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content?: never;
+            };
             /** @description not authenticated (missing, invalid, expired or revoked token) */
             401: {
                 headers: {
@@ -4897,6 +4905,13 @@ export interface operations {
                 content: {
                     "application/json": components["schemas"]["MetricsRead"][];
                 };
+            };
+            /** @description not modified (the `If-None-Match` ETag still matches) */
+            304: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content?: never;
             };
             /** @description not authenticated (missing, invalid, expired or revoked token) */
             401: {

@@ -15,6 +15,7 @@ app.add_typer(campaign.app, name="campaign")
 app.add_typer(users.user_app, name="user")
 app.add_typer(users.token_app, name="token")
 app.command(name="up")(serve.up)
+app.command(name="serve")(serve.serve)
 app.command(name="worker")(serve.worker)
 app.command(name="smoke")(serve.smoke)
 

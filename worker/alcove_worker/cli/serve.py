@@ -1,4 +1,4 @@
-"""`alcove up`, `alcove worker`, `alcove smoke`: run the service."""
+"""`alcove up`, `alcove serve`, `alcove worker`, `alcove smoke`: run the service."""
 
 from __future__ import annotations
 
@@ -133,9 +133,50 @@ class WorkerProcess:
             p.wait(timeout=5)
 
 
+def default_api_workers() -> int:
+    """API processes by default: one per CPU, at most 4 (each process holds its own
+    database pool, token cache and response cache)."""
+    return max(1, min(os.cpu_count() or 1, 4))
+
+
+def _run_api(host: str, port: int, workers: int, log_level: str) -> None:
+    import uvicorn
+
+    # several processes share the port (uvicorn's supervisor restarts one that dies); the
+    # import string + factory is what lets each of them build its own app
+    uvicorn.run("alcove.api.app:create_app", factory=True, host=host, port=port, log_level=log_level, lifespan="on", workers=workers,
+                access_log=log_level == "debug", timeout_keep_alive=30)
+
+
+def serve(
+    host: str | None = typer.Option(None, help="API host (default ALCOVE_API_HOST)"),
+    port: int | None = typer.Option(None, help="API port (default ALCOVE_API_PORT)"),
+    workers: int | None = typer.Option(None, "--workers", "-w", min=1, max=64, help="API processes (default: one per CPU, at most 4)"),
+    migrate_db: bool = typer.Option(True, "--migrate/--no-migrate", help="run `alcove db upgrade` first"),
+) -> None:
+    """Run the API server only (workers run elsewhere: `alcove worker`)."""
+    from alcove.db import migrate
+    from alcove.settings import get_settings
+
+    s = get_settings()
+    s.data_dir.mkdir(parents=True, exist_ok=True)
+    if migrate_db:
+        migrate.upgrade()
+    _ensure_admin()
+    host = host or s.api_host
+    port = port or s.api_port
+    _check_port_free(host, port)
+    n = workers or default_api_workers()
+    typer.echo(f"alcove {_version()} · database {_redact(s.database_url)} · broker {_redact(s.broker_url)} · {n} API process(es)")
+    signal.signal(signal.SIGTERM, _exit_on_sigterm)
+    typer.echo(f"API on http://{host}:{port}  (health: /api/v1/health, docs: /api/v1/docs)")
+    _run_api(host, port, n, s.log_level.lower())
+
+
 def up(
     host: str | None = typer.Option(None, help="API host (default ALCOVE_API_HOST)"),
     port: int | None = typer.Option(None, help="API port (default ALCOVE_API_PORT)"),
+    workers: int = typer.Option(1, "--workers", "-w", min=1, max=64, help="API processes (`alcove serve` defaults to one per CPU)"),
     concurrency: int | None = typer.Option(None, "--concurrency", "-c", min=1, help="worker processes (default ALCOVE_WORKER_CONCURRENCY or CPU count)"),
     queues: str = typer.Option(ALL_QUEUES, "--queues", "-Q", help="queues of the bundled worker"),
     with_worker: bool = typer.Option(True, "--worker/--no-worker", help="also start a worker process"),
@@ -143,8 +184,6 @@ def up(
 ) -> None:
     """Run the API server and a Celery worker together (embedded default: SQLite +
     filesystem broker in ALCOVE_DATA_DIR, nothing else needed)."""
-    import uvicorn
-
     from alcove.db import migrate
     from alcove.settings import get_settings
 
@@ -171,7 +210,7 @@ def up(
     signal.signal(signal.SIGTERM, _exit_on_sigterm)
     try:
         typer.echo(f"API on http://{host}:{port}  (health: /api/v1/health, docs: /api/v1/docs)")
-        uvicorn.run("alcove.api.app:create_app", factory=True, host=host, port=port, log_level=s.log_level.lower(), lifespan="on")
+        _run_api(host, port, workers, s.log_level.lower())
     finally:
         if wp is not None:
             wp.stop()
