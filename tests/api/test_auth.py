@@ -129,3 +129,26 @@ def test_a_token_revoked_by_another_process_stops_working_within_the_cache_time(
     time.sleep(0.6)
     r = client.get("/api/v1/me", headers=me.headers)
     assert r.status_code == 401 and r.headers["WWW-Authenticate"] == "Bearer"
+
+
+def test_cached_principals_are_private_detached_copies(client) -> None:  # noqa: ANN001
+    from sqlalchemy import inspect
+
+    from alcove.db import session_scope
+    from alcove.models import User
+    from alcove.users import service
+
+    me = make_account("member", "copies")
+    for _ in range(2):  # the first use records last_used_at, the next one is cached
+        assert client.get("/api/v1/me", headers=me.headers).status_code == 200
+    with session_scope() as s:
+        token, user = service.cached_authentication(s, me.token)
+        again, _ = service.cached_authentication(s, me.token)
+        fresh = s.get(User, me.id)
+        assert inspect(user).detached and not inspect(user).modified and token is not again
+        assert {a.key: getattr(user, a.key) for a in inspect(User).column_attrs} == {a.key: getattr(fresh, a.key) for a in inspect(User).column_attrs}
+        user.display_name = "changed here only"
+        assert service.cached_authentication(s, me.token)[1].display_name != "changed here only"
+        merged = s.merge(user)  # a route changes a user by merging its copy
+        assert merged.display_name == "changed here only"
+        s.rollback()

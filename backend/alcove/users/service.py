@@ -127,12 +127,21 @@ def authenticate(session: Session, secret: str) -> tuple[ApiToken, User] | None:
     return token, user
 
 
+_COLUMN_KEYS: dict[type, tuple[str, ...]] = {}
+
+
 def _detached_copy(obj: T) -> T:
     """A detached instance with the same column values (no relationships loaded)."""
-    mapper = sa.inspect(type(obj))
-    copy = mapper.class_manager.new_instance()
-    for attr in mapper.column_attrs:
-        set_committed_value(copy, attr.key, getattr(obj, attr.key))
+    cls = type(obj)
+    keys = _COLUMN_KEYS.get(cls)
+    if keys is None:
+        keys = _COLUMN_KEYS[cls] = tuple(attr.key for attr in sa.inspect(cls).column_attrs)
+    src = obj.__dict__
+    copy = cls._sa_class_manager.new_instance()  # type: ignore[attr-defined]
+    state = sa.inspect(copy)
+    # the values as committed state in one step (what set_committed_value does per key)
+    state.dict.update({k: src[k] if k in src else getattr(obj, k) for k in keys})
+    state._commit_all(state.dict)
     make_transient_to_detached(copy)
     return copy
 
