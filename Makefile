@@ -18,7 +18,7 @@ HAVE_NPM := $(shell command -v npm 2>/dev/null)
 FRONTEND_SOURCES := $(shell find frontend/src frontend/index.html frontend/vite.config.ts frontend/tsconfig.json -type f 2>/dev/null)
 FRONTEND_OUT := backend/alcove/static/index.html
 
-.PHONY: install frontend up test bench migrate worker clean-venv help
+.PHONY: install frontend up test bench reproduce docs-images migrate worker clean-venv help
 .DEFAULT_GOAL := help
 
 help:
@@ -72,6 +72,10 @@ bench: install
 
 reproduce: install
 	$(PY) scripts/reproduce.py $(REPRODUCE_ARGS)
+
+# the docs' UI screenshots (docs/images/) come from the browser end-to-end test
+docs-images: install frontend
+	ALCOVE_DOCS_IMAGES=1 $(PY) -m pytest tests/e2e/test_browser.py -q
 
 clean-venv:
 	rm -rf $(VENV)
