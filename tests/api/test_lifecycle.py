@@ -96,6 +96,9 @@ def test_full_campaign_lifecycle_over_http(live) -> None:  # noqa: ANN001
     f_true, f_pred = np.array(curves["f_true"]), np.array(curves["f_pred"])
     assert f_true.shape == f_pred.shape == (len(curves["t"]), 6)
     assert np.sqrt(np.mean((f_true[:, :3] - f_pred[:, :3]) ** 2)) == pytest.approx(seen[2]["force_rmse"], rel=1e-6)
+    # the trajectory part carries the replayed motion's torque on the same grid
+    tau = np.array(curves["tau"])
+    assert tau.shape == np.array(curves["q"]).shape and np.all(np.isfinite(tau)) and np.abs(tau).max() > 0
 
     jobs = ok(client.get(f"{API}/campaigns/{cid}/jobs", headers=h))
     assert {(j["iteration"], j["step"]) for j in jobs} >= {(0, "preliminary"), (1, "train"), (2, "append")}
