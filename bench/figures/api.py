@@ -185,7 +185,8 @@ async def _httpx_load(root: str, headers: dict[str, str], path: str) -> dict[str
                 t0 = time.perf_counter()
                 resp = await client.get(path)
                 latencies.append((time.perf_counter() - t0) * 1e3)
-                resp.raise_for_status()
+                if resp.status_code >= 400:
+                    resp.raise_for_status()
 
         t0 = time.perf_counter()
         await asyncio.gather(*(one_client() for _ in range(CLIENTS)))
@@ -203,11 +204,16 @@ def _measure(ctx: dict[str, Any], key: str, path: str) -> float:
     path = path.format(cid=ctx["campaign_id"])
     r = httpx.get(ctx["root"] + path, headers=ctx["headers"], timeout=30)  # warm-up (and payload size)
     r.raise_for_status()
+    headers = dict(ctx["headers"])
+    if key == "etag":  # a poll that already has the answer: 304, no body
+        headers["If-None-Match"] = r.headers["ETag"]
+        r = httpx.get(ctx["root"] + path, headers=headers, timeout=30)
+        assert r.status_code == 304, r.status_code
     cpu0 = _proc_cpu_s(ctx["pid"])
     if ctx["tool"] == "wrk":
-        got = _wrk(ctx["root"] + path, ctx["headers"])
+        got = _wrk(ctx["root"] + path, headers)
     else:
-        got = asyncio.run(_httpx_load(ctx["root"], ctx["headers"], path))
+        got = asyncio.run(_httpx_load(ctx["root"], headers, path))
     got["cpu_ms"] = (_proc_cpu_s(ctx["pid"]) - cpu0) / max(got["requests"], 1) * 1e3
     got["size"] = len(r.content)
     ctx["results"].setdefault(key, []).append(got)
@@ -230,7 +236,7 @@ METRICS = "/campaigns/{cid}/metrics"
 POLL = "/campaigns/{cid}/metrics?after=200"
 CURVES = "/campaigns/{cid}/iterations/137/curves"
 COMMON = {"setup": server, "requires": _pg_missing, "group": "api", "reps": 3, "quick_reps": 1}
-PATHS = {"health": HEALTH, "metrics": METRICS, "poll": POLL, "curves": CURVES}
+PATHS = {"health": HEALTH, "metrics": METRICS, "poll": POLL, "curves": CURVES, "etag": METRICS}
 
 
 @figure("api: GET /health (no auth, no database), p95 at 20 clients", "ms", **COMMON,
@@ -254,6 +260,11 @@ def poll_p95(ctx: dict[str, Any]) -> float:
     return _measure(ctx, "poll", POLL)
 
 
+@figure("api: GET metrics series with If-None-Match (304), p95 at 20 clients", "ms", baseline="api: GET /health (no auth, no database), p95 at 20 clients", **COMMON)
+def etag_p95(ctx: dict[str, Any]) -> float:
+    return _measure(ctx, "etag", METRICS)
+
+
 def _from(key: str, what: str):  # noqa: ANN202
     def run(ctx: dict[str, Any]) -> float:
         got = ctx["results"].get(key)
@@ -267,7 +278,7 @@ def _from(key: str, what: str):  # noqa: ANN202
     return run
 
 
-for _key, _label in (("health", "/health"), ("metrics", "metrics series"), ("curves", "curves"), ("poll", "metrics ?after=200")):
+for _key, _label in (("health", "/health"), ("metrics", "metrics series"), ("curves", "curves"), ("poll", "metrics ?after=200"), ("etag", "metrics 304")):
     figure(f"api: GET {_label}, p50 at 20 clients", "ms", **{**COMMON, "reps": 1})(_from(_key, "p50"))
     figure(f"api: GET {_label}, p99 at 20 clients", "ms", **{**COMMON, "reps": 1})(_from(_key, "p99"))
     figure(f"api: GET {_label}, throughput at 20 clients", "req/s", higher_is_better=True, **{**COMMON, "reps": 1})(_from(_key, "rps"))
