@@ -96,6 +96,35 @@ def test_the_jobs_compute_the_science_and_ignore_duplicates(client) -> None:  # 
         assert s.get(Preview, tp).attempts == 1
 
 
+def test_a_preview_no_worker_takes_fails_with_the_reason_and_frees_its_slot(client) -> None:  # noqa: ANN001
+    from datetime import timedelta
+
+    import sqlalchemy as sa
+
+    from alcove.db import transaction
+    from alcove.models import Preview, utcnow
+    from alcove.previews.service import STALE_AFTER, run_preview
+
+    me = make_account("member", "pv-stale")
+    task_id, oracle_id = _task_and_oracle(client, me)
+    ids = [client.post(f"{API}/tasks/{task_id}/previews", headers=me.headers).json()["id"] for _ in range(2)]
+    ids.append(client.post(f"{API}/oracles/{oracle_id}/previews", headers=me.headers).json()["id"])
+    assert client.post(f"{API}/tasks/{task_id}/previews", headers=me.headers).status_code == 429
+    old = utcnow() - STALE_AFTER - timedelta(seconds=5)
+    # the first waited too long in the queue; the oracle one was taken by a worker that died
+    transaction(lambda s: s.execute(sa.update(Preview).where(Preview.id == ids[0]).values(created_at=old)))
+    transaction(lambda s: s.execute(sa.update(Preview).where(Preview.id == ids[2]).values(status="running", started_at=old, attempts=1)))
+
+    stale = client.get(f"{API}/previews/{ids[0]}", headers=me.headers).json()
+    assert stale["status"] == "failed" and "no worker took it" in stale["error"] and "'ocp'" in stale["error"], stale
+    assert client.get(f"{API}/previews/{ids[0]}", headers=me.headers).json()["status"] == "failed"  # stored, not only answered
+    listed = {x["id"]: x for x in client.get(f"{API}/previews", headers=me.headers).json()}
+    assert listed[ids[2]]["status"] == "failed" and "no worker finished it" in listed[ids[2]]["error"] and "'oracle'" in listed[ids[2]]["error"]
+    assert listed[ids[1]]["status"] == "pending"  # a fresh one is left alone
+    assert run_preview(ids[0], "late@host") == "skipped"  # a late delivery does not revive it
+    assert client.post(f"{API}/tasks/{task_id}/previews", headers=me.headers).status_code == 202
+
+
 # ----------------------------------------------------------------------------- through a worker process
 
 

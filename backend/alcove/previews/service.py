@@ -131,11 +131,49 @@ def get(session: Session, user: User, preview_id: int) -> Preview:
     row = session.get(Preview, preview_id)
     if row is None or row.owner_id != user.id:
         raise NotFound("preview", preview_id)
+    _fail_if_stale(session, row)
     return row
 
 
 def list_for(session: Session, user: User, limit: int) -> list[Preview]:
-    return list(session.scalars(sa.select(Preview).where(Preview.owner_id == user.id).order_by(Preview.id.desc()).limit(limit)))
+    rows = list(session.scalars(sa.select(Preview).where(Preview.owner_id == user.id).order_by(Preview.id.desc()).limit(limit)))
+    for row in rows:
+        _fail_if_stale(session, row)
+    return rows
+
+
+def _fail_if_stale(session: Session, row: Preview) -> None:
+    """A preview no worker took (or whose worker died) within :data:`STALE_AFTER` is marked
+    failed when it is read, with the reason, instead of staying "pending" for ever. The
+    update is conditional, so a worker finishing at the same moment wins or loses cleanly
+    (its own update requires ``running`` with its attempt number)."""
+    active = (PreviewStatus.pending.value, PreviewStatus.running.value)
+    if row.status not in active:
+        return
+    since = row.started_at if row.status == PreviewStatus.running.value else row.created_at
+    if since is None or _aware(since) > utcnow() - STALE_AFTER:
+        return
+    queue = "ocp" if row.kind == PreviewKind.task.value else "oracle"
+    what = "no worker finished it" if row.status == PreviewStatus.running.value else "no worker took it"
+    error = f"{what} within {int(STALE_AFTER.total_seconds() // 60)} minutes: is a worker listening on queue '{queue}'? Ask for a new preview."
+    from alcove.db import transaction
+
+    now = utcnow()
+    stmt = (
+        sa.update(Preview).where(Preview.id == row.id, Preview.status == row.status, Preview.attempts == row.attempts)
+        .values(status=PreviewStatus.failed.value, error=error, finished_at=now)
+    )
+    # its own short write transaction: a GET's session only reads (and is rolled back)
+    if transaction(lambda s: s.execute(stmt).rowcount):
+        session.expunge(row)  # answer with the new state without writing through this session
+        row.status, row.error, row.finished_at = PreviewStatus.failed.value, error, now
+
+
+def _aware(moment: Any) -> Any:
+    """SQLite hands back naive datetimes (stored in UTC)."""
+    from datetime import timezone
+
+    return moment if moment.tzinfo is not None else moment.replace(tzinfo=timezone.utc)
 
 
 def send(row_id: int, kind: str) -> None:
