@@ -66,6 +66,7 @@ from alcove.models import (
     utcnow,
 )
 from alcove.pool import service as pool_service
+from alcove.science.json_values import json_safe
 
 log = logging.getLogger(__name__)
 
@@ -347,22 +348,6 @@ def _command_catalogue(s: Session):  # noqa: ANN202
     return command_catalogue(s)
 
 
-def _json_safe(obj: Any) -> Any:
-    if isinstance(obj, dict):
-        return {str(k): _json_safe(v) for k, v in obj.items()}
-    if isinstance(obj, (list, tuple)):
-        return [_json_safe(v) for v in obj]
-    if isinstance(obj, (np.integer,)):
-        return int(obj)
-    if isinstance(obj, (float, np.floating)):
-        v = float(obj)
-        return v if math.isfinite(v) else None
-    if isinstance(obj, np.ndarray):
-        return _json_safe(obj.tolist())
-    if obj is None or isinstance(obj, (str, int, bool)):
-        return obj
-    return str(obj)
-
 
 def software_versions() -> dict[str, Any]:
     """Code and library versions recorded with every iteration (and every model version)."""
@@ -531,10 +516,10 @@ def execute_ocp(ctx: StepContext) -> StepOutput:
                           initial_guess=sol.attempts[-1]["guess"] if sol.attempts else "default", success=bool(sol.converged), solver_status=sol.status,
                           n_iterations=int(sol.iterations), cost=float(sol.cost) if math.isfinite(sol.cost) else None, wall_time_s=float(sol.wall_time),
                           message="" if sol.converged else f"no converged solution after {len(sol.attempts)} initial guess(es)",
-                          stats=_json_safe(sol.summary()), trajectory_sha256=sha)
+                          stats=json_safe(sol.summary()), trajectory_sha256=sha)
         s.add(row)
         s.flush()
-        return {"ocp_solution_id": row.id, "converged": bool(sol.converged), "status": sol.status, "iterations": int(sol.iterations), "cost": _json_safe(sol.cost)}
+        return {"ocp_solution_id": row.id, "converged": bool(sol.converged), "status": sol.status, "iterations": int(sol.iterations), "cost": json_safe(sol.cost)}
 
     if not sol.converged:
         raise IterationFailure(f"OCP did not converge ({sol.status}) after {len(sol.attempts)} initial guess(es)", write=record)
@@ -591,7 +576,7 @@ def execute_oracle(ctx: StepContext) -> StepOutput:
     compute = time.perf_counter() - t0
     ok = bool(res.ok) and not fault.get("gate_fail")
     reason = res.failure_reason if not res.ok else ("fault injection: quality gate failed" if fault.get("gate_fail") else None)
-    diagnostics = _json_safe(res.diagnostics)
+    diagnostics = json_safe(res.diagnostics)
 
     def record(s: Session, c: Campaign, it: Iteration) -> dict[str, Any]:
         in_sha = put_arrays(s, {"t": traj.t, "q": traj.q, "qd": traj.qd, "tau": traj.tau})

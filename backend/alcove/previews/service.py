@@ -298,6 +298,7 @@ def test_oracle(type_name: str, params: dict[str, Any], dt: float, catalogue: An
     from alcove.science.geometry import DEFAULT_PRESET
     from alcove.science.oracles.fe_headrest.reference import reference_motion
     from alcove.science.oracles.registry import build_oracle
+    from alcove.science.json_values import json_safe
 
     oracle = build_oracle(type_name, params, DEFAULT_PRESET, catalogue=catalogue)
     traj = reference_motion(DEFAULT_PRESET, dt=dt)
@@ -305,24 +306,10 @@ def test_oracle(type_name: str, params: dict[str, Any], dt: float, catalogue: An
     out: dict[str, Any] = {
         "ok": bool(res.ok), "failure_reason": res.failure_reason, "wall_time_s": float(res.wall_time),
         "trajectory": {"t": _finite(traj.t), "q": _finite(traj.q), "qd": _finite(traj.qd)},
-        "diagnostics": _json_safe(res.diagnostics),
+        "diagnostics": json_safe(res.diagnostics),
         "t": None, "fx": None, "fy": None, "fz": None, "mx": None, "my": None, "mz": None, "peak_force_n": None,
     }
     if res.forces is not None:
         f = np.hstack([res.forces.force, res.forces.moment])
         out.update(t=_finite(res.forces.t), peak_force_n=_scalar(res.forces.peak_force), **{c: _finite(f[:, j]) for j, c in enumerate(("fx", "fy", "fz", "mx", "my", "mz"))})
     return out
-
-
-def _json_safe(value: Any) -> Any:
-    if isinstance(value, dict):
-        return {str(k): _json_safe(v) for k, v in value.items()}
-    if isinstance(value, (list, tuple)):
-        return [_json_safe(v) for v in value]
-    if hasattr(value, "item") and callable(value.item):
-        value = value.item()
-    if isinstance(value, float) and not math.isfinite(value):
-        return None
-    if value is None or isinstance(value, (bool, int, float, str)):
-        return value
-    return str(value)

@@ -8,7 +8,6 @@ code 1 and writes no forces file.
 from __future__ import annotations
 
 import json
-import math
 import sys
 from pathlib import Path
 from typing import Any, NoReturn
@@ -56,29 +55,16 @@ def _read_params(path: Path | None) -> dict[str, Any]:
     return data
 
 
-def _json_safe(value: Any) -> Any:
-    if isinstance(value, dict):
-        return {str(k): _json_safe(v) for k, v in value.items()}
-    if isinstance(value, (list, tuple)):
-        return [_json_safe(v) for v in value]
-    if hasattr(value, "item") and callable(value.item):  # numpy scalars
-        value = value.item()
-    if isinstance(value, float) and not math.isfinite(value):
-        return None
-    if value is None or isinstance(value, (bool, int, float, str)):
-        return value
-    return str(value)
-
-
 def run_summary(oracle_name: str, result: Any, out: Path | None) -> dict[str, Any]:
     """The ``--json`` summary: status, wall time, peak force, max penetration, dissipated energy, Newton iterations."""
+    from alcove.science.json_values import json_safe
     from alcove.science.oracles.registry import SUMMARY_DIAGNOSTICS as SUMMARY_KEYS
 
     headline = {k: result.diagnostics.get(k) for k in SUMMARY_KEYS}
     if headline["newton_iterations"] is None:  # the FE oracle reports its total under this name
         headline["newton_iterations"] = result.diagnostics.get("newton_iterations_total")
     extra = {k: v for k, v in result.diagnostics.items() if k not in SUMMARY_KEYS}
-    return _json_safe(
+    return json_safe(
         {
             "status": "ok" if result.ok else "failed",
             "oracle": oracle_name,
