@@ -13,7 +13,7 @@ from alcove.campaigns import service as campaigns
 from alcove.campaigns.presets import oracle_version_for, surrogate_config_version_for, task_version_from_preset
 from alcove.campaigns.schemas import CampaignCreate, StoppingRules
 from alcove.db.arrays import put_arrays
-from alcove.models import Campaign, Iteration, IterationMetrics, IterationStep, utcnow
+from alcove.models import Campaign, Iteration, IterationMetrics, IterationStep, OcpSolution, utcnow
 from alcove.pool import service as pool_service
 
 STEPS = ("train", "ocp", "oracle", "evaluate", "append")
@@ -30,7 +30,19 @@ def curve_arrays(k: int, n: int, rng: np.random.Generator) -> dict[str, np.ndarr
     return {"t": t, "q": q, "qd": qd, "f_true": f_true, "f_pred": f_pred}
 
 
-def synthesize_campaign(session: Session, owner_id: int, *, iterations: int, curve_samples: int = 401, pool_samples: int = 100, name: str = "synthetic", model: bool = False, seed: int = 0) -> Campaign:
+def ocp_arrays(k: int, intervals: int) -> dict[str, np.ndarray]:
+    """A two-phase trajectory on a DMOCC-like grid over the preset's 2 s task (1 s + 1 s,
+    ``intervals`` per phase): the head moves onto the headrest in phase 1, rests in phase 2."""
+    t = np.linspace(0.0, 2.0, 2 * intervals + 1)
+    s = np.clip(t, 0.0, 1.0)
+    q = (0.05 + (0.232 + 0.001 * k - 0.05) * (3 * s**2 - 2 * s**3))[:, None]
+    qd = (np.where(t <= 1.0, (0.232 + 0.001 * k - 0.05) * (6 * s - 6 * s**2), 0.0))[:, None]
+    tau = np.where(t < 1.0, 2.0 * (1.0 - 2.0 * s), 0.0)[:, None]
+    return {"t": t, "q": q, "qd": qd, "tau": tau, "controls": tau[1:]}
+
+
+def synthesize_campaign(session: Session, owner_id: int, *, iterations: int, curve_samples: int = 401, pool_samples: int = 100, name: str = "synthetic", model: bool = False, seed: int = 0,
+                        ocp_intervals: int = 20) -> Campaign:
     rng = np.random.default_rng(seed)
     data = CampaignCreate(
         name=name, task_version_id=task_version_from_preset(session, owner_id, "head-headrest-2phase"),
@@ -64,6 +76,9 @@ def synthesize_campaign(session: Session, owner_id: int, *, iterations: int, cur
                 ocp_success=True, ocp_status="Solve_Succeeded", ocp_iterations=30, ocp_cost=1.0 / k, ocp_wall_time_s=2.0, oracle_wall_time_s=3.0, train_wall_time_s=1.0,
                 n_pool_samples=parent.n_samples, dataset_id=ds.id, curves_sha256=put_arrays(session, curves),
             ))
+            session.add(OcpSolution(campaign_id=c.id, iteration_id=it.id, attempt=1, initial_guess="previous" if k > 1 else "default", success=True,
+                                    solver_status="Solve_Succeeded", n_iterations=30, cost=1.0 / k, wall_time_s=2.0, stats={},
+                                    trajectory_sha256=put_arrays(session, ocp_arrays(k, ocp_intervals))))
             if model and k == 1:
                 _train_tiny_model(session, c, it, parent)
     c.status = "completed"

@@ -194,6 +194,7 @@ SPECS: dict[str, Spec] = {
     "list_campaign_metrics": ("owned", lambda o, a: Call(path=o.finished(), params={"after": 0}), OK),
     "list_campaign_iterations": ("owned", lambda o, a: Call(path=o.finished()), OK),
     "get_iteration_curves": ("owned", lambda o, a: Call(path={**o.finished(), "iteration": 1}), OK),
+    "get_iteration_trajectory": ("owned", lambda o, a: Call(path={**o.finished(), "iteration": 1}), OK),
     "list_campaign_jobs": ("owned", lambda o, a: Call(path=o.finished()), OK),
     "list_campaign_events": ("owned", lambda o, a: Call(path=o.finished()), OK),
     "stream_campaign_events": ("owned", lambda o, a: Call(path=o.finished(), params={"timeout": 0}), OK),

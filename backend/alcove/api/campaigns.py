@@ -27,6 +27,7 @@ from starlette.concurrency import run_in_threadpool
 from alcove.api.auth import CurrentUser
 from alcove.api.deps import SessionDep
 from alcove.api.params import MAX_ID, IterationIndex, Limit, ObjectId, Offset, VersionNumber
+from alcove.campaigns import repository as repo
 from alcove.campaigns import service as campaigns
 from alcove.campaigns.schemas import (
     CampaignConfigUpdate,
@@ -34,6 +35,7 @@ from alcove.campaigns.schemas import (
     EventRead,
     ForkRequest,
     IterationCurves,
+    IterationTrajectory,
     IterationRead,
     MetricsRead,
     ModelVersionRead,
@@ -54,6 +56,7 @@ from alcove.models import (
     IterationMetrics,
     IterationStatus,
     ModelVersion,
+    OcpSolution,
     Share,
     OracleDefinition,
     OracleVersion,
@@ -554,6 +557,36 @@ async def get_iteration_curves(campaign_id: ObjectId, iteration: IterationIndex,
     def build() -> bytes:
         with get_sessionmaker()() as session:
             return campaigns.iteration_curves(session, campaign_id, iteration).model_dump_json().encode()
+
+    return await _cached_json(request, key, build)
+
+
+@router.get("/{campaign_id}/iterations/{iteration}/trajectory", response_model=IterationTrajectory, operation_id="get_iteration_trajectory",
+            responses={304: {"description": "not modified (the `If-None-Match` ETag still matches)"}})
+async def get_iteration_trajectory(campaign_id: ObjectId, iteration: IterationIndex, user: CurrentUser, request: Request) -> Response:
+    """Iteration k's whole OCP solution over the task: t, q, qd, tau on the OCP grid for
+    every phase, the phase boundaries (names, durations), which phases the oracle replayed,
+    and the solver summary (status, converged, iterations, cost, wall time) of its latest
+    attempt. 404 for an iteration without an OCP solution (iteration 0, or not solved yet).
+    Not part of the polled routes (the curves route stays lean); cached with an ``ETag``."""
+
+    def solution_id() -> int:
+        with get_sessionmaker()() as session:
+            c = get_for(session, Campaign, campaign_id, user)
+            cid, k = repo.resolve_source(session, c, iteration)  # type: ignore[misc]
+            sid = session.scalar(sa.select(OcpSolution.id).join(Iteration, Iteration.id == OcpSolution.iteration_id)
+                                 .where(Iteration.campaign_id == cid, Iteration.index == k, OcpSolution.trajectory_sha256.is_not(None))
+                                 .order_by(OcpSolution.attempt.desc()).limit(1))
+            if sid is None:
+                raise repo.NotFound("iteration", f"campaign {campaign_id} has no OCP solution for iteration {iteration} (iteration 0 has none; a later one has none until its OCP step ran)")
+            return sid
+
+    sid = await run_in_threadpool(solution_id)
+    key = ("trajectory", campaign_id, iteration, sid)  # a new attempt is a new row: never stale
+
+    def build() -> bytes:
+        with get_sessionmaker()() as session:
+            return campaigns.iteration_trajectory(session, campaign_id, iteration).model_dump_json().encode()
 
     return await _cached_json(request, key, build)
 

@@ -239,6 +239,46 @@ class IterationCurves(BaseModel):
     f_pred: list[list[float]]
 
 
+class TrajectoryPhase(BaseModel):
+    """One phase of the task on the OCP's time axis."""
+
+    index: int
+    name: str = Field(description="the task's phase name (may be empty)")
+    duration: float = Field(description="[s]")
+    t_start: float = Field(description="[s]")
+    t_end: float = Field(description="[s]")
+    replayed: bool = Field(description="the oracle replayed this phase")
+
+
+class OcpSolverSummary(BaseModel):
+    """The solve that produced the trajectory (the iteration's latest OCP attempt)."""
+
+    status: str = Field(description="IPOPT return status")
+    converged: bool
+    iterations: int | None = Field(None, description="IPOPT iterations")
+    cost: float | None = None
+    wall_time_s: float | None = None
+    attempt: int
+    initial_guess: str
+    message: str = ""
+
+
+class IterationTrajectory(BaseModel):
+    """Iteration k's whole OCP solution over the task (all phases, on the OCP grid)."""
+
+    iteration_index: int
+    t: list[float] = Field(description="the OCP grid's nodes [s]")
+    q: list[list[float]] = Field(description="(n, ndof) joint angles [rad]")
+    qd: list[list[float]] = Field(description="(n, ndof) joint velocities [rad/s]")
+    tau: list[list[float]] = Field(description="(n, ndof) joint torque at the nodes [N m] (mean of the adjacent intervals')")
+    duration: float = Field(description="the task's duration: the sum of the phase durations [s]")
+    phases: list[TrajectoryPhase]
+    replay_phases: int = Field(description="the oracle replays the first N phases (the iteration's setting)")
+    replay_t_end: float = Field(description="end of the replayed part [s]")
+    replay_dt: float | None = Field(None, description="the replay's resampling step [s]; null: the OCP grid")
+    solver: OcpSolverSummary
+
+
 class EventRead(_Read):
     id: int
     iteration_index: int | None

@@ -36,6 +36,9 @@ from alcove.campaigns.schemas import (
     ForkRequest,
     IterationCurves,
     IterationRead,
+    IterationTrajectory,
+    OcpSolverSummary,
+    TrajectoryPhase,
     MetricsRead,
     ModelVersionRead,
     PoolVersionRead,
@@ -462,6 +465,39 @@ def iteration_curves(s: Session, campaign_id: int, iteration: int) -> IterationC
     tau = a["tau"] if "tau" in a else _replayed_tau(s, m.iteration_id, a["t"])
     return IterationCurves(iteration_index=iteration, t=a["t"].tolist(), q=a["q"].tolist(), qd=a["qd"].tolist(), tau=None if tau is None else tau.tolist(),
                            f_true=a["f_true"].tolist(), f_pred=a["f_pred"].tolist())
+
+
+def iteration_trajectory(s: Session, campaign_id: int, iteration: int) -> IterationTrajectory:
+    """Iteration k's whole OCP solution (its latest attempt, converged or not) over every
+    phase of the task, with the phase boundaries, the part the oracle replayed and the
+    solver summary. An iteration up to a fork's source iteration reads the source's."""
+    c = repo.get_campaign(s, campaign_id)
+    cid, k = repo.resolve_source(s, c, iteration)  # type: ignore[misc]
+    it = repo.get_iteration(s, cid, k)
+    sol = repo.latest_ocp_solution(s, it.id) if it is not None else None
+    if sol is None or sol.trajectory_sha256 is None:
+        raise NotFound("iteration", f"campaign {campaign_id} has no OCP solution for iteration {iteration} (iteration 0 has none; a later one has none until its OCP step ran)")
+    owner = c if cid == c.id else s.get(Campaign, cid)
+    spec = s.get(TaskVersion, owner.task_version_id).spec
+    cv = s.get(CampaignConfigVersion, it.config_version_id) if it.config_version_id else None
+    settings = (config_from_version(cv) if cv is not None else current_config(s, owner)).settings
+    a = get_arrays(s, sol.trajectory_sha256)
+    t = np.asarray(a["t"], float)
+    q = np.asarray(a["q"], float).reshape(len(t), -1)
+    start = float(t[0]) if len(t) else 0.0
+    phases, t0 = [], start
+    n_replayed = min(settings.replay_phases, len(spec["phases"]))
+    for m, ph in enumerate(spec["phases"]):
+        d = float(ph["duration"])
+        phases.append(TrajectoryPhase(index=m, name=ph.get("name") or "", duration=d, t_start=t0, t_end=t0 + d, replayed=m < n_replayed))
+        t0 += d
+    return IterationTrajectory(
+        iteration_index=iteration, t=t.tolist(), q=q.tolist(), qd=np.asarray(a["qd"], float).reshape(q.shape).tolist(),
+        tau=np.asarray(a["tau"], float).reshape(q.shape).tolist(), duration=t0 - start, phases=phases, replay_phases=n_replayed,
+        replay_t_end=phases[n_replayed - 1].t_end, replay_dt=settings.replay_dt,
+        solver=OcpSolverSummary(status=sol.solver_status, converged=bool(sol.success), iterations=sol.n_iterations, cost=sol.cost, wall_time_s=sol.wall_time_s,
+                                attempt=sol.attempt, initial_guess=sol.initial_guess, message=sol.message or ""),
+    )
 
 
 def _replayed_tau(s: Session, iteration_id: int, t: np.ndarray) -> np.ndarray | None:
