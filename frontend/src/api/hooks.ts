@@ -401,6 +401,26 @@ export function columns(rows: number[][]): number[][] {
 }
 const WRENCH = ["fx", "fy", "fz", "mx", "my", "mz"] as const;
 
+export type IterationTrajectory = Schemas["IterationTrajectory"];
+export interface WholeTrajectory extends Omit<IterationTrajectory, "q" | "qd" | "tau"> {
+  /** one array per joint */
+  q: number[][];
+  qd: number[][];
+  tau: number[][];
+}
+
+/** Iteration k's whole OCP solution (every phase, on the OCP grid); immutable per attempt. */
+export function trajectoryQuery(id: number, k: number) {
+  return queryOptions({
+    queryKey: ["trajectory", id, k],
+    queryFn: async (): Promise<WholeTrajectory> => {
+      const r = unwrap(await client.GET("/api/v1/campaigns/{campaign_id}/iterations/{iteration}/trajectory", { params: { path: { campaign_id: id, iteration: k } } }));
+      return { ...r, q: columns(r.q), qd: columns(r.qd), tau: columns(r.tau) };
+    },
+    staleTime: 60_000,
+  });
+}
+
 export function iterationQuery(id: number, k: number) {
   return queryOptions({
     queryKey: ["iteration", id, k],

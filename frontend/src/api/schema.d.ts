@@ -291,6 +291,30 @@ export interface paths {
         patch?: never;
         trace?: never;
     };
+    "/api/v1/campaigns/{campaign_id}/iterations/{iteration}/trajectory": {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        /**
+         * Get Iteration Trajectory
+         * @description Iteration k's whole OCP solution over the task: t, q, qd, tau on the OCP grid for
+         *     every phase, the phase boundaries (names, durations), which phases the oracle replayed,
+         *     and the solver summary (status, converged, iterations, cost, wall time) of its latest
+         *     attempt. 404 for an iteration without an OCP solution (iteration 0, or not solved yet).
+         *     Not part of the polled routes (the curves route stays lean); cached with an ``ETag``.
+         */
+        get: operations["get_iteration_trajectory"];
+        put?: never;
+        post?: never;
+        delete?: never;
+        options?: never;
+        head?: never;
+        patch?: never;
+        trace?: never;
+    };
     "/api/v1/campaigns/{campaign_id}/jobs": {
         parameters: {
             query?: never;
@@ -1776,6 +1800,57 @@ export interface components {
          * @enum {string}
          */
         IterationStatus: "pending" | "running" | "succeeded" | "failed" | "cancelled";
+        /**
+         * IterationTrajectory
+         * @description Iteration k's whole OCP solution over the task (all phases, on the OCP grid).
+         */
+        IterationTrajectory: {
+            /**
+             * Duration
+             * @description the task's duration: the sum of the phase durations [s]
+             */
+            duration: number;
+            /** Iteration Index */
+            iteration_index: number;
+            /** Phases */
+            phases: components["schemas"]["TrajectoryPhase"][];
+            /**
+             * Q
+             * @description (n, ndof) joint angles [rad]
+             */
+            q: number[][];
+            /**
+             * Qd
+             * @description (n, ndof) joint velocities [rad/s]
+             */
+            qd: number[][];
+            /**
+             * Replay Dt
+             * @description the replay's resampling step [s]; null: the OCP grid
+             */
+            replay_dt?: number | null;
+            /**
+             * Replay Phases
+             * @description the oracle replays the first N phases (the iteration's setting)
+             */
+            replay_phases: number;
+            /**
+             * Replay T End
+             * @description end of the replayed part [s]
+             */
+            replay_t_end: number;
+            solver: components["schemas"]["OcpSolverSummary"];
+            /**
+             * T
+             * @description the OCP grid's nodes [s]
+             */
+            t: number[];
+            /**
+             * Tau
+             * @description (n, ndof) joint torque at the nodes [N m] (mean of the adjacent intervals')
+             */
+            tau: number[][];
+        };
         /** JobOut */
         JobOut: {
             /** Attempts */
@@ -2025,6 +2100,37 @@ export interface components {
              * @description widths of the hidden layers
              */
             hidden: number[];
+        };
+        /**
+         * OcpSolverSummary
+         * @description The solve that produced the trajectory (the iteration's latest OCP attempt).
+         */
+        OcpSolverSummary: {
+            /** Attempt */
+            attempt: number;
+            /** Converged */
+            converged: boolean;
+            /** Cost */
+            cost?: number | null;
+            /** Initial Guess */
+            initial_guess: string;
+            /**
+             * Iterations
+             * @description IPOPT iterations
+             */
+            iterations?: number | null;
+            /**
+             * Message
+             * @default
+             */
+            message?: string;
+            /**
+             * Status
+             * @description IPOPT return status
+             */
+            status: string;
+            /** Wall Time S */
+            wall_time_s?: number | null;
         };
         /** OracleDraft */
         OracleDraft: {
@@ -3102,6 +3208,39 @@ export interface components {
              * @description first characters of the token, to recognise it
              */
             token_prefix: string;
+        };
+        /**
+         * TrajectoryPhase
+         * @description One phase of the task on the OCP's time axis.
+         */
+        TrajectoryPhase: {
+            /**
+             * Duration
+             * @description [s]
+             */
+            duration: number;
+            /** Index */
+            index: number;
+            /**
+             * Name
+             * @description the task's phase name (may be empty)
+             */
+            name: string;
+            /**
+             * Replayed
+             * @description the oracle replayed this phase
+             */
+            replayed: boolean;
+            /**
+             * T End
+             * @description [s]
+             */
+            t_end: number;
+            /**
+             * T Start
+             * @description [s]
+             */
+            t_start: number;
         };
         /** UploadOut */
         UploadOut: {
@@ -4718,6 +4857,101 @@ export interface operations {
                 };
                 content: {
                     "application/json": components["schemas"]["IterationCurves"];
+                };
+            };
+            /** @description not modified (the `If-None-Match` ETag still matches) */
+            304: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content?: never;
+            };
+            /** @description not authenticated (missing, invalid, expired or revoked token) */
+            401: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorOut"];
+                };
+            };
+            /** @description not allowed (admin-only route, or an object shared with you for viewing only) */
+            403: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorOut"];
+                };
+            };
+            /** @description no such object, or not visible to you */
+            404: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorOut"];
+                };
+            };
+            /** @description conflicts with the current state (e.g. a campaign transition, a duplicate) */
+            409: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorOut"];
+                };
+            };
+            /** @description request body too large */
+            413: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorOut"];
+                };
+            };
+            /** @description invalid input: field paths and reasons */
+            422: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ValidationErrorOut"];
+                };
+            };
+            /** @description database busy or unavailable: retry */
+            503: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorOut"];
+                };
+            };
+        };
+    };
+    get_iteration_trajectory: {
+        parameters: {
+            query?: never;
+            header?: never;
+            path: {
+                /** @description object id */
+                campaign_id: number;
+                /** @description iteration index k (0 = preliminary data) */
+                iteration: number;
+            };
+            cookie?: never;
+        };
+        requestBody?: never;
+        responses: {
+            /** @description Successful Response */
+            200: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["IterationTrajectory"];
                 };
             };
             /** @description not modified (the `If-None-Match` ETag still matches) */

@@ -74,6 +74,29 @@ const TASK_VERSION = { version: 1, spec_hash: "x", note: "", locked: true, creat
 const CURVES_ROUTE = "GET /campaigns/7/iterations/{k}/curves";
 const curvesHandler = (url: URL) => curves(Number(url.pathname.split("/")[6]));
 
+const TRAJECTORY_ROUTE = "GET /campaigns/7/iterations/{k}/trajectory";
+// the whole OCP solution of iteration k: 2 phases of 0.1 s, 2 intervals each
+const trajectory = (k: number) => ({
+  iteration_index: k,
+  t: [0, 0.05, 0.1, 0.15, 0.2],
+  q: [[0.2], [0.3], [0.35], [0.35], [0.35]],
+  qd: [[0], [1], [0], [0], [0]],
+  tau: [[-1], [-2.5], [-1], [0], [0]],
+  duration: 0.2,
+  phases: [
+    { index: 0, name: "lean back", duration: 0.1, t_start: 0, t_end: 0.1, replayed: true },
+    { index: 1, name: "hold", duration: 0.1, t_start: 0.1, t_end: 0.2, replayed: false },
+  ],
+  replay_phases: 1,
+  replay_t_end: 0.1,
+  replay_dt: 0.0025,
+  solver: { status: "Solve_Succeeded", converged: true, iterations: 31, cost: 0.5, wall_time_s: 0.2, attempt: 1, initial_guess: "previous", message: "" },
+});
+const trajectoryHandler = (url: URL) => {
+  const k = Number(url.pathname.split("/")[6]);
+  return k > 0 ? trajectory(k) : new Response(JSON.stringify({ detail: `iteration: campaign 7 has no OCP solution for iteration ${k}` }), { status: 404 });
+};
+
 describe("campaign page", () => {
   it("polls only new iterations while the campaign runs and draws them on a log axis", async () => {
     let metrics = [metric(0), metric(1)];
@@ -137,36 +160,41 @@ describe("campaign page", () => {
     expect(calls.some((c) => c.path.startsWith("/campaigns/7/") && c.path.endsWith("/pause"))).toBe(false);
   });
 
-  it("plots joint angle and torque of the iteration's trajectory with the replayed phases shaded", async () => {
-    // a third phase after the replayed motion (t <= 0.2 s) is not shaded
-    const threePhases = { ...TASK_VERSION, spec: { ...TASK_VERSION.spec, phases: [...TASK_VERSION.spec.phases, { name: "rest", duration: 1 }] } };
-    mockApi({
-      "GET /campaigns/7": () => campaign("completed", 1),
-      "GET /campaigns/7/metrics": () => [metric(0), metric(1)],
-      "GET /campaigns/7/iterations": () => [iteration(0), iteration(1)],
-      "GET /tasks/1/versions/1": threePhases,
-      [CURVES_ROUTE]: curvesHandler,
-    });
-    renderPage(<CampaignPage />, { route: "/campaigns/7?tab=trajectory", path: "/campaigns/:id" });
-    await waitFor(() => expect(screen.getByTestId("angle-plot")).toHaveAttribute("data-points", "3"));
-    expect(screen.getByTestId("torque-plot")).toHaveAttribute("data-points", "3");
-    expect(screen.queryByTestId("velocity-plot")).not.toBeInTheDocument();
-    await waitFor(() => expect(screen.getByTestId("angle-plot")).toHaveAttribute("data-shapes", "2"));
-    expect(screen.getByTestId("torque-plot")).toHaveAttribute("data-shapes", "2");
-    expect(screen.getByTestId("phases-not-replayed")).toHaveTextContent("lean back, hold. The task's later phase is not replayed.");
-  });
-
-  it("falls back to the joint velocity for an iteration without torque", async () => {
+  it("plots the iteration's whole OCP trajectory with every phase shaded and the replayed part marked", async () => {
     mockApi({
       "GET /campaigns/7": () => campaign("completed", 1),
       "GET /campaigns/7/metrics": () => [metric(0), metric(1)],
       "GET /campaigns/7/iterations": () => [iteration(0), iteration(1)],
       "GET /tasks/1/versions/1": TASK_VERSION,
       [CURVES_ROUTE]: curvesHandler,
+      [TRAJECTORY_ROUTE]: trajectoryHandler,
+    });
+    renderPage(<CampaignPage />, { route: "/campaigns/7?tab=trajectory", path: "/campaigns/:id" });
+    // both phases over the whole task (5 nodes up to t = 0.2 s), not only the replayed one
+    await waitFor(() => expect(screen.getByTestId("angle-plot")).toHaveAttribute("data-points", "5"));
+    expect(screen.getByTestId("torque-plot")).toHaveAttribute("data-points", "5");
+    // 2 phase rectangles + the 3 lines of the "replayed by the oracle" bracket
+    expect(screen.getByTestId("angle-plot")).toHaveAttribute("data-shapes", "5");
+    expect(screen.getByTestId("trajectory-panel")).toHaveAttribute("data-phases", "2");
+    expect(screen.getByTestId("phases-replayed")).toHaveTextContent("The oracle replayed lean back (t ≤ 0.100 s, resampled every 2.50 ms). The task's later phase is not replayed.");
+    const summary = screen.getByTestId("solver-summary");
+    expect(summary).toHaveTextContent("Solve_Succeeded");
+    expect(summary).toHaveTextContent("IPOPT iterations31");
+  });
+
+  it("says an iteration without an OCP solution has no trajectory", async () => {
+    mockApi({
+      "GET /campaigns/7": () => campaign("completed", 1),
+      "GET /campaigns/7/metrics": () => [metric(0), metric(1)],
+      "GET /campaigns/7/iterations": () => [iteration(0), iteration(1)],
+      "GET /tasks/1/versions/1": TASK_VERSION,
+      [CURVES_ROUTE]: curvesHandler,
+      [TRAJECTORY_ROUTE]: trajectoryHandler,
     });
     renderPage(<CampaignPage />, { route: "/campaigns/7?tab=trajectory&k=0", path: "/campaigns/:id" });
-    await waitFor(() => expect(screen.getByTestId("velocity-plot")).toHaveAttribute("data-points", "3"));
-    expect(screen.queryByTestId("torque-plot")).not.toBeInTheDocument();
+    expect(await screen.findByText("Iteration 0 has no OCP trajectory")).toBeInTheDocument();
+    expect(screen.queryByTestId("angle-plot")).not.toBeInTheDocument();
+    expect(screen.queryByRole("alert")).not.toBeInTheDocument();
   });
 
   it("shows the API's error instead of a blank page", async () => {

@@ -1,11 +1,10 @@
 import { Link, useParams } from "react-router-dom";
-import { isLive, useCampaign, useMetrics, useOracle, useTask, useTaskVersion } from "../api/hooks";
-import { useMemo } from "react";
+import { isLive, useCampaign, useMetrics, useOracle, useTask } from "../api/hooks";
 import { Empty, ErrorBox, Loading, StatusBadge } from "../components/States";
 import { RmsePlot } from "../campaign/RmsePlot";
 import { loadPlotly } from "../components/Plot";
 import { ForcesPanel } from "../campaign/ForcesPanel";
-import { phaseSpans, TrajectoryPanel } from "../campaign/TrajectoryPanel";
+import { TrajectoryPanel } from "../campaign/TrajectoryPanel";
 import { JobsTable, VersionsPanel } from "../campaign/JobsAndVersions";
 import { Controls } from "../campaign/Controls";
 import { fmtDate, fmtDuration, fmtNumber } from "../lib/format";
@@ -28,10 +27,8 @@ export function CampaignPage() {
   const [selected, setSelected] = useIntListParam("k");
   const [overlay, setOverlay] = useIntListParam("overlay");
   const [tab, setTab] = useStringParam("tab", "forces");
-  const taskVersion = useTaskVersion(campaign.data?.task_id, campaign.data?.task_version);
   const oracle = useOracle(campaign.data?.oracle_id ?? null);
   const task = useTask(campaign.data?.task_id ?? null);
-  const phases = useMemo(() => phaseSpans(((taskVersion.data?.spec as { phases?: { name?: string; duration?: number }[] } | undefined)?.phases ?? [])), [taskVersion.data]);
 
   if (!Number.isInteger(id)) return <ErrorBox error="invalid campaign id" />;
   if (campaign.isPending) return <Loading label="Loading campaign…" />;
@@ -157,7 +154,7 @@ export function CampaignPage() {
         </div>
         <div role="tabpanel" id={`panel-${tab}`} aria-labelledby={`tab-${tab}`}>
           {tab === "forces" && <ForcesPanel campaignId={id} points={points} iteration={k} setIteration={(it) => setSelected([it])} overlay={overlay} setOverlay={setOverlay} />}
-          {tab === "trajectory" && <TrajectoryPanel campaignId={id} iteration={trajectoryK} phases={phases} />}
+          {tab === "trajectory" && <TrajectoryPanel campaignId={id} iteration={trajectoryK} />}
           {tab === "jobs" && <JobsTable campaignId={id} live={live} />}
           {tab === "versions" && <VersionsPanel campaignId={id} live={live} />}
         </div>
