@@ -37,7 +37,7 @@ def test_previews_are_accepted_private_validated_and_limited(client) -> None:  #
     r = client.post(f"{API}/tasks/{task_id}/previews", json={"intervals": 6}, headers=me.headers)
     assert r.status_code == 202, r.text
     p = r.json()
-    assert p["status"] == "pending" and p["kind"] == "task" and p["result"] is None and p["options"] == {"intervals": 6} and not p["draft"]
+    assert p["status"] == "pending" and p["kind"] == "task" and p["result"] is None and p["options"] == {"intervals": 6, "intervals_per_phase": [6, 6]} and not p["draft"]
     assert client.get(f"{API}/previews/{p['id']}", headers=me.headers).json()["status"] == "pending"
     assert client.get(f"{API}/previews/{p['id']}", headers=someone.headers).status_code == 404
     assert client.post(f"{API}/tasks/{task_id}/previews", headers=someone.headers).status_code == 404  # not shared with them
@@ -71,7 +71,7 @@ def test_the_jobs_compute_the_science_and_ignore_duplicates(client) -> None:  # 
 
     me = make_account("member", "pv-job")
     task_id, oracle_id = _task_and_oracle(client, me)
-    tp = client.post(f"{API}/tasks/{task_id}/previews", json={"intervals": 8}, headers=me.headers).json()["id"]
+    tp = client.post(f"{API}/tasks/{task_id}/previews", headers=me.headers).json()["id"]  # the task's own grid: 8 per phase
     op = client.post(f"{API}/oracles/{oracle_id}/previews", json={"dt": 0.01}, headers=me.headers).json()["id"]
     assert run_preview(tp, "test@host") == "succeeded"
     assert run_preview(tp, "test@host") == "skipped"  # a redelivered message does nothing
@@ -81,6 +81,7 @@ def test_the_jobs_compute_the_science_and_ignore_duplicates(client) -> None:  # 
     assert task["status"] == "succeeded" and task["worker_name"] == "test@host" and task["finished_at"]
     res = task["result"]
     assert res["converged"] and res["status"] == "Solve_Succeeded" and res["intervals"] == 16 and res["iterations"] > 0
+    assert res["intervals_per_phase"] == [8, 8] and res["grid"] == "8 + 8 intervals (the task's own grid)"
     t, q, tau = np.array(res["t"]), np.array(res["q"]), np.array(res["tau"])
     assert t.shape == (17,) and q.shape == tau.shape == (17, 1) and np.all(np.diff(t) > 0)
     spec = small_task_spec()
@@ -94,6 +95,35 @@ def test_the_jobs_compute_the_science_and_ignore_duplicates(client) -> None:  # 
     assert np.all(force[t < first - 1e-9] == 0.0) and force.max() == pytest.approx(oracle["peak_force_n"]) and force.max() > 0
     with session_scope() as s:
         assert s.get(Preview, tp).attempts == 1
+
+
+def test_a_task_preview_solves_on_the_tasks_own_grid_capped(client) -> None:  # noqa: ANN001
+    """Without ``intervals`` each phase keeps its own intervals (at most the preview cap);
+    the solve's grid has the phase boundary on a node and says which grid it used."""
+    from alcove.previews.service import MAX_PREVIEW_INTERVALS, run_preview
+
+    me = make_account("member", "pv-grid")
+    spec = small_task_spec()
+    spec["phases"][0]["intervals"], spec["phases"][1]["intervals"] = 6, 4
+    task_id = client.post(f"{API}/tasks", json={"name": "pv-grid", "spec": spec}, headers=me.headers).json()["id"]
+    p = client.post(f"{API}/tasks/{task_id}/previews", headers=me.headers).json()
+    assert p["options"] == {"intervals": None, "intervals_per_phase": [6, 4]}
+    assert run_preview(p["id"], "test@host") == "succeeded"
+    res = client.get(f"{API}/previews/{p['id']}", headers=me.headers).json()["result"]
+    t = np.array(res["t"])
+    assert res["intervals"] == 10 and res["intervals_per_phase"] == [6, 4] and len(t) == 11 and "the task's own grid" in res["grid"]
+    assert t[6] == pytest.approx(spec["phases"][0]["duration"]) and t[-1] == pytest.approx(spec["phases"][0]["duration"] + spec["phases"][1]["duration"])
+    # a finer task than a preview may solve is capped (said in the summary); "intervals" still overrides
+    big = small_task_spec()
+    big["phases"][1]["intervals"] = MAX_PREVIEW_INTERVALS + 50
+    capped = client.post(f"{API}/tasks/{task_id}/previews", json={"spec": big}, headers=me.headers).json()
+    assert capped["options"]["intervals_per_phase"] == [8, MAX_PREVIEW_INTERVALS]
+    asked = client.post(f"{API}/tasks/{task_id}/previews", json={"spec": big, "intervals": 5}, headers=me.headers).json()
+    assert asked["options"] == {"intervals": 5, "intervals_per_phase": [5, 5]}
+    from alcove.previews.service import grid_summary
+
+    assert grid_summary(big, [8, MAX_PREVIEW_INTERVALS], None) == f"8 + {MAX_PREVIEW_INTERVALS} intervals (the task's 8 + {MAX_PREVIEW_INTERVALS + 50}, capped at {MAX_PREVIEW_INTERVALS} per phase for a preview)"
+    assert grid_summary(big, [5, 5], 5).startswith("5 + 5 intervals (5 per phase, as asked")
 
 
 def test_a_preview_no_worker_takes_fails_with_the_reason_and_frees_its_slot(client) -> None:  # noqa: ANN001

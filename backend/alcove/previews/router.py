@@ -36,7 +36,8 @@ class _In(BaseModel):
 class TaskPreviewIn(_In):
     version: int | None = Field(None, ge=1, le=MAX_ID, description="task version (default: the latest)")
     spec: dict[str, Any] | None = Field(None, description="an unsaved edit of the task's spec to preview instead of the saved one")
-    intervals: int = Field(service.DEFAULT_PREVIEW_INTERVALS, ge=1, le=service.MAX_PREVIEW_INTERVALS, description="DMOCC intervals per phase for this solve")
+    intervals: int | None = Field(None, ge=1, le=service.MAX_PREVIEW_INTERVALS,
+                                  description=f"DMOCC intervals in every phase for this solve (default: each phase's own, at most {service.MAX_PREVIEW_INTERVALS})")
 
 
 class OraclePreviewIn(_In):
@@ -58,7 +59,9 @@ class TaskPreviewResult(BaseModel):
     iterations: int
     constraint_violation: float | None
     wall_time_s: float
-    intervals: int
+    intervals: int = Field(description="intervals over the whole task")
+    intervals_per_phase: list[int] | None = Field(None, description="the grid solved on: intervals in each phase")
+    grid: str | None = Field(None, description="the grid in words (the task's own, capped, or as asked)")
 
 
 class SampleTrajectory(BaseModel):

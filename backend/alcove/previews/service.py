@@ -38,8 +38,9 @@ MAX_ACTIVE_PER_USER = 3
 STALE_AFTER = timedelta(minutes=10)
 #: Finished previews kept per user (older ones are deleted when a new one is made).
 KEEP_PER_USER = 50
-#: Intervals per phase for a task preview (small: a preview is a quick look).
-DEFAULT_PREVIEW_INTERVALS = 20
+#: A task preview solves on the task's own grid (its intervals per phase; the paper's task,
+#: 100 per phase, takes ~0.1-0.3 s) unless the request names ``intervals`` per phase; either
+#: way at most this many intervals per phase.
 MAX_PREVIEW_INTERVALS = 200
 #: IPOPT iteration cap of a preview solve.
 PREVIEW_IPOPT_MAX_ITER = 1000
@@ -80,9 +81,28 @@ def _version(session: Session, model: type, parent: str, definition: Any, number
     return row
 
 
+def preview_grid(spec: dict[str, Any], intervals: int | None) -> list[int]:
+    """Intervals per phase of a preview solve: ``intervals`` in every phase, or (None) each
+    phase's own; capped at :data:`MAX_PREVIEW_INTERVALS`."""
+    own = [int(ph.get("intervals") or 100) for ph in spec["phases"]]
+    return [min(intervals if intervals else n, MAX_PREVIEW_INTERVALS) for n in own]
+
+
+def grid_summary(spec: dict[str, Any], per_phase: list[int], intervals: int | None) -> str:
+    """In words: which grid a preview solved on (and whether the task's was capped)."""
+    grid = " + ".join(str(n) for n in per_phase)
+    if intervals:
+        return f"{grid} intervals ({intervals} per phase, as asked; the task's own: {' + '.join(str(int(ph.get('intervals') or 100)) for ph in spec['phases'])})"
+    own = [int(ph.get("intervals") or 100) for ph in spec["phases"]]
+    if own != per_phase:
+        return f"{grid} intervals (the task's {' + '.join(map(str, own))}, capped at {MAX_PREVIEW_INTERVALS} per phase for a preview)"
+    return f"{grid} intervals (the task's own grid)"
+
+
 def create_task_preview(session: Session, user: User, task_id: int, *, version: int | None, spec: Any | None, intervals: int | None) -> Preview:
     """A "solve once" of task ``task_id`` (its latest or given version, or ``spec``: an
-    unsaved edit of it) with the auxiliary contact, ``intervals`` per phase."""
+    unsaved edit of it) with the auxiliary contact, on the task's own grid (each phase's
+    intervals) or ``intervals`` per phase, at most :data:`MAX_PREVIEW_INTERVALS` per phase."""
     from alcove.tasks.service import check_spec
 
     definition = get_for(session, TaskDefinition, task_id, user)
@@ -97,7 +117,7 @@ def create_task_preview(session: Session, user: User, task_id: int, *, version: 
     _check_capacity(session, user)
     _prune(session, user)
     row = Preview(owner_id=user.id, kind=PreviewKind.task.value, task_version_id=tv.id, draft=spec is not None, spec=snapshot,
-                  options={"intervals": intervals or DEFAULT_PREVIEW_INTERVALS})
+                  options={"intervals": intervals, "intervals_per_phase": preview_grid(snapshot, intervals)})
     session.add(row)
     session.flush()
     return row
@@ -268,24 +288,31 @@ def _scalar(v: Any) -> Any:
 
 def _compute(kind: str, spec: dict[str, Any], options: dict[str, Any], catalogue: Any) -> dict[str, Any]:
     if kind == PreviewKind.task.value:
-        return solve_task_once(spec, int(options.get("intervals") or DEFAULT_PREVIEW_INTERVALS))
+        intervals = options.get("intervals")
+        per_phase = options.get("intervals_per_phase") or preview_grid(spec, int(intervals) if intervals else None)
+        return solve_task_once(spec, [int(n) for n in per_phase], int(intervals) if intervals else None)
     return test_oracle(spec["type"], spec.get("params") or {}, float(options.get("dt") or 0.0025), catalogue)
 
 
-def solve_task_once(spec: dict[str, Any], intervals: int) -> dict[str, Any]:
-    """Solve the task once with the auxiliary (penalty) contact: the trajectory on the OCP
-    grid (t, q, qd, node torques tau) and the solver's status, cost, iterations, wall time."""
+def solve_task_once(spec: dict[str, Any], per_phase: list[int], intervals: int | None = None) -> dict[str, Any]:
+    """Solve the task once with the auxiliary (penalty) contact, ``per_phase[m]`` intervals in
+    phase m: the trajectory on the OCP grid (t, q, qd, node torques tau), the solver's status,
+    cost, iterations, wall time, and the grid in words (``intervals``: what the request asked)."""
     from alcove.science.ocp.contact import aux_contact
     from alcove.science.ocp.solve import solve_task
     from alcove.science.ocp.task_spec import parse_task
 
-    task = parse_task(spec).with_intervals(intervals)
+    if len(per_phase) != len(spec["phases"]):
+        raise InvalidInput.one("intervals_per_phase", f"has {len(per_phase)} entries for {len(spec['phases'])} phases")
+    data = {**spec, "phases": [{**ph, "intervals": n} for ph, n in zip(spec["phases"], per_phase, strict=True)]}
+    task = parse_task(data)
     t0 = time.perf_counter()
     sol = solve_task(task, aux_contact(task.preset()), max_attempts=1, ipopt_options={"ipopt.max_iter": PREVIEW_IPOPT_MAX_ITER})
     return {
         "t": _finite(sol.t), "q": _finite(sol.q), "qd": _finite(sol.qd), "tau": _finite(sol.tau),
         "status": sol.status, "converged": bool(sol.converged), "cost": _scalar(sol.cost), "iterations": int(sol.iterations),
         "constraint_violation": _scalar(sol.constraint_violation), "wall_time_s": float(time.perf_counter() - t0), "intervals": int(sol.controls.shape[0]),
+        "intervals_per_phase": list(per_phase), "grid": grid_summary(spec, list(per_phase), intervals),
     }
 
 

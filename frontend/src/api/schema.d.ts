@@ -3028,10 +3028,9 @@ export interface components {
         TaskPreviewIn: {
             /**
              * Intervals
-             * @description DMOCC intervals per phase for this solve
-             * @default 20
+             * @description DMOCC intervals in every phase for this solve (default: each phase's own, at most 200)
              */
-            intervals?: number;
+            intervals?: number | null;
             /**
              * Spec
              * @description an unsaved edit of the task's spec to preview instead of the saved one
@@ -3056,8 +3055,21 @@ export interface components {
             converged: boolean;
             /** Cost */
             cost: number | null;
-            /** Intervals */
+            /**
+             * Grid
+             * @description the grid in words (the task's own, capped, or as asked)
+             */
+            grid?: string | null;
+            /**
+             * Intervals
+             * @description intervals over the whole task
+             */
             intervals: number;
+            /**
+             * Intervals Per Phase
+             * @description the grid solved on: intervals in each phase
+             */
+            intervals_per_phase?: number[] | null;
             /** Iterations */
             iterations: number;
             /** Q */

@@ -45,7 +45,10 @@ function SolvePreview({ result, phases }: { result: TaskPreviewResult; phases: P
         {result.converged ? "" : " (not converged)"} · {result.iterations} iterations
         {result.cost !== null && result.cost !== undefined ? ` · cost ${result.cost.toPrecision(4)}` : ""}
         {result.constraint_violation !== null && result.constraint_violation !== undefined ? ` · constraint violation ${result.constraint_violation.toExponential(1)}` : ""}
-        {` · ${result.intervals} intervals · ${result.wall_time_s.toFixed(2)} s`}
+        {` · ${result.wall_time_s.toFixed(2)} s`}
+        <span className="hint" data-testid="solve-grid">
+          Grid: {result.grid ?? `${result.intervals} intervals`}
+        </span>
       </p>
       <div className="grid2">
         <Plot testId="preview-angle" traces={angle} shapes={shapes} xTitle="t [s]" yTitle="joint angle θ [rad]" exportName="solve-angle" height={260} />

@@ -22,7 +22,7 @@ function preview(status: string, extra: Record<string, unknown> = {}) {
     task_version_id: 11,
     oracle_version_id: null,
     draft: true,
-    options: { intervals: 20 },
+    options: { intervals: null, intervals_per_phase: [2, 2] },
     created_at: "2026-11-22T02:00:00Z",
     started_at: null,
     finished_at: null,
@@ -46,6 +46,8 @@ const SOLUTION = {
   constraint_violation: 1e-9,
   wall_time_s: 0.8,
   intervals: 4,
+  intervals_per_phase: [2, 2],
+  grid: "2 + 2 intervals (the task's own grid)",
 };
 
 describe("task editor: solve once", () => {
@@ -74,6 +76,8 @@ describe("task editor: solve once", () => {
     expect(screen.getByTestId("preview-angle")).toHaveAttribute("data-points", "5");
     expect(screen.getByTestId("preview-torque")).toHaveAttribute("data-shapes", "2"); // both phases shaded
     expect(screen.getByTestId("solve-summary")).toHaveTextContent("Solve_Succeeded · 17 iterations · cost 0.01230");
+    // solved on the task's own grid (no "intervals" override sent), and it says so
+    expect(screen.getByTestId("solve-grid")).toHaveTextContent("Grid: 2 + 2 intervals (the task's own grid)");
     expect(screen.getByRole("button", { name: "Solve once" })).toBeEnabled();
 
     const post = calls.find((c) => c.method === "POST" && c.path === "/tasks/1/previews");
