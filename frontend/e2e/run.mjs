@@ -147,7 +147,10 @@ try {
     throw new Error(`solve-once preview failed: ${await page.getByTestId("preview-panel").innerText()}`);
   await waitFor(async () => (await plotPoints(page, "preview-torque")) > 0, "torque of the solve-once preview");
   await page.locator("[data-testid=preview-torque] .main-svg").first().waitFor();
-  step(`  ${(await page.getByTestId("solve-summary").innerText()).trim()}`);
+  step(`  ${(await page.getByTestId("solve-summary").innerText()).trim().replace(/\s+/g, " ")}`);
+  // solved on the task's own grid (10 per phase, set above), not a preview default
+  const grid = (await page.getByTestId("solve-grid").innerText()).trim();
+  if (!grid.includes(Array(nPhases).fill("10").join(" + ")) || !grid.includes("the task's own grid")) throw new Error(`solve-once grid: ${grid}`);
   await screenshot(page, "task-editor.png", { fullPage: true });
   checkpoint("task");
 
@@ -198,6 +201,11 @@ try {
   await page.locator("[data-testid=rmse-plot] .main-svg").first().waitFor();
   const rmsePoints = await plotPoints(page, "rmse-plot");
   if (rmsePoints < 4) throw new Error(`RMSE plot has ${rmsePoints} points, expected >= 4 (force + moment of 2 iterations)`);
+  // the log axis' labels are whole values at 1-2-3-5-7 per decade (no bare minor digits)
+  const yLabels = await page.locator("[data-testid=rmse-plot] .ytick text").allTextContents();
+  const clean = /^([12357](\.0*)?|0\.0*[12357]|[12357]0*|([12357]×)?10[⁻⁰¹²³⁴⁵⁶⁷⁸⁹]+)$/;
+  if (!yLabels.length || !yLabels.every((l) => clean.test(l.trim()))) throw new Error(`RMSE log axis labels: ${JSON.stringify(yLabels)}`);
+  step(`  RMSE log axis labels: ${yLabels.join(" ")}`);
 
   step("polling transfers only new iterations");
   const campaignId = /\/campaigns\/(\d+)/.exec(campaignUrl)[1];
@@ -231,13 +239,31 @@ try {
   const forceTraces = Number(await page.getByTestId("force-plot").getAttribute("data-traces"));
   if (forceTraces < 2) throw new Error(`force plot has ${forceTraces} traces, expected oracle and surrogate`);
 
-  step("trajectory: joint angle and torque with phases");
+  step("trajectory: the whole OCP solution, every phase shaded, the replayed part marked");
   await page.getByRole("tab", { name: "Trajectory" }).click();
   await waitFor(async () => (await plotPoints(page, "angle-plot")) > 0, "joint angle curve");
   await waitFor(async () => (await plotPoints(page, "torque-plot")) > 0, "joint torque curve of iteration 1");
-  const shaded = Number(await page.getByTestId("torque-plot").getAttribute("data-shapes"));
-  if (shaded < 1) throw new Error("the torque plot has no shaded phases");
+  const phasesShown = Number(await page.getByTestId("trajectory-panel").getAttribute("data-phases"));
+  if (phasesShown !== nPhases) throw new Error(`trajectory shows ${phasesShown} phases, the task has ${nPhases}`);
   await page.locator("[data-testid=torque-plot] .main-svg").first().waitFor();
+  for (const plot of ["angle-plot", "torque-plot"]) {
+    await page.locator(`[data-testid=${plot}][data-rendered=true]`).waitFor();
+    // Plotly drew a shaded rectangle per phase (below the traces) and the labelled "replayed" bracket
+    const drawn = await page.evaluate((id) => {
+      const el = document.querySelector(`[data-testid=${id}]`);
+      const rects = el.querySelectorAll(".layer-below .shapelayer path").length;
+      const texts = [...el.querySelectorAll(".annotation-text, .shapelayer text")].map((t) => t.textContent);
+      const xs = el.data.flatMap((tr) => Array.from(tr.x));
+      return { rects, texts, tMax: Math.max(...xs) };
+    }, plot);
+    if (drawn.rects < nPhases) throw new Error(`${plot}: ${drawn.rects} shaded phases drawn, expected ${nPhases}`);
+    step(`  ${plot}: ${drawn.rects} shaded phases, labels ${JSON.stringify(drawn.texts)}, t up to ${drawn.tMax.toFixed(3)} s`);
+    if (!drawn.texts.includes("replayed by the oracle")) throw new Error(`${plot}: no "replayed by the oracle" mark (${JSON.stringify(drawn.texts)})`);
+    // both phases: the curve goes past the first phase (0.2 s, set above) to the end of the task
+    if (!(drawn.tMax > 0.2 + 1e-6)) throw new Error(`${plot}: the curve ends at t = ${drawn.tMax} s, inside the first phase`);
+  }
+  const solver = await page.getByTestId("solver-summary").innerText();
+  if (!/Solve_Succeeded|Solved_To_Acceptable_Level/.test(solver)) throw new Error(`solver summary: ${solver}`);
   await screenshot(page, "campaign-trajectory.png", { fullPage: true });
 
   step("download a model");

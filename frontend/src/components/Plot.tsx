@@ -4,6 +4,7 @@
  * read (trace and point counts) live here.
  */
 import { useEffect, useRef } from "react";
+import { logTicks, traceValues } from "../lib/logTicks";
 import type { Config, Data, Layout, PlotlyHTMLElement, PlotMouseEvent, ScatterData, Shape } from "plotly.js-dist-min";
 
 export type Trace = Partial<ScatterData> & { x?: unknown[]; y?: unknown[] };
@@ -40,6 +41,12 @@ export function loadPlotly(): Promise<PlotlyModule> {
   return plotlyModule;
 }
 
+/** Explicit 1-2-5 ticks with whole-value labels on a log axis (see lib/logTicks). */
+function logAxisTicks(traces: Trace[]): Partial<Layout["yaxis"]> {
+  const ticks = logTicks(traceValues(traces));
+  return ticks ? { tickmode: "array", tickvals: ticks.tickvals, ticktext: ticks.ticktext } : {};
+}
+
 export function pointCount(traces: Trace[]): number {
   return traces.reduce((n, t) => n + (t.x?.length ?? t.y?.length ?? 0), 0);
 }
@@ -69,7 +76,7 @@ export function Plot({
       height,
       margin: { l: 64, r: 16, t: title ? 56 : 32, b: 44 },
       xaxis: { title: { text: xTitle ?? "" }, zeroline: false },
-      yaxis: { title: { text: yTitle ?? "" }, type: logY ? "log" : "linear", exponentformat: "power" },
+      yaxis: { title: { text: yTitle ?? "" }, type: logY ? "log" : "linear", exponentformat: "power", ...(logY ? logAxisTicks(traces) : {}) },
       legend: { orientation: "h", x: 0, y: 1.02, xanchor: "left", yanchor: "bottom" },
       shapes,
       paper_bgcolor: "rgba(0,0,0,0)",
