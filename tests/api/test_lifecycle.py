@@ -100,6 +100,23 @@ def test_full_campaign_lifecycle_over_http(live) -> None:  # noqa: ANN001
     tau = np.array(curves["tau"])
     assert tau.shape == np.array(curves["q"]).shape and np.all(np.isfinite(tau)) and np.abs(tau).max() > 0
 
+    # the iteration's whole OCP solution: both phases on the OCP grid (20 intervals per phase);
+    # at the OCP nodes of the replayed phase the replayed motion (interpolated through the
+    # nodes, on the 0.01 s grid) is the solution itself
+    traj = ok(client.get(f"{API}/campaigns/{cid}/iterations/2/trajectory", headers=h))
+    t, q, tau_ocp = np.array(traj["t"]), np.array(traj["q"]), np.array(traj["tau"])
+    assert [p["name"] for p in traj["phases"]] == ["approach", "rest"] and len(t) == 2 * 20 + 1 and q.shape == tau_ocp.shape == (41, 1)
+    assert t[-1] - t[0] == pytest.approx(traj["duration"]) == pytest.approx(sum(p["duration"] for p in traj["phases"])) == pytest.approx(2.0)
+    assert traj["replay_phases"] == 1 and traj["replay_t_end"] == pytest.approx(1.0) == pytest.approx(curves["t"][-1])
+    assert traj["solver"]["converged"] and traj["solver"]["iterations"] > 0 and np.isfinite(traj["solver"]["cost"])
+    ct, cq = np.array(curves["t"]), np.array(curves["q"])
+    replayed = np.flatnonzero(t <= traj["replay_t_end"] + 1e-9)
+    at = [int(np.argmin(np.abs(ct - t[i]))) for i in replayed]
+    np.testing.assert_allclose(ct[at], t[replayed], atol=1e-9)
+    np.testing.assert_allclose(cq[at], q[replayed], atol=1e-7)
+    np.testing.assert_allclose(tau[at], tau_ocp[replayed], atol=1e-7)
+    assert client.get(f"{API}/campaigns/{cid}/iterations/0/trajectory", headers=h).status_code == 404
+
     jobs = ok(client.get(f"{API}/campaigns/{cid}/jobs", headers=h))
     assert {(j["iteration"], j["step"]) for j in jobs} >= {(0, "preliminary"), (1, "train"), (2, "append")}
     assert all(j["status"] == "succeeded" and j["worker_name"] for j in jobs)

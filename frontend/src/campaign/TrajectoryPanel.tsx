@@ -9,6 +9,8 @@ import { fmtNumber } from "../lib/format";
 
 const PHASE_FILLS = ["rgba(47,91,211,0.07)", "rgba(211,102,47,0.09)", "rgba(29,122,69,0.08)", "rgba(138,63,252,0.07)"];
 const REPLAY_COLOR = "#1f3d99";
+/** Room above the plot area for the "replayed by the oracle" bracket; a legend (several joints) goes to the right. */
+export const TRAJECTORY_MARGIN = { l: 64, r: 16, t: 52, b: 44 };
 
 export function phaseShapes(phases: Phase[]): Partial<Shape>[] {
   return phases.map((p, i) => ({
@@ -55,13 +57,14 @@ export function phaseSpans(phases: { name?: string; duration?: unknown }[]): Pha
 }
 
 /**
- * A bracket under the part [t0, t1] of the time axis the oracle replayed, labelled: three
- * line shapes (in data x, paper y) and one annotation.
+ * A bracket above the plot area over the part [t0, t1] of the time axis the oracle replayed,
+ * labelled (outside the data, so it hides no curve): three line shapes (in data x, paper y)
+ * and one annotation. The plot needs a top margin for it ({@link TRAJECTORY_MARGIN}).
  */
 export function replayMarks(t0: number, t1: number): { shapes: Partial<Shape>[]; annotations: Partial<Annotation>[] } {
   const line = { color: REPLAY_COLOR, width: 1.5 };
-  const y = 0.04;
-  const tick = 0.1;
+  const y = 1.05;
+  const tick = 1.0;
   const base = { type: "line", xref: "x", yref: "paper", line, layer: "above" } as const;
   return {
     shapes: [
@@ -79,7 +82,6 @@ export function replayMarks(t0: number, t1: number): { shapes: Partial<Shape>[];
         showarrow: false,
         text: "replayed by the oracle",
         font: { size: 11, color: REPLAY_COLOR },
-        bgcolor: "rgba(255,255,255,0.85)",
       },
     ] as Partial<Annotation>[],
   };
@@ -117,7 +119,10 @@ export function TrajectoryPanel({ campaignId, iteration }: { campaignId: number;
   const phases = useMemo(() => (q.data ? trajectoryPhases(q.data) : []), [q.data]);
   const marks = useMemo(() => (q.data && q.data.t.length ? replayMarks(q.data.t[0], q.data.replay_t_end) : null), [q.data]);
   const shapes = useMemo(() => [...phaseShapes(phases), ...(marks?.shapes ?? [])], [phases, marks]);
-  const layout = useMemo<Partial<Layout>>(() => ({ annotations: marks?.annotations ?? [] }), [marks]);
+  const layout = useMemo<Partial<Layout>>(
+    () => ({ annotations: marks?.annotations ?? [], margin: TRAJECTORY_MARGIN, legend: { orientation: "h", x: 1, xanchor: "right", y: 1.02, yanchor: "bottom" } }),
+    [marks],
+  );
   const angle = useMemo(() => (q.data ? seriesTraces(q.data.t, q.data.q, "θ", "rad") : []), [q.data]);
   const torque = useMemo(() => (q.data ? seriesTraces(q.data.t, q.data.tau, "τ", "N m") : []), [q.data]);
   if (iteration === null) return <Empty title="No trajectory yet">The first iteration's OCP has not been solved yet.</Empty>;
