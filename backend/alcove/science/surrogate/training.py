@@ -18,6 +18,7 @@
 
 from __future__ import annotations
 
+import logging
 import math
 import time
 from dataclasses import asdict, dataclass, field
@@ -32,8 +33,10 @@ from alcove.science.surrogate.config import SurrogateConfig
 from alcove.science.surrogate.dataset import PoolDataError, PoolDataset, check_pool
 from alcove.science.surrogate.features import features
 from alcove.science.surrogate.fused import FusedNets
+from alcove.science.surrogate.kernel import KERNEL_ENV, KernelNets, KernelUnavailable, kernel_supports, requested_kernel
 from alcove.science.surrogate.mlp import MLP, Standardization, SurrogateModel
 
+_log = logging.getLogger(__name__)
 KinematicsFn = Callable[[np.ndarray, np.ndarray], RelativeKinematics]
 NETS = ("force", "moment")
 SPLITS = ("train", "validation", "test")
@@ -181,7 +184,9 @@ def train_surrogate(
     torch.set_num_threads(1)
     try:
         with torch.no_grad():
-            history, epochs, best_epoch = _fit(nets, z_train, y_train, w_train, z_val, y_val, w_val, w_val_sum, config, generator, cancel)
+            trainer = make_trainer(nets, z_train, y_train, w_train, config)
+            history, epochs, best_epoch = _fit(trainer, z_train.shape[0], z_val, y_val, w_val, w_val_sum, config,
+                                               generator, cancel)
     finally:
         torch.set_num_threads(n_threads)
 
@@ -190,7 +195,7 @@ def train_surrogate(
         force_norm=out_norm["force"], moment_norm=out_norm["moment"], config=config, preset=preset,
         ndof=pool[0].ndof,
         lineage={"seed": int(seed), "datasets": [ds.name for ds in pool], "test_sets": split.test_sets,
-                 "samples": int(x.shape[0]), "warm_start": warm or False},
+                 "samples": int(x.shape[0]), "warm_start": warm or False, "training_kernel": trainer.name},
     )
     rmse: dict[str, dict[str, float | None]] = {k: {} for k in NETS}
     pred = dict(zip(NETS, model.predict_features(x)))
@@ -204,52 +209,133 @@ def train_surrogate(
     return TrainingResult(model=model, metrics=metrics, split=split, history=history)
 
 
-def _fit(nets: dict[str, MLP], z: torch.Tensor, y: dict[str, torch.Tensor], w: torch.Tensor, z_val: torch.Tensor,
-         y_val: dict[str, torch.Tensor], w_val: torch.Tensor, w_val_sum: float, config: SurrogateConfig,
-         generator: torch.Generator, cancel: Callable[[], bool] | None) -> tuple[dict, dict, dict]:
-    active = list(NETS)  # the nets still training, in the fused network's order
-    fused = FusedNets([nets[k] for k in active])
-    optimizer = FlatAdam(fused.parameter, lr=config.learning_rate, grad=fused.grad)
+def _fit(trainer: "_TorchTrainer | _KernelTrainer", n: int, z_val: torch.Tensor, y_val: dict[str, torch.Tensor],
+         w_val: torch.Tensor, w_val_sum: float, config: SurrogateConfig, generator: torch.Generator,
+         cancel: Callable[[], bool] | None) -> tuple[dict, dict, dict]:
+    """Epochs until every net has stopped early (or ``max_epochs``); each net ends with its best weights."""
     best = {k: float("inf") for k in NETS}
-    best_weights = {k: fused.weights(i) for i, k in enumerate(active)}
+    best_weights = {k: trainer.snapshot(k) for k in NETS}
     best_epoch = {k: 0 for k in NETS}
     epochs = {k: 0 for k in NETS}
     history: dict[str, list[float]] = {k: [] for k in NETS}
-    n, bs, n_in = z.shape[0], config.batch_size, z.shape[1]
-    # features, both targets and the weights side by side: one gather per epoch
-    table = torch.cat([z, y["force"], y["moment"], w[:, None]], dim=1)
-    columns = {"force": slice(n_in, n_in + 3), "moment": slice(n_in + 3, n_in + 6)}
     for epoch in range(1, config.max_epochs + 1):
         if cancel is not None and cancel():
             raise TrainingCancelled(f"training cancelled in epoch {epoch}")
-        # shuffled once per epoch: batches are contiguous slices, not one scattered gather each
-        shuffled = table.index_select(0, torch.randperm(n, generator=generator))
-        targets = [columns[k] for k in active]
-        for start in range(0, n, bs):
-            batch = shuffled[start : start + bs]
-            fused.set_loss_gradient(batch[:, :n_in], [batch[:, c] for c in targets], batch[:, -1])
-            optimizer.step()
+        trainer.epoch(torch.randperm(n, generator=generator))
         stopped = []
-        for i, (k, out) in enumerate(zip(active, fused.forward(z_val))):
+        for k, out in trainer.validation_outputs(z_val):
             val = float(((out - y_val[k]) ** 2).mean(1) @ w_val) / w_val_sum
             history[k].append(val)
             epochs[k] = epoch
             if val < best[k]:
                 best[k], best_epoch[k] = val, epoch
-                best_weights[k] = fused.weights(i)
+                best_weights[k] = trainer.snapshot(k)
             elif epoch - best_epoch[k] >= config.patience:
                 stopped.append(k)
-        if stopped:
-            active = [k for k in active if k not in stopped]
-            if not active:
-                break
-            # the nets still training continue alone (same updates, fewer operations per step)
-            fused, optimizer = _without_stopped(fused, optimizer, [nets[k] for k in active])
+        if stopped and not trainer.stop(stopped):
+            break  # every net has stopped
     for k in NETS:
-        with torch.no_grad():
-            for p, best_p in zip(nets[k].parameters(), best_weights[k]):
-                p.copy_(best_p)
+        trainer.restore(k, best_weights[k])
     return history, epochs, best_epoch
+
+
+class _TorchTrainer:
+    """Both nets fused into one PyTorch network (:class:`.fused.FusedNets`), :class:`FlatAdam`."""
+
+    name = "torch"
+
+    def __init__(self, nets: dict[str, MLP], z: torch.Tensor, y: dict[str, torch.Tensor], w: torch.Tensor,
+                 config: SurrogateConfig):
+        self.nets, self.config = nets, config
+        self.active = list(NETS)  # the nets still training, in the fused network's order
+        self.fused = FusedNets([nets[k] for k in self.active])
+        self.optimizer = FlatAdam(self.fused.parameter, lr=config.learning_rate, grad=self.fused.grad)
+        self.n_in = z.shape[1]
+        # features, both targets and the weights side by side: one gather per epoch
+        self.table = torch.cat([z, y["force"], y["moment"], w[:, None]], dim=1)
+        self.columns = {"force": slice(self.n_in, self.n_in + 3), "moment": slice(self.n_in + 3, self.n_in + 6)}
+
+    def epoch(self, order: torch.Tensor) -> None:
+        # shuffled once per epoch: batches are contiguous slices, not one scattered gather each
+        shuffled = self.table.index_select(0, order)
+        targets = [self.columns[k] for k in self.active]
+        bs, n_in = self.config.batch_size, self.n_in
+        for start in range(0, shuffled.shape[0], bs):
+            batch = shuffled[start : start + bs]
+            self.fused.set_loss_gradient(batch[:, :n_in], [batch[:, c] for c in targets], batch[:, -1])
+            self.optimizer.step()
+
+    def validation_outputs(self, z_val: torch.Tensor) -> list[tuple[str, torch.Tensor]]:
+        return list(zip(self.active, self.fused.forward(z_val)))
+
+    def snapshot(self, k: str) -> list[torch.Tensor]:
+        if k in self.active:
+            return self.fused.weights(self.active.index(k))
+        return [p.detach().clone() for p in self.nets[k].parameters()]
+
+    def stop(self, stopped: list[str]) -> bool:
+        """Freeze ``stopped``; False when no net is left. The nets still training continue alone
+        (same updates, fewer operations per step)."""
+        self.active = [k for k in self.active if k not in stopped]
+        if not self.active:
+            return False
+        self.fused, self.optimizer = _without_stopped(self.fused, self.optimizer, [self.nets[k] for k in self.active])
+        return True
+
+    def restore(self, k: str, weights: list[torch.Tensor]) -> None:
+        with torch.no_grad():
+            for p, best_p in zip(self.nets[k].parameters(), weights):
+                p.copy_(best_p)
+
+
+class _KernelTrainer:
+    """Both nets trained by the compiled kernel (:mod:`.kernel`): one C call per epoch."""
+
+    name = "c"
+
+    def __init__(self, nets: dict[str, MLP], z: torch.Tensor, y: dict[str, torch.Tensor], w: torch.Tensor,
+                 config: SurrogateConfig):
+        self.config = config
+        n_in = z.shape[1]
+        self.table = torch.cat([z, y["force"], y["moment"], w[:, None]], dim=1).numpy()
+        self.w_col = self.table.shape[1] - 1
+        self.kernel = KernelNets([nets[k] for k in NETS], y_cols=[n_in, n_in + 3])
+        self.index = {k: i for i, k in enumerate(NETS)}
+
+    def epoch(self, order: torch.Tensor) -> None:
+        self.kernel.train_epoch(self.table, self.w_col, order.numpy(), self.config.batch_size, self.config.learning_rate)
+
+    def validation_outputs(self, z_val: torch.Tensor) -> list[tuple[str, torch.Tensor]]:
+        x = z_val.numpy()
+        return [(k, torch.from_numpy(self.kernel.forward(i, x))) for k, i in self.index.items() if self.kernel.active(i)]
+
+    def snapshot(self, k: str) -> np.ndarray:
+        return self.kernel.weights(self.index[k])
+
+    def stop(self, stopped: list[str]) -> bool:
+        for k in stopped:
+            self.kernel.freeze(self.index[k])
+        return any(self.kernel.active(i) for i in self.index.values())
+
+    def restore(self, k: str, weights: np.ndarray) -> None:
+        self.kernel.store(self.index[k], weights)
+
+
+def make_trainer(nets: dict[str, MLP], z: torch.Tensor, y: dict[str, torch.Tensor], w: torch.Tensor,
+                 config: SurrogateConfig) -> "_TorchTrainer | _KernelTrainer":
+    """The C kernel where it is requested (``ALCOVE_TRAINING_KERNEL``) or, by default, available; else PyTorch."""
+    choice = requested_kernel()
+    if choice != "torch":
+        reason = kernel_supports(list(nets.values()))
+        if reason is None:
+            try:
+                return _KernelTrainer(nets, z, y, w, config)
+            except KernelUnavailable as exc:
+                reason = str(exc)
+        if choice == "c":
+            raise KernelUnavailable(f"{KERNEL_ENV}=c but the C training kernel cannot be used: {reason}")
+        _log.info("training with PyTorch: the C kernel cannot be used (%s)", reason)
+    return _TorchTrainer(nets, z, y, w, config)
 
 
 def _without_stopped(fused: FusedNets, optimizer: "FlatAdam", remaining: list[MLP]) -> tuple[FusedNets, "FlatAdam"]:
