@@ -85,6 +85,7 @@ def _step_setup() -> Any:
 
     from alcove.science.surrogate.config import SurrogateConfig
     from alcove.science.surrogate.fused import FusedNets
+    from alcove.science.surrogate.kernel import KernelNets
     from alcove.science.surrogate.mlp import MLP
     from alcove.science.surrogate.training import FlatAdam
 
@@ -95,32 +96,94 @@ def _step_setup() -> Any:
         net.reset_parameters(generator)
     fused = FusedNets(nets)
     optimizer = FlatAdam(fused.parameter, lr=cfg.learning_rate, grad=fused.grad)
-    batches = [torch.randn(cfg.batch_size, 26, dtype=torch.float64, generator=generator) for _ in range(44)]  # one epoch
-    return fused, optimizer, batches
+    kernel = KernelNets(nets, y_cols=[19, 22])
+    table = torch.randn(44 * cfg.batch_size, 26, dtype=torch.float64, generator=generator)  # one epoch
+    table[:, 25] = 1.0 + 0.1 * table[:, 25].abs()
+    order = torch.randperm(table.shape[0], generator=generator)
+    return fused, optimizer, kernel, table, order
+
+
+_STEP_NOTES = ("gradient of both nets + Adam, batch 1024, one thread; one epoch of 44 shuffled steps per repetition; "
+               "a training on 80,000 samples takes 70-120 epochs")
 
 
 @figure(
-    "surrogate training step: both nets, batch 1024 (CPU time per step)", "ms", target=None, setup=_step_setup, reps=5,
-    quick_reps=3, group="surrogate",
-    notes="gradient of both nets (fused, hand-written backpropagation) + Adam; one epoch of 44 steps per repetition, one thread; "
-          "a training on 80,000 samples takes 70-120 epochs",
+    "surrogate training step: both nets, batch 1024, C kernel (CPU time per step)", "ms", target=None, setup=_step_setup,
+    reps=5, quick_reps=3, group="surrogate", notes=_STEP_NOTES + "; the implementation training uses (alcove.science.surrogate.kernel)",
 )
 def surrogate_training_step(ctx: Any) -> float:
     import time
 
+    _, _, kernel, table, order = ctx
+    t, o = table.numpy(), order.numpy()
+    start = time.process_time()
+    kernel.train_epoch(t, 25, o, 1024, 0.01)
+    return 1e3 * (time.process_time() - start) / 44
+
+
+@figure(
+    "surrogate training step: both nets, batch 1024, PyTorch fallback (CPU time per step)", "ms", target=None,
+    setup=_step_setup, reps=5, quick_reps=3, group="surrogate",
+    notes=_STEP_NOTES + "; FusedNets + FlatAdam, used where no C compiler is available (ALCOVE_TRAINING_KERNEL=torch)",
+)
+def surrogate_training_step_torch(ctx: Any) -> float:
+    import time
+
     import torch
 
-    fused, optimizer, batches = ctx
+    fused, optimizer, _, table, order = ctx
     threads = torch.get_num_threads()
     torch.set_num_threads(1)
     try:
         start = time.process_time()
-        for b in batches:
-            fused.set_loss_gradient(b[:, :19], [b[:, 19:22], b[:, 22:25]], 1.0 + 0.1 * b[:, 25].abs())
+        shuffled = table.index_select(0, order)
+        for i in range(44):
+            b = shuffled[i * 1024 : (i + 1) * 1024]
+            fused.set_loss_gradient(b[:, :19], [b[:, 19:22], b[:, 22:25]], b[:, 25])
             optimizer.step()
-        return 1e3 * (time.process_time() - start) / len(batches)
+        return 1e3 * (time.process_time() - start) / 44
     finally:
         torch.set_num_threads(threads)
+
+
+@figure(
+    "surrogate training kernel: compile (first training on a machine)", "s", target=None, reps=3, quick_reps=1,
+    group="surrogate", notes="gcc -O3 -march=native into an empty cache; later processes load the cached library in milliseconds",
+)
+def surrogate_kernel_build(_: Any) -> float:
+    import tempfile
+    import time
+    from pathlib import Path
+
+    from alcove.science.surrogate.kernel import _build, _compiler
+
+    with tempfile.TemporaryDirectory() as tmp:
+        start = time.perf_counter()
+        _build(_compiler(), Path(tmp))
+        return time.perf_counter() - start
+
+
+@figure(
+    "surrogate training, 80,000 samples, PyTorch fallback", "s", target=None, setup=_seeded_pool, reps=3, quick=False,
+    group="surrogate", baseline="surrogate training, one model pair on 80,000 samples (paper protocol)",
+    notes="ALCOVE_TRAINING_KERNEL=torch: what training costs where no C compiler is available",
+)
+def surrogate_training_torch(ctx: Any) -> float:
+    import os
+
+    from alcove.science.surrogate.config import SurrogateConfig
+    from alcove.science.surrogate.training import train_surrogate
+
+    pool, seeds = ctx
+    previous = os.environ.get("ALCOVE_TRAINING_KERNEL")
+    os.environ["ALCOVE_TRAINING_KERNEL"] = "torch"
+    try:
+        return timed(lambda: train_surrogate(pool, SurrogateConfig(), seed=next(seeds)))
+    finally:
+        if previous is None:
+            os.environ.pop("ALCOVE_TRAINING_KERNEL")
+        else:
+            os.environ["ALCOVE_TRAINING_KERNEL"] = previous
 
 
 def _warm_setup() -> tuple[list[Any], Any]:

@@ -8,9 +8,10 @@
    each with early stopping on its validation loss (patience 6), keeping its best weights.
    Both nets step through the same shuffled batches in one loop (their parameters are
    disjoint, so this equals training them one after the other); a net that has stopped is
-   frozen. The step is :class:`.fused.FusedNets`: both nets as one block-structured network
-   with hand-written backpropagation, about half the tensor operations of two nets, which is
-   what a step of these tiny nets costs.
+   frozen. The epoch runs in the compiled kernel (:mod:`.kernel`, one C call per epoch) or,
+   where that cannot be built or ``ALCOVE_TRAINING_KERNEL=torch``, in PyTorch
+   (:class:`.fused.FusedNets`: both nets as one block-structured network with hand-written
+   backpropagation). Early stopping, the batch order and the initialisation are shared.
 4. Reproducible: splits come from ``numpy.random.default_rng(seed)``, initialisation and
    batch order from a local ``torch.Generator(seed)``; training runs on one thread, so the
    same pool and seed give bit-identical weights. The global RNGs are not touched.
