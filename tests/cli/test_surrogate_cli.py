@@ -55,6 +55,7 @@ def test_preliminary_train_predict(tmp_path, quick_config, trajectory_csv):
     summary = json.loads(proc.stdout)
     assert summary["status"] == "ok" and summary["datasets"] == 7 and summary["epochs"] == {"force": 20, "moment": 20}
     assert set(summary["rmse"]["force"]) == {"train", "validation", "test"} and summary["wall_time_s"] > 0
+    assert summary["training_kernel"] == "c"  # gcc is on this machine: the compiled kernel trained it
     assert sum(summary["samples"].values()) == 600 + 401
     assert sorted(p.name for p in (tmp_path / "model").iterdir()) == ["force.pt", "moment.pt", "surrogate.json"]
     result = invoke("surrogate", "predict", "--model", str(tmp_path / "model"), "--trajectory", str(trajectory_csv), "--out", str(tmp_path / "pred.csv"))
@@ -101,6 +102,15 @@ def test_bad_input_is_one_line_exit_2(tmp_path, monkeypatch, args, message):
     result = runner.invoke(app, ["surrogate", *args])
     assert result.exit_code == 2, result.output
     assert result.output.strip().splitlines()[-1] == message
+    assert not (tmp_path / "m").exists()
+
+
+def test_a_bad_training_kernel_choice_is_one_line_exit_2(tmp_path, monkeypatch, quick_config):
+    invoke("surrogate", "preliminary", "--out", str(tmp_path / "pool"), "--samples", "40", "--chunks", "2")
+    monkeypatch.setenv("ALCOVE_TRAINING_KERNEL", "gpu")
+    result = runner.invoke(app, ["surrogate", "train", "--pool", str(tmp_path / "pool"), "--out", str(tmp_path / "m")])
+    assert result.exit_code == 2, result.output
+    assert result.output.strip().splitlines()[-1] == "error: ALCOVE_TRAINING_KERNEL: 'gpu' is not one of auto, c, torch"
     assert not (tmp_path / "m").exists()
 
 

@@ -14,7 +14,7 @@ from conftest import make_smooth_pool
 
 from alcove.science.surrogate import kernel as kernel_module
 from alcove.science.surrogate.config import SurrogateConfig
-from alcove.science.surrogate.kernel import KernelNets, KernelUnavailable, load_kernel
+from alcove.science.surrogate.kernel import KernelChoiceError, KernelNets, KernelUnavailable, load_kernel
 from alcove.science.surrogate.mlp import MLP
 from alcove.science.surrogate.training import train_surrogate
 
@@ -150,7 +150,7 @@ def test_a_bad_kernel_choice_names_the_variable(monkeypatch, smooth_pool):
     with pytest.raises(ValueError, match="^ALCOVE_TRAINING_KERNEL: 'fortran' is not one of auto, c, torch"):
         train_surrogate(smooth_pool, SurrogateConfig(max_epochs=1), seed=0)
     monkeypatch.setenv("ALCOVE_TRAINING_KERNEL", "c")
-    with pytest.raises(KernelUnavailable, match="ALCOVE_TRAINING_KERNEL=c but .*float32"):
+    with pytest.raises(KernelChoiceError, match="^ALCOVE_TRAINING_KERNEL: is c but the C training kernel cannot be used: .*float32"):
         train_surrogate(smooth_pool, SurrogateConfig(max_epochs=1, dtype="float32"), seed=0)
     monkeypatch.setenv("ALCOVE_TRAINING_KERNEL", "auto")  # float32: PyTorch trains it
     assert train_surrogate(smooth_pool, SurrogateConfig(max_epochs=1, dtype="float32"), seed=0).model.lineage[
@@ -177,7 +177,7 @@ def test_a_failing_build_gives_the_compiler_message_and_auto_falls_back(broken_c
     result = train_surrogate(smooth_pool, SurrogateConfig(max_epochs=2), seed=0)
     assert result.model.lineage["training_kernel"] == "torch"
     monkeypatch.setenv("ALCOVE_TRAINING_KERNEL", "c")
-    with pytest.raises(KernelUnavailable, match="the test compiler refuses"):
+    with pytest.raises(KernelChoiceError, match="the test compiler refuses"):
         train_surrogate(smooth_pool, SurrogateConfig(max_epochs=2), seed=0)
     assert not list((broken_compiler.parent / "cache").glob("*.so"))
 

@@ -102,7 +102,8 @@ def _print_metrics(metrics: dict[str, Any], out: Path) -> None:
     console = Console()
     console.print(table)
     s = metrics["samples"]
-    console.print(f"samples: {s['train']} train, {s['validation']} validation, {s['test']} test; wall time {metrics['wall_time_s']:.2f} s")
+    console.print(f"samples: {s['train']} train, {s['validation']} validation, {s['test']} test; wall time {metrics['wall_time_s']:.2f} s "
+                  f"({'C kernel' if metrics.get('training_kernel') == 'c' else 'PyTorch'})")
 
 
 @app.command()
@@ -121,6 +122,7 @@ def train(
     from alcove.science.surrogate.artifact import save_artifact
     from alcove.science.surrogate.config import SurrogateConfig, SurrogateConfigError
     from alcove.science.surrogate.dataset import PoolDataError, load_pool_dir
+    from alcove.science.surrogate.kernel import KernelChoiceError
     from alcove.science.surrogate.training import train_surrogate
 
     if (pool_dir is None) == (campaign is None):
@@ -155,6 +157,8 @@ def train(
         _bad_input(f"pool: {exc.field}", exc.reason)
     except SurrogateConfigError as exc:
         _bad_input(f"config: {exc.field}", exc.reason)
+    except KernelChoiceError as exc:
+        _bad_input(exc.field, exc.reason)
     save_artifact(result.model, out, lineage=lineage)
     metrics = result.metrics.to_dict()
     if json_output:

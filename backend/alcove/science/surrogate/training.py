@@ -34,7 +34,7 @@ from alcove.science.surrogate.config import SurrogateConfig
 from alcove.science.surrogate.dataset import PoolDataError, PoolDataset, check_pool
 from alcove.science.surrogate.features import features
 from alcove.science.surrogate.fused import FusedNets
-from alcove.science.surrogate.kernel import KERNEL_ENV, KernelNets, KernelUnavailable, kernel_supports, requested_kernel
+from alcove.science.surrogate.kernel import KernelChoiceError, KernelNets, KernelUnavailable, kernel_supports, requested_kernel
 from alcove.science.surrogate.mlp import MLP, Standardization, SurrogateModel
 
 _log = logging.getLogger(__name__)
@@ -68,6 +68,7 @@ class TrainingMetrics:
     best_epoch: dict[str, int]
     samples: dict[str, int]
     wall_time_s: float
+    training_kernel: str = "torch"  # "c": the compiled kernel, "torch": the PyTorch implementation
 
     def to_dict(self) -> dict[str, Any]:
         return asdict(self)
@@ -205,7 +206,7 @@ def train_surrogate(
             mask = split.sample_split == s
             rmse[k][s] = float(np.sqrt(np.mean((pred[k][mask] - y[k][mask]) ** 2))) if mask.any() else None
     metrics = TrainingMetrics(rmse=rmse, epochs=epochs, best_epoch=best_epoch, samples=split.counts(),
-                              wall_time_s=time.perf_counter() - t_start)
+                              wall_time_s=time.perf_counter() - t_start, training_kernel=trainer.name)
     model.lineage["metrics"] = metrics.to_dict()
     return TrainingResult(model=model, metrics=metrics, split=split, history=history)
 
@@ -334,7 +335,7 @@ def make_trainer(nets: dict[str, MLP], z: torch.Tensor, y: dict[str, torch.Tenso
             except KernelUnavailable as exc:
                 reason = str(exc)
         if choice == "c":
-            raise KernelUnavailable(f"{KERNEL_ENV}=c but the C training kernel cannot be used: {reason}")
+            raise KernelChoiceError(f"is c but the C training kernel cannot be used: {reason}")
         _log.info("training with PyTorch: the C kernel cannot be used (%s)", reason)
     return _TorchTrainer(nets, z, y, w, config)
 

@@ -48,6 +48,14 @@ class KernelUnavailable(RuntimeError):
     """The C kernel cannot be built or loaded here (the reason is the message)."""
 
 
+class KernelChoiceError(ValueError):
+    """``ALCOVE_TRAINING_KERNEL`` asks for something this machine cannot do (``field``: the variable)."""
+
+    def __init__(self, reason: str):
+        self.field, self.reason = KERNEL_ENV, reason
+        super().__init__(f"{KERNEL_ENV}: {reason}")
+
+
 class _Net(ctypes.Structure):
     _fields_ = [
         ("n_layers", ctypes.c_int32),
@@ -67,7 +75,7 @@ def requested_kernel() -> str:
     """``auto``, ``c`` or ``torch`` from ``ALCOVE_TRAINING_KERNEL``."""
     value = os.environ.get(KERNEL_ENV, "auto").strip().lower() or "auto"
     if value not in ("auto", "c", "torch"):
-        raise ValueError(f"{KERNEL_ENV}: {value!r} is not one of auto, c, torch")
+        raise KernelChoiceError(f"{value!r} is not one of auto, c, torch")
     return value
 
 
@@ -277,4 +285,4 @@ class KernelNets:
             vector_to_parameters(torch.from_numpy(np.array(src, dtype=np.float64)), net.parameters())
 
 
-__all__ = ["KERNEL_ENV", "KernelNets", "KernelUnavailable", "kernel_supports", "load_kernel", "requested_kernel"]
+__all__ = ["KERNEL_ENV", "KernelChoiceError", "KernelNets", "KernelUnavailable", "kernel_supports", "load_kernel", "requested_kernel"]
