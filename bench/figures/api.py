@@ -2,7 +2,8 @@
 
 Setup (untimed): a private PostgreSQL schema, migrated, holding a 200-iteration campaign
 synthesized through the services/repositories (``tests/api/synthetic.py``: iterations,
-steps, metrics with 401-sample curves, pool versions), and the API served the way
+steps, metrics with 401-sample curves, OCP solutions on the preset's grid of 2 x 100
+intervals, pool versions), and the API served the way
 ``alcove serve`` does it: uvicorn with ``API_WORKERS`` processes on loopback.
 
 Load: 20 concurrent keep-alive connections, authenticated (a personal token), each sending
@@ -11,7 +12,8 @@ throughput), for ``DURATION_S`` seconds per repetition. The generator is ``wrk``
 threads; Debian package ``wrk``) with its latency distribution; if it is missing, an httpx
 async client in Python (it eats much of the same 2 cores: its figures are pessimistic),
 and the table's notes say which one ran. Reported: p50/p95/p99, throughput, payload
-sizes, the cost of an empty ``?after=200`` poll, and the API processes' CPU time per
+sizes, the cost of an empty ``?after=200`` poll, the polled campaign detail (with and
+without ``If-None-Match``), and the API processes' CPU time per
 request (from /proc: much less sensitive to the machine's load than latencies).
 """
 
@@ -36,6 +38,7 @@ from urllib.parse import quote
 from bench.harness import figure
 
 ITERATIONS = 200
+OCP_INTERVALS = 100  # per phase, as the head-headrest-2phase preset: 201 nodes
 CLIENTS = 20
 REQUESTS_PER_CLIENT = 25  # httpx fallback
 DURATION_S = float(os.environ.get("ALCOVE_BENCH_API_SECONDS", "4"))
@@ -88,7 +91,7 @@ def server() -> dict[str, Any]:
         s.flush()
         token, secret = ApiToken.issue(user, kind=TokenKind.personal, name="bench")
         s.add(token)
-        campaign = synthesize_campaign(s, user.id, iterations=ITERATIONS, name="bench-200")
+        campaign = synthesize_campaign(s, user.id, iterations=ITERATIONS, name="bench-200", ocp_intervals=OCP_INTERVALS)
         cid = campaign.id
     with socket.socket() as sock:
         sock.bind(("127.0.0.1", 0))
@@ -205,7 +208,7 @@ def _measure(ctx: dict[str, Any], key: str, path: str) -> float:
     r = httpx.get(ctx["root"] + path, headers=ctx["headers"], timeout=30)  # warm-up (and payload size)
     r.raise_for_status()
     headers = dict(ctx["headers"])
-    if key == "etag":  # a poll that already has the answer: 304, no body
+    if key in ("etag", "detail_etag"):  # a poll that already has the answer: 304, no body
         headers["If-None-Match"] = r.headers["ETag"]
         r = httpx.get(ctx["root"] + path, headers=headers, timeout=30)
         assert r.status_code == 304, r.status_code
@@ -235,8 +238,11 @@ HEALTH = "/health"
 METRICS = "/campaigns/{cid}/metrics"
 POLL = "/campaigns/{cid}/metrics?after=200"
 CURVES = "/campaigns/{cid}/iterations/137/curves"
+TRAJECTORY = "/campaigns/{cid}/iterations/137/trajectory"
+DETAIL = "/campaigns/{cid}"
 COMMON = {"setup": server, "requires": _pg_missing, "group": "api", "reps": 3, "quick_reps": 1}
-PATHS = {"health": HEALTH, "metrics": METRICS, "poll": POLL, "curves": CURVES, "etag": METRICS}
+PATHS = {"health": HEALTH, "metrics": METRICS, "poll": POLL, "curves": CURVES, "trajectory": TRAJECTORY, "etag": METRICS, "detail": DETAIL,
+         "detail_etag": DETAIL}
 
 
 @figure("api: GET /health (no auth, no database), p95 at 20 clients", "ms", **COMMON,
@@ -255,6 +261,12 @@ def curves_p95(ctx: dict[str, Any]) -> float:
     return _measure(ctx, "curves", CURVES)
 
 
+@figure("api: GET one iteration's whole OCP trajectory (201 nodes), p95 at 20 clients", "ms", target=50.0,
+        baseline="api: GET /health (no auth, no database), p95 at 20 clients", **COMMON)
+def trajectory_p95(ctx: dict[str, Any]) -> float:
+    return _measure(ctx, "trajectory", TRAJECTORY)
+
+
 @figure("api: GET metrics ?after=200 (empty poll), p95 at 20 clients", "ms", baseline="api: GET /health (no auth, no database), p95 at 20 clients", **COMMON)
 def poll_p95(ctx: dict[str, Any]) -> float:
     return _measure(ctx, "poll", POLL)
@@ -263,6 +275,16 @@ def poll_p95(ctx: dict[str, Any]) -> float:
 @figure("api: GET metrics series with If-None-Match (304), p95 at 20 clients", "ms", baseline="api: GET /health (no auth, no database), p95 at 20 clients", **COMMON)
 def etag_p95(ctx: dict[str, Any]) -> float:
     return _measure(ctx, "etag", METRICS)
+
+
+@figure("api: GET campaign detail, p95 at 20 clients", "ms", baseline="api: GET /health (no auth, no database), p95 at 20 clients", **COMMON)
+def detail_p95(ctx: dict[str, Any]) -> float:
+    return _measure(ctx, "detail", DETAIL)
+
+
+@figure("api: GET campaign detail with If-None-Match (304), p95 at 20 clients", "ms", baseline="api: GET /health (no auth, no database), p95 at 20 clients", **COMMON)
+def detail_etag_p95(ctx: dict[str, Any]) -> float:
+    return _measure(ctx, "detail_etag", DETAIL)
 
 
 def _from(key: str, what: str):  # noqa: ANN202
@@ -278,7 +300,8 @@ def _from(key: str, what: str):  # noqa: ANN202
     return run
 
 
-for _key, _label in (("health", "/health"), ("metrics", "metrics series"), ("curves", "curves"), ("poll", "metrics ?after=200"), ("etag", "metrics 304")):
+for _key, _label in (("health", "/health"), ("metrics", "metrics series"), ("curves", "curves"), ("trajectory", "trajectory"), ("poll", "metrics ?after=200"),
+                     ("etag", "metrics 304"), ("detail", "campaign detail"), ("detail_etag", "campaign detail 304")):
     figure(f"api: GET {_label}, p50 at 20 clients", "ms", **{**COMMON, "reps": 1})(_from(_key, "p50"))
     figure(f"api: GET {_label}, p99 at 20 clients", "ms", **{**COMMON, "reps": 1})(_from(_key, "p99"))
     figure(f"api: GET {_label}, throughput at 20 clients", "req/s", higher_is_better=True, **{**COMMON, "reps": 1})(_from(_key, "rps"))

@@ -227,3 +227,61 @@ def test_polls_with_the_etag_get_a_bodiless_304_until_something_changes(client, 
     curves = client.get(f"{API}/campaigns/{cid}/iterations/2/curves", headers=owner.headers)
     assert client.get(f"{API}/campaigns/{cid}/iterations/2/curves", headers={**owner.headers, "If-None-Match": curves.headers["ETag"]}).status_code == 304
     assert client.get(f"{API}/campaigns/{cid}/iterations/1/curves", headers={**owner.headers, "If-None-Match": curves.headers["ETag"]}).status_code == 200
+
+
+def test_the_polled_detail_is_a_304_until_anything_it_shows_changes(client, owner: Account, other: Account) -> None:
+    from alcove.campaigns import repository as repo
+    from alcove.campaigns import service as campaigns
+    from alcove.campaigns.presets import oracle_version_for, surrogate_config_version_for, task_version_from_preset
+    from alcove.campaigns.schemas import CampaignCreate
+    from alcove.campaigns.state_machine import Outcome, StepRef
+    from alcove.db import session_scope
+    from alcove.models import StepName
+
+    with session_scope() as s:
+        data = CampaignCreate(name="api-detail-etag", task_version_id=task_version_from_preset(s, owner.id, "head-headrest-2phase"),
+                              oracle_version_id=oracle_version_for(s, owner.id, "aux-penalty"), surrogate_config_version_id=surrogate_config_version_for(s, owner.id, None))
+        cid = campaigns.create_campaign(s, owner.id, data).id
+        campaigns.start(s, cid)  # the preliminary step is queued (no job is sent)
+    url = f"{API}/campaigns/{cid}"
+    seen: list[str] = []
+
+    def changed() -> dict:
+        """The detail answers 200 with a new ETag to every ETag seen so far (a stale poll)."""
+        r = client.get(url, headers={**owner.headers, "If-None-Match": seen[-1]} if seen else owner.headers)
+        assert r.status_code == 200 and r.headers["ETag"] not in seen
+        seen.append(r.headers["ETag"])
+        again = client.get(url, headers={**owner.headers, "If-None-Match": seen[-1]})
+        assert again.status_code == 304 and again.content == b"" and again.headers["ETag"] == seen[-1]
+        return r.json()
+
+    first = changed()
+    assert first["current"]["steps"][0]["status"] == "queued" and first["can_edit"] is True
+    refused = client.get(url, headers=other.headers)
+    assert refused.status_code == 404
+    for etag in seen:  # another user is refused as before, never a 304
+        r = client.get(url, headers={**other.headers, "If-None-Match": etag})
+        assert r.status_code == 404 and r.json() == refused.json()
+    assert client.get(url, headers={"If-None-Match": seen[-1]}).status_code == 401
+
+    with session_scope() as s:  # a worker claims the step, then heartbeats
+        step_id = repo.get_step(s, cid, 0, "preliminary").id
+        assert repo.claim_step(s, step_id, 1, "token", "worker@host", 60.0)
+    claimed = changed()["current"]["steps"][0]
+    assert claimed["status"] == "running"
+    with session_scope() as s:
+        assert repo.extend_lease(s, step_id, "token", 60.0) == (True, False)
+    assert changed()["current"]["steps"][0]["heartbeat_at"] > claimed["heartbeat_at"]
+    with session_scope() as s:  # the step completes: iteration 1's training is queued
+        campaigns.complete_step(s, repo.get_campaign(s, cid), StepRef(0, StepName.preliminary), repo.get_step(s, cid, 0, "preliminary"), Outcome.succeeded)
+    done = changed()
+    assert done["campaign"]["current_iteration"] == 1 and done["current"]["steps"][0]["step"] == "train"
+
+    assert client.post(f"{url}/pause", headers=owner.headers).status_code == 200
+    assert changed()["campaign"]["status"] in ("pausing", "paused")
+
+    viewer = make_account("member", "detail-viewer")
+    r = client.post(f"{API}/shares", json={"object_type": "campaign", "object_id": cid, "email": viewer.email}, headers=owner.headers)
+    assert r.status_code == 201
+    shared = client.get(url, headers={**viewer.headers, "If-None-Match": seen[-1]})  # the owner's ETag: can_edit differs
+    assert shared.status_code == 200 and shared.json()["can_edit"] is False and shared.headers["ETag"] != seen[-1]

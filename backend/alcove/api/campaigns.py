@@ -50,14 +50,17 @@ from alcove.db import get_engine, get_sessionmaker
 from alcove.errors import Conflict, InvalidInput, NotFound
 from alcove.models import (
     Campaign,
+    CampaignEvent,
     CampaignStatus,
     Dataset,
     Iteration,
     IterationMetrics,
     IterationStatus,
+    IterationStep,
     ModelVersion,
     OcpSolution,
     Share,
+    SharePermission,
     OracleDefinition,
     OracleVersion,
     StepName,
@@ -405,10 +408,22 @@ def create_campaign(body: CampaignCreateIn, user: CurrentUser, session: SessionD
     return _campaign_out(session, campaign, user)
 
 
-@router.get("/{campaign_id}", response_model=CampaignOut, operation_id="get_campaign")
-def get_campaign(campaign_id: ObjectId, user: CurrentUser, session: SessionDep) -> CampaignOut:
-    """Status, current iteration and step, latest metrics, ETA."""
-    return _campaign_out(session, get_for(session, Campaign, campaign_id, user), user)
+@router.get("/{campaign_id}", response_model=CampaignOut, operation_id="get_campaign",
+            responses={304: {"description": "not modified (the `If-None-Match` ETag still matches)"}})
+async def get_campaign(campaign_id: ObjectId, user: CurrentUser, request: Request) -> Response:
+    """Status, current iteration and step, latest metrics, ETA. Polled: answers carry an
+    ``ETag``; send it back as ``If-None-Match`` and an unchanged campaign is a bodiless 304."""
+    # read on every request (no reuse window): a pause or a finished step shows at once
+    revision = await run_in_threadpool(_read, _detail_revision, campaign_id, user.id)
+    if revision is None:
+        raise NotFound("campaign", campaign_id)
+    key = ("detail", campaign_id, *revision)
+
+    def build() -> bytes:
+        with get_sessionmaker()() as session:
+            return _campaign_out(session, get_for(session, Campaign, campaign_id, user), user).model_dump_json().encode()
+
+    return await _cached_json(request, key, build)
 
 
 @router.patch("/{campaign_id}/config", response_model=CampaignOut, operation_id="update_campaign_config")
@@ -682,6 +697,20 @@ _REVISION = sa.select(
     sa.select(sa.func.count()).where(IterationMetrics.campaign_id == Campaign.id).scalar_subquery(),
     sa.select(sa.func.max(IterationMetrics.id)).where(IterationMetrics.campaign_id == Campaign.id).scalar_subquery(),
 ).where(_visible_campaign())
+#: The detail's revision, one index lookup each: the campaign row, the user's ``can_edit``,
+#: the owner's email, the current iteration's steps (claims and heartbeats bump their
+#: ``updated_at``), the last event (every other step or iteration transition writes one) and
+#: the latest metrics row.
+_DETAIL_REVISION = sa.select(
+    Campaign.updated_at,
+    sa.or_(Campaign.owner_id == sa.bindparam("uid"),
+           sa.select(Share.permission).where(Share.campaign_id == Campaign.id, Share.user_id == sa.bindparam("uid")).scalar_subquery() == SharePermission.edit.value),
+    sa.select(User.email).where(User.id == Campaign.owner_id).scalar_subquery(),
+    sa.select(sa.func.max(IterationStep.updated_at)).join(Iteration, Iteration.id == IterationStep.iteration_id)
+    .where(Iteration.campaign_id == Campaign.id, Iteration.index == Campaign.current_iteration).scalar_subquery(),
+    sa.select(sa.func.max(CampaignEvent.id)).where(CampaignEvent.campaign_id == Campaign.id).scalar_subquery(),
+    sa.select(IterationMetrics.id).where(IterationMetrics.campaign_id == Campaign.id).order_by(IterationMetrics.iteration_index.desc()).limit(1).scalar_subquery(),
+).where(_visible_campaign())
 _CURVES_SHA = (
     sa.select(IterationMetrics.curves_sha256).join(Campaign, Campaign.id == IterationMetrics.campaign_id)
     .where(IterationMetrics.campaign_id == sa.bindparam("cid"), IterationMetrics.iteration_index == sa.bindparam("k"), IterationMetrics.curves_sha256.is_not(None), _visible_campaign())
@@ -692,6 +721,12 @@ def _metrics_revision(conn: sa.Connection, campaign_id: int, user_id: int) -> tu
     """What makes the cached series stale: the campaign's ``updated_at``, the count and last
     id of its metrics rows (None: no such campaign visible to the user)."""
     row = conn.execute(_REVISION, {"cid": campaign_id, "uid": user_id}).first()
+    return None if row is None else tuple(row)
+
+
+def _detail_revision(conn: sa.Connection, campaign_id: int, user_id: int) -> tuple[Any, ...] | None:
+    """What makes the cached detail stale (None: no such campaign visible to the user)."""
+    row = conn.execute(_DETAIL_REVISION, {"cid": campaign_id, "uid": user_id}).first()
     return None if row is None else tuple(row)
 
 

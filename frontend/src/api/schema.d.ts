@@ -116,7 +116,8 @@ export interface paths {
         };
         /**
          * Get Campaign
-         * @description Status, current iteration and step, latest metrics, ETA.
+         * @description Status, current iteration and step, latest metrics, ETA. Polled: answers carry an
+         *     ``ETag``; send it back as ``If-None-Match`` and an unchanged campaign is a bodiless 304.
          */
         get: operations["get_campaign"];
         put?: never;
@@ -4157,6 +4158,13 @@ export interface operations {
                 content: {
                     "application/json": components["schemas"]["CampaignOut"];
                 };
+            };
+            /** @description not modified (the `If-None-Match` ETag still matches) */
+            304: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content?: never;
             };
             /** @description not authenticated (missing, invalid, expired or revoked token) */
             401: {
