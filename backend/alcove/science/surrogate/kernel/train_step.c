@@ -230,13 +230,15 @@ static void gather_targets(const double *table, int64_t ld, const int64_t *rows,
     }
 }
 
+/* Scratch of a gradient call: a chunk's inputs, weights, units, slopes and targets. */
+static double *scratch(int32_t n_nets, const Net *nets, int32_t n_in) {
+    return malloc(sizeof(double) * CHUNK * ((int64_t)n_in + 1 + 2 * max_units(n_nets, nets) + max_width(n_nets, nets)));
+}
+
 /* Set every active net's grad to the gradient of its loss on the n samples rows[0..n). */
-int alcove_gradient(int32_t n_nets, Net *nets, const double *table, int64_t ld, int32_t n_in, int32_t w_col,
-                    const int64_t *rows, int64_t n) {
-    int mw = max_width(n_nets, nets);
+static void gradient(int32_t n_nets, Net *nets, const double *table, int64_t ld, int32_t n_in, int32_t w_col,
+                     const int64_t *rows, int64_t n, double *buf) {
     int64_t mu = max_units(n_nets, nets);
-    double *buf = malloc(sizeof(double) * CHUNK * ((int64_t)n_in + 1 + 2 * mu + (int64_t)mw));
-    if (!buf) return 1;
     double *x = buf, *w = x + (int64_t)n_in * CHUNK, *units = w + CHUNK, *slopes = units + mu * CHUNK,
            *y = slopes + mu * CHUNK;
     for (int k = 0; k < n_nets; k++)
@@ -254,6 +256,13 @@ int alcove_gradient(int32_t n_nets, Net *nets, const double *table, int64_t ld, 
             backward_chunk(net, x, units, slopes, y, w, scale, cn);
         }
     }
+}
+
+int alcove_gradient(int32_t n_nets, Net *nets, const double *table, int64_t ld, int32_t n_in, int32_t w_col,
+                    const int64_t *rows, int64_t n) {
+    double *buf = scratch(n_nets, nets, n_in);
+    if (!buf) return 1;
+    gradient(n_nets, nets, table, ld, n_in, w_col, rows, n, buf);
     free(buf);
     return 0;
 }
@@ -277,12 +286,15 @@ static void adam(Net *net, double lr, double beta1, double beta2, double eps) {
 int alcove_train_epoch(int32_t n_nets, Net *nets, const double *table, int64_t ld, int32_t n_in, int32_t w_col,
                        const int64_t *perm, int64_t n, int64_t batch, double lr, double beta1, double beta2,
                        double eps) {
+    double *buf = scratch(n_nets, nets, n_in);
+    if (!buf) return 1;
     for (int64_t start = 0; start < n; start += batch) {
         int64_t bn = n - start < batch ? n - start : batch;
-        if (alcove_gradient(n_nets, nets, table, ld, n_in, w_col, perm + start, bn)) return 1;
+        gradient(n_nets, nets, table, ld, n_in, w_col, perm + start, bn, buf);
         for (int k = 0; k < n_nets; k++)
             if (nets[k].active) adam(&nets[k], lr, beta1, beta2, eps);
     }
+    free(buf);
     return 0;
 }
 
