@@ -80,7 +80,7 @@ class Objects:
 
             from .synthetic import synthesize_campaign
 
-            from alcove.api.artifact_export import cache_dir
+            from alcove.surrogates.artifact_export import cache_dir
             from alcove.models import ModelVersion
             from alcove.surrogates.service import model_artifact_bytes
 

@@ -41,7 +41,7 @@ def add_iteration(cid: int, k: int) -> None:
         s.flush()
         s.add(IterationMetrics(campaign_id=cid, iteration_id=it.id, iteration_index=k, force_rmse=0.5, moment_rmse=0.05,
                                curves_sha256=put_arrays(s, curve_arrays(k, 11, np.random.default_rng(k)))))
-    from alcove.api.campaigns import REVISION_TTL_S
+    from alcove.campaigns.router import REVISION_TTL_S
 
     time.sleep(REVISION_TTL_S + 0.05)
 

@@ -32,14 +32,21 @@ def api_routers() -> list[APIRouter]:
     """All ``/api/v1`` routers, each included into the app directly with the prefix (a
     flat route table: FastAPI matches nested routers noticeably slower). The most polled
     routers come first. Add new routers here."""
-    from alcove.api import campaigns, surrogate_configs
+    from alcove.campaigns.router import router as campaigns_router
     from alcove.oracles.router import admin_router as command_oracles_router
     from alcove.oracles.router import router as oracles_router
+    from alcove.pool.router import router as pool_versions_router
+    from alcove.pool.router import uploads as uploads_router
     from alcove.previews.router import router as previews_router
+    from alcove.surrogates.router import model_versions as model_versions_router
+    from alcove.surrogates.router import router as surrogate_configs_router
     from alcove.tasks.router import router as tasks_router
     from alcove.users.router import router as users_router
 
-    return [*campaigns.routers(), users_router, tasks_router, oracles_router, surrogate_configs.router, previews_router, command_oracles_router]
+    return [
+        campaigns_router, pool_versions_router, model_versions_router, uploads_router, users_router, tasks_router, oracles_router,
+        surrogate_configs_router, previews_router, command_oracles_router,
+    ]
 
 
 def create_app(settings: Settings | None = None) -> FastAPI:

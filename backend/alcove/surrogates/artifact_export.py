@@ -1,7 +1,7 @@
 """Build model artifact zips (surrogate JSON + TorchScript) in a child process.
 
 The API process never imports torch: ``artifact_zip_paths`` runs
-``python -m alcove.api.artifact_export OUT_DIR ID...`` once for the model versions whose
+``python -m alcove.surrogates.artifact_export OUT_DIR ID...`` once for the model versions whose
 zip is not cached yet. Artifacts are immutable, so a zip is cached by the SHA-256 of the
 artifact JSON under ``ALCOVE_DATA_DIR/artifacts/model-zips``.
 """
@@ -40,7 +40,7 @@ def artifact_zip_paths(versions: list[ModelVersion]) -> dict[int, Path]:
     if missing:
         env = {**os.environ, "ALCOVE_DATABASE_URL": get_settings().database_url}
         proc = subprocess.run(
-            [sys.executable, "-m", "alcove.api.artifact_export", str(cache_dir()), *map(str, missing)],
+            [sys.executable, "-m", "alcove.surrogates.artifact_export", str(cache_dir()), *map(str, missing)],
             env=env, capture_output=True, text=True, timeout=BUILD_TIMEOUT_S,
         )
         if proc.returncode != 0:

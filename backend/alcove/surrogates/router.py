@@ -1,5 +1,6 @@
-"""Routes ``/surrogate-configs``: versioned surrogate settings (architectures, training
-protocol), validated by :class:`alcove.science.surrogate.config.SurrogateConfig`."""
+"""Routes ``/surrogate-configs`` (versioned surrogate settings: architectures, training
+protocol, validated by :class:`alcove.science.surrogate.config.SurrogateConfig`) and
+``/campaigns/{id}/model-versions`` (a campaign's trained models and their artifacts)."""
 
 from __future__ import annotations
 
@@ -7,18 +8,26 @@ from typing import Any
 
 from fastapi import APIRouter, Response, status
 from pydantic import BaseModel, ConfigDict, Field, ValidationError
+from sqlalchemy.orm import Session
 
 from alcove import versioning
 from alcove.api.auth import CurrentUser
 from alcove.api.deps import SessionDep
+from alcove.api.downloads import BINARY, download
 from alcove.api.params import Limit, ObjectId, Offset, VersionNumber
-from alcove.errors import field_errors_from_pydantic
-from alcove.models import SurrogateConfig, User
+from alcove.campaigns import repository as crepo
+from alcove.campaigns import service as campaigns
+from alcove.campaigns.schemas import ModelVersionRead
+from alcove.errors import NotFound, field_errors_from_pydantic
+from alcove.models import Campaign, ModelVersion, SurrogateConfig, User
 from alcove.science.surrogate.config import SurrogateConfig as SurrogateSpec
+from alcove.surrogates.artifact_export import artifact_zip_paths
+from alcove.surrogates.service import artifact_document
 from alcove.tasks.schemas import DefinitionMeta, FieldErrorOut, ValidationReport, VersionMeta
 from alcove.users.access import can_edit, get_for
 
 router = APIRouter(prefix="/surrogate-configs", tags=["surrogate-configs"])
+model_versions = APIRouter(prefix="/campaigns", tags=["campaigns"])
 KIND = versioning.SURROGATE_CONFIGS
 
 
@@ -127,3 +136,37 @@ def list_surrogate_config_versions(config_id: ObjectId, user: CurrentUser, sessi
 def get_surrogate_config_version(config_id: ObjectId, version: VersionNumber, user: CurrentUser, session: SessionDep) -> SurrogateConfigVersionOut:
     definition = get_for(session, SurrogateConfig, config_id, user)
     return version_out(session, versioning.get_version(session, KIND, definition, version))
+
+
+# ----------------------------------------------------------------------------- model versions
+
+
+@model_versions.get("/{campaign_id}/model-versions", response_model=list[ModelVersionRead], operation_id="list_model_versions")
+def list_model_versions(campaign_id: ObjectId, user: CurrentUser, session: SessionDep) -> list[ModelVersionRead]:
+    """Trained models with lineage (pool version, parent model, seed, code and library versions)."""
+    get_for(session, Campaign, campaign_id, user)
+    return campaigns.list_model_versions(session, campaign_id)
+
+
+def _model_version(session: Session, campaign_id: int, version: int) -> ModelVersion:
+    mv = crepo.model_version(session, crepo.get_campaign(session, campaign_id), version)
+    if mv is None:
+        raise NotFound(f"model version {version} of campaign", campaign_id)
+    return mv
+
+
+@model_versions.get("/{campaign_id}/model-versions/{version}/artifact", response_model=dict[str, Any], operation_id="get_model_artifact")
+def get_model_artifact(campaign_id: ObjectId, version: VersionNumber, user: CurrentUser, session: SessionDep) -> dict[str, Any]:
+    """The self-contained artifact document (architecture, weights, normalisation, lineage) as JSON."""
+    get_for(session, Campaign, campaign_id, user)
+    return artifact_document(session, _model_version(session, campaign_id, version))
+
+
+@model_versions.get("/{campaign_id}/model-versions/{version}/artifact.zip", operation_id="download_model_artifact", response_class=Response, responses={200: BINARY})
+def download_model_artifact(campaign_id: ObjectId, version: VersionNumber, user: CurrentUser, session: SessionDep) -> Response:
+    """The artifact as a zip: ``surrogate.json`` + TorchScript ``force.pt`` / ``moment.pt``
+    (built once by a child process, then cached)."""
+    get_for(session, Campaign, campaign_id, user)
+    mv = _model_version(session, campaign_id, version)
+    path = artifact_zip_paths([mv])[mv.id]
+    return download(path.read_bytes(), f"campaign-{campaign_id}-model-{version:04d}.zip", "application/zip")

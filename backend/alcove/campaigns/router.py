@@ -1,32 +1,30 @@
-"""Routes ``/campaigns/...`` (lifecycle, metrics, iterations, jobs, events, pool and model
-versions, downloads, export) and ``/preliminary-datasets`` (CSV upload), on the campaign
-engine's services (:mod:`alcove.campaigns.service`). The route opens the transaction,
-calls the service, commits, then sends the jobs the commit made necessary."""
+"""Routes ``/campaigns/...``: lifecycle, metrics, iterations, jobs, events and the export, on
+the campaign engine's services (:mod:`alcove.campaigns.service`). The route opens the
+transaction, calls the service, commits, then sends the jobs the commit made necessary.
+Pool versions are served by :mod:`alcove.pool.router`, model versions by
+:mod:`alcove.surrogates.router`."""
 
 from __future__ import annotations
 
 import asyncio
-import hashlib
 import io
 import logging
-import threading
-import time
 import zipfile
-from collections import OrderedDict
-from collections.abc import Callable
 from datetime import datetime
 from typing import Annotated, Any, Literal
 
 import sqlalchemy as sa
-from fastapi import APIRouter, Body, File, Form, Query, Request, Response, UploadFile, status
+from fastapi import APIRouter, Body, Query, Request, Response, status
 from fastapi.responses import StreamingResponse
 from pydantic import BaseModel, ConfigDict, Field, TypeAdapter
 from sqlalchemy.orm import Session
 from starlette.concurrency import run_in_threadpool
 
 from alcove.api.auth import CurrentUser
+from alcove.api.caching import NOT_MODIFIED, TtlCache, cached_json, read
 from alcove.api.deps import SessionDep
-from alcove.api.params import MAX_ID, IterationIndex, Limit, ObjectId, Offset, VersionNumber
+from alcove.api.downloads import BINARY, download
+from alcove.api.params import MAX_ID, IterationIndex, Limit, ObjectId, Offset
 from alcove.campaigns import repository as repo
 from alcove.campaigns import service as campaigns
 from alcove.campaigns.schemas import (
@@ -38,15 +36,13 @@ from alcove.campaigns.schemas import (
     IterationTrajectory,
     IterationRead,
     MetricsRead,
-    ModelVersionRead,
-    PoolVersionRead,
     Policies,
     PreliminaryConfig,
     RunSettings,
     StepRead,
     StoppingRules,
 )
-from alcove.db import get_engine, get_sessionmaker
+from alcove.db import get_sessionmaker
 from alcove.errors import Conflict, InvalidInput, NotFound
 from alcove.models import (
     Campaign,
@@ -57,7 +53,6 @@ from alcove.models import (
     IterationMetrics,
     IterationStatus,
     IterationStep,
-    ModelVersion,
     OcpSolution,
     Share,
     SharePermission,
@@ -75,14 +70,6 @@ from alcove.users.access import can_edit, get_for, visible_clause
 log = logging.getLogger(__name__)
 
 router = APIRouter(prefix="/campaigns", tags=["campaigns"])
-uploads = APIRouter(prefix="/preliminary-datasets", tags=["datasets"])
-
-#: Largest preliminary-data CSV accepted (the body limit for this path is larger still).
-MAX_UPLOAD_BYTES = 50 * 1024 * 1024
-
-
-def routers() -> list[APIRouter]:
-    return [router, uploads]
 
 
 # ----------------------------------------------------------------------------- bodies
@@ -159,57 +146,9 @@ class JobOut(StepRead):
     iteration: int
 
 
-class DatasetOut(BaseModel):
-    model_config = ConfigDict(from_attributes=True)
-
-    id: int
-    name: str
-    origin: str
-    n_samples: int
-    created_at: datetime
-
-
-class UploadOut(BaseModel):
-    datasets: list[DatasetOut]
-    dataset_ids: list[int] = Field(description="pass as `preliminary.dataset_ids` of a campaign")
-    n_samples: int
-
-
 # ----------------------------------------------------------------------------- helpers
 
 
-class ResponseCache:
-    """A small thread-safe LRU of serialized JSON bodies. Keys carry what makes an entry
-    stale (content hashes, row counts, the campaign's ``updated_at``), so entries are never
-    invalidated explicitly; a hot dashboard poll costs the access check and one count."""
-
-    def __init__(self, max_entries: int = 256) -> None:
-        self.max_entries = max_entries
-        self._data: OrderedDict[Any, bytes] = OrderedDict()
-        self._lock = threading.Lock()
-
-    def get(self, key: Any) -> bytes | None:
-        with self._lock:
-            body = self._data.get(key)
-            if body is not None:
-                self._data.move_to_end(key)
-            return body
-
-    def get_or_build(self, key: Any, build: Callable[[], bytes]) -> bytes:
-        with self._lock:
-            body = self._data.get(key)
-            if body is not None:
-                self._data.move_to_end(key)
-                return body
-        body = build()
-        with self._lock:
-            self._data[key] = body
-            while len(self._data) > self.max_entries:
-                self._data.popitem(last=False)
-        return body
-
-
-RESPONSES = ResponseCache()
 METRICS_LIST = TypeAdapter(list[MetricsRead])
 ITERATION_LIST = TypeAdapter(list[IterationRead])
 
@@ -285,13 +224,6 @@ def _campaign_out(session: Session, campaign: Campaign, user: User) -> CampaignO
         oracle_id=ov.definition_id,
         oracle_version=ov.version,
     )
-
-
-def _download(data: bytes, filename: str, media_type: str) -> Response:
-    return Response(content=data, media_type=media_type, headers={"Content-Disposition": f'attachment; filename="{filename}"'})
-
-
-BINARY = {"content": {"application/octet-stream": {"schema": {"type": "string", "format": "binary"}}}, "description": "file download"}
 
 
 # ----------------------------------------------------------------------------- campaigns
@@ -409,12 +341,12 @@ def create_campaign(body: CampaignCreateIn, user: CurrentUser, session: SessionD
 
 
 @router.get("/{campaign_id}", response_model=CampaignOut, operation_id="get_campaign",
-            responses={304: {"description": "not modified (the `If-None-Match` ETag still matches)"}})
+            responses=NOT_MODIFIED)
 async def get_campaign(campaign_id: ObjectId, user: CurrentUser, request: Request) -> Response:
     """Status, current iteration and step, latest metrics, ETA. Polled: answers carry an
     ``ETag``; send it back as ``If-None-Match`` and an unchanged campaign is a bodiless 304."""
     # read on every request (no reuse window): a pause or a finished step shows at once
-    revision = await run_in_threadpool(_read, _detail_revision, campaign_id, user.id)
+    revision = await run_in_threadpool(read, _detail_revision, campaign_id, user.id)
     if revision is None:
         raise NotFound("campaign", campaign_id)
     key = ("detail", campaign_id, *revision)
@@ -423,7 +355,7 @@ async def get_campaign(campaign_id: ObjectId, user: CurrentUser, request: Reques
         with get_sessionmaker()() as session:
             return _campaign_out(session, get_for(session, Campaign, campaign_id, user), user).model_dump_json().encode()
 
-    return await _cached_json(request, key, build)
+    return await cached_json(request, key, build)
 
 
 @router.patch("/{campaign_id}/config", response_model=CampaignOut, operation_id="update_campaign_config")
@@ -498,7 +430,7 @@ After = Annotated[int | None, Query(ge=-1, le=MAX_ID, description="only iteratio
 
 
 @router.get("/{campaign_id}/metrics", response_model=list[MetricsRead], operation_id="list_campaign_metrics",
-            responses={304: {"description": "not modified (the `If-None-Match` ETag still matches)"}})
+            responses=NOT_MODIFIED)
 async def list_campaign_metrics(
     campaign_id: ObjectId, user: CurrentUser, request: Request, after: After = None,
     extra: Annotated[bool, Query(description="include each row's `extra` (software versions, per-component RMSE, step timings); null otherwise")] = False,
@@ -509,7 +441,7 @@ async def list_campaign_metrics(
     as ``If-None-Match`` and an unchanged series is a bodiless 304."""
     revision = REVISIONS.get(("metrics", campaign_id, user.id))
     if revision is None:
-        revision = await run_in_threadpool(_read, _metrics_revision, campaign_id, user.id)
+        revision = await run_in_threadpool(read, _metrics_revision, campaign_id, user.id)
         if revision is not None:
             REVISIONS.put(("metrics", campaign_id, user.id), revision, REVISION_TTL_S)
     if revision is None:
@@ -523,7 +455,7 @@ async def list_campaign_metrics(
             rows = [m.model_copy(update={"extra": None}) for m in rows]
         return METRICS_LIST.dump_json(rows)
 
-    return await _cached_json(request, key, build)
+    return await cached_json(request, key, build)
 
 
 @router.get("/{campaign_id}/iterations", response_model=list[IterationRead], operation_id="list_campaign_iterations")
@@ -550,14 +482,14 @@ _ITERATION_FIELDS = ("id", "index", "status", "current_step", "config_version_id
 
 
 @router.get("/{campaign_id}/iterations/{iteration}/curves", response_model=IterationCurves, operation_id="get_iteration_curves",
-            responses={304: {"description": "not modified (the `If-None-Match` ETag still matches)"}})
+            responses=NOT_MODIFIED)
 async def get_iteration_curves(campaign_id: ObjectId, iteration: IterationIndex, user: CurrentUser, request: Request) -> Response:
     """Iteration k's trajectory (t, q, qd, tau: the motion replayed by the oracle, on the
     oracle's time grid) with the oracle's forces and model k's prediction (columns fx fy fz
     mx my mz in the headrest frame). Immutable once there: cached, with an ``ETag``."""
     sha = REVISIONS.get(("curves", campaign_id, iteration, user.id))
     if sha is None:
-        sha = await run_in_threadpool(_read, _curves_sha, campaign_id, iteration, user.id)
+        sha = await run_in_threadpool(read, _curves_sha, campaign_id, iteration, user.id)
         if sha is not None:
             REVISIONS.put(("curves", campaign_id, iteration, user.id), sha, CURVES_ACCESS_TTL_S)
     if sha is None:
@@ -573,11 +505,11 @@ async def get_iteration_curves(campaign_id: ObjectId, iteration: IterationIndex,
         with get_sessionmaker()() as session:
             return campaigns.iteration_curves(session, campaign_id, iteration).model_dump_json().encode()
 
-    return await _cached_json(request, key, build)
+    return await cached_json(request, key, build)
 
 
 @router.get("/{campaign_id}/iterations/{iteration}/trajectory", response_model=IterationTrajectory, operation_id="get_iteration_trajectory",
-            responses={304: {"description": "not modified (the `If-None-Match` ETag still matches)"}})
+            responses=NOT_MODIFIED)
 async def get_iteration_trajectory(campaign_id: ObjectId, iteration: IterationIndex, user: CurrentUser, request: Request) -> Response:
     """Iteration k's whole OCP solution over the task: t, q, qd, tau on the OCP grid for
     every phase, the phase boundaries (names, durations), which phases the oracle replayed,
@@ -603,38 +535,12 @@ async def get_iteration_trajectory(campaign_id: ObjectId, iteration: IterationIn
         with get_sessionmaker()() as session:
             return campaigns.iteration_trajectory(session, campaign_id, iteration).model_dump_json().encode()
 
-    return await _cached_json(request, key, build)
+    return await cached_json(request, key, build)
 
 
 # The two most polled routes read with one lean query on a pooled connection (no ORM
-# objects, one thread hop), answer from the serialized-bytes cache, and give ETags.
-
-
-class TtlCache:
-    """Tiny thread-safe map whose entries expire (per API process)."""
-
-    def __init__(self, max_entries: int = 4096) -> None:
-        self.max_entries = max_entries
-        self._data: dict[Any, tuple[float, Any]] = {}
-        self._lock = threading.Lock()
-
-    def get(self, key: Any) -> Any:
-        hit = self._data.get(key)
-        if hit is None or hit[0] < time.monotonic():
-            return None
-        return hit[1]
-
-    def put(self, key: Any, value: Any, ttl_s: float) -> None:
-        if ttl_s <= 0:
-            return
-        with self._lock:
-            if len(self._data) >= self.max_entries:
-                self._data.clear()
-            self._data[key] = (time.monotonic() + ttl_s, value)
-
-    def clear(self) -> None:
-        with self._lock:
-            self._data.clear()
+# objects, one thread hop), answer from the serialized-bytes cache, and give ETags
+# (:mod:`alcove.api.caching`).
 
 
 #: How long a process reuses a campaign's metrics revision (and the access check that came
@@ -645,45 +551,6 @@ REVISION_TTL_S = 0.5
 #: removing a share takes effect within this time, like a revoked token.
 CURVES_ACCESS_TTL_S = 5.0
 REVISIONS = TtlCache()
-
-
-def _read(query: Callable[..., Any], *args: Any) -> Any:
-    for attempt in (1, 2):
-        try:
-            with _read_engine().connect() as conn:
-                return query(conn, *args)
-        except sa.exc.DBAPIError as err:
-            # no pre-ping on this pool: a connection the server closed (restart, idle
-            # timeout) fails here once, is discarded, and the query runs again on a new one
-            if attempt == 2 or not err.connection_invalidated:
-                raise
-    raise AssertionError("unreachable")
-
-
-_READ_ENGINES: dict[sa.Engine, sa.Engine] = {}
-_read_lock = threading.Lock()
-
-
-def _read_engine() -> sa.Engine:
-    """An engine for the single-SELECT reads of the polled routes. On PostgreSQL: its own
-    small pool in autocommit mode without pre-ping (a SELECT needs no transaction; returning
-    the connection costs no ROLLBACK and taking it no extra round trip). On SQLite: the
-    request engine."""
-    engine = key = get_engine()
-    proxy = _READ_ENGINES.get(key)
-    if proxy is None:
-        with _read_lock:
-            proxy = _READ_ENGINES.get(key)
-            if proxy is None:
-                if engine.dialect.name == "postgresql":
-                    from alcove.db.engine import make_engine
-
-                    proxy = make_engine(engine.url, pool_pre_ping=False, pool_size=4, max_overflow=8, pool_recycle=1800,
-                                        isolation_level="AUTOCOMMIT")
-                else:
-                    proxy = engine
-                _READ_ENGINES[key] = proxy
-    return proxy
 
 
 def _visible_campaign() -> sa.ColumnElement[bool]:
@@ -732,19 +599,6 @@ def _detail_revision(conn: sa.Connection, campaign_id: int, user_id: int) -> tup
 
 def _curves_sha(conn: sa.Connection, campaign_id: int, iteration: int, user_id: int) -> str | None:
     return conn.execute(_CURVES_SHA, {"cid": campaign_id, "k": iteration, "uid": user_id}).scalar()
-
-
-async def _cached_json(request: Request, key: tuple[Any, ...], build: Callable[[], bytes]) -> Response:
-    """The cached body for ``key`` (built in the thread pool on a miss) with a weak ETag
-    derived from the key; 304 without a body when the client already has it."""
-    etag = 'W/"' + hashlib.blake2b(repr(key).encode(), digest_size=12).hexdigest() + '"'
-    headers = {"ETag": etag, "Cache-Control": "private, no-cache"}
-    if etag in request.headers.get("if-none-match", ""):
-        return Response(status_code=304, headers=headers)
-    body = RESPONSES.get(key)
-    if body is None:
-        body = await run_in_threadpool(RESPONSES.get_or_build, key, build)
-    return Response(body, media_type="application/json", headers=headers)
 
 
 @router.get("/{campaign_id}/jobs", response_model=list[JobOut], operation_id="list_campaign_jobs")
@@ -811,71 +665,13 @@ async def stream_campaign_events(
     return StreamingResponse(events(), media_type="text/event-stream", headers={"Cache-Control": "no-cache", "X-Accel-Buffering": "no"})
 
 
-# ----------------------------------------------------------------------------- pool and model versions
-
-
-@router.get("/{campaign_id}/pool-versions", response_model=list[PoolVersionRead], operation_id="list_pool_versions")
-def list_pool_versions(campaign_id: ObjectId, user: CurrentUser, session: SessionDep) -> list[PoolVersionRead]:
-    """Immutable pool versions (lineage: ``parent_id``; version k = k-1 + iteration k's data)."""
-    get_for(session, Campaign, campaign_id, user)
-    return campaigns.list_pool_versions(session, campaign_id)
-
-
-@router.get("/{campaign_id}/pool-versions/{version}/download", operation_id="download_pool_version", response_class=Response, responses={200: BINARY})
-def download_pool_version(
-    campaign_id: ObjectId, version: IterationIndex, user: CurrentUser, session: SessionDep, format: Literal["parquet", "csv"] = "parquet"
-) -> Response:
-    """One row per sample: dataset, origin, t, q_i, qd_i, fx..mz (Parquet or CSV)."""
-    get_for(session, Campaign, campaign_id, user)
-    data = campaigns.pool_version_table(session, campaign_id, version, format)
-    media = "application/vnd.apache.parquet" if format == "parquet" else "text/csv"
-    return _download(data, f"campaign-{campaign_id}-pool-{version:04d}.{format}", media)
-
-
-@router.get("/{campaign_id}/model-versions", response_model=list[ModelVersionRead], operation_id="list_model_versions")
-def list_model_versions(campaign_id: ObjectId, user: CurrentUser, session: SessionDep) -> list[ModelVersionRead]:
-    """Trained models with lineage (pool version, parent model, seed, code and library versions)."""
-    get_for(session, Campaign, campaign_id, user)
-    return campaigns.list_model_versions(session, campaign_id)
-
-
-def _model_version(session: Session, campaign_id: int, version: int) -> ModelVersion:
-    from alcove.campaigns import repository as crepo
-
-    mv = crepo.model_version(session, crepo.get_campaign(session, campaign_id), version)
-    if mv is None:
-        raise NotFound(f"model version {version} of campaign", campaign_id)
-    return mv
-
-
-@router.get("/{campaign_id}/model-versions/{version}/artifact", response_model=dict[str, Any], operation_id="get_model_artifact")
-def get_model_artifact(campaign_id: ObjectId, version: VersionNumber, user: CurrentUser, session: SessionDep) -> dict[str, Any]:
-    """The self-contained artifact document (architecture, weights, normalisation, lineage) as JSON."""
-    from alcove.surrogates.service import artifact_document
-
-    get_for(session, Campaign, campaign_id, user)
-    return artifact_document(session, _model_version(session, campaign_id, version))
-
-
-@router.get("/{campaign_id}/model-versions/{version}/artifact.zip", operation_id="download_model_artifact", response_class=Response, responses={200: BINARY})
-def download_model_artifact(campaign_id: ObjectId, version: VersionNumber, user: CurrentUser, session: SessionDep) -> Response:
-    """The artifact as a zip: ``surrogate.json`` + TorchScript ``force.pt`` / ``moment.pt``
-    (built once by a child process, then cached)."""
-    from alcove.api.artifact_export import artifact_zip_paths
-
-    get_for(session, Campaign, campaign_id, user)
-    mv = _model_version(session, campaign_id, version)
-    path = artifact_zip_paths([mv])[mv.id]
-    return _download(path.read_bytes(), f"campaign-{campaign_id}-model-{version:04d}.zip", "application/zip")
-
-
 @router.get("/{campaign_id}/export", operation_id="export_campaign", response_class=Response, responses={200: BINARY})
 def export_campaign(
     campaign_id: ObjectId, user: CurrentUser, session: SessionDep, pool_format: Literal["parquet", "csv"] = "parquet", models: bool = True
 ) -> Response:
     """Everything the campaign produced as one zip: settings and config versions, metrics
     (CSV + JSON), iterations, pool versions, model artifacts, curves."""
-    from alcove.api.artifact_export import artifact_zip_paths
+    from alcove.surrogates.artifact_export import artifact_zip_paths
     from alcove.campaigns import repository as crepo
 
     get_for(session, Campaign, campaign_id, user)
@@ -890,47 +686,4 @@ def export_campaign(
                 for mv in versions:
                     zf.write(paths[mv.id], f"campaign-{campaign_id}/models/model-{mv.version:04d}.zip")
             data = buf.getvalue()
-    return _download(data, f"campaign-{campaign_id}.zip", "application/zip")
-
-
-# ----------------------------------------------------------------------------- preliminary data upload
-
-
-@uploads.post("", response_model=UploadOut, status_code=status.HTTP_201_CREATED, operation_id="upload_preliminary_dataset")
-def upload_preliminary_dataset(
-    user: CurrentUser,
-    session: SessionDep,
-    file: Annotated[UploadFile, File(description="CSV with columns [simulation,] [t,] q_i, qd_i, fx, fy, fz, mx, my, mz")],
-    name: Annotated[str, Form(min_length=1, max_length=100)] = "upload",
-    chunks: Annotated[int, Form(ge=1, le=1000)] = 10,
-) -> UploadOut:
-    """Store a preliminary data set (validated); use the returned ids as a campaign's
-    ``preliminary.dataset_ids``."""
-    from alcove.science.series import SeriesFormatError
-    from alcove.science.surrogate.dataset import PoolDataError
-
-    raw = file.file.read(MAX_UPLOAD_BYTES + 1)
-    if len(raw) > MAX_UPLOAD_BYTES:
-        from alcove.errors import TooLarge
-
-        raise TooLarge(f"the file is larger than {MAX_UPLOAD_BYTES} bytes")
-    try:
-        text = raw.decode("utf-8-sig")
-    except UnicodeDecodeError:
-        raise InvalidInput.one("file", "is not UTF-8 text") from None
-    try:
-        rows = campaigns.upload_preliminary_dataset(session, user.id, text, name=name, chunks=chunks)
-    except (PoolDataError, SeriesFormatError) as err:
-        raise InvalidInput.one(f"file.{err.field}", err.reason) from None
-    except (ValueError, IndexError) as err:
-        raise InvalidInput.one("file", str(err)) from None
-    session.commit()
-    out = [DatasetOut.model_validate(d) for d in rows]
-    return UploadOut(datasets=out, dataset_ids=[d.id for d in out], n_samples=sum(d.n_samples for d in out))
-
-
-@uploads.get("", response_model=list[DatasetOut], operation_id="list_preliminary_datasets")
-def list_preliminary_datasets(user: CurrentUser, session: SessionDep, limit: Limit = 100, offset: Offset = 0) -> list[DatasetOut]:
-    """Your uploaded data sets."""
-    rows = session.scalars(sa.select(Dataset).where(Dataset.owner_id == user.id, Dataset.origin == "upload").order_by(Dataset.id.desc()).limit(limit).offset(offset))
-    return [DatasetOut.model_validate(d) for d in rows]
+    return download(data, f"campaign-{campaign_id}.zip", "application/zip")
