@@ -11,7 +11,8 @@ from alcove import versioning
 from alcove.api.auth import AdminUser, CurrentUser
 from alcove.api.deps import SessionDep
 from alcove.api.params import Limit, ObjectId, Offset, VersionNumber
-from alcove.models import CommandOracle, OracleDefinition, User
+from alcove.models import OracleDefinition, User
+from alcove.oracles import repository as repo
 from alcove.oracles import service
 from alcove.oracles.schemas import (
     CommandOracleIn,
@@ -25,7 +26,7 @@ from alcove.oracles.schemas import (
     OracleVersionOut,
 )
 from alcove.tasks.schemas import CopyPreset, FieldErrorOut, ValidationReport
-from alcove.users.access import can_edit, get_for
+from alcove.users.access import can_edit
 
 router = APIRouter(prefix="/oracles", tags=["oracles"])
 admin_router = APIRouter(prefix="/admin/command-oracles", tags=["admin"])
@@ -41,7 +42,7 @@ def oracle_out(session: SessionDep, definition: OracleDefinition, version: Any, 
         owner=owner_email or (definition.owner.email if definition.owner else None),
         preset_key=definition.preset_key,
         version=version.version,
-        version_locked=versioning.is_used(session, service.KIND, version),
+        version_locked=repo.is_used(session, version),
         can_edit=can_edit(session, definition, user),
         archived=definition.archived_at is not None,
         created_at=definition.created_at,
@@ -56,7 +57,7 @@ def version_out(session: SessionDep, version: Any) -> OracleVersionOut:
         version=version.version,
         spec_hash=version.spec_hash,
         note=version.note,
-        locked=versioning.is_used(session, service.KIND, version),
+        locked=repo.is_used(session, version),
         created_at=version.created_at,
         type=version.oracle_type,
         params=version.spec,
@@ -65,7 +66,7 @@ def version_out(session: SessionDep, version: Any) -> OracleVersionOut:
 
 @router.get("", response_model=list[OracleOut], operation_id="list_oracles")
 def list_oracles(user: CurrentUser, session: SessionDep, include_archived: bool = False, limit: Limit = 100, offset: Offset = 0) -> list[OracleOut]:
-    rows = versioning.list_visible(session, service.KIND, user, include_archived=include_archived, limit=limit, offset=offset)
+    rows = repo.list_visible(session, user, include_archived=include_archived, limit=limit, offset=offset)
     return [oracle_out(session, d, v, user, email) for d, v, email in rows]
 
 
@@ -108,8 +109,8 @@ def validate_oracle(body: OracleDraft, user: CurrentUser, session: SessionDep) -
 
 @router.get("/{oracle_id}", response_model=OracleOut, operation_id="get_oracle")
 def get_oracle(oracle_id: ObjectId, user: CurrentUser, session: SessionDep) -> OracleOut:
-    definition = get_for(session, OracleDefinition, oracle_id, user)
-    return oracle_out(session, definition, versioning.latest(session, service.KIND, definition), user)
+    definition = repo.get_oracle(session, oracle_id, user)
+    return oracle_out(session, definition, repo.latest_version(session, definition), user)
 
 
 @router.put("/{oracle_id}", response_model=OracleOut, operation_id="update_oracle")
@@ -122,7 +123,7 @@ def update_oracle(oracle_id: ObjectId, body: OracleUpdate, user: CurrentUser, se
 
 @router.delete("/{oracle_id}", status_code=status.HTTP_204_NO_CONTENT, operation_id="delete_oracle")
 def delete_oracle(oracle_id: ObjectId, user: CurrentUser, session: SessionDep) -> Response:
-    definition = get_for(session, OracleDefinition, oracle_id, user, need="owner")
+    definition = repo.get_oracle(session, oracle_id, user, need="owner")
     versioning.delete(session, service.KIND, definition)
     session.commit()
     return Response(status_code=status.HTTP_204_NO_CONTENT)
@@ -130,14 +131,14 @@ def delete_oracle(oracle_id: ObjectId, user: CurrentUser, session: SessionDep) -
 
 @router.get("/{oracle_id}/versions", response_model=list[OracleVersionOut], operation_id="list_oracle_versions")
 def list_oracle_versions(oracle_id: ObjectId, user: CurrentUser, session: SessionDep) -> list[OracleVersionOut]:
-    definition = get_for(session, OracleDefinition, oracle_id, user)
-    return [version_out(session, v) for v in versioning.versions(session, service.KIND, definition)]
+    definition = repo.get_oracle(session, oracle_id, user)
+    return [version_out(session, v) for v in repo.versions(session, definition)]
 
 
 @router.get("/{oracle_id}/versions/{version}", response_model=OracleVersionOut, operation_id="get_oracle_version")
 def get_oracle_version(oracle_id: ObjectId, version: VersionNumber, user: CurrentUser, session: SessionDep) -> OracleVersionOut:
-    definition = get_for(session, OracleDefinition, oracle_id, user)
-    return version_out(session, versioning.get_version(session, service.KIND, definition, version))
+    definition = repo.get_oracle(session, oracle_id, user)
+    return version_out(session, repo.get_version(session, definition, version))
 
 
 # ----------------------------------------------------------------------------- admin catalogue
@@ -146,9 +147,7 @@ def get_oracle_version(oracle_id: ObjectId, version: VersionNumber, user: Curren
 @admin_router.get("", response_model=list[CommandOracleOut], operation_id="list_command_oracles")
 def list_command_oracles(admin: AdminUser, session: SessionDep) -> list[CommandOracleOut]:
     """Entries managed through the API (the settings' YAML catalogue is listed in ``/oracles/types``)."""
-    from sqlalchemy import select
-
-    return [CommandOracleOut.model_validate(r) for r in session.scalars(select(CommandOracle).order_by(CommandOracle.name))]
+    return [CommandOracleOut.model_validate(r) for r in service.list_commands(session)]
 
 
 @admin_router.post("", response_model=CommandOracleOut, status_code=status.HTTP_201_CREATED, operation_id="create_command_oracle")
@@ -173,6 +172,6 @@ def update_command_oracle(entry_id: ObjectId, body: CommandOracleIn, admin: Admi
 @admin_router.delete("/{entry_id}", status_code=status.HTTP_204_NO_CONTENT, operation_id="delete_command_oracle")
 def delete_command_oracle(entry_id: ObjectId, admin: AdminUser, session: SessionDep) -> Response:
     """Remove an entry; oracles referring to it stop validating (disable it to keep them listed)."""
-    session.delete(service.get_command(session, entry_id))
+    service.delete_command(session, entry_id)
     session.commit()
     return Response(status_code=status.HTTP_204_NO_CONTENT)

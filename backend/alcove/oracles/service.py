@@ -8,22 +8,21 @@ import logging
 from collections.abc import Mapping
 from typing import Any
 
-import sqlalchemy as sa
 from pydantic import ValidationError
 from sqlalchemy.orm import Session
 
 from alcove import versioning
 from alcove.errors import Conflict, FieldError, InvalidInput, NotFound, field_errors_from_pydantic
 from alcove.models import CommandOracle, OracleDefinition, User
+from alcove.oracles import repository as repo
 from alcove.oracles.schemas import CommandOracleIn
 from alcove.science.oracles.base import OracleInputError
 from alcove.science.oracles.registry import BUILTIN_TYPE_NAMES, ORACLE_TYPES, list_oracle_types
 from alcove.settings import get_settings
-from alcove.users.access import get_for
 
 log = logging.getLogger(__name__)
 
-KIND = versioning.ORACLES
+KIND = repo.KIND
 
 #: Presets: one per built-in type, with the type's default parameters.
 PRESETS: dict[str, dict[str, str]] = {
@@ -59,7 +58,7 @@ def command_catalogue(session: Session) -> dict[str, Any]:
     entries administrators added through the API (name -> ``CommandOracleSpec``). The
     campaign engine should resolve command oracles through this function."""
     catalogue = file_catalogue()
-    for row in session.scalars(sa.select(CommandOracle).where(CommandOracle.enabled.is_(True)).order_by(CommandOracle.name)):
+    for row in repo.commands(session, enabled_only=True):
         catalogue.setdefault(row.name, _spec_from_row(row))
     return catalogue
 
@@ -79,16 +78,17 @@ def check_command_entry(body: CommandOracleIn) -> None:
 
 def create_command(session: Session, admin: User, body: CommandOracleIn) -> CommandOracle:
     check_command_entry(body)
-    if session.scalar(sa.select(CommandOracle.id).where(CommandOracle.name == body.name)) is not None:
+    if repo.command_exists(session, body.name):
         raise Conflict(f"a command oracle named {body.name!r} exists")
-    row = CommandOracle(**body.model_dump(), created_by_id=admin.id)
-    session.add(row)
-    session.flush()
-    return row
+    return repo.add_command(session, CommandOracle(**body.model_dump(), created_by_id=admin.id))
+
+
+def list_commands(session: Session) -> list[CommandOracle]:
+    return repo.commands(session)
 
 
 def get_command(session: Session, entry_id: int) -> CommandOracle:
-    row = session.get(CommandOracle, entry_id)
+    row = repo.get_command(session, entry_id)
     if row is None:
         raise NotFound("command oracle", entry_id)
     return row
@@ -103,6 +103,10 @@ def update_command(session: Session, entry_id: int, body: CommandOracleIn) -> Co
         setattr(row, key, value)
     session.flush()
     return row
+
+
+def delete_command(session: Session, entry_id: int) -> None:
+    repo.delete_command(session, get_command(session, entry_id))
 
 
 # ----------------------------------------------------------------------------- types and params
@@ -181,8 +185,8 @@ def create(session: Session, owner: User, *, name: str, description: str, type_n
 
 
 def update(session: Session, user: User, oracle_id: int, *, name: str | None, description: str | None, type_name: str | None, params: Any, note: str) -> tuple[OracleDefinition, Any]:
-    definition = get_for(session, OracleDefinition, oracle_id, user, need="edit")
-    current = versioning.latest(session, KIND, definition)
+    definition = repo.get_oracle(session, oracle_id, user, need="edit")
+    current = repo.latest_version(session, definition)
     spec = None
     extra: dict[str, Any] = {}
     if type_name is not None or params is not None:

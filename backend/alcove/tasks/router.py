@@ -12,9 +12,10 @@ from alcove.api.deps import SessionDep
 from alcove.api.params import Limit, ObjectId, Offset, VersionNumber
 from alcove.models import TaskDefinition, User
 from alcove.science.ocp.task_spec import TaskSpec
+from alcove.tasks import repository as repo
 from alcove.tasks import service
 from alcove.tasks.schemas import CopyPreset, FieldErrorOut, TaskDraft, TaskIn, TaskOut, TaskPresetOut, TaskUpdate, TaskVersionOut, ValidationReport
-from alcove.users.access import can_edit, get_for
+from alcove.users.access import can_edit
 
 router = APIRouter(prefix="/tasks", tags=["tasks"])
 PresetKey = Annotated[str, Path(min_length=1, max_length=100)]
@@ -30,7 +31,7 @@ def task_out(session: SessionDep, definition: TaskDefinition, version: Any, user
         owner=owner_email or (definition.owner.email if definition.owner else None),
         preset_key=definition.preset_key,
         version=version.version,
-        version_locked=versioning.is_used(session, service.KIND, version),
+        version_locked=repo.is_used(session, version),
         can_edit=can_edit(session, definition, user),
         archived=definition.archived_at is not None,
         created_at=definition.created_at,
@@ -44,14 +45,14 @@ def task_out(session: SessionDep, definition: TaskDefinition, version: Any, user
 
 def version_out(session: SessionDep, version: Any) -> TaskVersionOut:
     return TaskVersionOut(
-        version=version.version, spec_hash=version.spec_hash, note=version.note, locked=versioning.is_used(session, service.KIND, version), created_at=version.created_at, spec=version.spec
+        version=version.version, spec_hash=version.spec_hash, note=version.note, locked=repo.is_used(session, version), created_at=version.created_at, spec=version.spec
     )
 
 
 @router.get("", response_model=list[TaskOut], operation_id="list_tasks")
 def list_tasks(user: CurrentUser, session: SessionDep, include_archived: bool = False, limit: Limit = 100, offset: Offset = 0) -> list[TaskOut]:
     """Your task definitions and those shared with you (latest versions), newest first."""
-    rows = versioning.list_visible(session, service.KIND, user, include_archived=include_archived, limit=limit, offset=offset)
+    rows = repo.list_visible(session, user, include_archived=include_archived, limit=limit, offset=offset)
     return [task_out(session, d, v, user, email) for d, v, email in rows]
 
 
@@ -91,8 +92,8 @@ def validate_task(body: TaskDraft, user: CurrentUser) -> ValidationReport:
 
 @router.get("/{task_id}", response_model=TaskOut, operation_id="get_task")
 def get_task(task_id: ObjectId, user: CurrentUser, session: SessionDep) -> TaskOut:
-    definition = get_for(session, TaskDefinition, task_id, user)
-    return task_out(session, definition, versioning.latest(session, service.KIND, definition), user)
+    definition = repo.get_task(session, task_id, user)
+    return task_out(session, definition, repo.latest_version(session, definition), user)
 
 
 @router.put("/{task_id}", response_model=TaskOut, operation_id="update_task")
@@ -107,7 +108,7 @@ def update_task(task_id: ObjectId, body: TaskUpdate, user: CurrentUser, session:
 @router.delete("/{task_id}", status_code=status.HTTP_204_NO_CONTENT, operation_id="delete_task")
 def delete_task(task_id: ObjectId, user: CurrentUser, session: SessionDep) -> Response:
     """Delete; a task used by a campaign is archived instead (hidden, kept for its campaigns)."""
-    definition = get_for(session, TaskDefinition, task_id, user, need="owner")
+    definition = repo.get_task(session, task_id, user, need="owner")
     versioning.delete(session, service.KIND, definition)
     session.commit()
     return Response(status_code=status.HTTP_204_NO_CONTENT)
@@ -115,11 +116,11 @@ def delete_task(task_id: ObjectId, user: CurrentUser, session: SessionDep) -> Re
 
 @router.get("/{task_id}/versions", response_model=list[TaskVersionOut], operation_id="list_task_versions")
 def list_task_versions(task_id: ObjectId, user: CurrentUser, session: SessionDep) -> list[TaskVersionOut]:
-    definition = get_for(session, TaskDefinition, task_id, user)
-    return [version_out(session, v) for v in versioning.versions(session, service.KIND, definition)]
+    definition = repo.get_task(session, task_id, user)
+    return [version_out(session, v) for v in repo.versions(session, definition)]
 
 
 @router.get("/{task_id}/versions/{version}", response_model=TaskVersionOut, operation_id="get_task_version")
 def get_task_version(task_id: ObjectId, version: VersionNumber, user: CurrentUser, session: SessionDep) -> TaskVersionOut:
-    definition = get_for(session, TaskDefinition, task_id, user)
-    return version_out(session, versioning.get_version(session, service.KIND, definition, version))
+    definition = repo.get_task(session, task_id, user)
+    return version_out(session, repo.get_version(session, definition, version))

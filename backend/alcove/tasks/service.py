@@ -11,9 +11,10 @@ from alcove import versioning
 from alcove.errors import FieldError, InvalidInput, NotFound, field_errors_from_pydantic
 from alcove.models import TaskDefinition, User
 from alcove.science.ocp.task_spec import TASK_PRESETS, TaskSpec
-from alcove.users.access import can_edit, get_for
+from alcove.tasks import repository as repo
+from alcove.users.access import can_edit
 
-KIND = versioning.TASKS
+KIND = repo.KIND
 
 
 def check_spec(spec: Any) -> tuple[TaskSpec | None, list[FieldError]]:
@@ -35,7 +36,7 @@ def create(session: Session, owner: User, *, name: str, description: str, spec: 
 
 
 def update(session: Session, user: User, task_id: int, *, name: str | None, description: str | None, spec: TaskSpec | None, note: str) -> tuple[TaskDefinition, Any, bool]:
-    definition = get_for(session, TaskDefinition, task_id, user, need="edit")
+    definition = repo.get_task(session, task_id, user, need="edit")
     version, created = versioning.update(session, KIND, definition, user, name=name, description=description, spec=None if spec is None else dump(spec), note=note)
     return definition, version, created
 
