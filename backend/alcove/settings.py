@@ -35,6 +35,7 @@ class Settings(BaseSettings):
     worker_concurrency: int | None = Field(default=None, description="Processes per worker started by `alcove up` (default: CPU count)")
     static_dir: Path | None = Field(default=None, description="Built frontend served at /; default backend/alcove/static")
     log_level: str = "INFO"
+    access_log: bool = Field(default=False, description="Log every HTTP request (uvicorn's access log); always on at log level DEBUG")
 
     @model_validator(mode="after")
     def _fill_embedded_defaults(self) -> "Settings":

@@ -66,10 +66,11 @@ def test_duplicate_delivery_of_the_smoke_job_is_a_no_op(tmp_path: Path, pg_url: 
 def test_alcove_up_embedded(tmp_path: Path) -> None:
     port = free_port()
     env = alcove_env(data_dir=tmp_path / "data", api_port=str(port), admin_email="root@example.org", worker_concurrency="1")
-    with running(["up"], env, tmp_path / "up.log") as up:
+    with running(["up", "--access-log"], env, tmp_path / "up.log") as up:
         base = f"http://127.0.0.1:{port}"
         health = wait_until(lambda: http_ok(f"{base}/api/v1/health"), 60, "health", up)
         assert health.json()["status"] == "ok"
+        wait_until(lambda: '"GET /api/v1/health HTTP/1.1" 200' in up.output(), 10, "the access log line", up)
         ready = wait_until(lambda: http_ok(f"{base}/api/v1/health/ready"), 60, "readiness", up).json()
         assert ready["database"]["ok"] and ready["broker"]["ok"] and ready["workers_seen"] == 1
         assert set(ready["queues_served"]) == {"default", "ocp", "oracle", "train"}

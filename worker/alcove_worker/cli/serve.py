@@ -139,13 +139,13 @@ def default_api_workers() -> int:
     return max(1, min(os.cpu_count() or 1, 4))
 
 
-def _run_api(host: str, port: int, workers: int, log_level: str) -> None:
+def _run_api(host: str, port: int, workers: int, log_level: str, access_log: bool) -> None:
     import uvicorn
 
     # several processes share the port (uvicorn's supervisor restarts one that dies); the
     # import string + factory is what lets each of them build its own app
     uvicorn.run("alcove.api.app:create_app", factory=True, host=host, port=port, log_level=log_level, lifespan="on", workers=workers,
-                access_log=log_level == "debug", timeout_keep_alive=30)
+                access_log=access_log or log_level == "debug", timeout_keep_alive=30)
 
 
 def serve(
@@ -153,6 +153,7 @@ def serve(
     port: int | None = typer.Option(None, help="API port (default ALCOVE_API_PORT)"),
     workers: int | None = typer.Option(None, "--workers", "-w", min=1, max=64, help="API processes (default: one per CPU, at most 4)"),
     migrate_db: bool = typer.Option(True, "--migrate/--no-migrate", help="run `alcove db upgrade` first"),
+    access_log: bool | None = typer.Option(None, "--access-log/--no-access-log", help="log every HTTP request (default ALCOVE_ACCESS_LOG)"),
 ) -> None:
     """Run the API server only (workers run elsewhere: `alcove worker`)."""
     from alcove.db import migrate
@@ -170,7 +171,7 @@ def serve(
     typer.echo(f"alcove {_version()} · database {_redact(s.database_url)} · broker {_redact(s.broker_url)} · {n} API process(es)")
     signal.signal(signal.SIGTERM, _exit_on_sigterm)
     typer.echo(f"API on http://{host}:{port}  (health: /api/v1/health, docs: /api/v1/docs)")
-    _run_api(host, port, n, s.log_level.lower())
+    _run_api(host, port, n, s.log_level.lower(), s.access_log if access_log is None else access_log)
 
 
 def up(
@@ -181,6 +182,7 @@ def up(
     queues: str = typer.Option(ALL_QUEUES, "--queues", "-Q", help="queues of the bundled worker"),
     with_worker: bool = typer.Option(True, "--worker/--no-worker", help="also start a worker process"),
     migrate_db: bool = typer.Option(True, "--migrate/--no-migrate", help="run `alcove db upgrade` first"),
+    access_log: bool | None = typer.Option(None, "--access-log/--no-access-log", help="log every HTTP request (default ALCOVE_ACCESS_LOG)"),
 ) -> None:
     """Run the API server and a Celery worker together (embedded default: SQLite +
     filesystem broker in ALCOVE_DATA_DIR, nothing else needed)."""
@@ -210,7 +212,7 @@ def up(
     signal.signal(signal.SIGTERM, _exit_on_sigterm)
     try:
         typer.echo(f"API on http://{host}:{port}  (health: /api/v1/health, docs: /api/v1/docs)")
-        _run_api(host, port, workers, s.log_level.lower())
+        _run_api(host, port, workers, s.log_level.lower(), s.access_log if access_log is None else access_log)
     finally:
         if wp is not None:
             wp.stop()
