@@ -4,6 +4,8 @@ the iteration's settings, 404s are clear, forks read their source's, answers car
 
 from __future__ import annotations
 
+import time
+
 import numpy as np
 import pytest
 
@@ -83,6 +85,9 @@ def test_a_new_attempt_changes_the_answer_and_a_failed_solve_is_shown_as_such(cl
         a = ocp_arrays(7, 10)
         s.add(OcpSolution(campaign_id=campaign, iteration_id=it.id, attempt=2, success=False, solver_status="Maximum_Iterations_Exceeded", n_iterations=3000,
                           cost=None, wall_time_s=9.0, message="no converged solution after 1 initial guess(es)", stats={}, trajectory_sha256=put_arrays(s, a)))
+    from alcove.campaigns.router import REVISION_TTL_S
+
+    time.sleep(REVISION_TTL_S + 0.05)  # a process reuses the solution it found for this long
     again = client.get(url, headers={**owner.headers, "If-None-Match": first.headers["ETag"]})
     assert again.status_code == 200
     body = again.json()
@@ -99,3 +104,67 @@ def test_a_fork_reads_its_source_iterations(client, owner: Account, campaign: in
     got = client.get(f"{API}/campaigns/{fork}/iterations/2/trajectory", headers=owner.headers).json()
     # the source's solution, replayed as the source iteration's settings said (not the fork's)
     assert got["t"] == src["t"] and got["q"] == src["q"] and got["replay_phases"] == 1
+    assert client.get(f"{API}/campaigns/{fork}/iterations/3/trajectory", headers=owner.headers).status_code == 404  # the fork's own, not run
+
+
+def test_a_fork_of_a_fork_serves_the_inherited_iteration_to_whom_the_fork_is_shared(client, owner: Account, campaign: int) -> None:
+    from .helpers import make_account
+
+    r = client.post(f"{API}/campaigns/{campaign}/fork", json={"iteration": 2, "name": "fork-1"}, headers=owner.headers)
+    assert r.status_code == 201, r.text
+    r = client.post(f"{API}/campaigns/{r.json()['id']}/fork", json={"iteration": 1, "name": "fork-2"}, headers=owner.headers)
+    assert r.status_code == 201, r.text
+    fork = r.json()["id"]
+    src = client.get(f"{API}/campaigns/{campaign}/iterations/1/trajectory", headers=owner.headers)
+    assert src.status_code == 200
+    url = f"{API}/campaigns/{fork}/iterations/1/trajectory"
+    got = client.get(url, headers=owner.headers)
+    assert got.status_code == 200 and got.json()["t"] == src.json()["t"] and got.json()["q"] == src.json()["q"]
+    assert client.get(url, headers={**owner.headers, "If-None-Match": got.headers["ETag"]}).status_code == 304
+    viewer = make_account("member", "trajectory-fork-viewer")
+    assert client.get(url, headers={**viewer.headers, "If-None-Match": got.headers["ETag"]}).status_code == 404
+    r = client.post(f"{API}/shares", json={"object_type": "campaign", "object_id": fork, "email": viewer.email}, headers=owner.headers)
+    assert r.status_code == 201, r.text
+    # shared: the fork's iteration 1, held by the (unshared) source campaign
+    assert client.get(url, headers=viewer.headers).json()["q"] == src.json()["q"]
+    assert client.get(f"{API}/campaigns/{campaign}/iterations/1/trajectory", headers=viewer.headers).status_code == 404
+
+
+def test_the_trajectory_is_a_304_with_its_etag_and_others_are_refused(client, owner: Account, other: Account, campaign: int) -> None:
+    url = f"{API}/campaigns/{campaign}/iterations/2/trajectory"
+    first = client.get(url, headers=owner.headers)
+    etag = first.headers["ETag"]
+    again = client.get(url, headers={**owner.headers, "If-None-Match": etag})
+    assert again.status_code == 304 and again.content == b"" and again.headers["ETag"] == etag
+    assert client.get(url, headers={"If-None-Match": etag}).status_code == 401  # still authenticated
+    refused = client.get(url, headers=other.headers)
+    assert refused.status_code == 404
+    r = client.get(url, headers={**other.headers, "If-None-Match": etag})  # and authorized, never a 304
+    assert r.status_code == 404 and r.json() == refused.json()
+    assert client.get(f"{API}/campaigns/{campaign}/iterations/1/trajectory", headers={**owner.headers, "If-None-Match": etag}).status_code == 200
+
+
+def test_a_running_iteration_is_a_404_until_its_ocp_solution_is_written(client, owner: Account, campaign: int) -> None:
+    from alcove.db import session_scope
+    from alcove.db.arrays import put_arrays
+    from alcove.models import Campaign, Iteration, OcpSolution
+
+    from .synthetic import ocp_arrays
+
+    with session_scope() as s:
+        c = s.get(Campaign, campaign)
+        it = Iteration(campaign_id=campaign, index=3, config_version_id=c.config_versions[-1].id, status="running")
+        s.add(it)
+        s.flush()
+        iteration_id = it.id
+    url = f"{API}/campaigns/{campaign}/iterations/3/trajectory"
+    for _ in range(2):
+        r = client.get(url, headers=owner.headers)
+        assert r.status_code == 404 and "no OCP solution for iteration 3" in r.json()["detail"]
+    with session_scope() as s:  # the OCP step writes its solution: served at once, not after a remembered 404
+        a = ocp_arrays(3, 10)
+        s.add(OcpSolution(campaign_id=campaign, iteration_id=iteration_id, attempt=1, initial_guess="previous", success=True, solver_status="Solve_Succeeded",
+                          n_iterations=30, cost=1.0, wall_time_s=2.0, stats={}, trajectory_sha256=put_arrays(s, a)))
+    r = client.get(url, headers=owner.headers)
+    assert r.status_code == 200, r.text
+    np.testing.assert_array_equal(np.array(r.json()["q"]), a["q"])

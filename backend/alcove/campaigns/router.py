@@ -17,7 +17,7 @@ import sqlalchemy as sa
 from fastapi import APIRouter, Body, Query, Request, Response, status
 from fastapi.responses import StreamingResponse
 from pydantic import BaseModel, ConfigDict, Field, TypeAdapter
-from sqlalchemy.orm import Session
+from sqlalchemy.orm import Session, aliased
 from starlette.concurrency import run_in_threadpool
 
 from alcove.api.auth import CurrentUser
@@ -516,20 +516,19 @@ async def get_iteration_trajectory(campaign_id: ObjectId, iteration: IterationIn
     and the solver summary (status, converged, iterations, cost, wall time) of its latest
     attempt. 404 for an iteration without an OCP solution (iteration 0, or not solved yet).
     Not part of the polled routes (the curves route stays lean); cached with an ``ETag``."""
+    sid = REVISIONS.get(("trajectory", campaign_id, iteration, user.id))
+    if sid is None:
+        sid = await run_in_threadpool(read, _trajectory_solution, campaign_id, iteration, user.id)
+        if sid is not None:  # only found solutions are remembered: a running iteration's 404 is not
+            REVISIONS.put(("trajectory", campaign_id, iteration, user.id), sid, REVISION_TTL_S)
+    if sid is None:
+        def why() -> None:  # the slow path only for the 404's message
+            with get_sessionmaker()() as session:
+                get_for(session, Campaign, campaign_id, user)
+            raise repo.NotFound("iteration", f"campaign {campaign_id} has no OCP solution for iteration {iteration} (iteration 0 has none; a later one has none until its OCP step ran)")
 
-    def solution_id() -> int:
-        with get_sessionmaker()() as session:
-            c = get_for(session, Campaign, campaign_id, user)
-            cid, k = repo.resolve_source(session, c, iteration)  # type: ignore[misc]
-            sid = session.scalar(sa.select(OcpSolution.id).join(Iteration, Iteration.id == OcpSolution.iteration_id)
-                                 .where(Iteration.campaign_id == cid, Iteration.index == k, OcpSolution.trajectory_sha256.is_not(None))
-                                 .order_by(OcpSolution.attempt.desc()).limit(1))
-            if sid is None:
-                raise repo.NotFound("iteration", f"campaign {campaign_id} has no OCP solution for iteration {iteration} (iteration 0 has none; a later one has none until its OCP step ran)")
-            return sid
-
-    sid = await run_in_threadpool(solution_id)
-    key = ("trajectory", campaign_id, iteration, sid)  # a new attempt is a new row: never stale
+        await run_in_threadpool(why)
+    key = ("trajectory", campaign_id, iteration, sid)  # a solution row is written once, a new attempt is a new row: never stale
 
     def build() -> bytes:
         with get_sessionmaker()() as session:
@@ -583,6 +582,22 @@ _CURVES_SHA = (
     .where(IterationMetrics.campaign_id == sa.bindparam("cid"), IterationMetrics.iteration_index == sa.bindparam("k"), IterationMetrics.curves_sha256.is_not(None), _visible_campaign())
 )
 
+#: The campaigns an iteration's outputs may live in: the visible campaign, then (recursively)
+#: a fork's source while ``k`` is at most the fork's source iteration (as ``repo.resolve_source``).
+_SOURCES = sa.select(Campaign.id, Campaign.source_campaign_id, Campaign.source_iteration).where(_visible_campaign()).cte("sources", recursive=True)
+_SOURCE = aliased(Campaign)
+_SOURCES = _SOURCES.union_all(
+    sa.select(_SOURCE.id, _SOURCE.source_campaign_id, _SOURCE.source_iteration)
+    .join(_SOURCES, _SOURCE.id == _SOURCES.c.source_campaign_id).where(_SOURCES.c.source_iteration >= sa.bindparam("k"))
+)
+#: The latest OCP solution with a trajectory of iteration ``k`` in the campaign holding it.
+_TRAJECTORY_SOLUTION = (
+    sa.select(OcpSolution.id).join(Iteration, Iteration.id == OcpSolution.iteration_id).join(_SOURCES, _SOURCES.c.id == Iteration.campaign_id)
+    .where(Iteration.index == sa.bindparam("k"), OcpSolution.trajectory_sha256.is_not(None),
+           sa.or_(_SOURCES.c.source_campaign_id.is_(None), _SOURCES.c.source_iteration.is_(None), _SOURCES.c.source_iteration < sa.bindparam("k")))
+    .order_by(OcpSolution.attempt.desc()).limit(1)
+)
+
 
 def _metrics_revision(conn: sa.Connection, campaign_id: int, user_id: int) -> tuple[Any, ...] | None:
     """What makes the cached series stale: the campaign's ``updated_at``, the count and last
@@ -599,6 +614,12 @@ def _detail_revision(conn: sa.Connection, campaign_id: int, user_id: int) -> tup
 
 def _curves_sha(conn: sa.Connection, campaign_id: int, iteration: int, user_id: int) -> str | None:
     return conn.execute(_CURVES_SHA, {"cid": campaign_id, "k": iteration, "uid": user_id}).scalar()
+
+
+def _trajectory_solution(conn: sa.Connection, campaign_id: int, iteration: int, user_id: int) -> int | None:
+    """The id of the OCP solution iteration ``iteration`` shows (None: none yet, or no such
+    campaign visible to the user)."""
+    return conn.execute(_TRAJECTORY_SOLUTION, {"cid": campaign_id, "k": iteration, "uid": user_id}).scalar()
 
 
 @router.get("/{campaign_id}/jobs", response_model=list[JobOut], operation_id="list_campaign_jobs")
