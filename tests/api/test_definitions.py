@@ -123,6 +123,17 @@ def test_command_catalogue_is_admin_managed_members_pick_by_name(client, owner: 
     assert name not in {t["name"] for t in client.get(f"{API}/oracles/types", headers=owner.headers).json()}
 
 
+def test_a_duplicate_command_oracle_name_is_refused_and_nothing_changes(client, admin: Account) -> None:
+    name = unique("dup-solver")
+    entry = {"name": name, "argv": ["/bin/true"], "description": "first", "timeout_s": 60}
+    assert client.post(f"{API}/admin/command-oracles", json=entry, headers=admin.headers).status_code == 201
+    before = client.get(f"{API}/admin/command-oracles", headers=admin.headers).json()
+    r = client.post(f"{API}/admin/command-oracles", json={**entry, "argv": ["/bin/false"], "description": "second", "timeout_s": 5}, headers=admin.headers)
+    assert r.status_code == 409 and r.json()["detail"] == f"name: a command oracle named {name!r} exists"
+    assert client.get(f"{API}/admin/command-oracles", headers=admin.headers).json() == before
+    assert [(e["argv"], e["description"]) for e in before if e["name"] == name] == [(["/bin/true"], "first")]
+
+
 def test_others_objects_are_404_until_shared(client, owner: Account, other: Account) -> None:
     task = create_task(client, owner)
     url = f"{API}/tasks/{task['id']}"

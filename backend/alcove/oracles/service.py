@@ -79,7 +79,7 @@ def check_command_entry(body: CommandOracleIn) -> None:
 def create_command(session: Session, admin: User, body: CommandOracleIn) -> CommandOracle:
     check_command_entry(body)
     if repo.command_exists(session, body.name):
-        raise Conflict(f"a command oracle named {body.name!r} exists")
+        raise Conflict(f"name: a command oracle named {body.name!r} exists")
     return repo.add_command(session, CommandOracle(**body.model_dump(), created_by_id=admin.id))
 
 
