@@ -21,7 +21,7 @@ from typing import Any
 import pytest
 import sqlalchemy as sa
 
-from tests.integration.procs import CLI, Proc, alcove_env, db_rows, free_port, http_ok, pid_alive, start_worker
+from tests.integration.procs import CLI, Proc, alcove_env, db_rows, free_port, http_ok, pid_alive, start_worker, unique
 from tests.integration.procs import wait_until as wait_for
 
 pytestmark = [pytest.mark.integration, pytest.mark.slow]
@@ -79,6 +79,32 @@ def test_alcove_campaign_run_on_the_embedded_default(tmp_path: Path) -> None:
     assert (tmp_path / "export" / "pool" / "version-0002.csv").exists() and (tmp_path / "export" / "metrics.csv").exists()
     bad = subprocess.run(CLI + ["campaign", "resume", str(cid)], env=env, capture_output=True, text=True, timeout=60)
     assert bad.returncode == 2 and "cannot resume a campaign that is completed" in bad.stderr
+
+
+def test_campaign_run_without_a_worker_names_the_queue_it_waits_on(tmp_path: Path) -> None:
+    """`campaign run --no-worker` with no worker says which queue no live worker serves (also under
+    --json, without a terminal) instead of waiting silently, and goes on once workers appear."""
+    cfg = tmp_path / "quick.yaml"
+    cfg.write_text(QUICK_YAML)
+    env = env_for(data_dir=tmp_path / "data")
+    run = Proc(["campaign", "run", "--oracle", "aux-penalty", "--iterations", "1", "--config", str(cfg), "--json", "--no-worker"], env,
+               tmp_path / "run.log")
+    workers: list[Proc] = []
+    try:
+        wait_for(lambda: "waiting: no live worker serves queue 'default' (step preliminary); start one with `alcove worker --queues default`"
+                 in run.output(), 60, "the notice for the default queue", run)
+        workers.append(start_worker(env, tmp_path / "w-default.log", unique("w-default"), queues="default"))
+        wait_for(lambda: "waiting: no live worker serves queue 'train' (step train)" in run.output(), 120, "the notice for the train queue", run)
+        assert "queue 'ocp'" not in run.output()  # nothing is said of a queue the campaign has not reached
+        workers.append(start_worker(env, tmp_path / "w-rest.log", unique("w-rest"), queues="train,ocp,oracle"))
+        wait_for(lambda: not run.alive(), 180, "the end of the campaign")
+        assert run.p.returncode == 0, run.output()[-3000:]
+        out = json.loads([line for line in run.output().splitlines() if line.startswith("{")][-1])
+        assert (out["status"], out["iterations_finished"]) == ("completed", 1)
+    finally:
+        run.stop()
+        for w in workers:
+            w.stop()
 
 
 # ----------------------------------------------------------------------------- PostgreSQL + Redis

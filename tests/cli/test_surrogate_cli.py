@@ -159,3 +159,29 @@ def test_train_on_a_campaign_pool(tmp_path, sqlite_url):
     assert doc["config"]["max_epochs"] == 7
     result = runner.invoke(app, ["surrogate", "train", "--campaign", "999999", "--database-url", sqlite_url, "--out", str(tmp_path / "n")])
     assert result.exit_code == 2 and result.output.strip() == "error: campaign: no campaign with id 999999"
+
+
+def test_a_pool_built_by_hand_from_the_real_ocp_and_oracle_commands(tmp_path, quick_config):
+    """One active-learning iteration by hand, every step a real `alcove` process: the files that
+    `alcove ocp solve` and `alcove oracle run` write are a pool pair as they stand."""
+    env = {k: v for k, v in os.environ.items() if k != "ALCOVE_DATABASE_URL"}
+
+    def alcove(*args: str) -> subprocess.CompletedProcess:
+        proc = subprocess.run([ALCOVE, *args], cwd=tmp_path, env=env, capture_output=True, text=True, timeout=300)
+        assert proc.returncode == 0, f"alcove {' '.join(args)}: {proc.stderr}"
+        return proc
+
+    alcove("surrogate", "preliminary", "--out", "pool", "--samples", "400", "--chunks", "4")
+    alcove("ocp", "solve", "--contact", "aux", "--intervals", "40", "--out", "pool/iter1.traj.csv")
+    alcove("oracle", "run", "--oracle", "aux-penalty", "--trajectory", "pool/iter1.traj.csv", "--out", "pool/iter1.forces.csv")
+    summary = json.loads(alcove("surrogate", "train", "--pool", "pool", "--config", str(quick_config), "--out", "model", "--json").stdout)
+    replayed = ForceSeries.from_csv(tmp_path / "pool" / "iter1.forces.csv")
+    assert summary["datasets"] == 5 and sum(summary["samples"].values()) == 400 + len(replayed.t)
+    from alcove.science.surrogate.artifact import load_artifact
+
+    assert "iter1" in load_artifact(tmp_path / "model").lineage["datasets"]
+    # the model goes back into the OCP: the next iteration's solve, then its prediction
+    alcove("ocp", "solve", "--contact", "model:model", "--intervals", "40", "--out", "iter2.traj.csv")
+    alcove("surrogate", "predict", "--model", "model", "--trajectory", "iter2.traj.csv", "--out", "iter2.pred.csv")
+    pred = ForceSeries.from_csv(tmp_path / "iter2.pred.csv")
+    assert len(pred.t) == len(Trajectory.from_csv(tmp_path / "iter2.traj.csv").t) and np.all(np.isfinite(pred.force))

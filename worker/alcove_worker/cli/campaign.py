@@ -174,12 +174,51 @@ def stop_worker(p: subprocess.Popen[bytes], timeout: float = 20.0) -> None:
     p.wait(timeout=5)
 
 
+def queue_without_worker(step: str | None) -> str | None:
+    """The queue of ``step`` when no live worker (heartbeat within ``worker_stale_seconds``) serves it."""
+    from alcove.jobs.campaign import STEP_JOBS, step_queue
+    from alcove.jobs.heartbeat import live_workers
+    from alcove.settings import get_settings
+
+    if step not in STEP_JOBS:
+        return None
+    queue = step_queue(step)
+    served = {q for w in live_workers(get_settings().worker_stale_seconds) for q in (w.queues or [])}
+    return None if queue in served else queue
+
+
+class _WorkerWatch:
+    """Tells once (on stderr, also without a terminal) when the campaign waits on a queue no
+    live worker serves, and again when one turns up; checked every ``every`` seconds."""
+
+    def __init__(self, console: Any, every: float = 5.0, grace: float = 3.0) -> None:
+        self.console, self.every = console, every
+        self.next_check = time.monotonic() + grace  # a worker started with the campaign beats at once
+        self.waiting_on: str | None = None
+
+    def check(self, step: str | None) -> None:
+        if time.monotonic() < self.next_check:
+            return
+        self.next_check = time.monotonic() + self.every
+        queue = queue_without_worker(step)
+        if queue is not None and queue != self.waiting_on:
+            self.console.print(f"waiting: no live worker serves queue '{queue}' (step {step}); "
+                               f"start one with `alcove worker --queues {queue}` on this database and broker", soft_wrap=True)
+        elif queue is None and self.waiting_on is not None:
+            self.console.print(f"a worker now serves queue '{self.waiting_on}'", soft_wrap=True)
+        self.waiting_on = queue
+
+
 def follow(campaign_id: int, *, quiet: bool = False, poll: float = 0.25, worker: subprocess.Popen[bytes] | None = None) -> Any:
-    """Poll the campaign until it reaches a terminal state (or paused), with a progress display."""
+    """Poll the campaign until it reaches a terminal state (or paused), with a progress display.
+
+    Without a spawned ``worker`` the steps wait for external workers: a step whose queue no
+    live worker serves is reported (even with ``quiet``) instead of waiting silently."""
     from rich.console import Console
     from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 
     console = Console(stderr=True)
+    watch = _WorkerWatch(console) if worker is None else None
     detail = _detail(campaign_id)
     total = detail.config.stopping.max_iterations
     start_k = detail.campaign.source_iteration or 0
@@ -199,6 +238,8 @@ def follow(campaign_id: int, *, quiet: bool = False, poll: float = 0.25, worker:
             if worker is not None and worker.poll() is not None:
                 console.print(f"[red]the worker exited with code {worker.returncode}[/red]")
                 return detail
+            if watch is not None and c.status.value in ("queued", "running"):
+                watch.check(c.current_step)
             time.sleep(poll)
 
 
