@@ -51,6 +51,7 @@ def main(argv: list[str] | None = None) -> int:
     harness.MODE = "quick" if args.quick else "full"
     # a setup shared by several figures (the same function) runs once per bench run
     setups: dict[Any, Any] = {}
+    failed: list[str] = []
     for fig in FIGURES:
         if args.only and args.only not in fig.name:
             continue
@@ -67,15 +68,29 @@ def main(argv: list[str] | None = None) -> int:
         console.print(f"[bold]{fig.name}[/] ({reps} reps)")
         t_fig = time.perf_counter()
         ctx = None
-        if fig.setup is not None:
-            if fig.setup not in setups:
-                setups[fig.setup] = fig.setup()
-            ctx = setups[fig.setup]
-        t_setup = time.perf_counter() - t_fig
-        for _ in range(reps):
-            fig.values.append(float(fig.run(ctx)))
+        t_setup = 0.0
+        error = None
+        try:
+            if fig.setup is not None:
+                if fig.setup not in setups:
+                    try:
+                        setups[fig.setup] = fig.setup()
+                    except Exception as exc:  # noqa: BLE001 - the figures sharing it fail with the same reason
+                        setups[fig.setup] = _SetupFailed(exc)
+                ctx = setups[fig.setup]
+                if isinstance(ctx, _SetupFailed):
+                    raise ctx.exc
+            t_setup = time.perf_counter() - t_fig
+            for _ in range(reps):
+                fig.values.append(float(fig.run(ctx)))
+        except Exception as exc:  # noqa: BLE001 - one failing figure must not lose the others' figures
+            error = f"{type(exc).__name__}: {exc}".strip()[:300]
+            console.print(f"[red]error[/] {fig.name}: {error}")
+            failed.append(fig.name)
         row = summarize(fig)
         row["bench_setup_s"], row["bench_total_s"] = t_setup, time.perf_counter() - t_fig
+        if error is not None:
+            row["error"] = error
         rows.append(row)
     by_name = {r["figure"]: r for r in rows}
     for r in rows:
@@ -87,7 +102,7 @@ def main(argv: list[str] | None = None) -> int:
         table.add_column(c, justify="left" if c in ("figure", "unit") else "right")
     fmt = lambda x: "-" if x is None else (f"{x:.4g}")  # noqa: E731
     for r in rows:
-        ok = "skip" if r.get("skipped") else ("-" if r["within_target"] is None else ("yes" if r["within_target"] else "NO"))
+        ok = "skip" if r.get("skipped") else "ERROR" if r.get("error") else ("-" if r["within_target"] is None else ("yes" if r["within_target"] else "NO"))
         target = "-" if r["target"] is None else f"{r['target_kind']} {r['target']:g}"
         table.add_row(r["figure"], r["unit"], fmt(r["median"]), fmt(r["min"]), fmt(r["max"]), str(r["repetitions"]), target, ok, fmt(r["ratio_to_baseline"]))
     console.print(table)
@@ -107,7 +122,17 @@ def main(argv: list[str] | None = None) -> int:
     }
     Path(args.out).write_text(json.dumps(out, indent=2))
     console.print(f"wrote {args.out}")
+    if failed:
+        console.print(f"[red]{len(failed)} figure(s) failed[/]: " + "; ".join(failed))
+        return 1
     return 0
+
+
+class _SetupFailed:
+    """A setup that raised: every figure sharing it reports the same error."""
+
+    def __init__(self, exc: Exception) -> None:
+        self.exc = exc
 
 
 if __name__ == "__main__":

@@ -100,10 +100,14 @@ def server() -> dict[str, Any]:
     from alcove_worker.cli.serve import default_api_workers
 
     workers = API_WORKERS or default_api_workers()
+    # the server's output goes to a file (a pipe nobody reads would block a server that logs)
+    log = Path(tempfile.gettempdir()) / f"alcove-bench-api-{port}.log"
+    log_file = open(log, "wb")
     proc = subprocess.Popen(
         [sys.executable, "-m", "alcove_worker.cli.main", "serve", "--host", "127.0.0.1", "--port", str(port), "--workers", str(workers), "--no-migrate"],
-        env=env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, start_new_session=True,
+        env=env, stdout=log_file, stderr=subprocess.STDOUT, start_new_session=True,
     )
+    log_file.close()
 
     def stop() -> None:
         proc.terminate()

@@ -46,10 +46,17 @@ async def current_token(
 
 def _lookup(session: Session, secret: str) -> tuple[ApiToken, User] | None:
     found = service.authenticate(session, secret)
+    # End the lookup's transaction at once, so the request holds no connection while the route
+    # runs: a route may take one of the same pool for itself (a cached body's build opens its
+    # own session), and requests that each hold one while waiting for another exhaust the pool
+    # and wait for one another until the pool times out (seen with 20 concurrent first requests
+    # against a pool of 15). Nothing is expired (expire_on_commit=False); on SQLite a write
+    # request's BEGIN IMMEDIATE is taken again by the route's first statement.
+    session.commit()
     if found is not None and service.needs_touch(found[0]):
         if session.get_bind().dialect.name == "sqlite" and not _is_immediate(session):
-            # a read-only request: record the use in its own short write transaction (an
-            # upgrade of this read transaction fails if a worker committed meanwhile)
+            # a read-only request: record the use in its own short write transaction (the
+            # request's session begins deferred and is kept for reads)
             now = _touch(found[0].id)
             set_committed_value(found[0], "last_used_at", now)  # not a pending change of this session
         else:

@@ -183,7 +183,11 @@ def _fail_if_stale(session: Session, row: Preview) -> None:
         sa.update(Preview).where(Preview.id == row.id, Preview.status == row.status, Preview.attempts == row.attempts)
         .values(status=PreviewStatus.failed.value, error=error, finished_at=now)
     )
-    # its own short write transaction: a GET's session only reads (and is rolled back)
+    # its own short write transaction: a GET's session only reads (and is rolled back). The
+    # read transaction ends first, so the request never holds two connections of the pool
+    # at once (see tests/api/test_connection_use.py); expire_on_commit is off, rows stay loaded
+    if session.in_transaction() and not session.new and not session.dirty and not session.deleted:
+        session.commit()
     if transaction(lambda s: s.execute(stmt).rowcount):
         session.expunge(row)  # answer with the new state without writing through this session
         row.status, row.error, row.finished_at = PreviewStatus.failed.value, error, now
