@@ -10,10 +10,11 @@ from __future__ import annotations
 
 import statistics
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Any, Callable
+from typing import Any
 
-FIGURES: list["Figure"] = []
+FIGURES: list[Figure] = []
 #: "quick" or "full", set by bench.run before the figures run (a figure may trim its setup in quick mode)
 MODE = "full"
 

@@ -10,7 +10,6 @@ import importlib
 import json
 import pkgutil
 import platform
-import statistics
 import sys
 import time
 from pathlib import Path
@@ -75,7 +74,7 @@ def main(argv: list[str] | None = None) -> int:
                 if fig.setup not in setups:
                     try:
                         setups[fig.setup] = fig.setup()
-                    except Exception as exc:  # noqa: BLE001 - the figures sharing it fail with the same reason
+                    except Exception as exc:
                         setups[fig.setup] = _SetupFailed(exc)
                 ctx = setups[fig.setup]
                 if isinstance(ctx, _SetupFailed):
@@ -83,7 +82,7 @@ def main(argv: list[str] | None = None) -> int:
             t_setup = time.perf_counter() - t_fig
             for _ in range(reps):
                 fig.values.append(float(fig.run(ctx)))
-        except Exception as exc:  # noqa: BLE001 - one failing figure must not lose the others' figures
+        except Exception as exc:
             error = f"{type(exc).__name__}: {exc}".strip()[:300]
             console.print(f"[red]error[/] {fig.name}: {error}")
             failed.append(fig.name)
@@ -102,16 +101,39 @@ def main(argv: list[str] | None = None) -> int:
         table.add_column(c, justify="left" if c in ("figure", "unit") else "right")
     fmt = lambda x: "-" if x is None else (f"{x:.4g}")  # noqa: E731
     for r in rows:
-        ok = "skip" if r.get("skipped") else "ERROR" if r.get("error") else ("-" if r["within_target"] is None else ("yes" if r["within_target"] else "NO"))
+        ok = (
+            "skip"
+            if r.get("skipped")
+            else "ERROR"
+            if r.get("error")
+            else ("-" if r["within_target"] is None else ("yes" if r["within_target"] else "NO"))
+        )
         target = "-" if r["target"] is None else f"{r['target_kind']} {r['target']:g}"
-        table.add_row(r["figure"], r["unit"], fmt(r["median"]), fmt(r["min"]), fmt(r["max"]), str(r["repetitions"]), target, ok, fmt(r["ratio_to_baseline"]))
+        table.add_row(
+            r["figure"],
+            r["unit"],
+            fmt(r["median"]),
+            fmt(r["min"]),
+            fmt(r["max"]),
+            str(r["repetitions"]),
+            target,
+            ok,
+            fmt(r["ratio_to_baseline"]),
+        )
     console.print(table)
     slow = sorted((r for r in rows if r.get("bench_total_s")), key=lambda r: -r["bench_total_s"])[:8]
     if slow:
-        console.print("slowest figures (setup + repetitions): " + "; ".join(f"{r['figure'][:60]} {r['bench_total_s']:.1f} s (setup {r['bench_setup_s']:.1f} s)" for r in slow))
+        console.print(
+            "slowest figures (setup + repetitions): "
+            + "; ".join(
+                f"{r['figure'][:60]} {r['bench_total_s']:.1f} s (setup {r['bench_setup_s']:.1f} s)" for r in slow
+            )
+        )
     cpu = _cpu_seconds() - cpu_start
-    console.print(f"bench wall time {time.perf_counter() - t_start:.1f} s, CPU time {cpu:.1f} s (this process and its finished children: "
-                  "less sensitive to the machine's load than the wall time)")
+    console.print(
+        f"bench wall time {time.perf_counter() - t_start:.1f} s, CPU time {cpu:.1f} s (this process and its finished children: "
+        "less sensitive to the machine's load than the wall time)"
+    )
     out = {
         "mode": "quick" if args.quick else "full",
         "python": sys.version.split()[0],

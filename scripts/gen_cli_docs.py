@@ -59,7 +59,10 @@ def main(argv: list[str]) -> int:
     text = render()
     if "--check" in argv:
         if not OUTPUT.exists() or OUTPUT.read_text() != text:
-            print(f"{OUTPUT.relative_to(REPO)} is out of date: run .venv/bin/python scripts/gen_cli_docs.py", file=sys.stderr)
+            print(
+                f"{OUTPUT.relative_to(REPO)} is out of date: run .venv/bin/python scripts/gen_cli_docs.py",
+                file=sys.stderr,
+            )
             return 1
         return 0
     OUTPUT.write_text(text)

@@ -27,6 +27,7 @@ output is not a reproduction.
 
 from __future__ import annotations
 
+import contextlib
 import datetime as dt
 import json
 import math
@@ -191,12 +192,29 @@ def part_multibody(rep: Report) -> Any:
 
     s = "multibody"
     rep.add(s, "joint angle relative to the start, min", PAPER["angle"], dq.min(), "rad")
-    rep.add(s, "joint angle relative to the start, max", PAPER["angle"], dq.max(), "rad", "positive toward the headrest (our frames)")
+    rep.add(
+        s,
+        "joint angle relative to the start, max",
+        PAPER["angle"],
+        dq.max(),
+        "rad",
+        "positive toward the headrest (our frames)",
+    )
     rep.add(s, "max |torque|, phase 1", PAPER["torque"], np.abs(u[t_mid <= t1]).max(), "N m")
     rep.add(s, "max |torque|, phase 2", PAPER["torque_phase2"], np.abs(u2).max() if u2.size else float("nan"), "N m")
-    rep.facts.update(angle_max=float(np.abs(dq).max()), torque1=float(np.abs(u[t_mid <= t1]).max()),
-                     torque2=float(np.abs(u2).max()) if u2.size else float("nan"))
-    rep.add(s, "OCP wall time (cold: build + guess + solve)", "n/a", wall, "s", f"IPOPT {sol.status}, {sol.iterations} iterations")
+    rep.facts.update(
+        angle_max=float(np.abs(dq).max()),
+        torque1=float(np.abs(u[t_mid <= t1]).max()),
+        torque2=float(np.abs(u2).max()) if u2.size else float("nan"),
+    )
+    rep.add(
+        s,
+        "OCP wall time (cold: build + guess + solve)",
+        "n/a",
+        wall,
+        "s",
+        f"IPOPT {sol.status}, {sol.iterations} iterations",
+    )
     rep.text(
         s,
         f"IPOPT: `{sol.status}` after {sol.iterations} iterations, cost {fmt(sol.cost)}, "
@@ -270,8 +288,14 @@ def part_fe(rep: Report, task: Any, sol: Any) -> None:
         for name, j, unit in RELEVANT:
             paper = PAPER["peak_moment"] if unit == "N m" else PAPER["peak_force"]
             rep.add(s, f"peak |{name}|, {label}", paper, np.abs(w[:, j]).max(), unit)
-        rep.add(s, f"FE wall time, {label}", PAPER["fe_time"], wall, "s",
-                f"{d.get('mesh_nodes')} nodes, {d.get('slices')} slice(s), {d.get('steps')} steps")
+        rep.add(
+            s,
+            f"FE wall time, {label}",
+            PAPER["fe_time"],
+            wall,
+            "s",
+            f"{d.get('mesh_nodes')} nodes, {d.get('slices')} slice(s), {d.get('steps')} steps",
+        )
         rep.text(
             s,
             f"{label}: {len(res.forces)} output samples, {d.get('steps_with_contact')} steps in contact, "
@@ -279,7 +303,10 @@ def part_fe(rep: Report, task: Any, sol: Any) -> None:
             f"{fmt(1e6 * d.get('max_penetration_m', float('nan')))} um, dissipated {fmt(d.get('dissipated_energy_j', float('nan')))} J "
             f"of {fmt(d.get('work_by_head_j', float('nan')))} J done by the head; {wall:.1f} s.",
         )
-    rep.text(s, f"Oracle parameters: {json.dumps(oracle.params.model_dump(mode='json', include={'element_size_contact', 'element_size_far', 'output_dt', 'slices', 'out_of_plane_width'}))}.")
+    rep.text(
+        s,
+        f"Oracle parameters: {json.dumps(oracle.params.model_dump(mode='json', include={'element_size_contact', 'element_size_far', 'output_dt', 'slices', 'out_of_plane_width'}))}.",
+    )
 
 
 # ----------------------------------------------------------------------------- 3. campaigns
@@ -336,10 +363,17 @@ class Progress:
             d = service.get_detail(s, self.campaign_id)
         c, m = d.campaign, d.latest_metrics
         total = d.config.stopping.max_iterations
-        rmse = f"force RMSE {m.force_rmse:.3g} N, moment RMSE {m.moment_rmse:.3g} N m" if m is not None and m.force_rmse is not None else "no RMSE yet"
+        rmse = (
+            f"force RMSE {m.force_rmse:.3g} N, moment RMSE {m.moment_rmse:.3g} N m"
+            if m is not None and m.force_rmse is not None
+            else "no RMSE yet"
+        )
         eta = f", ETA {d.eta_s / 60:.1f} min" if d.eta_s is not None else ""
-        typer.echo(f"[reproduce]   {self.label}: iteration {c.current_iteration}/{total} ({c.status.value}), {rmse}, "
-                   f"{(now - self.t0) / 60:.1f} min{eta}", err=True)
+        typer.echo(
+            f"[reproduce]   {self.label}: iteration {c.current_iteration}/{total} ({c.status.value}), {rmse}, "
+            f"{(now - self.t0) / 60:.1f} min{eta}",
+            err=True,
+        )
         return c.status.value
 
 
@@ -361,7 +395,10 @@ def _wait_for_workers(campaign_id: int, progress: Progress, poll: float = 0.5) -
                 raise RuntimeError(f"the alcove worker exited with code {proc.returncode} (log: {WORKER['log']})")
             from alcove_worker.cli.campaign import spawn_worker
 
-            typer.echo(f"[reproduce]   the worker exited with code {proc.returncode}; starting another one (log: {WORKER['log']})", err=True)
+            typer.echo(
+                f"[reproduce]   the worker exited with code {proc.returncode}; starting another one (log: {WORKER['log']})",
+                err=True,
+            )
             WORKER["process"] = spawn_worker(WORKER["concurrency"], log_path=WORKER["log"])
         progress()
         time.sleep(poll)
@@ -425,13 +462,32 @@ def step_breakdown(steps: list[dict[str, Any]]) -> dict[str, Any]:
     span = sum(walls.values())
     warm = [k for k in walls if k > min(walls)] or list(walls)  # the first iteration carries the worker's warm-up
     shares = [100.0 * per_iteration[k] / walls[k] for k in warm if walls[k] > 0 and k in per_iteration]
-    return {"steps": {k: {"wall": float(np.median(v["wall"])), "compute": float(np.median(v["compute"]))} for k, v in by_step.items()},
-            "iteration_wall": walls, "overhead_s": overhead, "overhead_median_s": float(np.median([per_iteration[k] for k in warm if k in per_iteration])) if per_iteration else float("nan"),
-            "share": float(np.median(shares)) if shares else float("nan"), "share_total": 100.0 * overhead / span if span else float("nan")}
+    return {
+        "steps": {
+            k: {"wall": float(np.median(v["wall"])), "compute": float(np.median(v["compute"]))}
+            for k, v in by_step.items()
+        },
+        "iteration_wall": walls,
+        "overhead_s": overhead,
+        "overhead_median_s": float(np.median([per_iteration[k] for k in warm if k in per_iteration]))
+        if per_iteration
+        else float("nan"),
+        "share": float(np.median(shares)) if shares else float("nan"),
+        "share_total": 100.0 * overhead / span if span else float("nan"),
+    }
 
 
-def run_campaign(label: str, *, oracle: str, oracle_params: dict[str, Any], iterations: int, surrogate: dict[str, Any],
-                 preliminary: dict[str, Any], task_spec: dict[str, Any] | None = None, seed: int = 0) -> CampaignRun:
+def run_campaign(
+    label: str,
+    *,
+    oracle: str,
+    oracle_params: dict[str, Any],
+    iterations: int,
+    surrogate: dict[str, Any],
+    preliminary: dict[str, Any],
+    task_spec: dict[str, Any] | None = None,
+    seed: int = 0,
+) -> CampaignRun:
     """Create and run a campaign to its end in this process (same step protocol and rows as Celery)."""
     from alcove.campaigns import presets, service
     from alcove.campaigns.schemas import CampaignCreate
@@ -440,11 +496,14 @@ def run_campaign(label: str, *, oracle: str, oracle_params: dict[str, Any], iter
     def create(s: Any) -> int:
         user = presets.local_user(s)
         data = CampaignCreate(
-            name=label, description="scripts/reproduce.py", seed=seed,
+            name=label,
+            description="scripts/reproduce.py",
+            seed=seed,
             task_version_id=presets.task_version_from_preset(s, user.id, TASK, task_spec),
             oracle_version_id=presets.oracle_version_for(s, user.id, oracle, oracle_params),
             surrogate_config_version_id=presets.surrogate_config_version_for(s, user.id, surrogate),
-            preliminary=preliminary, stopping={"max_iterations": iterations},
+            preliminary=preliminary,
+            stopping={"max_iterations": iterations},
         )
         return service.create_campaign(s, user.id, data).id
 
@@ -454,7 +513,9 @@ def run_campaign(label: str, *, oracle: str, oracle_params: dict[str, Any], iter
     return _drive(cid, jobs, label, t0)
 
 
-def fork_campaign(label: str, source: CampaignRun, *, iteration: int, iterations: int, task_spec: dict[str, Any] | None = None) -> CampaignRun:
+def fork_campaign(
+    label: str, source: CampaignRun, *, iteration: int, iterations: int, task_spec: dict[str, Any] | None = None
+) -> CampaignRun:
     """Continue from ``iteration`` of ``source`` (its pool version and model), optionally on another task."""
     from alcove.campaigns import presets, service
     from alcove.campaigns.schemas import ForkRequest, StoppingRules
@@ -463,7 +524,13 @@ def fork_campaign(label: str, source: CampaignRun, *, iteration: int, iterations
     def fork(s: Any) -> tuple[Any, list[Any]]:
         user = presets.local_user(s)
         tv = presets.task_version_from_preset(s, user.id, TASK, task_spec) if task_spec is not None else None
-        req = ForkRequest(iteration=iteration, name=label, task_version_id=tv, stopping=StoppingRules(max_iterations=iteration + iterations), start=True)
+        req = ForkRequest(
+            iteration=iteration,
+            name=label,
+            task_version_id=tv,
+            stopping=StoppingRules(max_iterations=iteration + iterations),
+            start=True,
+        )
         return service.fork(s, source.campaign_id, req, user.id)
 
     t0 = time.perf_counter()
@@ -493,7 +560,12 @@ def _trend(k: Any, y: Any) -> float:
 
 def campaign_settings(quick: bool, oracle: str) -> dict[str, Any]:
     if quick:
-        return {"oracle": "aux-penalty", "oracle_params": {}, "surrogate": {"max_epochs": 30}, "preliminary": {"samples": 600, "chunks": 4}}
+        return {
+            "oracle": "aux-penalty",
+            "oracle_params": {},
+            "surrogate": {"max_epochs": 30},
+            "preliminary": {"samples": 600, "chunks": 4},
+        }
     return {"oracle": oracle, "oracle_params": {}, "surrogate": {}, "preliminary": {}}
 
 
@@ -524,7 +596,7 @@ def part_campaign(rep: Report, iterations: int, oracle: str) -> CampaignRun:
         t = np.asarray(run.curves.t)
         ft, fp = np.asarray(run.curves.f_true), np.asarray(run.curves.f_pred)
         fig, axes = plt.subplots(len(RELEVANT), 1, figsize=(6.4, 5.6), sharex=True)
-        for ax, (name, j, unit) in zip(axes, RELEVANT):
+        for ax, (name, j, unit) in zip(axes, RELEVANT, strict=False):
             ax.plot(t, ft[:, j], "k-", label="true (oracle)")
             ax.plot(t, fp[:, j], "--", color="C2", label="predicted (surrogate)")
             ax.set_ylabel(f"{name} [{unit}]")
@@ -539,49 +611,128 @@ def part_campaign(rep: Report, iterations: int, oracle: str) -> CampaignRun:
     evaluated = [x for x in run.metrics if x.force_rmse is not None]
     first, last = evaluated[0], evaluated[-1]
     failed = run.iterations_failed
-    rep.add(s, f"force RMSE, first iteration ({first.iteration_index})", "n/a (not reported)", first.force_rmse, "N", "model 1: preliminary data only")
-    rep.add(s, f"moment RMSE, first iteration ({first.iteration_index})", "n/a (not reported)", first.moment_rmse, "N m", "model 1: preliminary data only")
+    rep.add(
+        s,
+        f"force RMSE, first iteration ({first.iteration_index})",
+        "n/a (not reported)",
+        first.force_rmse,
+        "N",
+        "model 1: preliminary data only",
+    )
+    rep.add(
+        s,
+        f"moment RMSE, first iteration ({first.iteration_index})",
+        "n/a (not reported)",
+        first.moment_rmse,
+        "N m",
+        "model 1: preliminary data only",
+    )
     rep.add(s, f"force RMSE, last iteration ({last.iteration_index})", PAPER["force_rmse"], last.force_rmse, "N")
     rep.add(s, f"moment RMSE, last iteration ({last.iteration_index})", PAPER["moment_rmse"], last.moment_rmse, "N m")
     tenth = max(1, len(f) // 10)
-    rep.add(s, "force RMSE, median of the first 10 % of iterations", PAPER["trend"], float(np.nanmedian(f[:tenth])), "N")
-    rep.add(s, "moment RMSE, median of the first 10 % of iterations", PAPER["trend"], float(np.nanmedian(m[:tenth])), "N m")
-    rep.add(s, "force RMSE, median of the last 10 % of iterations", PAPER["force_rmse"], float(np.nanmedian(f[-tenth:])), "N")
-    rep.add(s, "moment RMSE, median of the last 10 % of iterations", PAPER["moment_rmse"], float(np.nanmedian(m[-tenth:])), "N m")
-    rep.add(s, "Spearman rank correlation of force RMSE with k", PAPER["trend"], _trend(k, f), "", "negative: decreasing")
-    rep.add(s, "Spearman rank correlation of moment RMSE with k", PAPER["trend"], _trend(k, m), "", "negative: decreasing")
+    rep.add(
+        s, "force RMSE, median of the first 10 % of iterations", PAPER["trend"], float(np.nanmedian(f[:tenth])), "N"
+    )
+    rep.add(
+        s, "moment RMSE, median of the first 10 % of iterations", PAPER["trend"], float(np.nanmedian(m[:tenth])), "N m"
+    )
+    rep.add(
+        s,
+        "force RMSE, median of the last 10 % of iterations",
+        PAPER["force_rmse"],
+        float(np.nanmedian(f[-tenth:])),
+        "N",
+    )
+    rep.add(
+        s,
+        "moment RMSE, median of the last 10 % of iterations",
+        PAPER["moment_rmse"],
+        float(np.nanmedian(m[-tenth:])),
+        "N m",
+    )
+    rep.add(
+        s, "Spearman rank correlation of force RMSE with k", PAPER["trend"], _trend(k, f), "", "negative: decreasing"
+    )
+    rep.add(
+        s, "Spearman rank correlation of moment RMSE with k", PAPER["trend"], _trend(k, m), "", "negative: decreasing"
+    )
     peaks = None
     if run.curves is not None:
         ft, fp = np.asarray(run.curves.f_true), np.asarray(run.curves.f_pred)
         peaks = np.linalg.norm(ft[:, :3], axis=1).max(), np.linalg.norm(ft[:, 3:], axis=1).max()
     if peaks is not None and min(peaks) <= 0.0:
-        rep.text(s, "The last iteration's trajectory made no contact in the oracle (zero true force): no relative RMSE.")
+        rep.text(
+            s, "The last iteration's trajectory made no contact in the oracle (zero true force): no relative RMSE."
+        )
     elif peaks is not None:
         peak_f, peak_m = peaks
-        rep.add(s, "force RMSE / peak |F|, last iteration", PAPER["relative_rmse"], 100 * last.force_rmse / peak_f, "%", f"peak {fmt(peak_f)} N")
-        rep.add(s, "moment RMSE / peak |M|, last iteration", PAPER["relative_rmse"], 100 * last.moment_rmse / peak_m, "%", f"peak {fmt(peak_m)} N m")
+        rep.add(
+            s,
+            "force RMSE / peak |F|, last iteration",
+            PAPER["relative_rmse"],
+            100 * last.force_rmse / peak_f,
+            "%",
+            f"peak {fmt(peak_f)} N",
+        )
+        rep.add(
+            s,
+            "moment RMSE / peak |M|, last iteration",
+            PAPER["relative_rmse"],
+            100 * last.moment_rmse / peak_m,
+            "%",
+            f"peak {fmt(peak_m)} N m",
+        )
         ratio = np.linalg.norm(fp[:, :3], axis=1).max() / peak_f
         rep.add(s, "predicted / true peak |F|, last iteration", PAPER["peak_ratio"], ratio, "")
-        rep.facts.update(rel_force=100 * last.force_rmse / peak_f, rel_moment=100 * last.moment_rmse / peak_m, peak_ratio=float(ratio))
-    rep.facts.update(trend_force=_trend(k, f), trend_moment=_trend(k, m), n_iterations=float(iterations),
-                     first_force=float(np.nanmedian(f[:tenth])), last_force=float(np.nanmedian(f[-tenth:])))
+        rep.facts.update(
+            rel_force=100 * last.force_rmse / peak_f,
+            rel_moment=100 * last.moment_rmse / peak_m,
+            peak_ratio=float(ratio),
+        )
+    rep.facts.update(
+        trend_force=_trend(k, f),
+        trend_moment=_trend(k, m),
+        n_iterations=float(iterations),
+        first_force=float(np.nanmedian(f[:tenth])),
+        last_force=float(np.nanmedian(f[-tenth:])),
+    )
     spikes = int(np.nansum(f > 2.0 * rolling_median(f, window)))
     rep.add(s, "iterations with force RMSE above 2x its rolling median", PAPER["trend"], spikes, "", "spikes")
     rep.add(s, "failed iterations (OCP not converged or oracle failed)", "n/a", failed, "")
     per_it = run.wall / iterations
-    rep.add(s, "campaign wall time", "about 10 h of FE runs alone (alcove issue 6 target: <= 30 min for 200 iterations)", run.wall / 60.0, "min",
-            f"{iterations} iterations and the preliminary step; {rep.timings_note}")
-    rep.add(s, "campaign wall time per iteration", "about 3 min per FE run", per_it, "s", f"{iterations} iterations and the preliminary step in {run.wall:.1f} s")
+    rep.add(
+        s,
+        "campaign wall time",
+        "about 10 h of FE runs alone (alcove issue 6 target: <= 30 min for 200 iterations)",
+        run.wall / 60.0,
+        "min",
+        f"{iterations} iterations and the preliminary step; {rep.timings_note}",
+    )
+    rep.add(
+        s,
+        "campaign wall time per iteration",
+        "about 3 min per FE run",
+        per_it,
+        "s",
+        f"{iterations} iterations and the preliminary step in {run.wall:.1f} s",
+    )
     b = step_breakdown(run.steps)
     run.breakdown = b
     if b["steps"]:
-        rep.add(s, "orchestration share of the iteration wall time (median over the iterations after the first)", "n/a (alcove issue 6 target: <= 5 %)", b["share"], "%",
-                f"queue latency + job wall - bare compute, summed over an iteration's steps; {b['share_total']:.2f} % of all iterations' time, warm-up included")
+        rep.add(
+            s,
+            "orchestration share of the iteration wall time (median over the iterations after the first)",
+            "n/a (alcove issue 6 target: <= 5 %)",
+            b["share"],
+            "%",
+            f"queue latency + job wall - bare compute, summed over an iteration's steps; {b['share_total']:.2f} % of all iterations' time, warm-up included",
+        )
     rep.text(
         s,
         f"Campaign {run.campaign_id}: {run.status} ({run.stop_reason}), {iterations} iterations, {failed} failed, "
         f"oracle `{cs['oracle']}`, {run.metrics[-1].n_pool_samples} samples in the last pool.",
-        "Per-step breakdown (median per iteration): " + ", ".join(f"{k_} {v['wall']:.2f} s wall ({v['compute']:.2f} s bare compute)" for k_, v in b["steps"].items())
+        "Per-step breakdown (median per iteration): "
+        + ", ".join(f"{k_} {v['wall']:.2f} s wall ({v['compute']:.2f} s bare compute)" for k_, v in b["steps"].items())
         + f"; orchestration (everything but the compute, including the broker hand-over) {1000 * b['overhead_median_s']:.0f} ms per iteration (median after the first; "
         f"{1000 * b['overhead_s'] / max(iterations, 1):.0f} ms on average, the worker's warm-up in iteration 1 included).",
     )
@@ -631,19 +782,38 @@ def part_remedies(rep: Report, baseline: CampaignRun, iterations: int, oracle: s
     cs = campaign_settings(rep.quick, oracle)
     runs: list[tuple[str, CampaignRun, int]] = []
     # the baseline's first `iterations` iterations are the baseline (same seed and settings)
-    base = CampaignRun(baseline.campaign_id, "baseline", baseline.status, baseline.stop_reason, baseline.error, baseline.wall,
-                       [m for m in baseline.metrics if m.iteration_index <= iterations], None)
+    base = CampaignRun(
+        baseline.campaign_id,
+        "baseline",
+        baseline.status,
+        baseline.stop_reason,
+        baseline.error,
+        baseline.wall,
+        [m for m in baseline.metrics if m.iteration_index <= iterations],
+        None,
+    )
     runs.append(("baseline (preliminary weight 1)", base, 0))
-    down = run_campaign("reproduction: preliminary data down-weighted", iterations=iterations,
-                        **{**cs, "surrogate": {**cs["surrogate"], "preliminary_weight": preliminary_weight}})
+    down = run_campaign(
+        "reproduction: preliminary data down-weighted",
+        iterations=iterations,
+        **{**cs, "surrogate": {**cs["surrogate"], "preliminary_weight": preliminary_weight}},
+    )
     rep.timings[f"campaign, preliminary weight {preliminary_weight} ({iterations} iterations)"] = down.wall
     runs.append((f"preliminary weight {preliminary_weight}", down, 0))
     task2 = adjusted_task()
-    cold = run_campaign("reproduction: adjusted task from preliminary data", iterations=iterations, task_spec=task2, **cs)
+    cold = run_campaign(
+        "reproduction: adjusted task from preliminary data", iterations=iterations, task_spec=task2, **cs
+    )
     rep.timings[f"campaign, adjusted task, cold ({iterations} iterations)"] = cold.wall
     runs.append(("adjusted task, from the preliminary data", cold, 0))
     k0 = max(m.iteration_index for m in baseline.metrics)
-    warm = fork_campaign("reproduction: adjusted task warm-started from the baseline", baseline, iteration=k0, iterations=iterations, task_spec=task2)
+    warm = fork_campaign(
+        "reproduction: adjusted task warm-started from the baseline",
+        baseline,
+        iteration=k0,
+        iterations=iterations,
+        task_spec=task2,
+    )
     rep.timings[f"campaign, adjusted task, warm start ({iterations} iterations)"] = warm.wall
     runs.append((f"adjusted task, warm start from baseline iteration {k0}", warm, k0))
 
@@ -652,12 +822,22 @@ def part_remedies(rep: Report, baseline: CampaignRun, iterations: int, oracle: s
     s = "remedies"
     for i, (label, run, offset) in enumerate(runs):
         if run.status != "completed":
-            raise RuntimeError(f"campaign {run.campaign_id} ({label}) ended {run.status}: {run.error or run.stop_reason}")
+            raise RuntimeError(
+                f"campaign {run.campaign_id} ({label}) ended {run.status}: {run.error or run.stop_reason}"
+            )
         k, f, m = _series(run, offset)
         axes[0].semilogy(k, f, "o-", ms=3, color=f"C{i}", label=label)
         axes[1].semilogy(k, m, "o-", ms=3, color=f"C{i}", label=label)
-        rep.add(s, f"mean force RMSE over iterations 1-{iterations}: {label}", "n/a (idea only)", float(np.nanmean(f)), "N")
-        rep.add(s, f"mean moment RMSE over iterations 1-{iterations}: {label}", "n/a (idea only)", float(np.nanmean(m)), "N m")
+        rep.add(
+            s, f"mean force RMSE over iterations 1-{iterations}: {label}", "n/a (idea only)", float(np.nanmean(f)), "N"
+        )
+        rep.add(
+            s,
+            f"mean moment RMSE over iterations 1-{iterations}: {label}",
+            "n/a (idea only)",
+            float(np.nanmean(m)),
+            "N m",
+        )
         rep.add(s, f"force RMSE at iteration {iterations}: {label}", "n/a (idea only)", float(f[-1]), "N")
         rep.facts[f"remedy{i}_mean_force"] = float(np.nanmean(f))
         rep.facts[f"remedy{i}_mean_moment"] = float(np.nanmean(m))
@@ -699,19 +879,19 @@ def machine() -> dict[str, str]:
                 break
     except OSError:
         pass
-    try:
+    with contextlib.suppress(OSError):
         info["load average at start"] = " ".join(f"{x:.2f}" for x in os.getloadavg())
-    except OSError:
-        pass
     versions = {"numpy": numpy.__version__, "scipy": scipy.__version__}
     for mod in ("casadi", "torch", "skfem"):
         try:
             versions[mod] = __import__(mod).__version__
-        except Exception:  # noqa: BLE001
+        except Exception:
             versions[mod] = "not importable"
     info["libraries"] = ", ".join(f"{k} {v}" for k, v in versions.items())
     try:
-        info["alcove commit"] = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=REPO, capture_output=True, text=True, check=True).stdout.strip()
+        info["alcove commit"] = subprocess.run(
+            ["git", "rev-parse", "--short", "HEAD"], cwd=REPO, capture_output=True, text=True, check=True
+        ).stdout.strip()
     except (OSError, subprocess.CalledProcessError):
         info["alcove commit"] = "unknown"
     return info
@@ -725,11 +905,27 @@ SECTION_TITLES = {
 }
 
 FIGURES = {
-    "multibody": [("multibody.png", "Joint angle relative to the start and joint torque of the OCP solution with the auxiliary contact; phases shaded.")],
-    "fe": [("fe_replay.png", "Contact force and moment on the head in the headrest frame H (fx > 0 pushes the head off the cushion; my about the head COG); dotted: first contact.")],
+    "multibody": [
+        (
+            "multibody.png",
+            "Joint angle relative to the start and joint torque of the OCP solution with the auxiliary contact; phases shaded.",
+        )
+    ],
+    "fe": [
+        (
+            "fe_replay.png",
+            "Contact force and moment on the head in the headrest frame H (fx > 0 pushes the head off the cushion; my about the head COG); dotted: first contact.",
+        )
+    ],
     "campaign": [
-        ("campaign_rmse.png", "Force and moment RMSE between the surrogate k and the oracle on iteration k's trajectory, log axis, with a rolling median."),
-        ("campaign_last.png", "True (oracle) and predicted (surrogate) force and moment along the last iteration's trajectory."),
+        (
+            "campaign_rmse.png",
+            "Force and moment RMSE between the surrogate k and the oracle on iteration k's trajectory, log axis, with a rolling median.",
+        ),
+        (
+            "campaign_last.png",
+            "True (oracle) and predicted (surrogate) force and moment along the last iteration's trajectory.",
+        ),
     ],
     "remedies": [("remedies.png", "RMSE per iteration of the remedies against the baseline.")],
 }
@@ -778,42 +974,74 @@ def verdict(rep: Report) -> list[str]:
         out.append(f"- **{mark}**: {text}")
 
     if "angle_max" in f:
-        say(f["angle_max"] <= 0.2, f"the joint angle stays within {fmt(f['angle_max'])} rad of the start (paper: about 0.15 rad).")
+        say(
+            f["angle_max"] <= 0.2,
+            f"the joint angle stays within {fmt(f['angle_max'])} rad of the start (paper: about 0.15 rad).",
+        )
         say(f["torque1"] <= 5.0, f"the torque stays within {fmt(f['torque1'])} N m (paper: a few N m).")
-        say(f["torque2"] <= 1e-2 * max(f["torque1"], 1e-9),
+        say(
+            f["torque2"] <= 1e-2 * max(f["torque1"], 1e-9),
             f"in phase 2 the torque is at most {fmt(f['torque2'])} N m, {fmt(100 * f['torque2'] / max(f['torque1'], 1e-12))} % of phase 1's "
-            "(paper: zero, the head rests without actuation).")
+            "(paper: zero, the head rests without actuation).",
+        )
     if "ref_first_contact" in f:
-        say(abs(f["ref_first_contact"] - 0.29) <= 0.01, f"the FE replay of the example motion first touches at {fmt(f['ref_first_contact'])} s (paper: 0.29 s).")
+        say(
+            abs(f["ref_first_contact"] - 0.29) <= 0.01,
+            f"the FE replay of the example motion first touches at {fmt(f['ref_first_contact'])} s (paper: 0.29 s).",
+        )
     if "ocp_first_contact" in f:
-        out.append(f"- the OCP solution itself reaches the cushion at {fmt(f['ocp_first_contact'])} s; it is another motion than the paper's example.")
+        out.append(
+            f"- the OCP solution itself reaches the cushion at {fmt(f['ocp_first_contact'])} s; it is another motion than the paper's example."
+        )
     key = "ref" if "ref_peak_force" in f else ("ocp" if "ocp_peak_force" in f else None)
     if key:
         pf, pm = f[f"{key}_peak_force"], f[f"{key}_peak_moment"]
         # "of order": within a factor of 3 of the paper's range
-        say(100.0 / 3 <= pf <= 900.0, f"peak contact force {fmt(pf)} N (paper: of order 100-300 N; agreement here means within a factor of 3).")
-        say(10.0 / 3 <= pm <= 90.0, f"peak contact moment about the head COG {fmt(pm)} N m (paper: of order 10-30 N m)"
-            + ("; below the paper's range: the resultant passes close to the COG in our geometry, and the paper's moment point is not stated." if pm < 10 else "."))
+        say(
+            100.0 / 3 <= pf <= 900.0,
+            f"peak contact force {fmt(pf)} N (paper: of order 100-300 N; agreement here means within a factor of 3).",
+        )
+        say(
+            10.0 / 3 <= pm <= 90.0,
+            f"peak contact moment about the head COG {fmt(pm)} N m (paper: of order 10-30 N m)"
+            + (
+                "; below the paper's range: the resultant passes close to the COG in our geometry, and the paper's moment point is not stated."
+                if pm < 10
+                else "."
+            ),
+        )
     if "trend_force" in f:
         n = int(f["n_iterations"])
         trend = f["trend_force"]
-        say(None if not math.isfinite(trend) else trend < 0,
+        say(
+            None if not math.isfinite(trend) else trend < 0,
             f"over {n} iterations the force RMSE has a Spearman rank correlation {fmt(trend)} with k "
-            f"(median {fmt(f['first_force'])} N over the first 10 % of iterations, {fmt(f['last_force'])} N over the last 10 %; paper: decreasing with spikes).")
+            f"(median {fmt(f['first_force'])} N over the first 10 % of iterations, {fmt(f['last_force'])} N over the last 10 %; paper: decreasing with spikes).",
+        )
     if "rel_force" in f:
-        say(f["rel_force"] <= 5.0, f"last iteration: force RMSE {fmt(f['rel_force'])} % and moment RMSE {fmt(f['rel_moment'])} % of their peaks "
-            "(paper: about 1-3 %; absolute RMSEs are not comparable between different FE models).")
+        say(
+            f["rel_force"] <= 5.0,
+            f"last iteration: force RMSE {fmt(f['rel_force'])} % and moment RMSE {fmt(f['rel_moment'])} % of their peaks "
+            "(paper: about 1-3 %; absolute RMSEs are not comparable between different FE models).",
+        )
         under = f["peak_ratio"] < 1.0
-        say(under, f"the surrogate's peak force is {fmt(f['peak_ratio'])} times the oracle's on the last trajectory "
-            f"(paper: it underestimates high forces, biased by the preliminary data){'' if under else '; here it overestimates them'}.")
+        say(
+            under,
+            f"the surrogate's peak force is {fmt(f['peak_ratio'])} times the oracle's on the last trajectory "
+            f"(paper: it underestimates high forces, biased by the preliminary data){'' if under else '; here it overestimates them'}.",
+        )
     if "remedy1_mean_force" in f:
         b, d = f["remedy0_mean_force"], f["remedy1_mean_force"]
-        out.append(f"- remedy, down-weighting: mean force RMSE {fmt(d)} N against the baseline's {fmt(b)} N over the same iterations "
-                   f"({'better' if d < b else 'not better'} in this run).")
+        out.append(
+            f"- remedy, down-weighting: mean force RMSE {fmt(d)} N against the baseline's {fmt(b)} N over the same iterations "
+            f"({'better' if d < b else 'not better'} in this run)."
+        )
     if "remedy3_mean_force" in f:
         c, w = f["remedy2_mean_force"], f["remedy3_mean_force"]
-        out.append(f"- remedy, warm start on an adjusted task: mean force RMSE {fmt(w)} N against {fmt(c)} N when starting from the preliminary data "
-                   f"({'better' if w < c else 'not better'} in this run).")
+        out.append(
+            f"- remedy, warm start on an adjusted task: mean force RMSE {fmt(w)} N against {fmt(c)} N when starting from the preliminary data "
+            f"({'better' if w < c else 'not better'} in this run)."
+        )
     if not out:
         return []
     note = "Computed from the numbers above."
@@ -829,25 +1057,45 @@ def write_markdown(rep: Report, info: dict[str, str], args: dict[str, Any], tota
         "<!-- generated by scripts/reproduce.py; do not edit by hand -->",
         "",
         "This file is written by `make reproduce` (`scripts/reproduce.py`): it runs the proof of concept of",
-        "Fahse et al., \"Towards Using Active Learning Methods for Human-Seat Interactions To Generate",
-        "Realistic Occupant Motion\", end to end with alcove. Every number below comes from that run.",
+        'Fahse et al., "Towards Using Active Learning Methods for Human-Seat Interactions To Generate',
+        'Realistic Occupant Motion", end to end with alcove. Every number below comes from that run.',
         "",
     ]
     if rep.quick:
-        lines += ["> **Quick smoke run** (`--quick`): aux-penalty oracle, a small preliminary set and few iterations "
-                  "in the campaigns. The numbers only show that the pipeline works; they are not a reproduction.", ""]
+        lines += [
+            "> **Quick smoke run** (`--quick`): aux-penalty oracle, a small preliminary set and few iterations "
+            "in the campaigns. The numbers only show that the pipeline works; they are not a reproduction.",
+            "",
+        ]
     elif args["iterations"] < 200:
-        lines += [f"> **Shortened run**: {args['iterations']} iterations in the baseline campaign (the paper runs 200) and "
-                  f"{args['remedy_iterations']} in each remedy campaign. `make reproduce` without arguments runs the full 200.", ""]
+        lines += [
+            f"> **Shortened run**: {args['iterations']} iterations in the baseline campaign (the paper runs 200) and "
+            f"{args['remedy_iterations']} in each remedy campaign. `make reproduce` without arguments runs the full 200.",
+            "",
+        ]
     lines += ["## The run", "", "| | |", "|---|---|"]
-    lines += [f"| date (UTC) | {dt.datetime.now(dt.timezone.utc).strftime('%Y-%m-%d %H:%M')} |"]
+    lines += [f"| date (UTC) | {dt.datetime.now(dt.UTC).strftime('%Y-%m-%d %H:%M')} |"]
     lines += [f"| command | `{args['command']}` |"]
-    lines += [f"| baseline campaign | {args['iterations']} iterations |", f"| each remedy campaign | {args['remedy_iterations']} iterations |"]
+    lines += [
+        f"| baseline campaign | {args['iterations']} iterations |",
+        f"| each remedy campaign | {args['remedy_iterations']} iterations |",
+    ]
     lines += [f"| {k} | {v} |" for k, v in info.items()]
     lines += [f"| campaign steps | {rep.timings_note} |", f"| total wall time | {total:.1f} s |", ""]
-    lines += ["Wall times (the machine may be shared; they are as measured, under whatever load there was):", "", "| part | wall time [s] |", "|---|---|"]
+    lines += [
+        "Wall times (the machine may be shared; they are as measured, under whatever load there was):",
+        "",
+        "| part | wall time [s] |",
+        "|---|---|",
+    ]
     lines += [f"| {k} | {v:.2f} |" for k, v in rep.timings.items()]
-    lines += ["", "## Comparison with the paper", "", "| part | quantity | paper | alcove (this run) | note |", "|---|---|---|---|---|"]
+    lines += [
+        "",
+        "## Comparison with the paper",
+        "",
+        "| part | quantity | paper | alcove (this run) | note |",
+        "|---|---|---|---|---|",
+    ]
     for r in rep.rows:
         cells = (r.section, r.quantity, r.paper, r.cell(), r.note)
         lines.append("| " + " | ".join(c.replace("|", "\\|") for c in cells) + " |")
@@ -864,7 +1112,7 @@ def write_markdown(rep: Report, info: dict[str, str], args: dict[str, Any], tota
         for png, caption in FIGURES[key]:
             if (rep.out / "reproduction" / png).exists():
                 lines += [f"![{caption}](reproduction/{png})", "", f"*{caption}*", ""]
-    lines += verdict(rep) + [DIFFERENCES]
+    lines += [*verdict(rep), DIFFERENCES]
     path = rep.out / "reproduction.md"
     path.write_text("\n".join(lines))
     return path
@@ -878,23 +1126,46 @@ app = typer.Typer(add_completion=False)
 
 @app.command()
 def main(
-    quick: bool = typer.Option(False, "--quick", help="smoke run: aux-penalty campaigns with a small preliminary set, few iterations"),
-    iterations: int | None = typer.Option(None, "--iterations", "-n", min=1, help="baseline campaign iterations (default 200, quick 3)"),
-    remedy_iterations: int | None = typer.Option(None, "--remedy-iterations", min=1,
-                                                 help="iterations of each remedy campaign (at most --iterations; default: as many as fit in --budget-min, quick 1)"),
-    budget_min: float = typer.Option(35.0, "--budget-min", min=1.0, help="wall-time budget of the whole run in minutes: sets the default --remedy-iterations"),
+    quick: bool = typer.Option(
+        False, "--quick", help="smoke run: aux-penalty campaigns with a small preliminary set, few iterations"
+    ),
+    iterations: int | None = typer.Option(
+        None, "--iterations", "-n", min=1, help="baseline campaign iterations (default 200, quick 3)"
+    ),
+    remedy_iterations: int | None = typer.Option(
+        None,
+        "--remedy-iterations",
+        min=1,
+        help="iterations of each remedy campaign (at most --iterations; default: as many as fit in --budget-min, quick 1)",
+    ),
+    budget_min: float = typer.Option(
+        35.0,
+        "--budget-min",
+        min=1.0,
+        help="wall-time budget of the whole run in minutes: sets the default --remedy-iterations",
+    ),
     oracle: str = typer.Option("fe-headrest-2d", help="oracle of the campaigns (quick: aux-penalty)"),
-    preliminary_weight: float = typer.Option(0.1, min=0.0, help="sample weight of the preliminary data in the down-weighting remedy"),
+    preliminary_weight: float = typer.Option(
+        0.1, min=0.0, help="sample weight of the preliminary data in the down-weighting remedy"
+    ),
     out: Path = typer.Option(REPO / "docs", help="folder for reproduction.md and reproduction/*.png"),
-    data_dir: Path | None = typer.Option(None, help="alcove data dir for the run's database and artifacts (default: a fresh temporary folder)"),
+    data_dir: Path | None = typer.Option(
+        None, help="alcove data dir for the run's database and artifacts (default: a fresh temporary folder)"
+    ),
     skip: list[str] = typer.Option([], help="parts to skip: multibody, fe, campaign, remedies"),
-    celery: bool = typer.Option(True, "--celery/--inline", help="campaign steps through Celery with a spawned `alcove worker` on the embedded broker "
-                                "(default, as `alcove campaign run`), or in this process (--inline: same protocol and rows, no broker)"),
+    celery: bool = typer.Option(
+        True,
+        "--celery/--inline",
+        help="campaign steps through Celery with a spawned `alcove worker` on the embedded broker "
+        "(default, as `alcove campaign run`), or in this process (--inline: same protocol and rows, no broker)",
+    ),
     concurrency: int = typer.Option(1, min=1, help="processes of the spawned worker (with --celery)"),
 ) -> None:
     """Run the paper's proof of concept with alcove and write OUT/reproduction.md with figures."""
     n = iterations or (3 if quick else 200)
-    m = min(remedy_iterations, n) if remedy_iterations else (1 if quick else None)  # None: chosen after the baseline from the budget
+    m = (
+        min(remedy_iterations, n) if remedy_iterations else (1 if quick else None)
+    )  # None: chosen after the baseline from the budget
     (out / "reproduction").mkdir(parents=True, exist_ok=True)
     tmp = None
     if data_dir is None:
@@ -912,7 +1183,7 @@ def main(
         t0 = time.perf_counter()
         try:
             return fn()
-        except Exception:  # noqa: BLE001 - a failed part is reported in the markdown, the others still run
+        except Exception:
             rep.errors[name] = traceback.format_exc(limit=4)
             typer.echo(rep.errors[name], err=True)
             return None
@@ -931,17 +1202,26 @@ def main(
 
             WORKER["log"], WORKER["concurrency"] = data_dir / "worker.log", concurrency
             WORKER["process"] = spawn_worker(concurrency, log_path=WORKER["log"])
-        rep.timings_note = "steps run by a spawned Celery worker (embedded default: SQLite + filesystem broker)" if celery else "steps run in this process (flows.drive_inline)"
+        rep.timings_note = (
+            "steps run by a spawned Celery worker (embedded default: SQLite + filesystem broker)"
+            if celery
+            else "steps run in this process (flows.drive_inline)"
+        )
         base = part("campaign", lambda: part_campaign(rep, n, oracle))
         if base is not None:
             if m is None:
                 m = remedy_budget(base, n, budget_min * 60.0 - (time.perf_counter() - t_start))
-                typer.echo(f"[reproduce] {m} iterations per remedy campaign (as many as fit in the {budget_min:g} min budget; --remedy-iterations to choose)", err=True)
+                typer.echo(
+                    f"[reproduce] {m} iterations per remedy campaign (as many as fit in the {budget_min:g} min budget; --remedy-iterations to choose)",
+                    err=True,
+                )
             part("remedies", lambda: part_remedies(rep, base, m, oracle, preliminary_weight))
         elif "remedies" not in skip:
             rep.errors["remedies"] = "needs the baseline campaign (part 3 failed)"
         argv = " ".join(["scripts/reproduce.py", *sys.argv[1:]])
-        path = write_markdown(rep, info, {"command": argv, "iterations": n, "remedy_iterations": m or 0}, time.perf_counter() - t_start)
+        path = write_markdown(
+            rep, info, {"command": argv, "iterations": n, "remedy_iterations": m or 0}, time.perf_counter() - t_start
+        )
         typer.echo(f"[reproduce] wrote {path}", err=True)
     finally:
         if WORKER:

@@ -55,7 +55,7 @@ def pg_base_url() -> str:
                     c.exec_driver_sql("select 1")
                 _pg_base_cache.append(url)
                 break
-            except Exception as err:  # noqa: BLE001
+            except Exception as err:
                 last = err
             finally:
                 eng.dispose()
@@ -176,6 +176,6 @@ def redis_url() -> str:
         client.ping()
         client.flushdb()
         client.close()
-    except Exception as err:  # noqa: BLE001
+    except Exception as err:
         service_unavailable(f"Redis at {url}", err)
     return url

@@ -11,7 +11,9 @@ import pytest
 from bench import harness, run
 
 
-def test_a_failing_figure_is_reported_and_the_others_still_run(tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys) -> None:  # noqa: ANN001
+def test_a_failing_figure_is_reported_and_the_others_still_run(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys
+) -> None:
     monkeypatch.setattr(harness, "FIGURES", [])
     monkeypatch.setattr(run, "FIGURES", harness.FIGURES)
     monkeypatch.setattr(run, "load_figures", lambda: None)
@@ -30,8 +32,16 @@ def test_a_failing_figure_is_reported_and_the_others_still_run(tmp_path: Path, m
     out = tmp_path / "results.json"
     assert run.main(["--out", str(out)]) == 1
     rows = {r["figure"]: r for r in json.loads(out.read_text())["figures"]}
-    assert rows["fine before"]["median"] == 1.5 and rows["fine after"]["median"] == 2.0 and rows["fine after"]["within_target"] is True
-    assert rows["shares a broken setup A"]["error"] == rows["shares a broken setup B"]["error"] == "ConnectionError: server did not answer"
+    assert (
+        rows["fine before"]["median"] == 1.5
+        and rows["fine after"]["median"] == 2.0
+        and rows["fine after"]["within_target"] is True
+    )
+    assert (
+        rows["shares a broken setup A"]["error"]
+        == rows["shares a broken setup B"]["error"]
+        == "ConnectionError: server did not answer"
+    )
     assert setup_calls == [1]  # a failed setup is not run again for the figures that share it
     assert rows["raises in a repetition"]["error"] == "ZeroDivisionError: division by zero"
     assert rows["raises in a repetition"]["median"] is None and "error" not in rows["fine after"]

@@ -55,7 +55,9 @@ def validate_alcove_command(argv: list[str]) -> None:
 
 
 def test_compose_parses_with_the_expected_services() -> None:
-    assert {"postgres", "redis", "api", "worker-default", "worker-ocp", "worker-oracle", "worker-train"} <= set(COMPOSE["services"])
+    assert {"postgres", "redis", "api", "worker-default", "worker-ocp", "worker-oracle", "worker-train"} <= set(
+        COMPOSE["services"]
+    )
     for name, svc in COMPOSE["services"].items():
         for dep in svc.get("depends_on", {}):
             assert dep in COMPOSE["services"], f"{name} depends on unknown {dep}"

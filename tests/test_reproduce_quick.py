@@ -14,8 +14,15 @@ from pathlib import Path
 import pytest
 
 REPO = Path(__file__).resolve().parents[1]
-SECTIONS = ("## 1. The multibody solution", "## 2. FE replay", "## 3. The active-learning loop", "## 4. Remedies against the baseline",
-            "## Comparison with the paper", "## What this run shows", "## Where our model differs from the paper's")
+SECTIONS = (
+    "## 1. The multibody solution",
+    "## 2. FE replay",
+    "## 3. The active-learning loop",
+    "## 4. Remedies against the baseline",
+    "## Comparison with the paper",
+    "## What this run shows",
+    "## Where our model differs from the paper's",
+)
 FIGURES = ("multibody.png", "fe_replay.png", "campaign_rmse.png", "campaign_last.png", "remedies.png")
 
 
@@ -30,8 +37,22 @@ def _table(markdown: str) -> list[list[str]]:
 def test_quick_reproduction_writes_page_figures_and_numeric_table(tmp_path: Path) -> None:
     out = tmp_path / "docs"
     env = {k: v for k, v in os.environ.items() if not k.startswith("ALCOVE_")}
-    proc = subprocess.run([sys.executable, str(REPO / "scripts" / "reproduce.py"), "--quick", "--out", str(out), "--data-dir", str(tmp_path / "data")],
-                          cwd=tmp_path, env=env, capture_output=True, text=True, timeout=300)
+    proc = subprocess.run(
+        [
+            sys.executable,
+            str(REPO / "scripts" / "reproduce.py"),
+            "--quick",
+            "--out",
+            str(out),
+            "--data-dir",
+            str(tmp_path / "data"),
+        ],
+        cwd=tmp_path,
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
     assert proc.returncode == 0, proc.stderr[-3000:]
 
     md = (out / "reproduction.md").read_text()
@@ -54,11 +75,15 @@ def test_quick_reproduction_writes_page_figures_and_numeric_table(tmp_path: Path
     assert values["max |torque|, phase 2"] < values["max |torque|, phase 1"]
     first_contact = next(v for q, v in values.items() if q.startswith("first contact"))
     assert 0.0 <= first_contact <= 1.0
-    assert all(v > 0 for q, v in values.items() if q.startswith(("force RMSE", "moment RMSE", "mean force RMSE", "mean moment RMSE")))
+    assert all(
+        v > 0
+        for q, v in values.items()
+        if q.startswith(("force RMSE", "moment RMSE", "mean force RMSE", "mean moment RMSE"))
+    )
     assert -1.0 <= values["Spearman rank correlation of force RMSE with k"] <= 1.0
 
 
-def _reproduce_module():  # noqa: ANN202
+def _reproduce_module():
     import importlib.util
 
     spec = importlib.util.spec_from_file_location("reproduce_script", REPO / "scripts" / "reproduce.py")
@@ -74,7 +99,17 @@ def test_remedy_iterations_fit_the_remaining_budget() -> None:
     more iterations; never more than the baseline's, never fewer than the floor."""
     mod = _reproduce_module()
     walls = {k: 3.0 + 0.02 * k for k in range(1, 201)}  # iterations get slower as the pool grows
-    base = mod.CampaignRun(1, "baseline", "completed", "max_iterations", None, sum(walls.values()) + 1.0, [], None, breakdown={"iteration_wall": walls})
+    base = mod.CampaignRun(
+        1,
+        "baseline",
+        "completed",
+        "max_iterations",
+        None,
+        sum(walls.values()) + 1.0,
+        [],
+        None,
+        breakdown={"iteration_wall": walls},
+    )
     late = 3.0 + 0.02 * 191  # the median of the last 20
 
     def cost(m: int) -> float:
@@ -83,6 +118,6 @@ def test_remedy_iterations_fit_the_remaining_budget() -> None:
     chosen = [mod.remedy_budget(base, 200, budget) for budget in (0.0, 600.0, 1200.0, 2400.0, 1e6)]
     assert chosen[0] == 10 and chosen[-1] == 200
     assert chosen == sorted(chosen)
-    for budget, m in zip((600.0, 1200.0, 2400.0), chosen[1:4]):
+    for budget, m in zip((600.0, 1200.0, 2400.0), chosen[1:4], strict=False):
         assert cost(m) <= budget < cost(m + 1)
     assert mod.remedy_budget(base, 5, 0.0) == 5

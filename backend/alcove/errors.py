@@ -59,7 +59,12 @@ class FieldError:
 
     def as_dict(self, prefix: Sequence[str | int] = ()) -> dict[str, Any]:
         loc = [*prefix, *self.loc]
-        return {"loc": loc, "field": ".".join(str(p) for p in loc if p not in ("body", "query", "path")), "msg": self.msg, "type": self.type}
+        return {
+            "loc": loc,
+            "field": ".".join(str(p) for p in loc if p not in ("body", "query", "path")),
+            "msg": self.msg,
+            "type": self.type,
+        }
 
 
 class InvalidInput(DomainError):
@@ -71,7 +76,7 @@ class InvalidInput(DomainError):
         super().__init__("; ".join(f"{e.field}: {e.msg}" for e in self.errors) or "invalid input")
 
     @classmethod
-    def one(cls, field: str, reason: str, prefix: Sequence[str | int] = ("body",)) -> "InvalidInput":
+    def one(cls, field: str, reason: str, prefix: Sequence[str | int] = ("body",)) -> InvalidInput:
         return cls([FieldError(tuple(_split_path(field)), reason)], prefix)
 
     def detail(self) -> list[dict[str, Any]]:

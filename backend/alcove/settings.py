@@ -17,28 +17,52 @@ from pydantic_settings import BaseSettings, SettingsConfigDict
 class Settings(BaseSettings):
     model_config = SettingsConfigDict(env_prefix="ALCOVE_", env_file=".env", extra="ignore")
 
-    data_dir: Path = Field(default=Path.home() / ".local" / "share" / "alcove", description="Where the embedded database, broker folders and artifacts live")
+    data_dir: Path = Field(
+        default=Path.home() / ".local" / "share" / "alcove",
+        description="Where the embedded database, broker folders and artifacts live",
+    )
     database_url: str = Field(default="", description="SQLAlchemy URL; empty means SQLite in data_dir")
     broker_url: str = Field(default="", description="Celery broker URL; empty means the filesystem broker in data_dir")
     secret_key: SecretStr = Field(default=SecretStr("change-me-in-production"), description="Signs session tokens")
     admin_email: str = "admin@alcove.local"
-    admin_password: SecretStr = Field(default=SecretStr("alcove-admin"), description="Password of the first admin, created on first start")
-    command_oracles_file: Path | None = Field(default=None, description="Server-side YAML catalogue of external (command) oracles")
+    admin_password: SecretStr = Field(
+        default=SecretStr("alcove-admin"), description="Password of the first admin, created on first start"
+    )
+    command_oracles_file: Path | None = Field(
+        default=None, description="Server-side YAML catalogue of external (command) oracles"
+    )
     api_host: str = "127.0.0.1"
     api_port: int = 8000
     job_lease_seconds: int = 120
-    broker_visibility_timeout: int = Field(default=6 * 3600, description="Redis redelivers an unacknowledged job after this; must exceed the longest job")
-    broker_key_prefix: str = Field(default="", description="Prefix of every Redis key the broker uses (isolates deployments/tests sharing one Redis)")
-    broker_polling_interval: float = Field(default=0.1, description="Seconds between polls of the filesystem broker folders")
-    worker_heartbeat_seconds: float = Field(default=10.0, description="How often a worker refreshes its row in worker_heartbeats")
-    worker_stale_seconds: float = Field(default=60.0, description="A worker not seen for this long counts as gone (readiness, reconciler)")
-    worker_concurrency: int | None = Field(default=None, description="Processes per worker started by `alcove up` (default: CPU count)")
-    static_dir: Path | None = Field(default=None, description="Built frontend served at /; default backend/alcove/static")
+    broker_visibility_timeout: int = Field(
+        default=6 * 3600, description="Redis redelivers an unacknowledged job after this; must exceed the longest job"
+    )
+    broker_key_prefix: str = Field(
+        default="",
+        description="Prefix of every Redis key the broker uses (isolates deployments/tests sharing one Redis)",
+    )
+    broker_polling_interval: float = Field(
+        default=0.1, description="Seconds between polls of the filesystem broker folders"
+    )
+    worker_heartbeat_seconds: float = Field(
+        default=10.0, description="How often a worker refreshes its row in worker_heartbeats"
+    )
+    worker_stale_seconds: float = Field(
+        default=60.0, description="A worker not seen for this long counts as gone (readiness, reconciler)"
+    )
+    worker_concurrency: int | None = Field(
+        default=None, description="Processes per worker started by `alcove up` (default: CPU count)"
+    )
+    static_dir: Path | None = Field(
+        default=None, description="Built frontend served at /; default backend/alcove/static"
+    )
     log_level: str = "INFO"
-    access_log: bool = Field(default=False, description="Log every HTTP request (uvicorn's access log); always on at log level DEBUG")
+    access_log: bool = Field(
+        default=False, description="Log every HTTP request (uvicorn's access log); always on at log level DEBUG"
+    )
 
     @model_validator(mode="after")
-    def _fill_embedded_defaults(self) -> "Settings":
+    def _fill_embedded_defaults(self) -> Settings:
         if not self.database_url:
             self.database_url = f"sqlite:///{self.data_dir / 'alcove.db'}"
         if not self.broker_url:

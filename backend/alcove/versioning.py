@@ -49,11 +49,20 @@ class Kind:
 
 TASKS = Kind("task", TaskDefinition, TaskVersion, "definition_id", Campaign.task_version_id)
 ORACLES = Kind("oracle", OracleDefinition, OracleVersion, "definition_id", Campaign.oracle_version_id)
-SURROGATE_CONFIGS = Kind("surrogate config", SurrogateConfig, SurrogateConfigVersion, "config_id", Campaign.surrogate_config_version_id)
+SURROGATE_CONFIGS = Kind(
+    "surrogate config", SurrogateConfig, SurrogateConfigVersion, "config_id", Campaign.surrogate_config_version_id
+)
 
 
 def list_visible(
-    session: Session, kind: Kind, user: User, *, include_archived: bool = False, limit: int = 100, offset: int = 0, extra: Sequence[Any] = ()
+    session: Session,
+    kind: Kind,
+    user: User,
+    *,
+    include_archived: bool = False,
+    limit: int = 100,
+    offset: int = 0,
+    extra: Sequence[Any] = (),
 ) -> list[tuple[Any, Any, str]]:
     """(definition, latest version, owner e-mail) rows the user may see, newest first."""
     d, v = kind.definition, kind.version
@@ -76,14 +85,18 @@ def latest(session: Session, kind: Kind, definition: Any) -> Any:
 
 
 def get_version(session: Session, kind: Kind, definition: Any, number: int) -> Any:
-    row = session.scalar(sa.select(kind.version).where(kind.parent_column == definition.id, kind.version.version == number))
+    row = session.scalar(
+        sa.select(kind.version).where(kind.parent_column == definition.id, kind.version.version == number)
+    )
     if row is None:
         raise NotFound(f"{kind.label} {definition.id} version", number)
     return row
 
 
 def versions(session: Session, kind: Kind, definition: Any) -> Sequence[Any]:
-    return session.scalars(sa.select(kind.version).where(kind.parent_column == definition.id).order_by(kind.version.version)).all()
+    return session.scalars(
+        sa.select(kind.version).where(kind.parent_column == definition.id).order_by(kind.version.version)
+    ).all()
 
 
 def is_used(session: Session, kind: Kind, version: Any) -> bool:
@@ -100,19 +113,47 @@ def definition_used(session: Session, kind: Kind, definition: Any) -> bool:
 
 
 def create(
-    session: Session, kind: Kind, owner: User, *, name: str, description: str, spec: dict[str, Any], preset_key: str | None = None, note: str = "", **version_columns: Any
+    session: Session,
+    kind: Kind,
+    owner: User,
+    *,
+    name: str,
+    description: str,
+    spec: dict[str, Any],
+    preset_key: str | None = None,
+    note: str = "",
+    **version_columns: Any,
 ) -> tuple[Any, Any]:
-    definition = kind.definition(owner_id=owner.id, name=name, description=description, preset_key=preset_key, latest_version=1)
+    definition = kind.definition(
+        owner_id=owner.id, name=name, description=description, preset_key=preset_key, latest_version=1
+    )
     session.add(definition)
     session.flush()
-    version = kind.version(version=1, spec=spec, spec_hash=spec_hash(spec), note=note, created_by_id=owner.id, **{kind.parent_key: definition.id}, **version_columns)
+    version = kind.version(
+        version=1,
+        spec=spec,
+        spec_hash=spec_hash(spec),
+        note=note,
+        created_by_id=owner.id,
+        **{kind.parent_key: definition.id},
+        **version_columns,
+    )
     session.add(version)
     session.flush()
     return definition, version
 
 
 def update(
-    session: Session, kind: Kind, definition: Any, user: User, *, name: str | None, description: str | None, spec: dict[str, Any] | None, note: str = "", **version_columns: Any
+    session: Session,
+    kind: Kind,
+    definition: Any,
+    user: User,
+    *,
+    name: str | None,
+    description: str | None,
+    spec: dict[str, Any] | None,
+    note: str = "",
+    **version_columns: Any,
 ) -> tuple[Any, bool]:
     """Apply an edit; returns (latest version, whether a new version was created)."""
     if name is not None:
@@ -127,7 +168,13 @@ def update(
         if changed:
             if is_used(session, kind, current):
                 current = kind.version(
-                    version=current.version + 1, spec=spec, spec_hash=new_hash, note=note, created_by_id=user.id, **{kind.parent_key: definition.id}, **version_columns
+                    version=current.version + 1,
+                    spec=spec,
+                    spec_hash=new_hash,
+                    note=note,
+                    created_by_id=user.id,
+                    **{kind.parent_key: definition.id},
+                    **version_columns,
                 )
                 session.add(current)
                 definition.latest_version = current.version

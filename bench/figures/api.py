@@ -55,7 +55,7 @@ def _pg_missing() -> str | None:
         with eng.connect() as c:
             c.exec_driver_sql("select 1")
         eng.dispose()
-    except Exception as err:  # noqa: BLE001
+    except Exception as err:
         return f"PostgreSQL not available at {PG_URL} ({type(err).__name__}); set ALCOVE_BENCH_PG_URL"
     return None
 
@@ -104,8 +104,23 @@ def server() -> dict[str, Any]:
     log = Path(tempfile.gettempdir()) / f"alcove-bench-api-{port}.log"
     log_file = open(log, "wb")
     proc = subprocess.Popen(
-        [sys.executable, "-m", "alcove_worker.cli.main", "serve", "--host", "127.0.0.1", "--port", str(port), "--workers", str(workers), "--no-migrate"],
-        env=env, stdout=log_file, stderr=subprocess.STDOUT, start_new_session=True,
+        [
+            sys.executable,
+            "-m",
+            "alcove_worker.cli.main",
+            "serve",
+            "--host",
+            "127.0.0.1",
+            "--port",
+            str(port),
+            "--workers",
+            str(workers),
+            "--no-migrate",
+        ],
+        env=env,
+        stdout=log_file,
+        stderr=subprocess.STDOUT,
+        start_new_session=True,
     )
     log_file.close()
 
@@ -130,8 +145,15 @@ def server() -> dict[str, Any]:
             time.sleep(0.1)
     else:
         raise RuntimeError("the API server did not start")
-    return {"root": root, "headers": {"Authorization": f"Bearer {secret}"}, "campaign_id": cid, "results": {}, "pid": proc.pid, "workers": workers,
-            "tool": "wrk" if shutil.which("wrk") else "httpx"}
+    return {
+        "root": root,
+        "headers": {"Authorization": f"Bearer {secret}"},
+        "campaign_id": cid,
+        "results": {},
+        "pid": proc.pid,
+        "workers": workers,
+        "tool": "wrk" if shutil.which("wrk") else "httpx",
+    }
 
 
 # ----------------------------------------------------------------------------- load generators
@@ -161,7 +183,13 @@ def _wrk(url: str, headers: dict[str, str]) -> dict[str, Any]:
     r = json.loads(m.group(1))
     if r["errors"] or r["non2xx"]:
         raise RuntimeError(f"wrk: {r['errors']} socket errors, {r['non2xx']} non-2xx answers for {url}")
-    return {"p50": r["p50"] / 1e3, "p95": r["p95"] / 1e3, "p99": r["p99"] / 1e3, "requests": r["requests"], "seconds": r["duration_us"] / 1e6}
+    return {
+        "p50": r["p50"] / 1e3,
+        "p95": r["p95"] / 1e3,
+        "p99": r["p99"] / 1e3,
+        "requests": r["requests"],
+        "seconds": r["duration_us"] / 1e6,
+    }
 
 
 def _proc_cpu_s(pid: int) -> float:
@@ -198,7 +226,13 @@ async def _httpx_load(root: str, headers: dict[str, str], path: str) -> dict[str
         t0 = time.perf_counter()
         await asyncio.gather(*(one_client() for _ in range(CLIENTS)))
         seconds = time.perf_counter() - t0
-    return {"p50": _quantile(latencies, 50), "p95": _quantile(latencies, 95), "p99": _quantile(latencies, 99), "requests": len(latencies), "seconds": seconds}
+    return {
+        "p50": _quantile(latencies, 50),
+        "p95": _quantile(latencies, 95),
+        "p99": _quantile(latencies, 99),
+        "requests": len(latencies),
+        "seconds": seconds,
+    }
 
 
 def _quantile(values: list[float], q: float) -> float:
@@ -231,8 +265,11 @@ def _measure(ctx: dict[str, Any], key: str, path: str) -> float:
 def _note(ctx: dict[str, Any]) -> None:
     from bench.harness import FIGURES
 
-    how = (f"load: wrk, 2 threads, {CLIENTS} keep-alive connections, {DURATION_S:g} s" if ctx["tool"] == "wrk"
-           else f"load: wrk NOT FOUND, httpx fallback ({CLIENTS} clients x {REQUESTS_PER_CLIENT} requests, in Python on the same cores: pessimistic)")
+    how = (
+        f"load: wrk, 2 threads, {CLIENTS} keep-alive connections, {DURATION_S:g} s"
+        if ctx["tool"] == "wrk"
+        else f"load: wrk NOT FOUND, httpx fallback ({CLIENTS} clients x {REQUESTS_PER_CLIENT} requests, in Python on the same cores: pessimistic)"
+    )
     for fig in FIGURES:
         if fig.group == "api" and fig.name.startswith("api: GET"):
             fig.notes = f"{how}; API: {ctx['workers']} uvicorn worker(s)"
@@ -245,69 +282,133 @@ CURVES = "/campaigns/{cid}/iterations/137/curves"
 TRAJECTORY = "/campaigns/{cid}/iterations/137/trajectory"
 DETAIL = "/campaigns/{cid}"
 COMMON = {"setup": server, "requires": _pg_missing, "group": "api", "reps": 3, "quick_reps": 1}
-PATHS = {"health": HEALTH, "metrics": METRICS, "poll": POLL, "curves": CURVES, "trajectory": TRAJECTORY, "etag": METRICS, "detail": DETAIL,
-         "detail_etag": DETAIL}
+PATHS = {
+    "health": HEALTH,
+    "metrics": METRICS,
+    "poll": POLL,
+    "curves": CURVES,
+    "trajectory": TRAJECTORY,
+    "etag": METRICS,
+    "detail": DETAIL,
+    "detail_etag": DETAIL,
+}
 
 
-@figure("api: GET /health (no auth, no database), p95 at 20 clients", "ms", **COMMON,
-        notes="the framework's floor on this machine under the same load: compare the routes below with it")
+@figure(
+    "api: GET /health (no auth, no database), p95 at 20 clients",
+    "ms",
+    **COMMON,
+    notes="the framework's floor on this machine under the same load: compare the routes below with it",
+)
 def health_p95(ctx: dict[str, Any]) -> float:
     return _measure(ctx, "health", HEALTH)
 
 
-@figure("api: GET metrics series (200 iterations), p95 at 20 clients", "ms", target=30.0, baseline="api: GET /health (no auth, no database), p95 at 20 clients", **COMMON)
+@figure(
+    "api: GET metrics series (200 iterations), p95 at 20 clients",
+    "ms",
+    target=30.0,
+    baseline="api: GET /health (no auth, no database), p95 at 20 clients",
+    **COMMON,
+)
 def metrics_p95(ctx: dict[str, Any]) -> float:
     return _measure(ctx, "metrics", METRICS)
 
 
-@figure("api: GET one iteration's curves (401 samples), p95 at 20 clients", "ms", target=50.0, baseline="api: GET /health (no auth, no database), p95 at 20 clients", **COMMON)
+@figure(
+    "api: GET one iteration's curves (401 samples), p95 at 20 clients",
+    "ms",
+    target=50.0,
+    baseline="api: GET /health (no auth, no database), p95 at 20 clients",
+    **COMMON,
+)
 def curves_p95(ctx: dict[str, Any]) -> float:
     return _measure(ctx, "curves", CURVES)
 
 
-@figure("api: GET one iteration's whole OCP trajectory (201 nodes), p95 at 20 clients", "ms", target=50.0,
-        baseline="api: GET /health (no auth, no database), p95 at 20 clients", **COMMON)
+@figure(
+    "api: GET one iteration's whole OCP trajectory (201 nodes), p95 at 20 clients",
+    "ms",
+    target=50.0,
+    baseline="api: GET /health (no auth, no database), p95 at 20 clients",
+    **COMMON,
+)
 def trajectory_p95(ctx: dict[str, Any]) -> float:
     return _measure(ctx, "trajectory", TRAJECTORY)
 
 
-@figure("api: GET metrics ?after=200 (empty poll), p95 at 20 clients", "ms", baseline="api: GET /health (no auth, no database), p95 at 20 clients", **COMMON)
+@figure(
+    "api: GET metrics ?after=200 (empty poll), p95 at 20 clients",
+    "ms",
+    baseline="api: GET /health (no auth, no database), p95 at 20 clients",
+    **COMMON,
+)
 def poll_p95(ctx: dict[str, Any]) -> float:
     return _measure(ctx, "poll", POLL)
 
 
-@figure("api: GET metrics series with If-None-Match (304), p95 at 20 clients", "ms", baseline="api: GET /health (no auth, no database), p95 at 20 clients", **COMMON)
+@figure(
+    "api: GET metrics series with If-None-Match (304), p95 at 20 clients",
+    "ms",
+    baseline="api: GET /health (no auth, no database), p95 at 20 clients",
+    **COMMON,
+)
 def etag_p95(ctx: dict[str, Any]) -> float:
     return _measure(ctx, "etag", METRICS)
 
 
-@figure("api: GET campaign detail, p95 at 20 clients", "ms", baseline="api: GET /health (no auth, no database), p95 at 20 clients", **COMMON)
+@figure(
+    "api: GET campaign detail, p95 at 20 clients",
+    "ms",
+    baseline="api: GET /health (no auth, no database), p95 at 20 clients",
+    **COMMON,
+)
 def detail_p95(ctx: dict[str, Any]) -> float:
     return _measure(ctx, "detail", DETAIL)
 
 
-@figure("api: GET campaign detail with If-None-Match (304), p95 at 20 clients", "ms", baseline="api: GET /health (no auth, no database), p95 at 20 clients", **COMMON)
+@figure(
+    "api: GET campaign detail with If-None-Match (304), p95 at 20 clients",
+    "ms",
+    baseline="api: GET /health (no auth, no database), p95 at 20 clients",
+    **COMMON,
+)
 def detail_etag_p95(ctx: dict[str, Any]) -> float:
     return _measure(ctx, "detail_etag", DETAIL)
 
 
-def _from(key: str, what: str):  # noqa: ANN202
+def _from(key: str, what: str):
     def run(ctx: dict[str, Any]) -> float:
         got = ctx["results"].get(key)
         if not got:
             _measure(ctx, key, PATHS[key])
             got = ctx["results"][key]
-        values = {"p50": [g["p50"] for g in got], "p99": [g["p99"] for g in got], "rps": [g["requests"] / g["seconds"] for g in got],
-                  "cpu": [g["cpu_ms"] for g in got], "kb": [g["size"] / 1024 for g in got]}[what]
+        values = {
+            "p50": [g["p50"] for g in got],
+            "p99": [g["p99"] for g in got],
+            "rps": [g["requests"] / g["seconds"] for g in got],
+            "cpu": [g["cpu_ms"] for g in got],
+            "kb": [g["size"] / 1024 for g in got],
+        }[what]
         return statistics.median(values)
 
     return run
 
 
-for _key, _label in (("health", "/health"), ("metrics", "metrics series"), ("curves", "curves"), ("trajectory", "trajectory"), ("poll", "metrics ?after=200"),
-                     ("etag", "metrics 304"), ("detail", "campaign detail"), ("detail_etag", "campaign detail 304")):
+for _key, _label in (
+    ("health", "/health"),
+    ("metrics", "metrics series"),
+    ("curves", "curves"),
+    ("trajectory", "trajectory"),
+    ("poll", "metrics ?after=200"),
+    ("etag", "metrics 304"),
+    ("detail", "campaign detail"),
+    ("detail_etag", "campaign detail 304"),
+):
     figure(f"api: GET {_label}, p50 at 20 clients", "ms", **{**COMMON, "reps": 1})(_from(_key, "p50"))
     figure(f"api: GET {_label}, p99 at 20 clients", "ms", **{**COMMON, "reps": 1})(_from(_key, "p99"))
-    figure(f"api: GET {_label}, throughput at 20 clients", "req/s", higher_is_better=True, **{**COMMON, "reps": 1})(_from(_key, "rps"))
+    figure(f"api: GET {_label}, throughput at 20 clients", "req/s", higher_is_better=True, **{**COMMON, "reps": 1})(
+        _from(_key, "rps")
+    )
     figure(f"api: GET {_label}, API CPU per request", "ms", **{**COMMON, "reps": 1})(_from(_key, "cpu"))
     figure(f"api: GET {_label}, payload", "KiB", **{**COMMON, "reps": 1})(_from(_key, "kb"))

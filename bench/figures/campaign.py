@@ -47,8 +47,20 @@ def run_campaign(oracle: str, iterations: int, config_yaml: str = "") -> dict[st
     import sqlalchemy as sa
 
     tmp = Path(tempfile.mkdtemp(prefix="alcove-bench-campaign-"))
-    argv = [sys.executable, "-m", "alcove_worker.cli.main", "campaign", "run", "--oracle", oracle, "--iterations", str(iterations), "--json",
-            "--worker-log", str(tmp / "worker.log")]
+    argv = [
+        sys.executable,
+        "-m",
+        "alcove_worker.cli.main",
+        "campaign",
+        "run",
+        "--oracle",
+        oracle,
+        "--iterations",
+        str(iterations),
+        "--json",
+        "--worker-log",
+        str(tmp / "worker.log"),
+    ]
     if config_yaml:
         (tmp / "config.yaml").write_text(config_yaml)
         argv += ["--config", str(tmp / "config.yaml")]
@@ -58,9 +70,16 @@ def run_campaign(oracle: str, iterations: int, config_yaml: str = "") -> dict[st
     out = json.loads(r.stdout.strip().splitlines()[-1])
     eng = sa.create_engine(f"sqlite:///{tmp / 'data' / 'alcove.db'}")
     with eng.connect() as c:
-        steps = [dict(row._mapping) for row in c.execute(sa.text(
-            "SELECT i.\"index\" AS k, s.step, s.wall_time_s, s.result, s.queued_at, s.started_at, s.finished_at FROM iteration_steps s "
-            "JOIN iterations i ON i.id = s.iteration_id WHERE s.campaign_id = :c ORDER BY s.id"), {"c": out["campaign_id"]})]
+        steps = [
+            dict(row._mapping)
+            for row in c.execute(
+                sa.text(
+                    'SELECT i."index" AS k, s.step, s.wall_time_s, s.result, s.queued_at, s.started_at, s.finished_at FROM iteration_steps s '
+                    "JOIN iterations i ON i.id = s.iteration_id WHERE s.campaign_id = :c ORDER BY s.id"
+                ),
+                {"c": out["campaign_id"]},
+            )
+        ]
     eng.dispose()
     for st in steps:
         st["result"] = json.loads(st["result"]) if isinstance(st["result"], str) else st["result"]
@@ -86,7 +105,10 @@ def breakdown(run: dict[str, Any]) -> dict[str, Any]:
         latency = _seconds(st["queued_at"], st["started_at"])
         compute = float(st["result"].get("compute_s", 0.0))
         overhead = latency + max(st["wall_time_s"] - compute, 0.0)
-        it = per_iteration.setdefault(st["k"], {"overhead": 0.0, "compute": 0.0, "first_queued": st["queued_at"], "last_finished": st["finished_at"]})
+        it = per_iteration.setdefault(
+            st["k"],
+            {"overhead": 0.0, "compute": 0.0, "first_queued": st["queued_at"], "last_finished": st["finished_at"]},
+        )
         it["overhead"] += overhead
         it["compute"] += compute
         it["last_finished"] = st["finished_at"]
@@ -103,10 +125,15 @@ def breakdown(run: dict[str, Any]) -> dict[str, Any]:
     by_step: dict[str, list[float]] = {}
     for name, o in per_step:
         by_step.setdefault(name, []).append(o)
-    return {"step_overhead_ms": [1000 * o for _, o in per_step], "by_step_ms": {k: 1000 * statistics.median(v) for k, v in by_step.items()},
-            "compute_by_step_s": {k: statistics.median(v) for k, v in step_compute.items()},
-            "overhead_per_iteration_ms": [1000 * it["overhead"] for k, it in per_iteration.items() if k >= 2],
-            "share_percent": shares, "iteration_s": walls, "compute_s": [it["compute"] for k, it in per_iteration.items() if k >= 2]}
+    return {
+        "step_overhead_ms": [1000 * o for _, o in per_step],
+        "by_step_ms": {k: 1000 * statistics.median(v) for k, v in by_step.items()},
+        "compute_by_step_s": {k: statistics.median(v) for k, v in step_compute.items()},
+        "overhead_per_iteration_ms": [1000 * it["overhead"] for k, it in per_iteration.items() if k >= 2],
+        "share_percent": shares,
+        "iteration_s": walls,
+        "compute_s": [it["compute"] for k, it in per_iteration.items() if k >= 2],
+    }
 
 
 @functools.lru_cache
@@ -115,24 +142,42 @@ def short_campaign() -> dict[str, Any]:
     run = run_campaign("fe-headrest-2d", short_iterations())
     run["breakdown"] = breakdown(run)
     b = run["breakdown"]
-    print(f"  per-step compute medians [s]: {json.dumps({k: round(v, 3) for k, v in b['compute_by_step_s'].items()})}; "
-          f"per-step overhead medians [ms]: {json.dumps({k: round(v, 1) for k, v in b['by_step_ms'].items()})}; "
-          f"iteration wall {['%.2f' % w for w in b['iteration_s']]} s, overhead share {['%.1f' % s for s in b['share_percent']]} %")
+    print(
+        f"  per-step compute medians [s]: {json.dumps({k: round(v, 3) for k, v in b['compute_by_step_s'].items()})}; "
+        f"per-step overhead medians [ms]: {json.dumps({k: round(v, 1) for k, v in b['by_step_ms'].items()})}; "
+        f"iteration wall {[f'{w:.2f}' for w in b['iteration_s']]} s, overhead share {[f'{s:.1f}' for s in b['share_percent']]} %"
+    )
     return run
 
 
-@figure("campaign: orchestration overhead per step (median, fe-headrest-2d)", "ms", target=100.0, setup=short_campaign, reps=1, quick_reps=1,
-        group="campaign", notes=f"steps of iterations 2..{SHORT_ITERATIONS} (3 in --quick); queue latency + job wall - compute; embedded default, 1 spawned worker")
+@figure(
+    "campaign: orchestration overhead per step (median, fe-headrest-2d)",
+    "ms",
+    target=100.0,
+    setup=short_campaign,
+    reps=1,
+    quick_reps=1,
+    group="campaign",
+    notes=f"steps of iterations 2..{SHORT_ITERATIONS} (3 in --quick); queue latency + job wall - compute; embedded default, 1 spawned worker",
+)
 def step_overhead(run: dict[str, Any]) -> float:
     return statistics.median(run["breakdown"]["step_overhead_ms"])
 
 
-@figure("campaign: orchestration overhead per step (max)", "ms", target=100.0, setup=short_campaign, reps=1, quick_reps=1, group="campaign")
+@figure(
+    "campaign: orchestration overhead per step (max)",
+    "ms",
+    target=100.0,
+    setup=short_campaign,
+    reps=1,
+    quick_reps=1,
+    group="campaign",
+)
 def step_overhead_max(run: dict[str, Any]) -> float:
     return max(run["breakdown"]["step_overhead_ms"])
 
 
-def _step_compute(step: str):  # noqa: ANN202
+def _step_compute(step: str):
     def fn(run: dict[str, Any]) -> float:
         return run["breakdown"]["compute_by_step_s"].get(step, float("nan"))
 
@@ -140,46 +185,101 @@ def _step_compute(step: str):  # noqa: ANN202
 
 
 for _step in STEPS:
-    figure(f"campaign: {_step} step bare compute (median, fe-headrest-2d)", "s", setup=short_campaign, reps=1, quick_reps=1, group="campaign",
-           notes="the science call of the step (result.compute_s), iterations >= 2")(_step_compute(_step))
+    figure(
+        f"campaign: {_step} step bare compute (median, fe-headrest-2d)",
+        "s",
+        setup=short_campaign,
+        reps=1,
+        quick_reps=1,
+        group="campaign",
+        notes="the science call of the step (result.compute_s), iterations >= 2",
+    )(_step_compute(_step))
 
 
-@figure("campaign: orchestration per iteration (median, sum over its 5 steps)", "ms", setup=short_campaign, reps=1, quick_reps=1, group="campaign",
-        notes="its share of the iteration wall time is the next figure; the bare compute baseline is measured in the same run")
+@figure(
+    "campaign: orchestration per iteration (median, sum over its 5 steps)",
+    "ms",
+    setup=short_campaign,
+    reps=1,
+    quick_reps=1,
+    group="campaign",
+    notes="its share of the iteration wall time is the next figure; the bare compute baseline is measured in the same run",
+)
 def iteration_overhead(run: dict[str, Any]) -> float:
     return statistics.median(run["breakdown"]["overhead_per_iteration_ms"])
 
 
-@figure("campaign: orchestration share of an iteration (median)", "%", target=5.0, setup=short_campaign, reps=1, quick_reps=1, group="campaign",
-        notes="sum of the steps' overheads / iteration wall time (first message queued to append committed)")
+@figure(
+    "campaign: orchestration share of an iteration (median)",
+    "%",
+    target=5.0,
+    setup=short_campaign,
+    reps=1,
+    quick_reps=1,
+    group="campaign",
+    notes="sum of the steps' overheads / iteration wall time (first message queued to append committed)",
+)
 def overhead_share(run: dict[str, Any]) -> float:
     return statistics.median(run["breakdown"]["share_percent"])
 
 
-@figure("campaign: iteration bare compute (train + ocp + oracle + evaluate)", "s", setup=short_campaign, reps=1, quick_reps=1, group="campaign",
-        notes="baseline of the iteration wall time")
+@figure(
+    "campaign: iteration bare compute (train + ocp + oracle + evaluate)",
+    "s",
+    setup=short_campaign,
+    reps=1,
+    quick_reps=1,
+    group="campaign",
+    notes="baseline of the iteration wall time",
+)
 def iteration_compute(run: dict[str, Any]) -> float:
     return statistics.median(run["breakdown"]["compute_s"])
 
 
-@figure("campaign: iteration wall time (fe-headrest-2d)", "s", setup=short_campaign, reps=1, quick_reps=1, group="campaign",
-        baseline="campaign: iteration bare compute (train + ocp + oracle + evaluate)", notes="target for the paper campaign: 200 x 9 s = 30 min")
+@figure(
+    "campaign: iteration wall time (fe-headrest-2d)",
+    "s",
+    setup=short_campaign,
+    reps=1,
+    quick_reps=1,
+    group="campaign",
+    baseline="campaign: iteration bare compute (train + ocp + oracle + evaluate)",
+    notes="target for the paper campaign: 200 x 9 s = 30 min",
+)
 def iteration_wall(run: dict[str, Any]) -> float:
     return statistics.median(run["breakdown"]["iteration_s"])
 
 
-@figure(f"campaign: short campaign wall time (aux-penalty, {SHORT_ITERATIONS} iterations (3 in --quick), 30 intervals per phase, 1000 LHS samples)", "s", reps=1, quick_reps=1,
-        group="campaign", notes="`alcove campaign run` end to end, including worker start-up and migrations")
+@figure(
+    f"campaign: short campaign wall time (aux-penalty, {SHORT_ITERATIONS} iterations (3 in --quick), 30 intervals per phase, 1000 LHS samples)",
+    "s",
+    reps=1,
+    quick_reps=1,
+    group="campaign",
+    notes="`alcove campaign run` end to end, including worker start-up and migrations",
+)
 def short_campaign_wall(_: Any) -> float:
-    run = run_campaign("aux-penalty", short_iterations(), "preliminary: {samples: 1000}\nsettings: {ocp_intervals: 30}\n")
+    run = run_campaign(
+        "aux-penalty", short_iterations(), "preliminary: {samples: 1000}\nsettings: {ocp_intervals: 30}\n"
+    )
     return float(run["wall_time_s"])
 
 
-@figure("campaign: paper campaign, head-headrest-2phase x fe-headrest-2d, 200 iterations", "min", target=30.0, reps=1, quick_reps=1, quick=False, group="campaign",
-        notes="paper's final RMSE: force 3.32 N, moment 0.265 N m (its FE runs alone took about 10 h)")
+@figure(
+    "campaign: paper campaign, head-headrest-2phase x fe-headrest-2d, 200 iterations",
+    "min",
+    target=30.0,
+    reps=1,
+    quick_reps=1,
+    quick=False,
+    group="campaign",
+    notes="paper's final RMSE: force 3.32 N, moment 0.265 N m (its FE runs alone took about 10 h)",
+)
 def paper_campaign(_: Any) -> float:
     run = run_campaign("fe-headrest-2d", 200)
     b = breakdown(run)
-    print(f"  first iteration RMSE: {run.get('first')}, last: {run.get('last')}; status {run['status']} ({run['stop_reason']}); "
-          f"median iteration {statistics.median(b['iteration_s']):.2f} s, overhead share {statistics.median(b['share_percent']):.1f} %")
+    print(
+        f"  first iteration RMSE: {run.get('first')}, last: {run.get('last')}; status {run['status']} ({run['stop_reason']}); "
+        f"median iteration {statistics.median(b['iteration_s']):.2f} s, overhead share {statistics.median(b['share_percent']):.1f} %"
+    )
     return float(run["wall_time_s"]) / 60.0

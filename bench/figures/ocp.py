@@ -59,15 +59,28 @@ def _solve(task: Any, contact: Any, cpu: bool = False, **kw: Any) -> float:
     return time.process_time() - t0
 
 
-@figure("ocp head-headrest aux contact, 200 intervals (cached NLP)", "s", target=1.0, setup=_aux_setup, reps=7, quick_reps=3, group="ocp")
+@figure(
+    "ocp head-headrest aux contact, 200 intervals (cached NLP)",
+    "s",
+    target=1.0,
+    setup=_aux_setup,
+    reps=7,
+    quick_reps=3,
+    group="ocp",
+)
 def ocp_aux_cached(ctx: Any) -> float:
     task, contact = ctx
     return _solve(task, contact)
 
 
 @figure(
-    "ocp head-headrest aux contact, 200 intervals (cold: build + guess + solve)", "s", target=1.0, setup=_aux_setup, reps=5,
-    quick_reps=2, group="ocp",
+    "ocp head-headrest aux contact, 200 intervals (cold: build + guess + solve)",
+    "s",
+    target=1.0,
+    setup=_aux_setup,
+    reps=5,
+    quick_reps=2,
+    group="ocp",
 )
 def ocp_aux_cold(ctx: Any) -> float:
     from alcove.science.ocp.contact import aux_contact
@@ -100,14 +113,25 @@ def _surrogate_setup() -> dict[str, Any]:
     (contact, previous_params), (_, current_params) = (surrogate_contact(m, preset) for m in (first, second))
     previous_solution = solve_task(task, contact, contact_params=previous_params)  # builds and caches the NLP
     assert previous_solution.converged
-    return {"task": task, "contact": contact, "previous": previous_params, "current": current_params,
-            "previous_solution": previous_solution, "artifact": directory / "current"}
+    return {
+        "task": task,
+        "contact": contact,
+        "previous": previous_params,
+        "current": current_params,
+        "previous_solution": previous_solution,
+        "artifact": directory / "current",
+    }
 
 
 def _fresh_process(artifact: Path) -> dict[str, Any]:
     """Run :func:`_first_solve` in a new Python process."""
-    out = subprocess.run([sys.executable, "-m", "bench.figures.ocp", str(artifact)], capture_output=True, text=True, check=True,
-                         cwd=Path(__file__).resolve().parents[2])
+    out = subprocess.run(
+        [sys.executable, "-m", "bench.figures.ocp", str(artifact)],
+        capture_output=True,
+        text=True,
+        check=True,
+        cwd=Path(__file__).resolve().parents[2],
+    )
     result = json.loads(out.stdout.strip().splitlines()[-1])
     assert result["converged"], result
     return result
@@ -125,13 +149,22 @@ def _first_solve(artifact: str) -> dict[str, Any]:
     wall, cpu = time.perf_counter(), time.process_time()
     contact, params = surrogate_contact(model, task.preset())
     solution = solve_task(task, contact, contact_params=params)
-    return {"wall_s": time.perf_counter() - wall, "cpu_s": time.process_time() - cpu, "converged": solution.converged,
-            "iterations": solution.iterations}
+    return {
+        "wall_s": time.perf_counter() - wall,
+        "cpu_s": time.process_time() - cpu,
+        "converged": solution.converged,
+        "iterations": solution.iterations,
+    }
 
 
 @figure(
-    "ocp head-headrest trained surrogate, 200 intervals (cold: first solve in a fresh process)", "s", target=0.5,
-    setup=_surrogate_setup, reps=5, quick=False, group="ocp",
+    "ocp head-headrest trained surrogate, 200 intervals (cold: first solve in a fresh process)",
+    "s",
+    target=0.5,
+    setup=_surrogate_setup,
+    reps=5,
+    quick=False,
+    group="ocp",
     notes="export + NLP/solver build + passive guess + IPOPT, timed inside a new process (imports excluded)",
 )
 def ocp_surrogate_cold(ctx: dict[str, Any]) -> float:
@@ -139,8 +172,13 @@ def ocp_surrogate_cold(ctx: dict[str, Any]) -> float:
 
 
 @figure(
-    "ocp head-headrest trained surrogate, 200 intervals (warm: next model version, cached NLP, warm start)", "s", target=0.5,
-    setup=_surrogate_setup, reps=5, quick=False, group="ocp",
+    "ocp head-headrest trained surrogate, 200 intervals (warm: next model version, cached NLP, warm start)",
+    "s",
+    target=0.5,
+    setup=_surrogate_setup,
+    reps=5,
+    quick=False,
+    group="ocp",
     notes="the campaign's case: weights as NLP parameters, primal-dual warm start from the previous version's solution",
 )
 def ocp_surrogate_warm(ctx: dict[str, Any]) -> float:
@@ -148,32 +186,57 @@ def ocp_surrogate_warm(ctx: dict[str, Any]) -> float:
 
 
 @figure(
-    "ocp head-headrest trained surrogate, 200 intervals (next model version, cached NLP, passive guess)", "s", target=0.5,
-    setup=_surrogate_setup, reps=5, quick=False, group="ocp", notes="as warm, without a previous solution",
+    "ocp head-headrest trained surrogate, 200 intervals (next model version, cached NLP, passive guess)",
+    "s",
+    target=0.5,
+    setup=_surrogate_setup,
+    reps=5,
+    quick=False,
+    group="ocp",
+    notes="as warm, without a previous solution",
 )
 def ocp_surrogate_cached_nlp(ctx: dict[str, Any]) -> float:
     return _solve(ctx["task"], ctx["contact"], contact_params=ctx["current"])
 
 
 @figure(
-    "ocp head-headrest trained surrogate, 200 intervals (cold: fresh process), CPU time", "cpu s", target=0.5,
-    setup=_surrogate_setup, reps=5, quick=False, group="ocp", notes="process CPU time of the cold solve, measured in the new process",
+    "ocp head-headrest trained surrogate, 200 intervals (cold: fresh process), CPU time",
+    "cpu s",
+    target=0.5,
+    setup=_surrogate_setup,
+    reps=5,
+    quick=False,
+    group="ocp",
+    notes="process CPU time of the cold solve, measured in the new process",
 )
 def ocp_surrogate_cold_cpu(ctx: dict[str, Any]) -> float:
     return float(_fresh_process(ctx["artifact"])["cpu_s"])
 
 
 @figure(
-    "ocp head-headrest trained surrogate, 200 intervals (warm), CPU time", "cpu s", target=0.5, setup=_surrogate_setup,
-    reps=5, quick=False, group="ocp", notes="process CPU time of the warm solve",
+    "ocp head-headrest trained surrogate, 200 intervals (warm), CPU time",
+    "cpu s",
+    target=0.5,
+    setup=_surrogate_setup,
+    reps=5,
+    quick=False,
+    group="ocp",
+    notes="process CPU time of the warm solve",
 )
 def ocp_surrogate_warm_cpu(ctx: dict[str, Any]) -> float:
-    return _solve(ctx["task"], ctx["contact"], cpu=True, contact_params=ctx["current"], initial_guess=ctx["previous_solution"])
+    return _solve(
+        ctx["task"], ctx["contact"], cpu=True, contact_params=ctx["current"], initial_guess=ctx["previous_solution"]
+    )
 
 
 @figure(
-    "ocp head-headrest aux contact, 200 intervals (cached NLP), CPU time", "cpu s", target=1.0, setup=_aux_setup, reps=7,
-    quick_reps=3, group="ocp",
+    "ocp head-headrest aux contact, 200 intervals (cached NLP), CPU time",
+    "cpu s",
+    target=1.0,
+    setup=_aux_setup,
+    reps=7,
+    quick_reps=3,
+    group="ocp",
 )
 def ocp_aux_cached_cpu(ctx: Any) -> float:
     task, contact = ctx

@@ -36,7 +36,9 @@ def _command_setup():
     from alcove.science.oracles.command import load_command_catalogue
     from alcove.science.oracles.registry import build_oracle
 
-    return build_oracle("aux-replay", {}, catalogue=load_command_catalogue(EXAMPLES / "catalogue.yaml")), paper_like_trajectory()
+    return build_oracle(
+        "aux-replay", {}, catalogue=load_command_catalogue(EXAMPLES / "catalogue.yaml")
+    ), paper_like_trajectory()
 
 
 @figure("oracle aux-penalty, 401 samples", "ms", setup=_aux_setup, reps=20, quick_reps=5, group="oracles")
@@ -46,7 +48,12 @@ def aux_penalty_run(ctx) -> float:
 
 
 @figure(
-    "oracle command (aux-replay external program), 401 samples", "s", setup=_command_setup, reps=5, quick_reps=2, group="oracles",
+    "oracle command (aux-replay external program), 401 samples",
+    "s",
+    setup=_command_setup,
+    reps=5,
+    quick_reps=2,
+    group="oracles",
     notes="overhead of the external-program file contract: two Python processes + CSV I/O",
 )
 def command_aux_replay_run(ctx) -> float:

@@ -52,8 +52,13 @@ def _seeded_pool() -> tuple[list[Any], Any]:
 
 
 @figure(
-    "surrogate training, one model pair on 80,000 samples (paper protocol)", "s", target=3.0, setup=_seeded_pool,
-    reps=5, quick_reps=2, group="surrogate",
+    "surrogate training, one model pair on 80,000 samples (paper protocol)",
+    "s",
+    target=3.0,
+    setup=_seeded_pool,
+    reps=5,
+    quick_reps=2,
+    group="surrogate",
     notes="float64, batch 1024, early stopping (patience 6) on both nets; seed = repetition (the epoch count, 70-120, varies with it)",
 )
 def surrogate_training(ctx: Any) -> float:
@@ -65,8 +70,14 @@ def surrogate_training(ctx: Any) -> float:
 
 
 @figure(
-    "surrogate training, 80,000 samples: CPU time of the training process", "s", target=3.0, setup=_seeded_pool, reps=3,
-    quick=False, group="surrogate", notes="training is single-threaded, so on an idle machine wall time ~ CPU time; less sensitive to load",
+    "surrogate training, 80,000 samples: CPU time of the training process",
+    "s",
+    target=3.0,
+    setup=_seeded_pool,
+    reps=3,
+    quick=False,
+    group="surrogate",
+    notes="training is single-threaded, so on an idle machine wall time ~ CPU time; less sensitive to load",
 )
 def surrogate_training_cpu(ctx: Any) -> float:
     import time
@@ -103,13 +114,21 @@ def _step_setup() -> Any:
     return fused, optimizer, kernel, table, order
 
 
-_STEP_NOTES = ("gradient of both nets + Adam, batch 1024, one thread; one epoch of 44 shuffled steps per repetition; "
-               "a training on 80,000 samples takes 70-120 epochs")
+_STEP_NOTES = (
+    "gradient of both nets + Adam, batch 1024, one thread; one epoch of 44 shuffled steps per repetition; "
+    "a training on 80,000 samples takes 70-120 epochs"
+)
 
 
 @figure(
-    "surrogate training step: both nets, batch 1024, C kernel (CPU time per step)", "ms", target=None, setup=_step_setup,
-    reps=5, quick_reps=3, group="surrogate", notes=_STEP_NOTES + "; the implementation training uses (alcove.science.surrogate.kernel)",
+    "surrogate training step: both nets, batch 1024, C kernel (CPU time per step)",
+    "ms",
+    target=None,
+    setup=_step_setup,
+    reps=5,
+    quick_reps=3,
+    group="surrogate",
+    notes=_STEP_NOTES + "; the implementation training uses (alcove.science.surrogate.kernel)",
 )
 def surrogate_training_step(ctx: Any) -> float:
     import time
@@ -122,8 +141,13 @@ def surrogate_training_step(ctx: Any) -> float:
 
 
 @figure(
-    "surrogate training step: both nets, batch 1024, PyTorch fallback (CPU time per step)", "ms", target=None,
-    setup=_step_setup, reps=5, quick_reps=3, group="surrogate",
+    "surrogate training step: both nets, batch 1024, PyTorch fallback (CPU time per step)",
+    "ms",
+    target=None,
+    setup=_step_setup,
+    reps=5,
+    quick_reps=3,
+    group="surrogate",
     notes=_STEP_NOTES + "; FusedNets + FlatAdam, used where no C compiler is available (ALCOVE_TRAINING_KERNEL=torch)",
 )
 def surrogate_training_step_torch(ctx: Any) -> float:
@@ -147,8 +171,13 @@ def surrogate_training_step_torch(ctx: Any) -> float:
 
 
 @figure(
-    "surrogate training kernel: compile (first training on a machine)", "s", target=None, reps=3, quick_reps=1,
-    group="surrogate", notes="gcc -O3 -march=native into an empty cache; later processes load the cached library in milliseconds",
+    "surrogate training kernel: compile (first training on a machine)",
+    "s",
+    target=None,
+    reps=3,
+    quick_reps=1,
+    group="surrogate",
+    notes="gcc -O3 -march=native into an empty cache; later processes load the cached library in milliseconds",
 )
 def surrogate_kernel_build(_: Any) -> float:
     import tempfile
@@ -164,8 +193,14 @@ def surrogate_kernel_build(_: Any) -> float:
 
 
 @figure(
-    "surrogate training, 80,000 samples, PyTorch fallback", "s", target=None, setup=_seeded_pool, reps=3, quick=False,
-    group="surrogate", baseline="surrogate training, one model pair on 80,000 samples (paper protocol)",
+    "surrogate training, 80,000 samples, PyTorch fallback",
+    "s",
+    target=None,
+    setup=_seeded_pool,
+    reps=3,
+    quick=False,
+    group="surrogate",
+    baseline="surrogate training, one model pair on 80,000 samples (paper protocol)",
     notes="ALCOVE_TRAINING_KERNEL=torch: what training costs where no C compiler is available",
 )
 def surrogate_training_torch(ctx: Any) -> float:
@@ -196,8 +231,14 @@ def _warm_setup() -> tuple[list[Any], Any]:
 
 
 @figure(
-    "surrogate training, 80,000 samples, warm start from the previous iteration's model", "s", target=3.0, setup=_warm_setup,
-    reps=5, quick=False, group="surrogate", baseline="surrogate training, one model pair on 80,000 samples (paper protocol)",
+    "surrogate training, 80,000 samples, warm start from the previous iteration's model",
+    "s",
+    target=3.0,
+    setup=_warm_setup,
+    reps=5,
+    quick=False,
+    group="surrogate",
+    baseline="surrogate training, one model pair on 80,000 samples (paper protocol)",
     notes="the campaign's case: one trajectory appended, weights carried over",
 )
 def surrogate_training_warm(ctx: Any) -> float:
@@ -215,7 +256,15 @@ def _predict_setup() -> tuple[Any, np.ndarray, np.ndarray, np.ndarray]:
     return _trained_model(), t, P.theta0 + 0.15 * np.sin(np.pi * t), 0.15 * np.pi * np.cos(np.pi * t)
 
 
-@figure("surrogate predict, 401 samples (features + both nets)", "ms", target=5.0, setup=_predict_setup, reps=31, quick_reps=11, group="surrogate")
+@figure(
+    "surrogate predict, 401 samples (features + both nets)",
+    "ms",
+    target=5.0,
+    setup=_predict_setup,
+    reps=31,
+    quick_reps=11,
+    group="surrogate",
+)
 def surrogate_predict(ctx: Any) -> float:
     from alcove.science.surrogate.training import predict
 
@@ -223,7 +272,15 @@ def surrogate_predict(ctx: Any) -> float:
     return 1e3 * timed(lambda: predict(model, t, q, qd))
 
 
-@figure("surrogate CasADi export: build the (q, qd) -> wrench function", "s", target=0.2, setup=_trained_model, reps=11, quick_reps=5, group="surrogate")
+@figure(
+    "surrogate CasADi export: build the (q, qd) -> wrench function",
+    "s",
+    target=0.2,
+    setup=_trained_model,
+    reps=11,
+    quick_reps=5,
+    group="surrogate",
+)
 def surrogate_casadi_build(model: Any) -> float:
     from alcove.science.geometry import DEFAULT_PRESET
     from alcove.science.surrogate.export import casadi_contact_function

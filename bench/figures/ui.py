@@ -49,10 +49,20 @@ def _setup() -> dict[str, Any]:
     ensure_frontend_built()
     server, proc = start_server(Path(tempfile.mkdtemp(prefix="alcove-bench-ui-")))
     atexit.register(stop_server, proc)
-    seeded = subprocess.run([sys.executable, "-c", SEED_SCRIPT, ADMIN_EMAIL, str(ITERATIONS)], cwd=REPO, env=server.env, capture_output=True, text=True, timeout=600, check=True)
+    seeded = subprocess.run(
+        [sys.executable, "-c", SEED_SCRIPT, ADMIN_EMAIL, str(ITERATIONS)],
+        cwd=REPO,
+        env=server.env,
+        capture_output=True,
+        text=True,
+        timeout=600,
+        check=True,
+    )
     campaign_id = int(seeded.stdout.strip().splitlines()[-1])
     request = urllib.request.Request(
-        f"{server.base_url}/api/v1/auth/login", data=json.dumps({"email": ADMIN_EMAIL, "password": ADMIN_PASSWORD}).encode(), headers={"Content-Type": "application/json"}
+        f"{server.base_url}/api/v1/auth/login",
+        data=json.dumps({"email": ADMIN_EMAIL, "password": ADMIN_PASSWORD}).encode(),
+        headers={"Content-Type": "application/json"},
     )
     with urllib.request.urlopen(request, timeout=30) as r:
         token = json.loads(r.read())["access_token"]
@@ -71,7 +81,18 @@ def _shared_setup() -> dict[str, Any]:
 
 def _measure(ctx: dict[str, Any], warm: bool = False) -> dict[str, float]:
     out = subprocess.run(
-        ["node", "e2e/measure-campaign-page.mjs", "--base-url", ctx["base_url"], "--token", ctx["token"], "--campaign-id", str(ctx["campaign_id"]), "--points", str(2 * ITERATIONS)]
+        [
+            "node",
+            "e2e/measure-campaign-page.mjs",
+            "--base-url",
+            ctx["base_url"],
+            "--token",
+            ctx["token"],
+            "--campaign-id",
+            str(ctx["campaign_id"]),
+            "--points",
+            str(2 * ITERATIONS),
+        ]
         + (["--warm"] if warm else []),
         cwd=ctx["frontend"],
         capture_output=True,

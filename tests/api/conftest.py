@@ -31,7 +31,7 @@ def api_settings(pg_url: str, tmp_path_factory: pytest.TempPathFactory) -> Itera
 
 
 @pytest.fixture(scope="session")
-def app(api_settings: None, tmp_path_factory: pytest.TempPathFactory):  # noqa: ANN201
+def app(api_settings: None, tmp_path_factory: pytest.TempPathFactory):
     from alcove.api import create_app
     from alcove.settings import get_settings
 
@@ -40,7 +40,7 @@ def app(api_settings: None, tmp_path_factory: pytest.TempPathFactory):  # noqa: 
 
 
 @pytest.fixture(scope="session")
-def client(app) -> TestClient:  # noqa: ANN001
+def client(app) -> TestClient:
     return TestClient(app)
 
 
@@ -57,5 +57,3 @@ def other(api_settings: None) -> Account:
 @pytest.fixture(scope="session")
 def admin(api_settings: None) -> Account:
     return make_account("admin", "admin")
-
-

@@ -41,13 +41,26 @@ def ocp_arrays(k: int, intervals: int) -> dict[str, np.ndarray]:
     return {"t": t, "q": q, "qd": qd, "tau": tau, "controls": tau[1:]}
 
 
-def synthesize_campaign(session: Session, owner_id: int, *, iterations: int, curve_samples: int = 401, pool_samples: int = 100, name: str = "synthetic", model: bool = False, seed: int = 0,
-                        ocp_intervals: int = 20) -> Campaign:
+def synthesize_campaign(
+    session: Session,
+    owner_id: int,
+    *,
+    iterations: int,
+    curve_samples: int = 401,
+    pool_samples: int = 100,
+    name: str = "synthetic",
+    model: bool = False,
+    seed: int = 0,
+    ocp_intervals: int = 20,
+) -> Campaign:
     rng = np.random.default_rng(seed)
     data = CampaignCreate(
-        name=name, task_version_id=task_version_from_preset(session, owner_id, "head-headrest-2phase"),
-        oracle_version_id=oracle_version_for(session, owner_id, "aux-penalty"), surrogate_config_version_id=surrogate_config_version_for(session, owner_id, None),
-        seed=seed, stopping=StoppingRules(max_iterations=iterations),
+        name=name,
+        task_version_id=task_version_from_preset(session, owner_id, "head-headrest-2phase"),
+        oracle_version_id=oracle_version_for(session, owner_id, "aux-penalty"),
+        surrogate_config_version_id=surrogate_config_version_for(session, owner_id, None),
+        seed=seed,
+        stopping=StoppingRules(max_iterations=iterations),
     )
     c = campaigns.create_campaign(session, owner_id, data)
     cv = c.config_versions[-1] if c.config_versions else None
@@ -55,30 +68,88 @@ def synthesize_campaign(session: Session, owner_id: int, *, iterations: int, cur
     start = utcnow() - timedelta(seconds=10 * (iterations + 1))
     parent = None
     for k in range(iterations + 1):
-        it = Iteration(campaign_id=c.id, index=k, config_version_id=cv_id, status="succeeded", started_at=start + timedelta(seconds=10 * k), finished_at=start + timedelta(seconds=10 * k + 9))
+        it = Iteration(
+            campaign_id=c.id,
+            index=k,
+            config_version_id=cv_id,
+            status="succeeded",
+            started_at=start + timedelta(seconds=10 * k),
+            finished_at=start + timedelta(seconds=10 * k + 9),
+        )
         session.add(it)
         session.flush()
         for step in ("preliminary",) if k == 0 else STEPS:
-            session.add(IterationStep(campaign_id=c.id, iteration_id=it.id, step=step, status="succeeded", queue="default", attempts=1, worker_name="synthetic@host",
-                                      started_at=it.started_at, finished_at=it.finished_at, wall_time_s=1.0, result={}))
+            session.add(
+                IterationStep(
+                    campaign_id=c.id,
+                    iteration_id=it.id,
+                    step=step,
+                    status="succeeded",
+                    queue="default",
+                    attempts=1,
+                    worker_name="synthetic@host",
+                    started_at=it.started_at,
+                    finished_at=it.finished_at,
+                    wall_time_s=1.0,
+                    result={},
+                )
+            )
         n = pool_samples
         tt = np.linspace(0, 1, n)
         qq = 0.2 + 0.2 * rng.random((n, 1))
-        ds = pool_service.store_dataset(session, t=tt, q=qq, qd=rng.normal(size=(n, 1)), f=rng.normal(size=(n, 6)), origin="preliminary" if k == 0 else "oracle",
-                                        name=f"k{k}", campaign_id=c.id, iteration_id=it.id)
-        parent = pool_service.create_version(session, campaign_id=c.id, iteration_id=it.id, version=k, parent=parent, new_datasets=[ds])
+        ds = pool_service.store_dataset(
+            session,
+            t=tt,
+            q=qq,
+            qd=rng.normal(size=(n, 1)),
+            f=rng.normal(size=(n, 6)),
+            origin="preliminary" if k == 0 else "oracle",
+            name=f"k{k}",
+            campaign_id=c.id,
+            iteration_id=it.id,
+        )
+        parent = pool_service.create_version(
+            session, campaign_id=c.id, iteration_id=it.id, version=k, parent=parent, new_datasets=[ds]
+        )
         if k >= 1:
             curves = curve_arrays(k, curve_samples, rng)
             err = curves["f_pred"] - curves["f_true"]
-            session.add(IterationMetrics(
-                campaign_id=c.id, iteration_id=it.id, iteration_index=k, force_rmse=float(np.sqrt(np.mean(err[:, :3] ** 2))),
-                moment_rmse=float(np.sqrt(np.mean(err[:, 3:] ** 2))), force_max_error=float(np.abs(err[:, :3]).max()), moment_max_error=float(np.abs(err[:, 3:]).max()),
-                ocp_success=True, ocp_status="Solve_Succeeded", ocp_iterations=30, ocp_cost=1.0 / k, ocp_wall_time_s=2.0, oracle_wall_time_s=3.0, train_wall_time_s=1.0,
-                n_pool_samples=parent.n_samples, dataset_id=ds.id, curves_sha256=put_arrays(session, curves),
-            ))
-            session.add(OcpSolution(campaign_id=c.id, iteration_id=it.id, attempt=1, initial_guess="previous" if k > 1 else "default", success=True,
-                                    solver_status="Solve_Succeeded", n_iterations=30, cost=1.0 / k, wall_time_s=2.0, stats={},
-                                    trajectory_sha256=put_arrays(session, ocp_arrays(k, ocp_intervals))))
+            session.add(
+                IterationMetrics(
+                    campaign_id=c.id,
+                    iteration_id=it.id,
+                    iteration_index=k,
+                    force_rmse=float(np.sqrt(np.mean(err[:, :3] ** 2))),
+                    moment_rmse=float(np.sqrt(np.mean(err[:, 3:] ** 2))),
+                    force_max_error=float(np.abs(err[:, :3]).max()),
+                    moment_max_error=float(np.abs(err[:, 3:]).max()),
+                    ocp_success=True,
+                    ocp_status="Solve_Succeeded",
+                    ocp_iterations=30,
+                    ocp_cost=1.0 / k,
+                    ocp_wall_time_s=2.0,
+                    oracle_wall_time_s=3.0,
+                    train_wall_time_s=1.0,
+                    n_pool_samples=parent.n_samples,
+                    dataset_id=ds.id,
+                    curves_sha256=put_arrays(session, curves),
+                )
+            )
+            session.add(
+                OcpSolution(
+                    campaign_id=c.id,
+                    iteration_id=it.id,
+                    attempt=1,
+                    initial_guess="previous" if k > 1 else "default",
+                    success=True,
+                    solver_status="Solve_Succeeded",
+                    n_iterations=30,
+                    cost=1.0 / k,
+                    wall_time_s=2.0,
+                    stats={},
+                    trajectory_sha256=put_arrays(session, ocp_arrays(k, ocp_intervals)),
+                )
+            )
             if model and k == 1:
                 _train_tiny_model(session, c, it, parent)
     c.status = "completed"
@@ -89,7 +160,7 @@ def synthesize_campaign(session: Session, owner_id: int, *, iterations: int, cur
     return c
 
 
-def _train_tiny_model(session: Session, c: Campaign, it: Iteration, pool_version) -> None:  # noqa: ANN001
+def _train_tiny_model(session: Session, c: Campaign, it: Iteration, pool_version) -> None:
     from alcove.science.surrogate.config import SurrogateConfig
     from alcove.science.surrogate.training import train_surrogate
     from alcove.surrogates.service import store_model
@@ -97,5 +168,14 @@ def _train_tiny_model(session: Session, c: Campaign, it: Iteration, pool_version
     pool = pool_service.load_training_pool(session, pool_version)
     config = SurrogateConfig(max_epochs=3)
     result = train_surrogate(pool, config, seed=0)
-    store_model(session, result, campaign_id=c.id, iteration_id=it.id, version=it.index, pool_version_id=pool_version.id, parent_model_id=None,
-                surrogate_config_version_id=c.surrogate_config_version_id, seed=0)
+    store_model(
+        session,
+        result,
+        campaign_id=c.id,
+        iteration_id=it.id,
+        version=it.index,
+        pool_version_id=pool_version.id,
+        parent_model_id=None,
+        surrogate_config_version_id=c.surrogate_config_version_id,
+        seed=0,
+    )

@@ -34,7 +34,10 @@ def test_repeated_failures_lock_the_account_until_an_admin_resets_it(client, adm
     assert locked.status_code == 429 and int(locked.headers["Retry-After"]) > 0
     r = client.patch(f"/api/v1/users/{victim.id}", json={"password": "a brand new secret"}, headers=admin.headers)
     assert r.status_code == 200, r.text
-    assert client.post("/api/v1/auth/login", json={"email": victim.email, "password": "a brand new secret"}).status_code == 200
+    assert (
+        client.post("/api/v1/auth/login", json={"email": victim.email, "password": "a brand new secret"}).status_code
+        == 200
+    )
 
 
 def test_missing_or_bad_tokens_are_401_with_www_authenticate(client) -> None:
@@ -63,7 +66,9 @@ def test_personal_tokens_are_shown_once_stored_hashed_and_revocable(client, owne
         assert client.get("/api/v1/me", headers=headers).json()["id"] == owner.id
     assert client.delete(f"/api/v1/me/tokens/{created['id']}", headers=owner.headers).status_code == 204
     assert client.get("/api/v1/me", headers=headers).status_code == 401
-    assert next(t for t in client.get("/api/v1/me/tokens", headers=owner.headers).json() if t["id"] == created["id"])["revoked"]
+    assert next(t for t in client.get("/api/v1/me/tokens", headers=owner.headers).json() if t["id"] == created["id"])[
+        "revoked"
+    ]
 
 
 def test_admin_manages_users_members_may_not(client, admin: Account, other: Account) -> None:
@@ -82,11 +87,19 @@ def test_admin_manages_users_members_may_not(client, admin: Account, other: Acco
 
 def test_changing_my_password_needs_the_current_one(client) -> None:
     me = make_account("member", "pw")
-    r = client.patch("/api/v1/me", json={"new_password": "another long one", "current_password": "wrong"}, headers=me.headers)
+    r = client.patch(
+        "/api/v1/me", json={"new_password": "another long one", "current_password": "wrong"}, headers=me.headers
+    )
     assert r.status_code == 422 and r.json()["detail"][0]["field"] == "current_password"
-    r = client.patch("/api/v1/me", json={"new_password": "another long one", "current_password": me.password, "display_name": "Pat"}, headers=me.headers)
+    r = client.patch(
+        "/api/v1/me",
+        json={"new_password": "another long one", "current_password": me.password, "display_name": "Pat"},
+        headers=me.headers,
+    )
     assert r.status_code == 200 and r.json()["display_name"] == "Pat"
-    assert client.post("/api/v1/auth/login", json={"email": me.email, "password": "another long one"}).status_code == 200
+    assert (
+        client.post("/api/v1/auth/login", json={"email": me.email, "password": "another long one"}).status_code == 200
+    )
 
 
 def test_deactivating_a_user_shuts_out_their_tokens_at_once(client, admin: Account) -> None:
@@ -98,18 +111,21 @@ def test_deactivating_a_user_shuts_out_their_tokens_at_once(client, admin: Accou
     assert client.post("/api/v1/auth/login", json={"email": user.email, "password": user.password}).status_code == 401
 
 
-def test_many_failures_from_one_address_are_rate_limited(client, owner: Account, monkeypatch) -> None:  # noqa: ANN001
+def test_many_failures_from_one_address_are_rate_limited(client, owner: Account, monkeypatch) -> None:
     from alcove.users import ratelimit, router
 
     window = ratelimit.FailureWindow(limit=3, window_s=60)
     monkeypatch.setattr(router, "LOGIN_FAILURES", window)
     for i in range(3):  # a different account each time: no account lockout applies
-        assert client.post("/api/v1/auth/login", json={"email": f"spray-{i}@example.org", "password": "x"}).status_code == 401
+        assert (
+            client.post("/api/v1/auth/login", json={"email": f"spray-{i}@example.org", "password": "x"}).status_code
+            == 401
+        )
     blocked = client.post("/api/v1/auth/login", json={"email": owner.email, "password": owner.password})
     assert blocked.status_code == 429 and 0 < int(blocked.headers["Retry-After"]) <= 61
 
 
-def test_a_token_revoked_by_another_process_stops_working_within_the_cache_time(client, monkeypatch) -> None:  # noqa: ANN001
+def test_a_token_revoked_by_another_process_stops_working_within_the_cache_time(client, monkeypatch) -> None:
     """The verified-token cache trusts a token for TOKEN_CACHE_SECONDS per process; a
     revocation written by another process (here: straight to the database) takes effect
     once that has passed (shortened to 0.5 s for the test)."""
@@ -131,7 +147,7 @@ def test_a_token_revoked_by_another_process_stops_working_within_the_cache_time(
     assert r.status_code == 401 and r.headers["WWW-Authenticate"] == "Bearer"
 
 
-def test_cached_principals_are_private_detached_copies(client) -> None:  # noqa: ANN001
+def test_cached_principals_are_private_detached_copies(client) -> None:
     from sqlalchemy import inspect
 
     from alcove.db import session_scope
@@ -146,7 +162,9 @@ def test_cached_principals_are_private_detached_copies(client) -> None:  # noqa:
         again, _ = service.cached_authentication(s, me.token)
         fresh = s.get(User, me.id)
         assert inspect(user).detached and not inspect(user).modified and token is not again
-        assert {a.key: getattr(user, a.key) for a in inspect(User).column_attrs} == {a.key: getattr(fresh, a.key) for a in inspect(User).column_attrs}
+        assert {a.key: getattr(user, a.key) for a in inspect(User).column_attrs} == {
+            a.key: getattr(fresh, a.key) for a in inspect(User).column_attrs
+        }
         user.display_name = "changed here only"
         assert service.cached_authentication(s, me.token)[1].display_name != "changed here only"
         merged = s.merge(user)  # a route changes a user by merging its copy

@@ -34,7 +34,7 @@ class Call:
 class Objects:
     """The owner's objects, made on demand (fresh ones for calls that change or delete)."""
 
-    def __init__(self, client, owner: Account, third: Account) -> None:  # noqa: ANN001
+    def __init__(self, client, owner: Account, third: Account) -> None:
         self.client, self.owner, self.third = client, owner, third
         self._finished: dict[str, Any] | None = None
 
@@ -53,7 +53,13 @@ class Objects:
         return self.post("/surrogate-configs", {"name": "s", "spec": {"max_epochs": 10}})["id"]
 
     def campaign(self, start: bool = False) -> int:
-        body = {"name": "c", "task_id": self.task(), "oracle_id": self.oracle(), "stopping": {"max_iterations": 2}, "start": start}
+        body = {
+            "name": "c",
+            "task_id": self.task(),
+            "oracle_id": self.oracle(),
+            "stopping": {"max_iterations": 2},
+            "start": start,
+        }
         return self.post("/campaigns", body)["id"]
 
     def paused_campaign(self) -> int:
@@ -77,12 +83,11 @@ class Objects:
         """A completed campaign with metrics, curves, pool versions and one model version."""
         if self._finished is None:
             from alcove.db import session_scope
+            from alcove.models import ModelVersion
+            from alcove.surrogates.artifact_export import cache_dir
+            from alcove.surrogates.service import model_artifact_bytes
 
             from .synthetic import synthesize_campaign
-
-            from alcove.surrogates.artifact_export import cache_dir
-            from alcove.models import ModelVersion
-            from alcove.surrogates.service import model_artifact_bytes
 
             with session_scope() as s:
                 c = synthesize_campaign(s, self.owner.id, iterations=2, model=True, name="matrix")
@@ -99,7 +104,14 @@ class Objects:
         from alcove.models import Preview
 
         with session_scope() as s:
-            row = Preview(owner_id=self.owner.id, kind="task", status="failed", error="made by the test", spec=small_task_spec(), options={"intervals": 4})
+            row = Preview(
+                owner_id=self.owner.id,
+                kind="task",
+                status="failed",
+                error="made by the test",
+                spec=small_task_spec(),
+                options={"intervals": 4},
+            )
             s.add(row)
             s.flush()
             return row.id
@@ -111,13 +123,19 @@ class Objects:
         return self.post("/shares", {"object_type": "task", "object_id": self.task(), "email": self.third.email})["id"]
 
     def command_entry(self, admin: Account) -> int:
-        r = self.client.post(f"{API}/admin/command-oracles", json={"name": f"m-{uuid.uuid4().hex[:8]}", "argv": ["/bin/true"]}, headers=admin.headers)
+        r = self.client.post(
+            f"{API}/admin/command-oracles",
+            json={"name": f"m-{uuid.uuid4().hex[:8]}", "argv": ["/bin/true"]},
+            headers=admin.headers,
+        )
         assert r.status_code == 201, r.text
         return r.json()["id"]
 
 
 def csv_upload() -> dict[str, Any]:
-    rows = ["simulation,t,q_0,qd_0,fx,fy,fz,mx,my,mz"] + [f"{s},{i * 0.01},{0.3 + 0.001 * i},0.1,{i},0,0,0,0.1,0" for s in range(2) for i in range(20)]
+    rows = ["simulation,t,q_0,qd_0,fx,fy,fz,mx,my,mz"] + [
+        f"{s},{i * 0.01},{0.3 + 0.001 * i},0.1,{i},0,0,0,0.1,0" for s in range(2) for i in range(20)
+    ]
     return {"file": ("prelim.csv", io.BytesIO(("\n".join(rows) + "\n").encode()), "text/csv")}
 
 
@@ -133,10 +151,18 @@ SPECS: dict[str, Spec] = {
     "create_token": ("any", lambda o, a: Call(json={"name": "n"}), CREATED),
     "revoke_token": ("owned", lambda o, a: Call(path={"token_id": o.token()}), NO_CONTENT),
     "list_users": ("admin", lambda o, a: Call(), OK),
-    "create_user": ("admin", lambda o, a: Call(json={"email": f"u-{uuid.uuid4().hex[:8]}@example.org", "password": "long enough pw"}), CREATED),
+    "create_user": (
+        "admin",
+        lambda o, a: Call(json={"email": f"u-{uuid.uuid4().hex[:8]}@example.org", "password": "long enough pw"}),
+        CREATED,
+    ),
     "get_user": ("admin", lambda o, a: Call(path={"user_id": o.third.id}), OK),
     "update_user": ("admin", lambda o, a: Call(path={"user_id": o.third.id}, json={"display_name": "third"}), OK),
-    "create_share": ("owned", lambda o, a: Call(json={"object_type": "task", "object_id": o.task(), "email": o.third.email}), CREATED),
+    "create_share": (
+        "owned",
+        lambda o, a: Call(json={"object_type": "task", "object_id": o.task(), "email": o.third.email}),
+        CREATED,
+    ),
     "list_shares": ("owned", lambda o, a: Call(params={"object_type": "task", "object_id": o.task()}), OK),
     "delete_share": ("owned", lambda o, a: Call(path={"share_id": o.share()}), NO_CONTENT),
     # ---- tasks
@@ -166,9 +192,23 @@ SPECS: dict[str, Spec] = {
     "get_oracle_version": ("owned", lambda o, a: Call(path={"oracle_id": o.oracle(), "version": 1}), OK),
     # ---- command catalogue (admin)
     "list_command_oracles": ("admin", lambda o, a: Call(), OK),
-    "create_command_oracle": ("admin", lambda o, a: Call(json={"name": f"e-{uuid.uuid4().hex[:8]}", "argv": ["/bin/true"]}), CREATED),
+    "create_command_oracle": (
+        "admin",
+        lambda o, a: Call(json={"name": f"e-{uuid.uuid4().hex[:8]}", "argv": ["/bin/true"]}),
+        CREATED,
+    ),
     "get_command_oracle": ("admin", lambda o, a: Call(path={"entry_id": o.command_entry(a)}), OK),
-    "update_command_oracle": ("admin", lambda o, a: Call(path={"entry_id": (i := o.command_entry(a))}, json={"name": o.client.get(f"{API}/admin/command-oracles/{i}", headers=a.headers).json()["name"], "argv": ["/bin/false"]}), OK),
+    "update_command_oracle": (
+        "admin",
+        lambda o, a: Call(
+            path={"entry_id": (i := o.command_entry(a))},
+            json={
+                "name": o.client.get(f"{API}/admin/command-oracles/{i}", headers=a.headers).json()["name"],
+                "argv": ["/bin/false"],
+            },
+        ),
+        OK,
+    ),
     "delete_command_oracle": ("admin", lambda o, a: Call(path={"entry_id": o.command_entry(a)}), NO_CONTENT),
     # ---- surrogate configs
     "list_surrogate_configs": ("any", lambda o, a: Call(), OK),
@@ -176,15 +216,27 @@ SPECS: dict[str, Spec] = {
     "get_surrogate_config_schema": ("any", lambda o, a: Call(), OK),
     "validate_surrogate_config": ("any", lambda o, a: Call(json={"spec": {"patience": 3}}), OK),
     "get_surrogate_config": ("owned", lambda o, a: Call(path={"config_id": o.surrogate()}), OK),
-    "update_surrogate_config": ("owned", lambda o, a: Call(path={"config_id": o.surrogate()}, json={"spec": {"max_epochs": 20}}), OK),
+    "update_surrogate_config": (
+        "owned",
+        lambda o, a: Call(path={"config_id": o.surrogate()}, json={"spec": {"max_epochs": 20}}),
+        OK,
+    ),
     "delete_surrogate_config": ("owned", lambda o, a: Call(path={"config_id": o.surrogate()}), NO_CONTENT),
     "list_surrogate_config_versions": ("owned", lambda o, a: Call(path={"config_id": o.surrogate()}), OK),
     "get_surrogate_config_version": ("owned", lambda o, a: Call(path={"config_id": o.surrogate(), "version": 1}), OK),
     # ---- campaigns
     "list_campaigns": ("any", lambda o, a: Call(params={"status": "completed"}), OK),
-    "create_campaign": ("owned_ref", lambda o, a: Call(json={"name": "c", "task_id": o.task(), "oracle_id": o.oracle()}), CREATED),
+    "create_campaign": (
+        "owned_ref",
+        lambda o, a: Call(json={"name": "c", "task_id": o.task(), "oracle_id": o.oracle()}),
+        CREATED,
+    ),
     "get_campaign": ("owned", lambda o, a: Call(path=o.finished()), OK),
-    "update_campaign_config": ("owned", lambda o, a: Call(path={"campaign_id": o.campaign()}, json={"stopping": {"max_iterations": 3}}), OK),
+    "update_campaign_config": (
+        "owned",
+        lambda o, a: Call(path={"campaign_id": o.campaign()}, json={"stopping": {"max_iterations": 3}}),
+        OK,
+    ),
     "start_campaign": ("owned", lambda o, a: Call(path={"campaign_id": o.campaign()}), OK),
     "pause_campaign": ("owned", lambda o, a: Call(path={"campaign_id": o.campaign(start=True)}), OK),
     "resume_campaign": ("owned", lambda o, a: Call(path={"campaign_id": o.paused_campaign()}), OK),
@@ -199,7 +251,11 @@ SPECS: dict[str, Spec] = {
     "list_campaign_events": ("owned", lambda o, a: Call(path=o.finished()), OK),
     "stream_campaign_events": ("owned", lambda o, a: Call(path=o.finished(), params={"timeout": 0}), OK),
     "list_pool_versions": ("owned", lambda o, a: Call(path=o.finished()), OK),
-    "download_pool_version": ("owned", lambda o, a: Call(path={**o.finished(), "version": 1}, params={"format": "csv"}), OK),
+    "download_pool_version": (
+        "owned",
+        lambda o, a: Call(path={**o.finished(), "version": 1}, params={"format": "csv"}),
+        OK,
+    ),
     "list_model_versions": ("owned", lambda o, a: Call(path=o.finished()), OK),
     "get_model_artifact": ("owned", lambda o, a: Call(path={**o.finished(), "version": 1}), OK),
     "download_model_artifact": ("owned", lambda o, a: Call(path={**o.finished(), "version": 1}), OK),
@@ -210,25 +266,29 @@ SPECS: dict[str, Spec] = {
     "get_preview": ("owned", lambda o, a: Call(path={"preview_id": o.preview()}), OK),
     "list_previews": ("any", lambda o, a: Call(), OK),
     # ---- uploads
-    "upload_preliminary_dataset": ("any", lambda o, a: Call(files=csv_upload(), data={"name": "prelim", "chunks": "2"}), CREATED),
+    "upload_preliminary_dataset": (
+        "any",
+        lambda o, a: Call(files=csv_upload(), data={"name": "prelim", "chunks": "2"}),
+        CREATED,
+    ),
     "list_preliminary_datasets": ("any", lambda o, a: Call(), OK),
 }
 
 
-def all_routes(app) -> list:  # noqa: ANN001
+def all_routes(app) -> list:
     from alcove.api.route_table import api_routes
 
     return [r for r in api_routes(app) if r.path.startswith(API)]
 
 
-def test_every_route_is_in_the_matrix(app) -> None:  # noqa: ANN001
+def test_every_route_is_in_the_matrix(app) -> None:
     ops = {r.operation_id for r in all_routes(app)}
     missing = sorted(ops - set(SPECS) - PUBLIC)
     assert not missing, f"routes without an authorization-matrix entry (add them to SPECS): {missing}"
     assert not sorted(set(SPECS) - ops), "SPECS names routes that no longer exist"
 
 
-def _request(client, route, call: Call, headers: dict[str, str]):  # noqa: ANN001, ANN202
+def _request(client, route, call: Call, headers: dict[str, str]):
     url = route.path.format(**call.path)
     kwargs: dict[str, Any] = {"headers": headers, "params": call.params}
     if call.files is not None:
@@ -255,7 +315,7 @@ def make_account_token(who: Account) -> dict[str, str]:
 
 
 @pytest.fixture(scope="module")
-def objects(client, owner: Account) -> Objects:  # noqa: ANN001
+def objects(client, owner: Account) -> Objects:
     return Objects(client, owner, make_account("member", "third"))
 
 
@@ -263,7 +323,9 @@ ROLES = ("anonymous", "other", "admin", "owner")
 
 
 @pytest.mark.parametrize("operation_id", sorted(SPECS))
-def test_authorization(operation_id: str, app, client, objects: Objects, owner: Account, other: Account, admin: Account) -> None:  # noqa: ANN001
+def test_authorization(
+    operation_id: str, app, client, objects: Objects, owner: Account, other: Account, admin: Account
+) -> None:
     route = next(r for r in all_routes(app) if r.operation_id == operation_id)
     kind, make, ok = SPECS[operation_id]
     results = {}
@@ -279,7 +341,9 @@ def test_authorization(operation_id: str, app, client, objects: Objects, owner: 
     elif kind == "owned":
         assert status["owner"] in ok, results
         assert status["other"] == 404 and status["admin"] == 404, results
-    elif kind == "owned_ref":  # the owner's objects are referenced in the body: invisible to others, a 422 naming the field
+    elif (
+        kind == "owned_ref"
+    ):  # the owner's objects are referenced in the body: invisible to others, a 422 naming the field
         assert status["owner"] in ok, results
         assert status["other"] == 422 and status["admin"] == 422, results
     elif kind == "admin":

@@ -39,8 +39,16 @@ def add_iteration(cid: int, k: int) -> None:
         it = Iteration(campaign_id=cid, index=k, config_version_id=c.config_versions[-1].id, status="succeeded")
         s.add(it)
         s.flush()
-        s.add(IterationMetrics(campaign_id=cid, iteration_id=it.id, iteration_index=k, force_rmse=0.5, moment_rmse=0.05,
-                               curves_sha256=put_arrays(s, curve_arrays(k, 11, np.random.default_rng(k)))))
+        s.add(
+            IterationMetrics(
+                campaign_id=cid,
+                iteration_id=it.id,
+                iteration_index=k,
+                force_rmse=0.5,
+                moment_rmse=0.05,
+                curves_sha256=put_arrays(s, curve_arrays(k, 11, np.random.default_rng(k))),
+            )
+        )
     from alcove.campaigns.router import REVISION_TTL_S
 
     time.sleep(REVISION_TTL_S + 0.05)
@@ -59,7 +67,9 @@ def test_metrics_poll_returns_only_new_iterations_and_follows_new_rows(client, o
 
 
 def test_curves_match_the_reported_rmse(client, owner: Account, finished: int) -> None:
-    metrics = {m["iteration_index"]: m for m in client.get(f"{API}/campaigns/{finished}/metrics", headers=owner.headers).json()}
+    metrics = {
+        m["iteration_index"]: m for m in client.get(f"{API}/campaigns/{finished}/metrics", headers=owner.headers).json()
+    }
     curves = client.get(f"{API}/campaigns/{finished}/iterations/2/curves", headers=owner.headers).json()
     err = np.array(curves["f_pred"]) - np.array(curves["f_true"])
     assert np.sqrt(np.mean(err[:, :3] ** 2)) == pytest.approx(metrics[2]["force_rmse"])
@@ -70,9 +80,13 @@ def test_curves_match_the_reported_rmse(client, owner: Account, finished: int) -
 def test_list_filters_and_detail(client, owner: Account, finished: int) -> None:
     rows = client.get(f"{API}/campaigns", params={"status": "completed", "owner": "me"}, headers=owner.headers).json()
     row = next(r for r in rows if r["id"] == finished)
-    assert row["task"] == "head-headrest-2phase" and row["oracle_type"] == "aux-penalty" and row["force_rmse"] is not None
+    assert (
+        row["task"] == "head-headrest-2phase" and row["oracle_type"] == "aux-penalty" and row["force_rmse"] is not None
+    )
     assert all(r["status"] == "completed" for r in rows)
-    assert finished not in {r["id"] for r in client.get(f"{API}/campaigns", params={"status": "running"}, headers=owner.headers).json()}
+    assert finished not in {
+        r["id"] for r in client.get(f"{API}/campaigns", params={"status": "running"}, headers=owner.headers).json()
+    }
     assert client.get(f"{API}/campaigns", params={"status": "nonsense"}, headers=owner.headers).status_code == 422
     detail = client.get(f"{API}/campaigns/{finished}", headers=owner.headers).json()
     assert detail["campaign"]["status"] == "completed" and detail["latest_metrics"]["iteration_index"] >= 3
@@ -88,43 +102,82 @@ def test_invalid_transitions_are_409(client, owner: Account, finished: int) -> N
 def test_a_shared_campaign_is_readable_but_not_controllable(client, owner: Account, finished: int) -> None:
     viewer = make_account("member", "viewer")
     assert client.get(f"{API}/campaigns/{finished}/metrics", headers=viewer.headers).status_code == 404
-    r = client.post(f"{API}/shares", json={"object_type": "campaign", "object_id": finished, "email": viewer.email}, headers=owner.headers)
+    r = client.post(
+        f"{API}/shares",
+        json={"object_type": "campaign", "object_id": finished, "email": viewer.email},
+        headers=owner.headers,
+    )
     assert r.status_code == 201
     assert client.get(f"{API}/campaigns/{finished}/metrics", headers=viewer.headers).status_code == 200
     assert client.post(f"{API}/campaigns/{finished}/cancel", headers=viewer.headers).status_code == 403
-    fork = client.post(f"{API}/campaigns/{finished}/fork", json={"iteration": 2, "name": "my fork"}, headers=viewer.headers)
-    assert fork.status_code == 201 and fork.json()["campaign"]["owner_id"] == viewer.id and fork.json()["campaign"]["source_iteration"] == 2
+    fork = client.post(
+        f"{API}/campaigns/{finished}/fork", json={"iteration": 2, "name": "my fork"}, headers=viewer.headers
+    )
+    assert (
+        fork.status_code == 201
+        and fork.json()["campaign"]["owner_id"] == viewer.id
+        and fork.json()["campaign"]["source_iteration"] == 2
+    )
 
 
 def test_campaign_bodies_cannot_reference_others_objects(client, owner: Account, other: Account) -> None:
     task = client.post(f"{API}/tasks", json={"name": "t", "spec": small_task_spec()}, headers=owner.headers).json()
     oracle = client.post(f"{API}/oracles/presets/aux-penalty/copy", headers=owner.headers).json()
     mine = client.post(f"{API}/oracles/presets/aux-penalty/copy", headers=other.headers).json()
-    r = client.post(f"{API}/campaigns", json={"name": "x", "task_id": task["id"], "oracle_id": mine["id"]}, headers=other.headers)
+    r = client.post(
+        f"{API}/campaigns", json={"name": "x", "task_id": task["id"], "oracle_id": mine["id"]}, headers=other.headers
+    )
     assert r.status_code == 422 and r.json()["detail"][0]["field"] == "task_id"
-    upload = client.post(f"{API}/preliminary-datasets", files={"file": ("p.csv", b"t,q_0,qd_0,fx,fy,fz,mx,my,mz\n0,0.3,0,1,0,0,0,0,0\n0.1,0.3,0,1,0,0,0,0,0\n", "text/csv")},
-                         data={"chunks": "1"}, headers=owner.headers)
+    upload = client.post(
+        f"{API}/preliminary-datasets",
+        files={
+            "file": ("p.csv", b"t,q_0,qd_0,fx,fy,fz,mx,my,mz\n0,0.3,0,1,0,0,0,0,0\n0.1,0.3,0,1,0,0,0,0,0\n", "text/csv")
+        },
+        data={"chunks": "1"},
+        headers=owner.headers,
+    )
     assert upload.status_code == 201, upload.text
     ids = upload.json()["dataset_ids"]
-    r = client.post(f"{API}/campaigns", json={"name": "x", "task_id": task["id"], "oracle_id": oracle["id"], "preliminary": {"dataset_ids": ids}}, headers=owner.headers)
+    r = client.post(
+        f"{API}/campaigns",
+        json={"name": "x", "task_id": task["id"], "oracle_id": oracle["id"], "preliminary": {"dataset_ids": ids}},
+        headers=owner.headers,
+    )
     assert r.status_code == 201
-    theirs = client.post(f"{API}/campaigns", json={"name": "x", "task_id": client.post(f"{API}/tasks", json={"name": "t", "spec": small_task_spec()}, headers=other.headers).json()["id"],
-                                                   "oracle_id": mine["id"], "preliminary": {"dataset_ids": ids}}, headers=other.headers)
+    theirs = client.post(
+        f"{API}/campaigns",
+        json={
+            "name": "x",
+            "task_id": client.post(
+                f"{API}/tasks", json={"name": "t", "spec": small_task_spec()}, headers=other.headers
+            ).json()["id"],
+            "oracle_id": mine["id"],
+            "preliminary": {"dataset_ids": ids},
+        },
+        headers=other.headers,
+    )
     assert theirs.status_code == 422 and theirs.json()["detail"][0]["field"] == "preliminary.dataset_ids.0"
 
 
-@pytest.mark.parametrize(("content", "field"), [
-    (b"t,q_0,qd_0,fx,fy,fz,mx,my\n0,0.3,0,1,0,0,0,0\n", "file"),
-    (b"t,q_0,qd_0,fx,fy,fz,mx,my,mz\n0,abc,0,1,0,0,0,0,0\n", "file"),
-    (b"\xff\xfe\x00garbage", "file"),
-])
+@pytest.mark.parametrize(
+    ("content", "field"),
+    [
+        (b"t,q_0,qd_0,fx,fy,fz,mx,my\n0,0.3,0,1,0,0,0,0\n", "file"),
+        (b"t,q_0,qd_0,fx,fy,fz,mx,my,mz\n0,abc,0,1,0,0,0,0,0\n", "file"),
+        (b"\xff\xfe\x00garbage", "file"),
+    ],
+)
 def test_bad_uploads_are_422_naming_the_file(client, owner: Account, content: bytes, field: str) -> None:
-    r = client.post(f"{API}/preliminary-datasets", files={"file": ("p.csv", io.BytesIO(content), "text/csv")}, headers=owner.headers)
+    r = client.post(
+        f"{API}/preliminary-datasets", files={"file": ("p.csv", io.BytesIO(content), "text/csv")}, headers=owner.headers
+    )
     assert r.status_code == 422, r.text
     assert r.json()["detail"][0]["field"].startswith(field)
 
 
-def test_event_stream_sends_server_sent_events_and_ends_for_a_finished_campaign(client, owner: Account, finished: int) -> None:
+def test_event_stream_sends_server_sent_events_and_ends_for_a_finished_campaign(
+    client, owner: Account, finished: int
+) -> None:
     events = client.get(f"{API}/campaigns/{finished}/events", headers=owner.headers).json()
     assert events and events[0]["kind"] == "status"
     with client.stream("GET", f"{API}/campaigns/{finished}/events/stream", headers=owner.headers) as r:
@@ -132,7 +185,9 @@ def test_event_stream_sends_server_sent_events_and_ends_for_a_finished_campaign(
         text = "".join(r.iter_text())
     ids = [int(line[4:]) for line in text.splitlines() if line.startswith("id: ")]
     assert ids == [e["id"] for e in events]
-    with client.stream("GET", f"{API}/campaigns/{finished}/events/stream", headers={**owner.headers, "Last-Event-ID": str(ids[-1])}) as r:
+    with client.stream(
+        "GET", f"{API}/campaigns/{finished}/events/stream", headers={**owner.headers, "Last-Event-ID": str(ids[-1])}
+    ) as r:
         assert "id: " not in "".join(r.iter_text())
 
 
@@ -152,10 +207,16 @@ def test_list_items_carry_the_eta_of_the_detail(client, owner: Account) -> None:
         c.status, c.finished_at, c.stop_reason = "running", None, None
         s.flush()
         campaigns.update_config(s, cid, CampaignConfigUpdate(stopping=StoppingRules(max_iterations=10)))
-    row = next(r for r in client.get(f"{API}/campaigns", params={"owner": "me"}, headers=owner.headers).json() if r["id"] == cid)
+    row = next(
+        r
+        for r in client.get(f"{API}/campaigns", params={"owner": "me"}, headers=owner.headers).json()
+        if r["id"] == cid
+    )
     detail = client.get(f"{API}/campaigns/{cid}", headers=owner.headers).json()
     assert row["eta_s"] == pytest.approx(63.0) and detail["eta_s"] == pytest.approx(63.0)
-    assert row["mean_iteration_s"] == pytest.approx(9.0) and row["latest_iteration"] == 3 and row["current_iteration"] == 3
+    assert (
+        row["mean_iteration_s"] == pytest.approx(9.0) and row["latest_iteration"] == 3 and row["current_iteration"] == 3
+    )
     assert row["max_iterations"] == 10
 
 
@@ -171,11 +232,18 @@ def test_series_and_iterations_are_compact_unless_asked(client, owner: Account, 
     series = client.get(f"{API}/campaigns/{finished}/metrics", headers=owner.headers).json()
     assert series and all(m["extra"] is None for m in series)
     full = client.get(f"{API}/campaigns/{finished}/metrics", params={"extra": "true"}, headers=owner.headers).json()
-    assert [m["iteration_index"] for m in full] == [m["iteration_index"] for m in series] and all(isinstance(m["extra"], dict) for m in full)
+    assert [m["iteration_index"] for m in full] == [m["iteration_index"] for m in series] and all(
+        isinstance(m["extra"], dict) for m in full
+    )
     its = client.get(f"{API}/campaigns/{finished}/iterations", headers=owner.headers).json()
     assert [i["index"] for i in its][:4] == [0, 1, 2, 3] and all(i["steps"] is None and i["status"] for i in its)
-    assert [i["index"] for i in client.get(f"{API}/campaigns/{finished}/iterations", params={"after": 2}, headers=owner.headers).json()][:1] == [3]
-    with_steps = client.get(f"{API}/campaigns/{finished}/iterations", params={"steps": "true"}, headers=owner.headers).json()
+    assert [
+        i["index"]
+        for i in client.get(f"{API}/campaigns/{finished}/iterations", params={"after": 2}, headers=owner.headers).json()
+    ][:1] == [3]
+    with_steps = client.get(
+        f"{API}/campaigns/{finished}/iterations", params={"steps": "true"}, headers=owner.headers
+    ).json()
     assert {s["step"] for s in with_steps[1]["steps"]} == {"train", "ocp", "oracle", "evaluate", "append"}
 
 
@@ -192,15 +260,25 @@ def test_curves_carry_the_replayed_torque(client, owner: Account) -> None:
         cid = synthesize_campaign(s, owner.id, iterations=1, name="api-tau", curve_samples=21).id
         m = s.query(IterationMetrics).filter_by(campaign_id=cid, iteration_index=1).one()
         t = np.linspace(0.0, 1.0, 7)
-        s.add(OracleRun(campaign_id=cid, iteration_id=m.iteration_id, oracle_version_id=_oracle_version(s, cid),
-                        attempt=1, status="ok", input_sha256=put_arrays(s, {"t": t, "q": 0.3 + 0 * t[:, None], "qd": 0 * t[:, None], "tau": (2.0 - 3.0 * t)[:, None]})))
+        s.add(
+            OracleRun(
+                campaign_id=cid,
+                iteration_id=m.iteration_id,
+                oracle_version_id=_oracle_version(s, cid),
+                attempt=1,
+                status="ok",
+                input_sha256=put_arrays(
+                    s, {"t": t, "q": 0.3 + 0 * t[:, None], "qd": 0 * t[:, None], "tau": (2.0 - 3.0 * t)[:, None]}
+                ),
+            )
+        )
     curves = client.get(f"{API}/campaigns/{cid}/iterations/1/curves", headers=owner.headers).json()
     tau = np.array(curves["tau"])
     assert tau.shape == (21, 1)
     np.testing.assert_allclose(tau[:, 0], 2.0 - 3.0 * np.array(curves["t"]), atol=1e-12)
 
 
-def _oracle_version(s, cid: int) -> int:  # noqa: ANN001
+def _oracle_version(s, cid: int) -> int:
     from alcove.models import Campaign
 
     return s.get(Campaign, cid).oracle_version_id
@@ -220,13 +298,31 @@ def test_polls_with_the_etag_get_a_bodiless_304_until_something_changes(client, 
     assert again.status_code == 304 and again.content == b"" and again.headers["ETag"] == etag
     assert client.get(url, headers={"If-None-Match": etag}).status_code == 401  # still authenticated
     assert client.get(url, headers={**other.headers, "If-None-Match": etag}).status_code == 404  # and authorized
-    assert client.get(url, params={"after": 1}, headers={**owner.headers, "If-None-Match": etag}).status_code == 200  # another query
+    assert (
+        client.get(url, params={"after": 1}, headers={**owner.headers, "If-None-Match": etag}).status_code == 200
+    )  # another query
     add_iteration(cid, 3)
     changed = client.get(url, headers={**owner.headers, "If-None-Match": etag})
-    assert changed.status_code == 200 and [m["iteration_index"] for m in changed.json()] == [1, 2, 3] and changed.headers["ETag"] != etag
+    assert (
+        changed.status_code == 200
+        and [m["iteration_index"] for m in changed.json()] == [1, 2, 3]
+        and changed.headers["ETag"] != etag
+    )
     curves = client.get(f"{API}/campaigns/{cid}/iterations/2/curves", headers=owner.headers)
-    assert client.get(f"{API}/campaigns/{cid}/iterations/2/curves", headers={**owner.headers, "If-None-Match": curves.headers["ETag"]}).status_code == 304
-    assert client.get(f"{API}/campaigns/{cid}/iterations/1/curves", headers={**owner.headers, "If-None-Match": curves.headers["ETag"]}).status_code == 200
+    assert (
+        client.get(
+            f"{API}/campaigns/{cid}/iterations/2/curves",
+            headers={**owner.headers, "If-None-Match": curves.headers["ETag"]},
+        ).status_code
+        == 304
+    )
+    assert (
+        client.get(
+            f"{API}/campaigns/{cid}/iterations/1/curves",
+            headers={**owner.headers, "If-None-Match": curves.headers["ETag"]},
+        ).status_code
+        == 200
+    )
 
 
 def test_the_polled_detail_is_a_304_until_anything_it_shows_changes(client, owner: Account, other: Account) -> None:
@@ -239,8 +335,12 @@ def test_the_polled_detail_is_a_304_until_anything_it_shows_changes(client, owne
     from alcove.models import StepName
 
     with session_scope() as s:
-        data = CampaignCreate(name="api-detail-etag", task_version_id=task_version_from_preset(s, owner.id, "head-headrest-2phase"),
-                              oracle_version_id=oracle_version_for(s, owner.id, "aux-penalty"), surrogate_config_version_id=surrogate_config_version_for(s, owner.id, None))
+        data = CampaignCreate(
+            name="api-detail-etag",
+            task_version_id=task_version_from_preset(s, owner.id, "head-headrest-2phase"),
+            oracle_version_id=oracle_version_for(s, owner.id, "aux-penalty"),
+            surrogate_config_version_id=surrogate_config_version_for(s, owner.id, None),
+        )
         cid = campaigns.create_campaign(s, owner.id, data).id
         campaigns.start(s, cid)  # the preliminary step is queued (no job is sent)
     url = f"{API}/campaigns/{cid}"
@@ -273,7 +373,13 @@ def test_the_polled_detail_is_a_304_until_anything_it_shows_changes(client, owne
         assert repo.extend_lease(s, step_id, "token", 60.0) == (True, False)
     assert changed()["current"]["steps"][0]["heartbeat_at"] > claimed["heartbeat_at"]
     with session_scope() as s:  # the step completes: iteration 1's training is queued
-        campaigns.complete_step(s, repo.get_campaign(s, cid), StepRef(0, StepName.preliminary), repo.get_step(s, cid, 0, "preliminary"), Outcome.succeeded)
+        campaigns.complete_step(
+            s,
+            repo.get_campaign(s, cid),
+            StepRef(0, StepName.preliminary),
+            repo.get_step(s, cid, 0, "preliminary"),
+            Outcome.succeeded,
+        )
     done = changed()
     assert done["campaign"]["current_iteration"] == 1 and done["current"]["steps"][0]["step"] == "train"
 
@@ -281,7 +387,13 @@ def test_the_polled_detail_is_a_304_until_anything_it_shows_changes(client, owne
     assert changed()["campaign"]["status"] in ("pausing", "paused")
 
     viewer = make_account("member", "detail-viewer")
-    r = client.post(f"{API}/shares", json={"object_type": "campaign", "object_id": cid, "email": viewer.email}, headers=owner.headers)
+    r = client.post(
+        f"{API}/shares",
+        json={"object_type": "campaign", "object_id": cid, "email": viewer.email},
+        headers=owner.headers,
+    )
     assert r.status_code == 201
-    shared = client.get(url, headers={**viewer.headers, "If-None-Match": seen[-1]})  # the owner's ETag: can_edit differs
+    shared = client.get(
+        url, headers={**viewer.headers, "If-None-Match": seen[-1]}
+    )  # the owner's ETag: can_edit differs
     assert shared.status_code == 200 and shared.json()["can_edit"] is False and shared.headers["ETag"] != seen[-1]

@@ -28,7 +28,9 @@ def campaign(owner: Account) -> int:
     from .synthetic import synthesize_campaign
 
     with session_scope() as s:
-        return synthesize_campaign(s, owner.id, iterations=2, name="api-connection-use", curve_samples=11, pool_samples=10, ocp_intervals=10).id
+        return synthesize_campaign(
+            s, owner.id, iterations=2, name="api-connection-use", curve_samples=11, pool_samples=10, ocp_intervals=10
+        ).id
 
 
 class CheckoutCounter:
@@ -47,7 +49,7 @@ class CheckoutCounter:
 
 
 @pytest.fixture
-def counter(app) -> Iterator[CheckoutCounter]:  # noqa: ANN001 - the app makes the engine
+def counter(app) -> Iterator[CheckoutCounter]:
     from alcove.db import get_engine
 
     engine = get_engine()
@@ -74,14 +76,28 @@ def cold() -> None:
 
 
 ROUTES = [
-    "/campaigns", "/campaigns/{cid}", "/campaigns/{cid}/metrics", "/campaigns/{cid}/metrics?after=1", "/campaigns/{cid}/iterations",
-    "/campaigns/{cid}/iterations/2/curves", "/campaigns/{cid}/iterations/2/trajectory", "/campaigns/{cid}/jobs", "/campaigns/{cid}/events",
-    "/campaigns/{cid}/pool-versions", "/campaigns/{cid}/model-versions", "/tasks", "/oracles", "/surrogate-configs", "/me",
+    "/campaigns",
+    "/campaigns/{cid}",
+    "/campaigns/{cid}/metrics",
+    "/campaigns/{cid}/metrics?after=1",
+    "/campaigns/{cid}/iterations",
+    "/campaigns/{cid}/iterations/2/curves",
+    "/campaigns/{cid}/iterations/2/trajectory",
+    "/campaigns/{cid}/jobs",
+    "/campaigns/{cid}/events",
+    "/campaigns/{cid}/pool-versions",
+    "/campaigns/{cid}/model-versions",
+    "/tasks",
+    "/oracles",
+    "/surrogate-configs",
+    "/me",
 ]
 
 
 @pytest.mark.parametrize("path", ROUTES)
-def test_a_cold_read_holds_one_connection_at_a_time(client, owner: Account, campaign: int, counter: CheckoutCounter, path: str) -> None:
+def test_a_cold_read_holds_one_connection_at_a_time(
+    client, owner: Account, campaign: int, counter: CheckoutCounter, path: str
+) -> None:
     cold()
     r = client.get(API + path.format(cid=campaign), headers=owner.headers)
     assert r.status_code == 200, r.text
@@ -97,7 +113,9 @@ def test_a_cold_write_holds_one_connection_at_a_time(client, owner: Account, cou
     assert (counter.most, counter.out) == (1, 0)
 
 
-def test_reading_a_stale_preview_holds_one_connection_at_a_time(client, owner: Account, counter: CheckoutCounter) -> None:
+def test_reading_a_stale_preview_holds_one_connection_at_a_time(
+    client, owner: Account, counter: CheckoutCounter
+) -> None:
     """The read that marks a stale preview failed writes in its own transaction: the GET's own
     read transaction has ended before it."""
     from datetime import timedelta
@@ -106,7 +124,9 @@ def test_reading_a_stale_preview_holds_one_connection_at_a_time(client, owner: A
     from alcove.models import Preview, utcnow
     from alcove.previews.service import STALE_AFTER
 
-    task = client.post(f"{API}/tasks", json={"name": "connection-use-preview", "spec": small_task_spec()}, headers=owner.headers).json()
+    task = client.post(
+        f"{API}/tasks", json={"name": "connection-use-preview", "spec": small_task_spec()}, headers=owner.headers
+    ).json()
     preview = client.post(f"{API}/tasks/{task['id']}/previews", headers=owner.headers).json()["id"]
     old = utcnow() - STALE_AFTER - timedelta(seconds=5)
     transaction(lambda s: s.execute(sa.update(Preview).where(Preview.id == preview).values(created_at=old)))

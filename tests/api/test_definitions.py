@@ -10,7 +10,7 @@ from .helpers import Account, small_task_spec, unique
 API = "/api/v1"
 
 
-def create_task(client, who: Account, **over) -> dict:  # noqa: ANN001
+def create_task(client, who: Account, **over) -> dict:
     body = {"name": unique("task"), "description": "", "spec": small_task_spec(), **over}
     r = client.post(f"{API}/tasks", json=body, headers=who.headers)
     assert r.status_code == 201, r.text
@@ -24,7 +24,9 @@ def lock_latest_version(task_id: int) -> None:
 
     with session_scope() as s:
         d = s.get(TaskDefinition, task_id)
-        v = s.scalar(sa.select(TaskVersion).where(TaskVersion.definition_id == task_id, TaskVersion.version == d.latest_version))
+        v = s.scalar(
+            sa.select(TaskVersion).where(TaskVersion.definition_id == task_id, TaskVersion.version == d.latest_version)
+        )
         v.locked_at = utcnow()
 
 
@@ -40,7 +42,10 @@ def test_task_edit_is_in_place_until_used_then_a_new_version(client, owner: Acco
     r = client.put(f"{API}/tasks/{task['id']}", json={"spec": spec, "note": "shorter approach"}, headers=owner.headers)
     assert r.status_code == 200 and r.json()["version"] == 2 and not r.json()["version_locked"]
     versions = client.get(f"{API}/tasks/{task['id']}/versions", headers=owner.headers).json()
-    assert [(v["version"], v["locked"], v["spec"]["phases"][0]["duration"]) for v in versions] == [(1, True, 0.8), (2, False, 0.7)]
+    assert [(v["version"], v["locked"], v["spec"]["phases"][0]["duration"]) for v in versions] == [
+        (1, True, 0.8),
+        (2, False, 0.7),
+    ]
     # the same content again: no new version
     r = client.put(f"{API}/tasks/{task['id']}", json={"spec": spec, "name": "renamed"}, headers=owner.headers)
     assert r.json()["version"] == 2 and r.json()["name"] == "renamed"
@@ -77,7 +82,11 @@ def test_presets_are_listed_and_copied_and_schemas_served(client, owner: Account
     presets = client.get(f"{API}/tasks/presets", headers=owner.headers).json()
     assert [p["key"] for p in presets] == ["head-headrest-2phase"]
     copy = client.post(f"{API}/tasks/presets/head-headrest-2phase/copy", json={"name": "mine"}, headers=owner.headers)
-    assert copy.status_code == 201 and copy.json()["preset_key"] == "head-headrest-2phase" and copy.json()["spec"] == presets[0]["spec"]
+    assert (
+        copy.status_code == 201
+        and copy.json()["preset_key"] == "head-headrest-2phase"
+        and copy.json()["spec"] == presets[0]["spec"]
+    )
     assert client.post(f"{API}/tasks/presets/nope/copy", headers=owner.headers).status_code == 404
     schema = client.get(f"{API}/tasks/schema", headers=owner.headers).json()
     assert "phases" in schema["properties"]
@@ -91,17 +100,25 @@ def test_presets_are_listed_and_copied_and_schemas_served(client, owner: Account
 
 
 def test_oracle_params_are_validated_per_type(client, owner: Account) -> None:
-    r = client.post(f"{API}/oracles", json={"name": "aux", "type": "aux-penalty", "params": {"k": 1e5}}, headers=owner.headers)
+    r = client.post(
+        f"{API}/oracles", json={"name": "aux", "type": "aux-penalty", "params": {"k": 1e5}}, headers=owner.headers
+    )
     assert r.status_code == 201 and r.json()["params"]["k"] == 1e5 and r.json()["params"]["d0"] == 100.0
     oid = r.json()["id"]
     bad = client.put(f"{API}/oracles/{oid}", json={"params": {"k": -1}}, headers=owner.headers)
     assert bad.status_code == 422 and bad.json()["detail"][0]["field"] == "params.k"
     unknown = client.post(f"{API}/oracles", json={"name": "x", "type": "rm -rf /", "params": {}}, headers=owner.headers)
     assert unknown.status_code == 422 and unknown.json()["detail"][0]["field"] == "type"
-    extra = client.post(f"{API}/oracles/validate", json={"type": "fe-headrest-2d", "params": {"frction": 0.3}}, headers=owner.headers).json()
+    extra = client.post(
+        f"{API}/oracles/validate", json={"type": "fe-headrest-2d", "params": {"frction": 0.3}}, headers=owner.headers
+    ).json()
     assert not extra["valid"] and extra["errors"][0]["field"] == "params.frction"
     switched = client.put(f"{API}/oracles/{oid}", json={"type": "fe-headrest-2d"}, headers=owner.headers)
-    assert switched.status_code == 200 and switched.json()["type"] == "fe-headrest-2d" and switched.json()["params"]["friction"] == 0.4
+    assert (
+        switched.status_code == 200
+        and switched.json()["type"] == "fe-headrest-2d"
+        and switched.json()["params"]["friction"] == 0.4
+    )
 
 
 def test_command_catalogue_is_admin_managed_members_pick_by_name(client, owner: Account, admin: Account) -> None:
@@ -110,15 +127,28 @@ def test_command_catalogue_is_admin_managed_members_pick_by_name(client, owner: 
     assert client.post(f"{API}/admin/command-oracles", json=entry, headers=owner.headers).status_code == 403
     r = client.post(f"{API}/admin/command-oracles", json=entry, headers=admin.headers)
     assert r.status_code == 201, r.text
-    assert client.post(f"{API}/admin/command-oracles", json={**entry, "name": "aux-penalty"}, headers=admin.headers).status_code == 422
+    assert (
+        client.post(
+            f"{API}/admin/command-oracles", json={**entry, "name": "aux-penalty"}, headers=admin.headers
+        ).status_code
+        == 422
+    )
     types = {t["name"]: t for t in client.get(f"{API}/oracles/types", headers=owner.headers).json()}
     assert types[name]["kind"] == "command" and "dt_out" in types[name]["params_schema"]["properties"]
-    made = client.post(f"{API}/oracles", json={"name": "ext", "type": name, "params": {"dt_out": 0.01}}, headers=owner.headers)
+    made = client.post(
+        f"{API}/oracles", json={"name": "ext", "type": name, "params": {"dt_out": 0.01}}, headers=owner.headers
+    )
     assert made.status_code == 201 and made.json()["params"]["dt_out"] == 0.01
     # members cannot smuggle a command line in: unknown parameters are refused
-    smuggle = client.post(f"{API}/oracles", json={"name": "ext", "type": name, "params": {"argv": ["sh", "-c", "x"]}}, headers=owner.headers)
+    smuggle = client.post(
+        f"{API}/oracles",
+        json={"name": "ext", "type": name, "params": {"argv": ["sh", "-c", "x"]}},
+        headers=owner.headers,
+    )
     assert smuggle.status_code == 422 and smuggle.json()["detail"][0]["field"] == "params.argv"
-    disabled = client.put(f"{API}/admin/command-oracles/{r.json()['id']}", json={**entry, "enabled": False}, headers=admin.headers)
+    disabled = client.put(
+        f"{API}/admin/command-oracles/{r.json()['id']}", json={**entry, "enabled": False}, headers=admin.headers
+    )
     assert disabled.status_code == 200
     assert name not in {t["name"] for t in client.get(f"{API}/oracles/types", headers=owner.headers).json()}
 
@@ -128,7 +158,11 @@ def test_a_duplicate_command_oracle_name_is_refused_and_nothing_changes(client, 
     entry = {"name": name, "argv": ["/bin/true"], "description": "first", "timeout_s": 60}
     assert client.post(f"{API}/admin/command-oracles", json=entry, headers=admin.headers).status_code == 201
     before = client.get(f"{API}/admin/command-oracles", headers=admin.headers).json()
-    r = client.post(f"{API}/admin/command-oracles", json={**entry, "argv": ["/bin/false"], "description": "second", "timeout_s": 5}, headers=admin.headers)
+    r = client.post(
+        f"{API}/admin/command-oracles",
+        json={**entry, "argv": ["/bin/false"], "description": "second", "timeout_s": 5},
+        headers=admin.headers,
+    )
     assert r.status_code == 409 and r.json()["detail"] == f"name: a command oracle named {name!r} exists"
     assert client.get(f"{API}/admin/command-oracles", headers=admin.headers).json() == before
     assert [(e["argv"], e["description"]) for e in before if e["name"] == name] == [(["/bin/true"], "first")]
@@ -138,18 +172,37 @@ def test_others_objects_are_404_until_shared(client, owner: Account, other: Acco
     task = create_task(client, owner)
     url = f"{API}/tasks/{task['id']}"
     assert client.get(url, headers=other.headers).status_code == 404
-    assert task["id"] not in {t["id"] for t in client.get(f"{API}/tasks", params={"limit": 1000}, headers=other.headers).json()}
-    share = client.post(f"{API}/shares", json={"object_type": "task", "object_id": task["id"], "email": other.email}, headers=owner.headers)
+    assert task["id"] not in {
+        t["id"] for t in client.get(f"{API}/tasks", params={"limit": 1000}, headers=other.headers).json()
+    }
+    share = client.post(
+        f"{API}/shares",
+        json={"object_type": "task", "object_id": task["id"], "email": other.email},
+        headers=owner.headers,
+    )
     assert share.status_code == 201, share.text
     got = client.get(url, headers=other.headers)
     assert got.status_code == 200 and not got.json()["can_edit"]
     assert client.put(url, json={"name": "hijack"}, headers=other.headers).status_code == 403
     assert client.delete(url, headers=other.headers).status_code == 403
     # the grantee cannot re-share
-    assert client.post(f"{API}/shares", json={"object_type": "task", "object_id": task["id"], "email": other.email}, headers=other.headers).status_code == 403
-    client.post(f"{API}/shares", json={"object_type": "task", "object_id": task["id"], "email": other.email, "permission": "edit"}, headers=owner.headers)
+    assert (
+        client.post(
+            f"{API}/shares",
+            json={"object_type": "task", "object_id": task["id"], "email": other.email},
+            headers=other.headers,
+        ).status_code
+        == 403
+    )
+    client.post(
+        f"{API}/shares",
+        json={"object_type": "task", "object_id": task["id"], "email": other.email, "permission": "edit"},
+        headers=owner.headers,
+    )
     assert client.put(url, json={"name": "shared edit"}, headers=other.headers).status_code == 200
-    listed = client.get(f"{API}/shares", params={"object_type": "task", "object_id": task["id"]}, headers=owner.headers).json()
+    listed = client.get(
+        f"{API}/shares", params={"object_type": "task", "object_id": task["id"]}, headers=owner.headers
+    ).json()
     assert [(s["email"], s["permission"]) for s in listed] == [(other.email, "edit")]
     assert client.delete(f"{API}/shares/{listed[0]['id']}", headers=owner.headers).status_code == 204
     assert client.get(url, headers=other.headers).status_code == 404

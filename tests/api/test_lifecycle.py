@@ -24,44 +24,62 @@ API = "/api/v1"
 
 
 @pytest.fixture
-def live(tmp_path: Path, pg_url: str, redis_url: str, api_settings: None, monkeypatch: pytest.MonkeyPatch):  # noqa: ANN201
+def live(tmp_path: Path, pg_url: str, redis_url: str, api_settings: None, monkeypatch: pytest.MonkeyPatch):
     """The API (in this process) and a worker process sharing PostgreSQL and Redis."""
-    from tests.integration.procs import alcove_env, running, unique, worker_ready, wait_until
-
     from alcove.api import create_app
     from alcove.jobs import reset_sender
     from alcove.settings import get_settings
+    from tests.integration.procs import alcove_env, running, unique, wait_until, worker_ready
 
     prefix = unique("alcove-api") + ":"
-    settings = {"database_url": pg_url, "broker_url": redis_url, "broker_key_prefix": prefix, "data_dir": str(tmp_path / "data")}
+    settings = {
+        "database_url": pg_url,
+        "broker_url": redis_url,
+        "broker_key_prefix": prefix,
+        "data_dir": str(tmp_path / "data"),
+    }
     for k, v in settings.items():
         monkeypatch.setenv(f"ALCOVE_{k.upper()}", v)
     get_settings.cache_clear()
     reset_sender()
     env = alcove_env(**settings)
-    with running(["worker", "--queues", "ocp,oracle,train,default", "--concurrency", "2", "--name", unique("api-life")], env, tmp_path / "worker.log") as worker:
+    with running(
+        ["worker", "--queues", "ocp,oracle,train,default", "--concurrency", "2", "--name", unique("api-life")],
+        env,
+        tmp_path / "worker.log",
+    ) as worker:
         wait_until(lambda: worker_ready(worker), 90, "worker ready", worker)
         yield TestClient(create_app(get_settings().model_copy(update={"static_dir": tmp_path}))), worker
     get_settings.cache_clear()
     reset_sender()
 
 
-def test_full_campaign_lifecycle_over_http(live) -> None:  # noqa: ANN001
+def test_full_campaign_lifecycle_over_http(live) -> None:
     client, worker = live
     me = make_account("member", "life")
     h = me.headers
 
-    def ok(r, code: int = 200):  # noqa: ANN001, ANN202
+    def ok(r, code: int = 200):
         assert r.status_code == code, (r.status_code, r.text[:2000])
         return r.json() if "json" in r.headers.get("content-type", "") else r
 
     task = ok(client.post(f"{API}/tasks/presets/head-headrest-2phase/copy", json={"name": "poc"}, headers=h), 201)
-    oracle = ok(client.post(f"{API}/oracles", json={"name": "aux", "type": "aux-penalty", "params": {}}, headers=h), 201)
-    surrogate = ok(client.post(f"{API}/surrogate-configs", json={"name": "quick", "spec": {"max_epochs": 60}}, headers=h), 201)
+    oracle = ok(
+        client.post(f"{API}/oracles", json={"name": "aux", "type": "aux-penalty", "params": {}}, headers=h), 201
+    )
+    surrogate = ok(
+        client.post(f"{API}/surrogate-configs", json={"name": "quick", "spec": {"max_epochs": 60}}, headers=h), 201
+    )
     body = {
-        "name": "lifecycle", "task_id": task["id"], "oracle_id": oracle["id"], "surrogate_config_id": surrogate["id"], "seed": 3,
-        "preliminary": {"samples": 400, "chunks": 4}, "settings": {"ocp_intervals": 20, "replay_dt": 0.01},
-        "stopping": {"max_iterations": 2}, "start": True,
+        "name": "lifecycle",
+        "task_id": task["id"],
+        "oracle_id": oracle["id"],
+        "surrogate_config_id": surrogate["id"],
+        "seed": 3,
+        "preliminary": {"samples": 400, "chunks": 4},
+        "settings": {"ocp_intervals": 20, "replay_dt": 0.01},
+        "stopping": {"max_iterations": 2},
+        "start": True,
     }
     campaign = ok(client.post(f"{API}/campaigns", json=body, headers=h), 201)
     cid = campaign["id"]
@@ -73,7 +91,9 @@ def test_full_campaign_lifecycle_over_http(live) -> None:  # noqa: ANN001
     deadline = time.monotonic() + 600
     status = None
     while time.monotonic() < deadline:
-        fresh = ok(client.get(f"{API}/campaigns/{cid}/metrics", params={} if after is None else {"after": after}, headers=h))
+        fresh = ok(
+            client.get(f"{API}/campaigns/{cid}/metrics", params={} if after is None else {"after": after}, headers=h)
+        )
         assert all(after is None or m["iteration_index"] > after for m in fresh)
         for m in fresh:
             seen[m["iteration_index"]] = m
@@ -105,8 +125,17 @@ def test_full_campaign_lifecycle_over_http(live) -> None:  # noqa: ANN001
     # nodes, on the 0.01 s grid) is the solution itself
     traj = ok(client.get(f"{API}/campaigns/{cid}/iterations/2/trajectory", headers=h))
     t, q, tau_ocp = np.array(traj["t"]), np.array(traj["q"]), np.array(traj["tau"])
-    assert [p["name"] for p in traj["phases"]] == ["approach", "rest"] and len(t) == 2 * 20 + 1 and q.shape == tau_ocp.shape == (41, 1)
-    assert t[-1] - t[0] == pytest.approx(traj["duration"]) == pytest.approx(sum(p["duration"] for p in traj["phases"])) == pytest.approx(2.0)
+    assert (
+        [p["name"] for p in traj["phases"]] == ["approach", "rest"]
+        and len(t) == 2 * 20 + 1
+        and q.shape == tau_ocp.shape == (41, 1)
+    )
+    assert (
+        t[-1] - t[0]
+        == pytest.approx(traj["duration"])
+        == pytest.approx(sum(p["duration"] for p in traj["phases"]))
+        == pytest.approx(2.0)
+    )
     assert traj["replay_phases"] == 1 and traj["replay_t_end"] == pytest.approx(1.0) == pytest.approx(curves["t"][-1])
     assert traj["solver"]["converged"] and traj["solver"]["iterations"] > 0 and np.isfinite(traj["solver"]["cost"])
     ct, cq = np.array(curves["t"]), np.array(curves["q"])
@@ -133,7 +162,9 @@ def test_full_campaign_lifecycle_over_http(live) -> None:  # noqa: ANN001
     csv = client.get(f"{API}/campaigns/{cid}/pool-versions/2/download", params={"format": "csv"}, headers=h)
     lines = csv.text.strip().splitlines()
     assert len(lines) - 1 == pools[2]["n_samples"] and lines[0].startswith("dataset_id,")
-    np.testing.assert_allclose([float(x.split(",")[table.column_names.index("fx")]) for x in lines[1:]], table.column("fx").to_numpy())
+    np.testing.assert_allclose(
+        [float(x.split(",")[table.column_names.index("fx")]) for x in lines[1:]], table.column("fx").to_numpy()
+    )
 
     # model versions: JSON artifact and the zip (TorchScript) load to the same model
     models = ok(client.get(f"{API}/campaigns/{cid}/model-versions", headers=h))
@@ -158,6 +189,10 @@ def test_full_campaign_lifecycle_over_http(live) -> None:  # noqa: ANN001
 
     export = client.get(f"{API}/campaigns/{cid}/export", params={"pool_format": "csv"}, headers=h)
     names = zipfile.ZipFile(io.BytesIO(export.content)).namelist()
-    assert f"campaign-{cid}/metrics.csv" in names and f"campaign-{cid}/pool/version-0002.csv" in names and f"campaign-{cid}/models/model-0002.zip" in names
+    assert (
+        f"campaign-{cid}/metrics.csv" in names
+        and f"campaign-{cid}/pool/version-0002.csv" in names
+        and f"campaign-{cid}/models/model-0002.zip" in names
+    )
     meta = json.loads(zipfile.ZipFile(io.BytesIO(export.content)).read(f"campaign-{cid}/campaign.json"))
     assert meta["campaign"]["id"] == cid

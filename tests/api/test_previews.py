@@ -23,24 +23,32 @@ API = "/api/v1"
 EXAMPLES = Path(__file__).resolve().parents[2] / "examples" / "command-oracle"
 
 
-def _task_and_oracle(client, who: Account) -> tuple[int, int]:  # noqa: ANN001
+def _task_and_oracle(client, who: Account) -> tuple[int, int]:
     task = client.post(f"{API}/tasks", json={"name": "pv", "spec": small_task_spec()}, headers=who.headers)
     oracle = client.post(f"{API}/oracles/presets/aux-penalty/copy", headers=who.headers)
     assert task.status_code == 201 and oracle.status_code == 201, (task.text, oracle.text)
     return task.json()["id"], oracle.json()["id"]
 
 
-def test_previews_are_accepted_private_validated_and_limited(client) -> None:  # noqa: ANN001
+def test_previews_are_accepted_private_validated_and_limited(client) -> None:
     me, someone = make_account("member", "pv"), make_account("member", "pv-other")
     task_id, oracle_id = _task_and_oracle(client, me)
 
     r = client.post(f"{API}/tasks/{task_id}/previews", json={"intervals": 6}, headers=me.headers)
     assert r.status_code == 202, r.text
     p = r.json()
-    assert p["status"] == "pending" and p["kind"] == "task" and p["result"] is None and p["options"] == {"intervals": 6, "intervals_per_phase": [6, 6]} and not p["draft"]
+    assert (
+        p["status"] == "pending"
+        and p["kind"] == "task"
+        and p["result"] is None
+        and p["options"] == {"intervals": 6, "intervals_per_phase": [6, 6]}
+        and not p["draft"]
+    )
     assert client.get(f"{API}/previews/{p['id']}", headers=me.headers).json()["status"] == "pending"
     assert client.get(f"{API}/previews/{p['id']}", headers=someone.headers).status_code == 404
-    assert client.post(f"{API}/tasks/{task_id}/previews", headers=someone.headers).status_code == 404  # not shared with them
+    assert (
+        client.post(f"{API}/tasks/{task_id}/previews", headers=someone.headers).status_code == 404
+    )  # not shared with them
     assert client.post(f"{API}/oracles/{oracle_id}/previews", headers=someone.headers).status_code == 404
 
     bad = small_task_spec()
@@ -64,14 +72,16 @@ def test_previews_are_accepted_private_validated_and_limited(client) -> None:  #
     assert client.get(f"{API}/previews", headers=someone.headers).json() == []
 
 
-def test_the_jobs_compute_the_science_and_ignore_duplicates(client) -> None:  # noqa: ANN001
+def test_the_jobs_compute_the_science_and_ignore_duplicates(client) -> None:
     from alcove.db import session_scope
     from alcove.models import Preview
     from alcove.previews.service import run_preview
 
     me = make_account("member", "pv-job")
     task_id, oracle_id = _task_and_oracle(client, me)
-    tp = client.post(f"{API}/tasks/{task_id}/previews", headers=me.headers).json()["id"]  # the task's own grid: 8 per phase
+    tp = client.post(f"{API}/tasks/{task_id}/previews", headers=me.headers).json()[
+        "id"
+    ]  # the task's own grid: 8 per phase
     op = client.post(f"{API}/oracles/{oracle_id}/previews", json={"dt": 0.01}, headers=me.headers).json()["id"]
     assert run_preview(tp, "test@host") == "succeeded"
     assert run_preview(tp, "test@host") == "skipped"  # a redelivered message does nothing
@@ -92,12 +102,16 @@ def test_the_jobs_compute_the_science_and_ignore_duplicates(client) -> None:  # 
     force = np.linalg.norm(np.array([oracle["fx"], oracle["fy"], oracle["fz"]]).T, axis=1)
     first = oracle["diagnostics"]["first_contact_t"]
     t = np.array(oracle["t"])
-    assert np.all(force[t < first - 1e-9] == 0.0) and force.max() == pytest.approx(oracle["peak_force_n"]) and force.max() > 0
+    assert (
+        np.all(force[t < first - 1e-9] == 0.0)
+        and force.max() == pytest.approx(oracle["peak_force_n"])
+        and force.max() > 0
+    )
     with session_scope() as s:
         assert s.get(Preview, tp).attempts == 1
 
 
-def test_a_task_preview_solves_on_the_tasks_own_grid_capped(client) -> None:  # noqa: ANN001
+def test_a_task_preview_solves_on_the_tasks_own_grid_capped(client) -> None:
     """Without ``intervals`` each phase keeps its own intervals (at most the preview cap);
     the solve's grid has the phase boundary on a node and says which grid it used."""
     from alcove.previews.service import MAX_PREVIEW_INTERVALS, run_preview
@@ -111,22 +125,34 @@ def test_a_task_preview_solves_on_the_tasks_own_grid_capped(client) -> None:  # 
     assert run_preview(p["id"], "test@host") == "succeeded"
     res = client.get(f"{API}/previews/{p['id']}", headers=me.headers).json()["result"]
     t = np.array(res["t"])
-    assert res["intervals"] == 10 and res["intervals_per_phase"] == [6, 4] and len(t) == 11 and "the task's own grid" in res["grid"]
-    assert t[6] == pytest.approx(spec["phases"][0]["duration"]) and t[-1] == pytest.approx(spec["phases"][0]["duration"] + spec["phases"][1]["duration"])
+    assert (
+        res["intervals"] == 10
+        and res["intervals_per_phase"] == [6, 4]
+        and len(t) == 11
+        and "the task's own grid" in res["grid"]
+    )
+    assert t[6] == pytest.approx(spec["phases"][0]["duration"]) and t[-1] == pytest.approx(
+        spec["phases"][0]["duration"] + spec["phases"][1]["duration"]
+    )
     # a finer task than a preview may solve is capped (said in the summary); "intervals" still overrides
     big = small_task_spec()
     big["phases"][1]["intervals"] = MAX_PREVIEW_INTERVALS + 50
     capped = client.post(f"{API}/tasks/{task_id}/previews", json={"spec": big}, headers=me.headers).json()
     assert capped["options"]["intervals_per_phase"] == [8, MAX_PREVIEW_INTERVALS]
-    asked = client.post(f"{API}/tasks/{task_id}/previews", json={"spec": big, "intervals": 5}, headers=me.headers).json()
+    asked = client.post(
+        f"{API}/tasks/{task_id}/previews", json={"spec": big, "intervals": 5}, headers=me.headers
+    ).json()
     assert asked["options"] == {"intervals": 5, "intervals_per_phase": [5, 5]}
     from alcove.previews.service import grid_summary
 
-    assert grid_summary(big, [8, MAX_PREVIEW_INTERVALS], None) == f"8 + {MAX_PREVIEW_INTERVALS} intervals (the task's 8 + {MAX_PREVIEW_INTERVALS + 50}, capped at {MAX_PREVIEW_INTERVALS} per phase for a preview)"
+    assert (
+        grid_summary(big, [8, MAX_PREVIEW_INTERVALS], None)
+        == f"8 + {MAX_PREVIEW_INTERVALS} intervals (the task's 8 + {MAX_PREVIEW_INTERVALS + 50}, capped at {MAX_PREVIEW_INTERVALS} per phase for a preview)"
+    )
     assert grid_summary(big, [5, 5], 5).startswith("5 + 5 intervals (5 per phase, as asked")
 
 
-def test_a_preview_no_worker_takes_fails_with_the_reason_and_frees_its_slot(client) -> None:  # noqa: ANN001
+def test_a_preview_no_worker_takes_fails_with_the_reason_and_frees_its_slot(client) -> None:
     from datetime import timedelta
 
     import sqlalchemy as sa
@@ -143,13 +169,23 @@ def test_a_preview_no_worker_takes_fails_with_the_reason_and_frees_its_slot(clie
     old = utcnow() - STALE_AFTER - timedelta(seconds=5)
     # the first waited too long in the queue; the oracle one was taken by a worker that died
     transaction(lambda s: s.execute(sa.update(Preview).where(Preview.id == ids[0]).values(created_at=old)))
-    transaction(lambda s: s.execute(sa.update(Preview).where(Preview.id == ids[2]).values(status="running", started_at=old, attempts=1)))
+    transaction(
+        lambda s: s.execute(
+            sa.update(Preview).where(Preview.id == ids[2]).values(status="running", started_at=old, attempts=1)
+        )
+    )
 
     stale = client.get(f"{API}/previews/{ids[0]}", headers=me.headers).json()
     assert stale["status"] == "failed" and "no worker took it" in stale["error"] and "'ocp'" in stale["error"], stale
-    assert client.get(f"{API}/previews/{ids[0]}", headers=me.headers).json()["status"] == "failed"  # stored, not only answered
+    assert (
+        client.get(f"{API}/previews/{ids[0]}", headers=me.headers).json()["status"] == "failed"
+    )  # stored, not only answered
     listed = {x["id"]: x for x in client.get(f"{API}/previews", headers=me.headers).json()}
-    assert listed[ids[2]]["status"] == "failed" and "no worker finished it" in listed[ids[2]]["error"] and "'oracle'" in listed[ids[2]]["error"]
+    assert (
+        listed[ids[2]]["status"] == "failed"
+        and "no worker finished it" in listed[ids[2]]["error"]
+        and "'oracle'" in listed[ids[2]]["error"]
+    )
     assert listed[ids[1]]["status"] == "pending"  # a fresh one is left alone
     assert run_preview(ids[0], "late@host") == "skipped"  # a late delivery does not revive it
     assert client.post(f"{API}/tasks/{task_id}/previews", headers=me.headers).status_code == 202
@@ -159,20 +195,30 @@ def test_a_preview_no_worker_takes_fails_with_the_reason_and_frees_its_slot(clie
 
 
 @pytest.fixture
-def live(tmp_path: Path, pg_url: str, redis_url: str, api_settings: None, monkeypatch: pytest.MonkeyPatch):  # noqa: ANN201
+def live(tmp_path: Path, pg_url: str, redis_url: str, api_settings: None, monkeypatch: pytest.MonkeyPatch):
     from fastapi.testclient import TestClient
 
     from alcove.api import create_app
     from alcove.jobs import reset_sender
     from alcove.settings import get_settings
-    from tests.integration.procs import alcove_env, running, unique as unique_name, wait_until, worker_ready
+    from tests.integration.procs import alcove_env, running, wait_until, worker_ready
+    from tests.integration.procs import unique as unique_name
 
-    settings = {"database_url": pg_url, "broker_url": redis_url, "broker_key_prefix": unique_name("alcove-pv") + ":", "data_dir": str(tmp_path / "data")}
+    settings = {
+        "database_url": pg_url,
+        "broker_url": redis_url,
+        "broker_key_prefix": unique_name("alcove-pv") + ":",
+        "data_dir": str(tmp_path / "data"),
+    }
     for k, v in settings.items():
         monkeypatch.setenv(f"ALCOVE_{k.upper()}", v)
     get_settings.cache_clear()
     reset_sender()
-    with running(["worker", "--queues", "ocp,oracle", "--concurrency", "1", "--name", unique_name("pv")], alcove_env(**settings), tmp_path / "worker.log") as worker:
+    with running(
+        ["worker", "--queues", "ocp,oracle", "--concurrency", "1", "--name", unique_name("pv")],
+        alcove_env(**settings),
+        tmp_path / "worker.log",
+    ) as worker:
         wait_until(lambda: worker_ready(worker), 90, "worker ready", worker)
         yield TestClient(create_app(get_settings().model_copy(update={"static_dir": tmp_path}))), worker
     get_settings.cache_clear()
@@ -181,12 +227,16 @@ def live(tmp_path: Path, pg_url: str, redis_url: str, api_settings: None, monkey
 
 @pytest.mark.integration
 @pytest.mark.slow
-def test_previews_run_on_a_worker(live) -> None:  # noqa: ANN001
+def test_previews_run_on_a_worker(live) -> None:
     client, worker = live
     me, admin = make_account("member", "pv-live"), make_account("admin", "pv-admin")
     task_id, oracle_id = _task_and_oracle(client, me)
     name = unique("replay")
-    entry = {"name": name, "argv": [sys.executable, str(EXAMPLES / "replay_with_alcove.py"), "aux-penalty"], "timeout_s": 120}
+    entry = {
+        "name": name,
+        "argv": [sys.executable, str(EXAMPLES / "replay_with_alcove.py"), "aux-penalty"],
+        "timeout_s": 120,
+    }
     assert client.post(f"{API}/admin/command-oracles", json=entry, headers=admin.headers).status_code == 201
     command = client.post(f"{API}/oracles", json={"name": "ext", "type": name, "params": {}}, headers=me.headers)
     assert command.status_code == 201, command.text
@@ -194,7 +244,9 @@ def test_previews_run_on_a_worker(live) -> None:  # noqa: ANN001
     ids = [
         client.post(f"{API}/tasks/{task_id}/previews", json={"intervals": 8}, headers=me.headers).json()["id"],
         client.post(f"{API}/oracles/{oracle_id}/previews", json={"dt": 0.01}, headers=me.headers).json()["id"],
-        client.post(f"{API}/oracles/{command.json()['id']}/previews", json={"dt": 0.01}, headers=me.headers).json()["id"],
+        client.post(f"{API}/oracles/{command.json()['id']}/previews", json={"dt": 0.01}, headers=me.headers).json()[
+            "id"
+        ],
     ]
     deadline, done = time.monotonic() + 240, {}
     while time.monotonic() < deadline and len(done) < len(ids):
@@ -208,4 +260,6 @@ def test_previews_run_on_a_worker(live) -> None:  # noqa: ANN001
     assert all(p["status"] == "succeeded" for p in done.values()), [(p["status"], p["error"]) for p in done.values()]
     assert task["result"]["converged"] and task["worker_name"] != "test@host"
     np.testing.assert_allclose(external["result"]["t"], builtin["result"]["t"], atol=1e-9)
-    np.testing.assert_allclose(external["result"]["fx"], builtin["result"]["fx"], rtol=1e-4, atol=1e-6 * builtin["result"]["peak_force_n"])
+    np.testing.assert_allclose(
+        external["result"]["fx"], builtin["result"]["fx"], rtol=1e-4, atol=1e-6 * builtin["result"]["peak_force_n"]
+    )

@@ -12,16 +12,29 @@ import pytest
 import schemathesis
 from hypothesis import HealthCheck, Phase, given, settings
 from schemathesis.checks import not_a_server_error
-from schemathesis.specs.openapi.checks import content_type_conformance, response_schema_conformance, status_code_conformance
+from schemathesis.specs.openapi.checks import (
+    content_type_conformance,
+    response_schema_conformance,
+    status_code_conformance,
+)
 
 from .helpers import make_account, small_task_spec
 
 MAX_EXAMPLES = 6
-EXCLUDED = {"readiness", "logout", "revoke_token", "stream_campaign_events", "download_model_artifact", "export_campaign", "update_me", "login"}
+EXCLUDED = {
+    "readiness",
+    "logout",
+    "revoke_token",
+    "stream_campaign_events",
+    "download_model_artifact",
+    "export_campaign",
+    "update_me",
+    "login",
+}
 
 
 @pytest.fixture(scope="module")
-def fuzz_account(client):  # noqa: ANN001, ANN201
+def fuzz_account(client):
     who = make_account("member", "fuzz")
     h = who.headers
     task = client.post("/api/v1/tasks", json={"name": "fuzz", "spec": small_task_spec()}, headers=h).json()
@@ -30,7 +43,7 @@ def fuzz_account(client):  # noqa: ANN001, ANN201
     return who
 
 
-def test_no_server_errors_and_responses_match_the_schema(app, fuzz_account) -> None:  # noqa: ANN001
+def test_no_server_errors_and_responses_match_the_schema(app, fuzz_account) -> None:
     schema = schemathesis.openapi.from_asgi("/api/v1/openapi.json", app)
     checks = [not_a_server_error, status_code_conformance, content_type_conformance, response_schema_conformance]
     failures: dict[str, str] = {}
@@ -42,13 +55,20 @@ def test_no_server_errors_and_responses_match_the_schema(app, fuzz_account) -> N
         ran += 1
 
         @given(case=operation.as_strategy())
-        @settings(max_examples=MAX_EXAMPLES, deadline=None, derandomize=True, database=None, phases=[Phase.explicit, Phase.generate], suppress_health_check=list(HealthCheck))
-        def run(case) -> None:  # noqa: ANN001
+        @settings(
+            max_examples=MAX_EXAMPLES,
+            deadline=None,
+            derandomize=True,
+            database=None,
+            phases=[Phase.explicit, Phase.generate],
+            suppress_health_check=list(HealthCheck),
+        )
+        def run(case) -> None:
             case.call_and_validate(headers=fuzz_account.headers, checks=checks)
 
         try:
             run()
-        except (Exception, BaseExceptionGroup) as err:  # noqa: BLE001 - collect every operation's failure
+        except (Exception, BaseExceptionGroup) as err:
             failures[operation.label] = str(err)[:1500]
     assert ran >= 60
     assert not failures, "\n\n".join(f"{k}:\n{v}" for k, v in failures.items())

@@ -19,7 +19,7 @@ API = "/api/v1"
 
 
 @pytest.fixture
-def sqlite_app(tmp_path: Path, monkeypatch: pytest.MonkeyPatch):  # noqa: ANN201
+def sqlite_app(tmp_path: Path, monkeypatch: pytest.MonkeyPatch):
     from alcove.db import migrate
     from alcove.settings import get_settings
 
@@ -48,7 +48,7 @@ def _account(url: str) -> tuple[int, str]:
         return user.id, secret
 
 
-def test_api_writes_survive_a_concurrent_worker_writer(sqlite_app) -> None:  # noqa: ANN001
+def test_api_writes_survive_a_concurrent_worker_writer(sqlite_app) -> None:
     from alcove.db import transaction
     from alcove.models import WorkerHeartbeat, utcnow
 
@@ -62,10 +62,12 @@ def test_api_writes_survive_a_concurrent_worker_writer(sqlite_app) -> None:  # n
         name = f"w-{uuid.uuid4().hex[:6]}"
         transaction(lambda s: s.add(WorkerHeartbeat(name=name)), url=url)
         while not stop.is_set():
-            def beat(s) -> None:  # noqa: ANN001
+
+            def beat(s) -> None:
                 row = s.query(WorkerHeartbeat).filter_by(name=name).one()
                 row.last_seen_at = utcnow()
                 time.sleep(0.002)  # hold the write lock a little, like a real step commit
+
             transaction(beat, url=url)
             writes[0] += 1
 
@@ -79,11 +81,15 @@ def test_api_writes_survive_a_concurrent_worker_writer(sqlite_app) -> None:  # n
             r = client.post(f"{API}/tasks", json={"name": f"t{i}", "spec": spec}, headers=h)
             codes.append(r.status_code)
             if r.status_code == 201:
-                codes.append(client.put(f"{API}/tasks/{r.json()['id']}", json={"name": f"renamed {i}"}, headers=h).status_code)
+                codes.append(
+                    client.put(f"{API}/tasks/{r.json()['id']}", json={"name": f"renamed {i}"}, headers=h).status_code
+                )
             made = client.post(f"{API}/me/tokens", json={"name": f"n{i}"}, headers=h)
             codes.append(made.status_code)
             if made.status_code == 201:  # a first use in a read-only request records last_used_at
-                codes.append(client.get(f"{API}/tasks", headers={"Authorization": f"Bearer {made.json()['token']}"}).status_code)
+                codes.append(
+                    client.get(f"{API}/tasks", headers={"Authorization": f"Bearer {made.json()['token']}"}).status_code
+                )
         return codes
 
     writers = [threading.Thread(target=worker_writes) for _ in range(2)]
@@ -104,4 +110,6 @@ def test_api_writes_survive_a_concurrent_worker_writer(sqlite_app) -> None:  # n
     from alcove.models import ApiToken
 
     with session_scope(url) as s:  # the read-only first uses were recorded
-        assert s.query(ApiToken).filter(ApiToken.name.like("n%"), ApiToken.last_used_at.is_not(None)).count() == 6 * len(accounts)
+        assert s.query(ApiToken).filter(
+            ApiToken.name.like("n%"), ApiToken.last_used_at.is_not(None)
+        ).count() == 6 * len(accounts)

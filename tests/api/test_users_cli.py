@@ -8,12 +8,14 @@ import uuid
 from typer.testing import CliRunner
 
 
-def test_user_and_token_commands(api_settings: None, client) -> None:  # noqa: ANN001
+def test_user_and_token_commands(api_settings: None, client) -> None:
     from alcove_worker.cli.main import app
 
     runner = CliRunner()
     email = f"cli-{uuid.uuid4().hex[:8]}@example.org"
-    made = runner.invoke(app, ["user", "create", email, "--admin", "--name", "CLI"], env={"ALCOVE_NEW_USER_PASSWORD": "cli password 1"})
+    made = runner.invoke(
+        app, ["user", "create", email, "--admin", "--name", "CLI"], env={"ALCOVE_NEW_USER_PASSWORD": "cli password 1"}
+    )
     assert made.exit_code == 0, made.output
     again = runner.invoke(app, ["user", "create", email], env={"ALCOVE_NEW_USER_PASSWORD": "cli password 1"})
     assert again.exit_code == 2 and "email:" in again.output

@@ -53,7 +53,7 @@ def sqlite_campaign_db(sqlite_url: str, monkeypatch: pytest.MonkeyPatch, tmp_pat
     dispose_engines(close=True)
 
 
-def new_campaign(oracle: str = "aux-penalty", surrogate: dict | None = None, start: bool = True, **overrides: Any):  # noqa: ANN201
+def new_campaign(oracle: str = "aux-penalty", surrogate: dict | None = None, start: bool = True, **overrides: Any):
     """Create (and start) a quick campaign; returns (campaign id, jobs to run)."""
     from alcove.campaigns import presets, service
     from alcove.campaigns.schemas import CampaignCreate
@@ -69,9 +69,13 @@ def new_campaign(oracle: str = "aux-penalty", surrogate: dict | None = None, sta
     def work(s: Any) -> tuple[int, list]:
         u = presets.local_user(s)
         data = CampaignCreate(
-            name=cfg.pop("name", "test"), task_version_id=presets.task_version_from_preset(s, u.id, "head-headrest-2phase"),
+            name=cfg.pop("name", "test"),
+            task_version_id=presets.task_version_from_preset(s, u.id, "head-headrest-2phase"),
             oracle_version_id=presets.oracle_version_for(s, u.id, oracle),
-            surrogate_config_version_id=presets.surrogate_config_version_for(s, u.id, {**QUICK_SURROGATE, **(surrogate or {})}), **cfg,
+            surrogate_config_version_id=presets.surrogate_config_version_for(
+                s, u.id, {**QUICK_SURROGATE, **(surrogate or {})}
+            ),
+            **cfg,
         )
         c = service.create_campaign(s, u.id, data)
         if not start:
@@ -82,6 +86,6 @@ def new_campaign(oracle: str = "aux-penalty", surrogate: dict | None = None, sta
 
 
 @pytest.fixture
-def make_campaign():  # noqa: ANN201
+def make_campaign():
     """:func:`new_campaign` as a fixture (test modules cannot import conftest)."""
     return new_campaign

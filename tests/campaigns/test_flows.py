@@ -18,11 +18,8 @@ from alcove.db import session_scope, transaction
 from alcove.db.arrays import get_arrays
 from alcove.models import (
     Dataset,
-    Iteration,
     IterationStep,
-    ModelVersion,
     OcpSolution,
-    OracleRun,
     PoolVersion,
     PoolVersionMember,
     QuarantinedResult,
@@ -30,8 +27,14 @@ from alcove.models import (
 )
 
 
-def members(s, pv: PoolVersion) -> list[int]:  # noqa: ANN001
-    return list(s.scalars(sa.select(PoolVersionMember.dataset_id).where(PoolVersionMember.pool_version_id == pv.id).order_by(PoolVersionMember.position)))
+def members(s, pv: PoolVersion) -> list[int]:
+    return list(
+        s.scalars(
+            sa.select(PoolVersionMember.dataset_id)
+            .where(PoolVersionMember.pool_version_id == pv.id)
+            .order_by(PoolVersionMember.position)
+        )
+    )
 
 
 def mine(jobs: list, cid: int) -> list:
@@ -70,9 +73,13 @@ def test_a_short_campaign_leaves_a_complete_versioned_record(campaign_db: str, m
             prev, cur, model = pools[k - 1], pools[k], models[k - 1]
             # pool version k = version k-1 + the dataset of iteration k, exactly once
             assert cur.parent_id == prev.id
-            assert members(s, cur) == members(s, prev) + [ds.id]
+            assert members(s, cur) == [*members(s, prev), ds.id]
             assert cur.n_samples == prev.n_samples + ds.n_samples
-            added = s.scalars(sa.select(PoolVersionMember.dataset_id).where(PoolVersionMember.pool_version_id == cur.id, PoolVersionMember.added_in_this_version)).all()
+            added = s.scalars(
+                sa.select(PoolVersionMember.dataset_id).where(
+                    PoolVersionMember.pool_version_id == cur.id, PoolVersionMember.added_in_this_version
+                )
+            ).all()
             assert added == [ds.id]
             # model k was trained on pool version k-1 (the new trajectory is unseen by it) and warm-started from model k-1
             assert model.pool_version_id == prev.id and ds.id not in members(s, prev)
@@ -95,8 +102,12 @@ def test_a_short_campaign_leaves_a_complete_versioned_record(campaign_db: str, m
             pred = predict(load_model(s, model), data["t"], data["q"], data["qd"])
             np.testing.assert_allclose(curves["f_pred"], np.hstack([pred.force, pred.moment]), atol=1e-9)
             m = metrics[k - 1]
-            assert m.force_rmse == pytest.approx(np.sqrt(np.mean((curves["f_pred"][:, :3] - curves["f_true"][:, :3]) ** 2)))
-            assert m.moment_rmse == pytest.approx(np.sqrt(np.mean((curves["f_pred"][:, 3:] - curves["f_true"][:, 3:]) ** 2)))
+            assert m.force_rmse == pytest.approx(
+                np.sqrt(np.mean((curves["f_pred"][:, :3] - curves["f_true"][:, :3]) ** 2))
+            )
+            assert m.moment_rmse == pytest.approx(
+                np.sqrt(np.mean((curves["f_pred"][:, 3:] - curves["f_true"][:, 3:]) ** 2))
+            )
             assert m.model_version_id == model.id and m.dataset_id == ds.id and m.ocp_success
             assert m.extra["code_version"] == model.code_version and m.extra["model_seed"] == model.seed
         steps = service.list_jobs(s, cid)
@@ -134,7 +145,9 @@ def test_a_duplicate_or_stale_delivery_of_a_step_is_a_no_op(sqlite_campaign_db: 
     assert flows.run_step(cid, 1, "ocp", 1, send=sent.extend)["status"] == "missing"
 
 
-def test_pause_parks_the_next_step_and_resume_continues_where_it_stopped(sqlite_campaign_db: str, make_campaign) -> None:
+def test_pause_parks_the_next_step_and_resume_continues_where_it_stopped(
+    sqlite_campaign_db: str, make_campaign
+) -> None:
     cid, jobs = make_campaign(stopping={"max_iterations": 1})
     queue: list = list(jobs)
     flows.run_step(cid, 0, "preliminary", 1, send=queue.extend)
@@ -180,7 +193,13 @@ def test_a_failed_ocp_under_policy_continue_fails_only_its_iteration(sqlite_camp
     with session_scope() as s:
         it1 = repository.get_iteration_with_steps(s, cid, 1)
         assert it1.status == "failed" and "did not converge" in it1.error
-        assert {st.step: st.status for st in it1.steps} == {"train": "succeeded", "ocp": "failed", "oracle": "skipped", "evaluate": "skipped", "append": "succeeded"}
+        assert {st.step: st.status for st in it1.steps} == {
+            "train": "succeeded",
+            "ocp": "failed",
+            "oracle": "skipped",
+            "evaluate": "skipped",
+            "append": "succeeded",
+        }
         sol = repository.latest_ocp_solution(s, it1.id)
         assert sol is not None and not sol.success
         pools = repository.own_pool_versions(s, cid)
@@ -189,8 +208,13 @@ def test_a_failed_ocp_under_policy_continue_fails_only_its_iteration(sqlite_camp
         assert repository.get_iteration(s, cid, 2).status == "succeeded"
 
 
-def test_a_failed_ocp_under_policy_stop_fails_the_campaign_and_retry_runs_it_again(sqlite_campaign_db: str, make_campaign) -> None:
-    cid, jobs = make_campaign(policies={"ocp_on_failure": "stop"}, settings={"fault_injection": {"ocp": {"ipopt_max_iter": 1, "iterations": [1]}}})
+def test_a_failed_ocp_under_policy_stop_fails_the_campaign_and_retry_runs_it_again(
+    sqlite_campaign_db: str, make_campaign
+) -> None:
+    cid, jobs = make_campaign(
+        policies={"ocp_on_failure": "stop"},
+        settings={"fault_injection": {"ocp": {"ipopt_max_iter": 1, "iterations": [1]}}},
+    )
     flows.drive_inline(cid, jobs)
     with session_scope() as s:
         c = repository.get_campaign(s, cid)
@@ -204,12 +228,24 @@ def test_a_failed_ocp_under_policy_stop_fails_the_campaign_and_retry_runs_it_aga
     with session_scope() as s:
         step = repository.get_step(s, cid, 1, "ocp")
         assert step.status == "succeeded" and step.config_version_id == row.id
-        assert [sol.success for sol in s.scalars(sa.select(OcpSolution).where(OcpSolution.iteration_id == step.iteration_id).order_by(OcpSolution.attempt))] == [False, True]
+        assert [
+            sol.success
+            for sol in s.scalars(
+                sa.select(OcpSolution)
+                .where(OcpSolution.iteration_id == step.iteration_id)
+                .order_by(OcpSolution.attempt)
+            )
+        ] == [False, True]
 
 
-def test_an_oracle_that_keeps_raising_is_retried_then_its_iteration_fails(sqlite_campaign_db: str, make_campaign) -> None:
-    cid, jobs = make_campaign(stopping={"max_iterations": 1}, policies={"oracle_max_attempts": 2},
-                             settings={"fault_injection": {"oracle": {"raise_attempts": 99}}})
+def test_an_oracle_that_keeps_raising_is_retried_then_its_iteration_fails(
+    sqlite_campaign_db: str, make_campaign
+) -> None:
+    cid, jobs = make_campaign(
+        stopping={"max_iterations": 1},
+        policies={"oracle_max_attempts": 2},
+        settings={"fault_injection": {"oracle": {"raise_attempts": 99}}},
+    )
     flows.drive_inline(cid, jobs)
     assert status(cid) == ("completed", "max_iterations")
     with session_scope() as s:
@@ -219,11 +255,17 @@ def test_an_oracle_that_keeps_raising_is_retried_then_its_iteration_fails(sqlite
         assert kinds.count("step_retry") == 1
         assert repository.get_iteration(s, cid, 1).status == "failed"
         runs = repository.oracle_runs(s, step.iteration_id)
-        assert [(r.attempt, r.status) for r in runs] == [(1, "failed"), (2, "failed")] and "fault injection" in runs[0].failure_reason
+        assert [(r.attempt, r.status) for r in runs] == [(1, "failed"), (2, "failed")] and "fault injection" in runs[
+            0
+        ].failure_reason
 
 
-def test_an_oracle_result_failing_the_quality_gate_is_quarantined_never_appended(sqlite_campaign_db: str, make_campaign) -> None:
-    cid, jobs = make_campaign(stopping={"max_iterations": 1}, settings={"fault_injection": {"oracle": {"gate_fail": True}}})
+def test_an_oracle_result_failing_the_quality_gate_is_quarantined_never_appended(
+    sqlite_campaign_db: str, make_campaign
+) -> None:
+    cid, jobs = make_campaign(
+        stopping={"max_iterations": 1}, settings={"fault_injection": {"oracle": {"gate_fail": True}}}
+    )
     flows.drive_inline(cid, jobs)
     with session_scope() as s:
         it = repository.get_iteration(s, cid, 1)
@@ -235,7 +277,9 @@ def test_an_oracle_result_failing_the_quality_gate_is_quarantined_never_appended
         assert pools[1].n_samples == pools[0].n_samples
 
 
-def test_the_reconciler_requeues_a_step_whose_worker_died_and_ignores_the_dead_job(sqlite_campaign_db: str, make_campaign) -> None:
+def test_the_reconciler_requeues_a_step_whose_worker_died_and_ignores_the_dead_job(
+    sqlite_campaign_db: str, make_campaign
+) -> None:
     cid, jobs = make_campaign(stopping={"max_iterations": 1})
     queue: list = list(jobs)
     flows.run_step(cid, 0, "preliminary", 1, send=queue.extend)
@@ -245,7 +289,11 @@ def test_the_reconciler_requeues_a_step_whose_worker_died_and_ignores_the_dead_j
         assert repository.claim_step(s, step.id, 1, "dead-token", "dead@host", lease_seconds=60)
     with session_scope() as s:
         assert mine(reconcile(s, stale_queued_s=60), cid) == []  # lease still valid: nothing to do
-        s.execute(sa.update(IterationStep).where(IterationStep.id == step.id).values(lease_until=utcnow() - timedelta(seconds=1)))
+        s.execute(
+            sa.update(IterationStep)
+            .where(IterationStep.id == step.id)
+            .values(lease_until=utcnow() - timedelta(seconds=1))
+        )
     with session_scope() as s:
         (job,) = mine(reconcile(s, stale_queued_s=60), cid)
     assert (job.iteration, job.step.value, job.attempt) == (1, "train", 2)
@@ -272,7 +320,12 @@ def test_a_fork_continues_from_the_source_pool_and_model_with_its_own_settings(c
     src, jobs = make_campaign(stopping={"max_iterations": 1})
     flows.drive_inline(src, jobs)
     with session_scope() as s:
-        fork, jobs = service.fork(s, src, ForkRequest(iteration=1, stopping=StoppingRules(max_iterations=2), start=True), owner_id=repository.get_campaign(s, src).owner_id)
+        fork, jobs = service.fork(
+            s,
+            src,
+            ForkRequest(iteration=1, stopping=StoppingRules(max_iterations=2), start=True),
+            owner_id=repository.get_campaign(s, src).owner_id,
+        )
         fid = fork.id
     assert [(j.iteration, j.step.value) for j in jobs] == [(2, "train")]
     flows.drive_inline(fid, jobs)
@@ -287,24 +340,37 @@ def test_a_fork_continues_from_the_source_pool_and_model_with_its_own_settings(c
         assert len(repository.own_pool_versions(s, src)) == 2  # the source is untouched
 
 
-def test_a_config_edit_creates_a_version_used_by_the_iterations_after_it(sqlite_campaign_db: str, make_campaign) -> None:
+def test_a_config_edit_creates_a_version_used_by_the_iterations_after_it(
+    sqlite_campaign_db: str, make_campaign
+) -> None:
     cid, jobs = make_campaign(stopping={"max_iterations": 2})
     queue: list = list(jobs)
     for _ in range(3):  # preliminary, train 1, ocp 1
         j = queue.pop(0)
         flows.run_step(cid, j.iteration, j.step.value, j.attempt, send=queue.extend)
     with session_scope() as s:
-        row = service.update_config(s, cid, CampaignConfigUpdate(stopping=StoppingRules(max_iterations=2, target_force_rmse=1e6), note="looser"))
+        row = service.update_config(
+            s, cid, CampaignConfigUpdate(stopping=StoppingRules(max_iterations=2, target_force_rmse=1e6), note="looser")
+        )
         assert row.version == 2
     flows.drive_inline(cid, queue)
     with session_scope() as s:
         c = repository.get_campaign(s, cid)
-        assert (c.status, c.stop_reason, c.config_version) == ("completed", "target_rmse", 2)  # edited rules apply at once
-        versions = {i.index: s.get(service.CampaignConfigVersion, i.config_version_id).version for i in repository.list_iterations(s, cid)}
+        assert (c.status, c.stop_reason, c.config_version) == (
+            "completed",
+            "target_rmse",
+            2,
+        )  # edited rules apply at once
+        versions = {
+            i.index: s.get(service.CampaignConfigVersion, i.config_version_id).version
+            for i in repository.list_iterations(s, cid)
+        }
         assert versions == {0: 1, 1: 1}
 
 
-def test_export_and_tables_hold_every_pool_version_model_and_metric(sqlite_campaign_db: str, tmp_path, make_campaign) -> None:  # noqa: ANN001
+def test_export_and_tables_hold_every_pool_version_model_and_metric(
+    sqlite_campaign_db: str, tmp_path, make_campaign
+) -> None:
     import csv
     import io
     import json
@@ -320,8 +386,16 @@ def test_export_and_tables_hold_every_pool_version_model_and_metric(sqlite_campa
         pv1 = repository.pool_version(s, repository.get_campaign(s, cid), 1)
         art = service.model_artifact_bytes(s, cid, 1)
     names = sorted(str(p.relative_to(root)) for p in root.rglob("*") if p.is_file())
-    assert names == ["campaign.json", "curves/iteration-0001.npz", "iterations.json", "metrics.csv", "metrics.json", "models/model-0001.zip",
-                     "pool/version-0000.parquet", "pool/version-0001.parquet"]
+    assert names == [
+        "campaign.json",
+        "curves/iteration-0001.npz",
+        "iterations.json",
+        "metrics.csv",
+        "metrics.json",
+        "models/model-0001.zip",
+        "pool/version-0000.parquet",
+        "pool/version-0001.parquet",
+    ]
     assert pq.read_table(root / "pool/version-0001.parquet").num_rows == pv1.n_samples
     rows = list(csv.DictReader(io.StringIO(table.decode())))
     assert len(rows) == pv1.n_samples and {"t", "q_0", "qd_0", "fx", "mz", "origin"} <= set(rows[0])
@@ -331,9 +405,8 @@ def test_export_and_tables_hold_every_pool_version_model_and_metric(sqlite_campa
 
 
 def test_bad_requests_name_the_field(sqlite_campaign_db: str, make_campaign) -> None:
-    with session_scope() as s:
-        with pytest.raises(service.NotFound, match="campaign_id"):
-            service.start(s, 10**9)
+    with session_scope() as s, pytest.raises(service.NotFound, match="campaign_id"):
+        service.start(s, 10**9)
     cid, _ = make_campaign(start=False)
     with session_scope() as s:
         with pytest.raises(service.InvalidTransition, match="resume"):
@@ -344,7 +417,7 @@ def test_bad_requests_name_the_field(sqlite_campaign_db: str, make_campaign) -> 
             service.retry_step(s, cid)
 
 
-def test_an_uploaded_preliminary_dataset_becomes_pool_version_zero(sqlite_campaign_db: str, make_campaign) -> None:  # noqa: ANN001
+def test_an_uploaded_preliminary_dataset_becomes_pool_version_zero(sqlite_campaign_db: str, make_campaign) -> None:
     from alcove.campaigns import presets
     from alcove.science.geometry import relative_kinematics
     from alcove.science.ocp.task_spec import task_preset
@@ -356,12 +429,16 @@ def test_an_uploaded_preliminary_dataset_becomes_pool_version_zero(sqlite_campai
     q = rng.uniform(preset.theta_min, preset.theta_max, 300)
     qd = rng.uniform(-2, 2, 300)
     force, moment = aux_penalty_wrench(preset, AuxPenaltyParams(), relative_kinematics(preset, q, qd))
-    lines = ["q_0,qd_0,fx,fy,fz,mx,my,mz"] + [",".join(repr(float(v)) for v in (q[i], qd[i], *force[i], *moment[i])) for i in range(300)]
+    lines = ["q_0,qd_0,fx,fy,fz,mx,my,mz"] + [
+        ",".join(repr(float(v)) for v in (q[i], qd[i], *force[i], *moment[i])) for i in range(300)
+    ]
     with session_scope() as s:
         owner = presets.local_user(s).id
         with pytest.raises(PoolDataError, match="fx"):
             service.upload_preliminary_dataset(s, owner, "q_0,qd_0\n0.1,0.2\n", name="bad")
-        ids = [d.id for d in service.upload_preliminary_dataset(s, owner, "\n".join(lines) + "\n", name="lab", chunks=3)]
+        ids = [
+            d.id for d in service.upload_preliminary_dataset(s, owner, "\n".join(lines) + "\n", name="lab", chunks=3)
+        ]
     assert len(ids) == 3
     cid, jobs = make_campaign(preliminary={"dataset_ids": ids}, stopping={"max_iterations": 1})
     flows.drive_inline(cid, jobs)

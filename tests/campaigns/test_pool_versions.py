@@ -13,9 +13,9 @@ def test_training_pool_from_cached_parent_equals_a_fresh_read(sqlite_campaign_db
     from alcove.campaigns.presets import local_user
     from alcove.db import transaction
     from alcove.db.migrate import upgrade
+    from alcove.models import PoolVersion
     from alcove.pool import repository as pool_repo
     from alcove.pool import service as pool_service
-    from alcove.models import PoolVersion
     from tests.api.synthetic import synthesize_campaign
 
     upgrade()
@@ -39,12 +39,13 @@ def test_training_pool_from_cached_parent_equals_a_fresh_read(sqlite_campaign_db
     for i in ids:
         pool_service._pool_cache.clear()
         fresh.append(transaction(lambda s, i=i: pool_service.load_training_pool(s, s.get(PoolVersion, i))))
-    for k, (a, b) in enumerate(zip(chained, fresh)):
+    for k, (a, b) in enumerate(zip(chained, fresh, strict=False)):
         assert [d.name for d in a] == [d.name for d in b]
         assert len(a) == k + 1
-        for da, db in zip(a, b):
+        for da, db in zip(a, b, strict=False):
             np.testing.assert_array_equal(da.force, db.force)
             np.testing.assert_array_equal(da.q, db.q)
+
     # membership rows: version k has k+1 members, the last one added in it
     def members(s: Any) -> list[list[tuple[int, bool]]]:
         return [[(m.position, m.added_in_this_version) for m, _ in pool_repo.members(s, i)] for i in ids]

@@ -125,7 +125,9 @@ def test_a_finished_step_of_a_terminal_campaign_is_refused() -> None:
 
 @settings(max_examples=60, deadline=None)
 @given(st.lists(st.sampled_from(["ok", "fail_ocp", "fail_oracle", "pause", "resume"]), min_size=1, max_size=60))
-def test_whatever_happens_each_iteration_ends_in_exactly_one_append_and_steps_never_go_backwards(script: list[str]) -> None:
+def test_whatever_happens_each_iteration_ends_in_exactly_one_append_and_steps_never_go_backwards(
+    script: list[str],
+) -> None:
     state = State(S.draft)
     d = transition(state, Start(StepRef(0, N.preliminary)))
     state, pending, order = State(d.status), list(d.enqueue), []

@@ -50,34 +50,58 @@ def maybe_rows(url: str, sql: str, **params: Any) -> list[tuple]:
 
 
 def pool_hashes(url: str, cid: int) -> list[tuple[int, str, int]]:
-    return rows(url, "SELECT version, content_hash, n_samples FROM pool_versions WHERE campaign_id = :c ORDER BY version", c=cid)
+    return rows(
+        url, "SELECT version, content_hash, n_samples FROM pool_versions WHERE campaign_id = :c ORDER BY version", c=cid
+    )
 
 
 def test_alcove_campaign_run_on_the_embedded_default(tmp_path: Path) -> None:
     cfg = tmp_path / "quick.yaml"
     cfg.write_text(QUICK_YAML)
     env = env_for(data_dir=tmp_path / "data")
-    r = subprocess.run(CLI + ["campaign", "run", "--oracle", "aux-penalty", "--iterations", "2", "--config", str(cfg), "--json", "--seed", "5",
-                              "--worker-log", str(tmp_path / "worker.log")], env=env, capture_output=True, text=True, timeout=300)
+    r = subprocess.run(
+        [*CLI, "campaign", "run", "--oracle", "aux-penalty", "--iterations", "2", "--config", str(cfg), "--json", "--seed", "5", "--worker-log", str(tmp_path / "worker.log")],
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
     assert r.returncode == 0, r.stderr[-3000:] + (tmp_path / "worker.log").read_text()[-3000:]
     out = json.loads(r.stdout.strip().splitlines()[-1])
     assert (out["status"], out["stop_reason"], out["iterations_finished"]) == ("completed", "max_iterations", 2)
-    assert [m["iteration_index"] for m in out["metrics"]] == [1, 2] and all(m["force_rmse"] >= 0 for m in out["metrics"])
+    assert [m["iteration_index"] for m in out["metrics"]] == [1, 2] and all(
+        m["force_rmse"] >= 0 for m in out["metrics"]
+    )
     url = f"sqlite:///{tmp_path / 'data' / 'alcove.db'}"
     cid = out["campaign_id"]
     assert [v for v, _, _ in pool_hashes(url, cid)] == [0, 1, 2]
-    assert rows(url, "SELECT version, parent_model_id IS NULL FROM model_versions WHERE campaign_id = :c ORDER BY version", c=cid) == [(1, 1), (2, 0)]
+    assert rows(
+        url,
+        "SELECT version, parent_model_id IS NULL FROM model_versions WHERE campaign_id = :c ORDER BY version",
+        c=cid,
+    ) == [(1, 1), (2, 0)]
     # every step ran in the spawned worker, not in the CLI process
-    workers = {w for (w,) in rows(url, "SELECT DISTINCT worker_name FROM iteration_steps WHERE campaign_id = :c", c=cid)}
+    workers = {
+        w for (w,) in rows(url, "SELECT DISTINCT worker_name FROM iteration_steps WHERE campaign_id = :c", c=cid)
+    }
     assert len(workers) == 1 and workers.pop().startswith("campaign-run-")
     # the other commands on the same database
-    st = subprocess.run(CLI + ["campaign", "status", str(cid), "--json"], env=env, capture_output=True, text=True, timeout=60)
+    st = subprocess.run(
+        [*CLI, "campaign", "status", str(cid), "--json"], env=env, capture_output=True, text=True, timeout=60
+    )
     assert json.loads(st.stdout)["campaign"]["status"] == "completed"
-    ex = subprocess.run(CLI + ["campaign", "export", str(cid), "--out", str(tmp_path / "export"), "--format", "csv", "--no-models"], env=env,
-                        capture_output=True, text=True, timeout=120)
+    ex = subprocess.run(
+        [*CLI, "campaign", "export", str(cid), "--out", str(tmp_path / "export"), "--format", "csv", "--no-models"],
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
     assert ex.returncode == 0, ex.stderr
-    assert (tmp_path / "export" / "pool" / "version-0002.csv").exists() and (tmp_path / "export" / "metrics.csv").exists()
-    bad = subprocess.run(CLI + ["campaign", "resume", str(cid)], env=env, capture_output=True, text=True, timeout=60)
+    assert (tmp_path / "export" / "pool" / "version-0002.csv").exists() and (
+        tmp_path / "export" / "metrics.csv"
+    ).exists()
+    bad = subprocess.run([*CLI, "campaign", "resume", str(cid)], env=env, capture_output=True, text=True, timeout=60)
     assert bad.returncode == 2 and "cannot resume a campaign that is completed" in bad.stderr
 
 
@@ -87,14 +111,40 @@ def test_campaign_run_without_a_worker_names_the_queue_it_waits_on(tmp_path: Pat
     cfg = tmp_path / "quick.yaml"
     cfg.write_text(QUICK_YAML)
     env = env_for(data_dir=tmp_path / "data")
-    run = Proc(["campaign", "run", "--oracle", "aux-penalty", "--iterations", "1", "--config", str(cfg), "--json", "--no-worker"], env,
-               tmp_path / "run.log")
+    run = Proc(
+        [
+            "campaign",
+            "run",
+            "--oracle",
+            "aux-penalty",
+            "--iterations",
+            "1",
+            "--config",
+            str(cfg),
+            "--json",
+            "--no-worker",
+        ],
+        env,
+        tmp_path / "run.log",
+    )
     workers: list[Proc] = []
     try:
-        wait_for(lambda: "waiting: no live worker serves queue 'default' (step preliminary); start one with `alcove worker --queues default`"
-                 in run.output(), 60, "the notice for the default queue", run)
+        wait_for(
+            lambda: (
+                "waiting: no live worker serves queue 'default' (step preliminary); start one with `alcove worker --queues default`"
+                in run.output()
+            ),
+            60,
+            "the notice for the default queue",
+            run,
+        )
         workers.append(start_worker(env, tmp_path / "w-default.log", unique("w-default"), queues="default"))
-        wait_for(lambda: "waiting: no live worker serves queue 'train' (step train)" in run.output(), 120, "the notice for the train queue", run)
+        wait_for(
+            lambda: "waiting: no live worker serves queue 'train' (step train)" in run.output(),
+            120,
+            "the notice for the train queue",
+            run,
+        )
         assert "queue 'ocp'" not in run.output()  # nothing is said of a queue the campaign has not reached
         workers.append(start_worker(env, tmp_path / "w-rest.log", unique("w-rest"), queues="train,ocp,oracle"))
         wait_for(lambda: not run.alive(), 180, "the end of the campaign")
@@ -117,8 +167,13 @@ def pg_redis(pg_url: str, redis_url: str, tmp_path: Path, monkeypatch: pytest.Mo
     from alcove.jobs import reset_sender
     from alcove.settings import get_settings
 
-    settings = {"database_url": pg_url, "broker_url": redis_url, "broker_key_prefix": f"t-{uuid.uuid4().hex[:8]}:", "data_dir": str(tmp_path / "data"),
-                "job_lease_seconds": "3"}
+    settings = {
+        "database_url": pg_url,
+        "broker_url": redis_url,
+        "broker_key_prefix": f"t-{uuid.uuid4().hex[:8]}:",
+        "data_dir": str(tmp_path / "data"),
+        "job_lease_seconds": "3",
+    }
     for k, v in settings.items():
         monkeypatch.setenv(f"ALCOVE_{k.upper()}", v)
     get_settings.cache_clear()
@@ -130,8 +185,12 @@ def pg_redis(pg_url: str, redis_url: str, tmp_path: Path, monkeypatch: pytest.Mo
     reset_sender()
 
 
-def quick_campaign(make_campaign: Any, seed: int, iterations: int, fault: dict | None = None, start: bool = True) -> tuple[int, list]:
-    return make_campaign(seed=seed, stopping={"max_iterations": iterations}, settings={"fault_injection": fault or {}}, start=start)
+def quick_campaign(
+    make_campaign: Any, seed: int, iterations: int, fault: dict | None = None, start: bool = True
+) -> tuple[int, list]:
+    return make_campaign(
+        seed=seed, stopping={"max_iterations": iterations}, settings={"fault_injection": fault or {}}, start=start
+    )
 
 
 def reference_pool(make_campaign: Any, seed: int, iterations: int, url: str) -> list[tuple[int, str, int]]:
@@ -142,7 +201,9 @@ def reference_pool(make_campaign: Any, seed: int, iterations: int, url: str) -> 
     return pool_hashes(url, cid)
 
 
-def test_sigkill_of_a_worker_during_an_oracle_job_loses_and_duplicates_nothing(pg_redis: dict[str, str], pg_url: str, tmp_path: Path, make_campaign: Any) -> None:
+def test_sigkill_of_a_worker_during_an_oracle_job_loses_and_duplicates_nothing(
+    pg_redis: dict[str, str], pg_url: str, tmp_path: Path, make_campaign: Any
+) -> None:
     from alcove.jobs.campaign import enqueue
 
     expected = reference_pool(make_campaign, seed=11, iterations=3, url=pg_url)
@@ -151,37 +212,80 @@ def test_sigkill_of_a_worker_during_an_oracle_job_loses_and_duplicates_nothing(p
     try:
         enqueue(jobs)
         enqueue(jobs)  # a duplicate delivery of the first step: the second message does nothing
-        wait_for(lambda: rows(pg_url, "SELECT 1 FROM iteration_steps s JOIN iterations i ON i.id = s.iteration_id "
-                                      "WHERE s.campaign_id = :c AND i.index = 2 AND s.step = 'oracle' AND s.status = 'running'", c=cid),
-                 180, "the oracle job of iteration 2", w1)
+        wait_for(
+            lambda: rows(
+                pg_url,
+                "SELECT 1 FROM iteration_steps s JOIN iterations i ON i.id = s.iteration_id "
+                "WHERE s.campaign_id = :c AND i.index = 2 AND s.step = 'oracle' AND s.status = 'running'",
+                c=cid,
+            ),
+            180,
+            "the oracle job of iteration 2",
+            w1,
+        )
         time.sleep(0.5)
         w1.kill()
     finally:
         w1.stop()
     w2 = start_worker(pg_redis, tmp_path / "w2.log", f"w2-{uuid.uuid4().hex[:4]}")
     try:
-        wait_for(lambda: rows(pg_url, "SELECT 1 FROM campaigns WHERE id = :c AND status IN ('completed', 'failed', 'cancelled')", c=cid), 180, "the campaign to end", w2)
+        wait_for(
+            lambda: rows(
+                pg_url,
+                "SELECT 1 FROM campaigns WHERE id = :c AND status IN ('completed', 'failed', 'cancelled')",
+                c=cid,
+            ),
+            180,
+            "the campaign to end",
+            w2,
+        )
     finally:
         w2.stop()
-    assert rows(pg_url, "SELECT status, stop_reason FROM campaigns WHERE id = :c", c=cid) == [("completed", "max_iterations")]
+    assert rows(pg_url, "SELECT status, stop_reason FROM campaigns WHERE id = :c", c=cid) == [
+        ("completed", "max_iterations")
+    ]
     assert pool_hashes(pg_url, cid) == expected
     # the oracle step of iteration 2 was requeued by the reconciler and ran once more, on the new worker
-    (attempts, worker), = rows(pg_url, "SELECT s.attempts, s.worker_name FROM iteration_steps s JOIN iterations i ON i.id = s.iteration_id "
-                                       "WHERE s.campaign_id = :c AND i.index = 2 AND s.step = 'oracle'", c=cid)
+    ((attempts, worker),) = rows(
+        pg_url,
+        "SELECT s.attempts, s.worker_name FROM iteration_steps s JOIN iterations i ON i.id = s.iteration_id "
+        "WHERE s.campaign_id = :c AND i.index = 2 AND s.step = 'oracle'",
+        c=cid,
+    )
     assert attempts == 2 and worker.startswith("w2-")
-    assert rows(pg_url, "SELECT count(*) FROM campaign_events WHERE campaign_id = :c AND kind = 'step_requeued'", c=cid) == [(1,)]
+    assert rows(
+        pg_url, "SELECT count(*) FROM campaign_events WHERE campaign_id = :c AND kind = 'step_requeued'", c=cid
+    ) == [(1,)]
     assert rows(pg_url, "SELECT count(*) FROM datasets WHERE campaign_id = :c AND origin = 'oracle'", c=cid) == [(3,)]
-    assert rows(pg_url, "SELECT count(*) FROM campaign_events WHERE campaign_id = :c AND kind = 'step_started' AND step = 'preliminary'", c=cid) == [(1,)]
-    assert rows(pg_url, "SELECT count(*) FROM datasets WHERE campaign_id = :c AND origin = 'preliminary'", c=cid) == [(4,)]
+    assert rows(
+        pg_url,
+        "SELECT count(*) FROM campaign_events WHERE campaign_id = :c AND kind = 'step_started' AND step = 'preliminary'",
+        c=cid,
+    ) == [(1,)]
+    assert rows(pg_url, "SELECT count(*) FROM datasets WHERE campaign_id = :c AND origin = 'preliminary'", c=cid) == [
+        (4,)
+    ]
     assert "duplicate" in w1.output() + w2.output()
     # N iterations with metrics and curves, N model versions, all lineage links
-    assert rows(pg_url, "SELECT iteration_index, curves_sha256 IS NOT NULL, model_version_id IS NOT NULL, dataset_id IS NOT NULL "
-                        "FROM iteration_metrics WHERE campaign_id = :c ORDER BY iteration_index", c=cid) == [(k, True, True, True) for k in (1, 2, 3)]
-    lineage = rows(pg_url, "SELECT m.version, p.version, pm.version FROM model_versions m JOIN pool_versions p ON p.id = m.pool_version_id "
-                           "LEFT JOIN model_versions pm ON pm.id = m.parent_model_id WHERE m.campaign_id = :c ORDER BY m.version", c=cid)
+    assert rows(
+        pg_url,
+        "SELECT iteration_index, curves_sha256 IS NOT NULL, model_version_id IS NOT NULL, dataset_id IS NOT NULL "
+        "FROM iteration_metrics WHERE campaign_id = :c ORDER BY iteration_index",
+        c=cid,
+    ) == [(k, True, True, True) for k in (1, 2, 3)]
+    lineage = rows(
+        pg_url,
+        "SELECT m.version, p.version, pm.version FROM model_versions m JOIN pool_versions p ON p.id = m.pool_version_id "
+        "LEFT JOIN model_versions pm ON pm.id = m.parent_model_id WHERE m.campaign_id = :c ORDER BY m.version",
+        c=cid,
+    )
     assert lineage == [(1, 0, None), (2, 1, 1), (3, 2, 2)]
-    assert rows(pg_url, "SELECT p.version, pp.version FROM pool_versions p LEFT JOIN pool_versions pp ON pp.id = p.parent_id "
-                        "WHERE p.campaign_id = :c ORDER BY p.version", c=cid) == [(0, None), (1, 0), (2, 1), (3, 2)]
+    assert rows(
+        pg_url,
+        "SELECT p.version, pp.version FROM pool_versions p LEFT JOIN pool_versions pp ON pp.id = p.parent_id "
+        "WHERE p.campaign_id = :c ORDER BY p.version",
+        c=cid,
+    ) == [(0, None), (1, 0), (2, 1), (3, 2)]
 
 
 class PrivateRedis:
@@ -193,8 +297,11 @@ class PrivateRedis:
         self.p: subprocess.Popen[bytes] | None = None
 
     def start(self) -> None:
-        self.p = subprocess.Popen(["redis-server", "--port", str(self.port), "--save", "", "--appendonly", "no", "--dir", str(self.workdir)],
-                                  stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        self.p = subprocess.Popen(
+            ["redis-server", "--port", str(self.port), "--save", "", "--appendonly", "no", "--dir", str(self.workdir)],
+            stdout=subprocess.DEVNULL,
+            stderr=subprocess.DEVNULL,
+        )
         import redis
 
         wait_for(lambda: _ping(redis.Redis(port=self.port)), 10, "redis-server")
@@ -212,13 +319,14 @@ class PrivateRedis:
 def _ping(client: Any) -> bool:
     try:
         return bool(client.ping())
-    except Exception:  # noqa: BLE001
+    except Exception:
         return False
 
 
 @pytest.mark.skipif(shutil.which("redis-server") is None, reason="needs the redis-server program")
-def test_a_redis_restart_mid_campaign_loses_no_step(pg_redis: dict[str, str], pg_url: str, tmp_path: Path, make_campaign: Any,
-                                                    monkeypatch: pytest.MonkeyPatch) -> None:
+def test_a_redis_restart_mid_campaign_loses_no_step(
+    pg_redis: dict[str, str], pg_url: str, tmp_path: Path, make_campaign: Any, monkeypatch: pytest.MonkeyPatch
+) -> None:
     from alcove.jobs import reset_sender
     from alcove.jobs.campaign import enqueue
     from alcove.settings import get_settings
@@ -234,14 +342,30 @@ def test_a_redis_restart_mid_campaign_loses_no_step(pg_redis: dict[str, str], pg
     w = start_worker(env, tmp_path / "w.log", f"wr-{uuid.uuid4().hex[:4]}")
     try:
         enqueue(jobs)
-        wait_for(lambda: rows(pg_url, "SELECT 1 FROM iteration_steps s JOIN iterations i ON i.id = s.iteration_id "
-                                      "WHERE s.campaign_id = :c AND i.index = 2 AND s.step = 'train' AND s.status = 'running'", c=cid),
-                 180, "the train job of iteration 2", w)
+        wait_for(
+            lambda: rows(
+                pg_url,
+                "SELECT 1 FROM iteration_steps s JOIN iterations i ON i.id = s.iteration_id "
+                "WHERE s.campaign_id = :c AND i.index = 2 AND s.step = 'train' AND s.status = 'running'",
+                c=cid,
+            ),
+            180,
+            "the train job of iteration 2",
+            w,
+        )
         redis_server.stop()  # the next message (ocp of iteration 2) is sent while Redis is down or lost with it
         time.sleep(3)
         redis_server.start()
-        wait_for(lambda: rows(pg_url, "SELECT 1 FROM campaigns WHERE id = :c AND status IN ('completed', 'failed', 'cancelled')", c=cid), 240,
-                 "the campaign to end", w)
+        wait_for(
+            lambda: rows(
+                pg_url,
+                "SELECT 1 FROM campaigns WHERE id = :c AND status IN ('completed', 'failed', 'cancelled')",
+                c=cid,
+            ),
+            240,
+            "the campaign to end",
+            w,
+        )
     finally:
         w.stop()
         redis_server.stop()
@@ -253,16 +377,29 @@ def test_killing_the_controlling_process_leaves_a_campaign_that_a_new_worker_fin
     """SIGKILL of `alcove campaign run` (the API-side process): its worker shuts down with
     it; the campaign lives in the database and a worker started later completes it."""
     cfg = tmp_path / "quick.yaml"
-    cfg.write_text(QUICK_YAML.replace("settings: {ocp_intervals: 20, replay_dt: 0.01}",
-                                      "settings: {ocp_intervals: 20, replay_dt: 0.01, fault_injection: {train: {sleep_s: 2, iterations: [2]}}}"))
+    cfg.write_text(
+        QUICK_YAML.replace(
+            "settings: {ocp_intervals: 20, replay_dt: 0.01}",
+            "settings: {ocp_intervals: 20, replay_dt: 0.01, fault_injection: {train: {sleep_s: 2, iterations: [2]}}}",
+        )
+    )
     env = env_for(data_dir=tmp_path / "data", job_lease_seconds=4)
     url = f"sqlite:///{tmp_path / 'data' / 'alcove.db'}"
-    cli = subprocess.Popen(CLI + ["campaign", "run", "--oracle", "aux-penalty", "--iterations", "3", "--config", str(cfg), "--json",
-                                  "--worker-log", str(tmp_path / "spawned.log")], env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    cli = subprocess.Popen(
+        [*CLI, "campaign", "run", "--oracle", "aux-penalty", "--iterations", "3", "--config", str(cfg), "--json", "--worker-log", str(tmp_path / "spawned.log")],
+        env=env,
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+    )
     try:
-        wait_for(lambda: maybe_rows(
-            url, "SELECT 1 FROM iteration_steps s JOIN iterations i ON i.id = s.iteration_id WHERE i.\"index\" = 2 AND s.step = 'train' AND s.status = 'running'"),
-            180, "the train job of iteration 2")
+        wait_for(
+            lambda: maybe_rows(
+                url,
+                "SELECT 1 FROM iteration_steps s JOIN iterations i ON i.id = s.iteration_id WHERE i.\"index\" = 2 AND s.step = 'train' AND s.status = 'running'",
+            ),
+            180,
+            "the train job of iteration 2",
+        )
         pids = [p for (p,) in rows(url, "SELECT pid FROM worker_heartbeats")]
         cli.kill()
         cli.wait(timeout=10)
@@ -270,11 +407,16 @@ def test_killing_the_controlling_process_leaves_a_campaign_that_a_new_worker_fin
     finally:
         if cli.poll() is None:
             cli.kill()
-    (cid, status), = rows(url, "SELECT id, status FROM campaigns")
+    ((cid, status),) = rows(url, "SELECT id, status FROM campaigns")
     assert status == "running"
     w = start_worker(env, tmp_path / "w.log", f"later-{uuid.uuid4().hex[:4]}")
     try:
-        wait_for(lambda: rows(url, "SELECT 1 FROM campaigns WHERE status IN ('completed', 'failed', 'cancelled')"), 180, "the campaign to end", w)
+        wait_for(
+            lambda: rows(url, "SELECT 1 FROM campaigns WHERE status IN ('completed', 'failed', 'cancelled')"),
+            180,
+            "the campaign to end",
+            w,
+        )
     finally:
         w.stop()
     assert rows(url, "SELECT status, stop_reason FROM campaigns") == [("completed", "max_iterations")]
@@ -282,8 +424,9 @@ def test_killing_the_controlling_process_leaves_a_campaign_that_a_new_worker_fin
     assert rows(url, "SELECT count(*), count(DISTINCT iteration_id) FROM datasets WHERE origin = 'oracle'") == [(3, 3)]
 
 
-def test_an_api_restart_mid_campaign_changes_nothing_and_the_new_api_controls_it(pg_redis: dict[str, str], pg_url: str, tmp_path: Path,
-                                                                                make_campaign: Any) -> None:
+def test_an_api_restart_mid_campaign_changes_nothing_and_the_new_api_controls_it(
+    pg_redis: dict[str, str], pg_url: str, tmp_path: Path, make_campaign: Any
+) -> None:
     """SIGKILL of the API process (`alcove up --no-worker`) while a campaign it started runs: the
     workers carry on (the state is in the database, the next message is sent by the job
     that finished), a restarted API pauses and resumes it, and the pool is exactly the
@@ -307,8 +450,15 @@ def test_an_api_restart_mid_campaign_changes_nothing_and_the_new_api_controls_it
         return api
 
     def at(iteration: int, step: str, status: str) -> list[tuple]:
-        return rows(pg_url, "SELECT 1 FROM iteration_steps s JOIN iterations i ON i.id = s.iteration_id "
-                            "WHERE s.campaign_id = :c AND i.index = :k AND s.step = :st AND s.status = :status", c=cid, k=iteration, st=step, status=status)
+        return rows(
+            pg_url,
+            "SELECT 1 FROM iteration_steps s JOIN iterations i ON i.id = s.iteration_id "
+            "WHERE s.campaign_id = :c AND i.index = :k AND s.step = :st AND s.status = :status",
+            c=cid,
+            k=iteration,
+            st=step,
+            status=status,
+        )
 
     w = start_worker(pg_redis, tmp_path / "w.log", f"wa-{uuid.uuid4().hex[:4]}")
     api = serve("api1.log")
@@ -319,14 +469,32 @@ def test_an_api_restart_mid_campaign_changes_nothing_and_the_new_api_controls_it
         api = serve("api2.log")
         r = httpx.post(f"{base}/campaigns/{cid}/pause", headers=headers, timeout=30)
         assert r.status_code == 200 and r.json()["campaign"]["status"] in ("pausing", "paused"), r.text
-        wait_for(lambda: rows(pg_url, "SELECT 1 FROM campaigns WHERE id = :c AND status = 'paused'", c=cid), 120, "the pause", w)
+        wait_for(
+            lambda: rows(pg_url, "SELECT 1 FROM campaigns WHERE id = :c AND status = 'paused'", c=cid),
+            120,
+            "the pause",
+            w,
+        )
         assert httpx.post(f"{base}/campaigns/{cid}/resume", headers=headers, timeout=30).status_code == 200
-        wait_for(lambda: rows(pg_url, "SELECT 1 FROM campaigns WHERE id = :c AND status IN ('completed', 'failed', 'cancelled')", c=cid), 180,
-                 "the campaign to end", w)
-        assert httpx.get(f"{base}/campaigns/{cid}", headers=headers, timeout=30).json()["campaign"]["status"] == "completed"
+        wait_for(
+            lambda: rows(
+                pg_url,
+                "SELECT 1 FROM campaigns WHERE id = :c AND status IN ('completed', 'failed', 'cancelled')",
+                c=cid,
+            ),
+            180,
+            "the campaign to end",
+            w,
+        )
+        assert (
+            httpx.get(f"{base}/campaigns/{cid}", headers=headers, timeout=30).json()["campaign"]["status"]
+            == "completed"
+        )
     finally:
         api.stop()
         w.stop()
-    assert rows(pg_url, "SELECT status, stop_reason FROM campaigns WHERE id = :c", c=cid) == [("completed", "max_iterations")]
+    assert rows(pg_url, "SELECT status, stop_reason FROM campaigns WHERE id = :c", c=cid) == [
+        ("completed", "max_iterations")
+    ]
     assert pool_hashes(pg_url, cid) == expected
     assert rows(pg_url, "SELECT count(*) FROM datasets WHERE campaign_id = :c AND origin = 'oracle'", c=cid) == [(3,)]

@@ -65,19 +65,43 @@ def run_queued_steps(cid: int) -> None:
     from alcove.models import Iteration, IterationStep, StepName
 
     with session_scope() as s:
-        queued = s.query(Iteration.index, IterationStep).join(IterationStep, IterationStep.iteration_id == Iteration.id).filter(
-            IterationStep.campaign_id == cid, IterationStep.status == "queued").all()
-        jobs = [StepJob(campaign_id=cid, iteration=k, step=StepName(st.step), attempt=st.attempts + 1) for k, st in queued]
+        queued = (
+            s.query(Iteration.index, IterationStep)
+            .join(IterationStep, IterationStep.iteration_id == Iteration.id)
+            .filter(IterationStep.campaign_id == cid, IterationStep.status == "queued")
+            .all()
+        )
+        jobs = [
+            StepJob(campaign_id=cid, iteration=k, step=StepName(st.step), attempt=st.attempts + 1) for k, st in queued
+        ]
     drive_inline(cid, jobs)
 
 
 def test_create_start_status_fork_export_on_the_embedded_default(store: Path) -> None:
-    cid = int(ok("create", "--oracle", "aux-penalty", "--iterations", "2", "--config", str(store / "quick.yaml"), "--seed", "3").strip().splitlines()[-1])
+    cid = int(
+        ok(
+            "create",
+            "--oracle",
+            "aux-penalty",
+            "--iterations",
+            "2",
+            "--config",
+            str(store / "quick.yaml"),
+            "--seed",
+            "3",
+        )
+        .strip()
+        .splitlines()[-1]
+    )
     assert status(cid)["campaign"]["status"] == "draft"
     assert "queued" in ok("start", str(cid))
     run_queued_steps(cid)
     d = status(cid)
-    assert (d["campaign"]["status"], d["campaign"]["stop_reason"], d["iterations_finished"]) == ("completed", "max_iterations", 2)
+    assert (d["campaign"]["status"], d["campaign"]["stop_reason"], d["iterations_finished"]) == (
+        "completed",
+        "max_iterations",
+        2,
+    )
 
     # a fork from iteration 1 with one more iteration: its own campaign on the source's pool version 1 and model 1
     fork_id = int(ok("fork", str(cid), "--iteration", "1", "--iterations", "3", "--start").strip().splitlines()[-1])
@@ -95,12 +119,20 @@ def test_create_start_status_fork_export_on_the_embedded_default(store: Path) ->
     assert tables == ["version-0000.parquet", "version-0001.parquet", "version-0002.parquet"]
     n = [pq.read_table(out / "pool" / t).num_rows for t in tables]
     assert n[0] > 0 and n[0] < n[1] < n[2]  # every version is its parent plus the new oracle rows
-    assert [m["iteration_index"] for m in metrics] == [1, 2] and (out / "metrics.csv").exists() and (out / "campaign.json").exists()
+    assert (
+        [m["iteration_index"] for m in metrics] == [1, 2]
+        and (out / "metrics.csv").exists()
+        and (out / "campaign.json").exists()
+    )
     assert sorted(p.name for p in (out / "models").iterdir()) == ["model-0001.zip", "model-0002.zip"]
 
 
 def test_pause_resume_cancel_and_bad_transitions_name_the_reason(store: Path) -> None:
-    cid = int(ok("create", "--oracle", "aux-penalty", "--iterations", "3", "--config", str(store / "quick.yaml")).strip().splitlines()[-1])
+    cid = int(
+        ok("create", "--oracle", "aux-penalty", "--iterations", "3", "--config", str(store / "quick.yaml"))
+        .strip()
+        .splitlines()[-1]
+    )
     bad = cli("resume", str(cid))
     assert bad.exit_code == 2 and "cannot resume a campaign that is draft" in bad.output
     ok("start", str(cid))

@@ -5,7 +5,6 @@ import subprocess
 import sys
 from pathlib import Path
 
-import numpy as np
 import pytest
 from typer.testing import CliRunner
 
@@ -19,8 +18,24 @@ runner = CliRunner()
 
 def test_solve_writes_the_trajectory_and_a_json_summary(tmp_path):
     proc = subprocess.run(
-        [ALCOVE, "ocp", "solve", "--task", "head-headrest-2phase", "--contact", "aux", "--intervals", "40", "--out", "traj.csv", "--json"],
-        cwd=tmp_path, capture_output=True, text=True, timeout=120,
+        [
+            ALCOVE,
+            "ocp",
+            "solve",
+            "--task",
+            "head-headrest-2phase",
+            "--contact",
+            "aux",
+            "--intervals",
+            "40",
+            "--out",
+            "traj.csv",
+            "--json",
+        ],
+        cwd=tmp_path,
+        capture_output=True,
+        text=True,
+        timeout=120,
     )
     assert proc.returncode == 0, proc.stderr
     summary = json.loads(proc.stdout)
@@ -40,7 +55,19 @@ def test_task_file_and_no_contact(tmp_path):
     data = json.loads(shown.stdout)
     data["phases"][0]["intervals"] = data["phases"][1]["intervals"] = 20
     (tmp_path / "task.json").write_text(json.dumps(data))
-    res = runner.invoke(app, ["ocp", "solve", "--task-file", str(tmp_path / "task.json"), "--contact", "none", "--out", str(tmp_path / "t.csv")])
+    res = runner.invoke(
+        app,
+        [
+            "ocp",
+            "solve",
+            "--task-file",
+            str(tmp_path / "task.json"),
+            "--contact",
+            "none",
+            "--out",
+            str(tmp_path / "t.csv"),
+        ],
+    )
     assert res.exit_code == 0, res.output
     assert "Solve_Succeeded" in res.stdout
     # without the headrest nothing stops the head: it never rests beyond first contact
@@ -49,7 +76,9 @@ def test_task_file_and_no_contact(tmp_path):
 
 
 def test_not_converged_exits_1_and_says_so(tmp_path):
-    res = runner.invoke(app, ["ocp", "solve", "--intervals", "20", "--max-iter", "2", "--json", "--out", str(tmp_path / "t.csv")])
+    res = runner.invoke(
+        app, ["ocp", "solve", "--intervals", "20", "--max-iter", "2", "--json", "--out", str(tmp_path / "t.csv")]
+    )
     assert res.exit_code == 1
     summary = json.loads(res.stdout)
     assert summary["converged"] is False and summary["status"] == "Maximum_Iterations_Exceeded"
@@ -85,7 +114,9 @@ def test_bad_task_file_names_the_field(tmp_path):
     data = json.loads(runner.invoke(app, ["ocp", "show"]).stdout)
     data["phases"][1]["w_T"] = -1
     (tmp_path / "task.json").write_text(json.dumps(data))
-    res = runner.invoke(app, ["ocp", "solve", "--task-file", str(tmp_path / "task.json"), "--out", str(tmp_path / "t.csv")])
+    res = runner.invoke(
+        app, ["ocp", "solve", "--task-file", str(tmp_path / "task.json"), "--out", str(tmp_path / "t.csv")]
+    )
     assert res.exit_code == 2
     assert "error: phases.1.w_T: " in res.stderr
 
@@ -97,9 +128,24 @@ def test_solve_with_a_trained_surrogate_artifact(tmp_path):
     from alcove.science.surrogate.preliminary import preliminary_pool
     from alcove.science.surrogate.training import train_surrogate
 
-    model = train_surrogate(preliminary_pool(DEFAULT_PRESET, samples=400, chunks=4), SurrogateConfig(max_epochs=5), seed=0).model
+    model = train_surrogate(
+        preliminary_pool(DEFAULT_PRESET, samples=400, chunks=4), SurrogateConfig(max_epochs=5), seed=0
+    ).model
     artifact = save_artifact(model, tmp_path / "model")
-    res = runner.invoke(app, ["ocp", "solve", "--contact", f"model:{artifact}", "--intervals", "20", "--out", str(tmp_path / "t.csv"), "--json"])
+    res = runner.invoke(
+        app,
+        [
+            "ocp",
+            "solve",
+            "--contact",
+            f"model:{artifact}",
+            "--intervals",
+            "20",
+            "--out",
+            str(tmp_path / "t.csv"),
+            "--json",
+        ],
+    )
     assert res.exit_code == 0, res.output
     summary = json.loads(res.stdout)
     assert summary["contact"] == f"model:{artifact}" and summary["converged"] is True

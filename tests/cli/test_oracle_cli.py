@@ -35,10 +35,30 @@ def alcove(*args: str, cwd: Path) -> subprocess.CompletedProcess:
 # ---- the real console script --------------------------------------------------------------------
 def test_run_aux_penalty_writes_forces_and_json_summary(tmp_path, trajectory_csv):
     (tmp_path / "params.json").write_text(json.dumps({"k": 1.2e7}))
-    proc = alcove("oracle", "run", "--oracle", "aux-penalty", "--params", "params.json", "--trajectory", "traj.csv", "--out", "forces.csv", "--json", cwd=tmp_path)
+    proc = alcove(
+        "oracle",
+        "run",
+        "--oracle",
+        "aux-penalty",
+        "--params",
+        "params.json",
+        "--trajectory",
+        "traj.csv",
+        "--out",
+        "forces.csv",
+        "--json",
+        cwd=tmp_path,
+    )
     assert proc.returncode == 0, proc.stderr
     summary = json.loads(proc.stdout)
-    for key in ("status", "wall_time_s", "peak_force_n", "max_penetration_m", "dissipated_energy_j", "newton_iterations"):
+    for key in (
+        "status",
+        "wall_time_s",
+        "peak_force_n",
+        "max_penetration_m",
+        "dissipated_energy_j",
+        "newton_iterations",
+    ):
         assert key in summary
     assert summary["status"] == "ok" and summary["newton_iterations"] is None and summary["samples"] == 401
     assert (tmp_path / "forces.csv").read_text().splitlines()[0] == "t,fx,fy,fz,mx,my,mz"
@@ -52,7 +72,19 @@ def test_run_aux_penalty_writes_forces_and_json_summary(tmp_path, trajectory_csv
 
 def test_bad_input_is_one_line_exit_2_without_traceback(tmp_path, trajectory_csv):
     (tmp_path / "params.json").write_text('{"k": -1}')
-    proc = alcove("oracle", "run", "--oracle", "aux-penalty", "--params", "params.json", "--trajectory", "traj.csv", "--out", "forces.csv", cwd=tmp_path)
+    proc = alcove(
+        "oracle",
+        "run",
+        "--oracle",
+        "aux-penalty",
+        "--params",
+        "params.json",
+        "--trajectory",
+        "traj.csv",
+        "--out",
+        "forces.csv",
+        cwd=tmp_path,
+    )
     assert proc.returncode == 2
     assert proc.stderr.strip() == "error: params.k: Input should be greater than 0"
     assert "Traceback" not in proc.stderr and not (tmp_path / "forces.csv").exists()
@@ -64,7 +96,20 @@ def test_failing_command_oracle_exits_1_and_writes_nothing(tmp_path, trajectory_
         f"  broken:\n    argv: ['{{python}}', '{EXAMPLES / 'failing_solver.py'}', 'exit-code']\n"
         f"    workdir_root: {tmp_path / 'runs'}\n"
     )
-    proc = alcove("oracle", "run", "--oracle", "broken", "--catalogue", "catalogue.yaml", "--trajectory", "traj.csv", "--out", "forces.csv", "--json", cwd=tmp_path)
+    proc = alcove(
+        "oracle",
+        "run",
+        "--oracle",
+        "broken",
+        "--catalogue",
+        "catalogue.yaml",
+        "--trajectory",
+        "traj.csv",
+        "--out",
+        "forces.csv",
+        "--json",
+        cwd=tmp_path,
+    )
     assert proc.returncode == 1
     summary = json.loads(proc.stdout)
     assert summary["status"] == "failed" and "exited with code 3" in summary["failure_reason"]
@@ -75,12 +120,31 @@ def test_failing_command_oracle_exits_1_and_writes_nothing(tmp_path, trajectory_
 
 def test_command_oracle_from_the_settings_catalogue(tmp_path, trajectory_csv):
     env = {**os.environ, "ALCOVE_COMMAND_ORACLES_FILE": str(EXAMPLES / "catalogue.yaml")}
-    proc = subprocess.run([ALCOVE, "oracle", "run", "--oracle", "aux-replay", "--trajectory", "traj.csv", "--out", "forces.csv", "--json"],
-                          cwd=tmp_path, env=env, capture_output=True, text=True, timeout=120)
+    proc = subprocess.run(
+        [
+            ALCOVE,
+            "oracle",
+            "run",
+            "--oracle",
+            "aux-replay",
+            "--trajectory",
+            "traj.csv",
+            "--out",
+            "forces.csv",
+            "--json",
+        ],
+        cwd=tmp_path,
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
     assert proc.returncode == 0, proc.stderr
     summary = json.loads(proc.stdout)
     reference = AuxPenaltyOracle().run(Trajectory.from_csv(trajectory_csv))
-    assert summary["max_penetration_m"] == pytest.approx(reference.diagnostics["max_penetration_m"])  # from the solver's diagnostics.json
+    assert summary["max_penetration_m"] == pytest.approx(
+        reference.diagnostics["max_penetration_m"]
+    )  # from the solver's diagnostics.json
     np.testing.assert_array_equal(ForceSeries.from_csv(tmp_path / "forces.csv").force, reference.forces.force)
 
 
@@ -107,17 +171,61 @@ def invoke(*args: str):
     ("setup", "args", "message"),
     [
         (lambda d: None, ["--oracle", "lsdyna"], "error: oracle: unknown oracle type 'lsdyna'"),
-        (lambda d: (d / "p.json").write_text("{k: 1}"), ["--oracle", "aux-penalty", "--params", "p.json"], "error: params: p.json is not valid JSON"),
-        (lambda d: (d / "p.json").write_text("[1, 2]"), ["--oracle", "aux-penalty", "--params", "p.json"], "error: params: p.json must hold a JSON object"),
-        (lambda d: None, ["--oracle", "aux-penalty", "--params", "missing.json"], "error: params: missing.json does not exist"),
-        (lambda d: (d / "traj.csv").write_text("t,q_0,qd_0\n0,0.2,0\n0,0.3,0\n"), ["--oracle", "aux-penalty"], "error: trajectory: t: time must increase strictly"),
-        (lambda d: (d / "traj.csv").write_text("t,q_0,qd_0\n0,0.2,0\n1,nan,0\n"), ["--oracle", "aux-penalty"], "error: trajectory: q: non-finite value (NaN or inf) at data row 2"),
-        (lambda d: (d / "traj.csv").write_text("t,q_0,qdot_0\n0,0.2,0\n1,0.3,0\n"), ["--oracle", "aux-penalty"], "error: trajectory: qd_0: expected 1 velocity columns"),
-        (lambda d: (d / "traj.csv").write_text("t,q_0,qd_0\n0,0.2,0\n1,0.9,0\n"), ["--oracle", "aux-penalty"], "error: q_0: theta = 0.9 rad at t = 1 s is outside"),
-        (lambda d: None, ["--oracle", "aux-penalty", "--trajectory", "nowhere.csv"], "error: trajectory: file: nowhere.csv does not exist"),
-        (lambda d: None, ["--oracle", "aux-penalty", "--out", "no/such/forces.csv"], "error: out: folder no/such does not exist"),
-        (lambda d: (d / "c.yaml").write_text("command_oracles:\n  x: {argv: 'rm -rf /'}\n"), ["--oracle", "x", "--catalogue", "c.yaml"], "error: catalogue: command_oracles.x.argv: must be a list"),
-        (lambda d: None, ["--oracle", "aux-replay"], "error: oracle: unknown oracle type 'aux-replay'; known: aux-penalty, fe-headrest-2d (command oracles need"),
+        (
+            lambda d: (d / "p.json").write_text("{k: 1}"),
+            ["--oracle", "aux-penalty", "--params", "p.json"],
+            "error: params: p.json is not valid JSON",
+        ),
+        (
+            lambda d: (d / "p.json").write_text("[1, 2]"),
+            ["--oracle", "aux-penalty", "--params", "p.json"],
+            "error: params: p.json must hold a JSON object",
+        ),
+        (
+            lambda d: None,
+            ["--oracle", "aux-penalty", "--params", "missing.json"],
+            "error: params: missing.json does not exist",
+        ),
+        (
+            lambda d: (d / "traj.csv").write_text("t,q_0,qd_0\n0,0.2,0\n0,0.3,0\n"),
+            ["--oracle", "aux-penalty"],
+            "error: trajectory: t: time must increase strictly",
+        ),
+        (
+            lambda d: (d / "traj.csv").write_text("t,q_0,qd_0\n0,0.2,0\n1,nan,0\n"),
+            ["--oracle", "aux-penalty"],
+            "error: trajectory: q: non-finite value (NaN or inf) at data row 2",
+        ),
+        (
+            lambda d: (d / "traj.csv").write_text("t,q_0,qdot_0\n0,0.2,0\n1,0.3,0\n"),
+            ["--oracle", "aux-penalty"],
+            "error: trajectory: qd_0: expected 1 velocity columns",
+        ),
+        (
+            lambda d: (d / "traj.csv").write_text("t,q_0,qd_0\n0,0.2,0\n1,0.9,0\n"),
+            ["--oracle", "aux-penalty"],
+            "error: q_0: theta = 0.9 rad at t = 1 s is outside",
+        ),
+        (
+            lambda d: None,
+            ["--oracle", "aux-penalty", "--trajectory", "nowhere.csv"],
+            "error: trajectory: file: nowhere.csv does not exist",
+        ),
+        (
+            lambda d: None,
+            ["--oracle", "aux-penalty", "--out", "no/such/forces.csv"],
+            "error: out: folder no/such does not exist",
+        ),
+        (
+            lambda d: (d / "c.yaml").write_text("command_oracles:\n  x: {argv: 'rm -rf /'}\n"),
+            ["--oracle", "x", "--catalogue", "c.yaml"],
+            "error: catalogue: command_oracles.x.argv: must be a list",
+        ),
+        (
+            lambda d: None,
+            ["--oracle", "aux-replay"],
+            "error: oracle: unknown oracle type 'aux-replay'; known: aux-penalty, fe-headrest-2d (command oracles need",
+        ),
     ],
 )
 def test_bad_input_matrix(tmp_path, trajectory_csv, monkeypatch, setup, args, message):

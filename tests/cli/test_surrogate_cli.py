@@ -33,14 +33,19 @@ def quick_config(tmp_path: Path) -> Path:
 def trajectory_csv(tmp_path: Path) -> Path:
     t = np.linspace(0.0, 1.0, 401)
     path = tmp_path / "traj.csv"
-    Trajectory(t, DEFAULT_PRESET.theta0 + 0.15 * np.sin(np.pi * t), 0.15 * np.pi * np.cos(np.pi * t), np.zeros_like(t)).to_csv(path)
+    Trajectory(
+        t, DEFAULT_PRESET.theta0 + 0.15 * np.sin(np.pi * t), 0.15 * np.pi * np.cos(np.pi * t), np.zeros_like(t)
+    ).to_csv(path)
     return path
 
 
 def test_preliminary_train_predict(tmp_path, quick_config, trajectory_csv):
     """A user builds a pool, trains (the real console script) and predicts from the CLI."""
     env = {k: v for k, v in os.environ.items() if k != "ALCOVE_DATABASE_URL"}
-    run = lambda *a: subprocess.run([ALCOVE, "surrogate", *a], cwd=tmp_path, env=env, capture_output=True, text=True, timeout=300)  # noqa: E731
+    def run(*a):
+        return subprocess.run(
+            [ALCOVE, "surrogate", *a], cwd=tmp_path, env=env, capture_output=True, text=True, timeout=300
+        )
     result = invoke("surrogate", "preliminary", "--out", str(tmp_path / "pool"), "--samples", "600", "--chunks", "6")
     assert result.exit_code == 0 and result.output.startswith("600 samples (")
     assert len(list((tmp_path / "pool").glob("preliminary-*.traj.csv"))) == 6
@@ -58,7 +63,16 @@ def test_preliminary_train_predict(tmp_path, quick_config, trajectory_csv):
     assert summary["training_kernel"] == "c"  # gcc is on this machine: the compiled kernel trained it
     assert sum(summary["samples"].values()) == 600 + 401
     assert sorted(p.name for p in (tmp_path / "model").iterdir()) == ["force.pt", "moment.pt", "surrogate.json"]
-    result = invoke("surrogate", "predict", "--model", str(tmp_path / "model"), "--trajectory", str(trajectory_csv), "--out", str(tmp_path / "pred.csv"))
+    result = invoke(
+        "surrogate",
+        "predict",
+        "--model",
+        str(tmp_path / "model"),
+        "--trajectory",
+        str(trajectory_csv),
+        "--out",
+        str(tmp_path / "pred.csv"),
+    )
     assert result.exit_code == 0, result.output
     assert (tmp_path / "pred.csv").read_text().splitlines()[0] == "t,fx,fy,fz,mx,my,mz"
     from alcove.science.surrogate.artifact import load_artifact
@@ -73,7 +87,18 @@ def test_preliminary_train_predict(tmp_path, quick_config, trajectory_csv):
 def test_same_seed_same_artifact(tmp_path, quick_config):
     invoke("surrogate", "preliminary", "--out", str(tmp_path / "pool"), "--samples", "300", "--chunks", "3")
     for name in ("a", "b"):
-        result = invoke("surrogate", "train", "--pool", str(tmp_path / "pool"), "--config", str(quick_config), "--seed", "5", "--out", str(tmp_path / name))
+        result = invoke(
+            "surrogate",
+            "train",
+            "--pool",
+            str(tmp_path / "pool"),
+            "--config",
+            str(quick_config),
+            "--seed",
+            "5",
+            "--out",
+            str(tmp_path / name),
+        )
         assert result.exit_code == 0, result.output
     docs = [json.loads((tmp_path / n / "surrogate.json").read_text()) for n in ("a", "b")]
     assert docs[0]["networks"] == docs[1]["networks"] and docs[0]["lineage"]["seed"] == 5
@@ -83,15 +108,36 @@ def test_same_seed_same_artifact(tmp_path, quick_config):
     "args, message",
     [
         (["train", "--out", "m"], "error: pool: give exactly one of --pool DIR and --campaign ID"),
-        (["train", "--pool", "nope", "--campaign", "1", "--out", "m"], "error: pool: give exactly one of --pool DIR and --campaign ID"),
+        (
+            ["train", "--pool", "nope", "--campaign", "1", "--out", "m"],
+            "error: pool: give exactly one of --pool DIR and --campaign ID",
+        ),
         (["train", "--pool", "nope", "--out", "m"], "error: pool: pool: nope is not a directory"),
-        (["train", "--pool", "empty", "--out", "m"], "error: pool: pool: empty holds no NAME.traj.csv + NAME.forces.csv pairs (the pool is empty)"),
-        (["train", "--pool", "pool", "--config", "bad.json", "--out", "m"], "error: config: force.hidden.1: Input should be greater than or equal to 1"),
-        (["train", "--pool", "pool", "--config", "missing.json", "--out", "m"], "error: config: missing.json does not exist"),
-        (["train", "--campaign", "1", "--database-url", "sqlite:///nowhere/x.db", "--out", "m"], "error: campaign: no database at sqlite:///nowhere/x.db (set ALCOVE_DATABASE_URL)"),
-        (["predict", "--model", "nomodel", "--trajectory", "t.csv", "--out", "p.csv"], "error: model: nomodel does not exist"),
+        (
+            ["train", "--pool", "empty", "--out", "m"],
+            "error: pool: pool: empty holds no NAME.traj.csv + NAME.forces.csv pairs (the pool is empty)",
+        ),
+        (
+            ["train", "--pool", "pool", "--config", "bad.json", "--out", "m"],
+            "error: config: force.hidden.1: Input should be greater than or equal to 1",
+        ),
+        (
+            ["train", "--pool", "pool", "--config", "missing.json", "--out", "m"],
+            "error: config: missing.json does not exist",
+        ),
+        (
+            ["train", "--campaign", "1", "--database-url", "sqlite:///nowhere/x.db", "--out", "m"],
+            "error: campaign: no database at sqlite:///nowhere/x.db (set ALCOVE_DATABASE_URL)",
+        ),
+        (
+            ["predict", "--model", "nomodel", "--trajectory", "t.csv", "--out", "p.csv"],
+            "error: model: nomodel does not exist",
+        ),
         (["preliminary", "--out", "p2", "--samples", "1"], "error: samples: must be an integer >= 2, got 1"),
-        (["preliminary", "--out", "p2", "--velocity-bound", "-1"], "error: velocity-bound: must be a positive number, got -1.0"),
+        (
+            ["preliminary", "--out", "p2", "--velocity-bound", "-1"],
+            "error: velocity-bound: must be a positive number, got -1.0",
+        ),
     ],
 )
 def test_bad_input_is_one_line_exit_2(tmp_path, monkeypatch, args, message):
@@ -116,10 +162,31 @@ def test_a_bad_training_kernel_choice_is_one_line_exit_2(tmp_path, monkeypatch, 
 
 def test_predict_rejects_a_trajectory_of_another_chain(tmp_path, quick_config):
     invoke("surrogate", "preliminary", "--out", str(tmp_path / "pool"), "--samples", "100", "--chunks", "2")
-    invoke("surrogate", "train", "--pool", str(tmp_path / "pool"), "--config", str(quick_config), "--out", str(tmp_path / "m"))
+    invoke(
+        "surrogate",
+        "train",
+        "--pool",
+        str(tmp_path / "pool"),
+        "--config",
+        str(quick_config),
+        "--out",
+        str(tmp_path / "m"),
+    )
     t = np.linspace(0, 1, 5)
     Trajectory(t, np.c_[t, t], np.c_[t, t]).to_csv(tmp_path / "two.csv")
-    result = runner.invoke(app, ["surrogate", "predict", "--model", str(tmp_path / "m"), "--trajectory", str(tmp_path / "two.csv"), "--out", str(tmp_path / "p.csv")])
+    result = runner.invoke(
+        app,
+        [
+            "surrogate",
+            "predict",
+            "--model",
+            str(tmp_path / "m"),
+            "--trajectory",
+            str(tmp_path / "two.csv"),
+            "--out",
+            str(tmp_path / "p.csv"),
+        ],
+    )
     assert result.exit_code == 2
     assert result.output.strip() == "error: trajectory: q: has 2 degrees of freedom, the model was trained on 1"
 
@@ -136,9 +203,25 @@ def test_train_on_a_campaign_pool(tmp_path, sqlite_url):
     config_spec = {"max_epochs": 7, "batch_size": 128}
     with session_scope(sqlite_url) as s:
         user = m.User(email="cli-surrogate@x.org", role=m.Role.member.value)
-        tv = m.TaskVersion(definition=m.TaskDefinition(owner=user, name="t", latest_version=1), version=1, spec=task_spec, spec_hash=m.spec_hash(task_spec))
-        ov = m.OracleVersion(definition=m.OracleDefinition(owner=user, name="o", latest_version=1), version=1, oracle_type="aux-penalty", spec={}, spec_hash=m.spec_hash({}))
-        sv = m.SurrogateConfigVersion(config=m.SurrogateConfig(owner=user, name="s", latest_version=1), version=1, spec=config_spec, spec_hash=m.spec_hash(config_spec))
+        tv = m.TaskVersion(
+            definition=m.TaskDefinition(owner=user, name="t", latest_version=1),
+            version=1,
+            spec=task_spec,
+            spec_hash=m.spec_hash(task_spec),
+        )
+        ov = m.OracleVersion(
+            definition=m.OracleDefinition(owner=user, name="o", latest_version=1),
+            version=1,
+            oracle_type="aux-penalty",
+            spec={},
+            spec_hash=m.spec_hash({}),
+        )
+        sv = m.SurrogateConfigVersion(
+            config=m.SurrogateConfig(owner=user, name="s", latest_version=1),
+            version=1,
+            spec=config_spec,
+            spec_hash=m.spec_hash(config_spec),
+        )
         c = m.Campaign(owner=user, name="c", task_version=tv, oracle_version=ov, surrogate_config_version=sv, seed=11)
         s.add(c)
         s.flush()
@@ -146,18 +229,45 @@ def test_train_on_a_campaign_pool(tmp_path, sqlite_url):
         it0 = m.Iteration(campaign=c, index=0, config_version=cfg)
         s.add_all([cfg, it0])
         s.flush()
-        datasets = [store_dataset(s, t=ds.t, q=ds.q, qd=ds.qd, f=np.hstack([ds.force, ds.moment]), origin="preliminary", name=ds.name, campaign_id=c.id, iteration_id=it0.id)
-                    for ds in preliminary_pool(DEFAULT_PRESET, samples=200, chunks=4)]
+        datasets = [
+            store_dataset(
+                s,
+                t=ds.t,
+                q=ds.q,
+                qd=ds.qd,
+                f=np.hstack([ds.force, ds.moment]),
+                origin="preliminary",
+                name=ds.name,
+                campaign_id=c.id,
+                iteration_id=it0.id,
+            )
+            for ds in preliminary_pool(DEFAULT_PRESET, samples=200, chunks=4)
+        ]
         create_version(s, campaign_id=c.id, iteration_id=it0.id, version=0, parent=None, new_datasets=datasets)
         campaign_id = c.id
-    result = runner.invoke(app, ["surrogate", "train", "--campaign", str(campaign_id), "--database-url", sqlite_url, "--out", str(tmp_path / "m"), "--json"])
+    result = runner.invoke(
+        app,
+        [
+            "surrogate",
+            "train",
+            "--campaign",
+            str(campaign_id),
+            "--database-url",
+            sqlite_url,
+            "--out",
+            str(tmp_path / "m"),
+            "--json",
+        ],
+    )
     assert result.exit_code == 0, result.output
     summary = json.loads(result.output)
     assert summary["seed"] == 11 and summary["datasets"] == 4 and summary["epochs"] == {"force": 7, "moment": 7}
     doc = json.loads((tmp_path / "m" / "surrogate.json").read_text())
     assert doc["lineage"]["campaign_id"] == campaign_id and doc["lineage"]["pool_version"] == 0
     assert doc["config"]["max_epochs"] == 7
-    result = runner.invoke(app, ["surrogate", "train", "--campaign", "999999", "--database-url", sqlite_url, "--out", str(tmp_path / "n")])
+    result = runner.invoke(
+        app, ["surrogate", "train", "--campaign", "999999", "--database-url", sqlite_url, "--out", str(tmp_path / "n")]
+    )
     assert result.exit_code == 2 and result.output.strip() == "error: campaign: no campaign with id 999999"
 
 
@@ -173,8 +283,19 @@ def test_a_pool_built_by_hand_from_the_real_ocp_and_oracle_commands(tmp_path, qu
 
     alcove("surrogate", "preliminary", "--out", "pool", "--samples", "400", "--chunks", "4")
     alcove("ocp", "solve", "--contact", "aux", "--intervals", "40", "--out", "pool/iter1.traj.csv")
-    alcove("oracle", "run", "--oracle", "aux-penalty", "--trajectory", "pool/iter1.traj.csv", "--out", "pool/iter1.forces.csv")
-    summary = json.loads(alcove("surrogate", "train", "--pool", "pool", "--config", str(quick_config), "--out", "model", "--json").stdout)
+    alcove(
+        "oracle",
+        "run",
+        "--oracle",
+        "aux-penalty",
+        "--trajectory",
+        "pool/iter1.traj.csv",
+        "--out",
+        "pool/iter1.forces.csv",
+    )
+    summary = json.loads(
+        alcove("surrogate", "train", "--pool", "pool", "--config", str(quick_config), "--out", "model", "--json").stdout
+    )
     replayed = ForceSeries.from_csv(tmp_path / "pool" / "iter1.forces.csv")
     assert summary["datasets"] == 5 and sum(summary["samples"].values()) == 400 + len(replayed.t)
     from alcove.science.surrogate.artifact import load_artifact

@@ -7,6 +7,7 @@ and fail under CI (``CI=true``), so a CI machine that lacks them cannot pass sil
 
 from __future__ import annotations
 
+import contextlib
 import os
 import shutil
 import signal
@@ -101,7 +102,14 @@ def start_server(data_dir: Path, concurrency: int = 1) -> tuple[Server, subproce
     alcove = Path(sys.executable).with_name("alcove")
     cmd = [str(alcove)] if alcove.exists() else [sys.executable, "-m", "alcove_worker.cli.main"]
     with log.open("wb") as out:
-        proc = subprocess.Popen([*cmd, "up", "--port", str(port)], cwd=REPO, env=env, stdout=out, stderr=subprocess.STDOUT, start_new_session=True)
+        proc = subprocess.Popen(
+            [*cmd, "up", "--port", str(port)],
+            cwd=REPO,
+            env=env,
+            stdout=out,
+            stderr=subprocess.STDOUT,
+            start_new_session=True,
+        )
     server = Server(base_url=f"http://127.0.0.1:{port}", data_dir=data_dir, env=env, log=log)
     try:
         _wait_healthy(server.base_url, proc, log, timeout=120)
@@ -114,10 +122,8 @@ def start_server(data_dir: Path, concurrency: int = 1) -> tuple[Server, subproce
 def stop_server(proc: subprocess.Popen[bytes]) -> None:
     if proc.poll() is None:
         proc.send_signal(signal.SIGTERM)
-        try:
+        with contextlib.suppress(subprocess.TimeoutExpired):
             proc.wait(timeout=40)
-        except subprocess.TimeoutExpired:
-            pass
     try:
         os.killpg(proc.pid, signal.SIGKILL)  # anything left in its session (worker pool)
     except ProcessLookupError:

@@ -14,7 +14,14 @@ DOCS_IMAGES = REPO / "docs" / "images"
 # written by the run into test-artifacts/; with ALCOVE_DOCS_IMAGES=1 (`make docs-images`) also
 # into docs/images/, the screenshots the docs show (a plain `make test` leaves the tree clean)
 UPDATE_DOCS_IMAGES = os.environ.get("ALCOVE_DOCS_IMAGES") == "1"
-SCREENSHOTS = ("campaign-page.png", "campaign-trajectory.png", "campaigns-list.png", "task-editor.png", "oracle-editor.png", "new-campaign.png")
+SCREENSHOTS = (
+    "campaign-page.png",
+    "campaign-trajectory.png",
+    "campaigns-list.png",
+    "task-editor.png",
+    "oracle-editor.png",
+    "new-campaign.png",
+)
 
 pytestmark = [pytest.mark.slow, pytest.mark.e2e]
 
@@ -25,7 +32,18 @@ def test_campaign_lifecycle_in_the_browser(alcove_server: Server) -> None:
     download, screenshots for the docs (see frontend/e2e/run.mjs)."""
     ARTIFACTS.mkdir(exist_ok=True)
     started = time.time() - 1
-    command = ["node", "e2e/run.mjs", "--base-url", alcove_server.base_url, "--email", ADMIN_EMAIL, "--password", ADMIN_PASSWORD, "--artifacts", str(ARTIFACTS)]
+    command = [
+        "node",
+        "e2e/run.mjs",
+        "--base-url",
+        alcove_server.base_url,
+        "--email",
+        ADMIN_EMAIL,
+        "--password",
+        ADMIN_PASSWORD,
+        "--artifacts",
+        str(ARTIFACTS),
+    ]
     if UPDATE_DOCS_IMAGES:
         command += ["--docs-images", str(DOCS_IMAGES)]
     result = subprocess.run(
@@ -38,7 +56,9 @@ def test_campaign_lifecycle_in_the_browser(alcove_server: Server) -> None:
     print(result.stdout)  # the steps with their times (pytest -s)
     if result.returncode != 0:
         server_log = alcove_server.log.read_text()[-3000:] if alcove_server.log.exists() else ""
-        pytest.fail(f"browser run failed:\n{result.stdout[-4000:]}\n{result.stderr[-4000:]}\n--- alcove up log ---\n{server_log}")
+        pytest.fail(
+            f"browser run failed:\n{result.stdout[-4000:]}\n{result.stderr[-4000:]}\n--- alcove up log ---\n{server_log}"
+        )
     for name in SCREENSHOTS:
         for folder in (ARTIFACTS, DOCS_IMAGES) if UPDATE_DOCS_IMAGES else (ARTIFACTS,):
             shot = folder / name

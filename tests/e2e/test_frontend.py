@@ -26,11 +26,20 @@ def _require_node() -> None:
 
 def test_generated_api_client_matches_the_live_openapi_schema() -> None:
     _require_node()
-    result = subprocess.run(["node", "scripts/gen-api.mjs", "--check"], cwd=FRONTEND, capture_output=True, text=True, timeout=300)
+    result = subprocess.run(
+        ["node", "scripts/gen-api.mjs", "--check"], cwd=FRONTEND, capture_output=True, text=True, timeout=300
+    )
     assert result.returncode == 0, result.stderr + result.stdout
 
 
 def test_vitest_component_tests_pass() -> None:
     _require_node()
-    result = subprocess.run(["npx", "vitest", "--run", "--reporter=dot"], cwd=FRONTEND, capture_output=True, text=True, timeout=600, env={**os.environ, "CI": "true"})
+    result = subprocess.run(
+        ["npx", "vitest", "--run", "--reporter=dot"],
+        cwd=FRONTEND,
+        capture_output=True,
+        text=True,
+        timeout=600,
+        env={**os.environ, "CI": "true"},
+    )
     assert result.returncode == 0, result.stdout[-6000:] + result.stderr[-3000:]

@@ -10,8 +10,8 @@ import subprocess
 import sys
 import time
 import uuid
-from contextlib import contextmanager
 from collections.abc import Iterator
+from contextlib import contextmanager, suppress
 from pathlib import Path
 
 import httpx
@@ -43,7 +43,9 @@ class Proc:
     def __init__(self, args: list[str], env: dict[str, str], log: Path) -> None:
         self.log = log
         self._fh = open(log, "wb")
-        self.p = subprocess.Popen(CLI + args, env=env, stdout=self._fh, stderr=subprocess.STDOUT, start_new_session=True)
+        self.p = subprocess.Popen(
+            CLI + args, env=env, stdout=self._fh, stderr=subprocess.STDOUT, start_new_session=True
+        )
 
     def output(self) -> str:
         if not self._fh.closed:
@@ -55,24 +57,18 @@ class Proc:
 
     def kill(self) -> None:
         """SIGKILL the process and its children (no warm shutdown, no acks)."""
-        try:
+        with suppress(ProcessLookupError):
             os.killpg(self.p.pid, signal.SIGKILL)
-        except ProcessLookupError:
-            pass
         self.p.wait(timeout=10)
         self._fh.close()
 
     def stop(self, timeout: float = 30) -> int:
         if self.p.poll() is None:
             self.p.send_signal(signal.SIGTERM)
-            try:
+            with suppress(subprocess.TimeoutExpired):
                 self.p.wait(timeout=timeout)
-            except subprocess.TimeoutExpired:
-                pass
-        try:
+        with suppress(ProcessLookupError):
             os.killpg(self.p.pid, signal.SIGKILL)
-        except ProcessLookupError:
-            pass
         code = self.p.wait(timeout=10)
         self._fh.close()
         return code
@@ -87,7 +83,7 @@ def running(args: list[str], env: dict[str, str], log: Path) -> Iterator[Proc]:
         proc.stop()
 
 
-def wait_until(pred, timeout: float, what: str, proc: Proc | None = None, interval: float = 0.1):  # noqa: ANN001, ANN201
+def wait_until(pred, timeout: float, what: str, proc: Proc | None = None, interval: float = 0.1):
     deadline = time.monotonic() + timeout
     while time.monotonic() < deadline:
         got = pred()
@@ -96,12 +92,25 @@ def wait_until(pred, timeout: float, what: str, proc: Proc | None = None, interv
         if proc is not None and not proc.alive():
             raise AssertionError(f"process died while waiting for {what}:\n{proc.output()[-4000:]}")
         time.sleep(interval)
-    raise AssertionError(f"timed out after {timeout} s waiting for {what}" + (f":\n{proc.output()[-4000:]}" if proc else ""))
+    raise AssertionError(
+        f"timed out after {timeout} s waiting for {what}" + (f":\n{proc.output()[-4000:]}" if proc else "")
+    )
 
 
-def start_worker(env: dict[str, str], log: Path, name: str, queues: str = "default,ocp,oracle,train", concurrency: int = 1, loglevel: str = "INFO") -> Proc:
+def start_worker(
+    env: dict[str, str],
+    log: Path,
+    name: str,
+    queues: str = "default,ocp,oracle,train",
+    concurrency: int = 1,
+    loglevel: str = "INFO",
+) -> Proc:
     """An `alcove worker` process (stop it with ``.stop()``, or ``.kill()`` for a SIGKILL)."""
-    return Proc(["worker", "--queues", queues, "--concurrency", str(concurrency), "--name", name, "--loglevel", loglevel], env, log)
+    return Proc(
+        ["worker", "--queues", queues, "--concurrency", str(concurrency), "--name", name, "--loglevel", loglevel],
+        env,
+        log,
+    )
 
 
 def db_rows(url: str, sql: str, **params: object) -> list[tuple]:

@@ -9,7 +9,9 @@ from alcove.settings import Settings
 
 
 def test_long_job_settings_on_redis() -> None:
-    cfg = celery_config(Settings(broker_url="redis://127.0.0.1:6379/0", broker_visibility_timeout=43200, broker_key_prefix="p:"))
+    cfg = celery_config(
+        Settings(broker_url="redis://127.0.0.1:6379/0", broker_visibility_timeout=43200, broker_key_prefix="p:")
+    )
     assert cfg["task_acks_late"] is True
     assert cfg["worker_prefetch_multiplier"] == 1
     assert cfg["task_serializer"] == "json" and cfg["accept_content"] == ["json"]

@@ -11,9 +11,16 @@ from pathlib import Path
 import pytest
 import sqlalchemy as sa
 
-from alcove.db import get_sessionmaker, is_retryable_db_error, make_engine, normalize_url, retry_on_locked, run_in_transaction
-from alcove.db.bootstrap import ensure_first_admin
 from alcove import models as m
+from alcove.db import (
+    get_sessionmaker,
+    is_retryable_db_error,
+    make_engine,
+    normalize_url,
+    retry_on_locked,
+    run_in_transaction,
+)
+from alcove.db.bootstrap import ensure_first_admin
 
 
 def test_postgres_urls_use_psycopg3() -> None:
@@ -98,7 +105,7 @@ def test_concurrent_writers_on_sqlite_all_commit(tmp_path: Path) -> None:
         assert s.execute(sa.text("SELECT n FROM counter")).scalar() == 80
 
 
-def test_first_admin_is_created_once(db_session) -> None:  # noqa: ANN001
+def test_first_admin_is_created_once(db_session) -> None:
     # the session database is shared with tests that commit users: start (inside this
     # rolled-back transaction) from a state without any admin
     db_session.execute(sa.update(m.User).where(m.User.role == "admin").values(role="member"))

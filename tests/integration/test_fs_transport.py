@@ -16,7 +16,11 @@ def _channel(tmp_path: Path) -> Any:
 
     folder = tmp_path / "messages"
     folder.mkdir()
-    conn = Connection("filesystem://", transport=TRANSPORT, transport_options={"data_folder_in": str(folder), "data_folder_out": str(folder)})
+    conn = Connection(
+        "filesystem://",
+        transport=TRANSPORT,
+        transport_options={"data_folder_in": str(folder), "data_folder_out": str(folder)},
+    )
     return conn, conn.default_channel, folder
 
 

@@ -22,7 +22,15 @@ def make_campaign(s: Session, *, email: str = "a@x.org") -> m.Campaign:
     ov = m.OracleVersion(definition=orc, version=1, oracle_type="aux-penalty", spec={}, spec_hash=m.spec_hash({}))
     sc = m.SurrogateConfig(owner=user, name="s", latest_version=1)
     sv = m.SurrogateConfigVersion(config=sc, version=1, spec={}, spec_hash=m.spec_hash({}))
-    c = m.Campaign(owner=user, name="c", task_version=tv, oracle_version=ov, surrogate_config_version=sv, seed=2**40, stopping_rules={"max_iterations": 3})
+    c = m.Campaign(
+        owner=user,
+        name="c",
+        task_version=tv,
+        oracle_version=ov,
+        surrogate_config_version=sv,
+        seed=2**40,
+        stopping_rules={"max_iterations": 3},
+    )
     s.add(c)
     s.flush()
     s.add(m.CampaignConfigVersion(campaign=c, version=1, surrogate_config_version=sv))
@@ -39,7 +47,9 @@ def test_full_lineage_roundtrip(db_session: Session) -> None:
     s.add_all([it0, it1])
     s.flush()
     for name in m.ITERATION_STEPS:
-        s.add(m.IterationStep(campaign_id=c.id, iteration=it1, step=name.value, queue="default", config_version_id=cfg.id))
+        s.add(
+            m.IterationStep(campaign_id=c.id, iteration=it1, step=name.value, queue="default", config_version_id=cfg.id)
+        )
     f0 = {"t": np.linspace(0, 1, 11), "f": np.ones((11, 6))}
     h0 = arrays.put_arrays(s, f0)
     assert arrays.put_arrays(s, {"f": np.ones((11, 6)), "t": np.linspace(0, 1, 11)}) == h0  # stored once
@@ -52,8 +62,16 @@ def test_full_lineage_roundtrip(db_session: Session) -> None:
     s.flush()
     w = arrays.put_arrays(s, {"W0": np.zeros((6, 19))})
     mv = m.ModelVersion(
-        campaign_id=c.id, iteration_id=it1.id, version=1, pool_version_id=p0.id, seed=7, architecture={"force": [19, 6, 6, 4, 3]},
-        normalisation={}, weights_sha256=w, code_version="0.1.0", library_versions={"torch": "2.13.0"},
+        campaign_id=c.id,
+        iteration_id=it1.id,
+        version=1,
+        pool_version_id=p0.id,
+        seed=7,
+        architecture={"force": [19, 6, 6, 4, 3]},
+        normalisation={},
+        weights_sha256=w,
+        code_version="0.1.0",
+        library_versions={"torch": "2.13.0"},
     )
     s.add(mv)
     s.flush()
@@ -61,14 +79,31 @@ def test_full_lineage_roundtrip(db_session: Session) -> None:
     s.add(run)
     s.flush()
     h1 = arrays.put_arrays(s, {"t": np.arange(3.0), "f": np.zeros((3, 6))})
-    d1 = m.Dataset(origin="oracle", content_sha256=h1, campaign_id=c.id, iteration_id=it1.id, oracle_run_id=run.id, n_samples=3)
+    d1 = m.Dataset(
+        origin="oracle", content_sha256=h1, campaign_id=c.id, iteration_id=it1.id, oracle_run_id=run.id, n_samples=3
+    )
     s.add(d1)
     s.flush()
-    p1 = m.PoolVersion(campaign_id=c.id, iteration_id=it1.id, version=1, parent=p0, n_datasets=2, n_samples=14, content_hash="x" * 64)
-    p1.members += [m.PoolVersionMember(dataset_id=d0.id, position=0), m.PoolVersionMember(dataset_id=d1.id, position=1, added_in_this_version=True)]
+    p1 = m.PoolVersion(
+        campaign_id=c.id, iteration_id=it1.id, version=1, parent=p0, n_datasets=2, n_samples=14, content_hash="x" * 64
+    )
+    p1.members += [
+        m.PoolVersionMember(dataset_id=d0.id, position=0),
+        m.PoolVersionMember(dataset_id=d1.id, position=1, added_in_this_version=True),
+    ]
     s.add(p1)
     curves = arrays.put_arrays(s, {"t": np.arange(3.0), "f_true": np.zeros((3, 6)), "f_pred": np.ones((3, 6))})
-    s.add(m.IterationMetrics(campaign_id=c.id, iteration_id=it1.id, iteration_index=1, model_version_id=mv.id, force_rmse=1.0, moment_rmse=0.1, curves_sha256=curves))
+    s.add(
+        m.IterationMetrics(
+            campaign_id=c.id,
+            iteration_id=it1.id,
+            iteration_index=1,
+            model_version_id=mv.id,
+            force_rmse=1.0,
+            moment_rmse=0.1,
+            curves_sha256=curves,
+        )
+    )
     s.flush()
     s.expire_all()
 
@@ -78,7 +113,13 @@ def test_full_lineage_roundtrip(db_session: Session) -> None:
     pv = s.scalars(sa.select(m.PoolVersion).where(m.PoolVersion.version == 1, m.PoolVersion.campaign_id == c.id)).one()
     assert [mem.dataset.origin for mem in pv.members] == ["preliminary", "oracle"]
     assert pv.parent.version == 0
-    back = arrays.get_arrays(s, s.get(m.IterationMetrics, s.scalars(sa.select(m.IterationMetrics.id).where(m.IterationMetrics.campaign_id == c.id)).one()).curves_sha256)
+    back = arrays.get_arrays(
+        s,
+        s.get(
+            m.IterationMetrics,
+            s.scalars(sa.select(m.IterationMetrics.id).where(m.IterationMetrics.campaign_id == c.id)).one(),
+        ).curves_sha256,
+    )
     np.testing.assert_array_equal(back["f_pred"], np.ones((3, 6)))
     assert s.get(m.ModelVersion, mv.id).pool_version.version == 0
 
@@ -91,10 +132,9 @@ def test_an_iteration_appends_at_most_once(db_session: Session) -> None:
     s.flush()
     s.add(m.PoolVersion(campaign_id=c.id, iteration_id=it.id, version=0, content_hash="a" * 64))
     s.flush()
-    with pytest.raises(sa.exc.IntegrityError):
-        with s.begin_nested():
-            s.add(m.PoolVersion(campaign_id=c.id, iteration_id=it.id, version=1, content_hash="b" * 64))
-            s.flush()
+    with pytest.raises(sa.exc.IntegrityError), s.begin_nested():
+        s.add(m.PoolVersion(campaign_id=c.id, iteration_id=it.id, version=1, content_hash="b" * 64))
+        s.flush()
 
 
 def test_a_dataset_is_in_a_pool_version_once(db_session: Session) -> None:
@@ -111,9 +151,12 @@ def test_a_dataset_is_in_a_pool_version_once(db_session: Session) -> None:
     s.flush()
     s.add(m.PoolVersionMember(pool_version_id=p.id, dataset_id=d.id, position=0))
     s.flush()
-    with pytest.raises(sa.exc.IntegrityError):
-        with s.begin_nested():
-            s.execute(sa.insert(m.PoolVersionMember).values(pool_version_id=p.id, dataset_id=d.id, position=1, added_in_this_version=False))
+    with pytest.raises(sa.exc.IntegrityError), s.begin_nested():
+        s.execute(
+            sa.insert(m.PoolVersionMember).values(
+                pool_version_id=p.id, dataset_id=d.id, position=1, added_in_this_version=False
+            )
+        )
 
 
 def test_step_names_and_statuses_are_checked(db_session: Session) -> None:
@@ -128,10 +171,9 @@ def test_step_names_and_statuses_are_checked(db_session: Session) -> None:
         with s.begin_nested():
             s.add(m.IterationStep(campaign_id=c.id, iteration_id=it.id, step="train"))
             s.flush()
-    with pytest.raises(sa.exc.IntegrityError):
-        with s.begin_nested():
-            s.add(m.IterationStep(campaign_id=c.id, iteration_id=it.id, step="dance"))
-            s.flush()
+    with pytest.raises(sa.exc.IntegrityError), s.begin_nested():
+        s.add(m.IterationStep(campaign_id=c.id, iteration_id=it.id, step="dance"))
+        s.flush()
 
 
 def test_conditional_claim_is_exclusive(db_session: Session) -> None:
@@ -148,7 +190,12 @@ def test_conditional_claim_is_exclusive(db_session: Session) -> None:
         return s.execute(
             sa.update(m.IterationStep)
             .where(m.IterationStep.id == step.id, m.IterationStep.status == "queued")
-            .values(status="running", claim_token=token, attempts=m.IterationStep.attempts + 1, lease_until=m.utcnow() + timedelta(minutes=2))
+            .values(
+                status="running",
+                claim_token=token,
+                attempts=m.IterationStep.attempts + 1,
+                lease_until=m.utcnow() + timedelta(minutes=2),
+            )
         ).rowcount
 
     assert claim("first") == 1
@@ -187,10 +234,9 @@ def test_share_needs_exactly_one_object(db_session: Session) -> None:
     s.flush()
     s.add(m.Share(user_id=other.id, campaign_id=c.id))
     s.flush()
-    with pytest.raises(sa.exc.IntegrityError):
-        with s.begin_nested():
-            s.add(m.Share(user_id=other.id))
-            s.flush()
+    with pytest.raises(sa.exc.IntegrityError), s.begin_nested():
+        s.add(m.Share(user_id=other.id))
+        s.flush()
 
 
 def test_passwords_and_tokens_are_hashed(db_session: Session) -> None:

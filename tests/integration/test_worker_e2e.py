@@ -12,7 +12,19 @@ from pathlib import Path
 
 import pytest
 
-from tests.integration.procs import alcove_env, db_rows, free_port, http_ok, pid_alive, run_cli, running, smoke, unique, wait_until, worker_ready
+from tests.integration.procs import (
+    alcove_env,
+    db_rows,
+    free_port,
+    http_ok,
+    pid_alive,
+    run_cli,
+    running,
+    smoke,
+    unique,
+    wait_until,
+    worker_ready,
+)
 
 pytestmark = [pytest.mark.integration, pytest.mark.slow]
 
@@ -20,21 +32,38 @@ pytestmark = [pytest.mark.integration, pytest.mark.slow]
 def test_embedded_worker_round_trip(tmp_path: Path) -> None:
     env = alcove_env(data_dir=tmp_path / "data")
     assert run_cli(["db", "upgrade"], env).returncode == 0
-    with running(["worker", "--queues", "default,train", "--concurrency", "1", "--name", "embedded-test"], env, tmp_path / "worker.log") as w:
+    with running(
+        ["worker", "--queues", "default,train", "--concurrency", "1", "--name", "embedded-test"],
+        env,
+        tmp_path / "worker.log",
+    ) as w:
         wait_until(lambda: worker_ready(w), 60, "worker ready", w)
         for queue in ("default", "train"):
             got = smoke(env, queue=queue)
             assert got["ok"] and got["worker_name"].startswith("embedded-test@")
         url = f"sqlite:///{tmp_path / 'data' / 'alcove.db'}"
         assert len(db_rows(url, "SELECT token FROM smoke_checks")) == 2
-        wait_until(lambda: db_rows(url, "SELECT name FROM worker_heartbeats WHERE stopped_at IS NULL"), 30, "heartbeat row")
+        wait_until(
+            lambda: db_rows(url, "SELECT name FROM worker_heartbeats WHERE stopped_at IS NULL"), 30, "heartbeat row"
+        )
     # warm shutdown marks the worker stopped
-    assert db_rows(url, "SELECT stopped_at IS NOT NULL FROM worker_heartbeats WHERE name LIKE 'embedded-test@%'") == [(1,)]
+    assert db_rows(url, "SELECT stopped_at IS NOT NULL FROM worker_heartbeats WHERE name LIKE 'embedded-test@%'") == [
+        (1,)
+    ]
 
 
 def test_postgres_redis_worker_round_trip(tmp_path: Path, pg_url: str, redis_url: str) -> None:
-    env = alcove_env(database_url=pg_url, broker_url=redis_url, broker_key_prefix=unique("alcove-test") + ":", data_dir=tmp_path / "data")
-    with running(["worker", "--queues", "ocp,oracle,train,default", "--concurrency", "2", "--name", unique("pg-redis")], env, tmp_path / "worker.log") as w:
+    env = alcove_env(
+        database_url=pg_url,
+        broker_url=redis_url,
+        broker_key_prefix=unique("alcove-test") + ":",
+        data_dir=tmp_path / "data",
+    )
+    with running(
+        ["worker", "--queues", "ocp,oracle,train,default", "--concurrency", "2", "--name", unique("pg-redis")],
+        env,
+        tmp_path / "worker.log",
+    ) as w:
         wait_until(lambda: worker_ready(w), 60, "worker ready", w)
         tokens = [smoke(env, queue=q)["token"] for q in ("ocp", "oracle", "train", "default")]
         got = db_rows(pg_url, "SELECT token, worker_name FROM smoke_checks")
@@ -44,7 +73,12 @@ def test_postgres_redis_worker_round_trip(tmp_path: Path, pg_url: str, redis_url
 
 
 def test_duplicate_delivery_of_the_smoke_job_is_a_no_op(tmp_path: Path, pg_url: str, redis_url: str) -> None:
-    env = alcove_env(database_url=pg_url, broker_url=redis_url, broker_key_prefix=unique("alcove-test") + ":", data_dir=tmp_path / "data")
+    env = alcove_env(
+        database_url=pg_url,
+        broker_url=redis_url,
+        broker_key_prefix=unique("alcove-test") + ":",
+        data_dir=tmp_path / "data",
+    )
     with running(["worker", "--queues", "default", "--concurrency", "2"], env, tmp_path / "worker.log") as w:
         wait_until(lambda: worker_ready(w), 60, "worker ready", w)
         code = (
@@ -59,13 +93,20 @@ def test_duplicate_delivery_of_the_smoke_job_is_a_no_op(tmp_path: Path, pg_url: 
 
         r = subprocess.run([sys.executable, "-c", code, token], env=env, capture_output=True, text=True, timeout=120)
         assert r.returncode == 0, r.stderr
-        wait_until(lambda: "succeeded" in w.output() and w.output().count("alcove.default.smoke[") >= 4, 30, "both deliveries handled", w)
+        wait_until(
+            lambda: "succeeded" in w.output() and w.output().count("alcove.default.smoke[") >= 4,
+            30,
+            "both deliveries handled",
+            w,
+        )
     assert db_rows(pg_url, f"SELECT count(*) FROM smoke_checks WHERE token = 'dup-{token}'") == [(1,)]
 
 
 def test_alcove_up_embedded(tmp_path: Path) -> None:
     port = free_port()
-    env = alcove_env(data_dir=tmp_path / "data", api_port=str(port), admin_email="root@example.org", worker_concurrency="1")
+    env = alcove_env(
+        data_dir=tmp_path / "data", api_port=str(port), admin_email="root@example.org", worker_concurrency="1"
+    )
     with running(["up", "--access-log"], env, tmp_path / "up.log") as up:
         base = f"http://127.0.0.1:{port}"
         health = wait_until(lambda: http_ok(f"{base}/api/v1/health"), 60, "health", up)

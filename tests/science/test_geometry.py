@@ -32,7 +32,9 @@ def test_relative_kinematics_velocity_is_time_derivative():
     fd = (relative_kinematics(p, th + h * thd, thd).r_rel - relative_kinematics(p, th - h * thd, thd).r_rel) / (2 * h)
     np.testing.assert_allclose(kin.v_rel, fd, atol=1e-8)
     # distance from the joint is constant: the head origin rotates on a circle of radius d
-    joint_h = relative_kinematics(p, np.array([0.0]), np.array([0.0])).r_rel[0] - rot3_from_tilt(-p.tilt) @ np.array([0, 0, p.com_distance])
+    joint_h = relative_kinematics(p, np.array([0.0]), np.array([0.0])).r_rel[0] - rot3_from_tilt(-p.tilt) @ np.array(
+        [0, 0, p.com_distance]
+    )
     np.testing.assert_allclose(np.linalg.norm(kin.r_rel - joint_h, axis=1), p.com_distance, rtol=1e-12)
     assert np.allclose(kin.angle, th - p.tilt)
     assert np.all(kin.omega_rel[:, 1] == -thd)
@@ -47,14 +49,14 @@ def test_trajectory_csv_roundtrip_and_errors(tmp_path):
     np.testing.assert_array_equal(back.q, tr.q)
     assert f.read_text().splitlines()[0] == "t,q_0,qd_0,tau_0"
     f.write_text("t,q_0,qd_0\n0,1,2\n0,1,2\n")
-    with pytest.raises(SeriesFormatError, match="^t: time must increase"):
+    with pytest.raises(SeriesFormatError, match=r"^t: time must increase"):
         Trajectory.from_csv(f)
     f.write_text("t,q_0\n0,1\n1,2\n")
     with pytest.raises(SeriesFormatError, match="qd"):
         Trajectory.from_csv(f)
     f.write_text("t,fx,fy,fz,mx,my\n0,1,2,3,4,5\n")
-    with pytest.raises(SeriesFormatError, match="^mz: missing"):
+    with pytest.raises(SeriesFormatError, match=r"^mz: missing"):
         ForceSeries.from_csv(f)
     f.write_text("t,fx,fy,fz,mx,my,mz\n0,1,2,3,4,5,nan\n1,1,2,3,4,5,6\n")
-    with pytest.raises(SeriesFormatError, match="^mz: non-finite"):
+    with pytest.raises(SeriesFormatError, match=r"^mz: non-finite"):
         ForceSeries.from_csv(f)

@@ -32,7 +32,9 @@ from alcove.jobs.campaign import RECONCILE_JOB, STEP_JOBS  # noqa: E402
 def _run_step(job: Any, campaign_id: int, iteration: int, step: str, attempt: int) -> dict:
     from alcove.campaigns.flows import run_step
 
-    return run_step(int(campaign_id), int(iteration), str(step), int(attempt), worker_name=job.request.hostname or "unknown")
+    return run_step(
+        int(campaign_id), int(iteration), str(step), int(attempt), worker_name=job.request.hostname or "unknown"
+    )
 
 
 @app.task(name=STEP_JOBS["preliminary"], bind=True, acks_late=True)

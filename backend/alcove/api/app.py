@@ -44,8 +44,16 @@ def api_routers() -> list[APIRouter]:
     from alcove.users.router import router as users_router
 
     return [
-        campaigns_router, pool_versions_router, model_versions_router, uploads_router, users_router, tasks_router, oracles_router,
-        surrogate_configs_router, previews_router, command_oracles_router,
+        campaigns_router,
+        pool_versions_router,
+        model_versions_router,
+        uploads_router,
+        users_router,
+        tasks_router,
+        oracles_router,
+        surrogate_configs_router,
+        previews_router,
+        command_oracles_router,
     ]
 
 
@@ -93,4 +101,3 @@ def _mount_frontend(app: FastAPI, static_dir: Path) -> None:
             f"<p>The API is at <a href='{API_PREFIX}/docs'>{API_PREFIX}/docs</a>. "
             "The web UI has not been built (see README).</p>"
         )
-

@@ -20,7 +20,9 @@ from alcove.users import service
 
 log = logging.getLogger(__name__)
 
-bearer_scheme = HTTPBearer(auto_error=False, description="A token from `POST /api/v1/auth/login` or a personal API token (`alc_...`).")
+bearer_scheme = HTTPBearer(
+    auto_error=False, description="A token from `POST /api/v1/auth/login` or a personal API token (`alc_...`)."
+)
 
 
 def _unauthorized(detail: str) -> HTTPException:
@@ -79,7 +81,9 @@ def _touch(token_id: int) -> datetime:
 
     now = utcnow()
     try:
-        transaction(lambda s: s.execute(update(ApiToken).where(ApiToken.id == token_id).values(last_used_at=now)), attempts=3)
+        transaction(
+            lambda s: s.execute(update(ApiToken).where(ApiToken.id == token_id).values(last_used_at=now)), attempts=3
+        )
     except exc.OperationalError:
         log.warning("could not record the use of token %d (database busy)", token_id)
     return now

@@ -127,8 +127,14 @@ def read_engine() -> sa.Engine:
                 if engine.dialect.name == "postgresql":
                     from alcove.db.engine import make_engine
 
-                    proxy = make_engine(engine.url, pool_pre_ping=False, pool_size=4, max_overflow=8, pool_recycle=1800,
-                                        isolation_level="AUTOCOMMIT")
+                    proxy = make_engine(
+                        engine.url,
+                        pool_pre_ping=False,
+                        pool_size=4,
+                        max_overflow=8,
+                        pool_recycle=1800,
+                        isolation_level="AUTOCOMMIT",
+                    )
                 else:
                     proxy = engine
                 _READ_ENGINES[key] = proxy

@@ -61,9 +61,15 @@ class ValidationErrorOut(BaseModel):
 #: Documented on every authenticated route (status codes the error handlers produce).
 COMMON_RESPONSES: dict[int | str, dict[str, Any]] = {
     401: {"model": ErrorOut, "description": "not authenticated (missing, invalid, expired or revoked token)"},
-    403: {"model": ErrorOut, "description": "not allowed (admin-only route, or an object shared with you for viewing only)"},
+    403: {
+        "model": ErrorOut,
+        "description": "not allowed (admin-only route, or an object shared with you for viewing only)",
+    },
     404: {"model": ErrorOut, "description": "no such object, or not visible to you"},
-    409: {"model": ErrorOut, "description": "conflicts with the current state (e.g. a campaign transition, a duplicate)"},
+    409: {
+        "model": ErrorOut,
+        "description": "conflicts with the current state (e.g. a campaign transition, a duplicate)",
+    },
     413: {"model": ErrorOut, "description": "request body too large"},
     422: {"model": ValidationErrorOut, "description": "invalid input: field paths and reasons"},
     503: {"model": ErrorOut, "description": "database busy or unavailable: retry"},
@@ -74,7 +80,12 @@ def _validation_detail(errors: list[Any]) -> list[dict[str, Any]]:
     out = []
     for e in errors:
         loc, msg = merge_message_path(list(e.get("loc", ())), str(e.get("msg", "invalid")))
-        item = {"loc": loc, "field": ".".join(str(p) for p in loc if p not in ("body", "query", "path", "header")), "msg": msg, "type": e.get("type", "value_error")}
+        item = {
+            "loc": loc,
+            "field": ".".join(str(p) for p in loc if p not in ("body", "query", "path", "header")),
+            "msg": msg,
+            "type": e.get("type", "value_error"),
+        }
         out.append(item)
     return jsonable_encoder(out)
 
@@ -91,9 +102,12 @@ def install_error_handlers(app: FastAPI) -> None:
     @app.exception_handler(ValidationError)
     async def _pydantic(request: Request, err: ValidationError) -> JSONResponse:
         # a pydantic model validated inside a service (the request body itself was fine)
-        return JSONResponse({"detail": jsonable_encoder([e.as_dict(("body",)) for e in field_errors_from_pydantic(err)])}, status_code=422)
+        return JSONResponse(
+            {"detail": jsonable_encoder([e.as_dict(("body",)) for e in field_errors_from_pydantic(err)])},
+            status_code=422,
+        )
 
-    def simple(status: int, headers: dict[str, str] | None = None):  # noqa: ANN202
+    def simple(status: int, headers: dict[str, str] | None = None):
         async def handler(request: Request, err: Exception) -> JSONResponse:
             return JSONResponse({"detail": getattr(err, "message", str(err))}, status_code=status, headers=headers)
 
@@ -129,12 +143,31 @@ def install_error_handlers(app: FastAPI) -> None:
     async def _arithmetic(request: Request, err: ArithmeticError) -> JSONResponse:
         # e.g. a validator squaring a huge number someone entered: bad input, not a server fault
         log.info("arithmetic error answered 422: %s", err)
-        return JSONResponse({"detail": [{"loc": ["body"], "field": "", "msg": f"a number is out of range ({err})", "type": "value_error.overflow"}]}, status_code=422)
+        return JSONResponse(
+            {
+                "detail": [
+                    {
+                        "loc": ["body"],
+                        "field": "",
+                        "msg": f"a number is out of range ({err})",
+                        "type": "value_error.overflow",
+                    }
+                ]
+            },
+            status_code=422,
+        )
 
     @app.exception_handler(sa_exc.DataError)
     async def _data_error(request: Request, err: sa_exc.DataError) -> JSONResponse:
         log.info("data error answered 422: %s", err.orig)
-        return JSONResponse({"detail": [{"loc": [], "field": "", "msg": "a value is out of range for the database", "type": "value_error"}]}, status_code=422)
+        return JSONResponse(
+            {
+                "detail": [
+                    {"loc": [], "field": "", "msg": "a value is out of range for the database", "type": "value_error"}
+                ]
+            },
+            status_code=422,
+        )
 
     @app.exception_handler(sa_exc.IntegrityError)
     async def _integrity(request: Request, err: sa_exc.IntegrityError) -> JSONResponse:
@@ -145,7 +178,9 @@ def install_error_handlers(app: FastAPI) -> None:
 class BodySizeLimit:
     """Pure ASGI middleware: 413 when a request body exceeds its limit (declared or streamed)."""
 
-    def __init__(self, app: ASGIApp, max_json: int = MAX_JSON_BODY_BYTES, max_upload: int = MAX_UPLOAD_BODY_BYTES) -> None:
+    def __init__(
+        self, app: ASGIApp, max_json: int = MAX_JSON_BODY_BYTES, max_upload: int = MAX_UPLOAD_BODY_BYTES
+    ) -> None:
         self.app = app
         self.max_json = max_json
         self.max_upload = max_upload
@@ -196,5 +231,11 @@ class _BodyTooLarge(Exception):
 
 async def _too_large(send: Send, limit: int) -> None:
     body = JSONResponse({"detail": f"request body larger than {limit} bytes"}, status_code=413).body
-    await send({"type": "http.response.start", "status": 413, "headers": [(b"content-type", b"application/json"), (b"content-length", str(len(body)).encode())]})
+    await send(
+        {
+            "type": "http.response.start",
+            "status": 413,
+            "headers": [(b"content-type", b"application/json"), (b"content-length", str(len(body)).encode())],
+        }
+    )
     await send({"type": "http.response.body", "body": body})

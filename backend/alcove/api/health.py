@@ -45,8 +45,10 @@ def _timed(fn: Any) -> Check:
     try:
         detail = fn() or ""
         return Check(ok=True, detail=detail, latency_ms=round((time.perf_counter() - t0) * 1e3, 2))
-    except Exception as err:  # noqa: BLE001 - readiness reports, never raises
-        return Check(ok=False, detail=f"{type(err).__name__}: {err}"[:300], latency_ms=round((time.perf_counter() - t0) * 1e3, 2))
+    except Exception as err:
+        return Check(
+            ok=False, detail=f"{type(err).__name__}: {err}"[:300], latency_ms=round((time.perf_counter() - t0) * 1e3, 2)
+        )
 
 
 def check_database() -> str:

@@ -71,7 +71,9 @@ class SPAStaticFiles(StaticFiles):
                 return await super().get_response("index.html", scope)
             raise
 
-    def file_response(self, full_path: PathLike, stat_result: os.stat_result, scope: Scope, status_code: int = 200) -> Response:
+    def file_response(
+        self, full_path: PathLike, stat_result: os.stat_result, scope: Scope, status_code: int = 200
+    ) -> Response:
         request_headers = Headers(scope=scope)
         path = Path(full_path)
         try:
@@ -97,9 +99,15 @@ class SPAStaticFiles(StaticFiles):
                     break
 
         media_type = mimetypes.guess_type(path.name)[0] or "application/octet-stream"
-        if media_type.startswith("text/") or media_type in ("application/javascript", "application/json", "image/svg+xml"):
+        if media_type.startswith("text/") or media_type in (
+            "application/javascript",
+            "application/json",
+            "image/svg+xml",
+        ):
             media_type += "; charset=utf-8"
-        response = FileResponse(served, status_code=status_code, stat_result=served_stat, headers=headers, media_type=media_type)
+        response = FileResponse(
+            served, status_code=status_code, stat_result=served_stat, headers=headers, media_type=media_type
+        )
         if self.is_not_modified(response.headers, request_headers):
             return NotModifiedResponse(response.headers)
         return response

@@ -142,7 +142,7 @@ class LeaseKeeper(threading.Thread):
                     self.lost = True
                     self.cancel_requested = True  # someone else owns the step now: stop working on it
                     return
-            except Exception:  # noqa: BLE001 - a missed beat is fine; the lease is longer
+            except Exception:
                 log.exception("lease heartbeat of step %s failed", self.step_id)
 
     def stop(self) -> None:
@@ -158,7 +158,15 @@ def lease_seconds() -> float:
 # ----------------------------------------------------------------------------- the protocol
 
 
-def run_step(campaign_id: int, iteration: int, step: str, attempt: int, *, worker_name: str = "local", send: Callable[[list[StepJob]], Any] | None = None) -> dict[str, Any]:
+def run_step(
+    campaign_id: int,
+    iteration: int,
+    step: str,
+    attempt: int,
+    *,
+    worker_name: str = "local",
+    send: Callable[[list[StepJob]], Any] | None = None,
+) -> dict[str, Any]:
     """Run one step message. Returns a small status dict (for logs and tests)."""
     from alcove.jobs.campaign import enqueue
 
@@ -178,7 +186,9 @@ def run_step(campaign_id: int, iteration: int, step: str, attempt: int, *, worke
     t_claimed = time.perf_counter()
     keeper = LeaseKeeper(step_id, token, lease, interval=max(0.5, lease / 4))
     keeper.start()
-    ctx = StepContext(campaign_id, ref, attempt, step_id, token, worker_name, config, cancel_flag=lambda: keeper.cancel_requested)
+    ctx = StepContext(
+        campaign_id, ref, attempt, step_id, token, worker_name, config, cancel_flag=lambda: keeper.cancel_requested
+    )
     output: StepOutput | None = None
     failure: tuple[Outcome | None, str, Any] | None = None
     try:
@@ -189,7 +199,7 @@ def run_step(campaign_id: int, iteration: int, step: str, attempt: int, *, worke
         failure = (Outcome.cancelled, str(err), None)
     except IterationFailure as err:
         failure = (_policy_outcome(config, ref), err.reason, err.write)
-    except Exception as err:  # noqa: BLE001 - every failure is recorded on the step
+    except Exception as err:
         if _is_cancel(err):
             failure = (Outcome.cancelled, str(err), None)
         else:
@@ -215,13 +225,33 @@ def run_step(campaign_id: int, iteration: int, step: str, attempt: int, *, worke
         if output is not None:
             result, reason = output.write(s, c, it)
             base["write_s"] = time.perf_counter() - t_done
-            return service.complete_step(s, c, ref, row, Outcome.succeeded, result={**base, **output.extra, **result}, stop_reason=reason, wall_time_s=wall)
+            return service.complete_step(
+                s,
+                c,
+                ref,
+                row,
+                Outcome.succeeded,
+                result={**base, **output.extra, **result},
+                stop_reason=reason,
+                wall_time_s=wall,
+            )
         outcome, message, extra = failure  # type: ignore[misc]
         if outcome is None:  # an exception: retry while attempts remain (unless bad input)
             bad_input = extra
             if ref.step is StepName.oracle:  # every oracle attempt leaves a run row
-                s.add(OracleRun(campaign_id=c.id, iteration_id=it.id, oracle_version_id=c.oracle_version_id, attempt=row.attempts, status="failed",
-                                worker_name=worker_name, started_at=row.started_at, finished_at=utcnow(), failure_reason=message))
+                s.add(
+                    OracleRun(
+                        campaign_id=c.id,
+                        iteration_id=it.id,
+                        oracle_version_id=c.oracle_version_id,
+                        attempt=row.attempts,
+                        status="failed",
+                        worker_name=worker_name,
+                        started_at=row.started_at,
+                        finished_at=utcnow(),
+                        failure_reason=message,
+                    )
+                )
             if row.attempts < row.max_attempts and not bad_input:
                 return _requeue(s, c, ref, row, message)
             outcome = _policy_outcome(config, ref)
@@ -233,11 +263,17 @@ def run_step(campaign_id: int, iteration: int, step: str, attempt: int, *, worke
     if jobs is None:
         return {"status": "lost", "step": str(ref), "attempt": attempt}
     send(jobs)
-    return {"status": "done" if failure is None else ("cancelled" if failure[0] is Outcome.cancelled else "failed"), "step": str(ref), "attempt": attempt,
-            "next": [f"{j.iteration}/{j.step.value}#{j.attempt}" for j in jobs], **timing, "total_s": time.perf_counter() - t_job}
+    return {
+        "status": "done" if failure is None else ("cancelled" if failure[0] is Outcome.cancelled else "failed"),
+        "step": str(ref),
+        "attempt": attempt,
+        "next": [f"{j.iteration}/{j.step.value}#{j.attempt}" for j in jobs],
+        **timing,
+        "total_s": time.perf_counter() - t_job,
+    }
 
 
-def _claim(s: Session, campaign_id: int, ref: StepRef, attempt: int, token: str, worker: str, lease: float):  # noqa: ANN202
+def _claim(s: Session, campaign_id: int, ref: StepRef, attempt: int, token: str, worker: str, lease: float):
     row = repo.get_step(s, campaign_id, ref.iteration, ref.step.value)
     if row is None:
         return "missing", None, None, []
@@ -248,7 +284,12 @@ def _claim(s: Session, campaign_id: int, ref: StepRef, attempt: int, token: str,
         row.status, row.finished_at = StepStatus.cancelled.value, utcnow()
         return "cancelled", None, None, []
     if c.cancel_requested:
-        return "cancelled", None, None, service.complete_step(s, c, ref, row, Outcome.cancelled, error="cancelled before it started")
+        return (
+            "cancelled",
+            None,
+            None,
+            service.complete_step(s, c, ref, row, Outcome.cancelled, error="cancelled before it started"),
+        )
     if c.pause_requested or c.status in (CampaignStatus.pausing.value, CampaignStatus.paused.value):
         row.status = StepStatus.pending.value
         service.apply_decision(s, c, service.Decision(CampaignStatus.paused), note="paused before the next step")
@@ -260,7 +301,9 @@ def _claim(s: Session, campaign_id: int, ref: StepRef, attempt: int, token: str,
     it = s.get(Iteration, row.iteration_id)
     cv = s.get(CampaignConfigVersion, row.config_version_id or it.config_version_id)
     config = service.config_from_version(cv) if cv is not None else service.current_config(s, c)
-    repo.add_event(s, campaign_id, "step_started", worker, iteration=ref.iteration, step=ref.step.value, data={"attempt": attempt})
+    repo.add_event(
+        s, campaign_id, "step_started", worker, iteration=ref.iteration, step=ref.step.value, data={"attempt": attempt}
+    )
     return "claimed", row.id, config, []
 
 
@@ -270,7 +313,9 @@ def _requeue(s: Session, c: Campaign, ref: StepRef, row: IterationStep, message:
     row.claim_token = None
     row.lease_until = None
     row.queued_at = utcnow()
-    repo.add_event(s, c.id, "step_retry", message, iteration=ref.iteration, step=ref.step.value, data={"attempt": row.attempts})
+    repo.add_event(
+        s, c.id, "step_retry", message, iteration=ref.iteration, step=ref.step.value, data={"attempt": row.attempts}
+    )
     return [StepJob(campaign_id=c.id, iteration=ref.iteration, step=ref.step, attempt=row.attempts + 1)]
 
 
@@ -301,15 +346,18 @@ def _bad_input(err: BaseException) -> bool:
 # ----------------------------------------------------------------------------- shared loaders
 
 _task_cache: dict[tuple[int, int | None], Any] = {}
-_oracle_cache: "OrderedDict[tuple[str, str, str], Any]" = OrderedDict()
+_oracle_cache: OrderedDict[tuple[str, str, str], Any] = OrderedDict()
 
 
 def derive_seed(campaign_seed: int, iteration: int, salt: int = 0) -> int:
     """A reproducible per-iteration seed (independent streams for different k)."""
-    return int(np.random.SeedSequence([int(campaign_seed), int(iteration), salt]).generate_state(1, np.uint64)[0] >> np.uint64(2))
+    return int(
+        np.random.SeedSequence([int(campaign_seed), int(iteration), salt]).generate_state(1, np.uint64)[0]
+        >> np.uint64(2)
+    )
 
 
-def load_task(s: Session, c: Campaign, config: CampaignConfig):  # noqa: ANN201
+def load_task(s: Session, c: Campaign, config: CampaignConfig):
     from alcove.science.ocp.task_spec import parse_task
 
     key = (c.task_version_id, config.settings.ocp_intervals)
@@ -323,7 +371,7 @@ def load_task(s: Session, c: Campaign, config: CampaignConfig):  # noqa: ANN201
     return task
 
 
-def load_oracle(s: Session, c: Campaign, preset: Any):  # noqa: ANN201
+def load_oracle(s: Session, c: Campaign, preset: Any):
     """The campaign's oracle, built once per worker process (an FE oracle builds its mesh once)."""
     from alcove.science.oracles.registry import build_oracle
 
@@ -341,12 +389,11 @@ def load_oracle(s: Session, c: Campaign, preset: Any):  # noqa: ANN201
     return oracle
 
 
-def _command_catalogue(s: Session):  # noqa: ANN202
+def _command_catalogue(s: Session):
     """Command oracles: the settings' YAML catalogue plus the admins' enabled entries."""
     from alcove.oracles.service import command_catalogue
 
     return command_catalogue(s)
-
 
 
 def software_versions() -> dict[str, Any]:
@@ -389,17 +436,38 @@ def execute_preliminary(ctx: StepContext) -> StepOutput:
     if not dataset_ids:
         from alcove.science.surrogate.preliminary import preliminary_pool
 
-        pool = preliminary_pool(preset, samples=pre.samples, velocity_bound=pre.velocity_bound, seed=seed if pre.seed is None else pre.seed, chunks=pre.chunks)
+        pool = preliminary_pool(
+            preset,
+            samples=pre.samples,
+            velocity_bound=pre.velocity_bound,
+            seed=seed if pre.seed is None else pre.seed,
+            chunks=pre.chunks,
+        )
 
     def write(s: Session, c: Campaign, it: Iteration) -> tuple[dict[str, Any], str | None]:
         if pool is not None:
-            new = [pool_service.store_dataset(s, t=d.t, q=d.q, qd=d.qd, f=np.hstack([d.force, d.moment]), origin="preliminary", name=d.name,
-                                              campaign_id=c.id, iteration_id=it.id, meta={"lhs": pre.model_dump(mode="json")}) for d in pool]
+            new = [
+                pool_service.store_dataset(
+                    s,
+                    t=d.t,
+                    q=d.q,
+                    qd=d.qd,
+                    f=np.hstack([d.force, d.moment]),
+                    origin="preliminary",
+                    name=d.name,
+                    campaign_id=c.id,
+                    iteration_id=it.id,
+                    meta={"lhs": pre.model_dump(mode="json")},
+                )
+                for d in pool
+            ]
         else:
             from alcove.pool.repository import datasets
 
             new = datasets(s, list(dataset_ids or []))
-        pv = pool_service.create_version(s, campaign_id=c.id, iteration_id=it.id, version=0, parent=None, new_datasets=new)
+        pv = pool_service.create_version(
+            s, campaign_id=c.id, iteration_id=it.id, version=0, parent=None, new_datasets=new
+        )
         return {"pool_version_id": pv.id, "n_datasets": pv.n_datasets, "n_samples": pv.n_samples}, None
 
     return StepOutput(write)
@@ -426,23 +494,47 @@ def execute_train(ctx: StepContext) -> StepOutput:
             raise RuntimeError(f"pool version {k - 1} does not exist")
         parent = repo.model_version(s, c, k - 1)
         config = SurrogateConfig.parse(scv.spec)
-        return {"preset": load_task(s, c, ctx.config).preset(), "pool": pool_service.load_training_pool(s, pv), "pool_version_id": pv.id,
-                "config": config, "scv_id": scv.id, "seed": derive_seed(c.seed, k), "parent_id": parent.id if parent else None,
-                "warm": load_model(s, parent) if parent is not None and config.warm_start else None}
+        return {
+            "preset": load_task(s, c, ctx.config).preset(),
+            "pool": pool_service.load_training_pool(s, pv),
+            "pool_version_id": pv.id,
+            "config": config,
+            "scv_id": scv.id,
+            "seed": derive_seed(c.seed, k),
+            "parent_id": parent.id if parent else None,
+            "warm": load_model(s, parent) if parent is not None and config.warm_start else None,
+        }
 
     d = _read(inputs)
     t0 = time.perf_counter()
     try:
-        result = train_surrogate(d["pool"], d["config"], d["seed"], warm_start=d["warm"], cancel=ctx.cancelled, preset=d["preset"])
+        result = train_surrogate(
+            d["pool"], d["config"], d["seed"], warm_start=d["warm"], cancel=ctx.cancelled, preset=d["preset"]
+        )
     except TrainingCancelled as err:
         raise StepCancelled(str(err)) from None
     compute = time.perf_counter() - t0
 
     def write(s: Session, c: Campaign, it: Iteration) -> tuple[dict[str, Any], str | None]:
-        mv = store_model(s, result, campaign_id=c.id, iteration_id=it.id, version=k, pool_version_id=d["pool_version_id"], parent_model_id=d["parent_id"],
-                         surrogate_config_version_id=d["scv_id"], seed=d["seed"], lineage={"config_version_id": it.config_version_id})
-        return {"model_version_id": mv.id, "pool_version_id": d["pool_version_id"], "test_force_rmse": mv.test_force_rmse,
-                "test_moment_rmse": mv.test_moment_rmse, "epochs": result.metrics.epochs}, None
+        mv = store_model(
+            s,
+            result,
+            campaign_id=c.id,
+            iteration_id=it.id,
+            version=k,
+            pool_version_id=d["pool_version_id"],
+            parent_model_id=d["parent_id"],
+            surrogate_config_version_id=d["scv_id"],
+            seed=d["seed"],
+            lineage={"config_version_id": it.config_version_id},
+        )
+        return {
+            "model_version_id": mv.id,
+            "pool_version_id": d["pool_version_id"],
+            "test_force_rmse": mv.test_force_rmse,
+            "test_moment_rmse": mv.test_moment_rmse,
+            "epochs": result.metrics.epochs,
+        }, None
 
     return StepOutput(write, compute_s=compute)
 
@@ -459,9 +551,23 @@ def _stored_solution(s: Session, sol_row: OcpSolution | None, task: Any) -> Any:
     a = get_arrays(s, sol_row.trajectory_sha256)
     if "x" not in a:
         return None
-    return Solution(t=a["t"], q=a["q"], qd=a["qd"], controls=a["controls"], status=sol_row.solver_status, converged=True,
-                    iterations=sol_row.n_iterations or 0, cost=sol_row.cost or 0.0, constraint_violation=0.0, wall_time=0.0,
-                    chain=task.chain(), task_name=task.name, x=a["x"], lam_x=a["lam_x"], lam_g=a["lam_g"])
+    return Solution(
+        t=a["t"],
+        q=a["q"],
+        qd=a["qd"],
+        controls=a["controls"],
+        status=sol_row.solver_status,
+        converged=True,
+        iterations=sol_row.n_iterations or 0,
+        cost=sol_row.cost or 0.0,
+        constraint_violation=0.0,
+        wall_time=0.0,
+        chain=task.chain(),
+        task_name=task.name,
+        x=a["x"],
+        lam_x=a["lam_x"],
+        lam_g=a["lam_g"],
+    )
 
 
 def _previous_converged_solution(s: Session, c: Campaign, k: int) -> OcpSolution | None:
@@ -469,8 +575,11 @@ def _previous_converged_solution(s: Session, c: Campaign, k: int) -> OcpSolution
     for j in range(k - 1, 0, -1):
         cid, jj = repo.resolve_source(s, c, j)  # type: ignore[misc]
         row = s.scalar(
-            sa.select(OcpSolution).join(Iteration, Iteration.id == OcpSolution.iteration_id)
-            .where(Iteration.campaign_id == cid, Iteration.index == jj, OcpSolution.success.is_(True)).order_by(OcpSolution.attempt.desc()).limit(1)
+            sa.select(OcpSolution)
+            .join(Iteration, Iteration.id == OcpSolution.iteration_id)
+            .where(Iteration.campaign_id == cid, Iteration.index == jj, OcpSolution.success.is_(True))
+            .order_by(OcpSolution.attempt.desc())
+            .limit(1)
         )
         if row is not None:
             return row
@@ -493,8 +602,12 @@ def execute_ocp(ctx: StepContext) -> StepOutput:
         mv = repo.model_version(s, c, k)
         if mv is None:
             raise RuntimeError(f"model version {k} does not exist")
-        return {"task": task, "model": load_model(s, mv), "model_version_id": mv.id,
-                "previous": _stored_solution(s, _previous_converged_solution(s, c, k), task)}
+        return {
+            "task": task,
+            "model": load_model(s, mv),
+            "model_version_id": mv.id,
+            "previous": _stored_solution(s, _previous_converged_solution(s, c, k), task),
+        }
 
     d = _read(inputs)
     ctx.check_cancel()
@@ -503,26 +616,55 @@ def execute_ocp(ctx: StepContext) -> StepOutput:
     # weights as NLP parameters: the NLP and IPOPT solver of this architecture are reused across iterations
     contact, contact_params = surrogate_contact(d["model"], task.preset())
     ipopt = {"ipopt.max_iter": int(fault["ipopt_max_iter"])} if fault.get("ipopt_max_iter") else None
-    sol = solve_task(task, contact, initial_guess=d["previous"], contact_params=contact_params, max_attempts=ctx.config.policies.ocp_initial_guesses,
-                     ipopt_options=ipopt, on_attempt=lambda _attempt: ctx.check_cancel())  # cancel between IPOPT runs
+    sol = solve_task(
+        task,
+        contact,
+        initial_guess=d["previous"],
+        contact_params=contact_params,
+        max_attempts=ctx.config.policies.ocp_initial_guesses,
+        ipopt_options=ipopt,
+        on_attempt=lambda _attempt: ctx.check_cancel(),
+    )  # cancel between IPOPT runs
     compute = time.perf_counter() - t0
     arrays = {"t": sol.t, "q": sol.q, "qd": sol.qd, "tau": sol.tau, "controls": sol.controls}
     if sol.converged and sol.x is not None:
-        arrays.update(x=np.asarray(sol.x, float).ravel(), lam_x=np.asarray(sol.lam_x, float).ravel(), lam_g=np.asarray(sol.lam_g, float).ravel())
+        arrays.update(
+            x=np.asarray(sol.x, float).ravel(),
+            lam_x=np.asarray(sol.lam_x, float).ravel(),
+            lam_g=np.asarray(sol.lam_g, float).ravel(),
+        )
 
     def record(s: Session, c: Campaign, it: Iteration) -> dict[str, Any]:
         sha = put_arrays(s, arrays)
-        row = OcpSolution(campaign_id=c.id, iteration_id=it.id, model_version_id=d["model_version_id"], attempt=ctx.attempt,
-                          initial_guess=sol.attempts[-1]["guess"] if sol.attempts else "default", success=bool(sol.converged), solver_status=sol.status,
-                          n_iterations=int(sol.iterations), cost=float(sol.cost) if math.isfinite(sol.cost) else None, wall_time_s=float(sol.wall_time),
-                          message="" if sol.converged else f"no converged solution after {len(sol.attempts)} initial guess(es)",
-                          stats=json_safe(sol.summary()), trajectory_sha256=sha)
+        row = OcpSolution(
+            campaign_id=c.id,
+            iteration_id=it.id,
+            model_version_id=d["model_version_id"],
+            attempt=ctx.attempt,
+            initial_guess=sol.attempts[-1]["guess"] if sol.attempts else "default",
+            success=bool(sol.converged),
+            solver_status=sol.status,
+            n_iterations=int(sol.iterations),
+            cost=float(sol.cost) if math.isfinite(sol.cost) else None,
+            wall_time_s=float(sol.wall_time),
+            message="" if sol.converged else f"no converged solution after {len(sol.attempts)} initial guess(es)",
+            stats=json_safe(sol.summary()),
+            trajectory_sha256=sha,
+        )
         s.add(row)
         s.flush()
-        return {"ocp_solution_id": row.id, "converged": bool(sol.converged), "status": sol.status, "iterations": int(sol.iterations), "cost": json_safe(sol.cost)}
+        return {
+            "ocp_solution_id": row.id,
+            "converged": bool(sol.converged),
+            "status": sol.status,
+            "iterations": int(sol.iterations),
+            "cost": json_safe(sol.cost),
+        }
 
     if not sol.converged:
-        raise IterationFailure(f"OCP did not converge ({sol.status}) after {len(sol.attempts)} initial guess(es)", write=record)
+        raise IterationFailure(
+            f"OCP did not converge ({sol.status}) after {len(sol.attempts)} initial guess(es)", write=record
+        )
     return StepOutput(lambda s, c, it: (record(s, c, it), None), compute_s=compute)
 
 
@@ -542,7 +684,7 @@ def replay_trajectory(arrays: dict[str, np.ndarray], task: Any, phases: int, dt:
         m = t <= t_end + 1e-9
         return Trajectory(t[m], q[m], qd[m], tau[m])
     # a grid of step dt from t0 to t_end (t_end included)
-    n = int(math.floor((t_end - t[0]) / dt + 1e-9)) + 1
+    n = math.floor((t_end - t[0]) / dt + 1e-9) + 1
     grid = np.minimum(t[0] + dt * np.arange(n), t_end)
     spline = CubicHermiteSpline(t, q, qd, axis=0)
     tau_g = np.stack([np.interp(grid, t, tau[:, j]) for j in range(q.shape[1])], -1)
@@ -565,8 +707,13 @@ def execute_oracle(ctx: StepContext) -> StepOutput:
         if sol is None or not sol.success:
             raise RuntimeError(f"iteration {k} has no converged OCP solution")
         task = load_task(s, c, ctx.config)
-        return {"task": task, "oracle": load_oracle(s, c, task.preset()), "arrays": get_arrays(s, sol.trajectory_sha256), "ocp_solution_id": sol.id,
-                "oracle_version_id": c.oracle_version_id}
+        return {
+            "task": task,
+            "oracle": load_oracle(s, c, task.preset()),
+            "arrays": get_arrays(s, sol.trajectory_sha256),
+            "ocp_solution_id": sol.id,
+            "oracle_version_id": c.oracle_version_id,
+        }
 
     d = _read(inputs)
     traj = replay_trajectory(d["arrays"], d["task"], ctx.config.settings.replay_phases, ctx.config.settings.replay_dt)
@@ -575,27 +722,72 @@ def execute_oracle(ctx: StepContext) -> StepOutput:
     res = d["oracle"].run(traj, cancel=ctx.cancelled)
     compute = time.perf_counter() - t0
     ok = bool(res.ok) and not fault.get("gate_fail")
-    reason = res.failure_reason if not res.ok else ("fault injection: quality gate failed" if fault.get("gate_fail") else None)
+    reason = (
+        res.failure_reason
+        if not res.ok
+        else ("fault injection: quality gate failed" if fault.get("gate_fail") else None)
+    )
     diagnostics = json_safe(res.diagnostics)
 
     def record(s: Session, c: Campaign, it: Iteration) -> dict[str, Any]:
         in_sha = put_arrays(s, {"t": traj.t, "q": traj.q, "qd": traj.qd, "tau": traj.tau})
-        out_sha = put_arrays(s, {"t": res.forces.t, "f": np.hstack([res.forces.force, res.forces.moment])}) if res.forces is not None else None
-        run = OracleRun(campaign_id=c.id, iteration_id=it.id, oracle_version_id=d["oracle_version_id"], ocp_solution_id=d["ocp_solution_id"], attempt=ctx.attempt,
-                        status="ok" if ok else "quarantined", worker_name=ctx.worker, started_at=started, finished_at=utcnow(), wall_time_s=float(res.wall_time),
-                        failure_reason=reason, diagnostics=diagnostics, input_sha256=in_sha, output_sha256=out_sha)
+        out_sha = (
+            put_arrays(s, {"t": res.forces.t, "f": np.hstack([res.forces.force, res.forces.moment])})
+            if res.forces is not None
+            else None
+        )
+        run = OracleRun(
+            campaign_id=c.id,
+            iteration_id=it.id,
+            oracle_version_id=d["oracle_version_id"],
+            ocp_solution_id=d["ocp_solution_id"],
+            attempt=ctx.attempt,
+            status="ok" if ok else "quarantined",
+            worker_name=ctx.worker,
+            started_at=started,
+            finished_at=utcnow(),
+            wall_time_s=float(res.wall_time),
+            failure_reason=reason,
+            diagnostics=diagnostics,
+            input_sha256=in_sha,
+            output_sha256=out_sha,
+        )
         s.add(run)
         s.flush()
         c.oracle_wall_time_s = (c.oracle_wall_time_s or 0.0) + float(res.wall_time)
         out: dict[str, Any] = {"oracle_run_id": run.id, "ok": ok, "wall_time_s": float(res.wall_time)}
         if ok:
             f = res.forces
-            on_grid = traj.resample(f.t) if (len(f.t) != len(traj.t) or not np.allclose(f.t, traj.t, rtol=0, atol=1e-12)) else traj
-            ds = pool_service.store_dataset(s, t=f.t, q=on_grid.q, qd=on_grid.qd, f=np.hstack([f.force, f.moment]), origin="oracle", name=f"iteration-{k:04d}",
-                                            campaign_id=c.id, iteration_id=it.id, oracle_run_id=run.id, meta={"oracle_version_id": d["oracle_version_id"]})
+            on_grid = (
+                traj.resample(f.t)
+                if (len(f.t) != len(traj.t) or not np.allclose(f.t, traj.t, rtol=0, atol=1e-12))
+                else traj
+            )
+            ds = pool_service.store_dataset(
+                s,
+                t=f.t,
+                q=on_grid.q,
+                qd=on_grid.qd,
+                f=np.hstack([f.force, f.moment]),
+                origin="oracle",
+                name=f"iteration-{k:04d}",
+                campaign_id=c.id,
+                iteration_id=it.id,
+                oracle_run_id=run.id,
+                meta={"oracle_version_id": d["oracle_version_id"]},
+            )
             out["dataset_id"] = ds.id
         else:
-            s.add(QuarantinedResult(oracle_run_id=run.id, campaign_id=c.id, iteration_id=it.id, reason=reason or "quality gate failed", gate=diagnostics, output_sha256=out_sha))
+            s.add(
+                QuarantinedResult(
+                    oracle_run_id=run.id,
+                    campaign_id=c.id,
+                    iteration_id=it.id,
+                    reason=reason or "quality gate failed",
+                    gate=diagnostics,
+                    output_sha256=out_sha,
+                )
+            )
             out["quarantined"] = reason
         return out
 
@@ -649,12 +841,29 @@ def execute_evaluate(ctx: StepContext) -> StepOutput:
         curves = put_arrays(s, {"t": a["t"], "q": a["q"], "qd": a["qd"], "f_true": f_true, "f_pred": f_pred})
         mv: ModelVersion = d["mv"]
         m = IterationMetrics(
-            campaign_id=c.id, iteration_id=it.id, iteration_index=k, model_version_id=mv.id, dataset_id=d["dataset_id"], **metrics,
-            ocp_success=sol.success if sol else None, ocp_status=sol.solver_status if sol else None, ocp_iterations=sol.n_iterations if sol else None,
-            ocp_cost=sol.cost if sol else None, ocp_wall_time_s=sol.wall_time_s if sol else None, oracle_wall_time_s=runs[-1].wall_time_s if runs else None,
-            train_wall_time_s=mv.train_wall_time_s, n_pool_samples=pv_prev.n_samples if pv_prev else None,
-            extra={**software_versions(), "model_seed": mv.seed, "rmse_components": per_component, "step_wall_time_s": timings, "n_samples": int(len(a["t"])),
-                   "model_test_rmse": {"force": mv.test_force_rmse, "moment": mv.test_moment_rmse}, "config_version_id": it.config_version_id},
+            campaign_id=c.id,
+            iteration_id=it.id,
+            iteration_index=k,
+            model_version_id=mv.id,
+            dataset_id=d["dataset_id"],
+            **metrics,
+            ocp_success=sol.success if sol else None,
+            ocp_status=sol.solver_status if sol else None,
+            ocp_iterations=sol.n_iterations if sol else None,
+            ocp_cost=sol.cost if sol else None,
+            ocp_wall_time_s=sol.wall_time_s if sol else None,
+            oracle_wall_time_s=runs[-1].wall_time_s if runs else None,
+            train_wall_time_s=mv.train_wall_time_s,
+            n_pool_samples=pv_prev.n_samples if pv_prev else None,
+            extra={
+                **software_versions(),
+                "model_seed": mv.seed,
+                "rmse_components": per_component,
+                "step_wall_time_s": timings,
+                "n_samples": len(a["t"]),
+                "model_test_rmse": {"force": mv.test_force_rmse, "moment": mv.test_moment_rmse},
+                "config_version_id": it.config_version_id,
+            },
             curves_sha256=curves,
         )
         s.add(m)
@@ -676,12 +885,25 @@ def execute_append(ctx: StepContext) -> StepOutput:
         if parent is None:
             raise RuntimeError(f"pool version {k - 1} does not exist")
         ds = repo.iteration_dataset(s, it.id)
-        pv = pool_service.create_version(s, campaign_id=c.id, iteration_id=it.id, version=k, parent=parent, new_datasets=[ds] if ds is not None else [])
+        pv = pool_service.create_version(
+            s,
+            campaign_id=c.id,
+            iteration_id=it.id,
+            version=k,
+            parent=parent,
+            new_datasets=[ds] if ds is not None else [],
+        )
         history = [IterationRecord(*row) for row in repo.rmse_history(s, c.id)]
         rules = service.current_config(s, c).stopping  # stopping rules edited during the run apply at once
         reason = stop_reason(rules, k, history, c.oracle_wall_time_s or 0.0)
-        return {"pool_version_id": pv.id, "n_datasets": pv.n_datasets, "n_samples": pv.n_samples, "appended": ds.id if ds else None, "stop_reason": reason,
-                **software_versions()}, reason
+        return {
+            "pool_version_id": pv.id,
+            "n_datasets": pv.n_datasets,
+            "n_samples": pv.n_samples,
+            "appended": ds.id if ds else None,
+            "stop_reason": reason,
+            **software_versions(),
+        }, reason
 
     return StepOutput(write)
 

@@ -37,7 +37,17 @@ def local_user(s: Session, email: str = "admin@alcove.local") -> User:
     return user
 
 
-def _find_or_create(s: Session, owner_id: int, definition_cls: Any, version_cls: Any, fk: str, preset_key: str, name: str, spec: dict[str, Any], **version_fields: Any) -> int:
+def _find_or_create(
+    s: Session,
+    owner_id: int,
+    definition_cls: Any,
+    version_cls: Any,
+    fk: str,
+    preset_key: str,
+    name: str,
+    spec: dict[str, Any],
+    **version_fields: Any,
+) -> int:
     h = spec_hash(spec)
     q = (
         sa.select(version_cls.id)
@@ -70,11 +80,23 @@ def oracle_version_for(s: Session, owner_id: int, oracle_type: str, params: dict
 
     oracle = build_oracle(oracle_type, params or {})  # validates; raises OracleInputError naming the field
     body = oracle.params.model_dump(mode="json")
-    return _find_or_create(s, owner_id, OracleDefinition, OracleVersion, "definition_id", oracle_type, oracle_type, body, oracle_type=oracle_type)
+    return _find_or_create(
+        s,
+        owner_id,
+        OracleDefinition,
+        OracleVersion,
+        "definition_id",
+        oracle_type,
+        oracle_type,
+        body,
+        oracle_type=oracle_type,
+    )
 
 
 def surrogate_config_version_for(s: Session, owner_id: int, config: dict[str, Any] | None = None) -> int:
     from alcove.science.surrogate.config import SurrogateConfig as ScienceConfig
 
     body = ScienceConfig.parse(config or {}).model_dump(mode="json")
-    return _find_or_create(s, owner_id, SurrogateConfig, SurrogateConfigVersion, "config_id", "paper-default", "surrogate", body)
+    return _find_or_create(
+        s, owner_id, SurrogateConfig, SurrogateConfigVersion, "config_id", "paper-default", "surrogate", body
+    )

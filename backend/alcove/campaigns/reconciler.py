@@ -47,7 +47,13 @@ def reconcile(s: Session, *, stale_queued_s: float) -> list[StepJob]:
             outcome = Outcome.cancelled if c.cancel_requested else _policy(s, c, ref)
             jobs += service.complete_step(s, c, ref, row, outcome, error=message)
             continue
-        row.status, row.claim_token, row.lease_until, row.queued_at, row.error = StepStatus.queued.value, None, None, now, message
+        row.status, row.claim_token, row.lease_until, row.queued_at, row.error = (
+            StepStatus.queued.value,
+            None,
+            None,
+            now,
+            message,
+        )
         repo.add_event(s, c.id, "step_requeued", message, iteration=k, step=row.step, data={"attempt": row.attempts})
         jobs.append(StepJob(campaign_id=c.id, iteration=k, step=ref.step, attempt=row.attempts + 1))
     for k, row in repo.stale_queued_steps(s, now - timedelta(seconds=stale_queued_s)):
@@ -56,12 +62,20 @@ def reconcile(s: Session, *, stale_queued_s: float) -> list[StepJob]:
             row.status, row.finished_at = StepStatus.cancelled.value, now
             continue
         row.queued_at = now
-        repo.add_event(s, c.id, "step_resent", "message not picked up; sent again", iteration=k, step=row.step, data={"attempt": row.attempts + 1})
+        repo.add_event(
+            s,
+            c.id,
+            "step_resent",
+            "message not picked up; sent again",
+            iteration=k,
+            step=row.step,
+            data={"attempt": row.attempts + 1},
+        )
         jobs.append(StepJob(campaign_id=c.id, iteration=k, step=StepName(row.step), attempt=row.attempts + 1))
     return jobs
 
 
-def _policy(s: Session, c, ref: StepRef) -> Outcome:  # noqa: ANN001
+def _policy(s: Session, c, ref: StepRef) -> Outcome:
     from alcove.campaigns.flows import _policy_outcome
 
     return _policy_outcome(service.current_config(s, c), ref)
@@ -76,7 +90,11 @@ def reconcile_and_enqueue(stale_queued_s: float | None = None) -> list[StepJob]:
     stale = stale_queued_s if stale_queued_s is not None else float(get_settings().job_lease_seconds)
     jobs = transaction(lambda s: reconcile(s, stale_queued_s=stale))
     if jobs:
-        log.warning("reconciler re-enqueued %d step(s): %s", len(jobs), ", ".join(f"c{j.campaign_id}:{j.iteration}/{j.step.value}#{j.attempt}" for j in jobs))
+        log.warning(
+            "reconciler re-enqueued %d step(s): %s",
+            len(jobs),
+            ", ".join(f"c{j.campaign_id}:{j.iteration}/{j.step.value}#{j.attempt}" for j in jobs),
+        )
         enqueue(jobs)
     return jobs
 
@@ -93,7 +111,7 @@ class ReconcilerThread(threading.Thread):
         while True:
             try:
                 reconcile_and_enqueue()
-            except Exception:  # noqa: BLE001 - try again next round
+            except Exception:
                 log.exception("reconciler pass failed")
             if self._stop_event.wait(self.interval):
                 return

@@ -53,7 +53,11 @@ def list_campaigns(s: Session, owner_id: int | None = None) -> list[Campaign]:
 
 def config_version(s: Session, campaign: Campaign, version: int | None = None) -> CampaignConfigVersion:
     v = campaign.config_version if version is None else version
-    row = s.scalar(sa.select(CampaignConfigVersion).where(CampaignConfigVersion.campaign_id == campaign.id, CampaignConfigVersion.version == v))
+    row = s.scalar(
+        sa.select(CampaignConfigVersion).where(
+            CampaignConfigVersion.campaign_id == campaign.id, CampaignConfigVersion.version == v
+        )
+    )
     if row is None:
         raise NotFound("config_version", f"campaign {campaign.id} has no config version {v}")
     return row
@@ -64,11 +68,20 @@ def get_iteration(s: Session, campaign_id: int, index: int) -> Iteration | None:
 
 
 def get_iteration_with_steps(s: Session, campaign_id: int, index: int) -> Iteration | None:
-    return s.scalar(sa.select(Iteration).options(selectinload(Iteration.steps)).where(Iteration.campaign_id == campaign_id, Iteration.index == index))
+    return s.scalar(
+        sa.select(Iteration)
+        .options(selectinload(Iteration.steps))
+        .where(Iteration.campaign_id == campaign_id, Iteration.index == index)
+    )
 
 
 def list_iterations(s: Session, campaign_id: int, after: int | None = None) -> list[Iteration]:
-    q = sa.select(Iteration).options(selectinload(Iteration.steps)).where(Iteration.campaign_id == campaign_id).order_by(Iteration.index)
+    q = (
+        sa.select(Iteration)
+        .options(selectinload(Iteration.steps))
+        .where(Iteration.campaign_id == campaign_id)
+        .order_by(Iteration.index)
+    )
     if after is not None:
         q = q.where(Iteration.index > after)
     return list(s.scalars(q))
@@ -82,7 +95,9 @@ def get_step(s: Session, campaign_id: int, index: int, step: str) -> IterationSt
     )
 
 
-def steps_of_campaign(s: Session, campaign_id: int, statuses: Sequence[str] | None = None) -> list[tuple[int, IterationStep]]:
+def steps_of_campaign(
+    s: Session, campaign_id: int, statuses: Sequence[str] | None = None
+) -> list[tuple[int, IterationStep]]:
     q = (
         sa.select(Iteration.index, IterationStep)
         .join(Iteration, Iteration.id == IterationStep.iteration_id)
@@ -100,10 +115,20 @@ def claim_step(s: Session, step_id: int, attempt: int, token: str, worker: str, 
     now = utcnow()
     res = s.execute(
         sa.update(IterationStep)
-        .where(IterationStep.id == step_id, IterationStep.status == StepStatus.queued.value, IterationStep.attempts == attempt - 1)
+        .where(
+            IterationStep.id == step_id,
+            IterationStep.status == StepStatus.queued.value,
+            IterationStep.attempts == attempt - 1,
+        )
         .values(
-            status=StepStatus.running.value, attempts=attempt, claim_token=token, worker_name=worker,
-            started_at=now, heartbeat_at=now, lease_until=now + timedelta(seconds=lease_seconds), error=None,
+            status=StepStatus.running.value,
+            attempts=attempt,
+            claim_token=token,
+            worker_name=worker,
+            started_at=now,
+            heartbeat_at=now,
+            lease_until=now + timedelta(seconds=lease_seconds),
+            error=None,
         )
         .execution_options(synchronize_session=False)
     )
@@ -115,12 +140,18 @@ def extend_lease(s: Session, step_id: int, token: str, lease_seconds: float) -> 
     now = utcnow()
     res = s.execute(
         sa.update(IterationStep)
-        .where(IterationStep.id == step_id, IterationStep.claim_token == token, IterationStep.status == StepStatus.running.value)
+        .where(
+            IterationStep.id == step_id,
+            IterationStep.claim_token == token,
+            IterationStep.status == StepStatus.running.value,
+        )
         .values(heartbeat_at=now, lease_until=now + timedelta(seconds=lease_seconds))
         .execution_options(synchronize_session=False)
     )
     cancel = s.scalar(
-        sa.select(Campaign.cancel_requested).join(IterationStep, IterationStep.campaign_id == Campaign.id).where(IterationStep.id == step_id)
+        sa.select(Campaign.cancel_requested)
+        .join(IterationStep, IterationStep.campaign_id == Campaign.id)
+        .where(IterationStep.id == step_id)
     )
     return res.rowcount == 1, bool(cancel)
 
@@ -128,7 +159,11 @@ def extend_lease(s: Session, step_id: int, token: str, lease_seconds: float) -> 
 def owned_running_step(s: Session, step_id: int, token: str) -> IterationStep | None:
     """The step row if this job still holds it (a reconciler may have taken it over)."""
     return s.scalar(
-        sa.select(IterationStep).where(IterationStep.id == step_id, IterationStep.claim_token == token, IterationStep.status == StepStatus.running.value)
+        sa.select(IterationStep).where(
+            IterationStep.id == step_id,
+            IterationStep.claim_token == token,
+            IterationStep.status == StepStatus.running.value,
+        )
     )
 
 
@@ -158,7 +193,11 @@ def stale_queued_steps(s: Session, before: datetime) -> list[tuple[int, Iteratio
 
 
 def metrics_series(s: Session, campaign_id: int, after: int | None = None) -> list[IterationMetrics]:
-    q = sa.select(IterationMetrics).where(IterationMetrics.campaign_id == campaign_id).order_by(IterationMetrics.iteration_index)
+    q = (
+        sa.select(IterationMetrics)
+        .where(IterationMetrics.campaign_id == campaign_id)
+        .order_by(IterationMetrics.iteration_index)
+    )
     if after is not None:
         q = q.where(IterationMetrics.iteration_index > after)
     return list(s.scalars(q))
@@ -166,33 +205,65 @@ def metrics_series(s: Session, campaign_id: int, after: int | None = None) -> li
 
 def rmse_history(s: Session, campaign_id: int) -> list[tuple[int, float | None, float | None]]:
     """(iteration, force RMSE, moment RMSE) in order: what the stopping rules need, no ORM rows."""
-    q = sa.select(IterationMetrics.iteration_index, IterationMetrics.force_rmse, IterationMetrics.moment_rmse).where(
-        IterationMetrics.campaign_id == campaign_id).order_by(IterationMetrics.iteration_index)
+    q = (
+        sa.select(IterationMetrics.iteration_index, IterationMetrics.force_rmse, IterationMetrics.moment_rmse)
+        .where(IterationMetrics.campaign_id == campaign_id)
+        .order_by(IterationMetrics.iteration_index)
+    )
     return [(int(k), f, m) for k, f, m in s.execute(q)]
 
 
 def latest_metrics(s: Session, campaign_id: int) -> IterationMetrics | None:
-    return s.scalar(sa.select(IterationMetrics).where(IterationMetrics.campaign_id == campaign_id).order_by(IterationMetrics.iteration_index.desc()).limit(1))
+    return s.scalar(
+        sa.select(IterationMetrics)
+        .where(IterationMetrics.campaign_id == campaign_id)
+        .order_by(IterationMetrics.iteration_index.desc())
+        .limit(1)
+    )
 
 
 def metrics_of(s: Session, campaign_id: int, index: int) -> IterationMetrics | None:
-    return s.scalar(sa.select(IterationMetrics).where(IterationMetrics.campaign_id == campaign_id, IterationMetrics.iteration_index == index))
+    return s.scalar(
+        sa.select(IterationMetrics).where(
+            IterationMetrics.campaign_id == campaign_id, IterationMetrics.iteration_index == index
+        )
+    )
 
 
 def finished_iteration_times(s: Session, campaign_id: int) -> list[tuple[int, str, datetime | None, datetime | None]]:
-    q = sa.select(Iteration.index, Iteration.status, Iteration.started_at, Iteration.finished_at).where(
-        Iteration.campaign_id == campaign_id, Iteration.index > 0
-    ).order_by(Iteration.index)
+    q = (
+        sa.select(Iteration.index, Iteration.status, Iteration.started_at, Iteration.finished_at)
+        .where(Iteration.campaign_id == campaign_id, Iteration.index > 0)
+        .order_by(Iteration.index)
+    )
     return [tuple(r) for r in s.execute(q)]  # type: ignore[misc]
 
 
 def events(s: Session, campaign_id: int, after: int = 0, limit: int = 1000) -> list[CampaignEvent]:
-    q = sa.select(CampaignEvent).where(CampaignEvent.campaign_id == campaign_id, CampaignEvent.id > after).order_by(CampaignEvent.id).limit(limit)
+    q = (
+        sa.select(CampaignEvent)
+        .where(CampaignEvent.campaign_id == campaign_id, CampaignEvent.id > after)
+        .order_by(CampaignEvent.id)
+        .limit(limit)
+    )
     return list(s.scalars(q))
 
 
-def add_event(s: Session, campaign_id: int, kind: str, message: str = "", *, iteration: int | None = None, step: str | None = None, data: dict | None = None) -> None:
-    s.add(CampaignEvent(campaign_id=campaign_id, kind=kind, message=message, iteration_index=iteration, step=step, data=data or {}))
+def add_event(
+    s: Session,
+    campaign_id: int,
+    kind: str,
+    message: str = "",
+    *,
+    iteration: int | None = None,
+    step: str | None = None,
+    data: dict | None = None,
+) -> None:
+    s.add(
+        CampaignEvent(
+            campaign_id=campaign_id, kind=kind, message=message, iteration_index=iteration, step=step, data=data or {}
+        )
+    )
 
 
 # ----------------------------------------------------------------------------- data of a campaign
@@ -218,19 +289,30 @@ def model_version(s: Session, campaign: Campaign, version: int) -> ModelVersion 
 
 
 def own_pool_versions(s: Session, campaign_id: int) -> list[PoolVersion]:
-    return list(s.scalars(sa.select(PoolVersion).where(PoolVersion.campaign_id == campaign_id).order_by(PoolVersion.version)))
+    return list(
+        s.scalars(sa.select(PoolVersion).where(PoolVersion.campaign_id == campaign_id).order_by(PoolVersion.version))
+    )
 
 
 def own_model_versions(s: Session, campaign_id: int) -> list[ModelVersion]:
-    return list(s.scalars(sa.select(ModelVersion).where(ModelVersion.campaign_id == campaign_id).order_by(ModelVersion.version)))
+    return list(
+        s.scalars(sa.select(ModelVersion).where(ModelVersion.campaign_id == campaign_id).order_by(ModelVersion.version))
+    )
 
 
 def latest_ocp_solution(s: Session, iteration_id: int) -> OcpSolution | None:
-    return s.scalar(sa.select(OcpSolution).where(OcpSolution.iteration_id == iteration_id).order_by(OcpSolution.attempt.desc()).limit(1))
+    return s.scalar(
+        sa.select(OcpSolution)
+        .where(OcpSolution.iteration_id == iteration_id)
+        .order_by(OcpSolution.attempt.desc())
+        .limit(1)
+    )
 
 
 def oracle_runs(s: Session, iteration_id: int) -> list[OracleRun]:
-    return list(s.scalars(sa.select(OracleRun).where(OracleRun.iteration_id == iteration_id).order_by(OracleRun.attempt)))
+    return list(
+        s.scalars(sa.select(OracleRun).where(OracleRun.iteration_id == iteration_id).order_by(OracleRun.attempt))
+    )
 
 
 def iteration_dataset(s: Session, iteration_id: int) -> Dataset | None:

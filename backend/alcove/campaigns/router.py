@@ -33,8 +33,8 @@ from alcove.campaigns.schemas import (
     EventRead,
     ForkRequest,
     IterationCurves,
-    IterationTrajectory,
     IterationRead,
+    IterationTrajectory,
     MetricsRead,
     Policies,
     PreliminaryConfig,
@@ -54,10 +54,10 @@ from alcove.models import (
     IterationStatus,
     IterationStep,
     OcpSolution,
-    Share,
-    SharePermission,
     OracleDefinition,
     OracleVersion,
+    Share,
+    SharePermission,
     StepName,
     SurrogateConfig,
     SurrogateConfigVersion,
@@ -124,7 +124,10 @@ class CampaignSummary(BaseModel):
     force_rmse: float | None = Field(description="latest iteration's force RMSE [N]")
     moment_rmse: float | None = Field(description="latest iteration's moment RMSE [N m]")
     mean_iteration_s: float | None = Field(None, description="mean wall time of the last 20 finished iterations [s]")
-    eta_s: float | None = Field(None, description="remaining iterations (max_iterations rule) x mean iteration time [s]; null when finished or unknown")
+    eta_s: float | None = Field(
+        None,
+        description="remaining iterations (max_iterations rule) x mean iteration time [s]; null when finished or unknown",
+    )
     source_campaign_id: int | None
     source_iteration: int | None
     created_at: datetime
@@ -162,17 +165,28 @@ def _send(jobs: list[Any]) -> None:
 
     try:
         enqueue(jobs)
-    except Exception:  # noqa: BLE001
+    except Exception:
         log.exception("sending %d job(s) failed; the reconciler will re-send them", len(jobs))
 
 
-def _version_id(session: Session, user: User, definition_model: type, version_model: type, parent_key: str, definition_id: int, number: int | None, field: str) -> int:
+def _version_id(
+    session: Session,
+    user: User,
+    definition_model: type,
+    version_model: type,
+    parent_key: str,
+    definition_id: int,
+    number: int | None,
+    field: str,
+) -> int:
     try:
         d = get_for(session, definition_model, definition_id, user)
     except NotFound:
         raise InvalidInput.one(field, f"no such {field.removesuffix('_id')} (or not shared with you)") from None
     n = number or d.latest_version
-    vid = session.scalar(sa.select(version_model.id).where(getattr(version_model, parent_key) == d.id, version_model.version == n))
+    vid = session.scalar(
+        sa.select(version_model.id).where(getattr(version_model, parent_key) == d.id, version_model.version == n)
+    )
     if vid is None:
         raise InvalidInput.one(field.removesuffix("_id") + "_version", f"version {n} does not exist")
     return vid
@@ -241,17 +255,32 @@ def list_campaigns(
 ) -> list[CampaignSummary]:
     """Campaigns you own or that are shared with you, newest first, with their latest RMSE."""
     latest = (
-        sa.select(IterationMetrics.campaign_id, sa.func.max(IterationMetrics.iteration_index).label("k")).group_by(IterationMetrics.campaign_id).subquery()
+        sa.select(IterationMetrics.campaign_id, sa.func.max(IterationMetrics.iteration_index).label("k"))
+        .group_by(IterationMetrics.campaign_id)
+        .subquery()
     )
     q = (
-        sa.select(Campaign, User.email, TaskVersion, TaskDefinition.name, OracleVersion, OracleDefinition.name, latest.c.k, IterationMetrics.force_rmse, IterationMetrics.moment_rmse)
+        sa.select(
+            Campaign,
+            User.email,
+            TaskVersion,
+            TaskDefinition.name,
+            OracleVersion,
+            OracleDefinition.name,
+            latest.c.k,
+            IterationMetrics.force_rmse,
+            IterationMetrics.moment_rmse,
+        )
         .join(User, User.id == Campaign.owner_id)
         .join(TaskVersion, TaskVersion.id == Campaign.task_version_id)
         .join(TaskDefinition, TaskDefinition.id == TaskVersion.definition_id)
         .join(OracleVersion, OracleVersion.id == Campaign.oracle_version_id)
         .join(OracleDefinition, OracleDefinition.id == OracleVersion.definition_id)
         .outerjoin(latest, latest.c.campaign_id == Campaign.id)
-        .outerjoin(IterationMetrics, sa.and_(IterationMetrics.campaign_id == Campaign.id, IterationMetrics.iteration_index == latest.c.k))
+        .outerjoin(
+            IterationMetrics,
+            sa.and_(IterationMetrics.campaign_id == Campaign.id, IterationMetrics.iteration_index == latest.c.k),
+        )
         .where(visible_clause(Campaign, user))
         .order_by(Campaign.id.desc())
         .limit(limit)
@@ -273,11 +302,31 @@ def list_campaigns(
         mean, eta = _eta(c, max_iterations, *timing.get(c.id, (None, None)))
         out.append(
             CampaignSummary(
-                id=c.id, name=c.name, status=c.status, owner_id=c.owner_id, owner=email, task_id=tv.definition_id, task=tname, task_version=tv.version,
-                oracle_id=ov.definition_id, oracle=oname, oracle_type=ov.oracle_type, oracle_version=ov.version, current_iteration=c.current_iteration,
-                current_step=c.current_step, max_iterations=max_iterations, latest_iteration=k_latest, force_rmse=frmse, moment_rmse=mrmse,
-                mean_iteration_s=mean, eta_s=eta,
-                source_campaign_id=c.source_campaign_id, source_iteration=c.source_iteration, created_at=c.created_at, started_at=c.started_at, finished_at=c.finished_at,
+                id=c.id,
+                name=c.name,
+                status=c.status,
+                owner_id=c.owner_id,
+                owner=email,
+                task_id=tv.definition_id,
+                task=tname,
+                task_version=tv.version,
+                oracle_id=ov.definition_id,
+                oracle=oname,
+                oracle_type=ov.oracle_type,
+                oracle_version=ov.version,
+                current_iteration=c.current_iteration,
+                current_step=c.current_step,
+                max_iterations=max_iterations,
+                latest_iteration=k_latest,
+                force_rmse=frmse,
+                moment_rmse=mrmse,
+                mean_iteration_s=mean,
+                eta_s=eta,
+                source_campaign_id=c.source_campaign_id,
+                source_iteration=c.source_iteration,
+                created_at=c.created_at,
+                started_at=c.started_at,
+                finished_at=c.finished_at,
             )
         )
     return out
@@ -291,21 +340,33 @@ def _iteration_timing(session: Session, campaign_ids: list[int]) -> dict[int, tu
     finished = (IterationStatus.succeeded.value, IterationStatus.failed.value)
     ranked = (
         sa.select(
-            Iteration.campaign_id, Iteration.index, Iteration.started_at, Iteration.finished_at,
+            Iteration.campaign_id,
+            Iteration.index,
+            Iteration.started_at,
+            Iteration.finished_at,
             sa.func.row_number().over(partition_by=Iteration.campaign_id, order_by=Iteration.index.desc()).label("rn"),
         )
-        .where(Iteration.campaign_id.in_(campaign_ids), Iteration.index > 0, Iteration.status.in_(finished),
-               Iteration.started_at.is_not(None), Iteration.finished_at.is_not(None))
+        .where(
+            Iteration.campaign_id.in_(campaign_ids),
+            Iteration.index > 0,
+            Iteration.status.in_(finished),
+            Iteration.started_at.is_not(None),
+            Iteration.finished_at.is_not(None),
+        )
         .subquery()
     )
     out: dict[int, tuple[int, list[float]]] = {}
-    for cid, k, a, b, _ in session.execute(sa.select(ranked).where(ranked.c.rn <= 20).order_by(ranked.c.campaign_id, ranked.c.rn)):
+    for cid, k, a, b, _ in session.execute(
+        sa.select(ranked).where(ranked.c.rn <= 20).order_by(ranked.c.campaign_id, ranked.c.rn)
+    ):
         last, times = out.setdefault(cid, (k, []))
         times.append((b - a).total_seconds())
     return out
 
 
-def _eta(c: Campaign, max_iterations: int | None, last_done: int | None, times: list[float] | None) -> tuple[float | None, float | None]:
+def _eta(
+    c: Campaign, max_iterations: int | None, last_done: int | None, times: list[float] | None
+) -> tuple[float | None, float | None]:
     if not times:
         return None, None
     mean = sum(times) / len(times)
@@ -318,18 +379,46 @@ def _eta(c: Campaign, max_iterations: int | None, last_done: int | None, times: 
 def create_campaign(body: CampaignCreateIn, user: CurrentUser, session: SessionDep) -> CampaignOut:
     from alcove.campaigns.schemas import CampaignCreate
 
-    task_version_id = _version_id(session, user, TaskDefinition, TaskVersion, "definition_id", body.task_id, body.task_version, "task_id")
-    oracle_version_id = _version_id(session, user, OracleDefinition, OracleVersion, "definition_id", body.oracle_id, body.oracle_version, "oracle_id")
+    task_version_id = _version_id(
+        session, user, TaskDefinition, TaskVersion, "definition_id", body.task_id, body.task_version, "task_id"
+    )
+    oracle_version_id = _version_id(
+        session,
+        user,
+        OracleDefinition,
+        OracleVersion,
+        "definition_id",
+        body.oracle_id,
+        body.oracle_version,
+        "oracle_id",
+    )
     if body.surrogate_config_id is not None:
-        scv_id = _version_id(session, user, SurrogateConfig, SurrogateConfigVersion, "config_id", body.surrogate_config_id, body.surrogate_config_version, "surrogate_config_id")
+        scv_id = _version_id(
+            session,
+            user,
+            SurrogateConfig,
+            SurrogateConfigVersion,
+            "config_id",
+            body.surrogate_config_id,
+            body.surrogate_config_version,
+            "surrogate_config_id",
+        )
     else:
         from alcove.campaigns.presets import surrogate_config_version_for
 
         scv_id = surrogate_config_version_for(session, user.id, None)
     _check_datasets(session, user, body.preliminary.dataset_ids)
     data = CampaignCreate(
-        name=body.name, description=body.description, task_version_id=task_version_id, oracle_version_id=oracle_version_id,
-        surrogate_config_version_id=scv_id, seed=body.seed, preliminary=body.preliminary, stopping=body.stopping, policies=body.policies, settings=body.settings,
+        name=body.name,
+        description=body.description,
+        task_version_id=task_version_id,
+        oracle_version_id=oracle_version_id,
+        surrogate_config_version_id=scv_id,
+        seed=body.seed,
+        preliminary=body.preliminary,
+        stopping=body.stopping,
+        policies=body.policies,
+        settings=body.settings,
     )
     campaign = campaigns.create_campaign(session, user.id, data)
     jobs: list[Any] = []
@@ -340,8 +429,7 @@ def create_campaign(body: CampaignCreateIn, user: CurrentUser, session: SessionD
     return _campaign_out(session, campaign, user)
 
 
-@router.get("/{campaign_id}", response_model=CampaignOut, operation_id="get_campaign",
-            responses=NOT_MODIFIED)
+@router.get("/{campaign_id}", response_model=CampaignOut, operation_id="get_campaign", responses=NOT_MODIFIED)
 async def get_campaign(campaign_id: ObjectId, user: CurrentUser, request: Request) -> Response:
     """Status, current iteration and step, latest metrics, ETA. Polled: answers carry an
     ``ETag``; send it back as ``If-None-Match`` and an unchanged campaign is a bodiless 304."""
@@ -353,22 +441,28 @@ async def get_campaign(campaign_id: ObjectId, user: CurrentUser, request: Reques
 
     def build() -> bytes:
         with get_sessionmaker()() as session:
-            return _campaign_out(session, get_for(session, Campaign, campaign_id, user), user).model_dump_json().encode()
+            return (
+                _campaign_out(session, get_for(session, Campaign, campaign_id, user), user).model_dump_json().encode()
+            )
 
     return await cached_json(request, key, build)
 
 
 @router.patch("/{campaign_id}/config", response_model=CampaignOut, operation_id="update_campaign_config")
-def update_campaign_config(campaign_id: ObjectId, body: CampaignConfigUpdate, user: CurrentUser, session: SessionDep) -> CampaignOut:
+def update_campaign_config(
+    campaign_id: ObjectId, body: CampaignConfigUpdate, user: CurrentUser, session: SessionDep
+) -> CampaignOut:
     """Edit settings: records a new config version, used by iterations created from now on."""
     campaign = get_for(session, Campaign, campaign_id, user, need="edit")
-    _check_version_ids(session, user, body, {"surrogate_config_version_id": VERSION_FIELDS["surrogate_config_version_id"]})
+    _check_version_ids(
+        session, user, body, {"surrogate_config_version_id": VERSION_FIELDS["surrogate_config_version_id"]}
+    )
     campaigns.update_config(session, campaign.id, body, user.id)
     session.commit()
     return _campaign_out(session, campaign, user)
 
 
-def _action(name: str, summary: str):  # noqa: ANN202
+def _action(name: str, summary: str):
     fn = getattr(campaigns, name)
 
     def route(campaign_id: ObjectId, user: CurrentUser, session: SessionDep) -> CampaignOut:
@@ -380,7 +474,14 @@ def _action(name: str, summary: str):  # noqa: ANN202
 
     route.__name__ = f"{name}_campaign"
     route.__doc__ = summary
-    router.add_api_route(f"/{{campaign_id}}/{name}", route, methods=["POST"], response_model=CampaignOut, operation_id=f"{name}_campaign", summary=summary.split(".")[0])
+    router.add_api_route(
+        f"/{{campaign_id}}/{name}",
+        route,
+        methods=["POST"],
+        response_model=CampaignOut,
+        operation_id=f"{name}_campaign",
+        summary=summary.split(".")[0],
+    )
 
 
 _action("start", "Start a draft campaign: the preliminary step (or, for a fork, the first training) is queued.")
@@ -390,7 +491,9 @@ _action("cancel", "Cancel: queued steps are dropped, a running job stops at its 
 
 
 @router.post("/{campaign_id}/retry", response_model=CampaignOut, operation_id="retry_campaign_step")
-def retry_campaign_step(campaign_id: ObjectId, user: CurrentUser, session: SessionDep, body: Annotated[RetryIn | None, Body()] = None) -> CampaignOut:
+def retry_campaign_step(
+    campaign_id: ObjectId, user: CurrentUser, session: SessionDep, body: Annotated[RetryIn | None, Body()] = None
+) -> CampaignOut:
     """Run a failed step again (default: the step that failed the campaign); 409 when nothing has failed."""
     campaign = get_for(session, Campaign, campaign_id, user, need="edit")
     body = body or RetryIn()
@@ -399,18 +502,26 @@ def retry_campaign_step(campaign_id: ObjectId, user: CurrentUser, session: Sessi
     from alcove.campaigns.repository import NotFound as NoSuchRow
 
     try:
-        campaign, jobs = campaigns.retry_step(session, campaign.id, body.iteration, body.step.value if body.step else None)
+        campaign, jobs = campaigns.retry_step(
+            session, campaign.id, body.iteration, body.step.value if body.step else None
+        )
     except (NotFound, NoSuchRow):
         # the campaign exists and is visible (checked above): nothing has failed
         if body.iteration is None:
-            raise Conflict(f"nothing to retry: no step of campaign {campaign_id} has failed (campaign status: {campaign.status})") from None
-        raise Conflict(f"nothing to retry: step {body.step.value} of iteration {body.iteration} has not failed") from None
+            raise Conflict(
+                f"nothing to retry: no step of campaign {campaign_id} has failed (campaign status: {campaign.status})"
+            ) from None
+        raise Conflict(
+            f"nothing to retry: step {body.step.value} of iteration {body.iteration} has not failed"
+        ) from None
     session.commit()
     _send(jobs)
     return _campaign_out(session, campaign, user)
 
 
-@router.post("/{campaign_id}/fork", response_model=CampaignOut, status_code=status.HTTP_201_CREATED, operation_id="fork_campaign")
+@router.post(
+    "/{campaign_id}/fork", response_model=CampaignOut, status_code=status.HTTP_201_CREATED, operation_id="fork_campaign"
+)
 def fork_campaign(campaign_id: ObjectId, body: ForkRequest, user: CurrentUser, session: SessionDep) -> CampaignOut:
     """A new campaign of yours continuing from iteration k of this one (its pool and model),
     with changed settings."""
@@ -426,14 +537,28 @@ def fork_campaign(campaign_id: ObjectId, body: ForkRequest, user: CurrentUser, s
 
 # ----------------------------------------------------------------------------- iterations, metrics, jobs, events
 
-After = Annotated[int | None, Query(ge=-1, le=MAX_ID, description="only iterations with index > after (poll incrementally)")]
+After = Annotated[
+    int | None, Query(ge=-1, le=MAX_ID, description="only iterations with index > after (poll incrementally)")
+]
 
 
-@router.get("/{campaign_id}/metrics", response_model=list[MetricsRead], operation_id="list_campaign_metrics",
-            responses=NOT_MODIFIED)
+@router.get(
+    "/{campaign_id}/metrics",
+    response_model=list[MetricsRead],
+    operation_id="list_campaign_metrics",
+    responses=NOT_MODIFIED,
+)
 async def list_campaign_metrics(
-    campaign_id: ObjectId, user: CurrentUser, request: Request, after: After = None,
-    extra: Annotated[bool, Query(description="include each row's `extra` (software versions, per-component RMSE, step timings); null otherwise")] = False,
+    campaign_id: ObjectId,
+    user: CurrentUser,
+    request: Request,
+    after: After = None,
+    extra: Annotated[
+        bool,
+        Query(
+            description="include each row's `extra` (software versions, per-component RMSE, step timings); null otherwise"
+        ),
+    ] = False,
 ) -> Response:
     """Per-iteration metrics (force/moment RMSE, max errors, OCP and oracle figures);
     ``?after=k`` returns only iterations after k, so a dashboard polls cheaply. Compact by
@@ -460,8 +585,14 @@ async def list_campaign_metrics(
 
 @router.get("/{campaign_id}/iterations", response_model=list[IterationRead], operation_id="list_campaign_iterations")
 def list_campaign_iterations(
-    campaign_id: ObjectId, user: CurrentUser, session: SessionDep, after: After = None,
-    steps: Annotated[bool, Query(description="include each iteration's steps (status, worker, attempts, timings, result); null otherwise")] = False,
+    campaign_id: ObjectId,
+    user: CurrentUser,
+    session: SessionDep,
+    after: After = None,
+    steps: Annotated[
+        bool,
+        Query(description="include each iteration's steps (status, worker, attempts, timings, result); null otherwise"),
+    ] = False,
 ) -> Response:
     """Iterations (status, current step, error, times); ``?after=k`` for polling. Compact by
     default: ``steps`` is null unless ``?steps=true`` (or see ``/jobs``)."""
@@ -481,9 +612,15 @@ def list_campaign_iterations(
 _ITERATION_FIELDS = ("id", "index", "status", "current_step", "config_version_id", "error", "started_at", "finished_at")
 
 
-@router.get("/{campaign_id}/iterations/{iteration}/curves", response_model=IterationCurves, operation_id="get_iteration_curves",
-            responses=NOT_MODIFIED)
-async def get_iteration_curves(campaign_id: ObjectId, iteration: IterationIndex, user: CurrentUser, request: Request) -> Response:
+@router.get(
+    "/{campaign_id}/iterations/{iteration}/curves",
+    response_model=IterationCurves,
+    operation_id="get_iteration_curves",
+    responses=NOT_MODIFIED,
+)
+async def get_iteration_curves(
+    campaign_id: ObjectId, iteration: IterationIndex, user: CurrentUser, request: Request
+) -> Response:
     """Iteration k's trajectory (t, q, qd, tau: the motion replayed by the oracle, on the
     oracle's time grid) with the oracle's forces and model k's prediction (columns fx fy fz
     mx my mz in the headrest frame). Immutable once there: cached, with an ``ETag``."""
@@ -493,6 +630,7 @@ async def get_iteration_curves(campaign_id: ObjectId, iteration: IterationIndex,
         if sha is not None:
             REVISIONS.put(("curves", campaign_id, iteration, user.id), sha, CURVES_ACCESS_TTL_S)
     if sha is None:
+
         def why() -> None:  # the slow path only for the 404's message
             with get_sessionmaker()() as session:
                 get_for(session, Campaign, campaign_id, user)
@@ -508,9 +646,15 @@ async def get_iteration_curves(campaign_id: ObjectId, iteration: IterationIndex,
     return await cached_json(request, key, build)
 
 
-@router.get("/{campaign_id}/iterations/{iteration}/trajectory", response_model=IterationTrajectory, operation_id="get_iteration_trajectory",
-            responses=NOT_MODIFIED)
-async def get_iteration_trajectory(campaign_id: ObjectId, iteration: IterationIndex, user: CurrentUser, request: Request) -> Response:
+@router.get(
+    "/{campaign_id}/iterations/{iteration}/trajectory",
+    response_model=IterationTrajectory,
+    operation_id="get_iteration_trajectory",
+    responses=NOT_MODIFIED,
+)
+async def get_iteration_trajectory(
+    campaign_id: ObjectId, iteration: IterationIndex, user: CurrentUser, request: Request
+) -> Response:
     """Iteration k's whole OCP solution over the task: t, q, qd, tau on the OCP grid for
     every phase, the phase boundaries (names, durations), which phases the oracle replayed,
     and the solver summary (status, converged, iterations, cost, wall time) of its latest
@@ -522,13 +666,22 @@ async def get_iteration_trajectory(campaign_id: ObjectId, iteration: IterationIn
         if sid is not None:  # only found solutions are remembered: a running iteration's 404 is not
             REVISIONS.put(("trajectory", campaign_id, iteration, user.id), sid, REVISION_TTL_S)
     if sid is None:
+
         def why() -> None:  # the slow path only for the 404's message
             with get_sessionmaker()() as session:
                 get_for(session, Campaign, campaign_id, user)
-            raise repo.NotFound("iteration", f"campaign {campaign_id} has no OCP solution for iteration {iteration} (iteration 0 has none; a later one has none until its OCP step ran)")
+            raise repo.NotFound(
+                "iteration",
+                f"campaign {campaign_id} has no OCP solution for iteration {iteration} (iteration 0 has none; a later one has none until its OCP step ran)",
+            )
 
         await run_in_threadpool(why)
-    key = ("trajectory", campaign_id, iteration, sid)  # a solution row is written once, a new attempt is a new row: never stale
+    key = (
+        "trajectory",
+        campaign_id,
+        iteration,
+        sid,
+    )  # a solution row is written once, a new attempt is a new row: never stale
 
     def build() -> bytes:
         with get_sessionmaker()() as session:
@@ -553,8 +706,13 @@ REVISIONS = TtlCache()
 
 
 def _visible_campaign() -> sa.ColumnElement[bool]:
-    return sa.and_(Campaign.id == sa.bindparam("cid"),
-                   sa.or_(Campaign.owner_id == sa.bindparam("uid"), Campaign.id.in_(sa.select(Share.campaign_id).where(Share.user_id == sa.bindparam("uid")))))
+    return sa.and_(
+        Campaign.id == sa.bindparam("cid"),
+        sa.or_(
+            Campaign.owner_id == sa.bindparam("uid"),
+            Campaign.id.in_(sa.select(Share.campaign_id).where(Share.user_id == sa.bindparam("uid"))),
+        ),
+    )
 
 
 # built once: building a statement costs several times more than executing a cached one
@@ -569,33 +727,65 @@ _REVISION = sa.select(
 #: the latest metrics row.
 _DETAIL_REVISION = sa.select(
     Campaign.updated_at,
-    sa.or_(Campaign.owner_id == sa.bindparam("uid"),
-           sa.select(Share.permission).where(Share.campaign_id == Campaign.id, Share.user_id == sa.bindparam("uid")).scalar_subquery() == SharePermission.edit.value),
+    sa.or_(
+        Campaign.owner_id == sa.bindparam("uid"),
+        sa.select(Share.permission)
+        .where(Share.campaign_id == Campaign.id, Share.user_id == sa.bindparam("uid"))
+        .scalar_subquery()
+        == SharePermission.edit.value,
+    ),
     sa.select(User.email).where(User.id == Campaign.owner_id).scalar_subquery(),
-    sa.select(sa.func.max(IterationStep.updated_at)).join(Iteration, Iteration.id == IterationStep.iteration_id)
-    .where(Iteration.campaign_id == Campaign.id, Iteration.index == Campaign.current_iteration).scalar_subquery(),
+    sa.select(sa.func.max(IterationStep.updated_at))
+    .join(Iteration, Iteration.id == IterationStep.iteration_id)
+    .where(Iteration.campaign_id == Campaign.id, Iteration.index == Campaign.current_iteration)
+    .scalar_subquery(),
     sa.select(sa.func.max(CampaignEvent.id)).where(CampaignEvent.campaign_id == Campaign.id).scalar_subquery(),
-    sa.select(IterationMetrics.id).where(IterationMetrics.campaign_id == Campaign.id).order_by(IterationMetrics.iteration_index.desc()).limit(1).scalar_subquery(),
+    sa.select(IterationMetrics.id)
+    .where(IterationMetrics.campaign_id == Campaign.id)
+    .order_by(IterationMetrics.iteration_index.desc())
+    .limit(1)
+    .scalar_subquery(),
 ).where(_visible_campaign())
 _CURVES_SHA = (
-    sa.select(IterationMetrics.curves_sha256).join(Campaign, Campaign.id == IterationMetrics.campaign_id)
-    .where(IterationMetrics.campaign_id == sa.bindparam("cid"), IterationMetrics.iteration_index == sa.bindparam("k"), IterationMetrics.curves_sha256.is_not(None), _visible_campaign())
+    sa.select(IterationMetrics.curves_sha256)
+    .join(Campaign, Campaign.id == IterationMetrics.campaign_id)
+    .where(
+        IterationMetrics.campaign_id == sa.bindparam("cid"),
+        IterationMetrics.iteration_index == sa.bindparam("k"),
+        IterationMetrics.curves_sha256.is_not(None),
+        _visible_campaign(),
+    )
 )
 
 #: The campaigns an iteration's outputs may live in: the visible campaign, then (recursively)
 #: a fork's source while ``k`` is at most the fork's source iteration (as ``repo.resolve_source``).
-_SOURCES = sa.select(Campaign.id, Campaign.source_campaign_id, Campaign.source_iteration).where(_visible_campaign()).cte("sources", recursive=True)
+_SOURCES = (
+    sa.select(Campaign.id, Campaign.source_campaign_id, Campaign.source_iteration)
+    .where(_visible_campaign())
+    .cte("sources", recursive=True)
+)
 _SOURCE = aliased(Campaign)
 _SOURCES = _SOURCES.union_all(
     sa.select(_SOURCE.id, _SOURCE.source_campaign_id, _SOURCE.source_iteration)
-    .join(_SOURCES, _SOURCE.id == _SOURCES.c.source_campaign_id).where(_SOURCES.c.source_iteration >= sa.bindparam("k"))
+    .join(_SOURCES, _SOURCE.id == _SOURCES.c.source_campaign_id)
+    .where(_SOURCES.c.source_iteration >= sa.bindparam("k"))
 )
 #: The latest OCP solution with a trajectory of iteration ``k`` in the campaign holding it.
 _TRAJECTORY_SOLUTION = (
-    sa.select(OcpSolution.id).join(Iteration, Iteration.id == OcpSolution.iteration_id).join(_SOURCES, _SOURCES.c.id == Iteration.campaign_id)
-    .where(Iteration.index == sa.bindparam("k"), OcpSolution.trajectory_sha256.is_not(None),
-           sa.or_(_SOURCES.c.source_campaign_id.is_(None), _SOURCES.c.source_iteration.is_(None), _SOURCES.c.source_iteration < sa.bindparam("k")))
-    .order_by(OcpSolution.attempt.desc()).limit(1)
+    sa.select(OcpSolution.id)
+    .join(Iteration, Iteration.id == OcpSolution.iteration_id)
+    .join(_SOURCES, _SOURCES.c.id == Iteration.campaign_id)
+    .where(
+        Iteration.index == sa.bindparam("k"),
+        OcpSolution.trajectory_sha256.is_not(None),
+        sa.or_(
+            _SOURCES.c.source_campaign_id.is_(None),
+            _SOURCES.c.source_iteration.is_(None),
+            _SOURCES.c.source_iteration < sa.bindparam("k"),
+        ),
+    )
+    .order_by(OcpSolution.attempt.desc())
+    .limit(1)
 )
 
 
@@ -624,7 +814,10 @@ def _trajectory_solution(conn: sa.Connection, campaign_id: int, iteration: int, 
 
 @router.get("/{campaign_id}/jobs", response_model=list[JobOut], operation_id="list_campaign_jobs")
 def list_campaign_jobs(
-    campaign_id: ObjectId, user: CurrentUser, session: SessionDep, status_: Annotated[list[str] | None, Query(alias="status", max_length=10)] = None
+    campaign_id: ObjectId,
+    user: CurrentUser,
+    session: SessionDep,
+    status_: Annotated[list[str] | None, Query(alias="status", max_length=10)] = None,
 ) -> list[JobOut]:
     """Every step (the unit of worker work): status, worker, attempts, timings, error."""
     get_for(session, Campaign, campaign_id, user)
@@ -633,7 +826,10 @@ def list_campaign_jobs(
 
 @router.get("/{campaign_id}/events", response_model=list[EventRead], operation_id="list_campaign_events")
 def list_campaign_events(
-    campaign_id: ObjectId, user: CurrentUser, session: SessionDep, after: Annotated[int, Query(ge=0, le=MAX_ID, description="only events with id > after")] = 0
+    campaign_id: ObjectId,
+    user: CurrentUser,
+    session: SessionDep,
+    after: Annotated[int, Query(ge=0, le=MAX_ID, description="only events with id > after")] = 0,
 ) -> list[EventRead]:
     get_for(session, Campaign, campaign_id, user)
     return campaigns.list_events(session, campaign_id, after)
@@ -643,7 +839,9 @@ def list_campaign_events(
     "/{campaign_id}/events/stream",
     operation_id="stream_campaign_events",
     response_class=StreamingResponse,
-    responses={200: {"content": {"text/event-stream": {"schema": {"type": "string"}}}, "description": "Server-Sent Events"}},
+    responses={
+        200: {"content": {"text/event-stream": {"schema": {"type": "string"}}}, "description": "Server-Sent Events"}
+    },
 )
 async def stream_campaign_events(
     campaign_id: ObjectId,
@@ -663,11 +861,12 @@ async def stream_campaign_events(
     last = request.headers.get("last-event-id")
     cursor = max(after, int(last)) if last and last.isdigit() and int(last) <= MAX_ID else after
 
-    async def events():  # noqa: ANN202
+    async def events():
         nonlocal cursor
         loop = asyncio.get_running_loop()
         deadline = loop.time() + timeout
         while True:
+
             def poll() -> tuple[list[EventRead], bool]:
                 with factory() as s:
                     rows = campaigns.list_events(s, campaign_id, cursor)
@@ -683,17 +882,23 @@ async def stream_campaign_events(
             yield ": keep-alive\n\n"
             await asyncio.sleep(1.0)
 
-    return StreamingResponse(events(), media_type="text/event-stream", headers={"Cache-Control": "no-cache", "X-Accel-Buffering": "no"})
+    return StreamingResponse(
+        events(), media_type="text/event-stream", headers={"Cache-Control": "no-cache", "X-Accel-Buffering": "no"}
+    )
 
 
 @router.get("/{campaign_id}/export", operation_id="export_campaign", response_class=Response, responses={200: BINARY})
 def export_campaign(
-    campaign_id: ObjectId, user: CurrentUser, session: SessionDep, pool_format: Literal["parquet", "csv"] = "parquet", models: bool = True
+    campaign_id: ObjectId,
+    user: CurrentUser,
+    session: SessionDep,
+    pool_format: Literal["parquet", "csv"] = "parquet",
+    models: bool = True,
 ) -> Response:
     """Everything the campaign produced as one zip: settings and config versions, metrics
     (CSV + JSON), iterations, pool versions, model artifacts, curves."""
-    from alcove.surrogates.artifact_export import artifact_zip_paths
     from alcove.campaigns import repository as crepo
+    from alcove.surrogates.artifact_export import artifact_zip_paths
 
     get_for(session, Campaign, campaign_id, user)
     data = campaigns.export_campaign(session, campaign_id, pool_format=pool_format, models=False)

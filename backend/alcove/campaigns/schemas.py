@@ -26,7 +26,9 @@ class PreliminaryConfig(_Strict):
 
     samples: int = Field(4000, ge=2, le=1_000_000, description="LHS sample count K")
     velocity_bound: float = Field(2.0, gt=0, le=100, description="|qd| bound of the samples [rad/s]")
-    chunks: int = Field(10, ge=1, le=1000, description="datasets the samples are dealt into (for the split by simulation)")
+    chunks: int = Field(
+        10, ge=1, le=1000, description="datasets the samples are dealt into (for the split by simulation)"
+    )
     seed: int | None = Field(None, ge=0, description="LHS seed (default: the campaign seed)")
     dataset_ids: list[int] | None = Field(None, description="uploaded datasets to use instead of LHS samples")
 
@@ -34,16 +36,35 @@ class PreliminaryConfig(_Strict):
 class StoppingRules(_Strict):
     """Any combination; the first that fires after an iteration stops the campaign."""
 
-    max_iterations: int | None = Field(200, ge=1, le=100_000, description="stop after iteration k = max_iterations (paper: 200)")
-    target_force_rmse: float | None = Field(None, gt=0, description="stop when the iteration's force RMSE [N] is at most this")
-    target_moment_rmse: float | None = Field(None, gt=0, description="stop when the iteration's moment RMSE [N m] is at most this")
-    plateau_window: int | None = Field(None, ge=1, le=10_000, description="stop when the best force RMSE of the last W iterations is no better than before")
+    max_iterations: int | None = Field(
+        200, ge=1, le=100_000, description="stop after iteration k = max_iterations (paper: 200)"
+    )
+    target_force_rmse: float | None = Field(
+        None, gt=0, description="stop when the iteration's force RMSE [N] is at most this"
+    )
+    target_moment_rmse: float | None = Field(
+        None, gt=0, description="stop when the iteration's moment RMSE [N m] is at most this"
+    )
+    plateau_window: int | None = Field(
+        None,
+        ge=1,
+        le=10_000,
+        description="stop when the best force RMSE of the last W iterations is no better than before",
+    )
     plateau_tolerance: float = Field(0.01, ge=0, lt=1, description="relative improvement that still counts as progress")
-    oracle_budget_s: float | None = Field(None, gt=0, description="stop when the oracle's total wall time reaches this [s]")
+    oracle_budget_s: float | None = Field(
+        None, gt=0, description="stop when the oracle's total wall time reaches this [s]"
+    )
 
     @model_validator(mode="after")
-    def _some_rule(self) -> "StoppingRules":
-        if self.max_iterations is None and self.target_force_rmse is None and self.target_moment_rmse is None and self.plateau_window is None and self.oracle_budget_s is None:
+    def _some_rule(self) -> StoppingRules:
+        if (
+            self.max_iterations is None
+            and self.target_force_rmse is None
+            and self.target_moment_rmse is None
+            and self.plateau_window is None
+            and self.oracle_budget_s is None
+        ):
             raise ValueError("at least one stopping rule is needed (e.g. max_iterations)")
         return self
 
@@ -55,11 +76,20 @@ class Policies(_Strict):
     """What happens when a step fails."""
 
     train_max_attempts: int = Field(2, ge=1, le=20, description="attempts of a train job that raised")
-    ocp_initial_guesses: int = Field(3, ge=1, le=4, description="IPOPT runs with different initial guesses (previous solution, passive, ramp, static)")
+    ocp_initial_guesses: int = Field(
+        3,
+        ge=1,
+        le=4,
+        description="IPOPT runs with different initial guesses (previous solution, passive, ramp, static)",
+    )
     ocp_max_attempts: int = Field(2, ge=1, le=20, description="attempts of an ocp job that raised")
-    ocp_on_failure: OnFailure = Field("continue", description="no converged solution: mark the iteration failed and continue, or stop the campaign")
+    ocp_on_failure: OnFailure = Field(
+        "continue", description="no converged solution: mark the iteration failed and continue, or stop the campaign"
+    )
     oracle_max_attempts: int = Field(3, ge=1, le=20, description="attempts of an oracle job that raised or timed out")
-    oracle_on_failure: OnFailure = Field("continue", description="oracle failed (attempts exhausted) or its result was quarantined by the quality gate")
+    oracle_on_failure: OnFailure = Field(
+        "continue", description="oracle failed (attempts exhausted) or its result was quarantined by the quality gate"
+    )
     evaluate_max_attempts: int = Field(3, ge=1, le=20)
     append_max_attempts: int = Field(3, ge=1, le=20)
 
@@ -67,9 +97,18 @@ class Policies(_Strict):
 class RunSettings(_Strict):
     """Other settings that change results."""
 
-    replay_phases: int = Field(1, ge=1, le=100, description="the oracle replays the first N phases of the OCP trajectory (paper: 1)")
-    replay_dt: float | None = Field(0.0025, gt=0, le=0.1, description="the replayed trajectory is resampled (cubic Hermite) at this step [s]; None: the OCP grid")
-    ocp_intervals: int | None = Field(None, ge=2, le=20000, description="override the task's intervals per phase (None: as the task says)")
+    replay_phases: int = Field(
+        1, ge=1, le=100, description="the oracle replays the first N phases of the OCP trajectory (paper: 1)"
+    )
+    replay_dt: float | None = Field(
+        0.0025,
+        gt=0,
+        le=0.1,
+        description="the replayed trajectory is resampled (cubic Hermite) at this step [s]; None: the OCP grid",
+    )
+    ocp_intervals: int | None = Field(
+        None, ge=2, le=20000, description="override the task's intervals per phase (None: as the task says)"
+    )
     fault_injection: dict[str, Any] = Field(
         default_factory=dict,
         description="tests only, per step name: raise_attempts (raise on attempts <= n), sleep_s (+ iterations: [k...]), ipopt_max_iter (ocp), gate_fail (oracle)",
@@ -194,7 +233,9 @@ class IterationRead(_Read):
     error: str | None
     started_at: datetime | None
     finished_at: datetime | None
-    steps: list[StepRead] | None = Field(None, description="the iteration's steps (null in the compact list: ask with ?steps=true)")
+    steps: list[StepRead] | None = Field(
+        None, description="the iteration's steps (null in the compact list: ask with ?steps=true)"
+    )
 
 
 class MetricsRead(_Read):
@@ -213,7 +254,9 @@ class MetricsRead(_Read):
     n_pool_samples: int | None
     model_version_id: int | None
     dataset_id: int | None
-    extra: dict[str, Any] | None = Field(None, description="software versions, per-component RMSE, step timings (only with ?extra=true on the series)")
+    extra: dict[str, Any] | None = Field(
+        None, description="software versions, per-component RMSE, step timings (only with ?extra=true on the series)"
+    )
 
 
 class CampaignDetail(BaseModel):
@@ -234,7 +277,10 @@ class IterationCurves(BaseModel):
     t: list[float]
     q: list[list[float]]
     qd: list[list[float]]
-    tau: list[list[float]] | None = Field(None, description="(n, ndof) joint torque of the replayed motion [N m] on the same grid; null without an oracle run (iteration 0)")
+    tau: list[list[float]] | None = Field(
+        None,
+        description="(n, ndof) joint torque of the replayed motion [N m] on the same grid; null without an oracle run (iteration 0)",
+    )
     f_true: list[list[float]] = Field(description="(n, 6): fx fy fz mx my mz")
     f_pred: list[list[float]]
 
@@ -270,7 +316,9 @@ class IterationTrajectory(BaseModel):
     t: list[float] = Field(description="the OCP grid's nodes [s]")
     q: list[list[float]] = Field(description="(n, ndof) joint angles [rad]")
     qd: list[list[float]] = Field(description="(n, ndof) joint velocities [rad/s]")
-    tau: list[list[float]] = Field(description="(n, ndof) joint torque at the nodes [N m] (mean of the adjacent intervals')")
+    tau: list[list[float]] = Field(
+        description="(n, ndof) joint torque at the nodes [N m] (mean of the adjacent intervals')"
+    )
     duration: float = Field(description="the task's duration: the sum of the phase durations [s]")
     phases: list[TrajectoryPhase]
     replay_phases: int = Field(description="the oracle replays the first N phases (the iteration's setting)")

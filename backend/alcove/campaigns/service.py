@@ -37,13 +37,13 @@ from alcove.campaigns.schemas import (
     IterationCurves,
     IterationRead,
     IterationTrajectory,
-    OcpSolverSummary,
-    TrajectoryPhase,
     MetricsRead,
     ModelVersionRead,
+    OcpSolverSummary,
     PoolVersionRead,
     StepJob,
     StepRead,
+    TrajectoryPhase,
 )
 from alcove.campaigns.state_machine import (
     Cancel,
@@ -76,7 +76,7 @@ from alcove.models import (
     utcnow,
 )
 from alcove.pool import service as pool_service
-from alcove.pool.service import upload_preliminary_dataset  # noqa: F401  (part of this service's API)
+from alcove.pool.service import upload_preliminary_dataset
 
 __all__ = [
     "InvalidTransition",
@@ -119,19 +119,46 @@ _ATTEMPTS_FIELD = {
 
 
 def config_from_version(row: CampaignConfigVersion) -> CampaignConfig:
-    return CampaignConfig.model_validate({"preliminary": row.preliminary_config, "stopping": row.stopping_rules, "policies": row.policies, "settings": row.settings})
+    return CampaignConfig.model_validate(
+        {
+            "preliminary": row.preliminary_config,
+            "stopping": row.stopping_rules,
+            "policies": row.policies,
+            "settings": row.settings,
+        }
+    )
 
 
 def current_config(s: Session, campaign: Campaign) -> CampaignConfig:
     return config_from_version(repo.config_version(s, campaign))
 
 
-def _add_config_version(s: Session, campaign: Campaign, cfg: CampaignConfig, surrogate_config_version_id: int, user_id: int | None, note: str) -> CampaignConfigVersion:
-    version = (s.scalar(sa.select(sa.func.max(CampaignConfigVersion.version)).where(CampaignConfigVersion.campaign_id == campaign.id)) or 0) + 1
+def _add_config_version(
+    s: Session,
+    campaign: Campaign,
+    cfg: CampaignConfig,
+    surrogate_config_version_id: int,
+    user_id: int | None,
+    note: str,
+) -> CampaignConfigVersion:
+    version = (
+        s.scalar(
+            sa.select(sa.func.max(CampaignConfigVersion.version)).where(
+                CampaignConfigVersion.campaign_id == campaign.id
+            )
+        )
+        or 0
+    ) + 1
     row = CampaignConfigVersion(
-        campaign_id=campaign.id, version=version, surrogate_config_version_id=surrogate_config_version_id,
-        preliminary_config=cfg.preliminary.model_dump(mode="json"), stopping_rules=cfg.stopping.model_dump(mode="json"),
-        policies=cfg.policies.model_dump(mode="json"), settings=cfg.settings.model_dump(mode="json"), note=note, created_by_id=user_id,
+        campaign_id=campaign.id,
+        version=version,
+        surrogate_config_version_id=surrogate_config_version_id,
+        preliminary_config=cfg.preliminary.model_dump(mode="json"),
+        stopping_rules=cfg.stopping.model_dump(mode="json"),
+        policies=cfg.policies.model_dump(mode="json"),
+        settings=cfg.settings.model_dump(mode="json"),
+        note=note,
+        created_by_id=user_id,
     )
     s.add(row)
     campaign.config_version = version
@@ -143,22 +170,38 @@ def _add_config_version(s: Session, campaign: Campaign, cfg: CampaignConfig, sur
     return row
 
 
-def _check_definitions(s: Session, task_version_id: int, oracle_version_id: int, surrogate_config_version_id: int) -> None:
-    for model, ident, field in ((TaskVersion, task_version_id, "task_version_id"), (OracleVersion, oracle_version_id, "oracle_version_id"),
-                                (SurrogateConfigVersion, surrogate_config_version_id, "surrogate_config_version_id")):
+def _check_definitions(
+    s: Session, task_version_id: int, oracle_version_id: int, surrogate_config_version_id: int
+) -> None:
+    for model, ident, field in (
+        (TaskVersion, task_version_id, "task_version_id"),
+        (OracleVersion, oracle_version_id, "oracle_version_id"),
+        (SurrogateConfigVersion, surrogate_config_version_id, "surrogate_config_version_id"),
+    ):
         if s.get(model, ident) is None:
             raise NotFound(field, f"no {model.__tablename__[:-1].replace('_', ' ')} {ident}")
 
 
 def _lock_definitions(s: Session, campaign: Campaign) -> None:
     now = utcnow()
-    for model, ident in ((TaskVersion, campaign.task_version_id), (OracleVersion, campaign.oracle_version_id), (SurrogateConfigVersion, campaign.surrogate_config_version_id)):
+    for model, ident in (
+        (TaskVersion, campaign.task_version_id),
+        (OracleVersion, campaign.oracle_version_id),
+        (SurrogateConfigVersion, campaign.surrogate_config_version_id),
+    ):
         row = s.get(model, ident)
         if row is not None and row.locked_at is None:
             row.locked_at = now
 
 
-def create_campaign(s: Session, owner_id: int, data: CampaignCreate, *, source_campaign_id: int | None = None, source_iteration: int | None = None) -> Campaign:
+def create_campaign(
+    s: Session,
+    owner_id: int,
+    data: CampaignCreate,
+    *,
+    source_campaign_id: int | None = None,
+    source_iteration: int | None = None,
+) -> Campaign:
     """A draft campaign with config version 1."""
     _check_definitions(s, data.task_version_id, data.oracle_version_id, data.surrogate_config_version_id)
     cfg = CampaignConfig.model_validate(data.model_dump(include={"preliminary", "stopping", "policies", "settings"}))
@@ -167,9 +210,17 @@ def create_campaign(s: Session, owner_id: int, data: CampaignCreate, *, source_c
 
         datasets(s, cfg.preliminary.dataset_ids)  # raises NotFound naming the id
     c = Campaign(
-        owner_id=owner_id, name=data.name, description=data.description, task_version_id=data.task_version_id,
-        oracle_version_id=data.oracle_version_id, surrogate_config_version_id=data.surrogate_config_version_id, seed=data.seed,
-        source_campaign_id=source_campaign_id, source_iteration=source_iteration, status=CampaignStatus.draft.value, config_version=0,
+        owner_id=owner_id,
+        name=data.name,
+        description=data.description,
+        task_version_id=data.task_version_id,
+        oracle_version_id=data.oracle_version_id,
+        surrogate_config_version_id=data.surrogate_config_version_id,
+        seed=data.seed,
+        source_campaign_id=source_campaign_id,
+        source_iteration=source_iteration,
+        status=CampaignStatus.draft.value,
+        config_version=0,
     )
     s.add(c)
     s.flush()
@@ -178,7 +229,9 @@ def create_campaign(s: Session, owner_id: int, data: CampaignCreate, *, source_c
     return c
 
 
-def update_config(s: Session, campaign_id: int, update: CampaignConfigUpdate, user_id: int | None = None) -> CampaignConfigVersion:
+def update_config(
+    s: Session, campaign_id: int, update: CampaignConfigUpdate, user_id: int | None = None
+) -> CampaignConfigVersion:
     """Record a new config version; iterations created from now on use it (and a retried
     step). A failed campaign can be edited before :func:`retry_step`."""
     c = repo.get_campaign(s, campaign_id, lock=True)
@@ -193,7 +246,17 @@ def update_config(s: Session, campaign_id: int, update: CampaignConfigUpdate, us
     row = _add_config_version(s, c, new, scv, user_id, update.note or "edited")
     if c.status != CampaignStatus.draft.value:
         _lock_definitions(s, c)
-    repo.add_event(s, c.id, "config_changed", f"config version {row.version}", data={"version": row.version, "changed": sorted(changes) + (["surrogate_config_version_id"] if update.surrogate_config_version_id else [])})
+    repo.add_event(
+        s,
+        c.id,
+        "config_changed",
+        f"config version {row.version}",
+        data={
+            "version": row.version,
+            "changed": sorted(changes)
+            + (["surrogate_config_version_id"] if update.surrogate_config_version_id else []),
+        },
+    )
     return row
 
 
@@ -220,8 +283,14 @@ def _ensure_step(s: Session, c: Campaign, ref: StepRef, status: StepStatus) -> I
     if row is None:
         policies = current_config(s, c).policies
         row = IterationStep(
-            campaign_id=c.id, iteration_id=it.id, step=ref.step.value, queue=step_queue(ref.step.value), config_version_id=it.config_version_id,
-            max_attempts=getattr(policies, _ATTEMPTS_FIELD[ref.step]), status=status.value, result={},
+            campaign_id=c.id,
+            iteration_id=it.id,
+            step=ref.step.value,
+            queue=step_queue(ref.step.value),
+            config_version_id=it.config_version_id,
+            max_attempts=getattr(policies, _ATTEMPTS_FIELD[ref.step]),
+            status=status.value,
+            result={},
         )
         s.add(row)
     row.status = status.value
@@ -269,7 +338,13 @@ def apply_decision(s: Session, c: Campaign, d: Decision, *, note: str = "") -> l
         c.finished_at = utcnow()
         _close_open_steps(s, c, d.status)
     if old != c.status:
-        repo.add_event(s, c.id, "status", note or f"{old} -> {c.status}", data={"from": old, "to": c.status, "stop_reason": d.stop_reason})
+        repo.add_event(
+            s,
+            c.id,
+            "status",
+            note or f"{old} -> {c.status}",
+            data={"from": old, "to": c.status, "stop_reason": d.stop_reason},
+        )
     s.flush()
     return jobs
 
@@ -280,7 +355,12 @@ def _close_open_steps(s: Session, c: Campaign, status: CampaignStatus) -> None:
     for _, row in repo.steps_of_campaign(s, c.id, [StepStatus.pending.value, StepStatus.queued.value]):
         row.status = StepStatus.cancelled.value
         row.finished_at = now
-    its = s.scalars(sa.select(Iteration).where(Iteration.campaign_id == c.id, Iteration.status.in_([IterationStatus.pending.value, IterationStatus.running.value])))
+    its = s.scalars(
+        sa.select(Iteration).where(
+            Iteration.campaign_id == c.id,
+            Iteration.status.in_([IterationStatus.pending.value, IterationStatus.running.value]),
+        )
+    )
     for it in its:
         it.status = IterationStatus.failed.value if status is CampaignStatus.failed else IterationStatus.cancelled.value
         it.finished_at = now
@@ -306,7 +386,9 @@ def pause(s: Session, campaign_id: int) -> tuple[Campaign, list[StepJob]]:
     """Pause after the running step (a queued step not yet claimed does not start)."""
     c = repo.get_campaign(s, campaign_id, lock=True)
     d = transition(_state(c), Pause())
-    if d.status is CampaignStatus.pausing and not repo.steps_of_campaign(s, c.id, [StepStatus.running.value, StepStatus.queued.value]):
+    if d.status is CampaignStatus.pausing and not repo.steps_of_campaign(
+        s, c.id, [StepStatus.running.value, StepStatus.queued.value]
+    ):
         d = Decision(CampaignStatus.paused)
     return c, apply_decision(s, c, d, note="pause requested")
 
@@ -334,14 +416,19 @@ def cancel(s: Session, campaign_id: int) -> tuple[Campaign, list[StepJob]]:
     return c, apply_decision(s, c, transition(_state(c), Cancel(step_running=running)), note="cancel requested")
 
 
-def retry_step(s: Session, campaign_id: int, iteration: int | None = None, step: str | None = None) -> tuple[Campaign, list[StepJob]]:
+def retry_step(
+    s: Session, campaign_id: int, iteration: int | None = None, step: str | None = None
+) -> tuple[Campaign, list[StepJob]]:
     """Run a failed step again (default: the step that failed the campaign), with fresh attempts."""
     c = repo.get_campaign(s, campaign_id, lock=True)
     failed = repo.steps_of_campaign(s, c.id, [StepStatus.failed.value])
     if iteration is not None and step is not None:
         failed = [(k, r) for k, r in failed if k == iteration and r.step == step]
     if not failed:
-        raise NotFound("step", "no failed step to retry" if iteration is None else f"step {step} of iteration {iteration} has not failed")
+        raise NotFound(
+            "step",
+            "no failed step to retry" if iteration is None else f"step {step} of iteration {iteration} has not failed",
+        )
     k, row = failed[-1]
     ref = StepRef(k, StepName(row.step))
     d = transition(_state(c), RetryStep(ref))
@@ -363,14 +450,25 @@ def fork(s: Session, campaign_id: int, req: ForkRequest, owner_id: int) -> tuple
         raise NotFound("iteration", f"campaign {campaign_id} has no pool version {req.iteration} to fork from")
     cfg = current_config(s, src)
     data = CampaignCreate(
-        name=req.name or f"{src.name} (fork at {req.iteration})", description=f"fork of campaign {src.id} at iteration {req.iteration}",
-        task_version_id=req.task_version_id or src.task_version_id, oracle_version_id=req.oracle_version_id or src.oracle_version_id,
+        name=req.name or f"{src.name} (fork at {req.iteration})",
+        description=f"fork of campaign {src.id} at iteration {req.iteration}",
+        task_version_id=req.task_version_id or src.task_version_id,
+        oracle_version_id=req.oracle_version_id or src.oracle_version_id,
         surrogate_config_version_id=req.surrogate_config_version_id or src.surrogate_config_version_id,
-        seed=src.seed if req.seed is None else req.seed, preliminary=cfg.preliminary, stopping=req.stopping or cfg.stopping,
-        policies=req.policies or cfg.policies, settings=req.settings or cfg.settings,
+        seed=src.seed if req.seed is None else req.seed,
+        preliminary=cfg.preliminary,
+        stopping=req.stopping or cfg.stopping,
+        policies=req.policies or cfg.policies,
+        settings=req.settings or cfg.settings,
     )
     new = create_campaign(s, owner_id, data, source_campaign_id=src.id, source_iteration=req.iteration)
-    repo.add_event(s, src.id, "forked", f"forked as campaign {new.id} at iteration {req.iteration}", data={"fork_id": new.id, "iteration": req.iteration})
+    repo.add_event(
+        s,
+        src.id,
+        "forked",
+        f"forked as campaign {new.id} at iteration {req.iteration}",
+        data={"fork_id": new.id, "iteration": req.iteration},
+    )
     if req.start:
         return start(s, new.id)
     return new, []
@@ -380,13 +478,25 @@ def fork(s: Session, campaign_id: int, req: ForkRequest, owner_id: int) -> tuple
 
 
 def complete_step(
-    s: Session, c: Campaign, ref: StepRef, row: IterationStep, outcome: Outcome, *, result: dict[str, Any] | None = None,
-    error: str | None = None, stop_reason: str | None = None, wall_time_s: float | None = None,
+    s: Session,
+    c: Campaign,
+    ref: StepRef,
+    row: IterationStep,
+    outcome: Outcome,
+    *,
+    result: dict[str, Any] | None = None,
+    error: str | None = None,
+    stop_reason: str | None = None,
+    wall_time_s: float | None = None,
 ) -> list[StepJob]:
     """Record a finished step and apply what the state machine decides (same transaction)."""
     now = utcnow()
-    row.status = {Outcome.succeeded: StepStatus.succeeded, Outcome.iteration_failed: StepStatus.failed,
-                  Outcome.failed: StepStatus.failed, Outcome.cancelled: StepStatus.cancelled}[outcome].value
+    row.status = {
+        Outcome.succeeded: StepStatus.succeeded,
+        Outcome.iteration_failed: StepStatus.failed,
+        Outcome.failed: StepStatus.failed,
+        Outcome.cancelled: StepStatus.cancelled,
+    }[outcome].value
     row.finished_at = now
     row.lease_until = None
     row.wall_time_s = wall_time_s
@@ -401,8 +511,19 @@ def complete_step(
         it.status = IterationStatus.failed.value if it.error else IterationStatus.succeeded.value
         it.finished_at = now
         it.current_step = None
-    repo.add_event(s, c.id, f"step_{row.status}", error or "", iteration=ref.iteration, step=ref.step.value,
-                   data={"attempt": row.attempts, "wall_time_s": wall_time_s, **({"stop_reason": stop_reason} if stop_reason else {})})
+    repo.add_event(
+        s,
+        c.id,
+        f"step_{row.status}",
+        error or "",
+        iteration=ref.iteration,
+        step=ref.step.value,
+        data={
+            "attempt": row.attempts,
+            "wall_time_s": wall_time_s,
+            **({"stop_reason": stop_reason} if stop_reason else {}),
+        },
+    )
     d = transition(_state(c), StepFinished(ref, outcome, stop_reason, error))
     return apply_decision(s, c, d)
 
@@ -420,7 +541,11 @@ def get_detail(s: Session, campaign_id: int) -> CampaignDetail:
     it = repo.get_iteration_with_steps(s, c.id, c.current_iteration)
     latest = repo.latest_metrics(s, c.id)
     times = repo.finished_iteration_times(s, c.id)
-    done = [(k, st, a, b) for k, st, a, b in times if st in (IterationStatus.succeeded.value, IterationStatus.failed.value) and a and b]
+    done = [
+        (k, st, a, b)
+        for k, st, a, b in times
+        if st in (IterationStatus.succeeded.value, IterationStatus.failed.value) and a and b
+    ]
     recent = [(b - a).total_seconds() for _, _, a, b in done[-20:]]
     mean = float(np.mean(recent)) if recent else None
     eta = None
@@ -428,10 +553,14 @@ def get_detail(s: Session, campaign_id: int) -> CampaignDetail:
         last_done = done[-1][0] if done else (c.source_iteration or 0)
         eta = max(cfg.stopping.max_iterations - last_done, 0) * mean
     return CampaignDetail(
-        campaign=CampaignRead.model_validate(c), config=cfg, current=IterationRead.model_validate(it) if it is not None else None,
+        campaign=CampaignRead.model_validate(c),
+        config=cfg,
+        current=IterationRead.model_validate(it) if it is not None else None,
         latest_metrics=_metrics_read(latest) if latest is not None else None,
         iterations_finished=sum(1 for d in done if d[1] == IterationStatus.succeeded.value),
-        iterations_failed=sum(1 for d in done if d[1] == IterationStatus.failed.value), mean_iteration_s=mean, eta_s=eta,
+        iterations_failed=sum(1 for d in done if d[1] == IterationStatus.failed.value),
+        mean_iteration_s=mean,
+        eta_s=eta,
     )
 
 
@@ -463,8 +592,15 @@ def iteration_curves(s: Session, campaign_id: int, iteration: int) -> IterationC
         raise NotFound("iteration", f"campaign {campaign_id} has no evaluated iteration {iteration}")
     a = get_arrays(s, m.curves_sha256)
     tau = a["tau"] if "tau" in a else _replayed_tau(s, m.iteration_id, a["t"])
-    return IterationCurves(iteration_index=iteration, t=a["t"].tolist(), q=a["q"].tolist(), qd=a["qd"].tolist(), tau=None if tau is None else tau.tolist(),
-                           f_true=a["f_true"].tolist(), f_pred=a["f_pred"].tolist())
+    return IterationCurves(
+        iteration_index=iteration,
+        t=a["t"].tolist(),
+        q=a["q"].tolist(),
+        qd=a["qd"].tolist(),
+        tau=None if tau is None else tau.tolist(),
+        f_true=a["f_true"].tolist(),
+        f_pred=a["f_pred"].tolist(),
+    )
 
 
 def iteration_trajectory(s: Session, campaign_id: int, iteration: int) -> IterationTrajectory:
@@ -476,7 +612,10 @@ def iteration_trajectory(s: Session, campaign_id: int, iteration: int) -> Iterat
     it = repo.get_iteration(s, cid, k)
     sol = repo.latest_ocp_solution(s, it.id) if it is not None else None
     if sol is None or sol.trajectory_sha256 is None:
-        raise NotFound("iteration", f"campaign {campaign_id} has no OCP solution for iteration {iteration} (iteration 0 has none; a later one has none until its OCP step ran)")
+        raise NotFound(
+            "iteration",
+            f"campaign {campaign_id} has no OCP solution for iteration {iteration} (iteration 0 has none; a later one has none until its OCP step ran)",
+        )
     owner = c if cid == c.id else s.get(Campaign, cid)
     spec = s.get(TaskVersion, owner.task_version_id).spec
     cv = s.get(CampaignConfigVersion, it.config_version_id) if it.config_version_id else None
@@ -489,14 +628,33 @@ def iteration_trajectory(s: Session, campaign_id: int, iteration: int) -> Iterat
     n_replayed = min(settings.replay_phases, len(spec["phases"]))
     for m, ph in enumerate(spec["phases"]):
         d = float(ph["duration"])
-        phases.append(TrajectoryPhase(index=m, name=ph.get("name") or "", duration=d, t_start=t0, t_end=t0 + d, replayed=m < n_replayed))
+        phases.append(
+            TrajectoryPhase(
+                index=m, name=ph.get("name") or "", duration=d, t_start=t0, t_end=t0 + d, replayed=m < n_replayed
+            )
+        )
         t0 += d
     return IterationTrajectory(
-        iteration_index=iteration, t=t.tolist(), q=q.tolist(), qd=np.asarray(a["qd"], float).reshape(q.shape).tolist(),
-        tau=np.asarray(a["tau"], float).reshape(q.shape).tolist(), duration=t0 - start, phases=phases, replay_phases=n_replayed,
-        replay_t_end=phases[n_replayed - 1].t_end, replay_dt=settings.replay_dt,
-        solver=OcpSolverSummary(status=sol.solver_status, converged=bool(sol.success), iterations=sol.n_iterations, cost=sol.cost, wall_time_s=sol.wall_time_s,
-                                attempt=sol.attempt, initial_guess=sol.initial_guess, message=sol.message or ""),
+        iteration_index=iteration,
+        t=t.tolist(),
+        q=q.tolist(),
+        qd=np.asarray(a["qd"], float).reshape(q.shape).tolist(),
+        tau=np.asarray(a["tau"], float).reshape(q.shape).tolist(),
+        duration=t0 - start,
+        phases=phases,
+        replay_phases=n_replayed,
+        replay_t_end=phases[n_replayed - 1].t_end,
+        replay_dt=settings.replay_dt,
+        solver=OcpSolverSummary(
+            status=sol.solver_status,
+            converged=bool(sol.success),
+            iterations=sol.n_iterations,
+            cost=sol.cost,
+            wall_time_s=sol.wall_time_s,
+            attempt=sol.attempt,
+            initial_guess=sol.initial_guess,
+            message=sol.message or "",
+        ),
     )
 
 
@@ -505,7 +663,12 @@ def _replayed_tau(s: Session, iteration_id: int, t: np.ndarray) -> np.ndarray | 
     ``t`` of the curves (linear, as the replay itself interpolates torque)."""
     from alcove.models import OracleRun
 
-    sha = s.scalar(sa.select(OracleRun.input_sha256).where(OracleRun.iteration_id == iteration_id, OracleRun.status == "ok").order_by(OracleRun.id.desc()).limit(1))
+    sha = s.scalar(
+        sa.select(OracleRun.input_sha256)
+        .where(OracleRun.iteration_id == iteration_id, OracleRun.status == "ok")
+        .order_by(OracleRun.id.desc())
+        .limit(1)
+    )
     if sha is None:
         return None
     r = get_arrays(s, sha)
@@ -518,7 +681,10 @@ def _replayed_tau(s: Session, iteration_id: int, t: np.ndarray) -> np.ndarray | 
 def list_jobs(s: Session, campaign_id: int, statuses: list[str] | None = None) -> list[dict[str, Any]]:
     """Every step row (the unit of Celery work) with its iteration index."""
     repo.get_campaign(s, campaign_id)
-    return [{"iteration": k, **StepRead.model_validate(r).model_dump()} for k, r in repo.steps_of_campaign(s, campaign_id, statuses)]
+    return [
+        {"iteration": k, **StepRead.model_validate(r).model_dump()}
+        for k, r in repo.steps_of_campaign(s, campaign_id, statuses)
+    ]
 
 
 def list_pool_versions(s: Session, campaign_id: int) -> list[PoolVersionRead]:
@@ -550,7 +716,9 @@ def model_artifact_bytes(s: Session, campaign_id: int, version: int) -> bytes:
     return artifact(s, mv)
 
 
-def export_campaign(s: Session, campaign_id: int, folder: str | Path | None = None, *, pool_format: str = "parquet", models: bool = True) -> bytes | Path:
+def export_campaign(
+    s: Session, campaign_id: int, folder: str | Path | None = None, *, pool_format: str = "parquet", models: bool = True
+) -> bytes | Path:
     """Everything a campaign produced: ``campaign.json`` (settings, status, lineage),
     ``metrics.csv``/``metrics.json``, ``iterations.json``, ``pool/version-KKKK.<fmt>``,
     ``models/model-KKKK.zip``, ``curves/iteration-KKKK.npz``. Written into ``folder`` (returned),
@@ -558,18 +726,54 @@ def export_campaign(s: Session, campaign_id: int, folder: str | Path | None = No
     c = repo.get_campaign(s, campaign_id)
     files: dict[str, bytes] = {}
     detail = get_detail(s, campaign_id)
-    files["campaign.json"] = json.dumps({"campaign": detail.campaign.model_dump(mode="json"), "config": detail.config.model_dump(mode="json"),
-                                         "config_versions": [{"version": v.version, "note": v.note, "created_at": v.created_at.isoformat(), **config_from_version(v).model_dump(mode="json")}
-                                                             for v in s.scalars(sa.select(CampaignConfigVersion).where(CampaignConfigVersion.campaign_id == c.id).order_by(CampaignConfigVersion.version))],
-                                         "pool_versions": [p.model_dump(mode="json") for p in list_pool_versions(s, c.id)],
-                                         "model_versions": [m.model_dump(mode="json") for m in list_model_versions(s, c.id)]}, indent=1).encode()
+    files["campaign.json"] = json.dumps(
+        {
+            "campaign": detail.campaign.model_dump(mode="json"),
+            "config": detail.config.model_dump(mode="json"),
+            "config_versions": [
+                {
+                    "version": v.version,
+                    "note": v.note,
+                    "created_at": v.created_at.isoformat(),
+                    **config_from_version(v).model_dump(mode="json"),
+                }
+                for v in s.scalars(
+                    sa.select(CampaignConfigVersion)
+                    .where(CampaignConfigVersion.campaign_id == c.id)
+                    .order_by(CampaignConfigVersion.version)
+                )
+            ],
+            "pool_versions": [p.model_dump(mode="json") for p in list_pool_versions(s, c.id)],
+            "model_versions": [m.model_dump(mode="json") for m in list_model_versions(s, c.id)],
+        },
+        indent=1,
+    ).encode()
     series = metrics_series(s, c.id)
     files["metrics.json"] = json.dumps([m.model_dump(mode="json") for m in series], indent=1).encode()
-    cols = ["iteration_index", "force_rmse", "moment_rmse", "force_max_error", "moment_max_error", "ocp_success", "ocp_status", "ocp_iterations", "ocp_cost",
-            "ocp_wall_time_s", "oracle_wall_time_s", "train_wall_time_s", "n_pool_samples", "model_version_id", "dataset_id"]
-    lines = [",".join(cols)] + [",".join("" if getattr(m, k) is None else str(getattr(m, k)) for k in cols) for m in series]
+    cols = [
+        "iteration_index",
+        "force_rmse",
+        "moment_rmse",
+        "force_max_error",
+        "moment_max_error",
+        "ocp_success",
+        "ocp_status",
+        "ocp_iterations",
+        "ocp_cost",
+        "ocp_wall_time_s",
+        "oracle_wall_time_s",
+        "train_wall_time_s",
+        "n_pool_samples",
+        "model_version_id",
+        "dataset_id",
+    ]
+    lines = [",".join(cols)] + [
+        ",".join("" if getattr(m, k) is None else str(getattr(m, k)) for k in cols) for m in series
+    ]
     files["metrics.csv"] = ("\n".join(lines) + "\n").encode()
-    files["iterations.json"] = json.dumps([i.model_dump(mode="json") for i in list_iterations(s, c.id)], indent=1).encode()
+    files["iterations.json"] = json.dumps(
+        [i.model_dump(mode="json") for i in list_iterations(s, c.id)], indent=1
+    ).encode()
     for pv in repo.own_pool_versions(s, c.id):
         files[f"pool/version-{pv.version:04d}.{pool_format}"] = pool_service.pool_version_table(s, pv, pool_format)
     if models:

@@ -49,15 +49,17 @@ class StepRef:
         if self.iteration < 0:
             raise ValueError(f"iteration: must be >= 0, got {self.iteration}")
         if (self.step is StepName.preliminary) != (self.iteration == 0):
-            raise ValueError(f"step: {self.step.value} cannot run in iteration {self.iteration} (preliminary is iteration 0 only)")
+            raise ValueError(
+                f"step: {self.step.value} cannot run in iteration {self.iteration} (preliminary is iteration 0 only)"
+            )
 
-    def following(self) -> "StepRef":
+    def following(self) -> StepRef:
         """The step after this one when it succeeded."""
         if self.step in (StepName.preliminary, StepName.append):
             return StepRef(self.iteration + 1, StepName.train)
         return StepRef(self.iteration, ITERATION_STEPS[ITERATION_STEPS.index(self.step) + 1])
 
-    def skipped_until_append(self) -> list["StepRef"]:
+    def skipped_until_append(self) -> list[StepRef]:
         """Steps between this one and ``append`` (skipped after a failure under policy continue)."""
         i = ITERATION_STEPS.index(self.step)
         return [StepRef(self.iteration, s) for s in ITERATION_STEPS[i + 1 : -1]]
@@ -218,7 +220,9 @@ class IterationRecord:
     moment_rmse: float | None
 
 
-def stop_reason(rules: Any, iteration: int, history: Sequence[IterationRecord], oracle_wall_time_s: float) -> str | None:
+def stop_reason(
+    rules: Any, iteration: int, history: Sequence[IterationRecord], oracle_wall_time_s: float
+) -> str | None:
     """The first stopping rule that fires after iteration ``iteration`` finished, or None.
 
     ``rules`` has the fields of :class:`alcove.campaigns.schemas.StoppingRules`.

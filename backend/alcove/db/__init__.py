@@ -3,7 +3,14 @@
 from alcove.db.arrays import decode_arrays, encode_arrays, get_arrays, get_bytes, put_arrays, put_bytes
 from alcove.db.engine import is_sqlite, make_engine, normalize_url
 from alcove.db.retry import is_retryable_db_error, retry_on_locked, run_in_transaction
-from alcove.db.session import dispose_engines, get_engine, get_sessionmaker, get_write_sessionmaker, session_scope, transaction
+from alcove.db.session import (
+    dispose_engines,
+    get_engine,
+    get_sessionmaker,
+    get_write_sessionmaker,
+    session_scope,
+    transaction,
+)
 
 __all__ = [
     "decode_arrays",

@@ -76,7 +76,9 @@ def put_arrays(session: Session, arrays: Mapping[str, np.ndarray]) -> str:
     key = content_hash(arrays)
     if session.get(Blob, key) is None:
         data = encode_arrays(arrays)
-        session.add(Blob(sha256=key, media_type=NPZ_MEDIA_TYPE, size_bytes=len(data), manifest=manifest(arrays), data=data))
+        session.add(
+            Blob(sha256=key, media_type=NPZ_MEDIA_TYPE, size_bytes=len(data), manifest=manifest(arrays), data=data)
+        )
         session.flush()
     return key
 

@@ -35,7 +35,9 @@ def is_sqlite(url: str | URL | Engine) -> bool:
     return normalize_url(url).get_backend_name() == "sqlite"
 
 
-def make_engine(url: str | URL, *, immediate: bool = False, foreign_keys: bool = True, echo: bool = False, **kwargs: Any) -> Engine:
+def make_engine(
+    url: str | URL, *, immediate: bool = False, foreign_keys: bool = True, echo: bool = False, **kwargs: Any
+) -> Engine:
     """Create an engine with alcove's per-database settings (see the module docstring).
 
     ``foreign_keys=False`` is for SQLite migrations only: batch mode recreates tables, and
@@ -46,7 +48,11 @@ def make_engine(url: str | URL, *, immediate: bool = False, foreign_keys: bool =
         db = u.database
         if db and db != ":memory:" and not db.startswith("file:"):
             Path(db).expanduser().parent.mkdir(parents=True, exist_ok=True)
-        connect_args = {"check_same_thread": False, "timeout": SQLITE_BUSY_TIMEOUT_MS / 1000, **kwargs.pop("connect_args", {})}
+        connect_args = {
+            "check_same_thread": False,
+            "timeout": SQLITE_BUSY_TIMEOUT_MS / 1000,
+            **kwargs.pop("connect_args", {}),
+        }
         engine = sa.create_engine(u, echo=echo, connect_args=connect_args, **kwargs)
         _configure_sqlite(engine, immediate=immediate, foreign_keys=foreign_keys)
         return engine

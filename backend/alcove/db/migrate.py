@@ -79,7 +79,9 @@ def schema_diff(url: str | None = None) -> list:
     engine = make_engine(_url(url))
     try:
         with engine.connect() as conn:
-            mc = MigrationContext.configure(conn, opts={"compare_type": True, "compare_server_default": False, "render_as_batch": True})
+            mc = MigrationContext.configure(
+                conn, opts={"compare_type": True, "compare_server_default": False, "render_as_batch": True}
+            )
             return compare_metadata(mc, Base.metadata)
     finally:
         engine.dispose()

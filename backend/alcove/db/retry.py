@@ -39,7 +39,9 @@ def is_retryable_db_error(err: BaseException) -> bool:
     return False
 
 
-def retry_on_locked(fn: Callable[P, T] | None = None, *, attempts: int = 8, base_delay: float = 0.05, max_delay: float = 2.0) -> Callable[P, T]:
+def retry_on_locked(
+    fn: Callable[P, T] | None = None, *, attempts: int = 8, base_delay: float = 0.05, max_delay: float = 2.0
+) -> Callable[P, T]:
     """Decorator: call ``fn`` again (with jittered exponential backoff) when it raises a
     retryable database error. ``fn`` must run a whole transaction (open, work, commit)."""
 
@@ -53,7 +55,9 @@ def retry_on_locked(fn: Callable[P, T] | None = None, *, attempts: int = 8, base
                     if attempt == attempts or not is_retryable_db_error(err):
                         raise
                     delay = min(max_delay, base_delay * 2 ** (attempt - 1)) * (0.5 + random.random())
-                    log.warning("database busy (%s); retry %d/%d in %.2fs", type(err.orig).__name__, attempt, attempts, delay)
+                    log.warning(
+                        "database busy (%s); retry %d/%d in %.2fs", type(err.orig).__name__, attempt, attempts, delay
+                    )
                     time.sleep(delay)
             raise AssertionError("unreachable")
 

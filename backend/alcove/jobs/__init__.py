@@ -54,7 +54,12 @@ def _route(name: str, args: Any, kwargs: Any, options: Any, task: Any = None, **
 
 def broker_folders(settings: Settings) -> dict[str, str]:
     base = settings.broker_dir
-    folders = {"data_folder_in": base / "messages", "data_folder_out": base / "messages", "processed_folder": base / "processed", "control_folder": base / "control"}
+    folders = {
+        "data_folder_in": base / "messages",
+        "data_folder_out": base / "messages",
+        "processed_folder": base / "processed",
+        "control_folder": base / "control",
+    }
     for p in folders.values():
         p.mkdir(parents=True, exist_ok=True)
     return {k: str(v) for k, v in folders.items()}
@@ -65,7 +70,11 @@ def celery_config(settings: Settings | None = None) -> dict[str, Any]:
     s = settings or get_settings()
     transport_options: dict[str, Any]
     if s.is_embedded_broker:
-        transport_options = {**broker_folders(s), "store_processed": False, "polling_interval": s.broker_polling_interval}
+        transport_options = {
+            **broker_folders(s),
+            "store_processed": False,
+            "polling_interval": s.broker_polling_interval,
+        }
     else:
         transport_options = {"visibility_timeout": s.broker_visibility_timeout}
         if s.broker_key_prefix:
@@ -103,7 +112,7 @@ def celery_config(settings: Settings | None = None) -> dict[str, Any]:
     }
 
 
-def create_celery_app(settings: Settings | None = None, *, include: list[str] | None = None) -> "Celery":
+def create_celery_app(settings: Settings | None = None, *, include: list[str] | None = None) -> Celery:
     from celery import Celery
 
     app = Celery("alcove", include=include or [])
@@ -112,10 +121,10 @@ def create_celery_app(settings: Settings | None = None, *, include: list[str] | 
 
 
 _sender_lock = threading.Lock()
-_sender: "Celery | None" = None
+_sender: Celery | None = None
 
 
-def get_sender() -> "Celery":
+def get_sender() -> Celery:
     """A process-wide Celery app used only to send jobs (API, CLI)."""
     global _sender
     with _sender_lock:
@@ -130,7 +139,14 @@ def reset_sender() -> None:
         _sender = None
 
 
-def send_job(name: str, *args: Any, queue: str | None = None, task_id: str | None = None, app: "Celery | None" = None, **kwargs: Any) -> str:
+def send_job(
+    name: str,
+    *args: Any,
+    queue: str | None = None,
+    task_id: str | None = None,
+    app: Celery | None = None,
+    **kwargs: Any,
+) -> str:
     """Send job ``name`` by name (no import of its code) and return the message id.
 
     Call it only after the transaction that made the job necessary has committed.

@@ -36,13 +36,22 @@ def step_message_id(campaign_id: int, iteration: int, step: str, attempt: int) -
     return f"c{campaign_id}-k{iteration}-{step}-a{attempt}"
 
 
-def enqueue(jobs: Iterable[Any], app: "Celery | None" = None) -> list[str]:
+def enqueue(jobs: Iterable[Any], app: Celery | None = None) -> list[str]:
     """Send step jobs (objects with campaign_id, iteration, step, attempt). Call after commit."""
     ids = []
     for j in jobs:
         step = getattr(j.step, "value", j.step)
-        ids.append(send_job(STEP_JOBS[step], j.campaign_id, j.iteration, step, j.attempt,
-                            task_id=f"{step_message_id(j.campaign_id, j.iteration, step, j.attempt)}-{_nonce()}", app=app))
+        ids.append(
+            send_job(
+                STEP_JOBS[step],
+                j.campaign_id,
+                j.iteration,
+                step,
+                j.attempt,
+                task_id=f"{step_message_id(j.campaign_id, j.iteration, step, j.attempt)}-{_nonce()}",
+                app=app,
+            )
+        )
     return ids
 
 

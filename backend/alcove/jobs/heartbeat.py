@@ -23,7 +23,14 @@ from alcove.models import WorkerHeartbeat, utcnow
 log = logging.getLogger(__name__)
 
 
-def beat(name: str, *, queues: list[str] | None = None, concurrency: int | None = None, meta: dict[str, Any] | None = None, starting: bool = False) -> None:
+def beat(
+    name: str,
+    *,
+    queues: list[str] | None = None,
+    concurrency: int | None = None,
+    meta: dict[str, Any] | None = None,
+    starting: bool = False,
+) -> None:
     """Insert or refresh the heartbeat row of worker ``name``."""
 
     def work(s: sa.orm.Session) -> None:
@@ -59,7 +66,11 @@ def mark_stopped(name: str) -> None:
 def live_workers(stale_seconds: float, session: sa.orm.Session | None = None) -> list[WorkerHeartbeat]:
     """Workers seen within ``stale_seconds`` and not stopped."""
     cutoff = utcnow() - timedelta(seconds=stale_seconds)
-    q = sa.select(WorkerHeartbeat).where(WorkerHeartbeat.last_seen_at >= cutoff, WorkerHeartbeat.stopped_at.is_(None)).order_by(WorkerHeartbeat.name)
+    q = (
+        sa.select(WorkerHeartbeat)
+        .where(WorkerHeartbeat.last_seen_at >= cutoff, WorkerHeartbeat.stopped_at.is_(None))
+        .order_by(WorkerHeartbeat.name)
+    )
     if session is not None:
         return list(session.scalars(q))
     with session_scope() as s:
@@ -81,7 +92,7 @@ class HeartbeatThread(threading.Thread):
             try:
                 beat(self.worker_name, queues=self.queues, concurrency=self.concurrency, starting=first)
                 first = False
-            except Exception:  # noqa: BLE001 - keep beating; the next beat may succeed
+            except Exception:
                 log.exception("heartbeat of %s failed", self.worker_name)
             self._stop_event.wait(self.interval)
 
@@ -90,5 +101,5 @@ class HeartbeatThread(threading.Thread):
         self.join(timeout=5)
         try:
             mark_stopped(self.worker_name)
-        except Exception:  # noqa: BLE001
+        except Exception:
             log.exception("could not mark %s stopped", self.worker_name)

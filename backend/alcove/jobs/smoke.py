@@ -38,7 +38,13 @@ def smoke_result(token: str) -> dict[str, Any] | None:
         row = s.scalar(sa.select(SmokeCheck).where(SmokeCheck.token == token))
         if row is None:
             return None
-        return {"id": row.id, "token": row.token, "worker_name": row.worker_name, "payload": row.payload, "created_at": row.created_at.isoformat()}
+        return {
+            "id": row.id,
+            "token": row.token,
+            "worker_name": row.worker_name,
+            "payload": row.payload,
+            "created_at": row.created_at.isoformat(),
+        }
 
 
 def wait_for_smoke(token: str, timeout: float = 60.0, poll: float = 0.05) -> dict[str, Any] | None:

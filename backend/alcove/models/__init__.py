@@ -22,7 +22,17 @@ from alcove.models.base import (
     utcnow,
 )
 from alcove.models.campaigns import Campaign, CampaignConfigVersion, CampaignEvent, Iteration, IterationStep
-from alcove.models.data import Blob, Dataset, IterationMetrics, ModelVersion, OcpSolution, OracleRun, PoolVersion, PoolVersionMember, QuarantinedResult
+from alcove.models.data import (
+    Blob,
+    Dataset,
+    IterationMetrics,
+    ModelVersion,
+    OcpSolution,
+    OracleRun,
+    PoolVersion,
+    PoolVersionMember,
+    QuarantinedResult,
+)
 from alcove.models.definitions import (
     CommandOracle,
     OracleDefinition,

@@ -16,7 +16,7 @@ Every table of alcove is declared on :data:`Base.metadata`. Conventions:
 from __future__ import annotations
 
 import enum
-from datetime import datetime, timezone
+from datetime import UTC, datetime
 from typing import Any
 
 import sqlalchemy as sa
@@ -34,7 +34,7 @@ NAMING_CONVENTION = {
 
 
 def utcnow() -> datetime:
-    return datetime.now(timezone.utc)
+    return datetime.now(UTC)
 
 
 class UTCDateTime(TypeDecorator[datetime]):
@@ -48,7 +48,7 @@ class UTCDateTime(TypeDecorator[datetime]):
             return None
         if value.tzinfo is None:
             raise ValueError("naive datetime given to a UTCDateTime column; use alcove.models.utcnow()")
-        value = value.astimezone(timezone.utc)
+        value = value.astimezone(UTC)
         if dialect.name == "sqlite":
             return value.replace(tzinfo=None)
         return value
@@ -57,8 +57,8 @@ class UTCDateTime(TypeDecorator[datetime]):
         if value is None:
             return None
         if value.tzinfo is None:
-            return value.replace(tzinfo=timezone.utc)
-        return value.astimezone(timezone.utc)
+            return value.replace(tzinfo=UTC)
+        return value.astimezone(UTC)
 
 
 #: JSON everywhere, JSONB on PostgreSQL.
@@ -69,7 +69,6 @@ def enum_check(column: str, enum_cls: type[enum.Enum], name: str | None = None) 
     """A named CHECK constraint ``column IN (...)`` over the values of ``enum_cls``."""
     values = ", ".join(f"'{m.value}'" for m in enum_cls)
     return sa.CheckConstraint(f"{column} IN ({values})", name=name or f"{column}_valid")
-
 
 
 class Base(DeclarativeBase):
@@ -120,7 +119,7 @@ class CampaignStatus(str, enum.Enum):
     failed = "failed"
 
     @classmethod
-    def terminal(cls) -> frozenset["CampaignStatus"]:
+    def terminal(cls) -> frozenset[CampaignStatus]:
         return frozenset({cls.cancelled, cls.completed, cls.failed})
 
 
@@ -136,7 +135,13 @@ class StepName(str, enum.Enum):
 
 
 #: The per-iteration sequence for k >= 1.
-ITERATION_STEPS: tuple[StepName, ...] = (StepName.train, StepName.ocp, StepName.oracle, StepName.evaluate, StepName.append)
+ITERATION_STEPS: tuple[StepName, ...] = (
+    StepName.train,
+    StepName.ocp,
+    StepName.oracle,
+    StepName.evaluate,
+    StepName.append,
+)
 
 
 class StepStatus(str, enum.Enum):

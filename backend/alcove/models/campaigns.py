@@ -22,7 +22,16 @@ from typing import TYPE_CHECKING, Any
 import sqlalchemy as sa
 from sqlalchemy.orm import Mapped, mapped_column, relationship
 
-from alcove.models.base import Base, CampaignStatus, IterationStatus, StepName, StepStatus, TimestampMixin, enum_check, utcnow
+from alcove.models.base import (
+    Base,
+    CampaignStatus,
+    IterationStatus,
+    StepName,
+    StepStatus,
+    TimestampMixin,
+    enum_check,
+    utcnow,
+)
 
 if TYPE_CHECKING:
     from alcove.models.definitions import OracleVersion, SurrogateConfigVersion, TaskVersion
@@ -34,7 +43,9 @@ class Campaign(TimestampMixin, Base):
     __table_args__ = (
         enum_check("status", CampaignStatus),
         sa.Index("ix_campaigns_owner_id_status", "owner_id", "status"),
-        sa.CheckConstraint("source_iteration IS NULL OR source_campaign_id IS NOT NULL", name="source_iteration_needs_source"),
+        sa.CheckConstraint(
+            "source_iteration IS NULL OR source_campaign_id IS NOT NULL", name="source_iteration_needs_source"
+        ),
     )
 
     id: Mapped[int] = mapped_column(primary_key=True)
@@ -46,43 +57,66 @@ class Campaign(TimestampMixin, Base):
     task_version_id: Mapped[int] = mapped_column(sa.ForeignKey("task_versions.id", ondelete="RESTRICT"), index=True)
     oracle_version_id: Mapped[int] = mapped_column(sa.ForeignKey("oracle_versions.id", ondelete="RESTRICT"), index=True)
     surrogate_config_version_id: Mapped[int] = mapped_column(
-        sa.ForeignKey("surrogate_config_versions.id", ondelete="RESTRICT"), index=True, comment="current; history in campaign_config_versions"
+        sa.ForeignKey("surrogate_config_versions.id", ondelete="RESTRICT"),
+        index=True,
+        comment="current; history in campaign_config_versions",
     )
     preliminary_config: Mapped[dict[str, Any]] = mapped_column(
-        default=dict, comment="preliminary data: LHS sample count K, velocity bounds, oracle, or an uploaded dataset id; down-weighting schedule"
+        default=dict,
+        comment="preliminary data: LHS sample count K, velocity bounds, oracle, or an uploaded dataset id; down-weighting schedule",
     )
     stopping_rules: Mapped[dict[str, Any]] = mapped_column(
-        default=dict, comment="any of max_iterations, target force/moment RMSE, plateau window/tolerance, oracle wall-time budget"
+        default=dict,
+        comment="any of max_iterations, target force/moment RMSE, plateau window/tolerance, oracle wall-time budget",
     )
-    policies: Mapped[dict[str, Any]] = mapped_column(default=dict, comment="failure policies: OCP retries/initial guesses, oracle retries, on-failure continue|stop")
+    policies: Mapped[dict[str, Any]] = mapped_column(
+        default=dict, comment="failure policies: OCP retries/initial guesses, oracle retries, on-failure continue|stop"
+    )
     seed: Mapped[int] = mapped_column(sa.BigInteger, default=0, server_default="0")
-    config_version: Mapped[int] = mapped_column(default=1, server_default="1", comment="number of the current campaign_config_versions row")
+    config_version: Mapped[int] = mapped_column(
+        default=1, server_default="1", comment="number of the current campaign_config_versions row"
+    )
 
     # fork / warm start
-    source_campaign_id: Mapped[int | None] = mapped_column(sa.ForeignKey("campaigns.id", ondelete="RESTRICT"), index=True)
-    source_iteration: Mapped[int | None] = mapped_column(comment="start from the source campaign's pool and model at this iteration")
+    source_campaign_id: Mapped[int | None] = mapped_column(
+        sa.ForeignKey("campaigns.id", ondelete="RESTRICT"), index=True
+    )
+    source_iteration: Mapped[int | None] = mapped_column(
+        comment="start from the source campaign's pool and model at this iteration"
+    )
 
     # lifecycle
-    status: Mapped[str] = mapped_column(sa.String(16), default=CampaignStatus.draft.value, server_default=CampaignStatus.draft.value)
-    stop_reason: Mapped[str | None] = mapped_column(sa.String(64), comment="max_iterations | target_rmse | plateau | oracle_budget | cancelled | error | ...")
+    status: Mapped[str] = mapped_column(
+        sa.String(16), default=CampaignStatus.draft.value, server_default=CampaignStatus.draft.value
+    )
+    stop_reason: Mapped[str | None] = mapped_column(
+        sa.String(64), comment="max_iterations | target_rmse | plateau | oracle_budget | cancelled | error | ..."
+    )
     error: Mapped[str | None] = mapped_column(sa.Text)
     pause_requested: Mapped[bool] = mapped_column(default=False, server_default=sa.false())
     cancel_requested: Mapped[bool] = mapped_column(default=False, server_default=sa.false())
     current_iteration: Mapped[int] = mapped_column(default=0, server_default="0")
     current_step: Mapped[str | None] = mapped_column(sa.String(16))
-    oracle_wall_time_s: Mapped[float] = mapped_column(sa.Float, default=0.0, server_default="0", comment="sum over oracle runs (budget rule)")
+    oracle_wall_time_s: Mapped[float] = mapped_column(
+        sa.Float, default=0.0, server_default="0", comment="sum over oracle runs (budget rule)"
+    )
     started_at: Mapped[datetime | None]
     finished_at: Mapped[datetime | None]
 
-    owner: Mapped["User"] = relationship()
-    task_version: Mapped["TaskVersion"] = relationship()
-    oracle_version: Mapped["OracleVersion"] = relationship()
-    surrogate_config_version: Mapped["SurrogateConfigVersion"] = relationship()
-    source_campaign: Mapped["Campaign | None"] = relationship(remote_side=[id])
-    config_versions: Mapped[list["CampaignConfigVersion"]] = relationship(
-        back_populates="campaign", order_by="CampaignConfigVersion.version", cascade="all, delete-orphan", passive_deletes=True
+    owner: Mapped[User] = relationship()
+    task_version: Mapped[TaskVersion] = relationship()
+    oracle_version: Mapped[OracleVersion] = relationship()
+    surrogate_config_version: Mapped[SurrogateConfigVersion] = relationship()
+    source_campaign: Mapped[Campaign | None] = relationship(remote_side=[id])
+    config_versions: Mapped[list[CampaignConfigVersion]] = relationship(
+        back_populates="campaign",
+        order_by="CampaignConfigVersion.version",
+        cascade="all, delete-orphan",
+        passive_deletes=True,
     )
-    iterations: Mapped[list["Iteration"]] = relationship(back_populates="campaign", order_by="Iteration.index", cascade="all, delete-orphan", passive_deletes=True)
+    iterations: Mapped[list[Iteration]] = relationship(
+        back_populates="campaign", order_by="Iteration.index", cascade="all, delete-orphan", passive_deletes=True
+    )
 
     @property
     def is_terminal(self) -> bool:
@@ -96,12 +130,22 @@ class CampaignConfigVersion(Base):
 
     __tablename__ = "campaign_config_versions"
     __table_args__ = (sa.UniqueConstraint("campaign_id", "version"),)
-    __immutable_columns__ = ("campaign_id", "version", "surrogate_config_version_id", "preliminary_config", "stopping_rules", "policies", "settings")
+    __immutable_columns__ = (
+        "campaign_id",
+        "version",
+        "surrogate_config_version_id",
+        "preliminary_config",
+        "stopping_rules",
+        "policies",
+        "settings",
+    )
 
     id: Mapped[int] = mapped_column(primary_key=True)
     campaign_id: Mapped[int] = mapped_column(sa.ForeignKey("campaigns.id", ondelete="CASCADE"), index=True)
     version: Mapped[int]
-    surrogate_config_version_id: Mapped[int] = mapped_column(sa.ForeignKey("surrogate_config_versions.id", ondelete="RESTRICT"))
+    surrogate_config_version_id: Mapped[int] = mapped_column(
+        sa.ForeignKey("surrogate_config_versions.id", ondelete="RESTRICT")
+    )
     preliminary_config: Mapped[dict[str, Any]] = mapped_column(default=dict)
     stopping_rules: Mapped[dict[str, Any]] = mapped_column(default=dict)
     policies: Mapped[dict[str, Any]] = mapped_column(default=dict)
@@ -111,7 +155,7 @@ class CampaignConfigVersion(Base):
     created_at: Mapped[datetime] = mapped_column(default=utcnow, server_default=sa.func.now())
 
     campaign: Mapped[Campaign] = relationship(back_populates="config_versions")
-    surrogate_config_version: Mapped["SurrogateConfigVersion"] = relationship()
+    surrogate_config_version: Mapped[SurrogateConfigVersion] = relationship()
 
 
 class Iteration(Base):
@@ -125,8 +169,12 @@ class Iteration(Base):
     id: Mapped[int] = mapped_column(primary_key=True)
     campaign_id: Mapped[int] = mapped_column(sa.ForeignKey("campaigns.id", ondelete="CASCADE"), index=True)
     index: Mapped[int] = mapped_column(comment="k; 0 = preliminary data")
-    config_version_id: Mapped[int] = mapped_column(sa.ForeignKey("campaign_config_versions.id", ondelete="RESTRICT"), index=True)
-    status: Mapped[str] = mapped_column(sa.String(16), default=IterationStatus.pending.value, server_default=IterationStatus.pending.value)
+    config_version_id: Mapped[int] = mapped_column(
+        sa.ForeignKey("campaign_config_versions.id", ondelete="RESTRICT"), index=True
+    )
+    status: Mapped[str] = mapped_column(
+        sa.String(16), default=IterationStatus.pending.value, server_default=IterationStatus.pending.value
+    )
     current_step: Mapped[str | None] = mapped_column(sa.String(16))
     error: Mapped[str | None] = mapped_column(sa.Text)
     created_at: Mapped[datetime] = mapped_column(default=utcnow, server_default=sa.func.now())
@@ -135,7 +183,9 @@ class Iteration(Base):
 
     campaign: Mapped[Campaign] = relationship(back_populates="iterations")
     config_version: Mapped[CampaignConfigVersion] = relationship()
-    steps: Mapped[list["IterationStep"]] = relationship(back_populates="iteration", order_by="IterationStep.id", cascade="all, delete-orphan", passive_deletes=True)
+    steps: Mapped[list[IterationStep]] = relationship(
+        back_populates="iteration", order_by="IterationStep.id", cascade="all, delete-orphan", passive_deletes=True
+    )
 
 
 class IterationStep(Base):
@@ -154,12 +204,20 @@ class IterationStep(Base):
     campaign_id: Mapped[int] = mapped_column(sa.ForeignKey("campaigns.id", ondelete="CASCADE"))
     iteration_id: Mapped[int] = mapped_column(sa.ForeignKey("iterations.id", ondelete="CASCADE"), index=True)
     step: Mapped[str] = mapped_column(sa.String(16))
-    status: Mapped[str] = mapped_column(sa.String(16), default=StepStatus.pending.value, server_default=StepStatus.pending.value)
-    queue: Mapped[str] = mapped_column(sa.String(32), default="default", server_default="default", comment="Celery queue it is sent to")
-    config_version_id: Mapped[int | None] = mapped_column(sa.ForeignKey("campaign_config_versions.id", ondelete="RESTRICT"))
+    status: Mapped[str] = mapped_column(
+        sa.String(16), default=StepStatus.pending.value, server_default=StepStatus.pending.value
+    )
+    queue: Mapped[str] = mapped_column(
+        sa.String(32), default="default", server_default="default", comment="Celery queue it is sent to"
+    )
+    config_version_id: Mapped[int | None] = mapped_column(
+        sa.ForeignKey("campaign_config_versions.id", ondelete="RESTRICT")
+    )
     attempts: Mapped[int] = mapped_column(default=0, server_default="0", comment="claims so far")
     max_attempts: Mapped[int] = mapped_column(default=3, server_default="3")
-    claim_token: Mapped[str | None] = mapped_column(sa.String(64), comment="set by the claiming job; completion is conditional on it")
+    claim_token: Mapped[str | None] = mapped_column(
+        sa.String(64), comment="set by the claiming job; completion is conditional on it"
+    )
     lease_until: Mapped[datetime | None] = mapped_column(comment="the reconciler re-queues a running step after this")
     heartbeat_at: Mapped[datetime | None]
     worker_name: Mapped[str | None] = mapped_column(sa.String(200))
@@ -169,7 +227,9 @@ class IterationStep(Base):
     finished_at: Mapped[datetime | None]
     wall_time_s: Mapped[float | None] = mapped_column(sa.Float)
     error: Mapped[str | None] = mapped_column(sa.Text)
-    result: Mapped[dict[str, Any]] = mapped_column(default=dict, comment="small JSON summary of the outcome (ids of rows written, status)")
+    result: Mapped[dict[str, Any]] = mapped_column(
+        default=dict, comment="small JSON summary of the outcome (ids of rows written, status)"
+    )
     created_at: Mapped[datetime] = mapped_column(default=utcnow, server_default=sa.func.now())
     updated_at: Mapped[datetime] = mapped_column(default=utcnow, onupdate=utcnow, server_default=sa.func.now())
 
@@ -187,7 +247,9 @@ class CampaignEvent(Base):
     campaign_id: Mapped[int] = mapped_column(sa.ForeignKey("campaigns.id", ondelete="CASCADE"))
     iteration_index: Mapped[int | None]
     step: Mapped[str | None] = mapped_column(sa.String(16))
-    kind: Mapped[str] = mapped_column(sa.String(32), comment="e.g. status, step_started, step_succeeded, step_failed, config_changed")
+    kind: Mapped[str] = mapped_column(
+        sa.String(32), comment="e.g. status, step_started, step_succeeded, step_failed, config_changed"
+    )
     message: Mapped[str] = mapped_column(sa.Text, default="", server_default="")
     data: Mapped[dict[str, Any]] = mapped_column(default=dict)
     created_at: Mapped[datetime] = mapped_column(default=utcnow, server_default=sa.func.now())

@@ -33,9 +33,13 @@ class Blob(Base):
     __immutable_columns__ = ("sha256", "media_type", "data", "size_bytes")
 
     sha256: Mapped[str] = mapped_column(sa.String(64), primary_key=True, comment="sha256 of the canonical content")
-    media_type: Mapped[str] = mapped_column(sa.String(100), default="application/x-npz", server_default="application/x-npz")
+    media_type: Mapped[str] = mapped_column(
+        sa.String(100), default="application/x-npz", server_default="application/x-npz"
+    )
     size_bytes: Mapped[int] = mapped_column(sa.BigInteger, comment="len(data)")
-    manifest: Mapped[dict[str, Any]] = mapped_column(default=dict, comment="{name: {dtype, shape}} of the arrays inside")
+    manifest: Mapped[dict[str, Any]] = mapped_column(
+        default=dict, comment="{name: {dtype, shape}} of the arrays inside"
+    )
     data: Mapped[bytes] = deferred(mapped_column(sa.LargeBinary))
     created_at: Mapped[datetime] = mapped_column(default=utcnow, server_default=sa.func.now())
 
@@ -47,7 +51,10 @@ class Dataset(Base):
     the headrest frame) and, for multi-trajectory sets, ``group`` (n,) trajectory ids."""
 
     __tablename__ = "datasets"
-    __table_args__ = (enum_check("origin", DatasetOrigin), sa.Index("ix_datasets_campaign_id_origin", "campaign_id", "origin"))
+    __table_args__ = (
+        enum_check("origin", DatasetOrigin),
+        sa.Index("ix_datasets_campaign_id_origin", "campaign_id", "origin"),
+    )
     __immutable_columns__ = ("content_sha256", "origin", "n_samples")
 
     id: Mapped[int] = mapped_column(primary_key=True)
@@ -55,12 +62,18 @@ class Dataset(Base):
     content_sha256: Mapped[str] = mapped_column(sa.ForeignKey("blobs.sha256", ondelete="RESTRICT"), index=True)
     campaign_id: Mapped[int | None] = mapped_column(sa.ForeignKey("campaigns.id", ondelete="CASCADE"))
     iteration_id: Mapped[int | None] = mapped_column(sa.ForeignKey("iterations.id", ondelete="CASCADE"), index=True)
-    oracle_run_id: Mapped[int | None] = mapped_column(sa.ForeignKey("oracle_runs.id", ondelete="SET NULL"), unique=True, comment="the run that produced it")
-    owner_id: Mapped[int | None] = mapped_column(sa.ForeignKey("users.id", ondelete="SET NULL"), index=True, comment="uploader (origin=upload)")
+    oracle_run_id: Mapped[int | None] = mapped_column(
+        sa.ForeignKey("oracle_runs.id", ondelete="SET NULL"), unique=True, comment="the run that produced it"
+    )
+    owner_id: Mapped[int | None] = mapped_column(
+        sa.ForeignKey("users.id", ondelete="SET NULL"), index=True, comment="uploader (origin=upload)"
+    )
     name: Mapped[str] = mapped_column(sa.String(200), default="", server_default="")
     n_samples: Mapped[int]
     n_trajectories: Mapped[int] = mapped_column(default=1, server_default="1")
-    meta: Mapped[dict[str, Any]] = mapped_column(default=dict, comment="columns, units, source file name, sampling settings")
+    meta: Mapped[dict[str, Any]] = mapped_column(
+        default=dict, comment="columns, units, source file name, sampling settings"
+    )
     created_at: Mapped[datetime] = mapped_column(default=utcnow, server_default=sa.func.now())
 
     content: Mapped[Blob] = relationship()
@@ -73,11 +86,21 @@ class PoolVersion(Base):
 
     __tablename__ = "pool_versions"
     __table_args__ = (sa.UniqueConstraint("campaign_id", "version"), sa.UniqueConstraint("iteration_id"))
-    __immutable_columns__ = ("campaign_id", "iteration_id", "version", "parent_id", "n_datasets", "n_samples", "content_hash")
+    __immutable_columns__ = (
+        "campaign_id",
+        "iteration_id",
+        "version",
+        "parent_id",
+        "n_datasets",
+        "n_samples",
+        "content_hash",
+    )
 
     id: Mapped[int] = mapped_column(primary_key=True)
     campaign_id: Mapped[int] = mapped_column(sa.ForeignKey("campaigns.id", ondelete="CASCADE"))
-    iteration_id: Mapped[int] = mapped_column(sa.ForeignKey("iterations.id", ondelete="CASCADE"), comment="the iteration whose append created it")
+    iteration_id: Mapped[int] = mapped_column(
+        sa.ForeignKey("iterations.id", ondelete="CASCADE"), comment="the iteration whose append created it"
+    )
     version: Mapped[int]
     parent_id: Mapped[int | None] = mapped_column(sa.ForeignKey("pool_versions.id", ondelete="RESTRICT"), index=True)
     n_datasets: Mapped[int] = mapped_column(default=0, server_default="0")
@@ -85,8 +108,10 @@ class PoolVersion(Base):
     content_hash: Mapped[str] = mapped_column(sa.String(64), comment="sha256 over the members' content hashes in order")
     created_at: Mapped[datetime] = mapped_column(default=utcnow, server_default=sa.func.now())
 
-    parent: Mapped["PoolVersion | None"] = relationship(remote_side=[id])
-    members: Mapped[list["PoolVersionMember"]] = relationship(order_by="PoolVersionMember.position", cascade="all, delete-orphan", passive_deletes=True)
+    parent: Mapped[PoolVersion | None] = relationship(remote_side=[id])
+    members: Mapped[list[PoolVersionMember]] = relationship(
+        order_by="PoolVersionMember.position", cascade="all, delete-orphan", passive_deletes=True
+    )
 
 
 class PoolVersionMember(Base):
@@ -96,8 +121,12 @@ class PoolVersionMember(Base):
     __table_args__ = (sa.UniqueConstraint("pool_version_id", "position"),)
     __immutable_columns__ = ("pool_version_id", "dataset_id", "position", "added_in_this_version")
 
-    pool_version_id: Mapped[int] = mapped_column(sa.ForeignKey("pool_versions.id", ondelete="CASCADE"), primary_key=True)
-    dataset_id: Mapped[int] = mapped_column(sa.ForeignKey("datasets.id", ondelete="RESTRICT"), primary_key=True, index=True)
+    pool_version_id: Mapped[int] = mapped_column(
+        sa.ForeignKey("pool_versions.id", ondelete="CASCADE"), primary_key=True
+    )
+    dataset_id: Mapped[int] = mapped_column(
+        sa.ForeignKey("datasets.id", ondelete="RESTRICT"), primary_key=True, index=True
+    )
     position: Mapped[int] = mapped_column(comment="0..n-1, stable order for reproducible training")
     added_in_this_version: Mapped[bool] = mapped_column(default=False, server_default=sa.false())
 
@@ -109,32 +138,58 @@ class ModelVersion(Base):
 
     __tablename__ = "model_versions"
     __table_args__ = (sa.UniqueConstraint("campaign_id", "version"), sa.UniqueConstraint("iteration_id"))
-    __immutable_columns__ = ("campaign_id", "iteration_id", "version", "pool_version_id", "parent_model_id", "seed", "weights_sha256", "architecture", "normalisation")
+    __immutable_columns__ = (
+        "campaign_id",
+        "iteration_id",
+        "version",
+        "pool_version_id",
+        "parent_model_id",
+        "seed",
+        "weights_sha256",
+        "architecture",
+        "normalisation",
+    )
 
     id: Mapped[int] = mapped_column(primary_key=True)
     campaign_id: Mapped[int | None] = mapped_column(sa.ForeignKey("campaigns.id", ondelete="CASCADE"))
-    iteration_id: Mapped[int | None] = mapped_column(sa.ForeignKey("iterations.id", ondelete="CASCADE"), comment="the train step that produced it")
+    iteration_id: Mapped[int | None] = mapped_column(
+        sa.ForeignKey("iterations.id", ondelete="CASCADE"), comment="the train step that produced it"
+    )
     version: Mapped[int] = mapped_column(comment="normally the iteration index k")
-    pool_version_id: Mapped[int] = mapped_column(sa.ForeignKey("pool_versions.id", ondelete="RESTRICT"), index=True, comment="trained on")
-    parent_model_id: Mapped[int | None] = mapped_column(sa.ForeignKey("model_versions.id", ondelete="RESTRICT"), index=True, comment="warm start")
-    surrogate_config_version_id: Mapped[int | None] = mapped_column(sa.ForeignKey("surrogate_config_versions.id", ondelete="RESTRICT"))
+    pool_version_id: Mapped[int] = mapped_column(
+        sa.ForeignKey("pool_versions.id", ondelete="RESTRICT"), index=True, comment="trained on"
+    )
+    parent_model_id: Mapped[int | None] = mapped_column(
+        sa.ForeignKey("model_versions.id", ondelete="RESTRICT"), index=True, comment="warm start"
+    )
+    surrogate_config_version_id: Mapped[int | None] = mapped_column(
+        sa.ForeignKey("surrogate_config_versions.id", ondelete="RESTRICT")
+    )
     seed: Mapped[int] = mapped_column(sa.BigInteger)
     architecture: Mapped[dict[str, Any]] = mapped_column(comment="widths, activations, dtype of both networks")
     normalisation: Mapped[dict[str, Any]] = mapped_column(comment="input mean/std (19 features) per network")
-    training_config: Mapped[dict[str, Any]] = mapped_column(default=dict, comment="splits, optimiser, batch size, patience, sample weights")
-    training_metrics: Mapped[dict[str, Any]] = mapped_column(default=dict, comment="train/val/test RMSE force+moment, loss curves")
+    training_config: Mapped[dict[str, Any]] = mapped_column(
+        default=dict, comment="splits, optimiser, batch size, patience, sample weights"
+    )
+    training_metrics: Mapped[dict[str, Any]] = mapped_column(
+        default=dict, comment="train/val/test RMSE force+moment, loss curves"
+    )
     test_force_rmse: Mapped[float | None] = mapped_column(sa.Float)
     test_moment_rmse: Mapped[float | None] = mapped_column(sa.Float)
     epochs: Mapped[int | None]
     train_wall_time_s: Mapped[float | None] = mapped_column(sa.Float)
-    weights_sha256: Mapped[str] = mapped_column(sa.ForeignKey("blobs.sha256", ondelete="RESTRICT"), comment="npz of all parameters")
-    artifact_sha256: Mapped[str | None] = mapped_column(sa.ForeignKey("blobs.sha256", ondelete="RESTRICT"), comment="self-contained artifact (zip: JSON + TorchScript)")
+    weights_sha256: Mapped[str] = mapped_column(
+        sa.ForeignKey("blobs.sha256", ondelete="RESTRICT"), comment="npz of all parameters"
+    )
+    artifact_sha256: Mapped[str | None] = mapped_column(
+        sa.ForeignKey("blobs.sha256", ondelete="RESTRICT"), comment="self-contained artifact (zip: JSON + TorchScript)"
+    )
     code_version: Mapped[str] = mapped_column(sa.String(100), comment="alcove version (+ git commit if known)")
     library_versions: Mapped[dict[str, Any]] = mapped_column(default=dict, comment="torch, numpy, casadi, python")
     created_at: Mapped[datetime] = mapped_column(default=utcnow, server_default=sa.func.now())
 
     pool_version: Mapped[PoolVersion] = relationship()
-    parent_model: Mapped["ModelVersion | None"] = relationship(remote_side=[id])
+    parent_model: Mapped[ModelVersion | None] = relationship(remote_side=[id])
 
 
 class OcpSolution(Base):
@@ -146,7 +201,9 @@ class OcpSolution(Base):
     id: Mapped[int] = mapped_column(primary_key=True)
     campaign_id: Mapped[int | None] = mapped_column(sa.ForeignKey("campaigns.id", ondelete="CASCADE"), index=True)
     iteration_id: Mapped[int | None] = mapped_column(sa.ForeignKey("iterations.id", ondelete="CASCADE"))
-    model_version_id: Mapped[int | None] = mapped_column(sa.ForeignKey("model_versions.id", ondelete="RESTRICT"), index=True)
+    model_version_id: Mapped[int | None] = mapped_column(
+        sa.ForeignKey("model_versions.id", ondelete="RESTRICT"), index=True
+    )
     attempt: Mapped[int] = mapped_column(default=1, server_default="1")
     initial_guess: Mapped[str] = mapped_column(sa.String(64), default="default", server_default="default")
     success: Mapped[bool]
@@ -156,7 +213,9 @@ class OcpSolution(Base):
     wall_time_s: Mapped[float | None] = mapped_column(sa.Float)
     message: Mapped[str] = mapped_column(sa.Text, default="", server_default="")
     stats: Mapped[dict[str, Any]] = mapped_column(default=dict)
-    trajectory_sha256: Mapped[str | None] = mapped_column(sa.ForeignKey("blobs.sha256", ondelete="RESTRICT"), comment="t, q, qd, tau")
+    trajectory_sha256: Mapped[str | None] = mapped_column(
+        sa.ForeignKey("blobs.sha256", ondelete="RESTRICT"), comment="t, q, qd, tau"
+    )
     created_at: Mapped[datetime] = mapped_column(default=utcnow, server_default=sa.func.now())
 
 
@@ -169,18 +228,28 @@ class OracleRun(Base):
     id: Mapped[int] = mapped_column(primary_key=True)
     campaign_id: Mapped[int | None] = mapped_column(sa.ForeignKey("campaigns.id", ondelete="CASCADE"), index=True)
     iteration_id: Mapped[int | None] = mapped_column(sa.ForeignKey("iterations.id", ondelete="CASCADE"))
-    oracle_version_id: Mapped[int | None] = mapped_column(sa.ForeignKey("oracle_versions.id", ondelete="RESTRICT"), index=True)
-    ocp_solution_id: Mapped[int | None] = mapped_column(sa.ForeignKey("ocp_solutions.id", ondelete="SET NULL"), comment="trajectory source")
+    oracle_version_id: Mapped[int | None] = mapped_column(
+        sa.ForeignKey("oracle_versions.id", ondelete="RESTRICT"), index=True
+    )
+    ocp_solution_id: Mapped[int | None] = mapped_column(
+        sa.ForeignKey("ocp_solutions.id", ondelete="SET NULL"), comment="trajectory source"
+    )
     attempt: Mapped[int] = mapped_column(default=1, server_default="1")
-    status: Mapped[str] = mapped_column(sa.String(16), default=OracleRunStatus.running.value, server_default=OracleRunStatus.running.value)
+    status: Mapped[str] = mapped_column(
+        sa.String(16), default=OracleRunStatus.running.value, server_default=OracleRunStatus.running.value
+    )
     worker_name: Mapped[str | None] = mapped_column(sa.String(200))
     started_at: Mapped[datetime | None]
     finished_at: Mapped[datetime | None]
     wall_time_s: Mapped[float | None] = mapped_column(sa.Float)
     failure_reason: Mapped[str | None] = mapped_column(sa.Text)
     diagnostics: Mapped[dict[str, Any]] = mapped_column(default=dict)
-    input_sha256: Mapped[str | None] = mapped_column(sa.ForeignKey("blobs.sha256", ondelete="RESTRICT"), comment="replayed trajectory")
-    output_sha256: Mapped[str | None] = mapped_column(sa.ForeignKey("blobs.sha256", ondelete="RESTRICT"), comment="forces + kinematics")
+    input_sha256: Mapped[str | None] = mapped_column(
+        sa.ForeignKey("blobs.sha256", ondelete="RESTRICT"), comment="replayed trajectory"
+    )
+    output_sha256: Mapped[str | None] = mapped_column(
+        sa.ForeignKey("blobs.sha256", ondelete="RESTRICT"), comment="forces + kinematics"
+    )
     created_at: Mapped[datetime] = mapped_column(default=utcnow, server_default=sa.func.now())
 
 
@@ -226,8 +295,10 @@ class IterationMetrics(Base):
     oracle_wall_time_s: Mapped[float | None] = mapped_column(sa.Float)
     train_wall_time_s: Mapped[float | None] = mapped_column(sa.Float)
     n_pool_samples: Mapped[int | None] = mapped_column(sa.BigInteger)
-    extra: Mapped[dict[str, Any]] = mapped_column(default=dict, comment="per-component errors, step timings, anything else")
+    extra: Mapped[dict[str, Any]] = mapped_column(
+        default=dict, comment="per-component errors, step timings, anything else"
+    )
     curves_sha256: Mapped[str | None] = mapped_column(sa.ForeignKey("blobs.sha256", ondelete="RESTRICT"))
     created_at: Mapped[datetime] = mapped_column(default=utcnow, server_default=sa.func.now())
 
-    iteration: Mapped["Iteration"] = relationship()
+    iteration: Mapped[Iteration] = relationship()

@@ -42,16 +42,18 @@ class _DefinitionMixin(TimestampMixin):
     id: Mapped[int] = mapped_column(primary_key=True)
     name: Mapped[str] = mapped_column(sa.String(200))
     description: Mapped[str] = mapped_column(sa.Text, default="", server_default="")
-    preset_key: Mapped[str | None] = mapped_column(sa.String(100), comment="built-in preset this was copied from, if any")
+    preset_key: Mapped[str | None] = mapped_column(
+        sa.String(100), comment="built-in preset this was copied from, if any"
+    )
     latest_version: Mapped[int] = mapped_column(default=0, server_default="0", comment="highest version number")
     archived_at: Mapped[datetime | None] = mapped_column(comment="hidden from lists; kept for campaigns that use it")
 
     @declared_attr
-    def owner_id(cls) -> Mapped[int]:  # noqa: N805
+    def owner_id(cls) -> Mapped[int]:
         return mapped_column(sa.ForeignKey("users.id", ondelete="RESTRICT"), index=True)
 
     @declared_attr
-    def owner(cls) -> Mapped["User"]:  # noqa: N805
+    def owner(cls) -> Mapped[User]:
         return relationship()
 
 
@@ -68,10 +70,12 @@ class _VersionMixin:
     schema_version: Mapped[int] = mapped_column(default=1, server_default="1", comment="format version of spec")
     note: Mapped[str] = mapped_column(sa.Text, default="", server_default="", comment="change note")
     created_at: Mapped[datetime] = mapped_column(default=utcnow, server_default=sa.func.now())
-    locked_at: Mapped[datetime | None] = mapped_column(comment="set when first used by a campaign; immutable from then on")
+    locked_at: Mapped[datetime | None] = mapped_column(
+        comment="set when first used by a campaign; immutable from then on"
+    )
 
     @declared_attr
-    def created_by_id(cls) -> Mapped[int | None]:  # noqa: N805
+    def created_by_id(cls) -> Mapped[int | None]:
         return mapped_column(sa.ForeignKey("users.id", ondelete="SET NULL"))
 
     @property
@@ -88,12 +92,17 @@ class TaskDefinition(_DefinitionMixin, Base):
 
     __tablename__ = "task_definitions"
 
-    versions: Mapped[list["TaskVersion"]] = relationship(back_populates="definition", order_by="TaskVersion.version", cascade="all, delete-orphan")
+    versions: Mapped[list[TaskVersion]] = relationship(
+        back_populates="definition", order_by="TaskVersion.version", cascade="all, delete-orphan"
+    )
 
 
 class TaskVersion(_VersionMixin, Base):
     __tablename__ = "task_versions"
-    __table_args__ = (sa.UniqueConstraint("definition_id", "version"), sa.CheckConstraint("version >= 1", name="version_positive"))
+    __table_args__ = (
+        sa.UniqueConstraint("definition_id", "version"),
+        sa.CheckConstraint("version >= 1", name="version_positive"),
+    )
 
     definition_id: Mapped[int] = mapped_column(sa.ForeignKey("task_definitions.id", ondelete="CASCADE"), index=True)
     definition: Mapped[TaskDefinition] = relationship(back_populates="versions")
@@ -108,16 +117,23 @@ class OracleDefinition(_DefinitionMixin, Base):
 
     __tablename__ = "oracle_definitions"
 
-    versions: Mapped[list["OracleVersion"]] = relationship(back_populates="definition", order_by="OracleVersion.version", cascade="all, delete-orphan")
+    versions: Mapped[list[OracleVersion]] = relationship(
+        back_populates="definition", order_by="OracleVersion.version", cascade="all, delete-orphan"
+    )
 
 
 class OracleVersion(_VersionMixin, Base):
     __tablename__ = "oracle_versions"
-    __table_args__ = (sa.UniqueConstraint("definition_id", "version"), sa.CheckConstraint("version >= 1", name="version_positive"))
-    __immutable_when_locked__ = _VersionMixin.__immutable_when_locked__ + ("oracle_type",)
+    __table_args__ = (
+        sa.UniqueConstraint("definition_id", "version"),
+        sa.CheckConstraint("version >= 1", name="version_positive"),
+    )
+    __immutable_when_locked__ = (*_VersionMixin.__immutable_when_locked__, "oracle_type")
 
     definition_id: Mapped[int] = mapped_column(sa.ForeignKey("oracle_definitions.id", ondelete="CASCADE"), index=True)
-    oracle_type: Mapped[str] = mapped_column(sa.String(64), comment="registered oracle type name; spec = its validated params")
+    oracle_type: Mapped[str] = mapped_column(
+        sa.String(64), comment="registered oracle type name; spec = its validated params"
+    )
     definition: Mapped[OracleDefinition] = relationship(back_populates="versions")
 
 
@@ -130,12 +146,17 @@ class SurrogateConfig(_DefinitionMixin, Base):
 
     __tablename__ = "surrogate_configs"
 
-    versions: Mapped[list["SurrogateConfigVersion"]] = relationship(back_populates="config", order_by="SurrogateConfigVersion.version", cascade="all, delete-orphan")
+    versions: Mapped[list[SurrogateConfigVersion]] = relationship(
+        back_populates="config", order_by="SurrogateConfigVersion.version", cascade="all, delete-orphan"
+    )
 
 
 class SurrogateConfigVersion(_VersionMixin, Base):
     __tablename__ = "surrogate_config_versions"
-    __table_args__ = (sa.UniqueConstraint("config_id", "version"), sa.CheckConstraint("version >= 1", name="version_positive"))
+    __table_args__ = (
+        sa.UniqueConstraint("config_id", "version"),
+        sa.CheckConstraint("version >= 1", name="version_positive"),
+    )
 
     config_id: Mapped[int] = mapped_column(sa.ForeignKey("surrogate_configs.id", ondelete="CASCADE"), index=True)
     config: Mapped[SurrogateConfig] = relationship(back_populates="versions")

@@ -36,7 +36,9 @@ def _refuse_changes_to_immutable_rows(session: Session, flush_context: Any, inst
         when_locked = getattr(obj, "__immutable_when_locked__", None)
         if when_locked:
             hist = inspect(obj).attrs["locked_at"].history
-            was_locked = bool(hist.deleted) and hist.deleted[0] is not None if hist.has_changes() else obj.locked_at is not None
+            was_locked = (
+                bool(hist.deleted) and hist.deleted[0] is not None if hist.has_changes() else obj.locked_at is not None
+            )
             if was_locked:
                 changed = _changed(obj, when_locked)
                 if changed:

@@ -19,7 +19,7 @@ if TYPE_CHECKING:
 _password_hasher = None
 
 
-def password_hasher():  # noqa: ANN201 - pwdlib type, imported lazily
+def password_hasher():
     """The argon2 hasher (pwdlib's recommended parameters)."""
     global _password_hasher
     if _password_hasher is None:
@@ -58,14 +58,18 @@ class User(TimestampMixin, Base):
     id: Mapped[int] = mapped_column(primary_key=True)
     email: Mapped[str] = mapped_column(sa.String(320), unique=True, comment="stored lower-case")
     display_name: Mapped[str] = mapped_column(sa.String(200), default="", server_default="")
-    password_hash: Mapped[str | None] = mapped_column(sa.String(255), comment="argon2 (pwdlib); NULL = no password login")
+    password_hash: Mapped[str | None] = mapped_column(
+        sa.String(255), comment="argon2 (pwdlib); NULL = no password login"
+    )
     role: Mapped[str] = mapped_column(sa.String(16), default=Role.member.value, server_default=Role.member.value)
     is_active: Mapped[bool] = mapped_column(default=True, server_default=sa.true())
     last_login_at: Mapped[datetime | None]
     failed_login_count: Mapped[int] = mapped_column(default=0, server_default="0")
     locked_until: Mapped[datetime | None] = mapped_column(comment="login lockout after repeated failures")
 
-    tokens: Mapped[list["ApiToken"]] = relationship(back_populates="user", cascade="all, delete-orphan", passive_deletes=True)
+    tokens: Mapped[list[ApiToken]] = relationship(
+        back_populates="user", cascade="all, delete-orphan", passive_deletes=True
+    )
 
     @property
     def is_admin(self) -> bool:
@@ -104,10 +108,19 @@ class ApiToken(Base):
     user: Mapped[User] = relationship(back_populates="tokens")
 
     @classmethod
-    def issue(cls, user: User, *, kind: TokenKind = TokenKind.personal, name: str = "", expires_at: datetime | None = None) -> tuple["ApiToken", str]:
+    def issue(
+        cls, user: User, *, kind: TokenKind = TokenKind.personal, name: str = "", expires_at: datetime | None = None
+    ) -> tuple[ApiToken, str]:
         """Create a token row for ``user`` and return it with the plaintext secret (show once)."""
         secret = new_token_secret()
-        row = cls(user=user, kind=kind.value, name=name, token_prefix=secret[: len(TOKEN_PREFIX) + 6], token_hash=hash_token(secret), expires_at=expires_at)
+        row = cls(
+            user=user,
+            kind=kind.value,
+            name=name,
+            token_prefix=secret[: len(TOKEN_PREFIX) + 6],
+            token_hash=hash_token(secret),
+            expires_at=expires_at,
+        )
         return row, secret
 
     def is_valid(self, now: datetime | None = None) -> bool:
@@ -140,16 +153,24 @@ class Share(Base):
 
     id: Mapped[int] = mapped_column(primary_key=True)
     user_id: Mapped[int] = mapped_column(sa.ForeignKey("users.id", ondelete="CASCADE"), index=True, comment="grantee")
-    permission: Mapped[str] = mapped_column(sa.String(8), default=SharePermission.view.value, server_default=SharePermission.view.value)
-    task_definition_id: Mapped[int | None] = mapped_column(sa.ForeignKey("task_definitions.id", ondelete="CASCADE"), index=True)
-    oracle_definition_id: Mapped[int | None] = mapped_column(sa.ForeignKey("oracle_definitions.id", ondelete="CASCADE"), index=True)
-    surrogate_config_id: Mapped[int | None] = mapped_column(sa.ForeignKey("surrogate_configs.id", ondelete="CASCADE"), index=True)
+    permission: Mapped[str] = mapped_column(
+        sa.String(8), default=SharePermission.view.value, server_default=SharePermission.view.value
+    )
+    task_definition_id: Mapped[int | None] = mapped_column(
+        sa.ForeignKey("task_definitions.id", ondelete="CASCADE"), index=True
+    )
+    oracle_definition_id: Mapped[int | None] = mapped_column(
+        sa.ForeignKey("oracle_definitions.id", ondelete="CASCADE"), index=True
+    )
+    surrogate_config_id: Mapped[int | None] = mapped_column(
+        sa.ForeignKey("surrogate_configs.id", ondelete="CASCADE"), index=True
+    )
     campaign_id: Mapped[int | None] = mapped_column(sa.ForeignKey("campaigns.id", ondelete="CASCADE"), index=True)
     created_by_id: Mapped[int | None] = mapped_column(sa.ForeignKey("users.id", ondelete="SET NULL"))
     created_at: Mapped[datetime] = mapped_column(default=utcnow, server_default=sa.func.now())
 
     user: Mapped[User] = relationship(foreign_keys=[user_id])
-    task_definition: Mapped["TaskDefinition | None"] = relationship()
-    oracle_definition: Mapped["OracleDefinition | None"] = relationship()
-    surrogate_config: Mapped["SurrogateConfig | None"] = relationship()
-    campaign: Mapped["Campaign | None"] = relationship()
+    task_definition: Mapped[TaskDefinition | None] = relationship()
+    oracle_definition: Mapped[OracleDefinition | None] = relationship()
+    surrogate_config: Mapped[SurrogateConfig | None] = relationship()
+    campaign: Mapped[Campaign | None] = relationship()

@@ -22,7 +22,9 @@ def get_oracle(s: Session, oracle_id: int, user: User, need: Need = "view") -> O
     return get_for(s, OracleDefinition, oracle_id, user, need=need)
 
 
-def list_visible(s: Session, user: User, *, include_archived: bool = False, limit: int = 100, offset: int = 0) -> list[tuple[Any, Any, str]]:
+def list_visible(
+    s: Session, user: User, *, include_archived: bool = False, limit: int = 100, offset: int = 0
+) -> list[tuple[Any, Any, str]]:
     return versioning.list_visible(s, KIND, user, include_archived=include_archived, limit=limit, offset=offset)
 
 

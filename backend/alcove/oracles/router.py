@@ -33,7 +33,9 @@ admin_router = APIRouter(prefix="/admin/command-oracles", tags=["admin"])
 Key = Annotated[str, Path(min_length=1, max_length=100)]
 
 
-def oracle_out(session: SessionDep, definition: OracleDefinition, version: Any, user: User, owner_email: str | None = None) -> OracleOut:
+def oracle_out(
+    session: SessionDep, definition: OracleDefinition, version: Any, user: User, owner_email: str | None = None
+) -> OracleOut:
     return OracleOut(
         id=definition.id,
         name=definition.name,
@@ -65,14 +67,24 @@ def version_out(session: SessionDep, version: Any) -> OracleVersionOut:
 
 
 @router.get("", response_model=list[OracleOut], operation_id="list_oracles")
-def list_oracles(user: CurrentUser, session: SessionDep, include_archived: bool = False, limit: Limit = 100, offset: Offset = 0) -> list[OracleOut]:
+def list_oracles(
+    user: CurrentUser, session: SessionDep, include_archived: bool = False, limit: Limit = 100, offset: Offset = 0
+) -> list[OracleOut]:
     rows = repo.list_visible(session, user, include_archived=include_archived, limit=limit, offset=offset)
     return [oracle_out(session, d, v, user, email) for d, v, email in rows]
 
 
 @router.post("", response_model=OracleOut, status_code=status.HTTP_201_CREATED, operation_id="create_oracle")
 def create_oracle(body: OracleIn, user: CurrentUser, session: SessionDep) -> OracleOut:
-    definition, version = service.create(session, user, name=body.name, description=body.description, type_name=body.type, params=body.params, note=body.note)
+    definition, version = service.create(
+        session,
+        user,
+        name=body.name,
+        description=body.description,
+        type_name=body.type,
+        params=body.params,
+        note=body.note,
+    )
     session.commit()
     return oracle_out(session, definition, version, user, user.email)
 
@@ -93,7 +105,12 @@ def list_oracle_presets(user: CurrentUser) -> list[OraclePresetOut]:
     return [OraclePresetOut(**p) for p in service.presets()]
 
 
-@router.post("/presets/{key}/copy", response_model=OracleOut, status_code=status.HTTP_201_CREATED, operation_id="copy_oracle_preset")
+@router.post(
+    "/presets/{key}/copy",
+    response_model=OracleOut,
+    status_code=status.HTTP_201_CREATED,
+    operation_id="copy_oracle_preset",
+)
 def copy_oracle_preset(key: Key, user: CurrentUser, session: SessionDep, body: CopyPreset | None = None) -> OracleOut:
     definition, version = service.copy_preset(session, user, key, body.name if body else None)
     session.commit()
@@ -104,7 +121,9 @@ def copy_oracle_preset(key: Key, user: CurrentUser, session: SessionDep, body: C
 def validate_oracle(body: OracleDraft, user: CurrentUser, session: SessionDep) -> ValidationReport:
     """Check a type and its parameters without saving (paths like ``params.friction``)."""
     normalized, errors = service.check(session, body.type, body.params)
-    return ValidationReport(valid=normalized is not None, errors=[FieldErrorOut.of(e) for e in errors], normalized=normalized)
+    return ValidationReport(
+        valid=normalized is not None, errors=[FieldErrorOut.of(e) for e in errors], normalized=normalized
+    )
 
 
 @router.get("/{oracle_id}", response_model=OracleOut, operation_id="get_oracle")
@@ -116,7 +135,16 @@ def get_oracle(oracle_id: ObjectId, user: CurrentUser, session: SessionDep) -> O
 @router.put("/{oracle_id}", response_model=OracleOut, operation_id="update_oracle")
 def update_oracle(oracle_id: ObjectId, body: OracleUpdate, user: CurrentUser, session: SessionDep) -> OracleOut:
     """Rename or edit; a changed type/params creates a new version once a campaign uses the latest one."""
-    definition, version = service.update(session, user, oracle_id, name=body.name, description=body.description, type_name=body.type, params=body.params, note=body.note)
+    definition, version = service.update(
+        session,
+        user,
+        oracle_id,
+        name=body.name,
+        description=body.description,
+        type_name=body.type,
+        params=body.params,
+        note=body.note,
+    )
     session.commit()
     return oracle_out(session, definition, version, user)
 
@@ -136,7 +164,9 @@ def list_oracle_versions(oracle_id: ObjectId, user: CurrentUser, session: Sessio
 
 
 @router.get("/{oracle_id}/versions/{version}", response_model=OracleVersionOut, operation_id="get_oracle_version")
-def get_oracle_version(oracle_id: ObjectId, version: VersionNumber, user: CurrentUser, session: SessionDep) -> OracleVersionOut:
+def get_oracle_version(
+    oracle_id: ObjectId, version: VersionNumber, user: CurrentUser, session: SessionDep
+) -> OracleVersionOut:
     definition = repo.get_oracle(session, oracle_id, user)
     return version_out(session, repo.get_version(session, definition, version))
 
@@ -150,7 +180,9 @@ def list_command_oracles(admin: AdminUser, session: SessionDep) -> list[CommandO
     return [CommandOracleOut.model_validate(r) for r in service.list_commands(session)]
 
 
-@admin_router.post("", response_model=CommandOracleOut, status_code=status.HTTP_201_CREATED, operation_id="create_command_oracle")
+@admin_router.post(
+    "", response_model=CommandOracleOut, status_code=status.HTTP_201_CREATED, operation_id="create_command_oracle"
+)
 def create_command_oracle(body: CommandOracleIn, admin: AdminUser, session: SessionDep) -> CommandOracleOut:
     row = service.create_command(session, admin, body)
     session.commit()
@@ -163,7 +195,9 @@ def get_command_oracle(entry_id: ObjectId, admin: AdminUser, session: SessionDep
 
 
 @admin_router.put("/{entry_id}", response_model=CommandOracleOut, operation_id="update_command_oracle")
-def update_command_oracle(entry_id: ObjectId, body: CommandOracleIn, admin: AdminUser, session: SessionDep) -> CommandOracleOut:
+def update_command_oracle(
+    entry_id: ObjectId, body: CommandOracleIn, admin: AdminUser, session: SessionDep
+) -> CommandOracleOut:
     row = service.update_command(session, entry_id, body)
     session.commit()
     return CommandOracleOut.model_validate(row)

@@ -14,14 +14,20 @@ class _In(BaseModel):
     model_config = ConfigDict(extra="forbid")
 
 
-TypeName = Field(min_length=1, max_length=100, description="a built-in type (`aux-penalty`, `fe-headrest-2d`) or a command catalogue entry's name")
+TypeName = Field(
+    min_length=1,
+    max_length=100,
+    description="a built-in type (`aux-penalty`, `fe-headrest-2d`) or a command catalogue entry's name",
+)
 
 
 class OracleIn(_In):
     name: str = Field(min_length=1, max_length=200)
     description: str = Field("", max_length=20_000)
     type: str = TypeName
-    params: dict[str, Any] = Field(default_factory=dict, description="parameters of the type (see its JSON Schema); defaults fill the rest")
+    params: dict[str, Any] = Field(
+        default_factory=dict, description="parameters of the type (see its JSON Schema); defaults fill the rest"
+    )
     note: str = Field("", max_length=2000)
 
 

@@ -26,8 +26,16 @@ KIND = repo.KIND
 
 #: Presets: one per built-in type, with the type's default parameters.
 PRESETS: dict[str, dict[str, str]] = {
-    "aux-penalty": {"name": "aux-penalty", "type": "aux-penalty", "description": "The paper's auxiliary penalty model (closed form, fast): the default parameters of the paper."},
-    "fe-headrest-2d": {"name": "fe-headrest-2d", "type": "fe-headrest-2d", "description": "Plane-strain FE headrest (hyperfoam cushion, penalty contact with friction), default parameters."},
+    "aux-penalty": {
+        "name": "aux-penalty",
+        "type": "aux-penalty",
+        "description": "The paper's auxiliary penalty model (closed form, fast): the default parameters of the paper.",
+    },
+    "fe-headrest-2d": {
+        "name": "fe-headrest-2d",
+        "type": "fe-headrest-2d",
+        "description": "Plane-strain FE headrest (hyperfoam cushion, penalty contact with friction), default parameters.",
+    },
 }
 
 
@@ -37,7 +45,14 @@ PRESETS: dict[str, dict[str, str]] = {
 def _spec_from_row(row: CommandOracle) -> Any:
     from alcove.science.oracles.command import CommandOracleSpec
 
-    return CommandOracleSpec(name=row.name, description=row.description, argv=list(row.argv), env=dict(row.env or {}), timeout_s=row.timeout_s, workdir_root=row.working_dir)
+    return CommandOracleSpec(
+        name=row.name,
+        description=row.description,
+        argv=list(row.argv),
+        env=dict(row.env or {}),
+        timeout_s=row.timeout_s,
+        workdir_root=row.working_dir,
+    )
 
 
 def file_catalogue() -> dict[str, Any]:
@@ -71,7 +86,14 @@ def check_command_entry(body: CommandOracleIn) -> None:
     if body.name in file_catalogue():
         raise Conflict(f"{body.name!r} is defined in the server's catalogue file")
     try:
-        CommandOracleSpec(name=body.name, description=body.description, argv=body.argv, env=body.env, timeout_s=body.timeout_s, workdir_root=body.working_dir)
+        CommandOracleSpec(
+            name=body.name,
+            description=body.description,
+            argv=body.argv,
+            env=body.env,
+            timeout_s=body.timeout_s,
+            workdir_root=body.working_dir,
+        )
     except ValidationError as err:
         raise InvalidInput(field_errors_from_pydantic(err)) from None
 
@@ -179,12 +201,42 @@ def presets() -> list[dict[str, Any]]:
 # ----------------------------------------------------------------------------- definitions
 
 
-def create(session: Session, owner: User, *, name: str, description: str, type_name: str, params: Any, note: str = "", preset_key: str | None = None) -> tuple[OracleDefinition, Any]:
+def create(
+    session: Session,
+    owner: User,
+    *,
+    name: str,
+    description: str,
+    type_name: str,
+    params: Any,
+    note: str = "",
+    preset_key: str | None = None,
+) -> tuple[OracleDefinition, Any]:
     normalized = require_valid(session, type_name, params)
-    return versioning.create(session, KIND, owner, name=name, description=description, spec=normalized, preset_key=preset_key, note=note, oracle_type=type_name)
+    return versioning.create(
+        session,
+        KIND,
+        owner,
+        name=name,
+        description=description,
+        spec=normalized,
+        preset_key=preset_key,
+        note=note,
+        oracle_type=type_name,
+    )
 
 
-def update(session: Session, user: User, oracle_id: int, *, name: str | None, description: str | None, type_name: str | None, params: Any, note: str) -> tuple[OracleDefinition, Any]:
+def update(
+    session: Session,
+    user: User,
+    oracle_id: int,
+    *,
+    name: str | None,
+    description: str | None,
+    type_name: str | None,
+    params: Any,
+    note: str,
+) -> tuple[OracleDefinition, Any]:
     definition = repo.get_oracle(session, oracle_id, user, need="edit")
     current = repo.latest_version(session, definition)
     spec = None
@@ -194,7 +246,9 @@ def update(session: Session, user: User, oracle_id: int, *, name: str | None, de
         new_params = params if params is not None else (current.spec if new_type == current.oracle_type else {})
         spec = require_valid(session, new_type, new_params)
         extra["oracle_type"] = new_type
-    version, _ = versioning.update(session, KIND, definition, user, name=name, description=description, spec=spec, note=note, **extra)
+    version, _ = versioning.update(
+        session, KIND, definition, user, name=name, description=description, spec=spec, note=note, **extra
+    )
     return definition, version
 
 
@@ -202,4 +256,13 @@ def copy_preset(session: Session, owner: User, key: str, name: str | None) -> tu
     preset = next((p for p in presets() if p["key"] == key), None)
     if preset is None:
         raise NotFound("oracle preset", key)
-    return create(session, owner, name=name or preset["name"], description=preset["description"], type_name=preset["type"], params=preset["params"], preset_key=key, note=f"copied from preset {key}")
+    return create(
+        session,
+        owner,
+        name=name or preset["name"],
+        description=preset["description"],
+        type_name=preset["type"],
+        params=preset["params"],
+        preset_key=key,
+        note=f"copied from preset {key}",
+    )

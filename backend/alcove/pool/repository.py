@@ -57,5 +57,11 @@ def added_members(s: Session, pool_version_id: int) -> list[Dataset]:
 
 def uploaded_datasets(s: Session, owner_id: int, limit: int, offset: int) -> list[Dataset]:
     """The owner's uploaded data sets, newest first."""
-    q = sa.select(Dataset).where(Dataset.owner_id == owner_id, Dataset.origin == "upload").order_by(Dataset.id.desc()).limit(limit).offset(offset)
+    q = (
+        sa.select(Dataset)
+        .where(Dataset.owner_id == owner_id, Dataset.origin == "upload")
+        .order_by(Dataset.id.desc())
+        .limit(limit)
+        .offset(offset)
+    )
     return list(s.scalars(q))

@@ -54,9 +54,18 @@ def list_pool_versions(campaign_id: ObjectId, user: CurrentUser, session: Sessio
     return campaigns.list_pool_versions(session, campaign_id)
 
 
-@router.get("/{campaign_id}/pool-versions/{version}/download", operation_id="download_pool_version", response_class=Response, responses={200: BINARY})
+@router.get(
+    "/{campaign_id}/pool-versions/{version}/download",
+    operation_id="download_pool_version",
+    response_class=Response,
+    responses={200: BINARY},
+)
 def download_pool_version(
-    campaign_id: ObjectId, version: IterationIndex, user: CurrentUser, session: SessionDep, format: Literal["parquet", "csv"] = "parquet"
+    campaign_id: ObjectId,
+    version: IterationIndex,
+    user: CurrentUser,
+    session: SessionDep,
+    format: Literal["parquet", "csv"] = "parquet",
 ) -> Response:
     """One row per sample: dataset, origin, t, q_i, qd_i, fx..mz (Parquet or CSV)."""
     get_for(session, Campaign, campaign_id, user)
@@ -68,11 +77,15 @@ def download_pool_version(
 # ----------------------------------------------------------------------------- preliminary data upload
 
 
-@uploads.post("", response_model=UploadOut, status_code=status.HTTP_201_CREATED, operation_id="upload_preliminary_dataset")
+@uploads.post(
+    "", response_model=UploadOut, status_code=status.HTTP_201_CREATED, operation_id="upload_preliminary_dataset"
+)
 def upload_preliminary_dataset(
     user: CurrentUser,
     session: SessionDep,
-    file: Annotated[UploadFile, File(description="CSV with columns [simulation,] [t,] q_i, qd_i, fx, fy, fz, mx, my, mz")],
+    file: Annotated[
+        UploadFile, File(description="CSV with columns [simulation,] [t,] q_i, qd_i, fx, fy, fz, mx, my, mz")
+    ],
     name: Annotated[str, Form(min_length=1, max_length=100)] = "upload",
     chunks: Annotated[int, Form(ge=1, le=1000)] = 10,
 ) -> UploadOut:
@@ -102,6 +115,8 @@ def upload_preliminary_dataset(
 
 
 @uploads.get("", response_model=list[DatasetOut], operation_id="list_preliminary_datasets")
-def list_preliminary_datasets(user: CurrentUser, session: SessionDep, limit: Limit = 100, offset: Offset = 0) -> list[DatasetOut]:
+def list_preliminary_datasets(
+    user: CurrentUser, session: SessionDep, limit: Limit = 100, offset: Offset = 0
+) -> list[DatasetOut]:
     """Your uploaded data sets."""
     return [DatasetOut.model_validate(d) for d in repo.uploaded_datasets(session, user.id, limit, offset)]

@@ -27,7 +27,7 @@ if TYPE_CHECKING:
 FORCE_COLUMNS = ("fx", "fy", "fz", "mx", "my", "mz")
 
 _cache_lock = threading.Lock()
-_array_cache: "OrderedDict[str, dict[str, np.ndarray]]" = OrderedDict()
+_array_cache: OrderedDict[str, dict[str, np.ndarray]] = OrderedDict()
 _ARRAY_CACHE_SIZE = 2048
 
 
@@ -48,16 +48,39 @@ def dataset_arrays(s: Session, dataset: Dataset) -> dict[str, np.ndarray]:
 
 
 def store_dataset(
-    s: Session, *, t: np.ndarray, q: np.ndarray, qd: np.ndarray, f: np.ndarray, origin: str, name: str,
-    campaign_id: int | None = None, iteration_id: int | None = None, oracle_run_id: int | None = None,
-    owner_id: int | None = None, meta: dict[str, Any] | None = None,
+    s: Session,
+    *,
+    t: np.ndarray,
+    q: np.ndarray,
+    qd: np.ndarray,
+    f: np.ndarray,
+    origin: str,
+    name: str,
+    campaign_id: int | None = None,
+    iteration_id: int | None = None,
+    oracle_run_id: int | None = None,
+    owner_id: int | None = None,
+    meta: dict[str, Any] | None = None,
 ) -> Dataset:
     q2 = np.asarray(q, float).reshape(len(t), -1)
-    arrays = {"t": np.asarray(t, float), "q": q2, "qd": np.asarray(qd, float).reshape(q2.shape), "f": np.asarray(f, float).reshape(len(t), 6)}
+    arrays = {
+        "t": np.asarray(t, float),
+        "q": q2,
+        "qd": np.asarray(qd, float).reshape(q2.shape),
+        "f": np.asarray(f, float).reshape(len(t), 6),
+    }
     sha = put_arrays(s, arrays)
     ds = Dataset(
-        origin=origin, content_sha256=sha, campaign_id=campaign_id, iteration_id=iteration_id, oracle_run_id=oracle_run_id,
-        owner_id=owner_id, name=name, n_samples=int(len(t)), n_trajectories=1, meta=meta or {},
+        origin=origin,
+        content_sha256=sha,
+        campaign_id=campaign_id,
+        iteration_id=iteration_id,
+        oracle_run_id=oracle_run_id,
+        owner_id=owner_id,
+        name=name,
+        n_samples=len(t),
+        n_trajectories=1,
+        meta=meta or {},
     )
     s.add(ds)
     s.flush()
@@ -65,7 +88,13 @@ def store_dataset(
 
 
 def create_version(
-    s: Session, *, campaign_id: int, iteration_id: int, version: int, parent: PoolVersion | None, new_datasets: list[Dataset]
+    s: Session,
+    *,
+    campaign_id: int,
+    iteration_id: int,
+    version: int,
+    parent: PoolVersion | None,
+    new_datasets: list[Dataset],
 ) -> PoolVersion:
     """Pool version ``version`` = ``parent``'s members + ``new_datasets`` (a dataset that is
     already a member is not added again). The member rows are inserted in one executemany."""
@@ -82,15 +111,24 @@ def create_version(
     for _, sha, _ in ordered:
         h.update(sha.encode())
     pv = PoolVersion(
-        campaign_id=campaign_id, iteration_id=iteration_id, version=version, parent_id=parent.id if parent is not None else None,
-        n_datasets=len(ordered), n_samples=int(sum(n for _, _, n in ordered)), content_hash=h.hexdigest(),
+        campaign_id=campaign_id,
+        iteration_id=iteration_id,
+        version=version,
+        parent_id=parent.id if parent is not None else None,
+        n_datasets=len(ordered),
+        n_samples=int(sum(n for _, _, n in ordered)),
+        content_hash=h.hexdigest(),
     )
     s.add(pv)
     s.flush()
     if ordered:
-        s.execute(sa.insert(PoolVersionMember), [
-            {"pool_version_id": pv.id, "dataset_id": i, "position": k, "added_in_this_version": i in added} for k, (i, _, _) in enumerate(ordered)
-        ])
+        s.execute(
+            sa.insert(PoolVersionMember),
+            [
+                {"pool_version_id": pv.id, "dataset_id": i, "position": k, "added_in_this_version": i in added}
+                for k, (i, _, _) in enumerate(ordered)
+            ],
+        )
     return pv
 
 
@@ -101,11 +139,11 @@ def _pool_name(d: Dataset) -> str:
 
 #: (database URL, pool version id) -> (content hash, datasets); the hash guards against a
 #: different database that reuses the id (tests)
-_pool_cache: "OrderedDict[tuple[str, int], tuple[str, list[PoolDataset]]]" = OrderedDict()
+_pool_cache: OrderedDict[tuple[str, int], tuple[str, list[PoolDataset]]] = OrderedDict()
 _POOL_CACHE_SIZE = 4
 
 
-def _training_dataset(s: Session, d: Dataset) -> "PoolDataset":
+def _training_dataset(s: Session, d: Dataset) -> PoolDataset:
     from alcove.science.surrogate.dataset import PoolDataset
 
     a = dataset_arrays(s, d)
@@ -113,13 +151,13 @@ def _training_dataset(s: Session, d: Dataset) -> "PoolDataset":
     return PoolDataset(_pool_name(d), a["t"], a["q"], a["qd"], a["f"][:, :3], a["f"][:, 3:], origin)
 
 
-def _cached_pool(url: str, pool_version_id: int, content_hash: str) -> "list[PoolDataset] | None":
+def _cached_pool(url: str, pool_version_id: int, content_hash: str) -> list[PoolDataset] | None:
     with _cache_lock:
         got = _pool_cache.get((url, pool_version_id))
     return got[1] if got is not None and got[0] == content_hash else None
 
 
-def load_training_pool(s: Session, pool_version: PoolVersion) -> "list[PoolDataset]":
+def load_training_pool(s: Session, pool_version: PoolVersion) -> list[PoolDataset]:
     """The version's datasets as :class:`PoolDataset` objects (names unique: ``name.id``).
 
     Cached per process by pool version (versions are immutable): version k is built from a
@@ -146,7 +184,16 @@ def load_training_pool(s: Session, pool_version: PoolVersion) -> "list[PoolDatas
 
 
 def pool_table_columns(ndof: int) -> list[str]:
-    return ["dataset_id", "dataset", "origin", "added_in_this_version", "t", *[f"q_{i}" for i in range(ndof)], *[f"qd_{i}" for i in range(ndof)], *FORCE_COLUMNS]
+    return [
+        "dataset_id",
+        "dataset",
+        "origin",
+        "added_in_this_version",
+        "t",
+        *[f"q_{i}" for i in range(ndof)],
+        *[f"qd_{i}" for i in range(ndof)],
+        *FORCE_COLUMNS,
+    ]
 
 
 def pool_version_columns(s: Session, pool_version: PoolVersion) -> dict[str, list[Any]]:
@@ -187,12 +234,14 @@ def pool_version_table(s: Session, pool_version: PoolVersion, fmt: str = "csv") 
     w = csv.writer(out, lineterminator="\n")
     names = list(cols)
     w.writerow(names)
-    for row in zip(*(cols[c] for c in names)):
+    for row in zip(*(cols[c] for c in names), strict=False):
         w.writerow([repr(v) if isinstance(v, float) else v for v in row])
     return out.getvalue().encode()
 
 
-def upload_preliminary_dataset(s: Session, owner_id: int, source: str | io.TextIOBase, name: str = "upload", chunks: int = 10) -> list[Dataset]:
+def upload_preliminary_dataset(
+    s: Session, owner_id: int, source: str | io.TextIOBase, name: str = "upload", chunks: int = 10
+) -> list[Dataset]:
     """Store a preliminary-data CSV (columns ``[simulation,] [t,] q_i, qd_i, fx..mz``) as
     upload datasets; pass their ids as ``preliminary.dataset_ids`` of a campaign."""
     from alcove.science.surrogate.dataset import load_preliminary_csv
@@ -201,6 +250,17 @@ def upload_preliminary_dataset(s: Session, owner_id: int, source: str | io.TextI
     pool = load_preliminary_csv(text, origin="upload", chunks=chunks, prefix=name)
     out = []
     for ds in pool:
-        out.append(store_dataset(s, t=ds.t, q=ds.q, qd=ds.qd, f=np.hstack([ds.force, ds.moment]), origin="upload", name=ds.name, owner_id=owner_id,
-                                 meta={"source": name}))
+        out.append(
+            store_dataset(
+                s,
+                t=ds.t,
+                q=ds.q,
+                qd=ds.qd,
+                f=np.hstack([ds.force, ds.moment]),
+                origin="upload",
+                name=ds.name,
+                owner_id=owner_id,
+                meta={"source": name},
+            )
+        )
     return out

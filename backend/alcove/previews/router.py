@@ -26,7 +26,12 @@ from alcove.previews import service
 
 router = APIRouter(tags=["previews"])
 
-RATE_LIMITED = {429: {"description": f"too many previews pending (at most {service.MAX_ACTIVE_PER_USER}): retry later", "content": {"application/json": {"schema": {"type": "object", "properties": {"detail": {"type": "string"}}}}}}}
+RATE_LIMITED = {
+    429: {
+        "description": f"too many previews pending (at most {service.MAX_ACTIVE_PER_USER}): retry later",
+        "content": {"application/json": {"schema": {"type": "object", "properties": {"detail": {"type": "string"}}}}},
+    }
+}
 
 
 class _In(BaseModel):
@@ -35,15 +40,28 @@ class _In(BaseModel):
 
 class TaskPreviewIn(_In):
     version: int | None = Field(None, ge=1, le=MAX_ID, description="task version (default: the latest)")
-    spec: dict[str, Any] | None = Field(None, description="an unsaved edit of the task's spec to preview instead of the saved one")
-    intervals: int | None = Field(None, ge=1, le=service.MAX_PREVIEW_INTERVALS,
-                                  description=f"DMOCC intervals in every phase for this solve (default: each phase's own, at most {service.MAX_PREVIEW_INTERVALS})")
+    spec: dict[str, Any] | None = Field(
+        None, description="an unsaved edit of the task's spec to preview instead of the saved one"
+    )
+    intervals: int | None = Field(
+        None,
+        ge=1,
+        le=service.MAX_PREVIEW_INTERVALS,
+        description=f"DMOCC intervals in every phase for this solve (default: each phase's own, at most {service.MAX_PREVIEW_INTERVALS})",
+    )
 
 
 class OraclePreviewIn(_In):
     version: int | None = Field(None, ge=1, le=MAX_ID, description="oracle version (default: the latest)")
-    params: dict[str, Any] | None = Field(None, description="an unsaved edit of the oracle's parameters to preview instead of the saved ones")
-    dt: float = Field(0.0025, ge=0.001, le=0.05, description="sampling step of the sample trajectory [s] (the FE reference motion, 1 s)")
+    params: dict[str, Any] | None = Field(
+        None, description="an unsaved edit of the oracle's parameters to preview instead of the saved ones"
+    )
+    dt: float = Field(
+        0.0025,
+        ge=0.001,
+        le=0.05,
+        description="sampling step of the sample trajectory [s] (the FE reference motion, 1 s)",
+    )
 
 
 class TaskPreviewResult(BaseModel):
@@ -102,32 +120,67 @@ class PreviewOut(BaseModel):
     finished_at: datetime | None
     worker_name: str | None
     error: str | None = Field(description="why it failed (bad input found by the worker, solver or oracle error)")
-    result: TaskPreviewResult | OraclePreviewResult | None = Field(None, description="set when succeeded (null in the list)")
+    result: TaskPreviewResult | OraclePreviewResult | None = Field(
+        None, description="set when succeeded (null in the list)"
+    )
 
 
 def preview_out(row: Preview, with_result: bool = True) -> PreviewOut:
     result: Any = None
     if with_result and row.result is not None:
-        result = TaskPreviewResult.model_validate(row.result) if row.kind == "task" else OraclePreviewResult.model_validate(row.result)
+        result = (
+            TaskPreviewResult.model_validate(row.result)
+            if row.kind == "task"
+            else OraclePreviewResult.model_validate(row.result)
+        )
     return PreviewOut(
-        id=row.id, kind=row.kind, status=row.status, task_version_id=row.task_version_id, oracle_version_id=row.oracle_version_id, draft=row.draft,
-        options=row.options, created_at=row.created_at, started_at=row.started_at, finished_at=row.finished_at, worker_name=row.worker_name, error=row.error, result=result,
+        id=row.id,
+        kind=row.kind,
+        status=row.status,
+        task_version_id=row.task_version_id,
+        oracle_version_id=row.oracle_version_id,
+        draft=row.draft,
+        options=row.options,
+        created_at=row.created_at,
+        started_at=row.started_at,
+        finished_at=row.finished_at,
+        worker_name=row.worker_name,
+        error=row.error,
+        result=result,
     )
 
 
-@router.post("/tasks/{task_id}/previews", response_model=PreviewOut, status_code=status.HTTP_202_ACCEPTED, operation_id="create_task_preview", responses=RATE_LIMITED)
-def create_task_preview(task_id: ObjectId, user: CurrentUser, session: SessionDep, body: Annotated[TaskPreviewIn | None, Body()] = None) -> PreviewOut:
+@router.post(
+    "/tasks/{task_id}/previews",
+    response_model=PreviewOut,
+    status_code=status.HTTP_202_ACCEPTED,
+    operation_id="create_task_preview",
+    responses=RATE_LIMITED,
+)
+def create_task_preview(
+    task_id: ObjectId, user: CurrentUser, session: SessionDep, body: Annotated[TaskPreviewIn | None, Body()] = None
+) -> PreviewOut:
     """Solve the task once with the auxiliary contact, on a worker (queue ``ocp``); poll
     ``GET /previews/{id}`` for t, q, qd, tau and the solver's status, cost, iterations."""
     body = body or TaskPreviewIn()
-    row = service.create_task_preview(session, user, task_id, version=body.version, spec=body.spec, intervals=body.intervals)
+    row = service.create_task_preview(
+        session, user, task_id, version=body.version, spec=body.spec, intervals=body.intervals
+    )
     session.commit()
     service.send(row.id, row.kind)
     return preview_out(row)
 
 
-@router.post("/oracles/{oracle_id}/previews", response_model=PreviewOut, status_code=status.HTTP_202_ACCEPTED, operation_id="create_oracle_preview", responses=RATE_LIMITED)
-def create_oracle_preview(oracle_id: ObjectId, user: CurrentUser, session: SessionDep, body: Annotated[OraclePreviewIn | None, Body()] = None) -> PreviewOut:
+@router.post(
+    "/oracles/{oracle_id}/previews",
+    response_model=PreviewOut,
+    status_code=status.HTTP_202_ACCEPTED,
+    operation_id="create_oracle_preview",
+    responses=RATE_LIMITED,
+)
+def create_oracle_preview(
+    oracle_id: ObjectId, user: CurrentUser, session: SessionDep, body: Annotated[OraclePreviewIn | None, Body()] = None
+) -> PreviewOut:
     """Replay a sample trajectory (the FE reference head motion) through the oracle, on a
     worker (queue ``oracle``); poll ``GET /previews/{id}`` for t, fx..mz and diagnostics."""
     body = body or OraclePreviewIn()
@@ -144,6 +197,8 @@ def get_preview(preview_id: ObjectId, user: CurrentUser, session: SessionDep) ->
 
 
 @router.get("/previews", response_model=list[PreviewOut], operation_id="list_previews")
-def list_previews(user: CurrentUser, session: SessionDep, limit: Annotated[int, Query(ge=1, le=service.KEEP_PER_USER)] = 20) -> list[PreviewOut]:
+def list_previews(
+    user: CurrentUser, session: SessionDep, limit: Annotated[int, Query(ge=1, le=service.KEEP_PER_USER)] = 20
+) -> list[PreviewOut]:
     """Your recent previews, newest first (without their results)."""
     return [preview_out(r, with_result=False) for r in service.list_for(session, user, limit)]

@@ -14,14 +14,24 @@ from __future__ import annotations
 import logging
 import math
 import time
-from datetime import timedelta
+from datetime import UTC, timedelta
 from typing import Any
 
 import sqlalchemy as sa
 from sqlalchemy.orm import Session
 
 from alcove.errors import DomainError, InvalidInput, NotFound
-from alcove.models import OracleDefinition, OracleVersion, Preview, PreviewKind, PreviewStatus, TaskDefinition, TaskVersion, User, utcnow
+from alcove.models import (
+    OracleDefinition,
+    OracleVersion,
+    Preview,
+    PreviewKind,
+    PreviewStatus,
+    TaskDefinition,
+    TaskVersion,
+    User,
+    utcnow,
+)
 from alcove.users.access import get_for
 
 log = logging.getLogger(__name__)
@@ -57,19 +67,34 @@ class TooManyPreviews(DomainError):
 
 def _check_capacity(session: Session, user: User) -> None:
     active = session.scalar(
-        sa.select(sa.func.count()).select_from(Preview).where(
-            Preview.owner_id == user.id, Preview.status.in_((PreviewStatus.pending.value, PreviewStatus.running.value)),
+        sa.select(sa.func.count())
+        .select_from(Preview)
+        .where(
+            Preview.owner_id == user.id,
+            Preview.status.in_((PreviewStatus.pending.value, PreviewStatus.running.value)),
             Preview.created_at > utcnow() - STALE_AFTER,
         )
     )
     if active >= MAX_ACTIVE_PER_USER:
-        raise TooManyPreviews(f"you have {active} previews pending or running (at most {MAX_ACTIVE_PER_USER}); wait for one to finish")
+        raise TooManyPreviews(
+            f"you have {active} previews pending or running (at most {MAX_ACTIVE_PER_USER}); wait for one to finish"
+        )
 
 
 def _prune(session: Session, user: User) -> None:
-    keep = sa.select(Preview.id).where(Preview.owner_id == user.id).order_by(Preview.id.desc()).limit(KEEP_PER_USER).scalar_subquery()
+    keep = (
+        sa.select(Preview.id)
+        .where(Preview.owner_id == user.id)
+        .order_by(Preview.id.desc())
+        .limit(KEEP_PER_USER)
+        .scalar_subquery()
+    )
     session.execute(
-        sa.delete(Preview).where(Preview.owner_id == user.id, Preview.status.in_((PreviewStatus.succeeded.value, PreviewStatus.failed.value)), Preview.id.not_in(keep))
+        sa.delete(Preview).where(
+            Preview.owner_id == user.id,
+            Preview.status.in_((PreviewStatus.succeeded.value, PreviewStatus.failed.value)),
+            Preview.id.not_in(keep),
+        )
     )
 
 
@@ -99,7 +124,9 @@ def grid_summary(spec: dict[str, Any], per_phase: list[int], intervals: int | No
     return f"{grid} intervals (the task's own grid)"
 
 
-def create_task_preview(session: Session, user: User, task_id: int, *, version: int | None, spec: Any | None, intervals: int | None) -> Preview:
+def create_task_preview(
+    session: Session, user: User, task_id: int, *, version: int | None, spec: Any | None, intervals: int | None
+) -> Preview:
     """A "solve once" of task ``task_id`` (its latest or given version, or ``spec``: an
     unsaved edit of it) with the auxiliary contact, on the task's own grid (each phase's
     intervals) or ``intervals`` per phase, at most :data:`MAX_PREVIEW_INTERVALS` per phase."""
@@ -116,14 +143,22 @@ def create_task_preview(session: Session, user: User, task_id: int, *, version: 
         snapshot = tv.spec
     _check_capacity(session, user)
     _prune(session, user)
-    row = Preview(owner_id=user.id, kind=PreviewKind.task.value, task_version_id=tv.id, draft=spec is not None, spec=snapshot,
-                  options={"intervals": intervals, "intervals_per_phase": preview_grid(snapshot, intervals)})
+    row = Preview(
+        owner_id=user.id,
+        kind=PreviewKind.task.value,
+        task_version_id=tv.id,
+        draft=spec is not None,
+        spec=snapshot,
+        options={"intervals": intervals, "intervals_per_phase": preview_grid(snapshot, intervals)},
+    )
     session.add(row)
     session.flush()
     return row
 
 
-def create_oracle_preview(session: Session, user: User, oracle_id: int, *, version: int | None, params: Any | None, dt: float) -> Preview:
+def create_oracle_preview(
+    session: Session, user: User, oracle_id: int, *, version: int | None, params: Any | None, dt: float
+) -> Preview:
     """A "test on a sample trajectory" of oracle ``oracle_id`` (its latest or given version, or
     ``params``: an unsaved edit of its parameters) on the FE reference head motion sampled
     every ``dt`` seconds. A command oracle runs the administrator's command as configured."""
@@ -139,8 +174,14 @@ def create_oracle_preview(session: Session, user: User, oracle_id: int, *, versi
         normalized = ov.spec
     _check_capacity(session, user)
     _prune(session, user)
-    row = Preview(owner_id=user.id, kind=PreviewKind.oracle.value, oracle_version_id=ov.id, draft=params is not None,
-                  spec={"type": ov.oracle_type, "params": normalized}, options={"dt": dt})
+    row = Preview(
+        owner_id=user.id,
+        kind=PreviewKind.oracle.value,
+        oracle_version_id=ov.id,
+        draft=params is not None,
+        spec={"type": ov.oracle_type, "params": normalized},
+        options={"dt": dt},
+    )
     session.add(row)
     session.flush()
     return row
@@ -156,7 +197,9 @@ def get(session: Session, user: User, preview_id: int) -> Preview:
 
 
 def list_for(session: Session, user: User, limit: int) -> list[Preview]:
-    rows = list(session.scalars(sa.select(Preview).where(Preview.owner_id == user.id).order_by(Preview.id.desc()).limit(limit)))
+    rows = list(
+        session.scalars(sa.select(Preview).where(Preview.owner_id == user.id).order_by(Preview.id.desc()).limit(limit))
+    )
     for row in rows:
         _fail_if_stale(session, row)
     return rows
@@ -180,7 +223,8 @@ def _fail_if_stale(session: Session, row: Preview) -> None:
 
     now = utcnow()
     stmt = (
-        sa.update(Preview).where(Preview.id == row.id, Preview.status == row.status, Preview.attempts == row.attempts)
+        sa.update(Preview)
+        .where(Preview.id == row.id, Preview.status == row.status, Preview.attempts == row.attempts)
         .values(status=PreviewStatus.failed.value, error=error, finished_at=now)
     )
     # its own short write transaction: a GET's session only reads (and is rolled back). The
@@ -195,9 +239,8 @@ def _fail_if_stale(session: Session, row: Preview) -> None:
 
 def _aware(moment: Any) -> Any:
     """SQLite hands back naive datetimes (stored in UTC)."""
-    from datetime import timezone
 
-    return moment if moment.tzinfo is not None else moment.replace(tzinfo=timezone.utc)
+    return moment if moment.tzinfo is not None else moment.replace(tzinfo=UTC)
 
 
 def send(row_id: int, kind: str) -> None:
@@ -207,7 +250,7 @@ def send(row_id: int, kind: str) -> None:
 
     try:
         send_job(JOB_FOR[kind], row_id, task_id=f"preview-{row_id}")
-    except Exception:  # noqa: BLE001
+    except Exception:
         log.exception("sending preview %d failed", row_id)
 
 
@@ -219,9 +262,16 @@ def claim(session: Session, preview_id: int, worker_name: str) -> int | None:
     now = utcnow()
     res = session.execute(
         sa.update(Preview)
-        .where(Preview.id == preview_id, sa.or_(Preview.status == PreviewStatus.pending.value,
-                                                 sa.and_(Preview.status == PreviewStatus.running.value, Preview.started_at < now - STALE_AFTER)))
-        .values(status=PreviewStatus.running.value, started_at=now, worker_name=worker_name, attempts=Preview.attempts + 1)
+        .where(
+            Preview.id == preview_id,
+            sa.or_(
+                Preview.status == PreviewStatus.pending.value,
+                sa.and_(Preview.status == PreviewStatus.running.value, Preview.started_at < now - STALE_AFTER),
+            ),
+        )
+        .values(
+            status=PreviewStatus.running.value, started_at=now, worker_name=worker_name, attempts=Preview.attempts + 1
+        )
         .returning(Preview.attempts)
     ).first()
     return None if res is None else int(res[0])
@@ -238,13 +288,14 @@ def run_preview(preview_id: int, worker_name: str) -> str:
     try:
         result = _compute(row["kind"], row["spec"], row["options"], row["catalogue"])
         status, error = PreviewStatus.succeeded.value, None
-    except Exception as err:  # noqa: BLE001  (any failure is the preview's answer)
+    except Exception as err:
         log.info("preview %d failed: %s", preview_id, err, exc_info=not isinstance(err, ValueError))
         result, status, error = None, PreviewStatus.failed.value, _error_text(err)
 
     def record(s: Session) -> None:
         s.execute(
-            sa.update(Preview).where(Preview.id == preview_id, Preview.status == PreviewStatus.running.value, Preview.attempts == attempt)
+            sa.update(Preview)
+            .where(Preview.id == preview_id, Preview.status == PreviewStatus.running.value, Preview.attempts == attempt)
             .values(status=status, result=result, error=error, finished_at=utcnow())
         )
 
@@ -311,12 +362,23 @@ def solve_task_once(spec: dict[str, Any], per_phase: list[int], intervals: int |
     data = {**spec, "phases": [{**ph, "intervals": n} for ph, n in zip(spec["phases"], per_phase, strict=True)]}
     task = parse_task(data)
     t0 = time.perf_counter()
-    sol = solve_task(task, aux_contact(task.preset()), max_attempts=1, ipopt_options={"ipopt.max_iter": PREVIEW_IPOPT_MAX_ITER})
+    sol = solve_task(
+        task, aux_contact(task.preset()), max_attempts=1, ipopt_options={"ipopt.max_iter": PREVIEW_IPOPT_MAX_ITER}
+    )
     return {
-        "t": _finite(sol.t), "q": _finite(sol.q), "qd": _finite(sol.qd), "tau": _finite(sol.tau),
-        "status": sol.status, "converged": bool(sol.converged), "cost": _scalar(sol.cost), "iterations": int(sol.iterations),
-        "constraint_violation": _scalar(sol.constraint_violation), "wall_time_s": float(time.perf_counter() - t0), "intervals": int(sol.controls.shape[0]),
-        "intervals_per_phase": list(per_phase), "grid": grid_summary(spec, list(per_phase), intervals),
+        "t": _finite(sol.t),
+        "q": _finite(sol.q),
+        "qd": _finite(sol.qd),
+        "tau": _finite(sol.tau),
+        "status": sol.status,
+        "converged": bool(sol.converged),
+        "cost": _scalar(sol.cost),
+        "iterations": int(sol.iterations),
+        "constraint_violation": _scalar(sol.constraint_violation),
+        "wall_time_s": float(time.perf_counter() - t0),
+        "intervals": int(sol.controls.shape[0]),
+        "intervals_per_phase": list(per_phase),
+        "grid": grid_summary(spec, list(per_phase), intervals),
     }
 
 
@@ -327,20 +389,33 @@ def test_oracle(type_name: str, params: dict[str, Any], dt: float, catalogue: An
     import numpy as np
 
     from alcove.science.geometry import DEFAULT_PRESET
+    from alcove.science.json_values import json_safe
     from alcove.science.oracles.fe_headrest.reference import reference_motion
     from alcove.science.oracles.registry import build_oracle
-    from alcove.science.json_values import json_safe
 
     oracle = build_oracle(type_name, params, DEFAULT_PRESET, catalogue=catalogue)
     traj = reference_motion(DEFAULT_PRESET, dt=dt)
     res = oracle.run(traj)
     out: dict[str, Any] = {
-        "ok": bool(res.ok), "failure_reason": res.failure_reason, "wall_time_s": float(res.wall_time),
+        "ok": bool(res.ok),
+        "failure_reason": res.failure_reason,
+        "wall_time_s": float(res.wall_time),
         "trajectory": {"t": _finite(traj.t), "q": _finite(traj.q), "qd": _finite(traj.qd)},
         "diagnostics": json_safe(res.diagnostics),
-        "t": None, "fx": None, "fy": None, "fz": None, "mx": None, "my": None, "mz": None, "peak_force_n": None,
+        "t": None,
+        "fx": None,
+        "fy": None,
+        "fz": None,
+        "mx": None,
+        "my": None,
+        "mz": None,
+        "peak_force_n": None,
     }
     if res.forces is not None:
         f = np.hstack([res.forces.force, res.forces.moment])
-        out.update(t=_finite(res.forces.t), peak_force_n=_scalar(res.forces.peak_force), **{c: _finite(f[:, j]) for j, c in enumerate(("fx", "fy", "fz", "mx", "my", "mz"))})
+        out.update(
+            t=_finite(res.forces.t),
+            peak_force_n=_scalar(res.forces.peak_force),
+            **{c: _finite(f[:, j]) for j, c in enumerate(("fx", "fy", "fz", "mx", "my", "mz"))},
+        )
     return out

@@ -57,9 +57,7 @@ def rot3_from_tilt(phi: float | np.ndarray) -> np.ndarray:
     phi = np.asarray(phi, dtype=float)
     c, s = np.cos(phi), np.sin(phi)
     z, o = np.zeros_like(phi), np.ones_like(phi)
-    return np.stack(
-        [np.stack([c, z, -s], -1), np.stack([z, o, z], -1), np.stack([s, z, c], -1)], -2
-    )
+    return np.stack([np.stack([c, z, -s], -1), np.stack([z, o, z], -1), np.stack([s, z, c], -1)], -2)
 
 
 @dataclass(frozen=True)
@@ -137,7 +135,7 @@ class HeadNeckPreset:
         return asdict(self)
 
     @classmethod
-    def from_dict(cls, data: dict[str, Any]) -> "HeadNeckPreset":
+    def from_dict(cls, data: dict[str, Any]) -> HeadNeckPreset:
         data = dict(data)
         prof = data.pop("profile", None)
         obj = cls(**data)
@@ -195,8 +193,8 @@ def head_pose_in_headrest(preset: HeadNeckPreset, theta: np.ndarray) -> tuple[np
 DEFAULT_PRESET = HeadNeckPreset()
 
 __all__ = [
-    "GRAVITY",
     "DEFAULT_PRESET",
+    "GRAVITY",
     "HeadNeckPreset",
     "HeadProfile",
     "RelativeKinematics",

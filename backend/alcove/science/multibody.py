@@ -83,7 +83,7 @@ class PlanarChain:
         for name in ("q_min", "q_max", "torque_limit"):
             if len(getattr(self, name)) != n:
                 raise ValueError(f"{name}: expected {n} values, got {len(getattr(self, name))}")
-        for i, (lo, hi) in enumerate(zip(self.q_min, self.q_max)):
+        for i, (lo, hi) in enumerate(zip(self.q_min, self.q_max, strict=False)):
             if not lo < hi:
                 raise ValueError(f"q_min[{i}]: must be below q_max[{i}] ({lo} >= {hi})")
         if any(not t > 0 for t in self.torque_limit):
@@ -91,7 +91,7 @@ class PlanarChain:
 
     # ---- construction --------------------------------------------------------------
     @classmethod
-    def from_preset(cls, preset: HeadNeckPreset) -> "PlanarChain":
+    def from_preset(cls, preset: HeadNeckPreset) -> PlanarChain:
         """The 1-DOF head-neck chain (q_0 = theta) with the preset's headrest."""
         o = preset.headrest_origin
         head = Link(preset.mass, preset.com_distance, preset.inertia_com, preset.com_distance)
@@ -121,7 +121,7 @@ class PlanarChain:
         """World (x, z) of every link's COG (list of 2x1)."""
         joint = ca.DM(self.base)
         out = []
-        for link, phi in zip(self.links, self.angles(q)):
+        for link, phi in zip(self.links, self.angles(q), strict=False):
             axis = ca.vertcat(-ca.sin(phi), ca.cos(phi))  # rot2(phi) @ (0, 1)
             out.append(joint + link.com_distance * axis)
             joint = joint + link.length * axis
@@ -129,7 +129,7 @@ class PlanarChain:
 
     def potential_energy(self, q):  # type: ignore[no-untyped-def]
         """V(q) = sum m_i g z_i (zero at the height of the base joint)."""
-        return sum(link.mass * self.gravity * c[1] for link, c in zip(self.links, self.com_positions(q)))
+        return sum(link.mass * self.gravity * c[1] for link, c in zip(self.links, self.com_positions(q), strict=False))
 
     def contact_pose_world(self, q):  # type: ignore[no-untyped-def]
         """World (x, z) of the contact body frame origin and its absolute angle."""
@@ -148,7 +148,7 @@ class PlanarChain:
     def _fn_mass(self) -> ca.Function:
         q, _ = self._sym
         M = ca.SX.zeros(self.ndof, self.ndof)
-        for i, (link, c) in enumerate(zip(self.links, self.com_positions(q))):
+        for i, (link, c) in enumerate(zip(self.links, self.com_positions(q), strict=False)):
             Jv = ca.jacobian(c, q)
             Jw = ca.DM([[1.0 if j <= i else 0.0 for j in range(self.ndof)]])
             M += link.mass * ca.mtimes(Jv.T, Jv) + link.inertia_com * ca.mtimes(Jw.T, Jw)
@@ -171,7 +171,11 @@ class PlanarChain:
         T_rel = ca.vertcat(ca.horzcat(c, 0, -s), ca.horzcat(0, 1, 0), ca.horzcat(s, 0, c))
         omega_rel = ca.vertcat(0, -phid, 0)
         return ca.Function(
-            "relative_kinematics", [q, qd], [r_rel, v_rel, T_rel, omega_rel], ["q", "qd"], ["r_rel", "v_rel", "T_rel", "omega_rel"]
+            "relative_kinematics",
+            [q, qd],
+            [r_rel, v_rel, T_rel, omega_rel],
+            ["q", "qd"],
+            ["r_rel", "v_rel", "T_rel", "omega_rel"],
         )
 
     @cached_property

@@ -72,7 +72,7 @@ class Trajectory:
     def __len__(self) -> int:
         return int(self.t.shape[0])
 
-    def resample(self, t_new: np.ndarray) -> "Trajectory":
+    def resample(self, t_new: np.ndarray) -> Trajectory:
         """Linear interpolation onto ``t_new`` (must lie within the time span)."""
         t_new = np.asarray(t_new, float)
         if t_new.min() < self.t[0] - 1e-12 or t_new.max() > self.t[-1] + 1e-12:
@@ -80,7 +80,7 @@ class Trajectory:
         interp = lambda a: np.stack([np.interp(t_new, self.t, a[:, j]) for j in range(a.shape[1])], -1)  # noqa: E731
         return Trajectory(t_new, interp(self.q), interp(self.qd), None if self.tau is None else interp(self.tau))
 
-    def window(self, t0: float, t1: float) -> "Trajectory":
+    def window(self, t0: float, t1: float) -> Trajectory:
         m = (self.t >= t0 - 1e-12) & (self.t <= t1 + 1e-12)
         return Trajectory(self.t[m], self.q[m], self.qd[m], None if self.tau is None else self.tau[m])
 
@@ -103,7 +103,7 @@ class Trajectory:
         return text
 
     @classmethod
-    def from_csv(cls, source: str | Path | io.TextIOBase) -> "Trajectory":
+    def from_csv(cls, source: str | Path | io.TextIOBase) -> Trajectory:
         header, data = _read_csv(source)
         if not header or header[0] != "t":
             raise SeriesFormatError("t", "the first column must be 't'")
@@ -114,10 +114,17 @@ class Trajectory:
             raise SeriesFormatError("q_0", "missing: a trajectory needs columns q_0..q_{n-1}")
         n = len(q_cols)
         if len(qd_cols) != n:
-            raise SeriesFormatError(f"qd_{len(qd_cols)}" if len(qd_cols) < n else "qd", f"expected {n} velocity columns qd_0..qd_{n - 1}")
+            raise SeriesFormatError(
+                f"qd_{len(qd_cols)}" if len(qd_cols) < n else "qd", f"expected {n} velocity columns qd_0..qd_{n - 1}"
+            )
         if tau_cols and len(tau_cols) != n:
             raise SeriesFormatError("tau", f"expected {n} torque columns tau_0..tau_{n - 1} or none")
-        known = {"t"} | {f"q_{i}" for i in range(n)} | {f"qd_{i}" for i in range(n)} | {f"tau_{i}" for i in range(len(tau_cols))}
+        known = (
+            {"t"}
+            | {f"q_{i}" for i in range(n)}
+            | {f"qd_{i}" for i in range(n)}
+            | {f"tau_{i}" for i in range(len(tau_cols))}
+        )
         unknown = [c for c in header if c not in known]
         if unknown:
             raise SeriesFormatError(unknown[0], "unknown column")
@@ -162,7 +169,7 @@ class ForceSeries:
         return text
 
     @classmethod
-    def from_csv(cls, source: str | Path | io.TextIOBase) -> "ForceSeries":
+    def from_csv(cls, source: str | Path | io.TextIOBase) -> ForceSeries:
         header, data = _read_csv(source)
         expected = ["t", *FORCE_COLUMNS]
         for c in expected:
@@ -172,7 +179,11 @@ class ForceSeries:
         if unknown:
             raise SeriesFormatError(unknown[0], "unknown column (expected header t,fx,fy,fz,mx,my,mz)")
         col = {c: j for j, c in enumerate(header)}
-        return cls(data[:, col["t"]], data[:, [col[c] for c in FORCE_COLUMNS[:3]]], data[:, [col[c] for c in FORCE_COLUMNS[3:]]])
+        return cls(
+            data[:, col["t"]],
+            data[:, [col[c] for c in FORCE_COLUMNS[:3]]],
+            data[:, [col[c] for c in FORCE_COLUMNS[3:]]],
+        )
 
     @property
     def peak_force(self) -> float:
@@ -203,7 +214,9 @@ def _indexed(header: list[str], prefix: str) -> list[str]:
     idx = sorted(int(m.group(1)) for c in header if (m := pat.match(c)))
     if idx and idx != list(range(len(idx))):
         missing = sorted(set(range(max(idx) + 1)) - set(idx))
-        raise SeriesFormatError(f"{prefix}_{missing[0] if missing else idx[-1]}", "columns must be numbered 0..n-1 without gaps or repeats")
+        raise SeriesFormatError(
+            f"{prefix}_{missing[0] if missing else idx[-1]}", "columns must be numbered 0..n-1 without gaps or repeats"
+        )
     return [f"{prefix}_{i}" for i in idx]
 
 

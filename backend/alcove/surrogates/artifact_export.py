@@ -41,7 +41,10 @@ def artifact_zip_paths(versions: list[ModelVersion]) -> dict[int, Path]:
         env = {**os.environ, "ALCOVE_DATABASE_URL": get_settings().database_url}
         proc = subprocess.run(
             [sys.executable, "-m", "alcove.surrogates.artifact_export", str(cache_dir()), *map(str, missing)],
-            env=env, capture_output=True, text=True, timeout=BUILD_TIMEOUT_S,
+            env=env,
+            capture_output=True,
+            text=True,
+            timeout=BUILD_TIMEOUT_S,
         )
         if proc.returncode != 0:
             raise RuntimeError(f"building model artifacts failed ({proc.returncode}): {proc.stderr[-2000:]}")

@@ -13,4 +13,6 @@ def get_model_version(s: Session, model_version_id: int) -> ModelVersion | None:
 
 
 def by_campaign(s: Session, campaign_id: int) -> list[ModelVersion]:
-    return list(s.scalars(sa.select(ModelVersion).where(ModelVersion.campaign_id == campaign_id).order_by(ModelVersion.version)))
+    return list(
+        s.scalars(sa.select(ModelVersion).where(ModelVersion.campaign_id == campaign_id).order_by(ModelVersion.version))
+    )

@@ -38,7 +38,9 @@ class _In(BaseModel):
 class SurrogateConfigIn(_In):
     name: str = Field(min_length=1, max_length=200)
     description: str = Field("", max_length=20_000)
-    spec: SurrogateSpec = Field(default_factory=SurrogateSpec, description="defaults: the paper's networks and training protocol")
+    spec: SurrogateSpec = Field(
+        default_factory=SurrogateSpec, description="defaults: the paper's networks and training protocol"
+    )
     note: str = Field("", max_length=2000)
 
 
@@ -61,30 +63,58 @@ class SurrogateConfigVersionOut(VersionMeta):
     spec: dict[str, Any]
 
 
-def config_out(session: SessionDep, definition: SurrogateConfig, version: Any, user: User, owner_email: str | None = None) -> SurrogateConfigOut:
+def config_out(
+    session: SessionDep, definition: SurrogateConfig, version: Any, user: User, owner_email: str | None = None
+) -> SurrogateConfigOut:
     return SurrogateConfigOut(
-        id=definition.id, name=definition.name, description=definition.description, owner_id=definition.owner_id,
-        owner=owner_email or (definition.owner.email if definition.owner else None), preset_key=definition.preset_key, version=version.version,
-        version_locked=versioning.is_used(session, KIND, version), can_edit=can_edit(session, definition, user), archived=definition.archived_at is not None,
-        created_at=definition.created_at, updated_at=definition.updated_at, spec=version.spec,
+        id=definition.id,
+        name=definition.name,
+        description=definition.description,
+        owner_id=definition.owner_id,
+        owner=owner_email or (definition.owner.email if definition.owner else None),
+        preset_key=definition.preset_key,
+        version=version.version,
+        version_locked=versioning.is_used(session, KIND, version),
+        can_edit=can_edit(session, definition, user),
+        archived=definition.archived_at is not None,
+        created_at=definition.created_at,
+        updated_at=definition.updated_at,
+        spec=version.spec,
     )
 
 
 def version_out(session: SessionDep, version: Any) -> SurrogateConfigVersionOut:
     return SurrogateConfigVersionOut(
-        version=version.version, spec_hash=version.spec_hash, note=version.note, locked=versioning.is_used(session, KIND, version), created_at=version.created_at, spec=version.spec
+        version=version.version,
+        spec_hash=version.spec_hash,
+        note=version.note,
+        locked=versioning.is_used(session, KIND, version),
+        created_at=version.created_at,
+        spec=version.spec,
     )
 
 
 @router.get("", response_model=list[SurrogateConfigOut], operation_id="list_surrogate_configs")
-def list_surrogate_configs(user: CurrentUser, session: SessionDep, include_archived: bool = False, limit: Limit = 100, offset: Offset = 0) -> list[SurrogateConfigOut]:
+def list_surrogate_configs(
+    user: CurrentUser, session: SessionDep, include_archived: bool = False, limit: Limit = 100, offset: Offset = 0
+) -> list[SurrogateConfigOut]:
     rows = versioning.list_visible(session, KIND, user, include_archived=include_archived, limit=limit, offset=offset)
     return [config_out(session, d, v, user, email) for d, v, email in rows]
 
 
-@router.post("", response_model=SurrogateConfigOut, status_code=status.HTTP_201_CREATED, operation_id="create_surrogate_config")
+@router.post(
+    "", response_model=SurrogateConfigOut, status_code=status.HTTP_201_CREATED, operation_id="create_surrogate_config"
+)
 def create_surrogate_config(body: SurrogateConfigIn, user: CurrentUser, session: SessionDep) -> SurrogateConfigOut:
-    definition, version = versioning.create(session, KIND, user, name=body.name, description=body.description, spec=body.spec.model_dump(mode="json"), note=body.note)
+    definition, version = versioning.create(
+        session,
+        KIND,
+        user,
+        name=body.name,
+        description=body.description,
+        spec=body.spec.model_dump(mode="json"),
+        note=body.note,
+    )
     session.commit()
     return config_out(session, definition, version, user, user.email)
 
@@ -111,10 +141,14 @@ def get_surrogate_config(config_id: ObjectId, user: CurrentUser, session: Sessio
 
 
 @router.put("/{config_id}", response_model=SurrogateConfigOut, operation_id="update_surrogate_config")
-def update_surrogate_config(config_id: ObjectId, body: SurrogateConfigUpdate, user: CurrentUser, session: SessionDep) -> SurrogateConfigOut:
+def update_surrogate_config(
+    config_id: ObjectId, body: SurrogateConfigUpdate, user: CurrentUser, session: SessionDep
+) -> SurrogateConfigOut:
     definition = get_for(session, SurrogateConfig, config_id, user, need="edit")
     spec = None if body.spec is None else body.spec.model_dump(mode="json")
-    version, _ = versioning.update(session, KIND, definition, user, name=body.name, description=body.description, spec=spec, note=body.note)
+    version, _ = versioning.update(
+        session, KIND, definition, user, name=body.name, description=body.description, spec=spec, note=body.note
+    )
     session.commit()
     return config_out(session, definition, version, user)
 
@@ -126,14 +160,26 @@ def delete_surrogate_config(config_id: ObjectId, user: CurrentUser, session: Ses
     return Response(status_code=status.HTTP_204_NO_CONTENT)
 
 
-@router.get("/{config_id}/versions", response_model=list[SurrogateConfigVersionOut], operation_id="list_surrogate_config_versions")
-def list_surrogate_config_versions(config_id: ObjectId, user: CurrentUser, session: SessionDep) -> list[SurrogateConfigVersionOut]:
+@router.get(
+    "/{config_id}/versions",
+    response_model=list[SurrogateConfigVersionOut],
+    operation_id="list_surrogate_config_versions",
+)
+def list_surrogate_config_versions(
+    config_id: ObjectId, user: CurrentUser, session: SessionDep
+) -> list[SurrogateConfigVersionOut]:
     definition = get_for(session, SurrogateConfig, config_id, user)
     return [version_out(session, v) for v in versioning.versions(session, KIND, definition)]
 
 
-@router.get("/{config_id}/versions/{version}", response_model=SurrogateConfigVersionOut, operation_id="get_surrogate_config_version")
-def get_surrogate_config_version(config_id: ObjectId, version: VersionNumber, user: CurrentUser, session: SessionDep) -> SurrogateConfigVersionOut:
+@router.get(
+    "/{config_id}/versions/{version}",
+    response_model=SurrogateConfigVersionOut,
+    operation_id="get_surrogate_config_version",
+)
+def get_surrogate_config_version(
+    config_id: ObjectId, version: VersionNumber, user: CurrentUser, session: SessionDep
+) -> SurrogateConfigVersionOut:
     definition = get_for(session, SurrogateConfig, config_id, user)
     return version_out(session, versioning.get_version(session, KIND, definition, version))
 
@@ -141,7 +187,9 @@ def get_surrogate_config_version(config_id: ObjectId, version: VersionNumber, us
 # ----------------------------------------------------------------------------- model versions
 
 
-@model_versions.get("/{campaign_id}/model-versions", response_model=list[ModelVersionRead], operation_id="list_model_versions")
+@model_versions.get(
+    "/{campaign_id}/model-versions", response_model=list[ModelVersionRead], operation_id="list_model_versions"
+)
 def list_model_versions(campaign_id: ObjectId, user: CurrentUser, session: SessionDep) -> list[ModelVersionRead]:
     """Trained models with lineage (pool version, parent model, seed, code and library versions)."""
     get_for(session, Campaign, campaign_id, user)
@@ -155,15 +203,26 @@ def _model_version(session: Session, campaign_id: int, version: int) -> ModelVer
     return mv
 
 
-@model_versions.get("/{campaign_id}/model-versions/{version}/artifact", response_model=dict[str, Any], operation_id="get_model_artifact")
-def get_model_artifact(campaign_id: ObjectId, version: VersionNumber, user: CurrentUser, session: SessionDep) -> dict[str, Any]:
+@model_versions.get(
+    "/{campaign_id}/model-versions/{version}/artifact", response_model=dict[str, Any], operation_id="get_model_artifact"
+)
+def get_model_artifact(
+    campaign_id: ObjectId, version: VersionNumber, user: CurrentUser, session: SessionDep
+) -> dict[str, Any]:
     """The self-contained artifact document (architecture, weights, normalisation, lineage) as JSON."""
     get_for(session, Campaign, campaign_id, user)
     return artifact_document(session, _model_version(session, campaign_id, version))
 
 
-@model_versions.get("/{campaign_id}/model-versions/{version}/artifact.zip", operation_id="download_model_artifact", response_class=Response, responses={200: BINARY})
-def download_model_artifact(campaign_id: ObjectId, version: VersionNumber, user: CurrentUser, session: SessionDep) -> Response:
+@model_versions.get(
+    "/{campaign_id}/model-versions/{version}/artifact.zip",
+    operation_id="download_model_artifact",
+    response_class=Response,
+    responses={200: BINARY},
+)
+def download_model_artifact(
+    campaign_id: ObjectId, version: VersionNumber, user: CurrentUser, session: SessionDep
+) -> Response:
     """The artifact as a zip: ``surrogate.json`` + TorchScript ``force.pt`` / ``moment.pt``
     (built once by a child process, then cached)."""
     get_for(session, Campaign, campaign_id, user)

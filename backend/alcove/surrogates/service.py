@@ -34,7 +34,7 @@ if TYPE_CHECKING:
 ARTIFACT_MEDIA_TYPE = "application/vnd.alcove.surrogate+json"
 
 _lock = threading.Lock()
-_models: "OrderedDict[str, SurrogateModel]" = OrderedDict()
+_models: OrderedDict[str, SurrogateModel] = OrderedDict()
 
 
 @lru_cache
@@ -44,7 +44,9 @@ def code_version() -> str:
 
     root = Path(alcove.__file__).resolve().parents[2]
     try:
-        commit = subprocess.run(["git", "-C", str(root), "rev-parse", "--short", "HEAD"], capture_output=True, text=True, timeout=5).stdout.strip()
+        commit = subprocess.run(
+            ["git", "-C", str(root), "rev-parse", "--short", "HEAD"], capture_output=True, text=True, timeout=5
+        ).stdout.strip()
     except (OSError, subprocess.SubprocessError):
         commit = ""
     return f"{alcove.__version__}+{commit}" if commit else alcove.__version__
@@ -56,32 +58,74 @@ def library_versions() -> dict[str, str]:
     import scipy
     import torch
 
-    return {"python": platform.python_version(), "numpy": np.__version__, "scipy": scipy.__version__, "torch": torch.__version__, "casadi": casadi.__version__}
+    return {
+        "python": platform.python_version(),
+        "numpy": np.__version__,
+        "scipy": scipy.__version__,
+        "torch": torch.__version__,
+        "casadi": casadi.__version__,
+    }
 
 
 def store_model(
-    s: Session, result: "TrainingResult", *, campaign_id: int, iteration_id: int, version: int, pool_version_id: int,
-    parent_model_id: int | None, surrogate_config_version_id: int | None, seed: int, lineage: dict[str, Any] | None = None,
+    s: Session,
+    result: TrainingResult,
+    *,
+    campaign_id: int,
+    iteration_id: int,
+    version: int,
+    pool_version_id: int,
+    parent_model_id: int | None,
+    surrogate_config_version_id: int | None,
+    seed: int,
+    lineage: dict[str, Any] | None = None,
 ) -> ModelVersion:
     from alcove.science.surrogate.artifact import artifact_dict
 
     model = result.model
-    weights = {f"{k}.{n}": p.detach().double().numpy() for k, net in (("force", model.force_net), ("moment", model.moment_net)) for n, p in net.state_dict().items()}
+    weights = {
+        f"{k}.{n}": p.detach().double().numpy()
+        for k, net in (("force", model.force_net), ("moment", model.moment_net))
+        for n, p in net.state_dict().items()
+    }
     weights_sha = put_arrays(s, weights)
-    doc = artifact_dict(model, {**(lineage or {}), "campaign_id": campaign_id, "iteration": version, "pool_version_id": pool_version_id, "parent_model_id": parent_model_id})
+    doc = artifact_dict(
+        model,
+        {
+            **(lineage or {}),
+            "campaign_id": campaign_id,
+            "iteration": version,
+            "pool_version_id": pool_version_id,
+            "parent_model_id": parent_model_id,
+        },
+    )
     artifact_sha = put_bytes(s, json.dumps(doc, sort_keys=True).encode(), ARTIFACT_MEDIA_TYPE)
     m = result.metrics
     mv = ModelVersion(
-        campaign_id=campaign_id, iteration_id=iteration_id, version=version, pool_version_id=pool_version_id, parent_model_id=parent_model_id,
-        surrogate_config_version_id=surrogate_config_version_id, seed=int(seed),
-        architecture={"force": doc["networks"]["force"]["hidden"], "moment": doc["networks"]["moment"]["hidden"],
-                      "activation": {"force": model.force_net.activation, "moment": model.moment_net.activation}, "dtype": model.config.dtype},
+        campaign_id=campaign_id,
+        iteration_id=iteration_id,
+        version=version,
+        pool_version_id=pool_version_id,
+        parent_model_id=parent_model_id,
+        surrogate_config_version_id=surrogate_config_version_id,
+        seed=int(seed),
+        architecture={
+            "force": doc["networks"]["force"]["hidden"],
+            "moment": doc["networks"]["moment"]["hidden"],
+            "activation": {"force": model.force_net.activation, "moment": model.moment_net.activation},
+            "dtype": model.config.dtype,
+        },
         normalisation=doc["normalization"]["input"],
         training_config=model.config.model_dump(mode="json"),
         training_metrics={**m.to_dict(), "test_sets": result.split.test_sets, "history": result.history},
-        test_force_rmse=m.rmse["force"]["test"], test_moment_rmse=m.rmse["moment"]["test"],
-        epochs=max(m.epochs.values()) if m.epochs else None, train_wall_time_s=m.wall_time_s,
-        weights_sha256=weights_sha, artifact_sha256=artifact_sha, code_version=code_version(), library_versions=library_versions(),
+        test_force_rmse=m.rmse["force"]["test"],
+        test_moment_rmse=m.rmse["moment"]["test"],
+        epochs=max(m.epochs.values()) if m.epochs else None,
+        train_wall_time_s=m.wall_time_s,
+        weights_sha256=weights_sha,
+        artifact_sha256=artifact_sha,
+        code_version=code_version(),
+        library_versions=library_versions(),
     )
     s.add(mv)
     s.flush()
@@ -96,7 +140,7 @@ def artifact_document(s: Session, mv: ModelVersion) -> dict[str, Any]:
     return json.loads(get_bytes(s, mv.artifact_sha256))
 
 
-def load_model(s: Session, mv: ModelVersion) -> "SurrogateModel":
+def load_model(s: Session, mv: ModelVersion) -> SurrogateModel:
     """The trained model of a version (cached per process: artifacts are immutable)."""
     from alcove.science.surrogate.artifact import model_from_dict
 

@@ -14,14 +14,26 @@ from alcove.models import TaskDefinition, User
 from alcove.science.ocp.task_spec import TaskSpec
 from alcove.tasks import repository as repo
 from alcove.tasks import service
-from alcove.tasks.schemas import CopyPreset, FieldErrorOut, TaskDraft, TaskIn, TaskOut, TaskPresetOut, TaskUpdate, TaskVersionOut, ValidationReport
+from alcove.tasks.schemas import (
+    CopyPreset,
+    FieldErrorOut,
+    TaskDraft,
+    TaskIn,
+    TaskOut,
+    TaskPresetOut,
+    TaskUpdate,
+    TaskVersionOut,
+    ValidationReport,
+)
 from alcove.users.access import can_edit
 
 router = APIRouter(prefix="/tasks", tags=["tasks"])
 PresetKey = Annotated[str, Path(min_length=1, max_length=100)]
 
 
-def task_out(session: SessionDep, definition: TaskDefinition, version: Any, user: User, owner_email: str | None = None) -> TaskOut:
+def task_out(
+    session: SessionDep, definition: TaskDefinition, version: Any, user: User, owner_email: str | None = None
+) -> TaskOut:
     spec = TaskSpec.model_validate(version.spec)
     return TaskOut(
         id=definition.id,
@@ -45,12 +57,19 @@ def task_out(session: SessionDep, definition: TaskDefinition, version: Any, user
 
 def version_out(session: SessionDep, version: Any) -> TaskVersionOut:
     return TaskVersionOut(
-        version=version.version, spec_hash=version.spec_hash, note=version.note, locked=repo.is_used(session, version), created_at=version.created_at, spec=version.spec
+        version=version.version,
+        spec_hash=version.spec_hash,
+        note=version.note,
+        locked=repo.is_used(session, version),
+        created_at=version.created_at,
+        spec=version.spec,
     )
 
 
 @router.get("", response_model=list[TaskOut], operation_id="list_tasks")
-def list_tasks(user: CurrentUser, session: SessionDep, include_archived: bool = False, limit: Limit = 100, offset: Offset = 0) -> list[TaskOut]:
+def list_tasks(
+    user: CurrentUser, session: SessionDep, include_archived: bool = False, limit: Limit = 100, offset: Offset = 0
+) -> list[TaskOut]:
     """Your task definitions and those shared with you (latest versions), newest first."""
     rows = repo.list_visible(session, user, include_archived=include_archived, limit=limit, offset=offset)
     return [task_out(session, d, v, user, email) for d, v, email in rows]
@@ -58,7 +77,9 @@ def list_tasks(user: CurrentUser, session: SessionDep, include_archived: bool = 
 
 @router.post("", response_model=TaskOut, status_code=status.HTTP_201_CREATED, operation_id="create_task")
 def create_task(body: TaskIn, user: CurrentUser, session: SessionDep) -> TaskOut:
-    definition, version = service.create(session, user, name=body.name, description=body.description, spec=body.spec, note=body.note)
+    definition, version = service.create(
+        session, user, name=body.name, description=body.description, spec=body.spec, note=body.note
+    )
     session.commit()
     return task_out(session, definition, version, user, user.email)
 
@@ -69,7 +90,9 @@ def list_task_presets(user: CurrentUser) -> list[TaskPresetOut]:
     return [TaskPresetOut(**p) for p in service.presets()]
 
 
-@router.post("/presets/{key}/copy", response_model=TaskOut, status_code=status.HTTP_201_CREATED, operation_id="copy_task_preset")
+@router.post(
+    "/presets/{key}/copy", response_model=TaskOut, status_code=status.HTTP_201_CREATED, operation_id="copy_task_preset"
+)
 def copy_task_preset(key: PresetKey, user: CurrentUser, session: SessionDep, body: CopyPreset | None = None) -> TaskOut:
     """Create your own editable task from a preset."""
     definition, version = service.copy_preset(session, user, key, body.name if body else None)
@@ -100,7 +123,9 @@ def get_task(task_id: ObjectId, user: CurrentUser, session: SessionDep) -> TaskO
 def update_task(task_id: ObjectId, body: TaskUpdate, user: CurrentUser, session: SessionDep) -> TaskOut:
     """Rename or edit. A changed ``spec`` edits the latest version while no campaign uses it,
     and otherwise creates a new version (used versions never change)."""
-    definition, version, _ = service.update(session, user, task_id, name=body.name, description=body.description, spec=body.spec, note=body.note)
+    definition, version, _ = service.update(
+        session, user, task_id, name=body.name, description=body.description, spec=body.spec, note=body.note
+    )
     session.commit()
     return task_out(session, definition, version, user)
 
@@ -121,6 +146,8 @@ def list_task_versions(task_id: ObjectId, user: CurrentUser, session: SessionDep
 
 
 @router.get("/{task_id}/versions/{version}", response_model=TaskVersionOut, operation_id="get_task_version")
-def get_task_version(task_id: ObjectId, version: VersionNumber, user: CurrentUser, session: SessionDep) -> TaskVersionOut:
+def get_task_version(
+    task_id: ObjectId, version: VersionNumber, user: CurrentUser, session: SessionDep
+) -> TaskVersionOut:
     definition = repo.get_task(session, task_id, user)
     return version_out(session, repo.get_version(session, definition, version))

@@ -25,7 +25,9 @@ class DefinitionMeta(BaseModel):
     owner: str | None = Field(None, description="owner's e-mail")
     preset_key: str | None
     version: int = Field(description="latest version number")
-    version_locked: bool = Field(description="the latest version is used by a campaign: the next edit of the content creates a new version")
+    version_locked: bool = Field(
+        description="the latest version is used by a campaign: the next edit of the content creates a new version"
+    )
     can_edit: bool
     archived: bool
     created_at: datetime
@@ -87,14 +89,16 @@ class FieldErrorOut(BaseModel):
     type: str
 
     @classmethod
-    def of(cls, e: FieldError) -> "FieldErrorOut":
+    def of(cls, e: FieldError) -> FieldErrorOut:
         return cls(**e.as_dict())
 
 
 class ValidationReport(BaseModel):
     valid: bool
     errors: list[FieldErrorOut] = Field(description="field-level problems (paths relative to the request body)")
-    normalized: dict[str, Any] | None = Field(None, description="the validated content with defaults filled in, when valid")
+    normalized: dict[str, Any] | None = Field(
+        None, description="the validated content with defaults filled in, when valid"
+    )
 
 
 class CopyPreset(_In):

@@ -31,13 +31,42 @@ def dump(spec: TaskSpec) -> dict[str, Any]:
     return spec.model_dump(mode="json")
 
 
-def create(session: Session, owner: User, *, name: str, description: str, spec: TaskSpec, note: str = "", preset_key: str | None = None) -> tuple[TaskDefinition, Any]:
-    return versioning.create(session, KIND, owner, name=name, description=description, spec=dump(spec), preset_key=preset_key, note=note)
+def create(
+    session: Session,
+    owner: User,
+    *,
+    name: str,
+    description: str,
+    spec: TaskSpec,
+    note: str = "",
+    preset_key: str | None = None,
+) -> tuple[TaskDefinition, Any]:
+    return versioning.create(
+        session, KIND, owner, name=name, description=description, spec=dump(spec), preset_key=preset_key, note=note
+    )
 
 
-def update(session: Session, user: User, task_id: int, *, name: str | None, description: str | None, spec: TaskSpec | None, note: str) -> tuple[TaskDefinition, Any, bool]:
+def update(
+    session: Session,
+    user: User,
+    task_id: int,
+    *,
+    name: str | None,
+    description: str | None,
+    spec: TaskSpec | None,
+    note: str,
+) -> tuple[TaskDefinition, Any, bool]:
     definition = repo.get_task(session, task_id, user, need="edit")
-    version, created = versioning.update(session, KIND, definition, user, name=name, description=description, spec=None if spec is None else dump(spec), note=note)
+    version, created = versioning.update(
+        session,
+        KIND,
+        definition,
+        user,
+        name=name,
+        description=description,
+        spec=None if spec is None else dump(spec),
+        note=note,
+    )
     return definition, version, created
 
 
@@ -53,7 +82,15 @@ def copy_preset(session: Session, owner: User, key: str, name: str | None) -> tu
     if key not in TASK_PRESETS:
         raise NotFound("task preset", key)
     spec = TaskSpec.model_validate(TASK_PRESETS[key])
-    return create(session, owner, name=name or spec.name, description=spec.description, spec=spec, preset_key=key, note=f"copied from preset {key}")
+    return create(
+        session,
+        owner,
+        name=name or spec.name,
+        description=spec.description,
+        spec=spec,
+        preset_key=key,
+        note=f"copied from preset {key}",
+    )
 
 
 def json_schema() -> dict[str, Any]:

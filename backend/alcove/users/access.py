@@ -26,7 +26,12 @@ SHARE_COLUMN = {
     SurrogateConfig: Share.surrogate_config_id,
     Campaign: Share.campaign_id,
 }
-OBJECT_TYPES: dict[str, type] = {"task": TaskDefinition, "oracle": OracleDefinition, "surrogate_config": SurrogateConfig, "campaign": Campaign}
+OBJECT_TYPES: dict[str, type] = {
+    "task": TaskDefinition,
+    "oracle": OracleDefinition,
+    "surrogate_config": SurrogateConfig,
+    "campaign": Campaign,
+}
 LABEL = {TaskDefinition: "task", OracleDefinition: "oracle", SurrogateConfig: "surrogate config", Campaign: "campaign"}
 
 

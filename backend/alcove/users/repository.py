@@ -23,7 +23,11 @@ def list_users(session: Session) -> Sequence[User]:
 
 
 def token_with_user(session: Session, secret: str) -> tuple[ApiToken, User] | None:
-    row = session.execute(sa.select(ApiToken, User).join(User, ApiToken.user_id == User.id).where(ApiToken.token_hash == hash_token(secret))).first()
+    row = session.execute(
+        sa.select(ApiToken, User)
+        .join(User, ApiToken.user_id == User.id)
+        .where(ApiToken.token_hash == hash_token(secret))
+    ).first()
     return (row[0], row[1]) if row else None
 
 
@@ -35,4 +39,6 @@ def list_tokens(session: Session, user: User, *, include_sessions: bool = False)
 
 
 def shares_of(session: Session, column: sa.ColumnElement, object_id: int) -> Sequence[tuple[Share, User]]:
-    return session.execute(sa.select(Share, User).join(User, Share.user_id == User.id).where(column == object_id).order_by(Share.id)).all()  # type: ignore[return-value]
+    return session.execute(
+        sa.select(Share, User).join(User, Share.user_id == User.id).where(column == object_id).order_by(Share.id)
+    ).all()  # type: ignore[return-value]

@@ -6,11 +6,10 @@ from typing import Annotated
 
 from fastapi import APIRouter, Query, Request, Response, status
 
-from alcove.api.params import MAX_ID, ObjectId
-
 from alcove.api.auth import AdminUser, CurrentToken, CurrentUser
 from alcove.api.deps import SessionDep
 from alcove.api.errors import ErrorOut
+from alcove.api.params import MAX_ID, ObjectId
 from alcove.errors import AuthenticationFailed, LoginLocked
 from alcove.users import repository as repo
 from alcove.users import service
@@ -32,11 +31,17 @@ from alcove.users.schemas import (
 
 router = APIRouter()
 
-AUTH_ERRORS = {401: {"model": ErrorOut, "description": "wrong e-mail or password"}, 429: {"model": ErrorOut, "description": "too many failed logins (see Retry-After)"}}
+AUTH_ERRORS = {
+    401: {"model": ErrorOut, "description": "wrong e-mail or password"},
+    429: {"model": ErrorOut, "description": "too many failed logins (see Retry-After)"},
+}
 
 
-def _token_out(token, secret: str | None = None) -> TokenOut:  # noqa: ANN001
-    data = {c: getattr(token, c) for c in ("id", "name", "kind", "token_prefix", "created_at", "last_used_at", "expires_at", "revoked_at")}
+def _token_out(token, secret: str | None = None) -> TokenOut:
+    data = {
+        c: getattr(token, c)
+        for c in ("id", "name", "kind", "token_prefix", "created_at", "last_used_at", "expires_at", "revoked_at")
+    }
     data["revoked"] = token.revoked_at is not None
     return TokenCreated(**data, token=secret) if secret else TokenOut(**data)
 
@@ -87,7 +92,13 @@ def list_tokens(user: CurrentUser, session: SessionDep, include_sessions: bool =
     return [_token_out(t) for t in repo.list_tokens(session, user, include_sessions=include_sessions)]
 
 
-@router.post("/me/tokens", response_model=TokenCreated, status_code=status.HTTP_201_CREATED, tags=["me"], operation_id="create_token")
+@router.post(
+    "/me/tokens",
+    response_model=TokenCreated,
+    status_code=status.HTTP_201_CREATED,
+    tags=["me"],
+    operation_id="create_token",
+)
 def create_token(body: TokenCreate, user: CurrentUser, session: SessionDep) -> TokenOut:
     """Create a personal API token. The secret is in this response only."""
     token, secret = service.create_token(session, user, body.name, body.expires_in_days)
@@ -95,7 +106,9 @@ def create_token(body: TokenCreate, user: CurrentUser, session: SessionDep) -> T
     return _token_out(token, secret)
 
 
-@router.delete("/me/tokens/{token_id}", status_code=status.HTTP_204_NO_CONTENT, tags=["me"], operation_id="revoke_token")
+@router.delete(
+    "/me/tokens/{token_id}", status_code=status.HTTP_204_NO_CONTENT, tags=["me"], operation_id="revoke_token"
+)
 def revoke_token(token_id: ObjectId, user: CurrentUser, session: SessionDep) -> Response:
     service.revoke_token(session, user, token_id)
     session.commit()
@@ -110,7 +123,9 @@ def list_users(admin: AdminUser, session: SessionDep) -> list[UserOut]:
     return [UserOut.model_validate(u) for u in repo.list_users(session)]
 
 
-@router.post("/users", response_model=UserOut, status_code=status.HTTP_201_CREATED, tags=["users"], operation_id="create_user")
+@router.post(
+    "/users", response_model=UserOut, status_code=status.HTTP_201_CREATED, tags=["users"], operation_id="create_user"
+)
 def create_user(body: UserCreate, admin: AdminUser, session: SessionDep) -> UserOut:
     user = service.create_user(session, body)
     session.commit()
@@ -132,7 +147,13 @@ def update_user(user_id: ObjectId, body: UserUpdate, admin: AdminUser, session: 
 # ----------------------------------------------------------------------------- sharing
 
 
-@router.post("/shares", response_model=ShareOut, status_code=status.HTTP_201_CREATED, tags=["sharing"], operation_id="create_share")
+@router.post(
+    "/shares",
+    response_model=ShareOut,
+    status_code=status.HTTP_201_CREATED,
+    tags=["sharing"],
+    operation_id="create_share",
+)
 def create_share(body: ShareCreate, user: CurrentUser, session: SessionDep) -> ShareOut:
     """Share one of your objects with another user (view or edit); sharing again updates the permission."""
     out = service.share(session, user, body)
@@ -148,7 +169,9 @@ def list_shares(
     return service.list_shares(session, user, object_type, object_id)
 
 
-@router.delete("/shares/{share_id}", status_code=status.HTTP_204_NO_CONTENT, tags=["sharing"], operation_id="delete_share")
+@router.delete(
+    "/shares/{share_id}", status_code=status.HTTP_204_NO_CONTENT, tags=["sharing"], operation_id="delete_share"
+)
 def delete_share(share_id: ObjectId, user: CurrentUser, session: SessionDep) -> Response:
     service.delete_share(session, user, share_id)
     session.commit()

@@ -55,7 +55,9 @@ class UserUpdate(_In):
     display_name: str | None = Field(None, max_length=200)
     role: Literal["admin", "member"] | None = None
     is_active: bool | None = None
-    password: str | None = Field(None, min_length=8, max_length=1024, description="set a new password (and lift a login lockout)")
+    password: str | None = Field(
+        None, min_length=8, max_length=1024, description="set a new password (and lift a login lockout)"
+    )
 
 
 class MeUpdate(_In):

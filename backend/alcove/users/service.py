@@ -9,7 +9,6 @@ from typing import TypeVar
 
 import sqlalchemy as sa
 from sqlalchemy.orm import Session, make_transient_to_detached
-from sqlalchemy.orm.attributes import set_committed_value
 
 from alcove.errors import AuthenticationFailed, Conflict, InvalidInput, LoginLocked, NotFound, PermissionDenied
 from alcove.models import ApiToken, Role, Share, TokenKind, User, hash_password, hash_token, utcnow
@@ -49,7 +48,9 @@ def login(session: Session, email: str, password: str) -> tuple[ApiToken, str]:
         _burn_a_hash(password)
         raise AuthenticationFailed("wrong e-mail or password")
     if user.locked_until is not None and user.locked_until > now:
-        raise LoginLocked("too many failed logins: account locked for a while", int((user.locked_until - now).total_seconds()) + 1)
+        raise LoginLocked(
+            "too many failed logins: account locked for a while", int((user.locked_until - now).total_seconds()) + 1
+        )
     if not user.check_password(password):
         user.failed_login_count += 1
         if user.failed_login_count >= MAX_FAILED_LOGINS:
@@ -215,7 +216,9 @@ def update_user(session: Session, admin: User, user_id: int, body: UserUpdate) -
     return user
 
 
-def update_me(session: Session, user: User, display_name: str | None, new_password: str | None, current_password: str | None) -> User:
+def update_me(
+    session: Session, user: User, display_name: str | None, new_password: str | None, current_password: str | None
+) -> User:
     if display_name is not None:
         user.display_name = display_name
     if new_password is not None:
@@ -233,7 +236,15 @@ def _share_out(share: Share, grantee: User) -> ShareOut:
     for object_type, model in OBJECT_TYPES.items():
         object_id = getattr(share, SHARE_COLUMN[model].key)
         if object_id is not None:
-            return ShareOut(id=share.id, object_type=object_type, object_id=object_id, user_id=grantee.id, email=grantee.email, permission=share.permission, created_at=share.created_at)  # type: ignore[arg-type]
+            return ShareOut(
+                id=share.id,
+                object_type=object_type,
+                object_id=object_id,
+                user_id=grantee.id,
+                email=grantee.email,
+                permission=share.permission,
+                created_at=share.created_at,
+            )  # type: ignore[arg-type]
     raise AssertionError("share without object")
 
 

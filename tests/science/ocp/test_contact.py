@@ -6,7 +6,6 @@ import pytest
 
 from alcove.science.geometry import DEFAULT_PRESET, relative_kinematics
 from alcove.science.multibody import PlanarChain
-from alcove.science.oracles.aux_penalty import AuxPenaltyParams, aux_penalty_wrench, contact_point
 from alcove.science.ocp.contact import (
     AuxSmoothing,
     ContactModelError,
@@ -15,10 +14,11 @@ from alcove.science.ocp.contact import (
     contact_from_spec,
     no_contact,
 )
+from alcove.science.oracles.aux_penalty import AuxPenaltyParams, aux_penalty_wrench, contact_point
 
 
 def wrench(fn, theta, theta_dot):
-    return np.array([np.asarray(fn(t, td)).ravel() for t, td in zip(theta, theta_dot)])
+    return np.array([np.asarray(fn(t, td)).ravel() for t, td in zip(theta, theta_dot, strict=False)])
 
 
 def literal(theta, theta_dot, params=AuxPenaltyParams()):
@@ -61,7 +61,9 @@ def test_contact_carries_the_head_at_a_resting_angle():
     chain = PlanarChain.from_preset(DEFAULT_PRESET)
     fn = aux_contact(DEFAULT_PRESET)
     theta = np.linspace(0.30, 0.43, 200)
-    net = np.array([float(chain.gravity_force(t)) + float(ca.mtimes(chain.contact_jacobian(t).T, fn(t, 0))) for t in theta])
+    net = np.array(
+        [float(chain.gravity_force(t)) + float(ca.mtimes(chain.contact_jacobian(t).T, fn(t, 0))) for t in theta]
+    )
     assert net[0] > 0 and net[-1] < 0  # gravity wins before contact, the cushion wins deep in it
     rest = theta[np.argmin(np.abs(net))]
     assert DEFAULT_PRESET.theta_contact < rest < DEFAULT_PRESET.theta_max
@@ -70,13 +72,13 @@ def test_contact_carries_the_head_at_a_resting_angle():
 def test_slot_checks_name_the_problem():
     check_contact_function(no_contact(1), 1)
     q2, qd2, q1, qd1 = ca.SX.sym("q", 2), ca.SX.sym("qd", 2), ca.SX.sym("q"), ca.SX.sym("qd")
-    with pytest.raises(ContactModelError, match="contact.q"):
+    with pytest.raises(ContactModelError, match=r"contact.q"):
         check_contact_function(ca.Function("f", [q2, qd2], [ca.SX.zeros(6)]), 1)
-    with pytest.raises(ContactModelError, match="contact.wrench"):
+    with pytest.raises(ContactModelError, match=r"contact.wrench"):
         check_contact_function(ca.Function("f", [q1, qd1], [ca.SX.zeros(3)]), 1)
-    with pytest.raises(ContactModelError, match="^contact: expected inputs"):
+    with pytest.raises(ContactModelError, match=r"^contact: expected inputs"):
         check_contact_function(ca.Function("f", [q1], [ca.SX.zeros(6)]), 1)
-    with pytest.raises(ContactModelError, match="^contact: unknown contact model"):
+    with pytest.raises(ContactModelError, match=r"^contact: unknown contact model"):
         contact_from_spec("bogus", DEFAULT_PRESET)
     with pytest.raises(ContactModelError, match="does not exist"):
         contact_from_spec("model:/nonexistent/surrogate.json", DEFAULT_PRESET)
@@ -110,5 +112,5 @@ def test_a_contact_without_symbolic_derivatives_is_rejected_clearly():
     opaque = _OpaqueContact()
     q, qd = ca.MX.sym("q"), ca.MX.sym("qd")
     wrapped = ca.Function("wrapped", [q, qd], [opaque(q, qd)])
-    with pytest.raises(ContactModelError, match="^contact: must be twice differentiable"):
+    with pytest.raises(ContactModelError, match=r"^contact: must be twice differentiable"):
         solve_task(task_preset("head-headrest-2phase").with_intervals(5), wrapped)

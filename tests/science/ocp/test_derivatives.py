@@ -35,7 +35,11 @@ def compare(chain, problem, contact=None, seed=0):
 
 @pytest.mark.parametrize(
     "qd_start, qd_end, endpoint",
-    [(np.zeros(1), np.zeros(1), {}), (None, np.zeros(1), {"endpoint_w_q": 2.0, "endpoint_q_ref": np.array([0.3])}), (np.array([0.4]), None, {"endpoint_w_qd": 0.7})],
+    [
+        (np.zeros(1), np.zeros(1), {}),
+        (None, np.zeros(1), {"endpoint_w_q": 2.0, "endpoint_q_ref": np.array([0.3])}),
+        (np.array([0.4]), None, {"endpoint_w_qd": 0.7}),
+    ],
 )
 def test_head_task_with_aux_contact(qd_start, qd_end, endpoint):
     chain = PlanarChain.from_preset(DEFAULT_PRESET)

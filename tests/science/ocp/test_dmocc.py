@@ -60,7 +60,9 @@ def pendulum() -> PlanarChain:
 
 def pendulum_reference(q0: float, T: float) -> float:
     """Angle at T from a tight-tolerance solve_ivp (qdd = g/l sin q for the backward tilt)."""
-    sol = solve_ivp(lambda t, x: [x[1], 9.81 * np.sin(x[0])], (0, T), [q0, 0.0], method="DOP853", rtol=1e-13, atol=1e-13)
+    sol = solve_ivp(
+        lambda t, x: [x[1], 9.81 * np.sin(x[0])], (0, T), [q0, 0.0], method="DOP853", rtol=1e-13, atol=1e-13
+    )
     return float(sol.y[0, -1])
 
 
@@ -89,8 +91,12 @@ def test_free_pendulum_energy_does_not_drift():
 def test_forced_del_matches_ode_with_constant_torque():
     """The discrete forces h/2 u on both sides: with a constant torque the motion still converges at second order."""
     chain, q0, T, u = pendulum(), np.pi - 0.5, 1.0, 2.0
-    sol = solve_ivp(lambda t, x: [x[1], 9.81 * np.sin(x[0]) + u], (0, T), [q0, 0.0], method="DOP853", rtol=1e-13, atol=1e-13)
-    errors = [abs(simulate(chain, [q0], [0.0], T / N, N, tau=np.full((N, 1), u))[0][-1, 0] - sol.y[0, -1]) for N in (50, 100)]
+    sol = solve_ivp(
+        lambda t, x: [x[1], 9.81 * np.sin(x[0]) + u], (0, T), [q0, 0.0], method="DOP853", rtol=1e-13, atol=1e-13
+    )
+    errors = [
+        abs(simulate(chain, [q0], [0.0], T / N, N, tau=np.full((N, 1), u))[0][-1, 0] - sol.y[0, -1]) for N in (50, 100)
+    ]
     assert np.log2(errors[0] / errors[1]) == pytest.approx(2.0, abs=0.15)
 
 
@@ -119,7 +125,9 @@ def test_phase_target_pose_and_torque_bounds_are_honoured():
     tr, res = solve(chain, DiscreteProblem(phases, zero, zero, one, zero))
     q, u = tr.unpack(res["x"])
     assert q[10, 0] == pytest.approx(0.8, abs=1e-9)
-    assert np.abs(u[:10]).max() <= 7.0 + 1e-8 and np.isclose(np.abs(u[:10]).max(), 7.0, atol=1e-6)  # the bound is active
+    assert np.abs(u[:10]).max() <= 7.0 + 1e-8 and np.isclose(
+        np.abs(u[:10]).max(), 7.0, atol=1e-6
+    )  # the bound is active
     assert q[10:, 0].max() <= 1.0 + 1e-8
     free = solve(chain, rest_to_rest([(0.5, 10), (0.5, 10)]))[1]["cost"]
     assert res["cost"] > free  # constraints cost something

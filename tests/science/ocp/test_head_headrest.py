@@ -6,10 +6,10 @@ import casadi as ca
 import numpy as np
 import pytest
 
-from alcove.science.oracles.aux_penalty import AuxPenaltyParams, contact_point
 from alcove.science.ocp.contact import aux_contact
 from alcove.science.ocp.solve import OcpSolution, get_transcription, solve_task
 from alcove.science.ocp.task_spec import task_preset
+from alcove.science.oracles.aux_penalty import AuxPenaltyParams, contact_point
 from alcove.science.series import SeriesFormatError, Trajectory
 
 
@@ -73,14 +73,14 @@ def test_resampling_for_the_oracle_and_head_pose(solution):
     tr = solution.resample(t1)
     assert len(tr) == 401 and tr.tau is not None
     on_grid = np.isin(np.round(t1, 9), np.round(solution.t, 9))
-    np.testing.assert_allclose(tr.q[on_grid], solution.q[: 101], atol=1e-12)
-    np.testing.assert_allclose(tr.qd[on_grid], solution.qd[: 101], atol=1e-12)
+    np.testing.assert_allclose(tr.q[on_grid], solution.q[:101], atol=1e-12)
+    np.testing.assert_allclose(tr.qd[on_grid], solution.qd[:101], atol=1e-12)
     # between the nodes the Hermite interpolant tracks the discrete motion to O(h^2)
     mid = solution.resample(0.5 * (solution.t[:-1] + solution.t[1:]))
     assert np.abs(mid.q[:, 0] - 0.5 * (solution.q[:-1, 0] + solution.q[1:, 0])).max() < 1e-3
     pose = solution.head_pose(t1)
     assert pose.r_rel.shape == (401, 3) and pose.T_rel.shape == (401, 3, 3)
-    with pytest.raises(SeriesFormatError, match="^t: "):
+    with pytest.raises(SeriesFormatError, match=r"^t: "):
         solution.resample(np.array([0.0, 2.5]))
     json.dumps(solution.summary())
 
@@ -115,13 +115,13 @@ def test_slot_with_a_parametric_and_a_hand_made_contact(task, aux):
     stiffer = solve_task(small, scaled, contact_params=np.array([3.0]))
     assert stiffer.converged and stiffer.q.max() < same.q.max()  # a stiffer cushion stops the head earlier
     assert get_transcription(small, scaled) is get_transcription(small, scaled)
-    with pytest.raises(ValueError, match="^contact_params"):
+    with pytest.raises(ValueError, match=r"^contact_params"):
         solve_task(small, scaled)
-    with pytest.raises(ValueError, match="^contact_params: the contact function takes 1 parameter"):
+    with pytest.raises(ValueError, match=r"^contact_params: the contact function takes 1 parameter"):
         solve_task(small, scaled, contact_params=np.array([1.0, 2.0]))
-    with pytest.raises(ValueError, match="^contact_params: the contact function takes 0 parameter"):
+    with pytest.raises(ValueError, match=r"^contact_params: the contact function takes 0 parameter"):
         solve_task(small, aux, contact_params=np.array([1.0]))
-    with pytest.raises(ValueError, match="^contact_params: values must be finite"):
+    with pytest.raises(ValueError, match=r"^contact_params: values must be finite"):
         solve_task(small, scaled, contact_params=np.array([np.nan]))
     # a hand-made MX contact: a linear torsional cushion beyond theta = 0.31 acting as a normal force
     qm, qdm = ca.MX.sym("q"), ca.MX.sym("qd")

@@ -10,12 +10,17 @@ from alcove.science.multibody import Headrest, Link, PlanarChain
 
 def three_link_chain() -> PlanarChain:
     links = (Link(4.0, 0.2, 0.05, 0.45), Link(2.5, 0.15, 0.02, 0.3), Link(1.2, 0.1, 0.01, 0.2))
-    return PlanarChain(links, q_min=(-3,) * 3, q_max=(3,) * 3, torque_limit=(50,) * 3, headrest=Headrest((-0.3, 0.6), 0.2))
+    return PlanarChain(
+        links, q_min=(-3,) * 3, q_max=(3,) * 3, torque_limit=(50,) * 3, headrest=Headrest((-0.3, 0.6), 0.2)
+    )
 
 
 def test_preset_chain_gives_the_shared_geometry_exactly():
     rng = np.random.default_rng(0)
-    for preset in (DEFAULT_PRESET, HeadNeckPreset(mass=4.2, com_distance=0.1, inertia_joint=0.08, tilt=0.4, theta_contact=0.28)):
+    for preset in (
+        DEFAULT_PRESET,
+        HeadNeckPreset(mass=4.2, com_distance=0.1, inertia_joint=0.08, tilt=0.4, theta_contact=0.28),
+    ):
         chain = PlanarChain.from_preset(preset)
         theta = rng.uniform(preset.theta_min, preset.theta_max, 50)
         theta_dot = rng.normal(0, 2, 50)

@@ -100,5 +100,5 @@ def test_output_normalisation_must_match_the_networks(task, models):
 
     broken = copy.deepcopy(models[0])
     broken.force_norm = type(broken.force_norm)(np.zeros(2), np.ones(2))
-    with pytest.raises(ValueError, match="^model: "):
+    with pytest.raises(ValueError, match=r"^model: "):
         surrogate_contact(broken, task.preset())

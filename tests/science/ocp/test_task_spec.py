@@ -78,11 +78,11 @@ def test_bad_input_names_the_field(mutate, field, reason):
 
 
 def test_unknown_preset_and_unreadable_file(tmp_path):
-    with pytest.raises(TaskSpecError, match="^task: unknown task preset"):
+    with pytest.raises(TaskSpecError, match=r"^task: unknown task preset"):
         task_preset("nope")
     f = tmp_path / "t.json"
     f.write_text("{not json")
-    with pytest.raises(TaskSpecError, match="^task: cannot read"):
+    with pytest.raises(TaskSpecError, match=r"^task: cannot read"):
         parse_task(f)
     f.write_text(json.dumps(TASK_PRESETS["head-headrest-2phase"]))
     assert parse_task(f).name == "head-headrest-2phase"
@@ -90,5 +90,5 @@ def test_unknown_preset_and_unreadable_file(tmp_path):
     data = copy.deepcopy(TASK_PRESETS["head-headrest-2phase"])
     data["phases"][1]["duration"] = float("inf")
     f.write_text(json.dumps(data))
-    with pytest.raises(TaskSpecError, match="^phases.1.duration: .*finite"):
+    with pytest.raises(TaskSpecError, match=r"^phases.1.duration: .*finite"):
         parse_task(f)

@@ -48,7 +48,7 @@ HAND_CASES = [
 
 
 def test_hand_computed_values_in_paper_units_match_si_implementation():
-    p_mm, pdot_mm_s, expected = map(np.array, zip(*HAND_CASES))
+    p_mm, pdot_mm_s, expected = map(np.array, zip(*HAND_CASES, strict=False))
     kin = point_kinematics(p_mm * 1e-3, pdot_mm_s * 1e-3)
     force, moment = aux_penalty_wrench(DEFAULT_PRESET, AuxPenaltyParams(r_sp=(0.0, 0.0, 0.0)), kin)
     np.testing.assert_allclose(force[:, 0], expected, atol=5e-4)
@@ -67,7 +67,9 @@ def test_si_defaults_are_the_paper_values_converted():
 def test_gate_needs_both_penetration_and_positive_force():
     p = np.linspace(-2e-3, 4e-3, 61)
     for pdot in (-0.5, -0.05, 0.0, 0.05):
-        force, _ = aux_penalty_wrench(DEFAULT_PRESET, AuxPenaltyParams(r_sp=(0, 0, 0)), point_kinematics(p, np.full_like(p, pdot)))
+        force, _ = aux_penalty_wrench(
+            DEFAULT_PRESET, AuxPenaltyParams(r_sp=(0, 0, 0)), point_kinematics(p, np.full_like(p, pdot))
+        )
         fx = force[:, 0]
         assert np.all(fx >= 0)  # non-sticking: never pulls the head toward the cushion
         assert np.all(fx[p <= 0] == 0)
@@ -134,7 +136,9 @@ def test_mirrored_motion_mirrors_force_and_moment(S):
     force, moment = aux_penalty_wrench(DEFAULT_PRESET, AuxPenaltyParams(r_sp=tuple(r_sp)), kin)
     assert 20 < np.count_nonzero(force[:, 0]) < n  # both contact and no contact are exercised
     assert np.all(np.abs(moment[force[:, 0] > 0, 1:]) > 0)
-    force_m, moment_m = aux_penalty_wrench(DEFAULT_PRESET, AuxPenaltyParams(r_sp=tuple(S @ r_sp)), mirror_kinematics(kin, S))
+    force_m, moment_m = aux_penalty_wrench(
+        DEFAULT_PRESET, AuxPenaltyParams(r_sp=tuple(S @ r_sp)), mirror_kinematics(kin, S)
+    )
     np.testing.assert_allclose(force_m, force @ S.T, atol=1e-9)
     np.testing.assert_allclose(moment_m, np.linalg.det(S) * moment @ S.T, atol=1e-9)
 
@@ -155,7 +159,9 @@ def test_oracle_returns_planar_wrench_on_trajectory_grid():
     assert np.all(f[:, 1:] == 0) and np.all(m[:, [0, 2]] == 0)  # the planar motion is its own y-mirror
     in_contact = f[:, 0] > 0
     theta = traj.q[:, 0]
-    assert not in_contact[theta < DEFAULT_PRESET.theta_contact].any()  # no force before first contact / after separation
+    assert not in_contact[
+        theta < DEFAULT_PRESET.theta_contact
+    ].any()  # no force before first contact / after separation
     assert in_contact.any() and result.diagnostics["contact_samples"] == in_contact.sum()
     assert result.diagnostics["first_contact_t"] == traj.t[in_contact][0]
     assert result.diagnostics["newton_iterations"] is None
@@ -167,7 +173,10 @@ def test_oracle_returns_planar_wrench_on_trajectory_grid():
 def test_dissipation_is_nonnegative_and_vanishes_without_damping():
     traj = push_and_release(n=4001)
     stored_peak = 6e6 * AuxPenaltyOracle().run(traj).diagnostics["max_penetration_m"] ** 3 / 3
-    energies = [AuxPenaltyOracle(AuxPenaltyParams(d0=d0)).run(traj).diagnostics["dissipated_energy_j"] for d0 in (0.0, 50.0, 100.0, 200.0)]
+    energies = [
+        AuxPenaltyOracle(AuxPenaltyParams(d0=d0)).run(traj).diagnostics["dissipated_energy_j"]
+        for d0 in (0.0, 50.0, 100.0, 200.0)
+    ]
     assert abs(energies[0]) < 1e-6 * stored_peak  # elastic only: the work is given back
     assert 0 < energies[1] < energies[2] < energies[3]
 
@@ -191,7 +200,7 @@ def test_dissipation_never_negative_for_any_motion(amplitudes, frequencies, d0):
 
 def test_bad_input_names_the_field():
     t = np.linspace(0, 1, 5)
-    with pytest.raises(OracleInputError, match="^q: .*1 degree of freedom"):
+    with pytest.raises(OracleInputError, match=r"^q: .*1 degree of freedom"):
         AuxPenaltyOracle().run(Trajectory(t, np.full((5, 2), 0.2), np.zeros((5, 2))))
     with pytest.raises(OracleInputError, match=r"^q_0: theta = 0.6 rad at t = 0.5 s is outside"):
         AuxPenaltyOracle().run(Trajectory(t, [0.2, 0.3, 0.6, 0.3, 0.2], np.zeros(5)))

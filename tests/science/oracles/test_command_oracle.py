@@ -36,7 +36,9 @@ def push_and_release(n: int = 201) -> Trajectory:
 
 
 def failing(mode: str, tmp_path: Path, timeout_s: float = 30.0) -> CommandOracle:
-    spec = CommandOracleSpec(name=f"broken-{mode}", argv=[sys.executable, FAILING, mode], timeout_s=timeout_s, workdir_root=tmp_path / "runs")
+    spec = CommandOracleSpec(
+        name=f"broken-{mode}", argv=[sys.executable, FAILING, mode], timeout_s=timeout_s, workdir_root=tmp_path / "runs"
+    )
     return CommandOracle(spec)
 
 
@@ -71,18 +73,46 @@ def test_example_catalogue_loads_with_paths_resolved():
     [
         ("command_oracles: [1, 2]", "command_oracles", "top-level mapping"),
         ("command_oracles:\n  a: {argv: [x]\n", "catalogue", "not valid YAML (line"),
-        ("command_oracles:\n  dyna: {argv: 'lsdyna i=x.k; rm -rf /'}", "command_oracles.dyna.argv", "not a shell string"),
+        (
+            "command_oracles:\n  dyna: {argv: 'lsdyna i=x.k; rm -rf /'}",
+            "command_oracles.dyna.argv",
+            "not a shell string",
+        ),
         ("command_oracles:\n  dyna: {argv: []}", "command_oracles.dyna.argv", "at least 1 item"),
         ("command_oracles:\n  aux-penalty: {argv: [x]}", "command_oracles.aux-penalty", "built-in oracle type"),
         ("command_oracles:\n  dyna: {argv: [x], timeout_s: -5}", "command_oracles.dyna.timeout_s", "greater than 0"),
-        ("command_oracles:\n  dyna: {argv: [x], output_file: ../../etc/passwd}", "command_oracles.dyna.output_file", "plain file name"),
-        ("command_oracles:\n  dyna: {argv: [x], input_file: stderr.log}", "command_oracles.dyna.input_file", "plain file name"),
-        ("command_oracles:\n  dyna: {argv: [x], input_file: out.csv, output_file: out.csv}", "command_oracles.dyna", "would both be"),
-        ("command_oracles:\n  dyna: {argv: [x], template: nowhere.k.tmpl}", "command_oracles.dyna.template", "does not exist"),
+        (
+            "command_oracles:\n  dyna: {argv: [x], output_file: ../../etc/passwd}",
+            "command_oracles.dyna.output_file",
+            "plain file name",
+        ),
+        (
+            "command_oracles:\n  dyna: {argv: [x], input_file: stderr.log}",
+            "command_oracles.dyna.input_file",
+            "plain file name",
+        ),
+        (
+            "command_oracles:\n  dyna: {argv: [x], input_file: out.csv, output_file: out.csv}",
+            "command_oracles.dyna",
+            "would both be",
+        ),
+        (
+            "command_oracles:\n  dyna: {argv: [x], template: nowhere.k.tmpl}",
+            "command_oracles.dyna.template",
+            "does not exist",
+        ),
         ("command_oracles:\n  dyna: {argv: [x], shell: true}", "command_oracles.dyna.shell", "Extra inputs"),
         ("command_oracles:\n  Dyna Run: {argv: [x]}", "command_oracles.Dyna Run.name", "lower-case"),
-        ("command_oracles:\n  dyna: {argv: [x], parameters: {t_end: {default: 1}}}", "command_oracles.dyna.parameters", "reserved"),
-        ("command_oracles:\n  dyna: {argv: [x], parameters: {e: {default: 5, maximum: 1}}}", "command_oracles.dyna.parameters.e", "outside"),
+        (
+            "command_oracles:\n  dyna: {argv: [x], parameters: {t_end: {default: 1}}}",
+            "command_oracles.dyna.parameters",
+            "reserved",
+        ),
+        (
+            "command_oracles:\n  dyna: {argv: [x], parameters: {e: {default: 5, maximum: 1}}}",
+            "command_oracles.dyna.parameters.e",
+            "outside",
+        ),
     ],
 )
 def test_catalogue_errors_name_the_entry_and_key(tmp_path, text, field, reason):
@@ -95,9 +125,9 @@ def test_catalogue_errors_name_the_entry_and_key(tmp_path, text, field, reason):
 
 
 def test_missing_catalogue_file(tmp_path):
-    with pytest.raises(CatalogueError, match="^catalogue: .*does not exist"):
+    with pytest.raises(CatalogueError, match=r"^catalogue: .*does not exist"):
         load_command_catalogue(tmp_path / "nope.yaml")
-    with pytest.raises(CatalogueError, match="^catalogue: cannot read .*: Is a directory"):
+    with pytest.raises(CatalogueError, match=r"^catalogue: cannot read .*: Is a directory"):
         load_command_catalogue(tmp_path)
 
 
@@ -242,9 +272,9 @@ def test_user_input_is_validated(tmp_path):
     with pytest.raises(OracleInputError, match=r"^params\.argv: Extra inputs"):
         build_oracle("aux-replay", {"argv": ["sh", "-c", "touch pwned"]}, catalogue=catalogue)
     locked = {"locked": CommandOracleSpec(name="locked", argv=["x"], allow_user_template=False)}
-    with pytest.raises(OracleInputError, match="^params.template: .*does not accept user templates"):
+    with pytest.raises(OracleInputError, match=r"^params.template: .*does not accept user templates"):
         build_oracle("locked", {"template": "*KEYWORD"}, catalogue=locked)
-    with pytest.raises(OracleInputError, match="^q: "):
+    with pytest.raises(OracleInputError, match=r"^q: "):
         CommandOracle(locked["locked"]).run(Trajectory(np.linspace(0, 1, 3), np.zeros((3, 2)), np.zeros((3, 2))))
 
 
@@ -252,7 +282,11 @@ def test_user_template_with_shell_text_reaches_the_solver_verbatim(tmp_path):
     """A user's template is only written to a file: the solver sees it as text, nothing runs it."""
     spec = CommandOracleSpec(
         name="cat",
-        argv=[sys.executable, "-c", "import shutil; shutil.copy('deck.k', 'seen.k'); open('forces.csv','w').write('t,fx,fy,fz,mx,my,mz\\n0,0,0,0,0,0,0\\n1,0,0,0,0,0,0\\n')"],
+        argv=[
+            sys.executable,
+            "-c",
+            "import shutil; shutil.copy('deck.k', 'seen.k'); open('forces.csv','w').write('t,fx,fy,fz,mx,my,mz\\n0,0,0,0,0,0,0\\n1,0,0,0,0,0,0\\n')",
+        ],
         input_file="deck.k",
         workdir_root=tmp_path,
     )
@@ -289,13 +323,17 @@ def test_every_placeholder_is_documented():
 
 
 def test_declared_parameters_are_validated_numbers_and_placeholders():
-    spec = CommandOracleSpec(name="x", argv=["x"], parameters={"foam_scale": {"default": 1.5, "minimum": 0.5, "maximum": 2.0}})
+    spec = CommandOracleSpec(
+        name="x", argv=["x"], parameters={"foam_scale": {"default": 1.5, "minimum": 0.5, "maximum": 2.0}}
+    )
     model = params_model(spec)
     traj = push_and_release(11)
     assert template_values(traj, DEFAULT_PRESET, model(), spec)["foam_scale"] == "1.5"
-    assert render_template("s={{ foam_scale }}", template_values(traj, DEFAULT_PRESET, model(foam_scale=2), spec)) == "s=2"
+    assert (
+        render_template("s={{ foam_scale }}", template_values(traj, DEFAULT_PRESET, model(foam_scale=2), spec)) == "s=2"
+    )
     for bad in (2.5, float("nan"), "1; rm -rf /"):
-        with pytest.raises(OracleInputError, match="^params.foam_scale: "):
+        with pytest.raises(OracleInputError, match=r"^params.foam_scale: "):
             build_oracle("x", {"foam_scale": bad}, catalogue={"x": spec})
 
 

@@ -27,17 +27,25 @@ def test_stress_and_tangent_are_derivatives_of_the_incremental_potential(law, vi
     res = foam_response(law, F, E_prev, viscosity_over_dt)
     h = 1e-6
     P_fd = np.zeros_like(F)
-    A_fd = np.zeros(F.shape + (2, 2))
+    A_fd = np.zeros((*F.shape, 2, 2))
     for k in range(2):
         for m in range(2):
             d = np.zeros((2, 2))
             d[k, m] = h
-            P_fd[..., k, m] = (foam_response(law, F + d, E_prev, viscosity_over_dt, 0).energy - foam_response(law, F - d, E_prev, viscosity_over_dt, 0).energy) / (2 * h)
-            A_fd[..., k, m] = (foam_response(law, F + d, E_prev, viscosity_over_dt, 1).stress - foam_response(law, F - d, E_prev, viscosity_over_dt, 1).stress) / (2 * h)
+            P_fd[..., k, m] = (
+                foam_response(law, F + d, E_prev, viscosity_over_dt, 0).energy
+                - foam_response(law, F - d, E_prev, viscosity_over_dt, 0).energy
+            ) / (2 * h)
+            A_fd[..., k, m] = (
+                foam_response(law, F + d, E_prev, viscosity_over_dt, 1).stress
+                - foam_response(law, F - d, E_prev, viscosity_over_dt, 1).stress
+            ) / (2 * h)
     assert np.abs(P_fd - res.stress).max() <= 1e-6 * np.abs(res.stress).max()
     assert np.abs(A_fd - res.tangent).max() <= 1e-6 * np.abs(res.tangent).max()
     # the tangent of a potential is symmetric (major symmetry)
-    np.testing.assert_allclose(res.tangent, np.einsum("nijkl->nklij", res.tangent), atol=1e-9 * np.abs(res.tangent).max())
+    np.testing.assert_allclose(
+        res.tangent, np.einsum("nijkl->nklij", res.tangent), atol=1e-9 * np.abs(res.tangent).max()
+    )
 
 
 def test_closed_form_svd_reconstructs_F():

@@ -18,7 +18,6 @@ from alcove.science.oracles.fe_headrest import FEHeadrestOracle, FEHeadrestParam
 from alcove.science.oracles.fe_headrest.oracle import profile_indentation
 from alcove.science.series import SeriesFormatError, Trajectory
 
-
 COARSE_DT = 0.005  # output interval for tests where the time step is not the point
 
 
@@ -26,7 +25,11 @@ def bump(theta_peak: float = 0.37, duration: float = 0.25, theta_base: float = 0
     """Press in and release: theta = base + (peak - base) sin^2(pi t / duration), from clear to clear."""
     t = np.arange(0.0, duration + dt / 2, dt)
     amp = theta_peak - theta_base
-    return Trajectory(t, theta_base + amp * np.sin(np.pi * t / duration) ** 2, amp * np.pi / duration * np.sin(2 * np.pi * t / duration))
+    return Trajectory(
+        t,
+        theta_base + amp * np.sin(np.pi * t / duration) ** 2,
+        amp * np.pi / duration * np.sin(2 * np.pi * t / duration),
+    )
 
 
 @pytest.fixture(scope="module")
@@ -77,7 +80,9 @@ def test_energy_balance_work_equals_stored_plus_dissipated(reference_run):
     _, result = reference_run
     d = result.diagnostics
     assert d["dissipated_energy_j"] > 0
-    assert d["work_by_head_j"] == pytest.approx(d["stored_energy_end_j"] + d["viscous_dissipation_j"] + d["friction_dissipation_j"], rel=0.02)
+    assert d["work_by_head_j"] == pytest.approx(
+        d["stored_energy_end_j"] + d["viscous_dissipation_j"] + d["friction_dissipation_j"], rel=0.02
+    )
 
 
 def test_no_force_after_separation_and_dissipation_vanishes_with_viscosity():
@@ -89,7 +94,9 @@ def test_no_force_after_separation_and_dissipation_vanishes_with_viscosity():
         assert result.ok, result.failure_reason
         d = result.diagnostics
         dissipated[eta] = d["dissipated_energy_j"]
-        assert d["work_by_head_j"] == pytest.approx(d["stored_energy_end_j"] + d["viscous_dissipation_j"], rel=0.02, abs=1e-6)
+        assert d["work_by_head_j"] == pytest.approx(
+            d["stored_energy_end_j"] + d["viscous_dissipation_j"], rel=0.02, abs=1e-6
+        )
         f = result.forces
         depth = profile_indentation(DEFAULT_PRESET, trajectory.resample(f.t).q[:, 0])
         assert np.all(f.force[(depth == 0) & (f.t > 0.2)] == 0)  # separated: no force at all
@@ -106,7 +113,9 @@ def test_faster_indentation_gives_higher_force_at_equal_depth():
     # the same angles are visited at output k in the slow run and k/2 in the fast run; loading half
     k_slow = np.arange(10, 40, 2)
     k_fast = k_slow // 2
-    np.testing.assert_allclose(slow.resample(r_slow.forces.t).q[k_slow, 0], fast.resample(r_fast.forces.t).q[k_fast, 0], atol=1e-12)
+    np.testing.assert_allclose(
+        slow.resample(r_slow.forces.t).q[k_slow, 0], fast.resample(r_fast.forces.t).q[k_fast, 0], atol=1e-12
+    )
     touching = r_slow.forces.force[k_slow, 0] > 1.0
     assert touching.sum() >= 5
     assert np.all(r_fast.forces.force[k_fast, 0][touching] > r_slow.forces.force[k_slow, 0][touching])
@@ -153,7 +162,9 @@ def test_peak_force_converges_in_mesh_and_time_step(reference_run):
 def test_moment_reference_point_transforms_like_a_moment():
     trajectory = bump()
     base = FEHeadrestOracle(FEHeadrestParams(output_dt=COARSE_DT)).run(trajectory)
-    about_headrest = FEHeadrestOracle(FEHeadrestParams(output_dt=COARSE_DT, moment_point_frame="headrest")).run(trajectory)
+    about_headrest = FEHeadrestOracle(FEHeadrestParams(output_dt=COARSE_DT, moment_point_frame="headrest")).run(
+        trajectory
+    )
     r, _ = head_pose_in_headrest(DEFAULT_PRESET, trajectory.resample(base.forces.t).q[:, 0])
     F = base.forces.force
     expected = base.forces.moment[:, 1] + r[:, 1] * F[:, 0] - r[:, 0] * F[:, 2]  # M_c = M_o + (o - c) x F
@@ -169,7 +180,11 @@ def test_slices_through_a_round_head_start_with_the_centre_and_stay_planar():
     # the off-centre sections of an ellipsoidal head touch later and less deep: less force than
     # one central slice of the same total width (2 x head_half_breadth)
     width_ratio = 2 * FEHeadrestParams().head_half_breadth / FEHeadrestParams().out_of_plane_width
-    assert 0.2 * width_ratio * one.diagnostics["peak_force_n"] < sliced.diagnostics["peak_force_n"] < width_ratio * one.diagnostics["peak_force_n"]
+    assert (
+        0.2 * width_ratio * one.diagnostics["peak_force_n"]
+        < sliced.diagnostics["peak_force_n"]
+        < width_ratio * one.diagnostics["peak_force_n"]
+    )
     assert sliced.diagnostics["first_contact_time_s"] >= one.diagnostics["first_contact_time_s"]
     assert np.all(sliced.forces.force[:, 0] >= 0)
 
@@ -204,22 +219,22 @@ def test_cancel_is_checked_between_steps():
 def test_bad_trajectories_give_clear_errors():
     oracle = FEHeadrestOracle()
     t = np.linspace(0, 0.1, 41)
-    with pytest.raises(OracleInputError, match="^q_0: .*outside the model's range"):
+    with pytest.raises(OracleInputError, match=r"^q_0: .*outside the model's range"):
         oracle.run(Trajectory(t, np.full_like(t, 0.5), np.zeros_like(t)))
     deep = FEHeadrestParams(cushion_thickness=0.02, element_size_contact=0.004, max_indentation_fraction=0.3)
-    with pytest.raises(OracleInputError, match="^q_0: .*beyond the model's reach"):
+    with pytest.raises(OracleInputError, match=r"^q_0: .*beyond the model's reach"):
         FEHeadrestOracle(deep).run(Trajectory(t, np.full_like(t, 0.43), np.zeros_like(t)))
-    with pytest.raises(OracleInputError, match="^q: .*1 degree of freedom"):
+    with pytest.raises(OracleInputError, match=r"^q: .*1 degree of freedom"):
         oracle.run(Trajectory(t, np.full((t.size, 2), 0.3), np.zeros((t.size, 2))))
     theta = np.full_like(t, 0.3)
     theta[5] = np.nan
-    with pytest.raises(OracleInputError, match="^q: non-finite"):
+    with pytest.raises(OracleInputError, match=r"^q: non-finite"):
         oracle.run(SimpleNamespace(t=t, q=theta, qd=np.zeros_like(t)))
-    with pytest.raises(OracleInputError, match="^t: time must increase"):
+    with pytest.raises(OracleInputError, match=r"^t: time must increase"):
         oracle.run(SimpleNamespace(t=t[::-1], q=np.full_like(t, 0.3), qd=np.zeros_like(t)))
-    with pytest.raises(OracleInputError, match="^t: .*shorter than one output interval"):
+    with pytest.raises(OracleInputError, match=r"^t: .*shorter than one output interval"):
         oracle.run(Trajectory(np.array([0.0, 0.001]), np.array([0.3, 0.3]), np.zeros(2)))
-    with pytest.raises(OracleInputError, match="^trajectory"):
+    with pytest.raises(OracleInputError, match=r"^trajectory"):
         oracle.run(np.zeros((3, 3)))
 
 
@@ -234,16 +249,16 @@ def test_wrong_csv_columns_name_the_column(tmp_path):
 @pytest.mark.parametrize(
     "bad",
     [
-        dict(cushion_thickness=0.5),
-        dict(element_size_contact=0.0),
-        dict(friction=-0.1),
-        dict(foam_mu=(1e4,), foam_alpha=(2.0, 3.0), foam_beta=(0.0,)),
-        dict(foam_mu=(-1e4,), foam_alpha=(2.0,), foam_beta=(0.0,)),
-        dict(contact_zone=(0.05, -0.05)),
-        dict(element_size_far=0.002),
-        dict(moment_point_frame="joint"),
-        dict(output_dt=0.0),
-        dict(unknown_field=1),
+        {"cushion_thickness": 0.5},
+        {"element_size_contact": 0.0},
+        {"friction": -0.1},
+        {"foam_mu": (1e4,), "foam_alpha": (2.0, 3.0), "foam_beta": (0.0,)},
+        {"foam_mu": (-1e4,), "foam_alpha": (2.0,), "foam_beta": (0.0,)},
+        {"contact_zone": (0.05, -0.05)},
+        {"element_size_far": 0.002},
+        {"moment_point_frame": "joint"},
+        {"output_dt": 0.0},
+        {"unknown_field": 1},
     ],
 )
 def test_parameters_out_of_range_are_rejected(bad):
@@ -255,7 +270,9 @@ def test_a_trajectory_starting_in_contact_starts_from_static_equilibrium():
     """Holding the head still inside the cushion from t = 0: the cushion is pre-loaded
     quasi-statically, so the force is constant (no viscous spike) and nothing is dissipated."""
     t = np.arange(0.0, 0.05 + 1e-9, 0.0025)
-    result = FEHeadrestOracle(FEHeadrestParams(friction=0.0)).run(Trajectory(t, np.full_like(t, 0.36), np.zeros_like(t)))
+    result = FEHeadrestOracle(FEHeadrestParams(friction=0.0)).run(
+        Trajectory(t, np.full_like(t, 0.36), np.zeros_like(t))
+    )
     assert result.ok, result.failure_reason
     f = result.forces.force
     assert f[0, 0] > 10.0
@@ -278,8 +295,19 @@ def test_cli_json_summary_reports_newton_iterations(tmp_path):
     trajectory.to_csv(tmp_path / "traj.csv")
     (tmp_path / "params.json").write_text(json.dumps({"output_dt": COARSE_DT}))
     out = tmp_path / "forces.csv"
-    args = ["oracle", "run", "--oracle", "fe-headrest-2d", "--params", str(tmp_path / "params.json"),
-            "--trajectory", str(tmp_path / "traj.csv"), "--out", str(out), "--json"]
+    args = [
+        "oracle",
+        "run",
+        "--oracle",
+        "fe-headrest-2d",
+        "--params",
+        str(tmp_path / "params.json"),
+        "--trajectory",
+        str(tmp_path / "traj.csv"),
+        "--out",
+        str(out),
+        "--json",
+    ]
     proc = CliRunner().invoke(app, args)
     assert proc.exit_code == 0, proc.output
     summary = json.loads(proc.stdout)
@@ -296,8 +324,16 @@ def test_cli_json_summary_reports_newton_iterations(tmp_path):
         ({"friction": -0.1}, "params.friction", "greater than or equal to 0"),
         ({"cushion_thickness": "thick"}, "params.cushion_thickness", "valid number"),
         ({"mesh": 0.003}, "params.mesh", "Extra inputs"),
-        ({"element_size_contact": 0.004, "element_size_far": 0.002}, "params", "element_size_far must be >= element_size_contact"),
-        ({"foam_mu": [1e4], "foam_alpha": [2.0, 3.0], "foam_beta": [0.0]}, "params", "foam_mu, foam_alpha and foam_beta"),
+        (
+            {"element_size_contact": 0.004, "element_size_far": 0.002},
+            "params",
+            "element_size_far must be >= element_size_contact",
+        ),
+        (
+            {"foam_mu": [1e4], "foam_alpha": [2.0, 3.0], "foam_beta": [0.0]},
+            "params",
+            "foam_mu, foam_alpha and foam_beta",
+        ),
     ],
 )
 def test_bad_parameters_through_the_registry_name_the_field(bad, field, reason):

@@ -16,7 +16,13 @@ import numpy as np
 import pytest
 
 from alcove.science.geometry import DEFAULT_PRESET, relative_kinematics
-from alcove.science.oracles.command import card_number, load_command_catalogue, params_model, render_template, template_values
+from alcove.science.oracles.command import (
+    card_number,
+    load_command_catalogue,
+    params_model,
+    render_template,
+    template_values,
+)
 from alcove.science.oracles.fe_headrest import reference_motion
 
 EXAMPLES = Path(__file__).resolve().parents[3] / "examples" / "command-oracle"
@@ -128,7 +134,7 @@ def curves(blocks) -> dict[int, dict]:
             assert lcid is not None and lcid == int(lcid) and int(lcid) not in out
             data = np.array(points, dtype=float)
             assert not np.isnan(data).any(), "a curve point is missing a value"
-            out[int(lcid)] = dict(sfa=sfa or 1.0, sfo=sfo or 1.0, offa=offa or 0.0, offo=offo or 0.0, data=data)
+            out[int(lcid)] = {"sfa": sfa or 1.0, "sfo": sfo or 1.0, "offa": offa or 0.0, "offo": offo or 0.0, "data": data}
     return out
 
 
@@ -145,7 +151,14 @@ def test_rendered_deck_is_keyword_input_within_80_columns(rendered):
     assert "{{" not in deck
     blocks = read_deck(deck)
     names = [k for k, _ in blocks]
-    for needed in ("*INCLUDE", "*INCLUDE_TRANSFORM", "*DEFINE_TRANSFORMATION", "*BOUNDARY_PRESCRIBED_MOTION_RIGID", "*CONTROL_TERMINATION", "*DATABASE_NCFORC"):
+    for needed in (
+        "*INCLUDE",
+        "*INCLUDE_TRANSFORM",
+        "*DEFINE_TRANSFORMATION",
+        "*BOUNDARY_PRESCRIBED_MOTION_RIGID",
+        "*CONTROL_TERMINATION",
+        "*DATABASE_NCFORC",
+    ):
         assert needed in names
 
 

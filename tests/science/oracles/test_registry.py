@@ -10,7 +10,13 @@ from alcove.science.oracles import registry
 from alcove.science.oracles.aux_penalty import AuxPenaltyOracle, AuxPenaltyParams
 from alcove.science.oracles.base import OracleInputError
 from alcove.science.oracles.command import CommandOracle, CommandOracleSpec, load_command_catalogue
-from alcove.science.oracles.registry import ORACLE_TYPES, OracleTypeUnavailable, build_oracle, list_oracle_types, params_json_schema
+from alcove.science.oracles.registry import (
+    ORACLE_TYPES,
+    OracleTypeUnavailable,
+    build_oracle,
+    list_oracle_types,
+    params_json_schema,
+)
 from alcove.science.series import Trajectory
 
 CATALOGUE = Path(__file__).resolve().parents[3] / "examples" / "command-oracle" / "catalogue.yaml"
@@ -50,15 +56,20 @@ def test_build_oracle_validates_parameters_and_names_the_field():
         with pytest.raises(OracleInputError) as info:
             build_oracle("aux-penalty", params)
         assert info.value.field == field and reason in info.value.reason
-    with pytest.raises(OracleInputError, match="^params: must be a JSON object"):
+    with pytest.raises(OracleInputError, match=r"^params: must be a JSON object"):
         build_oracle("aux-penalty", [1.0])  # type: ignore[arg-type]
 
 
 def test_unknown_type_lists_the_known_ones():
-    with pytest.raises(OracleInputError, match=r"^oracle: unknown oracle type 'lsdyna'; known: aux-penalty, fe-headrest-2d \(command oracles"):
+    with pytest.raises(
+        OracleInputError,
+        match=r"^oracle: unknown oracle type 'lsdyna'; known: aux-penalty, fe-headrest-2d \(command oracles",
+    ):
         build_oracle("lsdyna", {})
     catalogue = load_command_catalogue(CATALOGUE)
-    with pytest.raises(OracleInputError, match="known: aux-penalty, fe-headrest-2d, aux-replay, fe-replay, lsdyna-headrest$"):
+    with pytest.raises(
+        OracleInputError, match=r"known: aux-penalty, fe-headrest-2d, aux-replay, fe-replay, lsdyna-headrest$"
+    ):
         build_oracle("lsdyna", {}, catalogue=catalogue)
 
 
@@ -73,7 +84,10 @@ def test_command_oracles_come_from_the_catalogue_by_name():
     assert rows["aux-replay"]["available"] is True  # {python}
     ghost = {"ghost": CommandOracleSpec(name="ghost", argv=["/opt/no-such-solver/bin/dyna"])}
     (row,) = [r for r in list_oracle_types(ghost) if r["kind"] == "command"]
-    assert row["available"] is False and row["unavailable_reason"] == "/opt/no-such-solver/bin/dyna is not an executable program on this machine"
+    assert (
+        row["available"] is False
+        and row["unavailable_reason"] == "/opt/no-such-solver/bin/dyna is not an executable program on this machine"
+    )
 
 
 def test_json_schemas_for_the_ui():
@@ -88,9 +102,14 @@ def test_json_schemas_for_the_ui():
 
 
 def test_missing_builtin_implementation_is_a_clear_error_and_does_not_break_the_others(monkeypatch):
-    broken = registry._BuiltinType("alcove.science.oracles.not_there", "NotThereOracle", "NotThereParams", "a type whose module is missing")
+    broken = registry._BuiltinType(
+        "alcove.science.oracles.not_there", "NotThereOracle", "NotThereParams", "a type whose module is missing"
+    )
     monkeypatch.setitem(registry._BUILTIN, "not-there", broken)
-    with pytest.raises(OracleTypeUnavailable, match=r"^oracle: type 'not-there' is not available: cannot import alcove\.science\.oracles\.not_there"):
+    with pytest.raises(
+        OracleTypeUnavailable,
+        match=r"^oracle: type 'not-there' is not available: cannot import alcove\.science\.oracles\.not_there",
+    ):
         build_oracle("not-there", {})
     rows = {row["name"]: row for row in list_oracle_types()}
     assert rows["not-there"]["available"] is False and "cannot import" in rows["not-there"]["unavailable_reason"]

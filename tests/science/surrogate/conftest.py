@@ -17,7 +17,9 @@ def smooth_wrench(q: np.ndarray, qd: np.ndarray) -> tuple[np.ndarray, np.ndarray
     return force, moment
 
 
-def make_smooth_pool(n_sims: int = 20, n_samples: int = 100, seed: int = 0, origin: str = "oracle", prefix: str = "sim") -> list[PoolDataset]:
+def make_smooth_pool(
+    n_sims: int = 20, n_samples: int = 100, seed: int = 0, origin: str = "oracle", prefix: str = "sim"
+) -> list[PoolDataset]:
     rng = np.random.default_rng(seed)
     t = np.linspace(0.0, 1.0, n_samples)
     pool = []

@@ -8,11 +8,25 @@ import pytest
 
 from alcove.science.series import ForceSeries, Trajectory
 from alcove.science.surrogate.config import SurrogateConfig, SurrogateConfigError
-from alcove.science.surrogate.dataset import PoolDataError, PoolDataset, load_pool_dir, load_preliminary_csv, save_pool_dir
+from alcove.science.surrogate.dataset import (
+    PoolDataError,
+    PoolDataset,
+    load_pool_dir,
+    load_preliminary_csv,
+    save_pool_dir,
+)
 
 
 def test_pool_folder_round_trip(tmp_path, smooth_pool):
-    prelim = PoolDataset("preliminary-00", np.arange(5.0), np.linspace(0.1, 0.2, 5), np.zeros(5), np.ones((5, 3)), np.zeros((5, 3)), "preliminary")
+    prelim = PoolDataset(
+        "preliminary-00",
+        np.arange(5.0),
+        np.linspace(0.1, 0.2, 5),
+        np.zeros(5),
+        np.ones((5, 3)),
+        np.zeros((5, 3)),
+        "preliminary",
+    )
     save_pool_dir([prelim, *smooth_pool[:3]], tmp_path)
     back = load_pool_dir(tmp_path)
     assert [ds.name for ds in back] == ["preliminary-00", "sim-000", "sim-001", "sim-002"]
@@ -30,33 +44,33 @@ def test_pool_folder_round_trip(tmp_path, smooth_pool):
 def test_pool_folder_errors(tmp_path, smooth_pool):
     with pytest.raises(PoolDataError, match="is not a directory"):
         load_pool_dir(tmp_path / "missing")
-    with pytest.raises(PoolDataError, match="^pool: .* holds no NAME.traj.csv"):
+    with pytest.raises(PoolDataError, match=r"^pool: .* holds no NAME.traj.csv"):
         load_pool_dir(tmp_path)
     save_pool_dir(smooth_pool[:2], tmp_path)
     (tmp_path / "sim-001.forces.csv").unlink()
-    with pytest.raises(PoolDataError, match="^sim-001.forces.csv: missing"):
+    with pytest.raises(PoolDataError, match=r"^sim-001.forces.csv: missing"):
         load_pool_dir(tmp_path)
     save_pool_dir(smooth_pool[:2], tmp_path)
     (tmp_path / "sim-001.forces.csv").write_text("t,fx,fy,fz,mx,my,mz\n0,1,2,3,4,5,6\n1,1,2,3,4,5,6\n")
-    with pytest.raises(PoolDataError, match="^sim-001.t: the trajectory .* not on the same time grid"):
+    with pytest.raises(PoolDataError, match=r"^sim-001.t: the trajectory .* not on the same time grid"):
         load_pool_dir(tmp_path)
     (tmp_path / "sim-001.forces.csv").write_text("t,fx,fy,fz,mx,my\n0,1,2,3,4,5\n")
-    with pytest.raises(PoolDataError, match="^sim-001.forces.csv:mz: missing column"):
+    with pytest.raises(PoolDataError, match=r"^sim-001.forces.csv:mz: missing column"):
         load_pool_dir(tmp_path)
     (tmp_path / "sim-001.forces.csv").unlink()
     (tmp_path / "sim-001.traj.csv").unlink()
     (tmp_path / "orphan.forces.csv").write_text("t,fx\n")
-    with pytest.raises(PoolDataError, match="^orphan.forces.csv: forces file without"):
+    with pytest.raises(PoolDataError, match=r"^orphan.forces.csv: forces file without"):
         load_pool_dir(tmp_path)
     (tmp_path / "orphan.forces.csv").unlink()
     (tmp_path / "pool.json").write_text(json.dumps({"sim-000": {"origin": "guess"}}))
-    with pytest.raises(PoolDataError, match="^sim-000.origin: 'guess' is not one of"):
+    with pytest.raises(PoolDataError, match=r"^sim-000.origin: 'guess' is not one of"):
         load_pool_dir(tmp_path)
 
 
 def test_dataset_validation():
     t, q = np.arange(4.0), np.zeros(4)
-    ok = dict(t=t, q=q, qd=q, force=np.zeros((4, 3)), moment=np.zeros((4, 3)))
+    ok = {"t": t, "q": q, "qd": q, "force": np.zeros((4, 3)), "moment": np.zeros((4, 3))}
     for change, match in [
         ({"name": "bad name!"}, "^name: 'bad name!' is not a valid"),
         ({"t": np.array([])}, "^d.t: must be a non-empty"),
@@ -98,7 +112,10 @@ def test_preliminary_upload_csv():
         ("q_0,qd_0,fx,fy,fz,mx,my,mz\n0,0,1,2,3,4,five,6\n", "^my: not a number at data row 1: 'five'"),
         ("q_0,qd_0,fx,fy,fz,mx,my,mz\n0,0,1,2,3,4,inf,6\n", r"^my: non-finite value \(NaN or inf\) at data row 1"),
         ("q_0,qd_0,fx,fy,fz,mx,my,mz\n0,0,1,2,3\n", "^row 2: has 5 fields"),
-        ("simulation,t,q_0,qd_0,fx,fy,fz,mx,my,mz\na,1,0,0,0,0,0,0,0,0\na,0,0,0,0,0,0,0,0,0\n", "^a.t: time must increase"),
+        (
+            "simulation,t,q_0,qd_0,fx,fy,fz,mx,my,mz\na,1,0,0,0,0,0,0,0,0\na,0,0,0,0,0,0,0,0,0\n",
+            "^a.t: time must increase",
+        ),
     ],
 )
 def test_preliminary_upload_csv_errors(text, match):
@@ -121,10 +138,10 @@ def test_config_errors_name_the_field(tmp_path):
     cfg = SurrogateConfig.from_json(f)
     assert cfg.batch_size == 256 and cfg.force.hidden == (8, 8) and cfg.moment.hidden == (6, 6, 6, 4)
     f.write_text("[1, 2]")
-    with pytest.raises(SurrogateConfigError, match="^config: must be a JSON object"):
+    with pytest.raises(SurrogateConfigError, match=r"^config: must be a JSON object"):
         SurrogateConfig.from_json(f)
     f.write_text("{oops")
-    with pytest.raises(SurrogateConfigError, match="^config: not valid JSON"):
+    with pytest.raises(SurrogateConfigError, match=r"^config: not valid JSON"):
         SurrogateConfig.from_json(f)
     defaults = SurrogateConfig()
     assert (defaults.learning_rate, defaults.batch_size, defaults.patience) == (0.01, 1024, 6)

@@ -7,7 +7,11 @@ import torch
 
 from alcove.science.geometry import DEFAULT_PRESET, relative_kinematics, relative_kinematics_symbolic
 from alcove.science.surrogate.config import SurrogateConfig
-from alcove.science.surrogate.export import casadi_contact_from_artifact, casadi_contact_function, casadi_network_function
+from alcove.science.surrogate.export import (
+    casadi_contact_from_artifact,
+    casadi_contact_function,
+    casadi_network_function,
+)
 from alcove.science.surrogate.features import features
 from alcove.science.surrogate.mlp import MLP, Standardization, SurrogateModel
 from alcove.science.surrogate.training import predict, predict_arrays
@@ -19,7 +23,9 @@ def random_model(activation: str, gain: float, seed: int = 0) -> SurrogateModel:
     """Untrained nets with large weights, so hidden pre-activations reach |x| > 20
     (where torch.nn.Softplus would switch to the identity)."""
     g = torch.Generator().manual_seed(seed)
-    cfg = SurrogateConfig(force={"hidden": [6, 6, 4], "activation": activation}, moment={"hidden": [6, 6, 6, 4], "activation": activation})
+    cfg = SurrogateConfig(
+        force={"hidden": [6, 6, 4], "activation": activation}, moment={"hidden": [6, 6, 6, 4], "activation": activation}
+    )
     nets = [MLP.from_config(cfg.force), MLP.from_config(cfg.moment)]
     for net in nets:
         net.reset_parameters(g)
@@ -30,7 +36,9 @@ def random_model(activation: str, gain: float, seed: int = 0) -> SurrogateModel:
     th = rng.uniform(P.theta_min, P.theta_max, 500)
     x = features(relative_kinematics(P, th, rng.uniform(-2, 2, 500)))
     out = Standardization(rng.normal(size=3), np.array([50.0, 0.0, 3.0]))  # includes a constant output
-    return SurrogateModel(nets[0], nets[1], Standardization.fit(x), out, Standardization(np.zeros(3), np.ones(3)), cfg, P)
+    return SurrogateModel(
+        nets[0], nets[1], Standardization.fit(x), out, Standardization(np.zeros(3), np.ones(3)), cfg, P
+    )
 
 
 def states(n: int = 25, seed: int = 1):
@@ -50,7 +58,9 @@ def torch_wrench(model: SurrogateModel):
     return f
 
 
-@pytest.fixture(params=[("softplus", 1.0), ("softplus", 12.0), ("tanh", 3.0), ("sigmoid", 3.0)], ids=lambda p: f"{p[0]}-x{p[1]:g}")
+@pytest.fixture(
+    params=[("softplus", 1.0), ("softplus", 12.0), ("tanh", 3.0), ("sigmoid", 3.0)], ids=lambda p: f"{p[0]}-x{p[1]:g}"
+)
 def model(request):
     return random_model(*request.param)
 
@@ -86,7 +96,7 @@ def test_state_gradient_is_finite_and_matches_finite_differences(model):
     jac = ca.Function("J", [q_s, qd_s], [ca.jacobian(w, ca.vertcat(q_s, qd_s)), ca.jacobian(ca.jacobian(w, q_s), q_s)])
     q, qd = states(6)
     h = 1e-6
-    for a, b in zip(q, qd):
+    for a, b in zip(q, qd, strict=False):
         J, H = (np.array(o) for o in jac(a, b))
         assert np.all(np.isfinite(J)) and np.all(np.isfinite(H))  # also at alpha = 0
         pred = lambda qq, vv: np.hstack(predict_arrays(model, [qq], [vv])).ravel()  # noqa: E731
@@ -102,13 +112,13 @@ def test_custom_kinematics_and_artifact_round_trip(tmp_path, trained_smooth):
     custom = casadi_contact_function(model, P, kinematics=lambda q, qd: relative_kinematics_symbolic(P, q[0], qd[0]))
     save_artifact(model, tmp_path / "m")
     loaded = casadi_contact_from_artifact(tmp_path / "m", P)
-    for a, b in zip(*states(5)):
+    for a, b in zip(*states(5), strict=False):
         ref = np.array(default(a, b))
         assert np.array_equal(np.array(custom(a, b)), ref)
         assert np.array_equal(np.array(loaded(a, b)), ref)
     model.ndof = 2
     try:
-        with pytest.raises(ValueError, match="^kinematics: the model has 2 degrees of freedom"):
+        with pytest.raises(ValueError, match=r"^kinematics: the model has 2 degrees of freedom"):
             casadi_contact_function(model, P)
     finally:
         model.ndof = 1

@@ -5,8 +5,21 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from alcove.science.geometry import DEFAULT_PRESET, RelativeKinematics, relative_kinematics, relative_kinematics_symbolic, rot3_from_tilt
-from alcove.science.surrogate.features import FEATURE_NAMES, N_FEATURES, alpha_squared, alpha_squared_symbolic, features, features_symbolic
+from alcove.science.geometry import (
+    DEFAULT_PRESET,
+    RelativeKinematics,
+    relative_kinematics,
+    relative_kinematics_symbolic,
+    rot3_from_tilt,
+)
+from alcove.science.surrogate.features import (
+    FEATURE_NAMES,
+    N_FEATURES,
+    alpha_squared,
+    alpha_squared_symbolic,
+    features,
+    features_symbolic,
+)
 
 
 def kin(r, v, T, w):

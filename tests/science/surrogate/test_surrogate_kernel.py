@@ -10,7 +10,6 @@ from pathlib import Path
 import numpy as np
 import pytest
 import torch
-from conftest import make_smooth_pool
 
 from alcove.science.surrogate import kernel as kernel_module
 from alcove.science.surrogate.config import SurrogateConfig
@@ -44,7 +43,7 @@ def _table(n, g, scale=1.0):
 def _autograd(nets, table, rows):
     x, w = table[rows, :19], table[rows, 25]
     grads = []
-    for net, col in zip(nets, (19, 22)):
+    for net, col in zip(nets, (19, 22), strict=False):
         loss = ((net(x) - table[rows, col : col + 3]) ** 2).mean(1) @ w / len(rows)
         grads.append(torch.cat([g.flatten() for g in torch.autograd.grad(loss, list(net.parameters()))]).numpy())
     return grads
@@ -58,7 +57,7 @@ def test_kernel_gradient_equals_autograd(architectures, n):
     rows = torch.randperm(n + 50, generator=g)[:n]  # a scattered subset, as a shuffled batch
     kn = KernelNets(nets, y_cols=[19, 22])
     kn.gradient(table.numpy(), 25, rows.numpy())
-    for got, expected in zip(kn.grads, _autograd(nets, table, rows)):
+    for got, expected in zip(kn.grads, _autograd(nets, table, rows), strict=False):
         np.testing.assert_allclose(got, expected, rtol=1e-12, atol=1e-15)
         assert np.abs(got).max() > 1e-3  # not a vacuous comparison
     # a frozen net's gradient is left alone, the other is recomputed the same
@@ -85,7 +84,7 @@ def test_kernel_softplus_beyond_the_exp_range_is_exact():
     assert max(float(net.linears()[0](table[:, :19]).detach().abs().max()) for net in nets) > 1000
     kn = KernelNets(nets, y_cols=[19, 22])
     kn.gradient(table.numpy(), 25, rows.numpy())
-    for got, expected in zip(kn.grads, _autograd(nets, table, rows)):
+    for got, expected in zip(kn.grads, _autograd(nets, table, rows), strict=False):
         assert np.all(np.isfinite(got))
         np.testing.assert_allclose(got, expected, rtol=1e-12, atol=1e-9)
 
@@ -94,7 +93,7 @@ def test_kernel_epoch_is_minibatch_adam_of_torch():
     """An epoch = consecutive batches of the given order, torch.optim.Adam after each."""
     nets, g = _nets(ARCHITECTURES[0], seed=3)
     reference = [MLP(net.hidden, net.activation) for net in nets]
-    for ref, net in zip(reference, nets):
+    for ref, net in zip(reference, nets, strict=False):
         ref.load_state_dict(net.state_dict())
     n, batch = 700, 256  # 3 batches, the last one short
     table = _table(n, g)
@@ -105,7 +104,7 @@ def test_kernel_epoch_is_minibatch_adam_of_torch():
         kn.train_epoch(table.numpy(), 25, order.numpy(), batch, 0.01)
         for start in range(0, n, batch):
             rows = order[start : start + batch]
-            for ref, opt, grad in zip(reference, optimizers, _autograd(reference, table, rows)):
+            for ref, opt, grad in zip(reference, optimizers, _autograd(reference, table, rows), strict=False):
                 opt.zero_grad()
                 offset = 0
                 for p in ref.parameters():
@@ -119,7 +118,9 @@ def test_kernel_epoch_is_minibatch_adam_of_torch():
         assert np.abs(expected - start).max() > 0.01  # the weights did move
         np.testing.assert_allclose(kn.params[k], expected, rtol=1e-10, atol=1e-12)
         kn.store(k)
-        np.testing.assert_array_equal(torch.cat([p.detach().flatten() for p in nets[k].parameters()]).numpy(), kn.params[k])
+        np.testing.assert_array_equal(
+            torch.cat([p.detach().flatten() for p in nets[k].parameters()]).numpy(), kn.params[k]
+        )
 
 
 def test_kernel_rejects_bad_arguments():
@@ -128,9 +129,9 @@ def test_kernel_rejects_bad_arguments():
     table = _table(10, g).numpy()
     with pytest.raises(IndexError, match="^rows: indices must lie in \\[0, 10\\)"):
         kn.gradient(table, 25, np.array([0, 10]))
-    with pytest.raises(ValueError, match="^table: needs a C-contiguous float64 matrix"):
+    with pytest.raises(ValueError, match=r"^table: needs a C-contiguous float64 matrix"):
         kn.gradient(table.astype(np.float32), 25, np.arange(10))
-    with pytest.raises(ValueError, match="^table: 20 columns are too few"):
+    with pytest.raises(ValueError, match=r"^table: 20 columns are too few"):
         kn.gradient(np.ascontiguousarray(table[:, :20]), 19, np.arange(10))
     with pytest.raises(KernelUnavailable, match="dtype float32"):
         KernelNets([MLP((4,), dtype=torch.float32)], y_cols=[19])
@@ -147,14 +148,20 @@ def test_both_implementations_learn_the_smooth_law(monkeypatch, smooth_pool, cho
 
 def test_a_bad_kernel_choice_names_the_variable(monkeypatch, smooth_pool):
     monkeypatch.setenv("ALCOVE_TRAINING_KERNEL", "fortran")
-    with pytest.raises(ValueError, match="^ALCOVE_TRAINING_KERNEL: 'fortran' is not one of auto, c, torch"):
+    with pytest.raises(ValueError, match=r"^ALCOVE_TRAINING_KERNEL: 'fortran' is not one of auto, c, torch"):
         train_surrogate(smooth_pool, SurrogateConfig(max_epochs=1), seed=0)
     monkeypatch.setenv("ALCOVE_TRAINING_KERNEL", "c")
-    with pytest.raises(KernelChoiceError, match="^ALCOVE_TRAINING_KERNEL: is c but the C training kernel cannot be used: .*float32"):
+    with pytest.raises(
+        KernelChoiceError, match=r"^ALCOVE_TRAINING_KERNEL: is c but the C training kernel cannot be used: .*float32"
+    ):
         train_surrogate(smooth_pool, SurrogateConfig(max_epochs=1, dtype="float32"), seed=0)
     monkeypatch.setenv("ALCOVE_TRAINING_KERNEL", "auto")  # float32: PyTorch trains it
-    assert train_surrogate(smooth_pool, SurrogateConfig(max_epochs=1, dtype="float32"), seed=0).model.lineage[
-        "training_kernel"] == "torch"
+    assert (
+        train_surrogate(smooth_pool, SurrogateConfig(max_epochs=1, dtype="float32"), seed=0).model.lineage[
+            "training_kernel"
+        ]
+        == "torch"
+    )
 
 
 @pytest.fixture
@@ -171,7 +178,7 @@ def broken_compiler(tmp_path, monkeypatch):
 
 
 def test_a_failing_build_gives_the_compiler_message_and_auto_falls_back(broken_compiler, monkeypatch, smooth_pool):
-    with pytest.raises(KernelUnavailable, match="did not build: .*the test compiler refuses"):
+    with pytest.raises(KernelUnavailable, match=r"did not build: .*the test compiler refuses"):
         load_kernel()
     monkeypatch.setenv("ALCOVE_TRAINING_KERNEL", "auto")
     result = train_surrogate(smooth_pool, SurrogateConfig(max_epochs=2), seed=0)
@@ -198,8 +205,16 @@ _BUILD_AND_TRAIN = textwrap.dedent("""
 def test_processes_building_into_an_empty_cache_at_once_agree(tmp_path):
     env = {**os.environ, "ALCOVE_KERNEL_CACHE": str(tmp_path), "ALCOVE_TRAINING_KERNEL": "c"}
     here = str(Path(__file__).parent)
-    procs = [subprocess.Popen([sys.executable, "-c", _BUILD_AND_TRAIN, here], env=env, stdout=subprocess.PIPE,
-                              stderr=subprocess.PIPE, text=True) for _ in range(3)]
+    procs = [
+        subprocess.Popen(
+            [sys.executable, "-c", _BUILD_AND_TRAIN, here],
+            env=env,
+            stdout=subprocess.PIPE,
+            stderr=subprocess.PIPE,
+            text=True,
+        )
+        for _ in range(3)
+    ]
     outputs = [p.communicate(timeout=300) for p in procs]
     assert all(p.returncode == 0 for p in procs), [err for _, err in outputs]
     assert len({out.strip() for out, _ in outputs}) == 1  # bit-identical weights

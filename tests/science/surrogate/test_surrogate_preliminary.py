@@ -50,7 +50,7 @@ def test_default_samples_give_a_usable_first_model():
     f_clear, _ = predict_arrays(result.model, [P.theta0], [0.0])
     f_pressed, _ = predict_arrays(result.model, [P.theta_max - 0.02], [0.0])
     assert abs(f_clear[0, 0]) < 0.02 * np.abs(force).max() and f_pressed[0, 0] > 0.3 * np.abs(force).max()
-    assert DEFAULT_SAMPLES == sum(ds.n_samples for ds in preliminary_pool(P))
+    assert sum(ds.n_samples for ds in preliminary_pool(P)) == DEFAULT_SAMPLES
 
 
 @pytest.mark.parametrize(

@@ -24,7 +24,7 @@ SHORT = SurrogateConfig(max_epochs=4, batch_size=256)
 def test_split_keeps_whole_simulations_together(smooth_pool):
     split = split_pool(smooth_pool, SurrogateConfig(), seed=7)
     labels = np.split(split.sample_split, np.cumsum([ds.n_samples for ds in smooth_pool])[:-1])
-    for ds, lab in zip(smooth_pool, labels):
+    for ds, lab in zip(smooth_pool, labels, strict=False):
         in_test = lab == "test"
         assert in_test.all() or not in_test.any()
         assert (ds.name in split.test_sets) == in_test.all()
@@ -83,8 +83,8 @@ def test_same_pool_and_seed_give_bit_identical_weights(smooth_pool):
 
 
 def _autograd_and_fused(nets, x, ys, w, fast=True):
-    losses = [((net(x) - y) ** 2).mean(1) @ w / x.shape[0] for net, y in zip(nets, ys)]
-    expected = [torch.autograd.grad(loss, list(net.parameters())) for net, loss in zip(nets, losses)]
+    losses = [((net(x) - y) ** 2).mean(1) @ w / x.shape[0] for net, y in zip(nets, ys, strict=False)]
+    expected = [torch.autograd.grad(loss, list(net.parameters())) for net, loss in zip(nets, losses, strict=False)]
     fused = FusedNets(nets)
     fused.set_loss_gradient(x, ys, w, fast=fast)
     return fused, expected
@@ -114,10 +114,10 @@ def test_fused_hand_written_gradient_equals_autograd(architectures, fast):
     w = torch.rand(64, dtype=torch.float64, generator=g)
     fused, expected = _autograd_and_fused(nets, x, ys, w, fast)
     for k in range(len(nets)):
-        for got, e in zip(_fused_grads(fused, k), expected[k]):
+        for got, e in zip(_fused_grads(fused, k), expected[k], strict=False):
             torch.testing.assert_close(got, e, rtol=1e-12, atol=1e-15)
     # the fused forward is both nets, and only the blocks carry weights or gradients
-    for out, net in zip(fused.forward(x), nets):
+    for out, net in zip(fused.forward(x), nets, strict=False):
         torch.testing.assert_close(out, net(x), rtol=1e-13, atol=1e-14)
     assert torch.count_nonzero(fused.grad) <= sum(p.numel() for net in nets for p in net.parameters())
     assert torch.all(fused.grad[fused.mask == 0] == 0) and torch.all(fused.parameter[fused.mask == 0] == 0)
@@ -125,7 +125,7 @@ def test_fused_hand_written_gradient_equals_autograd(architectures, fast):
     fused.freeze(0)
     fused.set_loss_gradient(x, ys, w, fast=fast)
     assert all(torch.all(t == 0) for t in _fused_grads(fused, 0))
-    for got, e in zip(_fused_grads(fused, 1), expected[1]):
+    for got, e in zip(_fused_grads(fused, 1), expected[1], strict=False):
         torch.testing.assert_close(got, e, rtol=1e-12, atol=1e-15)
 
 
@@ -141,7 +141,7 @@ def test_fused_softplus_beyond_the_exp_range_falls_back_to_the_exact_function():
     fused, expected = _autograd_and_fused(nets, x, ys, w, fast=True)
     assert torch.all(torch.isfinite(fused.grad))
     for k in range(2):
-        for got, e in zip(_fused_grads(fused, k), expected[k]):
+        for got, e in zip(_fused_grads(fused, k), expected[k], strict=False):
             torch.testing.assert_close(got, e, rtol=1e-12, atol=1e-12)
 
 
@@ -160,21 +160,29 @@ def test_fused_weights_round_trip_to_the_nets():
 
 
 def test_preliminary_down_weighting():
-    prelim = [PoolDataset(ds.name.replace("sim", "preliminary"), ds.t, ds.q, ds.qd, 0 * ds.force, 0 * ds.moment, "preliminary")
-              for ds in make_smooth_pool(10, seed=1)]
+    prelim = [
+        PoolDataset(
+            ds.name.replace("sim", "preliminary"), ds.t, ds.q, ds.qd, 0 * ds.force, 0 * ds.moment, "preliminary"
+        )
+        for ds in make_smooth_pool(10, seed=1)
+    ]
     oracle = make_smooth_pool(10, seed=2)
     pool = prelim + oracle
     cfg = SurrogateConfig(preliminary_weight=0.5, preliminary_halving=5)
     w = sample_weights(pool, cfg)
     assert np.all(w[: 10 * 100] == 0.5 * 0.5 ** (10 / 5)) and np.all(w[10 * 100 :] == 1)
     # contradictory data: preliminary says zero force; with weight 0 the model follows the oracle
-    res = train_surrogate(pool, SurrogateConfig(preliminary_weight=0.0, test_fraction=0.0, batch_size=256, max_epochs=60), seed=0)
+    res = train_surrogate(
+        pool, SurrogateConfig(preliminary_weight=0.0, test_fraction=0.0, batch_size=256, max_epochs=60), seed=0
+    )
     t = np.linspace(0, 1, 20)
     q, qd = 0.25 + 0.05 * np.sin(4 * t), 0.2 * np.cos(4 * t)
     force, _ = smooth_wrench(q, qd)
     pred = predict(res.model, t, q, qd)
     assert np.sqrt(np.mean((pred.force - force) ** 2)) < 0.1 * np.abs(force).max()
-    explicit = [PoolDataset(ds.name, ds.t, ds.q, ds.qd, ds.force, ds.moment, ds.origin, weight=2.0) for ds in prelim[:1]]
+    explicit = [
+        PoolDataset(ds.name, ds.t, ds.q, ds.qd, ds.force, ds.moment, ds.origin, weight=2.0) for ds in prelim[:1]
+    ]
     assert np.all(sample_weights(explicit, cfg) == 2.0)  # a dataset's own weight wins
 
 
@@ -187,9 +195,13 @@ def test_warm_start_starts_from_the_previous_weights(smooth_pool, trained_smooth
     assert cold.model.lineage["warm_start"] is False
     assert warm.metrics.rmse["force"]["train"] < 0.1 * cold.metrics.rmse["force"]["train"]
     # an architecture changed during the campaign: that net starts afresh, the other is carried over
-    changed = train_surrogate(smooth_pool, tiny.model_copy(update={"force": NetworkConfig(hidden=(8,))}), seed=1, warm_start=first.model)
+    changed = train_surrogate(
+        smooth_pool, tiny.model_copy(update={"force": NetworkConfig(hidden=(8,))}), seed=1, warm_start=first.model
+    )
     assert changed.model.lineage["warm_start"]["moment"] is True
-    assert changed.model.lineage["warm_start"]["force"].startswith("cold: architecture (6, 6, 4)/softplus -> (8,)/softplus")
+    assert changed.model.lineage["warm_start"]["force"].startswith(
+        "cold: architecture (6, 6, 4)/softplus -> (8,)/softplus"
+    )
     assert changed.metrics.rmse["moment"]["train"] == pytest.approx(warm.metrics.rmse["moment"]["train"], rel=1e-6)
 
 
@@ -204,20 +216,24 @@ def test_metrics_and_cancel(smooth_pool):
 
 
 def test_bad_pools_give_clear_errors(smooth_pool):
-    with pytest.raises(PoolDataError, match="^pool: is empty"):
+    with pytest.raises(PoolDataError, match=r"^pool: is empty"):
         train_surrogate([], SurrogateConfig(), seed=0)
-    with pytest.raises(PoolDataError, match="^sim-000: duplicate"):
+    with pytest.raises(PoolDataError, match=r"^sim-000: duplicate"):
         train_surrogate([smooth_pool[0], smooth_pool[0]], SurrogateConfig(), seed=0)
     one = smooth_pool[0]
-    with pytest.raises(PoolDataError, match="^pool: the training part has 1 sample"):
-        train_surrogate([PoolDataset("a", one.t[:1], one.q[:1], one.qd[:1], one.force[:1], one.moment[:1])], SurrogateConfig(), seed=0)
+    with pytest.raises(PoolDataError, match=r"^pool: the training part has 1 sample"):
+        train_surrogate(
+            [PoolDataset("a", one.t[:1], one.q[:1], one.qd[:1], one.force[:1], one.moment[:1])],
+            SurrogateConfig(),
+            seed=0,
+        )
     zero = [PoolDataset(ds.name, ds.t, ds.q, ds.qd, ds.force, ds.moment, "preliminary") for ds in smooth_pool[:3]]
-    with pytest.raises(PoolDataError, match="^weight: every training sample has weight 0"):
+    with pytest.raises(PoolDataError, match=r"^weight: every training sample has weight 0"):
         train_surrogate(zero, SurrogateConfig(preliminary_weight=0), seed=0)
     two_dof = PoolDataset("b", one.t, np.c_[one.q, one.q], np.c_[one.qd, one.qd], one.force, one.moment)
-    with pytest.raises(PoolDataError, match="^b.q: has 2 degrees of freedom"):
+    with pytest.raises(PoolDataError, match=r"^b.q: has 2 degrees of freedom"):
         train_surrogate([one, two_dof], SurrogateConfig(), seed=0)
-    with pytest.raises(PoolDataError, match="^q: the head-neck preset has 1 degree"):
+    with pytest.raises(PoolDataError, match=r"^q: the head-neck preset has 1 degree"):
         train_surrogate([two_dof], SurrogateConfig(), seed=0)
 
 
@@ -236,7 +252,6 @@ def test_flat_adam_is_torch_adam(fused):
         ours.step()
     torch.testing.assert_close(b.detach(), a.detach(), rtol=1e-13, atol=1e-15)
     assert not torch.equal(b.detach(), torch.zeros(50, dtype=torch.float64))
-
 
 
 def _weights_digest(model) -> str:
@@ -265,9 +280,12 @@ def test_bit_identical_weights_in_another_process():
     import sys
     from pathlib import Path
 
-    other = subprocess.run([sys.executable, "-c", _DIGEST_SCRIPT, str(Path(__file__).parent)], capture_output=True, text=True,
-                           check=True).stdout.strip()
-    here = _weights_digest(train_surrogate(make_smooth_pool(6), SurrogateConfig(max_epochs=3, batch_size=64), seed=5).model)
+    other = subprocess.run(
+        [sys.executable, "-c", _DIGEST_SCRIPT, str(Path(__file__).parent)], capture_output=True, text=True, check=True
+    ).stdout.strip()
+    here = _weights_digest(
+        train_surrogate(make_smooth_pool(6), SurrogateConfig(max_epochs=3, batch_size=64), seed=5).model
+    )
     assert other == here
 
 
@@ -294,5 +312,5 @@ def test_a_stopped_net_leaves_the_fused_network_and_the_other_continues_unchange
     for b in batches[3:]:
         step(full, adam, b, [slice(19, 22), slice(22, 25)])
         step(smaller, smaller_adam, b, [slice(22, 25)])
-    for a, b in zip(full.weights(1), smaller.weights(0)):
+    for a, b in zip(full.weights(1), smaller.weights(0), strict=False):
         torch.testing.assert_close(a, b, rtol=1e-12, atol=1e-14)

@@ -13,6 +13,7 @@ surrogate config), ``oracle_params`` (parameters of the oracle type) and ``task_
 
 from __future__ import annotations
 
+import contextlib
 import json
 import os
 import signal
@@ -25,7 +26,10 @@ from typing import Any
 
 import typer
 
-app = typer.Typer(help="Active-learning campaigns: run, create, start, pause, resume, cancel, retry, fork, status, export.", no_args_is_help=True)
+app = typer.Typer(
+    help="Active-learning campaigns: run, create, start, pause, resume, cancel, retry, fork, status, export.",
+    no_args_is_help=True,
+)
 
 TERMINAL = {"completed", "cancelled", "failed"}
 
@@ -48,13 +52,24 @@ def _read_config(path: Path | None) -> dict[str, Any]:
             import yaml
 
             data = yaml.safe_load(text)
-    except Exception as exc:  # noqa: BLE001
+    except Exception as exc:
         _fail("--config", f"cannot parse {path}: {exc}")
     if data is None:
         return {}
     if not isinstance(data, dict):
         _fail("--config", "must be a mapping")
-    known = {"name", "description", "seed", "preliminary", "stopping", "policies", "settings", "surrogate", "oracle_params", "task_spec"}
+    known = {
+        "name",
+        "description",
+        "seed",
+        "preliminary",
+        "stopping",
+        "policies",
+        "settings",
+        "surrogate",
+        "oracle_params",
+        "task_spec",
+    }
     unknown = sorted(set(data) - known)
     if unknown:
         _fail(f"--config.{unknown[0]}", f"unknown key (known: {', '.join(sorted(known))})")
@@ -73,7 +88,9 @@ def _ensure_database() -> None:
         _fail("database", "not migrated to the code's head revision; run `alcove db upgrade`")
 
 
-def _create(task: str, oracle: str, iterations: int | None, cfg: dict[str, Any], name: str | None, seed: int | None) -> int:
+def _create(
+    task: str, oracle: str, iterations: int | None, cfg: dict[str, Any], name: str | None, seed: int | None
+) -> int:
     from pydantic import ValidationError
 
     from alcove.campaigns import presets, service
@@ -89,9 +106,16 @@ def _create(task: str, oracle: str, iterations: int | None, cfg: dict[str, Any],
         if iterations is not None:
             stopping["max_iterations"] = iterations
         data = CampaignCreate(
-            name=name or cfg.get("name") or f"{task} x {oracle}", description=cfg.get("description", ""), task_version_id=tv, oracle_version_id=ov,
-            surrogate_config_version_id=sv, seed=seed if seed is not None else cfg.get("seed", 0), preliminary=cfg.get("preliminary") or {},
-            stopping=stopping, policies=cfg.get("policies") or {}, settings=cfg.get("settings") or {},
+            name=name or cfg.get("name") or f"{task} x {oracle}",
+            description=cfg.get("description", ""),
+            task_version_id=tv,
+            oracle_version_id=ov,
+            surrogate_config_version_id=sv,
+            seed=seed if seed is not None else cfg.get("seed", 0),
+            preliminary=cfg.get("preliminary") or {},
+            stopping=stopping,
+            policies=cfg.get("policies") or {},
+            settings=cfg.get("settings") or {},
         )
         return service.create_campaign(s, user.id, data).id
 
@@ -138,16 +162,32 @@ def _metrics(campaign_id: int) -> list[dict[str, Any]]:
         return [m.model_dump(mode="json") for m in service.metrics_series(s, campaign_id)]
 
 
-def spawn_worker(concurrency: int = 1, queues: str = "default,ocp,oracle,train", log_path: Path | None = None) -> subprocess.Popen[bytes]:
+def spawn_worker(
+    concurrency: int = 1, queues: str = "default,ocp,oracle,train", log_path: Path | None = None
+) -> subprocess.Popen[bytes]:
     """An `alcove worker` child process in its own session (stopped by :func:`stop_worker`)."""
-    argv = [sys.executable, "-m", "alcove_worker.cli.main", "worker", "--queues", queues, "--concurrency", str(concurrency),
-            "--name", f"campaign-run-{uuid.uuid4().hex[:6]}", "--loglevel", "WARNING"]
+    argv = [
+        sys.executable,
+        "-m",
+        "alcove_worker.cli.main",
+        "worker",
+        "--queues",
+        queues,
+        "--concurrency",
+        str(concurrency),
+        "--name",
+        f"campaign-run-{uuid.uuid4().hex[:6]}",
+        "--loglevel",
+        "WARNING",
+    ]
     out = open(log_path, "ab") if log_path else subprocess.DEVNULL  # noqa: SIM115
     env = dict(os.environ)
     # lean hand-over between steps on the filesystem broker: the worker polls the folder only
     # while it has no job running (prefetch 1, acks late), so a short interval costs no CPU during a step
     env.setdefault("ALCOVE_BROKER_POLLING_INTERVAL", "0.005")
-    return subprocess.Popen(argv, stdout=out, stderr=subprocess.STDOUT, start_new_session=True, env=env, preexec_fn=_die_with_parent)
+    return subprocess.Popen(
+        argv, stdout=out, stderr=subprocess.STDOUT, start_new_session=True, env=env, preexec_fn=_die_with_parent
+    )
 
 
 def _die_with_parent() -> None:
@@ -163,14 +203,10 @@ def _die_with_parent() -> None:
 def stop_worker(p: subprocess.Popen[bytes], timeout: float = 20.0) -> None:
     if p.poll() is None:
         p.send_signal(signal.SIGTERM)
-        try:
+        with contextlib.suppress(subprocess.TimeoutExpired):
             p.wait(timeout=timeout)
-        except subprocess.TimeoutExpired:
-            pass
-    try:
+    with contextlib.suppress(ProcessLookupError):
         os.killpg(p.pid, signal.SIGKILL)
-    except ProcessLookupError:
-        pass
     p.wait(timeout=5)
 
 
@@ -202,14 +238,19 @@ class _WorkerWatch:
         self.next_check = time.monotonic() + self.every
         queue = queue_without_worker(step)
         if queue is not None and queue != self.waiting_on:
-            self.console.print(f"waiting: no live worker serves queue '{queue}' (step {step}); "
-                               f"start one with `alcove worker --queues {queue}` on this database and broker", soft_wrap=True)
+            self.console.print(
+                f"waiting: no live worker serves queue '{queue}' (step {step}); "
+                f"start one with `alcove worker --queues {queue}` on this database and broker",
+                soft_wrap=True,
+            )
         elif queue is None and self.waiting_on is not None:
             self.console.print(f"a worker now serves queue '{self.waiting_on}'", soft_wrap=True)
         self.waiting_on = queue
 
 
-def follow(campaign_id: int, *, quiet: bool = False, poll: float = 0.25, worker: subprocess.Popen[bytes] | None = None) -> Any:
+def follow(
+    campaign_id: int, *, quiet: bool = False, poll: float = 0.25, worker: subprocess.Popen[bytes] | None = None
+) -> Any:
     """Poll the campaign until it reaches a terminal state (or paused), with a progress display.
 
     Without a spawned ``worker`` the steps wait for external workers: a step whose queue no
@@ -222,8 +263,16 @@ def follow(campaign_id: int, *, quiet: bool = False, poll: float = 0.25, worker:
     detail = _detail(campaign_id)
     total = detail.config.stopping.max_iterations
     start_k = detail.campaign.source_iteration or 0
-    with Progress(TextColumn("[bold]{task.description}"), BarColumn(), MofNCompleteColumn(), TextColumn("{task.fields[info]}"), TimeElapsedColumn(),
-                  console=console, disable=quiet, transient=False) as progress:
+    with Progress(
+        TextColumn("[bold]{task.description}"),
+        BarColumn(),
+        MofNCompleteColumn(),
+        TextColumn("{task.fields[info]}"),
+        TimeElapsedColumn(),
+        console=console,
+        disable=quiet,
+        transient=False,
+    ) as progress:
         bar = progress.add_task(f"campaign {campaign_id}", total=(total - start_k) if total else None, info="")
         while True:
             detail = _detail(campaign_id)
@@ -231,8 +280,12 @@ def follow(campaign_id: int, *, quiet: bool = False, poll: float = 0.25, worker:
             m = detail.latest_metrics
             rmse = f"F {m.force_rmse:.3g} N  M {m.moment_rmse:.3g} N m" if m and m.force_rmse is not None else "-"
             eta = f"ETA {detail.eta_s:.0f} s" if detail.eta_s is not None else "ETA -"
-            progress.update(bar, completed=detail.iterations_finished + detail.iterations_failed,
-                            description=f"campaign {campaign_id} · k={c.current_iteration} {c.current_step or ''} · {c.status.value}", info=f"{rmse} · {eta}")
+            progress.update(
+                bar,
+                completed=detail.iterations_finished + detail.iterations_failed,
+                description=f"campaign {campaign_id} · k={c.current_iteration} {c.current_step or ''} · {c.status.value}",
+                info=f"{rmse} · {eta}",
+            )
             if c.status.value in TERMINAL or c.status.value == "paused":
                 return detail
             if worker is not None and worker.poll() is not None:
@@ -245,8 +298,16 @@ def follow(campaign_id: int, *, quiet: bool = False, poll: float = 0.25, worker:
 
 def _summary(detail: Any, metrics: list[dict[str, Any]], wall: float | None = None) -> dict[str, Any]:
     c = detail.campaign
-    out = {"campaign_id": c.id, "status": c.status.value, "stop_reason": c.stop_reason, "error": c.error, "iterations_finished": detail.iterations_finished,
-           "iterations_failed": detail.iterations_failed, "mean_iteration_s": detail.mean_iteration_s, "oracle_wall_time_s": c.oracle_wall_time_s}
+    out = {
+        "campaign_id": c.id,
+        "status": c.status.value,
+        "stop_reason": c.stop_reason,
+        "error": c.error,
+        "iterations_finished": detail.iterations_finished,
+        "iterations_failed": detail.iterations_failed,
+        "mean_iteration_s": detail.mean_iteration_s,
+        "oracle_wall_time_s": c.oracle_wall_time_s,
+    }
     if wall is not None:
         out["wall_time_s"] = wall
     out["step_median_s"] = _step_medians(c.id)
@@ -264,30 +325,42 @@ def _step_medians(campaign_id: int) -> dict[str, dict[str, float]]:
     from alcove.db import session_scope
 
     with session_scope() as s:
-        jobs = [j for j in service.list_jobs(s, campaign_id, ["succeeded"]) if j["iteration"] > 0 and j["wall_time_s"] is not None]
+        jobs = [
+            j
+            for j in service.list_jobs(s, campaign_id, ["succeeded"])
+            if j["iteration"] > 0 and j["wall_time_s"] is not None
+        ]
     out: dict[str, dict[str, float]] = {}
     for step in ("train", "ocp", "oracle", "evaluate", "append"):
         mine = [j for j in jobs if j["step"].value == step]
         if mine:
-            out[step] = {"wall": statistics.median(j["wall_time_s"] for j in mine), "compute": statistics.median(j["result"].get("compute_s", 0.0) for j in mine)}
+            out[step] = {
+                "wall": statistics.median(j["wall_time_s"] for j in mine),
+                "compute": statistics.median(j["result"].get("compute_s", 0.0) for j in mine),
+            }
     return out
 
 
 @app.command()
 def run(
     task: str = typer.Option("head-headrest-2phase", help="task preset"),
-    oracle: str = typer.Option("fe-headrest-2d", help="oracle type: fe-headrest-2d, aux-penalty or a command-catalogue entry"),
-    iterations: int | None = typer.Option(None, "--iterations", "-n", min=1, help="max_iterations stopping rule (default: the config's, else 200)"),
+    oracle: str = typer.Option(
+        "fe-headrest-2d", help="oracle type: fe-headrest-2d, aux-penalty or a command-catalogue entry"
+    ),
+    iterations: int | None = typer.Option(
+        None, "--iterations", "-n", min=1, help="max_iterations stopping rule (default: the config's, else 200)"
+    ),
     config: Path | None = typer.Option(None, "--config", help="YAML/JSON campaign settings"),
     name: str | None = typer.Option(None, help="campaign name"),
     seed: int | None = typer.Option(None, min=0, help="campaign seed"),
     as_json: bool = typer.Option(False, "--json", help="print the per-iteration metrics as JSON at the end"),
-    spawn: bool = typer.Option(True, "--worker/--no-worker", help="spawn a worker process (off: external `alcove worker`s run the steps)"),
+    spawn: bool = typer.Option(
+        True, "--worker/--no-worker", help="spawn a worker process (off: external `alcove worker`s run the steps)"
+    ),
     concurrency: int = typer.Option(1, "--concurrency", "-c", min=1, help="processes of the spawned worker"),
     worker_log: Path | None = typer.Option(None, help="file for the spawned worker's log"),
 ) -> None:
     """Create a campaign, run it to the end through Celery, and report its metrics."""
-    from alcove.jobs.campaign import enqueue
 
     _ensure_database()
     cfg = _read_config(config)
@@ -300,7 +373,10 @@ def run(
             detail = follow(campaign_id, quiet=as_json, worker=proc)
         except KeyboardInterrupt:
             _control("pause", campaign_id)
-            typer.echo(f"\npausing campaign {campaign_id} after the running step; continue with `alcove campaign resume {campaign_id}`", err=True)
+            typer.echo(
+                f"\npausing campaign {campaign_id} after the running step; continue with `alcove campaign resume {campaign_id}`",
+                err=True,
+            )
             detail = follow(campaign_id, quiet=True, worker=proc)
     finally:
         if proc is not None:
@@ -337,10 +413,13 @@ def _print_status(campaign_id: int, as_json: bool) -> None:
         return
     c = detail.campaign
     m = detail.latest_metrics
-    typer.echo(f"campaign {c.id} '{c.name}': {c.status.value}" + (f" ({c.stop_reason})" if c.stop_reason else "") +
-               f" · iteration {c.current_iteration} {c.current_step or ''} · finished {detail.iterations_finished}, failed {detail.iterations_failed}" +
-               (f" · last RMSE F {m.force_rmse:.4g} N, M {m.moment_rmse:.4g} N m" if m and m.force_rmse is not None else "") +
-               (f" · ETA {detail.eta_s:.0f} s" if detail.eta_s is not None else ""))
+    typer.echo(
+        f"campaign {c.id} '{c.name}': {c.status.value}"
+        + (f" ({c.stop_reason})" if c.stop_reason else "")
+        + f" · iteration {c.current_iteration} {c.current_step or ''} · finished {detail.iterations_finished}, failed {detail.iterations_failed}"
+        + (f" · last RMSE F {m.force_rmse:.4g} N, M {m.moment_rmse:.4g} N m" if m and m.force_rmse is not None else "")
+        + (f" · ETA {detail.eta_s:.0f} s" if detail.eta_s is not None else "")
+    )
     if c.error:
         typer.echo(f"error: {c.error}")
 
@@ -378,7 +457,9 @@ def cancel(campaign_id: int = _id_arg()) -> None:
 
 
 @app.command()
-def retry(campaign_id: int = _id_arg(), iteration: int | None = typer.Option(None), step: str | None = typer.Option(None)) -> None:
+def retry(
+    campaign_id: int = _id_arg(), iteration: int | None = typer.Option(None), step: str | None = typer.Option(None)
+) -> None:
     """Run the failed step of a failed campaign again."""
     _control("retry_step", campaign_id, iteration=iteration, step=step)
     _print_status(campaign_id, False)
@@ -387,9 +468,13 @@ def retry(campaign_id: int = _id_arg(), iteration: int | None = typer.Option(Non
 @app.command()
 def fork(
     campaign_id: int = _id_arg(),
-    iteration: int = typer.Option(..., "--iteration", "-k", min=0, help="continue from this iteration's pool version and model"),
+    iteration: int = typer.Option(
+        ..., "--iteration", "-k", min=0, help="continue from this iteration's pool version and model"
+    ),
     iterations: int | None = typer.Option(None, "--iterations", "-n", min=1, help="max_iterations of the fork"),
-    config: Path | None = typer.Option(None, "--config", help="settings to change (stopping, policies, settings, surrogate, seed, name)"),
+    config: Path | None = typer.Option(
+        None, "--config", help="settings to change (stopping, policies, settings, surrogate, seed, name)"
+    ),
     start_it: bool = typer.Option(False, "--start", help="start the fork at once"),
 ) -> None:
     """Create a new campaign continuing from iteration K of this one; prints its id."""
@@ -404,10 +489,22 @@ def fork(
         stopping["max_iterations"] = iterations
 
     def scv(s: Any) -> int | None:
-        return presets.surrogate_config_version_for(s, presets.local_user(s).id, cfg["surrogate"]) if "surrogate" in cfg else None
+        return (
+            presets.surrogate_config_version_for(s, presets.local_user(s).id, cfg["surrogate"])
+            if "surrogate" in cfg
+            else None
+        )
 
-    req = ForkRequest(iteration=iteration, name=cfg.get("name"), seed=cfg.get("seed"), stopping=StoppingRules(**stopping), policies=cfg.get("policies"),
-                      settings=cfg.get("settings"), surrogate_config_version_id=transaction(scv), start=start_it)
+    req = ForkRequest(
+        iteration=iteration,
+        name=cfg.get("name"),
+        seed=cfg.get("seed"),
+        stopping=StoppingRules(**stopping),
+        policies=cfg.get("policies"),
+        settings=cfg.get("settings"),
+        surrogate_config_version_id=transaction(scv),
+        start=start_it,
+    )
     new = _control("fork", campaign_id, req=req, owner_id=detail.campaign.owner_id)
     typer.echo(new.id)
 

@@ -4,11 +4,15 @@ from __future__ import annotations
 
 import typer
 
-app = typer.Typer(help="Database schema: upgrade, downgrade, current revision, model/migration check.", no_args_is_help=True)
+app = typer.Typer(
+    help="Database schema: upgrade, downgrade, current revision, model/migration check.", no_args_is_help=True
+)
 
 
 def _url_option() -> str | None:
-    return typer.Option(None, "--url", help="SQLAlchemy URL (default: ALCOVE_DATABASE_URL or SQLite in ALCOVE_DATA_DIR)")
+    return typer.Option(
+        None, "--url", help="SQLAlchemy URL (default: ALCOVE_DATABASE_URL or SQLite in ALCOVE_DATA_DIR)"
+    )
 
 
 @app.command()
@@ -21,7 +25,9 @@ def upgrade(revision: str = typer.Argument("head", help="target revision"), url:
 
 
 @app.command()
-def downgrade(revision: str = typer.Argument(..., help="target revision, e.g. -1 or base"), url: str | None = _url_option()) -> None:
+def downgrade(
+    revision: str = typer.Argument(..., help="target revision, e.g. -1 or base"), url: str | None = _url_option()
+) -> None:
     """Migrate the database down to REVISION (``-1`` = one step, ``base`` = empty)."""
     from alcove.db import migrate
 

@@ -6,7 +6,9 @@ import typer
 
 from alcove_worker.cli import campaign, db, ocp, oracle, serve, surrogate, users
 
-app = typer.Typer(name="alcove", help="Active-learning campaigns for contact surrogates.", no_args_is_help=True, add_completion=False)
+app = typer.Typer(
+    name="alcove", help="Active-learning campaigns for contact surrogates.", no_args_is_help=True, add_completion=False
+)
 app.add_typer(ocp.app, name="ocp")
 app.add_typer(oracle.app, name="oracle")
 app.add_typer(surrogate.app, name="surrogate")

@@ -81,11 +81,15 @@ def run_summary(oracle_name: str, result: Any, out: Path | None) -> dict[str, An
 
 @app.command("run")
 def run(
-    oracle: str = typer.Option(..., "--oracle", help="fe-headrest-2d, aux-penalty or the name of a command oracle in the catalogue"),
+    oracle: str = typer.Option(
+        ..., "--oracle", help="fe-headrest-2d, aux-penalty or the name of a command oracle in the catalogue"
+    ),
     trajectory: Path = typer.Option(..., "--trajectory", help="trajectory CSV (t,q_0,qd_0[,tau_0])"),
     out: Path = typer.Option(..., "--out", help="forces CSV to write (t,fx,fy,fz,mx,my,mz; N, N m, headrest frame)"),
     params: Path | None = typer.Option(None, "--params", help="JSON object of oracle parameters"),
-    catalogue: Path | None = typer.Option(None, "--catalogue", help="YAML catalogue of command oracles (default: $ALCOVE_COMMAND_ORACLES_FILE)"),
+    catalogue: Path | None = typer.Option(
+        None, "--catalogue", help="YAML catalogue of command oracles (default: $ALCOVE_COMMAND_ORACLES_FILE)"
+    ),
     json_output: bool = typer.Option(False, "--json", help="print a JSON summary of the run on stdout"),
 ) -> None:
     """Replay a trajectory with an oracle and write the contact force and moment on the head."""
@@ -114,7 +118,9 @@ def run(
     if json_output:
         typer.echo(json.dumps(run_summary(oracle, result, out if result.ok else None), indent=2))
     elif result.ok:
-        typer.echo(f"ok: {len(result.forces)} samples, peak force {result.forces.peak_force:.4g} N, {result.wall_time:.3g} s -> {out}")
+        typer.echo(
+            f"ok: {len(result.forces)} samples, peak force {result.forces.peak_force:.4g} N, {result.wall_time:.3g} s -> {out}"
+        )
     if not result.ok:
         typer.echo(f"failed: {result.failure_reason}", err=True)
         raise typer.Exit(EXIT_FAILED_RUN)
@@ -122,7 +128,9 @@ def run(
 
 @app.command("list")
 def list_types(
-    catalogue: Path | None = typer.Option(None, "--catalogue", help="YAML catalogue of command oracles (default: $ALCOVE_COMMAND_ORACLES_FILE)"),
+    catalogue: Path | None = typer.Option(
+        None, "--catalogue", help="YAML catalogue of command oracles (default: $ALCOVE_COMMAND_ORACLES_FILE)"
+    ),
     json_output: bool = typer.Option(False, "--json", help="print JSON instead of a table"),
 ) -> None:
     """List the oracle types: built-in ones and the administrator's command oracles."""
@@ -137,14 +145,23 @@ def list_types(
 
     table = Table("name", "kind", "available", "description")
     for row in rows:
-        table.add_row(row["name"], row["kind"], "yes" if row["available"] else f"no: {row['unavailable_reason']}", row["description"])
+        table.add_row(
+            row["name"],
+            row["kind"],
+            "yes" if row["available"] else f"no: {row['unavailable_reason']}",
+            row["description"],
+        )
     Console().print(table)
 
 
 @app.command("schema")
 def schema(
-    oracle_type: str = typer.Argument(..., metavar="TYPE", help="fe-headrest-2d, aux-penalty or a command oracle's name"),
-    catalogue: Path | None = typer.Option(None, "--catalogue", help="YAML catalogue of command oracles (default: $ALCOVE_COMMAND_ORACLES_FILE)"),
+    oracle_type: str = typer.Argument(
+        ..., metavar="TYPE", help="fe-headrest-2d, aux-penalty or a command oracle's name"
+    ),
+    catalogue: Path | None = typer.Option(
+        None, "--catalogue", help="YAML catalogue of command oracles (default: $ALCOVE_COMMAND_ORACLES_FILE)"
+    ),
 ) -> None:
     """Print the JSON schema of an oracle type's parameters."""
     from alcove.science.oracles.base import OracleInputError

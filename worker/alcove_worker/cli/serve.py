@@ -41,7 +41,7 @@ def _wait_for_schema(timeout: float) -> None:
             if cur == head:
                 return
             problem = f"database at revision {cur}, code expects {head}; run `alcove db upgrade`"
-        except Exception as err:  # noqa: BLE001
+        except Exception as err:
             problem = f"database not reachable: {err}"
         if time.monotonic() > deadline:
             typer.echo(problem, err=True)
@@ -52,7 +52,9 @@ def _wait_for_schema(timeout: float) -> None:
 def worker(
     queues: str = typer.Option(ALL_QUEUES, "--queues", "-Q", help=f"comma-separated subset of {ALL_QUEUES}"),
     concurrency: int = typer.Option(os.cpu_count() or 1, "--concurrency", "-c", min=1, help="worker processes"),
-    name: str | None = typer.Option(None, "--name", "-n", help="unique worker name (default: <queues>-<random>@<host>)"),
+    name: str | None = typer.Option(
+        None, "--name", "-n", help="unique worker name (default: <queues>-<random>@<host>)"
+    ),
     loglevel: str = typer.Option("INFO", "--loglevel", "-l"),
     wait_for_db: float = typer.Option(120.0, help="seconds to wait for a reachable, migrated database"),
 ) -> None:
@@ -68,7 +70,19 @@ def worker(
     settings = get_settings()
     from alcove_worker.celery_app import app
 
-    argv = ["worker", "-Q", ",".join(qs), "-c", str(concurrency), "-n", name, "-l", loglevel, "--without-gossip", "--without-mingle"]
+    argv = [
+        "worker",
+        "-Q",
+        ",".join(qs),
+        "-c",
+        str(concurrency),
+        "-n",
+        name,
+        "-l",
+        loglevel,
+        "--without-gossip",
+        "--without-mingle",
+    ]
     if settings.is_embedded_broker:
         argv.append("--without-heartbeat")
     app.worker_main(argv=argv)
@@ -80,7 +94,9 @@ def _ensure_admin() -> None:
     from alcove.settings import get_settings
 
     s = get_settings()
-    created = transaction(lambda session: ensure_first_admin(session, s.admin_email, s.admin_password.get_secret_value()) is not None)
+    created = transaction(
+        lambda session: ensure_first_admin(session, s.admin_email, s.admin_password.get_secret_value()) is not None
+    )
     if created:
         typer.echo(f"created the first admin: {s.admin_email} (password from ALCOVE_ADMIN_PASSWORD)")
 
@@ -144,16 +160,29 @@ def _run_api(host: str, port: int, workers: int, log_level: str, access_log: boo
 
     # several processes share the port (uvicorn's supervisor restarts one that dies); the
     # import string + factory is what lets each of them build its own app
-    uvicorn.run("alcove.api.app:create_app", factory=True, host=host, port=port, log_level=log_level, lifespan="on", workers=workers,
-                access_log=access_log or log_level == "debug", timeout_keep_alive=30)
+    uvicorn.run(
+        "alcove.api.app:create_app",
+        factory=True,
+        host=host,
+        port=port,
+        log_level=log_level,
+        lifespan="on",
+        workers=workers,
+        access_log=access_log or log_level == "debug",
+        timeout_keep_alive=30,
+    )
 
 
 def serve(
     host: str | None = typer.Option(None, help="API host (default ALCOVE_API_HOST)"),
     port: int | None = typer.Option(None, help="API port (default ALCOVE_API_PORT)"),
-    workers: int | None = typer.Option(None, "--workers", "-w", min=1, max=64, help="API processes (default: one per CPU, at most 4)"),
+    workers: int | None = typer.Option(
+        None, "--workers", "-w", min=1, max=64, help="API processes (default: one per CPU, at most 4)"
+    ),
     migrate_db: bool = typer.Option(True, "--migrate/--no-migrate", help="run `alcove db upgrade` first"),
-    access_log: bool | None = typer.Option(None, "--access-log/--no-access-log", help="log every HTTP request (default ALCOVE_ACCESS_LOG)"),
+    access_log: bool | None = typer.Option(
+        None, "--access-log/--no-access-log", help="log every HTTP request (default ALCOVE_ACCESS_LOG)"
+    ),
 ) -> None:
     """Run the API server only (workers run elsewhere: `alcove worker`)."""
     from alcove.db import migrate
@@ -168,7 +197,9 @@ def serve(
     port = port or s.api_port
     _check_port_free(host, port)
     n = workers or default_api_workers()
-    typer.echo(f"alcove {_version()} · database {_redact(s.database_url)} · broker {_redact(s.broker_url)} · {n} API process(es)")
+    typer.echo(
+        f"alcove {_version()} · database {_redact(s.database_url)} · broker {_redact(s.broker_url)} · {n} API process(es)"
+    )
     signal.signal(signal.SIGTERM, _exit_on_sigterm)
     typer.echo(f"API on http://{host}:{port}  (health: /api/v1/health, docs: /api/v1/docs)")
     _run_api(host, port, n, s.log_level.lower(), s.access_log if access_log is None else access_log)
@@ -177,12 +208,18 @@ def serve(
 def up(
     host: str | None = typer.Option(None, help="API host (default ALCOVE_API_HOST)"),
     port: int | None = typer.Option(None, help="API port (default ALCOVE_API_PORT)"),
-    workers: int = typer.Option(1, "--workers", "-w", min=1, max=64, help="API processes (`alcove serve` defaults to one per CPU)"),
-    concurrency: int | None = typer.Option(None, "--concurrency", "-c", min=1, help="worker processes (default ALCOVE_WORKER_CONCURRENCY or CPU count)"),
+    workers: int = typer.Option(
+        1, "--workers", "-w", min=1, max=64, help="API processes (`alcove serve` defaults to one per CPU)"
+    ),
+    concurrency: int | None = typer.Option(
+        None, "--concurrency", "-c", min=1, help="worker processes (default ALCOVE_WORKER_CONCURRENCY or CPU count)"
+    ),
     queues: str = typer.Option(ALL_QUEUES, "--queues", "-Q", help="queues of the bundled worker"),
     with_worker: bool = typer.Option(True, "--worker/--no-worker", help="also start a worker process"),
     migrate_db: bool = typer.Option(True, "--migrate/--no-migrate", help="run `alcove db upgrade` first"),
-    access_log: bool | None = typer.Option(None, "--access-log/--no-access-log", help="log every HTTP request (default ALCOVE_ACCESS_LOG)"),
+    access_log: bool | None = typer.Option(
+        None, "--access-log/--no-access-log", help="log every HTTP request (default ALCOVE_ACCESS_LOG)"
+    ),
 ) -> None:
     """Run the API server and a Celery worker together (embedded default: SQLite +
     filesystem broker in ALCOVE_DATA_DIR, nothing else needed)."""
@@ -199,12 +236,25 @@ def up(
     host = host or s.api_host
     port = port or s.api_port
     _check_port_free(host, port)
-    typer.echo(f"alcove {_version()} · database {_redact(s.database_url)} · broker {_redact(s.broker_url)} · data {s.data_dir}")
+    typer.echo(
+        f"alcove {_version()} · database {_redact(s.database_url)} · broker {_redact(s.broker_url)} · data {s.data_dir}"
+    )
 
     wp: WorkerProcess | None = None
     if with_worker:
         n = concurrency or s.worker_concurrency or os.cpu_count() or 1
-        argv = [sys.executable, "-m", "alcove_worker.cli.main", "worker", "--queues", ",".join(qs), "--concurrency", str(n), "--loglevel", s.log_level]
+        argv = [
+            sys.executable,
+            "-m",
+            "alcove_worker.cli.main",
+            "worker",
+            "--queues",
+            ",".join(qs),
+            "--concurrency",
+            str(n),
+            "--loglevel",
+            s.log_level,
+        ]
         wp = WorkerProcess(argv)
         wp.start()
     # uvicorn re-raises the SIGTERM it caught once it has shut down; turn that into a
@@ -224,7 +274,7 @@ def _reconcile_at_start() -> None:
 
     try:
         jobs = reconcile_and_enqueue()
-    except Exception as err:  # noqa: BLE001 - a failed pass is retried by every worker's reconciler
+    except Exception as err:
         typer.echo(f"warning: reconciliation at start failed: {err}", err=True)
         return
     if jobs:
@@ -257,7 +307,9 @@ def smoke(
     if as_json:
         typer.echo(json.dumps({"ok": True, **got}))
     else:
-        typer.echo(f"smoke job ok: worker {got['worker_name']} committed row {got['id']} in {got['round_trip_s']:.3f} s")
+        typer.echo(
+            f"smoke job ok: worker {got['worker_name']} committed row {got['id']} in {got['round_trip_s']:.3f} s"
+        )
 
 
 def _version() -> str:
@@ -271,7 +323,7 @@ def _redact(url: str) -> str:
 
     try:
         return make_url(url).render_as_string(hide_password=True)
-    except Exception:  # noqa: BLE001
+    except Exception:
         return url.split("@")[-1]
 
 

@@ -22,7 +22,9 @@ from typing import Any, NoReturn
 
 import typer
 
-app = typer.Typer(help="Train contact surrogates (two MLPs), predict with them, write preliminary data.", no_args_is_help=True)
+app = typer.Typer(
+    help="Train contact surrogates (two MLPs), predict with them, write preliminary data.", no_args_is_help=True
+)
 
 EXIT_BAD_INPUT = 2
 
@@ -49,7 +51,9 @@ def _task_preset(task: str | None, task_file: Path | None):  # type: ignore[no-u
         _bad_input(exc.field, exc.reason)
 
 
-def _campaign_inputs(campaign_id: int, database_url: str | None) -> tuple[list, dict[str, Any], Any, int, dict[str, Any]]:
+def _campaign_inputs(
+    campaign_id: int, database_url: str | None
+) -> tuple[list, dict[str, Any], Any, int, dict[str, Any]]:
     """Pool, surrogate config, preset, seed and lineage of a campaign's latest pool version."""
     try:
         import sqlalchemy as sa
@@ -71,16 +75,29 @@ def _campaign_inputs(campaign_id: int, database_url: str | None) -> tuple[list, 
             campaign = s.get(Campaign, campaign_id)
             if campaign is None:
                 _bad_input("campaign", f"no campaign with id {campaign_id}")
-            pv = s.scalars(sa.select(PoolVersion).where(PoolVersion.campaign_id == campaign_id).order_by(PoolVersion.version.desc()).limit(1)).first()
+            pv = s.scalars(
+                sa.select(PoolVersion)
+                .where(PoolVersion.campaign_id == campaign_id)
+                .order_by(PoolVersion.version.desc())
+                .limit(1)
+            ).first()
             if pv is None:
-                _bad_input("campaign", f"campaign {campaign_id} has no pool version yet (its preliminary data is built when it starts)")
+                _bad_input(
+                    "campaign",
+                    f"campaign {campaign_id} has no pool version yet (its preliminary data is built when it starts)",
+                )
             pool = load_training_pool(s, pv)
             config = dict(campaign.surrogate_config_version.spec or {})
             try:
                 preset = parse_task(campaign.task_version.spec).preset()
             except TaskSpecError as exc:
                 _bad_input(f"campaign task: {exc.field}", exc.reason)
-            lineage = {"campaign_id": campaign_id, "pool_version_id": pv.id, "pool_version": pv.version, "pool_content_hash": pv.content_hash}
+            lineage = {
+                "campaign_id": campaign_id,
+                "pool_version_id": pv.id,
+                "pool_version": pv.version,
+                "pool_content_hash": pv.content_hash,
+            }
             return pool, config, preset, int(campaign.seed), lineage
     except sa.exc.SQLAlchemyError as exc:
         _bad_input("campaign", f"cannot read the database ({type(exc).__name__}: {str(exc).splitlines()[0]})")
@@ -98,21 +115,40 @@ def _print_metrics(metrics: dict[str, Any], out: Path) -> None:
     fmt = lambda v: "-" if v is None else f"{v:.4g}"  # noqa: E731
     for net, unit in (("force", "N"), ("moment", "N m")):
         r = metrics["rmse"][net]
-        table.add_row(f"{net} [{unit}]", fmt(r["train"]), fmt(r["validation"]), fmt(r["test"]), f"{metrics['epochs'][net]} ({metrics['best_epoch'][net]})")
+        table.add_row(
+            f"{net} [{unit}]",
+            fmt(r["train"]),
+            fmt(r["validation"]),
+            fmt(r["test"]),
+            f"{metrics['epochs'][net]} ({metrics['best_epoch'][net]})",
+        )
     console = Console()
     console.print(table)
     s = metrics["samples"]
-    console.print(f"samples: {s['train']} train, {s['validation']} validation, {s['test']} test; wall time {metrics['wall_time_s']:.2f} s "
-                  f"({'C kernel' if metrics.get('training_kernel') == 'c' else 'PyTorch'})")
+    console.print(
+        f"samples: {s['train']} train, {s['validation']} validation, {s['test']} test; wall time {metrics['wall_time_s']:.2f} s "
+        f"({'C kernel' if metrics.get('training_kernel') == 'c' else 'PyTorch'})"
+    )
 
 
 @app.command()
 def train(
     pool_dir: Path | None = typer.Option(None, "--pool", help="pool folder of NAME.traj.csv + NAME.forces.csv pairs"),
-    campaign: int | None = typer.Option(None, "--campaign", help="train on this campaign's latest pool version (needs the database)"),
-    config_file: Path | None = typer.Option(None, "--config", help="surrogate configuration as JSON (default: the paper's protocol)"),
-    seed: int | None = typer.Option(None, "--seed", min=0, help="seed of splits, initialisation and batch order (default: the config's / campaign's)"),
-    task: str | None = typer.Option(None, "--task", help="task preset whose geometry the pool refers to (default: head-neck-1dof)"),
+    campaign: int | None = typer.Option(
+        None, "--campaign", help="train on this campaign's latest pool version (needs the database)"
+    ),
+    config_file: Path | None = typer.Option(
+        None, "--config", help="surrogate configuration as JSON (default: the paper's protocol)"
+    ),
+    seed: int | None = typer.Option(
+        None,
+        "--seed",
+        min=0,
+        help="seed of splits, initialisation and batch order (default: the config's / campaign's)",
+    ),
+    task: str | None = typer.Option(
+        None, "--task", help="task preset whose geometry the pool refers to (default: head-neck-1dof)"
+    ),
     task_file: Path | None = typer.Option(None, "--task-file", help="task definition as JSON (instead of --task)"),
     out: Path = typer.Option(..., "--out", help="model folder to write (surrogate.json, force.pt, moment.pt)"),
     json_output: bool = typer.Option(False, "--json", help="print a JSON summary on stdout"),
@@ -162,7 +198,14 @@ def train(
     save_artifact(result.model, out, lineage=lineage)
     metrics = result.metrics.to_dict()
     if json_output:
-        summary = {"status": "ok", "out": str(out), "seed": run_seed, "datasets": len(pool), "test_sets": result.split.test_sets, **metrics}
+        summary = {
+            "status": "ok",
+            "out": str(out),
+            "seed": run_seed,
+            "datasets": len(pool),
+            "test_sets": result.split.test_sets,
+            **metrics,
+        }
         typer.echo(json.dumps(summary, indent=2))
     else:
         _print_metrics(metrics, out)
@@ -200,17 +243,28 @@ def predict(
 
 @app.command()
 def preliminary(
-    out: Path = typer.Option(..., "--out", help="pool folder to write (preliminary-NN.traj.csv + .forces.csv, pool.json)"),
+    out: Path = typer.Option(
+        ..., "--out", help="pool folder to write (preliminary-NN.traj.csv + .forces.csv, pool.json)"
+    ),
     samples: int | None = typer.Option(None, "--samples", help="number K of Latin hypercube samples (default 4000)"),
-    velocity_bound: float | None = typer.Option(None, "--velocity-bound", help="joint velocities drawn from [-V, V] rad/s (default 2)"),
+    velocity_bound: float | None = typer.Option(
+        None, "--velocity-bound", help="joint velocities drawn from [-V, V] rad/s (default 2)"
+    ),
     chunks: int | None = typer.Option(None, "--chunks", help="datasets the samples are dealt into (default 10)"),
     seed: int = typer.Option(0, "--seed", min=0),
-    task: str | None = typer.Option(None, "--task", help="task preset whose geometry and joint range to use (default: head-neck-1dof)"),
+    task: str | None = typer.Option(
+        None, "--task", help="task preset whose geometry and joint range to use (default: head-neck-1dof)"
+    ),
     task_file: Path | None = typer.Option(None, "--task-file", help="task definition as JSON (instead of --task)"),
 ) -> None:
     """Write the aux-penalty Latin hypercube preliminary data set as a pool folder."""
     from alcove.science.surrogate.dataset import PoolDataError, save_pool_dir
-    from alcove.science.surrogate.preliminary import DEFAULT_CHUNKS, DEFAULT_SAMPLES, DEFAULT_VELOCITY_BOUND, preliminary_pool
+    from alcove.science.surrogate.preliminary import (
+        DEFAULT_CHUNKS,
+        DEFAULT_SAMPLES,
+        DEFAULT_VELOCITY_BOUND,
+        preliminary_pool,
+    )
 
     preset = _task_preset(task, task_file)
     try:

@@ -19,7 +19,14 @@ def _fail(field: str, reason: str) -> None:
 @user_app.command("create")
 def create_user(
     email: str = typer.Argument(..., help="e-mail (the login name)"),
-    password: str = typer.Option(..., prompt=True, hide_input=True, confirmation_prompt=True, envvar="ALCOVE_NEW_USER_PASSWORD", help="at least 8 characters"),
+    password: str = typer.Option(
+        ...,
+        prompt=True,
+        hide_input=True,
+        confirmation_prompt=True,
+        envvar="ALCOVE_NEW_USER_PASSWORD",
+        help="at least 8 characters",
+    ),
     admin: bool = typer.Option(False, "--admin", help="role admin (default: member)"),
     name: str = typer.Option("", "--name", help="display name"),
 ) -> None:
@@ -56,7 +63,13 @@ def list_users(as_json: bool = typer.Option(False, "--json", help="print JSON"))
 
     with session_scope() as s:
         rows = [
-            {"id": u.id, "email": u.email, "role": u.role, "active": u.is_active, "last_login_at": u.last_login_at.isoformat() if u.last_login_at else None}
+            {
+                "id": u.id,
+                "email": u.email,
+                "role": u.role,
+                "active": u.is_active,
+                "last_login_at": u.last_login_at.isoformat() if u.last_login_at else None,
+            }
             for u in repository.list_users(s)
         ]
     if as_json:
@@ -72,7 +85,9 @@ def list_users(as_json: bool = typer.Option(False, "--json", help="print JSON"))
 def create_token(
     email: str = typer.Argument(..., help="the user the token belongs to"),
     name: str = typer.Option("cli", "--name", help="what the token is for"),
-    expires_in_days: int | None = typer.Option(None, "--expires-in-days", min=1, max=3650, help="default: does not expire"),
+    expires_in_days: int | None = typer.Option(
+        None, "--expires-in-days", min=1, max=3650, help="default: does not expire"
+    ),
 ) -> None:
     """Create a personal API token and print it (only now: just its hash is stored)."""
     from alcove.db import session_scope

@@ -102,10 +102,14 @@ def check_contact_function(fn: ca.Function, ndof: int) -> None:
     if not isinstance(fn, ca.Function):
         raise ContactModelError("contact", f"expected a casadi.Function, got {type(fn).__name__}")
     if fn.n_in() not in (2, 3) or fn.n_out() != 1:
-        raise ContactModelError("contact", f"expected inputs (q, qd[, p]) and one output, got {fn.n_in()} inputs and {fn.n_out()} outputs")
+        raise ContactModelError(
+            "contact", f"expected inputs (q, qd[, p]) and one output, got {fn.n_in()} inputs and {fn.n_out()} outputs"
+        )
     for i, name in enumerate(("q", "qd")):
         if fn.size_in(i) != (ndof, 1):
-            raise ContactModelError(f"contact.{name}", f"input {i} must be {ndof}x1, got {fn.size_in(i)[0]}x{fn.size_in(i)[1]}")
+            raise ContactModelError(
+                f"contact.{name}", f"input {i} must be {ndof}x1, got {fn.size_in(i)[0]}x{fn.size_in(i)[1]}"
+            )
     if fn.n_in() == 3 and fn.size2_in(2) != 1:
         raise ContactModelError("contact.p", "the parameter input must be a column")
     if fn.size_out(0) != (WRENCH_SIZE, 1):
@@ -122,7 +126,9 @@ def contact_from_spec(spec: str, preset: HeadNeckPreset) -> ca.Function | None:
         path = Path(spec.removeprefix("model:"))
         if not path.exists():
             raise ContactModelError("contact", f"model file {str(path)!r} does not exist")
-        from alcove.science.surrogate.export import casadi_contact_from_artifact  # lazy: delivered by the surrogate issue
+        from alcove.science.surrogate.export import (
+            casadi_contact_from_artifact,
+        )  # lazy: delivered by the surrogate issue
 
         return casadi_contact_from_artifact(path, preset)
     raise ContactModelError("contact", f"unknown contact model {spec!r}; use aux, none or model:FILE")

@@ -20,7 +20,7 @@ IPOPT iteration with a surrogate contact (measured; see bench/figures/ocp.py).
 
 from __future__ import annotations
 
-from typing import Sequence
+from collections.abc import Sequence
 
 import casadi as ca
 import numpy as np
@@ -29,7 +29,9 @@ import scipy.sparse as sps
 from alcove.science.multibody import PlanarChain
 
 
-def _scatter(nrow: int, ncol: int, blocks: Sequence[tuple[ca.MX, np.ndarray, np.ndarray]], upper: bool = False) -> ca.MX:
+def _scatter(
+    nrow: int, ncol: int, blocks: Sequence[tuple[ca.MX, np.ndarray, np.ndarray]], upper: bool = False
+) -> ca.MX:
     """Sum of local blocks as one sparse MX matrix.
 
     Each block set is (values (r x c K) -- K blocks side by side --, rows (K, r), cols (K, c));
@@ -127,7 +129,9 @@ def structured_derivatives(
     first_jac = ca.Function("first_jac", [z], [ca.densify(ca.jacobian(g_first, z))])
     last_jac = ca.Function("last_jac", [z], [ca.densify(ca.jacobian(g_last, z))])
     first_hess = ca.Function("first_hess", [z, lam_e], [ca.densify(ca.hessian(ca.dot(lam_e, g_first), z)[0])])
-    last_hess = ca.Function("last_hess", [z, h, p, lam_e, sigma], [ca.densify(ca.hessian(ca.dot(lam_e, g_last) + sigma * endpoint, z)[0])])
+    last_hess = ca.Function(
+        "last_hess", [z, h, p, lam_e, sigma], [ca.densify(ca.hessian(ca.dot(lam_e, g_last) + sigma * endpoint, z)[0])]
+    )
 
     # ---- index maps ---------------------------------------------------------------------
     k = np.arange(N)[:, None]
@@ -173,7 +177,9 @@ def structured_derivatives(
         ],
         upper=True,
     )
-    hess_lag = ca.Function("nlp_hess_l", [x, par, lam_f, lam_g], [hess], ["x", "p", "lam_f", "lam_g"], ["triu_hess_gamma_x_x"])
+    hess_lag = ca.Function(
+        "nlp_hess_l", [x, par, lam_f, lam_g], [hess], ["x", "p", "lam_f", "lam_g"], ["triu_hess_gamma_x_x"]
+    )
     return jac_g, hess_lag
 
 

@@ -236,7 +236,17 @@ class Transcription:
             if prob.qd_end is not None:
                 node_rows[N] = off + n * (N - 1) + np.arange(n)
             jac_g, hess_lag = structured_derivatives(
-                chain, prob, dynamics, _interval_functions(chain, None)[0], self.contact, interval_cost, self.n_par, x, par, g, node_rows
+                chain,
+                prob,
+                dynamics,
+                _interval_functions(chain, None)[0],
+                self.contact,
+                interval_cost,
+                self.n_par,
+                x,
+                par,
+                g,
+                node_rows,
             )
             self._derivative_options = {"jac_g": jac_g, "hess_lag": hess_lag}
         elif self.derivatives != "casadi":
@@ -292,7 +302,12 @@ class Transcription:
     def constraint_violation(self, x: np.ndarray, g: np.ndarray) -> float:
         """Largest violation of the constraints and the variable bounds."""
         x, g = np.asarray(x).ravel(), np.asarray(g).ravel()
-        parts = [np.maximum(self.lbx - x, 0), np.maximum(x - self.ubx, 0), np.maximum(self.lbg - g, 0), np.maximum(g - self.ubg, 0)]
+        parts = [
+            np.maximum(self.lbx - x, 0),
+            np.maximum(x - self.ubx, 0),
+            np.maximum(self.lbg - g, 0),
+            np.maximum(g - self.ubg, 0),
+        ]
         return float(max((p.max() if p.size else 0.0) for p in parts))
 
     @property
@@ -312,7 +327,11 @@ class Transcription:
         return self._warm_solver
 
     def solve(
-        self, x0: np.ndarray, par: np.ndarray | None = None, lam_x0: np.ndarray | None = None, lam_g0: np.ndarray | None = None
+        self,
+        x0: np.ndarray,
+        par: np.ndarray | None = None,
+        lam_x0: np.ndarray | None = None,
+        lam_g0: np.ndarray | None = None,
     ) -> dict[str, object]:
         """One IPOPT run from ``x0`` (warm-started when multipliers are given): x, cost, g, multipliers, stats."""
         par = np.zeros(self.n_par) if par is None else np.asarray(par, float).ravel()
@@ -410,4 +429,4 @@ def passive_rollout(
     return np.vstack([q0, np.asarray(S)[:n].T]), np.asarray(U).T
 
 
-__all__ = ["DEFAULT_IPOPT_OPTIONS", "passive_rollout", "DiscreteProblem", "PhaseGrid", "Transcription", "simulate"]
+__all__ = ["DEFAULT_IPOPT_OPTIONS", "DiscreteProblem", "PhaseGrid", "Transcription", "passive_rollout", "simulate"]

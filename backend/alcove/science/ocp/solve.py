@@ -13,8 +13,9 @@ from __future__ import annotations
 import threading
 import time
 from collections import OrderedDict
+from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Any, Callable
+from typing import Any
 
 import casadi as ca
 import numpy as np
@@ -30,7 +31,7 @@ CACHE_SIZE = 8
 _LOCAL = threading.local()  # IPOPT solver objects are not for concurrent use: one cache per thread
 
 
-def _cache() -> "OrderedDict[tuple[str, str, str, str], Transcription]":
+def _cache() -> OrderedDict[tuple[str, str, str, str], Transcription]:
     if not hasattr(_LOCAL, "cache"):
         _LOCAL.cache = OrderedDict()
     return _LOCAL.cache
@@ -96,14 +97,26 @@ class OcpSolution:
         return {**self.summary(), **{k: None if v is None else np.asarray(v).tolist() for k, v in arrays.items()}}
 
     @classmethod
-    def from_dict(cls, data: dict[str, Any], chain: PlanarChain) -> "OcpSolution":
+    def from_dict(cls, data: dict[str, Any], chain: PlanarChain) -> OcpSolution:
         """Inverse of :meth:`to_dict` (``chain``: the task's chain, e.g. ``task.chain()``)."""
         arr = lambda k: None if data.get(k) is None else np.asarray(data[k], float)  # noqa: E731
         return cls(
-            t=arr("t"), q=arr("q"), qd=arr("qd"), controls=arr("controls"), status=data["status"], converged=data["converged"],
-            iterations=data["iterations"], cost=data["cost"], constraint_violation=data["constraint_violation"],
-            wall_time=data["wall_time_s"], chain=chain, task_name=data.get("task", ""), attempts=list(data.get("attempts", [])),
-            x=arr("x"), lam_x=arr("lam_x"), lam_g=arr("lam_g"),
+            t=arr("t"),
+            q=arr("q"),
+            qd=arr("qd"),
+            controls=arr("controls"),
+            status=data["status"],
+            converged=data["converged"],
+            iterations=data["iterations"],
+            cost=data["cost"],
+            constraint_violation=data["constraint_violation"],
+            wall_time=data["wall_time_s"],
+            chain=chain,
+            task_name=data.get("task", ""),
+            attempts=list(data.get("attempts", [])),
+            x=arr("x"),
+            lam_x=arr("lam_x"),
+            lam_g=arr("lam_g"),
         )
 
     def summary(self) -> dict[str, Any]:
@@ -123,7 +136,7 @@ class OcpSolution:
         }
 
 
-_CONTACT_KEYS: "OrderedDict[int, tuple[ca.Function, str]]" = OrderedDict()  # id -> (function kept alive, key)
+_CONTACT_KEYS: OrderedDict[int, tuple[ca.Function, str]] = OrderedDict()  # id -> (function kept alive, key)
 _CONTACT_KEYS_LOCK = threading.Lock()
 
 
@@ -138,7 +151,7 @@ def _contact_key(contact: ca.Function | None) -> str:
         return hit[1]
     try:
         key = contact.serialize()
-    except Exception:  # noqa: BLE001 - functions that cannot be serialized are keyed by identity
+    except Exception:
         key = f"id:{id(contact)}"
     with _CONTACT_KEYS_LOCK:
         _CONTACT_KEYS[id(contact)] = (contact, key)
@@ -230,7 +243,7 @@ def _guess_ramp(tr: Transcription) -> np.ndarray:
     return tr.pack(q, _holding_torque(tr.chain, q))
 
 
-def _guess_from_solution(tr: Transcription, previous: "OcpSolution | Trajectory") -> np.ndarray:
+def _guess_from_solution(tr: Transcription, previous: OcpSolution | Trajectory) -> np.ndarray:
     """A previous solution or trajectory (any grid, scaled to this horizon) interpolated onto this grid.
 
     A trajectory without torques gets the torques that hold its poses still.
@@ -307,7 +320,9 @@ def solve_task(
     if contact_params is not None:
         contact_params = np.asarray(contact_params, float).ravel()
         if contact_params.size != tr.n_par:
-            raise ValueError(f"contact_params: the contact function takes {tr.n_par} parameter(s), got {contact_params.size}")
+            raise ValueError(
+                f"contact_params: the contact function takes {tr.n_par} parameter(s), got {contact_params.size}"
+            )
         if not np.all(np.isfinite(contact_params)):
             raise ValueError("contact_params: values must be finite")
     attempts: list[dict[str, Any]] = []

@@ -62,13 +62,16 @@ class ModelSpec(_Strict):
     tilt: float = Field(_DEFAULT.tilt, description="headrest inclination [rad]")
 
     @model_validator(mode="after")
-    def _consistent(self) -> "ModelSpec":
+    def _consistent(self) -> ModelSpec:
         if not self.theta_min < self.theta_max:
             _fail("model.theta_max", f"must exceed theta_min ({self.theta_max} <= {self.theta_min})")
         if not self.theta_min <= self.theta0 <= self.theta_max:
             _fail("model.theta0", f"{self.theta0} lies outside the joint range [{self.theta_min}, {self.theta_max}]")
         if self.inertia_joint < self.mass * self.com_distance**2:
-            _fail("model.inertia_joint", "must be at least mass * com_distance^2 (inertia about the COG would be negative)")
+            _fail(
+                "model.inertia_joint",
+                "must be at least mass * com_distance^2 (inertia about the COG would be negative)",
+            )
         return self
 
     @property
@@ -85,7 +88,9 @@ class InitialState(_Strict):
 
     q: list[float] | None = None
     qd: list[float] | None = Field(None, description="initial velocity; null = at rest")
-    velocity: Literal["given", "free"] = Field("given", description="'free' leaves the initial velocity to the optimizer")
+    velocity: Literal["given", "free"] = Field(
+        "given", description="'free' leaves the initial velocity to the optimizer"
+    )
 
 
 class FinalCondition(_Strict):
@@ -127,7 +132,7 @@ class TaskSpec(_Strict):
     endpoint_cost: EndpointCost | None = None
 
     @model_validator(mode="after")
-    def _consistent(self) -> "TaskSpec":
+    def _consistent(self) -> TaskSpec:
         n = self.model.ndof
         lo0, hi0 = np.array([self.model.theta_min]), np.array([self.model.theta_max])
         tmax0 = np.array([self.model.torque_limit])
@@ -164,7 +169,13 @@ class TaskSpec(_Strict):
                 within(target, lo, hi, f"phases.{m}.target_q", "the phase bounds")
                 if m + 1 < len(self.phases):
                     nxt = self.phases[m + 1]
-                    within(target, vec(nxt.q_min, f"phases.{m + 1}.q_min", lo0), vec(nxt.q_max, f"phases.{m + 1}.q_max", hi0), f"phases.{m}.target_q", "the next phase's bounds")
+                    within(
+                        target,
+                        vec(nxt.q_min, f"phases.{m + 1}.q_min", lo0),
+                        vec(nxt.q_max, f"phases.{m + 1}.q_max", hi0),
+                        f"phases.{m}.target_q",
+                        "the next phase's bounds",
+                    )
             bounds.append((lo, hi))
         q0 = vec(self.initial.q, "initial.q", np.array([self.model.theta0]))
         within(q0, *bounds[0], "initial.q", "the joint range of the first phase")
@@ -190,7 +201,7 @@ class TaskSpec(_Strict):
     def intervals(self) -> int:
         return int(sum(ph.intervals for ph in self.phases))
 
-    def with_intervals(self, per_phase: int) -> "TaskSpec":
+    def with_intervals(self, per_phase: int) -> TaskSpec:
         """The same task with ``per_phase`` intervals in every phase."""
         data = self.model_dump()
         for ph in data["phases"]:
@@ -286,12 +297,12 @@ def task_preset(name: str) -> TaskSpec:
 
 
 __all__ = [
+    "TASK_PRESETS",
     "EndpointCost",
     "FinalCondition",
     "InitialState",
     "ModelSpec",
     "PhaseSpec",
-    "TASK_PRESETS",
     "TaskSpec",
     "TaskSpecError",
     "parse_task",

@@ -38,9 +38,15 @@ THETA_TOLERANCE = 1e-6  # rad, slack on the preset's joint range (round-off in C
 class AuxPenaltyParams(OracleParams):
     """Parameters of the auxiliary penalty model, in SI units."""
 
-    k: float = Field(K_PAPER_N_PER_MM2 * 1e6, gt=0, le=1e9, description="quadratic stiffness k [N/m^2] (paper: 6 N/mm^2)")
-    d0: float = Field(D0_PAPER_NS_PER_MM * 1e3, ge=0, le=1e5, description="damping d0 [N s/m] (paper: 0.1, evaluated in N, mm, s)")
-    p_ref: float = Field(P_REF_PAPER_MM * 1e-3, gt=0, le=0.1, description="reference penetration p_ref [m] (paper: 2 mm)")
+    k: float = Field(
+        K_PAPER_N_PER_MM2 * 1e6, gt=0, le=1e9, description="quadratic stiffness k [N/m^2] (paper: 6 N/mm^2)"
+    )
+    d0: float = Field(
+        D0_PAPER_NS_PER_MM * 1e3, ge=0, le=1e5, description="damping d0 [N s/m] (paper: 0.1, evaluated in N, mm, s)"
+    )
+    p_ref: float = Field(
+        P_REF_PAPER_MM * 1e-3, gt=0, le=0.1, description="reference penetration p_ref [m] (paper: 2 mm)"
+    )
     r_sp: tuple[float, float, float] | None = Field(
         None, description="contact point in the head frame [m]; default: the back point of the head profile"
     )
@@ -54,7 +60,9 @@ def contact_point(preset: HeadNeckPreset, params: AuxPenaltyParams) -> np.ndarra
     return np.array([bx, 0.0, bz])
 
 
-def aux_penalty_wrench(preset: HeadNeckPreset, params: AuxPenaltyParams, kin: RelativeKinematics) -> tuple[np.ndarray, np.ndarray]:
+def aux_penalty_wrench(
+    preset: HeadNeckPreset, params: AuxPenaltyParams, kin: RelativeKinematics
+) -> tuple[np.ndarray, np.ndarray]:
     """Force (n, 3) and moment about the head frame origin (n, 3), in the headrest frame."""
     r_sp = contact_point(preset, params)
     arm = np.einsum("nij,j->ni", kin.T_rel, r_sp)  # r_sp expressed in H
@@ -70,7 +78,9 @@ def aux_penalty_wrench(preset: HeadNeckPreset, params: AuxPenaltyParams, kin: Re
     return force, moment
 
 
-def penetration(preset: HeadNeckPreset, params: AuxPenaltyParams, kin: RelativeKinematics) -> tuple[np.ndarray, np.ndarray]:
+def penetration(
+    preset: HeadNeckPreset, params: AuxPenaltyParams, kin: RelativeKinematics
+) -> tuple[np.ndarray, np.ndarray]:
     """Penetration p (n,) of the point r_sp into the headrest plane and its rate pdot (n,) [m, m/s]."""
     arm = np.einsum("nij,j->ni", kin.T_rel, contact_point(preset, params))
     return -(kin.r_rel + arm)[:, 0], -(kin.v_rel + np.cross(kin.omega_rel, arm))[:, 0]
@@ -129,12 +139,16 @@ class AuxPenaltyOracle:
 
     def _joint_motion(self, trajectory: Trajectory) -> tuple[np.ndarray, np.ndarray]:
         if trajectory.ndof != 1:
-            raise OracleInputError("q", f"the head-neck preset has 1 degree of freedom (q_0 = theta), the trajectory has {trajectory.ndof}")
+            raise OracleInputError(
+                "q", f"the head-neck preset has 1 degree of freedom (q_0 = theta), the trajectory has {trajectory.ndof}"
+            )
         theta = trajectory.q[:, 0]
         lo, hi = self.preset.theta_min, self.preset.theta_max
         outside = (theta < lo - THETA_TOLERANCE) | (theta > hi + THETA_TOLERANCE)
         if outside.any():
             i = int(np.argmax(outside))
-            raise OracleInputError("q_0", f"theta = {theta[i]:.4g} rad at t = {trajectory.t[i]:.4g} s is outside the preset's range [{lo}, {hi}] rad")
+            raise OracleInputError(
+                "q_0",
+                f"theta = {theta[i]:.4g} rad at t = {trajectory.t[i]:.4g} s is outside the preset's range [{lo}, {hi}] rad",
+            )
         return theta, trajectory.qd[:, 0]
-

@@ -26,6 +26,7 @@ the working directory is then kept and its path is in the diagnostics.
 
 from __future__ import annotations
 
+import contextlib
 import json
 import math
 import os
@@ -106,10 +107,12 @@ class CommandParameter(BaseModel):
     description: str = ""
 
     @model_validator(mode="after")
-    def _default_in_range(self) -> "CommandParameter":
+    def _default_in_range(self) -> CommandParameter:
         if self.minimum is not None and self.maximum is not None and self.minimum > self.maximum:
             raise ValueError("minimum is larger than maximum")
-        if (self.minimum is not None and self.default < self.minimum) or (self.maximum is not None and self.default > self.maximum):
+        if (self.minimum is not None and self.default < self.minimum) or (
+            self.maximum is not None and self.default > self.maximum
+        ):
             raise ValueError("default lies outside [minimum, maximum]")
         return self
 
@@ -122,14 +125,25 @@ class CommandOracleSpec(BaseModel):
     name: str = Field(description="catalogue name users choose, e.g. 'lsdyna-headrest'")
     argv: list[str] = Field(min_length=1, description="program and arguments (no shell); run in the working directory")
     description: str = ""
-    template: Path | None = Field(None, description="template file of the input deck (relative paths: from the catalogue's folder)")
-    input_file: str | None = Field(None, description="name of the rendered template in the working directory (default: the template's name without .tmpl)")
+    template: Path | None = Field(
+        None, description="template file of the input deck (relative paths: from the catalogue's folder)"
+    )
+    input_file: str | None = Field(
+        None,
+        description="name of the rendered template in the working directory (default: the template's name without .tmpl)",
+    )
     allow_user_template: bool = Field(True, description="users may replace the template with their own text")
     output_file: str = Field("forces.csv", description="forces CSV the command writes (header t,fx,fy,fz,mx,my,mz)")
-    timeout_s: float = Field(3600.0, gt=0, le=7 * 24 * 3600, description="wall-time limit; the process group is killed after it")
+    timeout_s: float = Field(
+        3600.0, gt=0, le=7 * 24 * 3600, description="wall-time limit; the process group is killed after it"
+    )
     env: dict[str, str] = Field(default_factory=dict, description="extra environment variables (e.g. a licence server)")
-    parameters: dict[str, CommandParameter] = Field(default_factory=dict, description="numeric parameters users may set")
-    workdir_root: Path | None = Field(None, description="where working directories are created (default: the system temp dir)")
+    parameters: dict[str, CommandParameter] = Field(
+        default_factory=dict, description="numeric parameters users may set"
+    )
+    workdir_root: Path | None = Field(
+        None, description="where working directories are created (default: the system temp dir)"
+    )
 
     @field_validator("name")
     @classmethod
@@ -149,11 +163,13 @@ class CommandOracleSpec(BaseModel):
     @classmethod
     def _plain_file_name(cls, v: str | None) -> str | None:
         if v is not None and (not PLAIN_FILE_NAME.match(v) or v in RESERVED_FILES):
-            raise ValueError(f"must be a plain file name inside the working directory, not one of {', '.join(sorted(RESERVED_FILES))}; got {v!r}")
+            raise ValueError(
+                f"must be a plain file name inside the working directory, not one of {', '.join(sorted(RESERVED_FILES))}; got {v!r}"
+            )
         return v
 
     @model_validator(mode="after")
-    def _distinct_files(self) -> "CommandOracleSpec":
+    def _distinct_files(self) -> CommandOracleSpec:
         if self.rendered_file_name == self.output_file:
             raise ValueError(f"the rendered template and the output would both be {self.output_file!r}")
         return self
@@ -181,8 +197,14 @@ class CommandOracleSpec(BaseModel):
 class CommandOracleParams(OracleParams):
     """What a user may set for a command oracle (an entry adds its declared numeric parameters)."""
 
-    template: str | None = Field(None, max_length=50_000_000, description="template text replacing the entry's template (rendered by plain placeholder substitution)")
-    dt_out: float = Field(0.0025, gt=0, le=1.0, description="output interval of the forces [s] (placeholder {{ dt_out }})")
+    template: str | None = Field(
+        None,
+        max_length=50_000_000,
+        description="template text replacing the entry's template (rendered by plain placeholder substitution)",
+    )
+    dt_out: float = Field(
+        0.0025, gt=0, le=1.0, description="output interval of the forces [s] (placeholder {{ dt_out }})"
+    )
     keep_workdir: bool = Field(False, description="keep the working directory after a successful run")
 
 
@@ -192,7 +214,9 @@ def params_model(spec: CommandOracleSpec) -> type[CommandOracleParams]:
         key: (float, Field(p.default, ge=p.minimum, le=p.maximum, description=p.description, allow_inf_nan=False))
         for key, p in spec.parameters.items()
     }
-    return create_model(f"CommandParams_{spec.name}", __base__=CommandOracleParams, __doc__=spec.description or None, **fields)
+    return create_model(
+        f"CommandParams_{spec.name}", __base__=CommandOracleParams, __doc__=spec.description or None, **fields
+    )
 
 
 # ---- catalogue -----------------------------------------------------------------------------
@@ -224,7 +248,9 @@ def load_command_catalogue(path: str | Path) -> dict[str, CommandOracleSpec]:
         where = f" (line {mark.line + 1})" if mark is not None else ""
         raise CatalogueError("catalogue", f"{path} is not valid YAML{where}: {getattr(exc, 'problem', exc)}") from None
     if not isinstance(raw, dict) or not isinstance(raw.get("command_oracles"), dict):
-        raise CatalogueError("command_oracles", f"{path} must have a top-level mapping 'command_oracles: {{name: entry}}'")
+        raise CatalogueError(
+            "command_oracles", f"{path} must have a top-level mapping 'command_oracles: {{name: entry}}'"
+        )
     base = path.resolve().parent
     substitute = lambda s: s.replace("{catalogue_dir}", str(base)).replace("{python}", sys.executable)  # noqa: E731
     catalogue: dict[str, CommandOracleSpec] = {}
@@ -274,13 +300,15 @@ def render_template(text: str, values: Mapping[str, str]) -> str:
         if match.group(1) not in values:
             line = text.count("\n", 0, match.start()) + 1
             known = ", ".join(sorted(values))
-            raise OracleInputError("template", f"unknown placeholder {match.group(0)!r} on line {line} (known: {known})")
+            raise OracleInputError(
+                "template", f"unknown placeholder {match.group(0)!r} on line {line} (known: {known})"
+            )
     return PLACEHOLDER.sub(lambda m: values[m.group(1)], text)
 
 
 def curve_lines(t: np.ndarray, y: np.ndarray) -> str:
     """Curve data as LS-DYNA *DEFINE_CURVE data cards (two 20-character fields per line)."""
-    return "\n".join(f"{a:20.12e}{b:20.12e}" for a, b in zip(t, y))
+    return "\n".join(f"{a:20.12e}{b:20.12e}" for a, b in zip(t, y, strict=False))
 
 
 def card_number(value: float, width: int = 10) -> str:
@@ -297,7 +325,9 @@ def card_number(value: float, width: int = 10) -> str:
     raise ValueError(f"{v!r} does not fit in {width} characters")
 
 
-def template_values(trajectory: Trajectory, preset: HeadNeckPreset, params: CommandOracleParams, spec: CommandOracleSpec) -> dict[str, str]:
+def template_values(
+    trajectory: Trajectory, preset: HeadNeckPreset, params: CommandOracleParams, spec: CommandOracleSpec
+) -> dict[str, str]:
     """The values of the fixed placeholders (and the entry's parameters) for one trajectory.
 
     SI values (``head_x0``, ``theta_start``, ...) have 12 significant digits; the values meant
@@ -340,18 +370,27 @@ class CommandOracle:
 
     type_name: ClassVar[str] = "command"
 
-    def __init__(self, spec: CommandOracleSpec, params: CommandOracleParams | None = None, preset: HeadNeckPreset = DEFAULT_PRESET):
+    def __init__(
+        self,
+        spec: CommandOracleSpec,
+        params: CommandOracleParams | None = None,
+        preset: HeadNeckPreset = DEFAULT_PRESET,
+    ):
         model = params_model(spec)
         self.spec = spec
         self.params = model.model_validate(params.model_dump() if params is not None else {})
         self.preset = preset
         if self.params.template is not None and not spec.allow_user_template:
-            raise OracleInputError("params.template", f"the command oracle '{spec.name}' does not accept user templates")
+            raise OracleInputError(
+                "params.template", f"the command oracle '{spec.name}' does not accept user templates"
+            )
 
     def run(self, trajectory: Trajectory, cancel: CancelCheck | None = None) -> OracleResult:
         start = time.perf_counter()
         if trajectory.ndof != 1:
-            raise OracleInputError("q", f"the head-neck preset has 1 degree of freedom (q_0 = theta), the trajectory has {trajectory.ndof}")
+            raise OracleInputError(
+                "q", f"the head-neck preset has 1 degree of freedom (q_0 = theta), the trajectory has {trajectory.ndof}"
+            )
         deck = self._rendered_deck(trajectory)
         if cancel is not None and cancel():
             raise OracleCancelled(f"command oracle '{self.spec.name}' cancelled before it started")
@@ -367,7 +406,14 @@ class CommandOracle:
         def failed(reason: str) -> OracleResult:
             diagnostics["workdir"] = str(workdir)
             diagnostics["stderr_tail"] = _tail(workdir / STDERR_FILE)
-            return OracleResult(False, None, None, diagnostics, time.perf_counter() - start, f"command oracle '{self.spec.name}': {reason}")
+            return OracleResult(
+                False,
+                None,
+                None,
+                diagnostics,
+                time.perf_counter() - start,
+                f"command oracle '{self.spec.name}': {reason}",
+            )
 
         outcome = self._execute(workdir, cancel)
         diagnostics["exit_code"] = outcome.get("exit_code")
@@ -460,10 +506,14 @@ class CommandOracle:
                         pass
                     if cancel is not None and cancel():
                         _kill_process_group(proc)
-                        raise OracleCancelled(f"command oracle '{self.spec.name}' cancelled (working directory {workdir})")
+                        raise OracleCancelled(
+                            f"command oracle '{self.spec.name}' cancelled (working directory {workdir})"
+                        )
                     if time.monotonic() > deadline:
                         _kill_process_group(proc)
-                        return {"failure": f"timeout: the command ran longer than {self.spec.timeout_s:g} s and was killed"}
+                        return {
+                            "failure": f"timeout: the command ran longer than {self.spec.timeout_s:g} s and was killed"
+                        }
             except BaseException:
                 _kill_process_group(proc)  # KeyboardInterrupt, cancellation: never leave the solver running
                 raise
@@ -471,7 +521,10 @@ class CommandOracle:
             return {"exit_code": code, "failure": f"the command was killed by signal {_signal_name(-code)}"}
         if code != 0:
             last = _tail(workdir / STDERR_FILE, lines=1)
-            return {"exit_code": code, "failure": f"the command exited with code {code}" + (f": {last}" if last else "")}
+            return {
+                "exit_code": code,
+                "failure": f"the command exited with code {code}" + (f": {last}" if last else ""),
+            }
         return {"exit_code": 0}
 
     def _solver_diagnostics(self, workdir: Path) -> dict[str, Any]:
@@ -495,17 +548,13 @@ def _is_number_or_none(v: Any) -> bool:
 def _kill_process_group(proc: subprocess.Popen) -> None:
     """SIGTERM to the command's process group, SIGKILL after a grace period."""
     for sig, grace in ((signal.SIGTERM, TERMINATE_GRACE_SECONDS), (signal.SIGKILL, None)):
-        try:
+        with contextlib.suppress(ProcessLookupError, PermissionError):
             os.killpg(proc.pid, sig)
-        except (ProcessLookupError, PermissionError):
-            pass
         try:
             proc.wait(timeout=grace)
             # the leader is gone; make sure no child of it survives in the group
-            try:
+            with contextlib.suppress(ProcessLookupError, PermissionError):
                 os.killpg(proc.pid, signal.SIGKILL)
-            except (ProcessLookupError, PermissionError):
-                pass
             return
         except subprocess.TimeoutExpired:
             continue

@@ -52,17 +52,23 @@ class _BuiltinType:
             oracle_cls = getattr(module, self.oracle_class)
             params_cls = getattr(module, self.params_class)
         except (ImportError, AttributeError) as exc:
-            raise OracleTypeUnavailable("oracle", f"type '{name}' is not available: cannot import {self.module}.{self.oracle_class} ({exc})") from None
+            raise OracleTypeUnavailable(
+                "oracle", f"type '{name}' is not available: cannot import {self.module}.{self.oracle_class} ({exc})"
+            ) from None
         return OracleType(params_cls, lambda params, preset: oracle_cls(params, preset=preset))
 
 
 _BUILTIN: dict[str, _BuiltinType] = {
     "fe-headrest-2d": _BuiltinType(
-        "alcove.science.oracles.fe_headrest", "FEHeadrestOracle", "FEHeadrestParams",
+        "alcove.science.oracles.fe_headrest",
+        "FEHeadrestOracle",
+        "FEHeadrestParams",
         "Plane-strain finite-element headrest (hyperfoam cushion, rigid head, penalty contact with friction)",
     ),
     "aux-penalty": _BuiltinType(
-        "alcove.science.oracles.aux_penalty", "AuxPenaltyOracle", "AuxPenaltyParams",
+        "alcove.science.oracles.aux_penalty",
+        "AuxPenaltyOracle",
+        "AuxPenaltyParams",
         "The paper's auxiliary penalty model: one head point against the headrest plane (closed form)",
     ),
 }
@@ -134,15 +140,33 @@ def list_oracle_types(catalogue: Mapping[str, CommandOracleSpec] | None = None) 
             available, reason = True, None
         except OracleTypeUnavailable as exc:
             available, reason = False, exc.reason
-        rows.append({"name": name, "kind": "builtin", "description": entry.description, "available": available, "unavailable_reason": reason})
+        rows.append(
+            {
+                "name": name,
+                "kind": "builtin",
+                "description": entry.description,
+                "available": available,
+                "unavailable_reason": reason,
+            }
+        )
     for name, spec in (catalogue or {}).items():
         found = shutil.which(spec.argv[0]) is not None  # on this machine; workers may differ from the API host
         reason = None if found else f"{spec.argv[0]} is not an executable program on this machine"
-        rows.append({"name": name, "kind": "command", "description": spec.description, "available": found, "unavailable_reason": reason})
+        rows.append(
+            {
+                "name": name,
+                "kind": "command",
+                "description": spec.description,
+                "available": found,
+                "unavailable_reason": reason,
+            }
+        )
     return rows
 
 
-def _resolve(type_name: str, catalogue: Mapping[str, CommandOracleSpec] | None) -> tuple[type[OracleParams], OracleFactory]:
+def _resolve(
+    type_name: str, catalogue: Mapping[str, CommandOracleSpec] | None
+) -> tuple[type[OracleParams], OracleFactory]:
     if type_name in ORACLE_TYPES:
         return ORACLE_TYPES[type_name]
     if catalogue is not None and type_name in catalogue:

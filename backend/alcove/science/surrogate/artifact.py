@@ -82,8 +82,10 @@ def _net_to_dict(net: MLP) -> dict[str, Any]:
     return {
         "hidden": list(net.hidden),
         "activation": net.activation,
-        "layers": [{"weight": lin.weight.detach().double().tolist(), "bias": lin.bias.detach().double().tolist()}
-                   for lin in net.linears()],
+        "layers": [
+            {"weight": lin.weight.detach().double().tolist(), "bias": lin.bias.detach().double().tolist()}
+            for lin in net.linears()
+        ],
     }
 
 
@@ -92,13 +94,18 @@ def _net_from_dict(d: dict[str, Any], dtype: torch.dtype, field: str) -> MLP:
         net = MLP(d["hidden"], d["activation"], dtype=dtype)
         linears = net.linears()
         if len(linears) != len(d["layers"]):
-            raise ArtifactError(f"{field}.layers", f"has {len(d['layers'])} layers, the architecture needs {len(linears)}")
+            raise ArtifactError(
+                f"{field}.layers", f"has {len(d['layers'])} layers, the architecture needs {len(linears)}"
+            )
         with torch.no_grad():
-            for i, (lin, layer) in enumerate(zip(linears, d["layers"])):
+            for i, (lin, layer) in enumerate(zip(linears, d["layers"], strict=False)):
                 w = torch.as_tensor(np.asarray(layer["weight"], float), dtype=dtype)
                 b = torch.as_tensor(np.asarray(layer["bias"], float), dtype=dtype)
                 if w.shape != lin.weight.shape or b.shape != lin.bias.shape:
-                    raise ArtifactError(f"{field}.layers.{i}", f"weight {tuple(w.shape)} / bias {tuple(b.shape)} do not fit {tuple(lin.weight.shape)}")
+                    raise ArtifactError(
+                        f"{field}.layers.{i}",
+                        f"weight {tuple(w.shape)} / bias {tuple(b.shape)} do not fit {tuple(lin.weight.shape)}",
+                    )
                 lin.weight.copy_(w)
                 lin.bias.copy_(b)
     except (KeyError, TypeError, ValueError) as exc:
@@ -120,8 +127,11 @@ def artifact_dict(model: SurrogateModel, lineage: dict[str, Any] | None = None) 
         "preset": model.preset.to_dict(),
         "config": model.config.model_dump(mode="json"),
         "networks": {"force": _net_to_dict(model.force_net), "moment": _net_to_dict(model.moment_net)},
-        "normalization": {"input": model.input_norm.to_dict(), "force": model.force_norm.to_dict(),
-                          "moment": model.moment_norm.to_dict()},
+        "normalization": {
+            "input": model.input_norm.to_dict(),
+            "force": model.force_norm.to_dict(),
+            "moment": model.moment_norm.to_dict(),
+        },
         "lineage": {**model.lineage, **(lineage or {})},
         "software": {"alcove": alcove.__version__, "torch": torch.__version__},
         "torchscript": {"force": "force.pt", "moment": "moment.pt"},
@@ -132,7 +142,9 @@ def model_from_dict(doc: dict[str, Any]) -> SurrogateModel:
     if doc.get("format") != FORMAT:
         raise ArtifactError("format", f"expected {FORMAT!r}, got {doc.get('format')!r}")
     if doc.get("format_version") != FORMAT_VERSION:
-        raise ArtifactError("format_version", f"unsupported version {doc.get('format_version')!r} (this alcove reads {FORMAT_VERSION})")
+        raise ArtifactError(
+            "format_version", f"unsupported version {doc.get('format_version')!r} (this alcove reads {FORMAT_VERSION})"
+        )
     if list(doc.get("feature_names", [])) != list(FEATURE_NAMES):
         raise ArtifactError("feature_names", "do not match the 19 features of this alcove version")
     try:
@@ -161,8 +173,13 @@ def save_artifact(model: SurrogateModel, path: str | Path, lineage: dict[str, An
     doc = artifact_dict(model, lineage)
     (root / JSON_NAME).write_text(json.dumps(doc, indent=1))
     with warnings.catch_warnings():
-        warnings.simplefilter("ignore", DeprecationWarning)  # torch.jit.script is deprecated but TorchScript is the contract
-        for key, net, out_norm in (("force", model.force_net, model.force_norm), ("moment", model.moment_net, model.moment_norm)):
+        warnings.simplefilter(
+            "ignore", DeprecationWarning
+        )  # torch.jit.script is deprecated but TorchScript is the contract
+        for key, net, out_norm in (
+            ("force", model.force_net, model.force_norm),
+            ("moment", model.moment_net, model.moment_norm),
+        ):
             torch.jit.script(_Scripted(net, model.input_norm, out_norm)).save(str(root / doc["torchscript"][key]))
     return root
 
@@ -182,4 +199,12 @@ def load_artifact(path: str | Path) -> SurrogateModel:
     return model_from_dict(doc)
 
 
-__all__ = ["ArtifactError", "FORMAT", "FORMAT_VERSION", "artifact_dict", "load_artifact", "model_from_dict", "save_artifact"]
+__all__ = [
+    "FORMAT",
+    "FORMAT_VERSION",
+    "ArtifactError",
+    "artifact_dict",
+    "load_artifact",
+    "model_from_dict",
+    "save_artifact",
+]

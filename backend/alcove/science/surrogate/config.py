@@ -56,7 +56,9 @@ class SurrogateConfig(BaseModel):
     patience: int = Field(6, ge=1, le=1000, description="early stopping: epochs without a better validation loss")
     max_epochs: int = Field(1000, ge=1, le=100_000)
     test_fraction: float = Field(0.3, ge=0, lt=1, description="share of the simulations held out as test set")
-    validation_fraction: float = Field(0.2, gt=0, lt=1, description="pointwise share of the training part used for validation")
+    validation_fraction: float = Field(
+        0.2, gt=0, lt=1, description="pointwise share of the training part used for validation"
+    )
     seed: int = Field(0, ge=0, lt=2**63, description="seed of splits, initialisation and batch order")
     warm_start: bool = Field(True, description="start from the previous model's weights when the architecture matches")
     normalize_outputs: bool = Field(True, description="train on standardised targets (exported transparently)")
@@ -67,7 +69,7 @@ class SurrogateConfig(BaseModel):
     dtype: Literal["float64", "float32"] = "float64"
 
     @classmethod
-    def parse(cls, data: dict[str, Any]) -> "SurrogateConfig":
+    def parse(cls, data: dict[str, Any]) -> SurrogateConfig:
         """Validate a dict; errors become :class:`SurrogateConfigError` with a dotted field path."""
         try:
             return cls.model_validate(data)
@@ -77,7 +79,7 @@ class SurrogateConfig(BaseModel):
             raise SurrogateConfigError(field, err["msg"]) from None
 
     @classmethod
-    def from_json(cls, source: str | Path) -> "SurrogateConfig":
+    def from_json(cls, source: str | Path) -> SurrogateConfig:
         """Read a JSON file (path) or JSON text."""
         if isinstance(source, Path) or not str(source).lstrip().startswith("{"):
             try:

@@ -77,7 +77,9 @@ class PoolDataset:
 
     def __post_init__(self) -> None:
         if not isinstance(self.name, str) or not _NAME.match(self.name):
-            raise PoolDataError("name", f"{self.name!r} is not a valid dataset name (letters, digits, _ . + -, at most 128)")
+            raise PoolDataError(
+                "name", f"{self.name!r} is not a valid dataset name (letters, digits, _ . + -, at most 128)"
+            )
         if self.origin not in ORIGINS:
             raise PoolDataError(f"{self.name}.origin", f"{self.origin!r} is not one of {', '.join(ORIGINS)}")
         if self.weight is not None and not (np.isfinite(self.weight) and self.weight >= 0):
@@ -98,7 +100,9 @@ class PoolDataset:
             if arrays[key].shape[1] != 3:
                 raise PoolDataError(f"{self.name}.{key}", f"must have 3 columns, got {arrays[key].shape[1]}")
         if arrays["qd"].shape[1] != arrays["q"].shape[1]:
-            raise PoolDataError(f"{self.name}.qd", f"has {arrays['qd'].shape[1]} columns but q has {arrays['q'].shape[1]}")
+            raise PoolDataError(
+                f"{self.name}.qd", f"has {arrays['qd'].shape[1]} columns but q has {arrays['q'].shape[1]}"
+            )
         for key, a in arrays.items():
             bad = ~np.isfinite(a)
             if bad.any():
@@ -117,11 +121,15 @@ class PoolDataset:
         return int(self.q.shape[1])
 
     @classmethod
-    def from_series(cls, name: str, trajectory: Trajectory, forces: ForceSeries, origin: str = "oracle",
-                    weight: float | None = None) -> "PoolDataset":
+    def from_series(
+        cls, name: str, trajectory: Trajectory, forces: ForceSeries, origin: str = "oracle", weight: float | None = None
+    ) -> PoolDataset:
         """Pair a trajectory with the forces an oracle computed on the same time grid."""
         if len(trajectory) != len(forces) or not np.allclose(trajectory.t, forces.t, rtol=0, atol=1e-9):
-            raise PoolDataError(f"{name}.t", f"the trajectory ({len(trajectory)} rows) and the forces ({len(forces)} rows) are not on the same time grid")
+            raise PoolDataError(
+                f"{name}.t",
+                f"the trajectory ({len(trajectory)} rows) and the forces ({len(forces)} rows) are not on the same time grid",
+            )
         return cls(name, trajectory.t, trajectory.q, trajectory.qd, forces.force, forces.moment, origin, weight)
 
     def trajectory(self) -> Trajectory:
@@ -168,7 +176,9 @@ def load_pool_dir(path: str | Path) -> list[PoolDataset]:
         except SeriesFormatError as exc:
             raise PoolDataError(f"{name}.forces.csv:{exc.field}", exc.reason) from None
         meta = manifest.get(name, {})
-        pool.append(PoolDataset.from_series(name, traj, forces, meta.get("origin", default_origin(name)), meta.get("weight")))
+        pool.append(
+            PoolDataset.from_series(name, traj, forces, meta.get("origin", default_origin(name)), meta.get("weight"))
+        )
     check_pool(pool)
     return pool
 
@@ -180,7 +190,9 @@ def save_pool_dir(pool: list[PoolDataset], path: str | Path) -> Path:
     for ds in pool:
         ds.trajectory().to_csv(root / f"{ds.name}.traj.csv")
         ds.forces().to_csv(root / f"{ds.name}.forces.csv")
-    manifest = {ds.name: {"origin": ds.origin, **({"weight": ds.weight} if ds.weight is not None else {})} for ds in pool}
+    manifest = {
+        ds.name: {"origin": ds.origin, **({"weight": ds.weight} if ds.weight is not None else {})} for ds in pool
+    }
     (root / "pool.json").write_text(json.dumps(manifest, indent=1))
     return root
 
@@ -197,11 +209,14 @@ def check_pool(pool: list[PoolDataset]) -> None:
             raise PoolDataError(ds.name, "duplicate dataset name in the pool")
         seen.add(ds.name)
         if ds.ndof != pool[0].ndof:
-            raise PoolDataError(f"{ds.name}.q", f"has {ds.ndof} degrees of freedom but {pool[0].name} has {pool[0].ndof}")
+            raise PoolDataError(
+                f"{ds.name}.q", f"has {ds.ndof} degrees of freedom but {pool[0].name} has {pool[0].ndof}"
+            )
 
 
-def load_preliminary_csv(source: str | Path | io.TextIOBase, origin: str = "upload", chunks: int = 10,
-                         prefix: str | None = None) -> list[PoolDataset]:
+def load_preliminary_csv(
+    source: str | Path | io.TextIOBase, origin: str = "upload", chunks: int = 10, prefix: str | None = None
+) -> list[PoolDataset]:
     """Read a preliminary upload CSV (format in the module docstring) into pool datasets."""
     if isinstance(source, (str, Path)):
         try:
@@ -261,8 +276,17 @@ def load_preliminary_csv(source: str | Path | io.TextIOBase, origin: str = "uplo
         idx_a = np.asarray(idx)
         t = num["t"][idx_a] if "t" in num else np.arange(len(idx_a), dtype=float)
         take = lambda cols: np.stack([num[c][idx_a] for c in cols], -1)  # noqa: E731
-        pool.append(PoolDataset(name, t, take([f"q_{i}" for i in range(n_q)]), take([f"qd_{i}" for i in range(n_q)]),
-                                take(FORCE_COLUMNS[:3]), take(FORCE_COLUMNS[3:]), origin))
+        pool.append(
+            PoolDataset(
+                name,
+                t,
+                take([f"q_{i}" for i in range(n_q)]),
+                take([f"qd_{i}" for i in range(n_q)]),
+                take(FORCE_COLUMNS[:3]),
+                take(FORCE_COLUMNS[3:]),
+                origin,
+            )
+        )
     check_pool(pool)
     return pool
 

@@ -18,11 +18,13 @@ and IPOPT solver are built once and reused for every model version of that archi
 from __future__ import annotations
 
 import threading
+from collections.abc import Callable
 from pathlib import Path
-from typing import Any, Callable
+from typing import Any
 
 import casadi as ca
 import numpy as np
+
 from alcove.science.geometry import HeadNeckPreset, relative_kinematics_symbolic
 from alcove.science.surrogate.features import N_FEATURES, features_symbolic
 from alcove.science.surrogate.mlp import MLP, Standardization, SurrogateModel
@@ -74,8 +76,9 @@ def casadi_network_function(model: SurrogateModel) -> ca.Function:
     return ca.Function("surrogate_network", [x], [wrench_symbolic(model, x)], ["features"], ["wrench"])
 
 
-def casadi_contact_function(model: SurrogateModel, preset: HeadNeckPreset,
-                            kinematics: SymbolicKinematics | None = None) -> ca.Function:
+def casadi_contact_function(
+    model: SurrogateModel, preset: HeadNeckPreset, kinematics: SymbolicKinematics | None = None
+) -> ca.Function:
     """``(q, qd) -> wrench``, the OCP's contact-model slot (see the module docstring).
 
     ``kinematics(q, qd)`` returns ``(r_rel, v_rel, T_rel, omega_rel)`` symbolically for
@@ -87,7 +90,9 @@ def casadi_contact_function(model: SurrogateModel, preset: HeadNeckPreset,
     qd = ca.SX.sym("qd", ndof)
     if kinematics is None:
         if ndof != 1:
-            raise ValueError(f"kinematics: the model has {ndof} degrees of freedom; pass symbolic kinematics for that chain")
+            raise ValueError(
+                f"kinematics: the model has {ndof} degrees of freedom; pass symbolic kinematics for that chain"
+            )
         kin = relative_kinematics_symbolic(preset, q[0], qd[0])
     else:
         kin = kinematics(q, qd)
@@ -102,8 +107,14 @@ def _net_architecture(net: MLP) -> tuple[str, tuple[tuple[int, int], ...]]:
 
 def surrogate_architecture(model: SurrogateModel) -> tuple[Any, ...]:
     """What the parametric contact function depends on besides the parameter values."""
-    return (model.ndof, len(model.input_norm.mean), _net_architecture(model.force_net), len(model.force_norm.mean),
-            _net_architecture(model.moment_net), len(model.moment_norm.mean))
+    return (
+        model.ndof,
+        len(model.input_norm.mean),
+        _net_architecture(model.force_net),
+        len(model.force_norm.mean),
+        _net_architecture(model.moment_net),
+        len(model.moment_norm.mean),
+    )
 
 
 def _net_parameters(net: MLP, input_norm: Standardization) -> list[np.ndarray]:
@@ -125,7 +136,7 @@ def surrogate_parameters(model: SurrogateModel) -> np.ndarray:
     standardisation folded into the first layer) and its output scale and mean."""
     parts: list[np.ndarray] = []
     for net, norm in ((model.force_net, model.force_norm), (model.moment_net, model.moment_norm)):
-        parts += _net_parameters(net, model.input_norm) + [norm.scale, norm.mean]
+        parts += [*_net_parameters(net, model.input_norm), norm.scale, norm.mean]
     return np.concatenate([np.asarray(a, float).ravel() for a in parts])
 
 
@@ -167,7 +178,9 @@ def _parametric_contact(architecture: tuple[Any, ...], preset: HeadNeckPreset) -
 def _build_parametric_contact(architecture: tuple[Any, ...], preset: HeadNeckPreset) -> ca.Function:
     ndof, _, force_arch, n_force, moment_arch, n_moment = architecture
     if ndof != 1:
-        raise ValueError(f"kinematics: the model has {ndof} degrees of freedom; the parametric export supports the 1-DOF preset")
+        raise ValueError(
+            f"kinematics: the model has {ndof} degrees of freedom; the parametric export supports the 1-DOF preset"
+        )
     n_par = 2 * (n_force + n_moment) + sum(r * c + r for arch in (force_arch, moment_arch) for r, c in arch[1])
     q, qd, p = ca.SX.sym("q", ndof), ca.SX.sym("qd", ndof), ca.SX.sym("p", n_par)
     read = _Reader(p)
@@ -188,10 +201,15 @@ def surrogate_contact(model: SurrogateModel, preset: HeadNeckPreset) -> tuple[ca
     pair and thread), so ``solve_task(task, fn, contact_params=p)`` reuses one NLP for every model
     version of an architecture. Same values as :func:`casadi_contact_function`.
     """
-    if len(model.force_norm.mean) != model.force_net.linears()[-1].out_features or \
-            len(model.moment_norm.mean) != model.moment_net.linears()[-1].out_features:
+    if (
+        len(model.force_norm.mean) != model.force_net.linears()[-1].out_features
+        or len(model.moment_norm.mean) != model.moment_net.linears()[-1].out_features
+    ):
         raise ValueError("model: the output normalisation does not match the networks' outputs")
-    if model.force_net.linears()[0].in_features != N_FEATURES or model.moment_net.linears()[0].in_features != N_FEATURES:
+    if (
+        model.force_net.linears()[0].in_features != N_FEATURES
+        or model.moment_net.linears()[0].in_features != N_FEATURES
+    ):
         raise ValueError(f"model: the networks must take the {N_FEATURES} contact features")
     return _parametric_contact(surrogate_architecture(model), preset), surrogate_parameters(model)
 

@@ -30,7 +30,7 @@ from dataclasses import dataclass
 import torch
 from torch import nn
 
-from alcove.science.surrogate.mlp import SOFTPLUS_THRESHOLD, MLP
+from alcove.science.surrogate.mlp import MLP, SOFTPLUS_THRESHOLD
 
 
 @dataclass
@@ -99,12 +99,24 @@ class FusedNets:
         self.layers: list[_Layer] = []
         offset = 0
         for a, b, blocks, outputs, n_outputs, acts in plan:
+
             def view(t: torch.Tensor, start: int, shape: tuple[int, ...]) -> torch.Tensor:
                 return t[start : start + math.prod(shape)].view(shape)
 
             w = view(self.parameter, offset, (a, b))
-            self.layers.append(_Layer(w, view(self.parameter, offset + a * b, (b,)), view(self.grad, offset, (a, b)),
-                                      view(self.grad, offset + a * b, (b,)), w.t(), blocks, outputs, n_outputs, acts))
+            self.layers.append(
+                _Layer(
+                    w,
+                    view(self.parameter, offset + a * b, (b,)),
+                    view(self.grad, offset, (a, b)),
+                    view(self.grad, offset + a * b, (b,)),
+                    w.t(),
+                    blocks,
+                    outputs,
+                    n_outputs,
+                    acts,
+                )
+            )
             offset += a * b + b
         self.active = [True] * len(nets)
         self.load()
@@ -119,8 +131,12 @@ class FusedNets:
             a, b = layer.weight.shape
             for blk in layer.blocks:
                 if blk.net == k:
-                    out.append((flat[offset : offset + a * b].view(a, b)[blk.rows, blk.cols].t(),
-                                flat[offset + a * b : offset + a * b + b][blk.cols]))
+                    out.append(
+                        (
+                            flat[offset : offset + a * b].view(a, b)[blk.rows, blk.cols].t(),
+                            flat[offset + a * b : offset + a * b + b][blk.cols],
+                        )
+                    )
             offset += a * b + b
         return out
 
@@ -129,7 +145,9 @@ class FusedNets:
         self.parameter.zero_()
         self.mask.zero_()
         for k, net in enumerate(self.nets):
-            for (w, b), (mw, mb), lin in zip(self._block_views(self.parameter, k), self._block_views(self.mask, k), net.linears()):
+            for (w, b), (mw, mb), lin in zip(
+                self._block_views(self.parameter, k), self._block_views(self.mask, k), net.linears(), strict=False
+            ):
                 w.copy_(lin.weight.detach())
                 b.copy_(lin.bias.detach())
                 if self.active[k]:
@@ -140,7 +158,7 @@ class FusedNets:
         """Write net ``k``'s weights from ``flat`` (default: the current parameters) into the net."""
         src = self.parameter if flat is None else flat
         with torch.no_grad():
-            for (w, b), lin in zip(self._block_views(src, k), self.nets[k].linears()):
+            for (w, b), lin in zip(self._block_views(src, k), self.nets[k].linears(), strict=False):
                 lin.weight.copy_(w)
                 lin.bias.copy_(b)
 
@@ -148,12 +166,12 @@ class FusedNets:
         """A copy of net ``k``'s current weights and biases, in ``net.parameters()`` order."""
         return [t.clone() for wb in self._block_views(self.parameter, k) for t in wb]
 
-    def transfer(self, src: torch.Tensor, other: "FusedNets", dst: torch.Tensor) -> None:
+    def transfer(self, src: torch.Tensor, other: FusedNets, dst: torch.Tensor) -> None:
         """Copy the blocks of every net of ``other`` from ``src`` (laid out as this network's
         parameters) to ``dst`` (laid out as ``other``'s): parameters or Adam moments."""
         for j, net in enumerate(other.nets):
             i = next(i for i, mine in enumerate(self.nets) if mine is net)
-            for (ws, bs), (wd, bd) in zip(self._block_views(src, i), other._block_views(dst, j)):
+            for (ws, bs), (wd, bd) in zip(self._block_views(src, i), other._block_views(dst, j), strict=False):
                 wd.copy_(ws)
                 bd.copy_(bs)
 
@@ -182,11 +200,17 @@ class FusedNets:
                 outputs[k] = a[:, cols]
             if layer.activations:
                 pre = a[:, layer.n_outputs :].contiguous() if layer.n_outputs else a
-                h = _cat([(_softplus_value_fast if fast and act == "softplus" else _ACTIVATION[act])(pre[:, cols])
-                          for cols, act in layer.activations])
+                h = _cat(
+                    [
+                        (_softplus_value_fast if fast and act == "softplus" else _ACTIVATION[act])(pre[:, cols])
+                        for cols, act in layer.activations
+                    ]
+                )
         return outputs
 
-    def set_loss_gradient(self, z: torch.Tensor, targets: list[torch.Tensor], w: torch.Tensor, fast: bool = True) -> None:
+    def set_loss_gradient(
+        self, z: torch.Tensor, targets: list[torch.Tensor], w: torch.Tensor, fast: bool = True
+    ) -> None:
         """Store in :attr:`grad` the gradient of every active net's batch loss
         ``sum_i w_i mean_c (net(z_i) - y_i)_c^2 / n`` (inactive nets: 0)."""
         self._gradient(z, targets, w, fast)
@@ -209,12 +233,20 @@ class FusedNets:
                 n_out = y.shape[1]
                 if n_out not in scale:
                     scale[n_out] = (w * (2.0 / (n_out * n)))[:, None]
-                res.append((a.sub_(y) if len(layer.outputs) == 1 and not layer.activations else torch.sub(a[:, cols], y)).mul_(scale[n_out]))
+                res.append(
+                    (a.sub_(y) if len(layer.outputs) == 1 and not layer.activations else torch.sub(a[:, cols], y)).mul_(
+                        scale[n_out]
+                    )
+                )
             residuals.append(res)
             if layer.activations:
                 pre = a[:, layer.n_outputs :].contiguous() if layer.n_outputs else a
-                pairs = [(_softplus_fast if fast and act == "softplus" else _WITH_SLOPE[act])(pre if len(layer.activations) == 1 else pre[:, cols])
-                         for cols, act in layer.activations]
+                pairs = [
+                    (_softplus_fast if fast and act == "softplus" else _WITH_SLOPE[act])(
+                        pre if len(layer.activations) == 1 else pre[:, cols]
+                    )
+                    for cols, act in layer.activations
+                ]
                 h = _cat([p[0] for p in pairs])
                 slopes.append(_cat([p[1] for p in pairs]))
             else:

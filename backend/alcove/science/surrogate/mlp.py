@@ -13,6 +13,7 @@ features (n, 19) to force (n, 3) and moment (n, 3) in the headrest frame.
 
 from __future__ import annotations
 
+import itertools
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -39,8 +40,14 @@ _ACTIVATIONS: dict[str, type[nn.Module]] = {"softplus": Softplus, "tanh": nn.Tan
 class MLP(nn.Module):
     """``n_in -> hidden[0] -> ... -> hidden[-1] -> n_out`` with ``activation`` on hidden layers."""
 
-    def __init__(self, hidden: tuple[int, ...] | list[int], activation: str = "softplus", n_in: int = N_FEATURES,
-                 n_out: int = N_OUTPUTS, dtype: torch.dtype = torch.float64):
+    def __init__(
+        self,
+        hidden: tuple[int, ...] | list[int],
+        activation: str = "softplus",
+        n_in: int = N_FEATURES,
+        n_out: int = N_OUTPUTS,
+        dtype: torch.dtype = torch.float64,
+    ):
         super().__init__()
         if activation not in _ACTIVATIONS:
             raise ValueError(f"activation: unknown {activation!r}, expected one of {sorted(_ACTIVATIONS)}")
@@ -48,14 +55,14 @@ class MLP(nn.Module):
         self.activation = activation
         widths = (n_in, *self.hidden, n_out)
         layers: list[nn.Module] = []
-        for i, (a, b) in enumerate(zip(widths[:-1], widths[1:])):
+        for i, (a, b) in enumerate(itertools.pairwise(widths)):
             layers.append(nn.Linear(a, b, dtype=dtype))
             if i < len(widths) - 2:
                 layers.append(_ACTIVATIONS[activation]())
         self.layers = nn.Sequential(*layers)
 
     @classmethod
-    def from_config(cls, cfg: NetworkConfig, dtype: torch.dtype = torch.float64) -> "MLP":
+    def from_config(cls, cfg: NetworkConfig, dtype: torch.dtype = torch.float64) -> MLP:
         return cls(cfg.hidden, cfg.activation, dtype=dtype)
 
     def forward(self, x: torch.Tensor) -> torch.Tensor:
@@ -73,7 +80,7 @@ class MLP(nn.Module):
                 nn.init.uniform_(lin.weight, -bound, bound, generator=generator)
                 nn.init.uniform_(lin.bias, -bound, bound, generator=generator)
 
-    def same_architecture(self, other: "MLP") -> bool:
+    def same_architecture(self, other: MLP) -> bool:
         return self.hidden == other.hidden and self.activation == other.activation
 
 
@@ -91,7 +98,7 @@ class Standardization:
     scale: np.ndarray
 
     @classmethod
-    def fit(cls, x: np.ndarray, constant_scale: float = 1.0, rel_tol: float = 1e-12) -> "Standardization":
+    def fit(cls, x: np.ndarray, constant_scale: float = 1.0, rel_tol: float = 1e-12) -> Standardization:
         mean = x.mean(axis=0)
         std = x.std(axis=0)
         constant = std <= rel_tol * np.maximum(1.0, np.abs(mean))
@@ -102,14 +109,14 @@ class Standardization:
         return np.where(self.scale == 0, 1.0, self.scale)
 
     @classmethod
-    def identity(cls, n: int) -> "Standardization":
+    def identity(cls, n: int) -> Standardization:
         return cls(np.zeros(n), np.ones(n))
 
     def to_dict(self) -> dict[str, list[float]]:
         return {"mean": self.mean.tolist(), "scale": self.scale.tolist()}
 
     @classmethod
-    def from_dict(cls, d: dict[str, Any]) -> "Standardization":
+    def from_dict(cls, d: dict[str, Any]) -> Standardization:
         return cls(np.asarray(d["mean"], float), np.asarray(d["scale"], float))
 
 

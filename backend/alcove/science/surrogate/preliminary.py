@@ -63,8 +63,17 @@ def preliminary_pool(
     pool = []
     for c in range(chunks):
         idx = np.arange(c, samples, chunks)
-        pool.append(PoolDataset(f"preliminary-{c:02d}", np.arange(idx.size, dtype=float), q[idx], qd[idx],
-                                force[idx], moment[idx], origin="preliminary"))
+        pool.append(
+            PoolDataset(
+                f"preliminary-{c:02d}",
+                np.arange(idx.size, dtype=float),
+                q[idx],
+                qd[idx],
+                force[idx],
+                moment[idx],
+                origin="preliminary",
+            )
+        )
     return pool
 
 

@@ -22,8 +22,9 @@ from __future__ import annotations
 import logging
 import math
 import time
+from collections.abc import Callable
 from dataclasses import asdict, dataclass, field
-from typing import Any, Callable
+from typing import Any
 
 import numpy as np
 import torch
@@ -34,7 +35,13 @@ from alcove.science.surrogate.config import SurrogateConfig
 from alcove.science.surrogate.dataset import PoolDataError, PoolDataset, check_pool
 from alcove.science.surrogate.features import features
 from alcove.science.surrogate.fused import FusedNets
-from alcove.science.surrogate.kernel import KernelChoiceError, KernelNets, KernelUnavailable, kernel_supports, requested_kernel
+from alcove.science.surrogate.kernel import (
+    KernelChoiceError,
+    KernelNets,
+    KernelUnavailable,
+    kernel_supports,
+    requested_kernel,
+)
 from alcove.science.surrogate.mlp import MLP, Standardization, SurrogateModel
 
 _log = logging.getLogger(__name__)
@@ -87,7 +94,10 @@ def preset_kinematics(preset: HeadNeckPreset) -> KinematicsFn:
 
     def kin(q: np.ndarray, qd: np.ndarray) -> RelativeKinematics:
         if q.shape[1] != 1:
-            raise PoolDataError("q", f"the head-neck preset has 1 degree of freedom, got {q.shape[1]}; pass kinematics= for other chains")
+            raise PoolDataError(
+                "q",
+                f"the head-neck preset has 1 degree of freedom, got {q.shape[1]}; pass kinematics= for other chains",
+            )
         return relative_kinematics(preset, q[:, 0], qd[:, 0])
 
     return kin
@@ -98,7 +108,7 @@ def split_pool(pool: list[PoolDataset], config: SurrogateConfig, seed: int) -> P
     check_pool(pool)
     rng = np.random.default_rng([seed, 0x5E1175])
     n = len(pool)
-    n_test = int(round(config.test_fraction * n))
+    n_test = round(config.test_fraction * n)
     if config.test_fraction > 0 and n >= 2:
         n_test = max(n_test, 1)
     n_test = min(n_test, n - 1)
@@ -111,8 +121,10 @@ def split_pool(pool: list[PoolDataset], config: SurrogateConfig, seed: int) -> P
     train_pos = np.flatnonzero(sample_split == "train")
     m = train_pos.size
     if m < 2:
-        raise PoolDataError("pool", f"the training part has {m} sample(s); at least 2 are needed for a train/validation split")
-    n_val = min(max(int(round(config.validation_fraction * m)), 1), m - 1)
+        raise PoolDataError(
+            "pool", f"the training part has {m} sample(s); at least 2 are needed for a train/validation split"
+        )
+    n_val = min(max(round(config.validation_fraction * m), 1), m - 1)
     sample_split[rng.choice(train_pos, size=n_val, replace=False)] = "validation"
     return PoolSplit(
         training_sets=[ds.name for i, ds in enumerate(pool) if i not in test_ids],
@@ -127,7 +139,10 @@ def pool_features(pool: list[PoolDataset], kinematics: KinematicsFn) -> np.ndarr
 
 def sample_weights(pool: list[PoolDataset], config: SurrogateConfig) -> np.ndarray:
     n_oracle = sum(ds.origin == "oracle" for ds in pool)
-    w = [np.full(ds.n_samples, ds.weight if ds.weight is not None else config.weight_for(ds.origin, n_oracle)) for ds in pool]
+    w = [
+        np.full(ds.n_samples, ds.weight if ds.weight is not None else config.weight_for(ds.origin, n_oracle))
+        for ds in pool
+    ]
     return np.concatenate(w)
 
 
@@ -150,9 +165,16 @@ def train_surrogate(
     w = sample_weights(pool, config)
     is_train = split.sample_split == "train"
     if not np.any(w[is_train] > 0):
-        raise PoolDataError("weight", "every training sample has weight 0 (check preliminary_weight and the dataset weights)")
+        raise PoolDataError(
+            "weight", "every training sample has weight 0 (check preliminary_weight and the dataset weights)"
+        )
     input_norm = Standardization.fit(x[is_train])
-    out_norm = {k: Standardization.fit(y[k][is_train], constant_scale=0.0) if config.normalize_outputs else Standardization.identity(3) for k in NETS}
+    out_norm = {
+        k: Standardization.fit(y[k][is_train], constant_scale=0.0)
+        if config.normalize_outputs
+        else Standardization.identity(3)
+        for k in NETS
+    }
 
     dtype = torch.float64 if config.dtype == "float64" else torch.float32
     generator = torch.Generator().manual_seed(int(seed))
@@ -166,7 +188,9 @@ def train_surrogate(
                 nets[k].load_state_dict({n: p.to(dtype) for n, p in previous.state_dict().items()})
                 warm[k] = True
             else:  # the campaign changed the architecture: this net starts afresh
-                warm[k] = f"cold: architecture {previous.hidden}/{previous.activation} -> {nets[k].hidden}/{nets[k].activation}"
+                warm[k] = (
+                    f"cold: architecture {previous.hidden}/{previous.activation} -> {nets[k].hidden}/{nets[k].activation}"
+                )
 
     def tensor(a: np.ndarray) -> torch.Tensor:
         return torch.as_tensor(np.ascontiguousarray(a), dtype=dtype)
@@ -187,38 +211,64 @@ def train_surrogate(
     try:
         with torch.no_grad():
             trainer = make_trainer(nets, z_train, y_train, w_train, config)
-            history, epochs, best_epoch = _fit(trainer, z_train.shape[0], z_val, y_val, w_val, w_val_sum, config,
-                                               generator, cancel)
+            history, epochs, best_epoch = _fit(
+                trainer, z_train.shape[0], z_val, y_val, w_val, w_val_sum, config, generator, cancel
+            )
     finally:
         torch.set_num_threads(n_threads)
 
     model = SurrogateModel(
-        force_net=nets["force"], moment_net=nets["moment"], input_norm=input_norm,
-        force_norm=out_norm["force"], moment_norm=out_norm["moment"], config=config, preset=preset,
+        force_net=nets["force"],
+        moment_net=nets["moment"],
+        input_norm=input_norm,
+        force_norm=out_norm["force"],
+        moment_norm=out_norm["moment"],
+        config=config,
+        preset=preset,
         ndof=pool[0].ndof,
-        lineage={"seed": int(seed), "datasets": [ds.name for ds in pool], "test_sets": split.test_sets,
-                 "samples": int(x.shape[0]), "warm_start": warm or False, "training_kernel": trainer.name},
+        lineage={
+            "seed": int(seed),
+            "datasets": [ds.name for ds in pool],
+            "test_sets": split.test_sets,
+            "samples": int(x.shape[0]),
+            "warm_start": warm or False,
+            "training_kernel": trainer.name,
+        },
     )
     rmse: dict[str, dict[str, float | None]] = {k: {} for k in NETS}
-    pred = dict(zip(NETS, model.predict_features(x)))
+    pred = dict(zip(NETS, model.predict_features(x), strict=False))
     for k in NETS:
         for s in SPLITS:
             mask = split.sample_split == s
             rmse[k][s] = float(np.sqrt(np.mean((pred[k][mask] - y[k][mask]) ** 2))) if mask.any() else None
-    metrics = TrainingMetrics(rmse=rmse, epochs=epochs, best_epoch=best_epoch, samples=split.counts(),
-                              wall_time_s=time.perf_counter() - t_start, training_kernel=trainer.name)
+    metrics = TrainingMetrics(
+        rmse=rmse,
+        epochs=epochs,
+        best_epoch=best_epoch,
+        samples=split.counts(),
+        wall_time_s=time.perf_counter() - t_start,
+        training_kernel=trainer.name,
+    )
     model.lineage["metrics"] = metrics.to_dict()
     return TrainingResult(model=model, metrics=metrics, split=split, history=history)
 
 
-def _fit(trainer: "_TorchTrainer | _KernelTrainer", n: int, z_val: torch.Tensor, y_val: dict[str, torch.Tensor],
-         w_val: torch.Tensor, w_val_sum: float, config: SurrogateConfig, generator: torch.Generator,
-         cancel: Callable[[], bool] | None) -> tuple[dict, dict, dict]:
+def _fit(
+    trainer: _TorchTrainer | _KernelTrainer,
+    n: int,
+    z_val: torch.Tensor,
+    y_val: dict[str, torch.Tensor],
+    w_val: torch.Tensor,
+    w_val_sum: float,
+    config: SurrogateConfig,
+    generator: torch.Generator,
+    cancel: Callable[[], bool] | None,
+) -> tuple[dict, dict, dict]:
     """Epochs until every net has stopped early (or ``max_epochs``); each net ends with its best weights."""
     best = {k: float("inf") for k in NETS}
     best_weights = {k: trainer.snapshot(k) for k in NETS}
-    best_epoch = {k: 0 for k in NETS}
-    epochs = {k: 0 for k in NETS}
+    best_epoch = dict.fromkeys(NETS, 0)
+    epochs = dict.fromkeys(NETS, 0)
     history: dict[str, list[float]] = {k: [] for k in NETS}
     for epoch in range(1, config.max_epochs + 1):
         if cancel is not None and cancel():
@@ -246,8 +296,14 @@ class _TorchTrainer:
 
     name = "torch"
 
-    def __init__(self, nets: dict[str, MLP], z: torch.Tensor, y: dict[str, torch.Tensor], w: torch.Tensor,
-                 config: SurrogateConfig):
+    def __init__(
+        self,
+        nets: dict[str, MLP],
+        z: torch.Tensor,
+        y: dict[str, torch.Tensor],
+        w: torch.Tensor,
+        config: SurrogateConfig,
+    ):
         self.nets, self.config = nets, config
         self.active = list(NETS)  # the nets still training, in the fused network's order
         self.fused = FusedNets([nets[k] for k in self.active])
@@ -268,7 +324,7 @@ class _TorchTrainer:
             self.optimizer.step()
 
     def validation_outputs(self, z_val: torch.Tensor) -> list[tuple[str, torch.Tensor]]:
-        return list(zip(self.active, self.fused.forward(z_val)))
+        return list(zip(self.active, self.fused.forward(z_val), strict=False))
 
     def snapshot(self, k: str) -> list[torch.Tensor]:
         if k in self.active:
@@ -286,7 +342,7 @@ class _TorchTrainer:
 
     def restore(self, k: str, weights: list[torch.Tensor]) -> None:
         with torch.no_grad():
-            for p, best_p in zip(self.nets[k].parameters(), weights):
+            for p, best_p in zip(self.nets[k].parameters(), weights, strict=False):
                 p.copy_(best_p)
 
 
@@ -295,8 +351,14 @@ class _KernelTrainer:
 
     name = "c"
 
-    def __init__(self, nets: dict[str, MLP], z: torch.Tensor, y: dict[str, torch.Tensor], w: torch.Tensor,
-                 config: SurrogateConfig):
+    def __init__(
+        self,
+        nets: dict[str, MLP],
+        z: torch.Tensor,
+        y: dict[str, torch.Tensor],
+        w: torch.Tensor,
+        config: SurrogateConfig,
+    ):
         self.config = config
         n_in = z.shape[1]
         self.table = torch.cat([z, y["force"], y["moment"], w[:, None]], dim=1).numpy()
@@ -305,11 +367,15 @@ class _KernelTrainer:
         self.index = {k: i for i, k in enumerate(NETS)}
 
     def epoch(self, order: torch.Tensor) -> None:
-        self.kernel.train_epoch(self.table, self.w_col, order.numpy(), self.config.batch_size, self.config.learning_rate)
+        self.kernel.train_epoch(
+            self.table, self.w_col, order.numpy(), self.config.batch_size, self.config.learning_rate
+        )
 
     def validation_outputs(self, z_val: torch.Tensor) -> list[tuple[str, torch.Tensor]]:
         x = z_val.numpy()
-        return [(k, torch.from_numpy(self.kernel.forward(i, x))) for k, i in self.index.items() if self.kernel.active(i)]
+        return [
+            (k, torch.from_numpy(self.kernel.forward(i, x))) for k, i in self.index.items() if self.kernel.active(i)
+        ]
 
     def snapshot(self, k: str) -> np.ndarray:
         return self.kernel.weights(self.index[k])
@@ -323,8 +389,9 @@ class _KernelTrainer:
         self.kernel.store(self.index[k], weights)
 
 
-def make_trainer(nets: dict[str, MLP], z: torch.Tensor, y: dict[str, torch.Tensor], w: torch.Tensor,
-                 config: SurrogateConfig) -> "_TorchTrainer | _KernelTrainer":
+def make_trainer(
+    nets: dict[str, MLP], z: torch.Tensor, y: dict[str, torch.Tensor], w: torch.Tensor, config: SurrogateConfig
+) -> _TorchTrainer | _KernelTrainer:
     """The C kernel where it is requested (``ALCOVE_TRAINING_KERNEL``) or, by default, available; else PyTorch."""
     choice = requested_kernel()
     if choice != "torch":
@@ -340,12 +407,18 @@ def make_trainer(nets: dict[str, MLP], z: torch.Tensor, y: dict[str, torch.Tenso
     return _TorchTrainer(nets, z, y, w, config)
 
 
-def _without_stopped(fused: FusedNets, optimizer: "FlatAdam", remaining: list[MLP]) -> tuple[FusedNets, "FlatAdam"]:
+def _without_stopped(fused: FusedNets, optimizer: FlatAdam, remaining: list[MLP]) -> tuple[FusedNets, FlatAdam]:
     """A fused network of the ``remaining`` nets carrying over their weights and Adam state."""
     smaller = FusedNets(remaining)
     fused.transfer(fused.parameter, smaller, smaller.parameter)
-    adam = FlatAdam(smaller.parameter, lr=optimizer.lr, betas=optimizer.betas, eps=optimizer.eps, grad=smaller.grad,
-                    fused=optimizer.fused)
+    adam = FlatAdam(
+        smaller.parameter,
+        lr=optimizer.lr,
+        betas=optimizer.betas,
+        eps=optimizer.eps,
+        grad=smaller.grad,
+        fused=optimizer.fused,
+    )
     fused.transfer(optimizer.exp_avg, smaller, adam.exp_avg)
     fused.transfer(optimizer.exp_avg_sq, smaller, adam.exp_avg_sq)
     adam.steps = optimizer.steps
@@ -363,8 +436,15 @@ class FlatAdam:
     ``tests/science/surrogate`` checks both against ``torch.optim.Adam``.
     """
 
-    def __init__(self, param: torch.Tensor, lr: float, betas: tuple[float, float] = (0.9, 0.999), eps: float = 1e-8,
-                 grad: torch.Tensor | None = None, fused: bool = True):
+    def __init__(
+        self,
+        param: torch.Tensor,
+        lr: float,
+        betas: tuple[float, float] = (0.9, 0.999),
+        eps: float = 1e-8,
+        grad: torch.Tensor | None = None,
+        fused: bool = True,
+    ):
         self.param, self.lr, self.betas, self.eps = param, lr, betas, eps
         self.grad = grad  # where the gradient is stored (default: param.grad)
         self.exp_avg = torch.zeros_like(param)
@@ -381,8 +461,21 @@ class FlatAdam:
         self.steps += 1
         if self.fused:
             self._step_count.fill_(self.steps)
-            torch._fused_adam_([self.param], [grad], [self.exp_avg], [self.exp_avg_sq], [], [self._step_count], lr=self.lr,
-                               beta1=b1, beta2=b2, weight_decay=0.0, eps=self.eps, amsgrad=False, maximize=False)
+            torch._fused_adam_(
+                [self.param],
+                [grad],
+                [self.exp_avg],
+                [self.exp_avg_sq],
+                [],
+                [self._step_count],
+                lr=self.lr,
+                beta1=b1,
+                beta2=b2,
+                weight_decay=0.0,
+                eps=self.eps,
+                amsgrad=False,
+                maximize=False,
+            )
             return
         self.exp_avg.lerp_(grad, 1 - b1)
         self.exp_avg_sq.mul_(b2).addcmul_(grad, grad, value=1 - b2)
@@ -391,8 +484,9 @@ class FlatAdam:
         self.param.addcdiv_(self.exp_avg, denom, value=-self.lr / bias1)
 
 
-def predict_arrays(model: SurrogateModel, q: np.ndarray, qd: np.ndarray,
-                   kinematics: KinematicsFn | None = None) -> tuple[np.ndarray, np.ndarray]:
+def predict_arrays(
+    model: SurrogateModel, q: np.ndarray, qd: np.ndarray, kinematics: KinematicsFn | None = None
+) -> tuple[np.ndarray, np.ndarray]:
     """Predicted force (n, 3) and moment (n, 3) at states q, qd ((n,) or (n, ndof))."""
     q = np.asarray(q, float)
     qd = np.asarray(qd, float)
@@ -406,8 +500,9 @@ def predict_arrays(model: SurrogateModel, q: np.ndarray, qd: np.ndarray,
     return model.predict_features(features(kin))
 
 
-def predict(model: SurrogateModel, t: np.ndarray, q: np.ndarray, qd: np.ndarray,
-            kinematics: KinematicsFn | None = None) -> ForceSeries:
+def predict(
+    model: SurrogateModel, t: np.ndarray, q: np.ndarray, qd: np.ndarray, kinematics: KinematicsFn | None = None
+) -> ForceSeries:
     """Predicted contact force and moment (headrest frame) along a trajectory."""
     force, moment = predict_arrays(model, q, qd, kinematics)
     return ForceSeries(np.asarray(t, float), force, moment)

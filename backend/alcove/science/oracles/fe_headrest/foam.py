@@ -47,8 +47,8 @@ class Hyperfoam:
     def youngs_modulus(self) -> float:
         return 2.0 * self.shear_modulus * (1.0 + self.poisson_ratio)
 
-    def _terms(self):  # noqa: ANN202
-        return zip(self.mu, self.alpha, self.beta)
+    def _terms(self):
+        return zip(self.mu, self.alpha, self.beta, strict=False)
 
     # ---- volumetric part h(J) = (J^(-a b) - 1) / b and its derivatives ------------------
     @staticmethod
@@ -66,7 +66,7 @@ class Hyperfoam:
             W += 2.0 * mu / a**2 * (s1**a + s2**a - 2.0 + self._h(J, a, b)[0])
         return W
 
-    def derivatives(self, s1: np.ndarray, s2: np.ndarray):  # noqa: ANN201
+    def derivatives(self, s1: np.ndarray, s2: np.ndarray):
         """W1, W2, W11, W12, W22, (W1 - W2)/(s1 - s2), (W1 + W2)/(s1 + s2)."""
         J = s1 * s2
         W1 = np.zeros_like(J)
@@ -164,7 +164,7 @@ def foam_response(
     energy = elastic + visc_energy if visc else elastic
     W1, W2, W11, W12, W22, Dm, Dp = law.derivatives(s1, s2)
     # frame matrices M_ab = u_a (x) v_b flattened (00, 01, 10, 11), u_0 = (cu, su), u_1 = (-su, cu)
-    Mmat = np.empty(J.shape + (4, 4))  # rows: M_00, M_11, M_01, M_10
+    Mmat = np.empty((*J.shape, 4, 4))  # rows: M_00, M_11, M_01, M_10
     u = ((cu, su), (-su, cu))
     v = ((cv, sv), (-sv, cv))
     for row, (a, b) in enumerate(((0, 0), (1, 1), (0, 1), (1, 0))):
@@ -177,14 +177,14 @@ def foam_response(
     if order == 1:
         return FoamResponse(energy, elastic, P, None, True)
     # tangent = M^T C M with C the singular-frame tangent on (00, 11, 01, 10)
-    C = np.zeros(J.shape + (4, 4))
+    C = np.zeros((*J.shape, 4, 4))
     C[..., 0, 0] = W11
     C[..., 0, 1] = W12
     C[..., 1, 0] = W12
     C[..., 1, 1] = W22
     C[..., 2, 2] = C[..., 3, 3] = 0.5 * (Dm + Dp)
     C[..., 2, 3] = C[..., 3, 2] = 0.5 * (Dm - Dp)
-    A = (np.swapaxes(Mmat, -1, -2) @ C @ Mmat).reshape(F.shape + (2, 2))
+    A = (np.swapaxes(Mmat, -1, -2) @ C @ Mmat).reshape((*F.shape, 2, 2))
     if visc:
         # Kelvin-Voigt tangent: delta_ik S_JL + eta/(2 dt) (F_iL F_kJ + (F F^T)_ik delta_JL)
         h = 0.5 * viscosity_over_dt

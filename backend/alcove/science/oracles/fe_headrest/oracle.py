@@ -72,31 +72,45 @@ class FEHeadrestOracle:
         p = self.params
         self.law = Hyperfoam(tuple(p.foam_mu), tuple(p.foam_alpha), tuple(p.foam_beta))
         self.mesh: CushionMesh = build_cushion_mesh(
-            p.cushion_thickness, p.cushion_height, p.cushion_bottom, p.element_size_contact, p.element_size_far, p.contact_zone
+            p.cushion_thickness,
+            p.cushion_height,
+            p.cushion_bottom,
+            p.element_size_contact,
+            p.element_size_far,
+            p.contact_zone,
         )
         self.slices = head_slices(preset, p)
 
     # ---- input -------------------------------------------------------------------------
     def _validated(self, trajectory: Any) -> Trajectory:
         try:
-            traj = trajectory if isinstance(trajectory, Trajectory) else Trajectory(trajectory.t, trajectory.q, trajectory.qd)
+            traj = (
+                trajectory
+                if isinstance(trajectory, Trajectory)
+                else Trajectory(trajectory.t, trajectory.q, trajectory.qd)
+            )
             traj = Trajectory(traj.t, traj.q, traj.qd)  # re-validate (time, NaN, shapes)
         except SeriesFormatError as exc:
             raise OracleInputError(exc.field, exc.reason) from None
         except AttributeError:
             raise OracleInputError("trajectory", "expected a Trajectory with t, q and qd") from None
         if traj.ndof != 1:
-            raise OracleInputError("q", f"the head-neck preset has 1 degree of freedom (q_0 = theta), got {traj.ndof} columns")
+            raise OracleInputError(
+                "q", f"the head-neck preset has 1 degree of freedom (q_0 = theta), got {traj.ndof} columns"
+            )
         span = traj.t[-1] - traj.t[0]
         if span < self.params.output_dt * (1 - 1e-9):
-            raise OracleInputError("t", f"time span {span:g} s is shorter than one output interval ({self.params.output_dt:g} s)")
+            raise OracleInputError(
+                "t", f"time span {span:g} s is shorter than one output interval ({self.params.output_dt:g} s)"
+            )
         theta = traj.q[:, 0]
         pr = self.preset
         bad = np.flatnonzero((theta < pr.theta_min - 1e-12) | (theta > pr.theta_max + 1e-12))
         if bad.size:
             i = int(bad[0])
             raise OracleInputError(
-                "q_0", f"theta = {theta[i]:.4g} rad at t = {traj.t[i]:.4g} s is outside the model's range [{pr.theta_min}, {pr.theta_max}] rad"
+                "q_0",
+                f"theta = {theta[i]:.4g} rad at t = {traj.t[i]:.4g} s is outside the model's range [{pr.theta_min}, {pr.theta_max}] rad",
             )
         depth = profile_indentation(pr, theta)
         limit = self.params.max_indentation_fraction * self.params.cushion_thickness
@@ -124,9 +138,13 @@ class FEHeadrestOracle:
         bottom = self.params.cushion_bottom
         top = bottom + self.params.cushion_height
         if zin.size and (zin.min() < bottom or zin.max() > top):
-            raise OracleInputError("q_0", f"the head would touch the cushion beyond its ends (z_H in [{bottom:g}, {top:g}] m)")
+            raise OracleInputError(
+                "q_0", f"the head would touch the cushion beyond its ends (z_H in [{bottom:g}, {top:g}] m)"
+            )
 
-    def _preload(self, solvers: list[CushionSolver], theta_start: float, dt: float) -> tuple[list[float], str | None] | None:
+    def _preload(
+        self, solvers: list[CushionSolver], theta_start: float, dt: float
+    ) -> tuple[list[float], str | None] | None:
         """A trajectory that starts with the head in the cushion starts from static equilibrium.
 
         The head is moved quasi-statically (no viscous stress) along its path from first
@@ -164,7 +182,7 @@ class FEHeadrestOracle:
         p = self.params
         traj = self._validated(trajectory)
         t0, t1 = float(traj.t[0]), float(traj.t[-1])
-        n_out = int(math.floor((t1 - t0) / p.output_dt + 1e-9)) + 1
+        n_out = math.floor((t1 - t0) / p.output_dt + 1e-9) + 1
         t_out = t0 + p.output_dt * np.arange(n_out)
         n_fine = (n_out - 1) * p.substeps + 1
         dt = p.output_dt / p.substeps
@@ -206,7 +224,7 @@ class FEHeadrestOracle:
         preload_steps = self._preload(solvers, float(theta[0]), dt)
         if preload_steps is not None:
             failure = preload_steps[1]
-            stored_start = float(sum(w * e for w, e in zip(widths, preload_steps[0])))
+            stored_start = float(sum(w * e for w, e in zip(widths, preload_steps[0], strict=False)))
         for k in range(n_fine if failure is None else 0):
             if cancel is not None and k % p.substeps == 0 and cancel():
                 raise OracleCancelled(f"cancelled at t = {t_fine[k]:.4g} s")
@@ -227,7 +245,9 @@ class FEHeadrestOracle:
                 max_pen = max(max_pen, res.max_penetration)
                 touching |= res.contact_nodes > 0
                 if not res.converged and failure is None:
-                    failure = f"Newton did not converge at t = {t_fine[k]:.4g} s (slice {j}, residual {res.residual:.3g})"
+                    failure = (
+                        f"Newton did not converge at t = {t_fine[k]:.4g} s (slice {j}, residual {res.residual:.3g})"
+                    )
             if touching:
                 contact_steps += 1
                 if first_contact is None:
@@ -303,5 +323,7 @@ class FEHeadrestOracle:
         wall = time.perf_counter() - start
         if failure is not None:
             return OracleResult(False, None, kin, diagnostics, wall, failure)
-        forces = ForceSeries(t_out, np.stack([f_out[:, 0], zeros, f_out[:, 1]], -1), np.stack([zeros, m_out, zeros], -1))
+        forces = ForceSeries(
+            t_out, np.stack([f_out[:, 0], zeros, f_out[:, 1]], -1), np.stack([zeros, m_out, zeros], -1)
+        )
         return OracleResult(True, forces, kin, diagnostics, wall, None)

@@ -33,7 +33,7 @@ def reference_motion(
     time_scale: float = 1.0,
 ) -> Trajectory:
     """The reference motion; ``time_scale`` < 1 plays the same path faster (for rate tests)."""
-    n = int(round(duration * time_scale / dt)) + 1
+    n = round(duration * time_scale / dt) + 1
     t = np.linspace(0.0, duration * time_scale, n)
     tau = t / time_scale
     up, up_d = _blend(tau / t_peak)

@@ -131,7 +131,10 @@ class CushionSolver:
                     gc.append(np.broadcast_to(self.edofs[:, None, 2 * a + i], (ne_, nq_)))
                     gv.append(mesh.grad[:, :, a, J])
         self.gather = sp.csr_matrix(
-            (np.concatenate([v.ravel() for v in gv]), (np.concatenate([r.ravel() for r in gr]), np.concatenate([c.ravel() for c in gc]))),
+            (
+                np.concatenate([v.ravel() for v in gv]),
+                (np.concatenate([r.ravel() for r in gr]), np.concatenate([c.ravel() for c in gc])),
+            ),
             shape=(ne_ * nq_ * 4, self.n_dofs),
         )
         self.scatter = self.gather.T.tocsr()
@@ -165,11 +168,11 @@ class CushionSolver:
         return F
 
     # ---- incremental potential -----------------------------------------------------
-    def _foam(self, u: np.ndarray, dt: float, order: int):  # noqa: ANN202
+    def _foam(self, u: np.ndarray, dt: float, order: int):
         eta_dt = self.viscosity / dt if dt > 0 else 0.0
         return foam_response(self.law, self.deformation_gradient(u), self.E_prev, eta_dt, order)
 
-    def evaluate(self, u: np.ndarray, pose: Pose, dt: float, local_prev: np.ndarray | None, order: int) -> "Evaluation":
+    def evaluate(self, u: np.ndarray, pose: Pose, dt: float, local_prev: np.ndarray | None, order: int) -> Evaluation:
         """Incremental potential (order 0), plus its gradient (1), plus the tangent on the free dofs (2)."""
         foam = self._foam(u, dt, order)
         x = self.surface_positions(u)
@@ -270,7 +273,9 @@ class CushionSolver:
         visc_diss = float(self.viscosity / dt * np.sum((dE**2).sum(axis=(-1, -2)) * w)) if dt > 0 else 0.0
         fric_diss = float(np.sum(np.abs(np.einsum("ij,ij->i", cs.force, cs.tangent) * cs.slip)))  # |f_t s| >= 0
         elastic = float(np.sum(foam.elastic * w))
-        stored = elastic + 0.5 * float(np.sum(self.contact.penalty * self.contact.lengths * np.minimum(cs.gap, 0.0) ** 2))
+        stored = elastic + 0.5 * float(
+            np.sum(self.contact.penalty * self.contact.lengths * np.minimum(cs.gap, 0.0) ** 2)
+        )
         force_on_body = -cs.force.sum(axis=0)
         x = self.surface_positions(u)
         points = x - cs.gap[:, None] * cs.normal

@@ -118,8 +118,17 @@ def _build(cc: str, out_dir: Path) -> Path:
     stat = os.stat(cc)
     errors = []
     for cflags, libs in _FLAG_SETS:
-        key = hashlib.sha256(b"\0".join([source, cc.encode(), str((stat.st_size, stat.st_mtime_ns)).encode(),
-                                          " ".join(cflags + libs).encode(), _cpu_flags().encode()])).hexdigest()[:20]
+        key = hashlib.sha256(
+            b"\0".join(
+                [
+                    source,
+                    cc.encode(),
+                    str((stat.st_size, stat.st_mtime_ns)).encode(),
+                    " ".join(cflags + libs).encode(),
+                    _cpu_flags().encode(),
+                ]
+            )
+        ).hexdigest()[:20]
         target = out_dir / f"alcove_train_{key}.so"
         if target.exists():
             return target
@@ -133,7 +142,9 @@ def _build(cc: str, out_dir: Path) -> Path:
                 ctypes.CDLL(tmp)  # loads (libmvec present, CPU supports the code) before it is cached
                 os.replace(tmp, target)  # atomic: concurrent builders each publish a complete file
                 return target
-            errors.append(f"{' '.join(cflags)}: {proc.stderr.strip().splitlines()[-1] if proc.stderr.strip() else proc.returncode}")
+            errors.append(
+                f"{' '.join(cflags)}: {proc.stderr.strip().splitlines()[-1] if proc.stderr.strip() else proc.returncode}"
+            )
         except OSError as exc:
             errors.append(f"{' '.join(cflags)}: {exc}")
         finally:
@@ -150,11 +161,25 @@ def _load() -> ctypes.CDLL:
     except PermissionError:
         path = _build(cc, Path(tempfile.gettempdir()) / f"alcove-kernels-{os.getuid() if hasattr(os, 'getuid') else 0}")
     lib = ctypes.CDLL(str(path))
-    common = [ctypes.c_int32, ctypes.POINTER(_Net), _P_DOUBLE, ctypes.c_int64, ctypes.c_int32, ctypes.c_int32, _P_INT64,
-              ctypes.c_int64]
+    common = [
+        ctypes.c_int32,
+        ctypes.POINTER(_Net),
+        _P_DOUBLE,
+        ctypes.c_int64,
+        ctypes.c_int32,
+        ctypes.c_int32,
+        _P_INT64,
+        ctypes.c_int64,
+    ]
     lib.alcove_gradient.argtypes = common
-    lib.alcove_train_epoch.argtypes = [*common, ctypes.c_int64, ctypes.c_double, ctypes.c_double, ctypes.c_double,
-                                       ctypes.c_double]
+    lib.alcove_train_epoch.argtypes = [
+        *common,
+        ctypes.c_int64,
+        ctypes.c_double,
+        ctypes.c_double,
+        ctypes.c_double,
+        ctypes.c_double,
+    ]
     lib.alcove_forward.argtypes = [ctypes.POINTER(_Net), _P_DOUBLE, ctypes.c_int64, ctypes.c_int64, _P_DOUBLE]
     for fn in (lib.alcove_gradient, lib.alcove_train_epoch, lib.alcove_forward):
         fn.restype = ctypes.c_int
@@ -206,7 +231,7 @@ class KernelNets:
         self.exp_avg: list[np.ndarray] = []
         self.exp_avg_sq: list[np.ndarray] = []
         self.structs = (_Net * len(nets))()
-        for k, (net, y_col) in enumerate(zip(nets, y_cols)):
+        for k, (net, y_col) in enumerate(zip(nets, y_cols, strict=False)):
             lins = net.linears()
             widths = np.array([lins[0].in_features, *[lin.out_features for lin in lins]], dtype=np.int32)
             params = parameters_to_vector(net.parameters()).detach().numpy().astype(np.float64, copy=True)
@@ -216,8 +241,18 @@ class KernelNets:
             self.grads.append(grad)
             self.exp_avg.append(m)
             self.exp_avg_sq.append(v)
-            self.structs[k] = _Net(len(lins), ACTIVATIONS[net.activation], y_col, 1, _ptr(widths, _P_INT32), _ptr(params),
-                                   _ptr(grad), _ptr(m), _ptr(v), 0)
+            self.structs[k] = _Net(
+                len(lins),
+                ACTIVATIONS[net.activation],
+                y_col,
+                1,
+                _ptr(widths, _P_INT32),
+                _ptr(params),
+                _ptr(grad),
+                _ptr(m),
+                _ptr(v),
+                0,
+            )
 
     @property
     def steps(self) -> list[int]:
@@ -248,19 +283,40 @@ class KernelNets:
         """Set every active net's :attr:`grads` to the gradient of its loss on ``rows``."""
         table = self._table(table, w_col)
         rows = self._rows(rows, table.shape[0])
-        rc = self.lib.alcove_gradient(len(self.nets), self.structs, _ptr(table), table.shape[1], self.n_in, w_col,
-                                      _ptr(rows, _P_INT64), rows.size)
+        rc = self.lib.alcove_gradient(
+            len(self.nets), self.structs, _ptr(table), table.shape[1], self.n_in, w_col, _ptr(rows, _P_INT64), rows.size
+        )
         if rc:
             raise MemoryError("the training kernel could not allocate its buffers")
 
-    def train_epoch(self, table: np.ndarray, w_col: int, order: np.ndarray, batch: int, lr: float,
-                    betas: tuple[float, float] = (0.9, 0.999), eps: float = 1e-8) -> None:
+    def train_epoch(
+        self,
+        table: np.ndarray,
+        w_col: int,
+        order: np.ndarray,
+        batch: int,
+        lr: float,
+        betas: tuple[float, float] = (0.9, 0.999),
+        eps: float = 1e-8,
+    ) -> None:
         """Batches of ``batch`` consecutive rows of ``order``, one Adam step of every active net after each."""
         table = self._table(table, w_col)
         order = self._rows(order, table.shape[0])
-        rc = self.lib.alcove_train_epoch(len(self.nets), self.structs, _ptr(table), table.shape[1], self.n_in, w_col,
-                                         _ptr(order, _P_INT64), order.size, int(batch), float(lr), float(betas[0]),
-                                         float(betas[1]), float(eps))
+        rc = self.lib.alcove_train_epoch(
+            len(self.nets),
+            self.structs,
+            _ptr(table),
+            table.shape[1],
+            self.n_in,
+            w_col,
+            _ptr(order, _P_INT64),
+            order.size,
+            int(batch),
+            float(lr),
+            float(betas[0]),
+            float(betas[1]),
+            float(eps),
+        )
         if rc:
             raise MemoryError("the training kernel could not allocate its buffers")
 
@@ -285,4 +341,12 @@ class KernelNets:
             vector_to_parameters(torch.from_numpy(np.array(src, dtype=np.float64)), net.parameters())
 
 
-__all__ = ["KERNEL_ENV", "KernelChoiceError", "KernelNets", "KernelUnavailable", "kernel_supports", "load_kernel", "requested_kernel"]
+__all__ = [
+    "KERNEL_ENV",
+    "KernelChoiceError",
+    "KernelNets",
+    "KernelUnavailable",
+    "kernel_supports",
+    "load_kernel",
+    "requested_kernel",
+]
