@@ -131,7 +131,8 @@ def pg_base_url() -> str:
             _pg_base_cache.append(last or RuntimeError("no candidate"))
     got = _pg_base_cache[0]
     if isinstance(got, BaseException):
-        service_unavailable("PostgreSQL at 127.0.0.1:5432/test", got)
+        tried = ", ".join(sa.make_url(url).render_as_string(hide_password=True) for url in _pg_candidates())
+        service_unavailable(f"PostgreSQL ({tried})", got)
     return got  # type: ignore[return-value]
 
 
