@@ -220,3 +220,45 @@ def test_forwarded_for_from_a_trusted_proxy_names_the_client(app, trusted_proxy)
     # the client cannot choose: what it wrote left of the proxy's entry is not believed
     r = attempt(proxy, owner.email, owner.password, {"X-Forwarded-For": "7.7.7.7, 9.9.9.9"})
     assert r.status_code == 429
+
+
+def test_without_redis_the_throttle_falls_back_to_process_memory() -> None:
+    """A Redis that cannot be reached (nothing listens on port 1) does not stop logins: the
+    limits then hold per process."""
+    from alcove.users.ratelimit import RedisLoginThrottle
+
+    throttle = RedisLoginThrottle("redis://127.0.0.1:1/0", policy=LoginPolicy(free_failures=2))
+    assert [throttle.begin("a@example.org", "10.1.1.1") for _ in range(3)] == [0, 0, 1]
+    throttle.succeeded("a@example.org", "10.1.1.1")
+
+
+def _request(peer: str, forwarded: list[str]):
+    from starlette.requests import Request
+
+    headers = [(b"x-forwarded-for", v.encode()) for v in forwarded]
+    return Request({"type": "http", "client": (peer, 1234), "headers": headers, "method": "GET", "path": "/"})
+
+
+@pytest.mark.parametrize(
+    ("peer", "forwarded", "expected"),
+    [
+        ("203.0.113.5", ["9.9.9.9"], "203.0.113.5"),  # untrusted peer: the header is ignored
+        ("10.0.0.1", [], "10.0.0.1"),  # trusted proxy, no header: the proxy itself
+        ("10.0.0.1", ["9.9.9.9"], "9.9.9.9"),
+        ("10.0.0.1", ["1.1.1.1, 9.9.9.9"], "9.9.9.9"),  # left of the first untrusted hop: the client's own words
+        ("10.0.0.1", ["9.9.9.9, 10.0.0.2"], "9.9.9.9"),  # a chain of trusted proxies is skipped
+        ("10.0.0.1", ["1.1.1.1", "9.9.9.9"], "9.9.9.9"),  # several header lines are one list
+        ("10.0.0.1", ["not-an-ip"], "10.0.0.1"),  # garbage: the last address a trusted proxy vouched for
+        ("10.0.0.1", ["[2001:db8::1]"], "2001:db8::1"),
+        ("::ffff:10.0.0.1", ["9.9.9.9"], "9.9.9.9"),  # an IPv4-mapped peer is that IPv4 address
+        ("testclient", ["9.9.9.9"], "testclient"),  # not an address: never trusted
+    ],
+)
+def test_client_address(peer: str, forwarded: list[str], expected: str) -> None:
+    from alcove.api.client_address import client_address
+
+    proxies = (ipaddress.ip_network("10.0.0.0/24"),)
+    assert client_address(_request(peer, forwarded), proxies) == expected
+    assert client_address(_request(peer, forwarded), ()) == (
+        str(ipaddress.ip_address(peer).ipv4_mapped or peer) if peer.startswith("::ffff:") else peer
+    )
