@@ -116,13 +116,12 @@ def install_docs(app: FastAPI, docs_url: str, openapi_url: str) -> None:
     assets = f"{docs_url}/assets"
     app.mount(assets, StaticFiles(directory=swagger_ui_dir()), name="swagger-ui-assets")
 
-    @app.get(docs_url, include_in_schema=False)
+    # plain Starlette routes, as FastAPI registers its own docs page: public, outside the API schema
     async def swagger_ui(request: Request) -> HTMLResponse:
         root = request.scope.get("root_path", "")
         title = f"{app.title} - API docs"
         return HTMLResponse(_DOCS_HTML.format(title=title, assets=root + assets, init=f"{root}{docs_url}/init.js"))
 
-    @app.get(f"{docs_url}/init.js", include_in_schema=False)
     async def swagger_ui_init(request: Request) -> Response:
         config = {
             "url": request.scope.get("root_path", "") + openapi_url,
@@ -135,3 +134,6 @@ def install_docs(app: FastAPI, docs_url: str, openapi_url: str) -> None:
             "validatorUrl": None,  # the default badge would load an image from validator.swagger.io
         }
         return Response(_DOCS_INIT.format(config=json.dumps(config)), media_type="text/javascript; charset=utf-8")
+
+    app.add_route(docs_url, swagger_ui, include_in_schema=False)
+    app.add_route(f"{docs_url}/init.js", swagger_ui_init, include_in_schema=False)

@@ -168,7 +168,10 @@ def update_user(
     operation_id="create_share",
 )
 def create_share(body: ShareCreate, user: CurrentUser, session: SessionDep) -> ShareOut:
-    """Share one of your objects with another user (view or edit); sharing again updates the permission."""
+    """Share one of your objects with someone by e-mail (view or edit); sharing again updates
+    the permission. If no account has that e-mail yet, the share waits for the account made
+    with it; the answer is the same either way (it does not tell whether the address has an
+    account)."""
     out = service.share(session, user, body)
     session.commit()
     return out
@@ -178,7 +181,7 @@ def create_share(body: ShareCreate, user: CurrentUser, session: SessionDep) -> S
 def list_shares(
     object_type: ObjectType, object_id: Annotated[int, Query(ge=1, le=MAX_ID)], user: CurrentUser, session: SessionDep
 ) -> list[ShareOut]:
-    """Who one of your objects is shared with."""
+    """Who one of your objects is shared with (by e-mail, including addresses without an account yet)."""
     return service.list_shares(session, user, object_type, object_id)
 
 

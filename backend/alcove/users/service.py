@@ -193,6 +193,7 @@ def create_user(session: Session, body: UserCreate) -> User:
     user.set_password(body.password)
     session.add(user)
     session.flush()
+    accept_invitations(session, user)
     return user
 
 
@@ -234,62 +235,83 @@ def update_me(
 
 
 # ----------------------------------------------------------------------------- sharing
+#
+# A share names its grantee by e-mail. When an account has that e-mail the share grants
+# access at once; otherwise it is kept as an invitation (``Share.email``, no ``user_id``)
+# that the account created later with that e-mail receives (:func:`create_user`). Both
+# answer alike (201, the same fields, the same work), and are listed alike, so sharing does
+# not tell a member whether an address has an account.
 
 
-def _share_out(share: Share, grantee: User) -> ShareOut:
+def _object_of(share: Share) -> tuple[str, int]:
     for object_type, model in OBJECT_TYPES.items():
         object_id = getattr(share, SHARE_COLUMN[model].key)
         if object_id is not None:
-            return ShareOut(
-                id=share.id,
-                object_type=object_type,
-                object_id=object_id,
-                user_id=grantee.id,
-                email=grantee.email,
-                permission=share.permission,
-                created_at=share.created_at,
-            )  # type: ignore[arg-type]
+            return object_type, object_id
     raise AssertionError("share without object")
+
+
+def _share_out(share: Share, email: str) -> ShareOut:
+    object_type, object_id = _object_of(share)
+    return ShareOut(
+        id=share.id,
+        object_type=object_type,  # type: ignore[arg-type]
+        object_id=object_id,
+        email=email,
+        permission=share.permission,  # type: ignore[arg-type]
+        created_at=share.created_at,
+    )
 
 
 def share(session: Session, owner: User, body: ShareCreate) -> ShareOut:
     model = OBJECT_TYPES[body.object_type]
     obj = get_for(session, model, body.object_id, owner, need="owner")
-    grantee = repo.user_by_email(session, body.email)
-    if grantee is None or not grantee.is_active:
-        raise InvalidInput.one("email", "no active user with this e-mail")
-    if grantee.id == obj.owner_id:
-        raise InvalidInput.one("email", f"this user owns the {LABEL[model]}")
+    email = body.email.strip().lower()
+    if email == owner.email:
+        raise InvalidInput.one("email", f"you own this {LABEL[model]}")
     column = SHARE_COLUMN[model]
-    existing = session.scalar(sa.select(Share).where(Share.user_id == grantee.id, column == obj.id))
+    grantee = repo.user_by_email(session, email)
+    who = Share.user_id == grantee.id if grantee is not None else Share.email == email
+    existing = session.scalar(sa.select(Share).where(who, column == obj.id))
     if existing is None:
-        existing = Share(user_id=grantee.id, permission=body.permission, created_by_id=owner.id, **{column.key: obj.id})
+        existing = Share(
+            user_id=grantee.id if grantee is not None else None,
+            email=None if grantee is not None else email,
+            permission=body.permission,
+            created_by_id=owner.id,
+            **{column.key: obj.id},
+        )
         session.add(existing)
     else:
         existing.permission = body.permission
     session.flush()
-    return _share_out(existing, grantee)
+    return _share_out(existing, email)
+
+
+def accept_invitations(session: Session, user: User) -> int:
+    """Give ``user`` the shares that were invitations to their e-mail; returns how many."""
+    result = session.execute(
+        sa.update(Share).where(Share.email == user.email, Share.user_id.is_(None)).values(user_id=user.id, email=None)
+    )
+    return result.rowcount or 0
 
 
 def list_shares(session: Session, user: User, object_type: str, object_id: int) -> list[ShareOut]:
     model = OBJECT_TYPES[object_type]
     get_for(session, model, object_id, user, need="owner")
-    return [_share_out(s, u) for s, u in repo.shares_of(session, SHARE_COLUMN[model], object_id)]
+    return [_share_out(s, email) for s, email in repo.shares_of(session, SHARE_COLUMN[model], object_id)]
 
 
 def delete_share(session: Session, user: User, share_id: int) -> None:
-    """The object's owner removes a share, or the grantee gives it up."""
+    """The object's owner removes a share (or an invitation), or the grantee gives it up."""
     row = session.get(Share, share_id)
     if row is None:
         raise NotFound("share", share_id)
     if row.user_id != user.id:
-        out = _share_out(row, row.user)
-        model = OBJECT_TYPES[out.object_type]
+        object_type, object_id = _object_of(row)
         try:
-            get_for(session, model, out.object_id, user, need="owner")
-        except PermissionDenied:
-            raise NotFound("share", share_id) from None
-        except NotFound:
+            get_for(session, OBJECT_TYPES[object_type], object_id, user, need="owner")
+        except (PermissionDenied, NotFound):
             raise NotFound("share", share_id) from None
     session.delete(row)
     session.flush()
