@@ -25,7 +25,8 @@ def synthesize_campaign_in(server: Server) -> tuple[int, str]:
     from tests.api.synthetic import synthesize_campaign
 
     name = f"csp-{uuid.uuid4().hex[:6]}"
-    engine = make_engine(f"sqlite:///{server.data_dir / 'alcove.db'}")
+    # BEGIN IMMEDIATE: wait for the server's worker rather than fail on a write after a read
+    engine = make_engine(f"sqlite:///{server.data_dir / 'alcove.db'}", immediate=True)
     try:
         with Session(engine, expire_on_commit=False) as s:
             owner = s.scalar(sa.select(User.id).where(User.email == ADMIN_EMAIL))
