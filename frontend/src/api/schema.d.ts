@@ -55,9 +55,14 @@ export interface paths {
         put?: never;
         /**
          * Login
-         * @description Exchange e-mail and password for a bearer token (valid 12 h). Five failures in a row
-         *     lock the account for 5 minutes, and 30 failures from one client address within 5
-         *     minutes block that address for a while (both 429 with Retry-After).
+         * @description Exchange e-mail and password for a bearer token (valid 12 h).
+         *
+         *     Failed logins are throttled per (e-mail, client address): five cost nothing, then each
+         *     further attempt from that address on that e-mail must wait a delay that doubles from 1 s
+         *     up to 5 minutes; 30 failures from one client address within 5 minutes block that address
+         *     for the rest of the 5 minutes. Both answer 429 with Retry-After (the seconds to wait).
+         *     An unknown e-mail is answered exactly like a wrong password (401, same body, same work),
+         *     and throttled the same way; an account is never locked for its owner on another address.
          */
         post: operations["login"];
         delete?: never;
@@ -919,13 +924,16 @@ export interface paths {
         };
         /**
          * List Shares
-         * @description Who one of your objects is shared with.
+         * @description Who one of your objects is shared with (by e-mail, including addresses without an account yet).
          */
         get: operations["list_shares"];
         put?: never;
         /**
          * Create Share
-         * @description Share one of your objects with another user (view or edit); sharing again updates the permission.
+         * @description Share one of your objects with someone by e-mail (view or edit); sharing again updates
+         *     the permission. If no account has that e-mail yet, the share waits for the account made
+         *     with it; the answer is the same either way (it does not tell whether the address has an
+         *     account).
          */
         post: operations["create_share"];
         delete?: never;
@@ -1270,7 +1278,10 @@ export interface paths {
         delete?: never;
         options?: never;
         head?: never;
-        /** Update User */
+        /**
+         * Update User
+         * @description Change a user; a new password also clears the login delays of that e-mail on every address.
+         */
         patch: operations["update_user"];
         trace?: never;
     };
@@ -2663,7 +2674,7 @@ export interface components {
         ShareCreate: {
             /**
              * Email
-             * @description the user to share with
+             * @description who to share with: an account's e-mail, or an address that will get it when its account is made
              */
             email: string;
             /** Object Id */
@@ -2687,7 +2698,10 @@ export interface components {
              * Format: date-time
              */
             created_at: string;
-            /** Email */
+            /**
+             * Email
+             * @description the grantee's e-mail (whether or not an account has it yet)
+             */
             email: string;
             /** Id */
             id: number;
@@ -2703,8 +2717,6 @@ export interface components {
              * @enum {string}
              */
             permission: "view" | "edit";
-            /** User Id */
-            user_id: number;
         };
         /**
          * StepName
@@ -3355,7 +3367,7 @@ export interface components {
             is_active?: boolean | null;
             /**
              * Password
-             * @description set a new password (and lift a login lockout)
+             * @description set a new password (and clear the login delays of this e-mail)
              */
             password?: string | null;
             /** Role */
@@ -3844,7 +3856,7 @@ export interface operations {
                     "application/json": components["schemas"]["LoginOut"];
                 };
             };
-            /** @description wrong e-mail or password */
+            /** @description wrong e-mail or password (the same for an unknown e-mail) */
             401: {
                 headers: {
                     [name: string]: unknown;
@@ -3898,7 +3910,7 @@ export interface operations {
                     "application/json": components["schemas"]["ValidationErrorOut"];
                 };
             };
-            /** @description too many failed logins (see Retry-After) */
+            /** @description too many failed logins: wait the seconds in Retry-After */
             429: {
                 headers: {
                     [name: string]: unknown;
