@@ -1,8 +1,11 @@
 """Multi-phase optimal control of the multibody model (DMOCC transcription, IPOPT via CasADi).
 
 * :mod:`.task_spec` -- the user's task definition (pydantic) and the task presets;
+* :mod:`.problem` -- the resolved multi-phase problem (phases, bounds, boundary conditions);
 * :mod:`.contact` -- the contact-model slot and the ``none`` / smooth ``aux`` models;
-* :mod:`.dmocc` -- the discrete-mechanics transcription and DEL rollouts;
+* :mod:`.discrete_mechanics` -- discrete Lagrangian and forces of one interval;
+* :mod:`.dmocc` -- the DMOCC transcription into an NLP (:mod:`.derivatives`: its exact derivatives);
+* :mod:`.rollout` -- forward rollouts of the discrete Euler-Lagrange equations;
 * :mod:`.solve` -- ``solve_task`` (cached NLPs, initial guesses, retries) and ``OcpSolution``.
 """
 

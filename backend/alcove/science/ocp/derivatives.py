@@ -27,6 +27,7 @@ import numpy as np
 import scipy.sparse as sps
 
 from alcove.science.multibody import PlanarChain
+from alcove.science.ocp.problem import DiscreteProblem
 
 
 def _scatter(
@@ -67,7 +68,7 @@ def _scatter(
 
 def structured_derivatives(
     chain: PlanarChain,
-    problem,  # DiscreteProblem (not imported: dmocc imports this module)
+    problem: DiscreteProblem,
     dynamics: ca.Function,
     mechanics: ca.Function,
     contact: ca.Function | None,

@@ -17,9 +17,11 @@ At a phase junction the DEL equation mixes the steps of both phases: that is mom
 matching. Cost: sum_k h (w_tau u_k^T u_k + w_T T(q_k+1/2, v_k)) + endpoint cost.
 Discrete momenta (discrete Legendre transforms) give the node velocities qd_k = M(q_k)^-1 p_k.
 
-The interval terms are SX functions (the contact function is expanded) mapped over the grid;
-IPOPT gets the exact Jacobian and Hessian, assembled from local interval blocks
-(:mod:`.derivatives`).
+The interval terms (:mod:`.discrete_mechanics`; the contact function is expanded to SX) are
+mapped over the grid; IPOPT gets the exact Jacobian and Hessian, assembled from local
+interval blocks (:mod:`.derivatives`). The resolved problem is :mod:`.problem`; forward
+rollouts of the same equations are :mod:`.rollout`. ``PhaseGrid``, ``DiscreteProblem``,
+``simulate`` and ``passive_rollout`` are re-exported here.
 """
 
 from __future__ import annotations
@@ -30,101 +32,10 @@ import casadi as ca
 import numpy as np
 
 from alcove.science.multibody import PlanarChain
-from alcove.science.ocp.contact import ContactModelError, check_contact_function
 from alcove.science.ocp.derivatives import structured_derivatives
-
-
-@dataclass(frozen=True)
-class PhaseGrid:
-    """One phase, resolved: duration, intervals, weights, bounds (ndof arrays), target pose at its end."""
-
-    duration: float
-    intervals: int
-    w_tau: float
-    w_T: float
-    q_min: np.ndarray
-    q_max: np.ndarray
-    tau_max: np.ndarray
-    target_q: np.ndarray | None = None
-
-    @property
-    def step(self) -> float:
-        return self.duration / self.intervals
-
-
-@dataclass(frozen=True)
-class DiscreteProblem:
-    """A resolved multi-phase problem. ``None`` boundary entries are free."""
-
-    phases: tuple[PhaseGrid, ...]
-    q_start: np.ndarray | None
-    qd_start: np.ndarray | None
-    q_end: np.ndarray | None = None
-    qd_end: np.ndarray | None = None
-    endpoint_w_q: float = 0.0
-    endpoint_q_ref: np.ndarray | None = None
-    endpoint_w_qd: float = 0.0
-
-    @property
-    def intervals(self) -> int:
-        return sum(ph.intervals for ph in self.phases)
-
-    def steps(self) -> np.ndarray:
-        """Step of every interval (N,)."""
-        return np.concatenate([np.full(ph.intervals, ph.step) for ph in self.phases])
-
-    def time_grid(self) -> np.ndarray:
-        """Node times t_0..t_N (N + 1,)."""
-        return np.concatenate([[0.0], np.cumsum(self.steps())])
-
-    def phase_of_interval(self) -> np.ndarray:
-        return np.concatenate([np.full(ph.intervals, m) for m, ph in enumerate(self.phases)])
-
-    def phase_end_nodes(self) -> list[int]:
-        return list(np.cumsum([ph.intervals for ph in self.phases]))
-
-
-def _interval_functions(chain: PlanarChain, contact: ca.Function | None) -> tuple[ca.Function, ca.Function]:
-    """SX functions of one interval: dynamics (qa, qb, u, h, p) -> (-p_k^-, p_k+1^+) and
-    cost terms (qa, qb, u, h) -> (h u^T u, h T(q_k+1/2, v_k))."""
-    n = chain.ndof
-    qa, qb, u = ca.SX.sym("qa", n), ca.SX.sym("qb", n), ca.SX.sym("u", n)
-    h = ca.SX.sym("h")
-    n_par = contact.size1_in(2) if contact is not None and contact.n_in() == 3 else 0
-    par = ca.SX.sym("p", n_par)
-    qm, v = 0.5 * (qa + qb), (qb - qa) / h
-    Ld = h * chain.lagrangian(qm, v)
-    force = u
-    if contact is not None:
-        wrench = contact(qm, v, par) if n_par else contact(qm, v)
-        force = force + chain.generalized_contact_force_expr(qm, wrench)
-    fd = 0.5 * h * force
-    left = ca.gradient(Ld, qa) + fd  # D1 L_d + f^-  = -p_k^-
-    right = ca.gradient(Ld, qb) + fd  # D2 L_d + f^+ = p_k+1^+
-    kinetic = 0.5 * ca.dot(v, ca.mtimes(chain.mass_matrix(qm), v))
-    args, names = [qa, qb, u, h, par], ["qa", "qb", "u", "h", "p"]
-    dynamics = ca.Function("interval_dynamics", args, [left, right], names, ["left", "right"])
-    cost = ca.Function("interval_cost", args[:4], [h * ca.dot(u, u), h * kinetic], names[:4], ["effort", "kinetic"])
-    return dynamics, cost
-
-
-def _prepare_contact(contact: ca.Function | None, ndof: int) -> ca.Function | None:
-    if contact is None:
-        return None
-    check_contact_function(contact, ndof)
-    if not contact.is_a("SXFunction"):
-        try:
-            contact = contact.expand()
-        except RuntimeError as exc:
-            raise ContactModelError("contact", f"must be expandable to SX (scalar operations only): {exc}") from exc
-    q, qd = ca.SX.sym("q", ndof), ca.SX.sym("qd", ndof)
-    p = ca.SX.sym("p", contact.size1_in(2)) if contact.n_in() == 3 else None
-    try:  # IPOPT gets exact Hessians: the contact needs symbolic second derivatives
-        ca.hessian(ca.sum1(contact(q, qd, p) if p is not None else contact(q, qd)), ca.vertcat(q, qd))
-    except RuntimeError as exc:
-        raise ContactModelError("contact", f"must be twice differentiable by CasADi (exact Hessians): {exc}") from exc
-    return contact
-
+from alcove.science.ocp.discrete_mechanics import contact_parameter_count, interval_functions, prepare_contact
+from alcove.science.ocp.problem import DiscreteProblem, PhaseGrid
+from alcove.science.ocp.rollout import passive_rollout, simulate
 
 DEFAULT_IPOPT_OPTIONS: dict[str, object] = {
     "ipopt.print_level": 0,
@@ -175,9 +86,9 @@ class Transcription:
         n, N = chain.ndof, prob.intervals
         if N < 1:
             raise ValueError("phases: the problem has no intervals")
-        self.contact = _prepare_contact(self.contact, n)
-        self.n_par = self.contact.size1_in(2) if self.contact is not None and self.contact.n_in() == 3 else 0
-        dynamics, interval_cost = _interval_functions(chain, self.contact)
+        self.contact = prepare_contact(self.contact, n)
+        self.n_par = contact_parameter_count(self.contact)
+        dynamics, interval_cost = interval_functions(chain, self.contact)
         self.n_q, self.n_u = n * (N + 1), n * N
         if self.graph not in ("MX", "SX"):
             raise ValueError(f"graph: must be 'MX' or 'SX', got {self.graph!r}")
@@ -239,7 +150,7 @@ class Transcription:
                 chain,
                 prob,
                 dynamics,
-                _interval_functions(chain, None)[0],
+                interval_functions(chain, None)[0],
                 self.contact,
                 interval_cost,
                 self.n_par,
@@ -351,82 +262,6 @@ class Transcription:
             "lam_g": np.asarray(res["lam_g"]).ravel(),
             "stats": solver.stats(),
         }
-
-
-def _del_step(chain: PlanarChain, contact: ca.Function | None) -> ca.Function:
-    """One step of the forced DEL equations on the state [q; p]: (state, u, h) -> next state.
-
-    Solves p_k + D1 L_d(q_k, q_k+1) + f_k^- = 0 for q_k+1 by Newton's method and returns
-    p_k+1 = D2 L_d(q_k, q_k+1) + f_k^+.
-    """
-    n = chain.ndof
-    dynamics, _ = _interval_functions(chain, _prepare_contact(contact, n))
-    qa, qb, u, p_in = (ca.SX.sym(name, n) for name in ("qa", "qb", "u", "p_in"))
-    h = ca.SX.sym("h")
-    empty = ca.DM.zeros(0, 1)
-    residual = ca.Function("residual", [qb, ca.vertcat(qa, u, p_in, h)], [p_in + dynamics(qa, qb, u, h, empty)[0]])
-    newton = ca.rootfinder("del_newton", "newton", residual, {"abstol": 1e-13, "max_iter": 50, "error_on_fail": False})
-    state, um, hm = ca.MX.sym("state", 2 * n), ca.MX.sym("u", n), ca.MX.sym("h")
-    q, p = state[:n], state[n:]
-    q_next = newton(q + hm * ca.solve(chain.mass_matrix(q), p), ca.vertcat(q, um, p, hm))
-    p_next = dynamics(q, q_next, um, hm, empty)[1]
-    return ca.Function("del_step", [state, um, hm], [ca.vertcat(q_next, p_next)], ["state", "u", "h"], ["next"])
-
-
-def _states_to_nodes(chain: PlanarChain, S: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    n = chain.ndof
-    q, p = S[:, :n], S[:, n:]
-    M = np.asarray(chain.mass_matrix.map(q.shape[0])(q.T)).reshape(n, -1, n).transpose(1, 0, 2)
-    return q, np.linalg.solve(M, p[..., None])[..., 0]
-
-
-def simulate(
-    chain: PlanarChain,
-    q0: np.ndarray,
-    qd0: np.ndarray,
-    step: float | np.ndarray,
-    steps: int | None = None,
-    tau: np.ndarray | None = None,
-    contact: ca.Function | None = None,
-) -> tuple[np.ndarray, np.ndarray]:
-    """Integrate the forced discrete Euler-Lagrange equations forward (one compiled call).
-
-    ``step`` is the step h (with ``steps`` the number of steps) or an array of steps;
-    ``tau`` (steps, ndof) are the interval torques (default zero). Returns the nodes
-    q (steps+1, ndof) and node velocities qd (steps+1, ndof) from the discrete Legendre
-    transforms.
-    """
-    n = chain.ndof
-    hs = np.full(int(steps), float(step)) if np.ndim(step) == 0 else np.asarray(step, float).ravel()
-    N = hs.size
-    U = np.zeros((N, n)) if tau is None else np.asarray(tau, float).reshape(N, n)
-    q0 = np.asarray(q0, float).ravel()
-    s0 = np.concatenate([q0, np.asarray(chain.mass_matrix(q0)).dot(np.asarray(qd0, float).ravel())])
-    S = _del_step(chain, contact).mapaccum("del_rollout", N)(s0, U.T, hs[None, :])
-    return _states_to_nodes(chain, np.vstack([s0, np.asarray(S).T]))
-
-
-def passive_rollout(
-    chain: PlanarChain,
-    q0: np.ndarray,
-    qd0: np.ndarray,
-    steps: np.ndarray,
-    damping: np.ndarray,
-    tau_max: np.ndarray,
-    contact: ca.Function | None = None,
-) -> tuple[np.ndarray, np.ndarray]:
-    """Passive motion with joint damping, tau_k = clip(-damping * qd_k, +-tau_max), by the DEL
-    equations in one compiled call. Returns q (N+1, ndof) and the interval torques u (N, ndof)."""
-    n = chain.ndof
-    step = _del_step(chain, contact)
-    state, hm = ca.MX.sym("state", 2 * n), ca.MX.sym("h")
-    qd = ca.solve(chain.mass_matrix(state[:n]), state[n:])
-    tau = ca.fmin(ca.fmax(-ca.DM(damping) * qd, -ca.DM(tau_max)), ca.DM(tau_max))
-    passive = ca.Function("passive_step", [state, hm], [step(state, tau, hm), tau])
-    q0 = np.asarray(q0, float).ravel()
-    s0 = np.concatenate([q0, np.asarray(chain.mass_matrix(q0)).dot(np.asarray(qd0, float).ravel())])
-    S, U = passive.mapaccum("passive_rollout", len(steps))(s0, ca.DM(np.asarray(steps, float)).T)
-    return np.vstack([q0, np.asarray(S)[:n].T]), np.asarray(U).T
 
 
 __all__ = ["DEFAULT_IPOPT_OPTIONS", "DiscreteProblem", "PhaseGrid", "Transcription", "passive_rollout", "simulate"]

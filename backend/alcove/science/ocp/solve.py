@@ -23,7 +23,8 @@ from scipy.interpolate import CubicHermiteSpline
 
 from alcove.science.geometry import RelativeKinematics
 from alcove.science.multibody import PlanarChain
-from alcove.science.ocp.dmocc import Transcription, passive_rollout
+from alcove.science.ocp.dmocc import Transcription
+from alcove.science.ocp.rollout import passive_rollout
 from alcove.science.ocp.task_spec import TaskSpec
 from alcove.science.series import SeriesFormatError, Trajectory
 

@@ -19,11 +19,11 @@ import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
 
 from alcove.science.geometry import HeadNeckPreset
+from alcove.science.ocp.problem import DiscreteProblem, PhaseGrid
 
-if TYPE_CHECKING:  # CasADi is imported only when a chain or a discrete problem is built,
+if TYPE_CHECKING:  # CasADi is imported only when a chain is built,
     # so validating a task (e.g. in the API process) stays light.
     from alcove.science.multibody import PlanarChain
-    from alcove.science.ocp.dmocc import DiscreteProblem
 
 _DEFAULT = HeadNeckPreset()
 
@@ -218,8 +218,6 @@ class TaskSpec(_Strict):
 
     def discrete_problem(self) -> DiscreteProblem:
         """Resolve defaults into the numbers the DMOCC transcription needs."""
-        from alcove.science.ocp.dmocc import DiscreteProblem, PhaseGrid
-
         m = self.model
         lo0, hi0, t0 = np.array([m.theta_min]), np.array([m.theta_max]), np.array([m.torque_limit])
         arr = lambda v, d: d if v is None else np.asarray(v, float)  # noqa: E731
