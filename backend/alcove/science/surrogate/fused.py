@@ -8,7 +8,7 @@ same features; later layers block-diagonal; a net whose output layer this is put
 outputs in the first columns, the hidden units of the deeper net follow), so a step issues
 about half the operations of two separate nets. The fused weights are stored pre-transposed, ``(in, out)``, as views into
 one flat parameter tensor, so that Adam updates one tensor per step (:class:`FlatAdam` in
-:mod:`.training`). Entries outside the blocks start at 0 and their gradient is masked to 0, so
+:mod:`.adam`). Entries outside the blocks start at 0 and their gradient is masked to 0, so
 Adam never moves them (its update is ``lr * m / (sqrt(v) + eps)`` with ``m = v = 0``): the
 fused network computes exactly the two nets, and training it is training the two nets side by
 side on the same batches (their parameters and losses are disjoint).
