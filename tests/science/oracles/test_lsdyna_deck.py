@@ -134,7 +134,13 @@ def curves(blocks) -> dict[int, dict]:
             assert lcid is not None and lcid == int(lcid) and int(lcid) not in out
             data = np.array(points, dtype=float)
             assert not np.isnan(data).any(), "a curve point is missing a value"
-            out[int(lcid)] = {"sfa": sfa or 1.0, "sfo": sfo or 1.0, "offa": offa or 0.0, "offo": offo or 0.0, "data": data}
+            out[int(lcid)] = {
+                "sfa": sfa or 1.0,
+                "sfo": sfo or 1.0,
+                "offa": offa or 0.0,
+                "offo": offo or 0.0,
+                "data": data,
+            }
     return out
 
 

@@ -10,7 +10,12 @@
 """
 
 from importlib import import_module
-from typing import Any
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:  # the real names for type checkers; at run time they load on first use
+    from alcove.science.ocp.contact import ContactModelError, aux_contact, contact_from_spec, no_contact
+    from alcove.science.ocp.solve import OcpSolution, solve_task
+    from alcove.science.ocp.task_spec import TaskSpec, TaskSpecError, parse_task, task_preset
 
 # Re-exports resolve on first use (PEP 562): importing ``task_spec`` alone (e.g. to validate a
 # task in the API process) must not import CasADi.

@@ -27,17 +27,23 @@ rollouts of the same equations are :mod:`.rollout`. ``PhaseGrid``, ``DiscretePro
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import Any, Generic, TypeAlias, TypedDict
 
 import casadi as ca
 import numpy as np
 
+from alcove.science.arrays import FloatArray, IntArray
 from alcove.science.multibody import PlanarChain
 from alcove.science.ocp.derivatives import structured_derivatives
 from alcove.science.ocp.discrete_mechanics import contact_parameter_count, interval_functions, prepare_contact
 from alcove.science.ocp.problem import DiscreteProblem, PhaseGrid
 from alcove.science.ocp.rollout import passive_rollout, simulate
+from alcove.science.symbolic import Symbolic
 
-DEFAULT_IPOPT_OPTIONS: dict[str, object] = {
+OptionValue: TypeAlias = bool | int | float | str | ca.Function
+SolverOptions: TypeAlias = dict[str, OptionValue]
+
+DEFAULT_IPOPT_OPTIONS: SolverOptions = {
     "ipopt.print_level": 0,
     "ipopt.sb": "yes",
     "print_time": False,
@@ -50,7 +56,7 @@ DEFAULT_IPOPT_OPTIONS: dict[str, object] = {
 }
 
 
-WARM_START_OPTIONS: dict[str, object] = {
+WARM_START_OPTIONS: SolverOptions = {
     "ipopt.warm_start_init_point": "yes",
     "ipopt.mu_init": 1e-6,
     "ipopt.warm_start_bound_push": 1e-9,
@@ -59,6 +65,77 @@ WARM_START_OPTIONS: dict[str, object] = {
     "ipopt.warm_start_slack_bound_frac": 1e-9,
     "ipopt.warm_start_mult_bound_push": 1e-9,
 }
+
+
+class IpoptResult(TypedDict):
+    """One IPOPT run: the point (inside the bounds), cost, constraint values, multipliers and
+    IPOPT's statistics (``return_status``, ``success``, ``iter_count``, ...)."""
+
+    x: FloatArray
+    cost: float
+    g: FloatArray
+    lam_x: FloatArray
+    lam_g: FloatArray
+    stats: dict[str, Any]
+
+
+@dataclass(frozen=True)
+class NlpExpressions(Generic[Symbolic]):
+    """The NLP in one graph type: unknowns x, parameters p, cost, constraints g and the node
+    momenta (ndof x N+1) for the discrete Legendre transforms."""
+
+    x: Symbolic
+    par: Symbolic
+    cost: Symbolic
+    g: Symbolic
+    momenta: Symbolic
+
+
+def nlp_expressions(
+    sym: type[Symbolic],
+    chain: PlanarChain,
+    prob: DiscreteProblem,
+    dynamics: ca.Function,
+    interval_cost: ca.Function,
+    n_par: int,
+) -> NlpExpressions[Symbolic]:
+    """Map the interval functions over the grid and assemble cost and constraints (see the module docstring)."""
+    n, N = chain.ndof, prob.intervals
+    n_q, n_u = n * (N + 1), n * N
+    x = sym.sym("x", n_q + n_u)
+    par = sym.sym("p", n_par)
+    Q = ca.reshape(x[:n_q], n, N + 1)
+    U = ca.reshape(x[n_q:], n, N)
+    H = ca.DM(prob.steps()).T
+    phase = prob.phase_of_interval()
+    w_tau = ca.DM([prob.phases[m].w_tau for m in phase]).T
+    w_T = ca.DM([prob.phases[m].w_T for m in phase]).T
+    Pm = ca.repmat(par, 1, N)
+    left, right = dynamics.map(N).call([Q[:, :-1], Q[:, 1:], U, H, Pm])
+    effort, kinetic = interval_cost.map(N).call([Q[:, :-1], Q[:, 1:], U, H])
+    cost = ca.sum2(w_tau * effort) + ca.sum2(w_T * kinetic)
+
+    g = []
+    if prob.qd_start is not None:
+        p0 = ca.mtimes(chain.mass_matrix(Q[:, 0]), ca.DM(prob.qd_start))
+        g.append(p0 + left[:, 0])
+    if N > 1:
+        g.append(ca.vec(right[:, :-1] + left[:, 1:]))
+    if prob.qd_end is not None:
+        pN = ca.mtimes(chain.mass_matrix(Q[:, N]), ca.DM(prob.qd_end))
+        g.append(right[:, N - 1] - pN)
+
+    # endpoint cost
+    qN = Q[:, N]
+    if prob.endpoint_w_q > 0 and prob.endpoint_q_ref is not None:
+        cost = cost + prob.endpoint_w_q * ca.sumsqr(qN - ca.DM(prob.endpoint_q_ref))
+    if prob.endpoint_w_qd > 0:
+        vN = right[:, N - 1]  # momentum at the end node
+        qdN = ca.solve(chain.mass_matrix(qN), vN)
+        cost = cost + prob.endpoint_w_qd * ca.sumsqr(qdN)
+    # node momenta for the Legendre transforms: p_0 = -left_0, p_k = right_k-1
+    momenta = ca.horzcat(-left[:, 0], right)
+    return NlpExpressions(x, par, cost, ca.vertcat(*g), momenta)
 
 
 @dataclass
@@ -77,9 +154,12 @@ class Transcription:
     chain: PlanarChain
     problem: DiscreteProblem
     contact: ca.Function | None = None
-    ipopt_options: dict[str, object] = field(default_factory=dict)
+    ipopt_options: SolverOptions = field(default_factory=dict)
     graph: str = "MX"
     derivatives: str = "auto"
+    #: the passive-motion initial guess (:mod:`.solve`), kept once computed for a contact
+    #: without parameters: it depends on nothing but this NLP
+    passive_guess: FloatArray | None = field(default=None, init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
         chain, prob = self.chain, self.problem
@@ -92,81 +172,58 @@ class Transcription:
         self.n_q, self.n_u = n * (N + 1), n * N
         if self.graph not in ("MX", "SX"):
             raise ValueError(f"graph: must be 'MX' or 'SX', got {self.graph!r}")
-        sym = ca.MX if self.graph == "MX" else ca.SX
-        x = sym.sym("x", self.n_q + self.n_u)
-        par = sym.sym("p", self.n_par)
-        Q = ca.reshape(x[: self.n_q], n, N + 1)
-        U = ca.reshape(x[self.n_q :], n, N)
-        H = ca.DM(prob.steps()).T
-        phase = prob.phase_of_interval()
-        w_tau = ca.DM([prob.phases[m].w_tau for m in phase]).T
-        w_T = ca.DM([prob.phases[m].w_T for m in phase]).T
-        Pm = ca.repmat(par, 1, N)
-        args = (Q[:, :-1], Q[:, 1:], U, H, Pm)
-        left, right = dynamics.map(N)(*args)
-        effort, kinetic = interval_cost.map(N)(*args[:4])
-        cost = ca.sum2(w_tau * effort) + ca.sum2(w_T * kinetic)
-
-        g = []
-        if prob.qd_start is not None:
-            p0 = ca.mtimes(chain.mass_matrix(Q[:, 0]), ca.DM(prob.qd_start))
-            g.append(p0 + left[:, 0])
-        if N > 1:
-            g.append(ca.vec(right[:, :-1] + left[:, 1:]))
-        if prob.qd_end is not None:
-            pN = ca.mtimes(chain.mass_matrix(Q[:, N]), ca.DM(prob.qd_end))
-            g.append(right[:, N - 1] - pN)
-        g = ca.vertcat(*g)
-
-        # node momenta for the Legendre transforms: p_0 = -left_0, p_k = right_k-1
-        self._momenta = ca.Function("momenta", [x, par], [ca.horzcat(-left[:, 0], right)])
-
-        # endpoint cost
-        qN = Q[:, N]
-        if prob.endpoint_w_q > 0 and prob.endpoint_q_ref is not None:
-            cost = cost + prob.endpoint_w_q * ca.sumsqr(qN - ca.DM(prob.endpoint_q_ref))
-        if prob.endpoint_w_qd > 0:
-            vN = right[:, N - 1]  # momentum at the end node
-            qdN = ca.solve(chain.mass_matrix(qN), vN)
-            cost = cost + prob.endpoint_w_qd * ca.sumsqr(qdN)
-
-        self.lbx, self.ubx = self._variable_bounds()
-        self.lbg = self.ubg = np.zeros(g.shape[0])
-        self._nlp = {"x": x, "p": par, "f": cost, "g": g}
-        self._derivative_options: dict[str, object] = {}
         if self.derivatives == "auto":
             self.derivatives = "structured" if self.graph == "MX" else "casadi"
-        if self.derivatives == "structured":
-            if self.graph != "MX":
-                raise ValueError("derivatives: 'structured' needs graph='MX'")
-            off = n if prob.qd_start is not None else 0
-            node_rows = np.full((N + 1, n), -1)
-            if prob.qd_start is not None:
-                node_rows[0] = np.arange(n)
-            node_rows[1:N] = off + np.arange(n * (N - 1)).reshape(N - 1, n)
-            if prob.qd_end is not None:
-                node_rows[N] = off + n * (N - 1) + np.arange(n)
-            jac_g, hess_lag = structured_derivatives(
-                chain,
-                prob,
-                dynamics,
-                interval_functions(chain, None)[0],
-                self.contact,
-                interval_cost,
-                self.n_par,
-                x,
-                par,
-                g,
-                node_rows,
-            )
-            self._derivative_options = {"jac_g": jac_g, "hess_lag": hess_lag}
-        elif self.derivatives != "casadi":
+        if self.derivatives not in ("structured", "casadi"):
             raise ValueError(f"derivatives: must be 'structured' or 'casadi', got {self.derivatives!r}")
+        if self.derivatives == "structured" and self.graph != "MX":
+            raise ValueError("derivatives: 'structured' needs graph='MX'")
+        self._derivative_options: SolverOptions = {}
+        self._nlp: dict[str, ca.MX] | dict[str, ca.SX]
+        if self.graph == "MX":
+            mx = nlp_expressions(ca.MX, chain, prob, dynamics, interval_cost, self.n_par)
+            self._nlp = {"x": mx.x, "p": mx.par, "f": mx.cost, "g": mx.g}
+            self._momenta = ca.Function("momenta", [mx.x, mx.par], [mx.momenta])
+            n_constraints = mx.g.shape[0]
+            if self.derivatives == "structured":
+                jac_g, hess_lag = structured_derivatives(
+                    chain,
+                    prob,
+                    dynamics,
+                    interval_functions(chain, None)[0],
+                    self.contact,
+                    interval_cost,
+                    self.n_par,
+                    mx.x,
+                    mx.par,
+                    mx.g,
+                    self._constraint_rows(),
+                )
+                self._derivative_options = {"jac_g": jac_g, "hess_lag": hess_lag}
+        else:
+            sx = nlp_expressions(ca.SX, chain, prob, dynamics, interval_cost, self.n_par)
+            self._nlp = {"x": sx.x, "p": sx.par, "f": sx.cost, "g": sx.g}
+            self._momenta = ca.Function("momenta", [sx.x, sx.par], [sx.momenta])
+            n_constraints = sx.g.shape[0]
+        self.lbx, self.ubx = self._variable_bounds()
+        self.lbg = self.ubg = np.zeros(n_constraints)
         self._solver: ca.Function | None = None
         self._warm_solver: ca.Function | None = None
 
+    def _constraint_rows(self) -> IntArray:
+        """(N+1, ndof): the row of g holding the DEL (or boundary momentum) equation of node k, -1: none."""
+        prob, n, N = self.problem, self.chain.ndof, self.problem.intervals
+        off = n if prob.qd_start is not None else 0
+        node_rows = np.full((N + 1, n), -1, dtype=np.int64)
+        if prob.qd_start is not None:
+            node_rows[0] = np.arange(n)
+        node_rows[1:N] = off + np.arange(n * (N - 1)).reshape(N - 1, n)
+        if prob.qd_end is not None:
+            node_rows[N] = off + n * (N - 1) + np.arange(n)
+        return node_rows
+
     # ---- bounds and grid ----------------------------------------------------------
-    def _variable_bounds(self) -> tuple[np.ndarray, np.ndarray]:
+    def _variable_bounds(self) -> tuple[FloatArray, FloatArray]:
         prob, n, N = self.problem, self.chain.ndof, self.problem.intervals
         q_lo = np.full((N + 1, n), -np.inf)
         q_hi = np.full((N + 1, n), np.inf)
@@ -189,20 +246,20 @@ class Transcription:
         return lbx, ubx
 
     @property
-    def t(self) -> np.ndarray:
+    def t(self) -> FloatArray:
         return self.problem.time_grid()
 
     # ---- packing ------------------------------------------------------------------
-    def pack(self, q: np.ndarray, u: np.ndarray) -> np.ndarray:
+    def pack(self, q: FloatArray, u: FloatArray) -> FloatArray:
         """NLP vector from nodes q (N+1, ndof) and torques u (N, ndof)."""
         return np.concatenate([np.asarray(q, float).ravel(), np.asarray(u, float).ravel()])
 
-    def unpack(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def unpack(self, x: FloatArray) -> tuple[FloatArray, FloatArray]:
         n, N = self.chain.ndof, self.problem.intervals
         x = np.asarray(x, float).ravel()
         return x[: self.n_q].reshape(N + 1, n), x[self.n_q :].reshape(N, n)
 
-    def node_velocities(self, x: np.ndarray, par: np.ndarray | None = None) -> np.ndarray:
+    def node_velocities(self, x: FloatArray, par: FloatArray | None = None) -> FloatArray:
         """qd_k = M(q_k)^-1 p_k from the discrete Legendre transforms, (N+1, ndof)."""
         par = np.zeros(self.n_par) if par is None else par
         P = np.asarray(self._momenta(x, par))  # (ndof, N+1)
@@ -210,7 +267,7 @@ class Transcription:
         M = np.asarray(self.chain.mass_matrix.map(q.shape[0])(q.T)).reshape(self.chain.ndof, -1, self.chain.ndof)
         return np.stack([np.linalg.solve(M[:, k, :], P[:, k]) for k in range(q.shape[0])])
 
-    def constraint_violation(self, x: np.ndarray, g: np.ndarray) -> float:
+    def constraint_violation(self, x: FloatArray, g: FloatArray) -> float:
         """Largest violation of the constraints and the variable bounds."""
         x, g = np.asarray(x).ravel(), np.asarray(g).ravel()
         parts = [
@@ -239,11 +296,11 @@ class Transcription:
 
     def solve(
         self,
-        x0: np.ndarray,
-        par: np.ndarray | None = None,
-        lam_x0: np.ndarray | None = None,
-        lam_g0: np.ndarray | None = None,
-    ) -> dict[str, object]:
+        x0: FloatArray,
+        par: FloatArray | None = None,
+        lam_x0: FloatArray | None = None,
+        lam_g0: FloatArray | None = None,
+    ) -> IpoptResult:
         """One IPOPT run from ``x0`` (warm-started when multipliers are given): x, cost, g, multipliers, stats."""
         par = np.zeros(self.n_par) if par is None else np.asarray(par, float).ravel()
         x0 = np.clip(np.asarray(x0, float).ravel(), self.lbx, self.ubx)

@@ -46,7 +46,8 @@ def _states_to_nodes(chain: PlanarChain, S: FloatArray) -> tuple[FloatArray, Flo
     n = chain.ndof
     q, p = S[:, :n], S[:, n:]
     M = np.asarray(chain.mass_matrix.map(q.shape[0])(q.T)).reshape(n, -1, n).transpose(1, 0, 2)
-    return q, np.linalg.solve(M, p[..., None])[..., 0]
+    qd = np.asarray(np.linalg.solve(M, p[..., None])[..., 0], dtype=np.float64)
+    return q, qd
 
 
 def simulate(

@@ -18,6 +18,7 @@ from typing import TYPE_CHECKING, Any, Literal
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
 
+from alcove.science.arrays import FloatArray
 from alcove.science.geometry import HeadNeckPreset
 from alcove.science.ocp.problem import DiscreteProblem, PhaseGrid
 
@@ -137,7 +138,7 @@ class TaskSpec(_Strict):
         lo0, hi0 = np.array([self.model.theta_min]), np.array([self.model.theta_max])
         tmax0 = np.array([self.model.torque_limit])
 
-        def vec(value: list[float] | None, path: str, default: np.ndarray) -> np.ndarray:
+        def vec(value: list[float] | None, path: str, default: FloatArray) -> FloatArray:
             if value is None:
                 return default
             if len(value) != n:
@@ -147,7 +148,7 @@ class TaskSpec(_Strict):
                 _fail(path, "values must be finite")
             return arr
 
-        def within(arr: np.ndarray, lo: np.ndarray, hi: np.ndarray, path: str, what: str) -> None:
+        def within(arr: FloatArray, lo: FloatArray, hi: FloatArray, path: str, what: str) -> None:
             if np.any(arr < lo) or np.any(arr > hi):
                 _fail(path, f"{arr.tolist()} lies outside {what} [{lo.tolist()}, {hi.tolist()}]")
 
@@ -220,7 +221,10 @@ class TaskSpec(_Strict):
         """Resolve defaults into the numbers the DMOCC transcription needs."""
         m = self.model
         lo0, hi0, t0 = np.array([m.theta_min]), np.array([m.theta_max]), np.array([m.torque_limit])
-        arr = lambda v, d: d if v is None else np.asarray(v, float)  # noqa: E731
+
+        def arr(value: list[float] | None, default: FloatArray) -> FloatArray:
+            return default if value is None else np.asarray(value, float)
+
         phases = tuple(
             PhaseGrid(
                 duration=ph.duration,

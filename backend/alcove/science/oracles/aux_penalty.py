@@ -25,6 +25,7 @@ from typing import ClassVar
 import numpy as np
 from pydantic import Field
 
+from alcove.science.arrays import FloatArray
 from alcove.science.geometry import DEFAULT_PRESET, HeadNeckPreset, RelativeKinematics, relative_kinematics
 from alcove.science.oracles.base import CancelCheck, OracleCancelled, OracleInputError, OracleParams, OracleResult
 from alcove.science.series import ForceSeries, Trajectory
@@ -52,7 +53,7 @@ class AuxPenaltyParams(OracleParams):
     )
 
 
-def contact_point(preset: HeadNeckPreset, params: AuxPenaltyParams) -> np.ndarray:
+def contact_point(preset: HeadNeckPreset, params: AuxPenaltyParams) -> FloatArray:
     """The point r_sp in the head frame (3,)."""
     if params.r_sp is not None:
         return np.asarray(params.r_sp, float)
@@ -62,7 +63,7 @@ def contact_point(preset: HeadNeckPreset, params: AuxPenaltyParams) -> np.ndarra
 
 def aux_penalty_wrench(
     preset: HeadNeckPreset, params: AuxPenaltyParams, kin: RelativeKinematics
-) -> tuple[np.ndarray, np.ndarray]:
+) -> tuple[FloatArray, FloatArray]:
     """Force (n, 3) and moment about the head frame origin (n, 3), in the headrest frame."""
     r_sp = contact_point(preset, params)
     arm = np.einsum("nij,j->ni", kin.T_rel, r_sp)  # r_sp expressed in H
@@ -80,13 +81,13 @@ def aux_penalty_wrench(
 
 def penetration(
     preset: HeadNeckPreset, params: AuxPenaltyParams, kin: RelativeKinematics
-) -> tuple[np.ndarray, np.ndarray]:
+) -> tuple[FloatArray, FloatArray]:
     """Penetration p (n,) of the point r_sp into the headrest plane and its rate pdot (n,) [m, m/s]."""
     arm = np.einsum("nij,j->ni", kin.T_rel, contact_point(preset, params))
     return -(kin.r_rel + arm)[:, 0], -(kin.v_rel + np.cross(kin.omega_rel, arm))[:, 0]
 
 
-def dissipated_energy(t: np.ndarray, p: np.ndarray, pdot: np.ndarray, fx: np.ndarray, k: float) -> float:
+def dissipated_energy(t: FloatArray, p: FloatArray, pdot: FloatArray, fx: FloatArray, k: float) -> float:
     """Work done by the head on the contact minus the change of the stored energy k p^3 / 3 [J].
 
     The work is the trapezoidal integral of fx * pdot (fx is the gated force magnitude along
@@ -137,7 +138,7 @@ class AuxPenaltyOracle:
             wall_time=time.perf_counter() - start,
         )
 
-    def _joint_motion(self, trajectory: Trajectory) -> tuple[np.ndarray, np.ndarray]:
+    def _joint_motion(self, trajectory: Trajectory) -> tuple[FloatArray, FloatArray]:
         if trajectory.ndof != 1:
             raise OracleInputError(
                 "q", f"the head-neck preset has 1 degree of freedom (q_0 = theta), the trajectory has {trajectory.ndof}"

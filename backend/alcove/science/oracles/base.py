@@ -69,8 +69,14 @@ class OracleResult:
 
 
 class Oracle(Protocol):
+    """What every oracle type provides (its parameters may be any :class:`OracleParams` subclass)."""
+
     type_name: ClassVar[str]
-    params: OracleParams
-    preset: HeadNeckPreset
+
+    @property
+    def params(self) -> OracleParams: ...
+
+    @property
+    def preset(self) -> HeadNeckPreset: ...
 
     def run(self, trajectory: Trajectory, cancel: CancelCheck | None = None) -> OracleResult: ...

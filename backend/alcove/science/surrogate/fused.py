@@ -74,7 +74,10 @@ class FusedNets:
             present = [k for k in range(len(nets)) if len(linears[k]) > i]  # = the nets in the layer input
             ending = [k for k in present if len(linears[k]) == i + 1]
             continuing = [k for k in present if k not in ending]
-            blocks, outputs, acts, col = [], [], [], 0
+            blocks: list[_Block] = []
+            outputs: list[tuple[int, slice]] = []
+            acts: list[tuple[slice, str]] = []
+            col = 0
             for k in ending + continuing:
                 cols = slice(col, col + linears[k][i].out_features)
                 blocks.append(_Block(k, in_rows[k], cols))

@@ -9,11 +9,12 @@ drives. :func:`make_trainer` picks one (``ALCOVE_TRAINING_KERNEL``, see :mod:`.k
 from __future__ import annotations
 
 import logging
-from typing import ClassVar, Protocol, TypeVar
+from typing import ClassVar, Protocol
 
 import numpy as np
 import torch
 
+from alcove.science.arrays import FloatArray
 from alcove.science.surrogate.adam import FlatAdam
 from alcove.science.surrogate.config import SurrogateConfig
 from alcove.science.surrogate.fused import FusedNets
@@ -28,11 +29,10 @@ from alcove.science.surrogate.mlp import MLP
 
 _log = logging.getLogger(__name__)
 NETS = ("force", "moment")
-Snapshot = TypeVar("Snapshot")
 
 
-class EpochTrainer(Protocol[Snapshot]):
-    """One training engine for the nets in :data:`NETS`; ``Snapshot`` is its copy of a net's weights."""
+class EpochTrainer(Protocol):
+    """One training engine for the nets in :data:`NETS`; it keeps each net's best weights itself."""
 
     name: ClassVar[str]
 
@@ -42,20 +42,20 @@ class EpochTrainer(Protocol[Snapshot]):
     def validation_outputs(self, z_val: torch.Tensor) -> list[tuple[str, torch.Tensor]]:
         """(net, standardised outputs) of every net still training."""
 
-    def snapshot(self, k: str) -> Snapshot:
-        """A copy of net ``k``'s current weights."""
+    def remember_best(self, k: str) -> None:
+        """Keep a copy of net ``k``'s current weights as its best."""
 
     def stop(self, stopped: list[str]) -> bool:
         """Freeze the nets ``stopped``; False when no net is left training."""
 
-    def restore(self, k: str, weights: Snapshot) -> None:
-        """Write a snapshot back into net ``k``."""
+    def restore_best(self, k: str) -> None:
+        """Write the weights last kept by :meth:`remember_best` back into net ``k``."""
 
 
 class TorchTrainer:
     """Both nets fused into one PyTorch network (:class:`.fused.FusedNets`), :class:`FlatAdam`."""
 
-    name = "torch"
+    name: ClassVar[str] = "torch"
 
     def __init__(
         self,
@@ -73,6 +73,7 @@ class TorchTrainer:
         # features, both targets and the weights side by side: one gather per epoch
         self.table = torch.cat([z, y["force"], y["moment"], w[:, None]], dim=1)
         self.columns = {"force": slice(self.n_in, self.n_in + 3), "moment": slice(self.n_in + 3, self.n_in + 6)}
+        self.best: dict[str, list[torch.Tensor]] = {}
 
     def epoch(self, order: torch.Tensor) -> None:
         # shuffled once per epoch: batches are contiguous slices, not one scattered gather each
@@ -101,16 +102,19 @@ class TorchTrainer:
         self.fused, self.optimizer = _without_stopped(self.fused, self.optimizer, [self.nets[k] for k in self.active])
         return True
 
-    def restore(self, k: str, weights: list[torch.Tensor]) -> None:
+    def remember_best(self, k: str) -> None:
+        self.best[k] = self.snapshot(k)
+
+    def restore_best(self, k: str) -> None:
         with torch.no_grad():
-            for p, best_p in zip(self.nets[k].parameters(), weights, strict=False):
+            for p, best_p in zip(self.nets[k].parameters(), self.best[k], strict=True):
                 p.copy_(best_p)
 
 
 class KernelTrainer:
     """Both nets trained by the compiled kernel (:mod:`.kernel`): one C call per epoch."""
 
-    name = "c"
+    name: ClassVar[str] = "c"
 
     def __init__(
         self,
@@ -126,6 +130,7 @@ class KernelTrainer:
         self.w_col = self.table.shape[1] - 1
         self.kernel = KernelNets([nets[k] for k in NETS], y_cols=[n_in, n_in + 3])
         self.index = {k: i for i, k in enumerate(NETS)}
+        self.best: dict[str, FloatArray] = {}
 
     def epoch(self, order: torch.Tensor) -> None:
         self.kernel.train_epoch(
@@ -138,7 +143,7 @@ class KernelTrainer:
             (k, torch.from_numpy(self.kernel.forward(i, x))) for k, i in self.index.items() if self.kernel.active(i)
         ]
 
-    def snapshot(self, k: str) -> np.ndarray:
+    def snapshot(self, k: str) -> FloatArray:
         return self.kernel.weights(self.index[k])
 
     def stop(self, stopped: list[str]) -> bool:
@@ -146,8 +151,11 @@ class KernelTrainer:
             self.kernel.freeze(self.index[k])
         return any(self.kernel.active(i) for i in self.index.values())
 
-    def restore(self, k: str, weights: np.ndarray) -> None:
-        self.kernel.store(self.index[k], weights)
+    def remember_best(self, k: str) -> None:
+        self.best[k] = self.snapshot(k)
+
+    def restore_best(self, k: str) -> None:
+        self.kernel.store(self.index[k], self.best[k])
 
 
 def make_trainer(

@@ -23,11 +23,13 @@ from __future__ import annotations
 import time
 from collections.abc import Callable
 from dataclasses import asdict, dataclass, field
-from typing import Any, TypeVar
+from typing import Any
 
 import numpy as np
 import torch
+from numpy.typing import NDArray
 
+from alcove.science.arrays import FloatArray
 from alcove.science.geometry import DEFAULT_PRESET, HeadNeckPreset, RelativeKinematics, relative_kinematics
 from alcove.science.series import ForceSeries
 from alcove.science.surrogate.adam import FlatAdam
@@ -37,8 +39,7 @@ from alcove.science.surrogate.features import features
 from alcove.science.surrogate.mlp import MLP, Standardization, SurrogateModel
 from alcove.science.surrogate.trainers import NETS, EpochTrainer, make_trainer
 
-KinematicsFn = Callable[[np.ndarray, np.ndarray], RelativeKinematics]
-Snapshot = TypeVar("Snapshot")
+KinematicsFn = Callable[[FloatArray, FloatArray], RelativeKinematics]
 SPLITS = ("train", "validation", "test")
 
 
@@ -52,7 +53,7 @@ class PoolSplit:
 
     training_sets: list[str]
     test_sets: list[str]
-    sample_split: np.ndarray  # (N,) of "train" | "validation" | "test" over the stacked pool
+    sample_split: NDArray[np.object_]  # (N,) of "train" | "validation" | "test" over the stacked pool
 
     def counts(self) -> dict[str, int]:
         return {s: int(np.sum(self.sample_split == s)) for s in SPLITS}
@@ -84,7 +85,7 @@ class TrainingResult:
 def preset_kinematics(preset: HeadNeckPreset) -> KinematicsFn:
     """NumPy kinematics of the 1-DOF head-neck preset as a function of q, qd (n, 1)."""
 
-    def kin(q: np.ndarray, qd: np.ndarray) -> RelativeKinematics:
+    def kin(q: FloatArray, qd: FloatArray) -> RelativeKinematics:
         if q.shape[1] != 1:
             raise PoolDataError(
                 "q",
@@ -125,11 +126,11 @@ def split_pool(pool: list[PoolDataset], config: SurrogateConfig, seed: int) -> P
     )
 
 
-def pool_features(pool: list[PoolDataset], kinematics: KinematicsFn) -> np.ndarray:
+def pool_features(pool: list[PoolDataset], kinematics: KinematicsFn) -> FloatArray:
     return np.concatenate([features(kinematics(ds.q, ds.qd)) for ds in pool])
 
 
-def sample_weights(pool: list[PoolDataset], config: SurrogateConfig) -> np.ndarray:
+def sample_weights(pool: list[PoolDataset], config: SurrogateConfig) -> FloatArray:
     n_oracle = sum(ds.origin == "oracle" for ds in pool)
     w = [
         np.full(ds.n_samples, ds.weight if ds.weight is not None else config.weight_for(ds.origin, n_oracle))
@@ -184,7 +185,7 @@ def train_surrogate(
                     f"cold: architecture {previous.hidden}/{previous.activation} -> {nets[k].hidden}/{nets[k].activation}"
                 )
 
-    def tensor(a: np.ndarray) -> torch.Tensor:
+    def tensor(a: FloatArray) -> torch.Tensor:
         return torch.as_tensor(np.ascontiguousarray(a), dtype=dtype)
 
     z = tensor((x - input_norm.mean) / input_norm.divisor)
@@ -246,7 +247,7 @@ def train_surrogate(
 
 
 def _fit(
-    trainer: EpochTrainer[Snapshot],
+    trainer: EpochTrainer,
     n: int,
     z_val: torch.Tensor,
     y_val: dict[str, torch.Tensor],
@@ -255,10 +256,14 @@ def _fit(
     config: SurrogateConfig,
     generator: torch.Generator,
     cancel: Callable[[], bool] | None,
-) -> tuple[dict, dict, dict]:
-    """Epochs until every net has stopped early (or ``max_epochs``); each net ends with its best weights."""
+) -> tuple[dict[str, list[float]], dict[str, int], dict[str, int]]:
+    """Epochs until every net has stopped early (or ``max_epochs``); each net ends with its best weights.
+
+    Returns the validation loss of every epoch, the number of epochs and the best epoch, per net.
+    """
     best = {k: float("inf") for k in NETS}
-    best_weights = {k: trainer.snapshot(k) for k in NETS}
+    for k in NETS:
+        trainer.remember_best(k)
     best_epoch = dict.fromkeys(NETS, 0)
     epochs = dict.fromkeys(NETS, 0)
     history: dict[str, list[float]] = {k: [] for k in NETS}
@@ -273,19 +278,19 @@ def _fit(
             epochs[k] = epoch
             if val < best[k]:
                 best[k], best_epoch[k] = val, epoch
-                best_weights[k] = trainer.snapshot(k)
+                trainer.remember_best(k)
             elif epoch - best_epoch[k] >= config.patience:
                 stopped.append(k)
         if stopped and not trainer.stop(stopped):
             break  # every net has stopped
     for k in NETS:
-        trainer.restore(k, best_weights[k])
+        trainer.restore_best(k)
     return history, epochs, best_epoch
 
 
 def predict_arrays(
-    model: SurrogateModel, q: np.ndarray, qd: np.ndarray, kinematics: KinematicsFn | None = None
-) -> tuple[np.ndarray, np.ndarray]:
+    model: SurrogateModel, q: FloatArray, qd: FloatArray, kinematics: KinematicsFn | None = None
+) -> tuple[FloatArray, FloatArray]:
     """Predicted force (n, 3) and moment (n, 3) at states q, qd ((n,) or (n, ndof))."""
     q = np.asarray(q, float)
     qd = np.asarray(qd, float)
@@ -300,7 +305,7 @@ def predict_arrays(
 
 
 def predict(
-    model: SurrogateModel, t: np.ndarray, q: np.ndarray, qd: np.ndarray, kinematics: KinematicsFn | None = None
+    model: SurrogateModel, t: FloatArray, q: FloatArray, qd: FloatArray, kinematics: KinematicsFn | None = None
 ) -> ForceSeries:
     """Predicted contact force and moment (headrest frame) along a trajectory."""
     force, moment = predict_arrays(model, q, qd, kinematics)

@@ -18,6 +18,7 @@ from typing import Any, ClassVar
 
 import numpy as np
 
+from alcove.science.arrays import FloatArray
 from alcove.science.geometry import DEFAULT_PRESET, HeadNeckPreset, head_pose_in_headrest, relative_kinematics
 from alcove.science.oracles.base import CancelCheck, OracleCancelled, OracleInputError, OracleResult
 from alcove.science.oracles.fe_headrest.contact import PenaltyContact, RigidEllipse
@@ -51,7 +52,7 @@ def head_slices(preset: HeadNeckPreset, params: FEHeadrestParams) -> list[Slice]
     return out
 
 
-def profile_indentation(preset: HeadNeckPreset, theta: np.ndarray) -> np.ndarray:
+def profile_indentation(preset: HeadNeckPreset, theta: FloatArray) -> FloatArray:
     """Depth of the undeformed head profile (ellipse) below the cushion surface x_H = 0 (>= 0)."""
     r, angle = head_pose_in_headrest(preset, theta)
     pr = preset.profile
@@ -124,7 +125,7 @@ class FEHeadrestOracle:
         self._check_contact_within_cushion(traj, depth)
         return traj
 
-    def _check_contact_within_cushion(self, traj: Trajectory, depth: np.ndarray) -> None:
+    def _check_contact_within_cushion(self, traj: Trajectory, depth: FloatArray) -> None:
         touching = depth > 0
         if not np.any(touching):
             return
@@ -183,7 +184,7 @@ class FEHeadrestOracle:
         traj = self._validated(trajectory)
         t0, t1 = float(traj.t[0]), float(traj.t[-1])
         n_out = math.floor((t1 - t0) / p.output_dt + 1e-9) + 1
-        t_out = t0 + p.output_dt * np.arange(n_out)
+        t_out = t0 + p.output_dt * np.arange(n_out, dtype=np.float64)
         n_fine = (n_out - 1) * p.substeps + 1
         dt = p.output_dt / p.substeps
         t_fine = np.minimum(t0 + dt * np.arange(n_fine), t1)
