@@ -20,7 +20,7 @@ preliminary data set and is the fast oracle of the tests and the ``command`` exa
 from __future__ import annotations
 
 import time
-from typing import ClassVar
+from typing import Annotated, ClassVar
 
 import numpy as np
 from pydantic import Field
@@ -29,6 +29,7 @@ from alcove.science.arrays import FloatArray
 from alcove.science.geometry import DEFAULT_PRESET, HeadNeckPreset, RelativeKinematics, relative_kinematics
 from alcove.science.oracles.base import CancelCheck, OracleCancelled, OracleInputError, OracleParams, OracleResult
 from alcove.science.series import ForceSeries, Trajectory
+from alcove.science.validation import quantity
 
 K_PAPER_N_PER_MM2 = 6.0
 D0_PAPER_NS_PER_MM = 0.1
@@ -36,20 +37,28 @@ P_REF_PAPER_MM = 2.0
 THETA_TOLERANCE = 1e-6  # rad, slack on the preset's joint range (round-off in CSV files)
 
 
+HeadCoordinate = Annotated[
+    float, quantity("coordinate in the head frame", "m", ge=-0.5, le=0.5, why="a point of the head")
+]
+
+
 class AuxPenaltyParams(OracleParams):
     """Parameters of the auxiliary penalty model, in SI units."""
 
-    k: float = Field(
-        K_PAPER_N_PER_MM2 * 1e6, gt=0, le=1e9, description="quadratic stiffness k [N/m^2] (paper: 6 N/mm^2)"
+    k: Annotated[float, quantity("quadratic stiffness k", "N/m^2", gt=0, le=1e9, why="paper: 6 N/mm^2 = 6e6 N/m^2")] = (
+        K_PAPER_N_PER_MM2 * 1e6
     )
-    d0: float = Field(
-        D0_PAPER_NS_PER_MM * 1e3, ge=0, le=1e5, description="damping d0 [N s/m] (paper: 0.1, evaluated in N, mm, s)"
+    d0: Annotated[
+        float,
+        quantity("damping d0", "N s/m", ge=0, le=1e5, why="paper: 0.1, evaluated in N, mm, s, i.e. 100 N s/m"),
+    ] = D0_PAPER_NS_PER_MM * 1e3
+    p_ref: Annotated[float, quantity("reference penetration p_ref", "m", gt=0, le=0.1, why="paper: 2 mm")] = (
+        P_REF_PAPER_MM * 1e-3
     )
-    p_ref: float = Field(
-        P_REF_PAPER_MM * 1e-3, gt=0, le=0.1, description="reference penetration p_ref [m] (paper: 2 mm)"
-    )
-    r_sp: tuple[float, float, float] | None = Field(
-        None, description="contact point in the head frame [m]; default: the back point of the head profile"
+    r_sp: tuple[HeadCoordinate, HeadCoordinate, HeadCoordinate] | None = Field(
+        None,
+        description="contact point (x, y, z) in the head frame [m], each -0.5 to 0.5; "
+        "default: the back point of the head profile",
     )
 
 

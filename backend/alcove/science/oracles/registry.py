@@ -24,6 +24,7 @@ from alcove.science.oracles.builtin import (
     OracleTypeUnavailable,
 )
 from alcove.science.oracles.command import CommandOracle, CommandOracleSpec, params_model
+from alcove.science.validation import error_location
 
 
 class _LazyOracleTypes(Mapping[str, OracleType]):
@@ -66,9 +67,7 @@ def build_oracle(
     try:
         validated = model.model_validate(dict(params or {}))
     except ValidationError as exc:
-        err = exc.errors()[0]
-        loc = ".".join(str(p) for p in err["loc"])
-        raise OracleInputError(f"params.{loc}" if loc else "params", err["msg"]) from None
+        raise OracleInputError(*error_location(exc.errors()[0], prefix=("params",))) from None
     return make(validated, preset)
 
 

@@ -11,7 +11,6 @@ from __future__ import annotations
 import logging
 from typing import ClassVar, Protocol
 
-import numpy as np
 import torch
 
 from alcove.science.arrays import FloatArray

@@ -11,6 +11,7 @@ from pydantic import ValidationError
 
 from alcove.science.oracles.builtin import BUILTIN_TYPE_NAMES
 from alcove.science.oracles.command.spec import CatalogueError, CommandOracleSpec
+from alcove.science.validation import error_location
 
 
 def load_command_catalogue(path: str | Path) -> dict[str, CommandOracleSpec]:
@@ -61,7 +62,7 @@ def load_command_catalogue(path: str | Path) -> dict[str, CommandOracleSpec]:
         try:
             spec = CommandOracleSpec.model_validate(entry)
         except ValidationError as exc:
-            raise CatalogueError(*_first_error(exc, prefix=field)) from None
+            raise CatalogueError(*error_location(exc.errors()[0], prefix=("command_oracles", str(name)))) from None
         if spec.template is not None and not spec.template.is_file():
             raise CatalogueError(f"{field}.template", f"{spec.template} does not exist")
         catalogue[spec.name] = spec
@@ -80,12 +81,6 @@ def _read_yaml(path: Path) -> Any:
         mark = getattr(exc, "problem_mark", None)
         where = f" (line {mark.line + 1})" if mark is not None else ""
         raise CatalogueError("catalogue", f"{path} is not valid YAML{where}: {getattr(exc, 'problem', exc)}") from None
-
-
-def _first_error(exc: ValidationError, prefix: str) -> tuple[str, str]:
-    err = exc.errors()[0]
-    loc = ".".join(str(p) for p in err["loc"])
-    return (f"{prefix}.{loc}" if loc else prefix), err["msg"]
 
 
 __all__ = ["load_command_catalogue"]
