@@ -186,7 +186,7 @@ class PlanarChain:
     @cached_property
     def _fn_jacobian(self) -> ca.Function:
         q, qd = self._sym
-        r_rel, v_rel, _, omega_rel = self._fn_relkin(q, qd)
+        _, v_rel, _, omega_rel = self._fn_relkin.call([q, qd])
         J = ca.vertcat(ca.jacobian(v_rel, qd), ca.jacobian(omega_rel, qd))
         return ca.Function("contact_jacobian", [q], [J], ["q"], ["J"])
 

@@ -56,7 +56,7 @@ def test_learns_a_known_smooth_law(smooth_pool, trained_smooth):
     t = np.linspace(0, 1, 50)
     q, qd = 0.25 + 0.1 * np.sin(3 * t), 0.3 * np.cos(3 * t)
     pred = predict(result.model, t, q, qd)
-    force, moment = smooth_wrench(q, qd)
+    force, _ = smooth_wrench(q, qd)
     assert np.sqrt(np.mean((pred.force - force) ** 2)) < 0.05 * f_std
     assert np.all(pred.force[:, 1] == 0) and np.all(pred.moment[:, [0, 2]] == 0)  # zero-variance outputs
 

@@ -159,6 +159,7 @@ class AuxPenaltyOracle:
             i = int(np.argmax(outside))
             raise OracleInputError(
                 "q_0",
-                f"theta = {theta[i]:.4g} rad at t = {trajectory.t[i]:.4g} s is outside the preset's range [{lo}, {hi}] rad",
+                f"theta = {theta[i]:.4g} rad at t = {trajectory.t[i]:.4g} s is outside the preset's range "
+                f"[{lo}, {hi}] rad",
             )
         return theta, trajectory.qd[:, 0]

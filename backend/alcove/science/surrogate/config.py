@@ -83,7 +83,8 @@ class SurrogateConfig(BaseModel):
         0,
         ge=0,
         lt=2**63,
-        description=f"seed of splits, initialisation and batch order [-], a whole number {range_text('', ge=0, lt=2**63)}",
+        description="seed of splits, initialisation and batch order [-], a whole number "
+        + range_text("", ge=0, lt=2**63),
     )
     warm_start: bool = Field(True, description="start from the previous model's weights when the architecture matches")
     normalize_outputs: bool = Field(True, description="train on standardised targets (exported transparently)")

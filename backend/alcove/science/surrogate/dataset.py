@@ -137,7 +137,8 @@ class PoolDataset:
         if len(trajectory) != len(forces) or not np.allclose(trajectory.t, forces.t, rtol=0, atol=1e-9):
             raise PoolDataError(
                 f"{name}.t",
-                f"the trajectory ({len(trajectory)} rows) and the forces ({len(forces)} rows) are not on the same time grid",
+                f"the trajectory ({len(trajectory)} rows) and the forces ({len(forces)} rows) "
+                "are not on the same time grid",
             )
         return cls(name, trajectory.t, trajectory.q, trajectory.qd, forces.force, forces.moment, origin, weight)
 

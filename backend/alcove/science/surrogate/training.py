@@ -181,9 +181,8 @@ def train_surrogate(
                 nets[k].load_state_dict({n: p.to(dtype) for n, p in previous.state_dict().items()})
                 warm[k] = True
             else:  # the campaign changed the architecture: this net starts afresh
-                warm[k] = (
-                    f"cold: architecture {previous.hidden}/{previous.activation} -> {nets[k].hidden}/{nets[k].activation}"
-                )
+                before, now = f"{previous.hidden}/{previous.activation}", f"{nets[k].hidden}/{nets[k].activation}"
+                warm[k] = f"cold: architecture {before} -> {now}"
 
     def tensor(a: FloatArray) -> torch.Tensor:
         return torch.as_tensor(np.ascontiguousarray(a), dtype=dtype)

@@ -111,7 +111,8 @@ class FEHeadrestOracle:
             i = int(bad[0])
             raise OracleInputError(
                 "q_0",
-                f"theta = {theta[i]:.4g} rad at t = {traj.t[i]:.4g} s is outside the model's range [{pr.theta_min}, {pr.theta_max}] rad",
+                f"theta = {theta[i]:.4g} rad at t = {traj.t[i]:.4g} s is outside the model's range "
+                f"[{pr.theta_min}, {pr.theta_max}] rad",
             )
         depth = profile_indentation(pr, theta)
         limit = self.params.max_indentation_fraction * self.params.cushion_thickness
@@ -119,8 +120,8 @@ class FEHeadrestOracle:
             i = int(np.argmax(depth))
             raise OracleInputError(
                 "q_0",
-                f"at t = {traj.t[i]:.4g} s the head would indent the cushion by {depth[i] * 1e3:.1f} mm, beyond the model's reach "
-                f"({limit * 1e3:.1f} mm = max_indentation_fraction x cushion_thickness)",
+                f"at t = {traj.t[i]:.4g} s the head would indent the cushion by {depth[i] * 1e3:.1f} mm, "
+                f"beyond the model's reach ({limit * 1e3:.1f} mm = max_indentation_fraction x cushion_thickness)",
             )
         self._check_contact_within_cushion(traj, depth)
         return traj
@@ -254,7 +255,10 @@ class FEHeadrestOracle:
                 if first_contact is None:
                     first_contact = float(t_fine[k])
             if failure is None and max_pen > p.max_penetration:
-                failure = f"penetration {max_pen * 1e3:.3g} mm exceeds max_penetration {p.max_penetration * 1e3:.3g} mm at t = {t_fine[k]:.4g} s"
+                failure = (
+                    f"penetration {max_pen * 1e3:.3g} mm exceeds max_penetration {p.max_penetration * 1e3:.3g} mm "
+                    f"at t = {t_fine[k]:.4g} s"
+                )
             if failure is not None:
                 break
 

@@ -145,9 +145,8 @@ def _build(cc: str, out_dir: Path) -> Path:
                 ctypes.CDLL(tmp)  # loads (libmvec present, CPU supports the code) before it is cached
                 os.replace(tmp, target)  # atomic: concurrent builders each publish a complete file
                 return target
-            errors.append(
-                f"{' '.join(cflags)}: {proc.stderr.strip().splitlines()[-1] if proc.stderr.strip() else proc.returncode}"
-            )
+            last_line = proc.stderr.strip().splitlines()[-1] if proc.stderr.strip() else proc.returncode
+            errors.append(f"{' '.join(cflags)}: {last_line}")
         except OSError as exc:
             errors.append(f"{' '.join(cflags)}: {exc}")
         finally:
