@@ -3,7 +3,7 @@ import { useNavigate, useParams } from "react-router-dom";
 import { columns, isPreviewFinal, useCreateTaskPreview, usePreview, useSaveTask, useTask, useTaskPresets, useTaskSchema, validateTask, type TaskPreviewResult, type TaskSpecDraft } from "../api/hooks";
 import { ApiError, errorMessage, type FieldError } from "../api/errors";
 import { SchemaForm, type JsonSchema } from "../components/SchemaForm";
-import { PhasesTable, type PhaseRow } from "../task/PhasesTable";
+import { errorAt, PhasesTable, type PhaseRow } from "../task/PhasesTable";
 import { ErrorBox, Loading } from "../components/States";
 import { Plot, type Trace } from "../components/Plot";
 import { phaseShapes } from "../campaign/TrajectoryPanel";
@@ -267,9 +267,9 @@ function BoundaryFields({
               const parts = e.target.value.split(",").map((s) => s.trim()).filter(Boolean);
               onChange({ ...value, [f]: parts.length ? parts.map(Number) : null });
             }}
-            aria-invalid={Boolean(errors[`${prefix}.${f}`])}
+            aria-invalid={Boolean(errorAt(errors, `${prefix}.${f}`))}
           />
-          {errors[`${prefix}.${f}`] && <small className="field-error">{errors[`${prefix}.${f}`]}</small>}
+          {errorAt(errors, `${prefix}.${f}`) && <small className="field-error">{errorAt(errors, `${prefix}.${f}`)}</small>}
         </div>
       ))}
     </fieldset>

@@ -25,6 +25,14 @@ const HEADERS: Record<string, string> = {
   target_q: "end pose [rad]",
 };
 
+/** The error of a field and those of its list items (`phases.0.q_min.0`: "joint 0: ..."), joined. */
+export function errorAt(errors: Record<string, string>, path: string): string | undefined {
+  const messages = Object.entries(errors)
+    .filter(([k]) => k === path || k.startsWith(`${path}.`))
+    .map(([k, v]) => (k === path ? v : `joint ${k.slice(path.length + 1)}: ${v}`));
+  return messages.length ? messages.join("; ") : undefined;
+}
+
 export function parseList(text: string): number[] | null {
   const parts = text.split(",").map((s) => s.trim()).filter(Boolean);
   if (!parts.length) return null;
@@ -33,7 +41,7 @@ export function parseList(text: string): number[] | null {
 
 export function PhasesTable({ phases, onChange, errors }: { phases: PhaseRow[]; onChange: (p: PhaseRow[]) => void; errors: Record<string, string> }) {
   const set = (m: number, key: string, value: unknown) => onChange(phases.map((p, i) => (i === m ? { ...p, [key]: value } : p)));
-  const cellError = (m: number, key: string) => errors[`phases.${m}.${key}`];
+  const cellError = (m: number, key: string) => errorAt(errors, `phases.${m}.${key}`);
   return (
     <div>
       <table data-testid="phases-table">
