@@ -22,7 +22,7 @@ def smoke(self: Any, token: str, sent_at: float | None = None) -> int:
 
 # ----------------------------------------------------------------------------- campaign steps
 # One job per step type; the message is (campaign_id, iteration, step, attempt). The job
-# claims its step row first, so a duplicate delivery is a no-op (see alcove.campaigns.flows).
+# claims its step row first, so a duplicate delivery is a no-op (see alcove.campaigns.protocol).
 
 from celery import signals  # noqa: E402
 
@@ -30,7 +30,7 @@ from alcove.jobs.campaign import RECONCILE_JOB, STEP_JOBS  # noqa: E402
 
 
 def _run_step(job: Any, campaign_id: int, iteration: int, step: str, attempt: int) -> dict:
-    from alcove.campaigns.flows import run_step
+    from alcove.campaigns.protocol import run_step
 
     return run_step(
         int(campaign_id), int(iteration), str(step), int(attempt), worker_name=job.request.hostname or "unknown"

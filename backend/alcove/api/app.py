@@ -37,6 +37,7 @@ def api_routers() -> list[APIRouter]:
     flat route table: FastAPI matches nested routers noticeably slower). The most polled
     routers come first. Add new routers here."""
     from alcove.campaigns.live import router as live_router
+    from alcove.campaigns.results_router import router as campaign_results_router
     from alcove.campaigns.router import router as campaigns_router
     from alcove.oracles.router import admin_router as command_oracles_router
     from alcove.oracles.router import router as oracles_router
@@ -49,6 +50,7 @@ def api_routers() -> list[APIRouter]:
     from alcove.users.router import router as users_router
 
     return [
+        campaign_results_router,
         campaigns_router,
         live_router,
         pool_versions_router,

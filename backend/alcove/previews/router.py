@@ -18,11 +18,11 @@ from typing import Annotated, Any, Literal
 from fastapi import APIRouter, Body, Query, status
 from pydantic import BaseModel, ConfigDict, Field
 
-from alcove.api.auth import CurrentUser
 from alcove.api.deps import SessionDep
 from alcove.api.params import MAX_ID, ObjectId
 from alcove.models import Preview, PreviewStatus
 from alcove.previews import service
+from alcove.users.auth import CurrentUser
 
 router = APIRouter(tags=["previews"])
 

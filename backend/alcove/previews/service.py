@@ -20,7 +20,7 @@ from typing import Any
 import sqlalchemy as sa
 from sqlalchemy.orm import Session
 
-from alcove.errors import DomainError, InvalidInput, NotFound
+from alcove.errors import InvalidInput, NotFound, TooManyRequests
 from alcove.models import (
     OracleDefinition,
     OracleVersion,
@@ -56,10 +56,11 @@ MAX_PREVIEW_INTERVALS = 200
 PREVIEW_IPOPT_MAX_ITER = 1000
 
 
-class TooManyPreviews(DomainError):
+class TooManyPreviews(TooManyRequests):
     """More than :data:`MAX_ACTIVE_PER_USER` previews pending: answered 429."""
 
-    retry_after_s = 10
+    def __init__(self, message: str, retry_after_s: int = 10) -> None:
+        super().__init__(message, retry_after_s)
 
 
 # ----------------------------------------------------------------------------- API side

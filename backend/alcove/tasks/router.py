@@ -7,7 +7,6 @@ from typing import Annotated, Any
 from fastapi import APIRouter, Path, Response, status
 
 from alcove import versioning
-from alcove.api.auth import CurrentUser
 from alcove.api.deps import SessionDep
 from alcove.api.params import Limit, ObjectId, Offset, VersionNumber
 from alcove.models import TaskDefinition, User
@@ -26,6 +25,7 @@ from alcove.tasks.schemas import (
     ValidationReport,
 )
 from alcove.users.access import can_edit
+from alcove.users.auth import CurrentUser
 
 router = APIRouter(prefix="/tasks", tags=["tasks"])
 PresetKey = Annotated[str, Path(min_length=1, max_length=100)]
