@@ -147,7 +147,8 @@ def test_a_task_preview_solves_on_the_tasks_own_grid_capped(client) -> None:
 
     assert (
         grid_summary(big, [8, MAX_PREVIEW_INTERVALS], None)
-        == f"8 + {MAX_PREVIEW_INTERVALS} intervals (the task's 8 + {MAX_PREVIEW_INTERVALS + 50}, capped at {MAX_PREVIEW_INTERVALS} per phase for a preview)"
+        == f"8 + {MAX_PREVIEW_INTERVALS} intervals (the task's 8 + {MAX_PREVIEW_INTERVALS + 50}, "
+        f"capped at {MAX_PREVIEW_INTERVALS} per phase for a preview)"
     )
     assert grid_summary(big, [5, 5], 5).startswith("5 + 5 intervals (5 per phase, as asked")
 
@@ -198,7 +199,7 @@ def test_a_preview_no_worker_takes_fails_with_the_reason_and_frees_its_slot(clie
 def live(tmp_path: Path, pg_url: str, redis_url: str, api_settings: None, monkeypatch: pytest.MonkeyPatch):
     from fastapi.testclient import TestClient
 
-    from alcove.api import create_app
+    from alcove.app import create_app
     from alcove.jobs import reset_sender
     from alcove.settings import get_settings
     from tests.integration.procs import alcove_env, running, wait_until, worker_ready

@@ -89,7 +89,8 @@ def test_a_short_campaign_leaves_a_complete_versioned_record(campaign_db: str, m
                 )
             ).all()
             assert added == [ds.id]
-            # model k was trained on pool version k-1 (the new trajectory is unseen by it) and warm-started from model k-1
+            # model k was trained on pool version k-1 (the new trajectory is unseen by it) and
+            # warm-started from model k-1
             assert model.pool_version_id == prev.id and ds.id not in members(s, prev)
             assert model.parent_model_id == (models[k - 2].id if k > 1 else None)
             assert model.code_version and {"torch", "numpy", "casadi"} <= set(model.library_versions)
@@ -139,7 +140,7 @@ def test_the_same_seed_gives_the_same_pool_and_another_seed_another(sqlite_campa
 
 def test_a_duplicate_or_stale_delivery_of_a_step_is_a_no_op(sqlite_campaign_db: str, make_campaign) -> None:
     cid, jobs = make_campaign(start=True)
-    (job,) = jobs
+    assert len(jobs) == 1
     sent: list = []
     first = protocol.run_step(cid, 0, "preliminary", 1, send=sent.extend)
     again = protocol.run_step(cid, 0, "preliminary", 1, send=sent.extend)
@@ -448,7 +449,8 @@ def test_an_uploaded_preliminary_dataset_becomes_pool_version_zero(sqlite_campai
         with pytest.raises(PoolDataError, match="fx"):
             pool_service.upload_preliminary_dataset(s, owner, "q_0,qd_0\n0.1,0.2\n", name="bad")
         ids = [
-            d.id for d in pool_service.upload_preliminary_dataset(s, owner, "\n".join(lines) + "\n", name="lab", chunks=3)
+            d.id
+            for d in pool_service.upload_preliminary_dataset(s, owner, "\n".join(lines) + "\n", name="lab", chunks=3)
         ]
     assert len(ids) == 3
     cid, jobs = make_campaign(preliminary={"dataset_ids": ids}, stopping={"max_iterations": 1})

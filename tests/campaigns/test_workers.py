@@ -146,8 +146,8 @@ def test_campaign_run_without_a_worker_names_the_queue_it_waits_on(tmp_path: Pat
     try:
         wait_for(
             lambda: (
-                "waiting: no live worker serves queue 'default' (step preliminary); start one with `alcove worker --queues default`"
-                in run.output()
+                "waiting: no live worker serves queue 'default' (step preliminary); "
+                "start one with `alcove worker --queues default`" in run.output()
             ),
             60,
             "the notice for the default queue",
@@ -275,7 +275,8 @@ def test_sigkill_of_a_worker_during_an_oracle_job_loses_and_duplicates_nothing(
     assert rows(pg_url, "SELECT count(*) FROM datasets WHERE campaign_id = :c AND origin = 'oracle'", c=cid) == [(3,)]
     assert rows(
         pg_url,
-        "SELECT count(*) FROM campaign_events WHERE campaign_id = :c AND kind = 'step_started' AND step = 'preliminary'",
+        "SELECT count(*) FROM campaign_events "
+        "WHERE campaign_id = :c AND kind = 'step_started' AND step = 'preliminary'",
         c=cid,
     ) == [(1,)]
     assert rows(pg_url, "SELECT count(*) FROM datasets WHERE campaign_id = :c AND origin = 'preliminary'", c=cid) == [
@@ -291,7 +292,8 @@ def test_sigkill_of_a_worker_during_an_oracle_job_loses_and_duplicates_nothing(
     ) == [(k, True, True, True) for k in (1, 2, 3)]
     lineage = rows(
         pg_url,
-        "SELECT m.version, p.version, pm.version FROM model_versions m JOIN pool_versions p ON p.id = m.pool_version_id "
+        "SELECT m.version, p.version, pm.version FROM model_versions m "
+        "JOIN pool_versions p ON p.id = m.pool_version_id "
         "LEFT JOIN model_versions pm ON pm.id = m.parent_model_id WHERE m.campaign_id = :c ORDER BY m.version",
         c=cid,
     )
@@ -421,7 +423,8 @@ def test_killing_the_controlling_process_leaves_a_campaign_that_a_new_worker_fin
         wait_for(
             lambda: maybe_rows(
                 url,
-                "SELECT 1 FROM iteration_steps s JOIN iterations i ON i.id = s.iteration_id WHERE i.\"index\" = 2 AND s.step = 'train' AND s.status = 'running'",
+                "SELECT 1 FROM iteration_steps s JOIN iterations i ON i.id = s.iteration_id "
+                "WHERE i.\"index\" = 2 AND s.step = 'train' AND s.status = 'running'",
             ),
             180,
             "the train job of iteration 2",

@@ -63,7 +63,9 @@ async def list_campaign_metrics(
     extra: Annotated[
         bool,
         Query(
-            description="include each row's `extra` (software versions, per-component RMSE, step timings); null otherwise"
+            description=(
+                "include each row's `extra` (software versions, per-component RMSE, step timings); null otherwise"
+            )
         ),
     ] = False,
     inherited: Annotated[

@@ -24,9 +24,9 @@ from alcove.oracles.schemas import (
     OracleUpdate,
     OracleVersionOut,
 )
-from alcove.tasks.schemas import CopyPreset, FieldErrorOut, ValidationReport
 from alcove.users.access import can_edit
 from alcove.users.auth import AdminUser, CurrentUser
+from alcove.versioning.schemas import CopyPreset, FieldErrorOut, ValidationReport
 
 router = APIRouter(prefix="/oracles", tags=["oracles"])
 admin_router = APIRouter(prefix="/admin/command-oracles", tags=["admin"])

@@ -47,7 +47,10 @@ class TaskPreviewIn(_In):
         None,
         ge=1,
         le=service.MAX_PREVIEW_INTERVALS,
-        description=f"DMOCC intervals in every phase for this solve (default: each phase's own, at most {service.MAX_PREVIEW_INTERVALS})",
+        description=(
+            "DMOCC intervals in every phase for this solve "
+            f"(default: each phase's own, at most {service.MAX_PREVIEW_INTERVALS})"
+        ),
     )
 
 

@@ -20,9 +20,9 @@ from alcove.surrogates import service
 from alcove.surrogates.artifact_export import artifact_zip_paths
 from alcove.surrogates.schemas import ModelVersionRead
 from alcove.surrogates.service import artifact_document
-from alcove.tasks.schemas import DefinitionMeta, FieldErrorOut, ValidationReport, VersionMeta
 from alcove.users.access import can_edit, get_for
 from alcove.users.auth import CurrentUser
+from alcove.versioning.schemas import DefinitionMeta, FieldErrorOut, ValidationReport, VersionMeta
 
 router = APIRouter(prefix="/surrogate-configs", tags=["surrogate-configs"])
 model_versions = APIRouter(prefix="/campaigns", tags=["campaigns"])

@@ -48,7 +48,7 @@ def _token_out(token, secret: str | None = None) -> TokenOut:
 
 
 def login_throttle(request: Request) -> LoginThrottle:
-    """The app's login throttle (:func:`alcove.api.app.create_app` makes one per app)."""
+    """The app's login throttle (:func:`alcove.app.create_app` makes one per app)."""
     return request.app.state.login_throttle
 
 

@@ -121,8 +121,8 @@ def _create(
 
 def _control(action: str, campaign_id: int, **kwargs: Any) -> Any:
     from alcove.campaigns import service
-    from alcove.errors import DomainError
     from alcove.db import transaction
+    from alcove.errors import DomainError
     from alcove.jobs.campaign import enqueue
 
     fn = getattr(service, action)
@@ -167,7 +167,8 @@ def run(
         except KeyboardInterrupt:
             _control("pause", campaign_id)
             typer.echo(
-                f"\npausing campaign {campaign_id} after the running step; continue with `alcove campaign resume {campaign_id}`",
+                f"\npausing campaign {campaign_id} after the running step; "
+                f"continue with `alcove campaign resume {campaign_id}`",
                 err=True,
             )
             detail = following.follow(campaign_id, quiet=True, worker=proc)
@@ -209,7 +210,8 @@ def _print_status(campaign_id: int, as_json: bool) -> None:
     typer.echo(
         f"campaign {c.id} '{c.name}': {c.status.value}"
         + (f" ({c.stop_reason})" if c.stop_reason else "")
-        + f" · iteration {c.current_iteration} {c.current_step or ''} · finished {detail.iterations_finished}, failed {detail.iterations_failed}"
+        + f" · iteration {c.current_iteration} {c.current_step or ''}"
+        + f" · finished {detail.iterations_finished}, failed {detail.iterations_failed}"
         + (f" · last RMSE F {m.force_rmse:.4g} N, M {m.moment_rmse:.4g} N m" if m and m.force_rmse is not None else "")
         + (f" · ETA {detail.eta_s:.0f} s" if detail.eta_s is not None else "")
     )

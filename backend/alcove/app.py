@@ -1,4 +1,6 @@
-"""FastAPI application factory."""
+"""The web application: the API routers of every domain, the shared plumbing of
+:mod:`alcove.api`, the web UI's static files (the composition root; nothing imports it but
+the server)."""
 
 from __future__ import annotations
 
@@ -24,7 +26,7 @@ from alcove.users.service import dummy_password_hash
 log = logging.getLogger(__name__)
 
 API_PREFIX = "/api/v1"
-DEFAULT_STATIC_DIR = Path(__file__).resolve().parents[1] / "static"
+DEFAULT_STATIC_DIR = Path(__file__).resolve().parent / "static"
 
 
 def operation_id(route: APIRoute) -> str:
