@@ -24,6 +24,7 @@ def api_routes(app: FastAPI) -> list[RouteInfo]:
         if not isinstance(route, APIRoute):
             continue
         path = ctx.path_format or ctx.path or route.path_format
+        assert route.methods is not None  # starlette's Route allows None; an APIRoute always has them (GET by default)
         for method in sorted(route.methods - {"HEAD", "OPTIONS"}):
             out.append(RouteInfo(method, path, route.operation_id or route.name, route))
     return out

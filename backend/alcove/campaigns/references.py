@@ -15,7 +15,7 @@ from alcove.pool import repository as pool_repo
 from alcove.users.access import get_for
 
 #: Request fields that name a definition version directly, and the kind of definition.
-VERSION_FIELDS: dict[str, versioning.Kind] = {
+VERSION_FIELDS: dict[str, versioning.Kind[versioning.DefinitionRow, versioning.VersionRow]] = {
     "task_version_id": versioning.TASKS,
     "oracle_version_id": versioning.ORACLES,
     "surrogate_config_version_id": versioning.SURROGATE_CONFIGS,
@@ -23,7 +23,12 @@ VERSION_FIELDS: dict[str, versioning.Kind] = {
 
 
 def version_id(
-    session: Session, user: User, kind: versioning.Kind, definition_id: int, number: int | None, field: str
+    session: Session,
+    user: User,
+    kind: versioning.Kind[versioning.DefinitionRow, versioning.VersionRow],
+    definition_id: int,
+    number: int | None,
+    field: str,
 ) -> int:
     """The id of version ``number`` (default: the latest) of a definition the user may see;
     ``field`` names the request's field (``task_id``, ...)."""

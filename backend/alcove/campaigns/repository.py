@@ -121,6 +121,7 @@ def claim_step(s: Session, step_id: int, attempt: int, token: str, worker: str, 
         )
         .execution_options(synchronize_session=False)
     )
+    assert isinstance(res, sa.CursorResult)  # an UPDATE's result is a CursorResult (Session.execute is typed Result)
     return res.rowcount == 1
 
 
@@ -142,6 +143,7 @@ def extend_lease(s: Session, step_id: int, token: str, lease_seconds: float) -> 
         .join(IterationStep, IterationStep.campaign_id == Campaign.id)
         .where(IterationStep.id == step_id)
     )
+    assert isinstance(res, sa.CursorResult)  # an UPDATE's result is a CursorResult (Session.execute is typed Result)
     return res.rowcount == 1, bool(cancel)
 
 

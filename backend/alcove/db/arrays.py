@@ -12,6 +12,7 @@ import hashlib
 import io
 import zipfile
 from collections.abc import Mapping
+from typing import Any
 
 import numpy as np
 from sqlalchemy import select
@@ -90,7 +91,7 @@ def get_arrays(session: Session, sha256: str) -> dict[str, np.ndarray]:
     return decode_arrays(data)
 
 
-def put_bytes(session: Session, data: bytes, media_type: str, manifest_: dict | None = None) -> str:
+def put_bytes(session: Session, data: bytes, media_type: str, manifest_: dict[str, Any] | None = None) -> str:
     """Store opaque bytes (e.g. a model artifact zip) by the SHA-256 of the bytes."""
     key = hashlib.sha256(data).hexdigest()
     if session.get(Blob, key) is None:

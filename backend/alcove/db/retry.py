@@ -12,7 +12,7 @@ import logging
 import random
 import time
 from collections.abc import Callable
-from typing import ParamSpec, TypeVar
+from typing import ParamSpec, TypeVar, overload
 
 from sqlalchemy import exc
 from sqlalchemy.orm import Session, sessionmaker
@@ -39,9 +39,21 @@ def is_retryable_db_error(err: BaseException) -> bool:
     return False
 
 
+@overload
+def retry_on_locked(
+    fn: Callable[P, T], *, attempts: int = ..., base_delay: float = ..., max_delay: float = ...
+) -> Callable[P, T]: ...
+
+
+@overload
+def retry_on_locked(
+    fn: None = None, *, attempts: int = ..., base_delay: float = ..., max_delay: float = ...
+) -> Callable[[Callable[P, T]], Callable[P, T]]: ...
+
+
 def retry_on_locked(
     fn: Callable[P, T] | None = None, *, attempts: int = 8, base_delay: float = 0.05, max_delay: float = 2.0
-) -> Callable[P, T]:
+) -> Callable[P, T] | Callable[[Callable[P, T]], Callable[P, T]]:
     """Decorator: call ``fn`` again (with jittered exponential backoff) when it raises a
     retryable database error. ``fn`` must run a whole transaction (open, work, commit)."""
 
@@ -63,7 +75,7 @@ def retry_on_locked(
 
         return inner
 
-    return wrap(fn) if fn is not None else wrap  # type: ignore[return-value]
+    return wrap(fn) if fn is not None else wrap
 
 
 def run_in_transaction(factory: sessionmaker[Session], work: Callable[[Session], T], *, attempts: int = 8) -> T:

@@ -80,7 +80,8 @@ class Base(DeclarativeBase):
     }
 
     def __repr__(self) -> str:
-        pk = ", ".join(f"{c.key}={getattr(self, c.key, None)!r}" for c in self.__mapper__.primary_key)
+        keys = (c.key for c in self.__mapper__.primary_key)  # a Column's key is None only before it is named
+        pk = ", ".join(f"{k}={getattr(self, k, None)!r}" for k in keys if k is not None)
         return f"<{type(self).__name__} {pk}>"
 
 

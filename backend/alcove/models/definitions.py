@@ -17,7 +17,7 @@ from __future__ import annotations
 import hashlib
 import json
 from datetime import datetime
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, ClassVar
 
 import sqlalchemy as sa
 from sqlalchemy.orm import Mapped, declared_attr, mapped_column, relationship
@@ -61,7 +61,7 @@ class _VersionMixin:
     """Columns shared by the *_versions tables. Content is ``spec`` (validated JSON)."""
 
     #: columns that may not change once ``locked_at`` is set (checked at flush time)
-    __immutable_when_locked__ = ("spec", "spec_hash", "version", "schema_version")
+    __immutable_when_locked__: ClassVar[tuple[str, ...]] = ("spec", "spec_hash", "version", "schema_version")
 
     id: Mapped[int] = mapped_column(primary_key=True)
     version: Mapped[int] = mapped_column(comment="1, 2, ... within the definition")

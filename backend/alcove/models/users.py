@@ -13,13 +13,15 @@ from sqlalchemy.orm import Mapped, mapped_column, relationship
 from alcove.models.base import Base, Role, SharePermission, TimestampMixin, TokenKind, enum_check, utcnow
 
 if TYPE_CHECKING:
+    from pwdlib import PasswordHash
+
     from alcove.models.campaigns import Campaign
     from alcove.models.definitions import OracleDefinition, SurrogateConfig, TaskDefinition
 
-_password_hasher = None
+_password_hasher: PasswordHash | None = None
 
 
-def password_hasher():
+def password_hasher() -> PasswordHash:
     """The argon2 hasher (pwdlib's recommended parameters)."""
     global _password_hasher
     if _password_hasher is None:

@@ -21,16 +21,15 @@ from sqlalchemy.orm import Session
 from alcove.errors import InvalidInput, NotFound, TooManyRequests
 from alcove.models import (
     OracleDefinition,
-    OracleVersion,
     Preview,
     PreviewKind,
     PreviewStatus,
     TaskDefinition,
-    TaskVersion,
     User,
     utcnow,
 )
 from alcove.users.access import get_for
+from alcove.versioning import ORACLES, TASKS, D, Kind, V
 
 log = logging.getLogger(__name__)
 
@@ -65,7 +64,7 @@ class TooManyPreviews(TooManyRequests):
 
 
 def _check_capacity(session: Session, user: User) -> None:
-    active = session.scalar(
+    active = session.execute(
         sa.select(sa.func.count())
         .select_from(Preview)
         .where(
@@ -73,7 +72,7 @@ def _check_capacity(session: Session, user: User) -> None:
             Preview.status.in_((PreviewStatus.pending.value, PreviewStatus.running.value)),
             Preview.created_at > utcnow() - STALE_AFTER,
         )
-    )
+    ).scalar_one()
     if active >= MAX_ACTIVE_PER_USER:
         raise TooManyPreviews(
             f"you have {active} previews pending or running (at most {MAX_ACTIVE_PER_USER}); wait for one to finish"
@@ -97,9 +96,9 @@ def _prune(session: Session, user: User) -> None:
     )
 
 
-def _version(session: Session, model: type, parent: str, definition: Any, number: int | None) -> Any:
+def _version(session: Session, kind: Kind[D, V], definition: D, number: int | None) -> V:
     n = number or definition.latest_version
-    row = session.scalar(sa.select(model).where(getattr(model, parent) == definition.id, model.version == n))
+    row = session.scalar(sa.select(kind.version).where(kind.parent_column == definition.id, kind.version.version == n))
     if row is None:
         raise InvalidInput.one("version", f"version {n} does not exist")
     return row
@@ -133,7 +132,7 @@ def create_task_preview(
     from alcove.tasks.service import check_spec
 
     definition = get_for(session, TaskDefinition, task_id, user)
-    tv = _version(session, TaskVersion, "definition_id", definition, version)
+    tv = _version(session, TASKS, definition, version)
     if spec is not None:
         parsed, errors = check_spec(spec)
         if parsed is None:
@@ -165,7 +164,7 @@ def create_oracle_preview(
     from alcove.oracles.service import check
 
     definition = get_for(session, OracleDefinition, oracle_id, user)
-    ov = _version(session, OracleVersion, "definition_id", definition, version)
+    ov = _version(session, ORACLES, definition, version)
     if params is not None:
         normalized, errors = check(session, ov.oracle_type, params)
         if normalized is None:
@@ -233,7 +232,15 @@ def _fail_if_stale(session: Session, row: Preview) -> None:
     # at once (see tests/api/test_connection_use.py); expire_on_commit is off, rows stay loaded
     if session.in_transaction() and not session.new and not session.dirty and not session.deleted:
         session.commit()
-    if transaction(lambda s: s.execute(stmt).rowcount):
+
+    def fail(s: Session) -> int:
+        result = s.execute(stmt)
+        assert isinstance(
+            result, sa.CursorResult
+        )  # an UPDATE's result is a CursorResult (Session.execute is typed Result)
+        return result.rowcount
+
+    if transaction(fail):
         session.expunge(row)  # answer with the new state without writing through this session
         row.status, row.error, row.finished_at = PreviewStatus.failed.value, error, now
 
@@ -316,6 +323,8 @@ def _error_text(err: BaseException) -> str:
 
 def _snapshot(s: Session, preview_id: int) -> dict[str, Any]:
     row = s.get(Preview, preview_id)
+    if row is None:  # deleted since it was claimed (its owner was deleted)
+        raise NotFound("preview", preview_id)
     catalogue = None
     if row.kind == PreviewKind.oracle.value and row.spec.get("type") not in ("fe-headrest-2d", "aux-penalty"):
         from alcove.oracles.service import command_catalogue

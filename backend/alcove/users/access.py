@@ -11,28 +11,45 @@ from __future__ import annotations
 from typing import Literal, TypeVar
 
 import sqlalchemy as sa
-from sqlalchemy.orm import Session
+from sqlalchemy.orm import InstrumentedAttribute, Session
 
 from alcove.errors import NotFound, PermissionDenied
-from alcove.models import Campaign, OracleDefinition, Share, SharePermission, SurrogateConfig, TaskDefinition, User
+from alcove.models import (
+    Base,
+    Campaign,
+    OracleDefinition,
+    Share,
+    SharePermission,
+    SurrogateConfig,
+    TaskDefinition,
+    User,
+)
 
-T = TypeVar("T", TaskDefinition, OracleDefinition, SurrogateConfig, Campaign)
+#: the objects that can be owned and shared
+Shareable = TaskDefinition | OracleDefinition | SurrogateConfig | Campaign
+T = TypeVar("T", bound=Shareable)
 
 Need = Literal["view", "edit", "owner"]
 
-SHARE_COLUMN = {
+# keyed by type[Base]: mypy does not see type[T] (T bound to the union) as one of the union's classes
+SHARE_COLUMN: dict[type[Base], InstrumentedAttribute[int | None]] = {
     TaskDefinition: Share.task_definition_id,
     OracleDefinition: Share.oracle_definition_id,
     SurrogateConfig: Share.surrogate_config_id,
     Campaign: Share.campaign_id,
 }
-OBJECT_TYPES: dict[str, type] = {
+OBJECT_TYPES: dict[str, type[Shareable]] = {
     "task": TaskDefinition,
     "oracle": OracleDefinition,
     "surrogate_config": SurrogateConfig,
     "campaign": Campaign,
 }
-LABEL = {TaskDefinition: "task", OracleDefinition: "oracle", SurrogateConfig: "surrogate config", Campaign: "campaign"}
+LABEL: dict[type[Base], str] = {
+    TaskDefinition: "task",
+    OracleDefinition: "oracle",
+    SurrogateConfig: "surrogate config",
+    Campaign: "campaign",
+}
 
 
 def visible_clause(model: type[T], user: User) -> sa.ColumnElement[bool]:

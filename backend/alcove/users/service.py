@@ -14,6 +14,7 @@ from typing import TypeVar
 import sqlalchemy as sa
 from cachetools import TLRUCache
 from sqlalchemy.orm import Session, make_transient_to_detached
+from sqlalchemy.orm.attributes import manager_of_class
 
 from alcove.errors import AuthenticationFailed, Conflict, InvalidInput, NotFound, PermissionDenied
 from alcove.models import ApiToken, Role, Share, TokenKind, User, hash_password, hash_token, utcnow
@@ -144,7 +145,7 @@ def _detached_copy(obj: T) -> T:
     if keys is None:
         keys = _COLUMN_KEYS[cls] = tuple(attr.key for attr in sa.inspect(cls).column_attrs)
     src = obj.__dict__
-    copy = cls._sa_class_manager.new_instance()  # type: ignore[attr-defined]
+    copy = manager_of_class(cls).new_instance()
     state = sa.inspect(copy)
     # the values as committed state in one step (what set_committed_value does per key)
     state.dict.update({k: src[k] if k in src else getattr(obj, k) for k in keys})
@@ -255,10 +256,10 @@ def _share_out(share: Share, email: str) -> ShareOut:
     object_type, object_id = _object_of(share)
     return ShareOut(
         id=share.id,
-        object_type=object_type,  # type: ignore[arg-type]
+        object_type=object_type,
         object_id=object_id,
         email=email,
-        permission=share.permission,  # type: ignore[arg-type]
+        permission=share.permission,
         created_at=share.created_at,
     )
 
@@ -293,6 +294,7 @@ def accept_invitations(session: Session, user: User) -> int:
     result = session.execute(
         sa.update(Share).where(Share.email == user.email, Share.user_id.is_(None)).values(user_id=user.id, email=None)
     )
+    assert isinstance(result, sa.CursorResult)  # an UPDATE's result is a CursorResult (Session.execute is typed Result)
     return result.rowcount or 0
 
 

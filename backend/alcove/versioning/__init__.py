@@ -13,7 +13,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, Generic, TypeVar
 
 import sqlalchemy as sa
 from sqlalchemy.orm import InstrumentedAttribute, Session
@@ -33,37 +33,50 @@ from alcove.models import (
 )
 from alcove.users.access import visible_clause
 
+#: the versioned definitions and their version rows
+DefinitionRow = TaskDefinition | OracleDefinition | SurrogateConfig
+VersionRow = TaskVersion | OracleVersion | SurrogateConfigVersion
+D = TypeVar("D", bound=DefinitionRow)
+V = TypeVar("V", bound=VersionRow)
+D_co = TypeVar("D_co", bound=DefinitionRow, covariant=True)
+V_co = TypeVar("V_co", bound=VersionRow, covariant=True)
+
 
 @dataclass(frozen=True)
-class Kind:
+class Kind(Generic[D_co, V_co]):
     label: str
-    definition: type
-    version: type
-    parent_key: str  # name of the version's foreign key to its definition
-    campaign_column: InstrumentedAttribute
+    definition: type[D_co]
+    version: type[V_co]
+    parent_column: InstrumentedAttribute[int]  # the version's foreign key to its definition
+    campaign_column: InstrumentedAttribute[int]
 
     @property
-    def parent_column(self) -> InstrumentedAttribute:
-        return getattr(self.version, self.parent_key)
+    def parent_key(self) -> str:
+        """Name of the version's foreign key to its definition."""
+        return self.parent_column.key
 
 
-TASKS = Kind("task", TaskDefinition, TaskVersion, "definition_id", Campaign.task_version_id)
-ORACLES = Kind("oracle", OracleDefinition, OracleVersion, "definition_id", Campaign.oracle_version_id)
+TASKS = Kind("task", TaskDefinition, TaskVersion, TaskVersion.definition_id, Campaign.task_version_id)
+ORACLES = Kind("oracle", OracleDefinition, OracleVersion, OracleVersion.definition_id, Campaign.oracle_version_id)
 SURROGATE_CONFIGS = Kind(
-    "surrogate config", SurrogateConfig, SurrogateConfigVersion, "config_id", Campaign.surrogate_config_version_id
+    "surrogate config",
+    SurrogateConfig,
+    SurrogateConfigVersion,
+    SurrogateConfigVersion.config_id,
+    Campaign.surrogate_config_version_id,
 )
 
 
 def list_visible(
     session: Session,
-    kind: Kind,
+    kind: Kind[D, V],
     user: User,
     *,
     include_archived: bool = False,
     limit: int = 100,
     offset: int = 0,
     extra: Sequence[Any] = (),
-) -> list[tuple[Any, Any, str]]:
+) -> list[tuple[D, V, str]]:
     """(definition, latest version, owner e-mail) rows the user may see, newest first."""
     d, v = kind.definition, kind.version
     q = (
@@ -80,11 +93,11 @@ def list_visible(
     return [tuple(r) for r in session.execute(q).all()]  # type: ignore[misc]
 
 
-def latest(session: Session, kind: Kind, definition: Any) -> Any:
+def latest(session: Session, kind: Kind[D, V], definition: D) -> V:
     return get_version(session, kind, definition, definition.latest_version)
 
 
-def get_version(session: Session, kind: Kind, definition: Any, number: int) -> Any:
+def get_version(session: Session, kind: Kind[D, V], definition: D, number: int) -> V:
     row = session.scalar(
         sa.select(kind.version).where(kind.parent_column == definition.id, kind.version.version == number)
     )
@@ -93,20 +106,20 @@ def get_version(session: Session, kind: Kind, definition: Any, number: int) -> A
     return row
 
 
-def versions(session: Session, kind: Kind, definition: Any) -> Sequence[Any]:
+def versions(session: Session, kind: Kind[D, V], definition: D) -> Sequence[V]:
     return session.scalars(
         sa.select(kind.version).where(kind.parent_column == definition.id).order_by(kind.version.version)
     ).all()
 
 
-def is_used(session: Session, kind: Kind, version: Any) -> bool:
+def is_used(session: Session, kind: Kind[D, V], version: V) -> bool:
     """A version is immutable once locked by the engine or referenced by any campaign."""
     if version.locked_at is not None:
         return True
     return session.scalar(sa.select(sa.exists().where(kind.campaign_column == version.id))) or False
 
 
-def definition_used(session: Session, kind: Kind, definition: Any) -> bool:
+def definition_used(session: Session, kind: Kind[D, V], definition: D) -> bool:
     ids = sa.select(kind.version.id).where(kind.parent_column == definition.id)
     locked = sa.exists().where(kind.parent_column == definition.id, kind.version.locked_at.is_not(None))
     return bool(session.scalar(sa.select(sa.or_(sa.exists().where(kind.campaign_column.in_(ids)), locked))))
@@ -114,7 +127,7 @@ def definition_used(session: Session, kind: Kind, definition: Any) -> bool:
 
 def create(
     session: Session,
-    kind: Kind,
+    kind: Kind[D, V],
     owner: User,
     *,
     name: str,
@@ -123,7 +136,7 @@ def create(
     preset_key: str | None = None,
     note: str = "",
     **version_columns: Any,
-) -> tuple[Any, Any]:
+) -> tuple[D, V]:
     definition = kind.definition(
         owner_id=owner.id, name=name, description=description, preset_key=preset_key, latest_version=1
     )
@@ -145,8 +158,8 @@ def create(
 
 def update(
     session: Session,
-    kind: Kind,
-    definition: Any,
+    kind: Kind[D, V],
+    definition: D,
     user: User,
     *,
     name: str | None,
@@ -154,7 +167,7 @@ def update(
     spec: dict[str, Any] | None,
     note: str = "",
     **version_columns: Any,
-) -> tuple[Any, bool]:
+) -> tuple[V, bool]:
     """Apply an edit; returns (latest version, whether a new version was created)."""
     if name is not None:
         definition.name = name
@@ -190,7 +203,7 @@ def update(
     return current, created
 
 
-def delete(session: Session, kind: Kind, definition: Any) -> str:
+def delete(session: Session, kind: Kind[D, V], definition: D) -> str:
     """Delete, or archive when a campaign uses it. Returns ``"deleted"`` or ``"archived"``."""
     if definition_used(session, kind, definition):
         definition.archived_at = definition.archived_at or utcnow()
