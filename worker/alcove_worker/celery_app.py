@@ -8,12 +8,15 @@ equivalent is ``celery -A alcove_worker.celery_app worker -Q ... -n NAME@%h``.
 from __future__ import annotations
 
 import logging
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from celery import signals
 
 from alcove.jobs import create_celery_app
 from alcove.settings import get_settings
+
+if TYPE_CHECKING:
+    from alcove.jobs.heartbeat import HeartbeatThread
 
 log = logging.getLogger(__name__)
 
@@ -22,7 +25,7 @@ JOB_MODULES = ["alcove_worker.jobs"]
 
 app = create_celery_app(include=JOB_MODULES)
 
-_heartbeat: Any = None
+_heartbeat: HeartbeatThread | None = None
 
 
 @signals.worker_process_init.connect

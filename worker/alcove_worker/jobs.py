@@ -6,10 +6,13 @@ can send a job by name without importing this module (or torch, or casadi).
 
 from __future__ import annotations
 
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from alcove.jobs import SMOKE_JOB
 from alcove_worker.celery_app import app
+
+if TYPE_CHECKING:
+    from alcove.campaigns.reconciler import ReconcilerThread
 
 
 @app.task(name=SMOKE_JOB, bind=True)
@@ -29,7 +32,7 @@ from celery import signals  # noqa: E402
 from alcove.jobs.campaign import RECONCILE_JOB, STEP_JOBS  # noqa: E402
 
 
-def _run_step(job: Any, campaign_id: int, iteration: int, step: str, attempt: int) -> dict:
+def _run_step(job: Any, campaign_id: int, iteration: int, step: str, attempt: int) -> dict[str, Any]:
     from alcove.campaigns.protocol import run_step
 
     return run_step(
@@ -38,32 +41,32 @@ def _run_step(job: Any, campaign_id: int, iteration: int, step: str, attempt: in
 
 
 @app.task(name=STEP_JOBS["preliminary"], bind=True, acks_late=True)
-def preliminary_step(self: Any, campaign_id: int, iteration: int, step: str, attempt: int) -> dict:
+def preliminary_step(self: Any, campaign_id: int, iteration: int, step: str, attempt: int) -> dict[str, Any]:
     return _run_step(self, campaign_id, iteration, step, attempt)
 
 
 @app.task(name=STEP_JOBS["train"], bind=True, acks_late=True)
-def train_step(self: Any, campaign_id: int, iteration: int, step: str, attempt: int) -> dict:
+def train_step(self: Any, campaign_id: int, iteration: int, step: str, attempt: int) -> dict[str, Any]:
     return _run_step(self, campaign_id, iteration, step, attempt)
 
 
 @app.task(name=STEP_JOBS["ocp"], bind=True, acks_late=True)
-def ocp_step(self: Any, campaign_id: int, iteration: int, step: str, attempt: int) -> dict:
+def ocp_step(self: Any, campaign_id: int, iteration: int, step: str, attempt: int) -> dict[str, Any]:
     return _run_step(self, campaign_id, iteration, step, attempt)
 
 
 @app.task(name=STEP_JOBS["oracle"], bind=True, acks_late=True)
-def oracle_step(self: Any, campaign_id: int, iteration: int, step: str, attempt: int) -> dict:
+def oracle_step(self: Any, campaign_id: int, iteration: int, step: str, attempt: int) -> dict[str, Any]:
     return _run_step(self, campaign_id, iteration, step, attempt)
 
 
 @app.task(name=STEP_JOBS["evaluate"], bind=True, acks_late=True)
-def evaluate_step(self: Any, campaign_id: int, iteration: int, step: str, attempt: int) -> dict:
+def evaluate_step(self: Any, campaign_id: int, iteration: int, step: str, attempt: int) -> dict[str, Any]:
     return _run_step(self, campaign_id, iteration, step, attempt)
 
 
 @app.task(name=STEP_JOBS["append"], bind=True, acks_late=True)
-def append_step(self: Any, campaign_id: int, iteration: int, step: str, attempt: int) -> dict:
+def append_step(self: Any, campaign_id: int, iteration: int, step: str, attempt: int) -> dict[str, Any]:
     return _run_step(self, campaign_id, iteration, step, attempt)
 
 
@@ -97,7 +100,7 @@ def reconcile(self: Any) -> int:
     return len(reconcile_and_enqueue())
 
 
-_reconciler: Any = None
+_reconciler: ReconcilerThread | None = None
 
 
 @signals.worker_ready.connect

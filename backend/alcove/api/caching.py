@@ -18,7 +18,9 @@ from starlette.concurrency import run_in_threadpool
 from alcove.db import get_engine
 
 #: ``responses=`` entry of a route answering 304 to a matching ``If-None-Match``.
-NOT_MODIFIED = {304: {"description": "not modified (the `If-None-Match` ETag still matches)"}}
+NOT_MODIFIED: dict[int | str, dict[str, Any]] = {
+    304: {"description": "not modified (the `If-None-Match` ETag still matches)"}
+}
 
 
 class ResponseCache:

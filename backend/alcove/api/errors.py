@@ -11,6 +11,7 @@ Every client mistake gets a 4xx with a readable body, never a 500:
 from __future__ import annotations
 
 import logging
+from collections.abc import Awaitable, Callable
 from typing import Any
 
 from fastapi import FastAPI, Request
@@ -87,7 +88,8 @@ def _validation_detail(errors: list[Any]) -> list[dict[str, Any]]:
             "type": e.get("type", "value_error"),
         }
         out.append(item)
-    return jsonable_encoder(out)
+    detail: list[dict[str, Any]] = jsonable_encoder(out)  # typed Any; a list of dicts in, a list of dicts out
+    return detail
 
 
 def install_error_handlers(app: FastAPI) -> None:
@@ -107,7 +109,9 @@ def install_error_handlers(app: FastAPI) -> None:
             status_code=422,
         )
 
-    def simple(status: int, headers: dict[str, str] | None = None):
+    def simple(
+        status: int, headers: dict[str, str] | None = None
+    ) -> Callable[[Request, Exception], Awaitable[JSONResponse]]:
         async def handler(request: Request, err: Exception) -> JSONResponse:
             return JSONResponse({"detail": getattr(err, "message", str(err))}, status_code=status, headers=headers)
 

@@ -12,17 +12,8 @@ from typing import Any
 import sqlalchemy as sa
 from sqlalchemy.orm import Session
 
-from alcove.models import (
-    OracleDefinition,
-    OracleVersion,
-    Role,
-    SurrogateConfig,
-    SurrogateConfigVersion,
-    TaskDefinition,
-    TaskVersion,
-    User,
-    spec_hash,
-)
+from alcove.models import Role, User, spec_hash
+from alcove.versioning import ORACLES, SURROGATE_CONFIGS, TASKS, D, Kind, V
 
 
 def local_user(s: Session, email: str = "admin@alcove.local") -> User:
@@ -40,39 +31,40 @@ def local_user(s: Session, email: str = "admin@alcove.local") -> User:
 def _find_or_create(
     s: Session,
     owner_id: int,
-    definition_cls: Any,
-    version_cls: Any,
-    fk: str,
+    kind: Kind[D, V],
     preset_key: str,
     name: str,
     spec: dict[str, Any],
     **version_fields: Any,
 ) -> int:
+    definition_cls, version_cls = kind.definition, kind.version
     h = spec_hash(spec)
     q = (
         sa.select(version_cls.id)
-        .join(definition_cls, getattr(version_cls, fk) == definition_cls.id)
+        .join(definition_cls, kind.parent_column == definition_cls.id)
         .where(definition_cls.owner_id == owner_id, definition_cls.preset_key == preset_key, version_cls.spec_hash == h)
     )
-    for k, v in version_fields.items():
-        q = q.where(getattr(version_cls, k) == v)
+    for k, value in version_fields.items():
+        q = q.where(getattr(version_cls, k) == value)
     found = s.scalar(q.order_by(version_cls.id.desc()).limit(1))
     if found is not None:
         return found
     d = definition_cls(owner_id=owner_id, name=name, preset_key=preset_key, latest_version=1)
     s.add(d)
     s.flush()
-    v = version_cls(version=1, spec=spec, spec_hash=h, created_by_id=owner_id, **{fk: d.id}, **version_fields)
-    s.add(v)
+    version = version_cls(
+        version=1, spec=spec, spec_hash=h, created_by_id=owner_id, **{kind.parent_key: d.id}, **version_fields
+    )
+    s.add(version)
     s.flush()
-    return v.id
+    return version.id
 
 
 def task_version_from_preset(s: Session, owner_id: int, preset: str, spec: dict[str, Any] | None = None) -> int:
     from alcove.science.ocp.task_spec import task_preset
 
     body = spec if spec is not None else task_preset(preset).model_dump(mode="json")
-    return _find_or_create(s, owner_id, TaskDefinition, TaskVersion, "definition_id", preset, preset, body)
+    return _find_or_create(s, owner_id, TASKS, preset, preset, body)
 
 
 def oracle_version_for(s: Session, owner_id: int, oracle_type: str, params: dict[str, Any] | None = None) -> int:
@@ -80,23 +72,11 @@ def oracle_version_for(s: Session, owner_id: int, oracle_type: str, params: dict
 
     oracle = build_oracle(oracle_type, params or {})  # validates; raises OracleInputError naming the field
     body = oracle.params.model_dump(mode="json")
-    return _find_or_create(
-        s,
-        owner_id,
-        OracleDefinition,
-        OracleVersion,
-        "definition_id",
-        oracle_type,
-        oracle_type,
-        body,
-        oracle_type=oracle_type,
-    )
+    return _find_or_create(s, owner_id, ORACLES, oracle_type, oracle_type, body, oracle_type=oracle_type)
 
 
 def surrogate_config_version_for(s: Session, owner_id: int, config: dict[str, Any] | None = None) -> int:
     from alcove.science.surrogate.config import SurrogateConfig as ScienceConfig
 
     body = ScienceConfig.parse(config or {}).model_dump(mode="json")
-    return _find_or_create(
-        s, owner_id, SurrogateConfig, SurrogateConfigVersion, "config_id", "paper-default", "surrogate", body
-    )
+    return _find_or_create(s, owner_id, SURROGATE_CONFIGS, "paper-default", "surrogate", body)

@@ -171,16 +171,16 @@ def run_step(
             s, c, ref, row, outcome, result=base, error=failure.message, wall_time_s=time.perf_counter() - t_job
         )
 
-    jobs = transaction(complete)
-    if jobs is None:
+    next_jobs = transaction(complete)
+    if next_jobs is None:
         return {"status": "lost", "step": str(ref), "attempt": attempt}
-    send(jobs)
+    send(next_jobs)
     ended = "done" if failure is None else ("cancelled" if failure.outcome is Outcome.cancelled else "failed")
     return {
         "status": ended,
         "step": str(ref),
         "attempt": attempt,
-        "next": [f"{j.iteration}/{j.step.value}#{j.attempt}" for j in jobs],
+        "next": [f"{j.iteration}/{j.step.value}#{j.attempt}" for j in next_jobs],
         **timing,
         "total_s": time.perf_counter() - t_job,
     }

@@ -26,7 +26,7 @@ from alcove.campaigns import repository as repo
 from alcove.campaigns import transitions
 from alcove.campaigns.schemas import StepJob
 from alcove.campaigns.state_machine import Outcome, StepRef
-from alcove.models import StepName, StepStatus, utcnow
+from alcove.models import Campaign, StepName, StepStatus, utcnow
 
 log = logging.getLogger(__name__)
 
@@ -75,7 +75,7 @@ def reconcile(s: Session, *, stale_queued_s: float) -> list[StepJob]:
     return jobs
 
 
-def _policy(s: Session, c, ref: StepRef) -> Outcome:
+def _policy(s: Session, c: Campaign, ref: StepRef) -> Outcome:
     from alcove.campaigns.protocol import policy_outcome
 
     return policy_outcome(transitions.current_config(s, c), ref)

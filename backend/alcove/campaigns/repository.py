@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from datetime import datetime, timedelta
+from typing import Any, TypeVarTuple
 
 import sqlalchemy as sa
 from sqlalchemy.orm import Session, selectinload
@@ -21,6 +22,8 @@ from alcove.models import (
     utcnow,
 )
 from alcove.users.access import visible_clause
+
+Ts = TypeVarTuple("Ts")
 
 
 def get_campaign(s: Session, campaign_id: int, *, lock: bool = False) -> Campaign:
@@ -158,7 +161,7 @@ def owned_running_step(s: Session, step_id: int, token: str) -> IterationStep | 
     )
 
 
-def _skip_locked(s: Session, q: sa.Select) -> sa.Select:
+def _skip_locked(s: Session, q: sa.Select[*Ts]) -> sa.Select[*Ts]:
     """On PostgreSQL, concurrent reconcilers (one per worker) each take different rows."""
     if s.get_bind().dialect.name == "postgresql":
         return q.with_for_update(skip_locked=True, of=IterationStep)
@@ -282,7 +285,7 @@ def add_event(
     *,
     iteration: int | None = None,
     step: str | None = None,
-    data: dict | None = None,
+    data: dict[str, Any] | None = None,
 ) -> None:
     s.add(
         CampaignEvent(

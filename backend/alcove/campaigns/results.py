@@ -143,10 +143,13 @@ def iteration_trajectory(s: Session, campaign_id: int, iteration: int) -> Iterat
     cid, k = holder(s, c.id, iteration)
     it = repo.get_iteration(s, cid, k)
     sol = solving_repo.latest_of_iteration(s, it.id) if it is not None else None
-    if sol is None or sol.trajectory_sha256 is None:
+    if it is None or sol is None or sol.trajectory_sha256 is None:
         raise NotFound("iteration", message=no_solution_message(campaign_id, iteration))
     owner = c if cid == c.id else s.get(Campaign, cid)
-    spec = s.get(TaskVersion, owner.task_version_id).spec
+    assert owner is not None  # holder() found campaign cid
+    task_version = s.get(TaskVersion, owner.task_version_id)
+    assert task_version is not None  # a campaign's task version cannot be deleted (foreign key, RESTRICT)
+    spec = task_version.spec
     cv = s.get(CampaignConfigVersion, it.config_version_id) if it.config_version_id else None
     settings = (config_from_version(cv) if cv is not None else current_config(s, owner)).settings
     a = get_arrays(s, sol.trajectory_sha256)

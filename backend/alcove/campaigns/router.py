@@ -165,7 +165,7 @@ def update_campaign_config(
     return campaign_out(session, campaign, user)
 
 
-def _action(name: str, summary: str):
+def _action(name: str, summary: str) -> None:
     fn = getattr(campaigns, name)
 
     def route(campaign_id: ObjectId, user: CurrentUser, session: SessionDep) -> CampaignOut:

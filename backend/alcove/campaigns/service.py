@@ -10,6 +10,8 @@ with :func:`alcove.jobs.campaign.enqueue` AFTER committing::
 
 from __future__ import annotations
 
+from datetime import datetime
+
 from sqlalchemy.orm import Session
 
 from alcove.campaigns import repository as repo
@@ -46,6 +48,7 @@ from alcove.models import (
     utcnow,
 )
 from alcove.pool import repository as pool_repo
+from alcove.versioning import V
 
 __all__ = [
     "InvalidTransition",
@@ -75,14 +78,15 @@ def _check_definitions(
 
 def _lock_definitions(s: Session, campaign: Campaign) -> None:
     now = utcnow()
-    for model, ident in (
-        (TaskVersion, campaign.task_version_id),
-        (OracleVersion, campaign.oracle_version_id),
-        (SurrogateConfigVersion, campaign.surrogate_config_version_id),
-    ):
-        row = s.get(model, ident)
-        if row is not None and row.locked_at is None:
-            row.locked_at = now
+    _lock_version(s, TaskVersion, campaign.task_version_id, now)
+    _lock_version(s, OracleVersion, campaign.oracle_version_id, now)
+    _lock_version(s, SurrogateConfigVersion, campaign.surrogate_config_version_id, now)
+
+
+def _lock_version(s: Session, model: type[V], ident: int, now: datetime) -> None:
+    row = s.get(model, ident)
+    if row is not None and row.locked_at is None:
+        row.locked_at = now
 
 
 def create_campaign(

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import os
 from pathlib import Path
+from typing import Any
 
 from alembic import command
 from alembic.config import Config
@@ -69,7 +70,7 @@ def is_up_to_date(url: str | None = None) -> bool:
     return current_revision(url) == head_revision()
 
 
-def schema_diff(url: str | None = None) -> list:
+def schema_diff(url: str | None = None) -> list[Any]:
     """Differences between the models and the migrated database (empty = they agree)."""
     from alembic.autogenerate import compare_metadata
 
@@ -82,6 +83,7 @@ def schema_diff(url: str | None = None) -> list:
             mc = MigrationContext.configure(
                 conn, opts={"compare_type": True, "compare_server_default": False, "render_as_batch": True}
             )
-            return compare_metadata(mc, Base.metadata)
+            diffs: list[Any] = compare_metadata(mc, Base.metadata)  # typed Any: a list of diff tuples (or lists)
+            return diffs
     finally:
         engine.dispose()

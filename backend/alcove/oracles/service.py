@@ -16,7 +16,7 @@ from alcove.errors import Conflict, FieldError, InvalidInput, NotFound, field_er
 from alcove.models import CommandOracle, OracleDefinition, User
 from alcove.oracles import repository as repo
 from alcove.oracles.schemas import CommandOracleIn
-from alcove.science.oracles.base import OracleInputError
+from alcove.science.oracles.base import OracleInputError, OracleParams
 from alcove.science.oracles.registry import BUILTIN_TYPE_NAMES, ORACLE_TYPES, list_oracle_types
 from alcove.settings import get_settings
 
@@ -136,7 +136,7 @@ def delete_command(session: Session, entry_id: int) -> None:
 # ----------------------------------------------------------------------------- types and params
 
 
-def _params_model(type_name: str, catalogue: Mapping[str, Any]) -> Any:
+def _params_model(type_name: str, catalogue: Mapping[str, Any]) -> type[OracleParams]:
     if type_name in ORACLE_TYPES:
         return ORACLE_TYPES[type_name].params_model
     if type_name in catalogue:

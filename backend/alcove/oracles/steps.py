@@ -66,6 +66,8 @@ def replay(
         oracle = load_oracle(s, oracle_version_id, task.preset())
         arrays = get_arrays(s, trajectory_sha256)
     traj = replay_trajectory(arrays, task, replay_phases, replay_dt)
+    tau = traj.tau
+    assert tau is not None  # replay_trajectory always carries the solution's torques
     started = utcnow()
     t0 = time.perf_counter()
     res = oracle.run(traj, cancel=run.cancelled)
@@ -76,7 +78,7 @@ def replay(
     diagnostics = json_safe(res.diagnostics)
 
     def write(s: Session, at: IterationRef) -> dict[str, Any]:
-        in_sha = put_arrays(s, {"t": traj.t, "q": traj.q, "qd": traj.qd, "tau": traj.tau})
+        in_sha = put_arrays(s, {"t": traj.t, "q": traj.q, "qd": traj.qd, "tau": tau})
         f = res.forces
         out_sha = put_arrays(s, {"t": f.t, "f": np.hstack([f.force, f.moment])}) if f is not None else None
         row = OracleRun(

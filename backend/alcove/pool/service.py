@@ -165,7 +165,7 @@ def load_training_pool(s: Session, pool_version: PoolVersion) -> list[PoolDatase
     Cached per process by pool version (versions are immutable): version k is built from a
     cached version k-1 plus the datasets k added, so a worker training iteration after
     iteration reads only the new rows, not the whole pool."""
-    url = str(s.get_bind().url)
+    url = str(s.get_bind().engine.url)  # the bind is an Engine or a Connection; .engine is the Engine of either
     got = _cached_pool(url, pool_version.id, pool_version.content_hash)
     if got is not None:
         return list(got)

@@ -26,7 +26,7 @@ from alcove.users.auth import CurrentUser
 
 router = APIRouter(tags=["previews"])
 
-RATE_LIMITED = {
+RATE_LIMITED: dict[int | str, dict[str, Any]] = {
     429: {
         "description": f"too many previews pending (at most {service.MAX_ACTIVE_PER_USER}): retry later",
         "content": {"application/json": {"schema": {"type": "object", "properties": {"detail": {"type": "string"}}}}},

@@ -67,7 +67,7 @@ def library_versions() -> dict[str, str]:
         "numpy": np.__version__,
         "scipy": scipy.__version__,
         "torch": torch.__version__,
-        "casadi": casadi.__version__,
+        "casadi": casadi.__version__,  # type: ignore[attr-defined]  # set by casadi/__init__.py, missing from its .pyi
     }
 
 
@@ -146,7 +146,8 @@ def software_versions() -> dict[str, Any]:
 def artifact_document(s: Session, mv: ModelVersion) -> dict[str, Any]:
     if mv.artifact_sha256 is None:
         raise ValueError(f"model version {mv.id} has no artifact")
-    return json.loads(get_bytes(s, mv.artifact_sha256))
+    document: dict[str, Any] = json.loads(get_bytes(s, mv.artifact_sha256))  # the JSON object store_model wrote
+    return document
 
 
 def load_model(s: Session, mv: ModelVersion) -> SurrogateModel:

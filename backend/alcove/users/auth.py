@@ -90,7 +90,9 @@ def _touch(token_id: int) -> datetime:
 
 
 async def current_user(request: Request, token: Annotated[ApiToken, Depends(current_token)]) -> User:
-    return request.state.user
+    user = request.state.user  # set by current_token
+    assert isinstance(user, User)  # request.state is untyped
+    return user
 
 
 async def admin_user(user: Annotated[User, Depends(current_user)]) -> User:

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from typing import Annotated
+from typing import Annotated, Any
 
 from fastapi import APIRouter, Query, Request, Response, status
 
@@ -11,6 +11,7 @@ from alcove.api.deps import SessionDep
 from alcove.api.errors import ErrorOut
 from alcove.api.params import MAX_ID, ObjectId
 from alcove.errors import LoginLocked
+from alcove.models import ApiToken
 from alcove.users import repository as repo
 from alcove.users import service
 from alcove.users.auth import AdminUser, CurrentToken, CurrentUser
@@ -32,13 +33,13 @@ from alcove.users.schemas import (
 
 router = APIRouter()
 
-AUTH_ERRORS = {
+AUTH_ERRORS: dict[int | str, dict[str, Any]] = {
     401: {"model": ErrorOut, "description": "wrong e-mail or password (the same for an unknown e-mail)"},
     429: {"model": ErrorOut, "description": "too many failed logins: wait the seconds in Retry-After"},
 }
 
 
-def _token_out(token, secret: str | None = None) -> TokenOut:
+def _token_out(token: ApiToken, secret: str | None = None) -> TokenOut:
     data = {
         c: getattr(token, c)
         for c in ("id", "name", "kind", "token_prefix", "created_at", "last_used_at", "expires_at", "revoked_at")
@@ -49,7 +50,8 @@ def _token_out(token, secret: str | None = None) -> TokenOut:
 
 def login_throttle(request: Request) -> LoginThrottle:
     """The app's login throttle (:func:`alcove.app.create_app` makes one per app)."""
-    return request.app.state.login_throttle
+    throttle: LoginThrottle = request.app.state.login_throttle  # app.state is untyped; set by create_app
+    return throttle
 
 
 @router.post("/auth/login", response_model=LoginOut, tags=["auth"], operation_id="login", responses=AUTH_ERRORS)

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from typing import Any
+
 import typer
 
 app = typer.Typer(
@@ -9,7 +11,7 @@ app = typer.Typer(
 )
 
 
-def _url_option() -> str | None:
+def _url_option() -> Any:  # typer.Option's marker, typed Any so that it can default a `str | None` parameter
     return typer.Option(
         None, "--url", help="SQLAlchemy URL (default: ALCOVE_DATABASE_URL or SQLite in ALCOVE_DATA_DIR)"
     )

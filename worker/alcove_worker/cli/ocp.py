@@ -12,9 +12,12 @@ from __future__ import annotations
 
 import json
 from pathlib import Path
-from typing import NoReturn
+from typing import TYPE_CHECKING, NoReturn
 
 import typer
+
+if TYPE_CHECKING:
+    from alcove.science.ocp.task_spec import TaskSpec
 
 app = typer.Typer(help="Optimal control of the multibody model (DMOCC + IPOPT).", no_args_is_help=True)
 
@@ -27,7 +30,7 @@ def _bad_input(field: str, reason: str) -> NoReturn:
     raise typer.Exit(EXIT_BAD_INPUT)
 
 
-def _load_task(task: str | None, task_file: Path | None, intervals: int | None):
+def _load_task(task: str | None, task_file: Path | None, intervals: int | None) -> TaskSpec:
     from alcove.science.ocp.task_spec import TaskSpecError, parse_task, task_preset
 
     try:

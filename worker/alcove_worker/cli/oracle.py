@@ -10,9 +10,13 @@ from __future__ import annotations
 import json
 import sys
 from pathlib import Path
-from typing import Any, NoReturn
+from typing import TYPE_CHECKING, Any, NoReturn
 
 import typer
+
+if TYPE_CHECKING:
+    from alcove.science.oracles.base import OracleResult
+    from alcove.science.oracles.command import CommandOracleSpec
 
 app = typer.Typer(help="Run oracles (the ground truth of a campaign) and inspect their types.", no_args_is_help=True)
 
@@ -25,7 +29,7 @@ def _bad_input(field: str, reason: str) -> NoReturn:
     raise typer.Exit(EXIT_BAD_INPUT)
 
 
-def _catalogue(path: Path | None, needed: bool):
+def _catalogue(path: Path | None, needed: bool) -> dict[str, CommandOracleSpec] | None:
     """The command catalogue from ``--catalogue`` or ``ALCOVE_COMMAND_ORACLES_FILE`` (None if neither)."""
     from alcove.science.oracles.command import CatalogueError, load_command_catalogue
 
@@ -55,7 +59,7 @@ def _read_params(path: Path | None) -> dict[str, Any]:
     return data
 
 
-def run_summary(oracle_name: str, result: Any, out: Path | None) -> dict[str, Any]:
+def run_summary(oracle_name: str, result: OracleResult, out: Path | None) -> dict[str, Any]:
     """The ``--json`` summary: status, wall time, peak force, max penetration, dissipated energy, Newton iterations."""
     from alcove.science.json_values import json_safe
     from alcove.science.oracles.registry import SUMMARY_DIAGNOSTICS as SUMMARY_KEYS
@@ -64,7 +68,7 @@ def run_summary(oracle_name: str, result: Any, out: Path | None) -> dict[str, An
     if headline["newton_iterations"] is None:  # the FE oracle reports its total under this name
         headline["newton_iterations"] = result.diagnostics.get("newton_iterations_total")
     extra = {k: v for k, v in result.diagnostics.items() if k not in SUMMARY_KEYS}
-    return json_safe(
+    summary: dict[str, Any] = json_safe(  # typed Any; a dict in, a dict out
         {
             "status": "ok" if result.ok else "failed",
             "oracle": oracle_name,
@@ -77,6 +81,7 @@ def run_summary(oracle_name: str, result: Any, out: Path | None) -> dict[str, An
             "diagnostics": extra,
         }
     )
+    return summary
 
 
 @app.command("run")
@@ -113,13 +118,15 @@ def run(
     except (OracleCancelled, KeyboardInterrupt):
         typer.echo("error: cancelled", err=True)
         raise typer.Exit(130) from None
+    forces = result.forces if result.ok else None
     if result.ok:
-        result.forces.to_csv(out)
+        assert forces is not None  # an oracle's result that passed its quality gate carries the forces
+        forces.to_csv(out)
     if json_output:
         typer.echo(json.dumps(run_summary(oracle, result, out if result.ok else None), indent=2))
-    elif result.ok:
-        peak = result.forces.peak_force
-        typer.echo(f"ok: {len(result.forces)} samples, peak force {peak:.4g} N, {result.wall_time:.3g} s -> {out}")
+    elif forces is not None:
+        peak = forces.peak_force
+        typer.echo(f"ok: {len(forces)} samples, peak force {peak:.4g} N, {result.wall_time:.3g} s -> {out}")
     if not result.ok:
         typer.echo(f"failed: {result.failure_reason}", err=True)
         raise typer.Exit(EXIT_FAILED_RUN)

@@ -18,9 +18,13 @@ from __future__ import annotations
 
 import json
 from pathlib import Path
-from typing import Any, NoReturn
+from typing import TYPE_CHECKING, Any, NoReturn
 
 import typer
+
+if TYPE_CHECKING:
+    from alcove.science.geometry import HeadNeckPreset
+    from alcove.science.surrogate.dataset import PoolDataset
 
 app = typer.Typer(
     help="Train contact surrogates (two MLPs), predict with them, write preliminary data.", no_args_is_help=True
@@ -34,7 +38,7 @@ def _bad_input(field: str, reason: str) -> NoReturn:
     raise typer.Exit(EXIT_BAD_INPUT)
 
 
-def _task_preset(task: str | None, task_file: Path | None):  # type: ignore[no-untyped-def]
+def _task_preset(task: str | None, task_file: Path | None) -> HeadNeckPreset:
     from alcove.science.geometry import DEFAULT_PRESET
 
     if task is None and task_file is None:
@@ -46,14 +50,15 @@ def _task_preset(task: str | None, task_file: Path | None):  # type: ignore[no-u
             if not task_file.exists():
                 _bad_input("task-file", f"{task_file} does not exist")
             return parse_task(task_file).preset()
-        return task_preset(task).preset()  # type: ignore[arg-type]
+        assert task is not None  # task and task_file are not both None (returned above)
+        return task_preset(task).preset()
     except TaskSpecError as exc:
         _bad_input(exc.field, exc.reason)
 
 
 def _campaign_inputs(
     campaign_id: int, database_url: str | None
-) -> tuple[list, dict[str, Any], Any, int, dict[str, Any]]:
+) -> tuple[list[PoolDataset], dict[str, Any], HeadNeckPreset, int, dict[str, Any]]:
     """Pool, surrogate config, preset, seed and lineage of a campaign's latest pool version."""
     try:
         import sqlalchemy as sa
@@ -112,7 +117,10 @@ def _print_metrics(metrics: dict[str, Any], out: Path) -> None:
     for split in ("train", "validation", "test"):
         table.add_column(f"RMSE {split}", justify="right")
     table.add_column("epochs (best)", justify="right")
-    fmt = lambda v: "-" if v is None else f"{v:.4g}"  # noqa: E731
+
+    def fmt(v: float | None) -> str:
+        return "-" if v is None else f"{v:.4g}"
+
     for net, unit in (("force", "N"), ("moment", "N m")):
         r = metrics["rmse"][net]
         table.add_row(

@@ -4,6 +4,7 @@ command line (for the first users, scripts and CI), against the configured datab
 from __future__ import annotations
 
 import json
+from typing import NoReturn, TypedDict
 
 import typer
 
@@ -11,7 +12,17 @@ user_app = typer.Typer(help="User accounts (admin / member).", no_args_is_help=T
 token_app = typer.Typer(help="Personal API tokens.", no_args_is_help=True)
 
 
-def _fail(field: str, reason: str) -> None:
+class _UserRow(TypedDict):
+    """A user as `alcove user list` prints it (and its --json)."""
+
+    id: int
+    email: str
+    role: str
+    active: bool
+    last_login_at: str | None
+
+
+def _fail(field: str, reason: str) -> NoReturn:
     typer.echo(f"error: {field}: {reason}", err=True)
     raise typer.Exit(2)
 
@@ -62,7 +73,7 @@ def list_users(as_json: bool = typer.Option(False, "--json", help="print JSON"))
     from alcove.users import repository
 
     with session_scope() as s:
-        rows = [
+        rows: list[_UserRow] = [
             {
                 "id": u.id,
                 "email": u.email,
