@@ -45,10 +45,10 @@ def client_address(request: Request, proxies: Sequence[IPNetwork]) -> str:
     """The client's address as a string (normalised when it is an IP address)."""
     peer_text = request.client.host if request.client else ""
     peer = parse_ip(peer_text)
-    if not _trusted(peer, proxies):
+    if peer is None or not _trusted(peer, proxies):
         return str(peer) if peer is not None else (peer_text or "unknown")
     hops = [h for value in request.headers.getlist("x-forwarded-for") for h in value.split(",") if h.strip()]
-    client: IPAddress = peer  # type: ignore[assignment]
+    client: IPAddress = peer
     for hop in reversed(hops):
         ip = parse_ip(hop)
         if ip is None:  # garbage: keep the last address a trusted proxy vouched for

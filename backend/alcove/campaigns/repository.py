@@ -230,7 +230,7 @@ def finished_iteration_times(s: Session, campaign_id: int) -> list[tuple[int, st
         .where(Iteration.campaign_id == campaign_id, Iteration.index > 0)
         .order_by(Iteration.index)
     )
-    return [tuple(r) for r in s.execute(q)]  # type: ignore[misc]
+    return [(index, status, started, finished) for index, status, started, finished in s.execute(q)]
 
 
 def events(

@@ -90,7 +90,7 @@ def list_visible(
     )
     if not include_archived:
         q = q.where(d.archived_at.is_(None))
-    return [tuple(r) for r in session.execute(q).all()]  # type: ignore[misc]
+    return [(definition, version, email) for definition, version, email in session.execute(q).all()]
 
 
 def latest(session: Session, kind: Kind[D, V], definition: D) -> V:

@@ -180,8 +180,9 @@ def train(
         pool, config_data, preset, default_seed, lineage = _campaign_inputs(campaign, database_url)
     else:
         preset = _task_preset(task, task_file)
+        assert pool_dir is not None  # exactly one of --pool and --campaign (checked above)
         try:
-            pool = load_pool_dir(pool_dir)  # type: ignore[arg-type]
+            pool = load_pool_dir(pool_dir)
         except PoolDataError as exc:
             _bad_input(f"pool: {exc.field}", exc.reason)
         default_seed = None
