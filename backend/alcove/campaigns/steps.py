@@ -24,7 +24,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING, Any, TypedDict
 
 import numpy as np
 from sqlalchemy.orm import Session
@@ -48,6 +48,10 @@ from alcove.surrogates import steps as surrogate_steps
 from alcove.surrogates.service import software_versions
 from alcove.tasks.service import load_task
 
+if TYPE_CHECKING:
+    from alcove.science.geometry import HeadNeckPreset
+    from alcove.science.ocp.task_spec import TaskSpec
+
 
 @dataclass
 class StepContext:
@@ -64,7 +68,7 @@ class StepContext:
         """Test processes only: the fault a test injected (a sleep, an error)."""
         apply_before_compute(self.run, self.ref.step.value)
 
-    def task(self, s: Session, c: Campaign) -> Any:
+    def task(self, s: Session, c: Campaign) -> TaskSpec:
         return load_task(s, c.task_version_id, self.config.settings.ocp_intervals)
 
 
@@ -99,6 +103,18 @@ def preliminary(ctx: StepContext) -> StepOutput:
     return pool_steps.build_preliminary(ctx.run, spec, preset)
 
 
+class _TrainInputs(TypedDict):
+    """What the training step reads in its read transaction (the keywords of surrogates.steps.train)."""
+
+    pool_version_id: int
+    spec: dict[str, Any]
+    config_version_id: int
+    seed: int
+    parent_model_id: int | None
+    preset: HeadNeckPreset
+    lineage: dict[str, Any]
+
+
 def train(ctx: StepContext) -> StepOutput:
     ctx.before_compute()
     with session_scope() as s:
@@ -109,7 +125,7 @@ def train(ctx: StepContext) -> StepOutput:
         if pv is None or scv is None:
             raise RuntimeError(f"pool version {ctx.k - 1} or the surrogate config of iteration {ctx.k} does not exist")
         parent = surrogates_repo.version_of(s, c.id, ctx.k - 1)
-        inputs = {
+        inputs: _TrainInputs = {
             "pool_version_id": pv.id,
             "spec": scv.spec,
             "config_version_id": scv.id,
@@ -173,7 +189,9 @@ def oracle(ctx: StepContext) -> StepOutput:
     return StepOutput(_counting_oracle_time(out.write), out.compute_s)
 
 
-def _counting_oracle_time(write: Callable[[Session, IterationRef], dict[str, Any]] | None) -> Any:
+def _counting_oracle_time(
+    write: Callable[[Session, IterationRef], dict[str, Any]] | None,
+) -> Callable[[Session, IterationRef], dict[str, Any]]:
     def counted(s: Session, at: IterationRef) -> dict[str, Any]:
         result = write(s, at) if write is not None else {}
         c = s.get(Campaign, at.campaign_id)

@@ -5,13 +5,12 @@ Never commits."""
 from __future__ import annotations
 
 from collections.abc import Sequence
-from typing import Any
 
 import sqlalchemy as sa
 from sqlalchemy.orm import Session
 
 from alcove import versioning
-from alcove.models import CommandOracle, OracleDefinition, OracleRun, User
+from alcove.models import CommandOracle, OracleDefinition, OracleRun, OracleVersion, User
 from alcove.users.access import Need, get_for
 
 KIND = versioning.ORACLES
@@ -24,23 +23,23 @@ def get_oracle(s: Session, oracle_id: int, user: User, need: Need = "view") -> O
 
 def list_visible(
     s: Session, user: User, *, include_archived: bool = False, limit: int = 100, offset: int = 0
-) -> list[tuple[Any, Any, str]]:
+) -> list[tuple[OracleDefinition, OracleVersion, str]]:
     return versioning.list_visible(s, KIND, user, include_archived=include_archived, limit=limit, offset=offset)
 
 
-def latest_version(s: Session, definition: OracleDefinition) -> Any:
+def latest_version(s: Session, definition: OracleDefinition) -> OracleVersion:
     return versioning.latest(s, KIND, definition)
 
 
-def versions(s: Session, definition: OracleDefinition) -> Sequence[Any]:
+def versions(s: Session, definition: OracleDefinition) -> Sequence[OracleVersion]:
     return versioning.versions(s, KIND, definition)
 
 
-def get_version(s: Session, definition: OracleDefinition, number: int) -> Any:
+def get_version(s: Session, definition: OracleDefinition, number: int) -> OracleVersion:
     return versioning.get_version(s, KIND, definition, number)
 
 
-def is_used(s: Session, version: Any) -> bool:
+def is_used(s: Session, version: OracleVersion) -> bool:
     return versioning.is_used(s, KIND, version)
 
 

@@ -9,7 +9,7 @@ import json
 import threading
 import time
 from datetime import datetime
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from cachetools import LRUCache
@@ -23,13 +23,18 @@ from alcove.oracles.service import command_catalogue
 from alcove.pool.service import store_dataset
 from alcove.science.json_values import json_safe
 
+if TYPE_CHECKING:
+    from alcove.science.geometry import HeadNeckPreset
+    from alcove.science.ocp.task_spec import TaskSpec
+    from alcove.science.oracles.base import Oracle
+
 #: Oracles built per worker process (an FE oracle builds its mesh once), by type, spec and preset.
-_oracles: LRUCache[tuple[str, str, str], Any] = LRUCache(maxsize=4)
+_oracles: LRUCache[tuple[str, str, str], Oracle] = LRUCache(maxsize=4)
 _oracles_lock = threading.Lock()
 BUILTIN = ("fe-headrest-2d", "aux-penalty")
 
 
-def load_oracle(s: Session, oracle_version_id: int, preset: Any) -> Any:
+def load_oracle(s: Session, oracle_version_id: int, preset: HeadNeckPreset) -> Oracle:
     """The oracle of a version for a model preset, built once per process."""
     from alcove.science.oracles.registry import build_oracle
 
@@ -50,7 +55,7 @@ def load_oracle(s: Session, oracle_version_id: int, preset: Any) -> Any:
 def replay(
     run: StepRun,
     *,
-    task: Any,
+    task: TaskSpec,
     oracle_version_id: int,
     solution_id: int,
     trajectory_sha256: str,
@@ -101,6 +106,7 @@ def replay(
         s.flush()
         out: dict[str, Any] = {"oracle_run_id": row.id, "ok": ok, "wall_time_s": float(res.wall_time)}
         if ok:
+            assert f is not None  # an oracle's result that passed its quality gate carries the forces
             same_grid = len(f.t) == len(traj.t) and np.allclose(f.t, traj.t, rtol=0, atol=1e-12)
             on_grid = traj if same_grid else traj.resample(f.t)
             ds = store_dataset(

@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import math
 import time
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from sqlalchemy.orm import Session
@@ -19,8 +19,12 @@ from alcove.models import ModelVersion, OcpSolution
 from alcove.science.json_values import json_safe
 from alcove.surrogates.service import load_model
 
+if TYPE_CHECKING:
+    from alcove.science.ocp.solve import OcpSolution as Solution
+    from alcove.science.ocp.task_spec import TaskSpec
 
-def stored_solution(s: Session, row: OcpSolution | None, task: Any) -> Any:
+
+def stored_solution(s: Session, row: OcpSolution | None, task: TaskSpec) -> Solution | None:
     """A converged solution rebuilt from the database (an initial guess), or None."""
     from alcove.science.ocp.solve import OcpSolution as Solution
 
@@ -49,7 +53,7 @@ def stored_solution(s: Session, row: OcpSolution | None, task: Any) -> Any:
 
 
 def solve(
-    run: StepRun, *, task: Any, model_version_id: int, previous_solution_id: int | None, initial_guesses: int
+    run: StepRun, *, task: TaskSpec, model_version_id: int, previous_solution_id: int | None, initial_guesses: int
 ) -> StepOutput:
     """Solve ``task`` with the model version's networks as the contact model (their weights
     are NLP parameters: one NLP per architecture and process, reused across versions)."""

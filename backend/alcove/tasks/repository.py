@@ -4,12 +4,11 @@
 from __future__ import annotations
 
 from collections.abc import Sequence
-from typing import Any
 
 from sqlalchemy.orm import Session
 
 from alcove import versioning
-from alcove.models import TaskDefinition, User
+from alcove.models import TaskDefinition, TaskVersion, User
 from alcove.users.access import Need, get_for
 
 KIND = versioning.TASKS
@@ -22,21 +21,21 @@ def get_task(s: Session, task_id: int, user: User, need: Need = "view") -> TaskD
 
 def list_visible(
     s: Session, user: User, *, include_archived: bool = False, limit: int = 100, offset: int = 0
-) -> list[tuple[Any, Any, str]]:
+) -> list[tuple[TaskDefinition, TaskVersion, str]]:
     return versioning.list_visible(s, KIND, user, include_archived=include_archived, limit=limit, offset=offset)
 
 
-def latest_version(s: Session, definition: TaskDefinition) -> Any:
+def latest_version(s: Session, definition: TaskDefinition) -> TaskVersion:
     return versioning.latest(s, KIND, definition)
 
 
-def versions(s: Session, definition: TaskDefinition) -> Sequence[Any]:
+def versions(s: Session, definition: TaskDefinition) -> Sequence[TaskVersion]:
     return versioning.versions(s, KIND, definition)
 
 
-def get_version(s: Session, definition: TaskDefinition, number: int) -> Any:
+def get_version(s: Session, definition: TaskDefinition, number: int) -> TaskVersion:
     return versioning.get_version(s, KIND, definition, number)
 
 
-def is_used(s: Session, version: Any) -> bool:
+def is_used(s: Session, version: TaskVersion) -> bool:
     return versioning.is_used(s, KIND, version)

@@ -116,11 +116,11 @@ def require_valid(spec: Any) -> TaskSpec:
 
 
 #: Parsed tasks by (task version, interval override): a version's spec never changes.
-_tasks: LRUCache[tuple[int, int | None], Any] = LRUCache(maxsize=64)
+_tasks: LRUCache[tuple[int, int | None], TaskSpec] = LRUCache(maxsize=64)
 _tasks_lock = threading.Lock()
 
 
-def load_task(s: Session, task_version_id: int, intervals: int | None = None) -> Any:
+def load_task(s: Session, task_version_id: int, intervals: int | None = None) -> TaskSpec:
     """The task of a version as the OCP code uses it (optionally with another number of
     intervals per phase); parsed once per process."""
     from alcove.models import TaskVersion
