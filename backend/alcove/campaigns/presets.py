@@ -9,9 +9,9 @@ from __future__ import annotations
 
 from typing import Any
 
-import sqlalchemy as sa
 from sqlalchemy.orm import Session
 
+from alcove import versioning
 from alcove.models import (
     OracleDefinition,
     OracleVersion,
@@ -23,13 +23,12 @@ from alcove.models import (
     User,
     spec_hash,
 )
+from alcove.users import repository as users_repo
 
 
 def local_user(s: Session, email: str = "admin@alcove.local") -> User:
     """The first admin (created if there is none) who owns CLI-made campaigns."""
-    user = s.scalar(sa.select(User).where(User.role == Role.admin.value).order_by(User.id).limit(1))
-    if user is None:
-        user = s.scalar(sa.select(User).where(User.email == email))
+    user = users_repo.first_admin(s) or users_repo.user_by_email(s, email)
     if user is None:
         user = User(email=email, display_name="Administrator", role=Role.admin.value)
         s.add(user)
@@ -49,14 +48,7 @@ def _find_or_create(
     **version_fields: Any,
 ) -> int:
     h = spec_hash(spec)
-    q = (
-        sa.select(version_cls.id)
-        .join(definition_cls, getattr(version_cls, fk) == definition_cls.id)
-        .where(definition_cls.owner_id == owner_id, definition_cls.preset_key == preset_key, version_cls.spec_hash == h)
-    )
-    for k, v in version_fields.items():
-        q = q.where(getattr(version_cls, k) == v)
-    found = s.scalar(q.order_by(version_cls.id.desc()).limit(1))
+    found = versioning.preset_version_id(s, definition_cls, version_cls, fk, owner_id, preset_key, h, version_fields)
     if found is not None:
         return found
     d = definition_cls(owner_id=owner_id, name=name, preset_key=preset_key, latest_version=1)

@@ -7,7 +7,7 @@ from collections.abc import Sequence
 import sqlalchemy as sa
 from sqlalchemy.orm import Session
 
-from alcove.models import ApiToken, Share, User, hash_token
+from alcove.models import ApiToken, Role, Share, User, hash_token
 
 
 def user_by_email(session: Session, email: str) -> User | None:
@@ -46,3 +46,9 @@ def shares_of(session: Session, column: sa.ColumnElement, object_id: int) -> Seq
         .where(column == object_id)
         .order_by(Share.id)
     ).all()  # type: ignore[return-value]
+
+
+def first_admin(session: Session) -> User | None:
+    """The administrator with the smallest id."""
+    q = sa.select(User).where(User.role == Role.admin.value).order_by(User.id).limit(1)
+    return session.scalar(q)

@@ -199,3 +199,29 @@ def delete(session: Session, kind: Kind, definition: Any) -> str:
     session.delete(definition)
     session.flush()
     return "deleted"
+
+
+def preset_version_id(
+    session: Session,
+    definition_cls: Any,
+    version_cls: Any,
+    fk: str,
+    owner_id: int,
+    preset_key: str,
+    content_hash: str,
+    version_fields: dict[str, Any],
+) -> int | None:
+    """The newest version of the owner's definitions copied from ``preset_key`` with this
+    content (and these column values), if any."""
+    q = (
+        sa.select(version_cls.id)
+        .join(definition_cls, getattr(version_cls, fk) == definition_cls.id)
+        .where(
+            definition_cls.owner_id == owner_id,
+            definition_cls.preset_key == preset_key,
+            version_cls.spec_hash == content_hash,
+        )
+    )
+    for k, v in version_fields.items():
+        q = q.where(getattr(version_cls, k) == v)
+    return session.scalar(q.order_by(version_cls.id.desc()).limit(1))
