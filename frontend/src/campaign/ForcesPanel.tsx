@@ -48,8 +48,8 @@ export function ForcesPanel({
   const [momentComps, setMomentComps] = useState<Component[]>(["my"]);
   const results = useQueries({ queries: shown.map((it) => iterationQuery(campaignId, it)) });
   const curves = results.map((r) => r.data).filter((d): d is IterationCurves => Boolean(d));
-  const forceTraces = useMemo(() => wrenchTraces(curves, forceComps), [curves.map((c) => c.iteration).join(), forceComps]); // eslint-disable-line
-  const momentTraces = useMemo(() => wrenchTraces(curves, momentComps), [curves.map((c) => c.iteration).join(), momentComps]); // eslint-disable-line
+  const forceTraces = useMemo(() => wrenchTraces(curves, forceComps), [curves.map((c) => c.iteration).join(), forceComps]);
+  const momentTraces = useMemo(() => wrenchTraces(curves, momentComps), [curves.map((c) => c.iteration).join(), momentComps]);
 
   if (available.length === 0) return <Empty title="No iteration has oracle data yet">Forces appear when the first iteration's oracle step is done.</Empty>;
   const error = results.find((r) => r.isError)?.error;
