@@ -1,9 +1,12 @@
 import { useEffect, useState, type FormEvent } from "react";
 import { Link, useNavigate } from "react-router-dom";
-import { componentSchema, useCreateCampaign, useOpenApi, useOracles, useSurrogateConfigs, useTasks } from "../api/hooks";
-import { ApiError, errorMessage } from "../api/errors";
+import { useCreateCampaign } from "../api/campaigns";
+import { componentSchema, useOpenApi, useOracles, useSurrogateConfigs, useTasks, type OpenApiDocument } from "../api/definitions";
+import type { FieldError } from "../api/errors";
 import { ErrorBox, Loading } from "../components/States";
-import { SchemaForm, schemaDefaults } from "../components/SchemaForm";
+import { FieldMessages, SchemaForm, schemaDefaults, schemaFieldPaths, schemaLocalErrors } from "../components/SchemaForm";
+import { ErrorCount, FormErrors, serverProblems } from "../components/FormErrors";
+import { errorView, noErrors, schemaLabel, type ErrorView } from "../lib/formErrors";
 
 /** Editable campaign settings, each a form generated from the API's own schema. */
 const SECTIONS = [
@@ -15,35 +18,58 @@ const SECTIONS = [
 
 export type ConfigDraft = Record<string, Record<string, unknown>>;
 
+export type ConfigKey = (typeof SECTIONS)[number][0];
+
+function sections(only?: readonly string[]) {
+  return SECTIONS.filter(([key]) => !only || only.includes(key));
+}
+
+/** The field paths the config sections show ("stopping.max_iterations", ...), for placing errors. */
+export function configFieldPaths(doc: OpenApiDocument | undefined, only?: readonly string[]): string[] {
+  return sections(only).flatMap(([key, name]) => {
+    const schema = componentSchema(doc, name);
+    return schema ? schemaFieldPaths(schema, schema, key) : [];
+  });
+}
+
+/** The form's own checks of the config (numbers, whole numbers, the schemas' bounds). */
+export function configLocalErrors(doc: OpenApiDocument | undefined, value: ConfigDraft, only?: readonly string[]): FieldError[] {
+  return sections(only).flatMap(([key, name]) => {
+    const schema = componentSchema(doc, name);
+    return schema ? schemaLocalErrors(schema, value[key], schema, key) : [];
+  });
+}
+
+/** The label of a config path, from the schemas' titles and descriptions. */
+export function configLabel(doc: OpenApiDocument | undefined, path: string): string {
+  const [key, ...rest] = path.split(".");
+  const section = SECTIONS.find(([k]) => k === key);
+  const schema = section ? componentSchema(doc, section[1]) : null;
+  return schema ? `${section![2]} › ${schemaLabel(schema, rest.join("."))}` : path;
+}
+
 export function ConfigSections({
   value,
   onChange,
-  errors,
-  prefix = "",
+  errors = noErrors,
   only,
 }: {
   value: ConfigDraft;
   onChange: (v: ConfigDraft) => void;
-  errors: Record<string, string>;
-  prefix?: string;
-  only?: string[];
+  errors?: ErrorView;
+  only?: readonly string[];
 }) {
   const openapi = useOpenApi();
   if (openapi.isPending) return <Loading label="Loading settings form…" />;
   if (openapi.isError) return <ErrorBox error={openapi.error} />;
   return (
     <>
-      {SECTIONS.filter(([key]) => !only || only.includes(key)).map(([key, schemaName, title]) => {
+      {sections(only).map(([key, schemaName, title]) => {
         const schema = componentSchema(openapi.data, schemaName);
         if (!schema) return null;
-        const sectionErrors = Object.fromEntries(
-          Object.entries(errors)
-            .filter(([f]) => f.startsWith(`${prefix}${key}.`))
-            .map(([f, m]) => [f.slice(prefix.length + key.length + 1), m]),
-        );
-        const body = <SchemaForm schema={schema} value={value[key] ?? {}} onChange={(v) => onChange({ ...value, [key]: v })} errors={sectionErrors} />;
+        const body = <SchemaForm schema={schema} value={value[key] ?? {}} onChange={(v) => onChange({ ...value, [key]: v })} errors={errors} prefix={key} />;
         return key === "policies" ? (
-          <details key={key} className="panel">
+          <details key={key} className="panel" open={errors.problems.some((p) => p.field?.startsWith("policies."))}>
             <summary>{title}</summary>
             {body}
           </details>
@@ -94,21 +120,22 @@ export function NewCampaignPage() {
     if (config === null && defaults) setConfig(defaults);
   }, [defaults, config]);
 
-  const fieldErrors = create.error instanceof ApiError ? Object.fromEntries(create.error.fieldErrors.map((e) => [e.field, e.message])) : {};
+  const openapi = useOpenApi();
+  const [submitted, setSubmitted] = useState(false);
+  const own = ["name", "seed", "task_id", "oracle_id", "surrogate_config_id"];
+  const local = config ? configLocalErrors(openapi.data, config) : [];
+  const view = errorView([submitted ? local : [], serverProblems(create.error)], [...own, ...configFieldPaths(openapi.data)], (p) =>
+    own.includes(p) ? p : configLabel(openapi.data, p),
+  );
 
-  async function submit(e: FormEvent) {
+  function submit(e: FormEvent) {
     e.preventDefault();
-    if (taskId === "" || oracleId === "" || !config) return;
-    const created = await create.mutateAsync({
-      name,
-      task_id: taskId,
-      oracle_id: oracleId,
-      surrogate_config_id: surrogateId === "" ? null : surrogateId,
-      seed,
-      start: startNow,
-      ...config,
-    });
-    navigate(`/campaigns/${created.id}`);
+    setSubmitted(true);
+    if (taskId === "" || oracleId === "" || !config || local.length) return;
+    create.mutate(
+      { name, task_id: taskId, oracle_id: oracleId, surrogate_config_id: surrogateId === "" ? null : surrogateId, seed, start: startNow, ...config },
+      { onSuccess: (created) => navigate(`/campaigns/${created.id}`) },
+    );
   }
 
   if (tasks.isPending || oracles.isPending) return <Loading />;
@@ -117,12 +144,13 @@ export function NewCampaignPage() {
   const t = tasks.data ?? [];
   const o = oracles.data ?? [];
   const s = surrogates.data ?? [];
-  const err = (f: string) => fieldErrors[f] && <small className="field-error">{fieldErrors[f]}</small>;
+  const err = (f: string) => <FieldMessages problems={view.at(f)} />;
 
   return (
-    <form onSubmit={submit} style={{ maxWidth: 1100 }}>
+    <form onSubmit={submit} style={{ maxWidth: 1100 }} noValidate>
       <div className="toolbar">
         <h1 style={{ margin: 0 }}>New campaign</h1>
+        {view.problems.length > 0 && <ErrorCount view={view} />}
         <span className="spacer" />
         <label className="field-inline">
           <input type="checkbox" checked={startNow} onChange={(e) => setStartNow(e.target.checked)} /> Start right away
@@ -137,11 +165,7 @@ export function NewCampaignPage() {
           A campaign needs a <Link to="/tasks/new">task</Link> and an <Link to="/oracles/new">oracle</Link> first.
         </p>
       )}
-      {create.isError && (
-        <p className="error-text" role="alert">
-          {errorMessage(create.error)}
-        </p>
-      )}
+      <FormErrors view={view} failure={create.error} />
       <section className="panel">
         <div className="row">
           <div className="field grow">
@@ -151,7 +175,7 @@ export function NewCampaignPage() {
           </div>
           <div className="field">
             <label htmlFor="campaign-seed">Seed</label>
-            <input id="campaign-seed" type="number" min={0} value={seed} onChange={(e) => setSeed(Number(e.target.value))} />
+            <input id="campaign-seed" type="number" min={0} step={1} value={seed} onChange={(e) => setSeed(Number(e.target.value))} />
             {err("seed")}
           </div>
         </div>
@@ -192,7 +216,7 @@ export function NewCampaignPage() {
           </div>
         </div>
       </section>
-      {config && <ConfigSections value={config} onChange={setConfig} errors={fieldErrors} />}
+      {config && <ConfigSections value={config} onChange={setConfig} errors={view} />}
     </form>
   );
 }

@@ -6,7 +6,7 @@ import { TaskEditorPage } from "./TaskEditorPage";
 import { TokensPage } from "./TokensPage";
 import { SignInPage } from "./SignInPage";
 import { jsonResponse, mockApi, renderPage } from "../test/utils";
-import type { CampaignRow } from "../api/hooks";
+import type { CampaignSummary } from "../api/types";
 
 const summary = (id: number, name: string, status: string, force: number | null) => ({
   id,
@@ -67,7 +67,7 @@ describe("campaigns list", () => {
   });
 
   it("sorts missing values last", () => {
-    const rows = [{ id: 1, force_rmse: null }, { id: 2, force_rmse: 3 }, { id: 3, force_rmse: 1 }] as unknown as CampaignRow[];
+    const rows = [{ id: 1, force_rmse: null }, { id: 2, force_rmse: 3 }, { id: 3, force_rmse: 1 }] as unknown as CampaignSummary[];
     expect(sortCampaigns(rows, "force_rmse", false).map((r) => r.id)).toEqual([3, 2, 1]);
     expect(sortCampaigns(rows, "force_rmse", true).map((r) => r.id)).toEqual([2, 3, 1]);
   });
