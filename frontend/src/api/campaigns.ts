@@ -7,7 +7,7 @@ import { columns, type CampaignOut, type CampaignStatus, type CampaignSummary, t
 export { downloadFile } from "./client";
 export const API = "/api/v1";
 
-export function useCampaigns(filters: { status?: string }, poll: number | false = false) {
+export function useCampaigns(filters: { status?: string }) {
   return useQuery({
     queryKey: [...keys.campaigns, filters],
     queryFn: async (): Promise<CampaignSummary[]> => {
@@ -15,19 +15,17 @@ export function useCampaigns(filters: { status?: string }, poll: number | false 
       return unwrap(await client.GET("/api/v1/campaigns", { params: { query: { status, limit: 500 } } }));
     },
     placeholderData: keepPreviousData,
-    refetchInterval: poll,
   });
 }
 
-export function campaignQuery(id: number, poll: number | false = false) {
+export function campaignQuery(id: number) {
   return queryOptions({
     queryKey: keys.campaign(id),
     queryFn: async (): Promise<CampaignOut> => unwrap(await client.GET("/api/v1/campaigns/{campaign_id}", { params: { path: { campaign_id: id } } })),
-    refetchInterval: poll,
   });
 }
-export function useCampaign(id: number, poll: number | false = false) {
-  return useQuery(campaignQuery(id, poll));
+export function useCampaign(id: number) {
+  return useQuery(campaignQuery(id));
 }
 
 /** The stopping rule's iteration limit of a campaign, if it has one. */
@@ -71,16 +69,15 @@ export function iterationQuery(id: number, k: number) {
 }
 
 /** Jobs, newest first. */
-export function useJobs(id: number, poll: number | false = false) {
+export function useJobs(id: number) {
   return useQuery({
     queryKey: keys.jobs(id),
     queryFn: async (): Promise<Job[]> => unwrap(await client.GET("/api/v1/campaigns/{campaign_id}/jobs", { params: { path: { campaign_id: id } } })).reverse(),
-    refetchInterval: poll,
   });
 }
 
 export type PoolVersionRow = PoolVersion & { parent_version: number | null; parquet_url: string; csv_url: string };
-export function usePoolVersions(id: number, poll: number | false = false) {
+export function usePoolVersions(id: number) {
   return useQuery({
     queryKey: keys.pools(id),
     queryFn: async (): Promise<PoolVersionRow[]> => {
@@ -96,12 +93,11 @@ export function usePoolVersions(id: number, poll: number | false = false) {
         }))
         .reverse();
     },
-    refetchInterval: poll,
   });
 }
 
 export type ModelVersionRow = ModelVersion & { pool_version: number | null; parent_version: number | null; artifact_url: string };
-export function useModelVersions(id: number, poll: number | false = false) {
+export function useModelVersions(id: number) {
   return useQuery({
     queryKey: keys.models(id),
     queryFn: async (): Promise<ModelVersionRow[]> => {
@@ -120,7 +116,6 @@ export function useModelVersions(id: number, poll: number | false = false) {
         }))
         .reverse();
     },
-    refetchInterval: poll,
   });
 }
 

@@ -99,7 +99,7 @@ export function backoff(list: number[], failures: number): number {
  * (its timeout), with backoff when it fails; stop when `done()` says so after the server
  * closed it (e.g. the campaign reached a terminal state).
  */
-export function runStream(url: string, opts: { onEvent: (e: CampaignEvent) => void; onState: (s: LiveState, failures: number) => void; done?: () => boolean; signal: AbortSignal }): void {
+export function runStream(url: string, opts: { onEvent: (e: CampaignEvent) => void; onState: (s: LiveState) => void; done?: () => boolean; signal: AbortSignal }): void {
   let after = 0;
   let failures = 0;
   let sawTerminal = false;
@@ -109,7 +109,7 @@ export function runStream(url: string, opts: { onEvent: (e: CampaignEvent) => vo
       opts.signal.addEventListener("abort", () => (clearTimeout(t), resolve()), { once: true });
     });
   void (async () => {
-    opts.onState("connecting", 0);
+    opts.onState("connecting");
     while (!opts.signal.aborted) {
       try {
         after = await readStream(url, {
@@ -117,7 +117,7 @@ export function runStream(url: string, opts: { onEvent: (e: CampaignEvent) => vo
           signal: opts.signal,
           onOpen: () => {
             failures = 0;
-            opts.onState("live", 0);
+            opts.onState("live");
           },
           onEvent: (e) => {
             if (e.id > after) after = e.id;
@@ -128,14 +128,14 @@ export function runStream(url: string, opts: { onEvent: (e: CampaignEvent) => vo
         });
         if (opts.signal.aborted) return;
         if (opts.done && (sawTerminal || opts.done())) {
-          opts.onState("off", 0);
+          opts.onState("off");
           return;
         }
         await sleep(100); // closed by the server's timeout: reconnect
       } catch {
         if (opts.signal.aborted) return;
         failures += 1;
-        opts.onState("down", failures);
+        opts.onState("down");
         await sleep(backoff(RECONNECT_MS, failures));
       }
     }
@@ -204,18 +204,25 @@ export function applyEvents(qc: QueryClient, events: CampaignEvent[]): void {
 /** Events that arrive within this window are applied together. */
 export const BATCH_MS = 50;
 
-/** What a page needs to know of its stream: its state, and how often to poll meanwhile (false: not at all). */
+/** What a page needs to know of its stream: its state, and how often the page is checked meanwhile (false: not at all). */
 export interface Live {
   state: LiveState;
   poll: number | false;
 }
 
-function useStream(url: string | null, onEvents: (e: CampaignEvent[]) => void, done?: () => boolean): Live {
-  const [state, setState] = useState<{ s: LiveState; failures: number }>({ s: "off", failures: 0 });
+/**
+ * Keep a stream open at `url` (null: none). Events are handed on in batches; while the stream
+ * is down, `onPoll` runs every 2 s, then less often (FALLBACK_POLL_MS), until it is up again.
+ */
+function useStream(url: string | null, onEvents: (e: CampaignEvent[]) => void, onPoll: () => void, done?: () => boolean): Live {
+  const [state, setState] = useState<LiveState>("off");
+  const [pollStep, setPollStep] = useState(1);
   const handler = useRef(onEvents);
+  const poller = useRef(onPoll);
   const isDone = useRef(done);
   useEffect(() => {
     handler.current = onEvents;
+    poller.current = onPoll;
     isDone.current = done;
   });
   useEffect(() => {
@@ -235,17 +242,36 @@ function useStream(url: string | null, onEvents: (e: CampaignEvent[]) => void, d
         batch.push(e);
         timer ??= setTimeout(flush, BATCH_MS);
       },
-      onState: (s, failures) => setState({ s, failures }),
+      onState: (s) => setState(s),
       done: () => isDone.current?.() ?? false,
     });
     return () => {
       abort.abort();
       if (timer) clearTimeout(timer);
-      setState({ s: "off", failures: 0 });
+      setState("off");
     };
   }, [url]);
-  const poll = state.s === "down" ? backoff(FALLBACK_POLL_MS, state.failures) : false;
-  return { state: url ? state.s : "off", poll };
+  // the fallback: poll while the stream is down, each wait longer than the last
+  const down = url !== null && state === "down";
+  useEffect(() => {
+    if (!down) return;
+    let n = 1;
+    let timer: ReturnType<typeof setTimeout>;
+    const schedule = () => {
+      timer = setTimeout(() => {
+        poller.current();
+        n += 1;
+        setPollStep(n);
+        schedule();
+      }, backoff(FALLBACK_POLL_MS, n));
+    };
+    schedule();
+    return () => {
+      clearTimeout(timer);
+      setPollStep(1);
+    };
+  }, [down]);
+  return { state: url ? state : "off", poll: down ? backoff(FALLBACK_POLL_MS, pollStep) : false };
 }
 
 /**
@@ -259,17 +285,29 @@ export function useCampaignLive(id: number, status: string | undefined): Live {
   useEffect(() => {
     statusRef.current = status;
   });
-  return useStream(open ? `/api/v1/campaigns/${id}/events/stream` : null, (events) => applyEvents(qc, events.map((e) => ({ ...e, campaign_id: e.campaign_id ?? id }))), () => statusRef.current === undefined || isTerminal(statusRef.current));
+  return useStream(
+    open ? `/api/v1/campaigns/${id}/events/stream` : null,
+    (events) => applyEvents(qc, events.map((e) => ({ ...e, campaign_id: e.campaign_id ?? id }))),
+    () => {
+      // what the events would have refreshed; queries not on screen are only marked stale
+      for (const key of [keys.campaign(id), keys.metrics(id), keys.iterationStates(id), keys.jobs(id), keys.pools(id), keys.models(id)]) void qc.invalidateQueries({ queryKey: key, exact: true });
+    },
+    () => statusRef.current === undefined || isTerminal(statusRef.current),
+  );
 }
 
 /** The campaign list's stream: every campaign the user can see; never closes on a campaign's end. */
 export function useCampaignListLive(enabled = true): Live {
   const qc = useQueryClient();
-  return useStream(enabled ? "/api/v1/campaigns/events/stream" : null, (events) => {
-    // every event changes a row (status, iteration, step, RMSE, ETA); a batch refetches the list once
-    if (events.length) void qc.invalidateQueries({ queryKey: keys.campaigns });
-    // the sparklines of the campaigns that got new metrics
-    for (const id of new Set(events.filter((e) => e.kind === "step_succeeded" && e.step === "evaluate").map((e) => e.campaign_id)))
-      void qc.invalidateQueries({ queryKey: keys.metrics(id), exact: true });
-  });
+  return useStream(
+    enabled ? "/api/v1/campaigns/events/stream" : null,
+    (events) => {
+      // every event changes a row (status, iteration, step, RMSE, ETA); a batch refetches the list once
+      if (events.length) void qc.invalidateQueries({ queryKey: keys.campaigns });
+      // the sparklines of the campaigns that got new metrics
+      for (const id of new Set(events.filter((e) => e.kind === "step_succeeded" && e.step === "evaluate").map((e) => e.campaign_id)))
+        void qc.invalidateQueries({ queryKey: keys.metrics(id), exact: true });
+    },
+    () => void qc.invalidateQueries({ queryKey: keys.campaigns }),
+  );
 }

@@ -76,7 +76,7 @@ export function metricsCursor(rows: SeriesRow[]): number | undefined {
  * Per-iteration metrics, fetched incrementally: each fetch asks only for iterations after the
  * last one known. A fork's first fetch also asks for the inherited rows of its source chain.
  */
-export function rawMetricsQuery(id: number, poll: number | false = false, inherited = false) {
+export function rawMetricsQuery(id: number, inherited = false) {
   const key = keys.metrics(id);
   return queryOptions({
     queryKey: key,
@@ -87,12 +87,11 @@ export function rawMetricsQuery(id: number, poll: number | false = false, inheri
       const fresh = unwrap(await client.GET("/api/v1/campaigns/{campaign_id}/metrics", { params: { path: { campaign_id: id }, query } })) as SeriesRow[];
       return upsert(known, fresh, (r) => r.iteration_index);
     },
-    refetchInterval: poll,
   });
 }
 
 /** Iteration statuses (to mark failed and quarantined iterations), fetched after the last final one. */
-export function iterationStatesQuery(id: number, poll: number | false = false) {
+export function iterationStatesQuery(id: number) {
   const key = keys.iterationStates(id);
   return queryOptions({
     queryKey: key,
@@ -106,7 +105,6 @@ export function iterationStatesQuery(id: number, poll: number | false = false) {
         (r) => r.iteration,
       );
     },
-    refetchInterval: poll,
   });
 }
 
@@ -147,9 +145,9 @@ export function ensureIteration(qc: QueryClient, id: number, k: number): Promise
  * do. `latest` is the iteration of the campaign's latest metrics as the detail reports it: the
  * series is refetched until it holds it, so the plot never lags the header.
  */
-export function useMetrics(id: number, { poll = false, inherited = false, latest = null, qc }: { poll?: number | false; inherited?: boolean; latest?: number | null; qc: QueryClient }) {
-  const metrics = useQuery(rawMetricsQuery(id, poll, inherited));
-  const states = useQuery(iterationStatesQuery(id, poll));
+export function useMetrics(id: number, { inherited = false, latest = null, qc }: { inherited?: boolean; latest?: number | null; qc: QueryClient }) {
+  const metrics = useQuery(rawMetricsQuery(id, inherited));
+  const states = useQuery(iterationStatesQuery(id));
   const loaded = metrics.isSuccess;
   useEffect(() => {
     if (loaded && latest !== null) void ensureIteration(qc, id, latest);

@@ -26,8 +26,8 @@ function DownloadButton({ path, filename, label }: { path: string; filename: str
   );
 }
 
-export function JobsTable({ campaignId, poll }: { campaignId: number; poll: number | false }) {
-  const jobs = useJobs(campaignId, poll);
+export function JobsTable({ campaignId }: { campaignId: number }) {
+  const jobs = useJobs(campaignId);
   if (jobs.isPending) return <Loading label="Loading jobs…" />;
   if (jobs.isError) return <ErrorBox error={jobs.error} retry={() => void jobs.refetch()} />;
   if (jobs.data.length === 0) return <Empty title="No jobs yet">Start the campaign to enqueue its first step.</Empty>;
@@ -67,9 +67,9 @@ export function JobsTable({ campaignId, poll }: { campaignId: number; poll: numb
   );
 }
 
-export function VersionsPanel({ campaignId, poll }: { campaignId: number; poll: number | false }) {
-  const pools = usePoolVersions(campaignId, poll);
-  const models = useModelVersions(campaignId, poll);
+export function VersionsPanel({ campaignId }: { campaignId: number }) {
+  const pools = usePoolVersions(campaignId);
+  const models = useModelVersions(campaignId);
   return (
     <div className="grid2">
       <section aria-labelledby="pool-title">

@@ -40,9 +40,9 @@ export function CampaignPage() {
   const qc = useQueryClient();
   const statusGuess = qc.getQueryData<{ campaign: { status: string } }>(["campaign", id])?.campaign.status;
   const live = useCampaignLive(id, statusGuess);
-  const campaign = useCampaign(id, live.poll);
+  const campaign = useCampaign(id);
   const c = campaign.data;
-  const metrics = useMetrics(id, { poll: live.poll, inherited: c?.campaign.source_campaign_id != null, latest: c?.latest_metrics?.iteration_index ?? null, qc });
+  const metrics = useMetrics(id, { inherited: c?.campaign.source_campaign_id != null, latest: c?.latest_metrics?.iteration_index ?? null, qc });
   const [logY, setLogY] = useBoolParam("log", true);
   const [selected, setSelected] = useIntListParam("k");
   const [overlay, setOverlay] = useStringParam("overlay");
@@ -182,8 +182,8 @@ export function CampaignPage() {
         <div role="tabpanel" id={`panel-${tab}`} aria-labelledby={`tab-${tab}`}>
           {tab === "forces" && <ForcesPanel campaignId={id} points={points} iteration={k} setIteration={(it) => setSelected([it])} overlay={overlay} setOverlay={setOverlay} />}
           {tab === "trajectory" && <TrajectoryPanel campaignId={id} iteration={trajectoryK} />}
-          {tab === "jobs" && <JobsTable campaignId={id} poll={live.poll} />}
-          {tab === "versions" && <VersionsPanel campaignId={id} poll={live.poll} />}
+          {tab === "jobs" && <JobsTable campaignId={id} />}
+          {tab === "versions" && <VersionsPanel campaignId={id} />}
         </div>
       </section>
     </>

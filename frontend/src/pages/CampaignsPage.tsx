@@ -36,7 +36,7 @@ export function CampaignsPage() {
   const [sort, setSort] = useStringParam("sort", "-started_at");
   const [selected, setSelected] = useState<number[]>([]);
   const live = useCampaignListLive();
-  const campaigns = useCampaigns({ status: status || undefined }, live.poll);
+  const campaigns = useCampaigns({ status: status || undefined });
 
   const sortKey = sort.replace(/^-/, "") as SortKey;
   const descending = sort.startsWith("-");

@@ -46,7 +46,7 @@ describe("campaigns list", () => {
     expect(within(table).getAllByRole("row")).toHaveLength(4);
     const running = within(table).getByRole("row", { name: /stiff foam/ });
     expect(running).toHaveTextContent("running");
-    expect(running).toHaveTextContent("2/10");
+    expect(running).toHaveTextContent("2 / 10");
     expect(running).toHaveTextContent("1.20");
     expect(running).toHaveTextContent("2 min 0 s"); // ETA
     expect(within(table).getByRole("row", { name: /baseline/ })).not.toHaveTextContent(/\d min/);
@@ -96,7 +96,7 @@ describe("task editor", () => {
     const duration = await screen.findByLabelText("phase 1 duration [s]");
     await waitFor(() => expect(screen.getByTestId("validation-state")).toHaveTextContent("valid"), { timeout: 3000 });
     fireEvent.change(duration, { target: { value: "-1" } });
-    expect(await screen.findByText("Input should be greater than 0", {}, { timeout: 3000 })).toBeInTheDocument();
+    expect(await screen.findByText("must be greater than 0", {}, { timeout: 3000 })).toBeInTheDocument();
     expect(screen.getByLabelText("phase 1 duration [s]")).toHaveAttribute("aria-invalid", "true");
     expect(screen.getByTestId("validation-state")).toHaveTextContent("1 problem");
     // "solve once" previews a saved task (and its unsaved edits)
