@@ -1,4 +1,4 @@
-import { useEffect, useState, type FormEvent } from "react";
+import { useState, type FormEvent } from "react";
 import { Link, useNavigate } from "react-router-dom";
 import { useCreateCampaign } from "../api/campaigns";
 import { componentSchema, useOpenApi, useOracles, useSurrogateConfigs, useTasks, type OpenApiDocument } from "../api/definitions";
@@ -103,22 +103,16 @@ export function NewCampaignPage() {
   const create = useCreateCampaign();
   const defaults = useConfigDefaults();
   const [name, setName] = useState("");
-  const [taskId, setTaskId] = useState<number | "">("");
-  const [oracleId, setOracleId] = useState<number | "">("");
+  // until chosen: the first task and oracle, the schemas' defaults
+  const [chosenTask, setTaskId] = useState<number | "">("");
+  const [chosenOracle, setOracleId] = useState<number | "">("");
   const [surrogateId, setSurrogateId] = useState<number | "">("");
   const [seed, setSeed] = useState(0);
-  const [config, setConfig] = useState<ConfigDraft | null>(null);
+  const [edited, setConfig] = useState<ConfigDraft | null>(null);
   const [startNow, setStartNow] = useState(true);
-
-  useEffect(() => {
-    if (taskId === "" && tasks.data?.length) setTaskId(tasks.data[0].id);
-  }, [tasks.data, taskId]);
-  useEffect(() => {
-    if (oracleId === "" && oracles.data?.length) setOracleId(oracles.data[0].id);
-  }, [oracles.data, oracleId]);
-  useEffect(() => {
-    if (config === null && defaults) setConfig(defaults);
-  }, [defaults, config]);
+  const taskId = chosenTask === "" ? (tasks.data?.[0]?.id ?? "") : chosenTask;
+  const oracleId = chosenOracle === "" ? (oracles.data?.[0]?.id ?? "") : chosenOracle;
+  const config = edited ?? defaults;
 
   const openapi = useOpenApi();
   const [submitted, setSubmitted] = useState(false);

@@ -117,7 +117,7 @@ function TaskEditor({ existing, presets }: { existing: Task | undefined; presets
   const root = schema.data;
   const modelSchema = (root?.$defs?.ModelSpec ?? null) as JsonSchema | null;
   const phaseSchema = (root?.$defs?.PhaseSpec ?? null) as JsonSchema | null;
-  const phases = (spec.phases ?? []) as PhaseRow[];
+  const phases = useMemo(() => (spec.phases ?? []) as PhaseRow[], [spec.phases]);
   const view: ErrorView = useMemo(() => {
     const local = [
       ...(modelSchema && root ? schemaLocalErrors(modelSchema, spec.model, root, "model") : []),
