@@ -5,7 +5,7 @@ import { CampaignsPage, sortCampaigns } from "./CampaignsPage";
 import { TaskEditorPage } from "./TaskEditorPage";
 import { TokensPage } from "./TokensPage";
 import { SignInPage } from "./SignInPage";
-import { jsonResponse, mockApi, renderPage } from "../test/utils";
+import { jsonResponse, mockApi, renderPage, sseStream } from "../test/utils";
 import type { CampaignSummary } from "../api/types";
 
 const summary = (id: number, name: string, status: string, force: number | null) => ({
@@ -58,6 +58,30 @@ describe("campaigns list", () => {
     fireEvent.change(screen.getByLabelText("Search"), { target: { value: "foam" } });
     await waitFor(() => expect(within(screen.getByTestId("campaigns-table")).getAllByRole("row")).toHaveLength(2));
   });
+
+  it("shows a campaign created and started elsewhere (CLI, API) without reload, from the live channel; nothing polls", async () => {
+    const stream = sseStream();
+    let rows = [summary(1, "baseline", "completed", 0.4)];
+    const { calls } = mockApi({
+      "GET /campaigns": () => rows,
+      "GET /campaigns/events/stream": () => stream.response(),
+      "GET /campaigns/{id}/metrics": [],
+    });
+    renderPage(<CampaignsPage />, { route: "/campaigns" });
+    const table = await screen.findByTestId("campaigns-table");
+    await waitFor(() => expect(screen.getByTestId("live-state")).toHaveAttribute("data-state", "live"));
+    rows = [...rows, summary(2, "from the CLI", "draft", null)];
+    stream.send({ kind: "status", campaign_id: 2, message: "created", data: { status: "draft" } });
+    expect(await within(table).findByRole("row", { name: /from the CLI/ })).toHaveTextContent("draft");
+    rows = [rows[0], summary(2, "from the CLI", "running", null)];
+    stream.send({ kind: "status", campaign_id: 2, data: { from: "queued", to: "running" } });
+    await waitFor(() => expect(within(table).getByRole("row", { name: /from the CLI/ })).toHaveTextContent("running"));
+    // no polling of the list or the sparklines while the stream is up
+    const before = calls.length;
+    await new Promise((r) => setTimeout(r, 4500));
+    expect(calls.slice(before)).toEqual([]);
+    stream.close();
+  }, 10000);
 
   it("has an empty state that points to tasks and oracles", async () => {
     mockApi({ "GET /campaigns": [] });
