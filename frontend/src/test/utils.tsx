@@ -58,7 +58,7 @@ export function sseStream() {
       const body = new ReadableStream<Uint8Array>({ start: (c) => void controllers.push(c) });
       return new Response(body, { status: 200, headers: { "Content-Type": "text/event-stream" } });
     },
-    send(e: { kind: string; campaign_id?: number; iteration_index?: number | null; step?: string | null; data?: Record<string, unknown> }) {
+    send(e: { kind: string; campaign_id?: number; iteration_index?: number | null; step?: string | null; message?: string; data?: Record<string, unknown> }) {
       id += 1;
       const ev = { id, campaign_id: 7, iteration_index: null, step: null, message: "", data: {}, created_at: "2026-11-21T22:00:00Z", ...e };
       write(`id: ${id}\nevent: ${ev.kind}\ndata: ${JSON.stringify(ev)}\n\n`);
