@@ -8,7 +8,7 @@ import { useEffect, useRef, useState } from "react";
 import { useQueryClient, type QueryClient } from "@tanstack/react-query";
 import { storedToken } from "./auth";
 import { ApiError } from "./errors";
-import { ensureIteration, keys } from "./series";
+import { ensureIteration, hasSeries, keys } from "./series";
 import { isTerminal, type CampaignEvent } from "./types";
 
 export interface SseFrame {
@@ -183,18 +183,18 @@ export function invalidationsFor(e: CampaignEvent): (readonly unknown[])[] {
 export function applyEvents(qc: QueryClient, events: CampaignEvent[]): void {
   const todo = new Map<string, readonly unknown[]>();
   for (const e of events) for (const key of invalidationsFor(e)) todo.set(JSON.stringify(key), key);
-  // exact keys, except the list's (its key carries the filters)
-  for (const key of todo.values()) void qc.invalidateQueries({ queryKey: key, exact: key !== keys.campaigns });
+  // prefixes: ["campaign", 7] is that campaign's detail only; the list's key carries its filters
+  for (const key of todo.values()) void qc.invalidateQueries({ queryKey: key });
   const evaluated = new Map<number, number>();
   for (const e of events)
     if (e.kind === "step_succeeded" && e.step === "evaluate" && e.iteration_index !== null) evaluated.set(e.campaign_id, Math.max(evaluated.get(e.campaign_id) ?? -1, e.iteration_index));
-  for (const [id, k] of evaluated) if (qc.getQueryData(keys.metrics(id)) !== undefined) void ensureIteration(qc, id, k);
+  for (const [id, k] of evaluated) if (hasSeries(qc, id)) void ensureIteration(qc, id, k);
   for (const id of new Set(events.filter(TERMINAL_EVENT).map((e) => e.campaign_id))) {
     // the last iterations' metrics: whatever the campaign's detail reports as latest
     void qc.fetchQuery({ queryKey: keys.campaign(id), staleTime: 0 }).then(
       (c) => {
         const latest = (c as { latest_metrics?: { iteration_index: number } | null }).latest_metrics?.iteration_index;
-        if (latest !== undefined && qc.getQueryData(keys.metrics(id)) !== undefined) void ensureIteration(qc, id, latest);
+        if (latest !== undefined && hasSeries(qc, id)) void ensureIteration(qc, id, latest);
       },
       () => undefined,
     );
@@ -290,7 +290,7 @@ export function useCampaignLive(id: number, status: string | undefined): Live {
     (events) => applyEvents(qc, events.map((e) => ({ ...e, campaign_id: e.campaign_id ?? id }))),
     () => {
       // what the events would have refreshed; queries not on screen are only marked stale
-      for (const key of [keys.campaign(id), keys.metrics(id), keys.iterationStates(id), keys.jobs(id), keys.pools(id), keys.models(id)]) void qc.invalidateQueries({ queryKey: key, exact: true });
+      for (const key of [keys.campaign(id), keys.metrics(id), keys.iterationStates(id), keys.jobs(id), keys.pools(id), keys.models(id)]) void qc.invalidateQueries({ queryKey: key });
     },
     () => statusRef.current === undefined || isTerminal(statusRef.current),
   );
@@ -306,7 +306,7 @@ export function useCampaignListLive(enabled = true): Live {
       if (events.length) void qc.invalidateQueries({ queryKey: keys.campaigns });
       // the sparklines of the campaigns that got new metrics
       for (const id of new Set(events.filter((e) => e.kind === "step_succeeded" && e.step === "evaluate").map((e) => e.campaign_id)))
-        void qc.invalidateQueries({ queryKey: keys.metrics(id), exact: true });
+        void qc.invalidateQueries({ queryKey: keys.metrics(id) });
     },
     () => void qc.invalidateQueries({ queryKey: keys.campaigns }),
   );

@@ -77,7 +77,8 @@ export function metricsCursor(rows: SeriesRow[]): number | undefined {
  * last one known. A fork's first fetch also asks for the inherited rows of its source chain.
  */
 export function rawMetricsQuery(id: number, inherited = false) {
-  const key = keys.metrics(id);
+  // a fork's page keeps the series with its source's rows apart from the own-only series (sparklines)
+  const key = [...keys.metrics(id), inherited ? "with-source" : "own"] as const;
   return queryOptions({
     queryKey: key,
     queryFn: async ({ client: qc }): Promise<SeriesRow[]> => {
@@ -121,8 +122,16 @@ const ENSURE_DELAYS_MS = [0, 300, 700, 1500, 3000, 5000];
  * Concurrent calls for the same campaign share one loop.
  */
 const ensuring = new Map<string, Promise<boolean>>();
+/** Whether some cached series of the campaign is loaded (a catch-up fetch is only needed then). */
+export function hasSeries(qc: QueryClient, id: number): boolean {
+  return qc.getQueriesData<SeriesRow[]>({ queryKey: keys.metrics(id) }).some(([, d]) => d !== undefined);
+}
 export function ensureIteration(qc: QueryClient, id: number, k: number): Promise<boolean> {
-  const has = () => (qc.getQueryData<SeriesRow[]>(keys.metrics(id)) ?? []).some((r) => r.iteration_index >= k);
+  // every loaded series of the campaign (own, with its source) holds k
+  const has = () => {
+    const loaded = qc.getQueriesData<SeriesRow[]>({ queryKey: keys.metrics(id) }).filter(([, d]) => d !== undefined);
+    return loaded.length > 0 && loaded.every(([, d]) => d!.some((r) => r.iteration_index >= k));
+  };
   if (has()) return Promise.resolve(true);
   const tag = `${id}:${k}`;
   const running = ensuring.get(tag);
@@ -130,8 +139,8 @@ export function ensureIteration(qc: QueryClient, id: number, k: number): Promise
   const loop = (async () => {
     for (const delay of ENSURE_DELAYS_MS) {
       if (delay) await new Promise((r) => setTimeout(r, delay));
-      if (!qc.getQueryCache().find({ queryKey: keys.metrics(id) })) return false; // nobody shows it any more
-      await qc.refetchQueries({ queryKey: keys.metrics(id), exact: true });
+      if (!qc.getQueryCache().findAll({ queryKey: keys.metrics(id) }).length) return false; // nobody shows it any more
+      await qc.refetchQueries({ queryKey: keys.metrics(id) });
       if (has()) return true;
     }
     return false;

@@ -2,7 +2,7 @@ import { useState, type FormEvent } from "react";
 import { useNavigate } from "react-router-dom";
 import { maxIterations, useForkCampaign } from "../api/campaigns";
 import type { CampaignOut } from "../api/types";
-import { ConfigSections, configFieldPaths, configLabel, configLocalErrors, type ConfigDraft } from "../pages/NewCampaignPage";
+import { ConfigSections, configFieldPaths, configLabel, configLocalErrors, type ConfigDraft } from "./ConfigSections";
 import { FormErrors, serverProblems } from "../components/FormErrors";
 import { FieldMessages } from "../components/SchemaForm";
 import { useOpenApi } from "../api/definitions";
