@@ -60,6 +60,12 @@ export function wrenchTraces(curves: IterationCurves[], components: readonly Com
 
 export const MAX_OVERLAY = 200;
 
+export function ordinal(n: number): string {
+  const tens = n % 100;
+  const suffix = tens >= 11 && tens <= 13 ? "th" : ({ 1: "st", 2: "nd", 3: "rd" } as Record<number, string>)[n % 10] ?? "th";
+  return `${n}${suffix}`;
+}
+
 export function ForcesPanel({
   campaignId,
   points,
@@ -104,6 +110,8 @@ export function ForcesPanel({
     setOverlay(formatSelection(ks, available));
   };
   const text = draft ?? overlay;
+  // about 10 iterations of the whole campaign
+  const every = Math.ceil(available.length / 10);
 
   const compToggle = (list: Component[], set: (v: Component[]) => void, all: readonly Component[]) =>
     all.map((c) => (
@@ -160,9 +168,11 @@ export function ForcesPanel({
           <button type="button" className="link" onClick={() => choose(lastN(available, 20))}>
             last 20
           </button>
-          <button type="button" className="link" onClick={() => choose(everyKth(available, Math.max(1, Math.ceil(available.length / 10))))}>
-            every {Math.max(1, Math.ceil(available.length / 10))}th
-          </button>
+          {every > 1 && (
+            <button type="button" className="link" onClick={() => choose(everyKth(available, every))}>
+              every {ordinal(every)}
+            </button>
+          )}
           <button type="button" className="link" onClick={() => choose(available)}>
             all ({available.length})
           </button>

@@ -76,7 +76,7 @@ export function CampaignPage() {
         <dl className="kv" style={{ gridTemplateColumns: "max-content 1fr max-content 1fr max-content 1fr" }}>
           <dt>Iteration</dt>
           <dd data-testid="iteration-progress">
-            {progressText(r.current_iteration, max)} {r.current_step ? `(${r.current_step})` : ""}
+            {progressText(r.current_iteration, max)} {running && r.current_step ? `(${r.current_step})` : ""}
           </dd>
           <dt>Task</dt>
           <dd>
