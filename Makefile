@@ -70,7 +70,9 @@ test: install frontend
 bench: install
 	$(PY) -m bench.run $(BENCH_ARGS)
 
+# the figures need matplotlib, the `reproduce` extra (not in the default install)
 reproduce: install
+	$(PIP) install -q -e '.[reproduce]'
 	$(PY) scripts/reproduce.py $(REPRODUCE_ARGS)
 
 # the docs' UI screenshots (docs/images/) come from the browser end-to-end test

@@ -131,8 +131,8 @@ def main(argv: list[str] | None = None) -> int:
         )
     cpu = _cpu_seconds() - cpu_start
     console.print(
-        f"bench wall time {time.perf_counter() - t_start:.1f} s, CPU time {cpu:.1f} s (this process and its finished children: "
-        "less sensitive to the machine's load than the wall time)"
+        f"bench wall time {time.perf_counter() - t_start:.1f} s, CPU time {cpu:.1f} s "
+        "(this process and its finished children: less sensitive to the machine's load than the wall time)"
     )
     out = {
         "mode": "quick" if args.quick else "full",

@@ -7,15 +7,23 @@
 * SQLite: a migrated file in a temporary folder, same per-test rollback.
 * Redis: ``ALCOVE_TEST_REDIS_URL`` or ``redis://127.0.0.1:6379/15`` (flushed per test session).
 
-When a service is down the tests needing it are skipped locally but FAIL under CI
-(``CI`` set): CI must never pass by skipping them.
+When a service is down the tests needing it are skipped locally.
+
+CI never skips: when ``CI`` is set (``CI=true``), every skip is turned into a failure that
+shows the skip's reason, whatever skipped: ``pytest.skip`` in a test or fixture, a
+``skip``/``skipif`` marker, ``pytest.importorskip``, or a module skipped as a whole (then
+its collection fails). A skip can thus never hide an import failure or a missing service
+under CI (``pytest_runtest_makereport`` and ``pytest_make_collect_report`` below; tested in
+``tests/test_ci_never_skips.py``). Expected failures (``xfail``) are not skips and stay as
+they are.
 """
 
 from __future__ import annotations
 
+import contextlib
 import os
 import uuid
-from collections.abc import Iterator
+from collections.abc import Generator, Iterator
 from pathlib import Path
 from urllib.parse import quote
 
@@ -23,15 +31,75 @@ import pytest
 import sqlalchemy as sa
 from sqlalchemy.orm import Session
 
-IN_CI = bool(os.environ.get("CI"))
+pytest_plugins = ("pytester",)  # tests/test_ci_never_skips.py runs pytest on scratch projects
+
 REPO = Path(__file__).resolve().parents[1]
 
 
+# ----------------------------------------------------------------------------- CI never skips
+
+
+def in_ci() -> bool:
+    """True when the ``CI`` environment variable is set (to anything but the empty string)."""
+    return bool(os.environ.get("CI"))
+
+
+def _ci_skip_message(longrepr: object, rootpath: Path) -> str:
+    if isinstance(longrepr, tuple) and len(longrepr) == 3:  # a skip's (path, line, "Skipped: reason")
+        path, line, reason = longrepr
+        with contextlib.suppress(ValueError):
+            path = Path(path).relative_to(rootpath)
+        what = f"{str(reason).removeprefix('Skipped: ')} ({path}:{line})"
+    else:
+        what = str(longrepr)
+    return (
+        f"skipped under CI (CI={os.environ.get('CI')!r}), and CI never skips: {what}. "
+        "Make it run here (install or start what it needs, fix the import) or remove the test; "
+        "skips are allowed only without CI."
+    )
+
+
+def _failure(when: str, message: str) -> pytest.CallInfo[None]:
+    """A call that failed with ``message`` (no traceback), for pytest to turn into a report."""
+    return pytest.CallInfo.from_call(lambda: pytest.fail(message, pytrace=False), when=when)  # type: ignore[arg-type]
+
+
+@pytest.hookimpl(wrapper=True)
+def pytest_runtest_makereport(
+    item: pytest.Item, call: pytest.CallInfo[None]
+) -> Generator[None, pytest.TestReport, pytest.TestReport]:
+    """Under CI a skipped test (in setup, call or teardown) is reported as failed, with the reason."""
+    report = yield
+    if not report.skipped or hasattr(report, "wasxfail") or not in_ci():
+        return report
+    failed = pytest.TestReport.from_item_and_call(
+        item, _failure(call.when, _ci_skip_message(report.longrepr, item.config.rootpath))
+    )
+    failed.duration, failed.start, failed.stop = report.duration, report.start, report.stop
+    return failed
+
+
+@pytest.hookimpl(wrapper=True)
+def pytest_make_collect_report(
+    collector: pytest.Collector,
+) -> Generator[None, pytest.CollectReport, pytest.CollectReport]:
+    """Under CI a module skipped as a whole (``importorskip``, ``skip(allow_module_level=True)``)
+    fails to collect, with the reason."""
+    report = yield
+    if report.skipped and in_ci():
+        excinfo = _failure("collect", _ci_skip_message(report.longrepr, collector.config.rootpath)).excinfo
+        assert excinfo is not None
+        report.outcome = "failed"
+        report.longrepr = collector.repr_failure(excinfo)
+    return report
+
+
 def service_unavailable(what: str, err: BaseException | str) -> None:
-    msg = f"{what} is not available: {err}"
-    if IN_CI:
-        pytest.fail(msg + " (CI requires it)", pytrace=False)
-    pytest.skip(msg)
+    """Skip: a service this test needs is down (under CI the skip fails, see above)."""
+    pytest.skip(f"{what} is not available: {err}")
+
+
+# ----------------------------------------------------------------------------- services
 
 
 def _pg_candidates() -> list[str]:
@@ -63,7 +131,8 @@ def pg_base_url() -> str:
             _pg_base_cache.append(last or RuntimeError("no candidate"))
     got = _pg_base_cache[0]
     if isinstance(got, BaseException):
-        service_unavailable("PostgreSQL at 127.0.0.1:5432/test", got)
+        tried = ", ".join(sa.make_url(url).render_as_string(hide_password=True) for url in _pg_candidates())
+        service_unavailable(f"PostgreSQL ({tried})", got)
     return got  # type: ignore[return-value]
 
 

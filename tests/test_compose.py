@@ -75,7 +75,7 @@ def test_workers_cover_every_queue_and_api_migrates() -> None:
     from alcove.jobs import QUEUES
 
     served = set()
-    for name, svc in PROJECT_SERVICES.items():
+    for svc in PROJECT_SERVICES.values():
         cmd = svc["command"]
         if cmd[1] == "worker":
             served |= set(cmd[cmd.index("--queues") + 1].split(","))

@@ -67,7 +67,7 @@ def test_quick_reproduction_writes_page_figures_and_numeric_table(tmp_path: Path
     rows = _table(md)
     assert {r[0] for r in rows} == {"multibody", "fe", "campaign", "remedies"}
     values: dict[str, float] = {}
-    for section, quantity, paper, cell, _note in rows:
+    for _section, quantity, _paper, cell, _note in rows:
         number = float(cell.split()[0])
         assert math.isfinite(number), (quantity, cell)
         values[quantity] = number
@@ -83,21 +83,21 @@ def test_quick_reproduction_writes_page_figures_and_numeric_table(tmp_path: Path
     assert -1.0 <= values["Spearman rank correlation of force RMSE with k"] <= 1.0
 
 
-def _reproduce_module():
-    import importlib.util
+@pytest.fixture
+def reproduction(monkeypatch: pytest.MonkeyPatch):
+    """The package behind scripts/reproduce.py, imported as the script imports it."""
+    import importlib
 
-    spec = importlib.util.spec_from_file_location("reproduce_script", REPO / "scripts" / "reproduce.py")
-    mod = importlib.util.module_from_spec(spec)
-    sys.modules["reproduce_script"] = mod  # dataclasses look their module up
-    spec.loader.exec_module(mod)  # type: ignore[union-attr]
-    return mod
+    monkeypatch.syspath_prepend(str(REPO / "scripts"))
+    return importlib.import_module("reproduction")
 
 
-def test_remedy_iterations_fit_the_remaining_budget() -> None:
+def test_remedy_iterations_fit_the_remaining_budget(reproduction) -> None:
     """The default number of remedy iterations: the largest m whose estimate (two campaigns like
     the baseline's first m iterations, one like its last ones) fits the time left; more time,
     more iterations; never more than the baseline's, never fewer than the floor."""
-    mod = _reproduce_module()
+    from reproduction import campaigns as mod
+
     walls = {k: 3.0 + 0.02 * k for k in range(1, 201)}  # iterations get slower as the pool grows
     base = mod.CampaignRun(
         1,
@@ -121,3 +121,20 @@ def test_remedy_iterations_fit_the_remaining_budget() -> None:
     for budget, m in zip((600.0, 1200.0, 2400.0), chosen[1:4], strict=False):
         assert cost(m) <= budget < cost(m + 1)
     assert mod.remedy_budget(base, 5, 0.0) == 5
+
+
+def test_without_matplotlib_the_script_names_the_extra_and_runs_nothing(
+    reproduction, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """matplotlib is the ``reproduce`` extra, not a dependency: without it the script stops at once
+    with one message that says how to install it (no traceback, no half-written page)."""
+    from reproduction.cli import app
+    from typer.testing import CliRunner
+
+    monkeypatch.setitem(sys.modules, "matplotlib", None)  # import matplotlib raises ImportError
+    out = tmp_path / "docs"
+    result = CliRunner().invoke(app, ["--quick", "--out", str(out), "--data-dir", str(tmp_path / "data")])
+    assert result.exit_code == 1, result.output
+    assert "matplotlib" in result.output and "pip install -e '.[reproduce]'" in result.output
+    assert isinstance(result.exception, SystemExit) and "Traceback" not in result.output  # a deliberate exit
+    assert not out.exists() and not (tmp_path / "data").exists()

@@ -8,7 +8,7 @@ intervals, pool versions), and the API served the way
 
 Load: 20 concurrent keep-alive connections, authenticated (a personal token), each sending
 its next GET as soon as the previous answer arrived (a closed loop: latency = 20 /
-throughput), for ``DURATION_S`` seconds per repetition. The generator is ``wrk`` (C, two
+throughput), for ``DURATION_S`` seconds per repetition (``bench/loadgen.py``). The generator is ``wrk`` (C, two
 threads; Debian package ``wrk``) with its latency distribution; if it is missing, an httpx
 async client in Python (it eats much of the same 2 cores: its figures are pessimistic),
 and the table's notes say which one ran. Reported: p50/p95/p99, throughput, payload
@@ -21,9 +21,7 @@ from __future__ import annotations
 
 import asyncio
 import functools
-import json
 import os
-import re
 import shutil
 import statistics
 import subprocess
@@ -36,6 +34,7 @@ from typing import Any
 from urllib.parse import quote
 
 from bench.harness import figure
+from bench.loadgen import httpx_load, process_group_cpu_s, wrk
 
 ITERATIONS = 200
 OCP_INTERVALS = 100  # per phase, as the head-headrest-2phase preset: 201 nodes
@@ -102,27 +101,26 @@ def server() -> dict[str, Any]:
     workers = API_WORKERS or default_api_workers()
     # the server's output goes to a file (a pipe nobody reads would block a server that logs)
     log = Path(tempfile.gettempdir()) / f"alcove-bench-api-{port}.log"
-    log_file = open(log, "wb")
-    proc = subprocess.Popen(
-        [
-            sys.executable,
-            "-m",
-            "alcove_worker.cli.main",
-            "serve",
-            "--host",
-            "127.0.0.1",
-            "--port",
-            str(port),
-            "--workers",
-            str(workers),
-            "--no-migrate",
-        ],
-        env=env,
-        stdout=log_file,
-        stderr=subprocess.STDOUT,
-        start_new_session=True,
-    )
-    log_file.close()
+    with open(log, "wb") as log_file:
+        proc = subprocess.Popen(
+            [
+                sys.executable,
+                "-m",
+                "alcove_worker.cli.main",
+                "serve",
+                "--host",
+                "127.0.0.1",
+                "--port",
+                str(port),
+                "--workers",
+                str(workers),
+                "--no-migrate",
+            ],
+            env=env,
+            stdout=log_file,
+            stderr=subprocess.STDOUT,
+            start_new_session=True,
+        )
 
     def stop() -> None:
         proc.terminate()
@@ -156,89 +154,6 @@ def server() -> dict[str, Any]:
     }
 
 
-# ----------------------------------------------------------------------------- load generators
-
-WRK_REPORT = """
-done = function(summary, latency, requests)
-  io.write(string.format("WRK_JSON {\\"p50\\": %d, \\"p95\\": %d, \\"p99\\": %d, \\"requests\\": %d, \\"duration_us\\": %d, \\"bytes\\": %d, \\"errors\\": %d, \\"non2xx\\": %d}\\n",
-    latency:percentile(50), latency:percentile(95), latency:percentile(99), summary.requests, summary.duration, summary.bytes,
-    summary.errors.connect + summary.errors.read + summary.errors.write + summary.errors.timeout, summary.errors.status))
-end
-"""
-
-
-def _wrk(url: str, headers: dict[str, str]) -> dict[str, Any]:
-    with tempfile.NamedTemporaryFile("w", suffix=".lua", delete=False) as f:
-        f.write(WRK_REPORT)
-    try:
-        cmd = ["wrk", "-t2", f"-c{CLIENTS}", f"-d{DURATION_S:g}s", "--timeout", "10s", "-s", f.name]
-        for k, v in headers.items():
-            cmd += ["-H", f"{k}: {v}"]
-        out = subprocess.run([*cmd, url], capture_output=True, text=True, timeout=DURATION_S + 60)
-    finally:
-        os.unlink(f.name)
-    m = re.search(r"WRK_JSON (\{.*\})", out.stdout)
-    if m is None:
-        raise RuntimeError(f"wrk gave no report: {out.stdout[-500:]} {out.stderr[-500:]}")
-    r = json.loads(m.group(1))
-    if r["errors"] or r["non2xx"]:
-        raise RuntimeError(f"wrk: {r['errors']} socket errors, {r['non2xx']} non-2xx answers for {url}")
-    return {
-        "p50": r["p50"] / 1e3,
-        "p95": r["p95"] / 1e3,
-        "p99": r["p99"] / 1e3,
-        "requests": r["requests"],
-        "seconds": r["duration_us"] / 1e6,
-    }
-
-
-def _proc_cpu_s(pid: int) -> float:
-    """CPU time (user + system) of the process group of the server (its workers included)."""
-    total = 0.0
-    tick = os.sysconf("SC_CLK_TCK")
-    for d in Path("/proc").iterdir():
-        if not d.name.isdigit():
-            continue
-        try:
-            fields = (d / "stat").read_text().rsplit(")", 1)[1].split()
-        except OSError:
-            continue
-        if int(fields[2]) == pid or int(d.name) == pid:  # fields[2] = pgrp (the server leads its own session)
-            total += (int(fields[11]) + int(fields[12])) / tick
-    return total
-
-
-async def _httpx_load(root: str, headers: dict[str, str], path: str) -> dict[str, Any]:
-    import httpx
-
-    limits = httpx.Limits(max_connections=CLIENTS, max_keepalive_connections=CLIENTS)
-    async with httpx.AsyncClient(base_url=root, headers=headers, limits=limits, timeout=30) as client:
-        latencies: list[float] = []
-
-        async def one_client() -> None:
-            for _ in range(REQUESTS_PER_CLIENT):
-                t0 = time.perf_counter()
-                resp = await client.get(path)
-                latencies.append((time.perf_counter() - t0) * 1e3)
-                if resp.status_code >= 400:
-                    resp.raise_for_status()
-
-        t0 = time.perf_counter()
-        await asyncio.gather(*(one_client() for _ in range(CLIENTS)))
-        seconds = time.perf_counter() - t0
-    return {
-        "p50": _quantile(latencies, 50),
-        "p95": _quantile(latencies, 95),
-        "p99": _quantile(latencies, 99),
-        "requests": len(latencies),
-        "seconds": seconds,
-    }
-
-
-def _quantile(values: list[float], q: float) -> float:
-    return statistics.quantiles(values, n=100, method="inclusive")[int(q) - 1]
-
-
 def _measure(ctx: dict[str, Any], key: str, path: str) -> float:
     import httpx
 
@@ -250,12 +165,13 @@ def _measure(ctx: dict[str, Any], key: str, path: str) -> float:
         headers["If-None-Match"] = r.headers["ETag"]
         r = httpx.get(ctx["root"] + path, headers=headers, timeout=30)
         assert r.status_code == 304, r.status_code
-    cpu0 = _proc_cpu_s(ctx["pid"])
+    cpu0 = process_group_cpu_s(ctx["pid"])
     if ctx["tool"] == "wrk":
-        got = _wrk(ctx["root"] + path, headers)
+        got = wrk(ctx["root"] + path, headers, clients=CLIENTS, seconds=DURATION_S)
     else:
-        got = asyncio.run(_httpx_load(ctx["root"], headers, path))
-    got["cpu_ms"] = (_proc_cpu_s(ctx["pid"]) - cpu0) / max(got["requests"], 1) * 1e3
+        load = httpx_load(ctx["root"], headers, path, clients=CLIENTS, requests_per_client=REQUESTS_PER_CLIENT)
+        got = asyncio.run(load)
+    got["cpu_ms"] = (process_group_cpu_s(ctx["pid"]) - cpu0) / max(got["requests"], 1) * 1e3
     got["size"] = len(r.content)
     ctx["results"].setdefault(key, []).append(got)
     _note(ctx)
@@ -268,7 +184,8 @@ def _note(ctx: dict[str, Any]) -> None:
     how = (
         f"load: wrk, 2 threads, {CLIENTS} keep-alive connections, {DURATION_S:g} s"
         if ctx["tool"] == "wrk"
-        else f"load: wrk NOT FOUND, httpx fallback ({CLIENTS} clients x {REQUESTS_PER_CLIENT} requests, in Python on the same cores: pessimistic)"
+        else f"load: wrk NOT FOUND, httpx fallback ({CLIENTS} clients x {REQUESTS_PER_CLIENT} requests, "
+        "in Python on the same cores: pessimistic)"
     )
     for fig in FIGURES:
         if fig.group == "api" and fig.name.startswith("api: GET"):

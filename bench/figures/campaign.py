@@ -1,9 +1,11 @@
-"""Campaign engine (``python -m bench.run --only "campaign:"``): orchestration overhead per step and per iteration, a short campaign's
-wall time, and the paper's 200-iteration campaign (full mode only).
+"""Campaign engine (``python -m bench.run --only "campaign:"``): orchestration overhead per step
+and per iteration, a short campaign's wall time, and the paper's 200-iteration campaign (full
+mode only).
 
 Every campaign here runs the real path: ``alcove campaign run`` in a subprocess, which
 spawns one ``alcove worker`` on the embedded default (SQLite + filesystem broker, with the
-polling interval ``alcove campaign run`` gives its worker) in a temporary ``ALCOVE_DATA_DIR``. The numbers come from the step rows:
+polling interval ``alcove campaign run`` gives its worker) in a temporary ``ALCOVE_DATA_DIR``.
+The numbers come from the step rows:
 
 * bare compute = the science call of a step (``result.compute_s``: training, IPOPT, the
   oracle, the metrics);
@@ -74,8 +76,9 @@ def run_campaign(oracle: str, iterations: int, config_yaml: str = "") -> dict[st
             dict(row._mapping)
             for row in c.execute(
                 sa.text(
-                    'SELECT i."index" AS k, s.step, s.wall_time_s, s.result, s.queued_at, s.started_at, s.finished_at FROM iteration_steps s '
-                    "JOIN iterations i ON i.id = s.iteration_id WHERE s.campaign_id = :c ORDER BY s.id"
+                    'SELECT i."index" AS k, s.step, s.wall_time_s, s.result, s.queued_at, s.started_at, s.finished_at '
+                    "FROM iteration_steps s JOIN iterations i ON i.id = s.iteration_id "
+                    "WHERE s.campaign_id = :c ORDER BY s.id"
                 ),
                 {"c": out["campaign_id"]},
             )
@@ -142,10 +145,14 @@ def short_campaign() -> dict[str, Any]:
     run = run_campaign("fe-headrest-2d", short_iterations())
     run["breakdown"] = breakdown(run)
     b = run["breakdown"]
+    compute = {k: round(v, 3) for k, v in b["compute_by_step_s"].items()}
+    overhead = {k: round(v, 1) for k, v in b["by_step_ms"].items()}
+    walls = [f"{w:.2f}" for w in b["iteration_s"]]
+    shares = [f"{s:.1f}" for s in b["share_percent"]]
     print(
-        f"  per-step compute medians [s]: {json.dumps({k: round(v, 3) for k, v in b['compute_by_step_s'].items()})}; "
-        f"per-step overhead medians [ms]: {json.dumps({k: round(v, 1) for k, v in b['by_step_ms'].items()})}; "
-        f"iteration wall {[f'{w:.2f}' for w in b['iteration_s']]} s, overhead share {[f'{s:.1f}' for s in b['share_percent']]} %"
+        f"  per-step compute medians [s]: {json.dumps(compute)}; "
+        f"per-step overhead medians [ms]: {json.dumps(overhead)}; "
+        f"iteration wall {walls} s, overhead share {shares} %"
     )
     return run
 
@@ -158,7 +165,8 @@ def short_campaign() -> dict[str, Any]:
     reps=1,
     quick_reps=1,
     group="campaign",
-    notes=f"steps of iterations 2..{SHORT_ITERATIONS} (3 in --quick); queue latency + job wall - compute; embedded default, 1 spawned worker",
+    notes=f"steps of iterations 2..{SHORT_ITERATIONS} (3 in --quick); queue latency + job wall - compute; "
+    "embedded default, 1 spawned worker",
 )
 def step_overhead(run: dict[str, Any]) -> float:
     return statistics.median(run["breakdown"]["step_overhead_ms"])
@@ -203,7 +211,8 @@ for _step in STEPS:
     reps=1,
     quick_reps=1,
     group="campaign",
-    notes="its share of the iteration wall time is the next figure; the bare compute baseline is measured in the same run",
+    notes="its share of the iteration wall time is the next figure; "
+    "the bare compute baseline is measured in the same run",
 )
 def iteration_overhead(run: dict[str, Any]) -> float:
     return statistics.median(run["breakdown"]["overhead_per_iteration_ms"])
@@ -251,7 +260,8 @@ def iteration_wall(run: dict[str, Any]) -> float:
 
 
 @figure(
-    f"campaign: short campaign wall time (aux-penalty, {SHORT_ITERATIONS} iterations (3 in --quick), 30 intervals per phase, 1000 LHS samples)",
+    f"campaign: short campaign wall time (aux-penalty, {SHORT_ITERATIONS} iterations (3 in --quick), "
+    "30 intervals per phase, 1000 LHS samples)",
     "s",
     reps=1,
     quick_reps=1,
@@ -279,7 +289,9 @@ def paper_campaign(_: Any) -> float:
     run = run_campaign("fe-headrest-2d", 200)
     b = breakdown(run)
     print(
-        f"  first iteration RMSE: {run.get('first')}, last: {run.get('last')}; status {run['status']} ({run['stop_reason']}); "
-        f"median iteration {statistics.median(b['iteration_s']):.2f} s, overhead share {statistics.median(b['share_percent']):.1f} %"
+        f"  first iteration RMSE: {run.get('first')}, last: {run.get('last')}; "
+        f"status {run['status']} ({run['stop_reason']}); "
+        f"median iteration {statistics.median(b['iteration_s']):.2f} s, "
+        f"overhead share {statistics.median(b['share_percent']):.1f} %"
     )
     return float(run["wall_time_s"]) / 60.0

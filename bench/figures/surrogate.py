@@ -59,7 +59,8 @@ def _seeded_pool() -> tuple[list[Any], Any]:
     reps=5,
     quick_reps=2,
     group="surrogate",
-    notes="float64, batch 1024, early stopping (patience 6) on both nets; seed = repetition (the epoch count, 70-120, varies with it)",
+    notes="float64, batch 1024, early stopping (patience 6) on both nets; "
+    "seed = repetition (the epoch count, 70-120, varies with it)",
 )
 def surrogate_training(ctx: Any) -> float:
     from alcove.science.surrogate.config import SurrogateConfig

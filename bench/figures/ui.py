@@ -31,7 +31,10 @@ from tests.api.synthetic import synthesize_campaign
 
 def work(s):
     owner = s.scalar(sa.select(User.id).where(User.email == sys.argv[1]))
-    return synthesize_campaign(s, owner, iterations=int(sys.argv[2]), curve_samples=401, pool_samples=20, name="bench: 200 iterations").id
+    campaign = synthesize_campaign(
+        s, owner, iterations=int(sys.argv[2]), curve_samples=401, pool_samples=20, name="bench: 200 iterations"
+    )
+    return campaign.id
 
 print(transaction(work))
 """
@@ -113,7 +116,8 @@ def _measure(ctx: dict[str, Any], warm: bool = False) -> dict[str, float]:
     quick_reps=3,
     requires=_requires,
     group="ui",
-    notes="fresh browser profile (plotly.js basic bundle, 1.2 MB, 0.3 MB as brotli, fetched and compiled); RMSE plot drawn with 400 points, then the log toggle is answered",
+    notes="fresh browser profile (plotly.js basic bundle, 1.2 MB, 0.3 MB as brotli, fetched and compiled); "
+    "RMSE plot drawn with 400 points, then the log toggle is answered",
 )
 def campaign_page_interactive_cold(ctx: dict[str, Any]) -> float:
     result = _measure(ctx)

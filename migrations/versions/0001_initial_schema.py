@@ -356,13 +356,15 @@ def upgrade() -> None:
             "preliminary_config",
             sa.JSON().with_variant(postgresql.JSONB(), "postgresql"),
             nullable=False,
-            comment="preliminary data: LHS sample count K, velocity bounds, oracle, or an uploaded dataset id; down-weighting schedule",
+            comment="preliminary data: LHS sample count K, velocity bounds, oracle, or an uploaded dataset id; "
+            "down-weighting schedule",
         ),
         sa.Column(
             "stopping_rules",
             sa.JSON().with_variant(postgresql.JSONB(), "postgresql"),
             nullable=False,
-            comment="any of max_iterations, target force/moment RMSE, plateau window/tolerance, oracle wall-time budget",
+            comment="any of max_iterations, target force/moment RMSE, plateau window/tolerance, "
+            "oracle wall-time budget",
         ),
         sa.Column(
             "policies",
@@ -409,7 +411,8 @@ def upgrade() -> None:
         sa.Column("created_at", sa.DateTime(timezone=True), server_default=sa.func.now(), nullable=False),
         sa.Column("updated_at", sa.DateTime(timezone=True), server_default=sa.func.now(), nullable=False),
         sa.CheckConstraint(
-            "status IN ('draft', 'queued', 'running', 'pausing', 'paused', 'cancelling', 'cancelled', 'completed', 'failed')",
+            "status IN ('draft', 'queued', 'running', 'pausing', 'paused', "
+            "'cancelling', 'cancelled', 'completed', 'failed')",
             name=op.f("ck_campaigns_status_valid"),
         ),
         sa.CheckConstraint(
@@ -533,7 +536,10 @@ def upgrade() -> None:
         sa.Column("created_at", sa.DateTime(timezone=True), server_default=sa.func.now(), nullable=False),
         sa.CheckConstraint("permission IN ('view', 'edit')", name=op.f("ck_shares_permission_valid")),
         sa.CheckConstraint(
-            "(CASE WHEN task_definition_id IS NULL THEN 0 ELSE 1 END) + (CASE WHEN oracle_definition_id IS NULL THEN 0 ELSE 1 END) + (CASE WHEN surrogate_config_id IS NULL THEN 0 ELSE 1 END) + (CASE WHEN campaign_id IS NULL THEN 0 ELSE 1 END) = 1",
+            "(CASE WHEN task_definition_id IS NULL THEN 0 ELSE 1 END) "
+            "+ (CASE WHEN oracle_definition_id IS NULL THEN 0 ELSE 1 END) "
+            "+ (CASE WHEN surrogate_config_id IS NULL THEN 0 ELSE 1 END) "
+            "+ (CASE WHEN campaign_id IS NULL THEN 0 ELSE 1 END) = 1",
             name=op.f("ck_shares_exactly_one_object"),
         ),
         sa.ForeignKeyConstraint(

@@ -250,6 +250,7 @@ SPECS: dict[str, Spec] = {
     "list_campaign_jobs": ("owned", lambda o, a: Call(path=o.finished()), OK),
     "list_campaign_events": ("owned", lambda o, a: Call(path=o.finished()), OK),
     "stream_campaign_events": ("owned", lambda o, a: Call(path=o.finished(), params={"timeout": 0}), OK),
+    "stream_all_campaign_events": ("any", lambda o, a: Call(params={"timeout": 0}), OK),
     "list_pool_versions": ("owned", lambda o, a: Call(path=o.finished()), OK),
     "download_pool_version": (
         "owned",

@@ -10,7 +10,7 @@ import time
 import numpy as np
 import pytest
 
-from .helpers import Account, make_account, small_task_spec
+from .helpers import Account, make_account, small_task_spec, unique
 
 API = "/api/v1"
 
@@ -180,15 +180,20 @@ def test_event_stream_sends_server_sent_events_and_ends_for_a_finished_campaign(
 ) -> None:
     events = client.get(f"{API}/campaigns/{finished}/events", headers=owner.headers).json()
     assert events and events[0]["kind"] == "status"
-    with client.stream("GET", f"{API}/campaigns/{finished}/events/stream", headers=owner.headers) as r:
+    with client.stream(
+        "GET", f"{API}/campaigns/{finished}/events/stream", params={"after": 0}, headers=owner.headers
+    ) as r:
         assert r.status_code == 200 and r.headers["content-type"].startswith("text/event-stream")
         text = "".join(r.iter_text())
+    kinds = [line[7:] for line in text.splitlines() if line.startswith("event: ")]
     ids = [int(line[4:]) for line in text.splitlines() if line.startswith("id: ")]
-    assert ids == [e["id"] for e in events]
+    assert ids[:-1] == [e["id"] for e in events] and kinds[-1] == "ready"
     with client.stream(
-        "GET", f"{API}/campaigns/{finished}/events/stream", headers={**owner.headers, "Last-Event-ID": str(ids[-1])}
+        "GET", f"{API}/campaigns/{finished}/events/stream", headers={**owner.headers, "Last-Event-ID": str(ids[-2])}
     ) as r:
-        assert "id: " not in "".join(r.iter_text())
+        assert [line for line in r.iter_text().__next__().splitlines() if line.startswith("event: ")] == [
+            "event: ready"
+        ]
 
 
 def test_list_items_carry_the_eta_of_the_detail(client, owner: Account) -> None:
@@ -397,3 +402,29 @@ def test_the_polled_detail_is_a_304_until_anything_it_shows_changes(client, owne
         url, headers={**viewer.headers, "If-None-Match": seen[-1]}
     )  # the owner's ETag: can_edit differs
     assert shared.status_code == 200 and shared.json()["can_edit"] is False and shared.headers["ETag"] != seen[-1]
+
+
+def test_a_forks_metrics_can_include_the_inherited_iterations(client, owner: Account, finished: int) -> None:
+    """A fork at iteration 2 of a 3-iteration campaign: with ``inherited=true`` its series
+    starts with the source's iterations 1 and 2 (flagged, with the source's id); a fork of
+    that fork at 1 inherits only iteration 1, through two levels."""
+    fork = client.post(
+        f"{API}/campaigns/{finished}/fork", json={"iteration": 2, "name": unique("fork")}, headers=owner.headers
+    ).json()["id"]
+    plain = client.get(f"{API}/campaigns/{fork}/metrics", headers=owner.headers).json()
+    assert plain == []
+    rows = client.get(f"{API}/campaigns/{fork}/metrics", params={"inherited": True}, headers=owner.headers).json()
+    assert [(r["campaign_id"], r["iteration_index"], r["inherited"]) for r in rows] == [
+        (finished, 1, True),
+        (finished, 2, True),
+    ]
+    fork2 = client.post(
+        f"{API}/campaigns/{fork}/fork", json={"iteration": 1, "name": unique("fork")}, headers=owner.headers
+    )
+    assert fork2.status_code == 201, fork2.text
+    rows = client.get(
+        f"{API}/campaigns/{fork2.json()['id']}/metrics", params={"inherited": True}, headers=owner.headers
+    ).json()
+    assert [(r["campaign_id"], r["iteration_index"]) for r in rows] == [(finished, 1)]
+    own = client.get(f"{API}/campaigns/{finished}/metrics", params={"inherited": True}, headers=owner.headers).json()
+    assert [r["inherited"] for r in own] == [False, False, False]

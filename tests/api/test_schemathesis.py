@@ -26,6 +26,7 @@ EXCLUDED = {
     "logout",
     "revoke_token",
     "stream_campaign_events",
+    "stream_all_campaign_events",
     "download_model_artifact",
     "export_campaign",
     "update_me",

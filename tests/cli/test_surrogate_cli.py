@@ -42,10 +42,12 @@ def trajectory_csv(tmp_path: Path) -> Path:
 def test_preliminary_train_predict(tmp_path, quick_config, trajectory_csv):
     """A user builds a pool, trains (the real console script) and predicts from the CLI."""
     env = {k: v for k, v in os.environ.items() if k != "ALCOVE_DATABASE_URL"}
+
     def run(*a):
         return subprocess.run(
             [ALCOVE, "surrogate", *a], cwd=tmp_path, env=env, capture_output=True, text=True, timeout=300
         )
+
     result = invoke("surrogate", "preliminary", "--out", str(tmp_path / "pool"), "--samples", "600", "--chunks", "6")
     assert result.exit_code == 0 and result.output.startswith("600 samples (")
     assert len(list((tmp_path / "pool").glob("preliminary-*.traj.csv"))) == 6

@@ -42,14 +42,11 @@ class Proc:
 
     def __init__(self, args: list[str], env: dict[str, str], log: Path) -> None:
         self.log = log
-        self._fh = open(log, "wb")
-        self.p = subprocess.Popen(
-            CLI + args, env=env, stdout=self._fh, stderr=subprocess.STDOUT, start_new_session=True
-        )
+        # the child writes to its own copy of the descriptor: ours is closed at once
+        with open(log, "wb") as fh:
+            self.p = subprocess.Popen(CLI + args, env=env, stdout=fh, stderr=subprocess.STDOUT, start_new_session=True)
 
     def output(self) -> str:
-        if not self._fh.closed:
-            self._fh.flush()
         return self.log.read_text(errors="replace")
 
     def alive(self) -> bool:
@@ -60,7 +57,6 @@ class Proc:
         with suppress(ProcessLookupError):
             os.killpg(self.p.pid, signal.SIGKILL)
         self.p.wait(timeout=10)
-        self._fh.close()
 
     def stop(self, timeout: float = 30) -> int:
         if self.p.poll() is None:
@@ -69,9 +65,7 @@ class Proc:
                 self.p.wait(timeout=timeout)
         with suppress(ProcessLookupError):
             os.killpg(self.p.pid, signal.SIGKILL)
-        code = self.p.wait(timeout=10)
-        self._fh.close()
-        return code
+        return self.p.wait(timeout=10)
 
 
 @contextmanager

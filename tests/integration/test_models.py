@@ -167,10 +167,9 @@ def test_step_names_and_statuses_are_checked(db_session: Session) -> None:
     s.flush()
     s.add(m.IterationStep(campaign_id=c.id, iteration_id=it.id, step="train"))
     s.flush()
-    with pytest.raises(sa.exc.IntegrityError):  # same step twice
-        with s.begin_nested():
-            s.add(m.IterationStep(campaign_id=c.id, iteration_id=it.id, step="train"))
-            s.flush()
+    with pytest.raises(sa.exc.IntegrityError), s.begin_nested():  # same step twice
+        s.add(m.IterationStep(campaign_id=c.id, iteration_id=it.id, step="train"))
+        s.flush()
     with pytest.raises(sa.exc.IntegrityError), s.begin_nested():
         s.add(m.IterationStep(campaign_id=c.id, iteration_id=it.id, step="dance"))
         s.flush()

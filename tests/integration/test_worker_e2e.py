@@ -82,7 +82,9 @@ def test_duplicate_delivery_of_the_smoke_job_is_a_no_op(tmp_path: Path, pg_url: 
     with running(["worker", "--queues", "default", "--concurrency", "2"], env, tmp_path / "worker.log") as w:
         wait_until(lambda: worker_ready(w), 60, "worker ready", w)
         code = (
-            "import sys, time; from alcove.jobs import send_job, SMOKE_JOB; from alcove.jobs.smoke import wait_for_smoke\n"
+            "import sys, time\n"
+            "from alcove.jobs import send_job, SMOKE_JOB\n"
+            "from alcove.jobs.smoke import wait_for_smoke\n"
             "send_job(SMOKE_JOB, 'dup-' + sys.argv[1]); send_job(SMOKE_JOB, 'dup-' + sys.argv[1])\n"
             "assert wait_for_smoke('dup-' + sys.argv[1], 60)\n"
             "time.sleep(1.0)\n"

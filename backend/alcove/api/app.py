@@ -32,6 +32,7 @@ def api_routers() -> list[APIRouter]:
     """All ``/api/v1`` routers, each included into the app directly with the prefix (a
     flat route table: FastAPI matches nested routers noticeably slower). The most polled
     routers come first. Add new routers here."""
+    from alcove.campaigns.live import router as live_router
     from alcove.campaigns.router import router as campaigns_router
     from alcove.oracles.router import admin_router as command_oracles_router
     from alcove.oracles.router import router as oracles_router
@@ -45,6 +46,7 @@ def api_routers() -> list[APIRouter]:
 
     return [
         campaigns_router,
+        live_router,
         pool_versions_router,
         model_versions_router,
         uploads_router,

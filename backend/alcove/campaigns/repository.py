@@ -21,8 +21,10 @@ from alcove.models import (
     OracleRun,
     PoolVersion,
     StepStatus,
+    User,
     utcnow,
 )
+from alcove.users.access import visible_clause
 
 
 class NotFound(LookupError):
@@ -239,14 +241,48 @@ def finished_iteration_times(s: Session, campaign_id: int) -> list[tuple[int, st
     return [tuple(r) for r in s.execute(q)]  # type: ignore[misc]
 
 
-def events(s: Session, campaign_id: int, after: int = 0, limit: int = 1000) -> list[CampaignEvent]:
+def events(
+    s: Session, campaign_id: int, after: int = 0, limit: int = 1000, *, through: int | None = None
+) -> list[CampaignEvent]:
+    """The campaign's events with ``after < id`` (``<= through``), oldest first."""
     q = (
         sa.select(CampaignEvent)
         .where(CampaignEvent.campaign_id == campaign_id, CampaignEvent.id > after)
         .order_by(CampaignEvent.id)
         .limit(limit)
     )
+    if through is not None:
+        q = q.where(CampaignEvent.id <= through)
     return list(s.scalars(q))
+
+
+def last_event_id(s: Session) -> int:
+    return s.scalar(sa.select(sa.func.max(CampaignEvent.id))) or 0
+
+
+def events_since(s: Session, cursor: int, missing: list[int], limit: int = 1000) -> list[CampaignEvent]:
+    """Events of every campaign after ``cursor``, and those of the ``missing`` ids below it
+    that have been committed since (live updates)."""
+    after = CampaignEvent.id > cursor
+    q = sa.select(CampaignEvent).where(sa.or_(after, CampaignEvent.id.in_(missing)) if missing else after)
+    return list(s.scalars(q.order_by(CampaignEvent.id).limit(limit)))
+
+
+def visible_events(s: Session, user: User, after: int, through: int, limit: int) -> list[CampaignEvent]:
+    """Events ``after < id <= through`` of the campaigns ``user`` may see, oldest first."""
+    q = (
+        sa.select(CampaignEvent)
+        .join(Campaign, Campaign.id == CampaignEvent.campaign_id)
+        .where(CampaignEvent.id > after, CampaignEvent.id <= through, visible_clause(Campaign, user))
+        .order_by(CampaignEvent.id)
+        .limit(limit)
+    )
+    return list(s.scalars(q))
+
+
+def visible_campaign_ids(s: Session, user: User, ids: list[int]) -> set[int]:
+    """Which of ``ids`` are campaigns ``user`` may see."""
+    return set(s.scalars(sa.select(Campaign.id).where(Campaign.id.in_(ids), visible_clause(Campaign, user))))
 
 
 def add_event(

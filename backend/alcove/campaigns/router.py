@@ -6,7 +6,6 @@ Pool versions are served by :mod:`alcove.pool.router`, model versions by
 
 from __future__ import annotations
 
-import asyncio
 import io
 import logging
 import zipfile
@@ -15,7 +14,6 @@ from typing import Annotated, Any, Literal
 
 import sqlalchemy as sa
 from fastapi import APIRouter, Body, Query, Request, Response, status
-from fastapi.responses import StreamingResponse
 from pydantic import BaseModel, ConfigDict, Field, TypeAdapter
 from sqlalchemy.orm import Session, aliased
 from starlette.concurrency import run_in_threadpool
@@ -559,6 +557,10 @@ async def list_campaign_metrics(
             description="include each row's `extra` (software versions, per-component RMSE, step timings); null otherwise"
         ),
     ] = False,
+    inherited: Annotated[
+        bool,
+        Query(description="for a fork: first the rows of its sources' iterations up to the fork point (`inherited`)"),
+    ] = False,
 ) -> Response:
     """Per-iteration metrics (force/moment RMSE, max errors, OCP and oracle figures);
     ``?after=k`` returns only iterations after k, so a dashboard polls cheaply. Compact by
@@ -571,11 +573,11 @@ async def list_campaign_metrics(
             REVISIONS.put(("metrics", campaign_id, user.id), revision, REVISION_TTL_S)
     if revision is None:
         raise NotFound("campaign", campaign_id)
-    key = ("metrics", campaign_id, after, extra, *revision)
+    key = ("metrics", campaign_id, after, extra, inherited, *revision)
 
     def build() -> bytes:
         with get_sessionmaker()() as session:
-            rows = campaigns.metrics_series(session, campaign_id, after)
+            rows = campaigns.metrics_series(session, campaign_id, after, inherited=inherited)
         if not extra:
             rows = [m.model_copy(update={"extra": None}) for m in rows]
         return METRICS_LIST.dump_json(rows)
@@ -833,58 +835,6 @@ def list_campaign_events(
 ) -> list[EventRead]:
     get_for(session, Campaign, campaign_id, user)
     return campaigns.list_events(session, campaign_id, after)
-
-
-@router.get(
-    "/{campaign_id}/events/stream",
-    operation_id="stream_campaign_events",
-    response_class=StreamingResponse,
-    responses={
-        200: {"content": {"text/event-stream": {"schema": {"type": "string"}}}, "description": "Server-Sent Events"}
-    },
-)
-async def stream_campaign_events(
-    campaign_id: ObjectId,
-    user: CurrentUser,
-    request: Request,
-    after: Annotated[int, Query(ge=0, le=MAX_ID)] = 0,
-    timeout: Annotated[float, Query(ge=0, le=3600, description="close the stream after this many seconds")] = 300,
-) -> StreamingResponse:
-    """Campaign events as Server-Sent Events (``id`` = event id, ``event`` = kind); the
-    stream ends when the campaign reaches a terminal state or after ``timeout``. Reconnect
-    with ``?after=<last id>`` (or the Last-Event-ID header)."""
-    from alcove.db import get_sessionmaker
-
-    factory = get_sessionmaker()
-    with factory() as s:
-        get_for(s, Campaign, campaign_id, user)
-    last = request.headers.get("last-event-id")
-    cursor = max(after, int(last)) if last and last.isdigit() and int(last) <= MAX_ID else after
-
-    async def events():
-        nonlocal cursor
-        loop = asyncio.get_running_loop()
-        deadline = loop.time() + timeout
-        while True:
-
-            def poll() -> tuple[list[EventRead], bool]:
-                with factory() as s:
-                    rows = campaigns.list_events(s, campaign_id, cursor)
-                    c = s.get(Campaign, campaign_id)
-                    return rows, c is None or c.is_terminal
-
-            rows, done = await asyncio.to_thread(poll)
-            for e in rows:
-                cursor = e.id
-                yield f"id: {e.id}\nevent: {e.kind}\ndata: {e.model_dump_json()}\n\n"
-            if done or loop.time() >= deadline or await request.is_disconnected():
-                return
-            yield ": keep-alive\n\n"
-            await asyncio.sleep(1.0)
-
-    return StreamingResponse(
-        events(), media_type="text/event-stream", headers={"Cache-Control": "no-cache", "X-Accel-Buffering": "no"}
-    )
 
 
 @router.get("/{campaign_id}/export", operation_id="export_campaign", response_class=Response, responses={200: BINARY})

@@ -239,6 +239,8 @@ class IterationRead(_Read):
 
 
 class MetricsRead(_Read):
+    campaign_id: int = Field(description="the campaign the iteration ran in (a fork's source for inherited rows)")
+    inherited: bool = Field(False, description="an iteration of a fork's source, up to the fork point")
     iteration_index: int
     force_rmse: float | None
     moment_rmse: float | None
@@ -329,6 +331,7 @@ class IterationTrajectory(BaseModel):
 
 class EventRead(_Read):
     id: int
+    campaign_id: int
     iteration_index: int | None
     step: str | None
     kind: str

@@ -572,10 +572,24 @@ def list_campaigns(s: Session, owner_id: int | None = None) -> list[CampaignRead
     return [CampaignRead.model_validate(c) for c in repo.list_campaigns(s, owner_id)]
 
 
-def metrics_series(s: Session, campaign_id: int, after: int | None = None) -> list[MetricsRead]:
-    """Per-iteration metrics; ``after=k`` returns only iterations > k (cheap polling)."""
-    repo.get_campaign(s, campaign_id)
-    return [_metrics_read(m) for m in repo.metrics_series(s, campaign_id, after)]
+def metrics_series(
+    s: Session, campaign_id: int, after: int | None = None, *, inherited: bool = False
+) -> list[MetricsRead]:
+    """Per-iteration metrics; ``after=k`` returns only iterations > k (cheap polling). With
+    ``inherited``, a fork's series starts with its sources' iterations up to the fork point
+    (flagged ``inherited``), as its pool and model lineage does."""
+    c = repo.get_campaign(s, campaign_id)
+    rows = [_metrics_read(m) for m in repo.metrics_series(s, campaign_id, after)]
+    if not inherited:
+        return rows
+    before: list[MetricsRead] = []
+    source, through = c.source_campaign_id, c.source_iteration
+    while source is not None and through is not None:
+        src = repo.get_campaign(s, source)
+        own = [m for m in repo.metrics_series(s, src.id, after) if m.iteration_index <= through]
+        before = [_metrics_read(m).model_copy(update={"inherited": True}) for m in own] + before
+        source, through = src.source_campaign_id, min(through, src.source_iteration or 0)
+    return before + rows
 
 
 def list_iterations(s: Session, campaign_id: int, after: int | None = None) -> list[IterationRead]:

@@ -107,6 +107,30 @@ export interface paths {
         patch?: never;
         trace?: never;
     };
+    "/api/v1/campaigns/events/stream": {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        /**
+         * Stream All Campaign Events
+         * @description Events of every campaign you may see, as Server-Sent Events (``id`` = event id,
+         *     ``event`` = kind, ``data`` = the event with its ``campaign_id``): the campaign list's
+         *     live channel. Resuming with ``after`` (or ``Last-Event-ID``) first sends the events you
+         *     missed; then a ``ready`` event; then every new event as it is committed. The stream ends
+         *     after ``timeout`` seconds: reconnect with the last id.
+         */
+        get: operations["stream_all_campaign_events"];
+        put?: never;
+        post?: never;
+        delete?: never;
+        options?: never;
+        head?: never;
+        patch?: never;
+        trace?: never;
+    };
     "/api/v1/campaigns/{campaign_id}": {
         parameters: {
             query?: never;
@@ -194,9 +218,11 @@ export interface paths {
         };
         /**
          * Stream Campaign Events
-         * @description Campaign events as Server-Sent Events (``id`` = event id, ``event`` = kind); the
-         *     stream ends when the campaign reaches a terminal state or after ``timeout``. Reconnect
-         *     with ``?after=<last id>`` (or the Last-Event-ID header).
+         * @description The campaign's events as Server-Sent Events (``id`` = event id, ``event`` = kind,
+         *     ``data`` = the event): the campaign page's live channel. Resuming with ``after`` (or
+         *     ``Last-Event-ID``) first sends the events you missed; then a ``ready`` event; then every
+         *     new event as it is committed. The stream ends after the event that makes the campaign
+         *     terminal (at once if it already is) or after ``timeout`` seconds: reconnect with the last id.
          */
         get: operations["stream_campaign_events"];
         put?: never;
@@ -1625,6 +1651,8 @@ export interface components {
         };
         /** EventRead */
         EventRead: {
+            /** Campaign Id */
+            campaign_id: number;
             /**
              * Created At
              * Format: date-time
@@ -1930,6 +1958,11 @@ export interface components {
         };
         /** MetricsRead */
         MetricsRead: {
+            /**
+             * Campaign Id
+             * @description the campaign the iteration ran in (a fork's source for inherited rows)
+             */
+            campaign_id: number;
             /** Dataset Id */
             dataset_id: number | null;
             /**
@@ -1943,6 +1976,12 @@ export interface components {
             force_max_error: number | null;
             /** Force Rmse */
             force_rmse: number | null;
+            /**
+             * Inherited
+             * @description an iteration of a fork's source, up to the fork point
+             * @default false
+             */
+            inherited?: boolean;
             /** Iteration Index */
             iteration_index: number;
             /** Model Version Id */
@@ -4138,6 +4177,94 @@ export interface operations {
             };
         };
     };
+    stream_all_campaign_events: {
+        parameters: {
+            query?: {
+                /** @description resume after this event id (the last id you received); omit to start now */
+                after?: number | null;
+                /** @description close the stream after this many seconds */
+                timeout?: number;
+            };
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        requestBody?: never;
+        responses: {
+            /** @description Server-Sent Events */
+            200: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "text/event-stream": string;
+                };
+            };
+            /** @description not authenticated (missing, invalid, expired or revoked token) */
+            401: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorOut"];
+                };
+            };
+            /** @description not allowed (admin-only route, or an object shared with you for viewing only) */
+            403: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorOut"];
+                };
+            };
+            /** @description no such object, or not visible to you */
+            404: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorOut"];
+                };
+            };
+            /** @description conflicts with the current state (e.g. a campaign transition, a duplicate) */
+            409: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorOut"];
+                };
+            };
+            /** @description request body too large */
+            413: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorOut"];
+                };
+            };
+            /** @description invalid input: field paths and reasons */
+            422: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ValidationErrorOut"];
+                };
+            };
+            /** @description database busy or unavailable: retry */
+            503: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorOut"];
+                };
+            };
+        };
+    };
     get_campaign: {
         parameters: {
             query?: never;
@@ -4499,7 +4626,8 @@ export interface operations {
     stream_campaign_events: {
         parameters: {
             query?: {
-                after?: number;
+                /** @description resume after this event id (the last id you received); omit to start now */
+                after?: number | null;
                 /** @description close the stream after this many seconds */
                 timeout?: number;
             };
@@ -5141,6 +5269,8 @@ export interface operations {
                 after?: number | null;
                 /** @description include each row's `extra` (software versions, per-component RMSE, step timings); null otherwise */
                 extra?: boolean;
+                /** @description for a fork: first the rows of its sources' iterations up to the fork point (`inherited`) */
+                inherited?: boolean;
             };
             header?: never;
             path: {

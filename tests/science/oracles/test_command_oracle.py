@@ -337,18 +337,7 @@ def test_declared_parameters_are_validated_numbers_and_placeholders():
             build_oracle("x", {"foam_scale": bad}, catalogue={"x": spec})
 
 
-def fe_oracle_available() -> bool:
-    from alcove.science.oracles.registry import ORACLE_TYPES, OracleTypeUnavailable
-
-    try:
-        ORACLE_TYPES["fe-headrest-2d"]
-    except OracleTypeUnavailable:
-        return False
-    return True
-
-
 @pytest.mark.slow
-@pytest.mark.skipif(not fe_oracle_available(), reason="the fe-headrest-2d oracle has not landed yet")
 def test_fe_oracle_as_an_external_program_agrees_with_the_in_process_run():
     """The issue's example: a small script calling the FE oracle in a subprocess (entry fe-replay)."""
     t = np.linspace(0.0, 0.02, 9)

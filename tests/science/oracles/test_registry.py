@@ -22,14 +22,6 @@ from alcove.science.series import Trajectory
 CATALOGUE = Path(__file__).resolve().parents[3] / "examples" / "command-oracle" / "catalogue.yaml"
 
 
-def fe_oracle_available() -> bool:
-    try:
-        ORACLE_TYPES["fe-headrest-2d"]
-    except OracleTypeUnavailable:
-        return False
-    return True
-
-
 def test_builtin_types_and_their_entries():
     assert set(ORACLE_TYPES) == {"fe-headrest-2d", "aux-penalty"}
     model, factory = ORACLE_TYPES["aux-penalty"]
@@ -118,7 +110,6 @@ def test_missing_builtin_implementation_is_a_clear_error_and_does_not_break_the_
     assert build_oracle("aux-penalty", {}).run(Trajectory(t, np.full(11, 0.3), np.zeros(11))).ok
 
 
-@pytest.mark.skipif(not fe_oracle_available(), reason="the fe-headrest-2d oracle has not landed yet")
 def test_fe_headrest_type_builds_the_fe_oracle():
     oracle = build_oracle("fe-headrest-2d", {})
     assert oracle.type_name == "fe-headrest-2d"

@@ -1,0 +1,341 @@
+"""Live updates: the campaign events as server-sent events, the one live channel of the UI.
+
+Each API process runs one :class:`EventHub` while anyone listens: a single query per poll
+reads the events committed since the last one (for every campaign at once) and hands each
+event, serialised once, to every open stream of that process. A campaign page listens to
+its campaign (``/campaigns/{id}/events/stream``), the campaign list to every campaign the
+user may see (``/campaigns/events/stream``); the browser refetches only the data an event
+says has changed. 50 viewers of one campaign cost one query per poll, not 50.
+
+Event ids come from the database and a transaction that took a smaller id can commit after
+one that took a larger id (PostgreSQL with several workers). The hub remembers such holes
+below its cursor for :data:`GAP_RETENTION_S` and reads them again, so a late commit is
+still delivered; a rolled-back insert leaves a hole that simply expires.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import json
+import logging
+import time
+import weakref
+from collections.abc import AsyncIterator, Awaitable, Callable
+from dataclasses import dataclass, field
+from typing import Annotated, Any
+
+from fastapi import APIRouter, Query, Request
+from fastapi.responses import StreamingResponse
+
+from alcove.api.auth import CurrentUser
+from alcove.api.params import MAX_ID, ObjectId
+from alcove.campaigns import repository as repo
+from alcove.campaigns.schemas import EventRead
+from alcove.db import get_sessionmaker
+from alcove.models import Campaign, CampaignStatus, User
+from alcove.users.access import get_for
+
+log = logging.getLogger(__name__)
+
+#: Seconds between two reads of new events (while at least one stream is open).
+POLL_S = 1.0
+#: Seconds between keep-alive comments on an idle stream (proxies close silent connections).
+KEEPALIVE_S = 15.0
+#: How long an id below the cursor that was not seen yet is looked for again.
+GAP_RETENTION_S = 60.0
+#: How long a stream of all campaigns trusts "not visible to this user" (a share may change it).
+HIDDEN_RECHECK_S = 30.0
+#: Holes wider than this (a sequence jump, a bulk rollback) are not watched.
+MAX_GAP = 200
+TERMINAL = {CampaignStatus.completed.value, CampaignStatus.failed.value, CampaignStatus.cancelled.value}
+
+
+@dataclass(frozen=True)
+class Frame:
+    """One event ready to send: its ids and its SSE text."""
+
+    id: int
+    campaign_id: int
+    kind: str
+    terminal: bool
+    text: str
+
+    @classmethod
+    def of(cls, e: EventRead) -> Frame:
+        terminal = e.kind == "status" and (e.data or {}).get("to") in TERMINAL
+        text = f"id: {e.id}\nevent: {e.kind}\ndata: {e.model_dump_json()}\n\n"
+        return cls(e.id, e.campaign_id, e.kind, terminal, text)
+
+
+@dataclass(eq=False)
+class Subscription:
+    campaign_id: int | None  # None: every campaign
+    queue: asyncio.Queue[list[Frame]] = field(default_factory=asyncio.Queue)
+
+
+class EventHub:
+    """Reads new events once per poll for all open streams of this process."""
+
+    def __init__(self, poll_s: float = POLL_S) -> None:
+        self.poll_s = poll_s
+        self._subs: set[Subscription] = set()
+        self._task: asyncio.Task[None] | None = None
+        self._cursor: int | None = None
+        self._gaps: dict[int, float] = {}  # missing id -> monotonic time it was first missed
+        self._lock = asyncio.Lock()
+        self.polls = 0  # for tests and the bench
+
+    async def subscribe(self, campaign_id: int | None) -> Subscription:
+        """A new subscription. Every event committed after this returns is delivered (the
+        caller reads what came before from the database)."""
+        async with self._lock:
+            if self._cursor is None:
+                self._cursor = await asyncio.to_thread(self._last_id)
+            sub = Subscription(campaign_id)
+            self._subs.add(sub)
+            if self._task is None or self._task.done():
+                self._task = asyncio.get_running_loop().create_task(self._run(), name="alcove-event-hub")
+            return sub
+
+    def unsubscribe(self, sub: Subscription) -> None:
+        self._subs.discard(sub)
+
+    async def _run(self) -> None:
+        while self._subs:
+            try:
+                frames = await asyncio.to_thread(self._read_new)
+            except Exception:  # the database may be briefly unavailable: try again next poll
+                log.exception("reading new campaign events failed")
+                frames = []
+            if frames:
+                for sub in list(self._subs):
+                    mine = (
+                        frames if sub.campaign_id is None else [f for f in frames if f.campaign_id == sub.campaign_id]
+                    )
+                    if mine:
+                        sub.queue.put_nowait(mine)
+            await asyncio.sleep(self.poll_s)
+        # the last stream closed: forget the cursor, the next subscriber starts from "now"
+        self._cursor = None
+        self._gaps.clear()
+
+    @staticmethod
+    def _last_id() -> int:
+        with get_sessionmaker()() as s:
+            return repo.last_event_id(s)
+
+    def _read_new(self) -> list[Frame]:
+        assert self._cursor is not None
+        now = time.monotonic()
+        self._gaps = {i: t for i, t in self._gaps.items() if now - t < GAP_RETENTION_S}
+        with get_sessionmaker()() as s:
+            rows = repo.events_since(s, self._cursor, sorted(self._gaps))
+            self.polls += 1
+            frames = [Frame.of(EventRead.model_validate(e)) for e in rows]
+        for f in frames:
+            self._gaps.pop(f.id, None)
+            if f.id > self._cursor:
+                if f.id - self._cursor <= MAX_GAP:  # a jump of the id sequence is not a hole to watch
+                    self._gaps.update((i, now) for i in range(self._cursor + 1, f.id))
+                self._cursor = f.id
+        return frames
+
+    @property
+    def cursor(self) -> int | None:
+        """The id of the last event read (None while nobody listens)."""
+        return self._cursor
+
+
+_HUBS: weakref.WeakKeyDictionary[asyncio.AbstractEventLoop, EventHub] = weakref.WeakKeyDictionary()
+
+
+def current_hub() -> EventHub:
+    """The hub of this process's event loop (one per API process)."""
+    loop = asyncio.get_running_loop()
+    hub = _HUBS.get(loop)
+    if hub is None:
+        hub = _HUBS[loop] = EventHub()
+    return hub
+
+
+router = APIRouter(prefix="/campaigns", tags=["campaigns"])
+
+SSE_RESPONSES: dict[int | str, dict[str, Any]] = {
+    200: {"content": {"text/event-stream": {"schema": {"type": "string"}}}, "description": "Server-Sent Events"}
+}
+After = Annotated[
+    int | None,
+    Query(ge=0, le=MAX_ID, description="resume after this event id (the last id you received); omit to start now"),
+]
+Timeout = Annotated[float, Query(ge=0, le=3600, description="close the stream after this many seconds")]
+#: At most this many missed events are sent on a resume; more: ``ready`` says ``complete: false``.
+BACKLOG_LIMIT = 1000
+
+
+def _resume_from(request: Request, after: int | None) -> int | None:
+    last = request.headers.get("last-event-id")
+    if last and last.isdigit() and int(last) <= MAX_ID:
+        return max(after or 0, int(last))
+    return after
+
+
+def _ready(cursor: int, complete: bool) -> str:
+    """The frame after the backlog: from here on every event is sent as it is committed.
+    ``complete: false`` (first connection, or more missed events than the backlog holds)
+    tells the client to reload what it shows."""
+    return f"id: {cursor}\nevent: ready\ndata: {json.dumps({'last_event_id': cursor, 'complete': complete})}\n\n"
+
+
+async def _stream(
+    hub: EventHub,
+    sub: Subscription,
+    first: list[str],
+    timeout: float,
+    accept: Callable[[Frame], Awaitable[tuple[bool, bool]]],
+    sent: set[int],
+) -> AsyncIterator[str]:
+    """Send ``first`` (backlog and ``ready``), then what the hub delivers except the ids
+    already ``sent`` (backlog and hub overlap around the moment of subscribing); ``accept``
+    says whether a frame goes out and whether the stream ends after it."""
+    loop = asyncio.get_running_loop()
+    deadline = loop.time() + timeout
+    try:
+        for text in first:
+            yield text
+        while (left := deadline - loop.time()) > 0:
+            try:
+                frames = await asyncio.wait_for(sub.queue.get(), timeout=min(KEEPALIVE_S, left))
+            except TimeoutError:
+                yield ": keep-alive\n\n"
+                continue
+            for f in frames:
+                if f.id in sent:
+                    continue
+                send, last = await accept(f)
+                if send:
+                    yield f.text
+                if last:
+                    return
+    finally:
+        hub.unsubscribe(sub)
+
+
+class _Visible:
+    """Which campaigns a user may see: known ones at once, unknown ones checked in a thread
+    (a "not visible" answer is trusted for :data:`HIDDEN_RECHECK_S`: a share may change it)."""
+
+    def __init__(self, user: User) -> None:
+        self.user = user
+        self.visible: set[int] = set()
+        self.hidden: dict[int, float] = {}
+
+    async def __call__(self, f: Frame) -> tuple[bool, bool]:
+        cid = f.campaign_id
+        if cid in self.visible:
+            return True, False
+        checked = self.hidden.get(cid)
+        if checked is not None and time.monotonic() - checked < HIDDEN_RECHECK_S:
+            return False, False
+        if await asyncio.to_thread(self._may_see, cid):
+            self.visible.add(cid)
+            self.hidden.pop(cid, None)
+            return True, False
+        self.hidden[cid] = time.monotonic()
+        return False, False
+
+    def _may_see(self, campaign_id: int) -> bool:
+        with get_sessionmaker()() as s:
+            return bool(repo.visible_campaign_ids(s, self.user, [campaign_id]))
+
+
+async def _ends_when_terminal(f: Frame) -> tuple[bool, bool]:
+    return True, f.terminal
+
+
+@router.get(
+    "/events/stream",
+    operation_id="stream_all_campaign_events",
+    response_class=StreamingResponse,
+    responses=SSE_RESPONSES,
+)
+async def stream_all_campaign_events(
+    user: CurrentUser, request: Request, after: After = None, timeout: Timeout = 300
+) -> StreamingResponse:
+    """Events of every campaign you may see, as Server-Sent Events (``id`` = event id,
+    ``event`` = kind, ``data`` = the event with its ``campaign_id``): the campaign list's
+    live channel. Resuming with ``after`` (or ``Last-Event-ID``) first sends the events you
+    missed; then a ``ready`` event; then every new event as it is committed. The stream ends
+    after ``timeout`` seconds: reconnect with the last id."""
+    resume = _resume_from(request, after)
+    hub = current_hub()
+    sub = await hub.subscribe(None)
+    visible = _Visible(user)
+    cursor = hub.cursor or 0
+
+    def backlog() -> list[Frame]:
+        if resume is None:
+            return []
+        with get_sessionmaker()() as s:
+            rows = repo.visible_events(s, user, resume, cursor, BACKLOG_LIMIT + 1)
+        visible.visible |= {e.campaign_id for e in rows}
+        return [Frame.of(EventRead.model_validate(e)) for e in rows]
+
+    try:
+        frames = await asyncio.to_thread(backlog)
+    except BaseException:
+        hub.unsubscribe(sub)
+        raise
+    complete = resume is not None and len(frames) <= BACKLOG_LIMIT
+    frames = frames[:BACKLOG_LIMIT]
+    first = [f.text for f in frames] + [_ready(cursor, complete)]
+    return _sse(_stream(hub, sub, first, timeout, visible, {f.id for f in frames}))
+
+
+@router.get(
+    "/{campaign_id}/events/stream",
+    operation_id="stream_campaign_events",
+    response_class=StreamingResponse,
+    responses=SSE_RESPONSES,
+)
+async def stream_campaign_events(
+    campaign_id: ObjectId, user: CurrentUser, request: Request, after: After = None, timeout: Timeout = 300
+) -> StreamingResponse:
+    """The campaign's events as Server-Sent Events (``id`` = event id, ``event`` = kind,
+    ``data`` = the event): the campaign page's live channel. Resuming with ``after`` (or
+    ``Last-Event-ID``) first sends the events you missed; then a ``ready`` event; then every
+    new event as it is committed. The stream ends after the event that makes the campaign
+    terminal (at once if it already is) or after ``timeout`` seconds: reconnect with the last id."""
+    resume = _resume_from(request, after)
+    hub = current_hub()
+    sub = await hub.subscribe(campaign_id)
+    cursor = hub.cursor or 0
+
+    def backlog() -> tuple[list[Frame], bool]:
+        with get_sessionmaker()() as s:
+            c = get_for(s, Campaign, campaign_id, user)
+            rows = [] if resume is None else repo.events(s, campaign_id, resume, BACKLOG_LIMIT + 1, through=cursor)
+            return [Frame.of(EventRead.model_validate(e)) for e in rows], c.status in TERMINAL
+
+    try:
+        frames, terminal = await asyncio.to_thread(backlog)
+    except BaseException:
+        hub.unsubscribe(sub)
+        raise
+    complete = resume is not None and len(frames) <= BACKLOG_LIMIT
+    frames = frames[:BACKLOG_LIMIT]
+    first = [f.text for f in frames] + [_ready(cursor, complete)]
+    if terminal:
+        hub.unsubscribe(sub)
+
+        async def once() -> AsyncIterator[str]:
+            for text in first:
+                yield text
+
+        return _sse(once())
+    return _sse(_stream(hub, sub, first, timeout, _ends_when_terminal, {f.id for f in frames}))
+
+
+def _sse(frames: AsyncIterator[str]) -> StreamingResponse:
+    return StreamingResponse(
+        frames, media_type="text/event-stream", headers={"Cache-Control": "no-cache", "X-Accel-Buffering": "no"}
+    )
