@@ -57,7 +57,20 @@ export class SseParser {
  * Read one stream until the server closes it. Resolves with the last event id seen (or
  * `after` if none); rejects when the connection fails or drops.
  */
-export async function readStream(url: string, opts: { after: number; signal: AbortSignal; onOpen?: () => void; onEvent: (e: CampaignEvent) => void }): Promise<number> {
+/**
+ * The server's `ready` frame ends the catch-up after a (re)connection: from then on every event
+ * is sent as it is committed. `complete: false` (a first connection, which starts "now", or
+ * more missed events than the server keeps) means events may have been missed: reload.
+ */
+export interface Ready {
+  last_event_id: number;
+  complete: boolean;
+}
+
+export async function readStream(
+  url: string,
+  opts: { after: number; signal: AbortSignal; onOpen?: () => void; onEvent: (e: CampaignEvent) => void; onReady?: (r: Ready) => void },
+): Promise<number> {
   const u = new URL(url, window.location.origin);
   if (opts.after > 0) u.searchParams.set("after", String(opts.after));
   const token = storedToken();
@@ -73,11 +86,14 @@ export async function readStream(url: string, opts: { after: number; signal: Abo
     for (const f of parser.push(value)) {
       const id = Number(f.id);
       if (Number.isInteger(id) && id > last) last = id;
+      let data: unknown;
       try {
-        opts.onEvent(JSON.parse(f.data) as CampaignEvent);
+        data = JSON.parse(f.data);
       } catch {
-        /* a frame that is not an event: ignore */
+        continue; // a frame that is not JSON: ignore
       }
+      if (f.event === "ready") opts.onReady?.(data as Ready);
+      else if (data && typeof data === "object" && "kind" in data) opts.onEvent(data as CampaignEvent);
     }
   }
 }
@@ -99,7 +115,10 @@ export function backoff(list: number[], failures: number): number {
  * (its timeout), with backoff when it fails; stop when `done()` says so after the server
  * closed it (e.g. the campaign reached a terminal state).
  */
-export function runStream(url: string, opts: { onEvent: (e: CampaignEvent) => void; onState: (s: LiveState) => void; done?: () => boolean; signal: AbortSignal }): void {
+export function runStream(
+  url: string,
+  opts: { onEvent: (e: CampaignEvent) => void; onState: (s: LiveState) => void; onReset?: (openedAt: number) => void; done?: () => boolean; signal: AbortSignal },
+): void {
   let after = 0;
   let failures = 0;
   let sawTerminal = false;
@@ -112,12 +131,19 @@ export function runStream(url: string, opts: { onEvent: (e: CampaignEvent) => vo
     opts.onState("connecting");
     while (!opts.signal.aborted) {
       try {
+        let openedAt = 0;
         after = await readStream(url, {
           after,
           signal: opts.signal,
           onOpen: () => {
             failures = 0;
+            openedAt = Date.now();
             opts.onState("live");
+          },
+          onReady: (r) => {
+            if (r.last_event_id > after) after = r.last_event_id;
+            // events may have been missed (first connection, long outage): reload what is shown
+            if (!r.complete) opts.onReset?.(openedAt);
           },
           onEvent: (e) => {
             if (e.id > after) after = e.id;
@@ -214,15 +240,17 @@ export interface Live {
  * Keep a stream open at `url` (null: none). Events are handed on in batches; while the stream
  * is down, `onPoll` runs every 2 s, then less often (FALLBACK_POLL_MS), until it is up again.
  */
-function useStream(url: string | null, onEvents: (e: CampaignEvent[]) => void, onPoll: () => void, done?: () => boolean): Live {
+function useStream(url: string | null, onEvents: (e: CampaignEvent[]) => void, onPoll: () => void, onReset: (openedAt: number) => void, done?: () => boolean): Live {
   const [state, setState] = useState<LiveState>("off");
   const [pollStep, setPollStep] = useState(1);
   const handler = useRef(onEvents);
   const poller = useRef(onPoll);
+  const resetter = useRef(onReset);
   const isDone = useRef(done);
   useEffect(() => {
     handler.current = onEvents;
     poller.current = onPoll;
+    resetter.current = onReset;
     isDone.current = done;
   });
   useEffect(() => {
@@ -243,6 +271,7 @@ function useStream(url: string | null, onEvents: (e: CampaignEvent[]) => void, o
         timer ??= setTimeout(flush, BATCH_MS);
       },
       onState: (s) => setState(s),
+      onReset: (openedAt) => resetter.current(openedAt),
       done: () => isDone.current?.() ?? false,
     });
     return () => {
@@ -274,6 +303,16 @@ function useStream(url: string | null, onEvents: (e: CampaignEvent[]) => void, o
   return { state: url ? state : "off", poll: down ? backoff(FALLBACK_POLL_MS, pollStep) : false };
 }
 
+const pageKeys = (id: number) => [keys.campaign(id), keys.metrics(id), keys.iterationStates(id), keys.jobs(id), keys.pools(id), keys.models(id)];
+
+/**
+ * Refetch what may have changed unseen: the queries under `prefixes` (only those on screen are
+ * refetched, the others marked stale), or only those last fetched before `before` (ms).
+ */
+function refresh(qc: QueryClient, prefixes: (readonly unknown[])[], before?: number): void {
+  for (const key of prefixes) void qc.invalidateQueries({ queryKey: key, predicate: before === undefined ? undefined : (q) => q.state.dataUpdatedAt < before });
+}
+
 /**
  * The campaign page's stream: open while the campaign may still change (not terminal); the
  * server closes it once the campaign is terminal. A retried campaign opens it again.
@@ -288,10 +327,8 @@ export function useCampaignLive(id: number, status: string | undefined): Live {
   return useStream(
     open ? `/api/v1/campaigns/${id}/events/stream` : null,
     (events) => applyEvents(qc, events.map((e) => ({ ...e, campaign_id: e.campaign_id ?? id }))),
-    () => {
-      // what the events would have refreshed; queries not on screen are only marked stale
-      for (const key of [keys.campaign(id), keys.metrics(id), keys.iterationStates(id), keys.jobs(id), keys.pools(id), keys.models(id)]) void qc.invalidateQueries({ queryKey: key });
-    },
+    () => refresh(qc, pageKeys(id)),
+    (openedAt) => refresh(qc, pageKeys(id), openedAt),
     () => statusRef.current === undefined || isTerminal(statusRef.current),
   );
 }
@@ -308,6 +345,7 @@ export function useCampaignListLive(enabled = true): Live {
       for (const id of new Set(events.filter((e) => e.kind === "step_succeeded" && e.step === "evaluate").map((e) => e.campaign_id)))
         void qc.invalidateQueries({ queryKey: keys.metrics(id) });
     },
-    () => void qc.invalidateQueries({ queryKey: keys.campaigns }),
+    () => refresh(qc, [keys.campaigns]),
+    (openedAt) => refresh(qc, [keys.campaigns, ["metrics"]], openedAt),
   );
 }

@@ -64,7 +64,7 @@ describe("campaigns list", () => {
     let rows = [summary(1, "baseline", "completed", 0.4)];
     const { calls } = mockApi({
       "GET /campaigns": () => rows,
-      "GET /campaigns/events/stream": () => stream.response(),
+      "GET /campaigns/events/stream": (url: URL) => stream.response(url),
       "GET /campaigns/{id}/metrics": [],
     });
     renderPage(<CampaignsPage />, { route: "/campaigns" });

@@ -53,9 +53,16 @@ export function sseStream() {
   };
   return {
     connections: 0,
-    response(): Response {
+    /** answers a connection as the server does: missed events (none here), then `ready` (complete only when resuming with ?after=) */
+    response(url?: URL): Response {
       this.connections += 1;
-      const body = new ReadableStream<Uint8Array>({ start: (c) => void controllers.push(c) });
+      const complete = Boolean(url?.searchParams.get("after"));
+      const body = new ReadableStream<Uint8Array>({
+        start: (c) => {
+          controllers.push(c);
+          c.enqueue(encoder.encode(`id: ${id}\nevent: ready\ndata: ${JSON.stringify({ last_event_id: id, complete })}\n\n`));
+        },
+      });
       return new Response(body, { status: 200, headers: { "Content-Type": "text/event-stream" } });
     },
     send(e: { kind: string; campaign_id?: number; iteration_index?: number | null; step?: string | null; message?: string; data?: Record<string, unknown> }) {
