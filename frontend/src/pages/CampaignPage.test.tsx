@@ -176,6 +176,34 @@ describe("campaign page", () => {
     stream.close();
   }, 15000);
 
+  it("a reconnection that missed too much (ready: complete false) refetches what the page shows; a complete one does not", async () => {
+    const stream = sseStream();
+    const { calls } = mockApi({
+      "GET /campaigns/7": () => campaign("running"),
+      "GET /campaigns/7/events/stream": (url: URL) => stream.response(url),
+      "GET /campaigns/7/metrics": () => [metric(0)],
+      "GET /campaigns/7/iterations": () => [iteration(0)],
+      "GET /tasks/1/versions/1": TASK_VERSION,
+    });
+    renderPage(<CampaignPage />, { route: "/campaigns/7", path: "/campaigns/:id" });
+    await waitFor(() => expect(screen.getByTestId("live-state")).toHaveAttribute("data-state", "live"));
+    stream.send({ kind: "step_started", iteration_index: 1, step: "train" });
+    await new Promise((r) => setTimeout(r, 300));
+    const count = (path: string) => calls.filter((c) => c.path === path).length;
+    let before = count("/campaigns/7/metrics");
+    stream.close(); // resumed with ?after=, complete: nothing to reload
+    await waitFor(() => expect(stream.connections).toBe(2));
+    await new Promise((r) => setTimeout(r, 300));
+    expect(count("/campaigns/7/metrics")).toBe(before);
+    stream.incomplete = true;
+    stream.close(); // resumed, but the server could not send all that was missed
+    await waitFor(() => expect(stream.connections).toBe(3));
+    await waitFor(() => expect(count("/campaigns/7/metrics")).toBe(before + 1));
+    before = count("/campaigns/7/iterations");
+    expect(before).toBeGreaterThanOrEqual(2);
+    stream.close();
+  });
+
   it("after the campaign ends, the plot shows every iteration the header reports, even if an answer was stale", async () => {
     // the defect: the header showed iteration 2's RMSE, the plot stopped at 1 until a reload
     let stale = true;

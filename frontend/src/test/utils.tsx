@@ -53,10 +53,12 @@ export function sseStream() {
   };
   return {
     connections: 0,
+    /** the next connections are told `complete: false` even when resuming (more missed events than the server keeps) */
+    incomplete: false,
     /** answers a connection as the server does: missed events (none here), then `ready` (complete only when resuming with ?after=) */
     response(url?: URL): Response {
       this.connections += 1;
-      const complete = Boolean(url?.searchParams.get("after"));
+      const complete = Boolean(url?.searchParams.get("after")) && !this.incomplete;
       const body = new ReadableStream<Uint8Array>({
         start: (c) => {
           controllers.push(c);
