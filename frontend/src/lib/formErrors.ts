@@ -5,7 +5,8 @@
  * of problems, so badge and messages agree. Labels are human-readable, taken from the schema.
  */
 import { resolveRef, unwrapNullable, type JsonSchema } from "../components/SchemaForm";
-import type { FieldError } from "../api/errors";
+import { humanMessage, type FieldError } from "../api/errors";
+export { humanMessage };
 
 export interface Problem {
   /** dotted path relative to the form, e.g. "phases.0.q_min.1" */
@@ -21,28 +22,6 @@ export interface ErrorView {
   problems: Problem[];
   at(field: string): Problem[];
   unplaced: Problem[];
-}
-
-const PYDANTIC: [RegExp, string | ((m: RegExpExecArray) => string)][] = [
-  [/^Input should be a valid integer, got a number with a fractional part$/i, "must be a whole number"],
-  [/^Input should be a valid integer.*$/i, "must be a whole number"],
-  [/^Input should be a valid number.*$/i, "must be a number"],
-  [/^Input should be a finite number$/i, "must be a finite number"],
-  [/^Field required$/i, "required"],
-  [/^Input should be (greater|less) than or equal to (.+)$/i, (m) => `must be at ${m[1].toLowerCase() === "greater" ? "least" : "most"} ${m[2]}`],
-  [/^Input should be (greater|less) than (.+)$/i, (m) => `must be ${m[1].toLowerCase()} than ${m[2]}`],
-  [/^Input should be (.+)$/i, (m) => `must be ${m[1]}`],
-  [/^Value error, (.+)$/i, (m) => m[1]],
-  [/^Extra inputs are not permitted$/i, "is not a known setting"],
-];
-
-/** Pydantic's messages in a form's words ("Input should be a valid number" -> "must be a number"). */
-export function humanMessage(message: string): string {
-  for (const [re, out] of PYDANTIC) {
-    const m = re.exec(message.trim());
-    if (m) return typeof out === "string" ? out : out(m);
-  }
-  return message;
 }
 
 /** A field's name in messages: its description's first clause and its name, e.g. "phase duration [s] (duration)". */
