@@ -7,11 +7,18 @@ so nothing beyond this package is needed. Production sets ``ALCOVE_DATABASE_URL`
 
 from __future__ import annotations
 
+import ipaddress
 from functools import lru_cache
 from pathlib import Path
 
-from pydantic import Field, SecretStr, model_validator
+from pydantic import Field, SecretStr, field_validator, model_validator
 from pydantic_settings import BaseSettings, SettingsConfigDict
+
+IPNetwork = ipaddress.IPv4Network | ipaddress.IPv6Network
+
+
+def _split(value: str) -> list[str]:
+    return [item.strip() for item in value.split(",") if item.strip()]
 
 
 class Settings(BaseSettings):
@@ -23,7 +30,6 @@ class Settings(BaseSettings):
     )
     database_url: str = Field(default="", description="SQLAlchemy URL; empty means SQLite in data_dir")
     broker_url: str = Field(default="", description="Celery broker URL; empty means the filesystem broker in data_dir")
-    secret_key: SecretStr = Field(default=SecretStr("change-me-in-production"), description="Signs session tokens")
     admin_email: str = "admin@alcove.local"
     admin_password: SecretStr = Field(
         default=SecretStr("alcove-admin"), description="Password of the first admin, created on first start"
@@ -56,10 +62,27 @@ class Settings(BaseSettings):
     static_dir: Path | None = Field(
         default=None, description="Built frontend served at /; default backend/alcove/static"
     )
+    trusted_proxies: str = Field(
+        default="",
+        description=(
+            "Comma-separated IP addresses or networks (CIDR) of reverse proxies whose X-Forwarded-For header is "
+            "believed; empty: none (the client address is the connection's peer)"
+        ),
+    )
     log_level: str = "INFO"
     access_log: bool = Field(
         default=False, description="Log every HTTP request (uvicorn's access log); always on at log level DEBUG"
     )
+
+    @field_validator("trusted_proxies")
+    @classmethod
+    def _valid_networks(cls, value: str) -> str:
+        for item in _split(value):
+            try:
+                ipaddress.ip_network(item, strict=False)
+            except ValueError:
+                raise ValueError(f"{item!r} is not an IP address or network (CIDR)") from None
+        return value
 
     @model_validator(mode="after")
     def _fill_embedded_defaults(self) -> Settings:
@@ -80,6 +103,15 @@ class Settings(BaseSettings):
     @property
     def artifacts_dir(self) -> Path:
         return self.data_dir / "artifacts"
+
+    @property
+    def trusted_proxy_networks(self) -> tuple[IPNetwork, ...]:
+        """``trusted_proxies`` parsed (an address is a network of one)."""
+        return tuple(ipaddress.ip_network(item, strict=False) for item in _split(self.trusted_proxies))
+
+    @property
+    def is_redis_broker(self) -> bool:
+        return self.broker_url.startswith(("redis://", "rediss://"))
 
     @property
     def is_sqlite(self) -> bool:

@@ -62,7 +62,7 @@ def test_bad_task_spec_is_422_with_the_field_path(client, owner: Account) -> Non
     spec["phases"][0]["q_min"] = [0.3]
     spec["phases"][0]["q_max"] = [0.2]
     r = client.post(f"{API}/tasks", json={"name": "bad", "spec": spec}, headers=owner.headers)
-    assert r.status_code == 422 and r.json()["detail"][0]["field"] == "spec.phases.0.q_min", r.json()
+    assert r.status_code == 422 and r.json()["detail"][0]["field"] == "spec.phases.0.q_min.0", r.json()
 
 
 def test_validate_reports_field_errors_without_saving(client, owner: Account) -> None:

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import logging
+import os
 from pathlib import Path
 
 from fastapi import APIRouter, FastAPI, Request
@@ -13,9 +14,12 @@ from sqlalchemy import exc as sa_exc
 import alcove
 from alcove.api import health
 from alcove.api.errors import COMMON_RESPONSES, BodySizeLimit, install_error_handlers
+from alcove.api.security import SecurityHeaders, install_docs
 from alcove.api.static import SPAStaticFiles
 from alcove.db.retry import is_retryable_db_error
 from alcove.settings import Settings, get_settings
+from alcove.users.ratelimit import make_login_throttle
+from alcove.users.service import dummy_password_hash
 
 log = logging.getLogger(__name__)
 
@@ -66,15 +70,22 @@ def create_app(settings: Settings | None = None) -> FastAPI:
         version=alcove.__version__,
         description="Active-learning campaigns for data-driven contact surrogates.",
         openapi_url=f"{API_PREFIX}/openapi.json",
-        docs_url=f"{API_PREFIX}/docs",
+        docs_url=None,  # served by install_docs: Swagger UI from this origin, under the same policy
         redoc_url=None,
         generate_unique_id_function=operation_id,
     )
     app.include_router(health.router, prefix=API_PREFIX)
     for router in api_routers():
         app.include_router(router, prefix=API_PREFIX, responses=COMMON_RESPONSES)
+    install_docs(app, f"{API_PREFIX}/docs", f"{API_PREFIX}/openapi.json")
     install_error_handlers(app)
     app.add_middleware(BodySizeLimit)
+    app.add_middleware(SecurityHeaders)  # outermost of ours: also on errors and the web UI's files
+
+    app.state.trusted_proxies = settings.trusted_proxy_networks
+    app.state.login_throttle = make_login_throttle(settings.broker_url, settings.broker_key_prefix)
+    dummy_password_hash()  # an unknown e-mail's first login costs what any other does
+    _warn_about_retired_settings()
 
     @app.exception_handler(sa_exc.OperationalError)
     async def _db_busy(request: Request, err: sa_exc.OperationalError) -> JSONResponse:
@@ -87,6 +98,23 @@ def create_app(settings: Settings | None = None) -> FastAPI:
 
     _mount_frontend(app, settings.static_dir or DEFAULT_STATIC_DIR)
     return app
+
+
+#: Settings that no longer do anything, with the reason (a process that still sets one starts
+#: and says so once).
+RETIRED_SETTINGS = {
+    "ALCOVE_SECRET_KEY": "nothing is signed with it: bearer tokens are random values stored as SHA-256 hashes",
+}
+
+
+def _warn_about_retired_settings() -> None:
+    for name, why in RETIRED_SETTINGS.items():
+        if os.environ.get(name) and name not in _warned:
+            _warned.add(name)
+            log.warning("%s is set but no longer used (%s); remove it", name, why)
+
+
+_warned: set[str] = set()
 
 
 def _mount_frontend(app: FastAPI, static_dir: Path) -> None:

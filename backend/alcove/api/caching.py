@@ -7,11 +7,11 @@ from __future__ import annotations
 import hashlib
 import threading
 import time
-from collections import OrderedDict
 from collections.abc import Callable
 from typing import Any
 
 import sqlalchemy as sa
+from cachetools import LRUCache, TLRUCache
 from fastapi import Request, Response
 from starlette.concurrency import run_in_threadpool
 
@@ -22,34 +22,33 @@ NOT_MODIFIED = {304: {"description": "not modified (the `If-None-Match` ETag sti
 
 
 class ResponseCache:
-    """A small thread-safe LRU of serialized JSON bodies. Keys carry what makes an entry
-    stale (content hashes, row counts, the campaign's ``updated_at``), so entries are never
-    invalidated explicitly; a hot dashboard poll costs the access check and one count."""
+    """A small thread-safe LRU (``cachetools.LRUCache``) of serialized JSON bodies. Keys carry
+    what makes an entry stale (content hashes, row counts, the campaign's ``updated_at``), so
+    entries are never invalidated explicitly; a hot dashboard poll costs the access check and
+    one count."""
 
     def __init__(self, max_entries: int = 256) -> None:
         self.max_entries = max_entries
-        self._data: OrderedDict[Any, bytes] = OrderedDict()
+        self._data: LRUCache[Any, bytes] = LRUCache(maxsize=max_entries)
         self._lock = threading.Lock()
 
     def get(self, key: Any) -> bytes | None:
         with self._lock:
-            body = self._data.get(key)
-            if body is not None:
-                self._data.move_to_end(key)
-            return body
+            return self._data.get(key)
 
     def get_or_build(self, key: Any, build: Callable[[], bytes]) -> bytes:
         with self._lock:
             body = self._data.get(key)
-            if body is not None:
-                self._data.move_to_end(key)
-                return body
-        body = build()
+        if body is not None:
+            return body
+        body = build()  # outside the lock: a slow build must not hold up other requests
         with self._lock:
             self._data[key] = body
-            while len(self._data) > self.max_entries:
-                self._data.popitem(last=False)
         return body
+
+    def clear(self) -> None:
+        with self._lock:
+            self._data.clear()
 
 
 RESPONSES = ResponseCache()
@@ -69,26 +68,27 @@ async def cached_json(request: Request, key: tuple[Any, ...], build: Callable[[]
 
 
 class TtlCache:
-    """Tiny thread-safe map whose entries expire (per API process)."""
+    """Small thread-safe map whose entries expire, each after its own time to live (per API
+    process): a ``cachetools.TLRUCache``, least recently used entries evicted first when full."""
 
     def __init__(self, max_entries: int = 4096) -> None:
         self.max_entries = max_entries
-        self._data: dict[Any, tuple[float, Any]] = {}
+        # values are (ttl_s, value): the entry expires ttl_s after it was put
+        self._data: TLRUCache[Any, tuple[float, Any]] = TLRUCache(
+            maxsize=max_entries, ttu=lambda _key, value, now: now + value[0], timer=time.monotonic
+        )
         self._lock = threading.Lock()
 
     def get(self, key: Any) -> Any:
-        hit = self._data.get(key)
-        if hit is None or hit[0] < time.monotonic():
-            return None
-        return hit[1]
+        with self._lock:
+            hit = self._data.get(key)
+        return None if hit is None else hit[1]
 
     def put(self, key: Any, value: Any, ttl_s: float) -> None:
         if ttl_s <= 0:
             return
         with self._lock:
-            if len(self._data) >= self.max_entries:
-                self._data.clear()
-            self._data[key] = (time.monotonic() + ttl_s, value)
+            self._data[key] = (ttl_s, value)
 
     def clear(self) -> None:
         with self._lock:

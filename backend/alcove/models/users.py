@@ -133,6 +133,11 @@ class Share(Base):
 
     One nullable foreign key per shareable table (exactly one is set), so shares are
     deleted with their object and the database checks the reference.
+
+    A share to an e-mail that no account has is an invitation: ``email`` is set and
+    ``user_id`` is NULL (it grants nothing) until an account with that e-mail is created,
+    which then gets it. Sharing answers alike either way, so it does not tell a member
+    whether an address has an account.
     """
 
     __tablename__ = "shares"
@@ -149,10 +154,20 @@ class Share(Base):
         sa.UniqueConstraint("user_id", "oracle_definition_id"),
         sa.UniqueConstraint("user_id", "surrogate_config_id"),
         sa.UniqueConstraint("user_id", "campaign_id"),
+        sa.CheckConstraint("(user_id IS NULL) <> (email IS NULL)", name="grantee_or_invited_email"),
+        sa.UniqueConstraint("email", "task_definition_id"),
+        sa.UniqueConstraint("email", "oracle_definition_id"),
+        sa.UniqueConstraint("email", "surrogate_config_id"),
+        sa.UniqueConstraint("email", "campaign_id"),
     )
 
     id: Mapped[int] = mapped_column(primary_key=True)
-    user_id: Mapped[int] = mapped_column(sa.ForeignKey("users.id", ondelete="CASCADE"), index=True, comment="grantee")
+    user_id: Mapped[int | None] = mapped_column(
+        sa.ForeignKey("users.id", ondelete="CASCADE"), index=True, comment="grantee; NULL while an invitation"
+    )
+    email: Mapped[str | None] = mapped_column(
+        sa.String(320), index=True, comment="invited e-mail (lower-case) that no account has yet; else NULL"
+    )
     permission: Mapped[str] = mapped_column(
         sa.String(8), default=SharePermission.view.value, server_default=SharePermission.view.value
     )
@@ -169,7 +184,7 @@ class Share(Base):
     created_by_id: Mapped[int | None] = mapped_column(sa.ForeignKey("users.id", ondelete="SET NULL"))
     created_at: Mapped[datetime] = mapped_column(default=utcnow, server_default=sa.func.now())
 
-    user: Mapped[User] = relationship(foreign_keys=[user_id])
+    user: Mapped[User | None] = relationship(foreign_keys=[user_id])
     task_definition: Mapped[TaskDefinition | None] = relationship()
     oracle_definition: Mapped[OracleDefinition | None] = relationship()
     surrogate_config: Mapped[SurrogateConfig | None] = relationship()

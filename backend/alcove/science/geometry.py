@@ -36,14 +36,19 @@ from __future__ import annotations
 
 import math
 from dataclasses import asdict, dataclass, field, replace
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
+
+from alcove.science.arrays import FloatArray
+
+if TYPE_CHECKING:  # CasADi is imported only by the symbolic kinematics, when they are built
+    from alcove.science.symbolic import Symbolic
 
 GRAVITY = 9.81
 
 
-def rot2(phi: float | np.ndarray) -> np.ndarray:
+def rot2(phi: float | FloatArray) -> FloatArray:
     """Planar rotation for a backward tilt ``phi`` acting on (x, z) column vectors.
 
     For an array ``phi`` of shape (n,), returns shape (n, 2, 2).
@@ -52,7 +57,7 @@ def rot2(phi: float | np.ndarray) -> np.ndarray:
     return np.stack([np.stack([c, -s], -1), np.stack([s, c], -1)], -2)
 
 
-def rot3_from_tilt(phi: float | np.ndarray) -> np.ndarray:
+def rot3_from_tilt(phi: float | FloatArray) -> FloatArray:
     """3D rotation matrix R_y(-phi) (shape (3, 3) or (n, 3, 3))."""
     phi = np.asarray(phi, dtype=float)
     c, s = np.cos(phi), np.sin(phi)
@@ -81,11 +86,11 @@ class HeadProfile:
     ax: float = 0.095
     az: float = 0.110
 
-    def back_point(self) -> np.ndarray:
+    def back_point(self) -> FloatArray:
         """Most posterior point (-x_B direction) in head-frame (x, z)."""
         return np.array([self.cx - self.ax, self.cz])
 
-    def points(self, n: int = 400, arc: tuple[float, float] = (0.5 * math.pi, 1.5 * math.pi)) -> np.ndarray:
+    def points(self, n: int = 400, arc: tuple[float, float] = (0.5 * math.pi, 1.5 * math.pi)) -> FloatArray:
         """Sample ``n`` points (head-frame x, z) on the back half of the ellipse."""
         s = np.linspace(arc[0], arc[1], n)
         return np.stack([self.cx + self.ax * np.cos(s), self.cz + self.az * np.sin(s)], -1)
@@ -118,18 +123,19 @@ class HeadNeckPreset:
         return self.inertia_joint - self.mass * self.com_distance**2
 
     @property
-    def headrest_origin(self) -> np.ndarray:
+    def headrest_origin(self) -> FloatArray:
         """World (x, z) of the headrest frame origin: the head's back point at first contact."""
         return self.head_point_world(self.profile.back_point(), self.theta_contact)
 
-    def head_origin_world(self, theta: Any) -> np.ndarray:
-        """World (x, z) of the head frame origin (COG)."""
+    def head_origin_world(self, theta: float) -> FloatArray:
+        """World (x, z) of the head frame origin (COG) at the head angle ``theta``."""
         d = self.com_distance
         return np.array([-d * np.sin(theta), d * np.cos(theta)])
 
-    def head_point_world(self, p_head: np.ndarray, theta: float) -> np.ndarray:
+    def head_point_world(self, p_head: FloatArray, theta: float) -> FloatArray:
         """World (x, z) of a point given in head-frame (x, z)."""
-        return self.head_origin_world(theta) + rot2(theta) @ np.asarray(p_head, float)
+        world: FloatArray = self.head_origin_world(theta) + rot2(theta) @ np.asarray(p_head, float)
+        return world
 
     def to_dict(self) -> dict[str, Any]:
         return asdict(self)
@@ -152,18 +158,18 @@ class RelativeKinematics:
     r_rel (n, 3), v_rel (n, 3), T_rel (n, 3, 3), omega_rel (n, 3).
     """
 
-    r_rel: np.ndarray
-    v_rel: np.ndarray
-    T_rel: np.ndarray
-    omega_rel: np.ndarray
+    r_rel: FloatArray
+    v_rel: FloatArray
+    T_rel: FloatArray
+    omega_rel: FloatArray
 
     @property
-    def angle(self) -> np.ndarray:
+    def angle(self) -> FloatArray:
         """Planar relative tilt (head tilt minus headrest tilt), shape (n,)."""
         return np.arctan2(-self.T_rel[:, 0, 2], self.T_rel[:, 0, 0])
 
 
-def relative_kinematics(preset: HeadNeckPreset, theta: np.ndarray, theta_dot: np.ndarray) -> RelativeKinematics:
+def relative_kinematics(preset: HeadNeckPreset, theta: FloatArray, theta_dot: FloatArray) -> RelativeKinematics:
     """Relative kinematics of the head w.r.t. the headrest for the 1-DOF preset (NumPy)."""
     theta = np.atleast_1d(np.asarray(theta, float))
     theta_dot = np.atleast_1d(np.asarray(theta_dot, float))
@@ -184,7 +190,7 @@ def relative_kinematics(preset: HeadNeckPreset, theta: np.ndarray, theta_dot: np
     return RelativeKinematics(r_rel=r_rel, v_rel=v_rel, T_rel=T_rel, omega_rel=omega_rel)
 
 
-def head_pose_in_headrest(preset: HeadNeckPreset, theta: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def head_pose_in_headrest(preset: HeadNeckPreset, theta: FloatArray) -> tuple[FloatArray, FloatArray]:
     """Planar pose of the head frame in H: (x, z) of its origin, shape (n, 2), and tilt (n,)."""
     kin = relative_kinematics(preset, theta, np.zeros_like(np.atleast_1d(theta)))
     return kin.r_rel[:, [0, 2]], np.atleast_1d(np.asarray(theta, float)) - preset.tilt
@@ -206,7 +212,9 @@ __all__ = [
 ]
 
 
-def relative_kinematics_symbolic(preset: HeadNeckPreset, theta, theta_dot):  # type: ignore[no-untyped-def]
+def relative_kinematics_symbolic(
+    preset: HeadNeckPreset, theta: Symbolic, theta_dot: Symbolic | float
+) -> tuple[Symbolic, Symbolic, Symbolic, Symbolic]:
     """CasADi (SX/MX) version of :func:`relative_kinematics` for one scalar state.
 
     Returns ``(r_rel (3,1), v_rel (3,1), T_rel (3,3), omega_rel (3,1))``; used to build

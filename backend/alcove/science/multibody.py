@@ -36,7 +36,9 @@ from functools import cached_property
 import casadi as ca
 import numpy as np
 
+from alcove.science.arrays import FloatArray
 from alcove.science.geometry import GRAVITY, HeadNeckPreset, RelativeKinematics
+from alcove.science.symbolic import Symbolic
 
 
 @dataclass(frozen=True)
@@ -108,35 +110,38 @@ class PlanarChain:
     def ndof(self) -> int:
         return len(self.links)
 
-    # ---- kinematics (CasADi expressions; symbols or numbers) ------------------------
-    def angles(self, q):  # type: ignore[no-untyped-def]
+    # ---- kinematics (CasADi expressions of SX or MX symbols) ------------------------
+    def angles(self, q: Symbolic) -> list[Symbolic]:
         """Absolute angles phi_i of the links (list of scalars)."""
-        out, phi = [], 0
-        for i in range(self.ndof):
-            phi = phi + q[i]
-            out.append(phi)
+        out = [q[0]]
+        for i in range(1, self.ndof):
+            out.append(out[-1] + q[i])
         return out
 
-    def com_positions(self, q):  # type: ignore[no-untyped-def]
+    def com_positions(self, q: Symbolic) -> list[Symbolic]:
         """World (x, z) of every link's COG (list of 2x1)."""
-        joint = ca.DM(self.base)
+        joint: ca.DM | Symbolic = ca.DM(self.base)
         out = []
-        for link, phi in zip(self.links, self.angles(q), strict=False):
+        for link, phi in zip(self.links, self.angles(q), strict=True):
             axis = ca.vertcat(-ca.sin(phi), ca.cos(phi))  # rot2(phi) @ (0, 1)
             out.append(joint + link.com_distance * axis)
             joint = joint + link.length * axis
         return out
 
-    def potential_energy(self, q):  # type: ignore[no-untyped-def]
+    def potential_energy(self, q: Symbolic) -> Symbolic:
         """V(q) = sum m_i g z_i (zero at the height of the base joint)."""
-        return sum(link.mass * self.gravity * c[1] for link, c in zip(self.links, self.com_positions(q), strict=False))
+        heights = [link.mass * self.gravity * c[1] for link, c in zip(self.links, self.com_positions(q), strict=True)]
+        energy = heights[0]
+        for height in heights[1:]:
+            energy = energy + height
+        return energy
 
-    def contact_pose_world(self, q):  # type: ignore[no-untyped-def]
+    def contact_pose_world(self, q: Symbolic) -> tuple[Symbolic, Symbolic]:
         """World (x, z) of the contact body frame origin and its absolute angle."""
         return self.com_positions(q)[-1], self.angles(q)[-1]
 
-    def generalized_contact_force_expr(self, q, wrench):  # type: ignore[no-untyped-def]
-        """J(q)^T w for symbols (or numbers)."""
+    def generalized_contact_force_expr(self, q: Symbolic, wrench: Symbolic) -> Symbolic:
+        """J(q)^T w for symbols."""
         return ca.mtimes(self._fn_jacobian(q).T, wrench)
 
     # ---- compiled functions ----------------------------------------------------------
@@ -181,7 +186,7 @@ class PlanarChain:
     @cached_property
     def _fn_jacobian(self) -> ca.Function:
         q, qd = self._sym
-        r_rel, v_rel, _, omega_rel = self._fn_relkin(q, qd)
+        _, v_rel, _, omega_rel = self._fn_relkin.call([q, qd])
         J = ca.vertcat(ca.jacobian(v_rel, qd), ca.jacobian(omega_rel, qd))
         return ca.Function("contact_jacobian", [q], [J], ["q"], ["J"])
 
@@ -239,7 +244,7 @@ class PlanarChain:
         return ca.Function("forward_dynamics", [q, qd, tau, w], [qdd], ["q", "qd", "tau", "wrench"], ["qdd"])
 
     # ---- NumPy evaluation ---------------------------------------------------------
-    def _as_samples(self, x: np.ndarray) -> np.ndarray:
+    def _as_samples(self, x: FloatArray) -> FloatArray:
         x = np.asarray(x, float)
         if x.ndim == 0 or (x.ndim == 1 and self.ndof == 1):
             x = x.reshape(-1, 1)
@@ -249,21 +254,20 @@ class PlanarChain:
             raise ValueError(f"q: expected {self.ndof} columns, got {x.shape[1]}")
         return x
 
-    def relative_kinematics(self, q: np.ndarray, qd: np.ndarray) -> RelativeKinematics:
+    def relative_kinematics(self, q: FloatArray, qd: FloatArray) -> RelativeKinematics:
         """NumPy relative kinematics for samples q, qd of shape (n, ndof) (or (n,) for 1 DOF)."""
         q, qd = self._as_samples(q), self._as_samples(qd)
         n = q.shape[0]
-        r, v, T, w = self._fn_relkin.map(n)(q.T, qd.T)
-        T = np.asarray(T).reshape(3, n, 3).transpose(1, 0, 2)
-        return RelativeKinematics(r_rel=np.asarray(r).T, v_rel=np.asarray(v).T, T_rel=T, omega_rel=np.asarray(w).T)
+        r, v, T, w = (np.asarray(out) for out in self._fn_relkin.map(n).call([q.T, qd.T]))
+        return RelativeKinematics(r_rel=r.T, v_rel=v.T, T_rel=T.reshape(3, n, 3).transpose(1, 0, 2), omega_rel=w.T)
 
-    def generalized_contact_force(self, q: np.ndarray, wrench: np.ndarray) -> np.ndarray:
+    def generalized_contact_force(self, q: FloatArray, wrench: FloatArray) -> FloatArray:
         """J(q)^T w for samples: q (n, ndof), wrench (n, 6) -> (n, ndof)."""
         q = self._as_samples(q)
         wrench = np.asarray(wrench, float).reshape(-1, 6)
-        J = self._fn_jacobian.map(q.shape[0])(q.T)
-        J = np.asarray(J).reshape(6, q.shape[0], self.ndof).transpose(1, 0, 2)
-        return np.einsum("nij,ni->nj", J, wrench)
+        J = np.asarray(self._fn_jacobian.map(q.shape[0])(q.T)).reshape(6, q.shape[0], self.ndof).transpose(1, 0, 2)
+        forces: FloatArray = np.einsum("nij,ni->nj", J, wrench)
+        return forces
 
 
 __all__ = ["Headrest", "Link", "PlanarChain"]

@@ -21,6 +21,8 @@ from pathlib import Path
 
 import numpy as np
 
+from alcove.science.arrays import FloatArray
+
 FORCE_COLUMNS = ("fx", "fy", "fz", "mx", "my", "mz")
 
 
@@ -37,10 +39,10 @@ class SeriesFormatError(ValueError):
 class Trajectory:
     """Joint trajectory on a time grid: t (n,), q (n, ndof), qd (n, ndof), tau (n, ndof) or None."""
 
-    t: np.ndarray
-    q: np.ndarray
-    qd: np.ndarray
-    tau: np.ndarray | None = None
+    t: FloatArray
+    q: FloatArray
+    qd: FloatArray
+    tau: FloatArray | None = None
 
     def __post_init__(self) -> None:
         t = np.asarray(self.t, float)
@@ -72,12 +74,15 @@ class Trajectory:
     def __len__(self) -> int:
         return int(self.t.shape[0])
 
-    def resample(self, t_new: np.ndarray) -> Trajectory:
+    def resample(self, t_new: FloatArray) -> Trajectory:
         """Linear interpolation onto ``t_new`` (must lie within the time span)."""
         t_new = np.asarray(t_new, float)
         if t_new.min() < self.t[0] - 1e-12 or t_new.max() > self.t[-1] + 1e-12:
             raise SeriesFormatError("t", "resampling grid leaves the trajectory's time span")
-        interp = lambda a: np.stack([np.interp(t_new, self.t, a[:, j]) for j in range(a.shape[1])], -1)  # noqa: E731
+
+        def interp(a: FloatArray) -> FloatArray:
+            return np.stack([np.interp(t_new, self.t, a[:, j]) for j in range(a.shape[1])], -1)
+
         return Trajectory(t_new, interp(self.q), interp(self.qd), None if self.tau is None else interp(self.tau))
 
     def window(self, t0: float, t1: float) -> Trajectory:
@@ -92,7 +97,7 @@ class Trajectory:
             cols += [f"tau_{i}" for i in range(n)]
         return cols
 
-    def to_array(self) -> np.ndarray:
+    def to_array(self) -> FloatArray:
         parts = [self.t[:, None], self.q, self.qd] + ([self.tau] if self.tau is not None else [])
         return np.hstack(parts)
 
@@ -129,7 +134,10 @@ class Trajectory:
         if unknown:
             raise SeriesFormatError(unknown[0], "unknown column")
         col = {c: j for j, c in enumerate(header)}
-        take = lambda names: data[:, [col[c] for c in names]]  # noqa: E731
+
+        def take(names: list[str]) -> FloatArray:
+            return data[:, [col[c] for c in names]]
+
         tau = take([f"tau_{i}" for i in range(n)]) if tau_cols else None
         return cls(data[:, 0], take([f"q_{i}" for i in range(n)]), take([f"qd_{i}" for i in range(n)]), tau)
 
@@ -138,9 +146,9 @@ class Trajectory:
 class ForceSeries:
     """Contact force (n, 3) and moment (n, 3) on the head in the headrest frame over t (n,)."""
 
-    t: np.ndarray
-    force: np.ndarray
-    moment: np.ndarray
+    t: FloatArray
+    force: FloatArray
+    moment: FloatArray
 
     def __post_init__(self) -> None:
         t = np.asarray(self.t, float)
@@ -159,7 +167,7 @@ class ForceSeries:
     def __len__(self) -> int:
         return int(self.t.shape[0])
 
-    def to_array(self) -> np.ndarray:
+    def to_array(self) -> FloatArray:
         return np.hstack([self.t[:, None], self.force, self.moment])
 
     def to_csv(self, path: str | Path | None = None) -> str:
@@ -190,7 +198,7 @@ class ForceSeries:
         return float(np.max(np.linalg.norm(self.force, axis=1))) if len(self) else 0.0
 
 
-def validate_time(t: np.ndarray, name: str = "t") -> None:
+def validate_time(t: FloatArray, name: str = "t") -> None:
     if t.ndim != 1:
         raise SeriesFormatError(name, "must be one-dimensional")
     if t.shape[0] < 2:
@@ -202,7 +210,7 @@ def validate_time(t: np.ndarray, name: str = "t") -> None:
         raise SeriesFormatError(name, f"time must increase strictly (row {i + 1}: {t[i]!r} after {t[i - 1]!r})")
 
 
-def _check_finite(arr: np.ndarray, name: str) -> None:
+def _check_finite(arr: FloatArray, name: str) -> None:
     bad = ~np.isfinite(arr)
     if np.any(bad):
         row = int(np.argwhere(bad)[0][0])
@@ -220,7 +228,7 @@ def _indexed(header: list[str], prefix: str) -> list[str]:
     return [f"{prefix}_{i}" for i in idx]
 
 
-def _read_csv(source: str | Path | io.TextIOBase) -> tuple[list[str], np.ndarray]:
+def _read_csv(source: str | Path | io.TextIOBase) -> tuple[list[str], FloatArray]:
     if isinstance(source, (str, Path)):
         path = Path(source)
         try:
@@ -253,7 +261,7 @@ def _read_csv(source: str | Path | io.TextIOBase) -> tuple[list[str], np.ndarray
     return header, data
 
 
-def _write_csv(header: list[str], data: np.ndarray) -> str:
+def _write_csv(header: list[str], data: FloatArray) -> str:
     out = io.StringIO()
     out.write(",".join(header) + "\n")
     np.savetxt(out, data, delimiter=",", fmt="%.17g")

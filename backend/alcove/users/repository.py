@@ -38,7 +38,11 @@ def list_tokens(session: Session, user: User, *, include_sessions: bool = False)
     return session.scalars(q.order_by(ApiToken.id)).all()
 
 
-def shares_of(session: Session, column: sa.ColumnElement, object_id: int) -> Sequence[tuple[Share, User]]:
+def shares_of(session: Session, column: sa.ColumnElement, object_id: int) -> Sequence[tuple[Share, str]]:
+    """The shares of one object with the grantee's e-mail (the invited e-mail for an invitation)."""
     return session.execute(
-        sa.select(Share, User).join(User, Share.user_id == User.id).where(column == object_id).order_by(Share.id)
+        sa.select(Share, sa.func.coalesce(User.email, Share.email))
+        .outerjoin(User, Share.user_id == User.id)
+        .where(column == object_id)
+        .order_by(Share.id)
     ).all()  # type: ignore[return-value]

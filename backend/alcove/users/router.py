@@ -7,13 +7,14 @@ from typing import Annotated
 from fastapi import APIRouter, Query, Request, Response, status
 
 from alcove.api.auth import AdminUser, CurrentToken, CurrentUser
+from alcove.api.client_address import client_address
 from alcove.api.deps import SessionDep
 from alcove.api.errors import ErrorOut
 from alcove.api.params import MAX_ID, ObjectId
-from alcove.errors import AuthenticationFailed, LoginLocked
+from alcove.errors import LoginLocked
 from alcove.users import repository as repo
 from alcove.users import service
-from alcove.users.ratelimit import LOGIN_FAILURES
+from alcove.users.ratelimit import LoginThrottle
 from alcove.users.schemas import (
     LoginIn,
     LoginOut,
@@ -32,8 +33,8 @@ from alcove.users.schemas import (
 router = APIRouter()
 
 AUTH_ERRORS = {
-    401: {"model": ErrorOut, "description": "wrong e-mail or password"},
-    429: {"model": ErrorOut, "description": "too many failed logins (see Retry-After)"},
+    401: {"model": ErrorOut, "description": "wrong e-mail or password (the same for an unknown e-mail)"},
+    429: {"model": ErrorOut, "description": "too many failed logins: wait the seconds in Retry-After"},
 }
 
 
@@ -46,22 +47,29 @@ def _token_out(token, secret: str | None = None) -> TokenOut:
     return TokenCreated(**data, token=secret) if secret else TokenOut(**data)
 
 
+def login_throttle(request: Request) -> LoginThrottle:
+    """The app's login throttle (:func:`alcove.api.app.create_app` makes one per app)."""
+    return request.app.state.login_throttle
+
+
 @router.post("/auth/login", response_model=LoginOut, tags=["auth"], operation_id="login", responses=AUTH_ERRORS)
 def login(body: LoginIn, request: Request, session: SessionDep) -> LoginOut:
-    """Exchange e-mail and password for a bearer token (valid 12 h). Five failures in a row
-    lock the account for 5 minutes, and 30 failures from one client address within 5
-    minutes block that address for a while (both 429 with Retry-After)."""
-    client = request.client.host if request.client else "unknown"
-    wait = LOGIN_FAILURES.retry_after(client)
+    """Exchange e-mail and password for a bearer token (valid 12 h).
+
+    Failed logins are throttled per (e-mail, client address): five cost nothing, then each
+    further attempt from that address on that e-mail must wait a delay that doubles from 1 s
+    up to 5 minutes; 30 failures from one client address within 5 minutes block that address
+    for the rest of the 5 minutes. Both answer 429 with Retry-After (the seconds to wait).
+    An unknown e-mail is answered exactly like a wrong password (401, same body, same work),
+    and throttled the same way; an account is never locked for its owner on another address."""
+    throttle = login_throttle(request)
+    client = client_address(request, request.app.state.trusted_proxies)
+    wait = throttle.begin(body.email, client)
     if wait:
-        raise LoginLocked("too many failed logins from this address: try again later", wait)
-    try:
-        token, secret = service.login(session, body.email, body.password)
-    except AuthenticationFailed:
-        LOGIN_FAILURES.failed(client)
-        session.commit()  # keep the account's failure count
-        raise
+        raise LoginLocked("too many failed logins: try again later", wait)
+    token, secret = service.login(session, body.email, body.password)  # a failure stays counted
     session.commit()
+    throttle.succeeded(body.email, client)
     return LoginOut(access_token=secret, expires_at=token.expires_at)
 
 
@@ -138,9 +146,14 @@ def get_user(user_id: ObjectId, admin: AdminUser, session: SessionDep) -> UserOu
 
 
 @router.patch("/users/{user_id}", response_model=UserOut, tags=["users"], operation_id="update_user")
-def update_user(user_id: ObjectId, body: UserUpdate, admin: AdminUser, session: SessionDep) -> UserOut:
+def update_user(
+    user_id: ObjectId, body: UserUpdate, admin: AdminUser, session: SessionDep, request: Request
+) -> UserOut:
+    """Change a user; a new password also clears the login delays of that e-mail on every address."""
     user = service.update_user(session, admin, user_id, body)
     session.commit()
+    if body.password is not None:
+        login_throttle(request).clear_account(user.email)
     return UserOut.model_validate(user)
 
 
@@ -155,7 +168,10 @@ def update_user(user_id: ObjectId, body: UserUpdate, admin: AdminUser, session: 
     operation_id="create_share",
 )
 def create_share(body: ShareCreate, user: CurrentUser, session: SessionDep) -> ShareOut:
-    """Share one of your objects with another user (view or edit); sharing again updates the permission."""
+    """Share one of your objects with someone by e-mail (view or edit); sharing again updates
+    the permission. If no account has that e-mail yet, the share waits for the account made
+    with it; the answer is the same either way (it does not tell whether the address has an
+    account)."""
     out = service.share(session, user, body)
     session.commit()
     return out
@@ -165,7 +181,7 @@ def create_share(body: ShareCreate, user: CurrentUser, session: SessionDep) -> S
 def list_shares(
     object_type: ObjectType, object_id: Annotated[int, Query(ge=1, le=MAX_ID)], user: CurrentUser, session: SessionDep
 ) -> list[ShareOut]:
-    """Who one of your objects is shared with."""
+    """Who one of your objects is shared with (by e-mail, including addresses without an account yet)."""
     return service.list_shares(session, user, object_type, object_id)
 
 

@@ -56,7 +56,7 @@ class UserUpdate(_In):
     role: Literal["admin", "member"] | None = None
     is_active: bool | None = None
     password: str | None = Field(
-        None, min_length=8, max_length=1024, description="set a new password (and lift a login lockout)"
+        None, min_length=8, max_length=1024, description="set a new password (and clear the login delays of this e-mail)"
     )
 
 
@@ -92,15 +92,24 @@ class TokenCreated(TokenOut):
 class ShareCreate(_In):
     object_type: ObjectType
     object_id: int = Field(ge=1, le=2**31 - 1)
-    email: str = Field(min_length=3, max_length=320, description="the user to share with")
+    email: str = Field(
+        min_length=3,
+        max_length=320,
+        pattern=EMAIL_PATTERN,
+        description="who to share with: an account's e-mail, or an address that will get it when its account is made",
+    )
     permission: Literal["view", "edit"] = "view"
+
+    @field_validator("email")
+    @classmethod
+    def _lower(cls, v: str) -> str:
+        return v.strip().lower()
 
 
 class ShareOut(BaseModel):
     id: int
     object_type: ObjectType
     object_id: int
-    user_id: int
-    email: str
+    email: str = Field(description="the grantee's e-mail (whether or not an account has it yet)")
     permission: Literal["view", "edit"]
     created_at: datetime

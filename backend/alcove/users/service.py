@@ -1,4 +1,8 @@
-"""Login with lockout, bearer tokens, user administration and sharing. Services never commit."""
+"""Login, bearer tokens, user administration and sharing. Services never commit.
+
+Login throttling (growing delays per account and client, a limit per client address) is the
+router's, in :mod:`alcove.users.ratelimit`: it keys on the e-mail as typed, whether or not an
+account has it, so that nothing here has to count failures."""
 
 from __future__ import annotations
 
@@ -8,9 +12,10 @@ from datetime import timedelta
 from typing import TypeVar
 
 import sqlalchemy as sa
+from cachetools import TLRUCache
 from sqlalchemy.orm import Session, make_transient_to_detached
 
-from alcove.errors import AuthenticationFailed, Conflict, InvalidInput, LoginLocked, NotFound, PermissionDenied
+from alcove.errors import AuthenticationFailed, Conflict, InvalidInput, NotFound, PermissionDenied
 from alcove.models import ApiToken, Role, Share, TokenKind, User, hash_password, hash_token, utcnow
 from alcove.users import repository as repo
 from alcove.users.access import LABEL, OBJECT_TYPES, SHARE_COLUMN, get_for
@@ -18,47 +23,44 @@ from alcove.users.schemas import ShareCreate, ShareOut, UserCreate, UserUpdate
 
 T = TypeVar("T", ApiToken, User)
 
-#: Failed password logins in a row before the account is locked ...
-MAX_FAILED_LOGINS = 5
-#: ... for this long (each further failure while locked restarts it).
-LOCKOUT = timedelta(minutes=5)
 #: Lifetime of a token issued by password login.
 SESSION_TOKEN_LIFETIME = timedelta(hours=12)
 #: ``last_used_at`` of a token is refreshed at most this often (no write per request).
 LAST_USED_RESOLUTION = timedelta(minutes=1)
 
 _DUMMY_HASH: list[str] = []
+_dummy_lock = threading.Lock()
+
+
+def dummy_password_hash() -> str:
+    """A hash made with the same hasher and parameters as real ones (made once per process;
+    :func:`alcove.api.app.create_app` makes it at start, so no login pays for it)."""
+    if not _DUMMY_HASH:
+        with _dummy_lock:
+            if not _DUMMY_HASH:
+                _DUMMY_HASH.append(hash_password("not-a-real-password"))
+    return _DUMMY_HASH[0]
 
 
 def _burn_a_hash(password: str) -> None:
-    """Verify against a dummy hash so that unknown e-mails take as long as wrong passwords."""
+    """Verify against the dummy hash: an unknown e-mail costs the same password-hash work as
+    a wrong password (one argon2 verification)."""
     from alcove.models.users import verify_password
 
-    if not _DUMMY_HASH:
-        _DUMMY_HASH.append(hash_password("not-a-real-password"))
-    verify_password(password, _DUMMY_HASH[0])
+    verify_password(password, dummy_password_hash())
 
 
 def login(session: Session, email: str, password: str) -> tuple[ApiToken, str]:
     """Check the password and issue a session token. Raises :class:`AuthenticationFailed`
-    (same message for an unknown e-mail and a wrong password) or :class:`LoginLocked`."""
+    with the same message for an unknown e-mail, an inactive account and a wrong password,
+    after the same work (one argon2 verification, no write)."""
     user = repo.user_by_email(session, email)
-    now = utcnow()
     if user is None or not user.is_active or not user.password_hash:
         _burn_a_hash(password)
         raise AuthenticationFailed("wrong e-mail or password")
-    if user.locked_until is not None and user.locked_until > now:
-        raise LoginLocked(
-            "too many failed logins: account locked for a while", int((user.locked_until - now).total_seconds()) + 1
-        )
     if not user.check_password(password):
-        user.failed_login_count += 1
-        if user.failed_login_count >= MAX_FAILED_LOGINS:
-            user.locked_until = now + LOCKOUT
-        session.flush()
         raise AuthenticationFailed("wrong e-mail or password")
-    user.failed_login_count = 0
-    user.locked_until = None
+    now = utcnow()
     user.last_login_at = now
     token, secret = ApiToken.issue(user, kind=TokenKind.session, name="login", expires_at=now + SESSION_TOKEN_LIFETIME)
     session.add(token)
@@ -67,34 +69,38 @@ def login(session: Session, email: str, password: str) -> tuple[ApiToken, str]:
 
 
 class _TokenCache:
-    """Recently verified tokens (by hash) for :data:`TOKEN_CACHE_SECONDS`, so a polling
-    dashboard does not pay a token lookup per request. Revoking a token or changing a user
-    through this process drops the entries at once; another API process notices within
-    ``TOKEN_CACHE_SECONDS``."""
+    """Recently verified tokens (by hash) for ``ttl_s`` seconds (a ``cachetools.TLRUCache``:
+    the time to live is read when an entry is put, least recently used entries go first when
+    full), so a polling dashboard does not pay a token lookup per request. Revoking a token or
+    changing a user through this process drops the entries at once; another API process
+    notices within ``TOKEN_CACHE_SECONDS``."""
 
     def __init__(self, ttl_s: float, max_entries: int = 4096) -> None:
         self.ttl_s = ttl_s
         self.max_entries = max_entries
-        self._data: dict[str, tuple[float, ApiToken, User]] = {}
+        self._data: TLRUCache[str, tuple[ApiToken, User]] = TLRUCache(
+            maxsize=max_entries, ttu=lambda _key, _value, now: now + self.ttl_s, timer=time.monotonic
+        )
         self._lock = threading.Lock()
 
     def get(self, key: str) -> tuple[ApiToken, User] | None:
         with self._lock:
-            hit = self._data.get(key)
-        if hit is None or hit[0] < time.monotonic():
-            return None
-        return hit[1], hit[2]
+            return self._data.get(key)
 
     def put(self, key: str, token: ApiToken, user: User) -> None:
         with self._lock:
-            if len(self._data) >= self.max_entries:
-                self._data.clear()
-            self._data[key] = (time.monotonic() + self.ttl_s, token, user)
+            self._data[key] = (token, user)
 
     def drop(self, *, token_id: int | None = None, user_id: int | None = None) -> None:
         with self._lock:
-            for key in [k for k, (_, t, u) in self._data.items() if t.id == token_id or u.id == user_id]:
-                del self._data[key]
+            for key in list(self._data):
+                hit = self._data.get(key)
+                if hit is not None and (hit[0].id == token_id or hit[1].id == user_id):
+                    del self._data[key]
+
+    def clear(self) -> None:
+        with self._lock:
+            self._data.clear()
 
 
 #: Seconds a verified token is trusted without a database lookup (per API process).
@@ -187,6 +193,7 @@ def create_user(session: Session, body: UserCreate) -> User:
     user.set_password(body.password)
     session.add(user)
     session.flush()
+    accept_invitations(session, user)
     return user
 
 
@@ -209,8 +216,6 @@ def update_user(session: Session, admin: User, user_id: int, body: UserUpdate) -
         user.is_active = body.is_active
     if body.password is not None:
         user.set_password(body.password)
-        user.failed_login_count = 0
-        user.locked_until = None
     session.flush()
     TOKENS.drop(user_id=user.id)
     return user
@@ -230,62 +235,83 @@ def update_me(
 
 
 # ----------------------------------------------------------------------------- sharing
+#
+# A share names its grantee by e-mail. When an account has that e-mail the share grants
+# access at once; otherwise it is kept as an invitation (``Share.email``, no ``user_id``)
+# that the account created later with that e-mail receives (:func:`create_user`). Both
+# answer alike (201, the same fields, the same work), and are listed alike, so sharing does
+# not tell a member whether an address has an account.
 
 
-def _share_out(share: Share, grantee: User) -> ShareOut:
+def _object_of(share: Share) -> tuple[str, int]:
     for object_type, model in OBJECT_TYPES.items():
         object_id = getattr(share, SHARE_COLUMN[model].key)
         if object_id is not None:
-            return ShareOut(
-                id=share.id,
-                object_type=object_type,
-                object_id=object_id,
-                user_id=grantee.id,
-                email=grantee.email,
-                permission=share.permission,
-                created_at=share.created_at,
-            )  # type: ignore[arg-type]
+            return object_type, object_id
     raise AssertionError("share without object")
+
+
+def _share_out(share: Share, email: str) -> ShareOut:
+    object_type, object_id = _object_of(share)
+    return ShareOut(
+        id=share.id,
+        object_type=object_type,  # type: ignore[arg-type]
+        object_id=object_id,
+        email=email,
+        permission=share.permission,  # type: ignore[arg-type]
+        created_at=share.created_at,
+    )
 
 
 def share(session: Session, owner: User, body: ShareCreate) -> ShareOut:
     model = OBJECT_TYPES[body.object_type]
     obj = get_for(session, model, body.object_id, owner, need="owner")
-    grantee = repo.user_by_email(session, body.email)
-    if grantee is None or not grantee.is_active:
-        raise InvalidInput.one("email", "no active user with this e-mail")
-    if grantee.id == obj.owner_id:
-        raise InvalidInput.one("email", f"this user owns the {LABEL[model]}")
+    email = body.email.strip().lower()
+    if email == owner.email:
+        raise InvalidInput.one("email", f"you own this {LABEL[model]}")
     column = SHARE_COLUMN[model]
-    existing = session.scalar(sa.select(Share).where(Share.user_id == grantee.id, column == obj.id))
+    grantee = repo.user_by_email(session, email)
+    who = Share.user_id == grantee.id if grantee is not None else Share.email == email
+    existing = session.scalar(sa.select(Share).where(who, column == obj.id))
     if existing is None:
-        existing = Share(user_id=grantee.id, permission=body.permission, created_by_id=owner.id, **{column.key: obj.id})
+        existing = Share(
+            user_id=grantee.id if grantee is not None else None,
+            email=None if grantee is not None else email,
+            permission=body.permission,
+            created_by_id=owner.id,
+            **{column.key: obj.id},
+        )
         session.add(existing)
     else:
         existing.permission = body.permission
     session.flush()
-    return _share_out(existing, grantee)
+    return _share_out(existing, email)
+
+
+def accept_invitations(session: Session, user: User) -> int:
+    """Give ``user`` the shares that were invitations to their e-mail; returns how many."""
+    result = session.execute(
+        sa.update(Share).where(Share.email == user.email, Share.user_id.is_(None)).values(user_id=user.id, email=None)
+    )
+    return result.rowcount or 0
 
 
 def list_shares(session: Session, user: User, object_type: str, object_id: int) -> list[ShareOut]:
     model = OBJECT_TYPES[object_type]
     get_for(session, model, object_id, user, need="owner")
-    return [_share_out(s, u) for s, u in repo.shares_of(session, SHARE_COLUMN[model], object_id)]
+    return [_share_out(s, email) for s, email in repo.shares_of(session, SHARE_COLUMN[model], object_id)]
 
 
 def delete_share(session: Session, user: User, share_id: int) -> None:
-    """The object's owner removes a share, or the grantee gives it up."""
+    """The object's owner removes a share (or an invitation), or the grantee gives it up."""
     row = session.get(Share, share_id)
     if row is None:
         raise NotFound("share", share_id)
     if row.user_id != user.id:
-        out = _share_out(row, row.user)
-        model = OBJECT_TYPES[out.object_type]
+        object_type, object_id = _object_of(row)
         try:
-            get_for(session, model, out.object_id, user, need="owner")
-        except PermissionDenied:
-            raise NotFound("share", share_id) from None
-        except NotFound:
+            get_for(session, OBJECT_TYPES[object_type], object_id, user, need="owner")
+        except (PermissionDenied, NotFound):
             raise NotFound("share", share_id) from None
     session.delete(row)
     session.flush()

@@ -55,9 +55,14 @@ export interface paths {
         put?: never;
         /**
          * Login
-         * @description Exchange e-mail and password for a bearer token (valid 12 h). Five failures in a row
-         *     lock the account for 5 minutes, and 30 failures from one client address within 5
-         *     minutes block that address for a while (both 429 with Retry-After).
+         * @description Exchange e-mail and password for a bearer token (valid 12 h).
+         *
+         *     Failed logins are throttled per (e-mail, client address): five cost nothing, then each
+         *     further attempt from that address on that e-mail must wait a delay that doubles from 1 s
+         *     up to 5 minutes; 30 failures from one client address within 5 minutes block that address
+         *     for the rest of the 5 minutes. Both answer 429 with Retry-After (the seconds to wait).
+         *     An unknown e-mail is answered exactly like a wrong password (401, same body, same work),
+         *     and throttled the same way; an account is never locked for its owner on another address.
          */
         post: operations["login"];
         delete?: never;
@@ -919,13 +924,16 @@ export interface paths {
         };
         /**
          * List Shares
-         * @description Who one of your objects is shared with.
+         * @description Who one of your objects is shared with (by e-mail, including addresses without an account yet).
          */
         get: operations["list_shares"];
         put?: never;
         /**
          * Create Share
-         * @description Share one of your objects with another user (view or edit); sharing again updates the permission.
+         * @description Share one of your objects with someone by e-mail (view or edit); sharing again updates
+         *     the permission. If no account has that e-mail yet, the share waits for the account made
+         *     with it; the answer is the same either way (it does not tell whether the address has an
+         *     account).
          */
         post: operations["create_share"];
         delete?: never;
@@ -1270,7 +1278,10 @@ export interface paths {
         delete?: never;
         options?: never;
         head?: never;
-        /** Update User */
+        /**
+         * Update User
+         * @description Change a user; a new password also clears the login delays of that e-mail on every address.
+         */
         patch: operations["update_user"];
         trace?: never;
     };
@@ -1631,15 +1642,20 @@ export interface components {
          * @description E = w_q |q(t_F) - q_ref|^2 + w_qd |qd(t_F)|^2.
          */
         EndpointCost: {
-            /** Q Ref */
+            /**
+             * Q Ref
+             * @description reference final pose [rad], one per joint, within the model's joint range
+             */
             q_ref?: number[] | null;
             /**
              * W Q
+             * @description weight of the final pose error [1/rad^2], 0 to 1e6 1/rad^2
              * @default 0
              */
             w_q?: number;
             /**
              * W Qd
+             * @description weight of the final velocity [s^2/rad^2], 0 to 1e6 s^2/rad^2
              * @default 0
              */
             w_qd?: number;
@@ -1711,7 +1727,7 @@ export interface components {
         FinalCondition: {
             /**
              * Q
-             * @description target pose at the end; null = free
+             * @description target pose at the end [rad], one per joint, within the last phase's bounds; null = free
              */
             q?: number[] | null;
             /**
@@ -1760,11 +1776,14 @@ export interface components {
          * @description Initial state; ``q`` defaults to the model's theta0 and ``qd`` to rest.
          */
         InitialState: {
-            /** Q */
+            /**
+             * Q
+             * @description initial pose [rad], one per joint, within the first phase's joint range; null = model.theta0
+             */
             q?: number[] | null;
             /**
              * Qd
-             * @description initial velocity; null = at rest
+             * @description initial velocity [rad/s], one per joint, -100 to 100; null = at rest
              */
             qd?: number[] | null;
             /**
@@ -2014,25 +2033,25 @@ export interface components {
         ModelSpec: {
             /**
              * Com Distance
-             * @description joint -> head COG [m]
+             * @description distance from the joint (C7/T1) to the head COG [m], above 0, at most 0.5 m
              * @default 0.12
              */
             com_distance?: number;
             /**
              * Gravity
-             * @description gravitational acceleration [m/s^2]
+             * @description gravitational acceleration [m/s^2], 0 to 100 m/s^2; 0 is weightless, 100 is about 10 g
              * @default 9.81
              */
             gravity?: number;
             /**
              * Inertia Joint
-             * @description moment of inertia about the joint [kg m^2]
+             * @description moment of inertia about the joint [kg m^2], above 0, at most 5 kg m^2; at least mass * com_distance^2 (the inertia about the COG is not negative)
              * @default 0.1
              */
             inertia_joint?: number;
             /**
              * Mass
-             * @description head mass [kg]
+             * @description head mass [kg], above 0, at most 20 kg; an adult head weighs about 4-5 kg (de Leva 1996)
              * @default 5
              */
             mass?: number;
@@ -2044,37 +2063,37 @@ export interface components {
             preset?: "head-neck-1dof";
             /**
              * Theta0
-             * @description initial angle [rad]
+             * @description initial angle [rad], -1.5708 to 1.5708 rad; within theta_min..theta_max
              * @default 0.232
              */
             theta0?: number;
             /**
              * Theta Contact
-             * @description angle of first contact with the headrest [rad]
+             * @description angle of first contact with the undeformed headrest [rad], -1.5708 to 1.5708 rad
              * @default 0.31
              */
             theta_contact?: number;
             /**
              * Theta Max
-             * @description upper joint limit [rad]
+             * @description upper joint limit [rad], -1.5708 to 1.5708 rad; above theta_min
              * @default 0.432
              */
             theta_max?: number;
             /**
              * Theta Min
-             * @description lower joint limit [rad]
+             * @description lower joint limit (backward tilt from the vertical) [rad], -1.5708 to 1.5708 rad
              * @default 0.032
              */
             theta_min?: number;
             /**
              * Tilt
-             * @description headrest inclination [rad]
+             * @description headrest inclination (backward) [rad], -1.5708 to 1.5708 rad
              * @default 0.31
              */
             tilt?: number;
             /**
              * Torque Limit
-             * @description joint torque limit [N m]
+             * @description joint torque limit [N m], above 0, at most 200 N m; an adult neck's largest is about 30-60 N m
              * @default 30
              */
             torque_limit?: number;
@@ -2137,7 +2156,7 @@ export interface components {
             activation?: "softplus" | "tanh" | "sigmoid";
             /**
              * Hidden
-             * @description widths of the hidden layers
+             * @description widths of the hidden layers [-]: 1 to 16 layers of 1 to 4096 units (paper: 6-6-4, 6-6-6-4)
              */
             hidden: number[];
         };
@@ -2396,12 +2415,12 @@ export interface components {
         PhaseSpec: {
             /**
              * Duration
-             * @description phase duration [s]
+             * @description phase duration [s], above 0, at most 60 s; a head motion lasts seconds
              */
             duration: number;
             /**
              * Intervals
-             * @description DMOCC intervals in this phase
+             * @description DMOCC intervals in this phase [-], a whole number from 1 to 20000
              * @default 100
              */
             intervals?: number;
@@ -2412,32 +2431,32 @@ export interface components {
             name?: string;
             /**
              * Q Max
-             * @description joint upper bounds in this phase (default: model range)
+             * @description joint upper bounds in this phase [rad], one per joint, within the model's joint range (default: model.theta_max)
              */
             q_max?: number[] | null;
             /**
              * Q Min
-             * @description joint lower bounds in this phase (default: model range)
+             * @description joint lower bounds in this phase [rad], one per joint, within the model's joint range (default: model.theta_min)
              */
             q_min?: number[] | null;
             /**
              * Target Q
-             * @description pose to reach at the end of the phase
+             * @description pose to reach at the end of the phase [rad], one per joint, within the phase bounds
              */
             target_q?: number[] | null;
             /**
              * Tau Max
-             * @description torque bound |tau| <= tau_max (default: model limit)
+             * @description torque bounds |tau| <= tau_max in this phase [N m], one per joint, above 0 and at most the model's torque_limit (default: the limit)
              */
             tau_max?: number[] | null;
             /**
              * W T
-             * @description weight of the kinetic energy in the running cost
+             * @description weight of the kinetic energy in the running cost [1/(J s)], 0 to 1e6 1/(J s); paper: 1e-4, 1
              */
             w_T: number;
             /**
              * W Tau
-             * @description weight of tau^T tau in the running cost
+             * @description weight of tau^T tau in the running cost [1/(N^2 m^2 s)], 0 to 1e6 1/(N^2 m^2 s); paper: 1e-3, 1
              */
             w_tau: number;
         };
@@ -2663,7 +2682,7 @@ export interface components {
         ShareCreate: {
             /**
              * Email
-             * @description the user to share with
+             * @description who to share with: an account's e-mail, or an address that will get it when its account is made
              */
             email: string;
             /** Object Id */
@@ -2687,7 +2706,10 @@ export interface components {
              * Format: date-time
              */
             created_at: string;
-            /** Email */
+            /**
+             * Email
+             * @description the grantee's e-mail (whether or not an account has it yet)
+             */
             email: string;
             /** Id */
             id: number;
@@ -2703,8 +2725,6 @@ export interface components {
              * @enum {string}
              */
             permission: "view" | "edit";
-            /** User Id */
-            user_id: number;
         };
         /**
          * StepName
@@ -2795,11 +2815,13 @@ export interface components {
         SurrogateConfig: {
             /**
              * Batch Size
+             * @description samples per Adam step [-], a whole number from 1 to 1e6 (paper: 1024)
              * @default 1024
              */
             batch_size?: number;
             /**
              * Dtype
+             * @description floating-point precision of the networks
              * @default float64
              * @enum {string}
              */
@@ -2807,12 +2829,13 @@ export interface components {
             force?: components["schemas"]["NetworkConfig"];
             /**
              * Learning Rate
-             * @description Adam learning rate
+             * @description Adam learning rate (step size on standardised data) [-], above 0, at most 1; paper: 0.01
              * @default 0.01
              */
             learning_rate?: number;
             /**
              * Max Epochs
+             * @description most epochs per training [-], a whole number from 1 to 100000
              * @default 1000
              */
             max_epochs?: number;
@@ -2825,36 +2848,36 @@ export interface components {
             normalize_outputs?: boolean;
             /**
              * Patience
-             * @description early stopping: epochs without a better validation loss
+             * @description early stopping: epochs without a better validation loss [-], 1 to 1000 (paper: 6)
              * @default 6
              */
             patience?: number;
             /**
              * Preliminary Halving
-             * @description halve the preliminary weight every this many oracle simulations in the pool
+             * @description halve the preliminary weight every this many oracle simulations in the pool [simulations], above 0, at most 1e6 simulations; null: never
              */
             preliminary_halving?: number | null;
             /**
              * Preliminary Weight
-             * @description sample weight of preliminary data
+             * @description sample weight of preliminary data [-], 0 to 1e6; oracle data weigh 1
              * @default 1
              */
             preliminary_weight?: number;
             /**
              * Seed
-             * @description seed of splits, initialisation and batch order
+             * @description seed of splits, initialisation and batch order [-], a whole number at least 0, below 9.22337e18
              * @default 0
              */
             seed?: number;
             /**
              * Test Fraction
-             * @description share of the simulations held out as test set
+             * @description share of the simulations held out as test set [-], at least 0, below 1; paper: 0.3
              * @default 0.3
              */
             test_fraction?: number;
             /**
              * Validation Fraction
-             * @description pointwise share of the training part used for validation
+             * @description pointwise share of the training part used for validation [-], above 0, below 1; paper: 0.2
              * @default 0.2
              */
             validation_fraction?: number;
@@ -3355,7 +3378,7 @@ export interface components {
             is_active?: boolean | null;
             /**
              * Password
-             * @description set a new password (and lift a login lockout)
+             * @description set a new password (and clear the login delays of this e-mail)
              */
             password?: string | null;
             /** Role */
@@ -3844,7 +3867,7 @@ export interface operations {
                     "application/json": components["schemas"]["LoginOut"];
                 };
             };
-            /** @description wrong e-mail or password */
+            /** @description wrong e-mail or password (the same for an unknown e-mail) */
             401: {
                 headers: {
                     [name: string]: unknown;
@@ -3898,7 +3921,7 @@ export interface operations {
                     "application/json": components["schemas"]["ValidationErrorOut"];
                 };
             };
-            /** @description too many failed logins (see Retry-After) */
+            /** @description too many failed logins: wait the seconds in Retry-After */
             429: {
                 headers: {
                     [name: string]: unknown;

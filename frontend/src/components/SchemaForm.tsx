@@ -166,13 +166,13 @@ interface FieldProps {
 }
 
 /** The messages of one field: one element per problem it owns. */
-export function FieldMessages({ problems, id }: { problems: Problem[]; id?: string }) {
+export function FieldMessages({ problems, id, item }: { problems: Problem[]; id?: string; item?: string }) {
   if (!problems.length) return null;
   return (
     <>
       {problems.map((p, i) => (
         <small key={p.path} id={i === 0 ? id : undefined} className="field-error" role="alert" data-error-path={p.path} title={`${p.label}: ${p.message}`}>
-          {atFieldText(p)}
+          {atFieldText(p, item)}
         </small>
       ))}
     </>

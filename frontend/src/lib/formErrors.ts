@@ -93,11 +93,11 @@ export function errorView(sources: FieldError[][], known: readonly string[], lab
 
 export const noErrors: ErrorView = { problems: [], at: () => [], unplaced: [] };
 
-/** The problem as shown at its field: the message alone, or with the item it concerns. */
-export function atFieldText(p: Problem): string {
+/** The problem as shown at its field: the message alone, or with the item it concerns ("joint 2: ..." in a list of joint values). */
+export function atFieldText(p: Problem, item = "item"): string {
   if (p.field === null || p.path === p.field) return p.message;
   const rest = p.path.slice(p.field.length + 1).split(".");
-  return `${rest.map((x) => (/^\d+$/.test(x) ? `item ${Number(x) + 1}` : x)).join(" › ")}: ${p.message}`;
+  return `${rest.map((x) => (/^\d+$/.test(x) ? `${item} ${Number(x) + 1}` : x)).join(" › ")}: ${p.message}`;
 }
 
 /** Re-root paths: the problems under `prefix.` without it (others dropped). */

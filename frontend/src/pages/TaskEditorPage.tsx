@@ -252,7 +252,7 @@ function BoundaryFields({
             onBlur={(e) => onChange({ ...value, [f]: parseNumberList(e.target.value) })}
             aria-invalid={errors.at(`${prefix}.${f}`).length > 0}
           />
-          <FieldMessages problems={errors.at(`${prefix}.${f}`)} />
+          <FieldMessages problems={errors.at(`${prefix}.${f}`)} item="joint" />
         </div>
       ))}
     </fieldset>

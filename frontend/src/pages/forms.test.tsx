@@ -71,7 +71,7 @@ describe("task editor form errors", () => {
     const qmin = screen.getByLabelText("phase 1 q min [rad]");
     await waitFor(() => expect(qmin).toHaveAttribute("aria-invalid", "true"));
     const atQmin = document.querySelector('[data-error-path="phases.0.q_min.0"]')!;
-    expect(atQmin).toHaveTextContent("item 1: must be a number");
+    expect(atQmin).toHaveTextContent("joint 1: must be a number");
     expect(atQmin).toHaveAttribute("title", "Phase 1 › joint lower bounds in this phase (q_min) 1: must be a number");
     expect(qmin.closest("td")).toContainElement(atQmin as HTMLElement);
     // the model's field carries the server's message in words
@@ -112,7 +112,7 @@ describe("task editor form errors", () => {
     const qmin = screen.getByLabelText("phase 2 q min [rad]");
     fireEvent.blur(qmin, { target: { value: "0.1, abc" } });
     await waitFor(() => expect(qmin).toHaveAttribute("aria-invalid", "true"));
-    expect(document.querySelector('[data-error-path="phases.1.q_min.1"]')).toHaveTextContent("item 2: must be a number");
+    expect(document.querySelector('[data-error-path="phases.1.q_min.1"]')).toHaveTextContent("joint 2: must be a number");
     expect(screen.getByTestId("validation-state")).toHaveAttribute("data-count", "2");
   });
 });

@@ -109,7 +109,7 @@ export function PhasesTable({ phases, onChange, errors }: { phases: PhaseRow[]; 
                     onBlur={(e) => set(m, f, parseNumberList(e.target.value))}
                     aria-invalid={cellError(m, f).length > 0}
                   />
-                  <FieldMessages problems={cellError(m, f)} />
+                  <FieldMessages problems={cellError(m, f)} item="joint" />
                 </td>
               ))}
               <td>

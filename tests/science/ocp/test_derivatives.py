@@ -7,7 +7,8 @@ import pytest
 from alcove.science.geometry import DEFAULT_PRESET
 from alcove.science.multibody import Headrest, Link, PlanarChain
 from alcove.science.ocp.contact import aux_contact
-from alcove.science.ocp.dmocc import DiscreteProblem, PhaseGrid, Transcription
+from alcove.science.ocp.dmocc import Transcription
+from alcove.science.ocp.problem import DiscreteProblem, PhaseGrid
 
 
 def derivatives(tr: Transcription, x: np.ndarray, lam_f: float, lam_g: np.ndarray):

@@ -5,7 +5,9 @@ import pytest
 from scipy.integrate import solve_ivp
 
 from alcove.science.multibody import Link, PlanarChain
-from alcove.science.ocp.dmocc import DiscreteProblem, PhaseGrid, Transcription, simulate
+from alcove.science.ocp.dmocc import Transcription
+from alcove.science.ocp.problem import DiscreteProblem, PhaseGrid
+from alcove.science.ocp.rollout import simulate
 
 BIG = np.array([1e3])
 

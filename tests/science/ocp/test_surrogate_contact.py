@@ -76,7 +76,7 @@ def test_a_new_model_version_reuses_the_nlp_and_finds_the_same_optimum(task, mod
     """Same start, same optimum as with the weights as constants (the problem is not convex:
     another start may find another local optimum, so each run is compared with its twin)."""
     preset = task.preset()
-    first, second = models
+    _, second = models
     (fn, p1), (_, p2) = (surrogate_contact(m, preset) for m in models)
     previous = solve_task(task, fn, contact_params=p1)
     assert previous.converged

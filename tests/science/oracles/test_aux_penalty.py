@@ -113,7 +113,8 @@ def test_quasi_static_penetration_from_world_geometry():
 
 
 def mirror_kinematics(kin: RelativeKinematics, S: np.ndarray) -> RelativeKinematics:
-    """Reflect a motion by S (a reflection that keeps the normal x_H): vectors S v, rotations S T S, axial vectors det(S) S w."""
+    """Reflect a motion by S (a reflection that keeps the normal x_H): vectors S v, rotations S T S,
+    axial vectors det(S) S w."""
     return RelativeKinematics(
         r_rel=kin.r_rel @ S.T,
         v_rel=kin.v_rel @ S.T,

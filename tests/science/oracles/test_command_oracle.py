@@ -285,7 +285,8 @@ def test_user_template_with_shell_text_reaches_the_solver_verbatim(tmp_path):
         argv=[
             sys.executable,
             "-c",
-            "import shutil; shutil.copy('deck.k', 'seen.k'); open('forces.csv','w').write('t,fx,fy,fz,mx,my,mz\\n0,0,0,0,0,0,0\\n1,0,0,0,0,0,0\\n')",
+            "import shutil; shutil.copy('deck.k', 'seen.k'); "
+            "open('forces.csv','w').write('t,fx,fy,fz,mx,my,mz\\n0,0,0,0,0,0,0\\n1,0,0,0,0,0,0\\n')",
         ],
         input_file="deck.k",
         workdir_root=tmp_path,

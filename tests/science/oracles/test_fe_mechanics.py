@@ -15,10 +15,20 @@ PLATE_POSE_ANGLE = np.pi  # the half-plane body x <= 0 turned to face the cushio
 
 MESHES = {
     "default-graded": {
-        "thickness": 0.04, "height": 0.22, "z_bottom": -0.10, "h_contact": 0.006, "h_far": 0.015, "contact_zone": (-0.06, 0.07)
+        "thickness": 0.04,
+        "height": 0.22,
+        "z_bottom": -0.10,
+        "h_contact": 0.006,
+        "h_far": 0.015,
+        "contact_zone": (-0.06, 0.07),
     },
     "coarse-skewed": {
-        "thickness": 0.07, "height": 0.15, "z_bottom": -0.02, "h_contact": 0.011, "h_far": 0.03, "contact_zone": (0.0, 0.03)
+        "thickness": 0.07,
+        "height": 0.15,
+        "z_bottom": -0.02,
+        "h_contact": 0.011,
+        "h_far": 0.03,
+        "contact_zone": (0.0, 0.03),
     },
 }
 

@@ -326,13 +326,13 @@ def test_cli_json_summary_reports_newton_iterations(tmp_path):
         ({"mesh": 0.003}, "params.mesh", "Extra inputs"),
         (
             {"element_size_contact": 0.004, "element_size_far": 0.002},
-            "params",
-            "element_size_far must be >= element_size_contact",
+            "params.element_size_far",
+            "must be at least element_size_contact (0.004 m)",
         ),
         (
             {"foam_mu": [1e4], "foam_alpha": [2.0, 3.0], "foam_beta": [0.0]},
-            "params",
-            "foam_mu, foam_alpha and foam_beta",
+            "params.foam_alpha",
+            "needs one term per modulus in foam_mu (1), got 2",
         ),
     ],
 )

@@ -130,11 +130,17 @@ def curves(blocks) -> dict[int, dict]:
     for keyword, parsed in blocks:
         if keyword.startswith("*DEFINE_CURVE"):
             _, points, header = parsed[-1]
-            lcid, sidr, sfa, sfo, offa, offo, dattyp = header
+            lcid, _sidr, sfa, sfo, offa, offo, _dattyp = header
             assert lcid is not None and lcid == int(lcid) and int(lcid) not in out
             data = np.array(points, dtype=float)
             assert not np.isnan(data).any(), "a curve point is missing a value"
-            out[int(lcid)] = {"sfa": sfa or 1.0, "sfo": sfo or 1.0, "offa": offa or 0.0, "offo": offo or 0.0, "data": data}
+            out[int(lcid)] = {
+                "sfa": sfa or 1.0,
+                "sfo": sfo or 1.0,
+                "offa": offa or 0.0,
+                "offo": offo or 0.0,
+                "data": data,
+            }
     return out
 
 
@@ -163,7 +169,7 @@ def test_rendered_deck_is_keyword_input_within_80_columns(rendered):
 
 
 def test_motion_curves_hold_the_trajectory_in_order_and_in_the_decks_units(rendered):
-    trajectory, values, deck = rendered
+    trajectory, _, deck = rendered
     blocks = read_deck(deck)
     cv = curves(blocks)
     t = trajectory.t
@@ -194,7 +200,7 @@ def test_motion_curves_hold_the_trajectory_in_order_and_in_the_decks_units(rende
 
 
 def test_prescribed_motion_and_run_control_refer_to_the_rendered_curves(rendered):
-    trajectory, values, deck = rendered
+    trajectory, _, deck = rendered
     blocks = read_deck(deck)
     cv = curves(blocks)
     by_name = dict(blocks)

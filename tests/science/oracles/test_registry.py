@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from alcove.science.geometry import HeadNeckPreset
-from alcove.science.oracles import registry
+from alcove.science.oracles import builtin
 from alcove.science.oracles.aux_penalty import AuxPenaltyOracle, AuxPenaltyParams
 from alcove.science.oracles.base import OracleInputError
 from alcove.science.oracles.command import CommandOracle, CommandOracleSpec, load_command_catalogue
@@ -94,10 +94,10 @@ def test_json_schemas_for_the_ui():
 
 
 def test_missing_builtin_implementation_is_a_clear_error_and_does_not_break_the_others(monkeypatch):
-    broken = registry._BuiltinType(
+    broken = builtin.BuiltinType(
         "alcove.science.oracles.not_there", "NotThereOracle", "NotThereParams", "a type whose module is missing"
     )
-    monkeypatch.setitem(registry._BUILTIN, "not-there", broken)
+    monkeypatch.setitem(builtin.BUILTIN_TYPES, "not-there", broken)
     with pytest.raises(
         OracleTypeUnavailable,
         match=r"^oracle: type 'not-there' is not available: cannot import alcove\.science\.oracles\.not_there",

@@ -96,10 +96,13 @@ def test_state_gradient_is_finite_and_matches_finite_differences(model):
     jac = ca.Function("J", [q_s, qd_s], [ca.jacobian(w, ca.vertcat(q_s, qd_s)), ca.jacobian(ca.jacobian(w, q_s), q_s)])
     q, qd = states(6)
     h = 1e-6
+
+    def pred(qq, vv):
+        return np.hstack(predict_arrays(model, [qq], [vv])).ravel()
+
     for a, b in zip(q, qd, strict=False):
         J, H = (np.array(o) for o in jac(a, b))
         assert np.all(np.isfinite(J)) and np.all(np.isfinite(H))  # also at alpha = 0
-        pred = lambda qq, vv: np.hstack(predict_arrays(model, [qq], [vv])).ravel()  # noqa: E731
         fd = np.stack([(pred(a + h, b) - pred(a - h, b)) / (2 * h), (pred(a, b + h) - pred(a, b - h)) / (2 * h)], -1)
         assert np.max(np.abs(J - fd) / np.maximum(1.0, np.abs(fd))) < 1e-5
 

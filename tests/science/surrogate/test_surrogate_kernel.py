@@ -99,7 +99,7 @@ def test_kernel_epoch_is_minibatch_adam_of_torch():
     table = _table(n, g)
     kn = KernelNets(nets, y_cols=[19, 22])
     optimizers = [torch.optim.Adam(ref.parameters(), lr=0.01) for ref in reference]
-    for epoch in range(4):
+    for _ in range(4):
         order = torch.randperm(n, generator=g)
         kn.train_epoch(table.numpy(), 25, order.numpy(), batch, 0.01)
         for start in range(0, n, batch):
@@ -127,7 +127,7 @@ def test_kernel_rejects_bad_arguments():
     nets, g = _nets(ARCHITECTURES[0])
     kn = KernelNets(nets, y_cols=[19, 22])
     table = _table(10, g).numpy()
-    with pytest.raises(IndexError, match="^rows: indices must lie in \\[0, 10\\)"):
+    with pytest.raises(IndexError, match=r"^rows: indices must lie in \[0, 10\)"):
         kn.gradient(table, 25, np.array([0, 10]))
     with pytest.raises(ValueError, match=r"^table: needs a C-contiguous float64 matrix"):
         kn.gradient(table.astype(np.float32), 25, np.arange(10))

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import contextlib
 import json
 import logging
 import os
@@ -142,10 +143,8 @@ class WorkerProcess:
         except subprocess.TimeoutExpired:
             typer.echo(f"worker did not stop within {timeout:.0f} s; killing it", err=True)
         finally:
-            try:
+            with contextlib.suppress(ProcessLookupError):
                 os.killpg(p.pid, signal.SIGKILL)  # whatever is left of its process group
-            except ProcessLookupError:
-                pass
             p.wait(timeout=5)
 
 
@@ -170,6 +169,9 @@ def _run_api(host: str, port: int, workers: int, log_level: str, access_log: boo
         workers=workers,
         access_log=access_log or log_level == "debug",
         timeout_keep_alive=30,
+        # the app reads X-Forwarded-For itself, only from ALCOVE_TRUSTED_PROXIES
+        # (alcove.api.client_address); uvicorn's default would believe it from 127.0.0.1
+        proxy_headers=False,
     )
 
 
@@ -198,7 +200,8 @@ def serve(
     _check_port_free(host, port)
     n = workers or default_api_workers()
     typer.echo(
-        f"alcove {_version()} · database {_redact(s.database_url)} · broker {_redact(s.broker_url)} · {n} API process(es)"
+        f"alcove {_version()} · database {_redact(s.database_url)} · broker {_redact(s.broker_url)}"
+        f" · {n} API process(es)"
     )
     signal.signal(signal.SIGTERM, _exit_on_sigterm)
     typer.echo(f"API on http://{host}:{port}  (health: /api/v1/health, docs: /api/v1/docs)")
@@ -300,7 +303,10 @@ def smoke(
     send_job(SMOKE_JOB, token, t0, queue=queue)
     got = wait_for_smoke(token, timeout=timeout)
     if got is None:
-        msg = f"no worker committed the smoke job within {timeout:.0f} s (is `alcove worker -Q {queue}` or `alcove up` running?)"
+        msg = (
+            f"no worker committed the smoke job within {timeout:.0f} s"
+            f" (is `alcove worker -Q {queue}` or `alcove up` running?)"
+        )
         typer.echo(json.dumps({"ok": False, "error": msg}) if as_json else msg, err=not as_json)
         raise typer.Exit(1)
     got["round_trip_s"] = round(time.time() - t0, 3)

@@ -1,13 +1,21 @@
 """Multi-phase optimal control of the multibody model (DMOCC transcription, IPOPT via CasADi).
 
 * :mod:`.task_spec` -- the user's task definition (pydantic) and the task presets;
+* :mod:`.problem` -- the resolved multi-phase problem (phases, bounds, boundary conditions);
 * :mod:`.contact` -- the contact-model slot and the ``none`` / smooth ``aux`` models;
-* :mod:`.dmocc` -- the discrete-mechanics transcription and DEL rollouts;
+* :mod:`.discrete_mechanics` -- discrete Lagrangian and forces of one interval;
+* :mod:`.dmocc` -- the DMOCC transcription into an NLP (:mod:`.derivatives`: its exact derivatives);
+* :mod:`.rollout` -- forward rollouts of the discrete Euler-Lagrange equations;
 * :mod:`.solve` -- ``solve_task`` (cached NLPs, initial guesses, retries) and ``OcpSolution``.
 """
 
 from importlib import import_module
-from typing import Any
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:  # the real names for type checkers; at run time they load on first use
+    from alcove.science.ocp.contact import ContactModelError, aux_contact, contact_from_spec, no_contact
+    from alcove.science.ocp.solve import OcpSolution, solve_task
+    from alcove.science.ocp.task_spec import TaskSpec, TaskSpecError, parse_task, task_preset
 
 # Re-exports resolve on first use (PEP 562): importing ``task_spec`` alone (e.g. to validate a
 # task in the API process) must not import CasADi.

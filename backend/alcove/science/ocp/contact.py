@@ -31,6 +31,7 @@ from pydantic import BaseModel, ConfigDict, Field
 from alcove.science.geometry import HeadNeckPreset
 from alcove.science.multibody import PlanarChain
 from alcove.science.oracles.aux_penalty import AuxPenaltyParams, contact_point
+from alcove.science.symbolic import Symbolic
 
 WRENCH_SIZE = 6
 
@@ -53,13 +54,13 @@ class AuxSmoothing(BaseModel):
     force_width: float = Field(0.5, gt=0, le=100, description="width of the smooth ramp max(f, 0) [N]")
 
 
-def softplus(x, width: float = 1.0):  # type: ignore[no-untyped-def]
+def softplus(x: Symbolic, width: float = 1.0) -> Symbolic:
     """Smooth max(x, 0) = width * log(1 + exp(x / width)), stable for large |x|."""
     z = x / width
     return width * (ca.log1p(ca.exp(-ca.fabs(z))) + ca.fmax(z, 0))
 
 
-def smooth_ramp(x, width: float = 1.0):  # type: ignore[no-untyped-def]
+def smooth_ramp(x: Symbolic, width: float = 1.0) -> Symbolic:
     """Smooth max(x, 0) that is exactly 0 at x = 0 and tends to 0 for x -> -inf: x * sigmoid(x / width)."""
     return x * 0.5 * (1 + ca.tanh(0.5 * x / width))
 

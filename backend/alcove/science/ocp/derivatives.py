@@ -26,19 +26,22 @@ import casadi as ca
 import numpy as np
 import scipy.sparse as sps
 
+from alcove.science.arrays import IntArray
 from alcove.science.multibody import PlanarChain
+from alcove.science.ocp.problem import DiscreteProblem
 
 
-def _scatter(
-    nrow: int, ncol: int, blocks: Sequence[tuple[ca.MX, np.ndarray, np.ndarray]], upper: bool = False
-) -> ca.MX:
+def _scatter(nrow: int, ncol: int, blocks: Sequence[tuple[ca.MX, IntArray, IntArray]], upper: bool = False) -> ca.MX:
     """Sum of local blocks as one sparse MX matrix.
 
     Each block set is (values (r x c K) -- K blocks side by side --, rows (K, r), cols (K, c));
     a row index < 0 drops the entry. With ``upper`` only the upper triangle is kept (local
     blocks are symmetric: their upper entries are mapped to (min, max) global indices).
     """
-    grow, gcol, vidx, parts = [], [], [], []
+    row_parts: list[IntArray] = []
+    col_parts: list[IntArray] = []
+    value_parts: list[IntArray] = []
+    parts: list[ca.MX] = []
     offset = 0
     for values, rows, cols in blocks:
         K, r = rows.shape
@@ -50,12 +53,12 @@ def _scatter(
         if upper:
             keep &= i <= j
             gi, gj = np.minimum(gi, gj), np.maximum(gi, gj)
-        grow.append(gi[keep])
-        gcol.append(gj[keep])
-        vidx.append(idx[keep])
+        row_parts.append(gi[keep])
+        col_parts.append(gj[keep])
+        value_parts.append(idx[keep])
         parts.append(ca.vec(values))
         offset += r * c * K
-    grow, gcol, vidx = np.concatenate(grow), np.concatenate(gcol), np.concatenate(vidx)
+    grow, gcol, vidx = np.concatenate(row_parts), np.concatenate(col_parts), np.concatenate(value_parts)
     # nonzeros in column-major (CCS) order: sort by the linear index col * nrow + row
     keys = gcol.astype(np.int64) * nrow + grow
     unique_keys, nz = np.unique(keys, return_inverse=True)
@@ -67,7 +70,7 @@ def _scatter(
 
 def structured_derivatives(
     chain: PlanarChain,
-    problem,  # DiscreteProblem (not imported: dmocc imports this module)
+    problem: DiscreteProblem,
     dynamics: ca.Function,
     mechanics: ca.Function,
     contact: ca.Function | None,
@@ -76,7 +79,7 @@ def structured_derivatives(
     x: ca.MX,
     par: ca.MX,
     g: ca.MX,
-    node_rows: np.ndarray,
+    node_rows: IntArray,
 ) -> tuple[ca.Function, ca.Function]:
     """``jac_g(x, p) -> (g, J)`` and ``hess_lag(x, p, lam_f, lam_g) -> triu(H)`` for nlpsol.
 
@@ -121,7 +124,7 @@ def structured_derivatives(
     zero = ca.SX.zeros(n)
     g_first = ca.mtimes(chain.mass_matrix(qa), ca.DM(problem.qd_start)) if problem.qd_start is not None else zero
     g_last = -ca.mtimes(chain.mass_matrix(qb), ca.DM(problem.qd_end)) if problem.qd_end is not None else zero
-    endpoint = 0
+    endpoint = ca.SX(0)
     if problem.endpoint_w_q > 0 and problem.endpoint_q_ref is not None:
         endpoint = endpoint + problem.endpoint_w_q * ca.sumsqr(qb - ca.DM(problem.endpoint_q_ref))
     if problem.endpoint_w_qd > 0:

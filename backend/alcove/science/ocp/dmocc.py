@@ -17,116 +17,33 @@ At a phase junction the DEL equation mixes the steps of both phases: that is mom
 matching. Cost: sum_k h (w_tau u_k^T u_k + w_T T(q_k+1/2, v_k)) + endpoint cost.
 Discrete momenta (discrete Legendre transforms) give the node velocities qd_k = M(q_k)^-1 p_k.
 
-The interval terms are SX functions (the contact function is expanded) mapped over the grid;
-IPOPT gets the exact Jacobian and Hessian, assembled from local interval blocks
-(:mod:`.derivatives`).
+The interval terms (:mod:`.discrete_mechanics`; the contact function is expanded to SX) are
+mapped over the grid; IPOPT gets the exact Jacobian and Hessian, assembled from local
+interval blocks (:mod:`.derivatives`). The resolved problem is :mod:`.problem`; forward
+rollouts of the same equations are :mod:`.rollout`. ``PhaseGrid``, ``DiscreteProblem``,
+``simulate`` and ``passive_rollout`` are re-exported here.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import Any, Generic, TypeAlias, TypedDict
 
 import casadi as ca
 import numpy as np
 
+from alcove.science.arrays import FloatArray, IntArray
 from alcove.science.multibody import PlanarChain
-from alcove.science.ocp.contact import ContactModelError, check_contact_function
 from alcove.science.ocp.derivatives import structured_derivatives
+from alcove.science.ocp.discrete_mechanics import contact_parameter_count, interval_functions, prepare_contact
+from alcove.science.ocp.problem import DiscreteProblem, PhaseGrid
+from alcove.science.ocp.rollout import passive_rollout, simulate
+from alcove.science.symbolic import Symbolic
 
+OptionValue: TypeAlias = bool | int | float | str | ca.Function
+SolverOptions: TypeAlias = dict[str, OptionValue]
 
-@dataclass(frozen=True)
-class PhaseGrid:
-    """One phase, resolved: duration, intervals, weights, bounds (ndof arrays), target pose at its end."""
-
-    duration: float
-    intervals: int
-    w_tau: float
-    w_T: float
-    q_min: np.ndarray
-    q_max: np.ndarray
-    tau_max: np.ndarray
-    target_q: np.ndarray | None = None
-
-    @property
-    def step(self) -> float:
-        return self.duration / self.intervals
-
-
-@dataclass(frozen=True)
-class DiscreteProblem:
-    """A resolved multi-phase problem. ``None`` boundary entries are free."""
-
-    phases: tuple[PhaseGrid, ...]
-    q_start: np.ndarray | None
-    qd_start: np.ndarray | None
-    q_end: np.ndarray | None = None
-    qd_end: np.ndarray | None = None
-    endpoint_w_q: float = 0.0
-    endpoint_q_ref: np.ndarray | None = None
-    endpoint_w_qd: float = 0.0
-
-    @property
-    def intervals(self) -> int:
-        return sum(ph.intervals for ph in self.phases)
-
-    def steps(self) -> np.ndarray:
-        """Step of every interval (N,)."""
-        return np.concatenate([np.full(ph.intervals, ph.step) for ph in self.phases])
-
-    def time_grid(self) -> np.ndarray:
-        """Node times t_0..t_N (N + 1,)."""
-        return np.concatenate([[0.0], np.cumsum(self.steps())])
-
-    def phase_of_interval(self) -> np.ndarray:
-        return np.concatenate([np.full(ph.intervals, m) for m, ph in enumerate(self.phases)])
-
-    def phase_end_nodes(self) -> list[int]:
-        return list(np.cumsum([ph.intervals for ph in self.phases]))
-
-
-def _interval_functions(chain: PlanarChain, contact: ca.Function | None) -> tuple[ca.Function, ca.Function]:
-    """SX functions of one interval: dynamics (qa, qb, u, h, p) -> (-p_k^-, p_k+1^+) and
-    cost terms (qa, qb, u, h) -> (h u^T u, h T(q_k+1/2, v_k))."""
-    n = chain.ndof
-    qa, qb, u = ca.SX.sym("qa", n), ca.SX.sym("qb", n), ca.SX.sym("u", n)
-    h = ca.SX.sym("h")
-    n_par = contact.size1_in(2) if contact is not None and contact.n_in() == 3 else 0
-    par = ca.SX.sym("p", n_par)
-    qm, v = 0.5 * (qa + qb), (qb - qa) / h
-    Ld = h * chain.lagrangian(qm, v)
-    force = u
-    if contact is not None:
-        wrench = contact(qm, v, par) if n_par else contact(qm, v)
-        force = force + chain.generalized_contact_force_expr(qm, wrench)
-    fd = 0.5 * h * force
-    left = ca.gradient(Ld, qa) + fd  # D1 L_d + f^-  = -p_k^-
-    right = ca.gradient(Ld, qb) + fd  # D2 L_d + f^+ = p_k+1^+
-    kinetic = 0.5 * ca.dot(v, ca.mtimes(chain.mass_matrix(qm), v))
-    args, names = [qa, qb, u, h, par], ["qa", "qb", "u", "h", "p"]
-    dynamics = ca.Function("interval_dynamics", args, [left, right], names, ["left", "right"])
-    cost = ca.Function("interval_cost", args[:4], [h * ca.dot(u, u), h * kinetic], names[:4], ["effort", "kinetic"])
-    return dynamics, cost
-
-
-def _prepare_contact(contact: ca.Function | None, ndof: int) -> ca.Function | None:
-    if contact is None:
-        return None
-    check_contact_function(contact, ndof)
-    if not contact.is_a("SXFunction"):
-        try:
-            contact = contact.expand()
-        except RuntimeError as exc:
-            raise ContactModelError("contact", f"must be expandable to SX (scalar operations only): {exc}") from exc
-    q, qd = ca.SX.sym("q", ndof), ca.SX.sym("qd", ndof)
-    p = ca.SX.sym("p", contact.size1_in(2)) if contact.n_in() == 3 else None
-    try:  # IPOPT gets exact Hessians: the contact needs symbolic second derivatives
-        ca.hessian(ca.sum1(contact(q, qd, p) if p is not None else contact(q, qd)), ca.vertcat(q, qd))
-    except RuntimeError as exc:
-        raise ContactModelError("contact", f"must be twice differentiable by CasADi (exact Hessians): {exc}") from exc
-    return contact
-
-
-DEFAULT_IPOPT_OPTIONS: dict[str, object] = {
+DEFAULT_IPOPT_OPTIONS: SolverOptions = {
     "ipopt.print_level": 0,
     "ipopt.sb": "yes",
     "print_time": False,
@@ -139,7 +56,7 @@ DEFAULT_IPOPT_OPTIONS: dict[str, object] = {
 }
 
 
-WARM_START_OPTIONS: dict[str, object] = {
+WARM_START_OPTIONS: SolverOptions = {
     "ipopt.warm_start_init_point": "yes",
     "ipopt.mu_init": 1e-6,
     "ipopt.warm_start_bound_push": 1e-9,
@@ -148,6 +65,77 @@ WARM_START_OPTIONS: dict[str, object] = {
     "ipopt.warm_start_slack_bound_frac": 1e-9,
     "ipopt.warm_start_mult_bound_push": 1e-9,
 }
+
+
+class IpoptResult(TypedDict):
+    """One IPOPT run: the point (inside the bounds), cost, constraint values, multipliers and
+    IPOPT's statistics (``return_status``, ``success``, ``iter_count``, ...)."""
+
+    x: FloatArray
+    cost: float
+    g: FloatArray
+    lam_x: FloatArray
+    lam_g: FloatArray
+    stats: dict[str, Any]
+
+
+@dataclass(frozen=True)
+class NlpExpressions(Generic[Symbolic]):
+    """The NLP in one graph type: unknowns x, parameters p, cost, constraints g and the node
+    momenta (ndof x N+1) for the discrete Legendre transforms."""
+
+    x: Symbolic
+    par: Symbolic
+    cost: Symbolic
+    g: Symbolic
+    momenta: Symbolic
+
+
+def nlp_expressions(
+    sym: type[Symbolic],
+    chain: PlanarChain,
+    prob: DiscreteProblem,
+    dynamics: ca.Function,
+    interval_cost: ca.Function,
+    n_par: int,
+) -> NlpExpressions[Symbolic]:
+    """Map the interval functions over the grid and assemble cost and constraints (see the module docstring)."""
+    n, N = chain.ndof, prob.intervals
+    n_q, n_u = n * (N + 1), n * N
+    x = sym.sym("x", n_q + n_u)
+    par = sym.sym("p", n_par)
+    Q = ca.reshape(x[:n_q], n, N + 1)
+    U = ca.reshape(x[n_q:], n, N)
+    H = ca.DM(prob.steps()).T
+    phase = prob.phase_of_interval()
+    w_tau = ca.DM([prob.phases[m].w_tau for m in phase]).T
+    w_T = ca.DM([prob.phases[m].w_T for m in phase]).T
+    Pm = ca.repmat(par, 1, N)
+    left, right = dynamics.map(N).call([Q[:, :-1], Q[:, 1:], U, H, Pm])
+    effort, kinetic = interval_cost.map(N).call([Q[:, :-1], Q[:, 1:], U, H])
+    cost = ca.sum2(w_tau * effort) + ca.sum2(w_T * kinetic)
+
+    g = []
+    if prob.qd_start is not None:
+        p0 = ca.mtimes(chain.mass_matrix(Q[:, 0]), ca.DM(prob.qd_start))
+        g.append(p0 + left[:, 0])
+    if N > 1:
+        g.append(ca.vec(right[:, :-1] + left[:, 1:]))
+    if prob.qd_end is not None:
+        pN = ca.mtimes(chain.mass_matrix(Q[:, N]), ca.DM(prob.qd_end))
+        g.append(right[:, N - 1] - pN)
+
+    # endpoint cost
+    qN = Q[:, N]
+    if prob.endpoint_w_q > 0 and prob.endpoint_q_ref is not None:
+        cost = cost + prob.endpoint_w_q * ca.sumsqr(qN - ca.DM(prob.endpoint_q_ref))
+    if prob.endpoint_w_qd > 0:
+        vN = right[:, N - 1]  # momentum at the end node
+        qdN = ca.solve(chain.mass_matrix(qN), vN)
+        cost = cost + prob.endpoint_w_qd * ca.sumsqr(qdN)
+    # node momenta for the Legendre transforms: p_0 = -left_0, p_k = right_k-1
+    momenta = ca.horzcat(-left[:, 0], right)
+    return NlpExpressions(x, par, cost, ca.vertcat(*g), momenta)
 
 
 @dataclass
@@ -166,96 +154,76 @@ class Transcription:
     chain: PlanarChain
     problem: DiscreteProblem
     contact: ca.Function | None = None
-    ipopt_options: dict[str, object] = field(default_factory=dict)
+    ipopt_options: SolverOptions = field(default_factory=dict)
     graph: str = "MX"
     derivatives: str = "auto"
+    #: the passive-motion initial guess (:mod:`.solve`), kept once computed for a contact
+    #: without parameters: it depends on nothing but this NLP
+    passive_guess: FloatArray | None = field(default=None, init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
         chain, prob = self.chain, self.problem
         n, N = chain.ndof, prob.intervals
         if N < 1:
             raise ValueError("phases: the problem has no intervals")
-        self.contact = _prepare_contact(self.contact, n)
-        self.n_par = self.contact.size1_in(2) if self.contact is not None and self.contact.n_in() == 3 else 0
-        dynamics, interval_cost = _interval_functions(chain, self.contact)
+        self.contact = prepare_contact(self.contact, n)
+        self.n_par = contact_parameter_count(self.contact)
+        dynamics, interval_cost = interval_functions(chain, self.contact)
         self.n_q, self.n_u = n * (N + 1), n * N
         if self.graph not in ("MX", "SX"):
             raise ValueError(f"graph: must be 'MX' or 'SX', got {self.graph!r}")
-        sym = ca.MX if self.graph == "MX" else ca.SX
-        x = sym.sym("x", self.n_q + self.n_u)
-        par = sym.sym("p", self.n_par)
-        Q = ca.reshape(x[: self.n_q], n, N + 1)
-        U = ca.reshape(x[self.n_q :], n, N)
-        H = ca.DM(prob.steps()).T
-        phase = prob.phase_of_interval()
-        w_tau = ca.DM([prob.phases[m].w_tau for m in phase]).T
-        w_T = ca.DM([prob.phases[m].w_T for m in phase]).T
-        Pm = ca.repmat(par, 1, N)
-        args = (Q[:, :-1], Q[:, 1:], U, H, Pm)
-        left, right = dynamics.map(N)(*args)
-        effort, kinetic = interval_cost.map(N)(*args[:4])
-        cost = ca.sum2(w_tau * effort) + ca.sum2(w_T * kinetic)
-
-        g = []
-        if prob.qd_start is not None:
-            p0 = ca.mtimes(chain.mass_matrix(Q[:, 0]), ca.DM(prob.qd_start))
-            g.append(p0 + left[:, 0])
-        if N > 1:
-            g.append(ca.vec(right[:, :-1] + left[:, 1:]))
-        if prob.qd_end is not None:
-            pN = ca.mtimes(chain.mass_matrix(Q[:, N]), ca.DM(prob.qd_end))
-            g.append(right[:, N - 1] - pN)
-        g = ca.vertcat(*g)
-
-        # node momenta for the Legendre transforms: p_0 = -left_0, p_k = right_k-1
-        self._momenta = ca.Function("momenta", [x, par], [ca.horzcat(-left[:, 0], right)])
-
-        # endpoint cost
-        qN = Q[:, N]
-        if prob.endpoint_w_q > 0 and prob.endpoint_q_ref is not None:
-            cost = cost + prob.endpoint_w_q * ca.sumsqr(qN - ca.DM(prob.endpoint_q_ref))
-        if prob.endpoint_w_qd > 0:
-            vN = right[:, N - 1]  # momentum at the end node
-            qdN = ca.solve(chain.mass_matrix(qN), vN)
-            cost = cost + prob.endpoint_w_qd * ca.sumsqr(qdN)
-
-        self.lbx, self.ubx = self._variable_bounds()
-        self.lbg = self.ubg = np.zeros(g.shape[0])
-        self._nlp = {"x": x, "p": par, "f": cost, "g": g}
-        self._derivative_options: dict[str, object] = {}
         if self.derivatives == "auto":
             self.derivatives = "structured" if self.graph == "MX" else "casadi"
-        if self.derivatives == "structured":
-            if self.graph != "MX":
-                raise ValueError("derivatives: 'structured' needs graph='MX'")
-            off = n if prob.qd_start is not None else 0
-            node_rows = np.full((N + 1, n), -1)
-            if prob.qd_start is not None:
-                node_rows[0] = np.arange(n)
-            node_rows[1:N] = off + np.arange(n * (N - 1)).reshape(N - 1, n)
-            if prob.qd_end is not None:
-                node_rows[N] = off + n * (N - 1) + np.arange(n)
-            jac_g, hess_lag = structured_derivatives(
-                chain,
-                prob,
-                dynamics,
-                _interval_functions(chain, None)[0],
-                self.contact,
-                interval_cost,
-                self.n_par,
-                x,
-                par,
-                g,
-                node_rows,
-            )
-            self._derivative_options = {"jac_g": jac_g, "hess_lag": hess_lag}
-        elif self.derivatives != "casadi":
+        if self.derivatives not in ("structured", "casadi"):
             raise ValueError(f"derivatives: must be 'structured' or 'casadi', got {self.derivatives!r}")
+        if self.derivatives == "structured" and self.graph != "MX":
+            raise ValueError("derivatives: 'structured' needs graph='MX'")
+        self._derivative_options: SolverOptions = {}
+        self._nlp: dict[str, ca.MX] | dict[str, ca.SX]
+        if self.graph == "MX":
+            mx = nlp_expressions(ca.MX, chain, prob, dynamics, interval_cost, self.n_par)
+            self._nlp = {"x": mx.x, "p": mx.par, "f": mx.cost, "g": mx.g}
+            self._momenta = ca.Function("momenta", [mx.x, mx.par], [mx.momenta])
+            n_constraints = mx.g.shape[0]
+            if self.derivatives == "structured":
+                jac_g, hess_lag = structured_derivatives(
+                    chain,
+                    prob,
+                    dynamics,
+                    interval_functions(chain, None)[0],
+                    self.contact,
+                    interval_cost,
+                    self.n_par,
+                    mx.x,
+                    mx.par,
+                    mx.g,
+                    self._constraint_rows(),
+                )
+                self._derivative_options = {"jac_g": jac_g, "hess_lag": hess_lag}
+        else:
+            sx = nlp_expressions(ca.SX, chain, prob, dynamics, interval_cost, self.n_par)
+            self._nlp = {"x": sx.x, "p": sx.par, "f": sx.cost, "g": sx.g}
+            self._momenta = ca.Function("momenta", [sx.x, sx.par], [sx.momenta])
+            n_constraints = sx.g.shape[0]
+        self.lbx, self.ubx = self._variable_bounds()
+        self.lbg = self.ubg = np.zeros(n_constraints)
         self._solver: ca.Function | None = None
         self._warm_solver: ca.Function | None = None
 
+    def _constraint_rows(self) -> IntArray:
+        """(N+1, ndof): the row of g holding the DEL (or boundary momentum) equation of node k, -1: none."""
+        prob, n, N = self.problem, self.chain.ndof, self.problem.intervals
+        off = n if prob.qd_start is not None else 0
+        node_rows = np.full((N + 1, n), -1, dtype=np.int64)
+        if prob.qd_start is not None:
+            node_rows[0] = np.arange(n)
+        node_rows[1:N] = off + np.arange(n * (N - 1)).reshape(N - 1, n)
+        if prob.qd_end is not None:
+            node_rows[N] = off + n * (N - 1) + np.arange(n)
+        return node_rows
+
     # ---- bounds and grid ----------------------------------------------------------
-    def _variable_bounds(self) -> tuple[np.ndarray, np.ndarray]:
+    def _variable_bounds(self) -> tuple[FloatArray, FloatArray]:
         prob, n, N = self.problem, self.chain.ndof, self.problem.intervals
         q_lo = np.full((N + 1, n), -np.inf)
         q_hi = np.full((N + 1, n), np.inf)
@@ -278,20 +246,20 @@ class Transcription:
         return lbx, ubx
 
     @property
-    def t(self) -> np.ndarray:
+    def t(self) -> FloatArray:
         return self.problem.time_grid()
 
     # ---- packing ------------------------------------------------------------------
-    def pack(self, q: np.ndarray, u: np.ndarray) -> np.ndarray:
+    def pack(self, q: FloatArray, u: FloatArray) -> FloatArray:
         """NLP vector from nodes q (N+1, ndof) and torques u (N, ndof)."""
         return np.concatenate([np.asarray(q, float).ravel(), np.asarray(u, float).ravel()])
 
-    def unpack(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def unpack(self, x: FloatArray) -> tuple[FloatArray, FloatArray]:
         n, N = self.chain.ndof, self.problem.intervals
         x = np.asarray(x, float).ravel()
         return x[: self.n_q].reshape(N + 1, n), x[self.n_q :].reshape(N, n)
 
-    def node_velocities(self, x: np.ndarray, par: np.ndarray | None = None) -> np.ndarray:
+    def node_velocities(self, x: FloatArray, par: FloatArray | None = None) -> FloatArray:
         """qd_k = M(q_k)^-1 p_k from the discrete Legendre transforms, (N+1, ndof)."""
         par = np.zeros(self.n_par) if par is None else par
         P = np.asarray(self._momenta(x, par))  # (ndof, N+1)
@@ -299,7 +267,7 @@ class Transcription:
         M = np.asarray(self.chain.mass_matrix.map(q.shape[0])(q.T)).reshape(self.chain.ndof, -1, self.chain.ndof)
         return np.stack([np.linalg.solve(M[:, k, :], P[:, k]) for k in range(q.shape[0])])
 
-    def constraint_violation(self, x: np.ndarray, g: np.ndarray) -> float:
+    def constraint_violation(self, x: FloatArray, g: FloatArray) -> float:
         """Largest violation of the constraints and the variable bounds."""
         x, g = np.asarray(x).ravel(), np.asarray(g).ravel()
         parts = [
@@ -328,11 +296,11 @@ class Transcription:
 
     def solve(
         self,
-        x0: np.ndarray,
-        par: np.ndarray | None = None,
-        lam_x0: np.ndarray | None = None,
-        lam_g0: np.ndarray | None = None,
-    ) -> dict[str, object]:
+        x0: FloatArray,
+        par: FloatArray | None = None,
+        lam_x0: FloatArray | None = None,
+        lam_g0: FloatArray | None = None,
+    ) -> IpoptResult:
         """One IPOPT run from ``x0`` (warm-started when multipliers are given): x, cost, g, multipliers, stats."""
         par = np.zeros(self.n_par) if par is None else np.asarray(par, float).ravel()
         x0 = np.clip(np.asarray(x0, float).ravel(), self.lbx, self.ubx)
@@ -351,82 +319,6 @@ class Transcription:
             "lam_g": np.asarray(res["lam_g"]).ravel(),
             "stats": solver.stats(),
         }
-
-
-def _del_step(chain: PlanarChain, contact: ca.Function | None) -> ca.Function:
-    """One step of the forced DEL equations on the state [q; p]: (state, u, h) -> next state.
-
-    Solves p_k + D1 L_d(q_k, q_k+1) + f_k^- = 0 for q_k+1 by Newton's method and returns
-    p_k+1 = D2 L_d(q_k, q_k+1) + f_k^+.
-    """
-    n = chain.ndof
-    dynamics, _ = _interval_functions(chain, _prepare_contact(contact, n))
-    qa, qb, u, p_in = (ca.SX.sym(name, n) for name in ("qa", "qb", "u", "p_in"))
-    h = ca.SX.sym("h")
-    empty = ca.DM.zeros(0, 1)
-    residual = ca.Function("residual", [qb, ca.vertcat(qa, u, p_in, h)], [p_in + dynamics(qa, qb, u, h, empty)[0]])
-    newton = ca.rootfinder("del_newton", "newton", residual, {"abstol": 1e-13, "max_iter": 50, "error_on_fail": False})
-    state, um, hm = ca.MX.sym("state", 2 * n), ca.MX.sym("u", n), ca.MX.sym("h")
-    q, p = state[:n], state[n:]
-    q_next = newton(q + hm * ca.solve(chain.mass_matrix(q), p), ca.vertcat(q, um, p, hm))
-    p_next = dynamics(q, q_next, um, hm, empty)[1]
-    return ca.Function("del_step", [state, um, hm], [ca.vertcat(q_next, p_next)], ["state", "u", "h"], ["next"])
-
-
-def _states_to_nodes(chain: PlanarChain, S: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    n = chain.ndof
-    q, p = S[:, :n], S[:, n:]
-    M = np.asarray(chain.mass_matrix.map(q.shape[0])(q.T)).reshape(n, -1, n).transpose(1, 0, 2)
-    return q, np.linalg.solve(M, p[..., None])[..., 0]
-
-
-def simulate(
-    chain: PlanarChain,
-    q0: np.ndarray,
-    qd0: np.ndarray,
-    step: float | np.ndarray,
-    steps: int | None = None,
-    tau: np.ndarray | None = None,
-    contact: ca.Function | None = None,
-) -> tuple[np.ndarray, np.ndarray]:
-    """Integrate the forced discrete Euler-Lagrange equations forward (one compiled call).
-
-    ``step`` is the step h (with ``steps`` the number of steps) or an array of steps;
-    ``tau`` (steps, ndof) are the interval torques (default zero). Returns the nodes
-    q (steps+1, ndof) and node velocities qd (steps+1, ndof) from the discrete Legendre
-    transforms.
-    """
-    n = chain.ndof
-    hs = np.full(int(steps), float(step)) if np.ndim(step) == 0 else np.asarray(step, float).ravel()
-    N = hs.size
-    U = np.zeros((N, n)) if tau is None else np.asarray(tau, float).reshape(N, n)
-    q0 = np.asarray(q0, float).ravel()
-    s0 = np.concatenate([q0, np.asarray(chain.mass_matrix(q0)).dot(np.asarray(qd0, float).ravel())])
-    S = _del_step(chain, contact).mapaccum("del_rollout", N)(s0, U.T, hs[None, :])
-    return _states_to_nodes(chain, np.vstack([s0, np.asarray(S).T]))
-
-
-def passive_rollout(
-    chain: PlanarChain,
-    q0: np.ndarray,
-    qd0: np.ndarray,
-    steps: np.ndarray,
-    damping: np.ndarray,
-    tau_max: np.ndarray,
-    contact: ca.Function | None = None,
-) -> tuple[np.ndarray, np.ndarray]:
-    """Passive motion with joint damping, tau_k = clip(-damping * qd_k, +-tau_max), by the DEL
-    equations in one compiled call. Returns q (N+1, ndof) and the interval torques u (N, ndof)."""
-    n = chain.ndof
-    step = _del_step(chain, contact)
-    state, hm = ca.MX.sym("state", 2 * n), ca.MX.sym("h")
-    qd = ca.solve(chain.mass_matrix(state[:n]), state[n:])
-    tau = ca.fmin(ca.fmax(-ca.DM(damping) * qd, -ca.DM(tau_max)), ca.DM(tau_max))
-    passive = ca.Function("passive_step", [state, hm], [step(state, tau, hm), tau])
-    q0 = np.asarray(q0, float).ravel()
-    s0 = np.concatenate([q0, np.asarray(chain.mass_matrix(q0)).dot(np.asarray(qd0, float).ravel())])
-    S, U = passive.mapaccum("passive_rollout", len(steps))(s0, ca.DM(np.asarray(steps, float)).T)
-    return np.vstack([q0, np.asarray(S)[:n].T]), np.asarray(U).T
 
 
 __all__ = ["DEFAULT_IPOPT_OPTIONS", "DiscreteProblem", "PhaseGrid", "Transcription", "passive_rollout", "simulate"]

@@ -13,28 +13,66 @@ from __future__ import annotations
 import threading
 import time
 from collections import OrderedDict
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, TypedDict
 
 import casadi as ca
 import numpy as np
 from scipy.interpolate import CubicHermiteSpline
 
+from alcove.science.arrays import FloatArray
 from alcove.science.geometry import RelativeKinematics
 from alcove.science.multibody import PlanarChain
-from alcove.science.ocp.dmocc import Transcription, passive_rollout
+from alcove.science.ocp.dmocc import IpoptResult, OptionValue, Transcription
+from alcove.science.ocp.rollout import passive_rollout
 from alcove.science.ocp.task_spec import TaskSpec
 from alcove.science.series import SeriesFormatError, Trajectory
 
 CACHE_SIZE = 8
-_LOCAL = threading.local()  # IPOPT solver objects are not for concurrent use: one cache per thread
+CacheKey = tuple[str, str, str, str]  # task, contact structure, IPOPT options, graph
 
 
-def _cache() -> OrderedDict[tuple[str, str, str, str], Transcription]:
-    if not hasattr(_LOCAL, "cache"):
-        _LOCAL.cache = OrderedDict()
-    return _LOCAL.cache
+class _ThreadCache(threading.local):
+    """IPOPT solver objects are not for concurrent use: one cache of transcriptions per thread."""
+
+    def __init__(self) -> None:
+        self.transcriptions: OrderedDict[CacheKey, Transcription] = OrderedDict()
+
+
+_LOCAL = _ThreadCache()
+
+
+def _cache() -> OrderedDict[CacheKey, Transcription]:
+    return _LOCAL.transcriptions
+
+
+class AttemptRecord(TypedDict):
+    """One IPOPT run of :func:`solve_task`: the initial guess it started from and how it ended."""
+
+    guess: str
+    status: str
+    success: bool
+    iterations: int
+    cost: float
+    constraint_violation: float
+    wall_time_s: float
+
+
+class OcpSummary(TypedDict):
+    """JSON-ready summary of a solution (:meth:`OcpSolution.summary`)."""
+
+    task: str
+    status: str
+    converged: bool
+    iterations: int
+    cost: float
+    constraint_violation: float
+    wall_time_s: float
+    intervals: int
+    attempts: list[AttemptRecord]
+    q_range: list[float]
+    max_abs_tau: float
 
 
 @dataclass
@@ -45,10 +83,10 @@ class OcpSolution:
     value at the ends), which is what the discrete forces apply at a node.
     """
 
-    t: np.ndarray
-    q: np.ndarray
-    qd: np.ndarray
-    controls: np.ndarray
+    t: FloatArray
+    q: FloatArray
+    qd: FloatArray
+    controls: FloatArray
     status: str
     converged: bool
     iterations: int
@@ -57,13 +95,13 @@ class OcpSolution:
     wall_time: float
     chain: PlanarChain
     task_name: str = ""
-    attempts: list[dict[str, Any]] = field(default_factory=list)
-    x: np.ndarray | None = None
-    lam_x: np.ndarray | None = None
-    lam_g: np.ndarray | None = None
+    attempts: list[AttemptRecord] = field(default_factory=list)
+    x: FloatArray | None = None
+    lam_x: FloatArray | None = None
+    lam_g: FloatArray | None = None
 
     @property
-    def tau(self) -> np.ndarray:
+    def tau(self) -> FloatArray:
         u = self.controls
         return np.concatenate([u[:1], 0.5 * (u[:-1] + u[1:]), u[-1:]])
 
@@ -71,7 +109,7 @@ class OcpSolution:
     def trajectory(self) -> Trajectory:
         return Trajectory(self.t, self.q, self.qd, self.tau)
 
-    def resample(self, t_grid: np.ndarray) -> Trajectory:
+    def resample(self, t_grid: FloatArray) -> Trajectory:
         """The solution on ``t_grid``: cubic Hermite q (with qd its derivative) kept within the
         joint range, linear tau."""
         t_grid = np.asarray(t_grid, float)
@@ -86,7 +124,7 @@ class OcpSolution:
         q = np.clip(spline(t_grid), self.chain.q_min, self.chain.q_max)
         return Trajectory(t_grid, q, spline.derivative()(t_grid), tau)
 
-    def head_pose(self, t_grid: np.ndarray | None = None) -> RelativeKinematics:
+    def head_pose(self, t_grid: FloatArray | None = None) -> RelativeKinematics:
         """Pose and velocity of the head relative to the headrest (in H) on the OCP grid or ``t_grid``."""
         tr = self.trajectory if t_grid is None else self.resample(t_grid)
         return self.chain.relative_kinematics(tr.q, tr.qd)
@@ -99,12 +137,15 @@ class OcpSolution:
     @classmethod
     def from_dict(cls, data: dict[str, Any], chain: PlanarChain) -> OcpSolution:
         """Inverse of :meth:`to_dict` (``chain``: the task's chain, e.g. ``task.chain()``)."""
-        arr = lambda k: None if data.get(k) is None else np.asarray(data[k], float)  # noqa: E731
+
+        def optional(key: str) -> FloatArray | None:
+            return None if data.get(key) is None else np.asarray(data[key], float)
+
         return cls(
-            t=arr("t"),
-            q=arr("q"),
-            qd=arr("qd"),
-            controls=arr("controls"),
+            t=np.asarray(data["t"], float),
+            q=np.asarray(data["q"], float),
+            qd=np.asarray(data["qd"], float),
+            controls=np.asarray(data["controls"], float),
             status=data["status"],
             converged=data["converged"],
             iterations=data["iterations"],
@@ -114,12 +155,12 @@ class OcpSolution:
             chain=chain,
             task_name=data.get("task", ""),
             attempts=list(data.get("attempts", [])),
-            x=arr("x"),
-            lam_x=arr("lam_x"),
-            lam_g=arr("lam_g"),
+            x=optional("x"),
+            lam_x=optional("lam_x"),
+            lam_g=optional("lam_g"),
         )
 
-    def summary(self) -> dict[str, Any]:
+    def summary(self) -> OcpSummary:
         """JSON-ready summary."""
         return {
             "task": self.task_name,
@@ -161,7 +202,10 @@ def _contact_key(contact: ca.Function | None) -> str:
 
 
 def get_transcription(
-    task: TaskSpec, contact: ca.Function | None, ipopt_options: dict[str, Any] | None = None, graph: str = "MX"
+    task: TaskSpec,
+    contact: ca.Function | None,
+    ipopt_options: Mapping[str, OptionValue] | None = None,
+    graph: str = "MX",
 ) -> Transcription:
     """The cached transcription for (task, contact structure, options, graph); built on first use.
 
@@ -185,14 +229,14 @@ def clear_cache() -> None:
 
 
 # ---- initial guesses ------------------------------------------------------------------
-def _holding_torque(chain: PlanarChain, q: np.ndarray) -> np.ndarray:
+def _holding_torque(chain: PlanarChain, q: FloatArray) -> FloatArray:
     """Torque that holds the chain still at the interval midpoints of nodes q (N+1, ndof)."""
     qm = 0.5 * (q[:-1] + q[1:])
     g = np.asarray(chain.gravity_force.map(qm.shape[0])(qm.T)).T
     return -g
 
 
-def _guess_static(tr: Transcription) -> np.ndarray:
+def _guess_static(tr: Transcription) -> FloatArray:
     """Hold still at the initial pose (or mid-range when it is free)."""
     lo, hi = tr.unpack(tr.lbx)[0], tr.unpack(tr.ubx)[0]
     start = tr.problem.q_start if tr.problem.q_start is not None else 0.5 * (lo[0] + hi[0])
@@ -203,15 +247,14 @@ def _guess_static(tr: Transcription) -> np.ndarray:
 PASSIVE_TIME_CONSTANT = 0.05  # s, joint damping c_i = M_ii(q0) / PASSIVE_TIME_CONSTANT
 
 
-def _guess_passive(tr: Transcription, contact_params: np.ndarray | None = None) -> np.ndarray:
+def _guess_passive(tr: Transcription, contact_params: FloatArray | None = None) -> FloatArray:
     """Let the chain move passively from the initial state (gravity, contact, joint damping).
 
     A dynamically feasible guess: for the head-headrest task the head falls onto the
     headrest and settles there. Cached on the transcription (it depends on nothing else).
     """
-    cached = getattr(tr, "_passive_guess", None)
-    if cached is not None and tr.n_par == 0:
-        return cached
+    if tr.passive_guess is not None and tr.n_par == 0:
+        return tr.passive_guess
     prob, chain = tr.problem, tr.chain
     lo, hi = tr.unpack(tr.lbx)[0], tr.unpack(tr.ubx)[0]
     q0 = prob.q_start if prob.q_start is not None else 0.5 * (lo[0] + hi[0])
@@ -219,18 +262,20 @@ def _guess_passive(tr: Transcription, contact_params: np.ndarray | None = None) 
     damping = np.diag(np.asarray(chain.mass_matrix(q0))) / PASSIVE_TIME_CONSTANT
     tau_hi = tr.unpack(tr.ubx)[1][0]
     contact = tr.contact
-    if tr.n_par:  # freeze the parameters of a parametric contact model
+    if contact is not None and tr.n_par:  # freeze the parameters of a parametric contact model
+        if contact_params is None:
+            raise ValueError("contact_params: the contact function takes parameters; pass their values")
         qs, qds = ca.SX.sym("q", chain.ndof), ca.SX.sym("qd", chain.ndof)
-        contact = ca.Function("contact_frozen", [qs, qds], [tr.contact(qs, qds, ca.DM(contact_params))])
+        contact = ca.Function("contact_frozen", [qs, qds], [contact(qs, qds, ca.DM(contact_params))])
     q, u = passive_rollout(chain, q0, qd0, prob.steps(), damping, tau_hi, contact)
     if not np.all(np.isfinite(q)):
         return _guess_static(tr)
     x0 = tr.pack(np.clip(q, lo, hi), u)
-    tr._passive_guess = x0  # type: ignore[attr-defined]
+    tr.passive_guess = x0
     return x0
 
 
-def _guess_ramp(tr: Transcription) -> np.ndarray:
+def _guess_ramp(tr: Transcription) -> FloatArray:
     """Move smoothly toward the upper half of the range during the first phase, then hold."""
     lo, hi = tr.unpack(tr.lbx)[0], tr.unpack(tr.ubx)[0]
     start = tr.problem.q_start if tr.problem.q_start is not None else 0.5 * (lo[0] + hi[0])
@@ -243,7 +288,7 @@ def _guess_ramp(tr: Transcription) -> np.ndarray:
     return tr.pack(q, _holding_torque(tr.chain, q))
 
 
-def _guess_from_solution(tr: Transcription, previous: OcpSolution | Trajectory) -> np.ndarray:
+def _guess_from_solution(tr: Transcription, previous: OcpSolution | Trajectory) -> FloatArray:
     """A previous solution or trajectory (any grid, scaled to this horizon) interpolated onto this grid.
 
     A trajectory without torques gets the torques that hold its poses still.
@@ -260,11 +305,11 @@ def _guess_from_solution(tr: Transcription, previous: OcpSolution | Trajectory) 
 
 
 def initial_guesses(
-    tr: Transcription, previous: OcpSolution | Trajectory | None = None, contact_params: np.ndarray | None = None
-) -> list[tuple[str, Callable[[], np.ndarray]]]:
+    tr: Transcription, previous: OcpSolution | Trajectory | None = None, contact_params: FloatArray | None = None
+) -> list[tuple[str, Callable[[], FloatArray]]]:
     """Ordered initial guesses, computed on demand: the previous solution when given, then
     passive motion, a ramp, holding still."""
-    out: list[tuple[str, Callable[[], np.ndarray]]] = []
+    out: list[tuple[str, Callable[[], FloatArray]]] = []
     if previous is not None and previous.q.shape[1] == tr.chain.ndof:
         out.append(("previous", lambda: _guess_from_solution(tr, previous)))
     out.append(("passive", lambda: _guess_passive(tr, contact_params)))
@@ -273,17 +318,19 @@ def initial_guesses(
     return out
 
 
-def _same_grid(tr: Transcription, previous: OcpSolution | Trajectory | None) -> bool:
-    """A previous solution of the same NLP shape can warm-start IPOPT with its multipliers."""
-    return (
-        isinstance(previous, OcpSolution)
-        and previous.x is not None
-        and previous.lam_x is not None
-        and previous.lam_g is not None
-        and previous.x.shape == tr.lbx.shape
-        and previous.lam_g.shape == np.shape(tr.lbg)
-        and np.allclose(previous.t, tr.t)
-    )
+def _warm_start_point(
+    tr: Transcription, previous: OcpSolution | Trajectory | None
+) -> tuple[FloatArray, FloatArray, FloatArray] | None:
+    """(x, lam_x, lam_g) of a previous solution of the same NLP shape, to warm-start IPOPT with
+    its multipliers; None if there is no such solution."""
+    if not isinstance(previous, OcpSolution):
+        return None
+    x, lam_x, lam_g = previous.x, previous.lam_x, previous.lam_g
+    if x is None or lam_x is None or lam_g is None:
+        return None
+    if x.shape != tr.lbx.shape or lam_g.shape != np.shape(tr.lbg) or not np.allclose(previous.t, tr.t):
+        return None
+    return x, lam_x, lam_g
 
 
 # ---- solve ----------------------------------------------------------------------------
@@ -292,11 +339,11 @@ def solve_task(
     contact: ca.Function | None,
     initial_guess: OcpSolution | Trajectory | None = None,
     *,
-    contact_params: np.ndarray | None = None,
+    contact_params: FloatArray | None = None,
     max_attempts: int = 3,
-    ipopt_options: dict[str, Any] | None = None,
+    ipopt_options: Mapping[str, OptionValue] | None = None,
     graph: str = "MX",
-    on_attempt: Callable[[dict[str, Any]], None] | None = None,
+    on_attempt: Callable[[AttemptRecord], None] | None = None,
 ) -> OcpSolution:
     """Solve ``task`` with the contact model ``contact`` (``None``: no contact).
 
@@ -325,20 +372,20 @@ def solve_task(
             )
         if not np.all(np.isfinite(contact_params)):
             raise ValueError("contact_params: values must be finite")
-    attempts: list[dict[str, Any]] = []
-    best: tuple[float, dict[str, Any]] | None = None
+    attempts: list[AttemptRecord] = []
+    best: tuple[float, IpoptResult, AttemptRecord] | None = None
     for name, make_guess in initial_guesses(tr, initial_guess, contact_params)[:max_attempts]:
         t0 = time.perf_counter()
         lam_x0 = lam_g0 = None
-        if name == "previous" and _same_grid(tr, initial_guess):
-            lam_x0, lam_g0 = initial_guess.lam_x, initial_guess.lam_g  # type: ignore[union-attr]
-            x0 = initial_guess.x  # type: ignore[union-attr]
+        warm = _warm_start_point(tr, initial_guess) if name == "previous" else None
+        if warm is not None:
+            x0, lam_x0, lam_g0 = warm
         else:
             x0 = make_guess()
         res = tr.solve(x0, contact_params, lam_x0, lam_g0)
         stats = res["stats"]
         violation = tr.constraint_violation(res["x"], res["g"])
-        record = {
+        record: AttemptRecord = {
             "guess": name,
             "status": str(stats["return_status"]),
             "success": bool(stats["success"]),
@@ -352,12 +399,11 @@ def solve_task(
             on_attempt(record)
         score = violation if np.isfinite(res["cost"]) else np.inf
         if best is None or record["success"] or score < best[0]:
-            best = (score, {**res, "record": record})
+            best = (score, res, record)
         if record["success"]:
             break
-    assert best is not None
-    res = best[1]
-    record = res["record"]
+    assert best is not None  # max_attempts >= 1 and there are always at least three guesses
+    _, res, record = best
     q, u = tr.unpack(res["x"])
     qd = tr.node_velocities(res["x"], contact_params)
     return OcpSolution(

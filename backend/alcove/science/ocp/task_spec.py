@@ -12,20 +12,40 @@ Errors name the field with its path, e.g. ``phases.1.duration: ...``; use
 from __future__ import annotations
 
 import json
+import math
+from collections.abc import Sequence
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, Literal
+from typing import TYPE_CHECKING, Annotated, Any, Literal
 
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
 
+from alcove.science.arrays import FloatArray
 from alcove.science.geometry import HeadNeckPreset
+from alcove.science.ocp.problem import DiscreteProblem, PhaseGrid
+from alcove.science.validation import WholeNumber, error_location, quantity
 
-if TYPE_CHECKING:  # CasADi is imported only when a chain or a discrete problem is built,
+if TYPE_CHECKING:  # CasADi is imported only when a chain is built,
     # so validating a task (e.g. in the API process) stays light.
     from alcove.science.multibody import PlanarChain
-    from alcove.science.ocp.dmocc import DiscreteProblem
 
 _DEFAULT = HeadNeckPreset()
+
+#: rad: the head-neck joint and the headrest tilt less than 90 degrees either way from the vertical
+ANGLE_LIMIT = math.pi / 2
+MAX_TORQUE = 200.0  # N m: an adult neck's largest extension torque is about 30-60 N m
+MAX_ANGULAR_VELOCITY = 100.0  # rad/s: head angular velocities in crashes peak at about 30-50 rad/s
+MAX_WEIGHT = 1e6  # cost weights: the paper's are 1e-4 to 1
+
+Angle = Annotated[
+    float, quantity("joint angle", "rad", ge=-ANGLE_LIMIT, le=ANGLE_LIMIT, why="within the model's joint range")
+]
+AngularVelocity = Annotated[
+    float, quantity("joint angular velocity", "rad/s", ge=-MAX_ANGULAR_VELOCITY, le=MAX_ANGULAR_VELOCITY)
+]
+TorqueBound = Annotated[
+    float, quantity("joint torque bound", "N m", gt=0, le=MAX_TORQUE, why="at most the model's torque_limit")
+]
 
 
 class TaskSpecError(ValueError):
@@ -50,27 +70,61 @@ class ModelSpec(_Strict):
     """Model preset and its parameters (defaults: the paper's head-neck model)."""
 
     preset: Literal["head-neck-1dof"] = "head-neck-1dof"
-    mass: float = Field(_DEFAULT.mass, gt=0, description="head mass [kg]")
-    com_distance: float = Field(_DEFAULT.com_distance, gt=0, description="joint -> head COG [m]")
-    inertia_joint: float = Field(_DEFAULT.inertia_joint, gt=0, description="moment of inertia about the joint [kg m^2]")
-    theta_min: float = Field(_DEFAULT.theta_min, description="lower joint limit [rad]")
-    theta_max: float = Field(_DEFAULT.theta_max, description="upper joint limit [rad]")
-    theta0: float = Field(_DEFAULT.theta0, description="initial angle [rad]")
-    torque_limit: float = Field(_DEFAULT.torque_limit, gt=0, description="joint torque limit [N m]")
-    gravity: float = Field(_DEFAULT.gravity, ge=0, description="gravitational acceleration [m/s^2]")
-    theta_contact: float = Field(_DEFAULT.theta_contact, description="angle of first contact with the headrest [rad]")
-    tilt: float = Field(_DEFAULT.tilt, description="headrest inclination [rad]")
+    mass: Annotated[
+        float, quantity("head mass", "kg", gt=0, le=20, why="an adult head weighs about 4-5 kg (de Leva 1996)")
+    ] = _DEFAULT.mass
+    com_distance: Annotated[float, quantity("distance from the joint (C7/T1) to the head COG", "m", gt=0, le=0.5)] = (
+        _DEFAULT.com_distance
+    )
+    inertia_joint: Annotated[
+        float,
+        quantity(
+            "moment of inertia about the joint",
+            "kg m^2",
+            gt=0,
+            le=5,
+            why="at least mass * com_distance^2 (the inertia about the COG is not negative)",
+        ),
+    ] = _DEFAULT.inertia_joint
+    theta_min: Annotated[
+        float, quantity("lower joint limit (backward tilt from the vertical)", "rad", ge=-ANGLE_LIMIT, le=ANGLE_LIMIT)
+    ] = _DEFAULT.theta_min
+    theta_max: Annotated[
+        float, quantity("upper joint limit", "rad", ge=-ANGLE_LIMIT, le=ANGLE_LIMIT, why="above theta_min")
+    ] = _DEFAULT.theta_max
+    theta0: Annotated[
+        float, quantity("initial angle", "rad", ge=-ANGLE_LIMIT, le=ANGLE_LIMIT, why="within theta_min..theta_max")
+    ] = _DEFAULT.theta0
+    torque_limit: Annotated[
+        float,
+        quantity("joint torque limit", "N m", gt=0, le=MAX_TORQUE, why="an adult neck's largest is about 30-60 N m"),
+    ] = _DEFAULT.torque_limit
+    gravity: Annotated[
+        float,
+        quantity("gravitational acceleration", "m/s^2", ge=0, le=100, why="0 is weightless, 100 is about 10 g"),
+    ] = _DEFAULT.gravity
+    theta_contact: Annotated[
+        float,
+        quantity("angle of first contact with the undeformed headrest", "rad", ge=-ANGLE_LIMIT, le=ANGLE_LIMIT),
+    ] = _DEFAULT.theta_contact
+    tilt: Annotated[float, quantity("headrest inclination (backward)", "rad", ge=-ANGLE_LIMIT, le=ANGLE_LIMIT)] = (
+        _DEFAULT.tilt
+    )
 
     @model_validator(mode="after")
     def _consistent(self) -> ModelSpec:
         if not self.theta_min < self.theta_max:
-            _fail("model.theta_max", f"must exceed theta_min ({self.theta_max} <= {self.theta_min})")
+            _fail("model.theta_max", f"must exceed theta_min ({self.theta_max:g} <= {self.theta_min:g} rad)")
         if not self.theta_min <= self.theta0 <= self.theta_max:
-            _fail("model.theta0", f"{self.theta0} lies outside the joint range [{self.theta_min}, {self.theta_max}]")
+            _fail(
+                "model.theta0",
+                f"{self.theta0:g} rad lies outside the joint range [{self.theta_min:g}, {self.theta_max:g}] rad",
+            )
         if self.inertia_joint < self.mass * self.com_distance**2:
             _fail(
                 "model.inertia_joint",
-                "must be at least mass * com_distance^2 (inertia about the COG would be negative)",
+                f"must be at least mass * com_distance^2 = {self.mass * self.com_distance**2:g} kg m^2 "
+                "(the inertia about the COG would be negative)",
             )
         return self
 
@@ -86,8 +140,15 @@ class ModelSpec(_Strict):
 class InitialState(_Strict):
     """Initial state; ``q`` defaults to the model's theta0 and ``qd`` to rest."""
 
-    q: list[float] | None = None
-    qd: list[float] | None = Field(None, description="initial velocity; null = at rest")
+    q: list[Angle] | None = Field(
+        None,
+        description="initial pose [rad], one per joint, within the first phase's joint range; null = model.theta0",
+    )
+    qd: list[AngularVelocity] | None = Field(
+        None,
+        description=f"initial velocity [rad/s], one per joint, -{MAX_ANGULAR_VELOCITY:g} to {MAX_ANGULAR_VELOCITY:g}; "
+        "null = at rest",
+    )
     velocity: Literal["given", "free"] = Field(
         "given", description="'free' leaves the initial velocity to the optimizer"
     )
@@ -97,27 +158,55 @@ class FinalCondition(_Strict):
     """Final condition: at rest or free velocity; optional target pose."""
 
     velocity: Literal["rest", "free"] = "rest"
-    q: list[float] | None = Field(None, description="target pose at the end; null = free")
+    q: list[Angle] | None = Field(
+        None, description="target pose at the end [rad], one per joint, within the last phase's bounds; null = free"
+    )
 
 
 class PhaseSpec(_Strict):
     name: str = ""
-    duration: float = Field(gt=0, description="phase duration [s]")
-    intervals: int = Field(100, ge=1, le=20000, description="DMOCC intervals in this phase")
-    w_tau: float = Field(ge=0, description="weight of tau^T tau in the running cost")
-    w_T: float = Field(ge=0, description="weight of the kinetic energy in the running cost")
-    q_min: list[float] | None = Field(None, description="joint lower bounds in this phase (default: model range)")
-    q_max: list[float] | None = Field(None, description="joint upper bounds in this phase (default: model range)")
-    tau_max: list[float] | None = Field(None, description="torque bound |tau| <= tau_max (default: model limit)")
-    target_q: list[float] | None = Field(None, description="pose to reach at the end of the phase")
+    duration: Annotated[float, quantity("phase duration", "s", gt=0, le=60, why="a head motion lasts seconds")]
+    intervals: WholeNumber = Field(
+        100, ge=1, le=20000, description="DMOCC intervals in this phase [-], a whole number from 1 to 20000"
+    )
+    w_tau: Annotated[
+        float,
+        quantity("weight of tau^T tau in the running cost", "1/(N^2 m^2 s)", ge=0, le=MAX_WEIGHT, why="paper: 1e-3, 1"),
+    ]
+    w_T: Annotated[
+        float,
+        quantity(
+            "weight of the kinetic energy in the running cost", "1/(J s)", ge=0, le=MAX_WEIGHT, why="paper: 1e-4, 1"
+        ),
+    ]
+    q_min: list[Angle] | None = Field(
+        None,
+        description="joint lower bounds in this phase [rad], one per joint, within the model's joint range "
+        "(default: model.theta_min)",
+    )
+    q_max: list[Angle] | None = Field(
+        None,
+        description="joint upper bounds in this phase [rad], one per joint, within the model's joint range "
+        "(default: model.theta_max)",
+    )
+    tau_max: list[TorqueBound] | None = Field(
+        None,
+        description="torque bounds |tau| <= tau_max in this phase [N m], one per joint, above 0 and at most the "
+        "model's torque_limit (default: the limit)",
+    )
+    target_q: list[Angle] | None = Field(
+        None, description="pose to reach at the end of the phase [rad], one per joint, within the phase bounds"
+    )
 
 
 class EndpointCost(_Strict):
     """E = w_q |q(t_F) - q_ref|^2 + w_qd |qd(t_F)|^2."""
 
-    w_q: float = Field(0.0, ge=0)
-    q_ref: list[float] | None = None
-    w_qd: float = Field(0.0, ge=0)
+    w_q: Annotated[float, quantity("weight of the final pose error", "1/rad^2", ge=0, le=MAX_WEIGHT)] = 0.0
+    q_ref: list[Angle] | None = Field(
+        None, description="reference final pose [rad], one per joint, within the model's joint range"
+    )
+    w_qd: Annotated[float, quantity("weight of the final velocity", "s^2/rad^2", ge=0, le=MAX_WEIGHT)] = 0.0
 
 
 class TaskSpec(_Strict):
@@ -134,36 +223,36 @@ class TaskSpec(_Strict):
     @model_validator(mode="after")
     def _consistent(self) -> TaskSpec:
         n = self.model.ndof
-        lo0, hi0 = np.array([self.model.theta_min]), np.array([self.model.theta_max])
-        tmax0 = np.array([self.model.torque_limit])
+        joint_lo, joint_hi = np.full(n, self.model.theta_min), np.full(n, self.model.theta_max)
+        torque_limit = np.full(n, self.model.torque_limit)
 
-        def vec(value: list[float] | None, path: str, default: np.ndarray) -> np.ndarray:
+        def vec(value: Sequence[float] | None, path: str, default: FloatArray) -> FloatArray:
             if value is None:
                 return default
             if len(value) != n:
                 _fail(path, f"expected {n} value(s) (one per joint), got {len(value)}")
-            arr = np.asarray(value, float)
-            if not np.all(np.isfinite(arr)):
-                _fail(path, "values must be finite")
-            return arr
+            return np.asarray(value, float)
 
-        def within(arr: np.ndarray, lo: np.ndarray, hi: np.ndarray, path: str, what: str) -> None:
-            if np.any(arr < lo) or np.any(arr > hi):
-                _fail(path, f"{arr.tolist()} lies outside {what} [{lo.tolist()}, {hi.tolist()}]")
+        def within(values: FloatArray, lo: FloatArray, hi: FloatArray, path: str, what: str) -> None:
+            for j, (v, a, b) in enumerate(zip(values, lo, hi, strict=True)):
+                if not a <= v <= b:
+                    _fail(f"{path}.{j}", f"{v:g} rad lies outside {what} [{a:g}, {b:g}] rad")
 
+        model_range = "the model's joint range"
         bounds = []
         for m, ph in enumerate(self.phases):
-            lo = vec(ph.q_min, f"phases.{m}.q_min", lo0)
-            hi = vec(ph.q_max, f"phases.{m}.q_max", hi0)
-            if np.any(lo >= hi):
-                _fail(f"phases.{m}.q_min", f"must be below q_max ({lo.tolist()} >= {hi.tolist()})")
-            within(lo, lo0, hi0, f"phases.{m}.q_min", "the model's joint range")
-            within(hi, lo0, hi0, f"phases.{m}.q_max", "the model's joint range")
-            tmax = vec(ph.tau_max, f"phases.{m}.tau_max", tmax0)
-            if np.any(tmax <= 0):
-                _fail(f"phases.{m}.tau_max", "must be > 0")
-            if np.any(tmax > tmax0):
-                _fail(f"phases.{m}.tau_max", f"exceeds the model's torque_limit {self.model.torque_limit}")
+            lo = vec(ph.q_min, f"phases.{m}.q_min", joint_lo)
+            hi = vec(ph.q_max, f"phases.{m}.q_max", joint_hi)
+            within(lo, joint_lo, joint_hi, f"phases.{m}.q_min", model_range)
+            within(hi, joint_lo, joint_hi, f"phases.{m}.q_max", model_range)
+            for j in np.flatnonzero(lo >= hi):
+                _fail(f"phases.{m}.q_min.{j}", f"must be below q_max ({lo[j]:g} >= {hi[j]:g} rad)")
+            tmax = vec(ph.tau_max, f"phases.{m}.tau_max", torque_limit)
+            for j in np.flatnonzero(tmax > torque_limit):
+                _fail(
+                    f"phases.{m}.tau_max.{j}",
+                    f"{tmax[j]:g} N m exceeds the model's torque_limit {self.model.torque_limit:g} N m",
+                )
             if ph.target_q is not None:
                 target = vec(ph.target_q, f"phases.{m}.target_q", lo)
                 within(target, lo, hi, f"phases.{m}.target_q", "the phase bounds")
@@ -171,13 +260,13 @@ class TaskSpec(_Strict):
                     nxt = self.phases[m + 1]
                     within(
                         target,
-                        vec(nxt.q_min, f"phases.{m + 1}.q_min", lo0),
-                        vec(nxt.q_max, f"phases.{m + 1}.q_max", hi0),
+                        vec(nxt.q_min, f"phases.{m + 1}.q_min", joint_lo),
+                        vec(nxt.q_max, f"phases.{m + 1}.q_max", joint_hi),
                         f"phases.{m}.target_q",
                         "the next phase's bounds",
                     )
             bounds.append((lo, hi))
-        q0 = vec(self.initial.q, "initial.q", np.array([self.model.theta0]))
+        q0 = vec(self.initial.q, "initial.q", np.full(n, self.model.theta0))
         within(q0, *bounds[0], "initial.q", "the joint range of the first phase")
         vec(self.initial.qd, "initial.qd", np.zeros(n))
         if self.initial.velocity == "free" and self.initial.qd is not None:
@@ -189,7 +278,7 @@ class TaskSpec(_Strict):
             if ec.w_q > 0 and ec.q_ref is None:
                 _fail("endpoint_cost.q_ref", "is required when w_q > 0")
             if ec.q_ref is not None:
-                vec(ec.q_ref, "endpoint_cost.q_ref", q0)
+                within(vec(ec.q_ref, "endpoint_cost.q_ref", q0), joint_lo, joint_hi, "endpoint_cost.q_ref", model_range)
         return self
 
     # ---- derived ------------------------------------------------------------------
@@ -218,11 +307,12 @@ class TaskSpec(_Strict):
 
     def discrete_problem(self) -> DiscreteProblem:
         """Resolve defaults into the numbers the DMOCC transcription needs."""
-        from alcove.science.ocp.dmocc import DiscreteProblem, PhaseGrid
-
         m = self.model
         lo0, hi0, t0 = np.array([m.theta_min]), np.array([m.theta_max]), np.array([m.torque_limit])
-        arr = lambda v, d: d if v is None else np.asarray(v, float)  # noqa: E731
+
+        def arr(value: list[float] | None, default: FloatArray) -> FloatArray:
+            return default if value is None else np.asarray(value, float)
+
         phases = tuple(
             PhaseGrid(
                 duration=ph.duration,
@@ -250,13 +340,8 @@ class TaskSpec(_Strict):
 
 
 def _error_from_validation(err: ValidationError) -> TaskSpecError:
-    first = err.errors()[0]
-    loc = ".".join(str(p) for p in first["loc"])
-    msg = str(first["msg"]).removeprefix("Value error, ")
-    head, sep, rest = msg.partition(": ")
-    if sep and " " not in head:  # cross-field checks carry their own path
-        loc, msg = head, rest
-    return TaskSpecError(loc or "task", msg)
+    field, reason = error_location(err.errors()[0])  # cross-field checks carry their own path
+    return TaskSpecError(field or "task", reason)
 
 
 def parse_task(data: dict[str, Any] | str | Path) -> TaskSpec:
@@ -277,7 +362,9 @@ def parse_task(data: dict[str, Any] | str | Path) -> TaskSpec:
 TASK_PRESETS: dict[str, dict[str, Any]] = {
     "head-headrest-2phase": {
         "name": "head-headrest-2phase",
-        "description": "The paper's proof of concept: 2 s in two phases of 1 s; the head moves onto the headrest and rests there.",
+        "description": (
+            "The paper's proof of concept: 2 s in two phases of 1 s; the head moves onto the headrest and rests there."
+        ),
         "model": {"preset": "head-neck-1dof"},
         "initial": {"q": None, "qd": None},
         "phases": [

@@ -20,14 +20,16 @@ preliminary data set and is the fast oracle of the tests and the ``command`` exa
 from __future__ import annotations
 
 import time
-from typing import ClassVar
+from typing import Annotated, ClassVar
 
 import numpy as np
 from pydantic import Field
 
+from alcove.science.arrays import FloatArray
 from alcove.science.geometry import DEFAULT_PRESET, HeadNeckPreset, RelativeKinematics, relative_kinematics
 from alcove.science.oracles.base import CancelCheck, OracleCancelled, OracleInputError, OracleParams, OracleResult
 from alcove.science.series import ForceSeries, Trajectory
+from alcove.science.validation import quantity
 
 K_PAPER_N_PER_MM2 = 6.0
 D0_PAPER_NS_PER_MM = 0.1
@@ -35,24 +37,32 @@ P_REF_PAPER_MM = 2.0
 THETA_TOLERANCE = 1e-6  # rad, slack on the preset's joint range (round-off in CSV files)
 
 
+HeadCoordinate = Annotated[
+    float, quantity("coordinate in the head frame", "m", ge=-0.5, le=0.5, why="a point of the head")
+]
+
+
 class AuxPenaltyParams(OracleParams):
     """Parameters of the auxiliary penalty model, in SI units."""
 
-    k: float = Field(
-        K_PAPER_N_PER_MM2 * 1e6, gt=0, le=1e9, description="quadratic stiffness k [N/m^2] (paper: 6 N/mm^2)"
+    k: Annotated[float, quantity("quadratic stiffness k", "N/m^2", gt=0, le=1e9, why="paper: 6 N/mm^2 = 6e6 N/m^2")] = (
+        K_PAPER_N_PER_MM2 * 1e6
     )
-    d0: float = Field(
-        D0_PAPER_NS_PER_MM * 1e3, ge=0, le=1e5, description="damping d0 [N s/m] (paper: 0.1, evaluated in N, mm, s)"
+    d0: Annotated[
+        float,
+        quantity("damping d0", "N s/m", ge=0, le=1e5, why="paper: 0.1, evaluated in N, mm, s, i.e. 100 N s/m"),
+    ] = D0_PAPER_NS_PER_MM * 1e3
+    p_ref: Annotated[float, quantity("reference penetration p_ref", "m", gt=0, le=0.1, why="paper: 2 mm")] = (
+        P_REF_PAPER_MM * 1e-3
     )
-    p_ref: float = Field(
-        P_REF_PAPER_MM * 1e-3, gt=0, le=0.1, description="reference penetration p_ref [m] (paper: 2 mm)"
-    )
-    r_sp: tuple[float, float, float] | None = Field(
-        None, description="contact point in the head frame [m]; default: the back point of the head profile"
+    r_sp: tuple[HeadCoordinate, HeadCoordinate, HeadCoordinate] | None = Field(
+        None,
+        description="contact point (x, y, z) in the head frame [m], each -0.5 to 0.5; "
+        "default: the back point of the head profile",
     )
 
 
-def contact_point(preset: HeadNeckPreset, params: AuxPenaltyParams) -> np.ndarray:
+def contact_point(preset: HeadNeckPreset, params: AuxPenaltyParams) -> FloatArray:
     """The point r_sp in the head frame (3,)."""
     if params.r_sp is not None:
         return np.asarray(params.r_sp, float)
@@ -62,7 +72,7 @@ def contact_point(preset: HeadNeckPreset, params: AuxPenaltyParams) -> np.ndarra
 
 def aux_penalty_wrench(
     preset: HeadNeckPreset, params: AuxPenaltyParams, kin: RelativeKinematics
-) -> tuple[np.ndarray, np.ndarray]:
+) -> tuple[FloatArray, FloatArray]:
     """Force (n, 3) and moment about the head frame origin (n, 3), in the headrest frame."""
     r_sp = contact_point(preset, params)
     arm = np.einsum("nij,j->ni", kin.T_rel, r_sp)  # r_sp expressed in H
@@ -80,13 +90,13 @@ def aux_penalty_wrench(
 
 def penetration(
     preset: HeadNeckPreset, params: AuxPenaltyParams, kin: RelativeKinematics
-) -> tuple[np.ndarray, np.ndarray]:
+) -> tuple[FloatArray, FloatArray]:
     """Penetration p (n,) of the point r_sp into the headrest plane and its rate pdot (n,) [m, m/s]."""
     arm = np.einsum("nij,j->ni", kin.T_rel, contact_point(preset, params))
     return -(kin.r_rel + arm)[:, 0], -(kin.v_rel + np.cross(kin.omega_rel, arm))[:, 0]
 
 
-def dissipated_energy(t: np.ndarray, p: np.ndarray, pdot: np.ndarray, fx: np.ndarray, k: float) -> float:
+def dissipated_energy(t: FloatArray, p: FloatArray, pdot: FloatArray, fx: FloatArray, k: float) -> float:
     """Work done by the head on the contact minus the change of the stored energy k p^3 / 3 [J].
 
     The work is the trapezoidal integral of fx * pdot (fx is the gated force magnitude along
@@ -137,7 +147,7 @@ class AuxPenaltyOracle:
             wall_time=time.perf_counter() - start,
         )
 
-    def _joint_motion(self, trajectory: Trajectory) -> tuple[np.ndarray, np.ndarray]:
+    def _joint_motion(self, trajectory: Trajectory) -> tuple[FloatArray, FloatArray]:
         if trajectory.ndof != 1:
             raise OracleInputError(
                 "q", f"the head-neck preset has 1 degree of freedom (q_0 = theta), the trajectory has {trajectory.ndof}"
@@ -149,6 +159,7 @@ class AuxPenaltyOracle:
             i = int(np.argmax(outside))
             raise OracleInputError(
                 "q_0",
-                f"theta = {theta[i]:.4g} rad at t = {trajectory.t[i]:.4g} s is outside the preset's range [{lo}, {hi}] rad",
+                f"theta = {theta[i]:.4g} rad at t = {trajectory.t[i]:.4g} s is outside the preset's range "
+                f"[{lo}, {hi}] rad",
             )
         return theta, trajectory.qd[:, 0]

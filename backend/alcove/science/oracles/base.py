@@ -19,6 +19,11 @@ from alcove.science.series import ForceSeries, Trajectory
 
 CancelCheck = Callable[[], bool]
 
+#: Diagnostics every oracle reports (None where it has no such thing), shown by ``alcove
+#: oracle run --json`` and the UI: deepest penetration [m], energy dissipated by the contact
+#: [J], total Newton iterations.
+SUMMARY_DIAGNOSTICS = ("max_penetration_m", "dissipated_energy_j", "newton_iterations")
+
 
 class OracleInputError(ValueError):
     """Bad input to an oracle (trajectory or parameters); ``field`` names what is wrong."""
@@ -34,9 +39,13 @@ class OracleCancelled(RuntimeError):
 
 
 class OracleParams(BaseModel):
-    """Base class of the validated parameter model of an oracle type."""
+    """Base class of the validated parameter model of an oracle type.
 
-    model_config = ConfigDict(extra="forbid", frozen=True)
+    Unknown fields are refused, and so are infinite and NaN numbers (they pass bounds such
+    as ``gt=0``).
+    """
+
+    model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
 
 
 @dataclass
@@ -60,8 +69,14 @@ class OracleResult:
 
 
 class Oracle(Protocol):
+    """What every oracle type provides (its parameters may be any :class:`OracleParams` subclass)."""
+
     type_name: ClassVar[str]
-    params: OracleParams
-    preset: HeadNeckPreset
+
+    @property
+    def params(self) -> OracleParams: ...
+
+    @property
+    def preset(self) -> HeadNeckPreset: ...
 
     def run(self, trajectory: Trajectory, cancel: CancelCheck | None = None) -> OracleResult: ...

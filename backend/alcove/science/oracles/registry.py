@@ -3,76 +3,28 @@
 Built-in types are imported lazily (the FE oracle pulls in scikit-fem and its own code, and
 a missing module must not break the other types); command oracles come from the
 administrator's catalogue (:func:`alcove.science.oracles.command.load_command_catalogue`)
-and are addressed by their entry's name.
+and are addressed by their entry's name. The built-in table is :mod:`.builtin`.
 """
 
 from __future__ import annotations
 
-import importlib
 import shutil
-from collections.abc import Callable, Iterator, Mapping
-from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any, NamedTuple
+from collections.abc import Iterator, Mapping
+from typing import Any
 
 from pydantic import ValidationError
 
 from alcove.science.geometry import DEFAULT_PRESET, HeadNeckPreset
-from alcove.science.oracles.base import Oracle, OracleInputError, OracleParams
-
-if TYPE_CHECKING:
-    from alcove.science.oracles.command import CommandOracleSpec
-
-OracleFactory = Callable[[OracleParams, HeadNeckPreset], Oracle]
-
-#: Diagnostics every oracle reports (None where it has no such thing), shown by ``alcove
-#: oracle run --json`` and the UI: deepest penetration [m], energy dissipated by the contact
-#: [J], total Newton iterations.
-SUMMARY_DIAGNOSTICS = ("max_penetration_m", "dissipated_energy_j", "newton_iterations")
-
-
-class OracleTypeUnavailable(OracleInputError):
-    """A known built-in type whose implementation cannot be imported."""
-
-
-class OracleType(NamedTuple):
-    params_model: type[OracleParams]
-    factory: OracleFactory
-
-
-@dataclass(frozen=True)
-class _BuiltinType:
-    module: str
-    oracle_class: str
-    params_class: str
-    description: str
-
-    def load(self, name: str) -> OracleType:
-        try:
-            module = importlib.import_module(self.module)
-            oracle_cls = getattr(module, self.oracle_class)
-            params_cls = getattr(module, self.params_class)
-        except (ImportError, AttributeError) as exc:
-            raise OracleTypeUnavailable(
-                "oracle", f"type '{name}' is not available: cannot import {self.module}.{self.oracle_class} ({exc})"
-            ) from None
-        return OracleType(params_cls, lambda params, preset: oracle_cls(params, preset=preset))
-
-
-_BUILTIN: dict[str, _BuiltinType] = {
-    "fe-headrest-2d": _BuiltinType(
-        "alcove.science.oracles.fe_headrest",
-        "FEHeadrestOracle",
-        "FEHeadrestParams",
-        "Plane-strain finite-element headrest (hyperfoam cushion, rigid head, penalty contact with friction)",
-    ),
-    "aux-penalty": _BuiltinType(
-        "alcove.science.oracles.aux_penalty",
-        "AuxPenaltyOracle",
-        "AuxPenaltyParams",
-        "The paper's auxiliary penalty model: one head point against the headrest plane (closed form)",
-    ),
-}
-BUILTIN_TYPE_NAMES = frozenset(_BUILTIN)
+from alcove.science.oracles.base import SUMMARY_DIAGNOSTICS, Oracle, OracleInputError, OracleParams
+from alcove.science.oracles.builtin import (
+    BUILTIN_TYPE_NAMES,
+    BUILTIN_TYPES,
+    OracleFactory,
+    OracleType,
+    OracleTypeUnavailable,
+)
+from alcove.science.oracles.command import CommandOracle, CommandOracleSpec, params_model
+from alcove.science.validation import error_location
 
 
 class _LazyOracleTypes(Mapping[str, OracleType]):
@@ -82,17 +34,17 @@ class _LazyOracleTypes(Mapping[str, OracleType]):
         self._loaded: dict[str, OracleType] = {}
 
     def __getitem__(self, name: str) -> OracleType:
-        if name not in _BUILTIN:
+        if name not in BUILTIN_TYPES:
             raise KeyError(name)
         if name not in self._loaded:
-            self._loaded[name] = _BUILTIN[name].load(name)
+            self._loaded[name] = BUILTIN_TYPES[name].load(name)
         return self._loaded[name]
 
     def __iter__(self) -> Iterator[str]:
-        return iter(_BUILTIN)
+        return iter(BUILTIN_TYPES)
 
     def __len__(self) -> int:
-        return len(_BUILTIN)
+        return len(BUILTIN_TYPES)
 
 
 ORACLE_TYPES: Mapping[str, OracleType] = _LazyOracleTypes()
@@ -115,9 +67,7 @@ def build_oracle(
     try:
         validated = model.model_validate(dict(params or {}))
     except ValidationError as exc:
-        err = exc.errors()[0]
-        loc = ".".join(str(p) for p in err["loc"])
-        raise OracleInputError(f"params.{loc}" if loc else "params", err["msg"]) from None
+        raise OracleInputError(*error_location(exc.errors()[0], prefix=("params",))) from None
     return make(validated, preset)
 
 
@@ -134,7 +84,7 @@ def list_oracle_types(catalogue: Mapping[str, CommandOracleSpec] | None = None) 
     host this says little if the solver is installed on the workers only.
     """
     rows: list[dict[str, Any]] = []
-    for name, entry in _BUILTIN.items():
+    for name, entry in BUILTIN_TYPES.items():
         try:
             ORACLE_TYPES[name]
             available, reason = True, None
@@ -164,16 +114,29 @@ def list_oracle_types(catalogue: Mapping[str, CommandOracleSpec] | None = None) 
     return rows
 
 
-def _resolve(
-    type_name: str, catalogue: Mapping[str, CommandOracleSpec] | None
-) -> tuple[type[OracleParams], OracleFactory]:
+def _resolve(type_name: str, catalogue: Mapping[str, CommandOracleSpec] | None) -> OracleType:
     if type_name in ORACLE_TYPES:
         return ORACLE_TYPES[type_name]
     if catalogue is not None and type_name in catalogue:
-        from alcove.science.oracles.command import CommandOracle, params_model  # the command module imports this one
-
         spec = catalogue[type_name]
-        return params_model(spec), lambda params, preset: CommandOracle(spec, params, preset=preset)
+
+        def command_oracle(params: OracleParams, preset: HeadNeckPreset) -> Oracle:
+            return CommandOracle(spec, params, preset=preset)
+
+        return OracleType(params_model(spec), command_oracle)
     known = sorted(ORACLE_TYPES) + sorted(catalogue or {})
     hint = "" if catalogue else " (command oracles need the administrator's catalogue)"
     raise OracleInputError("oracle", f"unknown oracle type {type_name!r}; known: {', '.join(known)}{hint}")
+
+
+__all__ = [
+    "BUILTIN_TYPE_NAMES",
+    "ORACLE_TYPES",
+    "SUMMARY_DIAGNOSTICS",
+    "OracleFactory",
+    "OracleType",
+    "OracleTypeUnavailable",
+    "build_oracle",
+    "list_oracle_types",
+    "params_json_schema",
+]

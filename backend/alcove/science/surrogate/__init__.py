@@ -5,7 +5,13 @@ Import from the submodules (``features``, ``mlp``, ``config``, ``dataset``, ``tr
 """
 
 from importlib import import_module
-from typing import Any
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:  # the real names for type checkers; at run time they load on first use
+    from alcove.science.surrogate.config import NetworkConfig, SurrogateConfig, SurrogateConfigError
+    from alcove.science.surrogate.dataset import PoolDataError, PoolDataset, load_pool_dir, load_preliminary_csv
+    from alcove.science.surrogate.mlp import MLP, SurrogateModel
+    from alcove.science.surrogate.training import TrainingCancelled, TrainingResult, predict, train_surrogate
 
 # Re-exports are resolved on first use (PEP 562) so that importing the light submodules
 # (``config``) does not import torch.

@@ -17,7 +17,7 @@ from __future__ import annotations
 import json
 import warnings
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import torch
@@ -45,6 +45,12 @@ class ArtifactError(ValueError):
 
 class _Scripted(nn.Module):
     """Raw features -> physical output, normalisation included (scriptable)."""
+
+    if TYPE_CHECKING:  # buffers, registered in __init__ (TorchScript cannot read these string annotations)
+        x_mean: torch.Tensor
+        x_scale: torch.Tensor
+        y_mean: torch.Tensor
+        y_scale: torch.Tensor
 
     def __init__(self, net: MLP, input_norm: Standardization, output_norm: Standardization):
         super().__init__()
@@ -180,7 +186,9 @@ def save_artifact(model: SurrogateModel, path: str | Path, lineage: dict[str, An
             ("force", model.force_net, model.force_norm),
             ("moment", model.moment_net, model.moment_norm),
         ):
-            torch.jit.script(_Scripted(net, model.input_norm, out_norm)).save(str(root / doc["torchscript"][key]))
+            torch.jit.save(
+                torch.jit.script(_Scripted(net, model.input_norm, out_norm)), str(root / doc["torchscript"][key])
+            )
     return root
 
 

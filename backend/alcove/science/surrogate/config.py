@@ -19,9 +19,12 @@ import json
 from pathlib import Path
 from typing import Annotated, Any, Literal
 
-from pydantic import BaseModel, ConfigDict, Field, ValidationError
+from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, ValidationError
+
+from alcove.science.validation import WholeNumber, as_whole_number, error_location, quantity, range_text
 
 Activation = Literal["softplus", "tanh", "sigmoid"]
+LayerWidth = Annotated[int, Field(ge=1, le=4096), BeforeValidator(as_whole_number)]
 
 
 class SurrogateConfigError(ValueError):
@@ -38,8 +41,10 @@ class NetworkConfig(BaseModel):
 
     model_config = ConfigDict(extra="forbid", frozen=True)
 
-    hidden: tuple[Annotated[int, Field(ge=1, le=4096)], ...] = Field(
-        min_length=1, max_length=16, description="widths of the hidden layers"
+    hidden: tuple[LayerWidth, ...] = Field(
+        min_length=1,
+        max_length=16,
+        description="widths of the hidden layers [-]: 1 to 16 layers of 1 to 4096 units (paper: 6-6-4, 6-6-6-4)",
     )
     activation: Activation = Field("softplus", description="activation of the hidden layers")
 
@@ -47,26 +52,53 @@ class NetworkConfig(BaseModel):
 class SurrogateConfig(BaseModel):
     """Architecture and training protocol of one surrogate model pair."""
 
-    model_config = ConfigDict(extra="forbid", frozen=True)
+    model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
 
     force: NetworkConfig = Field(default_factory=lambda: NetworkConfig(hidden=(6, 6, 4)))
     moment: NetworkConfig = Field(default_factory=lambda: NetworkConfig(hidden=(6, 6, 6, 4)))
-    learning_rate: float = Field(0.01, gt=0, le=1, description="Adam learning rate")
-    batch_size: int = Field(1024, ge=1, le=1_000_000)
-    patience: int = Field(6, ge=1, le=1000, description="early stopping: epochs without a better validation loss")
-    max_epochs: int = Field(1000, ge=1, le=100_000)
-    test_fraction: float = Field(0.3, ge=0, lt=1, description="share of the simulations held out as test set")
-    validation_fraction: float = Field(
-        0.2, gt=0, lt=1, description="pointwise share of the training part used for validation"
+    learning_rate: Annotated[
+        float, quantity("Adam learning rate (step size on standardised data)", "-", gt=0, le=1, why="paper: 0.01")
+    ] = 0.01
+    batch_size: WholeNumber = Field(
+        1024, ge=1, le=1_000_000, description="samples per Adam step [-], a whole number from 1 to 1e6 (paper: 1024)"
     )
-    seed: int = Field(0, ge=0, lt=2**63, description="seed of splits, initialisation and batch order")
+    patience: WholeNumber = Field(
+        6,
+        ge=1,
+        le=1000,
+        description="early stopping: epochs without a better validation loss [-], 1 to 1000 (paper: 6)",
+    )
+    max_epochs: WholeNumber = Field(
+        1000, ge=1, le=100_000, description="most epochs per training [-], a whole number from 1 to 100000"
+    )
+    test_fraction: Annotated[
+        float,
+        quantity("share of the simulations held out as test set", "-", ge=0, lt=1, why="paper: 0.3"),
+    ] = 0.3
+    validation_fraction: Annotated[
+        float,
+        quantity("pointwise share of the training part used for validation", "-", gt=0, lt=1, why="paper: 0.2"),
+    ] = 0.2
+    seed: WholeNumber = Field(
+        0,
+        ge=0,
+        lt=2**63,
+        description="seed of splits, initialisation and batch order [-], a whole number "
+        + range_text("", ge=0, lt=2**63),
+    )
     warm_start: bool = Field(True, description="start from the previous model's weights when the architecture matches")
     normalize_outputs: bool = Field(True, description="train on standardised targets (exported transparently)")
-    preliminary_weight: float = Field(1.0, ge=0, le=1e6, description="sample weight of preliminary data")
+    preliminary_weight: Annotated[
+        float, quantity("sample weight of preliminary data", "-", ge=0, le=1e6, why="oracle data weigh 1")
+    ] = 1.0
     preliminary_halving: float | None = Field(
-        None, gt=0, description="halve the preliminary weight every this many oracle simulations in the pool"
+        None,
+        gt=0,
+        le=1e6,
+        description="halve the preliminary weight every this many oracle simulations in the pool [simulations], "
+        f"{range_text('simulations', gt=0, le=1e6)}; null: never",
     )
-    dtype: Literal["float64", "float32"] = "float64"
+    dtype: Literal["float64", "float32"] = Field("float64", description="floating-point precision of the networks")
 
     @classmethod
     def parse(cls, data: dict[str, Any]) -> SurrogateConfig:
@@ -74,9 +106,8 @@ class SurrogateConfig(BaseModel):
         try:
             return cls.model_validate(data)
         except ValidationError as exc:
-            err = exc.errors()[0]
-            field = ".".join(str(p) for p in err["loc"]) or "config"
-            raise SurrogateConfigError(field, err["msg"]) from None
+            field, reason = error_location(exc.errors()[0])
+            raise SurrogateConfigError(field or "config", reason) from None
 
     @classmethod
     def from_json(cls, source: str | Path) -> SurrogateConfig:

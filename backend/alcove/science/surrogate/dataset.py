@@ -40,17 +40,26 @@ import csv
 import io
 import json
 import re
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Literal
+from typing import Literal, TypedDict
 
 import numpy as np
 
+from alcove.science.arrays import FloatArray, IndexArray
 from alcove.science.series import FORCE_COLUMNS, ForceSeries, SeriesFormatError, Trajectory
 
 Origin = Literal["preliminary", "oracle", "upload"]
 ORIGINS: tuple[str, ...] = ("preliminary", "oracle", "upload")
 _NAME = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_.+-]{0,127}$")
+
+
+class ManifestEntry(TypedDict, total=False):
+    """One dataset's entry in a pool folder's ``pool.json``."""
+
+    origin: str
+    weight: float
 
 
 class PoolDataError(ValueError):
@@ -67,11 +76,11 @@ class PoolDataset:
     """One simulation of the pool (see the module docstring)."""
 
     name: str
-    t: np.ndarray
-    q: np.ndarray
-    qd: np.ndarray
-    force: np.ndarray
-    moment: np.ndarray
+    t: FloatArray
+    q: FloatArray
+    qd: FloatArray
+    force: FloatArray
+    moment: FloatArray
     origin: str = "oracle"
     weight: float | None = None
 
@@ -128,7 +137,8 @@ class PoolDataset:
         if len(trajectory) != len(forces) or not np.allclose(trajectory.t, forces.t, rtol=0, atol=1e-9):
             raise PoolDataError(
                 f"{name}.t",
-                f"the trajectory ({len(trajectory)} rows) and the forces ({len(forces)} rows) are not on the same time grid",
+                f"the trajectory ({len(trajectory)} rows) and the forces ({len(forces)} rows) "
+                "are not on the same time grid",
             )
         return cls(name, trajectory.t, trajectory.q, trajectory.qd, forces.force, forces.moment, origin, weight)
 
@@ -148,7 +158,7 @@ def load_pool_dir(path: str | Path) -> list[PoolDataset]:
     root = Path(path)
     if not root.is_dir():
         raise PoolDataError("pool", f"{root} is not a directory")
-    manifest: dict[str, dict] = {}
+    manifest: dict[str, ManifestEntry] = {}
     if (root / "pool.json").exists():
         try:
             manifest = json.loads((root / "pool.json").read_text())
@@ -275,20 +285,24 @@ def load_preliminary_csv(
     for name, idx in named.items():
         idx_a = np.asarray(idx)
         t = num["t"][idx_a] if "t" in num else np.arange(len(idx_a), dtype=float)
-        take = lambda cols: np.stack([num[c][idx_a] for c in cols], -1)  # noqa: E731
         pool.append(
             PoolDataset(
                 name,
                 t,
-                take([f"q_{i}" for i in range(n_q)]),
-                take([f"qd_{i}" for i in range(n_q)]),
-                take(FORCE_COLUMNS[:3]),
-                take(FORCE_COLUMNS[3:]),
+                _stacked(num, [f"q_{i}" for i in range(n_q)], idx_a),
+                _stacked(num, [f"qd_{i}" for i in range(n_q)], idx_a),
+                _stacked(num, FORCE_COLUMNS[:3], idx_a),
+                _stacked(num, FORCE_COLUMNS[3:], idx_a),
                 origin,
             )
         )
     check_pool(pool)
     return pool
+
+
+def _stacked(columns: dict[str, FloatArray], names: Sequence[str], rows: IndexArray) -> FloatArray:
+    """The ``rows`` of the named columns side by side, shape (len(rows), len(names))."""
+    return np.stack([columns[c][rows] for c in names], -1)
 
 
 __all__ = [

@@ -20,16 +20,21 @@ from __future__ import annotations
 import threading
 from collections.abc import Callable
 from pathlib import Path
-from typing import Any
 
 import casadi as ca
 import numpy as np
 
+from alcove.science.arrays import FloatArray
 from alcove.science.geometry import HeadNeckPreset, relative_kinematics_symbolic
 from alcove.science.surrogate.features import N_FEATURES, features_symbolic
 from alcove.science.surrogate.mlp import MLP, Standardization, SurrogateModel
 
-SymbolicKinematics = Callable[[Any, Any], tuple[Any, Any, Any, Any]]
+#: (q, qd) -> (r_rel, v_rel, T_rel, omega_rel) of the contact body in the headrest frame, as SX
+SymbolicKinematics = Callable[[ca.SX, ca.SX], tuple[ca.SX, ca.SX, ca.SX, ca.SX]]
+#: a network's activation and the (rows, columns) of its layers' weights
+NetArchitecture = tuple[str, tuple[tuple[int, int], ...]]
+#: ndof, number of inputs, force net, force outputs, moment net, moment outputs
+Architecture = tuple[int, int, NetArchitecture, int, NetArchitecture, int]
 
 
 def _activation(name: str, x: ca.SX) -> ca.SX:
@@ -101,11 +106,11 @@ def casadi_contact_function(
 
 
 # ---- parametric form: the weights as an input -------------------------------------------
-def _net_architecture(net: MLP) -> tuple[str, tuple[tuple[int, int], ...]]:
+def _net_architecture(net: MLP) -> NetArchitecture:
     return net.activation, tuple((lin.out_features, lin.in_features) for lin in net.linears())
 
 
-def surrogate_architecture(model: SurrogateModel) -> tuple[Any, ...]:
+def surrogate_architecture(model: SurrogateModel) -> Architecture:
     """What the parametric contact function depends on besides the parameter values."""
     return (
         model.ndof,
@@ -117,7 +122,7 @@ def surrogate_architecture(model: SurrogateModel) -> tuple[Any, ...]:
     )
 
 
-def _net_parameters(net: MLP, input_norm: Standardization) -> list[np.ndarray]:
+def _net_parameters(net: MLP, input_norm: Standardization) -> list[FloatArray]:
     """Layers as (weights column-major, biases); the input standardisation folded into the
     first layer: W (x - mean) / divisor + b = (W / divisor) x + (b - (W / divisor) mean)."""
     out = []
@@ -130,11 +135,11 @@ def _net_parameters(net: MLP, input_norm: Standardization) -> list[np.ndarray]:
     return out
 
 
-def surrogate_parameters(model: SurrogateModel) -> np.ndarray:
+def surrogate_parameters(model: SurrogateModel) -> FloatArray:
     """The parameter vector ``p`` of :func:`surrogate_contact` for ``model``: per network
     (force, then moment) its layers (weights column-major, then biases; the input
     standardisation folded into the first layer) and its output scale and mean."""
-    parts: list[np.ndarray] = []
+    parts: list[FloatArray] = []
     for net, norm in ((model.force_net, model.force_norm), (model.moment_net, model.moment_norm)):
         parts += [*_net_parameters(net, model.input_norm), norm.scale, norm.mean]
     return np.concatenate([np.asarray(a, float).ravel() for a in parts])
@@ -152,7 +157,7 @@ class _Reader:
         return block
 
 
-def _mlp_parametric(arch: tuple[str, tuple[tuple[int, int], ...]], x: ca.SX, read: _Reader) -> ca.SX:
+def _mlp_parametric(arch: NetArchitecture, x: ca.SX, read: _Reader) -> ca.SX:
     activation, shapes = arch
     for i, (rows, cols) in enumerate(shapes):
         W, b = read.take(rows, cols), read.take(rows)
@@ -162,11 +167,18 @@ def _mlp_parametric(arch: tuple[str, tuple[tuple[int, int], ...]], x: ca.SX, rea
     return x
 
 
-_LOCAL = threading.local()  # SX graphs are not for concurrent use: one cache per thread, as the OCP's
+class _ThreadCache(threading.local):
+    """SX graphs are not for concurrent use: one cache of parametric contacts per thread, as the OCP's."""
+
+    def __init__(self) -> None:
+        self.contacts: dict[tuple[Architecture, HeadNeckPreset], ca.Function] = {}
 
 
-def _parametric_contact(architecture: tuple[Any, ...], preset: HeadNeckPreset) -> ca.Function:
-    cache = _LOCAL.__dict__.setdefault("contacts", {})
+_LOCAL = _ThreadCache()
+
+
+def _parametric_contact(architecture: Architecture, preset: HeadNeckPreset) -> ca.Function:
+    cache = _LOCAL.contacts
     key = (architecture, preset)
     if key not in cache:
         if len(cache) >= 16:
@@ -175,7 +187,7 @@ def _parametric_contact(architecture: tuple[Any, ...], preset: HeadNeckPreset) -
     return cache[key]
 
 
-def _build_parametric_contact(architecture: tuple[Any, ...], preset: HeadNeckPreset) -> ca.Function:
+def _build_parametric_contact(architecture: Architecture, preset: HeadNeckPreset) -> ca.Function:
     ndof, _, force_arch, n_force, moment_arch, n_moment = architecture
     if ndof != 1:
         raise ValueError(
@@ -194,7 +206,7 @@ def _build_parametric_contact(architecture: tuple[Any, ...], preset: HeadNeckPre
     return ca.Function("contact_surrogate_p", [q, qd, p], [ca.vertcat(force, moment)], ["q", "qd", "p"], ["wrench"])
 
 
-def surrogate_contact(model: SurrogateModel, preset: HeadNeckPreset) -> tuple[ca.Function, np.ndarray]:
+def surrogate_contact(model: SurrogateModel, preset: HeadNeckPreset) -> tuple[ca.Function, FloatArray]:
     """``((q, qd, p) -> wrench, p values)``: the contact-model slot with the weights as parameters.
 
     The function depends only on the architecture and the preset (one cached object per

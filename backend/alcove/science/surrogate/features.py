@@ -24,11 +24,19 @@ at the switch.
 
 from __future__ import annotations
 
-from typing import Any
+from typing import TYPE_CHECKING, TypeVar
 
 import numpy as np
 
+from alcove.science.arrays import FloatArray
 from alcove.science.geometry import RelativeKinematics
+
+if TYPE_CHECKING:  # CasADi is imported only by the symbolic features, when they are built
+    import casadi as ca
+
+    from alcove.science.symbolic import Symbolic
+
+    SeriesArgument = TypeVar("SeriesArgument", FloatArray, ca.SX, ca.MX)
 
 FEATURE_NAMES: tuple[str, ...] = (
     "r_x", "r_y", "r_z",
@@ -45,21 +53,22 @@ SMALL_ANGLE_S2 = 1e-4
 _ARCSIN_SQ_SERIES = (1.0, 1.0 / 3.0, 8.0 / 45.0, 4.0 / 35.0)
 
 
-def _series(s2: Any) -> Any:
-    out = 0.0
-    for coef in reversed(_ARCSIN_SQ_SERIES):
+def _series(s2: SeriesArgument) -> SeriesArgument:
+    """The truncated series of arcsin(sqrt(s2))^2 (Horner's scheme), for arrays or symbols."""
+    out = s2 * _ARCSIN_SQ_SERIES[-1]
+    for coef in reversed(_ARCSIN_SQ_SERIES[:-1]):
         out = (out + coef) * s2
     return out
 
 
-def rotation_cos_sin2(T: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def rotation_cos_sin2(T: FloatArray) -> tuple[FloatArray, FloatArray]:
     """cos(alpha) and sin(alpha)^2 of rotation matrices T (n, 3, 3)."""
     c = 0.5 * (np.trace(T, axis1=1, axis2=2) - 1.0)
     w = np.stack([T[:, 2, 1] - T[:, 1, 2], T[:, 0, 2] - T[:, 2, 0], T[:, 1, 0] - T[:, 0, 1]], -1)
     return c, 0.25 * np.sum(w**2, axis=1)
 
 
-def alpha_squared(T: np.ndarray) -> np.ndarray:
+def alpha_squared(T: FloatArray) -> FloatArray:
     """Squared rotation angle of rotation matrices T (n, 3, 3), smooth at alpha = 0."""
     c, s2 = rotation_cos_sin2(np.asarray(T, float))
     small = (s2 < SMALL_ANGLE_S2) & (c > 0)
@@ -68,7 +77,7 @@ def alpha_squared(T: np.ndarray) -> np.ndarray:
     return np.where(small, _series(s2), large)
 
 
-def features(kin: RelativeKinematics) -> np.ndarray:
+def features(kin: RelativeKinematics) -> FloatArray:
     """Feature matrix (n, 19) from a batch of relative kinematics."""
     r, v, T, w = (np.asarray(a, float) for a in (kin.r_rel, kin.v_rel, kin.T_rel, kin.omega_rel))
     T6 = np.concatenate([T[:, :, 0], T[:, :, 1]], axis=1)
@@ -76,7 +85,7 @@ def features(kin: RelativeKinematics) -> np.ndarray:
     return np.concatenate([r, v, T6, w, squares], axis=1)
 
 
-def alpha_squared_symbolic(T: Any) -> Any:
+def alpha_squared_symbolic(T: Symbolic) -> Symbolic:
     """CasADi version of :func:`alpha_squared` for one 3x3 rotation (SX or MX)."""
     import casadi as ca
 
@@ -88,7 +97,7 @@ def alpha_squared_symbolic(T: Any) -> Any:
     return ca.if_else(small, _series(s2), ca.atan2(ca.sqrt(s2), c) ** 2)
 
 
-def features_symbolic(r_rel: Any, v_rel: Any, T_rel: Any, omega_rel: Any) -> Any:
+def features_symbolic(r_rel: Symbolic, v_rel: Symbolic, T_rel: Symbolic, omega_rel: Symbolic) -> Symbolic:
     """CasADi feature vector (19 x 1) from symbolic relative kinematics (as returned by
     :func:`alcove.science.geometry.relative_kinematics_symbolic`)."""
     import casadi as ca

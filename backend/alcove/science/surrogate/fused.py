@@ -6,9 +6,9 @@ pass: layer ``i`` of every net that has one becomes a single matrix product with
 block-structured weight (the first layer's blocks side by side, since both nets read the
 same features; later layers block-diagonal; a net whose output layer this is puts its
 outputs in the first columns, the hidden units of the deeper net follow), so a step issues
-about half the operations of two separate nets. The fused weights are stored pre-transposed, ``(in, out)``, as views into
-one flat parameter tensor, so that Adam updates one tensor per step (:class:`FlatAdam` in
-:mod:`.training`). Entries outside the blocks start at 0 and their gradient is masked to 0, so
+about half the operations of two separate nets. The fused weights are stored pre-transposed,
+``(in, out)``, as views into one flat parameter tensor, so that Adam updates one tensor per step (:class:`FlatAdam` in
+:mod:`.adam`). Entries outside the blocks start at 0 and their gradient is masked to 0, so
 Adam never moves them (its update is ``lr * m / (sqrt(v) + eps)`` with ``m = v = 0``): the
 fused network computes exactly the two nets, and training it is training the two nets side by
 side on the same batches (their parameters and losses are disjoint).
@@ -74,7 +74,10 @@ class FusedNets:
             present = [k for k in range(len(nets)) if len(linears[k]) > i]  # = the nets in the layer input
             ending = [k for k in present if len(linears[k]) == i + 1]
             continuing = [k for k in present if k not in ending]
-            blocks, outputs, acts, col = [], [], [], 0
+            blocks: list[_Block] = []
+            outputs: list[tuple[int, slice]] = []
+            acts: list[tuple[slice, str]] = []
+            col = 0
             for k in ending + continuing:
                 cols = slice(col, col + linears[k][i].out_features)
                 blocks.append(_Block(k, in_rows[k], cols))

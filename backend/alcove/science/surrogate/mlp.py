@@ -21,6 +21,7 @@ import numpy as np
 import torch
 from torch import nn
 
+from alcove.science.arrays import FloatArray
 from alcove.science.geometry import HeadNeckPreset
 from alcove.science.surrogate.config import NetworkConfig, SurrogateConfig
 from alcove.science.surrogate.features import N_FEATURES
@@ -66,7 +67,8 @@ class MLP(nn.Module):
         return cls(cfg.hidden, cfg.activation, dtype=dtype)
 
     def forward(self, x: torch.Tensor) -> torch.Tensor:
-        return self.layers(x)
+        out: torch.Tensor = self.layers(x)
+        return out
 
     def linears(self) -> list[nn.Linear]:
         return [m for m in self.layers if isinstance(m, nn.Linear)]
@@ -94,18 +96,18 @@ class Standardization:
     prediction is exactly the constant). :meth:`divisor` is the safe scale to divide by.
     """
 
-    mean: np.ndarray
-    scale: np.ndarray
+    mean: FloatArray
+    scale: FloatArray
 
     @classmethod
-    def fit(cls, x: np.ndarray, constant_scale: float = 1.0, rel_tol: float = 1e-12) -> Standardization:
+    def fit(cls, x: FloatArray, constant_scale: float = 1.0, rel_tol: float = 1e-12) -> Standardization:
         mean = x.mean(axis=0)
         std = x.std(axis=0)
         constant = std <= rel_tol * np.maximum(1.0, np.abs(mean))
         return cls(mean=mean, scale=np.where(constant, constant_scale, std))
 
     @property
-    def divisor(self) -> np.ndarray:
+    def divisor(self) -> FloatArray:
         return np.where(self.scale == 0, 1.0, self.scale)
 
     @classmethod
@@ -138,7 +140,7 @@ class SurrogateModel:
     def dtype(self) -> torch.dtype:
         return next(self.force_net.parameters()).dtype
 
-    def predict_features(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def predict_features(self, x: FloatArray) -> tuple[FloatArray, FloatArray]:
         """Force (n, 3) and moment (n, 3) for raw features x (n, 19)."""
         z = torch.as_tensor((np.asarray(x, float) - self.input_norm.mean) / self.input_norm.divisor, dtype=self.dtype)
         with torch.no_grad():

@@ -11,7 +11,8 @@
    frozen. The epoch runs in the compiled kernel (:mod:`.kernel`, one C call per epoch) or,
    where that cannot be built or ``ALCOVE_TRAINING_KERNEL=torch``, in PyTorch
    (:class:`.fused.FusedNets`: both nets as one block-structured network with hand-written
-   backpropagation). Early stopping, the batch order and the initialisation are shared.
+   backpropagation, :class:`.adam.FlatAdam`); both engines are in :mod:`.trainers`. Early
+   stopping, the batch order and the initialisation are shared.
 4. Reproducible: splits come from ``numpy.random.default_rng(seed)``, initialisation and
    batch order from a local ``torch.Generator(seed)``; training runs on one thread, so the
    same pool and seed give bit-identical weights. The global RNGs are not touched.
@@ -19,8 +20,6 @@
 
 from __future__ import annotations
 
-import logging
-import math
 import time
 from collections.abc import Callable
 from dataclasses import asdict, dataclass, field
@@ -28,25 +27,19 @@ from typing import Any
 
 import numpy as np
 import torch
+from numpy.typing import NDArray
 
+from alcove.science.arrays import FloatArray
 from alcove.science.geometry import DEFAULT_PRESET, HeadNeckPreset, RelativeKinematics, relative_kinematics
 from alcove.science.series import ForceSeries
+from alcove.science.surrogate.adam import FlatAdam
 from alcove.science.surrogate.config import SurrogateConfig
 from alcove.science.surrogate.dataset import PoolDataError, PoolDataset, check_pool
 from alcove.science.surrogate.features import features
-from alcove.science.surrogate.fused import FusedNets
-from alcove.science.surrogate.kernel import (
-    KernelChoiceError,
-    KernelNets,
-    KernelUnavailable,
-    kernel_supports,
-    requested_kernel,
-)
 from alcove.science.surrogate.mlp import MLP, Standardization, SurrogateModel
+from alcove.science.surrogate.trainers import NETS, EpochTrainer, make_trainer
 
-_log = logging.getLogger(__name__)
-KinematicsFn = Callable[[np.ndarray, np.ndarray], RelativeKinematics]
-NETS = ("force", "moment")
+KinematicsFn = Callable[[FloatArray, FloatArray], RelativeKinematics]
 SPLITS = ("train", "validation", "test")
 
 
@@ -60,7 +53,7 @@ class PoolSplit:
 
     training_sets: list[str]
     test_sets: list[str]
-    sample_split: np.ndarray  # (N,) of "train" | "validation" | "test" over the stacked pool
+    sample_split: NDArray[np.object_]  # (N,) of "train" | "validation" | "test" over the stacked pool
 
     def counts(self) -> dict[str, int]:
         return {s: int(np.sum(self.sample_split == s)) for s in SPLITS}
@@ -92,7 +85,7 @@ class TrainingResult:
 def preset_kinematics(preset: HeadNeckPreset) -> KinematicsFn:
     """NumPy kinematics of the 1-DOF head-neck preset as a function of q, qd (n, 1)."""
 
-    def kin(q: np.ndarray, qd: np.ndarray) -> RelativeKinematics:
+    def kin(q: FloatArray, qd: FloatArray) -> RelativeKinematics:
         if q.shape[1] != 1:
             raise PoolDataError(
                 "q",
@@ -133,11 +126,11 @@ def split_pool(pool: list[PoolDataset], config: SurrogateConfig, seed: int) -> P
     )
 
 
-def pool_features(pool: list[PoolDataset], kinematics: KinematicsFn) -> np.ndarray:
+def pool_features(pool: list[PoolDataset], kinematics: KinematicsFn) -> FloatArray:
     return np.concatenate([features(kinematics(ds.q, ds.qd)) for ds in pool])
 
 
-def sample_weights(pool: list[PoolDataset], config: SurrogateConfig) -> np.ndarray:
+def sample_weights(pool: list[PoolDataset], config: SurrogateConfig) -> FloatArray:
     n_oracle = sum(ds.origin == "oracle" for ds in pool)
     w = [
         np.full(ds.n_samples, ds.weight if ds.weight is not None else config.weight_for(ds.origin, n_oracle))
@@ -188,11 +181,10 @@ def train_surrogate(
                 nets[k].load_state_dict({n: p.to(dtype) for n, p in previous.state_dict().items()})
                 warm[k] = True
             else:  # the campaign changed the architecture: this net starts afresh
-                warm[k] = (
-                    f"cold: architecture {previous.hidden}/{previous.activation} -> {nets[k].hidden}/{nets[k].activation}"
-                )
+                before, now = f"{previous.hidden}/{previous.activation}", f"{nets[k].hidden}/{nets[k].activation}"
+                warm[k] = f"cold: architecture {before} -> {now}"
 
-    def tensor(a: np.ndarray) -> torch.Tensor:
+    def tensor(a: FloatArray) -> torch.Tensor:
         return torch.as_tensor(np.ascontiguousarray(a), dtype=dtype)
 
     z = tensor((x - input_norm.mean) / input_norm.divisor)
@@ -254,7 +246,7 @@ def train_surrogate(
 
 
 def _fit(
-    trainer: _TorchTrainer | _KernelTrainer,
+    trainer: EpochTrainer,
     n: int,
     z_val: torch.Tensor,
     y_val: dict[str, torch.Tensor],
@@ -263,10 +255,14 @@ def _fit(
     config: SurrogateConfig,
     generator: torch.Generator,
     cancel: Callable[[], bool] | None,
-) -> tuple[dict, dict, dict]:
-    """Epochs until every net has stopped early (or ``max_epochs``); each net ends with its best weights."""
+) -> tuple[dict[str, list[float]], dict[str, int], dict[str, int]]:
+    """Epochs until every net has stopped early (or ``max_epochs``); each net ends with its best weights.
+
+    Returns the validation loss of every epoch, the number of epochs and the best epoch, per net.
+    """
     best = {k: float("inf") for k in NETS}
-    best_weights = {k: trainer.snapshot(k) for k in NETS}
+    for k in NETS:
+        trainer.remember_best(k)
     best_epoch = dict.fromkeys(NETS, 0)
     epochs = dict.fromkeys(NETS, 0)
     history: dict[str, list[float]] = {k: [] for k in NETS}
@@ -281,212 +277,19 @@ def _fit(
             epochs[k] = epoch
             if val < best[k]:
                 best[k], best_epoch[k] = val, epoch
-                best_weights[k] = trainer.snapshot(k)
+                trainer.remember_best(k)
             elif epoch - best_epoch[k] >= config.patience:
                 stopped.append(k)
         if stopped and not trainer.stop(stopped):
             break  # every net has stopped
     for k in NETS:
-        trainer.restore(k, best_weights[k])
+        trainer.restore_best(k)
     return history, epochs, best_epoch
 
 
-class _TorchTrainer:
-    """Both nets fused into one PyTorch network (:class:`.fused.FusedNets`), :class:`FlatAdam`."""
-
-    name = "torch"
-
-    def __init__(
-        self,
-        nets: dict[str, MLP],
-        z: torch.Tensor,
-        y: dict[str, torch.Tensor],
-        w: torch.Tensor,
-        config: SurrogateConfig,
-    ):
-        self.nets, self.config = nets, config
-        self.active = list(NETS)  # the nets still training, in the fused network's order
-        self.fused = FusedNets([nets[k] for k in self.active])
-        self.optimizer = FlatAdam(self.fused.parameter, lr=config.learning_rate, grad=self.fused.grad)
-        self.n_in = z.shape[1]
-        # features, both targets and the weights side by side: one gather per epoch
-        self.table = torch.cat([z, y["force"], y["moment"], w[:, None]], dim=1)
-        self.columns = {"force": slice(self.n_in, self.n_in + 3), "moment": slice(self.n_in + 3, self.n_in + 6)}
-
-    def epoch(self, order: torch.Tensor) -> None:
-        # shuffled once per epoch: batches are contiguous slices, not one scattered gather each
-        shuffled = self.table.index_select(0, order)
-        targets = [self.columns[k] for k in self.active]
-        bs, n_in = self.config.batch_size, self.n_in
-        for start in range(0, shuffled.shape[0], bs):
-            batch = shuffled[start : start + bs]
-            self.fused.set_loss_gradient(batch[:, :n_in], [batch[:, c] for c in targets], batch[:, -1])
-            self.optimizer.step()
-
-    def validation_outputs(self, z_val: torch.Tensor) -> list[tuple[str, torch.Tensor]]:
-        return list(zip(self.active, self.fused.forward(z_val), strict=False))
-
-    def snapshot(self, k: str) -> list[torch.Tensor]:
-        if k in self.active:
-            return self.fused.weights(self.active.index(k))
-        return [p.detach().clone() for p in self.nets[k].parameters()]
-
-    def stop(self, stopped: list[str]) -> bool:
-        """Freeze ``stopped``; False when no net is left. The nets still training continue alone
-        (same updates, fewer operations per step)."""
-        self.active = [k for k in self.active if k not in stopped]
-        if not self.active:
-            return False
-        self.fused, self.optimizer = _without_stopped(self.fused, self.optimizer, [self.nets[k] for k in self.active])
-        return True
-
-    def restore(self, k: str, weights: list[torch.Tensor]) -> None:
-        with torch.no_grad():
-            for p, best_p in zip(self.nets[k].parameters(), weights, strict=False):
-                p.copy_(best_p)
-
-
-class _KernelTrainer:
-    """Both nets trained by the compiled kernel (:mod:`.kernel`): one C call per epoch."""
-
-    name = "c"
-
-    def __init__(
-        self,
-        nets: dict[str, MLP],
-        z: torch.Tensor,
-        y: dict[str, torch.Tensor],
-        w: torch.Tensor,
-        config: SurrogateConfig,
-    ):
-        self.config = config
-        n_in = z.shape[1]
-        self.table = torch.cat([z, y["force"], y["moment"], w[:, None]], dim=1).numpy()
-        self.w_col = self.table.shape[1] - 1
-        self.kernel = KernelNets([nets[k] for k in NETS], y_cols=[n_in, n_in + 3])
-        self.index = {k: i for i, k in enumerate(NETS)}
-
-    def epoch(self, order: torch.Tensor) -> None:
-        self.kernel.train_epoch(
-            self.table, self.w_col, order.numpy(), self.config.batch_size, self.config.learning_rate
-        )
-
-    def validation_outputs(self, z_val: torch.Tensor) -> list[tuple[str, torch.Tensor]]:
-        x = z_val.numpy()
-        return [
-            (k, torch.from_numpy(self.kernel.forward(i, x))) for k, i in self.index.items() if self.kernel.active(i)
-        ]
-
-    def snapshot(self, k: str) -> np.ndarray:
-        return self.kernel.weights(self.index[k])
-
-    def stop(self, stopped: list[str]) -> bool:
-        for k in stopped:
-            self.kernel.freeze(self.index[k])
-        return any(self.kernel.active(i) for i in self.index.values())
-
-    def restore(self, k: str, weights: np.ndarray) -> None:
-        self.kernel.store(self.index[k], weights)
-
-
-def make_trainer(
-    nets: dict[str, MLP], z: torch.Tensor, y: dict[str, torch.Tensor], w: torch.Tensor, config: SurrogateConfig
-) -> _TorchTrainer | _KernelTrainer:
-    """The C kernel where it is requested (``ALCOVE_TRAINING_KERNEL``) or, by default, available; else PyTorch."""
-    choice = requested_kernel()
-    if choice != "torch":
-        reason = kernel_supports(list(nets.values()))
-        if reason is None:
-            try:
-                return _KernelTrainer(nets, z, y, w, config)
-            except KernelUnavailable as exc:
-                reason = str(exc)
-        if choice == "c":
-            raise KernelChoiceError(f"is c but the C training kernel cannot be used: {reason}")
-        _log.info("training with PyTorch: the C kernel cannot be used (%s)", reason)
-    return _TorchTrainer(nets, z, y, w, config)
-
-
-def _without_stopped(fused: FusedNets, optimizer: FlatAdam, remaining: list[MLP]) -> tuple[FusedNets, FlatAdam]:
-    """A fused network of the ``remaining`` nets carrying over their weights and Adam state."""
-    smaller = FusedNets(remaining)
-    fused.transfer(fused.parameter, smaller, smaller.parameter)
-    adam = FlatAdam(
-        smaller.parameter,
-        lr=optimizer.lr,
-        betas=optimizer.betas,
-        eps=optimizer.eps,
-        grad=smaller.grad,
-        fused=optimizer.fused,
-    )
-    fused.transfer(optimizer.exp_avg, smaller, adam.exp_avg)
-    fused.transfer(optimizer.exp_avg_sq, smaller, adam.exp_avg_sq)
-    adam.steps = optimizer.steps
-    return smaller, adam
-
-
-class FlatAdam:
-    """Adam (Kingma & Ba; the update of ``torch.optim.Adam`` with its defaults) on one flat tensor.
-
-    ``torch.optim`` imports ``torch._dynamo`` on first use, 2-7 s per process on this
-    machine, which a one-shot CLI call or a fresh worker pays on every training. The update is
-    ATen's fused Adam kernel (``torch._fused_adam_``, what ``torch.optim.Adam(fused=True)``
-    calls: one operation instead of seven, which matters at ~5,000 steps of a few hundred
-    parameters), or the same update in five tensor operations where that kernel is missing.
-    ``tests/science/surrogate`` checks both against ``torch.optim.Adam``.
-    """
-
-    def __init__(
-        self,
-        param: torch.Tensor,
-        lr: float,
-        betas: tuple[float, float] = (0.9, 0.999),
-        eps: float = 1e-8,
-        grad: torch.Tensor | None = None,
-        fused: bool = True,
-    ):
-        self.param, self.lr, self.betas, self.eps = param, lr, betas, eps
-        self.grad = grad  # where the gradient is stored (default: param.grad)
-        self.exp_avg = torch.zeros_like(param)
-        self.exp_avg_sq = torch.zeros_like(param)
-        self.steps = 0
-        self.fused = fused and hasattr(torch, "_fused_adam_")
-        self._step_count = torch.zeros((), dtype=param.dtype)  # the fused kernel reads the step from a tensor
-
-    @torch.no_grad()
-    def step(self) -> None:
-        grad = self.param.grad if self.grad is None else self.grad
-        assert grad is not None
-        b1, b2 = self.betas
-        self.steps += 1
-        if self.fused:
-            self._step_count.fill_(self.steps)
-            torch._fused_adam_(
-                [self.param],
-                [grad],
-                [self.exp_avg],
-                [self.exp_avg_sq],
-                [],
-                [self._step_count],
-                lr=self.lr,
-                beta1=b1,
-                beta2=b2,
-                weight_decay=0.0,
-                eps=self.eps,
-                amsgrad=False,
-                maximize=False,
-            )
-            return
-        self.exp_avg.lerp_(grad, 1 - b1)
-        self.exp_avg_sq.mul_(b2).addcmul_(grad, grad, value=1 - b2)
-        bias1, bias2 = 1 - b1**self.steps, 1 - b2**self.steps
-        denom = (self.exp_avg_sq.sqrt() / math.sqrt(bias2)).add_(self.eps)
-        self.param.addcdiv_(self.exp_avg, denom, value=-self.lr / bias1)
-
-
 def predict_arrays(
-    model: SurrogateModel, q: np.ndarray, qd: np.ndarray, kinematics: KinematicsFn | None = None
-) -> tuple[np.ndarray, np.ndarray]:
+    model: SurrogateModel, q: FloatArray, qd: FloatArray, kinematics: KinematicsFn | None = None
+) -> tuple[FloatArray, FloatArray]:
     """Predicted force (n, 3) and moment (n, 3) at states q, qd ((n,) or (n, ndof))."""
     q = np.asarray(q, float)
     qd = np.asarray(qd, float)
@@ -501,7 +304,7 @@ def predict_arrays(
 
 
 def predict(
-    model: SurrogateModel, t: np.ndarray, q: np.ndarray, qd: np.ndarray, kinematics: KinematicsFn | None = None
+    model: SurrogateModel, t: FloatArray, q: FloatArray, qd: FloatArray, kinematics: KinematicsFn | None = None
 ) -> ForceSeries:
     """Predicted contact force and moment (headrest frame) along a trajectory."""
     force, moment = predict_arrays(model, q, qd, kinematics)

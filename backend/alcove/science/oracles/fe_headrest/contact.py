@@ -25,6 +25,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from alcove.science.arrays import FloatArray
+
 
 @dataclass(frozen=True)
 class RigidEllipse:
@@ -35,7 +37,7 @@ class RigidEllipse:
     ax: float
     az: float
 
-    def closest(self, points: np.ndarray, iterations: int = 4) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    def closest(self, points: FloatArray, iterations: int = 4) -> tuple[FloatArray, FloatArray, FloatArray]:
         lx = points[:, 0] - self.cx
         lz = points[:, 1] - self.cz
         a, b = self.ax, self.az
@@ -63,14 +65,14 @@ class RigidEllipse:
 class RigidHalfPlane:
     """The half-plane x <= 0 of the body frame (a flat rigid plate with outward normal +x)."""
 
-    def closest(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    def closest(self, points: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray]:
         n = points.shape[0]
         normal = np.tile([1.0, 0.0], (n, 1))
         tangent = np.tile([0.0, 1.0], (n, 1))
         return points[:, 0].copy(), normal, tangent
 
 
-def rotation(angle: float) -> np.ndarray:
+def rotation(angle: float) -> FloatArray:
     c, s = np.cos(angle), np.sin(angle)
     return np.array([[c, -s], [s, c]])
 
@@ -79,14 +81,14 @@ def rotation(angle: float) -> np.ndarray:
 class ContactState:
     """Per surface node, evaluated at the current iterate."""
 
-    gap: np.ndarray  # (m,) signed distance [m]
-    normal: np.ndarray  # (m, 2) outward body normal in H
-    tangent: np.ndarray  # (m, 2) tangent in H
-    slip: np.ndarray  # (m,) tangential slip over the step [m]
-    force: np.ndarray  # (m, 2) force of the body on each cushion node, per unit width [N/m]
-    stiffness: np.ndarray  # (m, 2, 2) d(force on node)/d(node position), negated (a stiffness)
+    gap: FloatArray  # (m,) signed distance [m]
+    normal: FloatArray  # (m, 2) outward body normal in H
+    tangent: FloatArray  # (m, 2) tangent in H
+    slip: FloatArray  # (m,) tangential slip over the step [m]
+    force: FloatArray  # (m, 2) force of the body on each cushion node, per unit width [N/m]
+    stiffness: FloatArray  # (m, 2, 2) d(force on node)/d(node position), negated (a stiffness)
     energy: float  # penalty + friction incremental potential [J/m]
-    normal_force: np.ndarray  # (m,) penalty force magnitude [N/m]
+    normal_force: FloatArray  # (m,) penalty force magnitude [N/m]
 
 
 @dataclass
@@ -94,17 +96,17 @@ class PenaltyContact:
     """Node-to-rigid-body penalty contact with lagged regularized Coulomb friction."""
 
     body: RigidEllipse | RigidHalfPlane
-    lengths: np.ndarray  # (m,) tributary lengths of the surface nodes [m]
+    lengths: FloatArray  # (m,) tributary lengths of the surface nodes [m]
     penalty: float  # [Pa/m]
     friction: float = 0.0
     slip_regularization: float = 1e-5  # [m]
 
     def evaluate(
         self,
-        x: np.ndarray,
-        pose: tuple[np.ndarray, float],
-        local_prev: np.ndarray | None,
-        normal_force_prev: np.ndarray | None,
+        x: FloatArray,
+        pose: tuple[FloatArray, float],
+        local_prev: FloatArray | None,
+        normal_force_prev: FloatArray | None,
         with_stiffness: bool = True,
     ) -> ContactState:
         r, angle = pose
@@ -134,6 +136,6 @@ class PenaltyContact:
                 stiff += (cap * eps**2 / root**3)[:, None, None] * tangent[:, :, None] * tangent[:, None, :]
         return ContactState(gap, normal, tangent, slip, force, stiff, energy, fn)
 
-    def local_coordinates(self, x: np.ndarray, pose: tuple[np.ndarray, float]) -> np.ndarray:
+    def local_coordinates(self, x: FloatArray, pose: tuple[FloatArray, float]) -> FloatArray:
         r, angle = pose
         return (x - r) @ rotation(angle)

@@ -20,9 +20,25 @@ consistent invertible elasticity"): in the singular frame the tangent couples
 
 from __future__ import annotations
 
+from collections.abc import Iterator
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
+
+from alcove.science.arrays import FloatArray
+
+
+class EnergyDerivatives(NamedTuple):
+    """Derivatives of W(s1, s2) in the singular values, and the two divided differences."""
+
+    W1: FloatArray
+    W2: FloatArray
+    W11: FloatArray
+    W12: FloatArray
+    W22: FloatArray
+    Dm: FloatArray  # (W1 - W2) / (s1 - s2)
+    Dp: FloatArray  # (W1 + W2) / (s1 + s2)
 
 
 @dataclass(frozen=True)
@@ -47,26 +63,27 @@ class Hyperfoam:
     def youngs_modulus(self) -> float:
         return 2.0 * self.shear_modulus * (1.0 + self.poisson_ratio)
 
-    def _terms(self):
-        return zip(self.mu, self.alpha, self.beta, strict=False)
+    def _terms(self) -> Iterator[tuple[float, float, float]]:
+        """(mu_i, alpha_i, beta_i) of every term."""
+        return zip(self.mu, self.alpha, self.beta, strict=True)
 
     # ---- volumetric part h(J) = (J^(-a b) - 1) / b and its derivatives ------------------
     @staticmethod
-    def _h(J: np.ndarray, a: float, b: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    def _h(J: FloatArray, a: float, b: float) -> tuple[FloatArray, FloatArray, FloatArray]:
         if b == 0.0:
             lnJ = np.log(J)
             return -a * lnJ, -a / J, a / J**2
         Jm = J ** (-a * b)
         return (Jm - 1.0) / b, -a * Jm / J, a * (a * b + 1.0) * Jm / J**2
 
-    def energy(self, s1: np.ndarray, s2: np.ndarray) -> np.ndarray:
+    def energy(self, s1: FloatArray, s2: FloatArray) -> FloatArray:
         J = s1 * s2
         W = np.zeros_like(J)
         for mu, a, b in self._terms():
             W += 2.0 * mu / a**2 * (s1**a + s2**a - 2.0 + self._h(J, a, b)[0])
         return W
 
-    def derivatives(self, s1: np.ndarray, s2: np.ndarray):
+    def derivatives(self, s1: FloatArray, s2: FloatArray) -> EnergyDerivatives:
         """W1, W2, W11, W12, W22, (W1 - W2)/(s1 - s2), (W1 + W2)/(s1 + s2)."""
         J = s1 * s2
         W1 = np.zeros_like(J)
@@ -87,19 +104,19 @@ class Hyperfoam:
             ratio = np.where(near, m, np.expm1(m * xs) / np.expm1(xs))
             Dm += c * (a * s2 ** (m - 1.0) * ratio - h1)
         Dp = (W1 + W2) / (s1 + s2)
-        return W1, W2, W11, W12, W22, Dm, Dp
+        return EnergyDerivatives(W1, W2, W11, W12, W22, Dm, Dp)
 
-    def uniaxial_nominal_stress(self, stretch: np.ndarray) -> np.ndarray:
+    def uniaxial_nominal_stress(self, stretch: FloatArray) -> FloatArray:
         """Nominal stress of a laterally unstrained block (l2 = l3 = 1) at stretch l1 [Pa].
 
         With beta = 0 this is also the unconfined uniaxial curve: the lateral stress
         vanishes at l2 = 1, so the block does not bulge.
         """
         s1 = np.asarray(stretch, float)
-        return self.derivatives(s1, np.ones_like(s1))[0]
+        return self.derivatives(s1, np.ones_like(s1)).W1
 
 
-def singular_values2(F: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def singular_values2(F: FloatArray) -> tuple[FloatArray, FloatArray]:
     """Singular values s1 >= s2 > 0 of 2x2 matrices with det > 0, from |F|^2 and det F."""
     a, b, c, d = F[..., 0, 0], F[..., 0, 1], F[..., 1, 0], F[..., 1, 1]
     J = a * d - b * c
@@ -109,7 +126,7 @@ def singular_values2(F: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return 0.5 * (plus + minus), 0.5 * (plus - minus)
 
 
-def svd2(F: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+def svd2(F: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray, FloatArray, FloatArray]:
     """Closed-form SVD of 2x2 matrices with det > 0: F = U diag(s1, s2) V^T, U and V rotations.
 
     Returns (cos, sin) of the angle of U, (cos, sin) of the angle of V, s1 and s2.
@@ -130,17 +147,17 @@ def svd2(F: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray,
 
 @dataclass
 class FoamResponse:
-    energy: np.ndarray  # (...,) per reference volume, elastic + viscous incremental potential
-    elastic: np.ndarray  # (...,) elastic strain energy alone
-    stress: np.ndarray | None  # (..., 2, 2) first Piola
-    tangent: np.ndarray | None  # (..., 2, 2, 2, 2)
+    energy: FloatArray  # (...,) per reference volume, elastic + viscous incremental potential
+    elastic: FloatArray  # (...,) elastic strain energy alone
+    stress: FloatArray | None  # (..., 2, 2) first Piola
+    tangent: FloatArray | None  # (..., 2, 2, 2, 2)
     valid: bool  # False if an element is inverted (J <= 0)
 
 
 def foam_response(
     law: Hyperfoam,
-    F: np.ndarray,
-    E_prev: np.ndarray | None = None,
+    F: FloatArray,
+    E_prev: FloatArray | None = None,
     viscosity_over_dt: float = 0.0,
     order: int = 2,
 ) -> FoamResponse:
@@ -151,17 +168,19 @@ def foam_response(
     J = F[..., 0, 0] * F[..., 1, 1] - F[..., 0, 1] * F[..., 1, 0]
     if np.any(J <= 1e-8):
         return FoamResponse(np.full(J.shape, np.inf), np.full(J.shape, np.inf), None, None, False)
-    visc = viscosity_over_dt > 0.0 and E_prev is not None
-    if visc:
+    # Kelvin-Voigt viscosity: strain increment of the step and its incremental potential
+    dE: FloatArray | None = None
+    visc_energy: FloatArray | float = 0.0
+    if viscosity_over_dt > 0.0 and E_prev is not None:
         dE = green_lagrange(F) - E_prev
         visc_energy = 0.5 * viscosity_over_dt * (dE[..., 0, 0] ** 2 + dE[..., 1, 1] ** 2 + 2.0 * dE[..., 0, 1] ** 2)
     if order == 0:
         s1, s2 = singular_values2(F)
         elastic = law.energy(s1, s2)
-        return FoamResponse(elastic + visc_energy if visc else elastic, elastic, None, None, True)
+        return FoamResponse(elastic + visc_energy if dE is not None else elastic, elastic, None, None, True)
     cu, su, cv, sv, s1, s2 = svd2(F)
     elastic = law.energy(s1, s2)
-    energy = elastic + visc_energy if visc else elastic
+    energy = elastic + visc_energy if dE is not None else elastic
     W1, W2, W11, W12, W22, Dm, Dp = law.derivatives(s1, s2)
     # frame matrices M_ab = u_a (x) v_b flattened (00, 01, 10, 11), u_0 = (cu, su), u_1 = (-su, cu)
     Mmat = np.empty((*J.shape, 4, 4))  # rows: M_00, M_11, M_01, M_10
@@ -171,8 +190,8 @@ def foam_response(
         for col, (i, j) in enumerate(((0, 0), (0, 1), (1, 0), (1, 1))):
             Mmat[..., row, col] = u[a][i] * v[b][j]
     P = (W1[..., None] * Mmat[..., 0, :] + W2[..., None] * Mmat[..., 1, :]).reshape(F.shape)
-    if visc:
-        S_v = viscosity_over_dt * dE
+    S_v = None if dE is None else viscosity_over_dt * dE
+    if S_v is not None:
         P = P + _matmul2(F, S_v)
     if order == 1:
         return FoamResponse(energy, elastic, P, None, True)
@@ -185,7 +204,7 @@ def foam_response(
     C[..., 2, 2] = C[..., 3, 3] = 0.5 * (Dm + Dp)
     C[..., 2, 3] = C[..., 3, 2] = 0.5 * (Dm - Dp)
     A = (np.swapaxes(Mmat, -1, -2) @ C @ Mmat).reshape((*F.shape, 2, 2))
-    if visc:
+    if S_v is not None:
         # Kelvin-Voigt tangent: delta_ik S_JL + eta/(2 dt) (F_iL F_kJ + (F F^T)_ik delta_JL)
         h = 0.5 * viscosity_over_dt
         hG = h * _matmul2(F, np.swapaxes(F, -1, -2))
@@ -196,7 +215,7 @@ def foam_response(
     return FoamResponse(energy, elastic, P, A, True)
 
 
-def _matmul2(X: np.ndarray, Y: np.ndarray) -> np.ndarray:
+def _matmul2(X: FloatArray, Y: FloatArray) -> FloatArray:
     """Product of stacks of 2x2 matrices, written out (faster than batched matmul)."""
     Z = np.empty(np.broadcast_shapes(X.shape, Y.shape))
     for i in range(2):
@@ -205,7 +224,7 @@ def _matmul2(X: np.ndarray, Y: np.ndarray) -> np.ndarray:
     return Z
 
 
-def green_lagrange(F: np.ndarray) -> np.ndarray:
+def green_lagrange(F: FloatArray) -> FloatArray:
     """E = (F^T F - I) / 2 for (..., 2, 2) arrays."""
     a, b, c, d = F[..., 0, 0], F[..., 0, 1], F[..., 1, 0], F[..., 1, 1]
     E = np.empty(F.shape)

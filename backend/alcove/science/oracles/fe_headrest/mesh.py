@@ -17,10 +17,12 @@ from dataclasses import dataclass
 import numpy as np
 from skfem import CellBasis, ElementQuad1, MeshQuad
 
+from alcove.science.arrays import FloatArray, IndexArray
+
 GROWTH = 1.3  # ratio of neighbouring element sizes in the graded parts
 
 
-def graded_sizes(length: float, h_start: float, h_end: float, growth: float = GROWTH) -> np.ndarray:
+def graded_sizes(length: float, h_start: float, h_end: float, growth: float = GROWTH) -> FloatArray:
     """Element sizes covering ``length``, growing geometrically from ``h_start`` toward ``h_end``."""
     sizes: list[float] = []
     h, total = h_start, 0.0
@@ -31,10 +33,11 @@ def graded_sizes(length: float, h_start: float, h_end: float, growth: float = GR
     sizes_arr = np.array(sizes)
     n = max(1, len(sizes_arr) - (1 if total - length > 0.5 * sizes_arr[-1] else 0))
     sizes_arr = sizes_arr[:n]
-    return sizes_arr * (length / sizes_arr.sum())
+    scaled: FloatArray = sizes_arr * (length / sizes_arr.sum())
+    return scaled
 
 
-def graded_axis(lo: float, hi: float, fine_lo: float, fine_hi: float, h_fine: float, h_far: float) -> np.ndarray:
+def graded_axis(lo: float, hi: float, fine_lo: float, fine_hi: float, h_fine: float, h_far: float) -> FloatArray:
     """Node coordinates on [lo, hi]: uniform ``h_fine`` on [fine_lo, fine_hi], graded outside."""
     fine_lo, fine_hi = max(lo, fine_lo), min(hi, fine_hi)
     n_fine = max(1, int(np.ceil((fine_hi - fine_lo) / h_fine - 1e-9)))
@@ -55,13 +58,13 @@ class CushionMesh:
     """Mesh plus everything the assembly needs, computed once."""
 
     mesh: MeshQuad
-    nodes: np.ndarray  # (n_nodes, 2) reference coordinates (x, z)
-    element_nodes: np.ndarray  # (n_elements, 4)
-    grad: np.ndarray  # (n_elements, n_qp, 4, 2) shape-function gradients in the reference
-    weights: np.ndarray  # (n_elements, n_qp) quadrature weight x |det J| [m^2]
-    back_nodes: np.ndarray  # tied to the rigid headrest bar
-    surface_nodes: np.ndarray  # front face x = 0, candidate contact nodes, ordered along z
-    surface_lengths: np.ndarray  # tributary length of each surface node [m]
+    nodes: FloatArray  # (n_nodes, 2) reference coordinates (x, z)
+    element_nodes: IndexArray  # (n_elements, 4)
+    grad: FloatArray  # (n_elements, n_qp, 4, 2) shape-function gradients in the reference
+    weights: FloatArray  # (n_elements, n_qp) quadrature weight x |det J| [m^2]
+    back_nodes: IndexArray  # tied to the rigid headrest bar
+    surface_nodes: IndexArray  # front face x = 0, candidate contact nodes, ordered along z
+    surface_lengths: FloatArray  # tributary length of each surface node [m]
     thickness: float
     height: float
 

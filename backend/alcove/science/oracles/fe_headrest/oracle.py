@@ -18,6 +18,7 @@ from typing import Any, ClassVar
 
 import numpy as np
 
+from alcove.science.arrays import FloatArray
 from alcove.science.geometry import DEFAULT_PRESET, HeadNeckPreset, head_pose_in_headrest, relative_kinematics
 from alcove.science.oracles.base import CancelCheck, OracleCancelled, OracleInputError, OracleResult
 from alcove.science.oracles.fe_headrest.contact import PenaltyContact, RigidEllipse
@@ -51,7 +52,7 @@ def head_slices(preset: HeadNeckPreset, params: FEHeadrestParams) -> list[Slice]
     return out
 
 
-def profile_indentation(preset: HeadNeckPreset, theta: np.ndarray) -> np.ndarray:
+def profile_indentation(preset: HeadNeckPreset, theta: FloatArray) -> FloatArray:
     """Depth of the undeformed head profile (ellipse) below the cushion surface x_H = 0 (>= 0)."""
     r, angle = head_pose_in_headrest(preset, theta)
     pr = preset.profile
@@ -110,7 +111,8 @@ class FEHeadrestOracle:
             i = int(bad[0])
             raise OracleInputError(
                 "q_0",
-                f"theta = {theta[i]:.4g} rad at t = {traj.t[i]:.4g} s is outside the model's range [{pr.theta_min}, {pr.theta_max}] rad",
+                f"theta = {theta[i]:.4g} rad at t = {traj.t[i]:.4g} s is outside the model's range "
+                f"[{pr.theta_min}, {pr.theta_max}] rad",
             )
         depth = profile_indentation(pr, theta)
         limit = self.params.max_indentation_fraction * self.params.cushion_thickness
@@ -118,13 +120,13 @@ class FEHeadrestOracle:
             i = int(np.argmax(depth))
             raise OracleInputError(
                 "q_0",
-                f"at t = {traj.t[i]:.4g} s the head would indent the cushion by {depth[i] * 1e3:.1f} mm, beyond the model's reach "
-                f"({limit * 1e3:.1f} mm = max_indentation_fraction x cushion_thickness)",
+                f"at t = {traj.t[i]:.4g} s the head would indent the cushion by {depth[i] * 1e3:.1f} mm, "
+                f"beyond the model's reach ({limit * 1e3:.1f} mm = max_indentation_fraction x cushion_thickness)",
             )
         self._check_contact_within_cushion(traj, depth)
         return traj
 
-    def _check_contact_within_cushion(self, traj: Trajectory, depth: np.ndarray) -> None:
+    def _check_contact_within_cushion(self, traj: Trajectory, depth: FloatArray) -> None:
         touching = depth > 0
         if not np.any(touching):
             return
@@ -183,7 +185,7 @@ class FEHeadrestOracle:
         traj = self._validated(trajectory)
         t0, t1 = float(traj.t[0]), float(traj.t[-1])
         n_out = math.floor((t1 - t0) / p.output_dt + 1e-9) + 1
-        t_out = t0 + p.output_dt * np.arange(n_out)
+        t_out = t0 + p.output_dt * np.arange(n_out, dtype=np.float64)
         n_fine = (n_out - 1) * p.substeps + 1
         dt = p.output_dt / p.substeps
         t_fine = np.minimum(t0 + dt * np.arange(n_fine), t1)
@@ -253,7 +255,10 @@ class FEHeadrestOracle:
                 if first_contact is None:
                     first_contact = float(t_fine[k])
             if failure is None and max_pen > p.max_penetration:
-                failure = f"penetration {max_pen * 1e3:.3g} mm exceeds max_penetration {p.max_penetration * 1e3:.3g} mm at t = {t_fine[k]:.4g} s"
+                failure = (
+                    f"penetration {max_pen * 1e3:.3g} mm exceeds max_penetration {p.max_penetration * 1e3:.3g} mm "
+                    f"at t = {t_fine[k]:.4g} s"
+                )
             if failure is not None:
                 break
 

@@ -13,11 +13,12 @@ from __future__ import annotations
 
 import numpy as np
 
+from alcove.science.arrays import FloatArray
 from alcove.science.geometry import DEFAULT_PRESET, HeadNeckPreset
 from alcove.science.series import Trajectory
 
 
-def _blend(s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def _blend(s: FloatArray) -> tuple[FloatArray, FloatArray]:
     """Quintic smoothstep and its derivative on s in [0, 1]."""
     s = np.clip(s, 0.0, 1.0)
     return s**3 * (10 - 15 * s + 6 * s**2), 30 * s**2 * (1 - s) ** 2

@@ -24,11 +24,12 @@ from scipy.linalg import cho_solve_banded, cholesky_banded
 from scipy.sparse.linalg import splu
 from threadpoolctl import threadpool_limits
 
+from alcove.science.arrays import FloatArray
 from alcove.science.oracles.fe_headrest.contact import ContactState, PenaltyContact
 from alcove.science.oracles.fe_headrest.foam import FoamResponse, Hyperfoam, foam_response, green_lagrange
 from alcove.science.oracles.fe_headrest.mesh import CushionMesh
 
-Pose = tuple[np.ndarray, float]
+Pose = tuple[FloatArray, float]
 
 
 def single_threaded_blas() -> threadpool_limits:
@@ -42,9 +43,9 @@ class StepResult:
     converged: bool
     iterations: int
     skipped: bool
-    force_on_body: np.ndarray  # (2,) contact force on the rigid body [N/m], headrest frame
+    force_on_body: FloatArray  # (2,) contact force on the rigid body [N/m], headrest frame
     moment_on_body: float  # about the body frame origin, y component [N m/m]
-    bar_reaction: np.ndarray  # (2,) sum of the internal forces at the tied back face [N/m]
+    bar_reaction: FloatArray  # (2,) sum of the internal forces at the tied back face [N/m]
     bar_moment: float  # their moment about the body frame origin, y component [N m/m]
     max_penetration: float  # [m]
     contact_nodes: int
@@ -52,17 +53,23 @@ class StepResult:
     friction_dissipation: float  # [J/m] this step
     stored_energy: float  # [J/m] elastic + penalty at the end of the step
     residual: float = 0.0
-    pressure: np.ndarray = field(default_factory=lambda: np.zeros(0))  # normal force / length [Pa]
+    pressure: FloatArray = field(default_factory=lambda: np.zeros(0))  # normal force / length [Pa]
 
 
 @dataclass
 class Evaluation:
     energy: float
-    grad: np.ndarray | None  # (n_dofs,) gradient of the incremental potential
-    f_internal: np.ndarray | None  # (n_dofs,) internal (foam) forces alone
+    grad: FloatArray | None  # (n_dofs,) gradient of the incremental potential
+    f_internal: FloatArray | None  # (n_dofs,) internal (foam) forces alone
     contact: ContactState
     foam: FoamResponse
     K: sp.csr_matrix | None  # tangent on the free dofs
+
+    def derivatives(self) -> tuple[FloatArray, FloatArray, sp.csr_matrix]:
+        """Gradient, internal forces and tangent of a full (order 2) evaluation of a valid state."""
+        if self.grad is None or self.f_internal is None or self.K is None:
+            raise FloatingPointError("no derivatives: an element of the cushion is inverted (or order < 2)")
+        return self.grad, self.f_internal, self.K
 
 
 class CushionSolver:
@@ -157,22 +164,22 @@ class CushionSolver:
         self.normal_force_prev = np.zeros(self.mesh.surface_nodes.size)
         self.pose_prev: Pose | None = None
 
-    def surface_positions(self, u: np.ndarray) -> np.ndarray:
+    def surface_positions(self, u: FloatArray) -> FloatArray:
         return self.mesh.nodes[self.mesh.surface_nodes] + u[self.surface_dofs]
 
-    def deformation_gradient(self, u: np.ndarray) -> np.ndarray:
+    def deformation_gradient(self, u: FloatArray) -> FloatArray:
         ne, nq = self.mesh.weights.shape
-        F = (self.gather @ u).reshape(ne, nq, 2, 2)
+        F: FloatArray = (self.gather @ u).reshape(ne, nq, 2, 2)
         F[..., 0, 0] += 1.0
         F[..., 1, 1] += 1.0
         return F
 
     # ---- incremental potential -----------------------------------------------------
-    def _foam(self, u: np.ndarray, dt: float, order: int):
+    def _foam(self, u: FloatArray, dt: float, order: int) -> FoamResponse:
         eta_dt = self.viscosity / dt if dt > 0 else 0.0
         return foam_response(self.law, self.deformation_gradient(u), self.E_prev, eta_dt, order)
 
-    def evaluate(self, u: np.ndarray, pose: Pose, dt: float, local_prev: np.ndarray | None, order: int) -> Evaluation:
+    def evaluate(self, u: FloatArray, pose: Pose, dt: float, local_prev: FloatArray | None, order: int) -> Evaluation:
         """Incremental potential (order 0), plus its gradient (1), plus the tangent on the free dofs (2)."""
         foam = self._foam(u, dt, order)
         x = self.surface_positions(u)
@@ -180,13 +187,13 @@ class CushionSolver:
         if not foam.valid:
             return Evaluation(np.inf, None, None, cs, foam, None)
         energy = float(np.sum(foam.energy * self.mesh.weights)) + cs.energy
-        if order == 0:
+        if foam.stress is None:  # order 0
             return Evaluation(energy, None, None, cs, foam, None)
-        f_internal = self.scatter @ (foam.stress * self.mesh.weights[:, :, None, None]).ravel()
+        f_internal: FloatArray = self.scatter @ (foam.stress * self.mesh.weights[:, :, None, None]).ravel()
         grad = f_internal.copy()
         grad[self.surface_dofs.ravel()] -= cs.force.ravel()  # surface dofs are distinct
         K = None
-        if order >= 2:
+        if foam.tangent is not None:  # order 2
             ne, nq = self.mesh.weights.shape
             A = foam.tangent.reshape(ne, nq, 4, 4)
             Ke = (self.Bt_w @ A @ self.B).sum(axis=1).reshape(ne, 64)
@@ -196,19 +203,21 @@ class CushionSolver:
             K = sp.csr_matrix((data, self._indices, self._indptr), shape=(nf, nf))
         return Evaluation(energy, grad, f_internal, cs, foam, K)
 
-    def energy(self, u: np.ndarray, pose: Pose, dt: float, local_prev: np.ndarray | None) -> float:
+    def energy(self, u: FloatArray, pose: Pose, dt: float, local_prev: FloatArray | None) -> float:
         return self.evaluate(u, pose, dt, local_prev, 0).energy
 
-    def _solve(self, K: sp.csr_matrix, rhs: np.ndarray) -> np.ndarray:
+    def _solve(self, K: sp.csr_matrix, rhs: FloatArray) -> FloatArray:
         """Banded Cholesky (LAPACK pbtrf); sparse LU if the tangent is not positive definite."""
         nf = self.free.size
         band = np.zeros((self.bandwidth + 1) * nf)
         band[self._band_flat] = K.data[self._band_slots]
+        solution: FloatArray
         try:
             factor = cholesky_banded(band.reshape(self.bandwidth + 1, nf), check_finite=False)
-            return cho_solve_banded((factor, False), rhs, check_finite=False)
+            solution = cho_solve_banded((factor, False), rhs, check_finite=False)
         except np.linalg.LinAlgError:
-            return splu(K.tocsc()).solve(rhs)
+            solution = splu(K.tocsc()).solve(rhs)
+        return solution
 
     # ---- one time step ---------------------------------------------------------------
     def step(self, pose: Pose, dt: float) -> StepResult:
@@ -233,7 +242,8 @@ class CushionSolver:
         res_norm = np.inf
         last_step: float | None = None
         for iterations in range(self.max_iterations + 1):
-            r = ev.grad[self.free]
+            grad, _, K = ev.derivatives()
+            r = grad[self.free]
             res_norm = float(np.linalg.norm(r))
             scale = float(np.linalg.norm(ev.contact.force)) + self.law.shear_modulus * self.mesh.thickness * 1e-3
             tol = self.newton_tol * scale
@@ -245,7 +255,7 @@ class CushionSolver:
                 break
             if iterations == self.max_iterations:
                 break
-            du_free = self._solve(ev.K, -r)
+            du_free = self._solve(K, -r)
             slope = float(r @ du_free)
             if slope >= 0:  # not a descent direction: fall back to steepest descent
                 du_free = -r * (self.mesh.thickness / max(self.law.shear_modulus, 1.0))
@@ -264,7 +274,7 @@ class CushionSolver:
             u = u + alpha * du
             ev = trial
             last_step = alpha * float(np.max(np.abs(du_free)))
-        cs, foam, f_internal = ev.contact, ev.foam, ev.f_internal
+        cs, foam, (_, f_internal, _) = ev.contact, ev.foam, ev.derivatives()
 
         # bookkeeping at the converged state
         w = self.mesh.weights
@@ -315,7 +325,7 @@ class CushionSolver:
             pressure=cs.normal_force / self.contact.lengths,
         )
 
-    def _initial_guess(self, pose: Pose) -> np.ndarray:
+    def _initial_guess(self, pose: Pose) -> FloatArray:
         """Extrapolate the last two steps, then move penetrating surface nodes onto the body."""
         guess = 3.0 * (self.u - self.u_old) + self.u_older  # quadratic extrapolation
         x = self.surface_positions(guess)

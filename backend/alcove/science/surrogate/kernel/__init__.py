@@ -29,11 +29,14 @@ import sysconfig
 import tempfile
 from functools import lru_cache
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import torch
+from numpy.typing import NDArray
 from torch.nn.utils import parameters_to_vector, vector_to_parameters
 
+from alcove.science.arrays import FloatArray, IntArray
 from alcove.science.surrogate.mlp import MLP
 
 SOURCE = Path(__file__).with_name("train_step.c")
@@ -142,9 +145,8 @@ def _build(cc: str, out_dir: Path) -> Path:
                 ctypes.CDLL(tmp)  # loads (libmvec present, CPU supports the code) before it is cached
                 os.replace(tmp, target)  # atomic: concurrent builders each publish a complete file
                 return target
-            errors.append(
-                f"{' '.join(cflags)}: {proc.stderr.strip().splitlines()[-1] if proc.stderr.strip() else proc.returncode}"
-            )
+            last_line = proc.stderr.strip().splitlines()[-1] if proc.stderr.strip() else proc.returncode
+            errors.append(f"{' '.join(cflags)}: {last_line}")
         except OSError as exc:
             errors.append(f"{' '.join(cflags)}: {exc}")
         finally:
@@ -161,7 +163,7 @@ def _load() -> ctypes.CDLL:
     except PermissionError:
         path = _build(cc, Path(tempfile.gettempdir()) / f"alcove-kernels-{os.getuid() if hasattr(os, 'getuid') else 0}")
     lib = ctypes.CDLL(str(path))
-    common = [
+    common = (
         ctypes.c_int32,
         ctypes.POINTER(_Net),
         _P_DOUBLE,
@@ -170,16 +172,16 @@ def _load() -> ctypes.CDLL:
         ctypes.c_int32,
         _P_INT64,
         ctypes.c_int64,
-    ]
+    )
     lib.alcove_gradient.argtypes = common
-    lib.alcove_train_epoch.argtypes = [
+    lib.alcove_train_epoch.argtypes = (
         *common,
         ctypes.c_int64,
         ctypes.c_double,
         ctypes.c_double,
         ctypes.c_double,
         ctypes.c_double,
-    ]
+    )
     lib.alcove_forward.argtypes = [ctypes.POINTER(_Net), _P_DOUBLE, ctypes.c_int64, ctypes.c_int64, _P_DOUBLE]
     for fn in (lib.alcove_gradient, lib.alcove_train_epoch, lib.alcove_forward):
         fn.restype = ctypes.c_int
@@ -206,7 +208,7 @@ def kernel_supports(nets: list[MLP]) -> str | None:
     return None
 
 
-def _ptr(a: np.ndarray, kind=_P_DOUBLE):  # type: ignore[no-untyped-def]
+def _ptr(a: NDArray[Any], kind: type[ctypes._Pointer[Any]] = _P_DOUBLE) -> ctypes._Pointer[Any]:
     return a.ctypes.data_as(kind)
 
 
@@ -225,11 +227,11 @@ class KernelNets:
         self.lib = lib or load_kernel()
         self.nets = nets
         self.n_in = nets[0].linears()[0].in_features
-        self._keep: list[np.ndarray] = []
-        self.params: list[np.ndarray] = []
-        self.grads: list[np.ndarray] = []
-        self.exp_avg: list[np.ndarray] = []
-        self.exp_avg_sq: list[np.ndarray] = []
+        self._keep: list[NDArray[np.int32]] = []
+        self.params: list[FloatArray] = []
+        self.grads: list[FloatArray] = []
+        self.exp_avg: list[FloatArray] = []
+        self.exp_avg_sq: list[FloatArray] = []
         self.structs = (_Net * len(nets))()
         for k, (net, y_col) in enumerate(zip(nets, y_cols, strict=False)):
             lins = net.linears()
@@ -265,7 +267,7 @@ class KernelNets:
         """Net ``k`` stops training; the others go on exactly as before."""
         self.structs[k].active = 0
 
-    def _table(self, table: np.ndarray, w_col: int) -> np.ndarray:
+    def _table(self, table: FloatArray, w_col: int) -> FloatArray:
         if table.dtype != np.float64 or not table.flags.c_contiguous or table.ndim != 2:
             raise ValueError("table: needs a C-contiguous float64 matrix")
         widest = max(s.y_col + self.nets[k].linears()[-1].out_features for k, s in enumerate(self.structs))
@@ -273,13 +275,13 @@ class KernelNets:
             raise ValueError(f"table: {table.shape[1]} columns are too few for the nets' targets and the weight column")
         return table
 
-    def _rows(self, rows: np.ndarray, n_rows: int) -> np.ndarray:
+    def _rows(self, rows: IntArray, n_rows: int) -> IntArray:
         rows = np.ascontiguousarray(rows, dtype=np.int64)
         if rows.size and (rows.min() < 0 or rows.max() >= n_rows):
             raise IndexError(f"rows: indices must lie in [0, {n_rows})")
         return rows
 
-    def gradient(self, table: np.ndarray, w_col: int, rows: np.ndarray) -> None:
+    def gradient(self, table: FloatArray, w_col: int, rows: IntArray) -> None:
         """Set every active net's :attr:`grads` to the gradient of its loss on ``rows``."""
         table = self._table(table, w_col)
         rows = self._rows(rows, table.shape[0])
@@ -291,9 +293,9 @@ class KernelNets:
 
     def train_epoch(
         self,
-        table: np.ndarray,
+        table: FloatArray,
         w_col: int,
-        order: np.ndarray,
+        order: IntArray,
         batch: int,
         lr: float,
         betas: tuple[float, float] = (0.9, 0.999),
@@ -320,7 +322,7 @@ class KernelNets:
         if rc:
             raise MemoryError("the training kernel could not allocate its buffers")
 
-    def forward(self, k: int, x: np.ndarray) -> np.ndarray:
+    def forward(self, k: int, x: FloatArray) -> FloatArray:
         """Net ``k``'s outputs (n, n_out) for standardised inputs ``x`` (n, n_in)."""
         x = np.ascontiguousarray(x, dtype=np.float64)
         if x.ndim != 2 or x.shape[1] < self.n_in:
@@ -330,10 +332,10 @@ class KernelNets:
             raise MemoryError("the training kernel could not allocate its buffers")
         return out
 
-    def weights(self, k: int) -> np.ndarray:
+    def weights(self, k: int) -> FloatArray:
         return self.params[k].copy()
 
-    def store(self, k: int, flat: np.ndarray | None = None) -> None:
+    def store(self, k: int, flat: FloatArray | None = None) -> None:
         """Write net ``k``'s weights (default: the current ones) into the PyTorch module."""
         src = self.params[k] if flat is None else flat
         net = self.nets[k]

@@ -1,0 +1,73 @@
+"""The discrete mechanics of one interval: discrete Lagrangian, discrete forces, running cost.
+
+On an interval of step h between the nodes q_a and q_b (midpoint rule)::
+
+    L_d(q_a, q_b) = h L(q_m, v),          q_m = (q_a + q_b) / 2,  v = (q_b - q_a) / h
+    f^- = f^+ = h/2 (u + J(q_m)^T w(q_m, v))
+
+with u the interval torque and w the contact wrench. :func:`interval_functions` gives the
+two sides of the forced discrete Euler-Lagrange equations, ``D1 L_d + f^-`` (= -p_a) and
+``D2 L_d + f^+`` (= p_b), and the running cost terms ``h u^T u`` and ``h T(q_m, v)``, as
+SX functions that the transcription (:mod:`.dmocc`) and the rollouts (:mod:`.rollout`)
+map over the grid.
+"""
+
+from __future__ import annotations
+
+import casadi as ca
+
+from alcove.science.multibody import PlanarChain
+from alcove.science.ocp.contact import ContactModelError, check_contact_function
+
+
+def contact_parameter_count(contact: ca.Function | None) -> int:
+    """Length of the parameter input ``p`` of a contact function (0: none)."""
+    return int(contact.size1_in(2)) if contact is not None and contact.n_in() == 3 else 0
+
+
+def interval_functions(chain: PlanarChain, contact: ca.Function | None) -> tuple[ca.Function, ca.Function]:
+    """SX functions of one interval: dynamics (qa, qb, u, h, p) -> (-p_k^-, p_k+1^+) and
+    cost terms (qa, qb, u, h) -> (h u^T u, h T(q_k+1/2, v_k))."""
+    n = chain.ndof
+    qa, qb, u = ca.SX.sym("qa", n), ca.SX.sym("qb", n), ca.SX.sym("u", n)
+    h = ca.SX.sym("h")
+    n_par = contact_parameter_count(contact)
+    par = ca.SX.sym("p", n_par)
+    qm, v = 0.5 * (qa + qb), (qb - qa) / h
+    Ld = h * chain.lagrangian(qm, v)
+    force = u
+    if contact is not None:
+        wrench = contact(qm, v, par) if n_par else contact(qm, v)
+        force = force + chain.generalized_contact_force_expr(qm, wrench)
+    fd = 0.5 * h * force
+    left = ca.gradient(Ld, qa) + fd  # D1 L_d + f^-  = -p_k^-
+    right = ca.gradient(Ld, qb) + fd  # D2 L_d + f^+ = p_k+1^+
+    kinetic = 0.5 * ca.dot(v, ca.mtimes(chain.mass_matrix(qm), v))
+    args, names = [qa, qb, u, h, par], ["qa", "qb", "u", "h", "p"]
+    dynamics = ca.Function("interval_dynamics", args, [left, right], names, ["left", "right"])
+    cost = ca.Function("interval_cost", args[:4], [h * ca.dot(u, u), h * kinetic], names[:4], ["effort", "kinetic"])
+    return dynamics, cost
+
+
+def prepare_contact(contact: ca.Function | None, ndof: int) -> ca.Function | None:
+    """Check a contact function against the slot, expand it to SX and make sure CasADi can
+    take its second derivatives (IPOPT gets exact Hessians); :class:`ContactModelError` if not."""
+    if contact is None:
+        return None
+    check_contact_function(contact, ndof)
+    if not contact.is_a("SXFunction"):
+        try:
+            contact = contact.expand()
+        except RuntimeError as exc:
+            raise ContactModelError("contact", f"must be expandable to SX (scalar operations only): {exc}") from exc
+    q, qd = ca.SX.sym("q", ndof), ca.SX.sym("qd", ndof)
+    parameters = [ca.SX.sym("p", contact_parameter_count(contact))] if contact.n_in() == 3 else []
+    wrench = contact(q, qd, *parameters)
+    try:
+        ca.hessian(ca.sum1(wrench), ca.vertcat(q, qd))
+    except RuntimeError as exc:
+        raise ContactModelError("contact", f"must be twice differentiable by CasADi (exact Hessians): {exc}") from exc
+    return contact
+
+
+__all__ = ["contact_parameter_count", "interval_functions", "prepare_contact"]

@@ -1,0 +1,135 @@
+"""``CommandOracle``: runs one catalogue entry on a trajectory.
+
+One run: render the deck (if the entry or the user gives a template), write the inputs of
+the file contract into a fresh working directory, run the command, read its forces and
+pass them through the quality gate. A non-zero exit code, a timeout, a missing, malformed
+or too short output give ``OracleResult(ok=False)`` naming what failed; the working
+directory is then kept and its path is in the diagnostics.
+"""
+
+from __future__ import annotations
+
+import shutil
+import tempfile
+import time
+from pathlib import Path
+from typing import Any, ClassVar
+
+from alcove.science.geometry import DEFAULT_PRESET, HeadNeckPreset, relative_kinematics
+from alcove.science.oracles.base import (
+    SUMMARY_DIAGNOSTICS,
+    CancelCheck,
+    OracleCancelled,
+    OracleInputError,
+    OracleParams,
+    OracleResult,
+)
+from alcove.science.oracles.command.contract import (
+    STDERR_FILE,
+    STDOUT_FILE,
+    OutputError,
+    read_forces,
+    read_solver_diagnostics,
+    run_environment,
+    write_inputs,
+)
+from alcove.science.oracles.command.gate import forces_within_trajectory
+from alcove.science.oracles.command.process import run_process, tail
+from alcove.science.oracles.command.spec import CommandOracleSpec, params_model
+from alcove.science.oracles.command.template import render_template, template_values
+from alcove.science.series import Trajectory
+
+
+class CommandOracle:
+    """Runs one catalogue entry on a trajectory (type name: the entry's name)."""
+
+    type_name: ClassVar[str] = "command"
+
+    def __init__(
+        self,
+        spec: CommandOracleSpec,
+        params: OracleParams | None = None,
+        preset: HeadNeckPreset = DEFAULT_PRESET,
+    ):
+        model = params_model(spec)
+        self.spec = spec
+        self.params = model.model_validate(params.model_dump() if params is not None else {})
+        self.preset = preset
+        if self.params.template is not None and not spec.allow_user_template:
+            raise OracleInputError(
+                "params.template", f"the command oracle '{spec.name}' does not accept user templates"
+            )
+
+    def run(self, trajectory: Trajectory, cancel: CancelCheck | None = None) -> OracleResult:
+        start = time.perf_counter()
+        if trajectory.ndof != 1:
+            raise OracleInputError(
+                "q", f"the head-neck preset has 1 degree of freedom (q_0 = theta), the trajectory has {trajectory.ndof}"
+            )
+        deck = self._rendered_deck(trajectory)
+        if cancel is not None and cancel():
+            raise OracleCancelled(f"command oracle '{self.spec.name}' cancelled before it started")
+        workdir = self._make_workdir()
+        parameters = {"dt_out": self.params.dt_out, **{key: getattr(self.params, key) for key in self.spec.parameters}}
+        write_inputs(workdir, trajectory, parameters, deck, self.spec.rendered_file_name)
+        diagnostics: dict[str, Any] = {"command": self.spec.name, **dict.fromkeys(SUMMARY_DIAGNOSTICS)}
+
+        def failed(reason: str) -> OracleResult:
+            diagnostics["workdir"] = str(workdir)
+            diagnostics["stderr_tail"] = tail(workdir / STDERR_FILE)
+            return OracleResult(
+                False,
+                None,
+                None,
+                diagnostics,
+                time.perf_counter() - start,
+                f"command oracle '{self.spec.name}': {reason}",
+            )
+
+        outcome = run_process(
+            self.spec.argv,
+            workdir,
+            run_environment(workdir, self.spec.rendered_file_name, self.spec.output_file, self.spec.env),
+            self.spec.timeout_s,
+            workdir / STDOUT_FILE,
+            workdir / STDERR_FILE,
+            cancel,
+            cancelled_message=f"command oracle '{self.spec.name}' cancelled (working directory {workdir})",
+        )
+        diagnostics["exit_code"] = outcome.exit_code
+        if outcome.failure is not None:
+            return failed(outcome.failure)
+        try:
+            gate = forces_within_trajectory(
+                read_forces(workdir, self.spec.output_file), trajectory, self.spec.output_file
+            )
+            diagnostics.update(read_solver_diagnostics(workdir))
+        except OutputError as exc:
+            return failed(f"output: {exc}")
+        if gate.forces is None:
+            return failed(f"output: {gate.failure}")
+        forces = gate.forces
+        sampled = trajectory.resample(forces.t.clip(trajectory.t[0], trajectory.t[-1]))
+        kinematics = relative_kinematics(self.preset, sampled.q[:, 0], sampled.qd[:, 0])
+        if self.params.keep_workdir:
+            diagnostics["workdir"] = str(workdir)
+        else:
+            shutil.rmtree(workdir, ignore_errors=True)
+        return OracleResult(True, forces, kinematics, diagnostics, time.perf_counter() - start)
+
+    def _rendered_deck(self, trajectory: Trajectory) -> str | None:
+        text = self.params.template
+        if text is None and self.spec.template is not None:
+            text = self.spec.template.read_text()
+        if text is None:
+            return None
+        return render_template(text, template_values(trajectory, self.preset, self.params, self.spec))
+
+    def _make_workdir(self) -> Path:
+        root = self.spec.workdir_root
+        if root is not None:
+            root.mkdir(parents=True, exist_ok=True)
+        return Path(tempfile.mkdtemp(prefix=f"alcove-{self.spec.name}-", dir=root))
+
+
+__all__ = ["CommandOracle"]
