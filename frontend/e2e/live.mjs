@@ -249,7 +249,7 @@ try {
   const texts = await page.locator("[data-error-path]").allTextContents();
   if (new Set(paths).size !== paths.length) throw new Error(`a problem is shown twice: ${paths}`);
   if (count !== paths.length) throw new Error(`the badge counts ${count}, ${paths.length} messages shown: ${texts.join(" | ")}`);
-  for (const p of ["phases.0.intervals", "phases.0.q_min.1"]) if (!paths.includes(p)) throw new Error(`no message at ${p}: ${paths}`);
+  for (const p of ["phases.0.intervals", "phases.0.q_min.1", "model.gravity"]) if (!paths.includes(p)) throw new Error(`no message at ${p}: ${paths}`);
   if ((await page.getByLabel("phase 1 q min [rad]").getAttribute("aria-invalid")) !== "true") throw new Error("the list field is not marked");
   if ((await page.locator("body").innerText()).match(/spec\.phases|Input should/)) throw new Error("raw paths or pydantic messages are shown");
   if (page.url().match(/\/tasks\/\d+$/)) throw new Error("the bad task was saved");
