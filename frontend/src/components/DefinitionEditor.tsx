@@ -55,7 +55,7 @@ export function DefinitionEditor({
     e.preventDefault();
     onSave();
   };
-  const saveLabel = !existing ? `Create ${noun}` : existing.version_locked ? `Save as version ${existing.version + 1}` : `Save version ${existing.version}`;
+  const saveLabel = !existing ? `Create ${noun}` : existing.version_locked ? `Save as version ${existing.version + 1}` : "Save";
   return (
     <form onSubmit={submit} noValidate>
       <div className="toolbar">
