@@ -54,3 +54,47 @@ def test_sqlite_pragmas(tmp_path) -> None:
         assert c.exec_driver_sql("PRAGMA foreign_keys").scalar() == 1
         assert c.exec_driver_sql("PRAGMA busy_timeout").scalar() >= 5000
     eng.dispose()
+
+
+def test_0004_drops_fault_injection_from_stored_run_settings(tmp_path) -> None:
+    """A campaign stored before 0004 carries ``fault_injection`` in its run settings: after
+    the upgrade its config version validates against today's schema and keeps every other
+    setting; a downgrade puts an empty ``fault_injection`` back."""
+    from sqlalchemy.orm import Session
+
+    from alcove.campaigns import presets, service
+    from alcove.campaigns.schemas import CampaignCreate, RunSettings
+    from alcove.campaigns.transitions import config_from_version
+    from alcove.models import CampaignConfigVersion
+
+    url = f"sqlite:///{tmp_path / 'm.db'}"
+    migrate.upgrade(url, "head")
+    eng = make_engine(url)
+    with Session(eng) as s:
+        u = presets.local_user(s)
+        data = CampaignCreate(
+            name="old",
+            task_version_id=presets.task_version_from_preset(s, u.id, "head-headrest-2phase"),
+            oracle_version_id=presets.oracle_version_for(s, u.id, "aux-penalty"),
+            surrogate_config_version_id=presets.surrogate_config_version_for(s, u.id, None),
+            settings=RunSettings(ocp_intervals=30),
+        )
+        service.create_campaign(s, u.id, data)
+        s.commit()
+    migrate.downgrade(url, "0003")
+    ccv = sa.table("campaign_config_versions", sa.column("id", sa.Integer), sa.column("settings", sa.JSON))
+    with eng.begin() as c:
+        ((row_id, settings),) = c.execute(sa.select(ccv.c.id, ccv.c.settings)).all()
+        assert settings["fault_injection"] == {}
+        old = {**settings, "fault_injection": {"train": {"sleep_s": 2}}}
+        c.execute(sa.update(ccv).where(ccv.c.id == row_id).values(settings=old))
+    migrate.upgrade(url, "0004")
+    with Session(eng) as s:
+        row = s.get(CampaignConfigVersion, row_id)
+        assert row.settings == {k: v for k, v in old.items() if k != "fault_injection"}
+        assert config_from_version(row).settings.ocp_intervals == 30
+    migrate.downgrade(url, "0003")
+    with eng.connect() as c:
+        (settings,) = c.execute(sa.select(ccv.c.settings).where(ccv.c.id == row_id)).one()
+    assert settings["fault_injection"] == {} and settings["ocp_intervals"] == 30
+    eng.dispose()

@@ -19,8 +19,12 @@ class DomainError(Exception):
 
 
 class NotFound(DomainError):
-    def __init__(self, what: str, key: Any = None) -> None:
-        super().__init__(f"{what} {key} not found" if key is not None else f"{what} not found")
+    """Something the caller named does not exist (404): ``NotFound("campaign", 5)`` says
+    "campaign 5 not found"; ``message`` gives the whole sentence instead."""
+
+    def __init__(self, what: str, key: Any = None, *, message: str | None = None) -> None:
+        self.what, self.key = what, key
+        super().__init__(message or (f"{what} {key} not found" if key is not None else f"{what} not found"))
 
 
 class PermissionDenied(DomainError):
@@ -39,10 +43,16 @@ class AuthenticationFailed(DomainError):
     pass
 
 
-class LoginLocked(DomainError):
+class TooManyRequests(DomainError):
+    """Come back later (429 with ``Retry-After``)."""
+
     def __init__(self, message: str, retry_after_s: int) -> None:
         super().__init__(message)
         self.retry_after_s = retry_after_s
+
+
+class LoginLocked(TooManyRequests):
+    """Too many failed logins from this client for this account."""
 
 
 @dataclass(frozen=True)

@@ -74,6 +74,22 @@ class Settings(BaseSettings):
         default=False, description="Log every HTTP request (uvicorn's access log); always on at log level DEBUG"
     )
 
+    testing: bool = Field(
+        default=False, description="A test process: honours test-only hooks such as a fault plan. Never in production."
+    )
+    fault_plan: Path | None = Field(
+        default=None, description="Test-only: JSON file of faults to inject into campaign steps (needs testing=true)"
+    )
+
+    @model_validator(mode="after")
+    def _refuse_test_hooks_outside_tests(self) -> Settings:
+        if self.fault_plan is not None and not self.testing:
+            raise ValueError(
+                "ALCOVE_FAULT_PLAN: fault injection is only for test processes; "
+                "this process is not one (ALCOVE_TESTING is not true): unset ALCOVE_FAULT_PLAN"
+            )
+        return self
+
     @field_validator("trusted_proxies")
     @classmethod
     def _valid_networks(cls, value: str) -> str:

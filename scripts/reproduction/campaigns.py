@@ -54,7 +54,7 @@ class Progress:
         self.last = 0.0
 
     def __call__(self, force: bool = False) -> str:
-        from alcove.campaigns import service
+        from alcove.campaigns import results
         from alcove.db import session_scope
 
         now = time.perf_counter()
@@ -62,7 +62,7 @@ class Progress:
             return ""
         self.last = now
         with session_scope() as s:
-            d = service.get_detail(s, self.campaign_id)
+            d = results.get_detail(s, self.campaign_id)
         c, m = d.campaign, d.latest_metrics
         total = d.config.stopping.max_iterations
         rmse = (
@@ -80,12 +80,12 @@ class Progress:
 
 
 def _wait_for_workers(campaign_id: int, progress: Progress, poll: float = 0.5) -> None:
-    from alcove.campaigns import service
+    from alcove.campaigns import results
     from alcove.db import session_scope
 
     while True:
         with session_scope() as s:
-            status = service.get_campaign(s, campaign_id).status.value
+            status = results.get_campaign(s, campaign_id).status.value
         if status in ("completed", "cancelled", "failed"):
             return
         proc = WORKER["process"]
@@ -109,8 +109,8 @@ def _wait_for_workers(campaign_id: int, progress: Progress, poll: float = 0.5) -
 
 def _drive(campaign_id: int, jobs: list[Any], label: str, t0: float) -> CampaignRun:
     """Run the campaign's steps to its end: by the spawned Celery worker (default) or in this process."""
-    from alcove.campaigns import service
-    from alcove.campaigns.flows import run_step
+    from alcove.campaigns import results
+    from alcove.campaigns.protocol import run_step
     from alcove.db import session_scope
 
     progress = Progress(campaign_id, label, t0)
@@ -119,7 +119,7 @@ def _drive(campaign_id: int, jobs: list[Any], label: str, t0: float) -> Campaign
 
         enqueue(jobs)
         _wait_for_workers(campaign_id, progress)
-    else:  # flows.drive_inline with a progress line
+    else:  # protocol.drive_inline with a progress line
         queue = list(jobs)
         while queue:
             j = queue.pop(0)
@@ -128,12 +128,12 @@ def _drive(campaign_id: int, jobs: list[Any], label: str, t0: float) -> Campaign
     wall = time.perf_counter() - t0
     progress(force=True)
     with session_scope() as s:
-        c = service.get_campaign(s, campaign_id)
-        failed = service.get_detail(s, campaign_id).iterations_failed
-        metrics = service.metrics_series(s, campaign_id)
+        c = results.get_campaign(s, campaign_id)
+        failed = results.get_detail(s, campaign_id).iterations_failed
+        metrics = results.metrics_series(s, campaign_id)
         done = [m for m in metrics if m.force_rmse is not None]
-        curves = service.iteration_curves(s, campaign_id, done[-1].iteration_index) if done else None
-        steps = [j for j in service.list_jobs(s, campaign_id, ["succeeded"]) if j["iteration"] > 0]
+        curves = results.iteration_curves(s, campaign_id, done[-1].iteration_index) if done else None
+        steps = [j for j in results.list_jobs(s, campaign_id, ["succeeded"]) if j["iteration"] > 0]
     return CampaignRun(campaign_id, label, c.status.value, c.stop_reason, c.error, wall, metrics, curves, failed, steps)
 
 

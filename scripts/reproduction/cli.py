@@ -108,7 +108,7 @@ def main(
         rep.timings_note = (
             "steps run by a spawned Celery worker (embedded default: SQLite + filesystem broker)"
             if celery
-            else "steps run in this process (flows.drive_inline)"
+            else "steps run in this process (protocol.drive_inline)"
         )
         base = part("campaign", lambda: part_campaign(rep, n, oracle))
         if base is not None:

@@ -79,7 +79,7 @@ def fe_params(quick: bool) -> dict[str, Any]:
 def part_fe(rep: Report, task: Any, sol: Any) -> None:
     import numpy as np
 
-    from alcove.campaigns.flows import replay_trajectory
+    from alcove.science.ocp.replay import replay_trajectory
     from alcove.science.oracles.fe_headrest import reference_motion
     from alcove.science.oracles.registry import build_oracle
 

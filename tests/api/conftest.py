@@ -32,7 +32,7 @@ def api_settings(pg_url: str, tmp_path_factory: pytest.TempPathFactory) -> Itera
 
 @pytest.fixture(scope="session")
 def app(api_settings: None, tmp_path_factory: pytest.TempPathFactory):
-    from alcove.api import create_app
+    from alcove.app import create_app
     from alcove.settings import get_settings
 
     settings = get_settings().model_copy(update={"static_dir": tmp_path_factory.mktemp("no-frontend")})

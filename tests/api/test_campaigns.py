@@ -49,7 +49,7 @@ def add_iteration(cid: int, k: int) -> None:
                 curves_sha256=put_arrays(s, curve_arrays(k, 11, np.random.default_rng(k))),
             )
         )
-    from alcove.campaigns.router import REVISION_TTL_S
+    from alcove.campaigns.results_router import REVISION_TTL_S
 
     time.sleep(REVISION_TTL_S + 0.05)
 
@@ -333,6 +333,7 @@ def test_polls_with_the_etag_get_a_bodiless_304_until_something_changes(client, 
 def test_the_polled_detail_is_a_304_until_anything_it_shows_changes(client, owner: Account, other: Account) -> None:
     from alcove.campaigns import repository as repo
     from alcove.campaigns import service as campaigns
+    from alcove.campaigns import transitions
     from alcove.campaigns.presets import oracle_version_for, surrogate_config_version_for, task_version_from_preset
     from alcove.campaigns.schemas import CampaignCreate
     from alcove.campaigns.state_machine import Outcome, StepRef
@@ -378,7 +379,7 @@ def test_the_polled_detail_is_a_304_until_anything_it_shows_changes(client, owne
         assert repo.extend_lease(s, step_id, "token", 60.0) == (True, False)
     assert changed()["current"]["steps"][0]["heartbeat_at"] > claimed["heartbeat_at"]
     with session_scope() as s:  # the step completes: iteration 1's training is queued
-        campaigns.complete_step(
+        transitions.complete_step(
             s,
             repo.get_campaign(s, cid),
             StepRef(0, StepName.preliminary),
@@ -427,4 +428,4 @@ def test_a_forks_metrics_can_include_the_inherited_iterations(client, owner: Acc
     ).json()
     assert [(r["campaign_id"], r["iteration_index"]) for r in rows] == [(finished, 1)]
     own = client.get(f"{API}/campaigns/{finished}/metrics", params={"inherited": True}, headers=owner.headers).json()
-    assert [r["inherited"] for r in own] == [False, False, False]
+    assert own and not any(r["inherited"] for r in own)

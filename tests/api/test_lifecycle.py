@@ -26,7 +26,7 @@ API = "/api/v1"
 @pytest.fixture
 def live(tmp_path: Path, pg_url: str, redis_url: str, api_settings: None, monkeypatch: pytest.MonkeyPatch):
     """The API (in this process) and a worker process sharing PostgreSQL and Redis."""
-    from alcove.api import create_app
+    from alcove.app import create_app
     from alcove.jobs import reset_sender
     from alcove.settings import get_settings
     from tests.integration.procs import alcove_env, running, unique, wait_until, worker_ready

@@ -14,7 +14,7 @@ SCRIPT = textwrap.dedent(
     """
     import json, sys, uuid
     from fastapi.testclient import TestClient
-    from alcove.api import create_app
+    from alcove.app import create_app
     from alcove.db import session_scope
     from alcove.models import ApiToken, TokenKind, User
 

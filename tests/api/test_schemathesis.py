@@ -4,7 +4,8 @@ content type, body).
 
 Run as a member with their own objects (so ids hit real rows some of the time). Left out:
 routes that would end the run's own authentication (logout, revoking tokens), the SSE
-stream (long-lived), readiness (a documented 503 without a worker) and the downloads that build TorchScript in a child process."""
+streams (long-lived), readiness (a documented 503 without a worker) and the downloads that
+build TorchScript in a child process."""
 
 from __future__ import annotations
 

@@ -66,7 +66,7 @@ def test_every_kind_of_api_answer_has_the_headers(client: TestClient, owner: Acc
 
 
 def test_the_web_ui_files_have_the_headers(tmp_path: Path, api_settings: None) -> None:
-    from alcove.api import create_app
+    from alcove.app import create_app
     from alcove.settings import get_settings
 
     (tmp_path / "assets").mkdir()
@@ -104,14 +104,14 @@ def test_secret_key_is_retired_and_a_process_that_sets_it_warns_once(
 ) -> None:
     """Nothing signs with ALCOVE_SECRET_KEY (bearer tokens are random, stored as SHA-256
     hashes): it is no setting any more; a process that still sets it starts and says so once."""
-    from alcove.api import app as app_module
+    from alcove import app as app_module
     from alcove.settings import Settings, get_settings
 
     assert "secret_key" not in Settings.model_fields
     monkeypatch.setenv("ALCOVE_SECRET_KEY", "left over from an old deployment")
     monkeypatch.setattr(app_module, "_warned", set())
     settings = get_settings().model_copy(update={"static_dir": tmp_path})
-    with caplog.at_level(logging.WARNING, logger="alcove.api.app"):
+    with caplog.at_level(logging.WARNING, logger="alcove.app"):
         for _ in range(2):
             with TestClient(app_module.create_app(settings)) as c:
                 assert c.get("/api/v1/health").status_code == 200

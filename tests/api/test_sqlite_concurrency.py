@@ -29,7 +29,7 @@ def sqlite_app(tmp_path: Path, monkeypatch: pytest.MonkeyPatch):
     monkeypatch.delenv("ALCOVE_BROKER_URL", raising=False)
     get_settings.cache_clear()
     migrate.upgrade(url)
-    from alcove.api import create_app
+    from alcove.app import create_app
 
     yield url, create_app(get_settings().model_copy(update={"static_dir": tmp_path}))
     get_settings.cache_clear()

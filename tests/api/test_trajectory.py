@@ -30,9 +30,10 @@ def stored(cid: int, k: int):
     from alcove.campaigns import repository as repo
     from alcove.db import session_scope
     from alcove.db.arrays import get_arrays
+    from alcove.solving.repository import latest_of_iteration
 
     with session_scope() as s:
-        sol = repo.latest_ocp_solution(s, repo.get_iteration(s, cid, k).id)
+        sol = latest_of_iteration(s, repo.get_iteration(s, cid, k).id)
         return (
             sol.solver_status,
             sol.success,
@@ -123,7 +124,7 @@ def test_a_new_attempt_changes_the_answer_and_a_failed_solve_is_shown_as_such(
                 trajectory_sha256=put_arrays(s, a),
             )
         )
-    from alcove.campaigns.router import REVISION_TTL_S
+    from alcove.campaigns.results_router import REVISION_TTL_S
 
     time.sleep(REVISION_TTL_S + 0.05)  # a process reuses the solution it found for this long
     again = client.get(url, headers={**owner.headers, "If-None-Match": first.headers["ETag"]})

@@ -53,8 +53,15 @@ def sqlite_campaign_db(sqlite_url: str, monkeypatch: pytest.MonkeyPatch, tmp_pat
     dispose_engines(close=True)
 
 
-def new_campaign(oracle: str = "aux-penalty", surrogate: dict | None = None, start: bool = True, **overrides: Any):
-    """Create (and start) a quick campaign; returns (campaign id, jobs to run)."""
+def new_campaign(
+    oracle: str = "aux-penalty",
+    surrogate: dict | None = None,
+    start: bool = True,
+    fault: dict[str, dict[str, Any]] | None = None,
+    **overrides: Any,
+):
+    """Create (and start) a quick campaign; returns (campaign id, jobs to run). ``fault``:
+    the faults its steps meet (needs the ``faults`` fixture: test processes only)."""
     from alcove.campaigns import presets, service
     from alcove.campaigns.schemas import CampaignCreate
     from alcove.db import transaction
@@ -78,11 +85,29 @@ def new_campaign(oracle: str = "aux-penalty", surrogate: dict | None = None, sta
             **cfg,
         )
         c = service.create_campaign(s, u.id, data)
+        if fault:
+            from alcove.jobs.faults import inject
+
+            inject(c.id, fault)
         if not start:
             return c.id, []
         return c.id, service.start(s, c.id)[1]
 
     return transaction(work)
+
+
+@pytest.fixture
+def faults(tmp_path: Any, monkeypatch: pytest.MonkeyPatch) -> Iterator[dict[str, str]]:
+    """This process as a test process with a fault plan file (campaigns made with ``fault=``
+    write to it); yields the settings a worker process needs to read the same plan."""
+    from alcove.settings import get_settings
+
+    env = {"ALCOVE_TESTING": "true", "ALCOVE_FAULT_PLAN": str(tmp_path / "faults.json")}
+    for k, v in env.items():
+        monkeypatch.setenv(k, v)
+    get_settings.cache_clear()
+    yield env
+    get_settings.cache_clear()
 
 
 @pytest.fixture

@@ -11,11 +11,13 @@ import numpy as np
 import pytest
 import sqlalchemy as sa
 
-from alcove.campaigns import flows, repository, service
+from alcove.campaigns import export, protocol, repository, results, service
 from alcove.campaigns.reconciler import reconcile
 from alcove.campaigns.schemas import CampaignConfigUpdate, ForkRequest, StoppingRules
 from alcove.db import session_scope, transaction
 from alcove.db.arrays import get_arrays
+from alcove.errors import Conflict, NotFound
+from alcove.jobs.faults import inject
 from alcove.models import (
     Dataset,
     IterationStep,
@@ -25,6 +27,12 @@ from alcove.models import (
     QuarantinedResult,
     utcnow,
 )
+from alcove.oracles import repository as oracles_repo
+from alcove.pool import repository as pool_repo
+from alcove.pool import service as pool_service
+from alcove.solving import repository as solving_repo
+from alcove.surrogates import repository as surrogates_repo
+from alcove.surrogates import service as surrogates_service
 
 
 def members(s, pv: PoolVersion) -> list[int]:
@@ -56,12 +64,12 @@ def test_a_short_campaign_leaves_a_complete_versioned_record(campaign_db: str, m
     from alcove.surrogates.service import load_model
 
     cid, jobs = make_campaign()
-    flows.drive_inline(cid, jobs)
+    protocol.drive_inline(cid, jobs)
     assert status(cid) == ("completed", "max_iterations")
     preset = task_preset("head-headrest-2phase").preset()
     with session_scope() as s:
-        pools = repository.own_pool_versions(s, cid)
-        models = repository.own_model_versions(s, cid)
+        pools = pool_repo.own_versions(s, cid)
+        models = surrogates_repo.own_versions(s, cid)
         metrics = repository.metrics_series(s, cid)
         assert [p.version for p in pools] == [0, 1, 2]
         assert [m.version for m in models] == [1, 2]
@@ -69,7 +77,7 @@ def test_a_short_campaign_leaves_a_complete_versioned_record(campaign_db: str, m
         assert pools[0].parent_id is None and pools[0].n_datasets == 4 and pools[0].n_samples == 400
         for k in (1, 2):
             it = repository.get_iteration(s, cid, k)
-            ds = repository.iteration_dataset(s, it.id)
+            ds = pool_repo.oracle_dataset(s, it.id)
             prev, cur, model = pools[k - 1], pools[k], models[k - 1]
             # pool version k = version k-1 + the dataset of iteration k, exactly once
             assert cur.parent_id == prev.id
@@ -81,13 +89,14 @@ def test_a_short_campaign_leaves_a_complete_versioned_record(campaign_db: str, m
                 )
             ).all()
             assert added == [ds.id]
-            # model k was trained on pool version k-1 (the new trajectory is unseen by it) and warm-started from model k-1
+            # model k was trained on pool version k-1 (the new trajectory is unseen by it) and
+            # warm-started from model k-1
             assert model.pool_version_id == prev.id and ds.id not in members(s, prev)
             assert model.parent_model_id == (models[k - 2].id if k > 1 else None)
             assert model.code_version and {"torch", "numpy", "casadi"} <= set(model.library_versions)
             assert it.status == "succeeded" and it.config_version_id is not None
             # the oracle replayed phase 1 (the first second) of the OCP solution
-            sol = repository.latest_ocp_solution(s, it.id)
+            sol = solving_repo.latest_of_iteration(s, it.id)
             traj = get_arrays(s, sol.trajectory_sha256)
             data = get_arrays(s, ds.content_sha256)
             assert data["t"][0] == 0.0 and data["t"][-1] == pytest.approx(1.0)
@@ -110,11 +119,11 @@ def test_a_short_campaign_leaves_a_complete_versioned_record(campaign_db: str, m
             )
             assert m.model_version_id == model.id and m.dataset_id == ds.id and m.ocp_success
             assert m.extra["code_version"] == model.code_version and m.extra["model_seed"] == model.seed
-        steps = service.list_jobs(s, cid)
+        steps = results.list_jobs(s, cid)
         assert len(steps) == 1 + 5 * 2 and all(j["status"] == "succeeded" and j["attempts"] == 1 for j in steps)
-        detail = service.get_detail(s, cid)
+        detail = results.get_detail(s, cid)
         assert detail.iterations_finished == 2 and detail.eta_s is None
-        curves = service.iteration_curves(s, cid, 2)
+        curves = results.iteration_curves(s, cid, 2)
         assert len(curves.t) == len(curves.f_true) == len(curves.f_pred)
 
 
@@ -122,27 +131,27 @@ def test_the_same_seed_gives_the_same_pool_and_another_seed_another(sqlite_campa
     runs = {}
     for name, seed in (("a", 3), ("b", 3), ("c", 4)):
         cid, jobs = make_campaign(seed=seed, stopping={"max_iterations": 1})
-        flows.drive_inline(cid, jobs)
+        protocol.drive_inline(cid, jobs)
         with session_scope() as s:
-            runs[name] = [p.content_hash for p in repository.own_pool_versions(s, cid)]
+            runs[name] = [p.content_hash for p in pool_repo.own_versions(s, cid)]
     assert runs["a"] == runs["b"]
     assert runs["a"][0] != runs["c"][0]
 
 
 def test_a_duplicate_or_stale_delivery_of_a_step_is_a_no_op(sqlite_campaign_db: str, make_campaign) -> None:
     cid, jobs = make_campaign(start=True)
-    (job,) = jobs
+    assert len(jobs) == 1
     sent: list = []
-    first = flows.run_step(cid, 0, "preliminary", 1, send=sent.extend)
-    again = flows.run_step(cid, 0, "preliminary", 1, send=sent.extend)
+    first = protocol.run_step(cid, 0, "preliminary", 1, send=sent.extend)
+    again = protocol.run_step(cid, 0, "preliminary", 1, send=sent.extend)
     assert first["status"] == "done" and again["status"] == "duplicate"
     assert len(sent) == 1 and sent[0].step.value == "train"
     with session_scope() as s:
-        assert len(repository.own_pool_versions(s, cid)) == 1
+        assert len(pool_repo.own_versions(s, cid)) == 1
         assert s.scalar(sa.select(sa.func.count()).select_from(Dataset).where(Dataset.campaign_id == cid)) == 4
     # a message for an attempt that is not the next one is ignored too
-    assert flows.run_step(cid, 1, "train", 2, send=sent.extend)["status"] == "duplicate"
-    assert flows.run_step(cid, 1, "ocp", 1, send=sent.extend)["status"] == "missing"
+    assert protocol.run_step(cid, 1, "train", 2, send=sent.extend)["status"] == "duplicate"
+    assert protocol.run_step(cid, 1, "ocp", 1, send=sent.extend)["status"] == "missing"
 
 
 def test_pause_parks_the_next_step_and_resume_continues_where_it_stopped(
@@ -150,27 +159,29 @@ def test_pause_parks_the_next_step_and_resume_continues_where_it_stopped(
 ) -> None:
     cid, jobs = make_campaign(stopping={"max_iterations": 1})
     queue: list = list(jobs)
-    flows.run_step(cid, 0, "preliminary", 1, send=queue.extend)
+    protocol.run_step(cid, 0, "preliminary", 1, send=queue.extend)
     with session_scope() as s:
         c, more = service.pause(s, cid)
         assert c.status == "pausing" and more == []
     train = queue[-1]
-    assert flows.run_step(cid, 1, "train", train.attempt)["status"] == "paused"
+    assert protocol.run_step(cid, 1, "train", train.attempt)["status"] == "paused"
     with session_scope() as s:
         assert repository.get_campaign(s, cid).status == "paused"
         assert repository.get_step(s, cid, 1, "train").status == "pending"
         c, jobs = service.resume(s, cid)
     assert [str(j.step.value) for j in jobs] == ["train"] and jobs[0].attempt == 1
-    flows.drive_inline(cid, jobs)
+    protocol.drive_inline(cid, jobs)
     assert status(cid) == ("completed", "max_iterations")
 
 
-def test_cancel_reaches_a_running_step_through_its_lease_heartbeat(sqlite_campaign_db: str, make_campaign) -> None:
-    cid, jobs = make_campaign(settings={"fault_injection": {"train": {"sleep_s": 30}}})
+def test_cancel_reaches_a_running_step_through_its_lease_heartbeat(
+    sqlite_campaign_db: str, make_campaign, faults
+) -> None:
+    cid, jobs = make_campaign(fault={"train": {"sleep_s": 30}})
     queue: list = list(jobs)
-    flows.run_step(cid, 0, "preliminary", 1, send=queue.extend)
+    protocol.run_step(cid, 0, "preliminary", 1, send=queue.extend)
     result: dict = {}
-    worker = threading.Thread(target=lambda: result.update(flows.run_step(cid, 1, "train", 1, send=queue.extend)))
+    worker = threading.Thread(target=lambda: result.update(protocol.run_step(cid, 1, "train", 1, send=queue.extend)))
     t0 = time.monotonic()
     worker.start()
     time.sleep(0.5)
@@ -183,12 +194,14 @@ def test_cancel_reaches_a_running_step_through_its_lease_heartbeat(sqlite_campai
         assert repository.get_campaign(s, cid).status == "cancelled"
         assert repository.get_step(s, cid, 1, "train").status == "cancelled"
         assert repository.get_iteration(s, cid, 1).status == "cancelled"
-        assert not repository.own_model_versions(s, cid)
+        assert not surrogates_repo.own_versions(s, cid)
 
 
-def test_a_failed_ocp_under_policy_continue_fails_only_its_iteration(sqlite_campaign_db: str, make_campaign) -> None:
-    cid, jobs = make_campaign(settings={"fault_injection": {"ocp": {"ipopt_max_iter": 1, "iterations": [1]}}})
-    flows.drive_inline(cid, jobs)
+def test_a_failed_ocp_under_policy_continue_fails_only_its_iteration(
+    sqlite_campaign_db: str, make_campaign, faults
+) -> None:
+    cid, jobs = make_campaign(fault={"ocp": {"ipopt_max_iter": 1, "iterations": [1]}})
+    protocol.drive_inline(cid, jobs)
     assert status(cid) == ("completed", "max_iterations")
     with session_scope() as s:
         it1 = repository.get_iteration_with_steps(s, cid, 1)
@@ -200,30 +213,31 @@ def test_a_failed_ocp_under_policy_continue_fails_only_its_iteration(sqlite_camp
             "evaluate": "skipped",
             "append": "succeeded",
         }
-        sol = repository.latest_ocp_solution(s, it1.id)
+        sol = solving_repo.latest_of_iteration(s, it1.id)
         assert sol is not None and not sol.success
-        pools = repository.own_pool_versions(s, cid)
+        pools = pool_repo.own_versions(s, cid)
         assert pools[1].content_hash == pools[0].content_hash  # nothing appended by the failed iteration
         assert [m.iteration_index for m in repository.metrics_series(s, cid)] == [2]
         assert repository.get_iteration(s, cid, 2).status == "succeeded"
 
 
 def test_a_failed_ocp_under_policy_stop_fails_the_campaign_and_retry_runs_it_again(
-    sqlite_campaign_db: str, make_campaign
+    sqlite_campaign_db: str, make_campaign, faults
 ) -> None:
     cid, jobs = make_campaign(
         policies={"ocp_on_failure": "stop"},
-        settings={"fault_injection": {"ocp": {"ipopt_max_iter": 1, "iterations": [1]}}},
+        fault={"ocp": {"ipopt_max_iter": 1, "iterations": [1]}},
     )
-    flows.drive_inline(cid, jobs)
+    protocol.drive_inline(cid, jobs)
     with session_scope() as s:
         c = repository.get_campaign(s, cid)
         assert (c.status, c.stop_reason) == ("failed", "error") and "did not converge" in c.error
-        # the fault is edited away and the failed step retried with the new config version
+        # the fault goes away and the failed step is retried with a new config version
+        inject(cid, None)
         row = service.update_config(s, cid, CampaignConfigUpdate(settings={"ocp_intervals": 20, "replay_dt": 0.01}))
         c, jobs = service.retry_step(s, cid)
         assert c.status == "running" and (jobs[0].iteration, jobs[0].step.value, jobs[0].attempt) == (1, "ocp", 2)
-    flows.drive_inline(cid, jobs)
+    protocol.drive_inline(cid, jobs)
     assert status(cid) == ("completed", "max_iterations")
     with session_scope() as s:
         step = repository.get_step(s, cid, 1, "ocp")
@@ -239,14 +253,14 @@ def test_a_failed_ocp_under_policy_stop_fails_the_campaign_and_retry_runs_it_aga
 
 
 def test_an_oracle_that_keeps_raising_is_retried_then_its_iteration_fails(
-    sqlite_campaign_db: str, make_campaign
+    sqlite_campaign_db: str, make_campaign, faults
 ) -> None:
     cid, jobs = make_campaign(
         stopping={"max_iterations": 1},
         policies={"oracle_max_attempts": 2},
-        settings={"fault_injection": {"oracle": {"raise_attempts": 99}}},
+        fault={"oracle": {"raise_attempts": 99}},
     )
-    flows.drive_inline(cid, jobs)
+    protocol.drive_inline(cid, jobs)
     assert status(cid) == ("completed", "max_iterations")
     with session_scope() as s:
         step = repository.get_step(s, cid, 1, "oracle")
@@ -254,26 +268,24 @@ def test_an_oracle_that_keeps_raising_is_retried_then_its_iteration_fails(
         kinds = [e.kind for e in repository.events(s, cid)]
         assert kinds.count("step_retry") == 1
         assert repository.get_iteration(s, cid, 1).status == "failed"
-        runs = repository.oracle_runs(s, step.iteration_id)
+        runs = oracles_repo.runs_of_iteration(s, step.iteration_id)
         assert [(r.attempt, r.status) for r in runs] == [(1, "failed"), (2, "failed")] and "fault injection" in runs[
             0
         ].failure_reason
 
 
 def test_an_oracle_result_failing_the_quality_gate_is_quarantined_never_appended(
-    sqlite_campaign_db: str, make_campaign
+    sqlite_campaign_db: str, make_campaign, faults
 ) -> None:
-    cid, jobs = make_campaign(
-        stopping={"max_iterations": 1}, settings={"fault_injection": {"oracle": {"gate_fail": True}}}
-    )
-    flows.drive_inline(cid, jobs)
+    cid, jobs = make_campaign(stopping={"max_iterations": 1}, fault={"oracle": {"gate_fail": True}})
+    protocol.drive_inline(cid, jobs)
     with session_scope() as s:
         it = repository.get_iteration(s, cid, 1)
-        (run,) = repository.oracle_runs(s, it.id)
+        (run,) = oracles_repo.runs_of_iteration(s, it.id)
         q = s.scalar(sa.select(QuarantinedResult).where(QuarantinedResult.oracle_run_id == run.id))
         assert run.status == "quarantined" and q is not None and "quality gate" in q.reason
-        assert repository.iteration_dataset(s, it.id) is None
-        pools = repository.own_pool_versions(s, cid)
+        assert pool_repo.oracle_dataset(s, it.id) is None
+        pools = pool_repo.own_versions(s, cid)
         assert pools[1].n_samples == pools[0].n_samples
 
 
@@ -282,7 +294,7 @@ def test_the_reconciler_requeues_a_step_whose_worker_died_and_ignores_the_dead_j
 ) -> None:
     cid, jobs = make_campaign(stopping={"max_iterations": 1})
     queue: list = list(jobs)
-    flows.run_step(cid, 0, "preliminary", 1, send=queue.extend)
+    protocol.run_step(cid, 0, "preliminary", 1, send=queue.extend)
     # a worker claims train and dies: its lease runs out
     with session_scope() as s:
         step = repository.get_step(s, cid, 1, "train")
@@ -298,12 +310,12 @@ def test_the_reconciler_requeues_a_step_whose_worker_died_and_ignores_the_dead_j
         (job,) = mine(reconcile(s, stale_queued_s=60), cid)
     assert (job.iteration, job.step.value, job.attempt) == (1, "train", 2)
     # the dead job's old message is stale; the new one runs, and the campaign completes
-    assert flows.run_step(cid, 1, "train", 1)["status"] == "duplicate"
-    flows.drive_inline(cid, [job])
+    assert protocol.run_step(cid, 1, "train", 1)["status"] == "duplicate"
+    protocol.drive_inline(cid, [job])
     assert status(cid) == ("completed", "max_iterations")
     with session_scope() as s:
         assert repository.get_step(s, cid, 1, "train").attempts == 2
-        assert len(repository.own_model_versions(s, cid)) == 1
+        assert len(surrogates_repo.own_versions(s, cid)) == 1
 
 
 def test_the_reconciler_resends_a_queued_step_whose_message_was_lost(sqlite_campaign_db: str, make_campaign) -> None:
@@ -312,13 +324,13 @@ def test_the_reconciler_resends_a_queued_step_whose_message_was_lost(sqlite_camp
         assert mine(reconcile(s, stale_queued_s=60), cid) == []
         (job,) = mine(reconcile(s, stale_queued_s=0), cid)
     assert (job.iteration, job.step.value, job.attempt) == (0, "preliminary", 1)
-    flows.drive_inline(cid, [job, *jobs])  # both messages arrive: the second is a no-op
+    protocol.drive_inline(cid, [job, *jobs])  # both messages arrive: the second is a no-op
     assert status(cid) == ("completed", "max_iterations")
 
 
 def test_a_fork_continues_from_the_source_pool_and_model_with_its_own_settings(campaign_db: str, make_campaign) -> None:
     src, jobs = make_campaign(stopping={"max_iterations": 1})
-    flows.drive_inline(src, jobs)
+    protocol.drive_inline(src, jobs)
     with session_scope() as s:
         fork, jobs = service.fork(
             s,
@@ -328,16 +340,16 @@ def test_a_fork_continues_from_the_source_pool_and_model_with_its_own_settings(c
         )
         fid = fork.id
     assert [(j.iteration, j.step.value) for j in jobs] == [(2, "train")]
-    flows.drive_inline(fid, jobs)
+    protocol.drive_inline(fid, jobs)
     assert status(fid) == ("completed", "max_iterations")
     with session_scope() as s:
-        src_pool1 = repository.pool_version(s, repository.get_campaign(s, src), 1)
-        src_model1 = repository.own_model_versions(s, src)[0]
-        (pv2,) = repository.own_pool_versions(s, fid)
-        (mv2,) = repository.own_model_versions(s, fid)
+        src_pool1 = pool_repo.version_of(s, src, 1)
+        src_model1 = surrogates_repo.own_versions(s, src)[0]
+        (pv2,) = pool_repo.own_versions(s, fid)
+        (mv2,) = surrogates_repo.own_versions(s, fid)
         assert pv2.version == 2 and pv2.parent_id == src_pool1.id
         assert mv2.pool_version_id == src_pool1.id and mv2.parent_model_id == src_model1.id
-        assert len(repository.own_pool_versions(s, src)) == 2  # the source is untouched
+        assert len(pool_repo.own_versions(s, src)) == 2  # the source is untouched
 
 
 def test_a_config_edit_creates_a_version_used_by_the_iterations_after_it(
@@ -347,13 +359,13 @@ def test_a_config_edit_creates_a_version_used_by_the_iterations_after_it(
     queue: list = list(jobs)
     for _ in range(3):  # preliminary, train 1, ocp 1
         j = queue.pop(0)
-        flows.run_step(cid, j.iteration, j.step.value, j.attempt, send=queue.extend)
+        protocol.run_step(cid, j.iteration, j.step.value, j.attempt, send=queue.extend)
     with session_scope() as s:
         row = service.update_config(
             s, cid, CampaignConfigUpdate(stopping=StoppingRules(max_iterations=2, target_force_rmse=1e6), note="looser")
         )
         assert row.version == 2
-    flows.drive_inline(cid, queue)
+    protocol.drive_inline(cid, queue)
     with session_scope() as s:
         c = repository.get_campaign(s, cid)
         assert (c.status, c.stop_reason, c.config_version) == (
@@ -379,12 +391,12 @@ def test_export_and_tables_hold_every_pool_version_model_and_metric(
     import pyarrow.parquet as pq
 
     cid, jobs = make_campaign(stopping={"max_iterations": 1})
-    flows.drive_inline(cid, jobs)
+    protocol.drive_inline(cid, jobs)
     with session_scope() as s:
-        root = service.export_campaign(s, cid, tmp_path / "out")
-        table = service.pool_version_table(s, cid, 1, "csv")
-        pv1 = repository.pool_version(s, repository.get_campaign(s, cid), 1)
-        art = service.model_artifact_bytes(s, cid, 1)
+        root = export.export_campaign(s, cid, tmp_path / "out")
+        table = pool_service.campaign_version_table(s, cid, 1, "csv")
+        pv1 = pool_repo.version_of(s, cid, 1)
+        art = surrogates_service.model_artifact_bytes(s, surrogates_service.campaign_version(s, cid, 1))
     names = sorted(str(p.relative_to(root)) for p in root.rglob("*") if p.is_file())
     assert names == [
         "campaign.json",
@@ -405,15 +417,15 @@ def test_export_and_tables_hold_every_pool_version_model_and_metric(
 
 
 def test_bad_requests_name_the_field(sqlite_campaign_db: str, make_campaign) -> None:
-    with session_scope() as s, pytest.raises(service.NotFound, match="campaign_id"):
+    with session_scope() as s, pytest.raises(NotFound, match="campaign 1000000000 not found"):
         service.start(s, 10**9)
     cid, _ = make_campaign(start=False)
     with session_scope() as s:
         with pytest.raises(service.InvalidTransition, match="resume"):
             service.resume(s, cid)
-        with pytest.raises(service.NotFound, match="iteration"):
+        with pytest.raises(NotFound, match="no pool version 3 to fork from"):
             service.fork(s, cid, ForkRequest(iteration=3), owner_id=1)
-        with pytest.raises(service.NotFound, match="step"):
+        with pytest.raises(Conflict, match="nothing to retry"):
             service.retry_step(s, cid)
 
 
@@ -435,15 +447,16 @@ def test_an_uploaded_preliminary_dataset_becomes_pool_version_zero(sqlite_campai
     with session_scope() as s:
         owner = presets.local_user(s).id
         with pytest.raises(PoolDataError, match="fx"):
-            service.upload_preliminary_dataset(s, owner, "q_0,qd_0\n0.1,0.2\n", name="bad")
+            pool_service.upload_preliminary_dataset(s, owner, "q_0,qd_0\n0.1,0.2\n", name="bad")
         ids = [
-            d.id for d in service.upload_preliminary_dataset(s, owner, "\n".join(lines) + "\n", name="lab", chunks=3)
+            d.id
+            for d in pool_service.upload_preliminary_dataset(s, owner, "\n".join(lines) + "\n", name="lab", chunks=3)
         ]
     assert len(ids) == 3
     cid, jobs = make_campaign(preliminary={"dataset_ids": ids}, stopping={"max_iterations": 1})
-    flows.drive_inline(cid, jobs)
+    protocol.drive_inline(cid, jobs)
     assert status(cid) == ("completed", "max_iterations")
     with session_scope() as s:
-        pv0 = repository.pool_version(s, repository.get_campaign(s, cid), 0)
+        pv0 = pool_repo.version_of(s, cid, 0)
         assert members(s, pv0) == ids and pv0.n_samples == 300
         assert {d.origin for d in s.scalars(sa.select(Dataset).where(Dataset.id.in_(ids)))} == {"upload"}

@@ -60,7 +60,22 @@ def test_alcove_campaign_run_on_the_embedded_default(tmp_path: Path) -> None:
     cfg.write_text(QUICK_YAML)
     env = env_for(data_dir=tmp_path / "data")
     r = subprocess.run(
-        [*CLI, "campaign", "run", "--oracle", "aux-penalty", "--iterations", "2", "--config", str(cfg), "--json", "--seed", "5", "--worker-log", str(tmp_path / "worker.log")],
+        [
+            *CLI,
+            "campaign",
+            "run",
+            "--oracle",
+            "aux-penalty",
+            "--iterations",
+            "2",
+            "--config",
+            str(cfg),
+            "--json",
+            "--seed",
+            "5",
+            "--worker-log",
+            str(tmp_path / "worker.log"),
+        ],
         env=env,
         capture_output=True,
         text=True,
@@ -131,8 +146,8 @@ def test_campaign_run_without_a_worker_names_the_queue_it_waits_on(tmp_path: Pat
     try:
         wait_for(
             lambda: (
-                "waiting: no live worker serves queue 'default' (step preliminary); start one with `alcove worker --queues default`"
-                in run.output()
+                "waiting: no live worker serves queue 'default' (step preliminary); "
+                "start one with `alcove worker --queues default`" in run.output()
             ),
             60,
             "the notice for the default queue",
@@ -161,8 +176,11 @@ def test_campaign_run_without_a_worker_names_the_queue_it_waits_on(tmp_path: Pat
 
 
 @pytest.fixture
-def pg_redis(pg_url: str, redis_url: str, tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Iterator[dict[str, str]]:
-    """This process and its workers on PostgreSQL + Redis (private key prefix), 3 s leases."""
+def pg_redis(
+    pg_url: str, redis_url: str, tmp_path: Path, monkeypatch: pytest.MonkeyPatch, faults: dict[str, str]
+) -> Iterator[dict[str, str]]:
+    """This process and its workers on PostgreSQL + Redis (private key prefix), 3 s leases,
+    all of them test processes reading one fault plan."""
     from alcove.db import dispose_engines
     from alcove.jobs import reset_sender
     from alcove.settings import get_settings
@@ -179,7 +197,7 @@ def pg_redis(pg_url: str, redis_url: str, tmp_path: Path, monkeypatch: pytest.Mo
     get_settings.cache_clear()
     dispose_engines(close=True)
     reset_sender()
-    yield env_for(**settings)
+    yield {**env_for(**settings), **faults}
     get_settings.cache_clear()
     dispose_engines(close=True)
     reset_sender()
@@ -188,16 +206,14 @@ def pg_redis(pg_url: str, redis_url: str, tmp_path: Path, monkeypatch: pytest.Mo
 def quick_campaign(
     make_campaign: Any, seed: int, iterations: int, fault: dict | None = None, start: bool = True
 ) -> tuple[int, list]:
-    return make_campaign(
-        seed=seed, stopping={"max_iterations": iterations}, settings={"fault_injection": fault or {}}, start=start
-    )
+    return make_campaign(seed=seed, stopping={"max_iterations": iterations}, fault=fault, start=start)
 
 
 def reference_pool(make_campaign: Any, seed: int, iterations: int, url: str) -> list[tuple[int, str, int]]:
-    from alcove.campaigns import flows
+    from alcove.campaigns import protocol
 
     cid, jobs = quick_campaign(make_campaign, seed, iterations)
-    flows.drive_inline(cid, jobs)
+    protocol.drive_inline(cid, jobs)
     return pool_hashes(url, cid)
 
 
@@ -259,7 +275,8 @@ def test_sigkill_of_a_worker_during_an_oracle_job_loses_and_duplicates_nothing(
     assert rows(pg_url, "SELECT count(*) FROM datasets WHERE campaign_id = :c AND origin = 'oracle'", c=cid) == [(3,)]
     assert rows(
         pg_url,
-        "SELECT count(*) FROM campaign_events WHERE campaign_id = :c AND kind = 'step_started' AND step = 'preliminary'",
+        "SELECT count(*) FROM campaign_events "
+        "WHERE campaign_id = :c AND kind = 'step_started' AND step = 'preliminary'",
         c=cid,
     ) == [(1,)]
     assert rows(pg_url, "SELECT count(*) FROM datasets WHERE campaign_id = :c AND origin = 'preliminary'", c=cid) == [
@@ -275,7 +292,8 @@ def test_sigkill_of_a_worker_during_an_oracle_job_loses_and_duplicates_nothing(
     ) == [(k, True, True, True) for k in (1, 2, 3)]
     lineage = rows(
         pg_url,
-        "SELECT m.version, p.version, pm.version FROM model_versions m JOIN pool_versions p ON p.id = m.pool_version_id "
+        "SELECT m.version, p.version, pm.version FROM model_versions m "
+        "JOIN pool_versions p ON p.id = m.pool_version_id "
         "LEFT JOIN model_versions pm ON pm.id = m.parent_model_id WHERE m.campaign_id = :c ORDER BY m.version",
         c=cid,
     )
@@ -377,16 +395,26 @@ def test_killing_the_controlling_process_leaves_a_campaign_that_a_new_worker_fin
     """SIGKILL of `alcove campaign run` (the API-side process): its worker shuts down with
     it; the campaign lives in the database and a worker started later completes it."""
     cfg = tmp_path / "quick.yaml"
-    cfg.write_text(
-        QUICK_YAML.replace(
-            "settings: {ocp_intervals: 20, replay_dt: 0.01}",
-            "settings: {ocp_intervals: 20, replay_dt: 0.01, fault_injection: {train: {sleep_s: 2, iterations: [2]}}}",
-        )
-    )
-    env = env_for(data_dir=tmp_path / "data", job_lease_seconds=4)
+    cfg.write_text(QUICK_YAML)
+    plan = tmp_path / "faults.json"  # the (only) campaign's second training is slow
+    plan.write_text(json.dumps({"campaigns": {"*": {"train": {"sleep_s": 2, "iterations": [2]}}}}))
+    env = env_for(data_dir=tmp_path / "data", job_lease_seconds=4, testing="true", fault_plan=plan)
     url = f"sqlite:///{tmp_path / 'data' / 'alcove.db'}"
     cli = subprocess.Popen(
-        [*CLI, "campaign", "run", "--oracle", "aux-penalty", "--iterations", "3", "--config", str(cfg), "--json", "--worker-log", str(tmp_path / "spawned.log")],
+        [
+            *CLI,
+            "campaign",
+            "run",
+            "--oracle",
+            "aux-penalty",
+            "--iterations",
+            "3",
+            "--config",
+            str(cfg),
+            "--json",
+            "--worker-log",
+            str(tmp_path / "spawned.log"),
+        ],
         env=env,
         stdout=subprocess.DEVNULL,
         stderr=subprocess.DEVNULL,
@@ -395,7 +423,8 @@ def test_killing_the_controlling_process_leaves_a_campaign_that_a_new_worker_fin
         wait_for(
             lambda: maybe_rows(
                 url,
-                "SELECT 1 FROM iteration_steps s JOIN iterations i ON i.id = s.iteration_id WHERE i.\"index\" = 2 AND s.step = 'train' AND s.status = 'running'",
+                "SELECT 1 FROM iteration_steps s JOIN iterations i ON i.id = s.iteration_id "
+                "WHERE i.\"index\" = 2 AND s.step = 'train' AND s.status = 'running'",
             ),
             180,
             "the train job of iteration 2",

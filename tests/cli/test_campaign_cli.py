@@ -1,6 +1,6 @@
 """`alcove campaign create|start|pause|resume|cancel|fork|status|export` on the embedded
 default (a fresh SQLite store). The steps are run in this process with the workers' protocol
-(flows.drive_inline) instead of a worker, so the test stays fast; `alcove campaign run`
+(protocol.drive_inline) instead of a worker, so the test stays fast; `alcove campaign run`
 through a real worker is tested in tests/campaigns/test_workers.py."""
 
 from __future__ import annotations
@@ -59,7 +59,7 @@ def status(cid: int) -> dict[str, Any]:
 
 def run_queued_steps(cid: int) -> None:
     """What a worker would do with the messages `start`/`resume` sent: run the queued step to the end."""
-    from alcove.campaigns.flows import drive_inline
+    from alcove.campaigns.protocol import drive_inline
     from alcove.campaigns.schemas import StepJob
     from alcove.db import session_scope
     from alcove.models import Iteration, IterationStep, StepName

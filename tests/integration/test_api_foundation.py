@@ -26,14 +26,14 @@ def settings(tmp_path: Path, sqlite_url: str, monkeypatch: pytest.MonkeyPatch) -
 
 
 def test_health_needs_nothing(settings: Settings) -> None:
-    from alcove.api import create_app
+    from alcove.app import create_app
 
     r = TestClient(create_app(settings)).get("/api/v1/health")
     assert r.status_code == 200 and r.json()["status"] == "ok"
 
 
 def test_readiness_without_workers_is_503_with_reasons(settings: Settings) -> None:
-    from alcove.api import create_app
+    from alcove.app import create_app
 
     r = TestClient(create_app(settings)).get("/api/v1/health/ready")
     assert r.status_code == 503
@@ -43,7 +43,7 @@ def test_readiness_without_workers_is_503_with_reasons(settings: Settings) -> No
 
 
 def test_readiness_sees_a_fresh_heartbeat(settings: Settings) -> None:
-    from alcove.api import create_app
+    from alcove.app import create_app
     from alcove.jobs.heartbeat import beat, mark_stopped
 
     beat("api-test@host", queues=["default", "ocp"], concurrency=1, starting=True)
@@ -58,7 +58,7 @@ def test_readiness_sees_a_fresh_heartbeat(settings: Settings) -> None:
 def test_readiness_reports_an_unmigrated_database(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.setenv("ALCOVE_DATA_DIR", str(tmp_path))
     monkeypatch.setenv("ALCOVE_DATABASE_URL", f"sqlite:///{tmp_path / 'empty.db'}")
-    from alcove.api import create_app
+    from alcove.app import create_app
     from alcove.settings import get_settings
 
     get_settings.cache_clear()
@@ -70,7 +70,7 @@ def test_readiness_reports_an_unmigrated_database(tmp_path: Path, monkeypatch: p
 
 
 def test_openapi_operation_ids_are_stable(settings: Settings) -> None:
-    from alcove.api import create_app
+    from alcove.app import create_app
 
     spec = TestClient(create_app(settings)).get("/api/v1/openapi.json").json()
     ops = {op["operationId"] for path in spec["paths"].values() for op in path.values()}
@@ -78,7 +78,7 @@ def test_openapi_operation_ids_are_stable(settings: Settings) -> None:
 
 
 def test_serves_the_built_frontend_with_spa_fallback(tmp_path: Path, settings: Settings) -> None:
-    from alcove.api import create_app
+    from alcove.app import create_app
 
     static = tmp_path / "static"
     (static / "assets").mkdir(parents=True)
@@ -93,14 +93,14 @@ def test_serves_the_built_frontend_with_spa_fallback(tmp_path: Path, settings: S
 
 
 def test_placeholder_page_without_frontend(tmp_path: Path, settings: Settings) -> None:
-    from alcove.api import create_app
+    from alcove.app import create_app
 
     r = TestClient(create_app(settings.model_copy(update={"static_dir": tmp_path / "none"}))).get("/")
     assert r.status_code == 200 and "/api/v1/docs" in r.text
 
 
 def test_busy_database_is_503_retry_not_500(tmp_path: Path, settings: Settings) -> None:
-    from alcove.api import create_app
+    from alcove.app import create_app
 
     app = create_app(settings.model_copy(update={"static_dir": tmp_path / "none"}))
 
@@ -117,7 +117,7 @@ def test_busy_database_is_503_retry_not_500(tmp_path: Path, settings: Settings) 
 def test_api_process_does_not_import_torch_or_casadi() -> None:
     code = (
         "import sys\n"
-        "from alcove.api import create_app\n"
+        "from alcove.app import create_app\n"
         "from alcove.jobs import send_job, celery_config\n"
         "from alcove.db import get_engine\n"
         "import alcove.models\n"

@@ -22,7 +22,7 @@ def smoke(self: Any, token: str, sent_at: float | None = None) -> int:
 
 # ----------------------------------------------------------------------------- campaign steps
 # One job per step type; the message is (campaign_id, iteration, step, attempt). The job
-# claims its step row first, so a duplicate delivery is a no-op (see alcove.campaigns.flows).
+# claims its step row first, so a duplicate delivery is a no-op (see alcove.campaigns.protocol).
 
 from celery import signals  # noqa: E402
 
@@ -30,7 +30,7 @@ from alcove.jobs.campaign import RECONCILE_JOB, STEP_JOBS  # noqa: E402
 
 
 def _run_step(job: Any, campaign_id: int, iteration: int, step: str, attempt: int) -> dict:
-    from alcove.campaigns.flows import run_step
+    from alcove.campaigns.protocol import run_step
 
     return run_step(
         int(campaign_id), int(iteration), str(step), int(attempt), worker_name=job.request.hostname or "unknown"
@@ -76,7 +76,7 @@ from alcove.previews.service import ORACLE_PREVIEW_JOB, TASK_PREVIEW_JOB  # noqa
 @app.task(name=TASK_PREVIEW_JOB, bind=True, acks_late=True)
 def task_preview(self: Any, preview_id: int) -> str:
     """Solve a task once with the auxiliary contact (queue ocp)."""
-    from alcove.previews.service import run_preview
+    from alcove.previews.worker import run_preview
 
     return run_preview(int(preview_id), worker_name=self.request.hostname or "unknown")
 
@@ -84,7 +84,7 @@ def task_preview(self: Any, preview_id: int) -> str:
 @app.task(name=ORACLE_PREVIEW_JOB, bind=True, acks_late=True)
 def oracle_preview(self: Any, preview_id: int) -> str:
     """Replay the sample trajectory through an oracle (queue oracle)."""
-    from alcove.previews.service import run_preview
+    from alcove.previews.worker import run_preview
 
     return run_preview(int(preview_id), worker_name=self.request.hostname or "unknown")
 

@@ -25,10 +25,10 @@ from alcove.errors import (
     AuthenticationFailed,
     Conflict,
     InvalidInput,
-    LoginLocked,
     NotFound,
     PermissionDenied,
     TooLarge,
+    TooManyRequests,
     field_errors_from_pydantic,
     merge_message_path,
 )
@@ -120,24 +120,9 @@ def install_error_handlers(app: FastAPI) -> None:
     app.add_exception_handler(TooLarge, simple(413))
     app.add_exception_handler(AuthenticationFailed, simple(401, {"WWW-Authenticate": "Bearer"}))
 
-    @app.exception_handler(LoginLocked)
-    async def _locked(request: Request, err: LoginLocked) -> JSONResponse:
+    @app.exception_handler(TooManyRequests)
+    async def _too_many(request: Request, err: TooManyRequests) -> JSONResponse:
         return JSONResponse({"detail": err.message}, status_code=429, headers={"Retry-After": str(err.retry_after_s)})
-
-    from alcove.previews.service import TooManyPreviews
-
-    @app.exception_handler(TooManyPreviews)
-    async def _too_many(request: Request, err: TooManyPreviews) -> JSONResponse:
-        return JSONResponse({"detail": err.message}, status_code=429, headers={"Retry-After": str(err.retry_after_s)})
-
-    from alcove.campaigns.repository import NotFound as RowNotFound
-    from alcove.campaigns.state_machine import InvalidTransition
-
-    @app.exception_handler(RowNotFound)
-    async def _row_not_found(request: Request, err: RowNotFound) -> JSONResponse:
-        return JSONResponse({"detail": str(err)}, status_code=404)
-
-    app.add_exception_handler(InvalidTransition, simple(409))
 
     @app.exception_handler(ArithmeticError)
     async def _arithmetic(request: Request, err: ArithmeticError) -> JSONResponse:

@@ -27,13 +27,13 @@ from typing import Annotated, Any
 from fastapi import APIRouter, Query, Request
 from fastapi.responses import StreamingResponse
 
-from alcove.api.auth import CurrentUser
 from alcove.api.params import MAX_ID, ObjectId
 from alcove.campaigns import repository as repo
 from alcove.campaigns.schemas import EventRead
 from alcove.db import get_sessionmaker
 from alcove.models import Campaign, CampaignStatus, User
 from alcove.users.access import get_for
+from alcove.users.auth import CurrentUser
 
 log = logging.getLogger(__name__)
 

@@ -23,7 +23,7 @@ from datetime import timedelta
 from sqlalchemy.orm import Session
 
 from alcove.campaigns import repository as repo
-from alcove.campaigns import service
+from alcove.campaigns import transitions
 from alcove.campaigns.schemas import StepJob
 from alcove.campaigns.state_machine import Outcome, StepRef
 from alcove.models import StepName, StepStatus, utcnow
@@ -45,7 +45,7 @@ def reconcile(s: Session, *, stale_queued_s: float) -> list[StepJob]:
         if row.attempts >= row.max_attempts:
             row.claim_token = None
             outcome = Outcome.cancelled if c.cancel_requested else _policy(s, c, ref)
-            jobs += service.complete_step(s, c, ref, row, outcome, error=message)
+            jobs += transitions.complete_step(s, c, ref, row, outcome, error=message)
             continue
         row.status, row.claim_token, row.lease_until, row.queued_at, row.error = (
             StepStatus.queued.value,
@@ -76,9 +76,9 @@ def reconcile(s: Session, *, stale_queued_s: float) -> list[StepJob]:
 
 
 def _policy(s: Session, c, ref: StepRef) -> Outcome:
-    from alcove.campaigns.flows import _policy_outcome
+    from alcove.campaigns.protocol import policy_outcome
 
-    return _policy_outcome(service.current_config(s, c), ref)
+    return policy_outcome(transitions.current_config(s, c), ref)
 
 
 def reconcile_and_enqueue(stale_queued_s: float | None = None) -> list[StepJob]:

@@ -8,32 +8,19 @@ from datetime import datetime, timedelta
 import sqlalchemy as sa
 from sqlalchemy.orm import Session, selectinload
 
+from alcove.errors import NotFound
 from alcove.models import (
     Campaign,
     CampaignConfigVersion,
     CampaignEvent,
-    Dataset,
     Iteration,
     IterationMetrics,
     IterationStep,
-    ModelVersion,
-    OcpSolution,
-    OracleRun,
-    PoolVersion,
     StepStatus,
     User,
     utcnow,
 )
 from alcove.users.access import visible_clause
-
-
-class NotFound(LookupError):
-    """A row the caller named does not exist; ``field`` names the identifier."""
-
-    def __init__(self, field: str, reason: str):
-        self.field = field
-        self.reason = reason
-        super().__init__(f"{field}: {reason}")
 
 
 def get_campaign(s: Session, campaign_id: int, *, lock: bool = False) -> Campaign:
@@ -42,7 +29,7 @@ def get_campaign(s: Session, campaign_id: int, *, lock: bool = False) -> Campaig
         q = q.with_for_update()
     c = s.scalar(q)
     if c is None:
-        raise NotFound("campaign_id", f"no campaign {campaign_id}")
+        raise NotFound("campaign", campaign_id)
     return c
 
 
@@ -61,7 +48,7 @@ def config_version(s: Session, campaign: Campaign, version: int | None = None) -
         )
     )
     if row is None:
-        raise NotFound("config_version", f"campaign {campaign.id} has no config version {v}")
+        raise NotFound("config version", message=f"campaign {campaign.id} has no config version {v}")
     return row
 
 
@@ -300,56 +287,3 @@ def add_event(
             campaign_id=campaign_id, kind=kind, message=message, iteration_index=iteration, step=step, data=data or {}
         )
     )
-
-
-# ----------------------------------------------------------------------------- data of a campaign
-
-
-def resolve_source(s: Session, campaign: Campaign, index: int) -> tuple[int, int] | None:
-    """(campaign id, index) holding iteration ``index``'s outputs for ``campaign``: its own,
-    or for indices up to a fork's ``source_iteration`` the source campaign's (recursively)."""
-    c = campaign
-    while c.source_campaign_id is not None and c.source_iteration is not None and index <= c.source_iteration:
-        c = get_campaign(s, c.source_campaign_id)
-    return c.id, index
-
-
-def pool_version(s: Session, campaign: Campaign, version: int) -> PoolVersion | None:
-    cid, v = resolve_source(s, campaign, version)  # type: ignore[misc]
-    return s.scalar(sa.select(PoolVersion).where(PoolVersion.campaign_id == cid, PoolVersion.version == v))
-
-
-def model_version(s: Session, campaign: Campaign, version: int) -> ModelVersion | None:
-    cid, v = resolve_source(s, campaign, version)  # type: ignore[misc]
-    return s.scalar(sa.select(ModelVersion).where(ModelVersion.campaign_id == cid, ModelVersion.version == v))
-
-
-def own_pool_versions(s: Session, campaign_id: int) -> list[PoolVersion]:
-    return list(
-        s.scalars(sa.select(PoolVersion).where(PoolVersion.campaign_id == campaign_id).order_by(PoolVersion.version))
-    )
-
-
-def own_model_versions(s: Session, campaign_id: int) -> list[ModelVersion]:
-    return list(
-        s.scalars(sa.select(ModelVersion).where(ModelVersion.campaign_id == campaign_id).order_by(ModelVersion.version))
-    )
-
-
-def latest_ocp_solution(s: Session, iteration_id: int) -> OcpSolution | None:
-    return s.scalar(
-        sa.select(OcpSolution)
-        .where(OcpSolution.iteration_id == iteration_id)
-        .order_by(OcpSolution.attempt.desc())
-        .limit(1)
-    )
-
-
-def oracle_runs(s: Session, iteration_id: int) -> list[OracleRun]:
-    return list(
-        s.scalars(sa.select(OracleRun).where(OracleRun.iteration_id == iteration_id).order_by(OracleRun.attempt))
-    )
-
-
-def iteration_dataset(s: Session, iteration_id: int) -> Dataset | None:
-    return s.scalar(sa.select(Dataset).where(Dataset.iteration_id == iteration_id, Dataset.origin == "oracle"))

@@ -1,169 +1,26 @@
-"""Pydantic schemas of the campaign domain: settings (validated JSON stored on the
-campaign and its config versions), requests, and what the service returns to the API."""
+"""Pydantic schemas of the campaign domain: what the API accepts and returns (the settings
+themselves are in :mod:`alcove.campaigns.config`, re-exported here)."""
 
 from __future__ import annotations
 
 from datetime import datetime
-from typing import Any, Literal
+from typing import Any
 
-from pydantic import BaseModel, ConfigDict, Field, model_validator
+from pydantic import BaseModel, ConfigDict, Field
 
+from alcove.api.params import MAX_ID
+from alcove.campaigns.config import (
+    CampaignConfig,
+    CampaignConfigUpdate,
+    CampaignCreate,
+    ForkRequest,
+    OnFailure,
+    Policies,
+    PreliminaryConfig,
+    RunSettings,
+    StoppingRules,
+)
 from alcove.models.base import CampaignStatus, IterationStatus, StepName, StepStatus
-from alcove.pool.schemas import PoolVersionRead
-from alcove.surrogates.schemas import ModelVersionRead
-
-
-class _Strict(BaseModel):
-    model_config = ConfigDict(extra="forbid")
-
-
-# ----------------------------------------------------------------------------- settings
-
-
-class PreliminaryConfig(_Strict):
-    """Where pool version 0 comes from: Latin-hypercube samples evaluated with the auxiliary
-    penalty model (the paper), or uploaded datasets (``dataset_ids``)."""
-
-    samples: int = Field(4000, ge=2, le=1_000_000, description="LHS sample count K")
-    velocity_bound: float = Field(2.0, gt=0, le=100, description="|qd| bound of the samples [rad/s]")
-    chunks: int = Field(
-        10, ge=1, le=1000, description="datasets the samples are dealt into (for the split by simulation)"
-    )
-    seed: int | None = Field(None, ge=0, description="LHS seed (default: the campaign seed)")
-    dataset_ids: list[int] | None = Field(None, description="uploaded datasets to use instead of LHS samples")
-
-
-class StoppingRules(_Strict):
-    """Any combination; the first that fires after an iteration stops the campaign."""
-
-    max_iterations: int | None = Field(
-        200, ge=1, le=100_000, description="stop after iteration k = max_iterations (paper: 200)"
-    )
-    target_force_rmse: float | None = Field(
-        None, gt=0, description="stop when the iteration's force RMSE [N] is at most this"
-    )
-    target_moment_rmse: float | None = Field(
-        None, gt=0, description="stop when the iteration's moment RMSE [N m] is at most this"
-    )
-    plateau_window: int | None = Field(
-        None,
-        ge=1,
-        le=10_000,
-        description="stop when the best force RMSE of the last W iterations is no better than before",
-    )
-    plateau_tolerance: float = Field(0.01, ge=0, lt=1, description="relative improvement that still counts as progress")
-    oracle_budget_s: float | None = Field(
-        None, gt=0, description="stop when the oracle's total wall time reaches this [s]"
-    )
-
-    @model_validator(mode="after")
-    def _some_rule(self) -> StoppingRules:
-        if (
-            self.max_iterations is None
-            and self.target_force_rmse is None
-            and self.target_moment_rmse is None
-            and self.plateau_window is None
-            and self.oracle_budget_s is None
-        ):
-            raise ValueError("at least one stopping rule is needed (e.g. max_iterations)")
-        return self
-
-
-OnFailure = Literal["continue", "stop"]
-
-
-class Policies(_Strict):
-    """What happens when a step fails."""
-
-    train_max_attempts: int = Field(2, ge=1, le=20, description="attempts of a train job that raised")
-    ocp_initial_guesses: int = Field(
-        3,
-        ge=1,
-        le=4,
-        description="IPOPT runs with different initial guesses (previous solution, passive, ramp, static)",
-    )
-    ocp_max_attempts: int = Field(2, ge=1, le=20, description="attempts of an ocp job that raised")
-    ocp_on_failure: OnFailure = Field(
-        "continue", description="no converged solution: mark the iteration failed and continue, or stop the campaign"
-    )
-    oracle_max_attempts: int = Field(3, ge=1, le=20, description="attempts of an oracle job that raised or timed out")
-    oracle_on_failure: OnFailure = Field(
-        "continue", description="oracle failed (attempts exhausted) or its result was quarantined by the quality gate"
-    )
-    evaluate_max_attempts: int = Field(3, ge=1, le=20)
-    append_max_attempts: int = Field(3, ge=1, le=20)
-
-
-class RunSettings(_Strict):
-    """Other settings that change results."""
-
-    replay_phases: int = Field(
-        1, ge=1, le=100, description="the oracle replays the first N phases of the OCP trajectory (paper: 1)"
-    )
-    replay_dt: float | None = Field(
-        0.0025,
-        gt=0,
-        le=0.1,
-        description="the replayed trajectory is resampled (cubic Hermite) at this step [s]; None: the OCP grid",
-    )
-    ocp_intervals: int | None = Field(
-        None, ge=2, le=20000, description="override the task's intervals per phase (None: as the task says)"
-    )
-    fault_injection: dict[str, Any] = Field(
-        default_factory=dict,
-        description="tests only, per step name: raise_attempts (raise on attempts <= n), sleep_s (+ iterations: [k...]), ipopt_max_iter (ocp), gate_fail (oracle)",
-    )
-
-
-class CampaignConfig(_Strict):
-    """The editable part of a campaign; a snapshot of it is a campaign config version."""
-
-    preliminary: PreliminaryConfig = Field(default_factory=PreliminaryConfig)
-    stopping: StoppingRules = Field(default_factory=StoppingRules)
-    policies: Policies = Field(default_factory=Policies)
-    settings: RunSettings = Field(default_factory=RunSettings)
-
-
-# ----------------------------------------------------------------------------- requests
-
-
-class CampaignCreate(CampaignConfig):
-    name: str = Field(min_length=1, max_length=200)
-    description: str = ""
-    task_version_id: int
-    oracle_version_id: int
-    surrogate_config_version_id: int
-    seed: int = Field(0, ge=0, lt=2**62)
-
-
-class CampaignConfigUpdate(_Strict):
-    """Edit of a campaign's settings: each given part replaces the current one and a new
-    config version is recorded; iterations created afterwards use it."""
-
-    surrogate_config_version_id: int | None = None
-    stopping: StoppingRules | None = None
-    policies: Policies | None = None
-    settings: RunSettings | None = None
-    note: str = ""
-
-
-class ForkRequest(_Strict):
-    """A new campaign continuing from ``iteration`` of the source (its pool version and
-    model at that iteration), with changed settings."""
-
-    iteration: int = Field(ge=0)
-    name: str | None = None
-    surrogate_config_version_id: int | None = None
-    oracle_version_id: int | None = None
-    task_version_id: int | None = None
-    seed: int | None = Field(None, ge=0, lt=2**62)
-    stopping: StoppingRules | None = None
-    policies: Policies | None = None
-    settings: RunSettings | None = None
-    start: bool = False
-
-
-# ----------------------------------------------------------------------------- reads
 
 
 class _Read(BaseModel):
@@ -281,7 +138,10 @@ class IterationCurves(BaseModel):
     qd: list[list[float]]
     tau: list[list[float]] | None = Field(
         None,
-        description="(n, ndof) joint torque of the replayed motion [N m] on the same grid; null without an oracle run (iteration 0)",
+        description=(
+            "(n, ndof) joint torque of the replayed motion [N m] on the same grid; "
+            "null without an oracle run (iteration 0)"
+        ),
     )
     f_true: list[list[float]] = Field(description="(n, 6): fx fy fz mx my mz")
     f_pred: list[list[float]]
@@ -340,24 +200,109 @@ class EventRead(_Read):
     created_at: datetime
 
 
+class _In(BaseModel):
+    model_config = ConfigDict(extra="forbid")
+
+
+class CampaignCreateIn(_In):
+    """A campaign of one of your (or shared) tasks and oracles. Versions default to the latest;
+    the surrogate config defaults to the paper's."""
+
+    name: str = Field(min_length=1, max_length=200)
+    description: str = Field("", max_length=20_000)
+    task_id: int = Field(ge=1, le=MAX_ID)
+    task_version: int | None = Field(None, ge=1, le=MAX_ID)
+    oracle_id: int = Field(ge=1, le=MAX_ID)
+    oracle_version: int | None = Field(None, ge=1, le=MAX_ID)
+    surrogate_config_id: int | None = Field(None, ge=1, le=MAX_ID)
+    surrogate_config_version: int | None = Field(None, ge=1, le=MAX_ID)
+    seed: int = Field(0, ge=0, lt=2**62)
+    preliminary: PreliminaryConfig = Field(default_factory=PreliminaryConfig)
+    stopping: StoppingRules = Field(default_factory=StoppingRules)
+    policies: Policies = Field(default_factory=Policies)
+    settings: RunSettings = Field(default_factory=RunSettings)
+    start: bool = Field(False, description="start right away")
+
+
+class RetryIn(_In):
+    iteration: int | None = Field(None, ge=0, le=MAX_ID)
+    step: StepName | None = None
+
+
+class CampaignSummary(BaseModel):
+    id: int
+    name: str
+    status: CampaignStatus
+    owner_id: int
+    owner: str
+    task_id: int
+    task: str
+    task_version: int
+    oracle_id: int
+    oracle: str
+    oracle_type: str
+    oracle_version: int
+    current_iteration: int
+    current_step: str | None
+    max_iterations: int | None
+    latest_iteration: int | None = Field(None, description="index of the latest iteration with metrics")
+    force_rmse: float | None = Field(description="latest iteration's force RMSE [N]")
+    moment_rmse: float | None = Field(description="latest iteration's moment RMSE [N m]")
+    mean_iteration_s: float | None = Field(None, description="mean wall time of the last 20 finished iterations [s]")
+    eta_s: float | None = Field(
+        None,
+        description=(
+            "remaining iterations (max_iterations rule) x mean iteration time [s]; null when finished or unknown"
+        ),
+    )
+    source_campaign_id: int | None
+    source_iteration: int | None
+    created_at: datetime
+    started_at: datetime | None
+    finished_at: datetime | None
+
+
+class CampaignOut(CampaignDetail):
+    id: int = Field(description="the campaign's id (= campaign.id)")
+    owner: str
+    can_edit: bool
+    task_id: int
+    task_version: int
+    oracle_id: int
+    oracle_version: int
+
+
+class JobOut(StepRead):
+    iteration: int
+
+
+# ----------------------------------------------------------------------------- helpers
+
+
 __all__ = [
     "CampaignConfig",
     "CampaignConfigUpdate",
     "CampaignCreate",
+    "CampaignCreateIn",
     "CampaignDetail",
+    "CampaignOut",
     "CampaignRead",
+    "CampaignSummary",
     "EventRead",
     "ForkRequest",
     "IterationCurves",
     "IterationRead",
+    "IterationTrajectory",
+    "JobOut",
     "MetricsRead",
-    "ModelVersionRead",
+    "OcpSolverSummary",
     "OnFailure",
     "Policies",
-    "PoolVersionRead",
     "PreliminaryConfig",
+    "RetryIn",
     "RunSettings",
     "StepJob",
     "StepRead",
     "StoppingRules",
+    "TrajectoryPhase",
 ]

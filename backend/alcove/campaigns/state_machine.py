@@ -23,13 +23,14 @@ from dataclasses import dataclass, field
 from enum import Enum
 from typing import Any
 
+from alcove.errors import Conflict
 from alcove.models.base import ITERATION_STEPS, CampaignStatus, StepName
 
 S = CampaignStatus
 
 
-class InvalidTransition(ValueError):
-    """The event is not allowed in the campaign's current state."""
+class InvalidTransition(Conflict, ValueError):
+    """The event is not allowed in the campaign's current state (409)."""
 
     def __init__(self, status: CampaignStatus | str, event: str, reason: str = ""):
         self.status = CampaignStatus(status)

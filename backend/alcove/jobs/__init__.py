@@ -15,8 +15,8 @@ delivery: every job claims its row with a conditional update first.
 
 The embedded default uses kombu's filesystem transport (folders under
 ``ALCOVE_DATA_DIR/broker``, no server; :mod:`alcove.jobs.fs_transport` makes writing a
-message atomic, so a worker polling every few ms never reads a half-written file). Note its limits: a message is taken out of the
-folder when a worker fetches it, so a worker killed with SIGKILL loses it; the
+message atomic, so a worker polling every few ms never reads a half-written file). Note
+its limits: a message is taken out of the folder when a worker fetches it, so a worker killed with SIGKILL loses it; the
 campaign reconciler (lease expiry in the database) is what re-enqueues such steps.
 """
 

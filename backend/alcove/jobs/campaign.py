@@ -8,6 +8,7 @@ iteration k, the step name and the attempt number; the database holds everything
 
 from __future__ import annotations
 
+import logging
 from collections.abc import Iterable
 from typing import TYPE_CHECKING, Any
 
@@ -15,6 +16,8 @@ from alcove.jobs import queue_for, send_job
 
 if TYPE_CHECKING:
     from celery import Celery
+
+log = logging.getLogger(__name__)
 
 STEP_JOBS: dict[str, str] = {
     "preliminary": "alcove.default.preliminary",
@@ -53,6 +56,18 @@ def enqueue(jobs: Iterable[Any], app: Celery | None = None) -> list[str]:
             )
         )
     return ids
+
+
+def send_committed(jobs: Iterable[Any]) -> None:
+    """Send the jobs a committed change made necessary. A failed send loses nothing: the
+    steps are queued in the database and the reconciler re-sends queued steps nobody claimed."""
+    jobs = list(jobs)
+    if not jobs:
+        return
+    try:
+        enqueue(jobs)
+    except Exception:
+        log.exception("sending %d job(s) failed; the reconciler will re-send them", len(jobs))
 
 
 def _nonce() -> str:

@@ -63,7 +63,10 @@ class Campaign(TimestampMixin, Base):
     )
     preliminary_config: Mapped[dict[str, Any]] = mapped_column(
         default=dict,
-        comment="preliminary data: LHS sample count K, velocity bounds, oracle, or an uploaded dataset id; down-weighting schedule",
+        comment=(
+            "preliminary data: LHS sample count K, velocity bounds, oracle, or an uploaded dataset id; "
+            "down-weighting schedule"
+        ),
     )
     stopping_rules: Mapped[dict[str, Any]] = mapped_column(
         default=dict,

@@ -11,7 +11,7 @@ import sqlalchemy as sa
 from sqlalchemy.orm import Session
 
 from alcove import versioning
-from alcove.models import CommandOracle, OracleDefinition, User
+from alcove.models import CommandOracle, OracleDefinition, OracleRun, User
 from alcove.users.access import Need, get_for
 
 KIND = versioning.ORACLES
@@ -70,3 +70,15 @@ def add_command(s: Session, row: CommandOracle) -> CommandOracle:
 
 def delete_command(s: Session, row: CommandOracle) -> None:
     s.delete(row)
+
+
+def runs_of_iteration(s: Session, iteration_id: int) -> list[OracleRun]:
+    """Every oracle run (attempt) of a campaign iteration, in order."""
+    q = sa.select(OracleRun).where(OracleRun.iteration_id == iteration_id).order_by(OracleRun.attempt)
+    return list(s.scalars(q))
+
+
+def replayed_input(s: Session, iteration_id: int) -> str | None:
+    """The blob of the motion (t, q, qd, tau) the iteration's accepted oracle run replayed."""
+    q = sa.select(OracleRun.input_sha256).where(OracleRun.iteration_id == iteration_id, OracleRun.status == "ok")
+    return s.scalar(q.order_by(OracleRun.id.desc()).limit(1))

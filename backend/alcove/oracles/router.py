@@ -8,7 +8,6 @@ from typing import Annotated, Any
 from fastapi import APIRouter, Path, Response, status
 
 from alcove import versioning
-from alcove.api.auth import AdminUser, CurrentUser
 from alcove.api.deps import SessionDep
 from alcove.api.params import Limit, ObjectId, Offset, VersionNumber
 from alcove.models import OracleDefinition, User
@@ -25,8 +24,9 @@ from alcove.oracles.schemas import (
     OracleUpdate,
     OracleVersionOut,
 )
-from alcove.tasks.schemas import CopyPreset, FieldErrorOut, ValidationReport
 from alcove.users.access import can_edit
+from alcove.users.auth import AdminUser, CurrentUser
+from alcove.versioning.schemas import CopyPreset, FieldErrorOut, ValidationReport
 
 router = APIRouter(prefix="/oracles", tags=["oracles"])
 admin_router = APIRouter(prefix="/admin/command-oracles", tags=["admin"])

@@ -7,7 +7,7 @@ from typing import Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field
 
-from alcove.tasks.schemas import DefinitionMeta, VersionMeta
+from alcove.versioning.schemas import DefinitionMeta, VersionMeta
 
 
 class _In(BaseModel):

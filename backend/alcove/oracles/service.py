@@ -34,7 +34,9 @@ PRESETS: dict[str, dict[str, str]] = {
     "fe-headrest-2d": {
         "name": "fe-headrest-2d",
         "type": "fe-headrest-2d",
-        "description": "Plane-strain FE headrest (hyperfoam cushion, penalty contact with friction), default parameters.",
+        "description": (
+            "Plane-strain FE headrest (hyperfoam cushion, penalty contact with friction), default parameters."
+        ),
     },
 }
 

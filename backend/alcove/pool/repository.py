@@ -5,6 +5,8 @@ from __future__ import annotations
 import sqlalchemy as sa
 from sqlalchemy.orm import Session
 
+from alcove.errors import NotFound
+from alcove.lineage import holder
 from alcove.models import Dataset, PoolVersion, PoolVersionMember
 
 
@@ -26,9 +28,7 @@ def datasets(s: Session, ids: list[int]) -> list[Dataset]:
     rows = {d.id: d for d in s.scalars(sa.select(Dataset).where(Dataset.id.in_(ids)))}
     missing = [i for i in ids if i not in rows]
     if missing:
-        from alcove.campaigns.repository import NotFound
-
-        raise NotFound("dataset_ids", f"no dataset {missing[0]}")
+        raise NotFound("dataset", missing[0])
     return [rows[i] for i in ids]
 
 
@@ -65,3 +65,25 @@ def uploaded_datasets(s: Session, owner_id: int, limit: int, offset: int) -> lis
         .offset(offset)
     )
     return list(s.scalars(q))
+
+
+def version_of(s: Session, campaign_id: int, version: int) -> PoolVersion | None:
+    """Pool version ``version`` of a campaign (a fork's early versions are its source's)."""
+    cid, v = holder(s, campaign_id, version)
+    return s.scalar(sa.select(PoolVersion).where(PoolVersion.campaign_id == cid, PoolVersion.version == v))
+
+
+def own_versions(s: Session, campaign_id: int) -> list[PoolVersion]:
+    """The pool versions a campaign made itself, in order."""
+    q = sa.select(PoolVersion).where(PoolVersion.campaign_id == campaign_id).order_by(PoolVersion.version)
+    return list(s.scalars(q))
+
+
+def oracle_dataset(s: Session, iteration_id: int) -> Dataset | None:
+    """The dataset an iteration's oracle run produced (None if it has none)."""
+    return s.scalar(sa.select(Dataset).where(Dataset.iteration_id == iteration_id, Dataset.origin == "oracle"))
+
+
+def owned_dataset_ids(s: Session, owner_id: int, ids: list[int]) -> set[int]:
+    """Which of ``ids`` are datasets ``owner_id`` uploaded."""
+    return set(s.scalars(sa.select(Dataset.id).where(Dataset.id.in_(ids), Dataset.owner_id == owner_id)))

@@ -9,17 +9,16 @@ from typing import Annotated, Literal
 from fastapi import APIRouter, File, Form, Response, UploadFile, status
 from pydantic import BaseModel, ConfigDict, Field
 
-from alcove.api.auth import CurrentUser
 from alcove.api.deps import SessionDep
 from alcove.api.downloads import BINARY, download
 from alcove.api.params import IterationIndex, Limit, ObjectId, Offset
-from alcove.campaigns import service as campaigns
-from alcove.campaigns.schemas import PoolVersionRead
 from alcove.errors import InvalidInput
 from alcove.models import Campaign
 from alcove.pool import repository as repo
 from alcove.pool import service
+from alcove.pool.schemas import PoolVersionRead
 from alcove.users.access import get_for
+from alcove.users.auth import CurrentUser
 
 router = APIRouter(prefix="/campaigns", tags=["campaigns"])
 uploads = APIRouter(prefix="/preliminary-datasets", tags=["datasets"])
@@ -51,7 +50,7 @@ class UploadOut(BaseModel):
 def list_pool_versions(campaign_id: ObjectId, user: CurrentUser, session: SessionDep) -> list[PoolVersionRead]:
     """Immutable pool versions (lineage: ``parent_id``; version k = k-1 + iteration k's data)."""
     get_for(session, Campaign, campaign_id, user)
-    return campaigns.list_pool_versions(session, campaign_id)
+    return service.campaign_versions(session, campaign_id)
 
 
 @router.get(
@@ -69,7 +68,7 @@ def download_pool_version(
 ) -> Response:
     """One row per sample: dataset, origin, t, q_i, qd_i, fx..mz (Parquet or CSV)."""
     get_for(session, Campaign, campaign_id, user)
-    data = campaigns.pool_version_table(session, campaign_id, version, format)
+    data = service.campaign_version_table(session, campaign_id, version, format)
     media = "application/vnd.apache.parquet" if format == "parquet" else "text/csv"
     return download(data, f"campaign-{campaign_id}-pool-{version:04d}.{format}", media)
 

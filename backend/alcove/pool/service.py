@@ -18,8 +18,10 @@ import sqlalchemy as sa
 from sqlalchemy.orm import Session
 
 from alcove.db.arrays import get_arrays, put_arrays
+from alcove.errors import NotFound
 from alcove.models import Dataset, PoolVersion, PoolVersionMember
 from alcove.pool import repository as repo
+from alcove.pool.schemas import PoolVersionRead
 
 if TYPE_CHECKING:
     from alcove.science.surrogate.dataset import PoolDataset
@@ -264,3 +266,19 @@ def upload_preliminary_dataset(
             )
         )
     return out
+
+
+# ----------------------------------------------------------------------------- a campaign's pool versions
+
+
+def campaign_versions(s: Session, campaign_id: int) -> list[PoolVersionRead]:
+    """The pool versions a campaign made (lineage: ``parent_id``)."""
+    return [PoolVersionRead.model_validate(p) for p in repo.own_versions(s, campaign_id)]
+
+
+def campaign_version_table(s: Session, campaign_id: int, version: int, fmt: str = "csv") -> bytes:
+    """Pool version ``version`` of a campaign as a table (a fork's early versions are its source's)."""
+    pv = repo.version_of(s, campaign_id, version)
+    if pv is None:
+        raise NotFound("pool version", message=f"campaign {campaign_id} has no pool version {version}")
+    return pool_version_table(s, pv, fmt)

@@ -18,11 +18,11 @@ from typing import Annotated, Any, Literal
 from fastapi import APIRouter, Body, Query, status
 from pydantic import BaseModel, ConfigDict, Field
 
-from alcove.api.auth import CurrentUser
 from alcove.api.deps import SessionDep
 from alcove.api.params import MAX_ID, ObjectId
 from alcove.models import Preview, PreviewStatus
 from alcove.previews import service
+from alcove.users.auth import CurrentUser
 
 router = APIRouter(tags=["previews"])
 
@@ -47,7 +47,10 @@ class TaskPreviewIn(_In):
         None,
         ge=1,
         le=service.MAX_PREVIEW_INTERVALS,
-        description=f"DMOCC intervals in every phase for this solve (default: each phase's own, at most {service.MAX_PREVIEW_INTERVALS})",
+        description=(
+            "DMOCC intervals in every phase for this solve "
+            f"(default: each phase's own, at most {service.MAX_PREVIEW_INTERVALS})"
+        ),
     )
 
 

@@ -3,24 +3,20 @@ trajectory" for an oracle (queue ``oracle``).
 
 The API side (:func:`create_task_preview`, :func:`create_oracle_preview`, :func:`get`)
 validates, snapshots what to run into a ``previews`` row and returns it; the route commits
-and only then sends the job by name (:func:`send`). The worker side (:func:`run_preview`)
-claims the row with a conditional update (a duplicate delivery does nothing), computes
-outside any transaction and records the result or the error. Importing this module
-imports neither torch nor casadi (the science is imported inside :func:`run_preview`).
+and only then sends the job by name (:func:`send`). The worker side is
+:mod:`alcove.previews.worker`. Importing this module imports neither torch nor casadi.
 """
 
 from __future__ import annotations
 
 import logging
-import math
-import time
 from datetime import UTC, timedelta
 from typing import Any
 
 import sqlalchemy as sa
 from sqlalchemy.orm import Session
 
-from alcove.errors import DomainError, InvalidInput, NotFound
+from alcove.errors import InvalidInput, NotFound, TooManyRequests
 from alcove.models import (
     OracleDefinition,
     OracleVersion,
@@ -56,13 +52,11 @@ MAX_PREVIEW_INTERVALS = 200
 PREVIEW_IPOPT_MAX_ITER = 1000
 
 
-class TooManyPreviews(DomainError):
+class TooManyPreviews(TooManyRequests):
     """More than :data:`MAX_ACTIVE_PER_USER` previews pending: answered 429."""
 
-    retry_after_s = 10
-
-
-# ----------------------------------------------------------------------------- API side
+    def __init__(self, message: str, retry_after_s: int = 10) -> None:
+        super().__init__(message, retry_after_s)
 
 
 def _check_capacity(session: Session, user: User) -> None:
@@ -116,11 +110,12 @@ def preview_grid(spec: dict[str, Any], intervals: int | None) -> list[int]:
 def grid_summary(spec: dict[str, Any], per_phase: list[int], intervals: int | None) -> str:
     """In words: which grid a preview solved on (and whether the task's was capped)."""
     grid = " + ".join(str(n) for n in per_phase)
-    if intervals:
-        return f"{grid} intervals ({intervals} per phase, as asked; the task's own: {' + '.join(str(int(ph.get('intervals') or 100)) for ph in spec['phases'])})"
     own = [int(ph.get("intervals") or 100) for ph in spec["phases"]]
+    if intervals:
+        return f"{grid} intervals ({intervals} per phase, as asked; the task's own: {' + '.join(map(str, own))})"
     if own != per_phase:
-        return f"{grid} intervals (the task's {' + '.join(map(str, own))}, capped at {MAX_PREVIEW_INTERVALS} per phase for a preview)"
+        capped = f"capped at {MAX_PREVIEW_INTERVALS} per phase for a preview"
+        return f"{grid} intervals (the task's {' + '.join(map(str, own))}, {capped})"
     return f"{grid} intervals (the task's own grid)"
 
 
@@ -218,7 +213,8 @@ def _fail_if_stale(session: Session, row: Preview) -> None:
         return
     queue = "ocp" if row.kind == PreviewKind.task.value else "oracle"
     what = "no worker finished it" if row.status == PreviewStatus.running.value else "no worker took it"
-    error = f"{what} within {int(STALE_AFTER.total_seconds() // 60)} minutes: is a worker listening on queue '{queue}'? Ask for a new preview."
+    minutes = int(STALE_AFTER.total_seconds() // 60)
+    error = f"{what} within {minutes} minutes: is a worker listening on queue '{queue}'? Ask for a new preview."
     from alcove.db import transaction
 
     now = utcnow()
@@ -252,170 +248,3 @@ def send(row_id: int, kind: str) -> None:
         send_job(JOB_FOR[kind], row_id, task_id=f"preview-{row_id}")
     except Exception:
         log.exception("sending preview %d failed", row_id)
-
-
-# ----------------------------------------------------------------------------- worker side
-
-
-def claim(session: Session, preview_id: int, worker_name: str) -> int | None:
-    """Take the row (pending, or running but stale); returns the attempt number or None."""
-    now = utcnow()
-    res = session.execute(
-        sa.update(Preview)
-        .where(
-            Preview.id == preview_id,
-            sa.or_(
-                Preview.status == PreviewStatus.pending.value,
-                sa.and_(Preview.status == PreviewStatus.running.value, Preview.started_at < now - STALE_AFTER),
-            ),
-        )
-        .values(
-            status=PreviewStatus.running.value, started_at=now, worker_name=worker_name, attempts=Preview.attempts + 1
-        )
-        .returning(Preview.attempts)
-    ).first()
-    return None if res is None else int(res[0])
-
-
-def run_preview(preview_id: int, worker_name: str) -> str:
-    """The worker's job: claim, compute, record. Returns the final status (or ``skipped``)."""
-    from alcove.db import transaction
-
-    attempt = transaction(lambda s: claim(s, preview_id, worker_name))
-    if attempt is None:
-        return "skipped"  # a duplicate delivery, or already done
-    row = transaction(lambda s: _snapshot(s, preview_id))
-    try:
-        result = _compute(row["kind"], row["spec"], row["options"], row["catalogue"])
-        status, error = PreviewStatus.succeeded.value, None
-    except Exception as err:
-        log.info("preview %d failed: %s", preview_id, err, exc_info=not isinstance(err, ValueError))
-        result, status, error = None, PreviewStatus.failed.value, _error_text(err)
-
-    def record(s: Session) -> None:
-        s.execute(
-            sa.update(Preview)
-            .where(Preview.id == preview_id, Preview.status == PreviewStatus.running.value, Preview.attempts == attempt)
-            .values(status=status, result=result, error=error, finished_at=utcnow())
-        )
-
-    transaction(record)
-    return status
-
-
-def _error_text(err: BaseException) -> str:
-    field = getattr(err, "field", None)
-    reason = getattr(err, "reason", None)
-    if field and reason:
-        return f"{field}: {reason}"
-    return f"{type(err).__name__}: {err}"[:2000]
-
-
-def _snapshot(s: Session, preview_id: int) -> dict[str, Any]:
-    row = s.get(Preview, preview_id)
-    catalogue = None
-    if row.kind == PreviewKind.oracle.value and row.spec.get("type") not in ("fe-headrest-2d", "aux-penalty"):
-        from alcove.oracles.service import command_catalogue
-
-        catalogue = command_catalogue(s)  # the administrator's entries: the command run is theirs
-    return {"kind": row.kind, "spec": dict(row.spec), "options": dict(row.options), "catalogue": catalogue}
-
-
-def _finite(values: Any) -> Any:
-    """Lists of floats for JSON (non-finite numbers become null)."""
-    import numpy as np
-
-    a = np.asarray(values, float)
-    out = a.tolist()
-    if np.isfinite(a).all():
-        return out
-
-    def clean(v: Any) -> Any:
-        return [clean(x) for x in v] if isinstance(v, list) else (v if math.isfinite(v) else None)
-
-    return clean(out)
-
-
-def _scalar(v: Any) -> Any:
-    v = float(v)
-    return v if math.isfinite(v) else None
-
-
-def _compute(kind: str, spec: dict[str, Any], options: dict[str, Any], catalogue: Any) -> dict[str, Any]:
-    if kind == PreviewKind.task.value:
-        intervals = options.get("intervals")
-        per_phase = options.get("intervals_per_phase") or preview_grid(spec, int(intervals) if intervals else None)
-        return solve_task_once(spec, [int(n) for n in per_phase], int(intervals) if intervals else None)
-    return test_oracle(spec["type"], spec.get("params") or {}, float(options.get("dt") or 0.0025), catalogue)
-
-
-def solve_task_once(spec: dict[str, Any], per_phase: list[int], intervals: int | None = None) -> dict[str, Any]:
-    """Solve the task once with the auxiliary (penalty) contact, ``per_phase[m]`` intervals in
-    phase m: the trajectory on the OCP grid (t, q, qd, node torques tau), the solver's status,
-    cost, iterations, wall time, and the grid in words (``intervals``: what the request asked)."""
-    from alcove.science.ocp.contact import aux_contact
-    from alcove.science.ocp.solve import solve_task
-    from alcove.science.ocp.task_spec import parse_task
-
-    if len(per_phase) != len(spec["phases"]):
-        raise InvalidInput.one("intervals_per_phase", f"has {len(per_phase)} entries for {len(spec['phases'])} phases")
-    data = {**spec, "phases": [{**ph, "intervals": n} for ph, n in zip(spec["phases"], per_phase, strict=True)]}
-    task = parse_task(data)
-    t0 = time.perf_counter()
-    sol = solve_task(
-        task, aux_contact(task.preset()), max_attempts=1, ipopt_options={"ipopt.max_iter": PREVIEW_IPOPT_MAX_ITER}
-    )
-    return {
-        "t": _finite(sol.t),
-        "q": _finite(sol.q),
-        "qd": _finite(sol.qd),
-        "tau": _finite(sol.tau),
-        "status": sol.status,
-        "converged": bool(sol.converged),
-        "cost": _scalar(sol.cost),
-        "iterations": int(sol.iterations),
-        "constraint_violation": _scalar(sol.constraint_violation),
-        "wall_time_s": float(time.perf_counter() - t0),
-        "intervals": int(sol.controls.shape[0]),
-        "intervals_per_phase": list(per_phase),
-        "grid": grid_summary(spec, list(per_phase), intervals),
-    }
-
-
-def test_oracle(type_name: str, params: dict[str, Any], dt: float, catalogue: Any) -> dict[str, Any]:
-    """Replay the FE reference head motion (1 s: clear of the headrest, into the cushion and
-    back) sampled every ``dt`` through the oracle: t, the motion (q, qd), the force and moment
-    on the head (fx..mz, headrest frame) and the oracle's diagnostics."""
-    import numpy as np
-
-    from alcove.science.geometry import DEFAULT_PRESET
-    from alcove.science.json_values import json_safe
-    from alcove.science.oracles.fe_headrest.reference import reference_motion
-    from alcove.science.oracles.registry import build_oracle
-
-    oracle = build_oracle(type_name, params, DEFAULT_PRESET, catalogue=catalogue)
-    traj = reference_motion(DEFAULT_PRESET, dt=dt)
-    res = oracle.run(traj)
-    out: dict[str, Any] = {
-        "ok": bool(res.ok),
-        "failure_reason": res.failure_reason,
-        "wall_time_s": float(res.wall_time),
-        "trajectory": {"t": _finite(traj.t), "q": _finite(traj.q), "qd": _finite(traj.qd)},
-        "diagnostics": json_safe(res.diagnostics),
-        "t": None,
-        "fx": None,
-        "fy": None,
-        "fz": None,
-        "mx": None,
-        "my": None,
-        "mz": None,
-        "peak_force_n": None,
-    }
-    if res.forces is not None:
-        f = np.hstack([res.forces.force, res.forces.moment])
-        out.update(
-            t=_finite(res.forces.t),
-            peak_force_n=_scalar(res.forces.peak_force),
-            **{c: _finite(f[:, j]) for j, c in enumerate(("fx", "fy", "fz", "mx", "my", "mz"))},
-        )
-    return out

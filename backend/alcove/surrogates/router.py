@@ -8,23 +8,21 @@ from typing import Any
 
 from fastapi import APIRouter, Response, status
 from pydantic import BaseModel, ConfigDict, Field, ValidationError
-from sqlalchemy.orm import Session
 
 from alcove import versioning
-from alcove.api.auth import CurrentUser
 from alcove.api.deps import SessionDep
 from alcove.api.downloads import BINARY, download
 from alcove.api.params import Limit, ObjectId, Offset, VersionNumber
-from alcove.campaigns import repository as crepo
-from alcove.campaigns import service as campaigns
-from alcove.campaigns.schemas import ModelVersionRead
-from alcove.errors import NotFound, field_errors_from_pydantic
-from alcove.models import Campaign, ModelVersion, SurrogateConfig, User
+from alcove.errors import field_errors_from_pydantic
+from alcove.models import Campaign, SurrogateConfig, User
 from alcove.science.surrogate.config import SurrogateConfig as SurrogateSpec
+from alcove.surrogates import service
 from alcove.surrogates.artifact_export import artifact_zip_paths
+from alcove.surrogates.schemas import ModelVersionRead
 from alcove.surrogates.service import artifact_document
-from alcove.tasks.schemas import DefinitionMeta, FieldErrorOut, ValidationReport, VersionMeta
 from alcove.users.access import can_edit, get_for
+from alcove.users.auth import CurrentUser
+from alcove.versioning.schemas import DefinitionMeta, FieldErrorOut, ValidationReport, VersionMeta
 
 router = APIRouter(prefix="/surrogate-configs", tags=["surrogate-configs"])
 model_versions = APIRouter(prefix="/campaigns", tags=["campaigns"])
@@ -193,14 +191,7 @@ def get_surrogate_config_version(
 def list_model_versions(campaign_id: ObjectId, user: CurrentUser, session: SessionDep) -> list[ModelVersionRead]:
     """Trained models with lineage (pool version, parent model, seed, code and library versions)."""
     get_for(session, Campaign, campaign_id, user)
-    return campaigns.list_model_versions(session, campaign_id)
-
-
-def _model_version(session: Session, campaign_id: int, version: int) -> ModelVersion:
-    mv = crepo.model_version(session, crepo.get_campaign(session, campaign_id), version)
-    if mv is None:
-        raise NotFound(f"model version {version} of campaign", campaign_id)
-    return mv
+    return service.campaign_versions(session, campaign_id)
 
 
 @model_versions.get(
@@ -211,7 +202,7 @@ def get_model_artifact(
 ) -> dict[str, Any]:
     """The self-contained artifact document (architecture, weights, normalisation, lineage) as JSON."""
     get_for(session, Campaign, campaign_id, user)
-    return artifact_document(session, _model_version(session, campaign_id, version))
+    return artifact_document(session, service.campaign_version(session, campaign_id, version))
 
 
 @model_versions.get(
@@ -226,6 +217,6 @@ def download_model_artifact(
     """The artifact as a zip: ``surrogate.json`` + TorchScript ``force.pt`` / ``moment.pt``
     (built once by a child process, then cached)."""
     get_for(session, Campaign, campaign_id, user)
-    mv = _model_version(session, campaign_id, version)
+    mv = service.campaign_version(session, campaign_id, version)
     path = artifact_zip_paths([mv])[mv.id]
     return download(path.read_bytes(), f"campaign-{campaign_id}-model-{version:04d}.zip", "application/zip")

@@ -15,17 +15,20 @@ import platform
 import tempfile
 import threading
 import zipfile
-from collections import OrderedDict
 from functools import lru_cache
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
+from cachetools import LRUCache
 from sqlalchemy.orm import Session
 
 import alcove
 from alcove.db.arrays import get_bytes, put_arrays, put_bytes
+from alcove.errors import NotFound
 from alcove.models import ModelVersion
+from alcove.surrogates import repository as repo
+from alcove.surrogates.schemas import ModelVersionRead
 
 if TYPE_CHECKING:
     from alcove.science.surrogate.mlp import SurrogateModel
@@ -34,7 +37,8 @@ if TYPE_CHECKING:
 ARTIFACT_MEDIA_TYPE = "application/vnd.alcove.surrogate+json"
 
 _lock = threading.Lock()
-_models: OrderedDict[str, SurrogateModel] = OrderedDict()
+#: Trained models by artifact hash (artifacts are immutable).
+_models: LRUCache[str, SurrogateModel] = LRUCache(maxsize=16)
 
 
 @lru_cache
@@ -134,6 +138,11 @@ def store_model(
     return mv
 
 
+def software_versions() -> dict[str, Any]:
+    """Code and library versions recorded with every iteration (and every model version)."""
+    return {"code_version": code_version(), "library_versions": library_versions()}
+
+
 def artifact_document(s: Session, mv: ModelVersion) -> dict[str, Any]:
     if mv.artifact_sha256 is None:
         raise ValueError(f"model version {mv.id} has no artifact")
@@ -147,14 +156,11 @@ def load_model(s: Session, mv: ModelVersion) -> SurrogateModel:
     key = mv.artifact_sha256 or ""
     with _lock:
         got = _models.get(key)
-        if got is not None:
-            _models.move_to_end(key)
-            return got
+    if got is not None:
+        return got
     model = model_from_dict(artifact_document(s, mv))
     with _lock:
         _models[key] = model
-        while len(_models) > 16:
-            _models.popitem(last=False)
     return model
 
 
@@ -171,3 +177,19 @@ def model_artifact_bytes(s: Session, mv: ModelVersion) -> bytes:
             for p in sorted(root.iterdir()):
                 zf.write(p, p.name)
         return buf.getvalue()
+
+
+# ----------------------------------------------------------------------------- a campaign's model versions
+
+
+def campaign_versions(s: Session, campaign_id: int) -> list[ModelVersionRead]:
+    """The model versions a campaign trained, with their lineage."""
+    return [ModelVersionRead.model_validate(m) for m in repo.own_versions(s, campaign_id)]
+
+
+def campaign_version(s: Session, campaign_id: int, version: int) -> ModelVersion:
+    """Model version ``version`` of a campaign (a fork's early versions are its source's)."""
+    mv = repo.version_of(s, campaign_id, version)
+    if mv is None:
+        raise NotFound("model version", message=f"campaign {campaign_id} has no model version {version}")
+    return mv

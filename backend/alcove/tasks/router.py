@@ -7,25 +7,16 @@ from typing import Annotated, Any
 from fastapi import APIRouter, Path, Response, status
 
 from alcove import versioning
-from alcove.api.auth import CurrentUser
 from alcove.api.deps import SessionDep
 from alcove.api.params import Limit, ObjectId, Offset, VersionNumber
 from alcove.models import TaskDefinition, User
 from alcove.science.ocp.task_spec import TaskSpec
 from alcove.tasks import repository as repo
 from alcove.tasks import service
-from alcove.tasks.schemas import (
-    CopyPreset,
-    FieldErrorOut,
-    TaskDraft,
-    TaskIn,
-    TaskOut,
-    TaskPresetOut,
-    TaskUpdate,
-    TaskVersionOut,
-    ValidationReport,
-)
+from alcove.tasks.schemas import TaskDraft, TaskIn, TaskOut, TaskPresetOut, TaskUpdate, TaskVersionOut
 from alcove.users.access import can_edit
+from alcove.users.auth import CurrentUser
+from alcove.versioning.schemas import CopyPreset, FieldErrorOut, ValidationReport
 
 router = APIRouter(prefix="/tasks", tags=["tasks"])
 PresetKey = Annotated[str, Path(min_length=1, max_length=100)]

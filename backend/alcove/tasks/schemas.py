@@ -2,44 +2,16 @@
 
 from __future__ import annotations
 
-from datetime import datetime
 from typing import Any
 
 from pydantic import BaseModel, ConfigDict, Field
 
-from alcove.errors import FieldError
 from alcove.science.ocp.task_spec import TaskSpec
+from alcove.versioning.schemas import DefinitionMeta, VersionMeta
 
 
 class _In(BaseModel):
     model_config = ConfigDict(extra="forbid")
-
-
-class DefinitionMeta(BaseModel):
-    """What every versioned definition (task, oracle, surrogate config) shows."""
-
-    id: int
-    name: str
-    description: str
-    owner_id: int
-    owner: str | None = Field(None, description="owner's e-mail")
-    preset_key: str | None
-    version: int = Field(description="latest version number")
-    version_locked: bool = Field(
-        description="the latest version is used by a campaign: the next edit of the content creates a new version"
-    )
-    can_edit: bool
-    archived: bool
-    created_at: datetime
-    updated_at: datetime
-
-
-class VersionMeta(BaseModel):
-    version: int
-    spec_hash: str
-    note: str
-    locked: bool
-    created_at: datetime
 
 
 class TaskIn(_In):
@@ -80,26 +52,3 @@ class TaskPresetOut(BaseModel):
     name: str
     description: str
     spec: dict[str, Any]
-
-
-class FieldErrorOut(BaseModel):
-    loc: list[str | int]
-    field: str
-    msg: str
-    type: str
-
-    @classmethod
-    def of(cls, e: FieldError) -> FieldErrorOut:
-        return cls(**e.as_dict())
-
-
-class ValidationReport(BaseModel):
-    valid: bool
-    errors: list[FieldErrorOut] = Field(description="field-level problems (paths relative to the request body)")
-    normalized: dict[str, Any] | None = Field(
-        None, description="the validated content with defaults filled in, when valid"
-    )
-
-
-class CopyPreset(_In):
-    name: str | None = Field(None, min_length=1, max_length=200, description="name of the copy (default: the preset's)")

@@ -2,8 +2,10 @@
 
 from __future__ import annotations
 
+import threading
 from typing import Any
 
+from cachetools import LRUCache
 from pydantic import ValidationError
 from sqlalchemy.orm import Session
 
@@ -111,3 +113,29 @@ def require_valid(spec: Any) -> TaskSpec:
     if parsed is None:
         raise InvalidInput(errors)
     return parsed
+
+
+#: Parsed tasks by (task version, interval override): a version's spec never changes.
+_tasks: LRUCache[tuple[int, int | None], Any] = LRUCache(maxsize=64)
+_tasks_lock = threading.Lock()
+
+
+def load_task(s: Session, task_version_id: int, intervals: int | None = None) -> Any:
+    """The task of a version as the OCP code uses it (optionally with another number of
+    intervals per phase); parsed once per process."""
+    from alcove.models import TaskVersion
+    from alcove.science.ocp.task_spec import parse_task
+
+    key = (task_version_id, intervals)
+    with _tasks_lock:
+        task = _tasks.get(key)
+    if task is None:
+        tv = s.get(TaskVersion, task_version_id)
+        if tv is None:
+            raise NotFound("task version", task_version_id)
+        task = parse_task(tv.spec)
+        if intervals:
+            task = task.with_intervals(intervals)
+        with _tasks_lock:
+            _tasks[key] = task
+    return task

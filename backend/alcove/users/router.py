@@ -6,7 +6,6 @@ from typing import Annotated
 
 from fastapi import APIRouter, Query, Request, Response, status
 
-from alcove.api.auth import AdminUser, CurrentToken, CurrentUser
 from alcove.api.client_address import client_address
 from alcove.api.deps import SessionDep
 from alcove.api.errors import ErrorOut
@@ -14,6 +13,7 @@ from alcove.api.params import MAX_ID, ObjectId
 from alcove.errors import LoginLocked
 from alcove.users import repository as repo
 from alcove.users import service
+from alcove.users.auth import AdminUser, CurrentToken, CurrentUser
 from alcove.users.ratelimit import LoginThrottle
 from alcove.users.schemas import (
     LoginIn,
@@ -48,7 +48,7 @@ def _token_out(token, secret: str | None = None) -> TokenOut:
 
 
 def login_throttle(request: Request) -> LoginThrottle:
-    """The app's login throttle (:func:`alcove.api.app.create_app` makes one per app)."""
+    """The app's login throttle (:func:`alcove.app.create_app` makes one per app)."""
     return request.app.state.login_throttle
 
 

@@ -56,7 +56,10 @@ class UserUpdate(_In):
     role: Literal["admin", "member"] | None = None
     is_active: bool | None = None
     password: str | None = Field(
-        None, min_length=8, max_length=1024, description="set a new password (and clear the login delays of this e-mail)"
+        None,
+        min_length=8,
+        max_length=1024,
+        description="set a new password (and clear the login delays of this e-mail)",
     )
 
 

@@ -34,7 +34,7 @@ _dummy_lock = threading.Lock()
 
 def dummy_password_hash() -> str:
     """A hash made with the same hasher and parameters as real ones (made once per process;
-    :func:`alcove.api.app.create_app` makes it at start, so no login pays for it)."""
+    :func:`alcove.app.create_app` makes it at start, so no login pays for it)."""
     if not _DUMMY_HASH:
         with _dummy_lock:
             if not _DUMMY_HASH:

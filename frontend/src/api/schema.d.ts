@@ -2645,13 +2645,6 @@ export interface components {
          */
         RunSettings: {
             /**
-             * Fault Injection
-             * @description tests only, per step name: raise_attempts (raise on attempts <= n), sleep_s (+ iterations: [k...]), ipopt_max_iter (ocp), gate_fail (oracle)
-             */
-            fault_injection?: {
-                [key: string]: unknown;
-            };
-            /**
              * Ocp Intervals
              * @description override the task's intervals per phase (None: as the task says)
              */

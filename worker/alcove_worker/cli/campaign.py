@@ -13,37 +13,27 @@ surrogate config), ``oracle_params`` (parameters of the oracle type) and ``task_
 
 from __future__ import annotations
 
-import contextlib
 import json
-import os
-import signal
-import subprocess
-import sys
 import time
-import uuid
 from pathlib import Path
 from typing import Any
 
 import typer
+
+from alcove_worker.cli import follow as following
+from alcove_worker.cli.follow import fail
 
 app = typer.Typer(
     help="Active-learning campaigns: run, create, start, pause, resume, cancel, retry, fork, status, export.",
     no_args_is_help=True,
 )
 
-TERMINAL = {"completed", "cancelled", "failed"}
-
-
-def _fail(field: str, reason: str, code: int = 2) -> None:
-    typer.echo(f"error: {field}: {reason}", err=True)
-    raise typer.Exit(code)
-
 
 def _read_config(path: Path | None) -> dict[str, Any]:
     if path is None:
         return {}
     if not path.exists():
-        _fail("--config", f"{path} does not exist")
+        fail("--config", f"{path} does not exist")
     text = path.read_text()
     try:
         if path.suffix.lower() == ".json":
@@ -53,11 +43,11 @@ def _read_config(path: Path | None) -> dict[str, Any]:
 
             data = yaml.safe_load(text)
     except Exception as exc:
-        _fail("--config", f"cannot parse {path}: {exc}")
+        fail("--config", f"cannot parse {path}: {exc}")
     if data is None:
         return {}
     if not isinstance(data, dict):
-        _fail("--config", "must be a mapping")
+        fail("--config", "must be a mapping")
     known = {
         "name",
         "description",
@@ -72,7 +62,7 @@ def _read_config(path: Path | None) -> dict[str, Any]:
     }
     unknown = sorted(set(data) - known)
     if unknown:
-        _fail(f"--config.{unknown[0]}", f"unknown key (known: {', '.join(sorted(known))})")
+        fail(f"--config.{unknown[0]}", f"unknown key (known: {', '.join(sorted(known))})")
     return data
 
 
@@ -85,7 +75,7 @@ def _ensure_database() -> None:
         s.data_dir.mkdir(parents=True, exist_ok=True)
         migrate.upgrade()
     elif not migrate.is_up_to_date():
-        _fail("database", "not migrated to the code's head revision; run `alcove db upgrade`")
+        fail("database", "not migrated to the code's head revision; run `alcove db upgrade`")
 
 
 def _create(
@@ -123,222 +113,25 @@ def _create(
         return transaction(work)
     except ValidationError as exc:
         err = exc.errors()[0]
-        _fail(".".join(str(p) for p in err["loc"]) or "config", err["msg"])
+        fail(".".join(str(p) for p in err["loc"]) or "config", err["msg"])
     except ValueError as exc:  # the science modules' input errors name the field
-        _fail(getattr(exc, "field", "config"), getattr(exc, "reason", str(exc)))
+        fail(getattr(exc, "field", "config"), getattr(exc, "reason", str(exc)))
     raise AssertionError("unreachable")
 
 
 def _control(action: str, campaign_id: int, **kwargs: Any) -> Any:
     from alcove.campaigns import service
     from alcove.db import transaction
+    from alcove.errors import DomainError
     from alcove.jobs.campaign import enqueue
 
     fn = getattr(service, action)
     try:
         obj, jobs = transaction(lambda s: fn(s, campaign_id, **kwargs))
-    except (service.InvalidTransition, service.NotFound) as exc:
-        _fail("campaign", str(exc))
+    except DomainError as exc:
+        fail("campaign", str(exc))
     enqueue(jobs)
     return obj
-
-
-def _detail(campaign_id: int) -> Any:
-    from alcove.campaigns import service
-    from alcove.db import session_scope
-
-    try:
-        with session_scope() as s:
-            return service.get_detail(s, campaign_id)
-    except service.NotFound as exc:
-        _fail("campaign", exc.reason)
-
-
-def _metrics(campaign_id: int) -> list[dict[str, Any]]:
-    from alcove.campaigns import service
-    from alcove.db import session_scope
-
-    with session_scope() as s:
-        return [m.model_dump(mode="json") for m in service.metrics_series(s, campaign_id)]
-
-
-def spawn_worker(
-    concurrency: int = 1, queues: str = "default,ocp,oracle,train", log_path: Path | None = None
-) -> subprocess.Popen[bytes]:
-    """An `alcove worker` child process in its own session (stopped by :func:`stop_worker`)."""
-    argv = [
-        sys.executable,
-        "-m",
-        "alcove_worker.cli.main",
-        "worker",
-        "--queues",
-        queues,
-        "--concurrency",
-        str(concurrency),
-        "--name",
-        f"campaign-run-{uuid.uuid4().hex[:6]}",
-        "--loglevel",
-        "WARNING",
-    ]
-    out = open(log_path, "ab") if log_path else subprocess.DEVNULL  # noqa: SIM115
-    env = dict(os.environ)
-    # lean hand-over between steps on the filesystem broker: the worker polls the folder only
-    # while it has no job running (prefetch 1, acks late), so a short interval costs no CPU during a step
-    env.setdefault("ALCOVE_BROKER_POLLING_INTERVAL", "0.005")
-    return subprocess.Popen(
-        argv, stdout=out, stderr=subprocess.STDOUT, start_new_session=True, env=env, preexec_fn=_die_with_parent
-    )
-
-
-def _die_with_parent() -> None:
-    """Linux: the spawned worker gets SIGTERM if this CLI process dies (even by SIGKILL)."""
-    try:
-        import ctypes
-
-        ctypes.CDLL("libc.so.6", use_errno=True).prctl(1, signal.SIGTERM)  # PR_SET_PDEATHSIG
-    except (OSError, AttributeError):
-        pass
-
-
-def stop_worker(p: subprocess.Popen[bytes], timeout: float = 20.0) -> None:
-    if p.poll() is None:
-        p.send_signal(signal.SIGTERM)
-        with contextlib.suppress(subprocess.TimeoutExpired):
-            p.wait(timeout=timeout)
-    with contextlib.suppress(ProcessLookupError):
-        os.killpg(p.pid, signal.SIGKILL)
-    p.wait(timeout=5)
-
-
-def queue_without_worker(step: str | None) -> str | None:
-    """The queue of ``step`` when no live worker (heartbeat within ``worker_stale_seconds``) serves it."""
-    from alcove.jobs.campaign import STEP_JOBS, step_queue
-    from alcove.jobs.heartbeat import live_workers
-    from alcove.settings import get_settings
-
-    if step not in STEP_JOBS:
-        return None
-    queue = step_queue(step)
-    served = {q for w in live_workers(get_settings().worker_stale_seconds) for q in (w.queues or [])}
-    return None if queue in served else queue
-
-
-class _WorkerWatch:
-    """Tells once (on stderr, also without a terminal) when the campaign waits on a queue no
-    live worker serves, and again when one turns up; checked every ``every`` seconds."""
-
-    def __init__(self, console: Any, every: float = 5.0, grace: float = 3.0) -> None:
-        self.console, self.every = console, every
-        self.next_check = time.monotonic() + grace  # a worker started with the campaign beats at once
-        self.waiting_on: str | None = None
-
-    def check(self, step: str | None) -> None:
-        if time.monotonic() < self.next_check:
-            return
-        self.next_check = time.monotonic() + self.every
-        queue = queue_without_worker(step)
-        if queue is not None and queue != self.waiting_on:
-            self.console.print(
-                f"waiting: no live worker serves queue '{queue}' (step {step}); "
-                f"start one with `alcove worker --queues {queue}` on this database and broker",
-                soft_wrap=True,
-            )
-        elif queue is None and self.waiting_on is not None:
-            self.console.print(f"a worker now serves queue '{self.waiting_on}'", soft_wrap=True)
-        self.waiting_on = queue
-
-
-def follow(
-    campaign_id: int, *, quiet: bool = False, poll: float = 0.25, worker: subprocess.Popen[bytes] | None = None
-) -> Any:
-    """Poll the campaign until it reaches a terminal state (or paused), with a progress display.
-
-    Without a spawned ``worker`` the steps wait for external workers: a step whose queue no
-    live worker serves is reported (even with ``quiet``) instead of waiting silently."""
-    from rich.console import Console
-    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
-
-    console = Console(stderr=True)
-    watch = _WorkerWatch(console) if worker is None else None
-    detail = _detail(campaign_id)
-    total = detail.config.stopping.max_iterations
-    start_k = detail.campaign.source_iteration or 0
-    with Progress(
-        TextColumn("[bold]{task.description}"),
-        BarColumn(),
-        MofNCompleteColumn(),
-        TextColumn("{task.fields[info]}"),
-        TimeElapsedColumn(),
-        console=console,
-        disable=quiet,
-        transient=False,
-    ) as progress:
-        bar = progress.add_task(f"campaign {campaign_id}", total=(total - start_k) if total else None, info="")
-        while True:
-            detail = _detail(campaign_id)
-            c = detail.campaign
-            m = detail.latest_metrics
-            rmse = f"F {m.force_rmse:.3g} N  M {m.moment_rmse:.3g} N m" if m and m.force_rmse is not None else "-"
-            eta = f"ETA {detail.eta_s:.0f} s" if detail.eta_s is not None else "ETA -"
-            progress.update(
-                bar,
-                completed=detail.iterations_finished + detail.iterations_failed,
-                description=f"campaign {campaign_id} · k={c.current_iteration} {c.current_step or ''} · {c.status.value}",
-                info=f"{rmse} · {eta}",
-            )
-            if c.status.value in TERMINAL or c.status.value == "paused":
-                return detail
-            if worker is not None and worker.poll() is not None:
-                console.print(f"[red]the worker exited with code {worker.returncode}[/red]")
-                return detail
-            if watch is not None and c.status.value in ("queued", "running"):
-                watch.check(c.current_step)
-            time.sleep(poll)
-
-
-def _summary(detail: Any, metrics: list[dict[str, Any]], wall: float | None = None) -> dict[str, Any]:
-    c = detail.campaign
-    out = {
-        "campaign_id": c.id,
-        "status": c.status.value,
-        "stop_reason": c.stop_reason,
-        "error": c.error,
-        "iterations_finished": detail.iterations_finished,
-        "iterations_failed": detail.iterations_failed,
-        "mean_iteration_s": detail.mean_iteration_s,
-        "oracle_wall_time_s": c.oracle_wall_time_s,
-    }
-    if wall is not None:
-        out["wall_time_s"] = wall
-    out["step_median_s"] = _step_medians(c.id)
-    if metrics:
-        out["first"] = {k: metrics[0][k] for k in ("iteration_index", "force_rmse", "moment_rmse")}
-        out["last"] = {k: metrics[-1][k] for k in ("iteration_index", "force_rmse", "moment_rmse")}
-    return out
-
-
-def _step_medians(campaign_id: int) -> dict[str, dict[str, float]]:
-    """Median wall time and bare compute of each step type (the per-step breakdown)."""
-    import statistics
-
-    from alcove.campaigns import service
-    from alcove.db import session_scope
-
-    with session_scope() as s:
-        jobs = [
-            j
-            for j in service.list_jobs(s, campaign_id, ["succeeded"])
-            if j["iteration"] > 0 and j["wall_time_s"] is not None
-        ]
-    out: dict[str, dict[str, float]] = {}
-    for step in ("train", "ocp", "oracle", "evaluate", "append"):
-        mine = [j for j in jobs if j["step"].value == step]
-        if mine:
-            out[step] = {
-                "wall": statistics.median(j["wall_time_s"] for j in mine),
-                "compute": statistics.median(j["result"].get("compute_s", 0.0) for j in mine),
-            }
-    return out
 
 
 @app.command()
@@ -365,25 +158,26 @@ def run(
     _ensure_database()
     cfg = _read_config(config)
     campaign_id = _create(task, oracle, iterations, cfg, name, seed)
-    proc = spawn_worker(concurrency, log_path=worker_log) if spawn else None
+    proc = following.spawn_worker(concurrency, log_path=worker_log) if spawn else None
     t0 = time.perf_counter()
     try:
         _control("start", campaign_id)
         try:
-            detail = follow(campaign_id, quiet=as_json, worker=proc)
+            detail = following.follow(campaign_id, quiet=as_json, worker=proc)
         except KeyboardInterrupt:
             _control("pause", campaign_id)
             typer.echo(
-                f"\npausing campaign {campaign_id} after the running step; continue with `alcove campaign resume {campaign_id}`",
+                f"\npausing campaign {campaign_id} after the running step; "
+                f"continue with `alcove campaign resume {campaign_id}`",
                 err=True,
             )
-            detail = follow(campaign_id, quiet=True, worker=proc)
+            detail = following.follow(campaign_id, quiet=True, worker=proc)
     finally:
         if proc is not None:
-            stop_worker(proc)
+            following.stop_worker(proc)
     wall = time.perf_counter() - t0
-    metrics = _metrics(campaign_id)
-    summary = _summary(detail, metrics, wall)
+    metrics = following.read_metrics(campaign_id)
+    summary = following.summary(detail, metrics, wall)
     if as_json:
         typer.echo(json.dumps({**summary, "metrics": metrics}))
     else:
@@ -407,7 +201,7 @@ def create(
 
 
 def _print_status(campaign_id: int, as_json: bool) -> None:
-    detail = _detail(campaign_id)
+    detail = following.read_detail(campaign_id)
     if as_json:
         typer.echo(detail.model_dump_json())
         return
@@ -416,7 +210,8 @@ def _print_status(campaign_id: int, as_json: bool) -> None:
     typer.echo(
         f"campaign {c.id} '{c.name}': {c.status.value}"
         + (f" ({c.stop_reason})" if c.stop_reason else "")
-        + f" · iteration {c.current_iteration} {c.current_step or ''} · finished {detail.iterations_finished}, failed {detail.iterations_failed}"
+        + f" · iteration {c.current_iteration} {c.current_step or ''}"
+        + f" · finished {detail.iterations_finished}, failed {detail.iterations_failed}"
         + (f" · last RMSE F {m.force_rmse:.4g} N, M {m.moment_rmse:.4g} N m" if m and m.force_rmse is not None else "")
         + (f" · ETA {detail.eta_s:.0f} s" if detail.eta_s is not None else "")
     )
@@ -483,7 +278,7 @@ def fork(
     from alcove.db import transaction
 
     cfg = _read_config(config)
-    detail = _detail(campaign_id)
+    detail = following.read_detail(campaign_id)
     stopping = dict(cfg.get("stopping") or detail.config.stopping.model_dump())
     if iterations is not None:
         stopping["max_iterations"] = iterations
@@ -518,11 +313,11 @@ def status(campaign_id: int = _id_arg(), as_json: bool = typer.Option(False, "--
 @app.command(name="list")
 def list_(as_json: bool = typer.Option(False, "--json")) -> None:
     """All campaigns."""
-    from alcove.campaigns import service
+    from alcove.campaigns import results
     from alcove.db import session_scope
 
     with session_scope() as s:
-        rows = service.list_campaigns(s)
+        rows = results.list_campaigns(s)
     if as_json:
         typer.echo(json.dumps([r.model_dump(mode="json") for r in rows]))
         return
@@ -538,14 +333,15 @@ def export(
     models: bool = typer.Option(True, "--models/--no-models", help="include the model artifacts"),
 ) -> None:
     """Write pool versions (Parquet/CSV), models, metrics and curves to a folder."""
-    from alcove.campaigns import service
+    from alcove.campaigns.export import export_campaign
     from alcove.db import session_scope
+    from alcove.errors import NotFound
 
     if fmt not in ("parquet", "csv"):
-        _fail("--format", f"expected parquet or csv, got {fmt!r}")
+        fail("--format", f"expected parquet or csv, got {fmt!r}")
     with session_scope() as s:
         try:
-            root = service.export_campaign(s, campaign_id, out, pool_format=fmt, models=models)
-        except service.NotFound as exc:
-            _fail("campaign", str(exc))
+            root = export_campaign(s, campaign_id, out, pool_format=fmt, models=models)
+        except NotFound as exc:
+            fail("campaign", str(exc))
     typer.echo(str(root))

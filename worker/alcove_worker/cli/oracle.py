@@ -118,9 +118,8 @@ def run(
     if json_output:
         typer.echo(json.dumps(run_summary(oracle, result, out if result.ok else None), indent=2))
     elif result.ok:
-        typer.echo(
-            f"ok: {len(result.forces)} samples, peak force {result.forces.peak_force:.4g} N, {result.wall_time:.3g} s -> {out}"
-        )
+        peak = result.forces.peak_force
+        typer.echo(f"ok: {len(result.forces)} samples, peak force {peak:.4g} N, {result.wall_time:.3g} s -> {out}")
     if not result.ok:
         typer.echo(f"failed: {result.failure_reason}", err=True)
         raise typer.Exit(EXIT_FAILED_RUN)

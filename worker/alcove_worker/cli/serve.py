@@ -160,7 +160,7 @@ def _run_api(host: str, port: int, workers: int, log_level: str, access_log: boo
     # several processes share the port (uvicorn's supervisor restarts one that dies); the
     # import string + factory is what lets each of them build its own app
     uvicorn.run(
-        "alcove.api.app:create_app",
+        "alcove.app:create_app",
         factory=True,
         host=host,
         port=port,

@@ -126,7 +126,8 @@ def _print_metrics(metrics: dict[str, Any], out: Path) -> None:
     console.print(table)
     s = metrics["samples"]
     console.print(
-        f"samples: {s['train']} train, {s['validation']} validation, {s['test']} test; wall time {metrics['wall_time_s']:.2f} s "
+        f"samples: {s['train']} train, {s['validation']} validation, {s['test']} test; "
+        f"wall time {metrics['wall_time_s']:.2f} s "
         f"({'C kernel' if metrics.get('training_kernel') == 'c' else 'PyTorch'})"
     )
 

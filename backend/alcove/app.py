@@ -1,4 +1,6 @@
-"""FastAPI application factory."""
+"""The web application: the API routers of every domain, the shared plumbing of
+:mod:`alcove.api`, the web UI's static files (the composition root; nothing imports it but
+the server)."""
 
 from __future__ import annotations
 
@@ -24,7 +26,7 @@ from alcove.users.service import dummy_password_hash
 log = logging.getLogger(__name__)
 
 API_PREFIX = "/api/v1"
-DEFAULT_STATIC_DIR = Path(__file__).resolve().parents[1] / "static"
+DEFAULT_STATIC_DIR = Path(__file__).resolve().parent / "static"
 
 
 def operation_id(route: APIRoute) -> str:
@@ -37,6 +39,7 @@ def api_routers() -> list[APIRouter]:
     flat route table: FastAPI matches nested routers noticeably slower). The most polled
     routers come first. Add new routers here."""
     from alcove.campaigns.live import router as live_router
+    from alcove.campaigns.results_router import router as campaign_results_router
     from alcove.campaigns.router import router as campaigns_router
     from alcove.oracles.router import admin_router as command_oracles_router
     from alcove.oracles.router import router as oracles_router
@@ -49,6 +52,7 @@ def api_routers() -> list[APIRouter]:
     from alcove.users.router import router as users_router
 
     return [
+        campaign_results_router,
         campaigns_router,
         live_router,
         pool_versions_router,

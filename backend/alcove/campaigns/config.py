@@ -1,0 +1,158 @@
+"""A campaign's settings: the validated JSON stored on the campaign and its config versions
+(preliminary data, stopping rules, failure policies, run settings), and the requests that
+create, edit or fork a campaign with them."""
+
+from __future__ import annotations
+
+from typing import Literal
+
+from pydantic import BaseModel, ConfigDict, Field, model_validator
+
+
+class _Strict(BaseModel):
+    model_config = ConfigDict(extra="forbid")
+
+
+# ----------------------------------------------------------------------------- settings
+
+
+class PreliminaryConfig(_Strict):
+    """Where pool version 0 comes from: Latin-hypercube samples evaluated with the auxiliary
+    penalty model (the paper), or uploaded datasets (``dataset_ids``)."""
+
+    samples: int = Field(4000, ge=2, le=1_000_000, description="LHS sample count K")
+    velocity_bound: float = Field(2.0, gt=0, le=100, description="|qd| bound of the samples [rad/s]")
+    chunks: int = Field(
+        10, ge=1, le=1000, description="datasets the samples are dealt into (for the split by simulation)"
+    )
+    seed: int | None = Field(None, ge=0, description="LHS seed (default: the campaign seed)")
+    dataset_ids: list[int] | None = Field(None, description="uploaded datasets to use instead of LHS samples")
+
+
+class StoppingRules(_Strict):
+    """Any combination; the first that fires after an iteration stops the campaign."""
+
+    max_iterations: int | None = Field(
+        200, ge=1, le=100_000, description="stop after iteration k = max_iterations (paper: 200)"
+    )
+    target_force_rmse: float | None = Field(
+        None, gt=0, description="stop when the iteration's force RMSE [N] is at most this"
+    )
+    target_moment_rmse: float | None = Field(
+        None, gt=0, description="stop when the iteration's moment RMSE [N m] is at most this"
+    )
+    plateau_window: int | None = Field(
+        None,
+        ge=1,
+        le=10_000,
+        description="stop when the best force RMSE of the last W iterations is no better than before",
+    )
+    plateau_tolerance: float = Field(0.01, ge=0, lt=1, description="relative improvement that still counts as progress")
+    oracle_budget_s: float | None = Field(
+        None, gt=0, description="stop when the oracle's total wall time reaches this [s]"
+    )
+
+    @model_validator(mode="after")
+    def _some_rule(self) -> StoppingRules:
+        if (
+            self.max_iterations is None
+            and self.target_force_rmse is None
+            and self.target_moment_rmse is None
+            and self.plateau_window is None
+            and self.oracle_budget_s is None
+        ):
+            raise ValueError("at least one stopping rule is needed (e.g. max_iterations)")
+        return self
+
+
+OnFailure = Literal["continue", "stop"]
+
+
+class Policies(_Strict):
+    """What happens when a step fails."""
+
+    train_max_attempts: int = Field(2, ge=1, le=20, description="attempts of a train job that raised")
+    ocp_initial_guesses: int = Field(
+        3,
+        ge=1,
+        le=4,
+        description="IPOPT runs with different initial guesses (previous solution, passive, ramp, static)",
+    )
+    ocp_max_attempts: int = Field(2, ge=1, le=20, description="attempts of an ocp job that raised")
+    ocp_on_failure: OnFailure = Field(
+        "continue", description="no converged solution: mark the iteration failed and continue, or stop the campaign"
+    )
+    oracle_max_attempts: int = Field(3, ge=1, le=20, description="attempts of an oracle job that raised or timed out")
+    oracle_on_failure: OnFailure = Field(
+        "continue", description="oracle failed (attempts exhausted) or its result was quarantined by the quality gate"
+    )
+    evaluate_max_attempts: int = Field(3, ge=1, le=20)
+    append_max_attempts: int = Field(3, ge=1, le=20)
+
+
+class RunSettings(_Strict):
+    """Other settings that change results."""
+
+    replay_phases: int = Field(
+        1, ge=1, le=100, description="the oracle replays the first N phases of the OCP trajectory (paper: 1)"
+    )
+    replay_dt: float | None = Field(
+        0.0025,
+        gt=0,
+        le=0.1,
+        description="the replayed trajectory is resampled (cubic Hermite) at this step [s]; None: the OCP grid",
+    )
+    ocp_intervals: int | None = Field(
+        None, ge=2, le=20000, description="override the task's intervals per phase (None: as the task says)"
+    )
+
+
+class CampaignConfig(_Strict):
+    """The editable part of a campaign; a snapshot of it is a campaign config version."""
+
+    preliminary: PreliminaryConfig = Field(default_factory=PreliminaryConfig)
+    stopping: StoppingRules = Field(default_factory=StoppingRules)
+    policies: Policies = Field(default_factory=Policies)
+    settings: RunSettings = Field(default_factory=RunSettings)
+
+
+# ----------------------------------------------------------------------------- requests
+
+
+class CampaignCreate(CampaignConfig):
+    name: str = Field(min_length=1, max_length=200)
+    description: str = ""
+    task_version_id: int
+    oracle_version_id: int
+    surrogate_config_version_id: int
+    seed: int = Field(0, ge=0, lt=2**62)
+
+
+class CampaignConfigUpdate(_Strict):
+    """Edit of a campaign's settings: each given part replaces the current one and a new
+    config version is recorded; iterations created afterwards use it."""
+
+    surrogate_config_version_id: int | None = None
+    stopping: StoppingRules | None = None
+    policies: Policies | None = None
+    settings: RunSettings | None = None
+    note: str = ""
+
+
+class ForkRequest(_Strict):
+    """A new campaign continuing from ``iteration`` of the source (its pool version and
+    model at that iteration), with changed settings."""
+
+    iteration: int = Field(ge=0)
+    name: str | None = None
+    surrogate_config_version_id: int | None = None
+    oracle_version_id: int | None = None
+    task_version_id: int | None = None
+    seed: int | None = Field(None, ge=0, lt=2**62)
+    stopping: StoppingRules | None = None
+    policies: Policies | None = None
+    settings: RunSettings | None = None
+    start: bool = False
+
+
+# ----------------------------------------------------------------------------- reads

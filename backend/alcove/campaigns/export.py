@@ -1,0 +1,123 @@
+"""A campaign's whole output in one folder or zip: settings and config versions, metrics
+(CSV and JSON), iterations, pool versions, model artifacts, curves."""
+
+from __future__ import annotations
+
+import io
+import json
+import zipfile
+from pathlib import Path
+
+import sqlalchemy as sa
+from sqlalchemy.orm import Session
+
+from alcove.campaigns import repository as repo
+from alcove.campaigns.results import get_detail, list_iterations, metrics_series
+from alcove.campaigns.transitions import config_from_version
+from alcove.db.arrays import get_bytes
+from alcove.models import CampaignConfigVersion
+from alcove.pool import repository as pool_repo
+from alcove.pool import service as pool_service
+from alcove.surrogates import repository as surrogates_repo
+from alcove.surrogates import service as surrogates_service
+
+#: The columns of ``metrics.csv``.
+METRICS_COLUMNS = [
+    "iteration_index",
+    "force_rmse",
+    "moment_rmse",
+    "force_max_error",
+    "moment_max_error",
+    "ocp_success",
+    "ocp_status",
+    "ocp_iterations",
+    "ocp_cost",
+    "ocp_wall_time_s",
+    "oracle_wall_time_s",
+    "train_wall_time_s",
+    "n_pool_samples",
+    "model_version_id",
+    "dataset_id",
+]
+
+
+def export_campaign(
+    s: Session, campaign_id: int, folder: str | Path | None = None, *, pool_format: str = "parquet", models: bool = True
+) -> bytes | Path:
+    """Everything a campaign produced: ``campaign.json`` (settings, status, lineage),
+    ``metrics.csv``/``metrics.json``, ``iterations.json``, ``pool/version-KKKK.<fmt>``,
+    ``models/model-KKKK.zip``, ``curves/iteration-KKKK.npz``. Written into ``folder`` (returned),
+    or as zip bytes when ``folder`` is None."""
+    c = repo.get_campaign(s, campaign_id)
+    files: dict[str, bytes] = {}
+    detail = get_detail(s, campaign_id)
+    files["campaign.json"] = json.dumps(
+        {
+            "campaign": detail.campaign.model_dump(mode="json"),
+            "config": detail.config.model_dump(mode="json"),
+            "config_versions": [
+                {
+                    "version": v.version,
+                    "note": v.note,
+                    "created_at": v.created_at.isoformat(),
+                    **config_from_version(v).model_dump(mode="json"),
+                }
+                for v in s.scalars(
+                    sa.select(CampaignConfigVersion)
+                    .where(CampaignConfigVersion.campaign_id == c.id)
+                    .order_by(CampaignConfigVersion.version)
+                )
+            ],
+            "pool_versions": [p.model_dump(mode="json") for p in pool_service.campaign_versions(s, c.id)],
+            "model_versions": [m.model_dump(mode="json") for m in surrogates_service.campaign_versions(s, c.id)],
+        },
+        indent=1,
+    ).encode()
+    series = metrics_series(s, c.id)
+    files["metrics.json"] = json.dumps([m.model_dump(mode="json") for m in series], indent=1).encode()
+    cols = METRICS_COLUMNS
+    lines = [",".join(cols)] + [
+        ",".join("" if getattr(m, k) is None else str(getattr(m, k)) for k in cols) for m in series
+    ]
+    files["metrics.csv"] = ("\n".join(lines) + "\n").encode()
+    files["iterations.json"] = json.dumps(
+        [i.model_dump(mode="json") for i in list_iterations(s, c.id)], indent=1
+    ).encode()
+    for pv in pool_repo.own_versions(s, c.id):
+        files[f"pool/version-{pv.version:04d}.{pool_format}"] = pool_service.pool_version_table(s, pv, pool_format)
+    if models:
+        for mv in surrogates_repo.own_versions(s, c.id):
+            files[f"models/model-{mv.version:04d}.zip"] = surrogates_service.model_artifact_bytes(s, mv)
+    for m in repo.metrics_series(s, c.id):
+        if m.curves_sha256:
+            files[f"curves/iteration-{m.iteration_index:04d}.npz"] = get_bytes(s, m.curves_sha256)
+    if folder is None:
+        buf = io.BytesIO()
+        with zipfile.ZipFile(buf, "w", zipfile.ZIP_DEFLATED) as zf:
+            for name, data in files.items():
+                zf.writestr(f"campaign-{c.id}/{name}", data)
+        return buf.getvalue()
+    root = Path(folder)
+    for name, data in files.items():
+        p = root / name
+        p.parent.mkdir(parents=True, exist_ok=True)
+        p.write_bytes(data)
+    return root
+
+
+def export_zip(s: Session, campaign_id: int, *, pool_format: str = "parquet", models: bool = True) -> bytes:
+    """:func:`export_campaign` as zip bytes, the models as their full artifact zips (with
+    the TorchScript files, built once by a child process and cached)."""
+    from alcove.surrogates.artifact_export import artifact_zip_paths
+
+    data = export_campaign(s, campaign_id, pool_format=pool_format, models=False)
+    assert isinstance(data, bytes)
+    versions = [mv for mv in surrogates_repo.own_versions(s, campaign_id) if mv.artifact_sha256] if models else []
+    if not versions:
+        return data
+    paths = artifact_zip_paths(versions)
+    buf = io.BytesIO(data)
+    with zipfile.ZipFile(buf, "a", zipfile.ZIP_DEFLATED) as zf:
+        for mv in versions:
+            zf.write(paths[mv.id], f"campaign-{campaign_id}/models/model-{mv.version:04d}.zip")
+    return buf.getvalue()

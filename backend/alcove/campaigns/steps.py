@@ -1,0 +1,240 @@
+"""Which domain computes each step of a campaign iteration, and with what.
+
+The protocol (:mod:`alcove.campaigns.protocol`) calls ``STEPS[step](context)``. Each entry
+resolves the campaign's references for iteration k (task version, pool version k-1, model
+version k, the OCP solution to replay, ...; a fork's early versions are its source's) and
+calls its domain's one entry point, which computes and returns the rows to write:
+
+=============  =============================================  ===========================
+step           computed by                                     writes
+=============  =============================================  ===========================
+preliminary    :func:`alcove.pool.steps.build_preliminary`     datasets, pool version 0
+train          :func:`alcove.surrogates.steps.train`           model version k
+ocp            :func:`alcove.solving.steps.solve`              OCP solution
+oracle         :func:`alcove.oracles.steps.replay`             oracle run, dataset (or quarantine)
+evaluate       :func:`alcove.surrogates.steps.evaluate`        iteration metrics and curves
+append         :func:`alcove.pool.steps.append`                pool version k; stopping rules
+=============  =============================================  ===========================
+
+Seeds derive from the campaign seed and k, and the OCP starts from the previous converged
+solution stored in the database, so a step re-run by another worker gives the same rows.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from sqlalchemy.orm import Session
+
+from alcove.campaigns import repository as repo
+from alcove.campaigns import transitions
+from alcove.campaigns.schemas import CampaignConfig
+from alcove.campaigns.state_machine import IterationRecord, StepRef, stop_reason
+from alcove.db import session_scope
+from alcove.jobs.steps import FailedAttempt, IterationRef, StepOutput, StepRun, UnusableResult, is_cancellation
+from alcove.models import Campaign, CampaignConfigVersion, Iteration, StepName, SurrogateConfigVersion, utcnow
+from alcove.oracles import repository as oracles_repo
+from alcove.oracles import steps as oracle_steps
+from alcove.pool import repository as pool_repo
+from alcove.pool import steps as pool_steps
+from alcove.solving import repository as solving_repo
+from alcove.solving import steps as solving_steps
+from alcove.surrogates import repository as surrogates_repo
+from alcove.surrogates import steps as surrogate_steps
+from alcove.surrogates.service import software_versions
+from alcove.tasks.service import load_task
+
+
+@dataclass
+class StepContext:
+    campaign_id: int
+    ref: StepRef
+    config: CampaignConfig
+    run: StepRun
+
+    @property
+    def k(self) -> int:
+        return self.ref.iteration
+
+    def before_compute(self) -> None:
+        """Test processes only: the fault a test injected (a sleep, an error)."""
+        self.run.before_compute(self.ref.step.value)
+
+    def task(self, s: Session, c: Campaign) -> Any:
+        return load_task(s, c.task_version_id, self.config.settings.ocp_intervals)
+
+
+def derive_seed(campaign_seed: int, iteration: int, salt: int = 0) -> int:
+    """A reproducible per-iteration seed (independent streams for different k)."""
+    state = np.random.SeedSequence([int(campaign_seed), int(iteration), salt]).generate_state(1, np.uint64)[0]
+    return int(state >> np.uint64(2))
+
+
+def _iteration(s: Session, ctx: StepContext) -> tuple[Campaign, Iteration]:
+    c = repo.get_campaign(s, ctx.campaign_id)
+    it = repo.get_iteration(s, c.id, ctx.k)
+    if it is None:
+        raise RuntimeError(f"iteration {ctx.k} does not exist")
+    return c, it
+
+
+def preliminary(ctx: StepContext) -> StepOutput:
+    ctx.before_compute()
+    pre = ctx.config.preliminary
+    with session_scope() as s:
+        c = repo.get_campaign(s, ctx.campaign_id)
+        preset, seed = ctx.task(s, c).preset(), c.seed
+    spec = pool_steps.PreliminarySpec(
+        samples=pre.samples,
+        velocity_bound=pre.velocity_bound,
+        seed=seed if pre.seed is None else pre.seed,
+        chunks=pre.chunks,
+        dataset_ids=pre.dataset_ids,
+        meta={"lhs": pre.model_dump(mode="json")},
+    )
+    return pool_steps.build_preliminary(ctx.run, spec, preset)
+
+
+def train(ctx: StepContext) -> StepOutput:
+    ctx.before_compute()
+    with session_scope() as s:
+        c, it = _iteration(s, ctx)
+        cv = s.get(CampaignConfigVersion, it.config_version_id)
+        scv = s.get(SurrogateConfigVersion, cv.surrogate_config_version_id) if cv is not None else None
+        pv = pool_repo.version_of(s, c.id, ctx.k - 1)
+        if pv is None or scv is None:
+            raise RuntimeError(f"pool version {ctx.k - 1} or the surrogate config of iteration {ctx.k} does not exist")
+        parent = surrogates_repo.version_of(s, c.id, ctx.k - 1)
+        inputs = {
+            "pool_version_id": pv.id,
+            "spec": scv.spec,
+            "config_version_id": scv.id,
+            "seed": derive_seed(c.seed, ctx.k),
+            "parent_model_id": parent.id if parent is not None else None,
+            "preset": ctx.task(s, c).preset(),
+            "lineage": {"config_version_id": it.config_version_id},
+        }
+    return surrogate_steps.train(ctx.run, **inputs)
+
+
+def ocp(ctx: StepContext) -> StepOutput:
+    ctx.before_compute()
+    with session_scope() as s:
+        c = repo.get_campaign(s, ctx.campaign_id)
+        mv = surrogates_repo.version_of(s, c.id, ctx.k)
+        if mv is None:
+            raise RuntimeError(f"model version {ctx.k} does not exist")
+        previous = solving_repo.previous_converged(s, c.id, ctx.k)
+        task = ctx.task(s, c)
+    return solving_steps.solve(
+        ctx.run,
+        task=task,
+        model_version_id=mv.id,
+        previous_solution_id=previous.id if previous is not None else None,
+        initial_guesses=ctx.config.policies.ocp_initial_guesses,
+    )
+
+
+def oracle(ctx: StepContext) -> StepOutput:
+    """The oracle replay; every attempt leaves an oracle run row, also one that raised.
+    The oracle's wall time counts toward the campaign's oracle budget."""
+    started = utcnow()
+    oracle_version_id = None
+    try:
+        with session_scope() as s:
+            c, it = _iteration(s, ctx)
+            oracle_version_id = c.oracle_version_id
+            sol = solving_repo.latest_of_iteration(s, it.id)
+            if sol is None or not sol.success or sol.trajectory_sha256 is None:
+                raise RuntimeError(f"iteration {ctx.k} has no converged OCP solution")
+            task, solution_id, sha = ctx.task(s, c), sol.id, sol.trajectory_sha256
+        ctx.before_compute()
+        settings = ctx.config.settings
+        out = oracle_steps.replay(
+            ctx.run,
+            task=task,
+            oracle_version_id=oracle_version_id,
+            solution_id=solution_id,
+            trajectory_sha256=sha,
+            replay_phases=settings.replay_phases,
+            replay_dt=settings.replay_dt,
+        )
+    except UnusableResult as err:
+        raise UnusableResult(err.reason, _counting_oracle_time(err.write)) from None
+    except Exception as err:
+        if is_cancellation(err) or oracle_version_id is None:
+            raise
+        message = f"{type(err).__name__}: {err}"
+        raise FailedAttempt(err, oracle_steps.failed_run(ctx.run, oracle_version_id, started, message)) from err
+    return StepOutput(_counting_oracle_time(out.write), out.compute_s)
+
+
+def _counting_oracle_time(write: Callable[[Session, IterationRef], dict[str, Any]] | None) -> Any:
+    def counted(s: Session, at: IterationRef) -> dict[str, Any]:
+        result = write(s, at) if write is not None else {}
+        c = s.get(Campaign, at.campaign_id)
+        assert c is not None
+        c.oracle_wall_time_s = (c.oracle_wall_time_s or 0.0) + float(result.get("wall_time_s", 0.0))
+        return result
+
+    return counted
+
+
+def evaluate(ctx: StepContext) -> StepOutput:
+    ctx.before_compute()
+    with session_scope() as s:
+        c, it = _iteration(s, ctx)
+        ds = pool_repo.oracle_dataset(s, it.id)
+        if ds is None:
+            raise RuntimeError(f"iteration {ctx.k} has no oracle dataset")
+        mv = surrogates_repo.version_of(s, c.id, ctx.k)
+        if mv is None:
+            raise RuntimeError(f"model version {ctx.k} does not exist")
+        sol = solving_repo.latest_of_iteration(s, it.id)
+        runs = [r for r in oracles_repo.runs_of_iteration(s, it.id) if r.status == "ok"]
+        pv_prev = pool_repo.version_of(s, c.id, ctx.k - 1)
+        record = {
+            "ocp_success": sol.success if sol else None,
+            "ocp_status": sol.solver_status if sol else None,
+            "ocp_iterations": sol.n_iterations if sol else None,
+            "ocp_cost": sol.cost if sol else None,
+            "ocp_wall_time_s": sol.wall_time_s if sol else None,
+            "oracle_wall_time_s": runs[-1].wall_time_s if runs else None,
+            "n_pool_samples": pv_prev.n_samples if pv_prev else None,
+            "extra": {
+                "step_wall_time_s": {st.step: st.wall_time_s for st in it.steps if st.wall_time_s is not None},
+                "config_version_id": it.config_version_id,
+            },
+        }
+        model_version_id, dataset_id = mv.id, ds.id
+    return surrogate_steps.evaluate(ctx.run, model_version_id=model_version_id, dataset_id=dataset_id, record=record)
+
+
+def append(ctx: StepContext) -> StepOutput:
+    """Pool version k, then the stopping rules (as edited now: an edit during the run
+    applies at once)."""
+    ctx.before_compute()
+    out = pool_steps.append(parent_version=ctx.k - 1)
+
+    def write(s: Session, at: IterationRef) -> dict[str, Any]:
+        result = out.write(s, at)
+        c = repo.get_campaign(s, at.campaign_id)
+        history = [IterationRecord(*row) for row in repo.rmse_history(s, c.id)]
+        rules = transitions.current_config(s, c).stopping
+        reason = stop_reason(rules, ctx.k, history, c.oracle_wall_time_s or 0.0)
+        return {**result, "stop_reason": reason, **software_versions()}
+
+    return StepOutput(write)
+
+
+STEPS: dict[StepName, Callable[[StepContext], StepOutput]] = {
+    StepName.preliminary: preliminary,
+    StepName.train: train,
+    StepName.ocp: ocp,
+    StepName.oracle: oracle,
+    StepName.evaluate: evaluate,
+    StepName.append: append,
+}

@@ -1,0 +1,249 @@
+"""How the campaign's rows follow the state machine: the config versions, the iteration
+and step rows a decision creates or closes, the events, and the completion of a step.
+
+The state machine (:mod:`alcove.campaigns.state_machine`) decides; :func:`apply_decision`
+writes the decision to the rows (campaign, iterations, steps, events) and returns the
+:class:`StepJob` list to send after the caller commits. Never commits.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import sqlalchemy as sa
+from sqlalchemy.orm import Session
+
+from alcove.campaigns import repository as repo
+from alcove.campaigns.schemas import CampaignConfig, StepJob
+from alcove.campaigns.state_machine import Decision, Outcome, State, StepFinished, StepRef, transition
+from alcove.jobs.campaign import step_queue
+from alcove.models import (
+    Campaign,
+    CampaignConfigVersion,
+    CampaignStatus,
+    Iteration,
+    IterationStatus,
+    IterationStep,
+    StepName,
+    StepStatus,
+    utcnow,
+)
+
+__all__ = ["Decision", "apply_decision", "complete_step", "config_from_version", "current_config"]
+
+ATTEMPTS_FIELD = {
+    StepName.preliminary: "append_max_attempts",
+    StepName.train: "train_max_attempts",
+    StepName.ocp: "ocp_max_attempts",
+    StepName.oracle: "oracle_max_attempts",
+    StepName.evaluate: "evaluate_max_attempts",
+    StepName.append: "append_max_attempts",
+}
+
+
+def config_from_version(row: CampaignConfigVersion) -> CampaignConfig:
+    return CampaignConfig.model_validate(
+        {
+            "preliminary": row.preliminary_config,
+            "stopping": row.stopping_rules,
+            "policies": row.policies,
+            "settings": row.settings,
+        }
+    )
+
+
+def current_config(s: Session, campaign: Campaign) -> CampaignConfig:
+    return config_from_version(repo.config_version(s, campaign))
+
+
+def add_config_version(
+    s: Session,
+    campaign: Campaign,
+    cfg: CampaignConfig,
+    surrogate_config_version_id: int,
+    user_id: int | None,
+    note: str,
+) -> CampaignConfigVersion:
+    version = (
+        s.scalar(
+            sa.select(sa.func.max(CampaignConfigVersion.version)).where(
+                CampaignConfigVersion.campaign_id == campaign.id
+            )
+        )
+        or 0
+    ) + 1
+    row = CampaignConfigVersion(
+        campaign_id=campaign.id,
+        version=version,
+        surrogate_config_version_id=surrogate_config_version_id,
+        preliminary_config=cfg.preliminary.model_dump(mode="json"),
+        stopping_rules=cfg.stopping.model_dump(mode="json"),
+        policies=cfg.policies.model_dump(mode="json"),
+        settings=cfg.settings.model_dump(mode="json"),
+        note=note,
+        created_by_id=user_id,
+    )
+    s.add(row)
+    campaign.config_version = version
+    campaign.surrogate_config_version_id = surrogate_config_version_id
+    campaign.preliminary_config = row.preliminary_config
+    campaign.stopping_rules = row.stopping_rules
+    campaign.policies = row.policies
+    s.flush()
+    return row
+
+
+def state_of(c: Campaign) -> State:
+    return State(CampaignStatus(c.status), pause_requested=c.pause_requested, cancel_requested=c.cancel_requested)
+
+
+def _ensure_iteration(s: Session, c: Campaign, index: int) -> Iteration:
+    it = repo.get_iteration(s, c.id, index)
+    if it is None:
+        cv = repo.config_version(s, c)
+        it = Iteration(campaign_id=c.id, index=index, config_version_id=cv.id, status=IterationStatus.pending.value)
+        s.add(it)
+        s.flush()
+    return it
+
+
+def _ensure_step(s: Session, c: Campaign, ref: StepRef, status: StepStatus) -> IterationStep:
+    it = _ensure_iteration(s, c, ref.iteration)
+    row = repo.get_step(s, c.id, ref.iteration, ref.step.value)
+    if row is None:
+        policies = current_config(s, c).policies
+        row = IterationStep(
+            campaign_id=c.id,
+            iteration_id=it.id,
+            step=ref.step.value,
+            queue=step_queue(ref.step.value),
+            config_version_id=it.config_version_id,
+            max_attempts=getattr(policies, ATTEMPTS_FIELD[ref.step]),
+            status=status.value,
+            result={},
+        )
+        s.add(row)
+    row.status = status.value
+    if status is StepStatus.queued:
+        row.queued_at = utcnow()
+        row.claim_token = None
+        row.lease_until = None
+        if it.status == IterationStatus.pending.value:
+            it.status = IterationStatus.running.value
+            it.started_at = utcnow()
+    it.current_step = ref.step.value
+    c.current_iteration = ref.iteration
+    c.current_step = ref.step.value
+    s.flush()
+    return row
+
+
+def _job(c: Campaign, ref: StepRef, row: IterationStep) -> StepJob:
+    return StepJob(campaign_id=c.id, iteration=ref.iteration, step=ref.step, attempt=row.attempts + 1)
+
+
+def apply_decision(s: Session, c: Campaign, d: Decision, *, note: str = "") -> list[StepJob]:
+    """Write a decision to the rows and return the jobs to send after commit."""
+    old = c.status
+    c.status = d.status.value
+    c.pause_requested = d.pause_requested if d.status in (CampaignStatus.pausing, CampaignStatus.paused) else False
+    if d.cancel_requested:
+        c.cancel_requested = True
+    if d.stop_reason is not None:
+        c.stop_reason = d.stop_reason
+    if d.error is not None:
+        c.error = d.error
+    for ref in d.skip:
+        row = _ensure_step(s, c, ref, StepStatus.skipped)
+        row.finished_at = utcnow()
+    jobs = []
+    if d.pending is not None:
+        _ensure_step(s, c, d.pending, StepStatus.pending)
+    for ref in d.enqueue:
+        row = _ensure_step(s, c, ref, StepStatus.queued)
+        jobs.append(_job(c, ref, row))
+    if d.status is CampaignStatus.running and c.started_at is None:
+        c.started_at = utcnow()
+    if d.is_terminal:
+        c.finished_at = utcnow()
+        _close_open_steps(s, c, d.status)
+    if old != c.status:
+        repo.add_event(
+            s,
+            c.id,
+            "status",
+            note or f"{old} -> {c.status}",
+            data={"from": old, "to": c.status, "stop_reason": d.stop_reason},
+        )
+    s.flush()
+    return jobs
+
+
+def _close_open_steps(s: Session, c: Campaign, status: CampaignStatus) -> None:
+    """At a terminal state: pending/queued steps are cancelled; unfinished iterations end."""
+    now = utcnow()
+    for _, row in repo.steps_of_campaign(s, c.id, [StepStatus.pending.value, StepStatus.queued.value]):
+        row.status = StepStatus.cancelled.value
+        row.finished_at = now
+    its = s.scalars(
+        sa.select(Iteration).where(
+            Iteration.campaign_id == c.id,
+            Iteration.status.in_([IterationStatus.pending.value, IterationStatus.running.value]),
+        )
+    )
+    for it in its:
+        it.status = IterationStatus.failed.value if status is CampaignStatus.failed else IterationStatus.cancelled.value
+        it.finished_at = now
+        if status is CampaignStatus.failed and c.error and not it.error:
+            it.error = c.error
+
+
+def complete_step(
+    s: Session,
+    c: Campaign,
+    ref: StepRef,
+    row: IterationStep,
+    outcome: Outcome,
+    *,
+    result: dict[str, Any] | None = None,
+    error: str | None = None,
+    stop_reason: str | None = None,
+    wall_time_s: float | None = None,
+) -> list[StepJob]:
+    """Record a finished step and apply what the state machine decides (same transaction)."""
+    now = utcnow()
+    row.status = {
+        Outcome.succeeded: StepStatus.succeeded,
+        Outcome.iteration_failed: StepStatus.failed,
+        Outcome.failed: StepStatus.failed,
+        Outcome.cancelled: StepStatus.cancelled,
+    }[outcome].value
+    row.finished_at = now
+    row.lease_until = None
+    row.wall_time_s = wall_time_s
+    row.error = error
+    if result:
+        row.result = {**(row.result or {}), **result}
+    it = repo.get_iteration(s, c.id, ref.iteration)
+    assert it is not None
+    if outcome is Outcome.iteration_failed:
+        it.error = error or f"{ref.step.value} failed"
+    if ref.step in (StepName.append, StepName.preliminary) and outcome is Outcome.succeeded:
+        it.status = IterationStatus.failed.value if it.error else IterationStatus.succeeded.value
+        it.finished_at = now
+        it.current_step = None
+    repo.add_event(
+        s,
+        c.id,
+        f"step_{row.status}",
+        error or "",
+        iteration=ref.iteration,
+        step=ref.step.value,
+        data={
+            "attempt": row.attempts,
+            "wall_time_s": wall_time_s,
+            **({"stop_reason": stop_reason} if stop_reason else {}),
+        },
+    )
+    d = transition(state_of(c), StepFinished(ref, outcome, stop_reason, error))
+    return apply_decision(s, c, d)

@@ -1,0 +1,156 @@
+"""The oracle step of a campaign iteration: replay the OCP solution's motion in the
+campaign's oracle and store the result, or quarantine it when the oracle's quality gate
+refuses it (never appended to the pool). Called by the campaign's job protocol; see
+:mod:`alcove.jobs.steps`."""
+
+from __future__ import annotations
+
+import json
+import threading
+import time
+from datetime import datetime
+from typing import Any
+
+import numpy as np
+from cachetools import LRUCache
+from sqlalchemy.orm import Session
+
+from alcove.db import session_scope
+from alcove.db.arrays import get_arrays, put_arrays
+from alcove.jobs.steps import IterationRef, StepOutput, StepRun, UnusableResult, WriteRows
+from alcove.models import OracleRun, OracleVersion, QuarantinedResult, utcnow
+from alcove.oracles.service import command_catalogue
+from alcove.pool.service import store_dataset
+from alcove.science.json_values import json_safe
+
+#: Oracles built per worker process (an FE oracle builds its mesh once), by type, spec and preset.
+_oracles: LRUCache[tuple[str, str, str], Any] = LRUCache(maxsize=4)
+_oracles_lock = threading.Lock()
+BUILTIN = ("fe-headrest-2d", "aux-penalty")
+
+
+def load_oracle(s: Session, oracle_version_id: int, preset: Any) -> Any:
+    """The oracle of a version for a model preset, built once per process."""
+    from alcove.science.oracles.registry import build_oracle
+
+    ov = s.get(OracleVersion, oracle_version_id)
+    if ov is None:
+        raise RuntimeError(f"oracle version id {oracle_version_id} does not exist")
+    key = (ov.oracle_type, ov.spec_hash, json.dumps(preset.to_dict(), sort_keys=True))
+    with _oracles_lock:
+        oracle = _oracles.get(key)
+    if oracle is None:
+        catalogue = None if ov.oracle_type in BUILTIN else command_catalogue(s)
+        oracle = build_oracle(ov.oracle_type, ov.spec, preset, catalogue=catalogue)
+        with _oracles_lock:
+            _oracles[key] = oracle
+    return oracle
+
+
+def replay(
+    run: StepRun,
+    *,
+    task: Any,
+    oracle_version_id: int,
+    solution_id: int,
+    trajectory_sha256: str,
+    replay_phases: int,
+    replay_dt: float | None,
+) -> StepOutput:
+    """Replay the first ``replay_phases`` phases of the solution in the oracle. A result
+    that passes the quality gate becomes the iteration's dataset; one that does not is
+    quarantined with its reason (:class:`UnusableResult`)."""
+    from alcove.science.ocp.replay import replay_trajectory
+
+    with session_scope() as s:
+        oracle = load_oracle(s, oracle_version_id, task.preset())
+        arrays = get_arrays(s, trajectory_sha256)
+    traj = replay_trajectory(arrays, task, replay_phases, replay_dt)
+    started = utcnow()
+    t0 = time.perf_counter()
+    res = oracle.run(traj, cancel=run.cancelled)
+    compute = time.perf_counter() - t0
+    gate_fail = run.fault is not None and run.fault.gate_fail
+    ok = bool(res.ok) and not gate_fail
+    reason = res.failure_reason if not res.ok else ("fault injection: quality gate failed" if gate_fail else None)
+    diagnostics = json_safe(res.diagnostics)
+
+    def write(s: Session, at: IterationRef) -> dict[str, Any]:
+        in_sha = put_arrays(s, {"t": traj.t, "q": traj.q, "qd": traj.qd, "tau": traj.tau})
+        f = res.forces
+        out_sha = put_arrays(s, {"t": f.t, "f": np.hstack([f.force, f.moment])}) if f is not None else None
+        row = OracleRun(
+            campaign_id=at.campaign_id,
+            iteration_id=at.iteration_id,
+            oracle_version_id=oracle_version_id,
+            ocp_solution_id=solution_id,
+            attempt=run.attempt,
+            status="ok" if ok else "quarantined",
+            worker_name=run.worker,
+            started_at=started,
+            finished_at=utcnow(),
+            wall_time_s=float(res.wall_time),
+            failure_reason=reason,
+            diagnostics=diagnostics,
+            input_sha256=in_sha,
+            output_sha256=out_sha,
+        )
+        s.add(row)
+        s.flush()
+        out: dict[str, Any] = {"oracle_run_id": row.id, "ok": ok, "wall_time_s": float(res.wall_time)}
+        if ok:
+            same_grid = len(f.t) == len(traj.t) and np.allclose(f.t, traj.t, rtol=0, atol=1e-12)
+            on_grid = traj if same_grid else traj.resample(f.t)
+            ds = store_dataset(
+                s,
+                t=f.t,
+                q=on_grid.q,
+                qd=on_grid.qd,
+                f=np.hstack([f.force, f.moment]),
+                origin="oracle",
+                name=f"iteration-{at.index:04d}",
+                campaign_id=at.campaign_id,
+                iteration_id=at.iteration_id,
+                oracle_run_id=row.id,
+                meta={"oracle_version_id": oracle_version_id},
+            )
+            out["dataset_id"] = ds.id
+        else:
+            s.add(
+                QuarantinedResult(
+                    oracle_run_id=row.id,
+                    campaign_id=at.campaign_id,
+                    iteration_id=at.iteration_id,
+                    reason=reason or "quality gate failed",
+                    gate=diagnostics,
+                    output_sha256=out_sha,
+                )
+            )
+            out["quarantined"] = reason
+        return out
+
+    if not ok:
+        raise UnusableResult(f"oracle result quarantined: {reason}", write=write)
+    return StepOutput(write, compute_s=compute)
+
+
+def failed_run(run: StepRun, oracle_version_id: int, started: datetime, message: str) -> WriteRows:
+    """The run row an attempt leaves when the oracle (or reading its inputs) raised."""
+
+    def write(s: Session, at: IterationRef) -> dict[str, Any]:
+        s.add(
+            OracleRun(
+                campaign_id=at.campaign_id,
+                iteration_id=at.iteration_id,
+                oracle_version_id=oracle_version_id,
+                attempt=run.attempt,
+                status="failed",
+                worker_name=run.worker,
+                started_at=started,
+                finished_at=utcnow(),
+                failure_reason=message,
+            )
+        )
+        return {}
+
+    return write

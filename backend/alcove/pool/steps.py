@@ -1,0 +1,94 @@
+"""The pool's campaign steps: the preliminary data (pool version 0) and the append of an
+iteration's oracle data (pool version k = k-1 + that data). Called by the campaign's job
+protocol; see :mod:`alcove.jobs.steps`."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from sqlalchemy.orm import Session
+
+from alcove.jobs.steps import IterationRef, StepOutput, StepRun
+from alcove.models import PoolVersion
+from alcove.pool import repository as repo
+from alcove.pool.service import create_version, store_dataset
+
+
+@dataclass(frozen=True)
+class PreliminarySpec:
+    """Where the preliminary data comes from: Latin-hypercube samples of the auxiliary
+    contact model, or datasets uploaded before (``dataset_ids``)."""
+
+    samples: int
+    velocity_bound: float
+    seed: int
+    chunks: int
+    dataset_ids: list[int] | None
+    meta: dict[str, Any]
+
+
+def build_preliminary(run: StepRun, spec: PreliminarySpec, preset: Any) -> StepOutput:
+    """Pool version 0 of a campaign."""
+    pool = None
+    if not spec.dataset_ids:
+        from alcove.science.surrogate.preliminary import preliminary_pool
+
+        pool = preliminary_pool(
+            preset, samples=spec.samples, velocity_bound=spec.velocity_bound, seed=spec.seed, chunks=spec.chunks
+        )
+        run.check_cancel()
+
+    def write(s: Session, at: IterationRef) -> dict[str, Any]:
+        if pool is not None:
+            new = [
+                store_dataset(
+                    s,
+                    t=d.t,
+                    q=d.q,
+                    qd=d.qd,
+                    f=np.hstack([d.force, d.moment]),
+                    origin="preliminary",
+                    name=d.name,
+                    campaign_id=at.campaign_id,
+                    iteration_id=at.iteration_id,
+                    meta=spec.meta,
+                )
+                for d in pool
+            ]
+        else:
+            new = repo.datasets(s, list(spec.dataset_ids or []))
+        pv = create_version(
+            s, campaign_id=at.campaign_id, iteration_id=at.iteration_id, version=0, parent=None, new_datasets=new
+        )
+        return {"pool_version_id": pv.id, "n_datasets": pv.n_datasets, "n_samples": pv.n_samples}
+
+    return StepOutput(write)
+
+
+def append(parent_version: int) -> StepOutput:
+    """Pool version k: version ``parent_version`` (k-1, possibly a fork source's) plus the
+    dataset the iteration's oracle produced (none if the iteration failed)."""
+
+    def write(s: Session, at: IterationRef) -> dict[str, Any]:
+        parent: PoolVersion | None = repo.version_of(s, at.campaign_id, parent_version)
+        if parent is None:
+            raise RuntimeError(f"pool version {parent_version} does not exist")
+        ds = repo.oracle_dataset(s, at.iteration_id)
+        pv = create_version(
+            s,
+            campaign_id=at.campaign_id,
+            iteration_id=at.iteration_id,
+            version=at.index,
+            parent=parent,
+            new_datasets=[ds] if ds is not None else [],
+        )
+        return {
+            "pool_version_id": pv.id,
+            "n_datasets": pv.n_datasets,
+            "n_samples": pv.n_samples,
+            "appended": ds.id if ds else None,
+        }
+
+    return StepOutput(write)

@@ -1,0 +1,119 @@
+"""The OCP step of a campaign iteration: the task solved with model version k as the
+contact model, warm-started from the previous converged solution (primal and dual), so a
+step re-run by another worker gives the same rows. Called by the campaign's job protocol;
+see :mod:`alcove.jobs.steps`."""
+
+from __future__ import annotations
+
+import math
+import time
+from typing import Any
+
+import numpy as np
+from sqlalchemy.orm import Session
+
+from alcove.db import session_scope
+from alcove.db.arrays import get_arrays, put_arrays
+from alcove.jobs.steps import IterationRef, StepOutput, StepRun, UnusableResult
+from alcove.models import ModelVersion, OcpSolution
+from alcove.science.json_values import json_safe
+from alcove.surrogates.service import load_model
+
+
+def stored_solution(s: Session, row: OcpSolution | None, task: Any) -> Any:
+    """A converged solution rebuilt from the database (an initial guess), or None."""
+    from alcove.science.ocp.solve import OcpSolution as Solution
+
+    if row is None or not row.success or row.trajectory_sha256 is None:
+        return None
+    a = get_arrays(s, row.trajectory_sha256)
+    if "x" not in a:
+        return None
+    return Solution(
+        t=a["t"],
+        q=a["q"],
+        qd=a["qd"],
+        controls=a["controls"],
+        status=row.solver_status,
+        converged=True,
+        iterations=row.n_iterations or 0,
+        cost=row.cost or 0.0,
+        constraint_violation=0.0,
+        wall_time=0.0,
+        chain=task.chain(),
+        task_name=task.name,
+        x=a["x"],
+        lam_x=a["lam_x"],
+        lam_g=a["lam_g"],
+    )
+
+
+def solve(
+    run: StepRun, *, task: Any, model_version_id: int, previous_solution_id: int | None, initial_guesses: int
+) -> StepOutput:
+    """Solve ``task`` with the model version's networks as the contact model (their weights
+    are NLP parameters: one NLP per architecture and process, reused across versions)."""
+    from alcove.science.ocp.solve import solve_task
+    from alcove.science.surrogate.export import surrogate_contact
+
+    with session_scope() as s:
+        mv = s.get(ModelVersion, model_version_id)
+        if mv is None:
+            raise RuntimeError(f"model version id {model_version_id} does not exist")
+        model = load_model(s, mv)
+        previous = None
+        if previous_solution_id is not None:
+            previous = stored_solution(s, s.get(OcpSolution, previous_solution_id), task)
+    run.check_cancel()
+    t0 = time.perf_counter()
+    contact, contact_params = surrogate_contact(model, task.preset())
+    max_iter = run.fault.ipopt_max_iter if run.fault is not None else None
+    sol = solve_task(
+        task,
+        contact,
+        initial_guess=previous,
+        contact_params=contact_params,
+        max_attempts=initial_guesses,
+        ipopt_options={"ipopt.max_iter": int(max_iter)} if max_iter is not None else None,
+        on_attempt=lambda _attempt: run.check_cancel(),  # cancel between IPOPT runs
+    )
+    compute = time.perf_counter() - t0
+    arrays = {"t": sol.t, "q": sol.q, "qd": sol.qd, "tau": sol.tau, "controls": sol.controls}
+    if sol.converged and sol.x is not None:
+        arrays.update(
+            x=np.asarray(sol.x, float).ravel(),
+            lam_x=np.asarray(sol.lam_x, float).ravel(),
+            lam_g=np.asarray(sol.lam_g, float).ravel(),
+        )
+
+    def write(s: Session, at: IterationRef) -> dict[str, Any]:
+        row = OcpSolution(
+            campaign_id=at.campaign_id,
+            iteration_id=at.iteration_id,
+            model_version_id=model_version_id,
+            attempt=run.attempt,
+            initial_guess=sol.attempts[-1]["guess"] if sol.attempts else "default",
+            success=bool(sol.converged),
+            solver_status=sol.status,
+            n_iterations=int(sol.iterations),
+            cost=float(sol.cost) if math.isfinite(sol.cost) else None,
+            wall_time_s=float(sol.wall_time),
+            message="" if sol.converged else f"no converged solution after {len(sol.attempts)} initial guess(es)",
+            stats=json_safe(sol.summary()),
+            trajectory_sha256=put_arrays(s, arrays),
+        )
+        s.add(row)
+        s.flush()
+        return {
+            "ocp_solution_id": row.id,
+            "converged": bool(sol.converged),
+            "status": sol.status,
+            "iterations": int(sol.iterations),
+            "cost": json_safe(sol.cost),
+        }
+
+    if not sol.converged:
+        raise UnusableResult(
+            f"OCP did not converge ({sol.status}) after {len(sol.attempts)} initial guess(es)", write=write
+        )
+    return StepOutput(write, compute_s=compute)
