@@ -10,9 +10,9 @@ export const API = "/api/v1";
 export function useCampaigns(filters: { status?: string }) {
   return useQuery({
     queryKey: [...keys.campaigns, filters],
-    queryFn: async (): Promise<CampaignSummary[]> => {
+    queryFn: async ({ signal }): Promise<CampaignSummary[]> => {
       const status = (filters.status || undefined) as CampaignStatus | undefined;
-      return unwrap(await client.GET("/api/v1/campaigns", { params: { query: { status, limit: 500 } } }));
+      return unwrap(await client.GET("/api/v1/campaigns", { params: { query: { status, limit: 500 } }, signal }));
     },
     placeholderData: keepPreviousData,
   });
@@ -21,7 +21,7 @@ export function useCampaigns(filters: { status?: string }) {
 export function campaignQuery(id: number) {
   return queryOptions({
     queryKey: keys.campaign(id),
-    queryFn: async (): Promise<CampaignOut> => unwrap(await client.GET("/api/v1/campaigns/{campaign_id}", { params: { path: { campaign_id: id } } })),
+    queryFn: async ({ signal }): Promise<CampaignOut> => unwrap(await client.GET("/api/v1/campaigns/{campaign_id}", { params: { path: { campaign_id: id } }, signal })),
   });
 }
 export function useCampaign(id: number) {
@@ -72,7 +72,7 @@ export function iterationQuery(id: number, k: number) {
 export function useJobs(id: number) {
   return useQuery({
     queryKey: keys.jobs(id),
-    queryFn: async (): Promise<Job[]> => unwrap(await client.GET("/api/v1/campaigns/{campaign_id}/jobs", { params: { path: { campaign_id: id } } })).reverse(),
+    queryFn: async ({ signal }): Promise<Job[]> => unwrap(await client.GET("/api/v1/campaigns/{campaign_id}/jobs", { params: { path: { campaign_id: id } }, signal })).reverse(),
   });
 }
 

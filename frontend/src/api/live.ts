@@ -310,7 +310,8 @@ const pageKeys = (id: number) => [keys.campaign(id), keys.metrics(id), keys.iter
  * refetched, the others marked stale), or only those last fetched before `before` (ms).
  */
 function refresh(qc: QueryClient, prefixes: (readonly unknown[])[], before?: number): void {
-  for (const key of prefixes) void qc.invalidateQueries({ queryKey: key, predicate: before === undefined ? undefined : (q) => q.state.dataUpdatedAt < before });
+  // a query that has no data yet is still on its first fetch, which is answered after `before`
+  for (const key of prefixes) void qc.invalidateQueries({ queryKey: key, predicate: before === undefined ? undefined : (q) => q.state.data !== undefined && q.state.dataUpdatedAt < before });
 }
 
 /**

@@ -81,11 +81,12 @@ export function rawMetricsQuery(id: number, inherited = false) {
   const key = [...keys.metrics(id), inherited ? "with-source" : "own"] as const;
   return queryOptions({
     queryKey: key,
-    queryFn: async ({ client: qc }): Promise<SeriesRow[]> => {
+    // `signal`: a fetch that an event superseded is aborted, not left to transfer what the next one will
+    queryFn: async ({ client: qc, signal }): Promise<SeriesRow[]> => {
       const known = qc.getQueryData<SeriesRow[]>(key) ?? [];
       const after = metricsCursor(known);
       const query = inherited && !known.length ? { inherited: true } : { after };
-      const fresh = unwrap(await client.GET("/api/v1/campaigns/{campaign_id}/metrics", { params: { path: { campaign_id: id }, query } })) as SeriesRow[];
+      const fresh = unwrap(await client.GET("/api/v1/campaigns/{campaign_id}/metrics", { params: { path: { campaign_id: id }, query }, signal })) as SeriesRow[];
       return upsert(known, fresh, (r) => r.iteration_index);
     },
   });
@@ -96,10 +97,10 @@ export function iterationStatesQuery(id: number) {
   const key = keys.iterationStates(id);
   return queryOptions({
     queryKey: key,
-    queryFn: async ({ client: qc }): Promise<IterationState[]> => {
+    queryFn: async ({ client: qc, signal }): Promise<IterationState[]> => {
       const known = qc.getQueryData<IterationState[]>(key) ?? [];
       const after = lastFinal(known, (r) => r.iteration, (r) => FINAL_ITERATION.has(r.status));
-      const fresh = unwrap(await client.GET("/api/v1/campaigns/{campaign_id}/iterations", { params: { path: { campaign_id: id }, query: { after } } }));
+      const fresh = unwrap(await client.GET("/api/v1/campaigns/{campaign_id}/iterations", { params: { path: { campaign_id: id }, query: { after } }, signal }));
       return upsert(
         known,
         fresh.map((it) => ({ iteration: it.index, status: it.status, error: it.error ?? null })),
