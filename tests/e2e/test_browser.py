@@ -57,7 +57,8 @@ def test_campaign_lifecycle_in_the_browser(alcove_server: Server) -> None:
     if result.returncode != 0:
         server_log = alcove_server.log.read_text()[-3000:] if alcove_server.log.exists() else ""
         pytest.fail(
-            f"browser run failed:\n{result.stdout[-4000:]}\n{result.stderr[-4000:]}\n--- alcove up log ---\n{server_log}"
+            f"browser run failed:\n{result.stdout[-4000:]}\n{result.stderr[-4000:]}\n"
+            f"--- alcove up log ---\n{server_log}"
         )
     for name in SCREENSHOTS:
         for folder in (ARTIFACTS, DOCS_IMAGES) if UPDATE_DOCS_IMAGES else (ARTIFACTS,):
@@ -93,5 +94,6 @@ def test_live_updates_forms_forks_and_no_foreign_requests_in_the_browser(alcove_
     if result.returncode != 0:
         server_log = alcove_server.log.read_text()[-3000:] if alcove_server.log.exists() else ""
         pytest.fail(
-            f"browser run failed:\n{result.stdout[-4000:]}\n{result.stderr[-4000:]}\n--- alcove up log ---\n{server_log}"
+            f"browser run failed:\n{result.stdout[-4000:]}\n{result.stderr[-4000:]}\n"
+            f"--- alcove up log ---\n{server_log}"
         )
