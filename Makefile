@@ -18,12 +18,13 @@ HAVE_NPM := $(shell command -v npm 2>/dev/null)
 FRONTEND_SOURCES := $(shell find frontend/src frontend/index.html frontend/vite.config.ts frontend/tsconfig.json -type f 2>/dev/null)
 FRONTEND_OUT := backend/alcove/static/index.html
 
-.PHONY: install frontend up test bench reproduce docs-images migrate worker clean-venv help
+.PHONY: install frontend up test lint bench reproduce docs-images migrate worker clean-venv help
 .DEFAULT_GOAL := help
 
 help:
 	@echo "make up     - install, build the UI, migrate and start alcove (API + worker) on the embedded default"
 	@echo "make test   - install and run all tests (PostgreSQL and Redis must be running; see .ci/run)"
+	@echo "make lint   - ruff (lint and format), mypy, and the frontend's type check and linter"
 	@echo "make bench  - run the benchmarks"
 
 $(STAMP): pyproject.toml
@@ -66,6 +67,18 @@ test: install frontend
 	@set +e; $(PY) -m pytest tests $(PYTEST_ARGS); rc=$$?; \
 	if [ $$rc -eq 5 ]; then echo "pytest collected no tests: treated as a failure" >&2; fi; \
 	exit $$rc
+
+# lint and types: what CI checks besides the tests (.ci/run runs it before make test)
+PY_SOURCES := backend worker tests bench scripts migrations
+lint: install
+	$(VENV)/bin/ruff check $(PY_SOURCES)
+	$(VENV)/bin/ruff format --check $(PY_SOURCES)
+	$(VENV)/bin/mypy
+ifneq ($(HAVE_FRONTEND),)
+ifneq ($(HAVE_NPM),)
+	cd frontend && npm run typecheck && npm run lint
+endif
+endif
 
 bench: install
 	$(PY) -m bench.run $(BENCH_ARGS)

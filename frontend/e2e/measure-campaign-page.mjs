@@ -41,7 +41,7 @@ try {
       await page.screenshot({ path: "measure-failure.png" }).catch(() => {});
       throw new Error(`${err.message}\nurl: ${page.url()}\nplot: ${plot}\nbody: ${(await page.locator("body").innerText()).slice(0, 500)}`);
     });
-  const drawnMs = await handle.jsonValue();
+  const drawnMs = Number(await handle.jsonValue());
   // interactive: the log toggle re-renders the plot right away
   const toggleStart = await page.evaluate(() => performance.now());
   await page.getByLabel("log axis").click();
@@ -50,7 +50,7 @@ try {
   const points = Number(await page.getByTestId("rmse-plot").getAttribute("data-points"));
   if (args.verbose) {
     const entries = await page.evaluate(() =>
-      performance.getEntriesByType("resource").map((e) => `${e.startTime.toFixed(0).padStart(6)} +${e.duration.toFixed(0).padStart(5)} ms ${e.transferSize ?? ""} ${e.name.replace(location.origin, "")}`),
+      performance.getEntriesByType("resource").map((/** @type {PerformanceResourceTiming} */ e) => `${e.startTime.toFixed(0).padStart(6)} +${e.duration.toFixed(0).padStart(5)} ms ${e.transferSize ?? ""} ${e.name.replace(location.origin, "")}`),
     );
     console.error(entries.join("\n"));
     const marks = await page.evaluate(() => performance.getEntriesByType("mark").map((m) => `${m.startTime.toFixed(0).padStart(6)} ${m.name}`));

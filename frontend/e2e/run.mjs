@@ -250,7 +250,7 @@ try {
     await page.locator(`[data-testid=${plot}][data-rendered=true]`).waitFor();
     // Plotly drew a shaded rectangle per phase (below the traces) and the labelled "replayed" bracket
     const drawn = await page.evaluate((id) => {
-      const el = document.querySelector(`[data-testid=${id}]`);
+      const el = /** @type {HTMLElement & {data: {x: ArrayLike<number>}[]}} */ (document.querySelector(`[data-testid=${id}]`));
       const rects = el.querySelectorAll(".layer-below .shapelayer path").length;
       const texts = [...el.querySelectorAll(".annotation-text, .shapelayer text")].map((t) => t.textContent);
       const xs = el.data.flatMap((tr) => Array.from(tr.x));

@@ -1,7 +1,7 @@
 #!/usr/bin/env node
 /**
  * Generate the typed API client types (src/api/schema.d.ts) from the live OpenAPI schema of
- * the backend in this checkout (alcove.api.create_app().openapi()).
+ * the backend in this checkout (alcove.app.create_app().openapi()).
  *
  *   node scripts/gen-api.mjs           # regenerate src/api/schema.d.ts and openapi.json
  *   node scripts/gen-api.mjs --check   # exit 1 if the committed files drift from the schema
@@ -30,7 +30,7 @@ function dumpSchema() {
   try {
     const code = [
       "import json, sys",
-      "from alcove.api import create_app",
+      "from alcove.app import create_app",
       "sys.stdout.write(json.dumps(create_app().openapi(), indent=2, sort_keys=True) + '\\n')",
     ].join("\n");
     return execFileSync(python(), ["-c", code], {

@@ -1,7 +1,7 @@
 import { lazy, Suspense, useEffect, useRef, useState } from "react";
 import { Link, Navigate, NavLink, Route, Routes, useLocation } from "react-router-dom";
 import { useAuth } from "./api/auth";
-import { useMe } from "./api/hooks";
+import { useMe, userLabel } from "./api/users";
 import { Loading } from "./components/States";
 import { SignInPage } from "./pages/SignInPage";
 import { CampaignsPage } from "./pages/CampaignsPage";
@@ -35,7 +35,7 @@ function UserMenu() {
   return (
     <div className="user-menu" ref={ref}>
       <button type="button" aria-haspopup="menu" aria-expanded={open} onClick={() => setOpen((o) => !o)}>
-        {me.data ? `${me.data.username} (${me.data.role})` : "Account"} ▾
+        {me.data ? `${userLabel(me.data)} (${me.data.role})` : "Account"} ▾
       </button>
       {open && (
         <div className="menu" role="menu">

@@ -95,7 +95,7 @@ def _wait_for_workers(campaign_id: int, progress: Progress, poll: float = 0.5) -
             WORKER["restarts"] = WORKER.get("restarts", 0) + 1
             if WORKER["restarts"] > 2:
                 raise RuntimeError(f"the alcove worker exited with code {proc.returncode} (log: {WORKER['log']})")
-            from alcove_worker.cli.campaign import spawn_worker
+            from alcove_worker.cli.follow import spawn_worker
 
             typer.echo(
                 f"[reproduce]   the worker exited with code {proc.returncode}; "

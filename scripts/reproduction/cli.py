@@ -101,7 +101,7 @@ def main(
             rep.errors["fe"] = "needs the multibody solution (part 1 failed)"
         fresh_store(data_dir)
         if celery:
-            from alcove_worker.cli.campaign import spawn_worker
+            from alcove_worker.cli.follow import spawn_worker
 
             WORKER["log"], WORKER["concurrency"] = data_dir / "worker.log", concurrency
             WORKER["process"] = spawn_worker(concurrency, log_path=WORKER["log"])
@@ -129,7 +129,7 @@ def main(
         typer.echo(f"[reproduce] wrote {path}", err=True)
     finally:
         if WORKER:
-            from alcove_worker.cli.campaign import stop_worker
+            from alcove_worker.cli.follow import stop_worker
 
             stop_worker(WORKER.pop("process"))
             WORKER.clear()

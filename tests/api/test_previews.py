@@ -75,7 +75,7 @@ def test_previews_are_accepted_private_validated_and_limited(client) -> None:
 def test_the_jobs_compute_the_science_and_ignore_duplicates(client) -> None:
     from alcove.db import session_scope
     from alcove.models import Preview
-    from alcove.previews.service import run_preview
+    from alcove.previews.worker import run_preview
 
     me = make_account("member", "pv-job")
     task_id, oracle_id = _task_and_oracle(client, me)
@@ -114,7 +114,8 @@ def test_the_jobs_compute_the_science_and_ignore_duplicates(client) -> None:
 def test_a_task_preview_solves_on_the_tasks_own_grid_capped(client) -> None:
     """Without ``intervals`` each phase keeps its own intervals (at most the preview cap);
     the solve's grid has the phase boundary on a node and says which grid it used."""
-    from alcove.previews.service import MAX_PREVIEW_INTERVALS, run_preview
+    from alcove.previews.service import MAX_PREVIEW_INTERVALS
+    from alcove.previews.worker import run_preview
 
     me = make_account("member", "pv-grid")
     spec = small_task_spec()
@@ -160,7 +161,8 @@ def test_a_preview_no_worker_takes_fails_with_the_reason_and_frees_its_slot(clie
 
     from alcove.db import transaction
     from alcove.models import Preview, utcnow
-    from alcove.previews.service import STALE_AFTER, run_preview
+    from alcove.previews.service import STALE_AFTER
+    from alcove.previews.worker import run_preview
 
     me = make_account("member", "pv-stale")
     task_id, oracle_id = _task_and_oracle(client, me)

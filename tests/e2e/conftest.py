@@ -124,10 +124,8 @@ def stop_server(proc: subprocess.Popen[bytes]) -> None:
         proc.send_signal(signal.SIGTERM)
         with contextlib.suppress(subprocess.TimeoutExpired):
             proc.wait(timeout=40)
-    try:
+    with contextlib.suppress(ProcessLookupError):
         os.killpg(proc.pid, signal.SIGKILL)  # anything left in its session (worker pool)
-    except ProcessLookupError:
-        pass
     proc.wait(timeout=10)
 
 

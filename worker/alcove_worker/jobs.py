@@ -79,7 +79,7 @@ from alcove.previews.service import ORACLE_PREVIEW_JOB, TASK_PREVIEW_JOB  # noqa
 @app.task(name=TASK_PREVIEW_JOB, bind=True, acks_late=True)
 def task_preview(self: Any, preview_id: int) -> str:
     """Solve a task once with the auxiliary contact (queue ocp)."""
-    from alcove.previews.service import run_preview
+    from alcove.previews.worker import run_preview
 
     return run_preview(int(preview_id), worker_name=self.request.hostname or "unknown")
 
@@ -87,7 +87,7 @@ def task_preview(self: Any, preview_id: int) -> str:
 @app.task(name=ORACLE_PREVIEW_JOB, bind=True, acks_late=True)
 def oracle_preview(self: Any, preview_id: int) -> str:
     """Replay the sample trajectory through an oracle (queue oracle)."""
-    from alcove.previews.service import run_preview
+    from alcove.previews.worker import run_preview
 
     return run_preview(int(preview_id), worker_name=self.request.hostname or "unknown")
 

@@ -8,14 +8,12 @@ import json
 import zipfile
 from pathlib import Path
 
-import sqlalchemy as sa
 from sqlalchemy.orm import Session
 
 from alcove.campaigns import repository as repo
 from alcove.campaigns.results import get_detail, list_iterations, metrics_series
 from alcove.campaigns.transitions import config_from_version
 from alcove.db.arrays import get_bytes
-from alcove.models import CampaignConfigVersion
 from alcove.pool import repository as pool_repo
 from alcove.pool import service as pool_service
 from alcove.surrogates import repository as surrogates_repo
@@ -62,11 +60,7 @@ def export_campaign(
                     "created_at": v.created_at.isoformat(),
                     **config_from_version(v).model_dump(mode="json"),
                 }
-                for v in s.scalars(
-                    sa.select(CampaignConfigVersion)
-                    .where(CampaignConfigVersion.campaign_id == c.id)
-                    .order_by(CampaignConfigVersion.version)
-                )
+                for v in repo.config_versions(s, c.id)
             ],
             "pool_versions": [p.model_dump(mode="json") for p in pool_service.campaign_versions(s, c.id)],
             "model_versions": [m.model_dump(mode="json") for m in surrogates_service.campaign_versions(s, c.id)],

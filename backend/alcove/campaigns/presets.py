@@ -9,18 +9,16 @@ from __future__ import annotations
 
 from typing import Any
 
-import sqlalchemy as sa
 from sqlalchemy.orm import Session
 
 from alcove.models import Role, User, spec_hash
-from alcove.versioning import ORACLES, SURROGATE_CONFIGS, TASKS, D, Kind, V
+from alcove.users import repository as users_repo
+from alcove.versioning import ORACLES, SURROGATE_CONFIGS, TASKS, D, Kind, V, preset_version_id
 
 
 def local_user(s: Session, email: str = "admin@alcove.local") -> User:
     """The first admin (created if there is none) who owns CLI-made campaigns."""
-    user = s.scalar(sa.select(User).where(User.role == Role.admin.value).order_by(User.id).limit(1))
-    if user is None:
-        user = s.scalar(sa.select(User).where(User.email == email))
+    user = users_repo.first_admin(s) or users_repo.user_by_email(s, email)
     if user is None:
         user = User(email=email, display_name="Administrator", role=Role.admin.value)
         s.add(user)
@@ -39,14 +37,7 @@ def _find_or_create(
 ) -> int:
     definition_cls, version_cls = kind.definition, kind.version
     h = spec_hash(spec)
-    q = (
-        sa.select(version_cls.id)
-        .join(definition_cls, kind.parent_column == definition_cls.id)
-        .where(definition_cls.owner_id == owner_id, definition_cls.preset_key == preset_key, version_cls.spec_hash == h)
-    )
-    for k, value in version_fields.items():
-        q = q.where(getattr(version_cls, k) == value)
-    found = s.scalar(q.order_by(version_cls.id.desc()).limit(1))
+    found = preset_version_id(s, kind, owner_id, preset_key, h, version_fields)
     if found is not None:
         return found
     d = definition_cls(owner_id=owner_id, name=name, preset_key=preset_key, latest_version=1)

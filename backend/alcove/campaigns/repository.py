@@ -16,6 +16,7 @@ from alcove.models import (
     CampaignEvent,
     Iteration,
     IterationMetrics,
+    IterationStatus,
     IterationStep,
     StepStatus,
     User,
@@ -292,3 +293,21 @@ def add_event(
             campaign_id=campaign_id, kind=kind, message=message, iteration_index=iteration, step=step, data=data or {}
         )
     )
+
+
+def last_config_version(s: Session, campaign_id: int) -> int:
+    """The number of the campaign's latest config version (0: none yet)."""
+    q = sa.select(sa.func.max(CampaignConfigVersion.version)).where(CampaignConfigVersion.campaign_id == campaign_id)
+    return s.scalar(q) or 0
+
+
+def config_versions(s: Session, campaign_id: int) -> list[CampaignConfigVersion]:
+    q = sa.select(CampaignConfigVersion).where(CampaignConfigVersion.campaign_id == campaign_id)
+    return list(s.scalars(q.order_by(CampaignConfigVersion.version)))
+
+
+def unfinished_iterations(s: Session, campaign_id: int) -> list[Iteration]:
+    """The campaign's iterations still pending or running."""
+    unfinished = [IterationStatus.pending.value, IterationStatus.running.value]
+    q = sa.select(Iteration).where(Iteration.campaign_id == campaign_id, Iteration.status.in_(unfinished))
+    return list(s.scalars(q))

@@ -34,7 +34,6 @@ from alcove.campaigns import transitions
 from alcove.campaigns.schemas import CampaignConfig
 from alcove.campaigns.state_machine import IterationRecord, StepRef, stop_reason
 from alcove.db import session_scope
-from alcove.jobs.faults import apply_before_compute
 from alcove.jobs.steps import FailedAttempt, IterationRef, StepOutput, StepRun, UnusableResult, is_cancellation
 from alcove.models import Campaign, CampaignConfigVersion, Iteration, StepName, SurrogateConfigVersion, utcnow
 from alcove.oracles import repository as oracles_repo
@@ -66,7 +65,7 @@ class StepContext:
 
     def before_compute(self) -> None:
         """Test processes only: the fault a test injected (a sleep, an error)."""
-        apply_before_compute(self.run, self.ref.step.value)
+        self.run.before_compute(self.ref.step.value)
 
     def task(self, s: Session, c: Campaign) -> TaskSpec:
         return load_task(s, c.task_version_id, self.config.settings.ocp_intervals)

@@ -10,7 +10,6 @@ from __future__ import annotations
 
 from typing import Any
 
-import sqlalchemy as sa
 from sqlalchemy.orm import Session
 
 from alcove.campaigns import repository as repo
@@ -64,14 +63,7 @@ def add_config_version(
     user_id: int | None,
     note: str,
 ) -> CampaignConfigVersion:
-    version = (
-        s.scalar(
-            sa.select(sa.func.max(CampaignConfigVersion.version)).where(
-                CampaignConfigVersion.campaign_id == campaign.id
-            )
-        )
-        or 0
-    ) + 1
+    version = repo.last_config_version(s, campaign.id) + 1
     row = CampaignConfigVersion(
         campaign_id=campaign.id,
         version=version,
@@ -185,13 +177,7 @@ def _close_open_steps(s: Session, c: Campaign, status: CampaignStatus) -> None:
     for _, row in repo.steps_of_campaign(s, c.id, [StepStatus.pending.value, StepStatus.queued.value]):
         row.status = StepStatus.cancelled.value
         row.finished_at = now
-    its = s.scalars(
-        sa.select(Iteration).where(
-            Iteration.campaign_id == c.id,
-            Iteration.status.in_([IterationStatus.pending.value, IterationStatus.running.value]),
-        )
-    )
-    for it in its:
+    for it in repo.unfinished_iterations(s, c.id):
         it.status = IterationStatus.failed.value if status is CampaignStatus.failed else IterationStatus.cancelled.value
         it.finished_at = now
         if status is CampaignStatus.failed and c.error and not it.error:

@@ -16,16 +16,12 @@ from __future__ import annotations
 
 import json
 import threading
-import time
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 from pydantic import BaseModel, ConfigDict, Field
 
 from alcove.settings import get_settings
-
-if TYPE_CHECKING:
-    from alcove.jobs.steps import StepRun
 
 
 class StepFault(BaseModel):
@@ -82,19 +78,6 @@ def fault_for(campaign_id: int, step: str, iteration: int) -> StepFault | None:
     if fault is None or (fault.iterations is not None and iteration not in fault.iterations):
         return None
     return fault
-
-
-def apply_before_compute(run: StepRun, step: str) -> None:
-    """The faults that act before a step computes: a (cancellable) sleep, an error."""
-    fault = run.fault
-    if fault is None:
-        return
-    end = time.monotonic() + fault.sleep_s
-    while time.monotonic() < end:
-        run.check_cancel()
-        time.sleep(0.05)
-    if run.attempt <= fault.raise_attempts:
-        raise RuntimeError(f"fault injection: {step} raises on attempt {run.attempt}")
 
 
 def inject(campaign: int | str, steps: dict[str, dict[str, Any]] | None) -> None:

@@ -10,14 +10,14 @@ a domain never imports it.
 
 from __future__ import annotations
 
+import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 from sqlalchemy.orm import Session
 
-if TYPE_CHECKING:
-    from alcove.jobs.faults import StepFault
+from alcove.jobs.faults import StepFault
 
 
 @dataclass(frozen=True)
@@ -81,6 +81,18 @@ class StepRun:
     def check_cancel(self) -> None:
         if self.cancel_flag():
             raise StepCancelled("step cancelled")
+
+    def before_compute(self, step: str) -> None:
+        """Test processes only: the injected fault's (cancellable) sleep and error."""
+        fault = self.fault
+        if fault is None:
+            return
+        end = time.monotonic() + fault.sleep_s
+        while time.monotonic() < end:
+            self.check_cancel()
+            time.sleep(0.05)
+        if self.attempt <= fault.raise_attempts:
+            raise RuntimeError(f"fault injection: {step} raises on attempt {self.attempt}")
 
 
 def is_bad_input(err: BaseException) -> bool:

@@ -87,3 +87,14 @@ def oracle_dataset(s: Session, iteration_id: int) -> Dataset | None:
 def owned_dataset_ids(s: Session, owner_id: int, ids: list[int]) -> set[int]:
     """Which of ``ids`` are datasets ``owner_id`` uploaded."""
     return set(s.scalars(sa.select(Dataset.id).where(Dataset.id.in_(ids), Dataset.owner_id == owner_id)))
+
+
+def add_members(s: Session, pool_version_id: int, members: list[tuple[int, bool]]) -> None:
+    """The member rows of a new pool version in order (dataset id, added by this version),
+    inserted with one executemany."""
+    if members:
+        rows = [
+            {"pool_version_id": pool_version_id, "dataset_id": i, "position": k, "added_in_this_version": added}
+            for k, (i, added) in enumerate(members)
+        ]
+        s.execute(sa.insert(PoolVersionMember), rows)

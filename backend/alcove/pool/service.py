@@ -10,16 +10,15 @@ import csv
 import hashlib
 import io
 import threading
-from collections import OrderedDict
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
-import sqlalchemy as sa
+from cachetools import LRUCache
 from sqlalchemy.orm import Session
 
 from alcove.db.arrays import get_arrays, put_arrays
 from alcove.errors import NotFound
-from alcove.models import Dataset, PoolVersion, PoolVersionMember
+from alcove.models import Dataset, PoolVersion
 from alcove.pool import repository as repo
 from alcove.pool.schemas import PoolVersionRead
 
@@ -29,8 +28,8 @@ if TYPE_CHECKING:
 FORCE_COLUMNS = ("fx", "fy", "fz", "mx", "my", "mz")
 
 _cache_lock = threading.Lock()
-_array_cache: OrderedDict[str, dict[str, np.ndarray]] = OrderedDict()
 _ARRAY_CACHE_SIZE = 2048
+_array_cache: LRUCache[str, dict[str, np.ndarray]] = LRUCache(maxsize=_ARRAY_CACHE_SIZE)
 
 
 def dataset_arrays(s: Session, dataset: Dataset) -> dict[str, np.ndarray]:
@@ -38,14 +37,11 @@ def dataset_arrays(s: Session, dataset: Dataset) -> dict[str, np.ndarray]:
     key = dataset.content_sha256
     with _cache_lock:
         got = _array_cache.get(key)
-        if got is not None:
-            _array_cache.move_to_end(key)
-            return got
+    if got is not None:
+        return got
     arrays = get_arrays(s, key)
     with _cache_lock:
         _array_cache[key] = arrays
-        while len(_array_cache) > _ARRAY_CACHE_SIZE:
-            _array_cache.popitem(last=False)
     return arrays
 
 
@@ -123,14 +119,7 @@ def create_version(
     )
     s.add(pv)
     s.flush()
-    if ordered:
-        s.execute(
-            sa.insert(PoolVersionMember),
-            [
-                {"pool_version_id": pv.id, "dataset_id": i, "position": k, "added_in_this_version": i in added}
-                for k, (i, _, _) in enumerate(ordered)
-            ],
-        )
+    repo.add_members(s, pv.id, [(i, i in added) for i, _, _ in ordered])
     return pv
 
 
@@ -141,8 +130,8 @@ def _pool_name(d: Dataset) -> str:
 
 #: (database URL, pool version id) -> (content hash, datasets); the hash guards against a
 #: different database that reuses the id (tests)
-_pool_cache: OrderedDict[tuple[str, int], tuple[str, list[PoolDataset]]] = OrderedDict()
 _POOL_CACHE_SIZE = 4
+_pool_cache: LRUCache[tuple[str, int], tuple[str, list[PoolDataset]]] = LRUCache(maxsize=_POOL_CACHE_SIZE)
 
 
 def _training_dataset(s: Session, d: Dataset) -> PoolDataset:
@@ -180,8 +169,6 @@ def load_training_pool(s: Session, pool_version: PoolVersion) -> list[PoolDatase
         out = [_training_dataset(s, d) for _, d in repo.members(s, pool_version.id)]
     with _cache_lock:
         _pool_cache[(url, pool_version.id)] = (pool_version.content_hash, out)
-        while len(_pool_cache) > _POOL_CACHE_SIZE:
-            _pool_cache.popitem(last=False)
     return list(out)
 
 

@@ -3,10 +3,8 @@ trajectory" for an oracle (queue ``oracle``).
 
 The API side (:func:`create_task_preview`, :func:`create_oracle_preview`, :func:`get`)
 validates, snapshots what to run into a ``previews`` row and returns it; the route commits
-and only then sends the job by name (:func:`send`). The worker side (:func:`run_preview`)
-claims the row with a conditional update (a duplicate delivery does nothing), computes
-outside any transaction and records the result or the error. Importing this module
-imports neither torch nor casadi (the science is imported inside :func:`run_preview`).
+and only then sends the job by name (:func:`send`). The worker side is
+:mod:`alcove.previews.worker`. Importing this module imports neither torch nor casadi.
 """
 
 from __future__ import annotations
@@ -58,9 +56,6 @@ class TooManyPreviews(TooManyRequests):
 
     def __init__(self, message: str, retry_after_s: int = 10) -> None:
         super().__init__(message, retry_after_s)
-
-
-# ----------------------------------------------------------------------------- API side
 
 
 def _check_capacity(session: Session, user: User) -> None:
@@ -260,74 +255,3 @@ def send(row_id: int, kind: str) -> None:
         send_job(JOB_FOR[kind], row_id, task_id=f"preview-{row_id}")
     except Exception:
         log.exception("sending preview %d failed", row_id)
-
-
-# ----------------------------------------------------------------------------- worker side
-
-
-def claim(session: Session, preview_id: int, worker_name: str) -> int | None:
-    """Take the row (pending, or running but stale); returns the attempt number or None."""
-    now = utcnow()
-    res = session.execute(
-        sa.update(Preview)
-        .where(
-            Preview.id == preview_id,
-            sa.or_(
-                Preview.status == PreviewStatus.pending.value,
-                sa.and_(Preview.status == PreviewStatus.running.value, Preview.started_at < now - STALE_AFTER),
-            ),
-        )
-        .values(
-            status=PreviewStatus.running.value, started_at=now, worker_name=worker_name, attempts=Preview.attempts + 1
-        )
-        .returning(Preview.attempts)
-    ).first()
-    return None if res is None else int(res[0])
-
-
-def run_preview(preview_id: int, worker_name: str) -> str:
-    """The worker's job: claim, compute, record. Returns the final status (or ``skipped``)."""
-    from alcove.db import transaction
-
-    attempt = transaction(lambda s: claim(s, preview_id, worker_name))
-    if attempt is None:
-        return "skipped"  # a duplicate delivery, or already done
-    row = transaction(lambda s: _snapshot(s, preview_id))
-    try:
-        from alcove.previews.compute import compute
-
-        result = compute(row["kind"], row["spec"], row["options"], row["catalogue"])
-        status, error = PreviewStatus.succeeded.value, None
-    except Exception as err:
-        log.info("preview %d failed: %s", preview_id, err, exc_info=not isinstance(err, ValueError))
-        result, status, error = None, PreviewStatus.failed.value, _error_text(err)
-
-    def record(s: Session) -> None:
-        s.execute(
-            sa.update(Preview)
-            .where(Preview.id == preview_id, Preview.status == PreviewStatus.running.value, Preview.attempts == attempt)
-            .values(status=status, result=result, error=error, finished_at=utcnow())
-        )
-
-    transaction(record)
-    return status
-
-
-def _error_text(err: BaseException) -> str:
-    field = getattr(err, "field", None)
-    reason = getattr(err, "reason", None)
-    if field and reason:
-        return f"{field}: {reason}"
-    return f"{type(err).__name__}: {err}"[:2000]
-
-
-def _snapshot(s: Session, preview_id: int) -> dict[str, Any]:
-    row = s.get(Preview, preview_id)
-    if row is None:  # deleted since it was claimed (its owner was deleted)
-        raise NotFound("preview", preview_id)
-    catalogue = None
-    if row.kind == PreviewKind.oracle.value and row.spec.get("type") not in ("fe-headrest-2d", "aux-penalty"):
-        from alcove.oracles.service import command_catalogue
-
-        catalogue = command_catalogue(s)  # the administrator's entries: the command run is theirs
-    return {"kind": row.kind, "spec": dict(row.spec), "options": dict(row.options), "catalogue": catalogue}

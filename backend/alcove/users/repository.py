@@ -7,7 +7,7 @@ from collections.abc import Sequence
 import sqlalchemy as sa
 from sqlalchemy.orm import InstrumentedAttribute, Session
 
-from alcove.models import ApiToken, Share, User, hash_token
+from alcove.models import ApiToken, Role, Share, User, hash_token
 
 
 def user_by_email(session: Session, email: str) -> User | None:
@@ -48,3 +48,9 @@ def shares_of(
         .where(column == object_id)
         .order_by(Share.id)
     ).all()
+
+
+def first_admin(session: Session) -> User | None:
+    """The administrator with the smallest id."""
+    q = sa.select(User).where(User.role == Role.admin.value).order_by(User.id).limit(1)
+    return session.scalar(q)

@@ -212,3 +212,28 @@ def delete(session: Session, kind: Kind[D, V], definition: D) -> str:
     session.delete(definition)
     session.flush()
     return "deleted"
+
+
+def preset_version_id(
+    session: Session,
+    kind: Kind[D, V],
+    owner_id: int,
+    preset_key: str,
+    content_hash: str,
+    version_fields: dict[str, Any],
+) -> int | None:
+    """The newest version of the owner's definitions copied from ``preset_key`` with this
+    content (and these column values), if any."""
+    definition_cls, version_cls = kind.definition, kind.version
+    q = (
+        sa.select(version_cls.id)
+        .join(definition_cls, kind.parent_column == definition_cls.id)
+        .where(
+            definition_cls.owner_id == owner_id,
+            definition_cls.preset_key == preset_key,
+            version_cls.spec_hash == content_hash,
+        )
+    )
+    for k, v in version_fields.items():
+        q = q.where(getattr(version_cls, k) == v)
+    return session.scalar(q.order_by(version_cls.id.desc()).limit(1))

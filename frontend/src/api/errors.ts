@@ -37,11 +37,42 @@ export function fieldErrors(body: unknown): FieldError[] {
   });
 }
 
+const PYDANTIC: [RegExp, string | ((m: RegExpExecArray) => string)][] = [
+  [/^Input should be a valid integer, got a number with a fractional part$/i, "must be a whole number"],
+  [/^Input should be a valid integer.*$/i, "must be a whole number"],
+  [/^Input should be a valid number.*$/i, "must be a number"],
+  [/^Input should be a finite number$/i, "must be a finite number"],
+  [/^Field required$/i, "required"],
+  [/^Input should be (greater|less) than or equal to (.+)$/i, (m) => `must be at ${m[1].toLowerCase() === "greater" ? "least" : "most"} ${m[2]}`],
+  [/^Input should be (greater|less) than (.+)$/i, (m) => `must be ${m[1].toLowerCase()} than ${m[2]}`],
+  [/^Input should be (.+)$/i, (m) => `must be ${m[1]}`],
+  [/^Value error, (.+)$/i, (m) => m[1]],
+  [/^Extra inputs are not permitted$/i, "is not a known setting"],
+];
+
+/** Pydantic's messages in a form's words ("Input should be a valid number" -> "must be a number"). */
+export function humanMessage(message: string): string {
+  for (const [re, out] of PYDANTIC) {
+    const m = re.exec(message.trim());
+    if (m) return typeof out === "string" ? out : out(m);
+  }
+  return message;
+}
+
+/** A dotted path in words where no form labels it: "spec.phases.0.q_min.1" -> "phases 1 › q_min 2". */
+export function pathWords(path: string): string {
+  return path
+    .replace(/^spec\./, "")
+    .split(".")
+    .reduce<string[]>((out, part) => (/^\d+$/.test(part) && out.length ? [...out.slice(0, -1), `${out[out.length - 1]} ${Number(part) + 1}`] : [...out, part]), [])
+    .join(" › ");
+}
+
 function describeBody(status: number, body: unknown): string {
   const detail = (body as { detail?: unknown } | null)?.detail;
   if (typeof detail === "string") return detail;
   const fields = fieldErrors(body);
-  if (fields.length) return fields.map((f) => (f.field ? `${f.field}: ${f.message}` : f.message)).join("; ");
+  if (fields.length) return fields.map((f) => (f.field ? `${pathWords(f.field)}: ${humanMessage(f.message)}` : humanMessage(f.message))).join("; ");
   if (status === 0) return "the server cannot be reached";
   return `HTTP ${status}`;
 }

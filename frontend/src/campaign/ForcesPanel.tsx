@@ -1,28 +1,69 @@
 import { useMemo, useState } from "react";
 import { useQueries } from "@tanstack/react-query";
+import type { Dash } from "plotly.js-dist-min";
 import { Plot, type Trace } from "../components/Plot";
-import { iterationQuery, type IterationCurves } from "../api/hooks";
+import { iterationQuery } from "../api/campaigns";
+import type { IterationCurves } from "../api/types";
 import { ErrorBox, Empty, Loading } from "../components/States";
 import type { MetricPoint } from "../lib/metrics";
+import { everyKth, formatSelection, lastN, parseSelection } from "../lib/selection";
+import { iterationColor, PLOTLY_SCALE } from "../lib/colors";
 
 const FORCE_COMPONENTS = ["fx", "fy", "fz"] as const;
 const MOMENT_COMPONENTS = ["mx", "my", "mz"] as const;
 type Component = (typeof FORCE_COMPONENTS)[number] | (typeof MOMENT_COMPONENTS)[number];
-const PALETTE = ["#2f5bd3", "#d3662f", "#1d7a45", "#8a3ffc", "#b3261e", "#007d79", "#a86500", "#6b7385"];
+/** One iteration: components by colour. */
+const COMPONENT_COLOR: Record<Component, string> = { fx: "#2f5bd3", fy: "#1d7a45", fz: "#d3662f", mx: "#8a3ffc", my: "#b3261e", mz: "#007d79" };
+const COMPONENT_DASH: Record<Component, Dash> = { fx: "solid", fy: "dashdot", fz: "longdash", mx: "solid", my: "solid", mz: "longdash" };
 
+/**
+ * The traces of the force (or moment) plot. One iteration: a colour per component, oracle
+ * solid, surrogate dashed, a small legend. Several: the colour is the iteration on a sequential
+ * scale (one colorbar, no legend entry per iteration, so the plot keeps its size), the
+ * component is the line style, the surrogate a thinner dotted line.
+ */
 export function wrenchTraces(curves: IterationCurves[], components: readonly Component[]): Trace[] {
   const traces: Trace[] = [];
-  curves.forEach((c, i) => {
-    components.forEach((comp, j) => {
-      const color = PALETTE[(i * components.length + j) % PALETTE.length];
-      const label = curves.length > 1 ? `k=${c.iteration} ${comp}` : comp;
-      const truth = c.truth?.[comp];
-      const pred = c.predicted?.[comp];
-      if (truth) traces.push({ x: c.force_t, y: truth, name: `${label} oracle`, mode: "lines", type: "scatter", line: { color, width: 2 } });
-      if (pred) traces.push({ x: c.force_t, y: pred, name: `${label} surrogate`, mode: "lines", type: "scatter", line: { color, width: 1.5, dash: "dash" } });
-    });
-  });
+  if (curves.length <= 1) {
+    for (const c of curves)
+      for (const comp of components) {
+        const color = COMPONENT_COLOR[comp];
+        traces.push({ x: c.t, y: c.truth[comp], name: `${comp} oracle`, mode: "lines", type: "scatter", line: { color, width: 2 } });
+        traces.push({ x: c.t, y: c.predicted[comp], name: `${comp} surrogate`, mode: "lines", type: "scatter", line: { color, width: 1.5, dash: "dash" } });
+      }
+    return traces;
+  }
+  const ks = curves.map((c) => c.iteration);
+  const lo = Math.min(...ks);
+  const hi = Math.max(...ks);
+  for (const c of curves)
+    for (const comp of components) {
+      const color = iterationColor(c.iteration, lo, hi);
+      const dash = COMPONENT_DASH[comp];
+      const name = `k=${c.iteration} ${comp}`;
+      traces.push({ x: c.t, y: c.truth[comp], name: `${name} oracle`, mode: "lines", type: "scatter", line: { color, width: 1.8, dash }, showlegend: false });
+      traces.push({ x: c.t, y: c.predicted[comp], name: `${name} surrogate`, mode: "lines", type: "scatter", line: { color, width: 1, dash: "dot" }, showlegend: false, opacity: 0.8 });
+    }
+  // the colorbar: an invisible marker trace carrying the scale from the first to the last iteration
+  traces.push({
+    x: [null],
+    y: [null],
+    name: "iteration",
+    mode: "markers",
+    type: "scatter",
+    hoverinfo: "skip",
+    showlegend: false,
+    marker: { color: [lo], cmin: lo, cmax: hi, colorscale: PLOTLY_SCALE, showscale: true, colorbar: { title: { text: "k" }, thickness: 12, len: 0.9, outlinewidth: 0 } },
+  } as Trace);
   return traces;
+}
+
+export const MAX_OVERLAY = 200;
+
+export function ordinal(n: number): string {
+  const tens = n % 100;
+  const suffix = tens >= 11 && tens <= 13 ? "th" : ({ 1: "st", 2: "nd", 3: "rd" } as Record<number, string>)[n % 10] ?? "th";
+  return `${n}${suffix}`;
 }
 
 export function ForcesPanel({
@@ -37,22 +78,40 @@ export function ForcesPanel({
   points: MetricPoint[];
   iteration: number | null;
   setIteration: (k: number) => void;
-  overlay: number[];
-  setOverlay: (ks: number[]) => void;
+  /** the overlay as written in the URL, e.g. "1-5, 8" */
+  overlay: string;
+  setOverlay: (spec: string) => void;
 }) {
-  // iterations with oracle data (failed ones have no curves)
-  const available = points.filter((p) => p.iteration > 0 && p.force_rmse !== null).map((p) => p.iteration);
-  const k = iteration ?? available[available.length - 1] ?? null;
-  const shown = useMemo(() => (k === null ? [] : [k, ...overlay.filter((x) => x !== k)]), [k, overlay]);
+  // iterations with oracle data (failed ones have no curves); a fork's inherited ones are its source's
+  const available = useMemo(() => points.filter((p) => p.iteration > 0 && p.force_rmse !== null && !p.inherited).map((p) => p.iteration), [points]);
+  const k = iteration !== null && available.includes(iteration) ? iteration : (available[available.length - 1] ?? null);
+  const [draft, setDraft] = useState<string | null>(null);
+  const selection = useMemo(() => parseSelection(overlay, available), [overlay, available]);
+  const shown = useMemo(() => {
+    if (k === null) return [];
+    const extra = selection.iterations.filter((x) => x !== k);
+    return [...new Set([...extra, k])].sort((a, b) => a - b).slice(-MAX_OVERLAY);
+  }, [k, selection.iterations]);
+  const overlaid = shown.length > 1;
   const [forceComps, setForceComps] = useState<Component[]>(["fx", "fz"]);
   const [momentComps, setMomentComps] = useState<Component[]>(["my"]);
   const results = useQueries({ queries: shown.map((it) => iterationQuery(campaignId, it)) });
-  const curves = results.map((r) => r.data).filter((d): d is IterationCurves => Boolean(d));
-  const forceTraces = useMemo(() => wrenchTraces(curves, forceComps), [curves.map((c) => c.iteration).join(), forceComps]); // eslint-disable-line
-  const momentTraces = useMemo(() => wrenchTraces(curves, momentComps), [curves.map((c) => c.iteration).join(), momentComps]); // eslint-disable-line
+  const loaded = results.map((r) => r.data).filter((d): d is IterationCurves => Boolean(d));
+  const loadedKey = loaded.map((c) => c.iteration).join();
+  // eslint-disable-next-line react-hooks/exhaustive-deps -- the curves are immutable: the loaded iterations identify them
+  const curves = useMemo(() => loaded, [loadedKey]);
+  const forceTraces = useMemo(() => wrenchTraces(curves, forceComps), [curves, forceComps]);
+  const momentTraces = useMemo(() => wrenchTraces(curves, momentComps), [curves, momentComps]);
 
   if (available.length === 0) return <Empty title="No iteration has oracle data yet">Forces appear when the first iteration's oracle step is done.</Empty>;
   const error = results.find((r) => r.isError)?.error;
+  const choose = (ks: number[]) => {
+    setDraft(null);
+    setOverlay(formatSelection(ks, available));
+  };
+  const text = draft ?? overlay;
+  // about 10 iterations of the whole campaign
+  const every = Math.ceil(available.length / 10);
 
   const compToggle = (list: Component[], set: (v: Component[]) => void, all: readonly Component[]) =>
     all.map((c) => (
@@ -62,7 +121,7 @@ export function ForcesPanel({
     ));
 
   return (
-    <div data-testid="forces-panel">
+    <div data-testid="forces-panel" data-iteration={k ?? ""} data-shown={shown.join(",")}>
       <div className="slider">
         <label htmlFor="iteration-slider">Iteration</label>
         <input
@@ -83,22 +142,55 @@ export function ForcesPanel({
           k = {k}
         </output>
       </div>
-      <div className="toolbar">
-        <span>Overlay:</span>
-        <div className="checks" role="group" aria-label="Overlay iterations">
-          {available.slice(-40).map((it) => (
-            <label key={it} className="field-inline">
-              <input type="checkbox" checked={overlay.includes(it)} disabled={it === k} onChange={() => setOverlay(overlay.includes(it) ? overlay.filter((x) => x !== it) : [...overlay, it].slice(-6))} />
-              {it}
-            </label>
-          ))}
-        </div>
-        {overlay.length > 0 && (
-          <button type="button" className="link" onClick={() => setOverlay([])}>
-            clear
+      <form
+        className="toolbar"
+        onSubmit={(e) => {
+          e.preventDefault();
+          choose(parseSelection(text, available).iterations);
+        }}
+      >
+        <label htmlFor="overlay-input">Overlay iterations</label>
+        <input
+          id="overlay-input"
+          value={text}
+          placeholder="e.g. 1-5, 8, 12-20"
+          size={22}
+          onChange={(e) => setDraft(e.target.value)}
+          onBlur={() => draft !== null && choose(parseSelection(draft, available).iterations)}
+          aria-describedby="overlay-hint"
+          aria-invalid={selection.errors.length > 0}
+        />
+        <button type="submit">Show</button>
+        <span role="group" aria-label="Quick choices" className="toolbar">
+          <button type="button" className="link" onClick={() => choose(lastN(available, 5))}>
+            last 5
           </button>
-        )}
-      </div>
+          <button type="button" className="link" onClick={() => choose(lastN(available, 20))}>
+            last 20
+          </button>
+          {every > 1 && (
+            <button type="button" className="link" onClick={() => choose(everyKth(available, every))}>
+              every {ordinal(every)}
+            </button>
+          )}
+          <button type="button" className="link" onClick={() => choose(available)}>
+            all ({available.length})
+          </button>
+          {overlay && (
+            <button type="button" className="link" onClick={() => choose([])}>
+              clear
+            </button>
+          )}
+        </span>
+        <small id="overlay-hint" className="hint" data-testid="overlay-summary">
+          {overlaid ? `${shown.length} iterations shown, coloured by k (${shown[0]}–${shown[shown.length - 1]})` : "ranges and lists, e.g. 1-5, 8, 12-20"}
+        </small>
+      </form>
+      {selection.errors.map((m) => (
+        <p key={m} className="field-error" role="alert">
+          Overlay: {m}
+        </p>
+      ))}
       {error ? <ErrorBox error={error} /> : null}
       {results.some((r) => r.isPending) && curves.length === 0 ? (
         <Loading label="Loading iteration curves…" />
@@ -118,7 +210,12 @@ export function ForcesPanel({
           </div>
         </div>
       )}
-      <p className="hint">Solid: oracle (truth). Dashed: prediction of surrogate model k (trained on pool version k−1, the contact model of iteration k's OCP) on the same trajectory, data it has not seen. Forces and moments act on the head, in the headrest frame.</p>
+      <p className="hint">
+        {overlaid
+          ? "Colour: iteration k (dark: early, light: late). Thick line: oracle (truth); thin dotted: surrogate model k's prediction. Components: fx solid, fy dash-dot, fz long dash (moments likewise)."
+          : "Solid: oracle (truth). Dashed: prediction of surrogate model k (trained on pool version k−1, the contact model of iteration k's OCP) on the same trajectory, data it has not seen."}{" "}
+        Forces and moments act on the head, in the headrest frame.
+      </p>
     </div>
   );
 }

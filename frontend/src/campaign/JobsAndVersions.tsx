@@ -1,5 +1,5 @@
 import { useState } from "react";
-import { downloadFile, useJobs, useModelVersions, usePoolVersions } from "../api/hooks";
+import { downloadFile, useJobs, useModelVersions, usePoolVersions } from "../api/campaigns";
 import { Empty, ErrorBox, Loading, StatusBadge } from "../components/States";
 import { fmtDate, fmtDuration, fmtNumber } from "../lib/format";
 import { errorMessage } from "../api/errors";
@@ -26,8 +26,8 @@ function DownloadButton({ path, filename, label }: { path: string; filename: str
   );
 }
 
-export function JobsTable({ campaignId, live }: { campaignId: number; live: boolean }) {
-  const jobs = useJobs(campaignId, live);
+export function JobsTable({ campaignId }: { campaignId: number }) {
+  const jobs = useJobs(campaignId);
   if (jobs.isPending) return <Loading label="Loading jobs…" />;
   if (jobs.isError) return <ErrorBox error={jobs.error} retry={() => void jobs.refetch()} />;
   if (jobs.data.length === 0) return <Empty title="No jobs yet">Start the campaign to enqueue its first step.</Empty>;
@@ -53,10 +53,10 @@ export function JobsTable({ campaignId, live }: { campaignId: number; live: bool
             <td>
               <StatusBadge status={j.status} />
             </td>
-            <td className="mono">{j.worker ?? "—"}</td>
+            <td className="mono">{j.worker_name ?? "—"}</td>
             <td className="num">{j.attempts}</td>
             <td>{fmtDate(j.started_at)}</td>
-            <td className="num">{fmtDuration(j.duration_s)}</td>
+            <td className="num">{fmtDuration(j.wall_time_s)}</td>
             <td className="error-text" title={j.error ?? undefined}>
               {j.error ? j.error.slice(0, 120) : ""}
             </td>
@@ -67,9 +67,9 @@ export function JobsTable({ campaignId, live }: { campaignId: number; live: bool
   );
 }
 
-export function VersionsPanel({ campaignId, live }: { campaignId: number; live: boolean }) {
-  const pools = usePoolVersions(campaignId, live);
-  const models = useModelVersions(campaignId, live);
+export function VersionsPanel({ campaignId }: { campaignId: number }) {
+  const pools = usePoolVersions(campaignId);
+  const models = useModelVersions(campaignId);
   return (
     <div className="grid2">
       <section aria-labelledby="pool-title">

@@ -2,14 +2,30 @@ import { useMemo } from "react";
 import { Plot, type Trace } from "../components/Plot";
 import { isMarked, type MetricPoint } from "../lib/metrics";
 
+const INHERITED = "#a3a9b6";
+
+/**
+ * Force and moment RMSE per iteration; failed and quarantined iterations as red x. A fork's
+ * inherited iterations (its source's, up to the fork point) are drawn grey, its own in colour.
+ */
 export function rmseTraces(points: MetricPoint[], name = ""): Trace[] {
-  const ok = points.filter((p) => !isMarked(p));
+  const own = points.filter((p) => !isMarked(p) && !p.inherited);
+  const inherited = points.filter((p) => !isMarked(p) && p.inherited);
   const marked = points.filter(isMarked);
   const prefix = name ? `${name}: ` : "";
-  const traces: Trace[] = [
-    { x: ok.map((p) => p.iteration), y: ok.map((p) => p.force_rmse), name: `${prefix}force RMSE [N]`, mode: "lines+markers", type: "scatter", line: { color: "#2f5bd3" } },
-    { x: ok.map((p) => p.iteration), y: ok.map((p) => p.moment_rmse), name: `${prefix}moment RMSE [N m]`, mode: "lines+markers", type: "scatter", line: { color: "#d3662f" } },
-  ];
+  const traces: Trace[] = [];
+  if (inherited.length) {
+    // joined to the first own iteration, so the line continues across the fork point
+    const bridge = own.length ? [...inherited, own[0]] : inherited;
+    traces.push(
+      { x: bridge.map((p) => p.iteration), y: bridge.map((p) => p.force_rmse), name: `${prefix}force RMSE [N], inherited`, mode: "lines+markers", type: "scatter", line: { color: INHERITED }, marker: { color: INHERITED, symbol: "circle-open" } },
+      { x: bridge.map((p) => p.iteration), y: bridge.map((p) => p.moment_rmse), name: `${prefix}moment RMSE [N m], inherited`, mode: "lines+markers", type: "scatter", line: { color: INHERITED, dash: "dot" }, marker: { color: INHERITED, symbol: "square-open" } },
+    );
+  }
+  traces.push(
+    { x: own.map((p) => p.iteration), y: own.map((p) => p.force_rmse), name: `${prefix}force RMSE [N]`, mode: "lines+markers", type: "scatter", line: { color: "#2f5bd3" } },
+    { x: own.map((p) => p.iteration), y: own.map((p) => p.moment_rmse), name: `${prefix}moment RMSE [N m]`, mode: "lines+markers", type: "scatter", line: { color: "#d3662f" } },
+  );
   if (marked.length)
     traces.push({
       x: marked.map((p) => p.iteration),
@@ -27,6 +43,7 @@ export function RmsePlot({ points, logY, onSelect }: { points: MetricPoint[]; lo
   const traces = useMemo(() => rmseTraces(points), [points]);
   const few = points.length > 0 && points[points.length - 1].iteration <= 12;
   const xLayout = useMemo(() => ({ xaxis: { title: { text: "iteration k" }, dtick: few ? 1 : undefined, zeroline: false } }), [few]);
+  const own = points.filter((p) => !p.inherited);
   return (
     <Plot
       testId="rmse-plot"
@@ -38,6 +55,7 @@ export function RmsePlot({ points, logY, onSelect }: { points: MetricPoint[]; lo
       onPointClick={(x) => onSelect?.(x)}
       height={300}
       extraLayout={xLayout}
+      data={{ iterations: own.filter((p) => p.force_rmse !== null).map((p) => p.iteration).join(","), inherited: points.filter((p) => p.inherited).map((p) => p.iteration).join(",") }}
     />
   );
 }

@@ -22,7 +22,23 @@ export interface PlotProps {
   testId?: string;
   onPointClick?: (x: number, curveNumber: number) => void;
   extraLayout?: Partial<Layout>;
+  /** extra data-* attributes for tests (e.g. {iterations: "1,2,3"} -> data-iterations) */
+  data?: Record<string, string>;
 }
+
+/**
+ * Plotly's configuration for every chart: PNG export stays (camera button), and nothing links
+ * to or sends data to another host. plotly.js 4 shows a "send chart to cloud" button by default
+ * (showSendToCloud, plotlyServerURL = cloud.plotly.com); both are switched off and the button is
+ * removed. (showLink, linkText and showEditInChartStudio of older versions no longer exist.)
+ */
+export const PLOT_CONFIG: Partial<Config> = {
+  responsive: true,
+  displaylogo: false,
+  showSendToCloud: false,
+  plotlyServerURL: "",
+  modeBarButtonsToRemove: ["sendChartToCloud"],
+};
 
 type PlotlyModule = typeof import("plotly.js-dist-min").default;
 let plotlyModule: Promise<PlotlyModule> | null = null;
@@ -63,10 +79,13 @@ export function Plot({
   testId,
   onPointClick,
   extraLayout,
+  data,
 }: PlotProps) {
   const ref = useRef<HTMLDivElement>(null);
   const clickRef = useRef(onPointClick);
-  clickRef.current = onPointClick;
+  useEffect(() => {
+    clickRef.current = onPointClick;
+  });
 
   useEffect(() => {
     const el = ref.current;
@@ -85,11 +104,7 @@ export function Plot({
       uirevision: "keep",
       ...extraLayout,
     };
-    const config: Partial<Config> = {
-      responsive: true,
-      displaylogo: false,
-      toImageButtonOptions: { format: "png", filename: exportName, scale: 2 },
-    };
+    const config: Partial<Config> = { ...PLOT_CONFIG, toImageButtonOptions: { format: "png", filename: exportName, scale: 2 } };
     let cancelled = false;
     const started = performance.now();
     performance.mark(`alcove:plot-effect:${testId ?? "plot"}`);
@@ -129,6 +144,7 @@ export function Plot({
       data-points={pointCount(traces)}
       data-shapes={shapes?.length ?? 0}
       data-log-y={logY ? "true" : "false"}
+      {...Object.fromEntries(Object.entries(data ?? {}).map(([k, v]) => [`data-${k}`, v]))}
       role="img"
       aria-label={title ?? yTitle ?? "plot"}
     />

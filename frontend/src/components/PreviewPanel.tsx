@@ -3,7 +3,8 @@
  * the worker's reason) or the result, rendered by the editor. Polls until the preview is final.
  */
 import type { ReactNode } from "react";
-import { usePreview, type Preview } from "../api/hooks";
+import { usePreview } from "../api/previews";
+import type { Preview } from "../api/types";
 import { ErrorBox, Loading, StatusBadge } from "./States";
 
 export function PreviewPanel<R>({

@@ -1,6 +1,7 @@
 import { describe, expect, it, vi } from "vitest";
 import { fireEvent, render, screen } from "@testing-library/react";
-import { SchemaForm, schemaDefaults, type JsonSchema } from "./SchemaForm";
+import { errorView, schemaLabel } from "../lib/formErrors";
+import { schemaFieldPaths, SchemaForm, schemaDefaults, type JsonSchema } from "./SchemaForm";
 
 // The aux-penalty parameters as pydantic emits them (see `alcove oracle schema aux-penalty`).
 const AUX: JsonSchema = {
@@ -40,10 +41,12 @@ describe("SchemaForm", () => {
     expect(onChange).toHaveBeenLastCalledWith({ k: 1, d0: 2, r_sp: [0.1, 0, -0.02] });
   });
 
-  it("shows the API's field errors next to the field and marks it invalid", () => {
-    render(<SchemaForm schema={AUX} value={{ k: -1 }} onChange={() => {}} errors={{ k: "Input should be greater than 0", "nested.thickness": "too thin" }} />);
+  it("shows the API's field errors next to the field, in words, and marks it invalid", () => {
+    const errors = errorView([[{ field: "k", message: "Input should be greater than 0" }, { field: "nested.thickness", message: "too thin" }]], schemaFieldPaths(AUX), (p) => schemaLabel(AUX, p));
+    render(<SchemaForm schema={AUX} value={{ k: -1 }} onChange={() => {}} errors={errors} />);
     expect(screen.getByLabelText(/^k/)).toHaveAttribute("aria-invalid", "true");
-    expect(screen.getByText("Input should be greater than 0")).toBeInTheDocument();
+    expect(screen.getByText("must be greater than 0")).toBeInTheDocument();
     expect(screen.getByText("too thin")).toBeInTheDocument();
+    expect(errors.unplaced).toEqual([]);
   });
 });

@@ -4,6 +4,8 @@
  * $defs) and arrays of numbers. Field errors (dotted paths) are shown next to their input.
  */
 import { useId } from "react";
+import type { FieldError } from "../api/errors";
+import { atFieldText, noErrors, type ErrorView, type Problem } from "../lib/formErrors";
 
 export interface JsonSchema {
   type?: string | string[];
@@ -72,7 +74,7 @@ export function schemaDefaults(schema: JsonSchema, root: JsonSchema = schema): V
   return out;
 }
 
-function primaryType(s: JsonSchema): string {
+export function primaryType(s: JsonSchema): string {
   if (s.enum) return "enum";
   if (s.const !== undefined) return "const";
   const t = Array.isArray(s.type) ? s.type.find((x) => x !== "null") : s.type;
@@ -90,6 +92,68 @@ function bounds(s: JsonSchema): string {
   return parts.join(", ");
 }
 
+/** The paths of the fields a form generated from `schema` shows (objects are groups, not fields). */
+export function schemaFieldPaths(schema: JsonSchema, root: JsonSchema = schema, prefix = ""): string[] {
+  const s = resolveRef(schema, root);
+  const out: string[] = [];
+  for (const [k, prop] of Object.entries(s.properties ?? {})) {
+    const { schema: p } = unwrapNullable(prop, root);
+    const path = prefix ? `${prefix}.${k}` : k;
+    if (primaryType(p) === "object" && p.properties) out.push(...schemaFieldPaths(p, root, path));
+    else out.push(path);
+  }
+  return out;
+}
+
+/** The checks the form makes itself: a number that is no number, a fraction in a whole-number field, the schema's bounds. */
+export function numberProblem(v: unknown, s: JsonSchema, integer: boolean): string | null {
+  if (v === undefined || v === null || v === "") return null;
+  if (typeof v !== "number" || Number.isNaN(v)) return "must be a number";
+  if (!Number.isFinite(v)) return "must be a finite number";
+  if (integer && !Number.isInteger(v)) return "must be a whole number";
+  if (s.minimum !== undefined && v < s.minimum) return `must be at least ${s.minimum}`;
+  if (s.exclusiveMinimum !== undefined && v <= s.exclusiveMinimum) return `must be greater than ${s.exclusiveMinimum}`;
+  if (s.maximum !== undefined && v > s.maximum) return `must be at most ${s.maximum}`;
+  if (s.exclusiveMaximum !== undefined && v >= s.exclusiveMaximum) return `must be less than ${s.exclusiveMaximum}`;
+  return null;
+}
+
+export function schemaLocalErrors(schema: JsonSchema, value: Values | undefined, root: JsonSchema = schema, prefix = ""): FieldError[] {
+  const s = resolveRef(schema, root);
+  const out: FieldError[] = [];
+  for (const [k, prop] of Object.entries(s.properties ?? {})) {
+    const { schema: p } = unwrapNullable(prop, root);
+    const path = prefix ? `${prefix}.${k}` : k;
+    const v = value?.[k];
+    const t = primaryType(p);
+    if (t === "object" && p.properties) out.push(...schemaLocalErrors(p, v as Values | undefined, root, path));
+    else if (t === "number" || t === "integer") {
+      const m = numberProblem(v, p, t === "integer");
+      if (m) out.push({ field: path, message: m });
+    } else if (t === "array" && Array.isArray(v) && p.items) {
+      const it = unwrapNullable(p.items, root).schema;
+      const itType = primaryType(it);
+      if (itType === "number" || itType === "integer")
+        v.forEach((x, i) => {
+          const m = numberProblem(x, it, itType === "integer");
+          if (m) out.push({ field: `${path}.${i}`, message: m });
+        });
+    }
+  }
+  return out;
+}
+
+/** A number as typed: "" -> empty, "2.5" stays 2.5 in a whole-number field (the form says so; nothing is rounded). */
+export function parseNumber(raw: string): number | undefined {
+  return raw.trim() === "" ? undefined : Number(raw);
+}
+
+/** A comma-separated list of numbers as typed ("" -> null: the default). Unreadable items stay NaN, and the form says so. */
+export function parseNumberList(text: string): number[] | null {
+  const parts = text.split(",").map((x) => x.trim()).filter(Boolean);
+  return parts.length ? parts.map(Number) : null;
+}
+
 interface FieldProps {
   name: string;
   path: string;
@@ -97,8 +161,22 @@ interface FieldProps {
   root: JsonSchema;
   value: unknown;
   onChange: (v: unknown) => void;
-  errors: Record<string, string>;
+  errors: ErrorView;
   required: boolean;
+}
+
+/** The messages of one field: one element per problem it owns. */
+export function FieldMessages({ problems, id, item }: { problems: Problem[]; id?: string; item?: string }) {
+  if (!problems.length) return null;
+  return (
+    <>
+      {problems.map((p, i) => (
+        <small key={p.path} id={i === 0 ? id : undefined} className="field-error" role="alert" data-error-path={p.path} title={`${p.label}: ${p.message}`}>
+          {atFieldText(p, item)}
+        </small>
+      ))}
+    </>
+  );
 }
 
 function Field({ name, path, schema, root, value, onChange, errors, required }: FieldProps) {
@@ -106,7 +184,8 @@ function Field({ name, path, schema, root, value, onChange, errors, required }: 
   const { schema: s, nullable } = unwrapNullable(schema, root);
   const type = primaryType(s);
   const label = name;
-  const error = errors[path];
+  const problems = errors.at(path);
+  const error = problems.length > 0;
   const hint = [s.description, bounds(s)].filter(Boolean).join(" · ");
   const describedBy = [hint ? `${id}-hint` : "", error ? `${id}-err` : ""].filter(Boolean).join(" ") || undefined;
 
@@ -156,9 +235,8 @@ function Field({ name, path, schema, root, value, onChange, errors, required }: 
         step={type === "integer" ? 1 : "any"}
         value={value === undefined || value === null ? "" : String(value)}
         onChange={(e) => {
-          const raw = e.target.value;
-          if (raw === "") onChange(nullable ? null : undefined);
-          else onChange(type === "integer" ? Number.parseInt(raw, 10) : Number(raw));
+          const v = parseNumber(e.target.value);
+          onChange(v === undefined ? (nullable ? null : undefined) : v);
         }}
         required={required && !nullable}
         aria-describedby={describedBy}
@@ -176,7 +254,7 @@ function Field({ name, path, schema, root, value, onChange, errors, required }: 
         placeholder="comma-separated"
         onBlur={(e) => {
           const parts = e.target.value.split(",").map((x) => x.trim()).filter(Boolean);
-          onChange(itemType === "number" || itemType === "integer" ? parts.map(Number) : parts);
+          onChange(itemType === "number" || itemType === "integer" ? (parseNumberList(e.target.value) ?? (nullable ? null : [])) : parts);
         }}
         aria-describedby={describedBy}
         aria-invalid={Boolean(error)}
@@ -216,11 +294,7 @@ function Field({ name, path, schema, root, value, onChange, errors, required }: 
           {hint}
         </small>
       )}
-      {error && (
-        <small id={`${id}-err`} className="field-error" role="alert">
-          {error}
-        </small>
-      )}
+      <FieldMessages problems={problems} id={`${id}-err`} />
     </div>
   );
 }
@@ -229,18 +303,19 @@ export interface SchemaFormProps {
   schema: JsonSchema;
   value: Values;
   onChange: (v: Values) => void;
-  /** errors by dotted path relative to this form (e.g. "stiffness" or "cushion.thickness") */
-  errors?: Record<string, string>;
+  /** the form's problems; this form's fields are at `prefix` + their dotted path */
+  errors?: ErrorView;
+  prefix?: string;
 }
 
-export function SchemaForm({ schema, value, onChange, errors = {} }: SchemaFormProps) {
+export function SchemaForm({ schema, value, onChange, errors = noErrors, prefix = "" }: SchemaFormProps) {
   const root = resolveRef(schema, schema);
   const props = root.properties ?? {};
   if (Object.keys(props).length === 0) return <p className="muted">This type has no parameters.</p>;
   return (
     <div className="schema-form">
       {Object.entries(props).map(([k, sub]) => (
-        <Field key={k} name={k} path={k} schema={sub} root={schema} value={value[k]} onChange={(v) => onChange({ ...value, [k]: v })} errors={errors} required={root.required?.includes(k) ?? false} />
+        <Field key={k} name={k} path={prefix ? `${prefix}.${k}` : k} schema={sub} root={schema} value={value[k]} onChange={(v) => onChange({ ...value, [k]: v })} errors={errors} required={root.required?.includes(k) ?? false} />
       ))}
     </div>
   );

@@ -6,6 +6,8 @@ export interface MetricPoint {
   moment_rmse: number | null;
   /** the oracle result of this iteration failed its quality gate */
   quarantined: boolean;
+  /** a fork's iteration from its source campaign (shown greyed) */
+  inherited?: boolean;
 }
 
 /** Merge newly fetched points into the known series (by iteration, newer wins), sorted. */

@@ -1,8 +1,8 @@
 /**
  * Chart state lives in the URL so a view can be shared and survives reload:
- * `log=0|1`, `it=3,5,8` (selected iterations for overlays).
+ * `log=0|1`, `k=5` (the iteration shown), `overlay=1-5, 8` (iterations overlaid), `tab=`.
  */
-import { useCallback } from "react";
+import { useCallback, useMemo } from "react";
 import { useSearchParams } from "react-router-dom";
 
 export function parseIntList(raw: string | null): number[] {
@@ -36,7 +36,8 @@ export function useBoolParam(name: string, fallback: boolean): [boolean, (v: boo
 
 export function useIntListParam(name: string): [number[], (v: number[]) => void] {
   const [params, setParams] = useSearchParams();
-  const value = parseIntList(params.get(name));
+  const raw = params.get(name);
+  const value = useMemo(() => parseIntList(raw), [raw]);
   const set = useCallback(
     (v: number[]) =>
       setParams(
@@ -70,4 +71,27 @@ export function useStringParam(name: string, fallback = ""): [string, (v: string
     [name, fallback, setParams],
   );
   return [value, set];
+}
+
+/**
+ * Set several parameters in one navigation. (Two setters called in a row each start from the
+ * same rendered parameters, so the second would drop the first's change.)
+ */
+export function useSetParams(): (changes: Record<string, string | null>) => void {
+  const [, setParams] = useSearchParams();
+  return useCallback(
+    (changes: Record<string, string | null>) =>
+      setParams(
+        (p) => {
+          const next = new URLSearchParams(p);
+          for (const [k, v] of Object.entries(changes)) {
+            if (v === null || v === "") next.delete(k);
+            else next.set(k, v);
+          }
+          return next;
+        },
+        { replace: true },
+      ),
+    [setParams],
+  );
 }

@@ -1,8 +1,8 @@
 import { describe, expect, it } from "vitest";
-import { screen, waitFor, within } from "@testing-library/react";
+import { act, screen, waitFor, within } from "@testing-library/react";
 import userEvent from "@testing-library/user-event";
 import { CampaignPage } from "./CampaignPage";
-import { mockApi, renderPage } from "../test/utils";
+import { mockApi, renderPage, sseStream } from "../test/utils";
 
 function campaign(status: string, iteration = 2) {
   return {
@@ -98,12 +98,14 @@ const trajectoryHandler = (url: URL) => {
 };
 
 describe("campaign page", () => {
-  it("polls only new iterations while the campaign runs and draws them on a log axis", async () => {
+  it("updates from the live channel: an evaluated iteration fetches only the new metrics, and nothing polls", async () => {
     let metrics = [metric(0), metric(1)];
     let iterations = [iteration(0), iteration(1), iteration(2, "running")];
+    const stream = sseStream();
     const after = (url: URL) => Number(url.searchParams.get("after") ?? -1);
     const { calls } = mockApi({
       "GET /campaigns/7": () => campaign("running"),
+      "GET /campaigns/7/events/stream": (url: URL) => stream.response(url),
       "GET /campaigns/7/metrics": (url: URL) => metrics.filter((m) => m.iteration_index > after(url)),
       "GET /campaigns/7/iterations": (url: URL) => iterations.filter((it) => it.index > after(url)),
       "GET /tasks/1/versions/1": TASK_VERSION,
@@ -112,24 +114,140 @@ describe("campaign page", () => {
     renderPage(<CampaignPage />, { route: "/campaigns/7", path: "/campaigns/:id" });
     expect(await screen.findByRole("heading", { name: "headrest study" })).toBeInTheDocument();
     await waitFor(() => expect(screen.getByTestId("rmse-count")).toHaveTextContent("2 iterations"));
+    await waitFor(() => expect(screen.getByTestId("live-state")).toHaveAttribute("data-state", "live"));
     expect(screen.getByTestId("rmse-plot")).toHaveAttribute("data-log-y", "true");
     expect(screen.getByTestId("rmse-plot")).toHaveAttribute("data-points", "4");
 
-    // iteration 2 fails (quarantined oracle result), iteration 3 succeeds
+    // iteration 2 fails (quarantined oracle result), iteration 3 is evaluated
     iterations = [iteration(0), iteration(1), iteration(2, "failed", "oracle result quarantined: penetration too deep"), iteration(3)];
     metrics = [...metrics, metric(3)];
+    stream.send({ kind: "step_failed", iteration_index: 2, step: "oracle" });
+    stream.send({ kind: "step_succeeded", iteration_index: 3, step: "evaluate" });
     await waitFor(() => expect(screen.getByTestId("rmse-count")).toHaveTextContent("3 iterations"), { timeout: 4000 });
-    const metricCalls = calls.filter((c) => c.path === "/campaigns/7/metrics");
-    const iterationCalls = calls.filter((c) => c.path === "/campaigns/7/iterations");
-    expect(metricCalls[0].url.searchParams.get("after")).toBeNull();
-    expect(metricCalls[metricCalls.length - 1].url.searchParams.get("after")).toBe("1");
-    // the running iteration 2 is asked for again, the finished ones are not
-    expect(iterationCalls[iterationCalls.length - 1].url.searchParams.get("after")).toBe("1");
     // the quarantined iteration is drawn as a separate marked trace
     await waitFor(() => expect(screen.getByTestId("rmse-plot")).toHaveAttribute("data-traces", "3"));
+    const metricCalls = calls.filter((c) => c.path === "/campaigns/7/metrics");
+    const iterationCalls = calls.filter((c) => c.path === "/campaigns/7/iterations");
+    // the first fetch has the whole series, every later one only what is new (the catch-up at connection time, the evaluated iteration)
+    const afters = metricCalls.map((c) => c.url.searchParams.get("after"));
+    expect(afters[0]).toBeNull();
+    expect(afters.slice(1).every((a) => a === "1")).toBe(true);
+    expect(metricCalls.length).toBeLessThanOrEqual(3);
+    // the running iteration 2 is asked for again, the finished ones are not
+    expect(iterationCalls[iterationCalls.length - 1].url.searchParams.get("after")).toBe("1");
+
+    // while the stream is up, nothing polls: no request for 2.5 s without an event
+    const before = calls.length;
+    await new Promise((r) => setTimeout(r, 2500));
+    expect(calls.slice(before).map((c) => c.path)).toEqual([]);
+    // a step that starts refreshes the header and the jobs, not the series
+    stream.send({ kind: "step_started", iteration_index: 4, step: "train" });
+    await waitFor(() => expect(calls.length).toBeGreaterThan(before));
+    await new Promise((r) => setTimeout(r, 200));
+    expect(new Set(calls.slice(before).map((c) => c.path))).toEqual(new Set(["/campaigns/7"]));
+    stream.close();
   });
 
-  it("does not poll a finished campaign, keeps the log toggle in the URL, shows forces and controls", async () => {
+  it("falls back to polling, with backoff, while the stream is down, and reconnects with ?after= the last event", async () => {
+    let streamUp = false;
+    const stream = sseStream();
+    const { calls } = mockApi({
+      "GET /campaigns/7": () => campaign("running"),
+      "GET /campaigns/7/events/stream": (url: URL) => (streamUp ? stream.response(url) : new Response("", { status: 503 })),
+      "GET /campaigns/7/metrics": () => [],
+      "GET /campaigns/7/iterations": () => [],
+      "GET /tasks/1/versions/1": TASK_VERSION,
+    });
+    renderPage(<CampaignPage />, { route: "/campaigns/7", path: "/campaigns/:id" });
+    await waitFor(() => expect(screen.getByTestId("live-state")).toHaveAttribute("data-state", "down"));
+    expect(screen.getByTestId("live-state")).toHaveTextContent("checking every 2 s");
+    await waitFor(() => expect(calls.filter((c) => c.path === "/campaigns/7/metrics").length).toBeGreaterThanOrEqual(2), { timeout: 3500 });
+    streamUp = true;
+    await waitFor(() => expect(screen.getByTestId("live-state")).toHaveAttribute("data-state", "live"), { timeout: 5000 });
+    // up again: polling stops
+    const polls = calls.filter((c) => c.path === "/campaigns/7/metrics").length;
+    stream.send({ kind: "step_started", iteration_index: 1, step: "ocp" });
+    const last = stream.send({ kind: "step_succeeded", iteration_index: 1, step: "ocp" });
+    await new Promise((r) => setTimeout(r, 300));
+    stream.close(); // the server's timeout: reconnect at once, after the last event
+    await waitFor(() => expect(calls.filter((c) => c.path === "/campaigns/7/events/stream").pop()?.url.searchParams.get("after")).toBe(String(last)));
+    await new Promise((r) => setTimeout(r, 2200));
+    expect(calls.filter((c) => c.path === "/campaigns/7/metrics").length).toBe(polls);
+    stream.close();
+  }, 15000);
+
+  it("a reconnection that missed too much (ready: complete false) refetches what the page shows; a complete one does not", async () => {
+    const stream = sseStream();
+    const { calls } = mockApi({
+      "GET /campaigns/7": () => campaign("running"),
+      "GET /campaigns/7/events/stream": (url: URL) => stream.response(url),
+      "GET /campaigns/7/metrics": () => [metric(0)],
+      "GET /campaigns/7/iterations": () => [iteration(0)],
+      "GET /tasks/1/versions/1": TASK_VERSION,
+    });
+    renderPage(<CampaignPage />, { route: "/campaigns/7", path: "/campaigns/:id" });
+    await waitFor(() => expect(screen.getByTestId("live-state")).toHaveAttribute("data-state", "live"));
+    stream.send({ kind: "step_started", iteration_index: 1, step: "train" });
+    await new Promise((r) => setTimeout(r, 300));
+    const count = (path: string) => calls.filter((c) => c.path === path).length;
+    let before = count("/campaigns/7/metrics");
+    stream.close(); // resumed with ?after=, complete: nothing to reload
+    await waitFor(() => expect(stream.connections).toBe(2));
+    await new Promise((r) => setTimeout(r, 300));
+    expect(count("/campaigns/7/metrics")).toBe(before);
+    stream.incomplete = true;
+    stream.close(); // resumed, but the server could not send all that was missed
+    await waitFor(() => expect(stream.connections).toBe(3));
+    await waitFor(() => expect(count("/campaigns/7/metrics")).toBe(before + 1));
+    before = count("/campaigns/7/iterations");
+    expect(before).toBeGreaterThanOrEqual(2);
+    stream.close();
+  });
+
+  it("after the campaign ends, the plot shows every iteration the header reports, even if an answer was stale", async () => {
+    // the defect: the header showed iteration 2's RMSE, the plot stopped at 1 until a reload
+    let stale = true;
+    const { calls } = mockApi({
+      "GET /campaigns/7": () => ({ ...campaign("completed", 2), latest_metrics: { ...metric(2), iteration_index: 2 } }),
+      "GET /campaigns/7/metrics": (url: URL) => {
+        const after = Number(url.searchParams.get("after") ?? -1);
+        const rows = stale ? [metric(0), metric(1)] : [metric(0), metric(1), metric(2)];
+        stale = false; // an answer from before the last commit (or a short server-side reuse window)
+        return rows.filter((m) => m.iteration_index > after);
+      },
+      "GET /campaigns/7/iterations": () => [iteration(0), iteration(1), iteration(2)],
+      "GET /tasks/1/versions/1": TASK_VERSION,
+      [CURVES_ROUTE]: curvesHandler,
+    });
+    renderPage(<CampaignPage />, { route: "/campaigns/7", path: "/campaigns/:id" });
+    await waitFor(() => expect(screen.getByTestId("rmse-count")).toHaveTextContent("3 iterations"), { timeout: 3000 });
+    expect(screen.getByTestId("rmse-plot")).toHaveAttribute("data-iterations", "0,1,2");
+    expect(calls.filter((c) => c.path === "/campaigns/7/metrics").map((c) => c.url.searchParams.get("after"))).toEqual([null, "1"]);
+    // a terminal campaign opens no stream
+    expect(calls.some((c) => c.path.endsWith("/events/stream"))).toBe(false);
+  });
+
+  it("clicking a point on the RMSE plot opens that iteration on the forces tab (k in the URL)", async () => {
+    mockApi({
+      "GET /campaigns/7": () => campaign("completed", 3),
+      "GET /campaigns/7/metrics": () => [metric(0), metric(1), metric(2), metric(3)],
+      "GET /campaigns/7/iterations": () => [iteration(0), iteration(1), iteration(2), iteration(3)],
+      "GET /campaigns/7/jobs": () => [],
+      "GET /tasks/1/versions/1": TASK_VERSION,
+      [CURVES_ROUTE]: curvesHandler,
+    });
+    renderPage(<CampaignPage />, { route: "/campaigns/7?tab=jobs", path: "/campaigns/:id" });
+    await waitFor(() => expect(screen.getByTestId("rmse-plot")).toHaveAttribute("data-rendered", "true"));
+    const el = screen.getByTestId("rmse-plot") as HTMLElement & { __plotly: Record<string, (e: unknown) => void> };
+    await act(async () => el.__plotly.plotly_click({ points: [{ x: 1, curveNumber: 0 }] }));
+    await waitFor(() => expect(screen.getByTestId("forces-panel")).toHaveAttribute("data-iteration", "1"));
+    const search = new URLSearchParams(screen.getByTestId("location").getAttribute("data-search") ?? "");
+    expect(search.get("k")).toBe("1");
+    expect(search.get("tab")).toBeNull(); // the forces tab is the default
+    expect(screen.getByTestId("iteration-value")).toHaveTextContent("k = 1");
+  });
+
+  it("does not poll a finished campaign, keeps the log toggle in the URL, shows forces and overlays by range", async () => {
     const { calls } = mockApi({
       "GET /campaigns/7": () => campaign("completed", 2),
       "GET /campaigns/7/metrics": () => [metric(0), metric(1), metric(2)],
@@ -147,9 +265,10 @@ describe("campaign page", () => {
     // latest iteration with oracle data is shown: oracle and surrogate for fx and fz
     await waitFor(() => expect(screen.getByTestId("force-plot")).toHaveAttribute("data-traces", "4"));
     expect(screen.getByTestId("iteration-value")).toHaveTextContent("k = 2");
-    // overlay iteration 1: twice the traces
-    await userEvent.click(within(screen.getByRole("group", { name: "Overlay iterations" })).getByLabelText("1"));
-    await waitFor(() => expect(screen.getByTestId("force-plot")).toHaveAttribute("data-traces", "8"));
+    // overlay iterations 1-2 by range: twice the curves plus the colorbar
+    await userEvent.type(screen.getByLabelText("Overlay iterations"), "1-2{Enter}");
+    await waitFor(() => expect(screen.getByTestId("force-plot")).toHaveAttribute("data-traces", "9"));
+    expect(new URLSearchParams(screen.getByTestId("location").getAttribute("data-search") ?? "").get("overlay")).toBe("1, 2");
 
     const controls = screen.getByRole("group", { name: "Campaign controls" });
     expect(within(controls).getByRole("button", { name: "Pause" })).toBeDisabled();

@@ -1,5 +1,10 @@
 import { Link, useParams } from "react-router-dom";
-import { isLive, useCampaign, useMetrics, useOracle, useTask } from "../api/hooks";
+import { useQueryClient } from "@tanstack/react-query";
+import { maxIterations, progressText, useCampaign } from "../api/campaigns";
+import { useMetrics } from "../api/series";
+import { useCampaignLive, type Live } from "../api/live";
+import { useOracle, useTask } from "../api/definitions";
+import { isLive } from "../api/types";
 import { Empty, ErrorBox, Loading, StatusBadge } from "../components/States";
 import { RmsePlot } from "../campaign/RmsePlot";
 import { loadPlotly } from "../components/Plot";
@@ -8,7 +13,7 @@ import { TrajectoryPanel } from "../campaign/TrajectoryPanel";
 import { JobsTable, VersionsPanel } from "../campaign/JobsAndVersions";
 import { Controls } from "../campaign/Controls";
 import { fmtDate, fmtDuration, fmtNumber } from "../lib/format";
-import { useBoolParam, useIntListParam, useStringParam } from "../lib/urlState";
+import { useBoolParam, useIntListParam, useSetParams, useStringParam } from "../lib/urlState";
 
 const TABS = [
   ["forces", "Forces & moments"],
@@ -17,38 +22,53 @@ const TABS = [
   ["versions", "Pool & models"],
 ] as const;
 
+function LiveBadge({ live, running }: { live: Live; running: boolean }) {
+  if (live.state === "live") return <span className="muted" data-testid="live-state" data-state="live" aria-live="polite">{running ? "live" : "watching for changes"}</span>;
+  if (live.state === "down")
+    return (
+      <span className="muted" data-testid="live-state" data-state="down" aria-live="polite">
+        live updates interrupted, reconnecting · checking every {Math.round(Number(live.poll) / 1000)} s
+      </span>
+    );
+  if (live.state === "connecting") return <span className="muted" data-testid="live-state" data-state="connecting">connecting…</span>;
+  return null;
+}
+
 export function CampaignPage() {
   void loadPlotly(); // fetch and parse plotly.js while the campaign's data loads
   const id = Number(useParams().id);
+  const qc = useQueryClient();
+  const statusGuess = qc.getQueryData<{ campaign: { status: string } }>(["campaign", id])?.campaign.status;
+  const live = useCampaignLive(id, statusGuess);
   const campaign = useCampaign(id);
-  const live = campaign.data ? isLive(campaign.data.status) : false;
-  const metrics = useMetrics(id, live);
+  const c = campaign.data;
+  const metrics = useMetrics(id, { inherited: c?.campaign.source_campaign_id != null, latest: c?.latest_metrics?.iteration_index ?? null, qc });
   const [logY, setLogY] = useBoolParam("log", true);
   const [selected, setSelected] = useIntListParam("k");
-  const [overlay, setOverlay] = useIntListParam("overlay");
+  const [overlay, setOverlay] = useStringParam("overlay");
   const [tab, setTab] = useStringParam("tab", "forces");
-  const oracle = useOracle(campaign.data?.oracle_id ?? null);
-  const task = useTask(campaign.data?.task_id ?? null);
+  const setParams = useSetParams();
+  const oracle = useOracle(c?.oracle_id ?? null);
+  const task = useTask(c?.task_id ?? null);
 
   if (!Number.isInteger(id)) return <ErrorBox error="invalid campaign id" />;
   if (campaign.isPending) return <Loading label="Loading campaign…" />;
-  if (campaign.isError) return <ErrorBox error={campaign.error} retry={() => void campaign.refetch()} />;
-  const c = campaign.data;
+  if (campaign.isError || !c) return <ErrorBox error={campaign.error} retry={() => void campaign.refetch()} />;
+  const r = c.campaign;
+  const running = isLive(r.status);
   const points = metrics.data ?? [];
-  const last = points.length ? points[points.length - 1].iteration : -1;
+  const own = points.filter((p) => !p.inherited);
+  const last = own.length ? own[own.length - 1].iteration : (r.source_iteration ?? -1);
   const k = selected[0] ?? null;
-  const trajectoryK = k ?? (points.filter((p) => p.iteration > 0 && p.force_rmse !== null).pop()?.iteration ?? null);
+  const trajectoryK = k ?? (own.filter((p) => p.iteration > 0 && p.force_rmse !== null).pop()?.iteration ?? null);
+  const max = maxIterations(c);
 
   return (
     <>
       <div className="toolbar">
-        <h1 style={{ margin: 0 }}>{c.name}</h1>
-        <StatusBadge status={c.status} />
-        {live && (
-          <span className="muted" aria-live="polite">
-            live · updates every 2 s
-          </span>
-        )}
+        <h1 style={{ margin: 0 }}>{r.name}</h1>
+        <StatusBadge status={r.status} />
+        <LiveBadge live={live} running={running} />
         <span className="spacer" />
         <Controls campaign={c} lastIteration={last} />
       </div>
@@ -56,45 +76,44 @@ export function CampaignPage() {
         <dl className="kv" style={{ gridTemplateColumns: "max-content 1fr max-content 1fr max-content 1fr" }}>
           <dt>Iteration</dt>
           <dd data-testid="iteration-progress">
-            {c.iteration}
-            {c.max_iterations ? ` / ${c.max_iterations}` : ""} {c.current_step ? `(${c.current_step})` : ""}
+            {progressText(r.current_iteration, max)} {running && r.current_step ? `(${r.current_step})` : ""}
           </dd>
           <dt>Task</dt>
           <dd>
-            {c.task_id ? (
-              <Link to={`/tasks/${c.task_id}`}>
-                {task.data?.name ?? `task ${c.task_id}`} v{c.task_version}
-              </Link>
-            ) : (
-              "—"
-            )}
+            <Link to={`/tasks/${c.task_id}`}>
+              {task.data?.name ?? `task ${c.task_id}`} v{c.task_version}
+            </Link>
           </dd>
           <dt>Oracle</dt>
-          <dd>{c.oracle_id ? <Link to={`/oracles/${c.oracle_id}`}>{oracle.data ? `${oracle.data.name} (${oracle.data.type})` : `oracle ${c.oracle_id}`}</Link> : "—"}</dd>
+          <dd>
+            <Link to={`/oracles/${c.oracle_id}`}>{oracle.data ? `${oracle.data.name} (${oracle.data.type})` : `oracle ${c.oracle_id}`}</Link>
+          </dd>
           <dt>Force RMSE</dt>
-          <dd>{fmtNumber(c.force_rmse)} N</dd>
+          <dd data-testid="latest-force-rmse" data-iteration={c.latest_metrics?.iteration_index ?? ""}>
+            {fmtNumber(c.latest_metrics?.force_rmse)} N
+          </dd>
           <dt>Moment RMSE</dt>
-          <dd>{fmtNumber(c.moment_rmse)} N m</dd>
+          <dd>{fmtNumber(c.latest_metrics?.moment_rmse)} N m</dd>
           <dt>Owner</dt>
-          <dd>{c.owner ?? "—"}</dd>
+          <dd>{c.owner}</dd>
           <dt>Started</dt>
-          <dd>{fmtDate(c.started_at)}</dd>
+          <dd>{fmtDate(r.started_at)}</dd>
           <dt>ETA</dt>
-          <dd>{live ? fmtDuration(c.eta_s) : c.finished_at ? `finished ${fmtDate(c.finished_at)}` : "—"}</dd>
+          <dd>{running ? fmtDuration(c.eta_s) : r.finished_at ? `finished ${fmtDate(r.finished_at)}` : "—"}</dd>
           <dt>Stop reason</dt>
-          <dd>{c.stop_reason ?? "—"}</dd>
-          {c.source_campaign_id !== null && c.source_campaign_id !== undefined && (
+          <dd>{r.stop_reason ?? "—"}</dd>
+          {r.source_campaign_id != null && (
             <>
               <dt>Forked from</dt>
               <dd>
-                <Link to={`/campaigns/${c.source_campaign_id}`}>campaign {c.source_campaign_id}</Link> at k = {c.source_iteration}
+                <Link to={`/campaigns/${r.source_campaign_id}`}>campaign {r.source_campaign_id}</Link> at k = {r.source_iteration}
               </dd>
             </>
           )}
         </dl>
-        {c.error && (
+        {r.error && (
           <p className="error-text" role="alert">
-            {c.error}
+            {r.error}
           </p>
         )}
       </div>
@@ -104,7 +123,8 @@ export function CampaignPage() {
             RMSE per iteration
           </h2>
           <span className="muted" data-testid="rmse-count">
-            {points.filter((p) => p.force_rmse !== null).length} iterations with metrics
+            {own.filter((p) => p.force_rmse !== null).length} iterations with metrics
+            {points.length > own.length ? ` (and ${points.length - own.length} inherited from the source, grey)` : ""}
           </span>
           <span className="spacer" />
           <label className="field-inline">
@@ -117,10 +137,17 @@ export function CampaignPage() {
           <Loading label="Loading metrics…" />
         ) : points.length === 0 ? (
           <Empty title="No iteration has finished yet">
-            {c.status === "draft" ? "Start the campaign to run its first iteration." : "The RMSE of each iteration appears here as soon as it is evaluated."}
+            {r.status === "draft" ? "Start the campaign to run its first iteration." : "The RMSE of each iteration appears here as soon as it is evaluated."}
           </Empty>
         ) : (
-          <RmsePlot points={points} logY={logY} onSelect={(it) => { setSelected([it]); setTab("forces"); }} />
+          <RmsePlot
+            points={points}
+            logY={logY}
+            onSelect={(it) => {
+              // one navigation for both: the clicked iteration on the forces tab
+              if (own.some((p) => p.iteration === it)) setParams({ k: String(it), tab: null });
+            }}
+          />
         )}
       </section>
       <section className="panel">
@@ -155,8 +182,8 @@ export function CampaignPage() {
         <div role="tabpanel" id={`panel-${tab}`} aria-labelledby={`tab-${tab}`}>
           {tab === "forces" && <ForcesPanel campaignId={id} points={points} iteration={k} setIteration={(it) => setSelected([it])} overlay={overlay} setOverlay={setOverlay} />}
           {tab === "trajectory" && <TrajectoryPanel campaignId={id} iteration={trajectoryK} />}
-          {tab === "jobs" && <JobsTable campaignId={id} live={live} />}
-          {tab === "versions" && <VersionsPanel campaignId={id} live={live} />}
+          {tab === "jobs" && <JobsTable campaignId={id} />}
+          {tab === "versions" && <VersionsPanel campaignId={id} />}
         </div>
       </section>
     </>

@@ -1,7 +1,10 @@
 import { useMemo, useState } from "react";
 import { Link, useNavigate } from "react-router-dom";
 import { useQueries } from "@tanstack/react-query";
-import { metricsQuery, useCampaigns, type CampaignRow } from "../api/hooks";
+import { progressText, useCampaigns } from "../api/campaigns";
+import { metricsQuery } from "../api/series";
+import { useCampaignListLive } from "../api/live";
+import type { CampaignSummary } from "../api/types";
 import { isMarked } from "../lib/metrics";
 import { Empty, ErrorBox, Loading, StatusBadge } from "../components/States";
 import { Sparkline } from "../components/Sparkline";
@@ -10,10 +13,10 @@ import { useStringParam } from "../lib/urlState";
 
 const STATUSES = ["", "draft", "queued", "running", "pausing", "paused", "cancelling", "cancelled", "completed", "failed"];
 
-type SortKey = "name" | "status" | "owner" | "iteration" | "force_rmse" | "moment_rmse" | "started_at";
+type SortKey = "name" | "status" | "owner" | "current_iteration" | "force_rmse" | "moment_rmse" | "started_at";
 
-export function sortCampaigns(rows: CampaignRow[], key: SortKey, descending: boolean): CampaignRow[] {
-  const value = (r: CampaignRow): string | number => {
+export function sortCampaigns(rows: CampaignSummary[], key: SortKey, descending: boolean): CampaignSummary[] {
+  const value = (r: CampaignSummary): string | number => {
     const v = r[key];
     if (v === null || v === undefined) return descending ? -Infinity : Infinity;
     return v as string | number;
@@ -32,6 +35,7 @@ export function CampaignsPage() {
   const [search, setSearch] = useStringParam("q");
   const [sort, setSort] = useStringParam("sort", "-started_at");
   const [selected, setSelected] = useState<number[]>([]);
+  const live = useCampaignListLive();
   const campaigns = useCampaigns({ status: status || undefined });
 
   const sortKey = sort.replace(/^-/, "") as SortKey;
@@ -39,7 +43,7 @@ export function CampaignsPage() {
   const rows = useMemo(() => {
     const all = campaigns.data ?? [];
     const q = search.trim().toLowerCase();
-    const filtered = q ? all.filter((c) => [c.name, c.task, c.oracle, c.owner].some((s) => s?.toLowerCase().includes(q))) : all;
+    const filtered = q ? all.filter((c) => [c.name, c.task, c.oracle, c.oracle_type, c.owner].some((s) => s?.toLowerCase().includes(q))) : all;
     return sortCampaigns(filtered, sortKey, descending);
   }, [campaigns.data, search, sortKey, descending]);
 
@@ -52,8 +56,9 @@ export function CampaignsPage() {
     </th>
   );
 
-  // sparklines: the RMSE series of the first 50 rows (cached, refreshed at most every 10 s)
-  const histories = useQueries({ queries: rows.slice(0, 50).map((r) => ({ ...metricsQuery(r.id), staleTime: 10_000 })) });
+  // sparklines: the RMSE series of the first 50 rows, fetched once each and refreshed when the
+  // live channel says a campaign evaluated an iteration (no polling of their own)
+  const histories = useQueries({ queries: rows.slice(0, 50).map((r) => ({ ...metricsQuery(r.id), staleTime: Infinity })) });
   const historyOf = new Map(
     rows.slice(0, 50).map((r, i) => {
       const pts = (histories[i]?.data ?? []).filter((p) => !isMarked(p));
@@ -67,6 +72,9 @@ export function CampaignsPage() {
     <>
       <div className="toolbar">
         <h1 style={{ margin: 0 }}>Campaigns</h1>
+        <span className="muted" data-testid="live-state" data-state={live.state}>
+          {live.state === "live" ? "live" : live.state === "down" ? `live updates interrupted, checking every ${Math.round(Number(live.poll) / 1000)} s` : ""}
+        </span>
         <span className="spacer" />
         <button type="button" disabled={selected.length < 2} onClick={() => navigate(`/compare?ids=${selected.join(",")}`)} title="Select 2 to 4 campaigns">
           Compare selected ({selected.length})
@@ -112,7 +120,7 @@ export function CampaignsPage() {
                 {header("owner", "Owner")}
                 <th>Task</th>
                 <th>Oracle</th>
-                {header("iteration", "Iteration", true)}
+                {header("current_iteration", "Iteration", true)}
                 {header("force_rmse", "Force RMSE", true)}
                 {header("moment_rmse", "Moment RMSE", true)}
                 {header("started_at", "Started")}
@@ -121,7 +129,7 @@ export function CampaignsPage() {
             </thead>
             <tbody>
               {rows.map((c) => (
-                <tr key={c.id} className="clickable">
+                <tr key={c.id} className="clickable" data-campaign-id={c.id} data-status={c.status}>
                   <td>
                     <input type="checkbox" aria-label={`Select ${c.name} for comparison`} checked={selected.includes(c.id)} onChange={() => toggle(c.id)} />
                   </td>
@@ -131,18 +139,19 @@ export function CampaignsPage() {
                   <td>
                     <StatusBadge status={c.status} />
                   </td>
-                  <td>{c.owner ?? "—"}</td>
-                  <td>{c.task ?? "—"}</td>
-                  <td>{c.oracle ?? "—"}</td>
+                  <td>{c.owner}</td>
+                  <td>
+                    {c.task} v{c.task_version}
+                  </td>
+                  <td>
+                    {c.oracle} ({c.oracle_type})
+                  </td>
+                  <td className="num">{progressText(c.current_iteration, c.max_iterations)}</td>
                   <td className="num">
-                    {c.iteration}
-                    {c.max_iterations ? `/${c.max_iterations}` : ""}
+                    {fmtNumber(c.force_rmse)} <Sparkline values={historyOf.get(c.id)?.force ?? []} label={`force RMSE history of ${c.name}`} />
                   </td>
                   <td className="num">
-                    {fmtNumber(c.force_rmse)} <Sparkline values={historyOf.get(c.id)?.force ?? c.force_history} label={`force RMSE history of ${c.name}`} />
-                  </td>
-                  <td className="num">
-                    {fmtNumber(c.moment_rmse)} <Sparkline values={historyOf.get(c.id)?.moment ?? c.moment_history} label={`moment RMSE history of ${c.name}`} />
+                    {fmtNumber(c.moment_rmse)} <Sparkline values={historyOf.get(c.id)?.moment ?? []} label={`moment RMSE history of ${c.name}`} />
                   </td>
                   <td>{fmtDate(c.started_at)}</td>
                   <td>{c.eta_s !== null && c.eta_s !== undefined ? fmtDuration(c.eta_s) : "—"}</td>

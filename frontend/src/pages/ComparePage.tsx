@@ -1,7 +1,8 @@
 import { useMemo } from "react";
 import { useQueries } from "@tanstack/react-query";
 import { Link } from "react-router-dom";
-import { metricsQuery, useCampaigns } from "../api/hooks";
+import { useCampaigns } from "../api/campaigns";
+import { metricsQuery } from "../api/series";
 import { Plot, type Trace } from "../components/Plot";
 import { Empty, ErrorBox, Loading } from "../components/States";
 import { isMarked } from "../lib/metrics";
@@ -14,20 +15,24 @@ export function ComparePage() {
   const [logY, setLogY] = useBoolParam("log", true);
   const campaigns = useCampaigns({});
   const series = useQueries({ queries: ids.map((id) => metricsQuery(id)) });
-  const names = new Map((campaigns.data ?? []).map((c) => [c.id, c.name]));
+  const names = useMemo(() => new Map((campaigns.data ?? []).map((c) => [c.id, c.name])), [campaigns.data]);
+  const data = series.map((s) => s.data);
+  const dataKey = series.map((s) => s.dataUpdatedAt).join();
+  // eslint-disable-next-line react-hooks/exhaustive-deps -- the series change only when some query's data updated
+  const seriesData = useMemo(() => data, [dataKey]);
 
   const [force, moment] = useMemo(() => {
     const f: Trace[] = [];
     const m: Trace[] = [];
     ids.forEach((id, i) => {
-      const pts = (series[i]?.data ?? []).filter((p) => !isMarked(p));
+      const pts = (seriesData[i] ?? []).filter((p) => !isMarked(p));
       const name = names.get(id) ?? `campaign ${id}`;
       const line = { color: COLORS[i % COLORS.length] };
       f.push({ x: pts.map((p) => p.iteration), y: pts.map((p) => p.force_rmse), name, mode: "lines+markers", type: "scatter", line });
       m.push({ x: pts.map((p) => p.iteration), y: pts.map((p) => p.moment_rmse), name, mode: "lines+markers", type: "scatter", line });
     });
     return [f, m];
-  }, [ids.join(), series.map((s) => s.dataUpdatedAt).join(), campaigns.data]); // eslint-disable-line
+  }, [ids, seriesData, names]);
 
   const toggle = (id: number) => setIds(ids.includes(id) ? ids.filter((x) => x !== id) : ids.length >= 4 ? ids : [...ids, id]);
 

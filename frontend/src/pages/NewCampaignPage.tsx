@@ -1,73 +1,12 @@
-import { useEffect, useState, type FormEvent } from "react";
+import { useState, type FormEvent } from "react";
 import { Link, useNavigate } from "react-router-dom";
-import { componentSchema, useCreateCampaign, useOpenApi, useOracles, useSurrogateConfigs, useTasks } from "../api/hooks";
-import { ApiError, errorMessage } from "../api/errors";
+import { useCreateCampaign } from "../api/campaigns";
+import { useOpenApi, useOracles, useSurrogateConfigs, useTasks } from "../api/definitions";
 import { ErrorBox, Loading } from "../components/States";
-import { SchemaForm, schemaDefaults } from "../components/SchemaForm";
-
-/** Editable campaign settings, each a form generated from the API's own schema. */
-const SECTIONS = [
-  ["preliminary", "PreliminaryConfig", "Preliminary data (pool version 0)"],
-  ["stopping", "StoppingRules", "Stopping rules"],
-  ["settings", "RunSettings", "Run settings"],
-  ["policies", "Policies", "Failure policies"],
-] as const;
-
-export type ConfigDraft = Record<string, Record<string, unknown>>;
-
-export function ConfigSections({
-  value,
-  onChange,
-  errors,
-  prefix = "",
-  only,
-}: {
-  value: ConfigDraft;
-  onChange: (v: ConfigDraft) => void;
-  errors: Record<string, string>;
-  prefix?: string;
-  only?: string[];
-}) {
-  const openapi = useOpenApi();
-  if (openapi.isPending) return <Loading label="Loading settings form…" />;
-  if (openapi.isError) return <ErrorBox error={openapi.error} />;
-  return (
-    <>
-      {SECTIONS.filter(([key]) => !only || only.includes(key)).map(([key, schemaName, title]) => {
-        const schema = componentSchema(openapi.data, schemaName);
-        if (!schema) return null;
-        const sectionErrors = Object.fromEntries(
-          Object.entries(errors)
-            .filter(([f]) => f.startsWith(`${prefix}${key}.`))
-            .map(([f, m]) => [f.slice(prefix.length + key.length + 1), m]),
-        );
-        const body = <SchemaForm schema={schema} value={value[key] ?? {}} onChange={(v) => onChange({ ...value, [key]: v })} errors={sectionErrors} />;
-        return key === "policies" ? (
-          <details key={key} className="panel">
-            <summary>{title}</summary>
-            {body}
-          </details>
-        ) : (
-          <section key={key} className="panel" aria-label={title}>
-            <h2>{title}</h2>
-            {body}
-          </section>
-        );
-      })}
-    </>
-  );
-}
-
-export function useConfigDefaults(): ConfigDraft | null {
-  const openapi = useOpenApi();
-  if (!openapi.data) return null;
-  const out: ConfigDraft = {};
-  for (const [key, schemaName] of SECTIONS) {
-    const schema = componentSchema(openapi.data, schemaName);
-    if (schema) out[key] = schemaDefaults(schema);
-  }
-  return out;
-}
+import { FieldMessages } from "../components/SchemaForm";
+import { ErrorCount, FormErrors, serverProblems } from "../components/FormErrors";
+import { errorView } from "../lib/formErrors";
+import { ConfigSections, configFieldPaths, configLabel, configLocalErrors, useConfigDefaults, type ConfigDraft } from "../campaign/ConfigSections";
 
 export function NewCampaignPage() {
   const navigate = useNavigate();
@@ -77,38 +16,33 @@ export function NewCampaignPage() {
   const create = useCreateCampaign();
   const defaults = useConfigDefaults();
   const [name, setName] = useState("");
-  const [taskId, setTaskId] = useState<number | "">("");
-  const [oracleId, setOracleId] = useState<number | "">("");
+  // until chosen: the first task and oracle, the schemas' defaults
+  const [chosenTask, setTaskId] = useState<number | "">("");
+  const [chosenOracle, setOracleId] = useState<number | "">("");
   const [surrogateId, setSurrogateId] = useState<number | "">("");
   const [seed, setSeed] = useState(0);
-  const [config, setConfig] = useState<ConfigDraft | null>(null);
+  const [edited, setConfig] = useState<ConfigDraft | null>(null);
   const [startNow, setStartNow] = useState(true);
+  const taskId = chosenTask === "" ? (tasks.data?.[0]?.id ?? "") : chosenTask;
+  const oracleId = chosenOracle === "" ? (oracles.data?.[0]?.id ?? "") : chosenOracle;
+  const config = edited ?? defaults;
 
-  useEffect(() => {
-    if (taskId === "" && tasks.data?.length) setTaskId(tasks.data[0].id);
-  }, [tasks.data, taskId]);
-  useEffect(() => {
-    if (oracleId === "" && oracles.data?.length) setOracleId(oracles.data[0].id);
-  }, [oracles.data, oracleId]);
-  useEffect(() => {
-    if (config === null && defaults) setConfig(defaults);
-  }, [defaults, config]);
+  const openapi = useOpenApi();
+  const [submitted, setSubmitted] = useState(false);
+  const own = ["name", "seed", "task_id", "oracle_id", "surrogate_config_id"];
+  const local = config ? configLocalErrors(openapi.data, config) : [];
+  const view = errorView([submitted ? local : [], serverProblems(create.error)], [...own, ...configFieldPaths(openapi.data)], (p) =>
+    own.includes(p) ? p : configLabel(openapi.data, p),
+  );
 
-  const fieldErrors = create.error instanceof ApiError ? Object.fromEntries(create.error.fieldErrors.map((e) => [e.field, e.message])) : {};
-
-  async function submit(e: FormEvent) {
+  function submit(e: FormEvent) {
     e.preventDefault();
-    if (taskId === "" || oracleId === "" || !config) return;
-    const created = await create.mutateAsync({
-      name,
-      task_id: taskId,
-      oracle_id: oracleId,
-      surrogate_config_id: surrogateId === "" ? null : surrogateId,
-      seed,
-      start: startNow,
-      ...config,
-    });
-    navigate(`/campaigns/${created.id}`);
+    setSubmitted(true);
+    if (taskId === "" || oracleId === "" || !config || local.length) return;
+    create.mutate(
+      { name, task_id: taskId, oracle_id: oracleId, surrogate_config_id: surrogateId === "" ? null : surrogateId, seed, start: startNow, ...config },
+      { onSuccess: (created) => navigate(`/campaigns/${created.id}`) },
+    );
   }
 
   if (tasks.isPending || oracles.isPending) return <Loading />;
@@ -117,12 +51,13 @@ export function NewCampaignPage() {
   const t = tasks.data ?? [];
   const o = oracles.data ?? [];
   const s = surrogates.data ?? [];
-  const err = (f: string) => fieldErrors[f] && <small className="field-error">{fieldErrors[f]}</small>;
+  const err = (f: string) => <FieldMessages problems={view.at(f)} />;
 
   return (
-    <form onSubmit={submit} style={{ maxWidth: 1100 }}>
+    <form onSubmit={submit} style={{ maxWidth: 1100 }} noValidate>
       <div className="toolbar">
         <h1 style={{ margin: 0 }}>New campaign</h1>
+        {view.problems.length > 0 && <ErrorCount view={view} />}
         <span className="spacer" />
         <label className="field-inline">
           <input type="checkbox" checked={startNow} onChange={(e) => setStartNow(e.target.checked)} /> Start right away
@@ -137,11 +72,7 @@ export function NewCampaignPage() {
           A campaign needs a <Link to="/tasks/new">task</Link> and an <Link to="/oracles/new">oracle</Link> first.
         </p>
       )}
-      {create.isError && (
-        <p className="error-text" role="alert">
-          {errorMessage(create.error)}
-        </p>
-      )}
+      <FormErrors view={view} failure={create.error} />
       <section className="panel">
         <div className="row">
           <div className="field grow">
@@ -151,7 +82,7 @@ export function NewCampaignPage() {
           </div>
           <div className="field">
             <label htmlFor="campaign-seed">Seed</label>
-            <input id="campaign-seed" type="number" min={0} value={seed} onChange={(e) => setSeed(Number(e.target.value))} />
+            <input id="campaign-seed" type="number" min={0} step={1} value={seed} onChange={(e) => setSeed(Number(e.target.value))} />
             {err("seed")}
           </div>
         </div>
@@ -192,7 +123,7 @@ export function NewCampaignPage() {
           </div>
         </div>
       </section>
-      {config && <ConfigSections value={config} onChange={setConfig} errors={fieldErrors} />}
+      {config && <ConfigSections value={config} onChange={setConfig} errors={view} />}
     </form>
   );
 }

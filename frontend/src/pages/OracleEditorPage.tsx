@@ -1,21 +1,18 @@
-import { useEffect, useMemo, useRef, useState, type FormEvent } from "react";
+import { useEffect, useMemo, useState } from "react";
 import { useNavigate, useParams } from "react-router-dom";
-import { columns, isPreviewFinal, useCreateOraclePreview, useOracle, useOracleTypes, usePreview, useSaveOracle, validateOracle, type OraclePreviewResult } from "../api/hooks";
-import { ApiError, errorMessage, type FieldError } from "../api/errors";
-import { SchemaForm, schemaDefaults } from "../components/SchemaForm";
+import { useOracle, useOracleTypes, useSaveOracle, validateOracle } from "../api/definitions";
+import { isPreviewFinal, useCreateOraclePreview, usePreview } from "../api/previews";
+import { columns, type Oracle, type OraclePreviewResult, type OracleType } from "../api/types";
+import { errorMessage, type FieldError } from "../api/errors";
+import { FieldMessages, SchemaForm, schemaDefaults, schemaFieldPaths, schemaLocalErrors, type JsonSchema } from "../components/SchemaForm";
 import { ErrorBox, Loading } from "../components/States";
 import { Plot, type Trace } from "../components/Plot";
 import { PreviewPanel } from "../components/PreviewPanel";
+import { DefinitionEditor } from "../components/DefinitionEditor";
+import { generalFailure, serverProblems } from "../components/FormErrors";
+import { errorView, schemaLabel } from "../lib/formErrors";
 
-function errorsByField(error: unknown, prefix: string): Record<string, string> {
-  if (!(error instanceof ApiError)) return {};
-  const out: Record<string, string> = {};
-  for (const e of error.fieldErrors) {
-    const f = e.field.startsWith(prefix) ? e.field.slice(prefix.length) : e.field;
-    out[f] = e.message;
-  }
-  return out;
-}
+const typeSchema = (t: OracleType | undefined) => (t?.params_schema ?? {}) as JsonSchema;
 
 const FORCE = ["fx", "fy", "fz"] as const;
 const MOMENT = ["mx", "my", "mz"] as const;
@@ -59,150 +56,115 @@ function TestPreview({ result }: { result: OraclePreviewResult }) {
 export function OracleEditorPage() {
   const { id } = useParams();
   const editing = id !== undefined;
-  const navigate = useNavigate();
   const types = useOracleTypes();
   const existing = useOracle(editing ? Number(id) : null);
-  const save = useSaveOracle(editing ? Number(id) : null);
-  const test = useCreateOraclePreview(editing ? Number(id) : null);
-  const [previewId, setPreviewId] = useState<number | null>(null);
-  const preview = usePreview(previewId);
-  const testing = test.isPending || (previewId !== null && !isPreviewFinal(preview.data));
-  const [name, setName] = useState("");
-  const [description, setDescription] = useState("");
-  const [type, setType] = useState("");
-  const [params, setParams] = useState<Record<string, unknown>>({});
-  const [validation, setValidation] = useState<FieldError[]>([]);
-  const seq = useRef(0);
-
-  // Inline validation by the API, 400 ms after the last edit.
-  useEffect(() => {
-    if (!type) return;
-    const mine = ++seq.current;
-    const timer = setTimeout(() => {
-      validateOracle({ type, params })
-        .then((errors) => mine === seq.current && setValidation(errors))
-        .catch((err) => mine === seq.current && setValidation([{ field: "", message: errorMessage(err) }]));
-    }, 400);
-    return () => clearTimeout(timer);
-  }, [type, params]);
-
-  useEffect(() => {
-    if (existing.data) {
-      setName(existing.data.name);
-      setDescription(existing.data.description ?? "");
-      setType(existing.data.type);
-      setParams(existing.data.params ?? {});
-    }
-  }, [existing.data]);
-
-  const typeInfo = types.data?.find((t) => t.name === type);
-  useEffect(() => {
-    if (!editing && !type && types.data?.length) {
-      const first = types.data.find((t) => t.available) ?? types.data[0];
-      setType(first.name);
-      setParams(schemaDefaults(first.schema));
-    }
-  }, [types.data, type, editing]);
-
-  const fieldErrors = {
-    ...Object.fromEntries(validation.map((e) => [e.field.replace(/^params\./, ""), e.message])),
-    ...errorsByField(save.error, "params."),
-    ...errorsByField(test.error, "params."),
-  };
-
-  async function submit(e: FormEvent) {
-    e.preventDefault();
-    const saved = await save.mutateAsync({ name, description, type, params });
-    navigate(`/oracles/${saved.id}`);
-  }
-
   if (types.isPending || (editing && existing.isPending)) return <Loading />;
   if (types.isError) return <ErrorBox error={types.error} retry={() => void types.refetch()} />;
   if (existing.isError) return <ErrorBox error={existing.error} />;
+  return <OracleEditor key={existing.data?.id ?? "new"} existing={existing.data} types={types.data} />;
+}
+
+function OracleEditor({ existing, types }: { existing: Oracle | undefined; types: OracleType[] }) {
+  const navigate = useNavigate();
+  const oracleId = existing?.id ?? null;
+  const save = useSaveOracle(oracleId);
+  const test = useCreateOraclePreview(oracleId);
+  const [previewId, setPreviewId] = useState<number | null>(null);
+  const preview = usePreview(previewId);
+  const testing = test.isPending || (previewId !== null && !isPreviewFinal(preview.data));
+  const first = types.find((t) => t.available) ?? types[0];
+  const [name, setName] = useState(existing?.name ?? "");
+  const [description, setDescription] = useState(existing?.description ?? "");
+  const [type, setType] = useState(existing?.type ?? first?.name ?? "");
+  const [params, setParams] = useState<Record<string, unknown>>(() => existing?.params ?? (first ? schemaDefaults(typeSchema(first)) : {}));
+  const [validated, setValidated] = useState<{ key: string; errors: FieldError[] } | null>(null);
+  const typeInfo = types.find((t) => t.name === type);
+  const schema = typeSchema(typeInfo);
+
+  // Inline validation by the API, 400 ms after the last edit.
+  const draftKey = JSON.stringify([type, params]);
+  useEffect(() => {
+    if (!type) return;
+    let current = true;
+    const timer = setTimeout(() => {
+      validateOracle({ type, params })
+        .then((errors) => current && setValidated({ key: draftKey, errors }))
+        .catch((err) => current && setValidated({ key: draftKey, errors: [{ field: "", message: errorMessage(err) }] }));
+    }, 400);
+    return () => {
+      current = false;
+      clearTimeout(timer);
+    };
+  }, [draftKey, type, params]);
+
+  const view = useMemo(() => {
+    const known = ["name", "description", "type", ...schemaFieldPaths(schema, schema, "params")];
+    const label = (p: string) => (p.startsWith("params.") ? schemaLabel(schema, p.slice(7)) : p[0]?.toUpperCase() + p.slice(1));
+    return errorView([schemaLocalErrors(schema, params, schema, "params"), validated?.errors ?? [], serverProblems(save.error), serverProblems(test.error)], known, label);
+  }, [schema, params, validated, save.error, test.error]);
+
+  function onSave() {
+    save.mutate({ name, description, type, params }, { onSuccess: (saved) => navigate(`/oracles/${saved.id}`) });
+  }
 
   return (
-    <form onSubmit={submit}>
-      <div className="toolbar">
-        <h1 style={{ margin: 0 }}>{editing ? `Oracle: ${name}` : "New oracle"}</h1>
-        {existing.data?.version !== undefined && <span className="badge">version {existing.data.version}</span>}
-        <span className="spacer" />
-        <span className={validation.length ? "badge bad" : "badge ok"} data-testid="validation-state" aria-live="polite">
-          {validation.length ? `${validation.length} problem(s)` : "valid"}
-        </span>
+    <DefinitionEditor
+      kind="oracle"
+      noun="oracle"
+      existing={existing}
+      name={name}
+      setName={setName}
+      description={description}
+      setDescription={setDescription}
+      errors={view}
+      checking={validated?.key !== draftKey}
+      failure={save.error}
+      saving={save.isPending}
+      onSave={onSave}
+      actions={
         <button
           type="button"
-          disabled={!editing || testing || validation.length > 0}
-          title={editing ? "Run the oracle with the parameters as shown on a sample trajectory, on a worker" : "Create the oracle first; then edits can be tested before saving"}
+          disabled={!existing || testing || view.problems.length > 0}
+          title={existing ? "Run the oracle with the parameters as shown on a sample trajectory, on a worker" : "Create the oracle first; then edits can be tested before saving"}
           onClick={() => {
             setPreviewId(null);
             // the parameters as shown; unchanged ones: the saved version
-            const edited = JSON.stringify(params) !== JSON.stringify(existing.data?.params ?? {});
+            const edited = JSON.stringify(params) !== JSON.stringify(existing?.params ?? {});
             test.mutate(edited ? { params } : {}, { onSuccess: (p) => setPreviewId(p.id) });
           }}
         >
           {testing ? "Testing…" : "Test on a sample trajectory"}
         </button>
-        <button type="submit" className="primary" disabled={save.isPending}>
-          {editing ? "Save (new version if used)" : "Create oracle"}
-        </button>
-      </div>
-      {save.isError && (
-        <p className="error-text" role="alert">
-          {errorMessage(save.error)}
-        </p>
-      )}
-      {validation.some((e) => !e.field.startsWith("params.")) && (
-        <ul className="error-text" role="alert">
-          {validation
-            .filter((e) => !e.field.startsWith("params."))
-            .map((e, i) => (
-              <li key={i}>
-                {e.field ? `${e.field}: ` : ""}
-                {e.message}
-              </li>
-            ))}
-        </ul>
-      )}
-      <section className="panel">
-        <div className="row">
-          <div className="field grow">
-            <label htmlFor="oracle-name">Name</label>
-            <input id="oracle-name" value={name} onChange={(e) => setName(e.target.value)} required maxLength={200} aria-invalid={Boolean(fieldErrors["name"])} />
-            {fieldErrors["name"] && <small className="field-error">{fieldErrors["name"]}</small>}
-          </div>
-          <div className="field">
-            <label htmlFor="oracle-type">Type</label>
-            <select
-              id="oracle-type"
-              value={type}
-              disabled={editing}
-              onChange={(e) => {
-                setType(e.target.value);
-                const t = types.data.find((x) => x.name === e.target.value);
-                setParams(t ? schemaDefaults(t.schema) : {});
-              }}
-            >
-              {types.data.map((t) => (
-                <option key={t.name} value={t.name} disabled={!t.available}>
-                  {t.name}
-                  {t.kind === "command" ? " (command)" : ""}
-                  {t.available ? "" : " — unavailable"}
-                </option>
-              ))}
-            </select>
-          </div>
-        </div>
-        {typeInfo?.description && <p className="muted">{typeInfo.description}</p>}
-        <div className="field">
-          <label htmlFor="oracle-description">Description</label>
-          <textarea id="oracle-description" rows={2} value={description} onChange={(e) => setDescription(e.target.value)} />
-        </div>
-      </section>
+      }
+    >
       <section className="panel" aria-labelledby="params-title">
+        <div className="field">
+          <label htmlFor="oracle-type">Type</label>
+          <select
+            id="oracle-type"
+            value={type}
+            disabled={Boolean(existing)}
+            onChange={(e) => {
+              setType(e.target.value);
+              const t = types.find((x) => x.name === e.target.value);
+              setParams(t ? schemaDefaults(typeSchema(t)) : {});
+            }}
+          >
+            {types.map((t) => (
+              <option key={t.name} value={t.name} disabled={!t.available}>
+                {t.name}
+                {t.kind === "command" ? " (command)" : ""}
+                {t.available ? "" : " — unavailable"}
+              </option>
+            ))}
+          </select>
+          <FieldMessages problems={view.at("type")} />
+        </div>
+        {typeInfo && <p className="muted">{typeInfo.available ? typeInfo.description : `${typeInfo.description} (${typeInfo.unavailable_reason ?? "unavailable"})`}</p>}
         <h2 id="params-title">Parameters</h2>
-        {typeInfo ? <SchemaForm schema={typeInfo.schema} value={params} onChange={setParams} errors={fieldErrors} /> : <p className="muted">Choose a type.</p>}
+        {typeInfo ? <SchemaForm schema={schema} value={params} onChange={setParams} errors={view} prefix="params" /> : <p className="muted">Choose a type.</p>}
       </section>
-      <PreviewPanel<OraclePreviewResult> id={previewId} title="Test on a sample trajectory" startError={test.error} render={(result) => <TestPreview result={result} />} />
-    </form>
+      <PreviewPanel<OraclePreviewResult> id={previewId} title="Test on a sample trajectory" startError={generalFailure(test.error) ? test.error : undefined} render={(result) => <TestPreview result={result} />} />
+    </DefinitionEditor>
   );
 }

@@ -1,7 +1,7 @@
 import { useState, type FormEvent } from "react";
 import { useNavigate, useSearchParams } from "react-router-dom";
 import { useAuth } from "../api/auth";
-import { login } from "../api/hooks";
+import { login } from "../api/users";
 import { errorMessage } from "../api/errors";
 
 export function SignInPage() {

@@ -1,19 +1,32 @@
-import { useEffect, useMemo, useRef, useState, type FormEvent } from "react";
+import { useEffect, useMemo, useState } from "react";
 import { useNavigate, useParams } from "react-router-dom";
-import { columns, isPreviewFinal, useCreateTaskPreview, usePreview, useSaveTask, useTask, useTaskPresets, useTaskSchema, validateTask, type TaskPreviewResult, type TaskSpecDraft } from "../api/hooks";
-import { ApiError, errorMessage, type FieldError } from "../api/errors";
-import { SchemaForm, type JsonSchema } from "../components/SchemaForm";
-import { errorAt, PhasesTable, type PhaseRow } from "../task/PhasesTable";
+import { useSaveTask, useTask, useTaskPresets, useTaskSchema, validateTask } from "../api/definitions";
+import { isPreviewFinal, useCreateTaskPreview, usePreview } from "../api/previews";
+import { columns, type Task, type TaskPreset, type TaskPreviewResult, type TaskSpecDraft } from "../api/types";
+import { errorMessage, type FieldError } from "../api/errors";
+import { FieldMessages, parseNumberList, SchemaForm, schemaFieldPaths, schemaLocalErrors, type JsonSchema } from "../components/SchemaForm";
+import { PhasesTable, phaseFieldPaths, phaseLocalErrors, type PhaseRow } from "../task/PhasesTable";
 import { ErrorBox, Loading } from "../components/States";
 import { Plot, type Trace } from "../components/Plot";
 import { phaseShapes } from "../campaign/TrajectoryPanel";
 import { PreviewPanel } from "../components/PreviewPanel";
+import { DefinitionEditor } from "../components/DefinitionEditor";
+import { generalFailure, serverProblems } from "../components/FormErrors";
+import { errorView, schemaLabel, type ErrorView } from "../lib/formErrors";
 
-function toMap(errors: FieldError[], prefix = ""): Record<string, string> {
-  const out: Record<string, string> = {};
-  for (const e of errors) {
-    const f = prefix && e.field.startsWith(prefix) ? e.field.slice(prefix.length) : e.field;
-    out[f] = out[f] ? `${out[f]}; ${e.message}` : e.message;
+/** Paths of the body (`spec.phases.0.duration`) as the form's (`phases.0.duration`); name and description stay. */
+function specPaths(errors: FieldError[]): FieldError[] {
+  return errors.map((e) => (e.field.startsWith("spec.") ? { ...e, field: e.field.slice(5) } : e));
+}
+
+const BOUNDARY_FIELDS = ["initial.velocity", "initial.q", "initial.qd", "final.velocity", "final.q"];
+
+function listProblems(spec: TaskSpecDraft): FieldError[] {
+  const out: FieldError[] = [];
+  for (const path of ["initial.q", "initial.qd", "final.q"]) {
+    const [a, b] = path.split(".");
+    const v = (spec[a] as Record<string, unknown> | undefined)?.[b];
+    if (Array.isArray(v)) v.forEach((x, i) => typeof x === "number" && Number.isFinite(x) ? null : out.push({ field: `${path}.${i}`, message: "must be a number" }));
   }
   return out;
 }
@@ -61,143 +74,115 @@ function SolvePreview({ result, phases }: { result: TaskPreviewResult; phases: P
 export function TaskEditorPage() {
   const { id } = useParams();
   const editing = id !== undefined;
-  const navigate = useNavigate();
   const presets = useTaskPresets();
-  const schema = useTaskSchema();
   const existing = useTask(editing ? Number(id) : null);
-  const save = useSaveTask(editing ? Number(id) : null);
-  const solve = useCreateTaskPreview(editing ? Number(id) : null);
-  const [previewId, setPreviewId] = useState<number | null>(null);
-  const preview = usePreview(previewId);
-  const solving = solve.isPending || (previewId !== null && !isPreviewFinal(preview.data));
-  const [name, setName] = useState("");
-  const [description, setDescription] = useState("");
-  const [spec, setSpec] = useState<TaskSpecDraft | null>(null);
-  const [validation, setValidation] = useState<FieldError[]>([]);
-  const [validating, setValidating] = useState(false);
-  const seq = useRef(0);
-
-  useEffect(() => {
-    if (existing.data) {
-      setName(existing.data.name);
-      setDescription(existing.data.description ?? "");
-      setSpec(existing.data.spec);
-    }
-  }, [existing.data]);
-  useEffect(() => {
-    if (!editing && spec === null && presets.data?.length) setSpec(structuredClone(presets.data[0].spec));
-  }, [editing, spec, presets.data]);
-
-  // Inline validation: ask the API (which knows the science rules) 400 ms after the last edit.
-  useEffect(() => {
-    if (!spec) return;
-    const mine = ++seq.current;
-    setValidating(true);
-    const timer = setTimeout(() => {
-      validateTask({ name: name || "untitled", description, spec })
-        .then((errors) => mine === seq.current && setValidation(errors))
-        .catch((err) => mine === seq.current && setValidation([{ field: "", message: errorMessage(err) }]))
-        .finally(() => mine === seq.current && setValidating(false));
-    }, 400);
-    return () => clearTimeout(timer);
-  }, [spec, name, description]);
-
-  const errors = useMemo(() => {
-    const fromSave = save.error instanceof ApiError ? save.error.fieldErrors : [];
-    const fromSolve = solve.error instanceof ApiError ? solve.error.fieldErrors : [];
-    return toMap([...validation, ...fromSave, ...fromSolve], "spec.");
-  }, [validation, save.error, solve.error]);
-
-  function solveOnce() {
-    if (!spec) return;
-    setPreviewId(null);
-    // the task as it is on screen: an unsaved edit is sent along, else the saved version is solved
-    const edited = JSON.stringify(spec) !== JSON.stringify(existing.data?.spec);
-    solve.mutate(edited ? { spec } : {}, { onSuccess: (p) => setPreviewId(p.id) });
-  }
-
-  async function submit(e: FormEvent) {
-    e.preventDefault();
-    if (!spec) return;
-    const saved = await save.mutateAsync({ name, description, spec });
-    navigate(`/tasks/${saved.id}`);
-  }
-
   if (presets.isPending || (editing && existing.isPending)) return <Loading />;
   if (presets.isError) return <ErrorBox error={presets.error} retry={() => void presets.refetch()} />;
   if (existing.isError) return <ErrorBox error={existing.error} />;
-  if (!spec) return <Loading />;
+  if (!editing && !presets.data.length) return <ErrorBox error="the API offers no task preset to start from" />;
+  // a new form for each task (and one for a new task): the draft starts from what was loaded
+  return <TaskEditor key={existing.data?.id ?? "new"} existing={existing.data} presets={presets.data} />;
+}
 
-  const modelSchema = (schema.data?.$defs?.ModelSpec ?? null) as JsonSchema | null;
-  const modelErrors = Object.fromEntries(Object.entries(errors).filter(([k]) => k.startsWith("model.")).map(([k, v]) => [k.slice(6), v]));
-  const general = Object.entries(errors).filter(([k]) => !k.startsWith("model.") && !k.startsWith("phases.") && k !== "name");
-  const phases = (spec.phases ?? []) as PhaseRow[];
+function TaskEditor({ existing, presets }: { existing: Task | undefined; presets: TaskPreset[] }) {
+  const navigate = useNavigate();
+  const taskId = existing?.id ?? null;
+  const schema = useTaskSchema();
+  const save = useSaveTask(taskId);
+  const solve = useCreateTaskPreview(taskId);
+  const [previewId, setPreviewId] = useState<number | null>(null);
+  const preview = usePreview(previewId);
+  const solving = solve.isPending || (previewId !== null && !isPreviewFinal(preview.data));
+  const [name, setName] = useState(existing?.name ?? "");
+  const [description, setDescription] = useState(existing?.description ?? "");
+  const [spec, setSpec] = useState<TaskSpecDraft>(() => structuredClone((existing?.spec ?? presets[0].spec) as TaskSpecDraft));
+  const [validated, setValidated] = useState<{ key: string; errors: FieldError[] } | null>(null);
+
+  // Inline validation: ask the API (which knows the science rules) 400 ms after the last edit.
+  const draftKey = JSON.stringify([name, description, spec]);
+  useEffect(() => {
+    let current = true;
+    const timer = setTimeout(() => {
+      validateTask({ name: name || "untitled", description, spec })
+        .then((errors) => current && setValidated({ key: draftKey, errors }))
+        .catch((err) => current && setValidated({ key: draftKey, errors: [{ field: "", message: errorMessage(err) }] }));
+    }, 400);
+    return () => {
+      current = false;
+      clearTimeout(timer);
+    };
+  }, [draftKey, name, description, spec]);
+  const checking = validated?.key !== draftKey;
+
+  const root = schema.data;
+  const modelSchema = (root?.$defs?.ModelSpec ?? null) as JsonSchema | null;
+  const phaseSchema = (root?.$defs?.PhaseSpec ?? null) as JsonSchema | null;
+  const phases = useMemo(() => (spec.phases ?? []) as PhaseRow[], [spec.phases]);
+  const view: ErrorView = useMemo(() => {
+    const local = [
+      ...(modelSchema && root ? schemaLocalErrors(modelSchema, spec.model, root, "model") : []),
+      ...phaseLocalErrors(phases, phaseSchema, root),
+      ...listProblems(spec),
+    ];
+    const known = ["name", "description", "phases", ...(modelSchema && root ? schemaFieldPaths(modelSchema, root, "model") : []), ...phaseFieldPaths(phases), ...BOUNDARY_FIELDS];
+    const label = (p: string) => (p === "name" ? "Name" : p === "description" ? "Description" : root ? schemaLabel(root, p) : p);
+    return errorView([local, specPaths(validated?.errors ?? []), specPaths(serverProblems(save.error)), specPaths(serverProblems(solve.error))], known, label);
+  }, [modelSchema, phaseSchema, root, spec, phases, validated, save.error, solve.error]);
+
+  function solveOnce() {
+    setPreviewId(null);
+    // the task as it is on screen: an unsaved edit is sent along, else the saved version is solved
+    const edited = JSON.stringify(spec) !== JSON.stringify(existing?.spec);
+    solve.mutate(edited ? { spec } : {}, { onSuccess: (p) => setPreviewId(p.id) });
+  }
+
+  function onSave() {
+    save.mutate({ name, description, spec }, { onSuccess: (saved) => navigate(`/tasks/${saved.id}`) });
+  }
 
   return (
-    <form onSubmit={submit}>
-      <div className="toolbar">
-        <h1 style={{ margin: 0 }}>{editing ? `Task: ${name}` : "New task"}</h1>
-        {existing.data?.version !== undefined && <span className="badge">version {existing.data.version}</span>}
-        <span className={validation.length ? "badge bad" : "badge ok"} data-testid="validation-state" aria-live="polite">
-          {validating ? "checking…" : validation.length ? `${validation.length} problem(s)` : "valid"}
-        </span>
-        <span className="spacer" />
-        {!editing && (
-          <>
-            <label htmlFor="preset">Start from preset</label>
-            <select id="preset" onChange={(e) => setSpec(structuredClone(presets.data.find((p) => p.name === e.target.value)?.spec ?? spec))}>
-              {presets.data.map((p) => (
-                <option key={p.name} value={p.name}>
-                  {p.name}
-                </option>
-              ))}
-            </select>
-          </>
-        )}
-        <button
-          type="button"
-          disabled={!editing || solving || validation.length > 0}
-          title={editing ? "Solve the task as shown once with the auxiliary contact, on a worker" : "Create the task first; then edits can be previewed before saving"}
-          onClick={solveOnce}
-        >
-          {solving ? "Solving…" : "Solve once"}
-        </button>
-        <button type="submit" className="primary" disabled={save.isPending}>
-          {editing ? "Save (new version if used)" : "Create task"}
-        </button>
-      </div>
-      {save.isError && (
-        <p className="error-text" role="alert">
-          {errorMessage(save.error)}
-        </p>
-      )}
-      {general.length > 0 && (
-        <ul className="error-text" role="alert" data-testid="general-errors">
-          {general.map(([k, v]) => (
-            <li key={k}>
-              {k ? `${k}: ` : ""}
-              {v}
-            </li>
-          ))}
-        </ul>
-      )}
-      <section className="panel">
-        <div className="row">
-          <div className="field grow">
-            <label htmlFor="task-name">Name</label>
-            <input id="task-name" value={name} onChange={(e) => setName(e.target.value)} required maxLength={200} />
-            {errors["name"] && <small className="field-error">{errors["name"]}</small>}
-          </div>
-          <div className="field grow">
-            <label htmlFor="task-description">Description</label>
-            <input id="task-description" value={description} onChange={(e) => setDescription(e.target.value)} />
-          </div>
-        </div>
-      </section>
+    <DefinitionEditor
+      kind="task"
+      noun="task"
+      existing={existing}
+      name={name}
+      setName={setName}
+      description={description}
+      setDescription={setDescription}
+      errors={view}
+      checking={checking}
+      failure={save.error}
+      saving={save.isPending}
+      onSave={onSave}
+      actions={
+        <>
+          {!existing && (
+            <>
+              <label htmlFor="preset">Start from preset</label>
+              <select id="preset" onChange={(e) => setSpec(structuredClone((presets.find((p) => p.key === e.target.value)?.spec ?? spec) as TaskSpecDraft))}>
+                {presets.map((p) => (
+                  <option key={p.key} value={p.key}>
+                    {p.key}
+                  </option>
+                ))}
+              </select>
+            </>
+          )}
+          <button
+            type="button"
+            disabled={!existing || solving || view.problems.length > 0}
+            title={existing ? "Solve the task as shown once with the auxiliary contact, on a worker" : "Create the task first; then edits can be previewed before saving"}
+            onClick={solveOnce}
+          >
+            {solving ? "Solving…" : "Solve once"}
+          </button>
+        </>
+      }
+    >
       <section className="panel" aria-labelledby="model-title">
         <h2 id="model-title">Model</h2>
-        {modelSchema ? (
-          <SchemaForm schema={{ ...modelSchema, $defs: schema.data?.$defs }} value={(spec.model ?? {}) as Record<string, unknown>} onChange={(model) => setSpec({ ...spec, model })} errors={modelErrors} />
+        {modelSchema && root ? (
+          <SchemaForm schema={{ ...modelSchema, $defs: root.$defs }} value={(spec.model ?? {}) as Record<string, unknown>} onChange={(model) => setSpec({ ...spec, model })} errors={view} prefix="model" />
         ) : schema.isPending ? (
           <Loading />
         ) : (
@@ -207,25 +192,25 @@ export function TaskEditorPage() {
       <section className="panel" aria-labelledby="phases-title">
         <h2 id="phases-title">Phases</h2>
         <p className="hint">
-          Running cost per phase: w_τ τᵀτ + w_T T (kinetic energy). Empty bounds use the model's joint range and torque limit. Total{" "}
+          Running cost per phase: w_τ τᵀτ + w_T T (kinetic energy). Empty bounds use the model&apos;s joint range and torque limit. Total{" "}
           {phases.reduce((s, p) => s + (Number(p.duration) || 0), 0).toFixed(3)} s, {phases.reduce((s, p) => s + (Number(p.intervals) || 0), 0)} intervals.
         </p>
-        <PhasesTable phases={phases} onChange={(p) => setSpec({ ...spec, phases: p })} errors={errors} />
+        <PhasesTable phases={phases} onChange={(p) => setSpec({ ...spec, phases: p })} errors={view} />
       </section>
       <section className="panel" aria-labelledby="bc-title">
         <h2 id="bc-title">Start and end</h2>
         <div className="row">
-          <BoundaryFields title="Initial state" value={(spec.initial ?? {}) as Record<string, unknown>} fields={["q", "qd"]} velocityOptions={["given", "free"]} errors={errors} prefix="initial" onChange={(initial) => setSpec({ ...spec, initial })} />
-          <BoundaryFields title="Final condition" value={(spec.final ?? {}) as Record<string, unknown>} fields={["q"]} velocityOptions={["rest", "free"]} errors={errors} prefix="final" onChange={(final) => setSpec({ ...spec, final })} />
+          <BoundaryFields title="Initial state" value={(spec.initial ?? {}) as Record<string, unknown>} fields={["q", "qd"]} velocityOptions={["given", "free"]} errors={view} prefix="initial" onChange={(initial) => setSpec({ ...spec, initial })} />
+          <BoundaryFields title="Final condition" value={(spec.final ?? {}) as Record<string, unknown>} fields={["q"]} velocityOptions={["rest", "free"]} errors={view} prefix="final" onChange={(final) => setSpec({ ...spec, final })} />
         </div>
       </section>
       <PreviewPanel<TaskPreviewResult>
         id={previewId}
         title="Solve once (auxiliary contact)"
-        startError={solve.error}
+        startError={generalFailure(solve.error) ? solve.error : undefined}
         render={(result) => <SolvePreview result={result} phases={phases} />}
       />
-    </form>
+    </DefinitionEditor>
   );
 }
 
@@ -242,7 +227,7 @@ function BoundaryFields({
   value: Record<string, unknown>;
   fields: string[];
   velocityOptions: string[];
-  errors: Record<string, string>;
+  errors: ErrorView;
   prefix: string;
   onChange: (v: Record<string, unknown>) => void;
 }) {
@@ -251,11 +236,12 @@ function BoundaryFields({
       <legend>{title}</legend>
       <div className="field">
         <label htmlFor={`${prefix}-velocity`}>velocity</label>
-        <select id={`${prefix}-velocity`} value={String(value.velocity ?? velocityOptions[0])} onChange={(e) => onChange({ ...value, velocity: e.target.value })}>
+        <select id={`${prefix}-velocity`} value={String(value.velocity ?? velocityOptions[0])} onChange={(e) => onChange({ ...value, velocity: e.target.value })} aria-invalid={errors.at(`${prefix}.velocity`).length > 0}>
           {velocityOptions.map((o) => (
             <option key={o}>{o}</option>
           ))}
         </select>
+        <FieldMessages problems={errors.at(`${prefix}.velocity`)} />
       </div>
       {fields.map((f) => (
         <div className="field" key={f}>
@@ -263,13 +249,10 @@ function BoundaryFields({
           <input
             id={`${prefix}-${f}`}
             defaultValue={Array.isArray(value[f]) ? (value[f] as number[]).join(", ") : ""}
-            onBlur={(e) => {
-              const parts = e.target.value.split(",").map((s) => s.trim()).filter(Boolean);
-              onChange({ ...value, [f]: parts.length ? parts.map(Number) : null });
-            }}
-            aria-invalid={Boolean(errorAt(errors, `${prefix}.${f}`))}
+            onBlur={(e) => onChange({ ...value, [f]: parseNumberList(e.target.value) })}
+            aria-invalid={errors.at(`${prefix}.${f}`).length > 0}
           />
-          {errorAt(errors, `${prefix}.${f}`) && <small className="field-error">{errorAt(errors, `${prefix}.${f}`)}</small>}
+          <FieldMessages problems={errors.at(`${prefix}.${f}`)} item="joint" />
         </div>
       ))}
     </fieldset>

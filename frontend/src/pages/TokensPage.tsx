@@ -1,5 +1,5 @@
 import { useState, type FormEvent } from "react";
-import { useCreateToken, useRevokeToken, useTokens } from "../api/hooks";
+import { useCreateToken, useRevokeToken, useTokens } from "../api/users";
 import { Empty, ErrorBox, Loading } from "../components/States";
 import { fmtDate } from "../lib/format";
 import { errorMessage } from "../api/errors";

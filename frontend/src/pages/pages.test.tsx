@@ -5,8 +5,8 @@ import { CampaignsPage, sortCampaigns } from "./CampaignsPage";
 import { TaskEditorPage } from "./TaskEditorPage";
 import { TokensPage } from "./TokensPage";
 import { SignInPage } from "./SignInPage";
-import { jsonResponse, mockApi, renderPage } from "../test/utils";
-import type { CampaignRow } from "../api/hooks";
+import { jsonResponse, mockApi, renderPage, sseStream } from "../test/utils";
+import type { CampaignSummary } from "../api/types";
 
 const summary = (id: number, name: string, status: string, force: number | null) => ({
   id,
@@ -46,7 +46,7 @@ describe("campaigns list", () => {
     expect(within(table).getAllByRole("row")).toHaveLength(4);
     const running = within(table).getByRole("row", { name: /stiff foam/ });
     expect(running).toHaveTextContent("running");
-    expect(running).toHaveTextContent("2/10");
+    expect(running).toHaveTextContent("2 / 10");
     expect(running).toHaveTextContent("1.20");
     expect(running).toHaveTextContent("2 min 0 s"); // ETA
     expect(within(table).getByRole("row", { name: /baseline/ })).not.toHaveTextContent(/\d min/);
@@ -59,6 +59,30 @@ describe("campaigns list", () => {
     await waitFor(() => expect(within(screen.getByTestId("campaigns-table")).getAllByRole("row")).toHaveLength(2));
   });
 
+  it("shows a campaign created and started elsewhere (CLI, API) without reload, from the live channel; nothing polls", async () => {
+    const stream = sseStream();
+    let rows = [summary(1, "baseline", "completed", 0.4)];
+    const { calls } = mockApi({
+      "GET /campaigns": () => rows,
+      "GET /campaigns/events/stream": (url: URL) => stream.response(url),
+      "GET /campaigns/{id}/metrics": [],
+    });
+    renderPage(<CampaignsPage />, { route: "/campaigns" });
+    const table = await screen.findByTestId("campaigns-table");
+    await waitFor(() => expect(screen.getByTestId("live-state")).toHaveAttribute("data-state", "live"));
+    rows = [...rows, summary(2, "from the CLI", "draft", null)];
+    stream.send({ kind: "status", campaign_id: 2, message: "created", data: { status: "draft" } });
+    expect(await within(table).findByRole("row", { name: /from the CLI/ })).toHaveTextContent("draft");
+    rows = [rows[0], summary(2, "from the CLI", "running", null)];
+    stream.send({ kind: "status", campaign_id: 2, data: { from: "queued", to: "running" } });
+    await waitFor(() => expect(within(table).getByRole("row", { name: /from the CLI/ })).toHaveTextContent("running"));
+    // no polling of the list or the sparklines while the stream is up
+    const before = calls.length;
+    await new Promise((r) => setTimeout(r, 4500));
+    expect(calls.slice(before)).toEqual([]);
+    stream.close();
+  }, 10000);
+
   it("has an empty state that points to tasks and oracles", async () => {
     mockApi({ "GET /campaigns": [] });
     renderPage(<CampaignsPage />, { route: "/campaigns" });
@@ -67,7 +91,7 @@ describe("campaigns list", () => {
   });
 
   it("sorts missing values last", () => {
-    const rows = [{ id: 1, force_rmse: null }, { id: 2, force_rmse: 3 }, { id: 3, force_rmse: 1 }] as unknown as CampaignRow[];
+    const rows = [{ id: 1, force_rmse: null }, { id: 2, force_rmse: 3 }, { id: 3, force_rmse: 1 }] as unknown as CampaignSummary[];
     expect(sortCampaigns(rows, "force_rmse", false).map((r) => r.id)).toEqual([3, 2, 1]);
     expect(sortCampaigns(rows, "force_rmse", true).map((r) => r.id)).toEqual([2, 3, 1]);
   });
@@ -96,7 +120,7 @@ describe("task editor", () => {
     const duration = await screen.findByLabelText("phase 1 duration [s]");
     await waitFor(() => expect(screen.getByTestId("validation-state")).toHaveTextContent("valid"), { timeout: 3000 });
     fireEvent.change(duration, { target: { value: "-1" } });
-    expect(await screen.findByText("Input should be greater than 0", {}, { timeout: 3000 })).toBeInTheDocument();
+    expect(await screen.findByText("must be greater than 0", {}, { timeout: 3000 })).toBeInTheDocument();
     expect(screen.getByLabelText("phase 1 duration [s]")).toHaveAttribute("aria-invalid", "true");
     expect(screen.getByTestId("validation-state")).toHaveTextContent("1 problem");
     // "solve once" previews a saved task (and its unsaved edits)

@@ -1,4 +1,8 @@
 /** The phases of a task as an editable table: duration, intervals, weights, bounds, target pose. */
+import { FieldMessages, numberProblem, parseNumber, parseNumberList, resolveRef, type JsonSchema } from "../components/SchemaForm";
+import type { FieldError } from "../api/errors";
+import type { ErrorView } from "../lib/formErrors";
+
 export interface PhaseRow {
   name?: string;
   duration: number;
@@ -25,23 +29,36 @@ const HEADERS: Record<string, string> = {
   target_q: "end pose [rad]",
 };
 
-/** The error of a field and those of its list items (`phases.0.q_min.0`: "joint 0: ..."), joined. */
-export function errorAt(errors: Record<string, string>, path: string): string | undefined {
-  const messages = Object.entries(errors)
-    .filter(([k]) => k === path || k.startsWith(`${path}.`))
-    .map(([k, v]) => (k === path ? v : `joint ${k.slice(path.length + 1)}: ${v}`));
-  return messages.length ? messages.join("; ") : undefined;
+export const parseList = parseNumberList;
+
+/** The paths of the table's fields, for placing errors (a list cell owns its items). */
+export function phaseFieldPaths(phases: PhaseRow[]): string[] {
+  return phases.flatMap((_, m) => ["name", ...NUMBER_FIELDS, ...LIST_FIELDS].map((f) => `phases.${m}.${f}`));
 }
 
-export function parseList(text: string): number[] | null {
-  const parts = text.split(",").map((s) => s.trim()).filter(Boolean);
-  if (!parts.length) return null;
-  return parts.map(Number);
+/** The table's own checks: numbers, whole numbers and the bounds of the phase schema. */
+export function phaseLocalErrors(phases: PhaseRow[], phaseSchema: JsonSchema | null, root: JsonSchema | undefined): FieldError[] {
+  const out: FieldError[] = [];
+  const prop = (f: string): JsonSchema => {
+    const p = phaseSchema?.properties?.[f];
+    return p && root ? resolveRef(p, root) : {};
+  };
+  phases.forEach((p, m) => {
+    for (const f of NUMBER_FIELDS) {
+      const msg = numberProblem(p[f], prop(f), f === "intervals");
+      if (msg) out.push({ field: `phases.${m}.${f}`, message: msg });
+    }
+    for (const f of LIST_FIELDS) {
+      const v = p[f];
+      if (Array.isArray(v)) v.forEach((x, i) => (typeof x === "number" && Number.isFinite(x) ? null : out.push({ field: `phases.${m}.${f}.${i}`, message: "must be a number" })));
+    }
+  });
+  return out;
 }
 
-export function PhasesTable({ phases, onChange, errors }: { phases: PhaseRow[]; onChange: (p: PhaseRow[]) => void; errors: Record<string, string> }) {
+export function PhasesTable({ phases, onChange, errors }: { phases: PhaseRow[]; onChange: (p: PhaseRow[]) => void; errors: ErrorView }) {
   const set = (m: number, key: string, value: unknown) => onChange(phases.map((p, i) => (i === m ? { ...p, [key]: value } : p)));
-  const cellError = (m: number, key: string) => errorAt(errors, `phases.${m}.${key}`);
+  const cellError = (m: number, key: string) => errors.at(`phases.${m}.${key}`);
   return (
     <div>
       <table data-testid="phases-table">
@@ -65,7 +82,8 @@ export function PhasesTable({ phases, onChange, errors }: { phases: PhaseRow[]; 
             <tr key={m}>
               <td>{m + 1}</td>
               <td>
-                <input aria-label={`phase ${m + 1} name`} value={p.name ?? ""} onChange={(e) => set(m, "name", e.target.value)} size={10} />
+                <input aria-label={`phase ${m + 1} name`} value={p.name ?? ""} onChange={(e) => set(m, "name", e.target.value)} size={10} aria-invalid={cellError(m, "name").length > 0} />
+                <FieldMessages problems={cellError(m, "name")} />
               </td>
               {NUMBER_FIELDS.map((f) => (
                 <td key={f}>
@@ -75,11 +93,10 @@ export function PhasesTable({ phases, onChange, errors }: { phases: PhaseRow[]; 
                     step={f === "intervals" ? 1 : "any"}
                     style={{ width: 90 }}
                     value={p[f] === undefined || p[f] === null ? "" : String(p[f])}
-                    onChange={(e) => set(m, f, e.target.value === "" ? undefined : Number(e.target.value))}
-                    aria-invalid={Boolean(cellError(m, f))}
-                    title={cellError(m, f)}
+                    onChange={(e) => set(m, f, parseNumber(e.target.value))}
+                    aria-invalid={cellError(m, f).length > 0}
                   />
-                  {cellError(m, f) && <small className="field-error">{cellError(m, f)}</small>}
+                  <FieldMessages problems={cellError(m, f)} />
                 </td>
               ))}
               {LIST_FIELDS.map((f) => (
@@ -89,11 +106,10 @@ export function PhasesTable({ phases, onChange, errors }: { phases: PhaseRow[]; 
                     style={{ width: 80 }}
                     placeholder="default"
                     defaultValue={Array.isArray(p[f]) ? (p[f] as number[]).join(", ") : ""}
-                    onBlur={(e) => set(m, f, parseList(e.target.value))}
-                    aria-invalid={Boolean(cellError(m, f))}
-                    title={cellError(m, f)}
+                    onBlur={(e) => set(m, f, parseNumberList(e.target.value))}
+                    aria-invalid={cellError(m, f).length > 0}
                   />
-                  {cellError(m, f) && <small className="field-error">{cellError(m, f)}</small>}
+                  <FieldMessages problems={cellError(m, f)} item="joint" />
                 </td>
               ))}
               <td>
@@ -108,7 +124,7 @@ export function PhasesTable({ phases, onChange, errors }: { phases: PhaseRow[]; 
       <button type="button" onClick={() => onChange([...phases, { name: `phase ${phases.length + 1}`, duration: 0.2, intervals: 20, w_tau: 1, w_T: 0 }])}>
         Add phase
       </button>
-      {errors["phases"] && <p className="field-error">{errors["phases"]}</p>}
+      <FieldMessages problems={errors.at("phases")} />
     </div>
   );
 }

@@ -1,6 +1,6 @@
 import type { ReactElement } from "react";
 import { render } from "@testing-library/react";
-import { MemoryRouter, Route, Routes } from "react-router-dom";
+import { MemoryRouter, Route, Routes, useLocation } from "react-router-dom";
 import { QueryClient, QueryClientProvider } from "@tanstack/react-query";
 import { vi } from "vitest";
 import { AuthProvider } from "../api/auth";
@@ -33,6 +33,66 @@ export function jsonResponse(body: unknown, status = 200): Response {
   return new Response(JSON.stringify(body), { status, headers: { "Content-Type": "application/json" } });
 }
 
+/**
+ * A server-sent event stream the test writes to: `send(event)` writes one frame, `close()`
+ * ends the stream (as the server's timeout or a terminal campaign does). `response()` is what
+ * the mocked route answers; each call opens a new connection (reconnects are counted).
+ */
+export function sseStream() {
+  const controllers: ReadableStreamDefaultController<Uint8Array>[] = [];
+  const encoder = new TextEncoder();
+  let id = 0;
+  const write = (text: string) => {
+    for (const c of controllers) {
+      try {
+        c.enqueue(encoder.encode(text));
+      } catch {
+        /* closed */
+      }
+    }
+  };
+  return {
+    connections: 0,
+    /** the next connections are told `complete: false` even when resuming (more missed events than the server keeps) */
+    incomplete: false,
+    /** answers a connection as the server does: missed events (none here), then `ready` (complete only when resuming with ?after=) */
+    response(url?: URL): Response {
+      this.connections += 1;
+      const complete = Boolean(url?.searchParams.get("after")) && !this.incomplete;
+      const body = new ReadableStream<Uint8Array>({
+        start: (c) => {
+          controllers.push(c);
+          c.enqueue(encoder.encode(`id: ${id}\nevent: ready\ndata: ${JSON.stringify({ last_event_id: id, complete })}\n\n`));
+        },
+      });
+      return new Response(body, { status: 200, headers: { "Content-Type": "text/event-stream" } });
+    },
+    send(e: { kind: string; campaign_id?: number; iteration_index?: number | null; step?: string | null; message?: string; data?: Record<string, unknown> }) {
+      id += 1;
+      const ev = { id, campaign_id: 7, iteration_index: null, step: null, message: "", data: {}, created_at: "2026-11-21T22:00:00Z", ...e };
+      write(`id: ${id}\nevent: ${ev.kind}\ndata: ${JSON.stringify(ev)}\n\n`);
+      return id;
+    },
+    comment() {
+      write(": keep-alive\n\n");
+    },
+    close() {
+      for (const c of controllers.splice(0)) {
+        try {
+          c.close();
+        } catch {
+          /* already closed */
+        }
+      }
+    },
+  };
+}
+
+function LocationProbe() {
+  const location = useLocation();
+  return <div data-testid="location" data-search={location.search} hidden />;
+}
+
 export function renderPage(ui: ReactElement, { route = "/", path = "*", token = "test-token" }: { route?: string; path?: string; token?: string | null } = {}) {
   if (token) localStorage.setItem("alcove.token", token);
   const client = new QueryClient({ defaultOptions: { queries: { retry: false, staleTime: 0 }, mutations: { retry: false } } });
@@ -42,6 +102,7 @@ export function renderPage(ui: ReactElement, { route = "/", path = "*", token = 
       <QueryClientProvider client={client}>
         <AuthProvider>
           <MemoryRouter initialEntries={[route]}>
+            <LocationProbe />
             <Routes>
               <Route path={path} element={ui} />
               <Route path="*" element={<div data-testid="elsewhere" />} />

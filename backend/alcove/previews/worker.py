@@ -1,15 +1,89 @@
-"""What a preview computes (in a worker): a task solved once with the auxiliary contact,
-or an oracle replaying the reference head motion. Imports the science lazily."""
+"""The worker side of editor previews: claim the row with a conditional update (a duplicate
+delivery does nothing), compute outside any transaction (a task solved once with the
+auxiliary contact, or an oracle replaying the reference head motion; the science is
+imported lazily), record the result or the error."""
 
 from __future__ import annotations
 
+import logging
 import math
 import time
 from typing import Any
 
-from alcove.errors import InvalidInput
-from alcove.models import PreviewKind
-from alcove.previews.service import PREVIEW_IPOPT_MAX_ITER, grid_summary, preview_grid
+import sqlalchemy as sa
+from sqlalchemy.orm import Session
+
+from alcove.errors import InvalidInput, NotFound
+from alcove.models import Preview, PreviewKind, PreviewStatus, utcnow
+from alcove.previews.service import PREVIEW_IPOPT_MAX_ITER, STALE_AFTER, grid_summary, preview_grid
+
+log = logging.getLogger(__name__)
+
+
+def claim(session: Session, preview_id: int, worker_name: str) -> int | None:
+    """Take the row (pending, or running but stale); returns the attempt number or None."""
+    now = utcnow()
+    res = session.execute(
+        sa.update(Preview)
+        .where(
+            Preview.id == preview_id,
+            sa.or_(
+                Preview.status == PreviewStatus.pending.value,
+                sa.and_(Preview.status == PreviewStatus.running.value, Preview.started_at < now - STALE_AFTER),
+            ),
+        )
+        .values(
+            status=PreviewStatus.running.value, started_at=now, worker_name=worker_name, attempts=Preview.attempts + 1
+        )
+        .returning(Preview.attempts)
+    ).first()
+    return None if res is None else int(res[0])
+
+
+def run_preview(preview_id: int, worker_name: str) -> str:
+    """The worker's job: claim, compute, record. Returns the final status (or ``skipped``)."""
+    from alcove.db import transaction
+
+    attempt = transaction(lambda s: claim(s, preview_id, worker_name))
+    if attempt is None:
+        return "skipped"  # a duplicate delivery, or already done
+    row = transaction(lambda s: _snapshot(s, preview_id))
+    try:
+        result = compute(row["kind"], row["spec"], row["options"], row["catalogue"])
+        status, error = PreviewStatus.succeeded.value, None
+    except Exception as err:
+        log.info("preview %d failed: %s", preview_id, err, exc_info=not isinstance(err, ValueError))
+        result, status, error = None, PreviewStatus.failed.value, _error_text(err)
+
+    def record(s: Session) -> None:
+        s.execute(
+            sa.update(Preview)
+            .where(Preview.id == preview_id, Preview.status == PreviewStatus.running.value, Preview.attempts == attempt)
+            .values(status=status, result=result, error=error, finished_at=utcnow())
+        )
+
+    transaction(record)
+    return status
+
+
+def _error_text(err: BaseException) -> str:
+    field = getattr(err, "field", None)
+    reason = getattr(err, "reason", None)
+    if field and reason:
+        return f"{field}: {reason}"
+    return f"{type(err).__name__}: {err}"[:2000]
+
+
+def _snapshot(s: Session, preview_id: int) -> dict[str, Any]:
+    row = s.get(Preview, preview_id)
+    if row is None:  # deleted since it was claimed (its owner deleted, or failed as stale and pruned)
+        raise NotFound("preview", preview_id)
+    catalogue = None
+    if row.kind == PreviewKind.oracle.value and row.spec.get("type") not in ("fe-headrest-2d", "aux-penalty"):
+        from alcove.oracles.service import command_catalogue
+
+        catalogue = command_catalogue(s)  # the administrator's entries: the command run is theirs
+    return {"kind": row.kind, "spec": dict(row.spec), "options": dict(row.options), "catalogue": catalogue}
 
 
 def _finite(values: Any) -> Any:

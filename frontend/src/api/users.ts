@@ -1,0 +1,41 @@
+/** Sign-in, the signed-in user and their API tokens. */
+import { useMutation, useQuery, useQueryClient } from "@tanstack/react-query";
+import { client, unwrap } from "./client";
+import type { Me, Token } from "./types";
+
+export async function login(email: string, password: string): Promise<string> {
+  const r = unwrap(await client.POST("/api/v1/auth/login", { body: { email, password } }));
+  return r.access_token;
+}
+
+export function useMe() {
+  return useQuery({ queryKey: ["me"], queryFn: async (): Promise<Me> => unwrap(await client.GET("/api/v1/me")), staleTime: 60_000 });
+}
+
+/** How the UI names a user: the display name, else the e-mail. */
+export function userLabel(u: Pick<Me, "display_name" | "email">): string {
+  return u.display_name || u.email;
+}
+
+export function useTokens() {
+  return useQuery({ queryKey: ["tokens"], queryFn: async (): Promise<Token[]> => unwrap(await client.GET("/api/v1/me/tokens")) });
+}
+
+export function useCreateToken() {
+  const qc = useQueryClient();
+  return useMutation({
+    mutationFn: async (body: { name: string }) => unwrap(await client.POST("/api/v1/me/tokens", { body })),
+    onSuccess: () => qc.invalidateQueries({ queryKey: ["tokens"] }),
+  });
+}
+
+export function useRevokeToken() {
+  const qc = useQueryClient();
+  return useMutation({
+    mutationFn: async (id: number) => {
+      const r = await client.DELETE("/api/v1/me/tokens/{token_id}", { params: { path: { token_id: id } } });
+      if (!r.response.ok) unwrap(r);
+    },
+    onSuccess: () => qc.invalidateQueries({ queryKey: ["tokens"] }),
+  });
+}

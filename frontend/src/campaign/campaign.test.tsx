@@ -1,0 +1,107 @@
+import { describe, expect, it } from "vitest";
+import { render, screen, waitFor, within } from "@testing-library/react";
+import userEvent from "@testing-library/user-event";
+import Plotly from "plotly.js-basic-dist-min";
+import { wrenchTraces } from "./ForcesPanel";
+import { rmseTraces } from "./RmsePlot";
+import { forkDefaults, DEFAULT_FURTHER } from "./ForkDialog";
+import { Controls } from "./Controls";
+import { progressText } from "../api/campaigns";
+import { Plot } from "../components/Plot";
+import type { CampaignOut, IterationCurves } from "../api/types";
+import { jsonResponse, mockApi, renderPage } from "../test/utils";
+
+const wrench = (k: number) => ({ fx: [k, k + 1], fy: [0, 0], fz: [1, 2], mx: [0, 0], my: [0.1, 0.2], mz: [0, 0] });
+const curves = (k: number): IterationCurves => ({ iteration: k, t: [0, 0.1], truth: wrench(k), predicted: wrench(k + 0.5) });
+
+describe("force overlay at paper scale", () => {
+  it("200 iterations: colour by iteration on one scale, one colorbar, no legend entry per iteration", () => {
+    const traces = wrenchTraces(Array.from({ length: 200 }, (_, i) => curves(i + 1)), ["fx", "fz"]);
+    const lines = traces.filter((t) => t.mode === "lines");
+    expect(lines).toHaveLength(200 * 2 * 2);
+    expect(lines.every((t) => t.showlegend === false)).toBe(true);
+    const bars = traces.filter((t) => (t.marker as { showscale?: boolean } | undefined)?.showscale);
+    expect(bars).toHaveLength(1);
+    expect(bars[0].marker).toMatchObject({ cmin: 1, cmax: 200 });
+    // oracle traces: one colour per iteration, none repeated across far-apart iterations
+    const oracleFx = lines.filter((t) => String(t.name).endsWith("fx oracle")).map((t) => (t.line as { color: string }).color);
+    expect(new Set(oracleFx).size).toBeGreaterThan(190);
+    expect(oracleFx[0]).not.toBe(oracleFx[8]); // the old palette of 8 colours repeated here
+  });
+
+  it("one iteration: a colour per component and a small legend (oracle / surrogate)", () => {
+    const traces = wrenchTraces([curves(3)], ["fx", "fz"]);
+    expect(traces.map((t) => t.name)).toEqual(["fx oracle", "fx surrogate", "fz oracle", "fz surrogate"]);
+  });
+});
+
+describe("RMSE plot of a fork", () => {
+  it("draws the inherited iterations grey and its own in colour", () => {
+    const p = (k: number, inherited: boolean) => ({ iteration: k, status: "succeeded", force_rmse: 1 / (k + 1), moment_rmse: 0.1, quarantined: false, inherited });
+    const traces = rmseTraces([p(0, true), p(1, true), p(2, true), p(3, false), p(4, false)]);
+    const grey = traces.filter((t) => String(t.name).includes("inherited"));
+    expect(grey).toHaveLength(2);
+    expect(grey[0].x).toEqual([0, 1, 2, 3]); // joined to the fork's first iteration
+    expect((grey[0].line as { color: string }).color).toBe("#a3a9b6");
+    const own = traces.find((t) => t.name === "force RMSE [N]")!;
+    expect(own.x).toEqual([3, 4]);
+  });
+});
+
+describe("plot toolbar", () => {
+  it("keeps the PNG download and has no link or upload to another host", async () => {
+    render(<Plot traces={[{ x: [1], y: [2], type: "scatter" }]} exportName="rmse" testId="p" />);
+    await waitFor(() => expect(Plotly.react).toHaveBeenCalled());
+    const config = (Plotly.react as unknown as { mock: { calls: unknown[][] } }).mock.calls.at(-1)![3] as Record<string, unknown>;
+    expect(config).toMatchObject({ showSendToCloud: false, plotlyServerURL: "", displaylogo: false, toImageButtonOptions: { format: "png", filename: "rmse", scale: 2 } });
+    expect(config.modeBarButtonsToRemove).toContain("sendChartToCloud");
+  });
+});
+
+const campaign = (status: string, k: number, max: number | null): CampaignOut =>
+  ({
+    id: 7,
+    campaign: { id: 7, name: "baseline", status, current_iteration: k, source_campaign_id: null, source_iteration: null },
+    config: { stopping: { max_iterations: max }, preliminary: {}, settings: {}, policies: {} },
+    latest_metrics: null,
+  }) as unknown as CampaignOut;
+
+describe("fork", () => {
+  it("continues the campaign: forks at the latest finished iteration and runs more iterations, never k / N with k > N", () => {
+    // the defect: a finished 8-iteration campaign forked with the defaults ran one iteration and showed "9 / 8"
+    expect(forkDefaults(campaign("completed", 8, 8), 8)).toEqual({ k: 8, further: DEFAULT_FURTHER });
+    expect(forkDefaults(campaign("paused", 5, 20), 5)).toEqual({ k: 5, further: 15 });
+    expect(progressText(9, 8)).toBe("9");
+    expect(progressText(3, 8)).toBe("3 / 8");
+  });
+
+  it("the dialog explains a fork, shows the iteration limit it will use and sends it", async () => {
+    const { calls } = mockApi({
+      "GET /openapi.json": { components: { schemas: { StoppingRules: { type: "object", properties: { max_iterations: { anyOf: [{ type: "integer", minimum: 1 }, { type: "null" }] } } } } } },
+      "POST /campaigns/7/fork": () => jsonResponse({ ...campaign("running", 9, 18), id: 8 }, 201),
+    });
+    renderPage(<Controls campaign={campaign("completed", 8, 8)} lastIteration={8} />, { route: "/campaigns/7", path: "/campaigns/7" });
+    // jsdom has no <dialog>: open it by hand as the browser would
+    HTMLDialogElement.prototype.showModal ??= function (this: HTMLDialogElement) {
+      this.open = true;
+    };
+    HTMLDialogElement.prototype.close ??= function (this: HTMLDialogElement) {
+      this.open = false;
+    };
+    await userEvent.click(screen.getByRole("button", { name: "Fork…" }));
+    const dialog = screen.getByRole("dialog", { hidden: true });
+    expect(within(dialog).getByTestId("fork-explanation")).toHaveTextContent("continues the loop from iteration k + 1");
+    expect(within(dialog).getByLabelText("Fork after iteration k")).toHaveValue(8);
+    expect(within(dialog).getByLabelText("Further iterations")).toHaveValue(10);
+    expect(within(dialog).getByTestId("fork-limit")).toHaveTextContent("the fork runs iterations 9 to 18 (stopping rule max_iterations = 18)");
+    await waitFor(() => expect(within(dialog).getByLabelText(/^max_iterations/)).toHaveValue(18));
+    await userEvent.clear(within(dialog).getByLabelText("Further iterations"));
+    await userEvent.type(within(dialog).getByLabelText("Further iterations"), "4");
+    expect(within(dialog).getByLabelText(/^max_iterations/)).toHaveValue(12);
+    await userEvent.click(within(dialog).getByRole("button", { name: "Fork" }));
+    await waitFor(() => expect(calls.some((c) => c.path === "/campaigns/7/fork")).toBe(true));
+    const body = calls.find((c) => c.path === "/campaigns/7/fork")!.body as { iteration: number; stopping: { max_iterations: number }; start: boolean };
+    expect(body).toMatchObject({ iteration: 8, stopping: { max_iterations: 12 }, start: true });
+    await waitFor(() => expect(screen.getByTestId("elsewhere")).toBeInTheDocument()); // navigated to the fork
+  });
+});

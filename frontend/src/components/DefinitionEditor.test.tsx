@@ -1,0 +1,47 @@
+import { describe, expect, it } from "vitest";
+import { screen, waitFor } from "@testing-library/react";
+import userEvent from "@testing-library/user-event";
+import { DefinitionEditor } from "./DefinitionEditor";
+import { noErrors } from "../lib/formErrors";
+import { jsonResponse, mockApi, renderPage } from "../test/utils";
+
+describe("definition editor shell (tasks and oracles)", () => {
+  it("saves a used version as a new one, lists the versions and shares", async () => {
+    let shares: { id: number; email: string; permission: string }[] = [];
+    const { calls } = mockApi({
+      "GET /oracles/3/versions": [
+        { version: 1, locked: true, note: "", created_at: "2026-11-20T10:00:00Z", spec_hash: "a", type: "aux-penalty", params: {} },
+        { version: 2, locked: true, note: "stiffer", created_at: "2026-11-21T10:00:00Z", spec_hash: "b", type: "aux-penalty", params: {} },
+      ],
+      "GET /shares": () => shares,
+      "POST /shares": (_u: URL, body: { email: string; permission: string }) => {
+        shares = [{ id: 1, email: body.email, permission: body.permission }];
+        return jsonResponse({ ...shares[0], object_type: "oracle", object_id: 3, created_at: "" }, 201);
+      },
+    });
+    renderPage(
+      <DefinitionEditor
+        kind="oracle"
+        noun="oracle"
+        existing={{ id: 3, version: 2, version_locked: true, can_edit: true }}
+        name="aux"
+        setName={() => {}}
+        description=""
+        setDescription={() => {}}
+        errors={noErrors}
+        saving={false}
+        onSave={() => {}}
+      >
+        <p>parameters</p>
+      </DefinitionEditor>,
+    );
+    expect(screen.getByRole("button", { name: "Save as version 3" })).toBeEnabled();
+    const history = await screen.findByTestId("version-history");
+    expect(history).toHaveTextContent("stiffer");
+    expect(screen.getByRole("heading", { name: "Oracle: aux" })).toBeInTheDocument();
+    await userEvent.type(screen.getByLabelText("Share with"), "bo@lab");
+    await userEvent.click(screen.getByRole("button", { name: "Share" }));
+    await waitFor(() => expect(screen.getByText(/bo@lab/)).toBeInTheDocument());
+    expect(calls.find((c) => c.method === "POST" && c.path === "/shares")?.body).toEqual({ email: "bo@lab", permission: "view", object_type: "oracle", object_id: 3 });
+  });
+});

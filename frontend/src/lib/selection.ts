@@ -1,0 +1,70 @@
+/**
+ * Choosing iterations by range or list: "1-5, 8, 12-20", plus quick choices (last N, every
+ * k-th). Selections are kept in the URL in the same compact form.
+ */
+
+export interface Selection {
+  /** the chosen iterations that exist, ascending */
+  iterations: number[];
+  /** one message per part that could not be read, e.g. `"x": not a number or range` */
+  errors: string[];
+}
+
+/** Parse "1-5, 8, 12-20" against the iterations that exist (others are left out). */
+export function parseSelection(text: string, available: readonly number[]): Selection {
+  const exists = new Set(available);
+  const chosen = new Set<number>();
+  const errors: string[] = [];
+  for (const raw of text.split(/[,;\s]+/)) {
+    const part = raw.trim();
+    if (!part) continue;
+    const range = /^(\d+)\s*(?:-|–|\.\.)\s*(\d+)$/.exec(part);
+    if (range) {
+      let [a, b] = [Number(range[1]), Number(range[2])];
+      if (a > b) [a, b] = [b, a];
+      for (const k of available) if (k >= a && k <= b) chosen.add(k);
+      continue;
+    }
+    if (/^\d+$/.test(part)) {
+      const k = Number(part);
+      if (exists.has(k)) chosen.add(k);
+      else errors.push(`${k}: no such iteration with oracle data`);
+      continue;
+    }
+    errors.push(`"${part}": not an iteration number or range (e.g. 1-5, 8, 12-20)`);
+  }
+  return { iterations: [...chosen].sort((x, y) => x - y), errors };
+}
+
+/** The compact form of a set of iterations: consecutive runs of `available` become ranges. */
+export function formatSelection(iterations: readonly number[], available: readonly number[] = iterations): string {
+  const chosen = new Set(iterations);
+  const sorted = [...available].sort((a, b) => a - b);
+  const parts: string[] = [];
+  let i = 0;
+  while (i < sorted.length) {
+    if (!chosen.has(sorted[i])) {
+      i++;
+      continue;
+    }
+    let j = i;
+    while (j + 1 < sorted.length && chosen.has(sorted[j + 1])) j++;
+    parts.push(j - i >= 2 ? `${sorted[i]}-${sorted[j]}` : j === i ? `${sorted[i]}` : `${sorted[i]}, ${sorted[j]}`);
+    i = j + 1;
+  }
+  // iterations not among `available` (not loaded yet) are kept as given
+  for (const k of iterations) if (!sorted.includes(k)) parts.push(String(k));
+  return parts.join(", ");
+}
+
+export function lastN(available: readonly number[], n: number): number[] {
+  return available.slice(Math.max(available.length - n, 0));
+}
+
+/** Every k-th iteration of those available, always including the latest. */
+export function everyKth(available: readonly number[], k: number): number[] {
+  if (!available.length || k < 1) return [];
+  const last = available[available.length - 1];
+  const out = available.filter((it) => (last - it) % k === 0);
+  return out;
+}
