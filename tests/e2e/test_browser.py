@@ -26,40 +26,28 @@ SCREENSHOTS = (
 pytestmark = [pytest.mark.slow, pytest.mark.e2e]
 
 
-def test_campaign_lifecycle_in_the_browser(alcove_server: Server) -> None:
-    """Sign in, token, task, oracle, campaign with >= 2 iterations on the RMSE plot (metrics
-    polls transfer only new iterations), force plot, angle and torque, pause/resume, model
-    download, screenshots for the docs (see frontend/e2e/run.mjs)."""
+def run_browser_script(server: Server, script: str, *extra: str) -> None:
+    """Run one of frontend/e2e/*.mjs against the server as the first admin; fail with its
+    output and the end of the server's log."""
     ARTIFACTS.mkdir(exist_ok=True)
-    started = time.time() - 1
-    command = [
-        "node",
-        "e2e/run.mjs",
-        "--base-url",
-        alcove_server.base_url,
-        "--email",
-        ADMIN_EMAIL,
-        "--password",
-        ADMIN_PASSWORD,
-        "--artifacts",
-        str(ARTIFACTS),
-    ]
-    if UPDATE_DOCS_IMAGES:
-        command += ["--docs-images", str(DOCS_IMAGES)]
-    result = subprocess.run(
-        command,
-        cwd=FRONTEND,
-        capture_output=True,
-        text=True,
-        timeout=600,
-    )
+    command = ["node", f"e2e/{script}", "--base-url", server.base_url, "--email", ADMIN_EMAIL]
+    command += ["--password", ADMIN_PASSWORD, "--artifacts", str(ARTIFACTS), *extra]
+    result = subprocess.run(command, cwd=FRONTEND, capture_output=True, text=True, timeout=600)
     print(result.stdout)  # the steps with their times (pytest -s)
     if result.returncode != 0:
-        server_log = alcove_server.log.read_text()[-3000:] if alcove_server.log.exists() else ""
+        server_log = server.log.read_text()[-3000:] if server.log.exists() else ""
         pytest.fail(
             f"browser run failed:\n{result.stdout[-4000:]}\n{result.stderr[-4000:]}\n"
             f"--- alcove up log ---\n{server_log}"
         )
+
+
+def test_campaign_lifecycle_in_the_browser(alcove_server: Server) -> None:
+    """Sign in, token, task, oracle, campaign with >= 2 iterations on the RMSE plot (metrics
+    polls transfer only new iterations), force plot, angle and torque, pause/resume, model
+    download, screenshots for the docs (see frontend/e2e/run.mjs)."""
+    started = time.time() - 1
+    run_browser_script(alcove_server, "run.mjs", *(["--docs-images", str(DOCS_IMAGES)] if UPDATE_DOCS_IMAGES else []))
     for name in SCREENSHOTS:
         for folder in (ARTIFACTS, DOCS_IMAGES) if UPDATE_DOCS_IMAGES else (ARTIFACTS,):
             shot = folder / name
@@ -74,26 +62,4 @@ def test_live_updates_forms_forks_and_no_foreign_requests_in_the_browser(alcove_
     made with the dialog never shows k / N with k > N and greys its inherited iterations; a bad
     form submit shows each problem once at its field without page errors; no request leaves
     the server's origin."""
-    ARTIFACTS.mkdir(exist_ok=True)
-    command = [
-        "node",
-        "e2e/live.mjs",
-        "--base-url",
-        alcove_server.base_url,
-        "--email",
-        ADMIN_EMAIL,
-        "--password",
-        ADMIN_PASSWORD,
-        "--artifacts",
-        str(ARTIFACTS),
-        "--endings",
-        "5",
-    ]
-    result = subprocess.run(command, cwd=FRONTEND, capture_output=True, text=True, timeout=600)
-    print(result.stdout)
-    if result.returncode != 0:
-        server_log = alcove_server.log.read_text()[-3000:] if alcove_server.log.exists() else ""
-        pytest.fail(
-            f"browser run failed:\n{result.stdout[-4000:]}\n{result.stderr[-4000:]}\n"
-            f"--- alcove up log ---\n{server_log}"
-        )
+    run_browser_script(alcove_server, "live.mjs", "--endings", "5")
