@@ -145,6 +145,7 @@ def run_step(
             return None  # the reconciler gave the step to another job
         c = repo.get_campaign(s, campaign_id, lock=True)
         at = IterationRef(c.id, row.iteration_id, ref.iteration)
+        wall = time.perf_counter() - t_job  # the step's wall time: up to the writing of its results
         base = {**timing, "worker": worker_name, "queue_latency_s": _latency(row)}
         if output is not None:
             result = output.write(s, at)
@@ -157,7 +158,7 @@ def run_step(
                 Outcome.succeeded,
                 result={**base, **result},
                 stop_reason=result.get("stop_reason"),
-                wall_time_s=time.perf_counter() - t_job,
+                wall_time_s=wall,
             )
         assert failure is not None
         if failure.write is not None:
@@ -167,9 +168,7 @@ def run_step(
             if row.attempts < row.max_attempts and not failure.bad_input:
                 return _requeue(s, c.id, ref, row, failure.message)
             outcome = policy_outcome(config, ref)
-        return transitions.complete_step(
-            s, c, ref, row, outcome, result=base, error=failure.message, wall_time_s=time.perf_counter() - t_job
-        )
+        return transitions.complete_step(s, c, ref, row, outcome, result=base, error=failure.message, wall_time_s=wall)
 
     next_jobs = transaction(complete)
     if next_jobs is None:
