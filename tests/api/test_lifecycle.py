@@ -179,7 +179,7 @@ def test_full_campaign_lifecycle_over_http(live) -> None:
 
     folder = Path(worker.log).parent / "model"
     with zipfile.ZipFile(io.BytesIO(zipped.content)) as zf:
-        assert {"surrogate.json", "force.pt", "moment.pt"} <= set(zf.namelist())
+        assert {"surrogate.json", "force.pt", "moment.pt", "force.casadi", "force.onnx"} <= set(zf.namelist())
         zf.extractall(folder)
     x = np.random.default_rng(0).normal(size=(7, 19))
     from_zip, from_json = load_artifact(folder), model_from_dict(doc)

@@ -196,8 +196,16 @@ def summary(detail: Any, metrics: list[dict[str, Any]], wall: float | None = Non
         out["wall_time_s"] = wall
     out["step_median_s"] = _step_medians(c.id)
     if metrics:
-        out["first"] = {k: metrics[0][k] for k in ("iteration_index", "force_rmse", "moment_rmse")}
-        out["last"] = {k: metrics[-1][k] for k in ("iteration_index", "force_rmse", "moment_rmse")}
+        keys = (
+            "iteration_index",
+            "force_rmse",
+            "moment_rmse",
+            "force_rmse_contact",
+            "moment_rmse_contact",
+            "calibration",
+        )
+        out["first"] = {k: metrics[0].get(k) for k in keys}
+        out["last"] = {k: metrics[-1].get(k) for k in keys}
     return out
 
 
