@@ -55,6 +55,8 @@ export function toPoints(metrics: SeriesRow[], iterations: IterationState[]): Me
     status: byIndex.get(m.iteration_index)?.status ?? "succeeded",
     force_rmse: m.force_rmse ?? null,
     moment_rmse: m.moment_rmse ?? null,
+    force_rmse_contact: m.force_rmse_contact ?? null,
+    moment_rmse_contact: m.moment_rmse_contact ?? null,
     quarantined: false,
     inherited: Boolean(m.inherited),
   }));

@@ -5,8 +5,9 @@ import { isMarked, type MetricPoint } from "../lib/metrics";
 const INHERITED = "#a3a9b6";
 
 /**
- * Force and moment RMSE per iteration; failed and quarantined iterations as red x. A fork's
- * inherited iterations (its source's, up to the fork point) are drawn grey, its own in colour.
+ * Force and moment RMSE per iteration (of the error vector, docs/concepts.md), and the same over
+ * the samples in contact (dashed, where given); failed and quarantined iterations as red x. A
+ * fork's inherited iterations (its source's, up to the fork point) are drawn grey, its own in colour.
  */
 export function rmseTraces(points: MetricPoint[], name = ""): Trace[] {
   const own = points.filter((p) => !isMarked(p) && !p.inherited);
@@ -26,6 +27,11 @@ export function rmseTraces(points: MetricPoint[], name = ""): Trace[] {
     { x: own.map((p) => p.iteration), y: own.map((p) => p.force_rmse), name: `${prefix}force RMSE [N]`, mode: "lines+markers", type: "scatter", line: { color: "#2f5bd3" } },
     { x: own.map((p) => p.iteration), y: own.map((p) => p.moment_rmse), name: `${prefix}moment RMSE [N m]`, mode: "lines+markers", type: "scatter", line: { color: "#d3662f" } },
   );
+  if (own.some((p) => p.force_rmse_contact != null))
+    traces.push(
+      { x: own.map((p) => p.iteration), y: own.map((p) => p.force_rmse_contact ?? null), name: `${prefix}force RMSE in contact [N]`, mode: "lines", type: "scatter", line: { color: "#2f5bd3", dash: "dash" } },
+      { x: own.map((p) => p.iteration), y: own.map((p) => p.moment_rmse_contact ?? null), name: `${prefix}moment RMSE in contact [N m]`, mode: "lines", type: "scatter", line: { color: "#d3662f", dash: "dash" } },
+    );
   if (marked.length)
     traces.push({
       x: marked.map((p) => p.iteration),
