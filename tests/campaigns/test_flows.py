@@ -111,12 +111,15 @@ def test_a_short_campaign_leaves_a_complete_versioned_record(campaign_db: str, m
             pred = predict(load_model(s, model), data["t"], data["q"], data["qd"])
             np.testing.assert_allclose(curves["f_pred"], np.hstack([pred.force, pred.moment]), atol=1e-9)
             m = metrics[k - 1]
-            assert m.force_rmse == pytest.approx(
-                np.sqrt(np.mean((curves["f_pred"][:, :3] - curves["f_true"][:, :3]) ** 2))
-            )
-            assert m.moment_rmse == pytest.approx(
-                np.sqrt(np.mean((curves["f_pred"][:, 3:] - curves["f_true"][:, 3:]) ** 2))
-            )
+            err = curves["f_pred"] - curves["f_true"]  # RMSE of the error vector (docs/concepts.md)
+            assert m.force_rmse == pytest.approx(np.sqrt(np.mean(np.sum(err[:, :3] ** 2, axis=1))), rel=1e-12)
+            assert m.moment_rmse == pytest.approx(np.sqrt(np.mean(np.sum(err[:, 3:] ** 2, axis=1))), rel=1e-12)
+            contact = np.linalg.norm(curves["f_true"][:, :3], axis=1) > 0
+            if contact.any():
+                assert m.force_rmse_contact == pytest.approx(
+                    np.sqrt(np.mean(np.sum(err[contact, :3] ** 2, axis=1))), rel=1e-12
+                )
+            assert m.metrics_definition == "vector"
             assert m.model_version_id == model.id and m.dataset_id == ds.id and m.ocp_success
             assert m.extra["code_version"] == model.code_version and m.extra["model_seed"] == model.seed
         steps = results.list_jobs(s, cid)

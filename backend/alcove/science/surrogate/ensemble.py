@@ -16,9 +16,10 @@ member is ``sum_i w_i mean_c (net(z_i) - y_i)_c^2 / n_batch``.
 
 Early stopping per net and member: the validation loss ``sum_i w_i mean_c err^2 / sum_i w_i``
 after every epoch; the weights of a member's best epoch are kept; after ``patience`` epochs
-without improvement the member is stopped: its result is frozen at its best epoch (its slot keeps
-stepping with the others, its updates are discarded). A net stops stepping when all its members
-have stopped.
+without improvement the member is stopped: its result is frozen at its best epoch and it leaves
+the batched tensors (its rows of the weights and of Adam's moments are dropped, the others
+continue with the same state and step count, so their arithmetic is unchanged). A net stops
+stepping when all its members have stopped.
 """
 
 from __future__ import annotations
@@ -86,11 +87,26 @@ class BatchedNet:
     def snapshot(self) -> list[torch.Tensor]:
         return [p.detach().clone() for p in self.parameters()]
 
-    def keep(self, best: list[torch.Tensor], improved: torch.Tensor) -> None:
-        """Copy the members marked in ``improved`` (K,) into ``best``."""
+    def keep(self, best: list[torch.Tensor], rows: torch.Tensor, members: torch.Tensor) -> None:
+        """Copy the batch rows ``rows`` into ``best`` at the members ``members`` (both index tensors)."""
         for b, p in zip(best, self.parameters(), strict=True):
-            mask = improved.view(-1, *([1] * (p.dim() - 1)))
-            b.copy_(torch.where(mask, p.detach(), b))
+            b[members] = p.detach()[rows]
+
+    def select(self, rows: torch.Tensor, optimizer: torch.optim.Adam) -> torch.optim.Adam:
+        """Keep only the batch rows ``rows``: new leaf tensors and an Adam carrying their moments and step."""
+        old = self.parameters()
+        new = [p.detach()[rows].clone().requires_grad_() for p in old]
+        self.weights, self.biases = new[0::2], new[1::2]
+        adam = torch.optim.Adam(new, **{k: optimizer.defaults[k] for k in ("lr", "betas", "eps", "fused")})
+        for p_old, p_new in zip(old, new, strict=True):
+            state = optimizer.state.get(p_old)
+            if state:
+                adam.state[p_new] = {
+                    "step": state["step"].clone(),
+                    "exp_avg": state["exp_avg"][rows].clone(),
+                    "exp_avg_sq": state["exp_avg_sq"][rows].clone(),
+                }
+        return adam
 
     def write(self, best: list[torch.Tensor], nets: list[MLP]) -> None:
         with torch.no_grad():
@@ -147,6 +163,7 @@ class EnsembleTrainer:
         self.w_val = _stack_padded([d.w_val for d in data], n_val)
         self.w_val_sum = torch.clamp(self.w_val.sum(1), min=torch.finfo(self.w_val.dtype).tiny)
         self.stopped = {k: torch.zeros(self.K, dtype=torch.bool) for k in NETS}
+        self.active = {k: torch.arange(self.K) for k in NETS}  # the members in the batched tensors, in order
         self.best_loss = {k: torch.full((self.K,), math.inf, dtype=torch.float64) for k in NETS}
         self.best_epoch = {k: [0] * self.K for k in NETS}
         self.epochs = {k: [0] * self.K for k in NETS}
@@ -173,12 +190,17 @@ class EnsembleTrainer:
         y = {"force": cols[:, self.n_in : self.n_in + 3], "moment": cols[:, self.n_in + 3 : self.n_in + 6]}
         scale = (cols[:, -1] / div.to(cols.dtype) / 3.0).unsqueeze(1)
         active = [k for k in NETS if not bool(self.stopped[k].all())]
+        data = {}
+        for k in active:
+            rows = self.active[k]
+            full = rows.numel() == self.K
+            data[k] = (z if full else z[rows], y[k] if full else y[k][rows], scale if full else scale[rows])
         for s in range(self.S):
             sl = slice(s * self.B, (s + 1) * self.B)
-            zb, wb = z[:, :, sl], scale[:, :, sl]
             for k in active:
+                zk, yk, wk = data[k]
                 self.optimizers[k].zero_grad(set_to_none=True)
-                loss = ((self.batched[k].forward(zb) - y[k][:, :, sl]).square() * wb).sum()
+                loss = ((self.batched[k].forward(zk[:, :, sl]) - yk[:, :, sl]).square() * wk[:, :, sl]).sum()
                 loss.backward()  # type: ignore[no-untyped-call]
                 self.optimizers[k].step()
 
@@ -188,21 +210,30 @@ class EnsembleTrainer:
             for k in NETS:
                 if bool(self.stopped[k].all()):
                     continue
-                err = (self.batched[k].forward(self.z_val) - self.y_val[k]).square().mean(1)
-                loss = (err * self.w_val).sum(1) / self.w_val_sum
-                self.history[k].append(loss.tolist())
-                improved = (loss < self.best_loss[k]) & ~self.stopped[k]
-                self.best_loss[k] = torch.where(improved, loss, self.best_loss[k])
+                members = self.active[k]
+                err = (self.batched[k].forward(self.z_val[members]) - self.y_val[k][members]).square().mean(1)
+                loss = (err * self.w_val[members]).sum(1) / self.w_val_sum[members]
+                full = torch.full((self.K,), math.nan, dtype=torch.float64)
+                full[members] = loss.double()
+                self.history[k].append(full.tolist())
+                improved = loss < self.best_loss[k][members]
                 if bool(improved.any()):
-                    self.batched[k].keep(self.best[k], improved)
-                for m in range(self.K):
-                    if self.stopped[k][m]:
-                        continue
+                    rows = torch.nonzero(improved).flatten()
+                    self.best_loss[k][members[rows]] = loss[rows].double()
+                    self.batched[k].keep(self.best[k], rows, members[rows])
+                keep = []
+                for row, m in enumerate(members.tolist()):
                     self.epochs[k][m] = epoch
-                    if improved[m]:
+                    if improved[row]:
                         self.best_epoch[k][m] = epoch
                     elif epoch - self.best_epoch[k][m] >= self.config.patience:
                         self.stopped[k][m] = True
+                        continue
+                    keep.append(row)
+                if keep and len(keep) < members.numel():  # some stopped: they leave the batched tensors
+                    rows = torch.tensor(keep)
+                    self.optimizers[k] = self.batched[k].select(rows, self.optimizers[k])
+                    self.active[k] = members[rows]
         return not all(bool(self.stopped[k].all()) for k in NETS)
 
     def finish(self) -> None:
