@@ -84,3 +84,12 @@ def test_batches_cover_every_row_once_per_epoch():
     assert list(batch_sizes(2500, 3, 1024)) == [1024, 1024, 452]  # the largest set: the paper's batches
     sizes = batch_sizes(1900, 3, 1024)  # a smaller set: the same number of nearly equal batches
     assert sizes.sum() == 1900 and len(sizes) == 3 and sizes.max() - sizes.min() <= 1
+
+
+def test_history_and_metrics_are_strict_json_when_members_stop_apart(ensemble_and_alone):
+    import json
+
+    ensemble, alone = ensemble_and_alone
+    json.dumps({"history": ensemble.history, "metrics": ensemble.metrics.to_dict()}, allow_nan=False)
+    for net in ("force", "moment"):  # member 0's validation losses, as when trained alone (float rounding)
+        assert ensemble.history[net] == pytest.approx(alone[0].history[net], rel=1e-9)

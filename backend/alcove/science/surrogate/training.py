@@ -263,7 +263,7 @@ def train_surrogate(
     )
     metrics = _training_metrics(model, x, y, splits, trainer, time.perf_counter() - t_start)
     model.lineage["metrics"] = metrics.to_dict()
-    history = {n: [row[0] for row in trainer.history[n]] for n in NETS}
+    history = {n: [row[0] for row in trainer.history[n] if not np.isnan(row[0])] for n in NETS}  # member 0's
     return TrainingResult(model=model, metrics=metrics, split=splits[0], history=history, splits=splits)
 
 
