@@ -13,8 +13,8 @@
 
 The surrogates are trained in the setup on the preliminary aux-penalty LHS data (default
 architecture and ensemble size K = 5, so the contact model is the mean of five member pairs;
-the second warm-started from the first, as in consecutive campaign iterations). The machine is shared: report the load with the figures; the CPU-time figures
-are less sensitive to it.
+the second warm-started from the first, as in consecutive campaign iterations). The machine
+is shared: report the load with the figures; the CPU-time figures are less sensitive to it.
 """
 
 from __future__ import annotations
