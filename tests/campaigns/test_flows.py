@@ -414,7 +414,11 @@ def test_export_and_tables_hold_every_pool_version_model_and_metric(
     assert pq.read_table(root / "pool/version-0001.parquet").num_rows == pv1.n_samples
     rows = list(csv.DictReader(io.StringIO(table.decode())))
     assert len(rows) == pv1.n_samples and {"t", "q_0", "qd_0", "fx", "mz", "origin"} <= set(rows[0])
-    assert sorted(zipfile.ZipFile(io.BytesIO(art)).namelist()) == ["force.pt", "moment.pt", "surrogate.json"]
+    exports = ["force.casadi", "moment.casadi", "force.onnx", "moment.onnx"]
+    std = ["force_std.casadi", "moment_std.casadi"]  # the default ensemble of 5: the std exports too
+    assert sorted(zipfile.ZipFile(io.BytesIO(art)).namelist()) == sorted(
+        ["force.pt", "moment.pt", "surrogate.json", *exports, *std]
+    )
     meta = json.loads((root / "campaign.json").read_text())
     assert [p["version"] for p in meta["pool_versions"]] == [0, 1] and meta["campaign"]["status"] == "completed"
 
