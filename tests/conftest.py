@@ -25,6 +25,7 @@ import os
 import uuid
 from collections.abc import Generator, Iterator
 from pathlib import Path
+from typing import Any
 from urllib.parse import quote
 
 import pytest
@@ -248,3 +249,12 @@ def redis_url() -> str:
     except Exception as err:
         service_unavailable(f"Redis at {url}", err)
     return url
+
+
+@pytest.fixture(scope="session")
+def ghost_case() -> tuple[Any, list[Any]]:
+    """The ghost-force ensemble of issue 16 and its honest pool (tests/ghost_case.py; ~25 s to train)."""
+    from alcove.science.geometry import DEFAULT_PRESET
+    from tests.ghost_case import ghost_ensemble
+
+    return ghost_ensemble(DEFAULT_PRESET)

@@ -196,6 +196,36 @@ def head_pose_in_headrest(preset: HeadNeckPreset, theta: FloatArray) -> tuple[Fl
     return kin.r_rel[:, [0, 2]], np.atleast_1d(np.asarray(theta, float)) - preset.tilt
 
 
+def signed_gap(preset: HeadNeckPreset, theta: float | FloatArray) -> FloatArray:
+    """Signed gap [m] between the head profile and the undeformed headrest surface, along its normal x_H.
+
+    The smallest x_H coordinate of the profile ellipse (the whole ellipse, in closed form):
+    with the relative tilt ``a = theta - tilt`` and the head origin at ``r`` in H, a profile
+    point (cx + ax cos s, cz + az sin s) has ``x_H = r_x + cos(a) (cx + ax cos s) - sin(a) (cz + az sin s)``,
+    whose minimum over s is ``r_x + cos(a) cx - sin(a) cz - sqrt((ax cos a)^2 + (az sin a)^2)``.
+    Positive: the head is clear of the cushion by that distance; zero at first contact
+    (``theta_contact`` when ``tilt = theta_contact``); negative: the undeformed cushion is penetrated.
+    Smooth in ``theta`` (the square root's argument is >= min(ax, az)^2 > 0).
+    """
+    theta = np.atleast_1d(np.asarray(theta, float))
+    r, a = head_pose_in_headrest(preset, theta)
+    pr = preset.profile
+    c, s = np.cos(a), np.sin(a)
+    gap: FloatArray = r[:, 0] + c * pr.cx - s * pr.cz - np.sqrt((pr.ax * c) ** 2 + (pr.az * s) ** 2)
+    return gap
+
+
+def signed_gap_symbolic(preset: HeadNeckPreset, theta: Symbolic) -> Symbolic:
+    """CasADi version of :func:`signed_gap` for one scalar angle (SX or MX)."""
+    import casadi as ca
+
+    r_rel = relative_kinematics_symbolic(preset, theta, 0.0)[0]
+    pr = preset.profile
+    a = theta - preset.tilt
+    c, s = ca.cos(a), ca.sin(a)
+    return r_rel[0] + c * pr.cx - s * pr.cz - ca.sqrt((pr.ax * c) ** 2 + (pr.az * s) ** 2)
+
+
 DEFAULT_PRESET = HeadNeckPreset()
 
 __all__ = [
@@ -209,6 +239,8 @@ __all__ = [
     "relative_kinematics_symbolic",
     "rot2",
     "rot3_from_tilt",
+    "signed_gap",
+    "signed_gap_symbolic",
 ]
 
 

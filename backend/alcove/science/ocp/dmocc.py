@@ -98,8 +98,13 @@ def nlp_expressions(
     dynamics: ca.Function,
     interval_cost: ca.Function,
     n_par: int,
+    path: ca.Function | None = None,
 ) -> NlpExpressions[Symbolic]:
-    """Map the interval functions over the grid and assemble cost and constraints (see the module docstring)."""
+    """Map the interval functions over the grid and assemble cost and constraints (see the module docstring).
+
+    ``path`` ``(q, qd, p) -> scalar`` is evaluated at every interval midpoint (where the contact
+    model is: ``(q_k + q_k+1) / 2``, ``(q_k+1 - q_k) / h``) and appended to g as N rows after
+    the dynamics (the caller bounds them)."""
     n, N = chain.ndof, prob.intervals
     n_q, n_u = n * (N + 1), n * N
     x = sym.sym("x", n_q + n_u)
@@ -124,6 +129,9 @@ def nlp_expressions(
     if prob.qd_end is not None:
         pN = ca.mtimes(chain.mass_matrix(Q[:, N]), ca.DM(prob.qd_end))
         g.append(right[:, N - 1] - pN)
+    if path is not None:
+        qm, v = 0.5 * (Q[:, :-1] + Q[:, 1:]), (Q[:, 1:] - Q[:, :-1]) / ca.repmat(H, n, 1)
+        g.append(ca.vec(path.map(N).call([qm, v, Pm])[0]))
 
     # endpoint cost
     qN = Q[:, N]
@@ -136,6 +144,17 @@ def nlp_expressions(
     # node momenta for the Legendre transforms: p_0 = -left_0, p_k = right_k-1
     momenta = ca.horzcat(-left[:, 0], right)
     return NlpExpressions(x, par, cost, ca.vertcat(*g), momenta)
+
+
+def _prepare_path(path: ca.Function, ndof: int, n_par: int) -> ca.Function:
+    """A path-constraint function as ``(q, qd, p) -> scalar`` (SX), ``p`` the contact's parameters."""
+    if path.n_out() != 1 or path.size_out(0) != (1, 1) or path.n_in() not in (2, 3):
+        raise ValueError("path: expected a function (q, qd[, p]) -> scalar")
+    q, qd, p = ca.SX.sym("q", ndof), ca.SX.sym("qd", ndof), ca.SX.sym("p", n_par)
+    if path.n_in() == 3 and path.size1_in(2) != n_par:
+        raise ValueError(f"path: its parameter input must match the contact's {n_par} parameter(s)")
+    out = path(q, qd, p) if path.n_in() == 3 else path(q, qd)
+    return ca.Function("path", [q, qd, p], [out], ["q", "qd", "p"], ["value"])
 
 
 @dataclass
@@ -157,6 +176,10 @@ class Transcription:
     ipopt_options: SolverOptions = field(default_factory=dict)
     graph: str = "MX"
     derivatives: str = "auto"
+    #: optional path constraint ``(q, qd, p) -> scalar <= path_upper`` at every interval midpoint
+    #: (e.g. the ensemble's force variance: the trust region); uses CasADi's derivatives
+    path: ca.Function | None = None
+    path_upper: float = np.inf
     #: the passive-motion initial guess (:mod:`.solve`), kept once computed for a contact
     #: without parameters: it depends on nothing but this NLP
     passive_guess: FloatArray | None = field(default=None, init=False, repr=False, compare=False)
@@ -172,8 +195,12 @@ class Transcription:
         self.n_q, self.n_u = n * (N + 1), n * N
         if self.graph not in ("MX", "SX"):
             raise ValueError(f"graph: must be 'MX' or 'SX', got {self.graph!r}")
+        if self.path is not None:
+            self.path = _prepare_path(self.path, n, self.n_par)
         if self.derivatives == "auto":
-            self.derivatives = "structured" if self.graph == "MX" else "casadi"
+            self.derivatives = "structured" if self.graph == "MX" and self.path is None else "casadi"
+        if self.derivatives == "structured" and self.path is not None:
+            raise ValueError("derivatives: a path constraint needs derivatives='casadi'")
         if self.derivatives not in ("structured", "casadi"):
             raise ValueError(f"derivatives: must be 'structured' or 'casadi', got {self.derivatives!r}")
         if self.derivatives == "structured" and self.graph != "MX":
@@ -181,7 +208,7 @@ class Transcription:
         self._derivative_options: SolverOptions = {}
         self._nlp: dict[str, ca.MX] | dict[str, ca.SX]
         if self.graph == "MX":
-            mx = nlp_expressions(ca.MX, chain, prob, dynamics, interval_cost, self.n_par)
+            mx = nlp_expressions(ca.MX, chain, prob, dynamics, interval_cost, self.n_par, self.path)
             self._nlp = {"x": mx.x, "p": mx.par, "f": mx.cost, "g": mx.g}
             self._momenta = ca.Function("momenta", [mx.x, mx.par], [mx.momenta])
             n_constraints = mx.g.shape[0]
@@ -201,12 +228,14 @@ class Transcription:
                 )
                 self._derivative_options = {"jac_g": jac_g, "hess_lag": hess_lag}
         else:
-            sx = nlp_expressions(ca.SX, chain, prob, dynamics, interval_cost, self.n_par)
+            sx = nlp_expressions(ca.SX, chain, prob, dynamics, interval_cost, self.n_par, self.path)
             self._nlp = {"x": sx.x, "p": sx.par, "f": sx.cost, "g": sx.g}
             self._momenta = ca.Function("momenta", [sx.x, sx.par], [sx.momenta])
             n_constraints = sx.g.shape[0]
         self.lbx, self.ubx = self._variable_bounds()
-        self.lbg = self.ubg = np.zeros(n_constraints)
+        n_path = N if self.path is not None else 0
+        self.lbg = np.concatenate([np.zeros(n_constraints - n_path), np.full(n_path, -np.inf)])
+        self.ubg = np.concatenate([np.zeros(n_constraints - n_path), np.full(n_path, float(self.path_upper))])
         self._solver: ca.Function | None = None
         self._warm_solver: ca.Function | None = None
 

@@ -30,7 +30,11 @@ from alcove.science.ocp.task_spec import TaskSpec
 from alcove.science.series import SeriesFormatError, Trajectory
 
 CACHE_SIZE = 8
-CacheKey = tuple[str, str, str, str]  # task, contact structure, IPOPT options, graph
+CacheKey = tuple[str, str, str, str, str]  # task, contact structure, IPOPT options, graph, path constraint
+
+#: an optional path constraint ``(q, qd[, p]) -> scalar`` and its upper bound, e.g. the trust
+#: region ``sigma_F^2 <= max_std^2`` (:func:`alcove.science.surrogate.trust.force_variance_function`)
+PathConstraint = tuple[ca.Function, float]
 
 
 class _ThreadCache(threading.local):
@@ -206,17 +210,27 @@ def get_transcription(
     contact: ca.Function | None,
     ipopt_options: Mapping[str, OptionValue] | None = None,
     graph: str = "MX",
+    path: PathConstraint | None = None,
 ) -> Transcription:
-    """The cached transcription for (task, contact structure, options, graph); built on first use.
+    """The cached transcription for (task, contact structure, options, graph, path constraint); built on first use.
 
     The cache holds the last ``CACHE_SIZE`` transcriptions of the calling thread.
     """
     cache = _cache()
-    key = (task.model_dump_json(), _contact_key(contact), repr(sorted((ipopt_options or {}).items())), graph)
+    path_key = "none" if path is None else f"{_contact_key(path[0])}<={float(path[1])!r}"
+    key = (task.model_dump_json(), _contact_key(contact), repr(sorted((ipopt_options or {}).items())), graph, path_key)
     if key in cache:
         cache.move_to_end(key)
         return cache[key]
-    tr = Transcription(task.chain(), task.discrete_problem(), contact, dict(ipopt_options or {}), graph)
+    tr = Transcription(
+        task.chain(),
+        task.discrete_problem(),
+        contact,
+        dict(ipopt_options or {}),
+        graph,
+        path=None if path is None else path[0],
+        path_upper=np.inf if path is None else float(path[1]),
+    )
     cache[key] = tr
     while len(cache) > CACHE_SIZE:
         cache.popitem(last=False)
@@ -344,6 +358,7 @@ def solve_task(
     ipopt_options: Mapping[str, OptionValue] | None = None,
     graph: str = "MX",
     on_attempt: Callable[[AttemptRecord], None] | None = None,
+    path: PathConstraint | None = None,
 ) -> OcpSolution:
     """Solve ``task`` with the contact model ``contact`` (``None``: no contact).
 
@@ -356,12 +371,13 @@ def solve_task(
     function. ``graph``: ``"MX"`` (fast build, default) or ``"SX"`` (slow build, faster
     iterations; worth it when one task and contact are solved many times).
     ``ipopt_options`` are merged into the nlpsol options. ``on_attempt`` receives the
-    record of every IPOPT run.
+    record of every IPOPT run. ``path``: an optional path constraint ``(fn, upper)``,
+    ``fn(q, qd[, p]) <= upper`` at every interval midpoint (the trust region).
     """
     if max_attempts < 1:
         raise ValueError("max_attempts: must be >= 1")
     t_start = time.perf_counter()
-    tr = get_transcription(task, contact, ipopt_options, graph)
+    tr = get_transcription(task, contact, ipopt_options, graph, path)
     if tr.n_par and contact_params is None:
         raise ValueError("contact_params: the contact function takes parameters; pass their values")
     if contact_params is not None:
@@ -426,4 +442,4 @@ def solve_task(
     )
 
 
-__all__ = ["OcpSolution", "clear_cache", "get_transcription", "initial_guesses", "solve_task"]
+__all__ = ["OcpSolution", "PathConstraint", "clear_cache", "get_transcription", "initial_guesses", "solve_task"]
