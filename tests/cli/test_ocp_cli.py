@@ -150,3 +150,35 @@ def test_solve_with_a_trained_surrogate_artifact(tmp_path):
     summary = json.loads(res.stdout)
     assert summary["contact"] == f"model:{artifact}" and summary["converged"] is True
     assert len(Trajectory.from_csv(tmp_path / "t.csv")) == 41
+
+
+@pytest.mark.slow
+def test_ghost_force_solution_is_flagged_untrusted(tmp_path, ghost_case):
+    """The issue's ghost-force case: the hovering rest is reported, on stderr and in the JSON."""
+    from alcove.science.geometry import signed_gap
+    from alcove.science.surrogate.artifact import save_artifact
+    from alcove.science.surrogate.dataset import save_pool_dir
+
+    model, pool = ghost_case
+    save_artifact(model, tmp_path / "m")
+    save_pool_dir(pool, tmp_path / "pool")
+    args = ["ocp", "solve", "--contact", f"model:{tmp_path / 'm'}", "--intervals", "20", "--out", str(tmp_path / "t.csv")]
+    res = runner.invoke(app, [*args, "--pool", str(tmp_path / "pool"), "--json"])
+    assert res.exit_code == 0, res.output
+    summary = json.loads(res.stdout)
+    assert summary["trusted"] is False and summary["trust_reasons"][0].startswith("ghost force")
+    assert "warning: untrusted solution: ghost force" in res.stderr
+    trust = summary["trust"]
+    assert trust["open_gap_max_force"] > 10.0 and trust["open_gap_at_gap"] > 0.002
+    assert trust["max_pool_distance"] is not None and trust["ensemble_size"] == 4
+    rest = Trajectory.from_csv(tmp_path / "t.csv").q[-20:, 0]
+    assert signed_gap(DEFAULT_PRESET, rest).min() > 0.002  # hovering: clear of the cushion
+    # bad trust-region input names the field, before solving
+    for extra, message in (
+        (["--trust-region-max-std", "-1"], "trust-region-max-std: must be a positive number"),
+        (["--pool", str(tmp_path / "nope")], "pool:"),
+    ):
+        bad = runner.invoke(app, [*args, *extra])
+        assert bad.exit_code == 2 and message in bad.stderr
+    aux = runner.invoke(app, ["ocp", "solve", "--out", str(tmp_path / "a.csv"), "--trust-region-max-std", "5"])
+    assert aux.exit_code == 2 and "trust-region-max-std: needs a surrogate contact model" in aux.stderr

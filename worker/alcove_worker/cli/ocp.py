@@ -1,11 +1,18 @@
 """`alcove ocp ...` commands: solve an optimal-control task, list and show task presets.
 
 ``alcove ocp solve --task head-headrest-2phase [--task-file F.json] [--contact aux|none|model:FILE]
-[--intervals N] --out traj.csv [--json]`` writes the solution on the OCP grid as a trajectory
+[--intervals N] [--trust-region-max-std N] [--pool DIR] --out traj.csv [--json]`` writes the solution on the OCP grid as a trajectory
 CSV (``t,q_0,..,qd_0,..,tau_0,..``) and prints a summary (status, iterations, cost,
 constraint violation, wall time). Bad input prints ``error: <field>: <reason>`` and exits
 with code 2; a solve that does not converge still writes the CSV (when its numbers are
 finite) but exits with code 1.
+
+With a surrogate (``model:FILE``) the solution's trust diagnostics
+(:mod:`alcove.science.surrogate.trust`) are printed: a solution that relies on force outside
+the data prints ``warning: untrusted solution: <reason>`` to stderr and its ``--json`` has
+``"trusted": false`` with ``"trust_reasons"`` (the exit code stays that of the solve).
+``--trust-region-max-std`` bounds the ensemble's force std [N] along the solution;
+``--pool DIR`` adds the distance to the nearest pool sample.
 """
 
 from __future__ import annotations
@@ -18,6 +25,7 @@ import typer
 
 if TYPE_CHECKING:
     from alcove.science.ocp.task_spec import TaskSpec
+    from alcove_worker.cli.trust import TrustInputs
 
 app = typer.Typer(help="Optimal control of the multibody model (DMOCC + IPOPT).", no_args_is_help=True)
 
@@ -56,6 +64,10 @@ def solve(
     max_iter: int | None = typer.Option(None, "--max-iter", min=1, help="IPOPT iterations per attempt (default 500)"),
     out: Path = typer.Option(..., help="output trajectory CSV on the OCP grid"),
     as_json: bool = typer.Option(False, "--json", help="print the summary as JSON"),
+    trust_region_max_std: float | None = typer.Option(
+        None, "--trust-region-max-std", help="with model:FILE, bound the ensemble's force std along the solution [N]"
+    ),
+    pool: Path | None = typer.Option(None, help="with model:FILE, the pool folder: distance to the nearest sample"),
 ) -> None:
     """Solve a task and write the optimal trajectory."""
     from alcove.science.ocp.contact import ContactModelError, contact_from_spec
@@ -75,14 +87,26 @@ def solve(
         _bad_input("contact", f"surrogate models are not available ({exc})")
     except (ValueError, OSError) as exc:
         _bad_input("contact", str(exc))
-    solution = solve_task(spec, contact_fn, ipopt_options=None if max_iter is None else {"ipopt.max_iter": max_iter})
+    trust = _trust_inputs(contact, spec, trust_region_max_std, pool)
+    solution = solve_task(
+        spec,
+        contact_fn,
+        ipopt_options=None if max_iter is None else {"ipopt.max_iter": max_iter},
+        path=None if trust is None else trust.path,
+    )
     try:
         solution.trajectory.to_csv(out)
         written = str(out)
     except SeriesFormatError as exc:  # a failed solve may hold non-finite numbers
         typer.echo(f"warning: no trajectory written ({exc})", err=True)
         written = None
-    summary = {**solution.summary(), "contact": contact, "out": written}
+    summary: dict[str, object] = {**solution.summary(), "contact": contact, "out": written}
+    if trust is not None:
+        report = trust.assess(solution.t, solution.q)
+        summary.update(trusted=report.trusted, trust_reasons=report.reasons, trust=report.to_dict())
+        summary["trust_region_max_std"] = trust_region_max_std
+        for reason in report.reasons:
+            typer.echo(f"warning: untrusted solution: {reason}", err=True)
     if as_json:
         typer.echo(json.dumps(summary, indent=2))
     else:
@@ -93,6 +117,22 @@ def solve(
     if not solution.converged:
         typer.echo("warning: IPOPT did not converge; the trajectory is not an optimum", err=True)
         raise typer.Exit(EXIT_NOT_CONVERGED)
+
+
+def _trust_inputs(contact: str, spec: TaskSpec, max_std: float | None, pool: Path | None) -> TrustInputs | None:
+    """The surrogate's trust diagnostics and trust region for ``model:FILE`` (None for other contacts)."""
+    if not contact.startswith("model:"):
+        if max_std is not None:
+            _bad_input("trust-region-max-std", "needs a surrogate contact model (model:FILE)")
+        if pool is not None:
+            _bad_input("pool", "needs a surrogate contact model (model:FILE)")
+        return None
+    from alcove_worker.cli.trust import TrustInputs, TrustInputError
+
+    try:
+        return TrustInputs.load(Path(contact.removeprefix("model:")), spec.preset(), max_std, pool)
+    except TrustInputError as exc:
+        _bad_input(exc.field, exc.reason)
 
 
 @app.command("tasks")
