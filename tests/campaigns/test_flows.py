@@ -122,6 +122,21 @@ def test_a_short_campaign_leaves_a_complete_versioned_record(campaign_db: str, m
             assert m.metrics_definition == "vector"
             assert m.model_version_id == model.id and m.dataset_id == ds.id and m.ocp_success
             assert m.extra["code_version"] == model.code_version and m.extra["model_seed"] == model.seed
+            # the OCP solution's trust diagnostics: stored with the solution and the metrics, and
+            # the same as recomputed from the stored trajectory, model k and pool version k-1
+            from alcove.pool.service import load_training_pool
+            from alcove.science.surrogate.training import pool_features, preset_kinematics
+            from alcove.science.surrogate.trust import assess_solution
+
+            again = assess_solution(
+                load_model(s, model),
+                preset,
+                traj["t"],
+                traj["q"],
+                pool_features(load_training_pool(s, prev), preset_kinematics(preset)),
+            )
+            assert m.ocp_trust == {**again.to_dict(), "trust_region_max_std": None} == sol.stats["trust"]
+            assert m.ocp_trusted is again.trusted and m.ocp_trust["max_pool_distance"] is not None
         steps = results.list_jobs(s, cid)
         assert len(steps) == 1 + 5 * 2 and all(j["status"] == "succeeded" and j["attempts"] == 1 for j in steps)
         detail = results.get_detail(s, cid)

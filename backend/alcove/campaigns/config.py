@@ -105,6 +105,15 @@ class RunSettings(_Strict):
     ocp_intervals: int | None = Field(
         None, ge=2, le=20000, description="override the task's intervals per phase (None: as the task says)"
     )
+    trust_region_max_std: float | None = Field(
+        None,
+        gt=0,
+        le=10000,
+        description=(
+            "trust region: bound the ensemble's force std sqrt(sigma_fx^2 + sigma_fy^2 + sigma_fz^2) [N] at every "
+            "interval midpoint of the OCP solution (None: unbounded; needs ensemble_size > 1)"
+        ),
+    )
 
 
 class CampaignConfig(_Strict):

@@ -35,6 +35,7 @@ METRICS_COLUMNS = [
     "ocp_iterations",
     "ocp_cost",
     "ocp_wall_time_s",
+    "ocp_trusted",
     "oracle_wall_time_s",
     "train_wall_time_s",
     "n_pool_samples",

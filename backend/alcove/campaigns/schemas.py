@@ -96,6 +96,38 @@ class IterationRead(_Read):
     )
 
 
+class TrustRead(BaseModel):
+    """Where the surrogate's OCP solution of the iteration can be trusted (alcove.science.surrogate.trust),
+    evaluated at the interval midpoints where the OCP evaluates the contact model."""
+
+    trusted: bool = Field(description="false: the solution relies on force outside the data (see reasons)")
+    reasons: list[str] = Field(description="why it is not trusted: ghost force, ensemble disagreement in contact")
+    ensemble_size: int = Field(description="members K of the model (K = 1 has no std)")
+    contact_fraction: float = Field(description="fraction of the solution with gap <= gap_tolerance (contact phase)")
+    max_std_contact: float | None = Field(
+        description="largest ensemble force std sqrt(sigma_fx^2 + sigma_fy^2 + sigma_fz^2) in the contact phase [N]"
+    )
+    integral_std_contact: float = Field(description="time integral of that std over the contact phase [N s]")
+    max_std: float = Field(description="largest ensemble force std over the whole solution [N]")
+    open_gap_max_force: float = Field(
+        description="largest predicted |F| (ensemble mean) where the geometric gap is open by more than "
+        "gap_tolerance [N] (the ghost force; 0: never clearly open)"
+    )
+    open_gap_at_gap: float | None = Field(description="the gap where that force is predicted [m]")
+    open_gap_at_time: float | None = Field(description="the time where that force is predicted [s]")
+    min_gap: float = Field(description="smallest signed gap head profile - undeformed headrest along its normal [m]")
+    max_pool_distance: float | None = Field(
+        description="largest distance to the nearest pool sample in the surrogate's scaled feature space"
+    )
+    median_pool_distance: float | None = Field(description="median of that distance over the solution")
+    thresholds: dict[str, float] = Field(
+        description="gap_tolerance [m], open_gap_force_tolerance [N], contact_std_threshold [N]"
+    )
+    trust_region_max_std: float | None = Field(
+        None, description="the trust region the OCP was solved with: force std bound [N] (null: none)"
+    )
+
+
 class MetricsRead(_Read):
     campaign_id: int = Field(description="the campaign the iteration ran in (a fork's source for inherited rows)")
     inherited: bool = Field(False, description="an iteration of a fork's source, up to the fork point")
@@ -119,6 +151,12 @@ class MetricsRead(_Read):
     ocp_iterations: int | None
     ocp_cost: float | None
     ocp_wall_time_s: float | None
+    ocp_trusted: bool | None = Field(
+        None,
+        description="false: the OCP solution relies on force outside the data (a ghost force with the gap open, "
+        "or ensemble disagreement in contact); null: not assessed (iterations stored before the assessment)",
+    )
+    ocp_trust: TrustRead | None = Field(None, description="the OCP solution's trust diagnostics")
     oracle_wall_time_s: float | None
     train_wall_time_s: float | None
     n_pool_samples: int | None
@@ -309,6 +347,7 @@ __all__ = [
     "IterationTrajectory",
     "JobOut",
     "MetricsRead",
+    "TrustRead",
     "OcpSolverSummary",
     "OnFailure",
     "Policies",

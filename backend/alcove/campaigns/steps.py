@@ -151,6 +151,7 @@ def ocp(ctx: StepContext) -> StepOutput:
         model_version_id=mv.id,
         previous_solution_id=previous.id if previous is not None else None,
         initial_guesses=ctx.config.policies.ocp_initial_guesses,
+        trust_region_max_std=ctx.config.settings.trust_region_max_std,
     )
 
 
@@ -220,6 +221,8 @@ def evaluate(ctx: StepContext) -> StepOutput:
             "ocp_iterations": sol.n_iterations if sol else None,
             "ocp_cost": sol.cost if sol else None,
             "ocp_wall_time_s": sol.wall_time_s if sol else None,
+            "ocp_trusted": (sol.stats or {}).get("trust", {}).get("trusted") if sol else None,
+            "ocp_trust": (sol.stats or {}).get("trust") if sol else None,
             "oracle_wall_time_s": runs[-1].wall_time_s if runs else None,
             "n_pool_samples": pv_prev.n_samples if pv_prev else None,
             "extra": {

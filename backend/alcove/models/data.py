@@ -301,6 +301,12 @@ class IterationMetrics(Base):
     ocp_iterations: Mapped[int | None]
     ocp_cost: Mapped[float | None] = mapped_column(sa.Float)
     ocp_wall_time_s: Mapped[float | None] = mapped_column(sa.Float)
+    ocp_trusted: Mapped[bool | None] = mapped_column(
+        comment="false: the OCP solution relies on force outside the data (ghost force, ensemble disagreement)"
+    )
+    ocp_trust: Mapped[dict[str, Any] | None] = mapped_column(
+        comment="trust diagnostics of the OCP solution (alcove.science.surrogate.trust.TrustReport)"
+    )
     oracle_wall_time_s: Mapped[float | None] = mapped_column(sa.Float)
     train_wall_time_s: Mapped[float | None] = mapped_column(sa.Float)
     n_pool_samples: Mapped[int | None] = mapped_column(sa.BigInteger)

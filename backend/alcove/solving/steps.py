@@ -15,7 +15,8 @@ from sqlalchemy.orm import Session
 from alcove.db import session_scope
 from alcove.db.arrays import get_arrays, put_arrays
 from alcove.jobs.steps import IterationRef, StepOutput, StepRun, UnusableResult
-from alcove.models import ModelVersion, OcpSolution
+from alcove.models import ModelVersion, OcpSolution, PoolVersion
+from alcove.pool.service import load_training_pool
 from alcove.science.json_values import json_safe
 from alcove.surrogates.service import load_model
 
@@ -53,24 +54,44 @@ def stored_solution(s: Session, row: OcpSolution | None, task: TaskSpec) -> Solu
 
 
 def solve(
-    run: StepRun, *, task: TaskSpec, model_version_id: int, previous_solution_id: int | None, initial_guesses: int
+    run: StepRun,
+    *,
+    task: TaskSpec,
+    model_version_id: int,
+    previous_solution_id: int | None,
+    initial_guesses: int,
+    trust_region_max_std: float | None = None,
 ) -> StepOutput:
     """Solve ``task`` with the model version's networks as the contact model (their weights
-    are NLP parameters: one NLP per architecture and process, reused across versions)."""
+    are NLP parameters: one NLP per architecture and process, reused across versions).
+
+    With ``trust_region_max_std`` [N] (and an ensemble) the ensemble's force std is bounded
+    along the solution. The solution's trust diagnostics
+    (:func:`alcove.science.surrogate.trust.assess_solution`, the nearest-sample distance to the
+    pool the model was trained on) are stored in the solution's ``stats["trust"]``."""
     from alcove.science.ocp.solve import solve_task
-    from alcove.science.surrogate.export import surrogate_contact
+    from alcove.science.surrogate.export import surrogate_contact, surrogate_contact_std
+    from alcove.science.surrogate.training import pool_features, preset_kinematics
+    from alcove.science.surrogate.trust import assess_solution, force_variance_function
 
     with session_scope() as s:
         mv = s.get(ModelVersion, model_version_id)
         if mv is None:
             raise RuntimeError(f"model version id {model_version_id} does not exist")
         model = load_model(s, mv)
+        pv = s.get(PoolVersion, mv.pool_version_id)
+        pool = load_training_pool(s, pv) if pv is not None else None
         previous = None
         if previous_solution_id is not None:
             previous = stored_solution(s, s.get(OcpSolution, previous_solution_id), task)
     run.check_cancel()
     t0 = time.perf_counter()
-    contact, contact_params = surrogate_contact(model, task.preset())
+    preset = task.preset()
+    contact, contact_params = surrogate_contact(model, preset)
+    path = None
+    if trust_region_max_std is not None and model.ensemble_size > 1:
+        std_fn, _ = surrogate_contact_std(model, preset)
+        path = (force_variance_function(std_fn), float(trust_region_max_std) ** 2)
     max_iter = run.fault.ipopt_max_iter if run.fault is not None else None
     sol = solve_task(
         task,
@@ -80,7 +101,12 @@ def solve(
         max_attempts=initial_guesses,
         ipopt_options={"ipopt.max_iter": int(max_iter)} if max_iter is not None else None,
         on_attempt=lambda _attempt: run.check_cancel(),  # cancel between IPOPT runs
+        path=path,
     )
+    trust = assess_solution(
+        model, preset, sol.t, sol.q, None if pool is None else pool_features(pool, preset_kinematics(preset))
+    ).to_dict()
+    trust["trust_region_max_std"] = trust_region_max_std if path is not None else None
     compute = time.perf_counter() - t0
     arrays = {"t": sol.t, "q": sol.q, "qd": sol.qd, "tau": sol.tau, "controls": sol.controls}
     if sol.converged and sol.x is not None:
@@ -103,7 +129,7 @@ def solve(
             cost=float(sol.cost) if math.isfinite(sol.cost) else None,
             wall_time_s=float(sol.wall_time),
             message="" if sol.converged else f"no converged solution after {len(sol.attempts)} initial guess(es)",
-            stats=json_safe(sol.summary()),
+            stats=json_safe({**sol.summary(), "trust": trust}),
             trajectory_sha256=put_arrays(s, arrays),
         )
         s.add(row)
@@ -114,6 +140,7 @@ def solve(
             "status": sol.status,
             "iterations": int(sol.iterations),
             "cost": json_safe(sol.cost),
+            "trusted": bool(trust["trusted"]),
         }
 
     if not sol.converged:
