@@ -162,7 +162,16 @@ def test_ghost_force_solution_is_flagged_untrusted(tmp_path, ghost_case):
     model, pool = ghost_case
     save_artifact(model, tmp_path / "m")
     save_pool_dir(pool, tmp_path / "pool")
-    args = ["ocp", "solve", "--contact", f"model:{tmp_path / 'm'}", "--intervals", "20", "--out", str(tmp_path / "t.csv")]
+    args = [
+        "ocp",
+        "solve",
+        "--contact",
+        f"model:{tmp_path / 'm'}",
+        "--intervals",
+        "20",
+        "--out",
+        str(tmp_path / "t.csv"),
+    ]
     res = runner.invoke(app, [*args, "--pool", str(tmp_path / "pool"), "--json"])
     assert res.exit_code == 0, res.output
     summary = json.loads(res.stdout)

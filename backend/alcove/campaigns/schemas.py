@@ -347,7 +347,6 @@ __all__ = [
     "IterationTrajectory",
     "JobOut",
     "MetricsRead",
-    "TrustRead",
     "OcpSolverSummary",
     "OnFailure",
     "Policies",
@@ -358,4 +357,5 @@ __all__ = [
     "StepRead",
     "StoppingRules",
     "TrajectoryPhase",
+    "TrustRead",
 ]

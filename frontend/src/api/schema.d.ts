@@ -2060,6 +2060,13 @@ export interface components {
             ocp_status: string | null;
             /** Ocp Success */
             ocp_success: boolean | null;
+            /** @description the OCP solution's trust diagnostics */
+            ocp_trust?: components["schemas"]["TrustRead"] | null;
+            /**
+             * Ocp Trusted
+             * @description false: the OCP solution relies on force outside the data (a ghost force with the gap open, or ensemble disagreement in contact); null: not assessed (iterations stored before the assessment)
+             */
+            ocp_trusted?: boolean | null;
             /** Ocp Wall Time S */
             ocp_wall_time_s: number | null;
             /** Oracle Wall Time S */
@@ -2708,6 +2715,11 @@ export interface components {
              * @default 1
              */
             replay_phases?: number;
+            /**
+             * Trust Region Max Std
+             * @description trust region: bound the ensemble's force std sqrt(sigma_fx^2 + sigma_fy^2 + sigma_fz^2) [N] at every interval midpoint of the OCP solution (None: unbounded; needs ensemble_size > 1)
+             */
+            trust_region_max_std?: number | null;
         };
         /** SampleTrajectory */
         SampleTrajectory: {
@@ -3362,6 +3374,90 @@ export interface components {
              * @description [s]
              */
             t_start: number;
+        };
+        /**
+         * TrustRead
+         * @description Where the surrogate's OCP solution of the iteration can be trusted (alcove.science.surrogate.trust),
+         *     evaluated at the interval midpoints where the OCP evaluates the contact model.
+         */
+        TrustRead: {
+            /**
+             * Contact Fraction
+             * @description fraction of the solution with gap <= gap_tolerance (contact phase)
+             */
+            contact_fraction: number;
+            /**
+             * Ensemble Size
+             * @description members K of the model (K = 1 has no std)
+             */
+            ensemble_size: number;
+            /**
+             * Integral Std Contact
+             * @description time integral of that std over the contact phase [N s]
+             */
+            integral_std_contact: number;
+            /**
+             * Max Pool Distance
+             * @description largest distance to the nearest pool sample in the surrogate's scaled feature space
+             */
+            max_pool_distance: number | null;
+            /**
+             * Max Std
+             * @description largest ensemble force std over the whole solution [N]
+             */
+            max_std: number;
+            /**
+             * Max Std Contact
+             * @description largest ensemble force std sqrt(sigma_fx^2 + sigma_fy^2 + sigma_fz^2) in the contact phase [N]
+             */
+            max_std_contact: number | null;
+            /**
+             * Median Pool Distance
+             * @description median of that distance over the solution
+             */
+            median_pool_distance: number | null;
+            /**
+             * Min Gap
+             * @description smallest signed gap head profile - undeformed headrest along its normal [m]
+             */
+            min_gap: number;
+            /**
+             * Open Gap At Gap
+             * @description the gap where that force is predicted [m]
+             */
+            open_gap_at_gap: number | null;
+            /**
+             * Open Gap At Time
+             * @description the time where that force is predicted [s]
+             */
+            open_gap_at_time: number | null;
+            /**
+             * Open Gap Max Force
+             * @description largest predicted |F| (ensemble mean) where the geometric gap is open by more than gap_tolerance [N] (the ghost force; 0: never clearly open)
+             */
+            open_gap_max_force: number;
+            /**
+             * Reasons
+             * @description why it is not trusted: ghost force, ensemble disagreement in contact
+             */
+            reasons: string[];
+            /**
+             * Thresholds
+             * @description gap_tolerance [m], open_gap_force_tolerance [N], contact_std_threshold [N]
+             */
+            thresholds: {
+                [key: string]: number;
+            };
+            /**
+             * Trust Region Max Std
+             * @description the trust region the OCP was solved with: force std bound [N] (null: none)
+             */
+            trust_region_max_std?: number | null;
+            /**
+             * Trusted
+             * @description false: the solution relies on force outside the data (see reasons)
+             */
+            trusted: boolean;
         };
         /** UploadOut */
         UploadOut: {

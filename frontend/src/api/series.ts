@@ -59,6 +59,8 @@ export function toPoints(metrics: SeriesRow[], iterations: IterationState[]): Me
     moment_rmse_contact: m.moment_rmse_contact ?? null,
     quarantined: false,
     inherited: Boolean(m.inherited),
+    ocp_trusted: m.ocp_trusted ?? null,
+    trust_reasons: m.ocp_trust?.reasons ?? [],
   }));
   const withMetrics = new Set(points.map((p) => p.iteration));
   for (const it of iterations) {

@@ -60,6 +60,17 @@ export function wrenchTraces(curves: IterationCurves[], components: readonly Com
 
 export const MAX_OVERLAY = 200;
 
+/** A warning when iteration k's OCP solution relies on force outside the surrogate's data (issue 16). */
+export function TrustBadge({ point }: { point: MetricPoint | undefined }) {
+  if (!point || point.ocp_trusted !== false) return null;
+  const reasons = point.trust_reasons?.length ? point.trust_reasons : ["relies on force outside the data"];
+  return (
+    <span className="badge warn" role="status" data-testid="trust-badge" title={reasons.join("\n")}>
+      ⚠ OCP solution not trusted: {reasons.join("; ")}
+    </span>
+  );
+}
+
 export function ordinal(n: number): string {
   const tens = n % 100;
   const suffix = tens >= 11 && tens <= 13 ? "th" : ({ 1: "st", 2: "nd", 3: "rd" } as Record<number, string>)[n % 10] ?? "th";
@@ -141,6 +152,7 @@ export function ForcesPanel({
         <output htmlFor="iteration-slider" data-testid="iteration-value">
           k = {k}
         </output>
+        <TrustBadge point={points.find((p) => p.iteration === k)} />
       </div>
       <form
         className="toolbar"

@@ -13,6 +13,10 @@ export interface MetricPoint {
   quarantined: boolean;
   /** a fork's iteration from its source campaign (shown greyed) */
   inherited?: boolean;
+  /** false: the iteration's OCP solution relies on force outside the data; null/undefined: not assessed */
+  ocp_trusted?: boolean | null;
+  /** why it is not trusted (ghost force, ensemble disagreement in contact) */
+  trust_reasons?: string[];
 }
 
 /** Merge newly fetched points into the known series (by iteration, newer wins), sorted. */

@@ -1,11 +1,11 @@
 """`alcove ocp ...` commands: solve an optimal-control task, list and show task presets.
 
 ``alcove ocp solve --task head-headrest-2phase [--task-file F.json] [--contact aux|none|model:FILE]
-[--intervals N] [--trust-region-max-std N] [--pool DIR] --out traj.csv [--json]`` writes the solution on the OCP grid as a trajectory
-CSV (``t,q_0,..,qd_0,..,tau_0,..``) and prints a summary (status, iterations, cost,
-constraint violation, wall time). Bad input prints ``error: <field>: <reason>`` and exits
-with code 2; a solve that does not converge still writes the CSV (when its numbers are
-finite) but exits with code 1.
+[--intervals N] [--trust-region-max-std N] [--pool DIR] --out traj.csv [--json]`` writes the
+solution on the OCP grid as a trajectory CSV (``t,q_0,..,qd_0,..,tau_0,..``) and prints a
+summary (status, iterations, cost, constraint violation, wall time). Bad input prints
+``error: <field>: <reason>`` and exits with code 2; a solve that does not converge still
+writes the CSV (when its numbers are finite) but exits with code 1.
 
 With a surrogate (``model:FILE``) the solution's trust diagnostics
 (:mod:`alcove.science.surrogate.trust`) are printed: a solution that relies on force outside
@@ -127,7 +127,7 @@ def _trust_inputs(contact: str, spec: TaskSpec, max_std: float | None, pool: Pat
         if pool is not None:
             _bad_input("pool", "needs a surrogate contact model (model:FILE)")
         return None
-    from alcove_worker.cli.trust import TrustInputs, TrustInputError
+    from alcove_worker.cli.trust import TrustInputError, TrustInputs
 
     try:
         return TrustInputs.load(Path(contact.removeprefix("model:")), spec.preset(), max_std, pool)

@@ -48,7 +48,10 @@ class TrustThresholds(BaseModel):
     model_config = ConfigDict(extra="forbid", frozen=True)
 
     gap_tolerance: float = Field(
-        0.002, gt=0, le=0.05, description="the gap is 'clearly open' beyond this distance [m] (contact phase: gap <= it)"
+        0.002,
+        gt=0,
+        le=0.05,
+        description="the gap is 'clearly open' beyond this distance [m] (contact phase: gap <= it)",
     )
     open_gap_force_tolerance: float = Field(
         1.0, gt=0, le=1e4, description="largest predicted force |F| tolerated with the gap clearly open [N]"
@@ -120,12 +123,12 @@ def trust_curves(
     tm, qm, v = midpoints(t, q)
     x = features(relative_kinematics(preset, qm[:, 0], v[:, 0]))
     pred = model.predict_ensemble(x)
-    distance = None
+    distance: FloatArray | None = None
     if pool_features is not None:
         pool = np.asarray(pool_features, float)
         if pool.ndim != 2 or pool.shape[1] != x.shape[1] or pool.shape[0] == 0:
             raise ValueError(f"pool_features: expected a non-empty (n, {x.shape[1]}) array, got shape {pool.shape}")
-        distance = cKDTree(scaled_features(model, pool)).query(scaled_features(model, x))[0]
+        distance = np.asarray(cKDTree(scaled_features(model, pool)).query(scaled_features(model, x))[0], float)
     return TrustCurves(
         t=tm,
         q=qm[:, 0],
