@@ -6,6 +6,7 @@ from __future__ import annotations
 import threading
 import time
 from datetime import timedelta
+from typing import Any
 
 import numpy as np
 import pytest
@@ -482,3 +483,26 @@ def test_an_uploaded_preliminary_dataset_becomes_pool_version_zero(sqlite_campai
         pv0 = pool_repo.version_of(s, cid, 0)
         assert members(s, pv0) == ids and pv0.n_samples == 300
         assert {d.origin for d in s.scalars(sa.select(Dataset).where(Dataset.id.in_(ids)))} == {"upload"}
+
+
+def test_the_trust_region_setting_bounds_the_ensemble_std_of_the_ocp_solution(
+    sqlite_campaign_db: str, make_campaign
+) -> None:
+    """The same campaign (seed, pool, model 1) without and with trust_region_max_std at half
+    the std the unbounded solution reaches: the bounded one keeps within it (1e-6 relative),
+    at the midpoints where the OCP evaluates the contact model."""
+
+    def first_trust(**settings: Any) -> dict[str, Any]:
+        cid, jobs = make_campaign(stopping={"max_iterations": 1}, settings=settings)
+        protocol.drive_inline(cid, jobs)
+        with session_scope() as s:
+            (m,) = repository.metrics_series(s, cid)
+            assert m.ocp_success and m.ocp_trust is not None
+            return m.ocp_trust
+
+    free = first_trust()
+    assert free["trust_region_max_std"] is None and free["ensemble_size"] == 5
+    bound = 0.5 * free["max_std"]
+    bounded = first_trust(trust_region_max_std=bound)
+    assert bounded["trust_region_max_std"] == bound
+    assert bounded["max_std"] <= bound * (1 + 1e-6) < free["max_std"]
