@@ -34,22 +34,9 @@ def main() -> int:
     with open("inner-params.json", "w") as fh:
         json.dump(params, fh)
     run = subprocess.run(
-        [
-            *alcove_command(),
-            "oracle",
-            "run",
-            "--oracle",
-            oracle,
-            "--params",
-            "inner-params.json",
-            "--trajectory",
-            trajectory,
-            "--out",
-            output,
-            "--json",
-        ],
-        capture_output=True,
-        text=True,
+        [*alcove_command(), "oracle", "run", "--oracle", oracle, "--params", "inner-params.json",
+         "--trajectory", trajectory, "--out", output, "--json"],
+        capture_output=True, text=True,
     )
     sys.stderr.write(run.stderr)
     if run.stdout.strip():

@@ -29,9 +29,7 @@ FORCE = {"N": 1.0, "kN": 1e3}
 TIME = {"s": 1.0, "ms": 1e-3}
 
 
-def to_alcove(
-    table: ForceSeries, trajectory: Trajectory, length: float = 1.0, force: float = 1.0, time: float = 1.0
-) -> ForceSeries:
+def to_alcove(table: ForceSeries, trajectory: Trajectory, length: float = 1.0, force: float = 1.0, time: float = 1.0) -> ForceSeries:
     """Convert a head wrench about the model origin (model units) to alcove's convention."""
     t = table.t * time
     f = table.force * force
@@ -57,9 +55,7 @@ def main(argv: list[str] | None = None) -> int:
     except SeriesFormatError as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2
-    to_alcove(table, trajectory, LENGTH[args.length_unit], FORCE[args.force_unit], TIME[args.time_unit]).to_csv(
-        args.out
-    )
+    to_alcove(table, trajectory, LENGTH[args.length_unit], FORCE[args.force_unit], TIME[args.time_unit]).to_csv(args.out)
     return 0
 
 
