@@ -191,3 +191,15 @@ def test_ghost_force_solution_is_flagged_untrusted(tmp_path, ghost_case):
         assert bad.exit_code == 2 and message in bad.stderr
     aux = runner.invoke(app, ["ocp", "solve", "--out", str(tmp_path / "a.csv"), "--trust-region-max-std", "5"])
     assert aux.exit_code == 2 and "trust-region-max-std: needs a surrogate contact model" in aux.stderr
+    # the trust region (start before the band where the members disagree, tests/science/surrogate/test_trust.py):
+    # the std stays within the bound and the head no longer hovers on the ghost force
+    from alcove.science.ocp.task_spec import TASK_PRESETS
+
+    task_file = tmp_path / "task.json"
+    task_file.write_text(json.dumps({**TASK_PRESETS["head-headrest-2phase"], "initial": {"q": [0.06], "qd": None}}))
+    bounded = runner.invoke(
+        app, [*args, "--task-file", str(task_file), "--trust-region-max-std", "2", "--json"], catch_exceptions=False
+    )
+    assert bounded.exit_code == 0, bounded.output
+    out = json.loads(bounded.stdout)
+    assert out["trust_region_max_std"] == 2.0 and out["trust"]["max_std"] <= 2.0 * (1 + 1e-6)
