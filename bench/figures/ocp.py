@@ -243,5 +243,39 @@ def ocp_aux_cached_cpu(ctx: Any) -> float:
     return _solve(task, contact, cpu=True)
 
 
+@lru_cache(maxsize=1)
+def _trust_region_setup() -> dict[str, Any]:
+    """The surrogate setup plus the trust region at half the ensemble force std the unbounded
+    solution reaches (so the bound is active), its NLP built once."""
+    from alcove.science.surrogate.artifact import load_artifact
+    from alcove.science.surrogate.export import surrogate_contact_std
+    from alcove.science.surrogate.trust import force_variance_function, trust_curves
+
+    ctx = dict(_surrogate_setup())
+    task = ctx["task"]
+    model = load_artifact(ctx["artifact"])
+    free = ctx["previous_solution"]
+    bound = 0.5 * float(trust_curves(model, task.preset(), free.t, free.q).force_std.max())
+    std_fn, _ = surrogate_contact_std(model, task.preset())
+    ctx["path"] = (force_variance_function(std_fn), bound**2)
+    _solve(task, ctx["contact"], contact_params=ctx["current"], path=ctx["path"])  # builds and caches the NLP
+    return ctx
+
+
+@figure(
+    "ocp head-headrest trained surrogate K = 5, 200 intervals, trust region (cached NLP, passive guess)",
+    "s",
+    target=1.0,
+    setup=_trust_region_setup,
+    reps=3,
+    quick=False,
+    group="ocp",
+    notes="ensemble force std <= half the unbounded solution's maximum at every interval midpoint; CasADi's "
+    "derivatives (the structured ones do not cover the path constraint)",
+)
+def ocp_surrogate_trust_region(ctx: dict[str, Any]) -> float:
+    return _solve(ctx["task"], ctx["contact"], contact_params=ctx["current"], path=ctx["path"])
+
+
 if __name__ == "__main__":  # the fresh process of the cold figures
     print(json.dumps(_first_solve(sys.argv[1])))
