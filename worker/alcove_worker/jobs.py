@@ -70,6 +70,28 @@ def append_step(self: Any, campaign_id: int, iteration: int, step: str, attempt:
     return _run_step(self, campaign_id, iteration, step, attempt)
 
 
+# ----------------------------------------------------------------------------- validation suite
+# A held-out motion replayed by the oracle (message: the motion id; the job claims its row
+# first, so a duplicate is a no-op), and the evaluation of the waiting model versions once
+# a suite is complete (idempotent: one row per model version).
+
+from alcove.oracles.validation import EVALUATE_JOB, MOTION_JOB  # noqa: E402
+
+
+@app.task(name=MOTION_JOB, bind=True, acks_late=True)
+def validation_motion(self: Any, motion_id: int) -> str:
+    from alcove.oracles.validation import run_motion
+
+    return run_motion(int(motion_id), worker_name=self.request.hostname or "unknown")
+
+
+@app.task(name=EVALUATE_JOB, bind=True, acks_late=True)
+def validation_evaluate(self: Any, suite_id: int) -> int:
+    from alcove.surrogates.validation import evaluate_suite
+
+    return evaluate_suite(int(suite_id))
+
+
 # ----------------------------------------------------------------------------- editor previews
 # The message is the preview id; the job claims the row first (a duplicate is a no-op).
 

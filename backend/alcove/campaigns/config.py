@@ -105,6 +105,16 @@ class RunSettings(_Strict):
     ocp_intervals: int | None = Field(
         None, ge=2, le=20000, description="override the task's intervals per phase (None: as the task says)"
     )
+    validation_motions: int = Field(
+        8,
+        ge=0,
+        le=64,
+        description=(
+            "held-out validation motions every model version is evaluated on (generalisation error); "
+            "0: no validation suite. Shared by campaigns with the same oracle version, seed and count"
+        ),
+    )
+    validation_seed: int = Field(0, ge=0, le=2**31 - 1, description="seed of the validation suite's motions")
 
 
 class CampaignConfig(_Strict):

@@ -96,7 +96,21 @@ def reconcile_and_enqueue(stale_queued_s: float | None = None) -> list[StepJob]:
             ", ".join(f"c{j.campaign_id}:{j.iteration}/{j.step.value}#{j.attempt}" for j in jobs),
         )
         enqueue(jobs)
+    _reconcile_validation(stale)
     return jobs
+
+
+def _reconcile_validation(stale_s: float) -> None:
+    """Validation-suite motions whose message was lost or whose worker died: send them again."""
+    from datetime import timedelta
+
+    from alcove.db import transaction
+    from alcove.oracles.validation import reconcile_motions, send_motions
+
+    ids = transaction(lambda s: reconcile_motions(s, timedelta(seconds=stale_s)))
+    if ids:
+        log.warning("reconciler re-sent %d validation motion(s): %s", len(ids), ids)
+        send_motions(ids)
 
 
 class ReconcilerThread(threading.Thread):

@@ -113,9 +113,35 @@ class MetricsRead(_Read):
     n_pool_samples: int | None
     model_version_id: int | None
     dataset_id: int | None
+    validation_force_rmse: float | None = Field(
+        None,
+        description=(
+            "generalisation error of model k on the held-out validation suite: "
+            "sqrt(mean_i |F_pred,i - F_true,i|^2) over all samples of all motions [N]; null until evaluated"
+        ),
+    )
+    validation_moment_rmse: float | None = Field(
+        None, description="the same for the moment vector [N m]; null until evaluated"
+    )
+    validation_components: dict[str, float] | None = Field(
+        None, description="RMSE of each component fx..mz on the validation suite [N, N m]"
+    )
     extra: dict[str, Any] | None = Field(
         None, description="software versions, per-component RMSE, step timings (only with ?extra=true on the series)"
     )
+
+
+class ValidationSuiteRead(BaseModel):
+    """The held-out validation suite a campaign's model versions are evaluated on (shared per
+    oracle version and suite spec)."""
+
+    id: int
+    status: str = Field(description="replaying | complete | failed")
+    n_motions: int
+    motions_done: int = Field(description="motions replayed and stored")
+    replay_wall_time_s: float | None = Field(None, description="first motion queued to last motion stored [s]")
+    shared_by: int = Field(description="campaigns evaluated on this suite")
+    error: str | None = None
 
 
 class CampaignDetail(BaseModel):
@@ -123,6 +149,7 @@ class CampaignDetail(BaseModel):
     config: CampaignConfig
     current: IterationRead | None
     latest_metrics: MetricsRead | None
+    validation: ValidationSuiteRead | None = Field(None, description="the held-out validation suite, if any")
     iterations_finished: int
     iterations_failed: int
     mean_iteration_s: float | None

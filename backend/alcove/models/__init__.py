@@ -47,6 +47,7 @@ from alcove.models.definitions import (
 from alcove.models.guards import ImmutableRowError
 from alcove.models.ops import SmokeCheck, WorkerHeartbeat
 from alcove.models.previews import Preview, PreviewKind, PreviewStatus
+from alcove.models.validation import MotionStatus, SuiteStatus, ValidationMetrics, ValidationMotion, ValidationSuite
 from alcove.models.users import ApiToken, Share, User, hash_password, hash_token, new_token_secret, verify_password
 
 __all__ = [
@@ -92,6 +93,11 @@ __all__ = [
     "TokenKind",
     "UTCDateTime",
     "User",
+    "MotionStatus",
+    "SuiteStatus",
+    "ValidationMetrics",
+    "ValidationMotion",
+    "ValidationSuite",
     "WorkerHeartbeat",
     "canonical_json",
     "hash_password",

@@ -1,0 +1,106 @@
+"""The held-out validation suite in the job protocol (in this process, each backend): created
+once per (oracle version, spec) and shared, never in a pool, every model version evaluated."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+import pytest
+
+from alcove.surrogates.validation import generalisation_error
+
+pytestmark = pytest.mark.integration
+
+
+def test_generalisation_error_is_the_vector_norm_rmse_with_structural_zeros() -> None:
+    # two samples; the force error vectors are (3, 0, 4) and (0, 0, 0): |e| = 5 and 0
+    true = np.zeros((2, 6))
+    pred = np.zeros((2, 6))
+    pred[0, :3] = (3.0, 0.0, 4.0)
+    pred[1, 4] = 2.0  # moment error (0, 2, 0) in the second sample only
+    e = generalisation_error(pred, true)
+    assert e["force_rmse"] == pytest.approx(np.sqrt(25 / 2), rel=1e-12)  # not sqrt(25 / 6): fy does not dilute it
+    assert e["moment_rmse"] == pytest.approx(np.sqrt(4 / 2), rel=1e-12)
+    assert e["components"]["fx"] == pytest.approx(np.sqrt(9 / 2), rel=1e-12)
+    assert e["components"]["fy"] == 0.0
+    # the vector RMSE is the root of the sum of the components' squares
+    assert e["force_rmse"] ** 2 == pytest.approx(sum(e["components"][c] ** 2 for c in ("fx", "fy", "fz")), rel=1e-12)
+    with pytest.raises(ValueError, match="shape"):
+        generalisation_error(np.zeros((2, 5)), np.zeros((2, 5)))
+
+
+def _suite_rows(url: str, suite_id: int) -> Any:
+    from tests.integration.procs import db_rows
+
+    return db_rows(url, "SELECT status, dataset_id FROM validation_motions WHERE suite_id = :s ORDER BY \"index\"", s=suite_id)
+
+
+def test_suite_is_shared_replayed_once_never_pooled_and_evaluates_every_model(
+    campaign_db: str, make_campaign: Any
+) -> None:
+    from alcove.campaigns import protocol
+    from alcove.oracles.validation import run_motion
+    from alcove.surrogates.validation import evaluate_suite
+    from tests.integration.procs import db_rows
+
+    settings = {"ocp_intervals": 20, "replay_dt": 0.01, "validation_motions": 3}
+    a, jobs = make_campaign(seed=1, settings=settings, stopping={"max_iterations": 2})
+    protocol.drive_inline(a, jobs)
+    ((suite_id,),) = db_rows(campaign_db, "SELECT validation_suite_id FROM campaigns WHERE id = :c", c=a)
+    assert suite_id is not None
+    assert [r[0] for r in _suite_rows(campaign_db, suite_id)] == ["queued"] * 3
+    # not complete yet: the in-loop metrics exist, the generalisation error does not
+    assert db_rows(campaign_db, "SELECT count(*) FROM validation_metrics") == [(0,)]
+
+    motions = [r[0] for r in db_rows(campaign_db, "SELECT id FROM validation_motions WHERE suite_id = :s", s=suite_id)]
+    assert [run_motion(m, "w") for m in motions] == ["succeeded"] * 3
+    assert [run_motion(m, "w") for m in motions] == ["duplicate"] * 3  # a duplicate delivery does nothing
+    assert db_rows(campaign_db, "SELECT status FROM validation_suites WHERE id = :s", s=suite_id) == [("complete",)]
+    assert evaluate_suite(suite_id) == 2  # model versions 1 and 2
+    assert evaluate_suite(suite_id) == 0  # idempotent
+
+    # a second campaign with the same oracle version and suite spec shares the suite (not replayed again);
+    # its models are evaluated in their evaluate step, the suite being complete
+    b, jobs = make_campaign(seed=2, settings=settings, stopping={"max_iterations": 2})
+    protocol.drive_inline(b, jobs)
+    assert db_rows(campaign_db, "SELECT validation_suite_id FROM campaigns WHERE id = :c", c=b) == [(suite_id,)]
+    assert db_rows(campaign_db, "SELECT count(*) FROM validation_suites") == [(1,)]
+    assert db_rows(campaign_db, "SELECT count(*) FROM datasets WHERE origin = 'validation'") == [(3,)]
+    assert db_rows(campaign_db, "SELECT count(*) FROM validation_motions WHERE attempts = 1") == [(3,)]
+    # never in a pool
+    assert db_rows(
+        campaign_db,
+        "SELECT count(*) FROM pool_version_members m JOIN datasets d ON d.id = m.dataset_id "
+        "WHERE d.origin = 'validation'",
+    ) == [(0,)]
+    # every model version of both campaigns has its generalisation error, positive and finite
+    got = db_rows(
+        campaign_db,
+        "SELECT mv.campaign_id, mv.version, v.force_rmse, v.moment_rmse, v.n_samples FROM model_versions mv "
+        "LEFT JOIN validation_metrics v ON v.model_version_id = mv.id ORDER BY mv.campaign_id, mv.version",
+    )
+    assert [(c, k) for c, k, *_ in got] == [(a, 1), (a, 2), (b, 1), (b, 2)]
+    assert all(f is not None and 0 < f < 1e4 and 0 < m < 1e3 and n > 0 for *_, f, m, n in got)
+
+    # served next to the in-loop RMSE
+    from alcove.campaigns.results import get_detail, metrics_series
+    from alcove.db import session_scope
+
+    with session_scope() as s:
+        series = metrics_series(s, b)
+        detail = get_detail(s, b)
+    assert [m.validation_force_rmse is not None and m.force_rmse is not None for m in series] == [True, True]
+    assert detail.validation is not None and detail.validation.status == "complete"
+    assert detail.validation.motions_done == 3 and detail.validation.shared_by == 2
+
+
+def test_no_suite_when_the_campaign_asks_for_none(campaign_db: str, make_campaign: Any) -> None:
+    from alcove.campaigns import protocol
+    from tests.integration.procs import db_rows
+
+    c, jobs = make_campaign(seed=3, settings={"ocp_intervals": 20, "replay_dt": 0.01, "validation_motions": 0})
+    protocol.drive_inline(c, jobs)
+    assert db_rows(campaign_db, "SELECT validation_suite_id, status FROM campaigns WHERE id = :c", c=c) == [
+        (None, "completed")
+    ]
