@@ -35,7 +35,9 @@ def upgrade() -> None:
         "validation_suites",
         sa.Column("id", sa.Integer(), nullable=False),
         sa.Column("oracle_version_id", sa.Integer(), nullable=False),
-        sa.Column("spec_hash", sa.String(length=64), nullable=False, comment="sha256 of the suite spec and the model preset"),
+        sa.Column(
+            "spec_hash", sa.String(length=64), nullable=False, comment="sha256 of the suite spec and the model preset"
+        ),
         sa.Column("spec", JSON, nullable=False, comment="motions, seed, dt, ranges (alcove.science.validation_suite)"),
         sa.Column("preset", JSON, nullable=False, comment="the model preset the motions are drawn for"),
         sa.Column("n_motions", sa.Integer(), nullable=False),
@@ -98,7 +100,9 @@ def upgrade() -> None:
         sa.Column("id", sa.Integer(), nullable=False),
         sa.Column("model_version_id", sa.Integer(), nullable=False),
         sa.Column("suite_id", sa.Integer(), nullable=False),
-        sa.Column("force_rmse", sa.Float(), nullable=False, comment="N: sqrt(mean |F_pred - F_true|^2) over all samples"),
+        sa.Column(
+            "force_rmse", sa.Float(), nullable=False, comment="N: sqrt(mean |F_pred - F_true|^2) over all samples"
+        ),
         sa.Column("moment_rmse", sa.Float(), nullable=False, comment="N m: the same for the moment vector"),
         sa.Column("components", JSON, nullable=False, comment="RMSE per component fx..mz"),
         sa.Column("per_motion", JSON, nullable=False, comment="force and moment RMSE per motion, in suite order"),

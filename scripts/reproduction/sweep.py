@@ -26,7 +26,7 @@ from typing import Any
 
 import typer
 
-from .record import REPO, TASK, fmt
+from .record import TASK, fmt
 
 SMOOTH_SPEED = 0.3  # rad/s: the first-contact speed below which an approach counts as smooth
 PEAK_PROMINENCE = 0.05  # a force peak must rise 5 % of the peak |F| above its surroundings
@@ -141,7 +141,9 @@ def evaluate(task: Any, oracle: Any, w_T: float, w_tau: float) -> SweepRow:
     )
 
 
-def run_sweep(grid: tuple[tuple[float, float], ...] = GRID, oracle_params: dict[str, Any] | None = None) -> list[SweepRow]:
+def run_sweep(
+    grid: tuple[tuple[float, float], ...] = GRID, oracle_params: dict[str, Any] | None = None
+) -> list[SweepRow]:
     from alcove.science.oracles.registry import build_oracle
 
     rows = []
@@ -200,8 +202,7 @@ def main(
     rows = run_sweep(oracle_params=params)
     load = os.getloadavg()
     text = (
-        table(rows)
-        + f"\n\nSmooth approach: first-contact speed < {SMOOTH_SPEED} rad/s and exactly one force peak "
+        table(rows) + f"\n\nSmooth approach: first-contact speed < {SMOOTH_SPEED} rad/s and exactly one force peak "
         f"(prominence >= {PEAK_PROMINENCE:.0%} of the peak |F|). Holds the head: mean |tau| before contact "
         f"within {HOLD_TOLERANCE:.0%} of the holding torque. Sweep wall time {time.perf_counter() - t0:.0f} s, "
         f"load average {load[0]:.2f} {load[1]:.2f} {load[2]:.2f} (shared machine)."

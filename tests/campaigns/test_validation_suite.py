@@ -33,7 +33,9 @@ def test_generalisation_error_is_the_vector_norm_rmse_with_structural_zeros() ->
 def _suite_rows(url: str, suite_id: int) -> Any:
     from tests.integration.procs import db_rows
 
-    return db_rows(url, "SELECT status, dataset_id FROM validation_motions WHERE suite_id = :s ORDER BY \"index\"", s=suite_id)
+    return db_rows(
+        url, 'SELECT status, dataset_id FROM validation_motions WHERE suite_id = :s ORDER BY "index"', s=suite_id
+    )
 
 
 def test_suite_is_shared_replayed_once_never_pooled_and_evaluates_every_model(

@@ -17,18 +17,18 @@ from alcove.models import (
     IterationMetrics,
     IterationStatus,
     IterationStep,
+    ModelVersion,
     OcpSolution,
     OracleDefinition,
     OracleVersion,
-    ModelVersion,
     Share,
     SharePermission,
-    ValidationMetrics,
-    ValidationMotion,
-    ValidationSuite,
     TaskDefinition,
     TaskVersion,
     User,
+    ValidationMetrics,
+    ValidationMotion,
+    ValidationSuite,
 )
 from alcove.users.access import visible_clause
 

@@ -12,7 +12,7 @@ import sqlalchemy as sa
 from sqlalchemy.orm import Session
 
 from alcove.campaigns.schemas import MetricsRead, ValidationSuiteRead
-from alcove.models import Campaign, MotionStatus, ValidationMetrics, ValidationMotion, ValidationSuite
+from alcove.models import Campaign, ModelVersion, MotionStatus, ValidationMetrics, ValidationMotion, ValidationSuite
 
 
 def suite_spec(settings: Any) -> Any:
@@ -72,3 +72,69 @@ def suite_read(s: Session, campaign: Campaign) -> ValidationSuiteRead | None:
         shared_by=int(shared or 0),
         error=suite.error,
     )
+
+
+def validation_files(s: Session, campaign: Campaign) -> dict[str, bytes]:
+    """The export's ``validation/``: ``suite.json`` (spec, motions, each own model version's
+    generalisation error per component and per motion) and one ``motion-MM.csv`` per replayed
+    motion (t, q, qd, fx..mz: the oracle's values)."""
+    import io
+    import json
+
+    import numpy as np
+
+    from alcove.pool.service import FORCE_COLUMNS, dataset_arrays
+
+    if campaign.validation_suite_id is None:
+        return {}
+    suite = s.get(ValidationSuite, campaign.validation_suite_id)
+    if suite is None:
+        return {}
+    motions = list(
+        s.scalars(
+            sa.select(ValidationMotion).where(ValidationMotion.suite_id == suite.id).order_by(ValidationMotion.index)
+        )
+    )
+    models = s.execute(
+        sa.select(ModelVersion.version, ValidationMetrics)
+        .join(ValidationMetrics, ValidationMetrics.model_version_id == ModelVersion.id)
+        .where(ModelVersion.campaign_id == campaign.id)
+        .order_by(ModelVersion.version)
+    ).all()
+    doc = {
+        "suite_id": suite.id,
+        "oracle_version_id": suite.oracle_version_id,
+        "status": suite.status,
+        "spec": suite.spec,
+        "replay_wall_time_s": suite.replay_wall_time_s,
+        "motions": [
+            {"index": m.index, "params": m.params, "status": m.status, "wall_time_s": m.wall_time_s, "error": m.error}
+            for m in motions
+        ],
+        "model_versions": [
+            {
+                "version": version,
+                "force_rmse": v.force_rmse,
+                "moment_rmse": v.moment_rmse,
+                "components": v.components,
+                "per_motion": v.per_motion,
+                "n_samples": v.n_samples,
+            }
+            for version, v in models
+        ],
+    }
+    files = {"validation/suite.json": json.dumps(doc, indent=1).encode()}
+    from alcove.models import Dataset
+
+    for m in motions:
+        ds = s.get(Dataset, m.dataset_id) if m.dataset_id is not None else None
+        if ds is None:
+            continue
+        a = dataset_arrays(s, ds)
+        table = np.column_stack([a["t"], a["q"], a["qd"], a["f"]])
+        ndof = a["q"].shape[1]
+        head = ["t", *[f"q{j}" for j in range(ndof)], *[f"qd{j}" for j in range(ndof)], *FORCE_COLUMNS]
+        buf = io.StringIO()
+        np.savetxt(buf, table, delimiter=",", header=",".join(head), comments="", fmt="%.10g")
+        files[f"validation/motion-{m.index:02d}.csv"] = buf.getvalue().encode()
+    return files

@@ -47,8 +47,8 @@ from alcove.models.definitions import (
 from alcove.models.guards import ImmutableRowError
 from alcove.models.ops import SmokeCheck, WorkerHeartbeat
 from alcove.models.previews import Preview, PreviewKind, PreviewStatus
-from alcove.models.validation import MotionStatus, SuiteStatus, ValidationMetrics, ValidationMotion, ValidationSuite
 from alcove.models.users import ApiToken, Share, User, hash_password, hash_token, new_token_secret, verify_password
+from alcove.models.validation import MotionStatus, SuiteStatus, ValidationMetrics, ValidationMotion, ValidationSuite
 
 __all__ = [
     "ITERATION_STEPS",
@@ -69,6 +69,7 @@ __all__ = [
     "IterationStatus",
     "IterationStep",
     "ModelVersion",
+    "MotionStatus",
     "OcpSolution",
     "OracleDefinition",
     "OracleRun",
@@ -86,6 +87,7 @@ __all__ = [
     "SmokeCheck",
     "StepName",
     "StepStatus",
+    "SuiteStatus",
     "SurrogateConfig",
     "SurrogateConfigVersion",
     "TaskDefinition",
@@ -93,8 +95,6 @@ __all__ = [
     "TokenKind",
     "UTCDateTime",
     "User",
-    "MotionStatus",
-    "SuiteStatus",
     "ValidationMetrics",
     "ValidationMotion",
     "ValidationSuite",

@@ -178,9 +178,19 @@ def _record(s: Session, motion_id: int, token: str, traj: Any, res: Any, error: 
             f=np.hstack([f.force, f.moment]),
             origin="validation",
             name=f"validation-{suite.id}-{row.index}",
-            meta={"suite_id": suite.id, "motion": row.index, "params": row.params, "oracle_version_id": suite.oracle_version_id},
+            meta={
+                "suite_id": suite.id,
+                "motion": row.index,
+                "params": row.params,
+                "oracle_version_id": suite.oracle_version_id,
+            },
         )
-        row.status, row.dataset_id, row.wall_time_s, row.error = MotionStatus.succeeded.value, ds.id, float(res.wall_time), None
+        row.status, row.dataset_id, row.wall_time_s, row.error = (
+            MotionStatus.succeeded.value,
+            ds.id,
+            float(res.wall_time),
+            None,
+        )
     s.flush()
     _settle(s, suite)
     return row.status
@@ -200,20 +210,6 @@ def _settle(s: Session, suite: ValidationSuite) -> None:
     else:
         suite.status = SuiteStatus.failed.value
         suite.error = f"{statuses.count(MotionStatus.failed.value)} of {len(statuses)} motions failed"
-
-
-def suite_datasets(s: Session, suite_id: int) -> list[Any]:
-    """The datasets of a complete suite, in motion order."""
-    from alcove.models import Dataset
-
-    return list(
-        s.scalars(
-            sa.select(Dataset)
-            .join(ValidationMotion, ValidationMotion.dataset_id == Dataset.id)
-            .where(ValidationMotion.suite_id == suite_id)
-            .order_by(ValidationMotion.index)
-        )
-    )
 
 
 def reconcile_motions(s: Session, older_than: timedelta) -> list[int]:

@@ -127,7 +127,7 @@ def _blend(s: FloatArray) -> tuple[FloatArray, FloatArray]:
 def press_trajectory(m: PressMotion, dt: float) -> Trajectory:
     """The motion sampled every ``dt`` (exact angular velocity)."""
     n = int(np.floor(m.duration / dt + 1e-9)) + 1
-    t = dt * np.arange(n)
+    t: FloatArray = dt * np.arange(n, dtype=np.float64)
     if t[-1] < m.duration - 1e-12:
         t = np.append(t, m.duration)
     tp, d = m.press_time, m.depth - m.start

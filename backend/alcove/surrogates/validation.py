@@ -23,7 +23,7 @@ from sqlalchemy.exc import IntegrityError
 from sqlalchemy.orm import Session
 
 from alcove.models import Campaign, ModelVersion, SuiteStatus, ValidationMetrics, ValidationSuite
-from alcove.oracles.validation import suite_datasets
+from alcove.pool.repository import validation_datasets
 from alcove.pool.service import FORCE_COLUMNS, dataset_arrays
 from alcove.surrogates.service import load_model
 
@@ -50,7 +50,7 @@ def generalisation_error(pred: np.ndarray, true: np.ndarray) -> dict[str, Any]:
 
 
 def _suite_arrays(s: Session, suite_id: int) -> list[dict[str, np.ndarray]]:
-    return [dataset_arrays(s, ds) for ds in suite_datasets(s, suite_id)]
+    return [dataset_arrays(s, ds) for ds in validation_datasets(s, suite_id)]
 
 
 def _metrics(model: Any, motions: list[dict[str, np.ndarray]]) -> dict[str, Any]:
@@ -132,6 +132,10 @@ def evaluate_suite(suite_id: int) -> int:
                 continue
             model = load_model(s, mv)
         m = _metrics(model, motions)
-        written += bool(transaction(lambda s, mv_id=mv_id, m=m: _store(s, mv_id, suite_id, m)))
+
+        def store(s: Session, mv_id: int = mv_id, m: dict[str, Any] = m) -> bool:
+            return _store(s, mv_id, suite_id, m)
+
+        written += bool(transaction(store))
     log.info("validation suite %d: evaluated %d model version(s)", suite_id, written)
     return written

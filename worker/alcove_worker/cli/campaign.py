@@ -152,8 +152,15 @@ def run(
     ),
     concurrency: int = typer.Option(1, "--concurrency", "-c", min=1, help="processes of the spawned worker"),
     worker_log: Path | None = typer.Option(None, help="file for the spawned worker's log"),
+    validation_timeout: float = typer.Option(
+        600.0,
+        min=0.0,
+        help="after the campaign, wait at most this long [s] for the validation suite's replays and "
+        "the generalisation error of every model version",
+    ),
 ) -> None:
-    """Create a campaign, run it to the end through Celery, and report its metrics."""
+    """Create a campaign, run it to the end through Celery, and report its metrics (in-loop and
+    on the held-out validation suite: ``validation_force_rmse``, ``validation_moment_rmse``)."""
 
     _ensure_database()
     cfg = _read_config(config)
@@ -172,6 +179,8 @@ def run(
                 err=True,
             )
             detail = following.follow(campaign_id, quiet=True, worker=proc)
+        if detail.campaign.status.value == "completed":
+            detail = following.wait_validation(campaign_id, timeout=validation_timeout, worker=proc)
     finally:
         if proc is not None:
             following.stop_worker(proc)
@@ -213,8 +222,21 @@ def _print_status(campaign_id: int, as_json: bool) -> None:
         + f" · iteration {c.current_iteration} {c.current_step or ''}"
         + f" · finished {detail.iterations_finished}, failed {detail.iterations_failed}"
         + (f" · last RMSE F {m.force_rmse:.4g} N, M {m.moment_rmse:.4g} N m" if m and m.force_rmse is not None else "")
+        + (
+            f" · validation F {m.validation_force_rmse:.4g} N, M {m.validation_moment_rmse:.4g} N m"
+            if m and m.validation_force_rmse is not None and m.validation_moment_rmse is not None
+            else ""
+        )
         + (f" · ETA {detail.eta_s:.0f} s" if detail.eta_s is not None else "")
     )
+    v = detail.validation
+    if v is not None:
+        typer.echo(
+            f"validation suite {v.id}: {v.status}, {v.motions_done}/{v.n_motions} motions replayed, "
+            f"shared by {v.shared_by} campaign(s)"
+            + (f", replayed in {v.replay_wall_time_s:.1f} s" if v.replay_wall_time_s is not None else "")
+            + (f" ({v.error})" if v.error else "")
+        )
     if c.error:
         typer.echo(f"error: {c.error}")
 
