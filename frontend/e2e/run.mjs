@@ -207,6 +207,21 @@ try {
   if (!yLabels.length || !yLabels.every((l) => clean.test(l.trim()))) throw new Error(`RMSE log axis labels: ${JSON.stringify(yLabels)}`);
   step(`  RMSE log axis labels: ${yLabels.join(" ")}`);
 
+  step("the held-out validation suite: replayed by the oracle worker, each model version evaluated, dashed beside the RMSE");
+  await waitFor(
+    async () => {
+      const ks = ((await page.getByTestId("rmse-plot").getAttribute("data-validation")) ?? "").split(",").filter(Boolean);
+      return ks.length >= 1 ? ks : null;
+    },
+    "the generalisation error of a model version on the plot (live, no reload)",
+    campaignTimeout,
+    1000,
+  );
+  const suiteText = (await page.getByTestId("validation-suite").innerText()).trim();
+  const suiteMatch = /held-out suite: complete, (\d+)\/(\d+) motions/.exec(suiteText);
+  if (!suiteMatch || suiteMatch[1] !== suiteMatch[2]) throw new Error(`validation suite line: ${suiteText}`);
+  step(`  ${suiteText}`);
+
   step("polling transfers only new iterations");
   const campaignId = /\/campaigns\/(\d+)/.exec(campaignUrl)[1];
   const polls = (await Promise.all(metricPolls)).filter((p) => p && p.campaign === campaignId);

@@ -18,6 +18,7 @@ from .loop import part_campaign, part_remedies
 from .record import REPO, Report
 from .report import SECTION_TITLES, machine, write_markdown
 from .solution import part_fe, part_multibody
+from .sweep import part_sweep
 
 app = typer.Typer(add_completion=False)
 
@@ -99,6 +100,7 @@ def main(
             part("fe", lambda: part_fe(rep, *mb))
         elif "fe" not in skip:
             rep.errors["fe"] = "needs the multibody solution (part 1 failed)"
+        part("sweep", lambda: part_sweep(rep))
         fresh_store(data_dir)
         if celery:
             from alcove_worker.cli.follow import spawn_worker

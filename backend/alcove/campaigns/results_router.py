@@ -17,7 +17,16 @@ from alcove.api.downloads import BINARY, download
 from alcove.api.params import MAX_ID, IterationIndex, ObjectId
 from alcove.campaigns import export, results
 from alcove.campaigns import read_repository as reads
-from alcove.campaigns.schemas import EventRead, IterationCurves, IterationRead, IterationTrajectory, JobOut, MetricsRead
+from alcove.campaigns.schemas import (
+    EventRead,
+    IterationCurves,
+    IterationRead,
+    IterationTrajectory,
+    JobOut,
+    MetricsRead,
+    ValidationSeries,
+)
+from alcove.campaigns.validation import validation_series
 from alcove.db import get_sessionmaker
 from alcove.errors import NotFound
 from alcove.models import Campaign
@@ -204,6 +213,14 @@ def list_campaign_jobs(
     """Every step (the unit of worker work): status, worker, attempts, timings, error."""
     get_for(session, Campaign, campaign_id, user)
     return [JobOut(**row) for row in results.list_jobs(session, campaign_id, status_)]
+
+
+@router.get("/{campaign_id}/validation", response_model=ValidationSeries, operation_id="get_campaign_validation")
+def get_campaign_validation(campaign_id: ObjectId, user: CurrentUser, session: SessionDep) -> ValidationSeries:
+    """The held-out validation suite (status, motions replayed, campaigns sharing it) and the
+    generalisation error of each of the campaign's model versions on all its motions (force and
+    moment RMSE in the vector definition, per component, per motion)."""
+    return validation_series(session, get_for(session, Campaign, campaign_id, user))
 
 
 @router.get("/{campaign_id}/events", response_model=list[EventRead], operation_id="list_campaign_events")

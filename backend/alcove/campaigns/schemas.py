@@ -144,6 +144,22 @@ class ValidationSuiteRead(BaseModel):
     error: str | None = None
 
 
+class ValidationPoint(BaseModel):
+    """Model version k's generalisation error on the held-out validation suite."""
+
+    iteration_index: int = Field(description="k: the iteration whose train step made the model version")
+    model_version_id: int
+    force_rmse: float = Field(description="sqrt(mean_i |F_pred,i - F_true,i|^2) over all samples of all motions [N]")
+    moment_rmse: float = Field(description="the same for the moment vector [N m]")
+    components: dict[str, float] = Field(description="RMSE of each component fx..mz [N, N m]")
+    per_motion: list[dict[str, float]] = Field(description="force_rmse, moment_rmse, n_samples of each motion")
+
+
+class ValidationSeries(BaseModel):
+    suite: ValidationSuiteRead | None = Field(description="the campaign's held-out validation suite (null: none)")
+    points: list[ValidationPoint] = Field(description="one per own model version evaluated so far, by k")
+
+
 class CampaignDetail(BaseModel):
     campaign: CampaignRead
     config: CampaignConfig

@@ -11,7 +11,7 @@ from typing import Any
 import sqlalchemy as sa
 from sqlalchemy.orm import Session
 
-from alcove.campaigns.schemas import MetricsRead, ValidationSuiteRead
+from alcove.campaigns.schemas import MetricsRead, ValidationPoint, ValidationSeries, ValidationSuiteRead
 from alcove.models import Campaign, ModelVersion, MotionStatus, ValidationMetrics, ValidationMotion, ValidationSuite
 
 
@@ -71,6 +71,31 @@ def suite_read(s: Session, campaign: Campaign) -> ValidationSuiteRead | None:
         replay_wall_time_s=suite.replay_wall_time_s,
         shared_by=int(shared or 0),
         error=suite.error,
+    )
+
+
+def validation_series(s: Session, campaign: Campaign) -> ValidationSeries:
+    """The suite and each own model version's generalisation error (the campaign page polls it
+    apart from the incremental metrics series: an earlier model's error may arrive late)."""
+    rows = s.execute(
+        sa.select(ModelVersion.version, ValidationMetrics)
+        .join(ValidationMetrics, ValidationMetrics.model_version_id == ModelVersion.id)
+        .where(ModelVersion.campaign_id == campaign.id)
+        .order_by(ModelVersion.version)
+    ).all()
+    return ValidationSeries(
+        suite=suite_read(s, campaign),
+        points=[
+            ValidationPoint(
+                iteration_index=k,
+                model_version_id=v.model_version_id,
+                force_rmse=v.force_rmse,
+                moment_rmse=v.moment_rmse,
+                components=dict(v.components),
+                per_motion=list(v.per_motion),
+            )
+            for k, v in rows
+        ],
     )
 
 

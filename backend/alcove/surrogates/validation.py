@@ -22,7 +22,7 @@ import sqlalchemy as sa
 from sqlalchemy.exc import IntegrityError
 from sqlalchemy.orm import Session
 
-from alcove.models import Campaign, ModelVersion, SuiteStatus, ValidationMetrics, ValidationSuite
+from alcove.models import Campaign, CampaignEvent, ModelVersion, SuiteStatus, ValidationMetrics, ValidationSuite
 from alcove.pool.repository import validation_datasets
 from alcove.pool.service import FORCE_COLUMNS, dataset_arrays
 from alcove.surrogates.service import load_model
@@ -130,11 +130,25 @@ def evaluate_suite(suite_id: int) -> int:
             mv = s.get(ModelVersion, mv_id)
             if mv is None:
                 continue
-            model = load_model(s, mv)
+            model, campaign_id, version = load_model(s, mv), mv.campaign_id, mv.version
         m = _metrics(model, motions)
 
-        def store(s: Session, mv_id: int = mv_id, m: dict[str, Any] = m) -> bool:
-            return _store(s, mv_id, suite_id, m)
+        def store(
+            s: Session, mv_id: int = mv_id, m: dict[str, Any] = m, c: Any = campaign_id, k: int = version
+        ) -> bool:
+            if not _store(s, mv_id, suite_id, m):
+                return False
+            # the campaign's live stream tells its pages that an earlier iteration's metrics changed
+            s.add(
+                CampaignEvent(
+                    campaign_id=c,
+                    iteration_index=k,
+                    kind="validation_evaluated",
+                    message=f"model version {k} evaluated on validation suite {suite_id}",
+                    data={"suite_id": suite_id, "force_rmse": m["force_rmse"], "moment_rmse": m["moment_rmse"]},
+                )
+            )
+            return True
 
         written += bool(transaction(store))
     log.info("validation suite %d: evaluated %d model version(s)", suite_id, written)

@@ -571,6 +571,28 @@ export interface paths {
         patch?: never;
         trace?: never;
     };
+    "/api/v1/campaigns/{campaign_id}/validation": {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        /**
+         * Get Campaign Validation
+         * @description The held-out validation suite (status, motions replayed, campaigns sharing it) and the
+         *     generalisation error of each of the campaign's model versions on all its motions (force and
+         *     moment RMSE in the vector definition, per component, per motion).
+         */
+        get: operations["get_campaign_validation"];
+        put?: never;
+        post?: never;
+        delete?: never;
+        options?: never;
+        head?: never;
+        patch?: never;
+        trace?: never;
+    };
     "/api/v1/health": {
         parameters: {
             query?: never;
@@ -1409,6 +1431,8 @@ export interface components {
             task_id: number;
             /** Task Version */
             task_version: number;
+            /** @description the held-out validation suite, if any */
+            validation?: components["schemas"]["ValidationSuiteRead"] | null;
         };
         /** CampaignRead */
         CampaignRead: {
@@ -2025,6 +2049,23 @@ export interface components {
             oracle_wall_time_s: number | null;
             /** Train Wall Time S */
             train_wall_time_s: number | null;
+            /**
+             * Validation Components
+             * @description RMSE of each component fx..mz on the validation suite [N, N m]
+             */
+            validation_components?: {
+                [key: string]: number;
+            } | null;
+            /**
+             * Validation Force Rmse
+             * @description generalisation error of model k on the held-out validation suite: sqrt(mean_i |F_pred,i - F_true,i|^2) over all samples of all motions [N]; null until evaluated
+             */
+            validation_force_rmse?: number | null;
+            /**
+             * Validation Moment Rmse
+             * @description the same for the moment vector [N m]; null until evaluated
+             */
+            validation_moment_rmse?: number | null;
         };
         /**
          * ModelSpec
@@ -2661,6 +2702,18 @@ export interface components {
              * @default 1
              */
             replay_phases?: number;
+            /**
+             * Validation Motions
+             * @description held-out validation motions every model version is evaluated on (generalisation error); 0: no validation suite. Shared by campaigns with the same oracle version, seed and count
+             * @default 8
+             */
+            validation_motions?: number;
+            /**
+             * Validation Seed
+             * @description seed of the validation suite's motions
+             * @default 0
+             */
+            validation_seed?: number;
         };
         /** SampleTrajectory */
         SampleTrajectory: {
@@ -3382,6 +3435,43 @@ export interface components {
             /** Detail */
             detail: components["schemas"]["FieldErrorItem"][];
         };
+        /**
+         * ValidationPoint
+         * @description Model version k's generalisation error on the held-out validation suite.
+         */
+        ValidationPoint: {
+            /**
+             * Components
+             * @description RMSE of each component fx..mz [N, N m]
+             */
+            components: {
+                [key: string]: number;
+            };
+            /**
+             * Force Rmse
+             * @description sqrt(mean_i |F_pred,i - F_true,i|^2) over all samples of all motions [N]
+             */
+            force_rmse: number;
+            /**
+             * Iteration Index
+             * @description k: the iteration whose train step made the model version
+             */
+            iteration_index: number;
+            /** Model Version Id */
+            model_version_id: number;
+            /**
+             * Moment Rmse
+             * @description the same for the moment vector [N m]
+             */
+            moment_rmse: number;
+            /**
+             * Per Motion
+             * @description force_rmse, moment_rmse, n_samples of each motion
+             */
+            per_motion: {
+                [key: string]: number;
+            }[];
+        };
         /** ValidationReport */
         ValidationReport: {
             /**
@@ -3398,6 +3488,49 @@ export interface components {
             } | null;
             /** Valid */
             valid: boolean;
+        };
+        /** ValidationSeries */
+        ValidationSeries: {
+            /**
+             * Points
+             * @description one per own model version evaluated so far, by k
+             */
+            points: components["schemas"]["ValidationPoint"][];
+            /** @description the campaign's held-out validation suite (null: none) */
+            suite: components["schemas"]["ValidationSuiteRead"] | null;
+        };
+        /**
+         * ValidationSuiteRead
+         * @description The held-out validation suite a campaign's model versions are evaluated on (shared per
+         *     oracle version and suite spec).
+         */
+        ValidationSuiteRead: {
+            /** Error */
+            error?: string | null;
+            /** Id */
+            id: number;
+            /**
+             * Motions Done
+             * @description motions replayed and stored
+             */
+            motions_done: number;
+            /** N Motions */
+            n_motions: number;
+            /**
+             * Replay Wall Time S
+             * @description first motion queued to last motion stored [s]
+             */
+            replay_wall_time_s?: number | null;
+            /**
+             * Shared By
+             * @description campaigns evaluated on this suite
+             */
+            shared_by: number;
+            /**
+             * Status
+             * @description replaying | complete | failed
+             */
+            status: string;
         };
     };
     responses: never;
@@ -6099,6 +6232,92 @@ export interface operations {
                 };
                 content: {
                     "application/json": components["schemas"]["CampaignOut"];
+                };
+            };
+            /** @description not authenticated (missing, invalid, expired or revoked token) */
+            401: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorOut"];
+                };
+            };
+            /** @description not allowed (admin-only route, or an object shared with you for viewing only) */
+            403: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorOut"];
+                };
+            };
+            /** @description no such object, or not visible to you */
+            404: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorOut"];
+                };
+            };
+            /** @description conflicts with the current state (e.g. a campaign transition, a duplicate) */
+            409: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorOut"];
+                };
+            };
+            /** @description request body too large */
+            413: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorOut"];
+                };
+            };
+            /** @description invalid input: field paths and reasons */
+            422: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ValidationErrorOut"];
+                };
+            };
+            /** @description database busy or unavailable: retry */
+            503: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorOut"];
+                };
+            };
+        };
+    };
+    get_campaign_validation: {
+        parameters: {
+            query?: never;
+            header?: never;
+            path: {
+                /** @description object id */
+                campaign_id: number;
+            };
+            cookie?: never;
+        };
+        requestBody?: never;
+        responses: {
+            /** @description Successful Response */
+            200: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ValidationSeries"];
                 };
             };
             /** @description not authenticated (missing, invalid, expired or revoked token) */

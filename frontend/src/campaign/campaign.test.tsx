@@ -48,6 +48,19 @@ describe("RMSE plot of a fork", () => {
   });
 });
 
+describe("RMSE plot with the held-out validation suite", () => {
+  it("draws the generalisation error dashed beside the in-loop RMSE, only where a model was evaluated", () => {
+    const p = (k: number, v: number | null) => ({ iteration: k, status: "succeeded", force_rmse: 1, moment_rmse: 0.1, validation_force_rmse: v, validation_moment_rmse: v === null ? null : v / 10, quarantined: false });
+    const traces = rmseTraces([p(1, 9), p(2, 8), p(3, null)]);
+    const held = traces.filter((t) => String(t.name).includes("held-out suite"));
+    expect(held.map((t) => t.name)).toEqual(["force RMSE, held-out suite [N]", "moment RMSE, held-out suite [N m]"]);
+    expect(held[0].x).toEqual([1, 2]);
+    expect(held[0].y).toEqual([9, 8]);
+    expect((held[0].line as { dash: string }).dash).toBe("dash");
+    expect(rmseTraces([p(1, null)]).some((t) => String(t.name).includes("held-out"))).toBe(false);
+  });
+});
+
 describe("plot toolbar", () => {
   it("keeps the PNG download and has no link or upload to another host", async () => {
     render(<Plot traces={[{ x: [1], y: [2], type: "scatter" }]} exportName="rmse" testId="p" />);

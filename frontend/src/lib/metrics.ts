@@ -4,6 +4,9 @@ export interface MetricPoint {
   status: string;
   force_rmse: number | null;
   moment_rmse: number | null;
+  /** model k's generalisation error on the held-out validation suite (null until evaluated) */
+  validation_force_rmse?: number | null;
+  validation_moment_rmse?: number | null;
   /** the oracle result of this iteration failed its quality gate */
   quarantined: boolean;
   /** a fork's iteration from its source campaign (shown greyed) */
