@@ -207,8 +207,9 @@ def part_sweep(rep: Any) -> list[SweepRow]:
         f"{PEAK_PROMINENCE:.0%} of the peak |F|). Holds the head: mean |tau| before contact within "
         f"{HOLD_TOLERANCE:.0%} of the holding torque ({fmt(abs(paper.hold))} N m at theta0).",
         "",
-        "Only the ratio w_T / w_tau matters (equal ratios give equal rows): the approach's cost is "
-        "w_T T + w_tau tau^2 integrated, so scaling both scales it. With the paper's ratio 0.1 the optimum "
+        "Equal ratios w_T / w_tau give equal rows (0.1 / 1e-3 and 1 / 1e-2): the approach's cost is "
+        "w_T times the integral of the kinetic energy plus w_tau times that of tau^2, so scaling both scales it, "
+        "and the rest phase costs almost nothing either way. With the paper's ratio 0.1 the optimum "
         f"spends {fmt(paper.tau_before_mean)} N m on average before contact, falls and reaches the cushion at "
         f"{fmt(paper.contact_speed)} rad/s, and bounces ({paper.peaks} force peaks). "
         + (
