@@ -72,7 +72,7 @@ def main(
         import json
 
         data = json.loads(render_only.read_text())
-        args = {**data["args"], "rendered": f"re-rendered from {render_only.name} with the current verdict rules"}
+        args = {"rendered": f"re-rendered from {render_only.name} with the current verdict rules", **data["args"]}
         path = write_markdown(Report.from_json(data, out), data["info"], args, float(data["total"]), data["date"])
         typer.echo(f"[reproduce] wrote {path}", err=True)
         return

@@ -292,7 +292,8 @@ def write_markdown(
         "",
         "This file is written by `make reproduce` (`scripts/reproduce.py`): it runs the proof of concept of",
         'Fahse et al., "Towards Using Active Learning Methods for Human-Seat Interactions To Generate',
-        'Realistic Occupant Motion", end to end with alcove. Every number below comes from that run.',
+        'Realistic Occupant Motion", end to end with alcove. Every number below comes from that run'
+        + (" (except what the `rendered` row below names)." if args.get("rendered") else "."),
         "",
     ]
     if rep.quick:
