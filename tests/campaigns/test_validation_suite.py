@@ -106,3 +106,42 @@ def test_no_suite_when_the_campaign_asks_for_none(campaign_db: str, make_campaig
     assert db_rows(campaign_db, "SELECT validation_suite_id, status FROM campaigns WHERE id = :c", c=c) == [
         (None, "completed")
     ]
+
+
+def test_reconciler_resends_lost_motions_and_fails_a_suite_whose_last_attempt_died(
+    campaign_db: str, make_campaign: Any
+) -> None:
+    from datetime import timedelta
+
+    import sqlalchemy as sa
+
+    from alcove.campaigns import protocol
+    from alcove.db import transaction
+    from alcove.models import ValidationMotion, ValidationSuite, utcnow
+    from alcove.oracles.validation import reconcile_motions
+
+    c, jobs = make_campaign(
+        seed=4,
+        settings={"ocp_intervals": 20, "replay_dt": 0.01, "validation_motions": 2, "validation_seed": 9},
+        stopping={"max_iterations": 1},
+    )
+    protocol.drive_inline(c, jobs)
+
+    def age(s: Any) -> list[int]:
+        motions = s.scalars(
+            sa.select(ValidationMotion).join(ValidationSuite).where(ValidationSuite.spec["seed"].as_integer() == 9)
+        ).all()
+        past = utcnow() - timedelta(hours=1)
+        motions[0].queued_at = past  # its message was lost
+        motions[1].status, motions[1].attempts, motions[1].lease_until = "running", 3, past  # its last worker died
+        return [m.id for m in motions]
+
+    lost, dead = transaction(age)
+    assert transaction(lambda s: reconcile_motions(s, timedelta(seconds=60))) == [lost]
+    assert transaction(lambda s: reconcile_motions(s, timedelta(seconds=60))) == []  # re-sent once, not again at once
+
+    def states(s: Any) -> tuple[str, str, str]:
+        d, suite = s.get(ValidationMotion, dead), s.get(ValidationMotion, lost)
+        return d.status, s.get(ValidationSuite, d.suite_id).status, suite.status
+
+    assert transaction(states) == ("failed", "replaying", "queued")  # the lost one may still succeed

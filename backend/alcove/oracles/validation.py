@@ -228,6 +228,17 @@ def reconcile_motions(s: Session, older_than: timedelta) -> list[int]:
     ).all()
     for r in rows:
         r.queued_at = now
+    # a motion whose last attempt's worker died: out of attempts, it fails (and so does its suite)
+    dead = s.scalars(
+        sa.select(m).where(m.attempts >= m.max_attempts, m.status == MotionStatus.running.value, m.lease_until < now)
+    ).all()
+    for r in dead:
+        r.status, r.finished_at, r.claim_token = MotionStatus.failed.value, now, None
+        r.error = f"its last attempt (worker {r.worker_name}) did not finish within its lease"
+        suite = s.get(ValidationSuite, r.suite_id, with_for_update=True)
+        assert suite is not None
+        s.flush()
+        _settle(s, suite)
     return [r.id for r in rows]
 
 
