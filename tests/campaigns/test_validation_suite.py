@@ -96,6 +96,28 @@ def test_suite_is_shared_replayed_once_never_pooled_and_evaluates_every_model(
     assert detail.validation is not None and detail.validation.status == "complete"
     assert detail.validation.motions_done == 3 and detail.validation.shared_by == 2
 
+    # exported with the campaign: the suite, each model's error, the motions' oracle values
+    import csv
+    import io
+    import json
+    import zipfile
+
+    from alcove.campaigns.export import export_zip
+
+    with session_scope() as s:
+        z = zipfile.ZipFile(io.BytesIO(export_zip(s, b, models=False)))
+    names = z.namelist()
+    assert [n for n in names if "/validation/" in n] == [
+        f"campaign-{b}/validation/suite.json",
+        *(f"campaign-{b}/validation/motion-{i:02d}.csv" for i in range(3)),
+    ]
+    doc = json.loads(z.read(f"campaign-{b}/validation/suite.json"))
+    assert [m["version"] for m in doc["model_versions"]] == [1, 2] and len(doc["model_versions"][0]["per_motion"]) == 3
+    metrics = list(csv.DictReader(io.StringIO(z.read(f"campaign-{b}/metrics.csv").decode())))
+    assert all(float(r["validation_force_rmse"]) > 0 for r in metrics)
+    motion = list(csv.DictReader(io.StringIO(z.read(f"campaign-{b}/validation/motion-00.csv").decode())))
+    assert {"t", "q0", "qd0", "fx", "mz"} <= set(motion[0]) and max(abs(float(r["fx"])) for r in motion) > 0
+
 
 def test_no_suite_when_the_campaign_asks_for_none(campaign_db: str, make_campaign: Any) -> None:
     from alcove.campaigns import protocol
