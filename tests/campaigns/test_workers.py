@@ -87,6 +87,10 @@ def test_alcove_campaign_run_on_the_embedded_default(tmp_path: Path) -> None:
     assert [m["iteration_index"] for m in out["metrics"]] == [1, 2] and all(
         m["force_rmse"] >= 0 for m in out["metrics"]
     )
+    # the held-out validation suite was replayed by the spawned worker and every model version evaluated on it
+    assert out["validation_suite"]["status"] == "complete" and out["validation_suite"]["motions_done"] == 8
+    assert all(m["validation_force_rmse"] > 0 and m["validation_moment_rmse"] > 0 for m in out["metrics"])
+    assert out["last"]["validation_force_rmse"] == out["metrics"][-1]["validation_force_rmse"]
     url = f"sqlite:///{tmp_path / 'data' / 'alcove.db'}"
     cid = out["campaign_id"]
     assert [v for v, _, _ in pool_hashes(url, cid)] == [0, 1, 2]
@@ -105,6 +109,8 @@ def test_alcove_campaign_run_on_the_embedded_default(tmp_path: Path) -> None:
         [*CLI, "campaign", "status", str(cid), "--json"], env=env, capture_output=True, text=True, timeout=60
     )
     assert json.loads(st.stdout)["campaign"]["status"] == "completed"
+    st = subprocess.run([*CLI, "campaign", "status", str(cid)], env=env, capture_output=True, text=True, timeout=60)
+    assert " · validation F " in st.stdout and "validation suite" in st.stdout and "8/8 motions replayed" in st.stdout
     ex = subprocess.run(
         [*CLI, "campaign", "export", str(cid), "--out", str(tmp_path / "export"), "--format", "csv", "--no-models"],
         env=env,
