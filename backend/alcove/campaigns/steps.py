@@ -131,6 +131,7 @@ def train(ctx: StepContext) -> StepOutput:
         if pv is None or scv is None:
             raise RuntimeError(f"pool version {ctx.k - 1} or the surrogate config of iteration {ctx.k} does not exist")
         parent = surrogates_repo.version_of(s, c.id, ctx.k - 1)
+        needs_suite = c.validation_suite_id is None
         inputs: _TrainInputs = {
             "pool_version_id": pv.id,
             "spec": scv.spec,
@@ -142,12 +143,13 @@ def train(ctx: StepContext) -> StepOutput:
         }
     out = surrogate_steps.train(ctx.run, **inputs)
     spec, preset = suite_spec(ctx.config.settings), inputs["preset"]
+    motions = oracle_validation.motions_for(spec, preset) if needs_suite else None
 
     def write(s: Session, at: IterationRef) -> dict[str, Any]:
         result = out.write(s, at)
         c = repo.get_campaign(s, at.campaign_id)
         if c.validation_suite_id is None:  # the first model of a campaign (or of a fork)
-            suite = oracle_validation.attach_suite(s, c, spec, preset)
+            suite = oracle_validation.attach_suite(s, c, spec, preset, motions)
             result["validation_suite_id"] = suite.id if suite is not None else None
         return result
 

@@ -36,10 +36,14 @@ MOTION_JOB = "alcove.oracle.validation_motion"
 EVALUATE_JOB = "alcove.default.validation_evaluate"
 
 
-def attach_suite(s: Session, campaign: Campaign, spec: Any, preset: Any) -> ValidationSuite | None:
+def attach_suite(
+    s: Session, campaign: Campaign, spec: Any, preset: Any, params: list[Any] | None = None
+) -> ValidationSuite | None:
     """The campaign's suite for ``spec`` (an ``alcove.science.validation_suite.SuiteSpec``) and
     its model ``preset``: the existing one of the same oracle version and spec, or a new one
-    whose motions are sent to the oracle queue after the commit. ``spec.motions == 0``: none."""
+    whose motions are sent to the oracle queue after the commit. ``spec.motions == 0``: none.
+    ``params``: the motions (``motion_parameters(spec, preset)``), computed before the
+    transaction by the caller (a tenth of a second: not while holding the campaign's lock)."""
     from alcove.science.validation_suite import motion_parameters
 
     if spec.motions == 0:
@@ -47,7 +51,7 @@ def attach_suite(s: Session, campaign: Campaign, spec: Any, preset: Any) -> Vali
     digest = spec.digest(preset)
     suite = _find(s, campaign.oracle_version_id, digest)
     if suite is None:
-        params = motion_parameters(spec, preset)
+        params = params if params is not None else motion_parameters(spec, preset)
         try:
             with s.begin_nested():
                 suite = ValidationSuite(
@@ -74,6 +78,13 @@ def attach_suite(s: Session, campaign: Campaign, spec: Any, preset: Any) -> Vali
                 send_after_commit(s, MOTION_JOB, row.id)
     campaign.validation_suite_id = suite.id
     return suite
+
+
+def motions_for(spec: Any, preset: Any) -> list[Any] | None:
+    """The suite's motion parameters (None when the spec asks for no suite)."""
+    from alcove.science.validation_suite import motion_parameters
+
+    return motion_parameters(spec, preset) if spec.motions > 0 else None
 
 
 def _find(s: Session, oracle_version_id: int, digest: str) -> ValidationSuite | None:
