@@ -10,7 +10,7 @@ from fastapi import APIRouter, File, Form, Response, UploadFile, status
 from pydantic import BaseModel, ConfigDict, Field
 
 from alcove.api.deps import SessionDep
-from alcove.api.downloads import BINARY, download
+from alcove.api.downloads import binary, download
 from alcove.api.params import IterationIndex, Limit, ObjectId, Offset
 from alcove.errors import InvalidInput
 from alcove.models import Campaign
@@ -46,7 +46,7 @@ class UploadOut(BaseModel):
 # ----------------------------------------------------------------------------- pool versions
 
 
-@router.get("/{campaign_id}/pool-versions", response_model=list[PoolVersionRead], operation_id="list_pool_versions")
+@router.get("/{campaign_id:int}/pool-versions", response_model=list[PoolVersionRead], operation_id="list_pool_versions")
 def list_pool_versions(campaign_id: ObjectId, user: CurrentUser, session: SessionDep) -> list[PoolVersionRead]:
     """Immutable pool versions (lineage: ``parent_id``; version k = k-1 + iteration k's data)."""
     get_for(session, Campaign, campaign_id, user)
@@ -54,10 +54,10 @@ def list_pool_versions(campaign_id: ObjectId, user: CurrentUser, session: Sessio
 
 
 @router.get(
-    "/{campaign_id}/pool-versions/{version}/download",
+    "/{campaign_id:int}/pool-versions/{version:int}/download",
     operation_id="download_pool_version",
     response_class=Response,
-    responses={200: BINARY},
+    responses={200: binary("application/vnd.apache.parquet", "text/csv")},
 )
 def download_pool_version(
     campaign_id: ObjectId,
