@@ -114,7 +114,7 @@ def create_campaign(body: CampaignCreateIn, user: CurrentUser, session: SessionD
         )
     else:
         scv_id = surrogate_config_version_for(session, user.id, None)
-    refs.check_datasets(session, user, body.preliminary.dataset_ids)
+    refs.check_datasets(session, user, body.preliminary.dataset_ids, task_version_id)
     data = CampaignCreate(
         name=body.name,
         description=body.description,
