@@ -90,6 +90,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     app.add_middleware(SecurityHeaders)  # outermost of ours: also on errors and the web UI's files
 
     app.state.trusted_proxies = settings.trusted_proxy_networks
+    app.state.forwarded_header = settings.forwarded_header
     app.state.login_throttle = make_login_throttle(settings.broker_url, settings.broker_key_prefix)
     dummy_password_hash()  # an unknown e-mail's first login costs what any other does
     _warn_about_retired_settings()

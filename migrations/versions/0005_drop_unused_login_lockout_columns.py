@@ -34,8 +34,5 @@ def upgrade() -> None:
 def downgrade() -> None:
     with op.batch_alter_table("users") as batch:
         batch.add_column(sa.Column("failed_login_count", sa.Integer(), server_default="0", nullable=False))
-        batch.add_column(
-            sa.Column(
-                "locked_until", sa.DateTime(timezone=True), nullable=True, comment="login lockout after repeated failures"
-            )
-        )
+        comment = "login lockout after repeated failures"
+        batch.add_column(sa.Column("locked_until", sa.DateTime(timezone=True), nullable=True, comment=comment))

@@ -92,9 +92,7 @@ def test_schemathesis_finds_nothing(app, fuzz_account, own_login_throttle) -> No
             },
         }
     )
-    schema = schemathesis.openapi.from_asgi("/api/v1/openapi.json", app, config=config).exclude(
-        operation_id=EXCLUDED
-    )
+    schema = schemathesis.openapi.from_asgi("/api/v1/openapi.json", app, config=config).exclude(operation_id=EXCLUDED)
     failures: dict[tuple[str, str], str] = {}
     errors: list[str] = []
     requests = 0

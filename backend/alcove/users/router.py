@@ -65,7 +65,7 @@ def login(body: LoginIn, request: Request, session: SessionDep) -> LoginOut:
     An unknown e-mail is answered exactly like a wrong password (401, same body, same work),
     and throttled the same way; an account is never locked for its owner on another address."""
     throttle = login_throttle(request)
-    client = client_address(request, request.app.state.trusted_proxies)
+    client = client_address(request, request.app.state.trusted_proxies, request.app.state.forwarded_header)
     wait = throttle.begin(body.email, client)
     if wait:
         raise LoginLocked("too many failed logins: try again later", wait)

@@ -865,8 +865,9 @@ export interface paths {
         put?: never;
         /**
          * Upload Preliminary Dataset
-         * @description Store a preliminary data set (validated); use the returned ids as a campaign's
-         *     ``preliminary.dataset_ids``.
+         * @description Store a preliminary data set (validated: finite values within plausible ranges, joint
+         *     angles within the task's model range when ``task_id`` is given); use the returned ids as
+         *     a campaign's ``preliminary.dataset_ids`` (checked again against the campaign's task).
          */
         post: operations["upload_preliminary_dataset"];
         delete?: never;
@@ -1303,9 +1304,14 @@ export interface components {
             file: string;
             /**
              * Name
-             * @default upload
+             * @description stem of the datasets' names (letters, digits, _ . + -); left out: 'upload'
              */
-            name?: string;
+            name?: string | null;
+            /**
+             * Task Id
+             * @description check the values against this task's model (default: any model's range)
+             */
+            task_id?: number | null;
         };
         /**
          * CampaignConfig
@@ -2858,7 +2864,7 @@ export interface components {
             preliminary_weight?: number;
             /**
              * Seed
-             * @description seed of splits, initialisation and batch order [-], a whole number at least 0, below 9.22337e18
+             * @description seed of splits, initialisation and batch order [-], a whole number 0 to 9.22337e18
              * @default 0
              */
             seed?: number;
@@ -4751,7 +4757,7 @@ export interface operations {
                     [name: string]: unknown;
                 };
                 content: {
-                    "application/octet-stream": string;
+                    "application/zip": string;
                 };
             };
             /** @description not authenticated (missing, invalid, expired or revoked token) */
@@ -5193,7 +5199,8 @@ export interface operations {
     list_campaign_jobs: {
         parameters: {
             query?: {
-                status?: string[] | null;
+                /** @description only these */
+                status?: components["schemas"]["StepStatus"][] | null;
             };
             header?: never;
             path: {
@@ -5574,7 +5581,7 @@ export interface operations {
                     [name: string]: unknown;
                 };
                 content: {
-                    "application/octet-stream": string;
+                    "application/zip": string;
                 };
             };
             /** @description not authenticated (missing, invalid, expired or revoked token) */
@@ -5836,7 +5843,8 @@ export interface operations {
                     [name: string]: unknown;
                 };
                 content: {
-                    "application/octet-stream": string;
+                    "application/vnd.apache.parquet": string;
+                    "text/csv": string;
                 };
             };
             /** @description not authenticated (missing, invalid, expired or revoked token) */

@@ -357,17 +357,17 @@ def _stacked(columns: dict[str, FloatArray], names: Sequence[str], rows: IndexAr
 
 
 __all__ = [
+    "MAX_CONTACT_FORCE",
+    "MAX_CONTACT_MOMENT",
     "ORIGINS",
     "Origin",
     "PoolDataError",
     "PoolDataset",
-    "MAX_CONTACT_FORCE",
-    "MAX_CONTACT_MOMENT",
     "StateRange",
     "check_plausible",
     "check_pool",
-    "default_state_range",
     "default_origin",
+    "default_state_range",
     "load_pool_dir",
     "load_preliminary_csv",
     "save_pool_dir",
