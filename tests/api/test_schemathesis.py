@@ -82,6 +82,7 @@ def test_schemathesis_finds_nothing(app, fuzz_account, own_login_throttle) -> No
     config = SchemathesisConfig.from_dict(
         {
             "seed": SEED,
+            "cache": {"enabled": False},  # no state carried from run to run (and no .schemathesis/ folder)
             "max-time": MAX_TIME_S,
             "headers": {"Authorization": fuzz_account.headers["Authorization"]},
             "generation": {"max-examples": MAX_EXAMPLES},
