@@ -2572,7 +2572,7 @@ export interface components {
             seed?: number | null;
             /**
              * Velocity Bound
-             * @description |qd| bound of the samples [rad/s]
+             * @description |qd| bound of the samples [rad/s]; above 0, at most 100
              * @default 2
              */
             velocity_bound?: number;
@@ -2657,7 +2657,7 @@ export interface components {
             ocp_intervals?: number | null;
             /**
              * Replay Dt
-             * @description the replayed trajectory is resampled (cubic Hermite) at this step [s]; None: the OCP grid
+             * @description the replayed trajectory is resampled (cubic Hermite) at this step [s], above 0, at most 0.1; None: the OCP grid
              * @default 0.0025
              */
             replay_dt?: number | null;
@@ -2782,12 +2782,12 @@ export interface components {
             max_iterations?: number | null;
             /**
              * Oracle Budget S
-             * @description stop when the oracle's total wall time reaches this [s]
+             * @description stop when the oracle's total wall time reaches this [s]; above 0, at most 1e7 s (16 weeks)
              */
             oracle_budget_s?: number | null;
             /**
              * Plateau Tolerance
-             * @description relative improvement that still counts as progress
+             * @description relative improvement that still counts as progress [-]; 0 to below 1
              * @default 0.01
              */
             plateau_tolerance?: number;
@@ -2798,12 +2798,12 @@ export interface components {
             plateau_window?: number | null;
             /**
              * Target Force Rmse
-             * @description stop when the iteration's force RMSE [N] is at most this
+             * @description stop when the iteration's force RMSE [N] is at most this; above 0, at most 1e5 N
              */
             target_force_rmse?: number | null;
             /**
              * Target Moment Rmse
-             * @description stop when the iteration's moment RMSE [N m] is at most this
+             * @description stop when the iteration's moment RMSE [N m] is at most this; above 0, at most 1e4 N m
              */
             target_moment_rmse?: number | null;
         };
