@@ -110,3 +110,7 @@ def test_downloads_document_their_media_types(app) -> None:
     assert list(export) == ["application/zip"]
     pool = paths[f"{API}/campaigns/{{campaign_id}}/pool-versions/{{version}}/download"]["get"]["responses"]["200"]
     assert sorted(pool["content"]) == ["application/vnd.apache.parquet", "text/csv"]
+
+
+def test_a_nul_character_in_a_path_parameter_names_it(client, owner) -> None:
+    nul_error(client.post(f"{API}/tasks/presets/a%00b/copy", headers=owner.headers), "key")

@@ -4,8 +4,10 @@
 PostgreSQL cannot store U+0000 in text or JSON, so such a value used to fail at the database
 with "a value is out of range for the database" and no field. One dependency of every API
 route (:func:`reject_nul_characters`, added in :func:`alcove.app.create_app`) answers 422
-naming each offending field instead, before the route runs. It costs a substring search of
-the body (already read by FastAPI); the JSON is parsed again only when ``\\u0000`` occurs in it.
+naming each offending field instead, before the route runs (and before authentication: an
+unauthenticated request with a NUL is refused with 422 rather than 401, which tells nothing
+either way). It costs a substring search of the body (already read by FastAPI); the JSON is
+parsed again only when ``\\u0000`` occurs in it.
 """
 
 from __future__ import annotations
