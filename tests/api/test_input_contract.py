@@ -97,6 +97,11 @@ def test_405_lists_every_method_of_the_path(client, owner, method, path, allow) 
     assert r.headers["allow"] == allow
 
 
+def test_a_negative_id_is_still_the_parameter_s_422(client, owner) -> None:
+    r = client.get(f"{API}/tasks/-1", headers=owner.headers)
+    assert r.status_code == 422 and r.json()["detail"][0]["field"] == "task_id"
+
+
 def test_job_status_filter_is_an_enum(client, owner, campaign_id) -> None:
     url = f"{API}/campaigns/{campaign_id}/jobs"
     r = client.get(url, params={"status": "bogus"}, headers=owner.headers)

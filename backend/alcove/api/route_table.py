@@ -33,8 +33,8 @@ def api_routes(app: FastAPI) -> list[RouteInfo]:
 def allowed_methods(app: FastAPI, path: str) -> list[str]:
     """The methods some route of ``app`` answers at ``path`` (for the ``Allow`` header of a
     405): the union over every route whose path matches, not just the first one's. Integer
-    path parameters are declared ``{name:int}``, so ``/tasks/presets`` does not match
-    ``/tasks/{task_id:int}``."""
+    path parameters are declared ``{name:integer}`` (:mod:`alcove.api.params`), so
+    ``/tasks/presets`` does not match ``/tasks/{task_id:integer}``."""
     methods: set[str] = set()
     for ctx in iter_route_contexts(app.routes):
         route = ctx.original_route

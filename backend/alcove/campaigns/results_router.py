@@ -50,7 +50,7 @@ After = Annotated[
 
 
 @router.get(
-    "/{campaign_id:int}/metrics",
+    "/{campaign_id:integer}/metrics",
     response_model=list[MetricsRead],
     operation_id="list_campaign_metrics",
     responses=NOT_MODIFIED,
@@ -97,7 +97,7 @@ async def list_campaign_metrics(
 
 
 @router.get(
-    "/{campaign_id:int}/iterations", response_model=list[IterationRead], operation_id="list_campaign_iterations"
+    "/{campaign_id:integer}/iterations", response_model=list[IterationRead], operation_id="list_campaign_iterations"
 )
 def list_campaign_iterations(
     campaign_id: ObjectId,
@@ -122,7 +122,7 @@ def list_campaign_iterations(
 
 
 @router.get(
-    "/{campaign_id:int}/iterations/{iteration:int}/curves",
+    "/{campaign_id:integer}/iterations/{iteration:integer}/curves",
     response_model=IterationCurves,
     operation_id="get_iteration_curves",
     responses=NOT_MODIFIED,
@@ -156,7 +156,7 @@ async def get_iteration_curves(
 
 
 @router.get(
-    "/{campaign_id:int}/iterations/{iteration:int}/trajectory",
+    "/{campaign_id:integer}/iterations/{iteration:integer}/trajectory",
     response_model=IterationTrajectory,
     operation_id="get_iteration_trajectory",
     responses=NOT_MODIFIED,
@@ -196,7 +196,7 @@ async def get_iteration_trajectory(
     return await cached_json(request, key, build)
 
 
-@router.get("/{campaign_id:int}/jobs", response_model=list[JobOut], operation_id="list_campaign_jobs")
+@router.get("/{campaign_id:integer}/jobs", response_model=list[JobOut], operation_id="list_campaign_jobs")
 def list_campaign_jobs(
     campaign_id: ObjectId,
     user: CurrentUser,
@@ -209,7 +209,7 @@ def list_campaign_jobs(
     return [JobOut(**row) for row in results.list_jobs(session, campaign_id, statuses)]
 
 
-@router.get("/{campaign_id:int}/events", response_model=list[EventRead], operation_id="list_campaign_events")
+@router.get("/{campaign_id:integer}/events", response_model=list[EventRead], operation_id="list_campaign_events")
 def list_campaign_events(
     campaign_id: ObjectId,
     user: CurrentUser,
@@ -221,7 +221,7 @@ def list_campaign_events(
 
 
 @router.get(
-    "/{campaign_id:int}/export",
+    "/{campaign_id:integer}/export",
     operation_id="export_campaign",
     response_class=Response,
     responses={200: binary("application/zip")},

@@ -47,7 +47,9 @@ class UploadOut(BaseModel):
 # ----------------------------------------------------------------------------- pool versions
 
 
-@router.get("/{campaign_id:int}/pool-versions", response_model=list[PoolVersionRead], operation_id="list_pool_versions")
+@router.get(
+    "/{campaign_id:integer}/pool-versions", response_model=list[PoolVersionRead], operation_id="list_pool_versions"
+)
 def list_pool_versions(campaign_id: ObjectId, user: CurrentUser, session: SessionDep) -> list[PoolVersionRead]:
     """Immutable pool versions (lineage: ``parent_id``; version k = k-1 + iteration k's data)."""
     get_for(session, Campaign, campaign_id, user)
@@ -55,7 +57,7 @@ def list_pool_versions(campaign_id: ObjectId, user: CurrentUser, session: Sessio
 
 
 @router.get(
-    "/{campaign_id:int}/pool-versions/{version:int}/download",
+    "/{campaign_id:integer}/pool-versions/{version:integer}/download",
     operation_id="download_pool_version",
     response_class=Response,
     responses={200: binary("application/vnd.apache.parquet", "text/csv")},

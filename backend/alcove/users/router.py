@@ -117,7 +117,7 @@ def create_token(body: TokenCreate, user: CurrentUser, session: SessionDep) -> T
 
 
 @router.delete(
-    "/me/tokens/{token_id:int}", status_code=status.HTTP_204_NO_CONTENT, tags=["me"], operation_id="revoke_token"
+    "/me/tokens/{token_id:integer}", status_code=status.HTTP_204_NO_CONTENT, tags=["me"], operation_id="revoke_token"
 )
 def revoke_token(token_id: ObjectId, user: CurrentUser, session: SessionDep) -> Response:
     service.revoke_token(session, user, token_id)
@@ -142,12 +142,12 @@ def create_user(body: UserCreate, admin: AdminUser, session: SessionDep) -> User
     return UserOut.model_validate(user)
 
 
-@router.get("/users/{user_id:int}", response_model=UserOut, tags=["users"], operation_id="get_user")
+@router.get("/users/{user_id:integer}", response_model=UserOut, tags=["users"], operation_id="get_user")
 def get_user(user_id: ObjectId, admin: AdminUser, session: SessionDep) -> UserOut:
     return UserOut.model_validate(service.get_user(session, user_id))
 
 
-@router.patch("/users/{user_id:int}", response_model=UserOut, tags=["users"], operation_id="update_user")
+@router.patch("/users/{user_id:integer}", response_model=UserOut, tags=["users"], operation_id="update_user")
 def update_user(
     user_id: ObjectId, body: UserUpdate, admin: AdminUser, session: SessionDep, request: Request
 ) -> UserOut:
@@ -188,7 +188,7 @@ def list_shares(
 
 
 @router.delete(
-    "/shares/{share_id:int}", status_code=status.HTTP_204_NO_CONTENT, tags=["sharing"], operation_id="delete_share"
+    "/shares/{share_id:integer}", status_code=status.HTTP_204_NO_CONTENT, tags=["sharing"], operation_id="delete_share"
 )
 def delete_share(share_id: ObjectId, user: CurrentUser, session: SessionDep) -> Response:
     service.delete_share(session, user, share_id)
