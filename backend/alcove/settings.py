@@ -10,6 +10,7 @@ from __future__ import annotations
 import ipaddress
 from functools import lru_cache
 from pathlib import Path
+from typing import Literal
 
 from pydantic import Field, SecretStr, field_validator, model_validator
 from pydantic_settings import BaseSettings, SettingsConfigDict
@@ -67,6 +68,13 @@ class Settings(BaseSettings):
         description=(
             "Comma-separated IP addresses or networks (CIDR) of reverse proxies whose X-Forwarded-For header is "
             "believed; empty: none (the client address is the connection's peer)"
+        ),
+    )
+    forwarded_header: Literal["x-forwarded-for", "forwarded"] = Field(
+        default="x-forwarded-for",
+        description=(
+            "The header the trusted proxies write the client address to: X-Forwarded-For, or Forwarded (RFC 7239, "
+            "its for= parameters); the other one is never read (a client could have written it)"
         ),
     )
     log_level: str = "INFO"

@@ -139,6 +139,13 @@ try {
   await page.waitForURL(/\/tasks\/\d+$/);
   await page.getByTestId("phases-table").waitFor();
 
+  step("share the task with an address no account has: the words do not tell");
+  const invitee = `nobody-${stamp}@example.org`;
+  await page.getByLabel("Share with").fill(invitee);
+  await page.getByRole("button", { name: "Share", exact: true }).click();
+  await page.getByRole("status").filter({ hasText: `Shared with ${invitee}. If no account uses this address yet` }).waitFor();
+  await page.getByText(`${invitee} (view)`).waitFor();
+
   step("solve the task once (preview run by the worker)");
   await page.getByTestId("validation-state").filter({ hasText: "valid" }).waitFor({ timeout: 15_000 });
   await page.getByRole("button", { name: "Solve once" }).click();

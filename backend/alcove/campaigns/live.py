@@ -292,7 +292,7 @@ async def stream_all_campaign_events(
 
 
 @router.get(
-    "/{campaign_id}/events/stream",
+    "/{campaign_id:integer}/events/stream",
     operation_id="stream_campaign_events",
     response_class=StreamingResponse,
     responses=SSE_RESPONSES,

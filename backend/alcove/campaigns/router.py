@@ -114,7 +114,7 @@ def create_campaign(body: CampaignCreateIn, user: CurrentUser, session: SessionD
         )
     else:
         scv_id = surrogate_config_version_for(session, user.id, None)
-    refs.check_datasets(session, user, body.preliminary.dataset_ids)
+    refs.check_datasets(session, user, body.preliminary.dataset_ids, task_version_id)
     data = CampaignCreate(
         name=body.name,
         description=body.description,
@@ -136,7 +136,7 @@ def create_campaign(body: CampaignCreateIn, user: CurrentUser, session: SessionD
     return campaign_out(session, campaign, user)
 
 
-@router.get("/{campaign_id}", response_model=CampaignOut, operation_id="get_campaign", responses=NOT_MODIFIED)
+@router.get("/{campaign_id:integer}", response_model=CampaignOut, operation_id="get_campaign", responses=NOT_MODIFIED)
 async def get_campaign(campaign_id: ObjectId, user: CurrentUser, request: Request) -> Response:
     """Status, current iteration and step, latest metrics, ETA. Polled: answers carry an
     ``ETag``; send it back as ``If-None-Match`` and an unchanged campaign is a bodiless 304."""
@@ -153,7 +153,7 @@ async def get_campaign(campaign_id: ObjectId, user: CurrentUser, request: Reques
     return await cached_json(request, key, build)
 
 
-@router.patch("/{campaign_id}/config", response_model=CampaignOut, operation_id="update_campaign_config")
+@router.patch("/{campaign_id:integer}/config", response_model=CampaignOut, operation_id="update_campaign_config")
 def update_campaign_config(
     campaign_id: ObjectId, body: CampaignConfigUpdate, user: CurrentUser, session: SessionDep
 ) -> CampaignOut:
@@ -178,7 +178,7 @@ def _action(name: str, summary: str) -> None:
     route.__name__ = f"{name}_campaign"
     route.__doc__ = summary
     router.add_api_route(
-        f"/{{campaign_id}}/{name}",
+        f"/{{campaign_id:integer}}/{name}",
         route,
         methods=["POST"],
         response_model=CampaignOut,
@@ -193,7 +193,7 @@ _action("resume", "Resume a paused campaign.")
 _action("cancel", "Cancel: queued steps are dropped, a running job stops at its next check.")
 
 
-@router.post("/{campaign_id}/retry", response_model=CampaignOut, operation_id="retry_campaign_step")
+@router.post("/{campaign_id:integer}/retry", response_model=CampaignOut, operation_id="retry_campaign_step")
 def retry_campaign_step(
     campaign_id: ObjectId, user: CurrentUser, session: SessionDep, body: Annotated[RetryIn | None, Body()] = None
 ) -> CampaignOut:
@@ -210,7 +210,10 @@ def retry_campaign_step(
 
 
 @router.post(
-    "/{campaign_id}/fork", response_model=CampaignOut, status_code=status.HTTP_201_CREATED, operation_id="fork_campaign"
+    "/{campaign_id:integer}/fork",
+    response_model=CampaignOut,
+    status_code=status.HTTP_201_CREATED,
+    operation_id="fork_campaign",
 )
 def fork_campaign(campaign_id: ObjectId, body: ForkRequest, user: CurrentUser, session: SessionDep) -> CampaignOut:
     """A new campaign of yours continuing from iteration k of this one (its pool and model),

@@ -244,7 +244,8 @@ class EventRead(_Read):
 
 
 class _In(BaseModel):
-    model_config = ConfigDict(extra="forbid")
+    # strict: "1" is not a number and 1 or "true" not a boolean, as the schema says (JSON numbers still fill floats)
+    model_config = ConfigDict(extra="forbid", strict=True)
 
 
 class CampaignCreateIn(_In):
@@ -269,7 +270,7 @@ class CampaignCreateIn(_In):
 
 class RetryIn(_In):
     iteration: int | None = Field(None, ge=0, le=MAX_ID)
-    step: StepName | None = None
+    step: StepName | None = Field(None, strict=False)  # an enum from a JSON string
 
 
 class CampaignSummary(BaseModel):

@@ -35,7 +35,8 @@ RATE_LIMITED: dict[int | str, dict[str, Any]] = {
 
 
 class _In(BaseModel):
-    model_config = ConfigDict(extra="forbid")
+    # strict: "1" is not a number and 1 or "true" not a boolean, as the schema says (JSON numbers still fill floats)
+    model_config = ConfigDict(extra="forbid", strict=True)
 
 
 class TaskPreviewIn(_In):
@@ -154,7 +155,7 @@ def preview_out(row: Preview, with_result: bool = True) -> PreviewOut:
 
 
 @router.post(
-    "/tasks/{task_id}/previews",
+    "/tasks/{task_id:integer}/previews",
     response_model=PreviewOut,
     status_code=status.HTTP_202_ACCEPTED,
     operation_id="create_task_preview",
@@ -175,7 +176,7 @@ def create_task_preview(
 
 
 @router.post(
-    "/oracles/{oracle_id}/previews",
+    "/oracles/{oracle_id:integer}/previews",
     response_model=PreviewOut,
     status_code=status.HTTP_202_ACCEPTED,
     operation_id="create_oracle_preview",
@@ -193,7 +194,7 @@ def create_oracle_preview(
     return preview_out(row)
 
 
-@router.get("/previews/{preview_id}", response_model=PreviewOut, operation_id="get_preview")
+@router.get("/previews/{preview_id:integer}", response_model=PreviewOut, operation_id="get_preview")
 def get_preview(preview_id: ObjectId, user: CurrentUser, session: SessionDep) -> PreviewOut:
     """One of your previews: status pending | running | succeeded | failed, result, error."""
     return preview_out(service.get(session, user, preview_id))

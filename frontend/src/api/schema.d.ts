@@ -887,8 +887,9 @@ export interface paths {
         put?: never;
         /**
          * Upload Preliminary Dataset
-         * @description Store a preliminary data set (validated); use the returned ids as a campaign's
-         *     ``preliminary.dataset_ids``.
+         * @description Store a preliminary data set (validated: finite values within plausible ranges, joint
+         *     angles within the task's model range when ``task_id`` is given); use the returned ids as
+         *     a campaign's ``preliminary.dataset_ids`` (checked again against the campaign's task).
          */
         post: operations["upload_preliminary_dataset"];
         delete?: never;
@@ -1325,9 +1326,14 @@ export interface components {
             file: string;
             /**
              * Name
-             * @default upload
+             * @description stem of the datasets' names (letters, digits, _ . + -); left out: 'upload'
              */
-            name?: string;
+            name?: string | null;
+            /**
+             * Task Id
+             * @description check the values against this task's model (default: any model's range)
+             */
+            task_id?: number | null;
         };
         /**
          * CampaignConfig
@@ -2607,7 +2613,7 @@ export interface components {
             seed?: number | null;
             /**
              * Velocity Bound
-             * @description |qd| bound of the samples [rad/s]
+             * @description |qd| bound of the samples [rad/s]; above 0, at most 100
              * @default 2
              */
             velocity_bound?: number;
@@ -2692,7 +2698,7 @@ export interface components {
             ocp_intervals?: number | null;
             /**
              * Replay Dt
-             * @description the replayed trajectory is resampled (cubic Hermite) at this step [s]; None: the OCP grid
+             * @description the replayed trajectory is resampled (cubic Hermite) at this step [s], above 0, at most 0.1; None: the OCP grid
              * @default 0.0025
              */
             replay_dt?: number | null;
@@ -2829,12 +2835,12 @@ export interface components {
             max_iterations?: number | null;
             /**
              * Oracle Budget S
-             * @description stop when the oracle's total wall time reaches this [s]
+             * @description stop when the oracle's total wall time reaches this [s]; above 0, at most 1e7 s (16 weeks)
              */
             oracle_budget_s?: number | null;
             /**
              * Plateau Tolerance
-             * @description relative improvement that still counts as progress
+             * @description relative improvement that still counts as progress [-]; 0 to below 1
              * @default 0.01
              */
             plateau_tolerance?: number;
@@ -2845,12 +2851,12 @@ export interface components {
             plateau_window?: number | null;
             /**
              * Target Force Rmse
-             * @description stop when the iteration's force RMSE [N] is at most this
+             * @description stop when the iteration's force RMSE [N] is at most this; above 0, at most 1e5 N
              */
             target_force_rmse?: number | null;
             /**
              * Target Moment Rmse
-             * @description stop when the iteration's moment RMSE [N m] is at most this
+             * @description stop when the iteration's moment RMSE [N m] is at most this; above 0, at most 1e4 N m
              */
             target_moment_rmse?: number | null;
         };
@@ -2911,7 +2917,7 @@ export interface components {
             preliminary_weight?: number;
             /**
              * Seed
-             * @description seed of splits, initialisation and batch order [-], a whole number at least 0, below 9.22337e18
+             * @description seed of splits, initialisation and batch order [-], a whole number 0 to 9.22337e18
              * @default 0
              */
             seed?: number;
@@ -4884,7 +4890,7 @@ export interface operations {
                     [name: string]: unknown;
                 };
                 content: {
-                    "application/octet-stream": string;
+                    "application/zip": string;
                 };
             };
             /** @description not authenticated (missing, invalid, expired or revoked token) */
@@ -5326,7 +5332,8 @@ export interface operations {
     list_campaign_jobs: {
         parameters: {
             query?: {
-                status?: string[] | null;
+                /** @description only these */
+                status?: components["schemas"]["StepStatus"][] | null;
             };
             header?: never;
             path: {
@@ -5707,7 +5714,7 @@ export interface operations {
                     [name: string]: unknown;
                 };
                 content: {
-                    "application/octet-stream": string;
+                    "application/zip": string;
                 };
             };
             /** @description not authenticated (missing, invalid, expired or revoked token) */
@@ -5969,7 +5976,8 @@ export interface operations {
                     [name: string]: unknown;
                 };
                 content: {
-                    "application/octet-stream": string;
+                    "application/vnd.apache.parquet": string;
+                    "text/csv": string;
                 };
             };
             /** @description not authenticated (missing, invalid, expired or revoked token) */

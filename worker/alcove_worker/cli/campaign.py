@@ -95,17 +95,19 @@ def _create(
         stopping = dict(cfg.get("stopping") or {})
         if iterations is not None:
             stopping["max_iterations"] = iterations
-        data = CampaignCreate(
-            name=name or cfg.get("name") or f"{task} x {oracle}",
-            description=cfg.get("description", ""),
-            task_version_id=tv,
-            oracle_version_id=ov,
-            surrogate_config_version_id=sv,
-            seed=seed if seed is not None else cfg.get("seed", 0),
-            preliminary=cfg.get("preliminary") or {},
-            stopping=stopping,
-            policies=cfg.get("policies") or {},
-            settings=cfg.get("settings") or {},
+        data = CampaignCreate.model_validate(
+            {
+                "name": name or cfg.get("name") or f"{task} x {oracle}",
+                "description": cfg.get("description", ""),
+                "task_version_id": tv,
+                "oracle_version_id": ov,
+                "surrogate_config_version_id": sv,
+                "seed": seed if seed is not None else cfg.get("seed", 0),
+                "preliminary": cfg.get("preliminary") or {},
+                "stopping": stopping,
+                "policies": cfg.get("policies") or {},
+                "settings": cfg.get("settings") or {},
+            }
         )
         return service.create_campaign(s, user.id, data).id
 
