@@ -160,7 +160,7 @@ def test_a_preview_no_worker_takes_fails_with_the_reason_and_frees_its_slot(clie
     import sqlalchemy as sa
 
     from alcove.db import transaction
-    from alcove.models import Preview, utcnow
+    from alcove.models import JobOutbox, Preview, utcnow
     from alcove.previews.service import STALE_AFTER
     from alcove.previews.worker import run_preview
 
@@ -172,12 +172,18 @@ def test_a_preview_no_worker_takes_fails_with_the_reason_and_frees_its_slot(clie
     old = utcnow() - STALE_AFTER - timedelta(seconds=5)
     # the first waited too long in the queue; the oracle one was taken by a worker that died
     transaction(lambda s: s.execute(sa.update(Preview).where(Preview.id == ids[0]).values(created_at=old)))
+    transaction(  # its job reached the job queue that long ago (sent, never taken)
+        lambda s: s.execute(sa.update(JobOutbox).where(JobOutbox.subject == f"preview/{ids[0]}").values(sent_at=old))
+    )
     transaction(
         lambda s: s.execute(
             sa.update(Preview).where(Preview.id == ids[2]).values(status="running", started_at=old, attempts=1)
         )
     )
 
+    assert client.get(f"{API}/previews/{ids[1]}", headers=me.headers).json()["status_detail"] == (
+        "waiting for a worker on queue 'ocp'"
+    )
     stale = client.get(f"{API}/previews/{ids[0]}", headers=me.headers).json()
     assert stale["status"] == "failed" and "no worker took it" in stale["error"] and "'ocp'" in stale["error"], stale
     assert (

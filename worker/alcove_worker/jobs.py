@@ -105,12 +105,13 @@ _reconciler: ReconcilerThread | None = None
 
 @signals.worker_ready.connect
 def _start_reconciler(sender: Any = None, **_: Any) -> None:
-    """Reconcile at worker start (steps of a worker that died), then every lease/4 s."""
+    """Reconcile at worker start (steps of a worker that died), then every
+    ``ALCOVE_RECONCILE_SECONDS`` (2 s: a dead worker's step runs again within seconds)."""
     global _reconciler
     from alcove.campaigns.reconciler import ReconcilerThread
     from alcove.settings import get_settings
 
-    _reconciler = ReconcilerThread(interval=max(1.0, get_settings().job_lease_seconds / 4))
+    _reconciler = ReconcilerThread(interval=get_settings().reconcile_seconds)
     _reconciler.start()
 
 
