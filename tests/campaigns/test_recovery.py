@@ -131,7 +131,9 @@ def test_a_slow_worker_keeps_its_step(
 
 def outbox_row(url: str, subject: str) -> tuple[Any, ...] | None:
     got = db_rows(
-        url, "SELECT sent_at, send_count, sent_to, delivered_at FROM job_outbox WHERE subject = :s ORDER BY id", s=subject
+        url,
+        "SELECT sent_at, send_count, sent_to, delivered_at FROM job_outbox WHERE subject = :s ORDER BY id",
+        s=subject,
     )
     return got[-1] if got else None
 
@@ -191,3 +193,77 @@ def test_jobs_wait_for_redis_and_a_restart_before_pick_up_loses_nothing(
     assert db_rows(pg_url, "SELECT count(*) FROM datasets WHERE campaign_id = :c AND origin = 'oracle'", c=cid) == [
         (1,)
     ]
+
+
+def test_a_job_whose_sender_died_after_the_commit_is_sent_by_a_workers_relay(
+    pg_redis_default_lease: dict[str, str], pg_url: str, tmp_path: Path, make_campaign: Any
+) -> None:
+    """An API killed between its commit and the send (the job is only in the outbox): the
+    relay of a running worker sends it; the step runs once, on its first attempt."""
+    from alcove.campaigns import service
+    from alcove.db import transaction
+    from alcove.jobs.campaign import stage
+
+    env = pg_redis_default_lease
+    w = start_worker(env, tmp_path / "w.log", unique("rw"))
+    try:
+        wait_for(lambda: " ready." in w.output(), 90, "the worker", w)
+        cid, _ = make_campaign(seed=24, stopping={"max_iterations": 1}, start=False)
+        transaction(lambda s: stage(s, service.start(s, cid)[1]))  # committed, never sent by "the API"
+        committed = datetime.now(UTC)
+        claimed = wait_for(
+            lambda: (r := step_row(pg_url, cid, 0, "preliminary")) and r[3] is not None and r, 60, "the claim", w
+        )
+    finally:
+        w.stop()
+    delay = (claimed[3] - committed).total_seconds()
+    print(f"\nRECOVERY job committed but never sent (API killed after its commit): claimed {delay:.1f} s later")
+    assert delay < 30, delay
+    assert claimed[1] == 1
+    assert db_rows(
+        pg_url, "SELECT send_count FROM job_outbox WHERE subject = :s", s=f"campaign/{cid}/k0/preliminary"
+    ) == [(1,)]
+
+
+def _children(pid: int) -> list[int]:
+    out = []
+    for d in Path("/proc").iterdir():
+        if d.name.isdigit():
+            try:
+                if int((d / "stat").read_text().rsplit(")", 1)[1].split()[1]) == pid:
+                    out.append(int(d.name))
+            except (OSError, ValueError):
+                continue
+    return out
+
+
+def test_a_killed_pool_process_is_noticed_by_its_worker(
+    pg_redis_default_lease: dict[str, str], pg_url: str, tmp_path: Path, make_campaign: Any
+) -> None:
+    """SIGKILL of the pool process computing a step, its worker's main process alive (and
+    beating): the main process sees the process exit and releases the step at once."""
+    import os
+    import signal
+
+    cid = start_through_the_outbox(make_campaign, 25, {"train": {"sleep_s": 6, "iterations": [1]}})
+    w = start_worker(pg_redis_default_lease, tmp_path / "w.log", unique("kp"))
+    try:
+        wait_for(lambda: (r := step_row(pg_url, cid, 1, "train")) and r[0] == "running", 240, "the train step", w)
+        time.sleep(1.0)
+        (child,) = _children(w.p.pid)
+        os.kill(child, signal.SIGKILL)
+        killed_at = datetime.now(UTC)
+        again = wait_for(
+            lambda: (r := step_row(pg_url, cid, 1, "train")) and r[1] == 2 and r[3] is not None and r,
+            120,
+            "the train step to run again",
+            w,
+        )
+        recovery = (again[3] - killed_at).total_seconds()
+        print(f"\nRECOVERY pool process SIGKILL mid-train (worker alive): re-run {recovery:.1f} s after the kill")
+        assert recovery < 60, recovery
+        wait_for(lambda: db_rows(pg_url, ENDED, c=cid), 240, "the campaign to end", w)
+    finally:
+        w.stop()
+    assert db_rows(pg_url, ENDED, c=cid) == [("completed", "max_iterations")]
+    assert [d["attempt"] for (d,) in events(pg_url, cid, "step_started", "train")] == [1, 2]

@@ -118,6 +118,28 @@ def reconcile_and_enqueue(stale_queued_s: float | None = None) -> list[StepJob]:
     return jobs
 
 
+def release_lost_step(campaign_id: int, iteration: int, step: str, attempt: int, worker_name: str) -> bool:
+    """The pool process running this attempt died (its worker's main process saw it exit
+    and lives on, still beating): expire the step's lease so that the next reconciler pass
+    (seconds) gives it to another job. Only while the step is still this attempt's, on this
+    worker. Returns whether it did."""
+    from alcove.db import transaction
+
+    def work(s: Session) -> bool:
+        row = repo.get_step(s, campaign_id, iteration, step)
+        if row is None or row.status != StepStatus.running.value:
+            return False
+        if row.attempts != attempt or row.worker_name != worker_name:
+            return False
+        row.lease_until = utcnow()
+        return True
+
+    released = transaction(work)
+    if released:
+        log.warning("the process of step c%d:%d/%s#%d died on %s", campaign_id, iteration, step, attempt, worker_name)
+    return released
+
+
 class ReconcilerThread(threading.Thread):
     """Periodic :func:`reconcile_and_enqueue` (every ``interval`` s) in a worker's main process."""
 
