@@ -14,6 +14,7 @@ import shutil
 import subprocess
 import time
 import uuid
+from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any
 
@@ -444,7 +445,19 @@ def test_an_api_restart_mid_campaign_changes_nothing_and_the_new_api_controls_it
         assert httpx.post(f"{base}/campaigns/{cid}/start", headers=headers, timeout=30).status_code == 200
         wait_for(lambda: at(2, "train", "running"), 180, "the train job of iteration 2", w)
         api.kill()  # no shutdown of any kind
+        killed = datetime.now(UTC)
         api = serve("api2.log")
+        back = datetime.now(UTC)
+        (finished,) = rows(
+            pg_url,
+            "SELECT count(*) FROM iteration_steps WHERE campaign_id = :c AND finished_at > :t",
+            c=cid,
+            t=killed,
+        )
+        print(
+            f"\nRECOVERY API SIGKILL mid-campaign: a new API answered {(back - killed).total_seconds():.1f} s later; "
+            f"meanwhile the workers finished {finished[0]} step(s) (nothing waits for the API)"
+        )
         r = httpx.post(f"{base}/campaigns/{cid}/pause", headers=headers, timeout=30)
         assert r.status_code == 200 and r.json()["campaign"]["status"] in ("pausing", "paused"), r.text
         wait_for(
