@@ -33,11 +33,17 @@ def upgrade() -> None:
         ),
         sa.Column("message_id", sa.String(length=100), nullable=False, comment="the Celery task id it is sent as"),
         sa.Column(
-            "subject", sa.String(length=100), nullable=False, comment="what it runs, e.g. preview/12 or campaign/3/k2/train"
+            "subject",
+            sa.String(length=100),
+            nullable=False,
+            comment="what it runs, e.g. preview/12 or campaign/3/k2/train",
         ),
         sa.Column("created_at", sa.DateTime(timezone=True), server_default=sa.func.now(), nullable=False),
         sa.Column(
-            "sent_at", sa.DateTime(timezone=True), nullable=True, comment="last handed to the broker; NULL: waiting for it"
+            "sent_at",
+            sa.DateTime(timezone=True),
+            nullable=True,
+            comment="last handed to the broker; NULL: waiting for it",
         ),
         sa.Column(
             "sent_to",

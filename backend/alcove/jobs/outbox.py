@@ -113,7 +113,7 @@ def reset_broker_client() -> None:
 # ----------------------------------------------------------------------------- sending
 
 
-def _pending(ids: Sequence[int] | None, incarnation: str, dialect: str) -> sa.Select[tuple[JobOutbox]]:
+def _pending(ids: Sequence[int] | None, incarnation: str, dialect: str) -> sa.Select[JobOutbox]:
     q = (
         sa.select(JobOutbox)
         .where(
