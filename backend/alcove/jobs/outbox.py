@@ -39,7 +39,7 @@ from typing import Any
 import sqlalchemy as sa
 from sqlalchemy.orm import Session
 
-from alcove.db import transaction
+from alcove.db import get_sessionmaker, transaction
 from alcove.jobs import queue_for, send_job
 from alcove.models import JobOutbox, utcnow
 from alcove.settings import get_settings
@@ -130,6 +130,15 @@ def _pending(ids: Sequence[int] | None, incarnation: str, dialect: str) -> sa.Se
     return q
 
 
+def _anything_to_send(incarnation: str) -> bool:
+    with get_sessionmaker()() as s:
+        q = sa.select(JobOutbox.id).where(
+            JobOutbox.delivered_at.is_(None),
+            sa.or_(JobOutbox.sent_at.is_(None), JobOutbox.sent_to != incarnation),
+        )
+        return s.scalar(q.limit(1)) is not None
+
+
 def relay_pass(ids: Iterable[int] | None = None) -> int:
     """Send the rows waiting for the broker (only ``ids``, if given), each once per broker
     incarnation. Returns how many were sent; 0 while the broker does not answer."""
@@ -139,6 +148,8 @@ def relay_pass(ids: Iterable[int] | None = None) -> int:
     incarnation = broker_incarnation()
     if incarnation is None:
         return 0
+    if wanted is None and not _anything_to_send(incarnation):
+        return 0  # the usual case: a read, no write transaction (SQLite's write lock stays free)
 
     def work(s: Session) -> int:
         rows = list(s.scalars(_pending(wanted, incarnation, s.get_bind().dialect.name)))
