@@ -7,7 +7,9 @@ production lease (120 s), so that nothing here is rescued by a lease running out
   threshold) keeps its step: no second run, no re-queue;
 * Redis down while a step finishes, then restarted between the next step's send and its
   pick-up (losing the message): the outbox sends it when Redis is back and again after the
-  restart; the step runs once, nothing is lost or duplicated.
+  restart; the step runs once, nothing is lost or duplicated;
+* a job committed by a process that died before sending it: a worker's outbox relay sends it;
+* only the pool process computing a step SIGKILLed: its worker's main process releases the step.
 
 The recovery times printed here are the ones reported in docs/scale.md (``pytest -s``).
 """
