@@ -106,6 +106,16 @@ class Settings(BaseSettings):
             )
         return self
 
+    @model_validator(mode="after")
+    def _dead_after_several_beats(self) -> Settings:
+        if self.worker_dead_seconds < 2 * self.worker_heartbeat_seconds:
+            raise ValueError(
+                f"ALCOVE_WORKER_DEAD_SECONDS ({self.worker_dead_seconds:g}) must be at least twice "
+                f"ALCOVE_WORKER_HEARTBEAT_SECONDS ({self.worker_heartbeat_seconds:g}): a worker between two beats "
+                "would count as dead and lose its step"
+            )
+        return self
+
     @field_validator("trusted_proxies")
     @classmethod
     def _valid_networks(cls, value: str) -> str:
