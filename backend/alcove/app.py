@@ -6,6 +6,8 @@ from __future__ import annotations
 
 import logging
 import os
+from collections.abc import AsyncIterator, Callable
+from contextlib import AbstractAsyncContextManager, asynccontextmanager
 from pathlib import Path
 
 from fastapi import APIRouter, Depends, FastAPI, Request
@@ -68,9 +70,29 @@ def api_routers() -> list[APIRouter]:
     ]
 
 
+def _lifespan(settings: Settings) -> Callable[[FastAPI], AbstractAsyncContextManager[None]]:
+    """While the app serves: the job outbox's relay, which sends the jobs this process (or a
+    process that died) recorded while the broker was down, and those a broker restart lost
+    (see :mod:`alcove.jobs.outbox`)."""
+
+    @asynccontextmanager
+    async def lifespan(app: FastAPI) -> AsyncIterator[None]:
+        from alcove.jobs.outbox import RelayThread
+
+        relay = RelayThread(settings.outbox_relay_seconds)
+        relay.start()
+        try:
+            yield
+        finally:
+            relay.stop()
+
+    return lifespan
+
+
 def create_app(settings: Settings | None = None) -> FastAPI:
     settings = settings or get_settings()
     app = FastAPI(
+        lifespan=_lifespan(settings),
         title="alcove",
         version=alcove.__version__,
         description="Active-learning campaigns for data-driven contact surrogates.",

@@ -30,7 +30,7 @@ from alcove.campaigns.schemas import (
 )
 from alcove.db import get_sessionmaker
 from alcove.errors import InvalidInput, NotFound
-from alcove.jobs.campaign import send_committed
+from alcove.jobs.campaign import send_committed, stage
 from alcove.models import Campaign, CampaignStatus
 from alcove.users.access import get_for
 from alcove.users.auth import CurrentUser
@@ -131,8 +131,9 @@ def create_campaign(body: CampaignCreateIn, user: CurrentUser, session: SessionD
     jobs: list[Any] = []
     if body.start:
         campaign, jobs = campaigns.start(session, campaign.id)
+    staged = stage(session, jobs)
     session.commit()
-    send_committed(jobs)
+    send_committed(staged)
     return campaign_out(session, campaign, user)
 
 
@@ -171,8 +172,9 @@ def _action(name: str, summary: str) -> None:
     def route(campaign_id: ObjectId, user: CurrentUser, session: SessionDep) -> CampaignOut:
         campaign = get_for(session, Campaign, campaign_id, user, need="edit")
         campaign, jobs = fn(session, campaign.id)
+        staged = stage(session, jobs)
         session.commit()
-        send_committed(jobs)
+        send_committed(staged)
         return campaign_out(session, campaign, user)
 
     route.__name__ = f"{name}_campaign"
@@ -204,8 +206,9 @@ def retry_campaign_step(
         raise InvalidInput.one("step" if body.step is None else "iteration", "give both iteration and step, or neither")
     step = body.step.value if body.step else None
     campaign, jobs = campaigns.retry_step(session, campaign.id, body.iteration, step)
+    staged = stage(session, jobs)
     session.commit()
-    send_committed(jobs)
+    send_committed(staged)
     return campaign_out(session, campaign, user)
 
 
@@ -223,6 +226,7 @@ def fork_campaign(campaign_id: ObjectId, body: ForkRequest, user: CurrentUser, s
     if body.iteration > MAX_ID:
         raise InvalidInput.one("iteration", "too large")
     campaign, jobs = campaigns.fork(session, source.id, body, user.id)
+    staged = stage(session, jobs)
     session.commit()
-    send_committed(jobs)
+    send_committed(staged)
     return campaign_out(session, campaign, user)

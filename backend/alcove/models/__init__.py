@@ -45,7 +45,7 @@ from alcove.models.definitions import (
     spec_hash,
 )
 from alcove.models.guards import ImmutableRowError
-from alcove.models.ops import SmokeCheck, WorkerHeartbeat
+from alcove.models.ops import JobOutbox, SmokeCheck, WorkerHeartbeat
 from alcove.models.previews import Preview, PreviewKind, PreviewStatus
 from alcove.models.users import ApiToken, Share, User, hash_password, hash_token, new_token_secret, verify_password
 from alcove.models.validation import MotionStatus, SuiteStatus, ValidationMetrics, ValidationMotion, ValidationSuite
@@ -68,6 +68,7 @@ __all__ = [
     "IterationMetrics",
     "IterationStatus",
     "IterationStep",
+    "JobOutbox",
     "ModelVersion",
     "MotionStatus",
     "OcpSolution",

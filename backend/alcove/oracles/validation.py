@@ -25,7 +25,6 @@ import sqlalchemy as sa
 from sqlalchemy.exc import IntegrityError
 from sqlalchemy.orm import Session
 
-from alcove.jobs import send_job
 from alcove.jobs.after_commit import send_after_commit
 from alcove.models import Campaign, MotionStatus, SuiteStatus, ValidationMotion, ValidationSuite, utcnow
 from alcove.pool.service import store_dataset
@@ -225,7 +224,8 @@ def _settle(s: Session, suite: ValidationSuite) -> None:
 
 def reconcile_motions(s: Session, older_than: timedelta) -> list[int]:
     """Motions to re-send: queued for longer than ``older_than`` (a lost message) or running
-    past their lease (a dead worker). Returns their ids; the caller sends after commit."""
+    past their lease (a dead worker). Records their jobs in the outbox (sent after the commit)
+    and returns their ids."""
     now = utcnow()
     m = ValidationMotion
     rows = s.scalars(
@@ -239,6 +239,7 @@ def reconcile_motions(s: Session, older_than: timedelta) -> list[int]:
     ).all()
     for r in rows:
         r.queued_at = now
+        send_after_commit(s, MOTION_JOB, r.id)
     # a motion whose last attempt's worker died: out of attempts, it fails (and so does its suite)
     dead = s.scalars(
         sa.select(m).where(m.attempts >= m.max_attempts, m.status == MotionStatus.running.value, m.lease_until < now)
@@ -251,11 +252,3 @@ def reconcile_motions(s: Session, older_than: timedelta) -> list[int]:
         s.flush()
         _settle(s, suite)
     return [r.id for r in rows]
-
-
-def send_motions(ids: list[int]) -> None:
-    for i in ids:
-        try:
-            send_job(MOTION_JOB, i)
-        except Exception:
-            log.exception("sending validation motion %d failed", i)

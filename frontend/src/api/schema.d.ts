@@ -2658,6 +2658,11 @@ export interface components {
             /** Started At */
             started_at: string | null;
             status: components["schemas"]["PreviewStatus"];
+            /**
+             * Status Detail
+             * @description what a pending preview waits for: 'waiting for the job queue: ...' while the broker is not reachable (its job is kept and sent as soon as the broker is back), or 'waiting for a worker on queue ...'
+             */
+            status_detail?: string | null;
             /** Task Version Id */
             task_version_id: number | null;
             /** Worker Name */

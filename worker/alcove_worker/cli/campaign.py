@@ -125,14 +125,19 @@ def _control(action: str, campaign_id: int, **kwargs: Any) -> Any:
     from alcove.campaigns import service
     from alcove.db import transaction
     from alcove.errors import DomainError
-    from alcove.jobs.campaign import enqueue
+    from alcove.jobs.campaign import send_committed, stage
 
     fn = getattr(service, action)
+
+    def work(s: Any) -> tuple[Any, list[int]]:
+        obj, jobs = fn(s, campaign_id, **kwargs)
+        return obj, stage(s, jobs)  # recorded with the change, sent after its commit
+
     try:
-        obj, jobs = transaction(lambda s: fn(s, campaign_id, **kwargs))
+        obj, staged = transaction(work)
     except DomainError as exc:
         fail("campaign", str(exc))
-    enqueue(jobs)
+    send_committed(staged)
     return obj
 
 
