@@ -102,7 +102,10 @@ def test_two_campaigns_share_one_suite_replayed_once_and_every_model_is_evaluate
     assert [(st, n) for st, n, _, _ in motions] == [("succeeded", 1)] * 4
     assert all(w.startswith("oracle-") for _, _, w, _ in motions)
     assert db_rows(
-        pg_url, "SELECT count(*), count(DISTINCT content_sha256) FROM datasets WHERE origin = 'validation'"
+        pg_url,
+        "SELECT count(*), count(DISTINCT d.content_sha256) FROM datasets d "
+        "JOIN validation_motions m ON m.dataset_id = d.id WHERE m.suite_id = :s AND d.origin = 'validation'",
+        s=suite_id,
     ) == [(4, 4)]
     assert db_rows(
         pg_url,
