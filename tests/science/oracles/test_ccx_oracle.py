@@ -23,6 +23,7 @@ from alcove.science.oracles.fe_headrest_3d import CcxHeadrestOracle, CcxHeadrest
 from alcove.science.oracles.fe_headrest_3d import deck as ccx_deck
 from alcove.science.oracles.fe_headrest_3d.mesh import (
     HexMesh,
+    ellipsoid_cap,
     foam_block,
     hex_volumes_positive,
     structured_hexes,
@@ -251,3 +252,60 @@ def test_non_converged_increment_fails_with_ccx_message(tmp_path):
     assert not result.ok and result.forces is None
     assert "ccx" in result.failure_reason and "step did not complete" in result.failure_reason
     shutil.rmtree(result.diagnostics["workdir"])
+
+
+@needs_ccx
+def test_small_sphere_indentation_agrees_with_hertz(tmp_path):
+    """A rigid sphere (R = 50 mm, frictionless) indents an 80 mm foam layer by 0.4-1 mm
+    (d / R <= 0.02, contact radius a <= 0.09 x thickness: Hertz's range; below 0.4 mm the
+    contact radius spans fewer than 2 elements). A quarter model (symmetry planes y = 0,
+    z = 0), a mild one-term foam (mu = 100 kPa, alpha = 2, beta = 0: E = 200 kPa, nu = 0),
+    2 mm foam elements, 1.5 mm sphere facets. Hertz: F = 4/3 E* sqrt(R) d^1.5, a = sqrt(R d).
+    Thresholds: force within 10 % (the bonded layer of finite thickness and the foam's
+    stiffening make the model a few % stiffer than the half-space), contact radius within
+    one element (2 mm)."""
+    from alcove.science.oracles.fe_headrest.mesh import graded_axis, graded_sizes
+
+    radius, h = 0.05, 0.002
+    x = -np.cumsum(graded_sizes(0.08, h, 0.015))[::-1]
+    x = np.concatenate([x, [0.0]])
+    x[0] = -0.08
+    y = graded_axis(0.0, 0.05, 0.0, 0.014, h, 0.01)
+    block = foam_block(x, y, y)
+    sphere = ellipsoid_cap((0.0, 0.0), (radius,) * 3, 0.6, (-0.6, 0.6), 0.0015, ccx_deck.HEAD_LAYER)
+    centre = radius + 1e-4
+    sphere = HexMesh(sphere.nodes + [centre, 0.0, 0.0], sphere.elements)
+    depth = np.array([0.0, 0.4e-3, 0.6e-3, 0.8e-3, 1.0e-3]) + 1e-4
+    tau = np.linspace(0.0, 1.0, len(depth))
+    motion = ccx_deck.HeadMotion(tau, -np.concatenate([[0.0], depth[1:]]), 0 * tau, 0 * tau, tau[1:])
+    deck = ccx_deck.write_deck(
+        block,
+        sphere,
+        (centre, 0.0, 0.0),
+        ccx_deck.FoamMaterial(((100e3, 2.0, 0.0),)),
+        ccx_deck.Contact(1e10, 0.0, 1e7),
+        motion,
+        ccx_deck.StepControl(0.25, 0.25, 1e-5),
+    )
+    nodes = block.mesh.nodes
+    ids = {name: np.flatnonzero(np.isclose(nodes[:, axis], 0.0)) + 1 for name, axis in (("SYMY", 1), ("SYMZ", 2))}
+    front = np.flatnonzero(np.isclose(nodes[:, 0], 0.0)) + 1
+    extra = "".join(
+        f"*NSET, NSET={name}\n" + "\n".join(str(i) for i in v) + "\n" for name, v in {**ids, "FRONT": front}.items()
+    )
+    extra += "*BOUNDARY\nSYMY, 2, 2, 0\nSYMZ, 3, 3, 0\n"
+    text = deck.text.replace("*STEP", extra + "*STEP", 1)
+    text = text.replace("*END STEP", "*NODE PRINT, NSET=FRONT, TIME POINTS=OUT\nU\n*END STEP")
+    dat = run_ccx(tmp_path, text)
+    d = depth[1:] - 1e-4
+    force = -4.0 * dat[("forces", "HEADREF")].values[:, 0, 0]
+    hertz = 4.0 / 3.0 * 200e3 * np.sqrt(radius) * d**1.5
+    np.testing.assert_allclose(force, hertz, rtol=0.10)
+    u = dat[("displacements", "FRONT")]
+    position = nodes[np.array(u.nodes) - 1][None] + u.values  # (k, n, 3)
+    sphere_x = centre - depth[1:]
+    gap = np.linalg.norm(position - np.stack([sphere_x, 0 * d, 0 * d], -1)[:, None, :], axis=-1) - radius
+    for k in range(len(d)):
+        inside = gap[k] < 0
+        a_fe = np.max(np.hypot(*nodes[np.array(u.nodes)[inside] - 1][:, 1:].T)) + 0.5 * h
+        assert abs(a_fe - np.sqrt(radius * d[k])) <= h, (k, a_fe, np.sqrt(radius * d[k]))

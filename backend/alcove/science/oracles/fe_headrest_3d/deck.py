@@ -160,8 +160,11 @@ def write_deck(
     for e in range(head.elements.shape[0]):
         out.write(f"{m_foam + 1 + e}, S2\n")
     out.write("*MATERIAL, NAME=FOAM\n")
-    out.write(f"*HYPERFOAM, N={len(material.terms)}\n")
-    values = [v for mu, a, _ in material.terms for v in (mu, a)] + [nu for _, _, nu in material.terms]
+    terms = material.terms
+    if len(terms) == 1:  # ccx 2.20 crashes (in its solver) on *HYPERFOAM, N=1: two equal halves, the same W
+        terms = ((0.5 * terms[0][0], terms[0][1], terms[0][2]),) * 2
+    out.write(f"*HYPERFOAM, N={len(terms)}\n")
+    values = [v for mu, a, _ in terms for v in (mu, a)] + [nu for _, _, nu in terms]
     for start in range(0, len(values), 8):
         out.write(", ".join(_number(v) for v in values[start : start + 8]) + "\n")
     out.write("*SOLID SECTION, ELSET=FOAM, MATERIAL=FOAM\n")
