@@ -274,7 +274,7 @@ def test_small_sphere_indentation_agrees_with_hertz(tmp_path):
     block = foam_block(x, y, y)
     sphere = ellipsoid_cap((0.0, 0.0), (radius,) * 3, 0.6, (-0.6, 0.6), 0.0015, ccx_deck.HEAD_LAYER)
     centre = radius + 1e-4
-    sphere = HexMesh(sphere.nodes + [centre, 0.0, 0.0], sphere.elements)
+    sphere = HexMesh(sphere.nodes + np.array([centre, 0.0, 0.0]), sphere.elements)
     depth = np.array([0.0, 0.4e-3, 0.6e-3, 0.8e-3, 1.0e-3]) + 1e-4
     tau = np.linspace(0.0, 1.0, len(depth))
     motion = ccx_deck.HeadMotion(tau, -np.concatenate([[0.0], depth[1:]]), 0 * tau, 0 * tau, tau[1:])
