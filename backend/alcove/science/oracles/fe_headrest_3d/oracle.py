@@ -25,7 +25,18 @@ from alcove.science.geometry import DEFAULT_PRESET, HeadNeckPreset, head_pose_in
 from alcove.science.oracles.base import SUMMARY_DIAGNOSTICS, CancelCheck, OracleInputError, OracleResult
 from alcove.science.oracles.command.oracle import CommandOracle
 from alcove.science.oracles.command.spec import CommandOracleParams, CommandOracleSpec
-from alcove.science.oracles.fe_headrest_3d import deck as ccx_deck
+from alcove.science.oracles.fe_headrest_3d.deck import (
+    HEAD_LAYER,
+    JOB_FILE,
+    JOB_NAME,
+    OUTPUT_FILE,
+    Contact,
+    FoamMaterial,
+    HeadMotion,
+    StepControl,
+    place,
+    write_deck,
+)
 from alcove.science.oracles.fe_headrest_3d.mesh import HexMesh, block_axes, ellipsoid_cap, foam_block
 from alcove.science.oracles.fe_headrest_3d.params import CcxHeadrestParams
 from alcove.science.series import SeriesFormatError, Trajectory
@@ -101,7 +112,7 @@ class CcxHeadrestOracle:
             CAP_AZIMUTH,
             CAP_ELEVATION,
             p.head_element_size,
-            ccx_deck.HEAD_LAYER,
+            HEAD_LAYER,
         )
 
     # ---- input -------------------------------------------------------------------------
@@ -165,8 +176,8 @@ class CcxHeadrestOracle:
         if near.size == 0:  # the head never comes near the cushion: the force is 0, nothing to solve
             job["counts"] = {}
             return {
-                ccx_deck.JOB_NAME + ".inp": "** no contact: nothing to solve\n",
-                ccx_deck.JOB_FILE: json.dumps(job),
+                JOB_NAME + ".inp": "** no contact: nothing to solve\n",
+                JOB_FILE: json.dumps(job),
             }, job
         k = int(near[0])
         if k > 0:  # start one output step before the head comes within the clearance
@@ -184,19 +195,17 @@ class CcxHeadrestOracle:
         if lead > 0:
             tau_path = np.concatenate([[0.0], tau_path])
             ux, uz, rot = (np.concatenate([[0.0], v]) for v in (ux, uz, rot))
-        motion = ccx_deck.HeadMotion(tau_path, ux, uz, rot, lead + (t_out[first_out:] - t_out[start]))
-        head = HexMesh(ccx_deck.place(self.head.nodes, (float(r0[0]), float(r0[1])), a0), self.head.elements)
+        motion = HeadMotion(tau_path, ux, uz, rot, lead + (t_out[first_out:] - t_out[start]))
+        head = HexMesh(place(self.head.nodes, (float(r0[0]), float(r0[1])), a0), self.head.elements)
         dt = p.output_dt
-        deck = ccx_deck.write_deck(
+        deck = write_deck(
             self.block,
             head,
             (float(r0[0]), 0.0, float(r0[1])),
-            ccx_deck.FoamMaterial.from_beta(p.foam_terms),
-            ccx_deck.Contact(p.penalty, p.friction, p.stick_slope, p.contact_formulation),
+            FoamMaterial.from_beta(p.foam_terms),
+            Contact(p.penalty, p.friction, p.stick_slope, p.contact_formulation),
             motion,
-            ccx_deck.StepControl(
-                dt * p.max_increment_fraction, dt * p.max_increment_fraction, dt * p.min_increment_fraction
-            ),
+            StepControl(dt * p.max_increment_fraction, dt * p.max_increment_fraction, dt * p.min_increment_fraction),
         )
         cog = np.stack([r[first_out:, 0], np.zeros(n_out - first_out), r[first_out:, 1]], -1)
         job.update(
@@ -207,16 +216,16 @@ class CcxHeadrestOracle:
             back_xyz=deck.back_coordinates.tolist(),
             counts=deck.counts,
         )
-        return {ccx_deck.JOB_NAME + ".inp": deck.text, ccx_deck.JOB_FILE: json.dumps(job)}, job
+        return {JOB_NAME + ".inp": deck.text, JOB_FILE: json.dumps(job)}, job
 
     def spec(self) -> CommandOracleSpec:
         return CommandOracleSpec(
             name=TYPE_NAME,
             argv=[sys.executable, "-m", "alcove.science.oracles.fe_headrest_3d.driver"],
             description="3D headrest model in CalculiX (alcove's own deck and command)",
-            input_file=ccx_deck.JOB_NAME + ".inp",
+            input_file=JOB_NAME + ".inp",
             allow_user_template=False,
-            output_file=ccx_deck.OUTPUT_FILE,
+            output_file=OUTPUT_FILE,
             timeout_s=self.params.timeout_s,
         )
 
