@@ -18,7 +18,9 @@ class _In(BaseModel):
 TypeName = Field(
     min_length=1,
     max_length=100,
-    description="a built-in type (`aux-penalty`, `fe-headrest-2d`) or a command catalogue entry's name",
+    description=(
+        "a built-in type (`aux-penalty`, `fe-headrest-2d`, `fe-headrest-3d-ccx`) or a command catalogue entry's name"
+    ),
 )
 
 

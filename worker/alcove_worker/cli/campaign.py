@@ -145,7 +145,7 @@ def _control(action: str, campaign_id: int, **kwargs: Any) -> Any:
 def run(
     task: str = typer.Option("head-headrest-2phase", help="task preset"),
     oracle: str = typer.Option(
-        "fe-headrest-2d", help="oracle type: fe-headrest-2d, aux-penalty or a command-catalogue entry"
+        "fe-headrest-2d", help="oracle type: fe-headrest-2d, fe-headrest-3d-ccx, aux-penalty or a catalogue entry"
     ),
     iterations: int | None = typer.Option(
         None, "--iterations", "-n", min=1, help="max_iterations stopping rule (default: the config's, else 200)"
