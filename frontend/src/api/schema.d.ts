@@ -2246,7 +2246,7 @@ export interface components {
             };
             /**
              * Type
-             * @description a built-in type (`aux-penalty`, `fe-headrest-2d`) or a command catalogue entry's name
+             * @description a built-in type (`aux-penalty`, `fe-headrest-2d`, `fe-headrest-3d-ccx`) or a command catalogue entry's name
              */
             type: string;
         };
@@ -2273,7 +2273,7 @@ export interface components {
             };
             /**
              * Type
-             * @description a built-in type (`aux-penalty`, `fe-headrest-2d`) or a command catalogue entry's name
+             * @description a built-in type (`aux-penalty`, `fe-headrest-2d`, `fe-headrest-3d-ccx`) or a command catalogue entry's name
              */
             type: string;
         };
