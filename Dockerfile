@@ -16,9 +16,8 @@ ENV PYTHONUNBUFFERED=1 \
     ALCOVE_API_HOST=0.0.0.0 \
     ALCOVE_MIGRATIONS_DIR=/app/migrations
 WORKDIR /app
-# gcc: the surrogate's training kernel is compiled on first use for the host CPU;
 # calculix-ccx: the solver of the fe-headrest-3d-ccx oracle (ccx on PATH)
-RUN apt-get update && apt-get install -y --no-install-recommends gcc libc6-dev calculix-ccx \
+RUN apt-get update && apt-get install -y --no-install-recommends calculix-ccx \
     && rm -rf /var/lib/apt/lists/*
 # CPU build of torch (the pinned version in pyproject.toml)
 RUN pip install --index-url https://download.pytorch.org/whl/cpu torch==2.13.0

@@ -98,3 +98,86 @@ def test_0004_drops_fault_injection_from_stored_run_settings(tmp_path) -> None:
         (settings,) = c.execute(sa.select(ccv.c.settings).where(ccv.c.id == row_id)).one()
     assert settings["fault_injection"] == {} and settings["ocp_intervals"] == 30
     eng.dispose()
+
+
+def test_0007_converts_stored_rmse_to_the_error_vector_definition(tmp_path) -> None:
+    """Before 0007 the force RMSE averaged the squared error over fx, fy, fz: a stored value is
+    sqrt(3) times smaller than the error vector's RMSE. The upgrade converts iteration metrics,
+    model test RMSEs and stopping-rule targets (so a campaign stops where it did), recomputes the
+    in-contact RMSE from the stored curves; the downgrade converts back."""
+    import math
+
+    import numpy as np
+    from sqlalchemy.orm import Session
+
+    from alcove.campaigns import presets, service
+    from alcove.campaigns.schemas import CampaignCreate, StoppingRules
+    from alcove.db.arrays import put_arrays
+    from alcove.models import CampaignConfigVersion, Iteration, IterationMetrics
+
+    url = f"sqlite:///{tmp_path / 'm.db'}"
+    migrate.upgrade(url, "head")
+    eng = make_engine(url)
+    # two samples: in contact with error (3, 0, 4) and moment error (0, 2, 0); out of contact, exact
+    f_true = np.array([[10.0, 0, 20, 0, 1, 0], [0, 0, 0, 0, 0, 0]])
+    f_pred = np.array([[13.0, 0, 24, 0, 3, 0], [0, 0, 0, 0, 0, 0]])
+    old_force, old_moment = math.sqrt(25 / 6), math.sqrt(4 / 6)  # the component-mean definition
+    with Session(eng) as s:
+        u = presets.local_user(s)
+        data = CampaignCreate(
+            name="old",
+            task_version_id=presets.task_version_from_preset(s, u.id, "head-headrest-2phase"),
+            oracle_version_id=presets.oracle_version_for(s, u.id, "aux-penalty"),
+            surrogate_config_version_id=presets.surrogate_config_version_for(s, u.id, None),
+            stopping=StoppingRules(max_iterations=5, target_force_rmse=2.0),
+        )
+        c = service.create_campaign(s, u.id, data)
+        s.flush()
+        ccv = s.scalars(sa.select(CampaignConfigVersion)).one()
+        it = Iteration(campaign_id=c.id, index=1, config_version_id=ccv.id, status="succeeded")
+        s.add(it)
+        s.flush()
+        curves = put_arrays(s, {"t": np.arange(2.0), "f_true": f_true, "f_pred": f_pred})
+        s.add(
+            IterationMetrics(
+                campaign_id=c.id,
+                iteration_id=it.id,
+                iteration_index=1,
+                force_rmse=old_force,
+                moment_rmse=old_moment,
+                extra={"model_test_rmse": {"force": 1.0, "moment": None}},
+                curves_sha256=curves,
+            )
+        )
+        s.commit()
+    migrate.downgrade(url, "0004")
+    metrics = sa.table(
+        "iteration_metrics",
+        sa.column("force_rmse", sa.Float),
+        sa.column("moment_rmse", sa.Float),
+        sa.column("extra", sa.JSON),
+    )
+    rules = sa.table("campaign_config_versions", sa.column("stopping_rules", sa.JSON))
+    with eng.begin() as conn:  # the values as an old release stored them
+        old_extra = {"model_test_rmse": {"force": 1.0, "moment": None}}
+        conn.execute(sa.update(metrics).values(force_rmse=old_force, moment_rmse=old_moment, extra=old_extra))
+        conn.execute(sa.update(rules).values(stopping_rules={"max_iterations": 5, "target_force_rmse": 2.0}))
+    migrate.upgrade(url, "head")
+    with Session(eng) as s:
+        m = s.scalars(sa.select(IterationMetrics)).one()
+        # threshold: float rounding of the conversion; hand-computed: sqrt(25 / 2), sqrt(4 / 2)
+        assert m.force_rmse == pytest.approx(math.sqrt(12.5), rel=1e-14)
+        assert m.moment_rmse == pytest.approx(math.sqrt(2.0), rel=1e-14)
+        assert m.force_rmse_contact == pytest.approx(5.0, rel=1e-14)  # the one sample in contact
+        assert m.moment_rmse_contact == pytest.approx(2.0, rel=1e-14)
+        assert m.calibration is None and m.metrics_definition == "vector"
+        assert m.extra["model_test_rmse"] == {"force": pytest.approx(math.sqrt(3)), "moment": None}
+        stored = s.scalars(sa.select(CampaignConfigVersion)).one().stopping_rules
+        assert stored["target_force_rmse"] == pytest.approx(2.0 * math.sqrt(3)) and stored["max_iterations"] == 5
+    migrate.downgrade(url, "0004")
+    with eng.connect() as conn:
+        (frmse, mrmse) = conn.execute(sa.select(metrics.c.force_rmse, metrics.c.moment_rmse)).one()
+        (back,) = conn.execute(sa.select(rules.c.stopping_rules)).one()
+    assert frmse == pytest.approx(old_force, rel=1e-14) and mrmse == pytest.approx(old_moment, rel=1e-14)
+    assert back["target_force_rmse"] == pytest.approx(2.0, rel=1e-14)
+    eng.dispose()

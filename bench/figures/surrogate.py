@@ -1,4 +1,4 @@
-"""Surrogate figures: training one model pair, prediction, building the CasADi export.
+"""Surrogate figures: training (K = 1 and a K = 5 ensemble), prediction, building the CasADi export.
 
 The training pool has the size the paper's loop reaches after 200 iterations: the default
 preliminary Latin hypercube (4,000 samples) and 190 simulated trajectories of 400 samples,
@@ -38,13 +38,14 @@ def _training_pool() -> list[Any]:
     return pool
 
 
-def _trained_model() -> Any:
+def _trained_model(k: int = 5) -> Any:
     from alcove.science.geometry import DEFAULT_PRESET
     from alcove.science.surrogate.config import SurrogateConfig
     from alcove.science.surrogate.preliminary import preliminary_pool
     from alcove.science.surrogate.training import train_surrogate
 
-    return train_surrogate(preliminary_pool(DEFAULT_PRESET, samples=2000), SurrogateConfig(max_epochs=50), seed=0).model
+    config = SurrogateConfig(max_epochs=50, ensemble_size=k)
+    return train_surrogate(preliminary_pool(DEFAULT_PRESET, samples=2000), config, seed=0).model
 
 
 def _seeded_pool() -> tuple[list[Any], Any]:
@@ -52,14 +53,14 @@ def _seeded_pool() -> tuple[list[Any], Any]:
 
 
 @figure(
-    "surrogate training, one model pair on 80,000 samples (paper protocol)",
+    "surrogate training, K = 1 on 80,000 samples (paper protocol)",
     "s",
-    target=3.0,
+    target=6.0,
     setup=_seeded_pool,
     reps=5,
     quick_reps=2,
     group="surrogate",
-    notes="float64, batch 1024, early stopping (patience 6) on both nets; "
+    notes="one force/moment pair, float64, batch 1024, early stopping (patience 6) on both nets, plain PyTorch; "
     "seed = repetition (the epoch count, 70-120, varies with it)",
 )
 def surrogate_training(ctx: Any) -> float:
@@ -67,13 +68,32 @@ def surrogate_training(ctx: Any) -> float:
     from alcove.science.surrogate.training import train_surrogate
 
     pool, seeds = ctx
-    return timed(lambda: train_surrogate(pool, SurrogateConfig(), seed=next(seeds)))
+    return timed(lambda: train_surrogate(pool, SurrogateConfig(ensemble_size=1), seed=next(seeds)))
 
 
 @figure(
-    "surrogate training, 80,000 samples: CPU time of the training process",
+    "surrogate training, K = 5 ensemble on 80,000 samples",
     "s",
-    target=3.0,
+    target=12.0,
+    setup=_seeded_pool,
+    reps=3,
+    quick_reps=1,
+    group="surrogate",
+    baseline="surrogate training, K = 1 on 80,000 samples (paper protocol)",
+    notes="five members (own seeds and splits), both nets, trained together vectorised over the members",
+)
+def surrogate_training_ensemble(ctx: Any) -> float:
+    from alcove.science.surrogate.config import SurrogateConfig
+    from alcove.science.surrogate.training import train_surrogate
+
+    pool, seeds = ctx
+    return timed(lambda: train_surrogate(pool, SurrogateConfig(ensemble_size=5), seed=next(seeds)))
+
+
+@figure(
+    "surrogate training, K = 1, 80,000 samples: CPU time of the training process",
+    "s",
+    target=6.0,
     setup=_seeded_pool,
     reps=3,
     quick=False,
@@ -88,138 +108,84 @@ def surrogate_training_cpu(ctx: Any) -> float:
 
     pool, seeds = ctx
     start = time.process_time()
-    train_surrogate(pool, SurrogateConfig(), seed=next(seeds))
+    train_surrogate(pool, SurrogateConfig(ensemble_size=1), seed=next(seeds))
     return time.process_time() - start
 
 
-def _step_setup() -> Any:
+def _step_setup(k: int) -> Any:
     import torch
 
     from alcove.science.surrogate.config import SurrogateConfig
-    from alcove.science.surrogate.fused import FusedNets
-    from alcove.science.surrogate.kernel import KernelNets
+    from alcove.science.surrogate.ensemble import BatchedNet
     from alcove.science.surrogate.mlp import MLP
-    from alcove.science.surrogate.training import FlatAdam
 
     cfg = SurrogateConfig()
     generator = torch.Generator().manual_seed(0)
-    nets = [MLP.from_config(cfg.force), MLP.from_config(cfg.moment)]
-    for net in nets:
-        net.reset_parameters(generator)
-    fused = FusedNets(nets)
-    optimizer = FlatAdam(fused.parameter, lr=cfg.learning_rate, grad=fused.grad)
-    kernel = KernelNets(nets, y_cols=[19, 22])
-    table = torch.randn(44 * cfg.batch_size, 26, dtype=torch.float64, generator=generator)  # one epoch
-    table[:, 25] = 1.0 + 0.1 * table[:, 25].abs()
-    order = torch.randperm(table.shape[0], generator=generator)
-    return fused, optimizer, kernel, table, order
+    nets = {}
+    for name in ("force", "moment"):
+        members = [MLP.from_config(getattr(cfg, name)) for _ in range(k)]
+        for m in members:
+            m.reset_parameters(generator)
+        nets[name] = BatchedNet(members)
+    optimizers = {n: torch.optim.Adam(b.parameters(), lr=cfg.learning_rate, fused=True) for n, b in nets.items()}
+    z = torch.randn(k, 19, cfg.batch_size, dtype=torch.float64, generator=generator)
+    y = torch.randn(k, 3, cfg.batch_size, dtype=torch.float64, generator=generator)
+    w = torch.rand(k, 1, cfg.batch_size, dtype=torch.float64, generator=generator)
+    return nets, optimizers, z, y, w
 
 
-_STEP_NOTES = (
-    "gradient of both nets + Adam, batch 1024, one thread; one epoch of 44 shuffled steps per repetition; "
-    "a training on 80,000 samples takes 70-120 epochs"
-)
-
-
-@figure(
-    "surrogate training step: both nets, batch 1024, C kernel (CPU time per step)",
-    "ms",
-    target=None,
-    setup=_step_setup,
-    reps=5,
-    quick_reps=3,
-    group="surrogate",
-    notes=_STEP_NOTES + "; the implementation training uses (alcove.science.surrogate.kernel)",
-)
-def surrogate_training_step(ctx: Any) -> float:
-    import time
-
-    _, _, kernel, table, order = ctx
-    t, o = table.numpy(), order.numpy()
-    start = time.process_time()
-    kernel.train_epoch(t, 25, o, 1024, 0.01)
-    return 1e3 * (time.process_time() - start) / 44
-
-
-@figure(
-    "surrogate training step: both nets, batch 1024, PyTorch fallback (CPU time per step)",
-    "ms",
-    target=None,
-    setup=_step_setup,
-    reps=5,
-    quick_reps=3,
-    group="surrogate",
-    notes=_STEP_NOTES + "; FusedNets + FlatAdam, used where no C compiler is available (ALCOVE_TRAINING_KERNEL=torch)",
-)
-def surrogate_training_step_torch(ctx: Any) -> float:
+def _step_cpu_ms(ctx: Any) -> float:
     import time
 
     import torch
 
-    fused, optimizer, _, table, order = ctx
+    nets, optimizers, z, y, w = ctx
     threads = torch.get_num_threads()
     torch.set_num_threads(1)
     try:
         start = time.process_time()
-        shuffled = table.index_select(0, order)
-        for i in range(44):
-            b = shuffled[i * 1024 : (i + 1) * 1024]
-            fused.set_loss_gradient(b[:, :19], [b[:, 19:22], b[:, 22:25]], b[:, 25])
-            optimizer.step()
+        for _ in range(44):
+            for n, net in nets.items():
+                optimizers[n].zero_grad(set_to_none=True)
+                ((net.forward(z) - y).square() * w).sum().backward()
+                optimizers[n].step()
         return 1e3 * (time.process_time() - start) / 44
     finally:
         torch.set_num_threads(threads)
 
 
-@figure(
-    "surrogate training kernel: compile (first training on a machine)",
-    "s",
-    target=None,
-    reps=3,
-    quick_reps=1,
-    group="surrogate",
-    notes="gcc -O3 -march=native into an empty cache; later processes load the cached library in milliseconds",
+_STEP_NOTES = (
+    "gradient (autograd) of both nets + torch.optim.Adam, batch 1024, one thread; 44 steps per repetition "
+    "(one epoch of 80,000 samples' training part); a training takes 70-120 epochs"
 )
-def surrogate_kernel_build(_: Any) -> float:
-    import tempfile
-    import time
-    from pathlib import Path
-
-    from alcove.science.surrogate.kernel import _build, _compiler
-
-    with tempfile.TemporaryDirectory() as tmp:
-        start = time.perf_counter()
-        _build(_compiler(), Path(tmp))
-        return time.perf_counter() - start
 
 
 @figure(
-    "surrogate training, 80,000 samples, PyTorch fallback",
-    "s",
+    "surrogate training step: both nets, K = 1, batch 1024 (CPU time per step)",
+    "ms",
     target=None,
-    setup=_seeded_pool,
-    reps=3,
-    quick=False,
+    setup=lambda: _step_setup(1),
+    reps=5,
+    quick_reps=3,
     group="surrogate",
-    baseline="surrogate training, one model pair on 80,000 samples (paper protocol)",
-    notes="ALCOVE_TRAINING_KERNEL=torch: what training costs where no C compiler is available",
+    notes=_STEP_NOTES,
 )
-def surrogate_training_torch(ctx: Any) -> float:
-    import os
+def surrogate_training_step(ctx: Any) -> float:
+    return _step_cpu_ms(ctx)
 
-    from alcove.science.surrogate.config import SurrogateConfig
-    from alcove.science.surrogate.training import train_surrogate
 
-    pool, seeds = ctx
-    previous = os.environ.get("ALCOVE_TRAINING_KERNEL")
-    os.environ["ALCOVE_TRAINING_KERNEL"] = "torch"
-    try:
-        return timed(lambda: train_surrogate(pool, SurrogateConfig(), seed=next(seeds)))
-    finally:
-        if previous is None:
-            os.environ.pop("ALCOVE_TRAINING_KERNEL")
-        else:
-            os.environ["ALCOVE_TRAINING_KERNEL"] = previous
+@figure(
+    "surrogate training step: both nets, K = 5 members vectorised, batch 1024 (CPU time per step)",
+    "ms",
+    target=None,
+    setup=lambda: _step_setup(5),
+    reps=5,
+    quick_reps=3,
+    group="surrogate",
+    notes=_STEP_NOTES,
+)
+def surrogate_training_step_ensemble(ctx: Any) -> float:
+    return _step_cpu_ms(ctx)
 
 
 def _warm_setup() -> tuple[list[Any], Any]:
@@ -227,27 +193,27 @@ def _warm_setup() -> tuple[list[Any], Any]:
     from alcove.science.surrogate.training import train_surrogate
 
     pool = _training_pool()
-    previous = train_surrogate(pool[:-1], SurrogateConfig(), seed=0).model  # the model before the last append
+    previous = train_surrogate(pool[:-1], SurrogateConfig(ensemble_size=5), seed=0).model  # before the last append
     return pool, previous
 
 
 @figure(
-    "surrogate training, 80,000 samples, warm start from the previous iteration's model",
+    "surrogate training, K = 5, 80,000 samples, warm start from the previous iteration's model",
     "s",
-    target=3.0,
+    target=2.0,
     setup=_warm_setup,
     reps=5,
     quick=False,
     group="surrogate",
-    baseline="surrogate training, one model pair on 80,000 samples (paper protocol)",
-    notes="the campaign's case: one trajectory appended, weights carried over",
+    baseline="surrogate training, K = 5 ensemble on 80,000 samples",
+    notes="the campaign's case: one trajectory appended, every member's weights carried over",
 )
 def surrogate_training_warm(ctx: Any) -> float:
     from alcove.science.surrogate.config import SurrogateConfig
     from alcove.science.surrogate.training import train_surrogate
 
     pool, previous = ctx
-    return timed(lambda: train_surrogate(pool, SurrogateConfig(), seed=1, warm_start=previous))
+    return timed(lambda: train_surrogate(pool, SurrogateConfig(ensemble_size=5), seed=1, warm_start=previous))
 
 
 def _predict_setup() -> tuple[Any, np.ndarray, np.ndarray, np.ndarray]:
@@ -258,7 +224,7 @@ def _predict_setup() -> tuple[Any, np.ndarray, np.ndarray, np.ndarray]:
 
 
 @figure(
-    "surrogate predict, 401 samples (features + both nets)",
+    "surrogate predict, 401 samples, K = 5 (features + both nets, mean and std)",
     "ms",
     target=5.0,
     setup=_predict_setup,
@@ -267,14 +233,14 @@ def _predict_setup() -> tuple[Any, np.ndarray, np.ndarray, np.ndarray]:
     group="surrogate",
 )
 def surrogate_predict(ctx: Any) -> float:
-    from alcove.science.surrogate.training import predict
+    from alcove.science.surrogate.training import predict_ensemble
 
-    model, t, q, qd = ctx
-    return 1e3 * timed(lambda: predict(model, t, q, qd))
+    model, _, q, qd = ctx
+    return 1e3 * timed(lambda: predict_ensemble(model, q, qd))
 
 
 @figure(
-    "surrogate CasADi export: build the (q, qd) -> wrench function",
+    "surrogate CasADi export: build the (q, qd) -> wrench function, K = 5 mean",
     "s",
     target=0.2,
     setup=_trained_model,

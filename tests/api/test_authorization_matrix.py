@@ -84,7 +84,7 @@ class Objects:
         if self._finished is None:
             from alcove.db import session_scope
             from alcove.models import ModelVersion
-            from alcove.surrogates.artifact_export import cache_dir
+            from alcove.surrogates.artifact_export import ZIP_LAYOUT, cache_dir
             from alcove.surrogates.service import model_artifact_bytes
 
             from .synthetic import synthesize_campaign
@@ -95,7 +95,7 @@ class Objects:
                 # this process has torch already: pre-build the artifact zip the API caches
                 # (the lifecycle test covers building it in the API's child process)
                 mv = s.query(ModelVersion).filter_by(campaign_id=c.id).one()
-                (cache_dir() / f"{mv.artifact_sha256}.zip").write_bytes(model_artifact_bytes(s, mv))
+                (cache_dir() / f"{mv.artifact_sha256}.v{ZIP_LAYOUT}.zip").write_bytes(model_artifact_bytes(s, mv))
         return self._finished
 
     def preview(self) -> int:

@@ -111,12 +111,15 @@ def test_a_short_campaign_leaves_a_complete_versioned_record(campaign_db: str, m
             pred = predict(load_model(s, model), data["t"], data["q"], data["qd"])
             np.testing.assert_allclose(curves["f_pred"], np.hstack([pred.force, pred.moment]), atol=1e-9)
             m = metrics[k - 1]
-            assert m.force_rmse == pytest.approx(
-                np.sqrt(np.mean((curves["f_pred"][:, :3] - curves["f_true"][:, :3]) ** 2))
-            )
-            assert m.moment_rmse == pytest.approx(
-                np.sqrt(np.mean((curves["f_pred"][:, 3:] - curves["f_true"][:, 3:]) ** 2))
-            )
+            err = curves["f_pred"] - curves["f_true"]  # RMSE of the error vector (docs/concepts.md)
+            assert m.force_rmse == pytest.approx(np.sqrt(np.mean(np.sum(err[:, :3] ** 2, axis=1))), rel=1e-12)
+            assert m.moment_rmse == pytest.approx(np.sqrt(np.mean(np.sum(err[:, 3:] ** 2, axis=1))), rel=1e-12)
+            contact = np.linalg.norm(curves["f_true"][:, :3], axis=1) > 0
+            if contact.any():
+                assert m.force_rmse_contact == pytest.approx(
+                    np.sqrt(np.mean(np.sum(err[contact, :3] ** 2, axis=1))), rel=1e-12
+                )
+            assert m.metrics_definition == "vector"
             assert m.model_version_id == model.id and m.dataset_id == ds.id and m.ocp_success
             assert m.extra["code_version"] == model.code_version and m.extra["model_seed"] == model.seed
         steps = results.list_jobs(s, cid)
@@ -414,7 +417,11 @@ def test_export_and_tables_hold_every_pool_version_model_and_metric(
     assert pq.read_table(root / "pool/version-0001.parquet").num_rows == pv1.n_samples
     rows = list(csv.DictReader(io.StringIO(table.decode())))
     assert len(rows) == pv1.n_samples and {"t", "q_0", "qd_0", "fx", "mz", "origin"} <= set(rows[0])
-    assert sorted(zipfile.ZipFile(io.BytesIO(art)).namelist()) == ["force.pt", "moment.pt", "surrogate.json"]
+    exports = ["force.casadi", "moment.casadi", "force.onnx", "moment.onnx"]
+    std = ["force_std.casadi", "moment_std.casadi"]  # the default ensemble of 5: the std exports too
+    assert sorted(zipfile.ZipFile(io.BytesIO(art)).namelist()) == sorted(
+        ["force.pt", "moment.pt", "surrogate.json", *exports, *std]
+    )
     meta = json.loads((root / "campaign.json").read_text())
     assert [p["version"] for p in meta["pool_versions"]] == [0, 1] and meta["campaign"]["status"] == "completed"
 

@@ -127,6 +127,7 @@ def iteration_curves(s: Session, campaign_id: int, iteration: int) -> IterationC
         tau=None if tau is None else tau.tolist(),
         f_true=a["f_true"].tolist(),
         f_pred=a["f_pred"].tolist(),
+        f_std=a["f_std"].tolist() if "f_std" in a else None,
     )
 
 

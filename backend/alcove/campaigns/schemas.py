@@ -21,6 +21,7 @@ from alcove.campaigns.config import (
     StoppingRules,
 )
 from alcove.models.base import CampaignStatus, IterationStatus, StepName, StepStatus
+from alcove.science.surrogate.metrics import DESCRIPTIONS
 
 
 class _Read(BaseModel):
@@ -99,10 +100,20 @@ class MetricsRead(_Read):
     campaign_id: int = Field(description="the campaign the iteration ran in (a fork's source for inherited rows)")
     inherited: bool = Field(False, description="an iteration of a fork's source, up to the fork point")
     iteration_index: int
-    force_rmse: float | None
-    moment_rmse: float | None
-    force_max_error: float | None
-    moment_max_error: float | None
+    force_rmse: float | None = Field(description=DESCRIPTIONS["force_rmse"] + ", model k on iteration k's oracle data")
+    moment_rmse: float | None = Field(
+        description=DESCRIPTIONS["moment_rmse"] + ", model k on iteration k's oracle data"
+    )
+    force_rmse_contact: float | None = Field(None, description=DESCRIPTIONS["force_rmse_contact"])
+    moment_rmse_contact: float | None = Field(None, description=DESCRIPTIONS["moment_rmse_contact"])
+    calibration: float | None = Field(None, description=DESCRIPTIONS["calibration"])
+    metrics_definition: str = Field(
+        "vector",
+        description="vector: the RMSEs above are of the error vector (docs/concepts.md); stored campaigns were "
+        "converted by migration 0007",
+    )
+    force_max_error: float | None = Field(description="largest |F_pred - F_true| over the samples [N]")
+    moment_max_error: float | None = Field(description="largest |M_pred - M_true| over the samples [N m]")
     ocp_success: bool | None
     ocp_status: str | None
     ocp_iterations: int | None
@@ -187,7 +198,10 @@ class IterationCurves(BaseModel):
         ),
     )
     f_true: list[list[float]] = Field(description="(n, 6): fx fy fz mx my mz")
-    f_pred: list[list[float]]
+    f_pred: list[list[float]] = Field(description="(n, 6): the model's prediction (ensemble mean)")
+    f_std: list[list[float]] | None = Field(
+        None, description="(n, 6): the ensemble's standard deviation per output; null for a single model (K = 1)"
+    )
 
 
 class TrajectoryPhase(BaseModel):
@@ -290,8 +304,8 @@ class CampaignSummary(BaseModel):
     current_step: str | None
     max_iterations: int | None
     latest_iteration: int | None = Field(None, description="index of the latest iteration with metrics")
-    force_rmse: float | None = Field(description="latest iteration's force RMSE [N]")
-    moment_rmse: float | None = Field(description="latest iteration's moment RMSE [N m]")
+    force_rmse: float | None = Field(description="latest iteration's " + DESCRIPTIONS["force_rmse"])
+    moment_rmse: float | None = Field(description="latest iteration's " + DESCRIPTIONS["moment_rmse"])
     mean_iteration_s: float | None = Field(None, description="mean wall time of the last 20 finished iterations [s]")
     eta_s: float | None = Field(
         None,

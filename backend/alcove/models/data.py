@@ -285,6 +285,15 @@ class IterationMetrics(Base):
     dataset_id: Mapped[int | None] = mapped_column(sa.ForeignKey("datasets.id", ondelete="SET NULL"))
     force_rmse: Mapped[float | None] = mapped_column(sa.Float, comment="N")
     moment_rmse: Mapped[float | None] = mapped_column(sa.Float, comment="N m")
+    force_rmse_contact: Mapped[float | None] = mapped_column(sa.Float, comment="N, samples in contact")
+    moment_rmse_contact: Mapped[float | None] = mapped_column(sa.Float, comment="N m, samples in contact")
+    calibration: Mapped[float | None] = mapped_column(sa.Float, comment="share of oracle values within mean +- 2 std")
+    metrics_definition: Mapped[str] = mapped_column(
+        sa.String(32),
+        default="vector",
+        server_default="vector",
+        comment="vector: RMSE of the force/moment error vector (docs/concepts.md)",
+    )
     force_max_error: Mapped[float | None] = mapped_column(sa.Float)
     moment_max_error: Mapped[float | None] = mapped_column(sa.Float)
     ocp_success: Mapped[bool | None]

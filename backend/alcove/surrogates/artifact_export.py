@@ -3,7 +3,8 @@
 The API process never imports torch: ``artifact_zip_paths`` runs
 ``python -m alcove.surrogates.artifact_export OUT_DIR ID...`` once for the model versions whose
 zip is not cached yet. Artifacts are immutable, so a zip is cached by the SHA-256 of the
-artifact JSON under ``ALCOVE_DATA_DIR/artifacts/model-zips``.
+artifact JSON and the zip layout (``ZIP_LAYOUT``: 2 added the CASADI and ONNX exports) under
+``ALCOVE_DATA_DIR/artifacts/model-zips``.
 """
 
 from __future__ import annotations
@@ -18,6 +19,7 @@ from alcove.models import ModelVersion
 from alcove.settings import get_settings
 
 BUILD_TIMEOUT_S = 600
+ZIP_LAYOUT = 2  # bump when the zip's content changes, so that cached zips are rebuilt
 
 
 def cache_dir() -> Path:
@@ -33,7 +35,7 @@ def artifact_zip_paths(versions: list[ModelVersion]) -> dict[int, Path]:
     for mv in versions:
         if mv.artifact_sha256 is None:
             raise Conflict(f"model version {mv.version} has no artifact")
-        path = cache_dir() / f"{mv.artifact_sha256}.zip"
+        path = cache_dir() / f"{mv.artifact_sha256}.v{ZIP_LAYOUT}.zip"
         out[mv.id] = path
         if not path.is_file():
             missing.append(mv.id)
@@ -63,7 +65,7 @@ def main(argv: list[str]) -> int:
             data = model_artifact_bytes(s, mv)
             tmp = out_dir / f".{mv.artifact_sha256}.{os.getpid()}.tmp"
             tmp.write_bytes(data)
-            tmp.replace(out_dir / f"{mv.artifact_sha256}.zip")
+            tmp.replace(out_dir / f"{mv.artifact_sha256}.v{ZIP_LAYOUT}.zip")
     return 0
 
 

@@ -5,7 +5,9 @@ from __future__ import annotations
 from datetime import datetime
 from typing import Any
 
-from pydantic import BaseModel, ConfigDict
+from pydantic import BaseModel, ConfigDict, Field
+
+from alcove.science.surrogate.metrics import DESCRIPTIONS
 
 
 class _Read(BaseModel):
@@ -20,8 +22,12 @@ class ModelVersionRead(_Read):
     parent_model_id: int | None
     surrogate_config_version_id: int | None
     seed: int
-    test_force_rmse: float | None
-    test_moment_rmse: float | None
+    test_force_rmse: float | None = Field(
+        description="the members' mean, on each member's own test simulations, of the " + DESCRIPTIONS["force_rmse"]
+    )
+    test_moment_rmse: float | None = Field(
+        description="the members' mean, on each member's own test simulations, of the " + DESCRIPTIONS["moment_rmse"]
+    )
     epochs: int | None
     train_wall_time_s: float | None
     code_version: str

@@ -88,8 +88,9 @@ def store_model(
 
     model = result.model
     weights = {
-        f"{k}.{n}": p.detach().double().numpy()
-        for k, net in (("force", model.force_net), ("moment", model.moment_net))
+        f"{'' if i == 0 else f'member{i}.'}{k}.{n}": p.detach().double().numpy()
+        for i, member in enumerate(model.members)
+        for k, net in (("force", member.force_net), ("moment", member.moment_net))
         for n, p in net.state_dict().items()
     }
     weights_sha = put_arrays(s, weights)
@@ -118,6 +119,7 @@ def store_model(
             "moment": doc["networks"]["moment"]["hidden"],
             "activation": {"force": model.force_net.activation, "moment": model.moment_net.activation},
             "dtype": model.config.dtype,
+            "ensemble_size": model.ensemble_size,
         },
         normalisation=doc["normalization"]["input"],
         training_config=model.config.model_dump(mode="json"),
@@ -166,13 +168,14 @@ def load_model(s: Session, mv: ModelVersion) -> SurrogateModel:
 
 
 def model_artifact_bytes(s: Session, mv: ModelVersion) -> bytes:
-    """A zip of the self-contained artifact folder (surrogate.json, force.pt, moment.pt)."""
+    """A zip of the self-contained artifact folder (surrogate.json, force.pt, moment.pt) with the
+    portable exports (``*.casadi``, ``*.onnx``, docs/exports.md)."""
     from alcove.science.surrogate.artifact import save_artifact
 
     model = load_model(s, mv)
     doc = artifact_document(s, mv)
     with tempfile.TemporaryDirectory() as tmp:
-        root = save_artifact(model, Path(tmp) / "model", lineage=doc.get("lineage"))
+        root = save_artifact(model, Path(tmp) / "model", lineage=doc.get("lineage"), exports=True)
         buf = io.BytesIO()
         with zipfile.ZipFile(buf, "w", zipfile.ZIP_DEFLATED) as zf:
             for p in sorted(root.iterdir()):

@@ -72,17 +72,15 @@ def train(
     return StepOutput(write, compute_s=compute)
 
 
-def rmse(a: np.ndarray, b: np.ndarray) -> float:
-    return float(np.sqrt(np.mean((np.asarray(a) - np.asarray(b)) ** 2)))
-
-
 def evaluate(run: StepRun, *, model_version_id: int, dataset_id: int, record: dict[str, Any]) -> StepOutput:
-    """Model version k's error on iteration k's oracle data (force and moment RMSE, the
-    largest error, per-component RMSE) and the curves the dashboard plots, stored as the
+    """Model version k's error on iteration k's oracle data (:mod:`alcove.science.surrogate.metrics`:
+    force and moment RMSE, in contact, calibration, per component; the largest error) and the
+    curves the dashboard plots (with the ensemble's std for K > 1), stored as the
     iteration's metrics row together with the iteration's other figures in ``record``
     (``IterationMetrics`` columns, plus ``extra``)."""
     from alcove.models import Dataset
-    from alcove.science.surrogate.training import predict
+    from alcove.science.surrogate.metrics import wrench_metrics
+    from alcove.science.surrogate.training import predict_ensemble
 
     with session_scope() as s:
         mv = s.get(ModelVersion, model_version_id)
@@ -93,25 +91,35 @@ def evaluate(run: StepRun, *, model_version_id: int, dataset_id: int, record: di
         model_info = {"seed": mv.seed, "force": mv.test_force_rmse, "moment": mv.test_moment_rmse}
         train_wall_time_s = mv.train_wall_time_s
     run.check_cancel()
-    pred = predict(model, a["t"], a["q"], a["qd"])
+    pred = predict_ensemble(model, a["q"], a["qd"])
     f_pred = np.hstack([pred.force, pred.moment])
+    f_std = np.hstack([pred.force_std, pred.moment_std]) if model.ensemble_size > 1 else None
     f_true = a["f"]
     err = f_pred - f_true
+    honest = wrench_metrics(f_pred, f_true, f_std)
     metrics = {
-        "force_rmse": rmse(f_pred[:, :3], f_true[:, :3]),
-        "moment_rmse": rmse(f_pred[:, 3:], f_true[:, 3:]),
+        "force_rmse": honest["force_rmse"],
+        "moment_rmse": honest["moment_rmse"],
+        "force_rmse_contact": honest["force_rmse_contact"],
+        "moment_rmse_contact": honest["moment_rmse_contact"],
+        "calibration": honest["calibration"],
         "force_max_error": float(np.linalg.norm(err[:, :3], axis=1).max()),
         "moment_max_error": float(np.linalg.norm(err[:, 3:], axis=1).max()),
     }
-    per_component = {c: rmse(f_pred[:, j], f_true[:, j]) for j, c in enumerate(FORCE_COLUMNS)}
+    per_component = {c: honest[f"rmse_{c}"] for c in FORCE_COLUMNS}
+    curve_arrays = {"t": a["t"], "q": a["q"], "qd": a["qd"], "f_true": f_true, "f_pred": f_pred}
+    if f_std is not None:
+        curve_arrays["f_std"] = f_std
 
     def write(s: Session, at: IterationRef) -> dict[str, Any]:
-        curves = put_arrays(s, {"t": a["t"], "q": a["q"], "qd": a["qd"], "f_true": f_true, "f_pred": f_pred})
+        curves = put_arrays(s, curve_arrays)
         extra = {
             **software_versions(),
             "model_seed": model_info["seed"],
             "rmse_components": per_component,
             "n_samples": len(a["t"]),
+            "n_contact_samples": honest["n_contact_samples"],
+            "ensemble_size": model.ensemble_size,
             "model_test_rmse": {"force": model_info["force"], "moment": model_info["moment"]},
             **record.get("extra", {}),
         }

@@ -24,29 +24,30 @@ from sqlalchemy.orm import Session
 
 from alcove.models import Campaign, CampaignEvent, ModelVersion, SuiteStatus, ValidationMetrics, ValidationSuite
 from alcove.pool.repository import validation_datasets
-from alcove.pool.service import FORCE_COLUMNS, dataset_arrays
+from alcove.pool.service import dataset_arrays
 from alcove.surrogates.service import load_model
 
 log = logging.getLogger(__name__)
 
 
 def generalisation_error(pred: np.ndarray, true: np.ndarray) -> dict[str, Any]:
-    """The error of predicted wrenches ``pred`` against the oracle's ``true`` ((n, 6): fx fy fz mx my mz).
+    """The error of predicted wrenches ``pred`` against the oracle's ``true`` ((n, 6): fx fy fz mx my mz):
+    ``force_rmse = sqrt(mean_i |F_pred,i - F_true,i|^2)``, ``moment_rmse`` likewise, and the RMSE
+    of each component, by the one definition in :mod:`alcove.science.surrogate.metrics`."""
+    from alcove.science.surrogate.metrics import MetricInputError, component_rmse, vector_rmse
 
-    ``force_rmse = sqrt(mean_i |F_pred,i - F_true,i|^2)`` (the root mean square of the norm of
-    the force error vector), ``moment_rmse`` likewise for the moment, and the RMSE of each
-    component. The vector definition of issue 16; the ``ensembles`` branch defines the same in
-    ``alcove.science.surrogate.metrics`` (``vector_rmse``, ``component_rmse``): at the merge this
-    function becomes a call of those two.
-    """
-    err = np.asarray(pred, float) - np.asarray(true, float)
-    if err.ndim != 2 or err.shape[1] != 6 or err.shape[0] == 0:
-        raise ValueError(f"prediction and oracle values must have shape (n >= 1, 6), got {err.shape}")
-    return {
-        "force_rmse": float(np.sqrt(np.mean(np.sum(err[:, :3] ** 2, axis=1)))),
-        "moment_rmse": float(np.sqrt(np.mean(np.sum(err[:, 3:] ** 2, axis=1)))),
-        "components": {c: float(np.sqrt(np.mean(err[:, j] ** 2))) for j, c in enumerate(FORCE_COLUMNS)},
-    }
+    p, t = np.asarray(pred, float), np.asarray(true, float)
+    if p.ndim != 2 or p.shape[1] != 6 or p.shape[0] == 0 or t.shape != p.shape:
+        raise ValueError(f"prediction and oracle values must have shape (n >= 1, 6), got {p.shape} and {t.shape}")
+    try:
+        components = component_rmse(p, t)
+        return {
+            "force_rmse": vector_rmse(p[:, :3], t[:, :3]),
+            "moment_rmse": vector_rmse(p[:, 3:], t[:, 3:]),
+            "components": components,
+        }
+    except MetricInputError as err:
+        raise ValueError(str(err)) from err
 
 
 def _suite_arrays(s: Session, suite_id: int) -> list[dict[str, np.ndarray]]:

@@ -1514,7 +1514,7 @@ export interface components {
             finished_at: string | null;
             /**
              * Force Rmse
-             * @description latest iteration's force RMSE [N]
+             * @description latest iteration's force RMSE [N]: sqrt(mean over samples of |F_pred - F_true|^2), F = (fx, fy, fz)
              */
             force_rmse: number | null;
             /** Id */
@@ -1533,7 +1533,7 @@ export interface components {
             mean_iteration_s?: number | null;
             /**
              * Moment Rmse
-             * @description latest iteration's moment RMSE [N m]
+             * @description latest iteration's moment RMSE [N m]: sqrt(mean over samples of |M_pred - M_true|^2), M = (mx, my, mz)
              */
             moment_rmse: number | null;
             /** Name */
@@ -1829,8 +1829,16 @@ export interface components {
          * @description Model k's prediction and the oracle's truth along iteration k's trajectory.
          */
         IterationCurves: {
-            /** F Pred */
+            /**
+             * F Pred
+             * @description (n, 6): the model's prediction (ensemble mean)
+             */
             f_pred: number[][];
+            /**
+             * F Std
+             * @description (n, 6): the ensemble's standard deviation per output; null for a single model (K = 1)
+             */
+            f_std?: number[][] | null;
             /**
              * F True
              * @description (n, 6): fx fy fz mx my mz
@@ -2008,6 +2016,11 @@ export interface components {
         /** MetricsRead */
         MetricsRead: {
             /**
+             * Calibration
+             * @description fraction of oracle values inside the ensemble mean +- 2 std, over the components not zero in every sample; null for a single model (K = 1)
+             */
+            calibration?: number | null;
+            /**
              * Campaign Id
              * @description the campaign the iteration ran in (a fork's source for inherited rows)
              */
@@ -2021,10 +2034,21 @@ export interface components {
             extra?: {
                 [key: string]: unknown;
             } | null;
-            /** Force Max Error */
+            /**
+             * Force Max Error
+             * @description largest |F_pred - F_true| over the samples [N]
+             */
             force_max_error: number | null;
-            /** Force Rmse */
+            /**
+             * Force Rmse
+             * @description force RMSE [N]: sqrt(mean over samples of |F_pred - F_true|^2), F = (fx, fy, fz), model k on iteration k's oracle data
+             */
             force_rmse: number | null;
+            /**
+             * Force Rmse Contact
+             * @description force RMSE [N] over the samples in contact (oracle |F_true| > 0); null if none
+             */
+            force_rmse_contact?: number | null;
             /**
              * Inherited
              * @description an iteration of a fork's source, up to the fork point
@@ -2033,12 +2057,29 @@ export interface components {
             inherited?: boolean;
             /** Iteration Index */
             iteration_index: number;
+            /**
+             * Metrics Definition
+             * @description vector: the RMSEs above are of the error vector (docs/concepts.md); stored campaigns were converted by migration 0007
+             * @default vector
+             */
+            metrics_definition?: string;
             /** Model Version Id */
             model_version_id: number | null;
-            /** Moment Max Error */
+            /**
+             * Moment Max Error
+             * @description largest |M_pred - M_true| over the samples [N m]
+             */
             moment_max_error: number | null;
-            /** Moment Rmse */
+            /**
+             * Moment Rmse
+             * @description moment RMSE [N m]: sqrt(mean over samples of |M_pred - M_true|^2), M = (mx, my, mz), model k on iteration k's oracle data
+             */
             moment_rmse: number | null;
+            /**
+             * Moment Rmse Contact
+             * @description moment RMSE [N m] over the samples in contact (oracle |F_true| > 0); null if none
+             */
+            moment_rmse_contact?: number | null;
             /** N Pool Samples */
             n_pool_samples: number | null;
             /** Ocp Cost */
@@ -2176,9 +2217,15 @@ export interface components {
             seed: number;
             /** Surrogate Config Version Id */
             surrogate_config_version_id: number | null;
-            /** Test Force Rmse */
+            /**
+             * Test Force Rmse
+             * @description the members' mean, on each member's own test simulations, of the force RMSE [N]: sqrt(mean over samples of |F_pred - F_true|^2), F = (fx, fy, fz)
+             */
             test_force_rmse: number | null;
-            /** Test Moment Rmse */
+            /**
+             * Test Moment Rmse
+             * @description the members' mean, on each member's own test simulations, of the moment RMSE [N m]: sqrt(mean over samples of |M_pred - M_true|^2), M = (mx, my, mz)
+             */
             test_moment_rmse: number | null;
             /** Train Wall Time S */
             train_wall_time_s: number | null;
@@ -2883,6 +2930,12 @@ export interface components {
              * @enum {string}
              */
             dtype?: "float64" | "float32";
+            /**
+             * Ensemble Size
+             * @description members K of the deep ensemble [-], 1 to 64: each with its own seed and 70/30 + 80/20 split; predictions are the members' mean and standard deviation (1: the paper's single model)
+             * @default 5
+             */
+            ensemble_size?: number;
             force?: components["schemas"]["NetworkConfig"];
             /**
              * Learning Rate

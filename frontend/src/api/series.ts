@@ -58,6 +58,8 @@ export function toPoints(metrics: SeriesRow[], iterations: IterationState[]): Me
     moment_rmse: m.moment_rmse ?? null,
     validation_force_rmse: m.validation_force_rmse ?? null,
     validation_moment_rmse: m.validation_moment_rmse ?? null,
+    force_rmse_contact: m.force_rmse_contact ?? null,
+    moment_rmse_contact: m.moment_rmse_contact ?? null,
     quarantined: false,
     inherited: Boolean(m.inherited),
   }));

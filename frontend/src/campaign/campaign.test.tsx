@@ -45,6 +45,16 @@ describe("RMSE plot of a fork", () => {
     expect((grey[0].line as { color: string }).color).toBe("#a3a9b6");
     const own = traces.find((t) => t.name === "force RMSE [N]")!;
     expect(own.x).toEqual([3, 4]);
+    expect(traces.some((t) => String(t.name).includes("in contact"))).toBe(false); // none given: no trace
+  });
+
+  it("adds the in-contact RMSE as dashed lines where the series has it", () => {
+    const p = (k: number) => ({ iteration: k, status: "succeeded", force_rmse: 1, moment_rmse: 0.1, force_rmse_contact: k === 1 ? null : 2, moment_rmse_contact: 0.3, quarantined: false });
+    const traces = rmseTraces([p(1), p(2)]);
+    const contact = traces.find((t) => t.name === "force RMSE in contact [N]")!;
+    expect(contact.y).toEqual([null, 2]);
+    expect((contact.line as { dash: string }).dash).toBe("dash");
+    expect(traces.find((t) => t.name === "moment RMSE in contact [N m]")!.y).toEqual([0.3, 0.3]);
   });
 });
 

@@ -2,11 +2,16 @@
 export interface MetricPoint {
   iteration: number;
   status: string;
+  /** RMSE of the force error vector, sqrt(mean |F_pred - F_true|^2) [N] (docs/concepts.md) */
   force_rmse: number | null;
+  /** RMSE of the moment error vector [N m] */
   moment_rmse: number | null;
   /** model k's generalisation error on the held-out validation suite (null until evaluated) */
   validation_force_rmse?: number | null;
   validation_moment_rmse?: number | null;
+  /** the same over the samples in contact (|F_true| > 0); null if none or not given */
+  force_rmse_contact?: number | null;
+  moment_rmse_contact?: number | null;
   /** the oracle result of this iteration failed its quality gate */
   quarantined: boolean;
   /** a fork's iteration from its source campaign (shown greyed) */

@@ -42,4 +42,4 @@ def trained_smooth(smooth_pool):
     """The default protocol trained once on the smooth pool (shared by several tests)."""
     from alcove.science.surrogate.training import train_surrogate
 
-    return train_surrogate(smooth_pool, SurrogateConfig(), seed=0)
+    return train_surrogate(smooth_pool, SurrogateConfig(ensemble_size=1), seed=0)

@@ -5,11 +5,8 @@ import pytest
 import torch
 from conftest import make_smooth_pool, smooth_wrench
 
-from alcove.science.surrogate.adam import FlatAdam
 from alcove.science.surrogate.config import NetworkConfig, SurrogateConfig
 from alcove.science.surrogate.dataset import PoolDataError, PoolDataset
-from alcove.science.surrogate.fused import FusedNets
-from alcove.science.surrogate.mlp import MLP
 from alcove.science.surrogate.training import (
     TrainingCancelled,
     predict,
@@ -18,7 +15,7 @@ from alcove.science.surrogate.training import (
     train_surrogate,
 )
 
-SHORT = SurrogateConfig(max_epochs=4, batch_size=256)
+SHORT = SurrogateConfig(max_epochs=4, batch_size=256, ensemble_size=1)
 
 
 def test_split_keeps_whole_simulations_together(smooth_pool):
@@ -82,83 +79,6 @@ def test_same_pool_and_seed_give_bit_identical_weights(smooth_pool):
     assert torch.get_num_threads() >= 1
 
 
-def _autograd_and_fused(nets, x, ys, w, fast=True):
-    losses = [((net(x) - y) ** 2).mean(1) @ w / x.shape[0] for net, y in zip(nets, ys, strict=False)]
-    expected = [torch.autograd.grad(loss, list(net.parameters())) for net, loss in zip(nets, losses, strict=False)]
-    fused = FusedNets(nets)
-    fused.set_loss_gradient(x, ys, w, fast=fast)
-    return fused, expected
-
-
-def _fused_grads(fused, k):
-    fused_views = fused._block_views(fused.grad, k)
-    return [t for wb in fused_views for t in wb]
-
-
-@pytest.mark.parametrize(
-    "architectures",
-    [
-        [((6, 6, 4), "softplus"), ((6, 6, 6, 4), "softplus")],  # the paper's pair (moment deeper)
-        [((5, 4, 3), "tanh"), ((8,), "sigmoid")],  # force deeper, other activations
-        [((5, 4), "softplus"), ((3, 7), "tanh")],  # same depth, mixed activations in one fused layer
-    ],
-)
-@pytest.mark.parametrize("fast", [True, False])
-def test_fused_hand_written_gradient_equals_autograd(architectures, fast):
-    g = torch.Generator().manual_seed(0)
-    nets = [MLP(hidden, act) for hidden, act in architectures]
-    for net in nets:
-        net.reset_parameters(g)
-    x = torch.randn(64, 19, dtype=torch.float64, generator=g)
-    ys = [torch.randn(64, 3, dtype=torch.float64, generator=g) for _ in nets]
-    w = torch.rand(64, dtype=torch.float64, generator=g)
-    fused, expected = _autograd_and_fused(nets, x, ys, w, fast)
-    for k in range(len(nets)):
-        for got, e in zip(_fused_grads(fused, k), expected[k], strict=False):
-            torch.testing.assert_close(got, e, rtol=1e-12, atol=1e-15)
-    # the fused forward is both nets, and only the blocks carry weights or gradients
-    for out, net in zip(fused.forward(x), nets, strict=False):
-        torch.testing.assert_close(out, net(x), rtol=1e-13, atol=1e-14)
-    assert torch.count_nonzero(fused.grad) <= sum(p.numel() for net in nets for p in net.parameters())
-    assert torch.all(fused.grad[fused.mask == 0] == 0) and torch.all(fused.parameter[fused.mask == 0] == 0)
-    # a frozen net gets no gradient, the other the same as before
-    fused.freeze(0)
-    fused.set_loss_gradient(x, ys, w, fast=fast)
-    assert all(torch.all(t == 0) for t in _fused_grads(fused, 0))
-    for got, e in zip(_fused_grads(fused, 1), expected[1], strict=False):
-        torch.testing.assert_close(got, e, rtol=1e-12, atol=1e-15)
-
-
-def test_fused_softplus_beyond_the_exp_range_falls_back_to_the_exact_function():
-    g = torch.Generator().manual_seed(2)
-    nets = [MLP((6, 6, 4)), MLP((6, 6, 6, 4))]
-    for net in nets:
-        net.reset_parameters(g)
-    x = 3000.0 * torch.randn(32, 19, dtype=torch.float64, generator=g)  # pre-activations far beyond 709
-    ys = [torch.randn(32, 3, dtype=torch.float64, generator=g) for _ in nets]
-    w = torch.rand(32, dtype=torch.float64, generator=g)
-    assert max(float(net.linears()[0](x).detach().max()) for net in nets) > 1000
-    fused, expected = _autograd_and_fused(nets, x, ys, w, fast=True)
-    assert torch.all(torch.isfinite(fused.grad))
-    for k in range(2):
-        for got, e in zip(_fused_grads(fused, k), expected[k], strict=False):
-            torch.testing.assert_close(got, e, rtol=1e-12, atol=1e-12)
-
-
-def test_fused_weights_round_trip_to_the_nets():
-    g = torch.Generator().manual_seed(3)
-    nets = [MLP((6, 6, 4)), MLP((6, 6, 6, 4))]
-    for net in nets:
-        net.reset_parameters(g)
-    before = [{n: p.clone() for n, p in net.state_dict().items()} for net in nets]
-    fused = FusedNets(nets)
-    fused.parameter.add_(fused.mask)  # move every block entry by 1
-    for k, net in enumerate(nets):
-        fused.store(k)
-        for n, p in net.state_dict().items():
-            assert torch.equal(p, before[k][n] + 1)
-
-
 def test_preliminary_down_weighting():
     prelim = [
         PoolDataset(
@@ -188,7 +108,7 @@ def test_preliminary_down_weighting():
 
 def test_warm_start_starts_from_the_previous_weights(smooth_pool, trained_smooth):
     first = trained_smooth
-    tiny = SurrogateConfig(max_epochs=1, learning_rate=1e-12)
+    tiny = SurrogateConfig(max_epochs=1, learning_rate=1e-12, ensemble_size=1)
     warm = train_surrogate(smooth_pool, tiny, seed=1, warm_start=first.model)
     cold = train_surrogate(smooth_pool, tiny, seed=1)
     assert warm.model.lineage["warm_start"] == {"force": True, "moment": True}
@@ -237,30 +157,14 @@ def test_bad_pools_give_clear_errors(smooth_pool):
         train_surrogate([two_dof], SurrogateConfig(), seed=0)
 
 
-@pytest.mark.parametrize("fused", [True, False])
-def test_flat_adam_is_torch_adam(fused):
-    g = torch.Generator().manual_seed(1)
-    a = torch.nn.Parameter(torch.randn(50, dtype=torch.float64, generator=g))
-    b = torch.nn.Parameter(a.detach().clone())
-    reference = torch.optim.Adam([a], lr=0.01)
-    ours = FlatAdam(b, lr=0.01, fused=fused)
-    assert ours.fused == fused
-    for _ in range(100):
-        grad = torch.randn(50, dtype=torch.float64, generator=g)
-        a.grad, b.grad = grad.clone(), grad.clone()
-        reference.step()
-        ours.step()
-    torch.testing.assert_close(b.detach(), a.detach(), rtol=1e-13, atol=1e-15)
-    assert not torch.equal(b.detach(), torch.zeros(50, dtype=torch.float64))
-
-
 def _weights_digest(model) -> str:
     import hashlib
 
     h = hashlib.sha256()
-    for net in (model.force_net, model.moment_net):
-        for p in net.state_dict().values():
-            h.update(p.numpy().tobytes())
+    for m in model.members:
+        for net in (m.force_net, m.moment_net):
+            for p in net.state_dict().values():
+                h.update(p.numpy().tobytes())
     return h.hexdigest()
 
 
@@ -271,7 +175,8 @@ from conftest import make_smooth_pool
 from test_surrogate_training import _weights_digest
 from alcove.science.surrogate.config import SurrogateConfig
 from alcove.science.surrogate.training import train_surrogate
-print(_weights_digest(train_surrogate(make_smooth_pool(6), SurrogateConfig(max_epochs=3, batch_size=64), seed=5).model))
+config = SurrogateConfig(max_epochs=3, batch_size=64, ensemble_size=3)
+print(_weights_digest(train_surrogate(make_smooth_pool(6), config, seed=5).model))
 """
 
 
@@ -284,33 +189,8 @@ def test_bit_identical_weights_in_another_process():
         [sys.executable, "-c", _DIGEST_SCRIPT, str(Path(__file__).parent)], capture_output=True, text=True, check=True
     ).stdout.strip()
     here = _weights_digest(
-        train_surrogate(make_smooth_pool(6), SurrogateConfig(max_epochs=3, batch_size=64), seed=5).model
+        train_surrogate(
+            make_smooth_pool(6), SurrogateConfig(max_epochs=3, batch_size=64, ensemble_size=3), seed=5
+        ).model
     )
     assert other == here
-
-
-def test_a_stopped_net_leaves_the_fused_network_and_the_other_continues_unchanged():
-    from alcove.science.surrogate.trainers import _without_stopped
-
-    g = torch.Generator().manual_seed(4)
-    nets = [MLP((6, 6, 4)), MLP((6, 6, 6, 4))]
-    for net in nets:
-        net.reset_parameters(g)
-    batches = [torch.randn(128, 26, dtype=torch.float64, generator=g) for _ in range(6)]
-
-    def step(fused, adam, b, k_targets):
-        fused.set_loss_gradient(b[:, :19], [b[:, c] for c in k_targets], b[:, -1].abs())
-        adam.step()
-
-    full = FusedNets(nets)
-    adam = FlatAdam(full.parameter, lr=0.01, grad=full.grad)
-    for b in batches[:3]:
-        step(full, adam, b, [slice(19, 22), slice(22, 25)])
-    full.freeze(0)
-    smaller, smaller_adam = _without_stopped(full, adam, [nets[1]])
-    assert smaller_adam.steps == 3 and smaller.parameter.numel() < full.parameter.numel()
-    for b in batches[3:]:
-        step(full, adam, b, [slice(19, 22), slice(22, 25)])
-        step(smaller, smaller_adam, b, [slice(22, 25)])
-    for a, b in zip(full.weights(1), smaller.weights(0), strict=False):
-        torch.testing.assert_close(a, b, rtol=1e-12, atol=1e-14)

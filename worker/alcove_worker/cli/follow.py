@@ -200,7 +200,16 @@ def wait_validation(
         time.sleep(poll)
 
 
-_FIRST_LAST = ("iteration_index", "force_rmse", "moment_rmse", "validation_force_rmse", "validation_moment_rmse")
+_FIRST_LAST = (
+    "iteration_index",
+    "force_rmse",
+    "moment_rmse",
+    "force_rmse_contact",
+    "moment_rmse_contact",
+    "calibration",
+    "validation_force_rmse",
+    "validation_moment_rmse",
+)
 
 
 def summary(detail: Any, metrics: list[dict[str, Any]], wall: float | None = None) -> dict[str, Any]:

@@ -1,13 +1,17 @@
 """`alcove surrogate ...` commands: train a model pair, predict with it, write preliminary data.
 
 ``alcove surrogate train --pool DIR|--campaign ID [--config F.json] [--seed N] --out model-dir [--json]``
-    trains the force and moment MLPs (the paper's protocol unless the config says
-    otherwise) and writes the self-contained artifact (``surrogate.json``, ``force.pt``,
-    ``moment.pt``). A pool folder holds pairs ``NAME.traj.csv`` + ``NAME.forces.csv`` as
-    ``alcove ocp solve`` and ``alcove oracle run`` write them; ``--campaign`` trains on the
-    campaign's latest pool version with its surrogate config, task geometry and seed.
+    trains an ensemble of ``ensemble_size`` force and moment MLP pairs (the paper's protocol
+    per member unless the config says otherwise) and writes the self-contained artifact
+    (``surrogate.json``, ``force.pt``, ``moment.pt``) and the portable exports
+    (``force.casadi``, ``moment.casadi``, for K > 1 ``force_std.casadi``, ``moment_std.casadi``;
+    ``force.onnx``, ``moment.onnx``; docs/exports.md). A pool folder holds pairs
+    ``NAME.traj.csv`` + ``NAME.forces.csv`` as ``alcove ocp solve`` and ``alcove oracle run``
+    write them; ``--campaign`` trains on the campaign's latest pool version with its
+    surrogate config, task geometry and seed.
 ``alcove surrogate predict --model model-dir --trajectory traj.csv --out pred.csv``
-    writes ``t,fx,fy,fz,mx,my,mz`` (N, N m, headrest frame).
+    writes ``t,fx,fy,fz,mx,my,mz`` (N, N m, headrest frame; the ensemble mean) and, for an
+    ensemble (K > 1), ``fx_std,..,mz_std`` (the members' standard deviation).
 ``alcove surrogate preliminary --out DIR [--samples K] [--velocity-bound V] [--seed N]``
     writes the Latin hypercube aux-penalty preliminary data as a pool folder.
 
@@ -135,8 +139,8 @@ def _print_metrics(metrics: dict[str, Any], out: Path) -> None:
     s = metrics["samples"]
     console.print(
         f"samples: {s['train']} train, {s['validation']} validation, {s['test']} test; "
-        f"wall time {metrics['wall_time_s']:.2f} s "
-        f"({'C kernel' if metrics.get('training_kernel') == 'c' else 'PyTorch'})"
+        f"wall time {metrics['wall_time_s']:.2f} s; {len(metrics.get('members', [])) or 1} member(s), "
+        "RMSE of the force (moment) error vector, the members' mean on their own splits"
     )
 
 
@@ -159,15 +163,16 @@ def train(
         None, "--task", help="task preset whose geometry the pool refers to (default: head-neck-1dof)"
     ),
     task_file: Path | None = typer.Option(None, "--task-file", help="task definition as JSON (instead of --task)"),
-    out: Path = typer.Option(..., "--out", help="model folder to write (surrogate.json, force.pt, moment.pt)"),
+    out: Path = typer.Option(
+        ..., "--out", help="model folder to write (surrogate.json, force.pt, moment.pt, *.casadi, *.onnx)"
+    ),
     json_output: bool = typer.Option(False, "--json", help="print a JSON summary on stdout"),
     database_url: str | None = typer.Option(None, "--database-url", envvar="ALCOVE_DATABASE_URL", hidden=True),
 ) -> None:
-    """Train the force and moment MLPs on a pool and write the model artifact."""
+    """Train an ensemble of force and moment MLPs on a pool and write the model artifact and exports."""
     from alcove.science.surrogate.artifact import save_artifact
     from alcove.science.surrogate.config import SurrogateConfig, SurrogateConfigError
     from alcove.science.surrogate.dataset import PoolDataError, load_pool_dir
-    from alcove.science.surrogate.kernel import KernelChoiceError
     from alcove.science.surrogate.training import train_surrogate
 
     if (pool_dir is None) == (campaign is None):
@@ -203,9 +208,7 @@ def train(
         _bad_input(f"pool: {exc.field}", exc.reason)
     except SurrogateConfigError as exc:
         _bad_input(f"config: {exc.field}", exc.reason)
-    except KernelChoiceError as exc:
-        _bad_input(exc.field, exc.reason)
-    save_artifact(result.model, out, lineage=lineage)
+    save_artifact(result.model, out, lineage=lineage, exports=True)
     metrics = result.metrics.to_dict()
     if json_output:
         summary = {
@@ -214,6 +217,8 @@ def train(
             "seed": run_seed,
             "datasets": len(pool),
             "test_sets": result.split.test_sets,
+            "ensemble_size": result.model.ensemble_size,
+            "files": sorted(p.name for p in out.iterdir()),
             **metrics,
         }
         typer.echo(json.dumps(summary, indent=2))
@@ -225,13 +230,17 @@ def train(
 def predict(
     model: Path = typer.Option(..., "--model", help="model folder written by `alcove surrogate train`"),
     trajectory: Path = typer.Option(..., "--trajectory", help="trajectory CSV (t,q_0,..,qd_0,..[,tau_0,..])"),
-    out: Path = typer.Option(..., "--out", help="forces CSV to write (t,fx,fy,fz,mx,my,mz)"),
+    out: Path = typer.Option(
+        ..., "--out", help="forces CSV to write (t,fx,fy,fz,mx,my,mz; for K > 1 also fx_std,..,mz_std)"
+    ),
 ) -> None:
-    """Predict the contact force and moment along a trajectory."""
-    from alcove.science.series import SeriesFormatError, Trajectory
+    """Predict the contact force and moment (ensemble mean, and std for K > 1) along a trajectory."""
+    import numpy as np
+
+    from alcove.science.series import FORCE_COLUMNS, ForceSeries, SeriesFormatError, Trajectory
     from alcove.science.surrogate.artifact import ArtifactError, load_artifact
     from alcove.science.surrogate.dataset import PoolDataError
-    from alcove.science.surrogate.training import predict as predict_series
+    from alcove.science.surrogate.training import predict_ensemble
 
     try:
         surrogate = load_artifact(model)
@@ -244,11 +253,21 @@ def predict(
     if not out.parent.is_dir():
         _bad_input("out", f"folder {out.parent} does not exist")
     try:
-        forces = predict_series(surrogate, traj.t, traj.q, traj.qd)
+        p = predict_ensemble(surrogate, traj.q, traj.qd)
     except PoolDataError as exc:
         _bad_input(f"trajectory: {exc.field}", exc.reason)
-    forces.to_csv(out)
-    typer.echo(f"{len(forces)} samples, peak force {forces.peak_force:.4g} N -> {out}")
+    forces = ForceSeries(np.asarray(traj.t, float), p.force, p.moment)
+    if surrogate.ensemble_size == 1:
+        forces.to_csv(out)
+    else:
+        header = ["t", *FORCE_COLUMNS, *(f"{c}_std" for c in FORCE_COLUMNS)]
+        table = np.column_stack([forces.to_array(), p.force_std, p.moment_std])
+        np.savetxt(out, table, delimiter=",", header=",".join(header), comments="", fmt="%.17g")
+    typer.echo(
+        f"{len(forces)} samples, peak force {forces.peak_force:.4g} N"
+        + (f" (ensemble of {surrogate.ensemble_size})" if surrogate.ensemble_size > 1 else "")
+        + f" -> {out}"
+    )
 
 
 @app.command()

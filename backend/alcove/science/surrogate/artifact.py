@@ -6,10 +6,16 @@
     floats round-trip exactly), the input and output standardisation, and lineage fields
     (seed, datasets, test sets, metrics, plus whatever the caller adds: campaign,
     iteration, pool version, parent model version, ...).
+    Format 2: ``networks`` and ``normalization`` are ensemble member 0; ``members`` lists
+    members 1 .. K-1 with their own ``networks`` and ``normalization`` (format 1, one model,
+    is still read, as an ensemble of 1).
 ``force.pt``, ``moment.pt``
     TorchScript modules mapping raw features (n, 19) to force / moment (n, 3) in the
     headrest frame, normalisation included, for use outside alcove
-    (``torch.jit.load("force.pt")(x)``).
+    (``torch.jit.load("force.pt")(x)``); the ensemble mean for K > 1.
+``*.casadi``, ``*.onnx``
+    The portable exports (:mod:`.portable`, docs/exports.md), written by :func:`save_artifact`
+    with ``exports=True``.
 """
 
 from __future__ import annotations
@@ -27,10 +33,11 @@ import alcove
 from alcove.science.geometry import HeadNeckPreset
 from alcove.science.surrogate.config import SurrogateConfig
 from alcove.science.surrogate.features import FEATURE_NAMES
-from alcove.science.surrogate.mlp import MLP, Standardization, SurrogateModel
+from alcove.science.surrogate.mlp import MLP, Member, Standardization, SurrogateModel
 
 FORMAT = "alcove-surrogate"
-FORMAT_VERSION = 1
+FORMAT_VERSION = 2
+READABLE_VERSIONS = (1, 2)
 JSON_NAME = "surrogate.json"
 
 
@@ -74,6 +81,18 @@ class _Scripted(nn.Module):
                 else:
                     h = torch.sigmoid(h)
         return h * self.y_scale + self.y_mean
+
+
+class _ScriptedMean(nn.Module):
+    """The mean of the members' scripted nets (an ensemble's TorchScript export)."""
+
+    def __init__(self, members: list[_Scripted]):
+        super().__init__()
+        self.members = nn.ModuleList(members)
+
+    def forward(self, x: torch.Tensor) -> torch.Tensor:
+        outs = [m(x) for m in self.members]
+        return torch.stack(outs).mean(0)
 
 
 def _copy_linear(lin: nn.Linear) -> nn.Linear:
@@ -121,6 +140,28 @@ def _net_from_dict(d: dict[str, Any], dtype: torch.dtype, field: str) -> MLP:
     return net
 
 
+def _member_dict(m: Member) -> dict[str, Any]:
+    return {
+        "networks": {"force": _net_to_dict(m.force_net), "moment": _net_to_dict(m.moment_net)},
+        "normalization": {
+            "input": m.input_norm.to_dict(),
+            "force": m.force_norm.to_dict(),
+            "moment": m.moment_norm.to_dict(),
+        },
+    }
+
+
+def _member_from_dict(d: dict[str, Any], dtype: torch.dtype, field: str) -> Member:
+    norm = d["normalization"]
+    return Member(
+        force_net=_net_from_dict(d["networks"]["force"], dtype, f"{field}networks.force"),
+        moment_net=_net_from_dict(d["networks"]["moment"], dtype, f"{field}networks.moment"),
+        input_norm=Standardization.from_dict(norm["input"]),
+        force_norm=Standardization.from_dict(norm["force"]),
+        moment_norm=Standardization.from_dict(norm["moment"]),
+    )
+
+
 def artifact_dict(model: SurrogateModel, lineage: dict[str, Any] | None = None) -> dict[str, Any]:
     """The JSON document of a model (see the module docstring)."""
     return {
@@ -132,12 +173,8 @@ def artifact_dict(model: SurrogateModel, lineage: dict[str, Any] | None = None) 
         "ndof": model.ndof,
         "preset": model.preset.to_dict(),
         "config": model.config.model_dump(mode="json"),
-        "networks": {"force": _net_to_dict(model.force_net), "moment": _net_to_dict(model.moment_net)},
-        "normalization": {
-            "input": model.input_norm.to_dict(),
-            "force": model.force_norm.to_dict(),
-            "moment": model.moment_norm.to_dict(),
-        },
+        **_member_dict(model.members[0]),
+        "members": [_member_dict(m) for m in model.members[1:]],
         "lineage": {**model.lineage, **(lineage or {})},
         "software": {"alcove": alcove.__version__, "torch": torch.__version__},
         "torchscript": {"force": "force.pt", "moment": "moment.pt"},
@@ -147,22 +184,30 @@ def artifact_dict(model: SurrogateModel, lineage: dict[str, Any] | None = None) 
 def model_from_dict(doc: dict[str, Any]) -> SurrogateModel:
     if doc.get("format") != FORMAT:
         raise ArtifactError("format", f"expected {FORMAT!r}, got {doc.get('format')!r}")
-    if doc.get("format_version") != FORMAT_VERSION:
+    if doc.get("format_version") not in READABLE_VERSIONS:
         raise ArtifactError(
-            "format_version", f"unsupported version {doc.get('format_version')!r} (this alcove reads {FORMAT_VERSION})"
+            "format_version",
+            f"unsupported version {doc.get('format_version')!r} (this alcove reads 1 and {FORMAT_VERSION})",
         )
     if list(doc.get("feature_names", [])) != list(FEATURE_NAMES):
         raise ArtifactError("feature_names", "do not match the 19 features of this alcove version")
     try:
-        config = SurrogateConfig.parse(doc["config"])
+        raw = doc["config"]
+        config = SurrogateConfig.parse(raw)
+        extra = doc.get("members", [])
+        if not isinstance(extra, list):
+            raise ArtifactError("members", "must be a list")
+        if "ensemble_size" not in raw or config.ensemble_size != 1 + len(extra):
+            if "ensemble_size" in raw:
+                raise ArtifactError(
+                    "members", f"holds {1 + len(extra)} member(s), the config says ensemble_size {config.ensemble_size}"
+                )
+            config = config.model_copy(update={"ensemble_size": 1 + len(extra)})  # format 1: one model
         dtype = torch.float64 if config.dtype == "float64" else torch.float32
-        norm = doc["normalization"]
-        return SurrogateModel(
-            force_net=_net_from_dict(doc["networks"]["force"], dtype, "networks.force"),
-            moment_net=_net_from_dict(doc["networks"]["moment"], dtype, "networks.moment"),
-            input_norm=Standardization.from_dict(norm["input"]),
-            force_norm=Standardization.from_dict(norm["force"]),
-            moment_norm=Standardization.from_dict(norm["moment"]),
+        members = [_member_from_dict(doc, dtype, "")]
+        members += [_member_from_dict(m, dtype, f"members.{i}.") for i, m in enumerate(extra)]
+        return SurrogateModel.from_members(
+            members,
             config=config,
             preset=HeadNeckPreset.from_dict(doc["preset"]),
             ndof=int(doc["ndof"]),
@@ -172,8 +217,11 @@ def model_from_dict(doc: dict[str, Any]) -> SurrogateModel:
         raise ArtifactError(str(exc.args[0]), "missing entry") from None
 
 
-def save_artifact(model: SurrogateModel, path: str | Path, lineage: dict[str, Any] | None = None) -> Path:
-    """Write ``surrogate.json``, ``force.pt`` and ``moment.pt`` into the folder ``path``."""
+def save_artifact(
+    model: SurrogateModel, path: str | Path, lineage: dict[str, Any] | None = None, *, exports: bool = False
+) -> Path:
+    """Write ``surrogate.json``, ``force.pt`` and ``moment.pt`` into the folder ``path``; with
+    ``exports`` also the CasADi and ONNX files of :func:`.portable.write_exports`."""
     root = Path(path)
     root.mkdir(parents=True, exist_ok=True)
     doc = artifact_dict(model, lineage)
@@ -182,13 +230,16 @@ def save_artifact(model: SurrogateModel, path: str | Path, lineage: dict[str, An
         warnings.simplefilter(
             "ignore", DeprecationWarning
         )  # torch.jit.script is deprecated but TorchScript is the contract
-        for key, net, out_norm in (
-            ("force", model.force_net, model.force_norm),
-            ("moment", model.moment_net, model.moment_norm),
-        ):
-            torch.jit.save(
-                torch.jit.script(_Scripted(net, model.input_norm, out_norm)), str(root / doc["torchscript"][key])
-            )
+        for key in ("force", "moment"):
+            scripted = [
+                _Scripted(getattr(m, f"{key}_net"), m.input_norm, getattr(m, f"{key}_norm")) for m in model.members
+            ]
+            module: nn.Module = scripted[0] if len(scripted) == 1 else _ScriptedMean(scripted)
+            torch.jit.save(torch.jit.script(module), str(root / doc["torchscript"][key]))
+    if exports:
+        from alcove.science.surrogate.portable import write_exports
+
+        write_exports(model, root)
     return root
 
 

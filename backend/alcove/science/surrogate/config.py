@@ -102,6 +102,13 @@ class SurrogateConfig(BaseModel):
         description="halve the preliminary weight every this many oracle simulations in the pool [simulations], "
         f"{range_text('simulations', gt=0, le=1e6)}; null: never",
     )
+    ensemble_size: WholeNumber = Field(
+        5,
+        ge=1,
+        le=64,
+        description="members K of the deep ensemble [-], 1 to 64: each with its own seed and 70/30 + 80/20 split; "
+        "predictions are the members' mean and standard deviation (1: the paper's single model)",
+    )
     dtype: Literal["float64", "float32"] = Field("float64", description="floating-point precision of the networks")
 
     @classmethod

@@ -9,6 +9,10 @@ to rounding; ``alpha_rel^2`` uses the smooth small-angle branch of :mod:`.featur
 The function is the OCP's contact-model slot: inputs ``q`` and ``qd`` (ndof x 1), one
 output ``wrench`` (6 x 1) ``[fx, fy, fz, mx, my, mz]`` in the headrest frame, the moment
 about the head frame origin. The generalized force is ``J^T [F; M]`` (the OCP's job).
+For an ensemble (K > 1) the wrench is the members' mean; :func:`casadi_contact_std_function`
+and :func:`surrogate_contact_std` give the members' standard deviation
+``sqrt(mean_k (w_k - mean)^2)`` (not differentiable where it is 0, e.g. the structurally zero
+outputs: constrain its square, output ``var``, in an NLP).
 
 :func:`surrogate_contact` gives the same map with the weights and normalisations as a third
 input ``p`` (:func:`surrogate_parameters`): one function per architecture, so the OCP's NLP
@@ -33,8 +37,8 @@ from alcove.science.surrogate.mlp import MLP, Standardization, SurrogateModel
 SymbolicKinematics = Callable[[ca.SX, ca.SX], tuple[ca.SX, ca.SX, ca.SX, ca.SX]]
 #: a network's activation and the (rows, columns) of its layers' weights
 NetArchitecture = tuple[str, tuple[tuple[int, int], ...]]
-#: ndof, number of inputs, force net, force outputs, moment net, moment outputs
-Architecture = tuple[int, int, NetArchitecture, int, NetArchitecture, int]
+#: ndof, number of inputs, force net, force outputs, moment net, moment outputs, ensemble members
+Architecture = tuple[int, int, NetArchitecture, int, NetArchitecture, int, int]
 
 
 def _activation(name: str, x: ca.SX) -> ca.SX:
@@ -67,12 +71,32 @@ def _destandardize(norm: Standardization, z: ca.SX) -> ca.SX:
     return z * ca.DM(norm.scale) + ca.DM(norm.mean)
 
 
+def member_wrenches_symbolic(model: SurrogateModel, feats: ca.SX) -> list[ca.SX]:
+    """Every member's wrench (6 x 1) from the raw feature vector (19 x 1)."""
+    out = []
+    for m in model.members:
+        z = _standardize(m.input_norm, feats)
+        force = _destandardize(m.force_norm, mlp_symbolic(m.force_net, z))
+        moment = _destandardize(m.moment_norm, mlp_symbolic(m.moment_net, z))
+        out.append(ca.vertcat(force, moment))
+    return out
+
+
+def _mean_var(wrenches: list[ca.SX]) -> tuple[ca.SX, ca.SX]:
+    k = len(wrenches)
+    mean = wrenches[0] if k == 1 else sum(wrenches[1:], wrenches[0]) / k
+    var = sum(((w - mean) ** 2 for w in wrenches[1:]), (wrenches[0] - mean) ** 2) / k
+    return mean, var
+
+
 def wrench_symbolic(model: SurrogateModel, feats: ca.SX) -> ca.SX:
-    """Wrench (6 x 1) from the raw feature vector (19 x 1)."""
-    z = _standardize(model.input_norm, feats)
-    force = _destandardize(model.force_norm, mlp_symbolic(model.force_net, z))
-    moment = _destandardize(model.moment_norm, mlp_symbolic(model.moment_net, z))
-    return ca.vertcat(force, moment)
+    """Wrench (6 x 1), the ensemble mean, from the raw feature vector (19 x 1)."""
+    return _mean_var(member_wrenches_symbolic(model, feats))[0]
+
+
+def wrench_var_symbolic(model: SurrogateModel, feats: ca.SX) -> ca.SX:
+    """The members' variance of the wrench (6 x 1), ``mean_k (w_k - mean)^2``."""
+    return _mean_var(member_wrenches_symbolic(model, feats))[1]
 
 
 def casadi_network_function(model: SurrogateModel) -> ca.Function:
@@ -90,6 +114,14 @@ def casadi_contact_function(
     chains other than the 1-DOF preset, whose kinematics come from
     :func:`alcove.science.geometry.relative_kinematics_symbolic`.
     """
+    q, qd, feats = _state_features(model, preset, kinematics)
+    wrench = wrench_symbolic(model, feats)
+    return ca.Function("contact_surrogate", [q, qd], [wrench], ["q", "qd"], ["wrench"])
+
+
+def _state_features(
+    model: SurrogateModel, preset: HeadNeckPreset, kinematics: SymbolicKinematics | None
+) -> tuple[ca.SX, ca.SX, ca.SX]:
     ndof = model.ndof
     q = ca.SX.sym("q", ndof)
     qd = ca.SX.sym("qd", ndof)
@@ -101,8 +133,16 @@ def casadi_contact_function(
         kin = relative_kinematics_symbolic(preset, q[0], qd[0])
     else:
         kin = kinematics(q, qd)
-    wrench = wrench_symbolic(model, features_symbolic(*kin))
-    return ca.Function("contact_surrogate", [q, qd], [wrench], ["q", "qd"], ["wrench"])
+    return q, qd, features_symbolic(*kin)
+
+
+def casadi_contact_std_function(
+    model: SurrogateModel, preset: HeadNeckPreset, kinematics: SymbolicKinematics | None = None
+) -> ca.Function:
+    """``(q, qd) -> (std, var)`` (6 x 1 each): the ensemble's standard deviation and variance per output."""
+    q, qd, feats = _state_features(model, preset, kinematics)
+    _, var = _mean_var(member_wrenches_symbolic(model, feats))
+    return ca.Function("contact_surrogate_std", [q, qd], [ca.sqrt(var), var], ["q", "qd"], ["std", "var"])
 
 
 # ---- parametric form: the weights as an input -------------------------------------------
@@ -119,6 +159,7 @@ def surrogate_architecture(model: SurrogateModel) -> Architecture:
         len(model.force_norm.mean),
         _net_architecture(model.moment_net),
         len(model.moment_norm.mean),
+        model.ensemble_size,
     )
 
 
@@ -136,12 +177,13 @@ def _net_parameters(net: MLP, input_norm: Standardization) -> list[FloatArray]:
 
 
 def surrogate_parameters(model: SurrogateModel) -> FloatArray:
-    """The parameter vector ``p`` of :func:`surrogate_contact` for ``model``: per network
-    (force, then moment) its layers (weights column-major, then biases; the input
+    """The parameter vector ``p`` of :func:`surrogate_contact` for ``model``: per member, per
+    network (force, then moment) its layers (weights column-major, then biases; the input
     standardisation folded into the first layer) and its output scale and mean."""
     parts: list[FloatArray] = []
-    for net, norm in ((model.force_net, model.force_norm), (model.moment_net, model.moment_norm)):
-        parts += [*_net_parameters(net, model.input_norm), norm.scale, norm.mean]
+    for m in model.members:
+        for net, norm in ((m.force_net, m.force_norm), (m.moment_net, m.moment_norm)):
+            parts += [*_net_parameters(net, m.input_norm), norm.scale, norm.mean]
     return np.concatenate([np.asarray(a, float).ravel() for a in parts])
 
 
@@ -171,39 +213,64 @@ class _ThreadCache(threading.local):
     """SX graphs are not for concurrent use: one cache of parametric contacts per thread, as the OCP's."""
 
     def __init__(self) -> None:
-        self.contacts: dict[tuple[Architecture, HeadNeckPreset], ca.Function] = {}
+        self.contacts: dict[tuple[Architecture, HeadNeckPreset, bool], ca.Function] = {}
 
 
 _LOCAL = _ThreadCache()
 
 
-def _parametric_contact(architecture: Architecture, preset: HeadNeckPreset) -> ca.Function:
+def _parametric_contact(architecture: Architecture, preset: HeadNeckPreset, std: bool = False) -> ca.Function:
     cache = _LOCAL.contacts
-    key = (architecture, preset)
+    key = (architecture, preset, std)
     if key not in cache:
         if len(cache) >= 16:
             cache.pop(next(iter(cache)))
-        cache[key] = _build_parametric_contact(architecture, preset)
+        cache[key] = _build_parametric_contact(architecture, preset, std)
     return cache[key]
 
 
-def _build_parametric_contact(architecture: Architecture, preset: HeadNeckPreset) -> ca.Function:
-    ndof, _, force_arch, n_force, moment_arch, n_moment = architecture
+def _build_parametric_contact(architecture: Architecture, preset: HeadNeckPreset, std: bool) -> ca.Function:
+    ndof, _, force_arch, n_force, moment_arch, n_moment, n_members = architecture
     if ndof != 1:
         raise ValueError(
             f"kinematics: the model has {ndof} degrees of freedom; the parametric export supports the 1-DOF preset"
         )
-    n_par = 2 * (n_force + n_moment) + sum(r * c + r for arch in (force_arch, moment_arch) for r, c in arch[1])
+    n_member = 2 * (n_force + n_moment) + sum(r * c + r for arch in (force_arch, moment_arch) for r, c in arch[1])
+    n_par = n_members * n_member
     q, qd, p = ca.SX.sym("q", ndof), ca.SX.sym("qd", ndof), ca.SX.sym("p", n_par)
     read = _Reader(p)
     feats = features_symbolic(*relative_kinematics_symbolic(preset, q[0], qd[0]))
-    # structurally zero features (planar motion) drop out of the first layer
-    force = _mlp_parametric(force_arch, feats, read)
-    force = force * read.take(n_force) + read.take(n_force)
-    moment = _mlp_parametric(moment_arch, feats, read)
-    moment = moment * read.take(n_moment) + read.take(n_moment)
+    wrenches = []
+    for _ in range(n_members):
+        # structurally zero features (planar motion) drop out of the first layer
+        force = _mlp_parametric(force_arch, feats, read)
+        force = force * read.take(n_force) + read.take(n_force)
+        moment = _mlp_parametric(moment_arch, feats, read)
+        moment = moment * read.take(n_moment) + read.take(n_moment)
+        wrenches.append(ca.vertcat(force, moment))
     assert read.at == n_par
-    return ca.Function("contact_surrogate_p", [q, qd, p], [ca.vertcat(force, moment)], ["q", "qd", "p"], ["wrench"])
+    mean, var = _mean_var(wrenches)
+    if std:
+        return ca.Function("contact_surrogate_std_p", [q, qd, p], [ca.sqrt(var), var], ["q", "qd", "p"], ["std", "var"])
+    return ca.Function("contact_surrogate_p", [q, qd, p], [mean], ["q", "qd", "p"], ["wrench"])
+
+
+def surrogate_contact_std(model: SurrogateModel, preset: HeadNeckPreset) -> tuple[ca.Function, FloatArray]:
+    """``((q, qd, p) -> (std, var), p values)``: the ensemble's spread with the weights as
+    parameters (the same ``p`` as :func:`surrogate_contact`)."""
+    _check_parametric(model)
+    return _parametric_contact(surrogate_architecture(model), preset, std=True), surrogate_parameters(model)
+
+
+def _check_parametric(model: SurrogateModel) -> None:
+    for m in model.members:
+        if (
+            len(m.force_norm.mean) != m.force_net.linears()[-1].out_features
+            or len(m.moment_norm.mean) != m.moment_net.linears()[-1].out_features
+        ):
+            raise ValueError("model: the output normalisation does not match the networks' outputs")
+        if m.force_net.linears()[0].in_features != N_FEATURES or m.moment_net.linears()[0].in_features != N_FEATURES:
+            raise ValueError(f"model: the networks must take the {N_FEATURES} contact features")
 
 
 def surrogate_contact(model: SurrogateModel, preset: HeadNeckPreset) -> tuple[ca.Function, FloatArray]:
@@ -213,16 +280,7 @@ def surrogate_contact(model: SurrogateModel, preset: HeadNeckPreset) -> tuple[ca
     pair and thread), so ``solve_task(task, fn, contact_params=p)`` reuses one NLP for every model
     version of an architecture. Same values as :func:`casadi_contact_function`.
     """
-    if (
-        len(model.force_norm.mean) != model.force_net.linears()[-1].out_features
-        or len(model.moment_norm.mean) != model.moment_net.linears()[-1].out_features
-    ):
-        raise ValueError("model: the output normalisation does not match the networks' outputs")
-    if (
-        model.force_net.linears()[0].in_features != N_FEATURES
-        or model.moment_net.linears()[0].in_features != N_FEATURES
-    ):
-        raise ValueError(f"model: the networks must take the {N_FEATURES} contact features")
+    _check_parametric(model)
     return _parametric_contact(surrogate_architecture(model), preset), surrogate_parameters(model)
 
 
@@ -236,10 +294,14 @@ def casadi_contact_from_artifact(path: str | Path, preset: HeadNeckPreset) -> ca
 __all__ = [
     "casadi_contact_from_artifact",
     "casadi_contact_function",
+    "casadi_contact_std_function",
     "casadi_network_function",
+    "member_wrenches_symbolic",
     "mlp_symbolic",
     "surrogate_architecture",
     "surrogate_contact",
+    "surrogate_contact_std",
     "surrogate_parameters",
     "wrench_symbolic",
+    "wrench_var_symbolic",
 ]

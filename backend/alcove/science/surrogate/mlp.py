@@ -123,8 +123,42 @@ class Standardization:
 
 
 @dataclass
+class Member:
+    """One member of an ensemble: its force and moment nets and the standardisations of its split."""
+
+    force_net: MLP
+    moment_net: MLP
+    input_norm: Standardization
+    force_norm: Standardization
+    moment_norm: Standardization
+
+    def predict_features(self, x: FloatArray) -> tuple[FloatArray, FloatArray]:
+        """Force (n, 3) and moment (n, 3) of this member for raw features x (n, 19)."""
+        dtype = next(self.force_net.parameters()).dtype
+        z = torch.as_tensor((np.asarray(x, float) - self.input_norm.mean) / self.input_norm.divisor, dtype=dtype)
+        with torch.no_grad():
+            f = self.force_net(z).double().numpy()
+            m = self.moment_net(z).double().numpy()
+        return f * self.force_norm.scale + self.force_norm.mean, m * self.moment_norm.scale + self.moment_norm.mean
+
+
+@dataclass
+class Prediction:
+    """Ensemble mean and standard deviation (population, over the K members) per output."""
+
+    force: FloatArray  # (n, 3)
+    moment: FloatArray  # (n, 3)
+    force_std: FloatArray  # (n, 3), zeros for K = 1
+    moment_std: FloatArray
+
+
+@dataclass
 class SurrogateModel:
-    """A trained force/moment MLP pair with normalisation, geometry and lineage."""
+    """A trained surrogate: an ensemble of K force/moment MLP pairs with normalisation, geometry, lineage.
+
+    ``force_net`` ... ``moment_norm`` are member 0 (with K = 1 the paper's single model);
+    ``extra_members`` are members 1 .. K-1. Predictions are the ensemble mean (and std).
+    """
 
     force_net: MLP
     moment_net: MLP
@@ -135,18 +169,61 @@ class SurrogateModel:
     preset: HeadNeckPreset
     ndof: int = 1
     lineage: dict[str, Any] = field(default_factory=dict)
+    extra_members: list[Member] = field(default_factory=list)
 
     @property
     def dtype(self) -> torch.dtype:
         return next(self.force_net.parameters()).dtype
 
+    @property
+    def members(self) -> list[Member]:
+        first = Member(self.force_net, self.moment_net, self.input_norm, self.force_norm, self.moment_norm)
+        return [first, *self.extra_members]
+
+    @property
+    def ensemble_size(self) -> int:
+        return 1 + len(self.extra_members)
+
+    @classmethod
+    def from_members(
+        cls,
+        members: list[Member],
+        config: SurrogateConfig,
+        preset: HeadNeckPreset,
+        ndof: int = 1,
+        lineage: dict[str, Any] | None = None,
+    ) -> SurrogateModel:
+        m0 = members[0]
+        return cls(
+            m0.force_net,
+            m0.moment_net,
+            m0.input_norm,
+            m0.force_norm,
+            m0.moment_norm,
+            config,
+            preset,
+            ndof,
+            dict(lineage or {}),
+            list(members[1:]),
+        )
+
+    def predict_members(self, x: FloatArray) -> tuple[FloatArray, FloatArray]:
+        """Every member's force and moment, each (K, n, 3)."""
+        outs = [m.predict_features(x) for m in self.members]
+        return np.stack([f for f, _ in outs]), np.stack([m for _, m in outs])
+
+    def predict_ensemble(self, x: FloatArray) -> Prediction:
+        """Ensemble mean and standard deviation (over members, ddof 0) of force and moment."""
+        if not self.extra_members:
+            f, m = self.members[0].predict_features(x)
+            return Prediction(f, m, np.zeros_like(f), np.zeros_like(m))
+        f, m = self.predict_members(x)
+        return Prediction(f.mean(0), m.mean(0), f.std(0), m.std(0))
+
     def predict_features(self, x: FloatArray) -> tuple[FloatArray, FloatArray]:
-        """Force (n, 3) and moment (n, 3) for raw features x (n, 19)."""
-        z = torch.as_tensor((np.asarray(x, float) - self.input_norm.mean) / self.input_norm.divisor, dtype=self.dtype)
-        with torch.no_grad():
-            f = self.force_net(z).double().numpy()
-            m = self.moment_net(z).double().numpy()
-        return f * self.force_norm.scale + self.force_norm.mean, m * self.moment_norm.scale + self.moment_norm.mean
+        """Force (n, 3) and moment (n, 3), the ensemble mean, for raw features x (n, 19)."""
+        p = self.predict_ensemble(x)
+        return p.force, p.moment
 
 
-__all__ = ["MLP", "N_OUTPUTS", "Softplus", "Standardization", "SurrogateModel"]
+__all__ = ["MLP", "N_OUTPUTS", "Member", "Prediction", "Softplus", "Standardization", "SurrogateModel"]

@@ -4,17 +4,16 @@
    test set; the rest is split pointwise ``validation_fraction`` (20 %) into validation.
 2. Features (:mod:`.features`) standardised with the mean and standard deviation of the
    train points; targets standardised the same way (``normalize_outputs``).
-3. Force and moment MLPs trained individually (Adam, lr 0.01, batch 1024, weighted MSE),
-   each with early stopping on its validation loss (patience 6), keeping its best weights.
-   Both nets step through the same shuffled batches in one loop (their parameters are
-   disjoint, so this equals training them one after the other); a net that has stopped is
-   frozen. The epoch runs in the compiled kernel (:mod:`.kernel`, one C call per epoch) or,
-   where that cannot be built or ``ALCOVE_TRAINING_KERNEL=torch``, in PyTorch
-   (:class:`.fused.FusedNets`: both nets as one block-structured network with hand-written
-   backpropagation, :class:`.adam.FlatAdam`); both engines are in :mod:`.trainers`. Early
-   stopping, the batch order and the initialisation are shared.
-4. Reproducible: splits come from ``numpy.random.default_rng(seed)``, initialisation and
-   batch order from a local ``torch.Generator(seed)``; training runs on one thread, so the
+3. Ensemble of ``ensemble_size`` K members (default 5; K = 1 is the paper's single model):
+   member k has its own seed (:func:`member_seed`; member 0 the model's seed) and so its own
+   70/30 and 80/20 splits, standardisations, initialisation and batch order. Force and moment
+   MLPs of all members are trained together, vectorised over the members
+   (:mod:`.ensemble`: batched weights, autograd, ``torch.optim.Adam``; lr 0.01, batch 1024,
+   weighted MSE), each net of each member with early stopping on its validation loss
+   (patience 6), keeping its best weights. Prediction is the members' mean, with their
+   standard deviation (:meth:`.mlp.SurrogateModel.predict_ensemble`).
+4. Reproducible: a member's splits come from ``numpy.random.default_rng(seed_k)``, its
+   initialisation and batch order from a local ``torch.Generator(seed_k)``; training runs on one thread, so the
    same pool and seed give bit-identical weights. The global RNGs are not touched.
 """
 
@@ -32,12 +31,12 @@ from numpy.typing import NDArray
 from alcove.science.arrays import FloatArray
 from alcove.science.geometry import DEFAULT_PRESET, HeadNeckPreset, RelativeKinematics, relative_kinematics
 from alcove.science.series import ForceSeries
-from alcove.science.surrogate.adam import FlatAdam
 from alcove.science.surrogate.config import SurrogateConfig
 from alcove.science.surrogate.dataset import PoolDataError, PoolDataset, check_pool
+from alcove.science.surrogate.ensemble import NETS, EnsembleTrainer, MemberTensors
 from alcove.science.surrogate.features import features
-from alcove.science.surrogate.mlp import MLP, Standardization, SurrogateModel
-from alcove.science.surrogate.trainers import NETS, EpochTrainer, make_trainer
+from alcove.science.surrogate.metrics import vector_rmse
+from alcove.science.surrogate.mlp import MLP, Member, Prediction, Standardization, SurrogateModel
 
 KinematicsFn = Callable[[FloatArray, FloatArray], RelativeKinematics]
 SPLITS = ("train", "validation", "test")
@@ -61,14 +60,17 @@ class PoolSplit:
 
 @dataclass
 class TrainingMetrics:
-    """RMSE (physical units, all three components) per net and split; epochs; wall time."""
+    """Per net and split, the members' mean RMSE of the force (moment) vector on their own splits,
+    ``sqrt(mean |pred - true|^2)`` (:mod:`.metrics`); epochs (the most over members) and member 0's
+    best epoch; member 0's split sizes; wall time; per member the same figures in ``members``."""
 
     rmse: dict[str, dict[str, float | None]]
     epochs: dict[str, int]
     best_epoch: dict[str, int]
     samples: dict[str, int]
     wall_time_s: float
-    training_kernel: str = "torch"  # "c": the compiled kernel, "torch": the PyTorch implementation
+    members: list[dict[str, Any]] = field(default_factory=list)
+    rmse_definition: str = "vector"  # sqrt(mean |e|^2) over samples; "component-mean" before migration 0007
 
     def to_dict(self) -> dict[str, Any]:
         return asdict(self)
@@ -78,8 +80,9 @@ class TrainingMetrics:
 class TrainingResult:
     model: SurrogateModel
     metrics: TrainingMetrics
-    split: PoolSplit
-    history: dict[str, list[float]] = field(default_factory=dict)  # validation loss per epoch
+    split: PoolSplit  # member 0's
+    history: dict[str, list[float]] = field(default_factory=dict)  # member 0's validation loss per epoch
+    splits: list[PoolSplit] = field(default_factory=list)  # every member's
 
 
 def preset_kinematics(preset: HeadNeckPreset) -> KinematicsFn:
@@ -139,6 +142,14 @@ def sample_weights(pool: list[PoolDataset], config: SurrogateConfig) -> FloatArr
     return np.concatenate(w)
 
 
+def member_seed(seed: int, k: int) -> int:
+    """Seed of ensemble member ``k``: member 0 has the model's seed (K = 1 is the single model of the
+    paper's protocol), the others a seed derived from (seed, k)."""
+    if k == 0:
+        return int(seed)
+    return int(np.random.SeedSequence([int(seed), k]).generate_state(1, np.uint64)[0] >> np.uint64(1))
+
+
 def train_surrogate(
     pool: list[PoolDataset],
     config: SurrogateConfig,
@@ -148,149 +159,158 @@ def train_surrogate(
     *,
     preset: HeadNeckPreset = DEFAULT_PRESET,
     kinematics: KinematicsFn | None = None,
+    member_seeds: list[int] | None = None,
 ) -> TrainingResult:
-    """Train a force/moment MLP pair on ``pool`` (see the module docstring)."""
+    """Train an ensemble of ``config.ensemble_size`` force/moment MLP pairs on ``pool`` (module docstring).
+
+    ``member_seeds`` overrides the members' seeds (default :func:`member_seed`); its length is K.
+    """
     t_start = time.perf_counter()
-    split = split_pool(pool, config, seed)
+    seeds = member_seeds if member_seeds is not None else [member_seed(seed, k) for k in range(config.ensemble_size)]
+    splits = [split_pool(pool, config, s) for s in seeds]
     kin = kinematics or preset_kinematics(preset)
     x = pool_features(pool, kin)
     y = {"force": np.concatenate([ds.force for ds in pool]), "moment": np.concatenate([ds.moment for ds in pool])}
     w = sample_weights(pool, config)
-    is_train = split.sample_split == "train"
-    if not np.any(w[is_train] > 0):
-        raise PoolDataError(
-            "weight", "every training sample has weight 0 (check preliminary_weight and the dataset weights)"
-        )
-    input_norm = Standardization.fit(x[is_train])
-    out_norm = {
-        k: Standardization.fit(y[k][is_train], constant_scale=0.0)
-        if config.normalize_outputs
-        else Standardization.identity(3)
-        for k in NETS
-    }
-
     dtype = torch.float64 if config.dtype == "float64" else torch.float32
-    generator = torch.Generator().manual_seed(int(seed))
-    nets = {k: MLP.from_config(getattr(config, k), dtype=dtype) for k in NETS}
-    warm: dict[str, bool | str] = {}
-    for k in NETS:
-        nets[k].reset_parameters(generator)
-        if warm_start is not None and config.warm_start:
-            previous = getattr(warm_start, f"{k}_net")
-            if nets[k].same_architecture(previous):
-                nets[k].load_state_dict({n: p.to(dtype) for n, p in previous.state_dict().items()})
-                warm[k] = True
-            else:  # the campaign changed the architecture: this net starts afresh
-                before, now = f"{previous.hidden}/{previous.activation}", f"{nets[k].hidden}/{nets[k].activation}"
-                warm[k] = f"cold: architecture {before} -> {now}"
 
     def tensor(a: FloatArray) -> torch.Tensor:
         return torch.as_tensor(np.ascontiguousarray(a), dtype=dtype)
 
-    z = tensor((x - input_norm.mean) / input_norm.divisor)
-    yz = {k: tensor((y[k] - out_norm[k].mean) / out_norm[k].divisor) for k in NETS}
-    train_idx = torch.as_tensor(np.flatnonzero(is_train))
-    val_idx = torch.as_tensor(np.flatnonzero(split.sample_split == "validation"))
-    w_all = tensor(w / w[is_train].mean())
-    z_train, w_train = z[train_idx], w_all[train_idx]
-    y_train = {k: yz[k][train_idx] for k in NETS}
-    z_val, w_val = z[val_idx], w_all[val_idx]
-    y_val = {k: yz[k][val_idx] for k in NETS}
-    w_val_sum = float(w_val.sum()) or 1.0
+    previous = warm_start.members if warm_start is not None and config.warm_start else []
+    members: list[Member] = []
+    data: list[MemberTensors] = []
+    generators: list[torch.Generator] = []
+    warm: list[dict[str, bool | str]] = []
+    for k, (s_k, split) in enumerate(zip(seeds, splits, strict=True)):
+        is_train = split.sample_split == "train"
+        if not np.any(w[is_train] > 0):
+            raise PoolDataError(
+                "weight", "every training sample has weight 0 (check preliminary_weight and the dataset weights)"
+            )
+        input_norm = Standardization.fit(x[is_train])
+        out_norm = {
+            n: Standardization.fit(y[n][is_train], constant_scale=0.0)
+            if config.normalize_outputs
+            else Standardization.identity(3)
+            for n in NETS
+        }
+        generator = torch.Generator().manual_seed(int(s_k))
+        nets = {n: MLP.from_config(getattr(config, n), dtype=dtype) for n in NETS}
+        warm_k: dict[str, bool | str] = {}
+        for n in NETS:
+            nets[n].reset_parameters(generator)
+            if k < len(previous):
+                before = getattr(previous[k], f"{n}_net")
+                if nets[n].same_architecture(before):
+                    nets[n].load_state_dict({name: p.to(dtype) for name, p in before.state_dict().items()})
+                    warm_k[n] = True
+                else:  # the campaign changed the architecture: this net starts afresh
+                    old, now = f"{before.hidden}/{before.activation}", f"{nets[n].hidden}/{nets[n].activation}"
+                    warm_k[n] = f"cold: architecture {old} -> {now}"
+            elif previous:
+                warm_k[n] = "cold: the previous model has fewer members"
+        warm.append(warm_k)
+        z = tensor((x - input_norm.mean) / input_norm.divisor)
+        yz = {n: tensor((y[n] - out_norm[n].mean) / out_norm[n].divisor) for n in NETS}
+        w_all = tensor(w / w[is_train].mean())
+        tr = torch.as_tensor(np.flatnonzero(is_train))
+        va = torch.as_tensor(np.flatnonzero(split.sample_split == "validation"))
+        data.append(
+            MemberTensors(
+                z_train=z[tr],
+                y_train={n: yz[n][tr] for n in NETS},
+                w_train=w_all[tr],
+                z_val=z[va],
+                y_val={n: yz[n][va] for n in NETS},
+                w_val=w_all[va],
+            )
+        )
+        generators.append(generator)
+        members.append(Member(nets["force"], nets["moment"], input_norm, out_norm["force"], out_norm["moment"]))
 
     n_threads = torch.get_num_threads()
     torch.set_num_threads(1)
     try:
-        with torch.no_grad():
-            trainer = make_trainer(nets, z_train, y_train, w_train, config)
-            history, epochs, best_epoch = _fit(
-                trainer, z_train.shape[0], z_val, y_val, w_val, w_val_sum, config, generator, cancel
-            )
+        trainer = EnsembleTrainer(
+            {n: [getattr(m, f"{n}_net") for m in members] for n in NETS}, data, config, generators
+        )
+        for epoch in range(1, config.max_epochs + 1):
+            if cancel is not None and cancel():
+                raise TrainingCancelled(f"training cancelled in epoch {epoch}")
+            trainer.epoch()
+            if not trainer.validate(epoch):
+                break
+        trainer.finish()
     finally:
         torch.set_num_threads(n_threads)
 
-    model = SurrogateModel(
-        force_net=nets["force"],
-        moment_net=nets["moment"],
-        input_norm=input_norm,
-        force_norm=out_norm["force"],
-        moment_norm=out_norm["moment"],
-        config=config,
-        preset=preset,
+    model = SurrogateModel.from_members(
+        members,
+        config,
+        preset,
         ndof=pool[0].ndof,
         lineage={
             "seed": int(seed),
+            "member_seeds": [int(s_k) for s_k in seeds],
             "datasets": [ds.name for ds in pool],
-            "test_sets": split.test_sets,
+            "test_sets": splits[0].test_sets,
+            "member_test_sets": [sp.test_sets for sp in splits],
             "samples": int(x.shape[0]),
-            "warm_start": warm or False,
-            "training_kernel": trainer.name,
+            "warm_start": (warm[0] or False) if len(warm) == 1 else [wk or False for wk in warm],
+            "training": "torch (vectorised over members)",
         },
     )
-    rmse: dict[str, dict[str, float | None]] = {k: {} for k in NETS}
-    pred = dict(zip(NETS, model.predict_features(x), strict=False))
-    for k in NETS:
-        for s in SPLITS:
-            mask = split.sample_split == s
-            rmse[k][s] = float(np.sqrt(np.mean((pred[k][mask] - y[k][mask]) ** 2))) if mask.any() else None
-    metrics = TrainingMetrics(
-        rmse=rmse,
-        epochs=epochs,
-        best_epoch=best_epoch,
-        samples=split.counts(),
-        wall_time_s=time.perf_counter() - t_start,
-        training_kernel=trainer.name,
-    )
+    metrics = _training_metrics(model, x, y, splits, trainer, time.perf_counter() - t_start)
     model.lineage["metrics"] = metrics.to_dict()
-    return TrainingResult(model=model, metrics=metrics, split=split, history=history)
+    history = {n: [row[0] for row in trainer.history[n] if not np.isnan(row[0])] for n in NETS}  # member 0's
+    return TrainingResult(model=model, metrics=metrics, split=splits[0], history=history, splits=splits)
 
 
-def _fit(
-    trainer: EpochTrainer,
-    n: int,
-    z_val: torch.Tensor,
-    y_val: dict[str, torch.Tensor],
-    w_val: torch.Tensor,
-    w_val_sum: float,
-    config: SurrogateConfig,
-    generator: torch.Generator,
-    cancel: Callable[[], bool] | None,
-) -> tuple[dict[str, list[float]], dict[str, int], dict[str, int]]:
-    """Epochs until every net has stopped early (or ``max_epochs``); each net ends with its best weights.
-
-    Returns the validation loss of every epoch, the number of epochs and the best epoch, per net.
-    """
-    best = {k: float("inf") for k in NETS}
-    for k in NETS:
-        trainer.remember_best(k)
-    best_epoch = dict.fromkeys(NETS, 0)
-    epochs = dict.fromkeys(NETS, 0)
-    history: dict[str, list[float]] = {k: [] for k in NETS}
-    for epoch in range(1, config.max_epochs + 1):
-        if cancel is not None and cancel():
-            raise TrainingCancelled(f"training cancelled in epoch {epoch}")
-        trainer.epoch(torch.randperm(n, generator=generator))
-        stopped = []
-        for k, out in trainer.validation_outputs(z_val):
-            val = float(((out - y_val[k]) ** 2).mean(1) @ w_val) / w_val_sum
-            history[k].append(val)
-            epochs[k] = epoch
-            if val < best[k]:
-                best[k], best_epoch[k] = val, epoch
-                trainer.remember_best(k)
-            elif epoch - best_epoch[k] >= config.patience:
-                stopped.append(k)
-        if stopped and not trainer.stop(stopped):
-            break  # every net has stopped
-    for k in NETS:
-        trainer.restore_best(k)
-    return history, epochs, best_epoch
+def _training_metrics(
+    model: SurrogateModel,
+    x: FloatArray,
+    y: dict[str, FloatArray],
+    splits: list[PoolSplit],
+    trainer: EnsembleTrainer,
+    wall_time_s: float,
+) -> TrainingMetrics:
+    """Each member's RMSE on its own splits (:func:`.metrics.vector_rmse`), their mean per split."""
+    per_member: list[dict[str, dict[str, float | None]]] = []
+    for member, split in zip(model.members, splits, strict=True):
+        pred = dict(zip(NETS, member.predict_features(x), strict=True))
+        per_member.append(
+            {
+                n: {s: vector_rmse(pred[n][split.sample_split == s], y[n][split.sample_split == s]) for s in SPLITS}
+                for n in NETS
+            }
+        )
+    rmse: dict[str, dict[str, float | None]] = {n: {} for n in NETS}
+    for n in NETS:
+        for s in SPLITS:
+            values = [v for m in per_member if (v := m[n][s]) is not None]
+            rmse[n][s] = float(np.mean(values)) if values else None
+    return TrainingMetrics(
+        rmse=rmse,
+        epochs={n: max(trainer.epochs[n]) for n in NETS},
+        best_epoch={n: trainer.best_epoch[n][0] for n in NETS},
+        samples=splits[0].counts(),
+        wall_time_s=wall_time_s,
+        members=[
+            {
+                "rmse": m,
+                "epochs": {n: trainer.epochs[n][k] for n in NETS},
+                "best_epoch": {n: trainer.best_epoch[n][k] for n in NETS},
+            }
+            for k, m in enumerate(per_member)
+        ],
+    )
 
 
-def predict_arrays(
+def predict_ensemble(
     model: SurrogateModel, q: FloatArray, qd: FloatArray, kinematics: KinematicsFn | None = None
-) -> tuple[FloatArray, FloatArray]:
-    """Predicted force (n, 3) and moment (n, 3) at states q, qd ((n,) or (n, ndof))."""
+) -> Prediction:
+    """Ensemble mean and standard deviation of force and moment (each (n, 3)) at states q, qd."""
     q = np.asarray(q, float)
     qd = np.asarray(qd, float)
     q = q[:, None] if q.ndim == 1 else q
@@ -300,7 +320,15 @@ def predict_arrays(
     if q.shape[1] != model.ndof:
         raise PoolDataError("q", f"has {q.shape[1]} degrees of freedom, the model was trained on {model.ndof}")
     kin = (kinematics or preset_kinematics(model.preset))(q, qd)
-    return model.predict_features(features(kin))
+    return model.predict_ensemble(features(kin))
+
+
+def predict_arrays(
+    model: SurrogateModel, q: FloatArray, qd: FloatArray, kinematics: KinematicsFn | None = None
+) -> tuple[FloatArray, FloatArray]:
+    """Predicted force (n, 3) and moment (n, 3), the ensemble mean, at states q, qd ((n,) or (n, ndof))."""
+    p = predict_ensemble(model, q, qd, kinematics)
+    return p.force, p.moment
 
 
 def predict(
@@ -312,13 +340,14 @@ def predict(
 
 
 __all__ = [
-    "FlatAdam",
     "PoolSplit",
     "TrainingCancelled",
     "TrainingMetrics",
     "TrainingResult",
+    "member_seed",
     "predict",
     "predict_arrays",
+    "predict_ensemble",
     "preset_kinematics",
     "sample_weights",
     "split_pool",

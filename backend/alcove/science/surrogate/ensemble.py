@@ -1,0 +1,245 @@
+"""Vectorised training of the K members of an ensemble, both nets, in plain PyTorch.
+
+Every net (force, moment) of the K members is held as batched weight tensors
+``W_l (K, out, in)``, ``b_l (K, out)``; one ``torch.baddbmm`` per layer evaluates all K members
+on their own batch, autograd gives the gradient and ``torch.optim.Adam`` updates all members at
+once. The members' losses are disjoint sums and Adam is elementwise, so each member's
+trajectory is the one it would have trained alone on the same batches.
+
+Batches: member k shuffles its own training rows every epoch (``torch.randperm`` with its own
+generator) and cuts the permutation into ``S = ceil(n_max / batch_size)`` batches, ``n_max`` the
+largest training set: batches of ``batch_size`` rows and a last, smaller one where its set is
+the largest (with K = 1 exactly the paper's protocol), otherwise ``S`` nearly equal batches
+(``numpy.array_split``), so that every member takes the same number of Adam steps (torch's Adam
+counts steps per tensor). Rows are padded to ``batch_size`` with weight 0. The batch loss of a
+member is ``sum_i w_i mean_c (net(z_i) - y_i)_c^2 / n_batch``.
+
+Early stopping per net and member: the validation loss ``sum_i w_i mean_c err^2 / sum_i w_i``
+after every epoch; the weights of a member's best epoch are kept; after ``patience`` epochs
+without improvement the member is stopped: its result is frozen at its best epoch and it leaves
+the batched tensors (its rows of the weights and of Adam's moments are dropped, the others
+continue with the same state and step count, so their arithmetic is unchanged). A net stops
+stepping when all its members have stopped.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+import torch
+from torch import nn
+
+from alcove.science.surrogate.config import SurrogateConfig
+from alcove.science.surrogate.mlp import MLP, SOFTPLUS_THRESHOLD
+
+NETS = ("force", "moment")
+
+
+@dataclass
+class MemberTensors:
+    """One member's standardised training and validation data (rows of features, targets, weights)."""
+
+    z_train: torch.Tensor  # (n, 19)
+    y_train: dict[str, torch.Tensor]  # net -> (n, 3)
+    w_train: torch.Tensor  # (n,)
+    z_val: torch.Tensor
+    y_val: dict[str, torch.Tensor]
+    w_val: torch.Tensor
+
+
+def _activation(name: str) -> Callable[[torch.Tensor], torch.Tensor]:
+    if name == "softplus":
+        return lambda x: nn.functional.softplus(x, beta=1.0, threshold=SOFTPLUS_THRESHOLD)
+    if name == "tanh":
+        return torch.tanh
+    return torch.sigmoid
+
+
+class BatchedNet:
+    """The same MLP architecture for K members as batched weight tensors (leaf tensors with grad)."""
+
+    def __init__(self, nets: list[MLP]):
+        self.activation = _activation(nets[0].activation)
+        layers = [net.linears() for net in nets]
+        self.weights = [
+            torch.stack([ls[i].weight.detach() for ls in layers]).requires_grad_() for i in range(len(layers[0]))
+        ]
+        self.biases = [
+            torch.stack([ls[i].bias.detach() for ls in layers]).requires_grad_() for i in range(len(layers[0]))
+        ]
+
+    def parameters(self) -> list[torch.Tensor]:
+        return [t for pair in zip(self.weights, self.biases, strict=True) for t in pair]
+
+    def forward(self, z: torch.Tensor) -> torch.Tensor:
+        """(K, n_in, n) -> (K, n_out, n): samples as columns (the faster layout for small widths)."""
+        h = z
+        last = len(self.weights) - 1
+        for i, (w, b) in enumerate(zip(self.weights, self.biases, strict=True)):
+            h = torch.baddbmm(b.unsqueeze(2), w, h)
+            if i < last:
+                h = self.activation(h)
+        return h
+
+    def snapshot(self) -> list[torch.Tensor]:
+        return [p.detach().clone() for p in self.parameters()]
+
+    def keep(self, best: list[torch.Tensor], rows: torch.Tensor, members: torch.Tensor) -> None:
+        """Copy the batch rows ``rows`` into ``best`` at the members ``members`` (both index tensors)."""
+        for b, p in zip(best, self.parameters(), strict=True):
+            b[members] = p.detach()[rows]
+
+    def select(self, rows: torch.Tensor, optimizer: torch.optim.Adam) -> torch.optim.Adam:
+        """Keep only the batch rows ``rows``: new leaf tensors and an Adam carrying their moments and step."""
+        old = self.parameters()
+        new = [p.detach()[rows].clone().requires_grad_() for p in old]
+        self.weights, self.biases = new[0::2], new[1::2]
+        adam = torch.optim.Adam(new, **{k: optimizer.defaults[k] for k in ("lr", "betas", "eps", "fused")})
+        for p_old, p_new in zip(old, new, strict=True):
+            state = optimizer.state.get(p_old)
+            if state:
+                adam.state[p_new] = {
+                    "step": state["step"].clone(),
+                    "exp_avg": state["exp_avg"][rows].clone(),
+                    "exp_avg_sq": state["exp_avg_sq"][rows].clone(),
+                }
+        return adam
+
+    def write(self, best: list[torch.Tensor], nets: list[MLP]) -> None:
+        with torch.no_grad():
+            for k, net in enumerate(nets):
+                for lin, w, b in zip(net.linears(), best[0::2], best[1::2], strict=True):
+                    lin.weight.copy_(w[k])
+                    lin.bias.copy_(b[k])
+
+
+def _stack_padded(rows: list[torch.Tensor], length: int) -> torch.Tensor:
+    """(K, length, ...) with each member's rows first and zeros after."""
+    out = rows[0].new_zeros((len(rows), length, *rows[0].shape[1:]))
+    for k, r in enumerate(rows):
+        out[k, : r.shape[0]] = r
+    return out
+
+
+def batch_sizes(n: int, n_batches: int, batch_size: int) -> np.ndarray:
+    """How a member with ``n`` rows cuts its permutation into ``n_batches`` batches (module docstring)."""
+    if n > (n_batches - 1) * batch_size:
+        return np.array([batch_size] * (n_batches - 1) + [n - (n_batches - 1) * batch_size])
+    return np.array([len(a) for a in np.array_split(np.arange(n), n_batches)])
+
+
+class EnsembleTrainer:
+    """All members of both nets: epochs of Adam steps, validation, early stopping (module docstring)."""
+
+    def __init__(
+        self,
+        nets: dict[str, list[MLP]],
+        data: list[MemberTensors],
+        config: SurrogateConfig,
+        generators: list[torch.Generator],
+    ):
+        self.nets, self.config, self.generators = nets, config, generators
+        self.K = len(data)
+        self.batched = {k: BatchedNet(nets[k]) for k in NETS}
+        self.optimizers = {
+            k: torch.optim.Adam(self.batched[k].parameters(), lr=config.learning_rate, fused=True) for k in NETS
+        }
+        self.n_rows = [d.z_train.shape[0] for d in data]
+        n_max = max(self.n_rows)
+        self.B = min(config.batch_size, n_max)
+        self.S = math.ceil(n_max / self.B)
+        # training rows per member, padded with one zero row (weight 0) at index n_max
+        table = [torch.cat([d.z_train, d.y_train["force"], d.y_train["moment"], d.w_train[:, None]], 1) for d in data]
+        self.table = _stack_padded(table, n_max + 1)
+        self.pad_row = n_max
+        self.n_in = data[0].z_train.shape[1]
+        self.sizes = [batch_sizes(n, self.S, self.B) for n in self.n_rows]
+        n_val = max(d.z_val.shape[0] for d in data)
+        self.z_val = _stack_padded([d.z_val for d in data], n_val).transpose(1, 2).contiguous()
+        self.y_val = {k: _stack_padded([d.y_val[k] for d in data], n_val).transpose(1, 2) for k in NETS}
+        self.w_val = _stack_padded([d.w_val for d in data], n_val)
+        self.w_val_sum = torch.clamp(self.w_val.sum(1), min=torch.finfo(self.w_val.dtype).tiny)
+        self.stopped = {k: torch.zeros(self.K, dtype=torch.bool) for k in NETS}
+        self.active = {k: torch.arange(self.K) for k in NETS}  # the members in the batched tensors, in order
+        self.best_loss = {k: torch.full((self.K,), math.inf, dtype=torch.float64) for k in NETS}
+        self.best_epoch = {k: [0] * self.K for k in NETS}
+        self.epochs = {k: [0] * self.K for k in NETS}
+        self.best = {k: self.batched[k].snapshot() for k in NETS}
+        self.history: dict[str, list[list[float]]] = {k: [] for k in NETS}
+
+    def _epoch_layout(self) -> tuple[torch.Tensor, torch.Tensor]:
+        """Row index (K, S*B) into the padded table, and each slot's batch size (for the loss scale)."""
+        idx = np.full((self.K, self.S * self.B), self.pad_row, dtype=np.int64)
+        div = np.ones((self.K, self.S * self.B))
+        for k, (n, sizes) in enumerate(zip(self.n_rows, self.sizes, strict=True)):
+            perm = torch.randperm(n, generator=self.generators[k]).numpy()
+            starts = np.concatenate([[0], np.cumsum(sizes)[:-1]])
+            chunk = np.repeat(np.arange(self.S), sizes)
+            dest = chunk * self.B + (np.arange(n) - starts[chunk])
+            idx[k, dest] = perm
+            div[k, dest] = sizes[chunk]
+        return torch.from_numpy(idx), torch.from_numpy(div)
+
+    def epoch(self) -> None:
+        idx, div = self._epoch_layout()
+        cols = self.table[torch.arange(self.K)[:, None], idx].transpose(1, 2).contiguous()  # (K, C, S*B)
+        z = cols[:, : self.n_in]
+        y = {"force": cols[:, self.n_in : self.n_in + 3], "moment": cols[:, self.n_in + 3 : self.n_in + 6]}
+        scale = (cols[:, -1] / div.to(cols.dtype) / 3.0).unsqueeze(1)
+        active = [k for k in NETS if not bool(self.stopped[k].all())]
+        data = {}
+        for k in active:
+            rows = self.active[k]
+            full = rows.numel() == self.K
+            data[k] = (z if full else z[rows], y[k] if full else y[k][rows], scale if full else scale[rows])
+        for s in range(self.S):
+            sl = slice(s * self.B, (s + 1) * self.B)
+            for k in active:
+                zk, yk, wk = data[k]
+                self.optimizers[k].zero_grad(set_to_none=True)
+                loss = ((self.batched[k].forward(zk[:, :, sl]) - yk[:, :, sl]).square() * wk[:, :, sl]).sum()
+                loss.backward()  # type: ignore[no-untyped-call]
+                self.optimizers[k].step()
+
+    def validate(self, epoch: int) -> bool:
+        """Validation losses, best weights, stopping; False when every member of every net has stopped."""
+        with torch.no_grad():
+            for k in NETS:
+                if bool(self.stopped[k].all()):
+                    continue
+                members = self.active[k]
+                err = (self.batched[k].forward(self.z_val[members]) - self.y_val[k][members]).square().mean(1)
+                loss = (err * self.w_val[members]).sum(1) / self.w_val_sum[members]
+                full = torch.full((self.K,), math.nan, dtype=torch.float64)
+                full[members] = loss.double()
+                self.history[k].append(full.tolist())
+                improved = loss < self.best_loss[k][members]
+                if bool(improved.any()):
+                    rows = torch.nonzero(improved).flatten()
+                    self.best_loss[k][members[rows]] = loss[rows].double()
+                    self.batched[k].keep(self.best[k], rows, members[rows])
+                keep = []
+                for row, m in enumerate(members.tolist()):
+                    self.epochs[k][m] = epoch
+                    if improved[row]:
+                        self.best_epoch[k][m] = epoch
+                    elif epoch - self.best_epoch[k][m] >= self.config.patience:
+                        self.stopped[k][m] = True
+                        continue
+                    keep.append(row)
+                if keep and len(keep) < members.numel():  # some stopped: they leave the batched tensors
+                    rows = torch.tensor(keep)
+                    self.optimizers[k] = self.batched[k].select(rows, self.optimizers[k])
+                    self.active[k] = members[rows]
+        return not all(bool(self.stopped[k].all()) for k in NETS)
+
+    def finish(self) -> None:
+        """Write every member's best weights into its nets."""
+        for k in NETS:
+            self.batched[k].write(self.best[k], self.nets[k])
+
+
+__all__ = ["NETS", "BatchedNet", "EnsembleTrainer", "MemberTensors", "batch_sizes"]

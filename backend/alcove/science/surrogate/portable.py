@@ -1,0 +1,179 @@
+"""Portable exports of a model version: serialised CasADi Functions and ONNX graphs (docs/exports.md).
+
+Written next to ``surrogate.json`` by :func:`write_exports`; none needs alcove to be used:
+
+``force.casadi``, ``moment.casadi``
+    ``casadi.Function.load``: inputs ``q``, ``qd`` (ndof x 1), output ``force`` / ``moment``
+    (3 x 1, headrest frame, SI units), the ensemble mean; float64 weights, the kinematics and
+    the 19 features included (the same expression the OCP uses, :mod:`.export`).
+``force_std.casadi``, ``moment_std.casadi`` (K > 1)
+    The same inputs, outputs ``std`` and ``var`` (3 x 1): the members' standard deviation and variance.
+``force.onnx``, ``moment.onnx``
+    ONNX (opset 18, float64): input ``features`` (n x 19, raw, in the order of
+    ``surrogate.json``'s ``feature_names``), outputs ``mean`` (n x 3) and, for K > 1, ``std``
+    (n x 3). Built node by node from the weights (MatMul, Add, softplus as
+    ``Relu(x) + Log(1 + Exp(-|x|))``) and checked with onnxruntime against PyTorch when written.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import casadi as ca
+import numpy as np
+
+from alcove.science.arrays import FloatArray
+from alcove.science.surrogate.export import _mean_var, _state_features, member_wrenches_symbolic
+from alcove.science.surrogate.features import N_FEATURES
+from alcove.science.surrogate.mlp import Member, SurrogateModel
+
+NETS = {"force": slice(0, 3), "moment": slice(3, 6)}
+ONNX_OPSET = 18
+ONNX_RTOL = 1e-6  # checked at export: relative to max(1, |torch output|)
+
+
+class ExportError(RuntimeError):
+    """An export does not reproduce the model; ``field`` names the file."""
+
+    def __init__(self, field: str, reason: str):
+        self.field, self.reason = field, reason
+        super().__init__(f"{field}: {reason}")
+
+
+def casadi_net_functions(model: SurrogateModel) -> dict[str, ca.Function]:
+    """File stem -> Function: ``force``, ``moment`` (mean) and, for K > 1, ``force_std``, ``moment_std``."""
+    q, qd, feats = _state_features(model, model.preset, None)
+    mean, var = _mean_var(member_wrenches_symbolic(model, feats))
+    out: dict[str, ca.Function] = {}
+    for net, rows in NETS.items():
+        out[net] = ca.Function(net, [q, qd], [mean[rows]], ["q", "qd"], [net])
+        if model.ensemble_size > 1:
+            v = var[rows]
+            out[f"{net}_std"] = ca.Function(f"{net}_std", [q, qd], [ca.sqrt(v), v], ["q", "qd"], ["std", "var"])
+    return out
+
+
+def _onnx_member(g: _Graph, m: Member, net: str) -> str:
+    """Node names of one member's net: raw features -> physical output (n x 3)."""
+    mlp = getattr(m, f"{net}_net")
+    norm = getattr(m, f"{net}_norm")
+    h = g.op("Div", g.op("Sub", "features", g.const(m.input_norm.mean)), g.const(m.input_norm.divisor))
+    linears = mlp.linears()
+    for i, lin in enumerate(linears):
+        w = lin.weight.detach().double().numpy().T
+        h = g.op("Add", g.op("MatMul", h, g.const(w)), g.const(lin.bias.detach().double().numpy()))
+        if i < len(linears) - 1:
+            h = g.activation(mlp.activation, h)
+    return g.op("Add", g.op("Mul", h, g.const(norm.scale)), g.const(norm.mean))
+
+
+class _Graph:
+    """A small ONNX graph builder (float64 constants as initializers)."""
+
+    def __init__(self) -> None:
+        self.nodes: list[object] = []
+        self.inits: list[object] = []
+        self.n = 0
+
+    def _name(self, prefix: str) -> str:
+        self.n += 1
+        return f"{prefix}_{self.n}"
+
+    def const(self, a: FloatArray | float | list[int], dtype: object = np.float64) -> str:
+        from onnx import numpy_helper
+
+        name = self._name("c")
+        self.inits.append(numpy_helper.from_array(np.asarray(a, dtype=dtype), name))  # type: ignore[call-overload]
+        return name
+
+    def op(self, kind: str, *inputs: str, out: str | None = None, **attrs: int) -> str:
+        from onnx import helper
+
+        name = out or self._name(kind.lower())
+        self.nodes.append(helper.make_node(kind, list(inputs), [name], **attrs))  # type: ignore[arg-type]
+        return name
+
+    def activation(self, kind: str, x: str) -> str:
+        if kind == "softplus":  # max(x, 0) + log(1 + exp(-|x|)), exact for all x in float64
+            tail = self.op("Log", self.op("Add", self.op("Exp", self.op("Neg", self.op("Abs", x))), self.const(1.0)))
+            return self.op("Add", self.op("Relu", x), tail)
+        if kind == "tanh":
+            return self.op("Tanh", x)
+        return self.op("Sigmoid", x)
+
+
+def onnx_model(model: SurrogateModel, net: str) -> bytes:
+    """The serialised ONNX graph of ``net`` (``force`` or ``moment``), see the module docstring."""
+    import onnx
+    from onnx import TensorProto, helper
+
+    g = _Graph()
+    outs = [_onnx_member(g, m, net) for m in model.members]
+    outputs = [helper.make_tensor_value_info("mean", TensorProto.DOUBLE, ["n", 3])]
+    if len(outs) == 1:
+        g.op("Identity", outs[0], out="mean")
+    else:
+        axis0 = g.const([0], np.int64)
+        stacked = g.op("Concat", *[g.op("Unsqueeze", o, axis0) for o in outs], axis=0)
+        mean = g.op("ReduceMean", stacked, axis0, keepdims=0, out="mean")
+        dev = g.op("Sub", stacked, g.op("Unsqueeze", mean, axis0))
+        g.op("Sqrt", g.op("ReduceMean", g.op("Mul", dev, dev), axis0, keepdims=0), out="std")
+        outputs.append(helper.make_tensor_value_info("std", TensorProto.DOUBLE, ["n", 3]))
+    graph = helper.make_graph(
+        g.nodes,  # type: ignore[arg-type]
+        f"alcove_{net}",
+        [helper.make_tensor_value_info("features", TensorProto.DOUBLE, ["n", N_FEATURES])],
+        outputs,
+        initializer=g.inits,  # type: ignore[arg-type]
+    )
+    proto = helper.make_model(graph, opset_imports=[helper.make_opsetid("", ONNX_OPSET)], producer_name="alcove")
+    proto.ir_version = 8
+    onnx.checker.check_model(proto)
+    data: bytes = proto.SerializeToString()
+    return data
+
+
+def check_onnx(model: SurrogateModel, net: str, data: bytes, x: FloatArray) -> float:
+    """Largest ``|onnx - torch| / max(1, |torch|)`` of the mean and std at raw features ``x``; raises
+    :class:`ExportError` above :data:`ONNX_RTOL`."""
+    import onnxruntime as ort
+
+    session = ort.InferenceSession(data, providers=["CPUExecutionProvider"])
+    got = session.run(None, {"features": np.ascontiguousarray(x, dtype=np.float64)})
+    p = model.predict_ensemble(x)
+    want = [getattr(p, net), getattr(p, f"{net}_std")][: len(got)]
+    err = max(float(np.max(np.abs(g - w) / np.maximum(1.0, np.abs(w)))) for g, w in zip(got, want, strict=True))
+    if not err <= ONNX_RTOL:
+        raise ExportError(f"{net}.onnx", f"differs from PyTorch by {err:.3g} (relative), above {ONNX_RTOL:g}")
+    return err
+
+
+def write_exports(model: SurrogateModel, root: Path, check_features: FloatArray | None = None) -> list[str]:
+    """Write the CasADi and ONNX files into ``root``; returns their names. The ONNX graphs are
+    checked with onnxruntime at ``check_features`` (default: the input standardisation's mean
+    +- 3 scale, 64 reproducible random rows)."""
+    written = []
+    for stem, fn in casadi_net_functions(model).items():
+        fn.save(str(root / f"{stem}.casadi"))
+        written.append(f"{stem}.casadi")
+    if check_features is None:
+        rng = np.random.default_rng(0)
+        norm = model.input_norm
+        check_features = norm.mean + 3.0 * norm.divisor * rng.uniform(-1.0, 1.0, (64, len(norm.mean)))
+    for net in NETS:
+        data = onnx_model(model, net)
+        check_onnx(model, net, data, check_features)
+        (root / f"{net}.onnx").write_bytes(data)
+        written.append(f"{net}.onnx")
+    return written
+
+
+__all__ = [
+    "ONNX_OPSET",
+    "ONNX_RTOL",
+    "ExportError",
+    "casadi_net_functions",
+    "check_onnx",
+    "onnx_model",
+    "write_exports",
+]

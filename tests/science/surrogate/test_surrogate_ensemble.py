@@ -1,0 +1,95 @@
+"""Deep ensembles: vectorised training equals training each member alone; mean and std are the members'."""
+
+import numpy as np
+import pytest
+import torch
+
+from alcove.science.surrogate.config import SurrogateConfig
+from alcove.science.surrogate.ensemble import batch_sizes
+from alcove.science.surrogate.training import member_seed, predict_ensemble, split_pool, train_surrogate
+
+# 20 simulations of 100 samples: every member's 70/30 split by simulation holds 14 simulations,
+# so all members have 1120 training rows and the same batches as when trained alone. Patience 2 and
+# lr 0.1 make every net of every member stop early, at different epochs (18 to 31).
+CONFIG = SurrogateConfig(max_epochs=40, batch_size=256, patience=2, learning_rate=0.1, ensemble_size=3)
+SEEDS = [11, 12, 13]
+
+
+@pytest.fixture(scope="module")
+def ensemble_and_alone(smooth_pool):
+    ensemble = train_surrogate(smooth_pool, CONFIG, seed=0, member_seeds=SEEDS)
+    alone = [train_surrogate(smooth_pool, CONFIG.model_copy(update={"ensemble_size": 1}), seed=s) for s in SEEDS]
+    return ensemble, alone
+
+
+def test_members_differ_by_seed_and_split(smooth_pool, ensemble_and_alone):
+    ensemble, _ = ensemble_and_alone
+    assert ensemble.model.ensemble_size == 3
+    tests = [sp.test_sets for sp in ensemble.splits]
+    assert tests[0] != tests[1] and tests[1] != tests[2]
+    assert tests == [split_pool(smooth_pool, CONFIG, s).test_sets for s in SEEDS]
+    # member 0 of a default ensemble has the model's own seed: K = 1 is the single model of before
+    assert member_seed(7, 0) == 7 and len({member_seed(7, k) for k in range(5)}) == 5
+
+
+def test_vectorised_training_gives_each_members_weights_trained_alone(ensemble_and_alone):
+    ensemble, alone = ensemble_and_alone
+    for member, single in zip(ensemble.model.members, alone, strict=True):
+        for net in ("force_net", "moment_net"):
+            got = getattr(member, net).state_dict()
+            want = getattr(single.model, net).state_dict()
+            for name in got:  # threshold: float64 rounding of batched vs single matrix products over ~30 epochs
+                torch.testing.assert_close(got[name], want[name], rtol=1e-9, atol=1e-11)
+        np.testing.assert_array_equal(member.input_norm.mean, single.model.input_norm.mean)
+    for k, single in enumerate(alone):
+        assert ensemble.metrics.members[k]["best_epoch"] == single.metrics.best_epoch
+        assert ensemble.metrics.members[k]["epochs"] == single.metrics.epochs
+    stops = {(k, net): m["epochs"][net] for k, m in enumerate(ensemble.metrics.members) for net in m["epochs"]}
+    assert max(stops.values()) < CONFIG.max_epochs and len(set(stops.values())) > 2  # stopped early, apart
+
+
+def test_ensemble_mean_and_std_are_those_of_the_independent_members(ensemble_and_alone):
+    ensemble, alone = ensemble_and_alone
+    t = np.linspace(0, 1, 40)
+    q, qd = 0.22 + 0.1 * np.sin(5 * t), 0.5 * np.cos(5 * t)
+    p = predict_ensemble(ensemble.model, q, qd)
+    singles = [predict_ensemble(r.model, q, qd) for r in alone]
+    f = np.stack([s.force for s in singles])
+    m = np.stack([s.moment for s in singles])
+    np.testing.assert_allclose(p.force, f.mean(0), rtol=1e-8, atol=1e-9)  # threshold: as above
+    np.testing.assert_allclose(p.moment, m.mean(0), rtol=1e-8, atol=1e-9)
+    np.testing.assert_allclose(p.force_std, f.std(0), rtol=1e-6, atol=1e-9)
+    assert np.all(p.force_std[:, 0] > 0)  # the members disagree somewhere off their data
+    assert np.all(p.force_std[:, 1] == 0) and np.all(p.moment_std[:, [0, 2]] == 0)  # structural zeros
+    assert np.all(singles[0].force_std == 0)  # K = 1 has no spread
+
+
+def test_warm_start_is_per_member(smooth_pool, ensemble_and_alone):
+    ensemble, _ = ensemble_and_alone
+    tiny = CONFIG.model_copy(update={"max_epochs": 1, "learning_rate": 1e-12, "ensemble_size": 4})
+    warm = train_surrogate(smooth_pool, tiny, seed=0, member_seeds=[*SEEDS, 99], warm_start=ensemble.model)
+    status = warm.model.lineage["warm_start"]
+    assert status[:3] == [{"force": True, "moment": True}] * 3
+    assert status[3]["force"].startswith("cold")
+    for k in range(3):  # lr 1e-12: each member is still the previous member k (Adam moves <= lr per step, 5 steps)
+        torch.testing.assert_close(
+            warm.model.members[k].force_net.state_dict()["layers.0.weight"],
+            ensemble.model.members[k].force_net.state_dict()["layers.0.weight"],
+            rtol=0,
+            atol=5e-12 * 1.01,
+        )
+
+
+def test_batches_cover_every_row_once_per_epoch():
+    assert list(batch_sizes(2500, 3, 1024)) == [1024, 1024, 452]  # the largest set: the paper's batches
+    sizes = batch_sizes(1900, 3, 1024)  # a smaller set: the same number of nearly equal batches
+    assert sizes.sum() == 1900 and len(sizes) == 3 and sizes.max() - sizes.min() <= 1
+
+
+def test_history_and_metrics_are_strict_json_when_members_stop_apart(ensemble_and_alone):
+    import json
+
+    ensemble, alone = ensemble_and_alone
+    json.dumps({"history": ensemble.history, "metrics": ensemble.metrics.to_dict()}, allow_nan=False)
+    for net in ("force", "moment"):  # member 0's validation losses, as when trained alone (float rounding)
+        assert ensemble.history[net] == pytest.approx(alone[0].history[net], rel=1e-9)
