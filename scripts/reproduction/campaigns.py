@@ -271,14 +271,16 @@ def fork_campaign(
 
 
 def campaign_settings(quick: bool, oracle: str) -> dict[str, Any]:
+    """The paper's protocol: one model pair per iteration (``ensemble_size`` 1, the paper's
+    single model; alcove's default is an ensemble of 5)."""
     if quick:
         return {
             "oracle": "aux-penalty",
             "oracle_params": {},
-            "surrogate": {"max_epochs": 30},
+            "surrogate": {"max_epochs": 30, "ensemble_size": 1},
             "preliminary": {"samples": 600, "chunks": 4},
         }
-    return {"oracle": oracle, "oracle_params": {}, "surrogate": {}, "preliminary": {}}
+    return {"oracle": oracle, "oracle_params": {}, "surrogate": {"ensemble_size": 1}, "preliminary": {}}
 
 
 def adjusted_task() -> dict[str, Any]:
