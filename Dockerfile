@@ -16,6 +16,9 @@ ENV PYTHONUNBUFFERED=1 \
     ALCOVE_API_HOST=0.0.0.0 \
     ALCOVE_MIGRATIONS_DIR=/app/migrations
 WORKDIR /app
+# calculix-ccx: the solver of the fe-headrest-3d-ccx oracle (ccx on PATH)
+RUN apt-get update && apt-get install -y --no-install-recommends calculix-ccx \
+    && rm -rf /var/lib/apt/lists/*
 # CPU build of torch (the pinned version in pyproject.toml)
 RUN pip install --index-url https://download.pytorch.org/whl/cpu torch==2.13.0
 COPY pyproject.toml README.md alembic.ini ./

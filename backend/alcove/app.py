@@ -6,9 +6,11 @@ from __future__ import annotations
 
 import logging
 import os
+from collections.abc import AsyncIterator, Callable
+from contextlib import AbstractAsyncContextManager, asynccontextmanager
 from pathlib import Path
 
-from fastapi import APIRouter, FastAPI, Request
+from fastapi import APIRouter, Depends, FastAPI, Request
 from fastapi.responses import HTMLResponse, JSONResponse
 from fastapi.routing import APIRoute
 from sqlalchemy import exc as sa_exc
@@ -18,6 +20,7 @@ from alcove.api import health
 from alcove.api.errors import COMMON_RESPONSES, BodySizeLimit, install_error_handlers
 from alcove.api.security import SecurityHeaders, install_docs
 from alcove.api.static import SPAStaticFiles
+from alcove.api.text_input import reject_nul_characters
 from alcove.db.retry import is_retryable_db_error
 from alcove.settings import Settings, get_settings
 from alcove.users.ratelimit import make_login_throttle
@@ -67,9 +70,29 @@ def api_routers() -> list[APIRouter]:
     ]
 
 
+def _lifespan(settings: Settings) -> Callable[[FastAPI], AbstractAsyncContextManager[None]]:
+    """While the app serves: the job outbox's relay, which sends the jobs this process (or a
+    process that died) recorded while the broker was down, and those a broker restart lost
+    (see :mod:`alcove.jobs.outbox`)."""
+
+    @asynccontextmanager
+    async def lifespan(app: FastAPI) -> AsyncIterator[None]:
+        from alcove.jobs.outbox import RelayThread
+
+        relay = RelayThread(settings.outbox_relay_seconds)
+        relay.start()
+        try:
+            yield
+        finally:
+            relay.stop()
+
+    return lifespan
+
+
 def create_app(settings: Settings | None = None) -> FastAPI:
     settings = settings or get_settings()
     app = FastAPI(
+        lifespan=_lifespan(settings),
         title="alcove",
         version=alcove.__version__,
         description="Active-learning campaigns for data-driven contact surrogates.",
@@ -80,13 +103,16 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     )
     app.include_router(health.router, prefix=API_PREFIX)
     for router in api_routers():
-        app.include_router(router, prefix=API_PREFIX, responses=COMMON_RESPONSES)
+        app.include_router(
+            router, prefix=API_PREFIX, responses=COMMON_RESPONSES, dependencies=[Depends(reject_nul_characters)]
+        )
     install_docs(app, f"{API_PREFIX}/docs", f"{API_PREFIX}/openapi.json")
     install_error_handlers(app)
     app.add_middleware(BodySizeLimit)
     app.add_middleware(SecurityHeaders)  # outermost of ours: also on errors and the web UI's files
 
     app.state.trusted_proxies = settings.trusted_proxy_networks
+    app.state.forwarded_header = settings.forwarded_header
     app.state.login_throttle = make_login_throttle(settings.broker_url, settings.broker_key_prefix)
     dummy_password_hash()  # an unknown e-mail's first login costs what any other does
     _warn_about_retired_settings()

@@ -10,6 +10,7 @@ from __future__ import annotations
 import ipaddress
 from functools import lru_cache
 from pathlib import Path
+from typing import Literal
 
 from pydantic import Field, SecretStr, field_validator, model_validator
 from pydantic_settings import BaseSettings, SettingsConfigDict
@@ -51,7 +52,23 @@ class Settings(BaseSettings):
         default=0.1, description="Seconds between polls of the filesystem broker folders"
     )
     worker_heartbeat_seconds: float = Field(
-        default=10.0, description="How often a worker refreshes its row in worker_heartbeats"
+        default=2.0, gt=0, description="How often a worker refreshes its row in worker_heartbeats"
+    )
+    worker_dead_seconds: float = Field(
+        default=10.0,
+        gt=0,
+        description=(
+            "A worker whose heartbeat is older than this is dead: the reconciler gives its running steps to "
+            "another worker (keep it several heartbeats long: a slow worker still beats and keeps its step)"
+        ),
+    )
+    reconcile_seconds: float = Field(
+        default=2.0, gt=0, description="How often each worker looks for steps of dead workers and lost messages"
+    )
+    outbox_relay_seconds: float = Field(
+        default=1.0,
+        gt=0,
+        description="How often the API and each worker send the jobs still waiting in the outbox (broker back)",
     )
     worker_stale_seconds: float = Field(
         default=60.0, description="A worker not seen for this long counts as gone (readiness, reconciler)"
@@ -67,6 +84,13 @@ class Settings(BaseSettings):
         description=(
             "Comma-separated IP addresses or networks (CIDR) of reverse proxies whose X-Forwarded-For header is "
             "believed; empty: none (the client address is the connection's peer)"
+        ),
+    )
+    forwarded_header: Literal["x-forwarded-for", "forwarded"] = Field(
+        default="x-forwarded-for",
+        description=(
+            "The header the trusted proxies write the client address to: X-Forwarded-For, or Forwarded (RFC 7239, "
+            "its for= parameters); the other one is never read (a client could have written it)"
         ),
     )
     log_level: str = "INFO"
@@ -87,6 +111,16 @@ class Settings(BaseSettings):
             raise ValueError(
                 "ALCOVE_FAULT_PLAN: fault injection is only for test processes; "
                 "this process is not one (ALCOVE_TESTING is not true): unset ALCOVE_FAULT_PLAN"
+            )
+        return self
+
+    @model_validator(mode="after")
+    def _dead_after_several_beats(self) -> Settings:
+        if self.worker_dead_seconds < 2 * self.worker_heartbeat_seconds:
+            raise ValueError(
+                f"ALCOVE_WORKER_DEAD_SECONDS ({self.worker_dead_seconds:g}) must be at least twice "
+                f"ALCOVE_WORKER_HEARTBEAT_SECONDS ({self.worker_heartbeat_seconds:g}): a worker between two beats "
+                "would count as dead and lose its step"
             )
         return self
 

@@ -139,6 +139,13 @@ try {
   await page.waitForURL(/\/tasks\/\d+$/);
   await page.getByTestId("phases-table").waitFor();
 
+  step("share the task with an address no account has: the words do not tell");
+  const invitee = `nobody-${stamp}@example.org`;
+  await page.getByLabel("Share with").fill(invitee);
+  await page.getByRole("button", { name: "Share", exact: true }).click();
+  await page.getByRole("status").filter({ hasText: `Shared with ${invitee}. If no account uses this address yet` }).waitFor();
+  await page.getByText(`${invitee} (view)`).waitFor();
+
   step("solve the task once (preview run by the worker)");
   await page.getByTestId("validation-state").filter({ hasText: "valid" }).waitFor({ timeout: 15_000 });
   await page.getByRole("button", { name: "Solve once" }).click();
@@ -206,6 +213,21 @@ try {
   const clean = /^([12357](\.0*)?|0\.0*[12357]|[12357]0*|([12357]×)?10[⁻⁰¹²³⁴⁵⁶⁷⁸⁹]+)$/;
   if (!yLabels.length || !yLabels.every((l) => clean.test(l.trim()))) throw new Error(`RMSE log axis labels: ${JSON.stringify(yLabels)}`);
   step(`  RMSE log axis labels: ${yLabels.join(" ")}`);
+
+  step("the held-out validation suite: replayed by the oracle worker, each model version evaluated, dashed beside the RMSE");
+  await waitFor(
+    async () => {
+      const ks = ((await page.getByTestId("rmse-plot").getAttribute("data-validation")) ?? "").split(",").filter(Boolean);
+      return ks.length >= 1 ? ks : null;
+    },
+    "the generalisation error of a model version on the plot (live, no reload)",
+    campaignTimeout,
+    1000,
+  );
+  const suiteText = (await page.getByTestId("validation-suite").innerText()).trim();
+  const suiteMatch = /held-out suite: complete, (\d+)\/(\d+) motions/.exec(suiteText);
+  if (!suiteMatch || suiteMatch[1] !== suiteMatch[2]) throw new Error(`validation suite line: ${suiteText}`);
+  step(`  ${suiteText}`);
 
   step("polling transfers only new iterations");
   const campaignId = /\/campaigns\/(\d+)/.exec(campaignUrl)[1];

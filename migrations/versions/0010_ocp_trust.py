@@ -7,7 +7,7 @@ the nearest pool sample; alcove.science.surrogate.trust). Stored iterations keep
 were not assessed, which is not the same as trusted.
 
 Revision ID: 0010
-Revises: 0007 (the lead re-chains at merge)
+Revises: 0008
 Create Date: 2026-12-02 06:20:00
 """
 
@@ -20,7 +20,7 @@ from alembic import op
 from sqlalchemy.dialects import postgresql
 
 revision: str = "0010"
-down_revision: str | Sequence[str] | None = "0007"
+down_revision: str | Sequence[str] | None = "0008"
 branch_labels: str | Sequence[str] | None = None
 depends_on: str | Sequence[str] | None = None
 

@@ -127,6 +127,7 @@ def _drive(campaign_id: int, jobs: list[Any], label: str, t0: float) -> Campaign
             progress()
     wall = time.perf_counter() - t0
     progress(force=True)
+    _finish_validation(campaign_id)
     with session_scope() as s:
         c = results.get_campaign(s, campaign_id)
         failed = results.get_detail(s, campaign_id).iterations_failed
@@ -135,6 +136,34 @@ def _drive(campaign_id: int, jobs: list[Any], label: str, t0: float) -> Campaign
         curves = results.iteration_curves(s, campaign_id, done[-1].iteration_index) if done else None
         steps = [j for j in results.list_jobs(s, campaign_id, ["succeeded"]) if j["iteration"] > 0]
     return CampaignRun(campaign_id, label, c.status.value, c.stop_reason, c.error, wall, metrics, curves, failed, steps)
+
+
+def _finish_validation(campaign_id: int) -> None:
+    """The held-out validation suite's replays and the evaluation of every model version on it
+    (not part of the campaign's wall time): by the worker, or in this process with --inline."""
+    from alcove.campaigns import results
+    from alcove.db import session_scope
+
+    if WORKER:
+        from alcove_worker.cli.follow import wait_validation
+
+        wait_validation(campaign_id, timeout=900.0)
+        return
+    from alcove.models import ValidationMotion
+    from alcove.oracles.validation import run_motion
+    from alcove.surrogates.validation import evaluate_suite
+
+    with session_scope() as s:
+        suite = results.get_detail(s, campaign_id).validation
+        ids = (
+            []
+            if suite is None
+            else [m.id for m in s.query(ValidationMotion).filter_by(suite_id=suite.id, status="queued")]
+        )
+    for i in ids:
+        run_motion(i, "inline")
+    if suite is not None:
+        evaluate_suite(suite.id)
 
 
 def step_breakdown(steps: list[dict[str, Any]]) -> dict[str, Any]:
@@ -242,14 +271,16 @@ def fork_campaign(
 
 
 def campaign_settings(quick: bool, oracle: str) -> dict[str, Any]:
+    """The paper's protocol: one model pair per iteration (``ensemble_size`` 1, the paper's
+    single model; alcove's default is an ensemble of 5)."""
     if quick:
         return {
             "oracle": "aux-penalty",
             "oracle_params": {},
-            "surrogate": {"max_epochs": 30},
+            "surrogate": {"max_epochs": 30, "ensemble_size": 1},
             "preliminary": {"samples": 600, "chunks": 4},
         }
-    return {"oracle": oracle, "oracle_params": {}, "surrogate": {}, "preliminary": {}}
+    return {"oracle": oracle, "oracle_params": {}, "surrogate": {"ensemble_size": 1}, "preliminary": {}}
 
 
 def adjusted_task() -> dict[str, Any]:

@@ -18,6 +18,7 @@ from .loop import part_campaign, part_remedies
 from .record import REPO, Report
 from .report import SECTION_TITLES, machine, write_markdown
 from .solution import part_fe, part_multibody
+from .sweep import part_sweep
 
 app = typer.Typer(add_completion=False)
 
@@ -59,8 +60,22 @@ def main(
         "(default, as `alcove campaign run`), or in this process (--inline: same protocol and rows, no broker)",
     ),
     concurrency: int = typer.Option(1, min=1, help="processes of the spawned worker (with --celery)"),
+    render_only: Path | None = typer.Option(
+        None,
+        "--render-only",
+        help="run nothing: re-render OUT/reproduction.md from a run's reproduction/run.json with the current "
+        "verdict rules (its numbers, date and figures stay those of that run)",
+    ),
 ) -> None:
     """Run the paper's proof of concept with alcove and write OUT/reproduction.md with figures."""
+    if render_only is not None:
+        import json
+
+        data = json.loads(render_only.read_text())
+        args = {"rendered": f"re-rendered from {render_only.name} with the current verdict rules", **data["args"]}
+        path = write_markdown(Report.from_json(data, out), data["info"], args, float(data["total"]), data["date"])
+        typer.echo(f"[reproduce] wrote {path}", err=True)
+        return
     missing = matplotlib_missing()
     if missing:  # before anything runs: every part draws a figure
         typer.echo(f"[reproduce] {missing}", err=True)
@@ -99,6 +114,7 @@ def main(
             part("fe", lambda: part_fe(rep, *mb))
         elif "fe" not in skip:
             rep.errors["fe"] = "needs the multibody solution (part 1 failed)"
+        part("sweep", lambda: part_sweep(rep))
         fresh_store(data_dir)
         if celery:
             from alcove_worker.cli.follow import spawn_worker

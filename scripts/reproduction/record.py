@@ -63,6 +63,27 @@ class Report:
     def figure_path(self, name: str) -> Path:
         return self.out / "reproduction" / name
 
+    def to_json(self) -> dict[str, Any]:
+        """Everything the page is rendered from (saved as ``reproduction/run.json`` beside it)."""
+        return {
+            "quick": self.quick,
+            "rows": [vars(r) for r in self.rows],
+            "sections": self.sections,
+            "errors": self.errors,
+            "timings": self.timings,
+            "facts": self.facts,
+            "timings_note": self.timings_note,
+        }
+
+    @classmethod
+    def from_json(cls, data: dict[str, Any], out: Path) -> Report:
+        rep = cls(quick=bool(data["quick"]), out=out)
+        rep.rows = [Row(**r) for r in data["rows"]]
+        rep.sections, rep.errors = dict(data["sections"]), dict(data["errors"])
+        rep.timings, rep.facts = dict(data["timings"]), dict(data["facts"])
+        rep.timings_note = data.get("timings_note", "")
+        return rep
+
 
 def fmt(x: float) -> str:
     if x is None or not math.isfinite(x):

@@ -100,6 +100,7 @@ def part_fe(rep: Report, task: Any, sol: Any) -> None:
         results.append((label, res, wall))
 
     figures.fe_replay(rep.figure_path("fe_replay.png"), results)
+    _approach(rep, task, sol, motions[0][1], results[0][1])
 
     s = "fe"
     for label, res, wall in results:
@@ -134,3 +135,45 @@ def part_fe(rep: Report, task: Any, sol: Any) -> None:
         )
     shown = oracle.params.model_dump(mode="json", include=FE_PARAMS_SHOWN)
     rep.text(s, f"Oracle parameters: {json.dumps(shown)}.")
+
+
+def _approach(rep: Report, task: Any, sol: Any, traj: Any, res: Any) -> None:
+    """How the OCP solution reaches the cushion: the speed at first contact, the torque before it
+    against the one that holds the head at the start, and the force peaks (a bounce makes several)."""
+    import numpy as np
+
+    from .sweep import PEAK_PROMINENCE, force_peaks, holding_torque
+
+    fc = res.diagnostics.get("first_contact_time_s")
+    if fc is None:
+        return
+    speed = float(abs(np.interp(fc, traj.t, traj.qd[:, 0])))
+    t_mid = 0.5 * (sol.t[:-1] + sol.t[1:])
+    before = np.abs(sol.controls[t_mid < fc, 0])
+    hold = abs(holding_torque(sol.chain, float(sol.q[0, 0])))
+    peaks = force_peaks(np.linalg.norm(res.forces.force, axis=1))
+    s = "multibody"
+    rep.add(
+        s,
+        "holding torque at the start (cancels gravity at theta0)",
+        "about 1.35 N m (its figure, before contact)",
+        hold,
+        "N m",
+    )
+    rep.add(
+        s,
+        "mean |torque| before first contact",
+        "about 1.35 N m (its figure: actuation holds the head)",
+        float(before.mean()),
+        "N m",
+    )
+    rep.add(s, "angular speed at first contact (FE replay)", "a smooth approach (its figure)", speed, "rad/s")
+    rep.add(
+        s,
+        "force peaks of |F| along the replay",
+        "1 (a single press, its figure)",
+        peaks,
+        "",
+        f"scipy.signal.find_peaks, prominence >= {PEAK_PROMINENCE:.0%} of the peak",
+    )
+    rep.facts.update(hold=hold, torque_before=float(before.mean()), contact_speed=speed, force_peaks=float(peaks))

@@ -248,6 +248,7 @@ SPECS: dict[str, Spec] = {
     "get_iteration_curves": ("owned", lambda o, a: Call(path={**o.finished(), "iteration": 1}), OK),
     "get_iteration_trajectory": ("owned", lambda o, a: Call(path={**o.finished(), "iteration": 1}), OK),
     "list_campaign_jobs": ("owned", lambda o, a: Call(path=o.finished()), OK),
+    "get_campaign_validation": ("owned", lambda o, a: Call(path=o.finished()), OK),
     "list_campaign_events": ("owned", lambda o, a: Call(path=o.finished()), OK),
     "stream_campaign_events": ("owned", lambda o, a: Call(path=o.finished(), params={"timeout": 0}), OK),
     "stream_all_campaign_events": ("any", lambda o, a: Call(params={"timeout": 0}), OK),

@@ -121,7 +121,7 @@ def test_reading_a_stale_preview_holds_one_connection_at_a_time(
     from datetime import timedelta
 
     from alcove.db import transaction
-    from alcove.models import Preview, utcnow
+    from alcove.models import JobOutbox, Preview, utcnow
     from alcove.previews.service import STALE_AFTER
 
     task = client.post(
@@ -130,6 +130,9 @@ def test_reading_a_stale_preview_holds_one_connection_at_a_time(
     preview = client.post(f"{API}/tasks/{task['id']}/previews", headers=owner.headers).json()["id"]
     old = utcnow() - STALE_AFTER - timedelta(seconds=5)
     transaction(lambda s: s.execute(sa.update(Preview).where(Preview.id == preview).values(created_at=old)))
+    transaction(  # its job reached the job queue that long ago and no worker took it
+        lambda s: s.execute(sa.update(JobOutbox).where(JobOutbox.subject == f"preview/{preview}").values(sent_at=old))
+    )
     cold()
     counter.most = 0
     r = client.get(f"{API}/previews/{preview}", headers=owner.headers)

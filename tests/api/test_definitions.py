@@ -80,7 +80,7 @@ def test_validate_reports_field_errors_without_saving(client, owner: Account) ->
 
 def test_presets_are_listed_and_copied_and_schemas_served(client, owner: Account) -> None:
     presets = client.get(f"{API}/tasks/presets", headers=owner.headers).json()
-    assert [p["key"] for p in presets] == ["head-headrest-2phase"]
+    assert [p["key"] for p in presets] == ["head-headrest-2phase", "head-headrest-smooth"]
     copy = client.post(f"{API}/tasks/presets/head-headrest-2phase/copy", json={"name": "mine"}, headers=owner.headers)
     assert (
         copy.status_code == 201
@@ -91,10 +91,11 @@ def test_presets_are_listed_and_copied_and_schemas_served(client, owner: Account
     schema = client.get(f"{API}/tasks/schema", headers=owner.headers).json()
     assert "phases" in schema["properties"]
     oracle_presets = {p["key"]: p for p in client.get(f"{API}/oracles/presets", headers=owner.headers).json()}
-    assert set(oracle_presets) == {"aux-penalty", "fe-headrest-2d"}
+    assert set(oracle_presets) == {"aux-penalty", "fe-headrest-2d", "fe-headrest-3d-ccx"}
     assert oracle_presets["aux-penalty"]["params"]["k"] > 0
     types = {t["name"]: t for t in client.get(f"{API}/oracles/types", headers=owner.headers).json()}
     assert "friction" in types["fe-headrest-2d"]["params_schema"]["properties"]
+    assert "contact_formulation" in types["fe-headrest-3d-ccx"]["params_schema"]["properties"]
     assert client.get(f"{API}/oracles/types/aux-penalty/schema", headers=owner.headers).json()["properties"]["k"]
     assert client.get(f"{API}/oracles/types/nope/schema", headers=owner.headers).status_code == 404
 

@@ -10,6 +10,7 @@ replays with the built-in aux-penalty model) gives the built-in oracle's forces.
 
 from __future__ import annotations
 
+import shutil
 import sys
 import time
 from pathlib import Path
@@ -160,7 +161,7 @@ def test_a_preview_no_worker_takes_fails_with_the_reason_and_frees_its_slot(clie
     import sqlalchemy as sa
 
     from alcove.db import transaction
-    from alcove.models import Preview, utcnow
+    from alcove.models import JobOutbox, Preview, utcnow
     from alcove.previews.service import STALE_AFTER
     from alcove.previews.worker import run_preview
 
@@ -172,12 +173,18 @@ def test_a_preview_no_worker_takes_fails_with_the_reason_and_frees_its_slot(clie
     old = utcnow() - STALE_AFTER - timedelta(seconds=5)
     # the first waited too long in the queue; the oracle one was taken by a worker that died
     transaction(lambda s: s.execute(sa.update(Preview).where(Preview.id == ids[0]).values(created_at=old)))
+    transaction(  # its job reached the job queue that long ago (sent, never taken)
+        lambda s: s.execute(sa.update(JobOutbox).where(JobOutbox.subject == f"preview/{ids[0]}").values(sent_at=old))
+    )
     transaction(
         lambda s: s.execute(
             sa.update(Preview).where(Preview.id == ids[2]).values(status="running", started_at=old, attempts=1)
         )
     )
 
+    assert client.get(f"{API}/previews/{ids[1]}", headers=me.headers).json()["status_detail"] == (
+        "waiting for a worker on queue 'ocp'"
+    )
     stale = client.get(f"{API}/previews/{ids[0]}", headers=me.headers).json()
     assert stale["status"] == "failed" and "no worker took it" in stale["error"] and "'ocp'" in stale["error"], stale
     assert (
@@ -266,3 +273,100 @@ def test_previews_run_on_a_worker(live) -> None:
     np.testing.assert_allclose(
         external["result"]["fx"], builtin["result"]["fx"], rtol=1e-4, atol=1e-6 * builtin["result"]["peak_force_n"]
     )
+
+
+@pytest.mark.integration
+@pytest.mark.slow
+@pytest.mark.skipif(shutil.which("redis-server") is None, reason="needs the redis-server program")
+def test_a_preview_asked_for_while_redis_is_down_runs_when_it_is_back(
+    tmp_path: Path, pg_url: str, api_settings: None, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Redis down: the preview answers 202 and says it waits for the job queue (not a wrong
+    reason, and it does not go stale); Redis back: the API's outbox relay sends it and a
+    worker runs it once."""
+    from datetime import UTC, datetime
+
+    from fastapi.testclient import TestClient
+
+    from alcove.app import create_app
+    from alcove.jobs import reset_sender
+    from alcove.jobs.outbox import reset_broker_client
+    from alcove.settings import get_settings
+    from tests.integration.procs import PrivateRedis, alcove_env, db_rows, running, wait_until, worker_ready
+    from tests.integration.procs import unique as unique_name
+
+    redis_server = PrivateRedis(tmp_path)  # not started: the broker is down
+    settings = {
+        "database_url": pg_url,
+        "broker_url": redis_server.url,
+        "data_dir": str(tmp_path / "data"),
+        "outbox_relay_seconds": "0.5",
+    }
+    for k, v in settings.items():
+        monkeypatch.setenv(f"ALCOVE_{k.upper()}", v)
+    get_settings.cache_clear()
+    reset_sender()
+    reset_broker_client()
+    me = make_account("member", "pv-down")
+    try:
+        with TestClient(create_app(get_settings().model_copy(update={"static_dir": tmp_path}))) as client:
+            task_id, _ = _task_and_oracle(client, me)
+            t0 = time.perf_counter()
+            r = client.post(f"{API}/tasks/{task_id}/previews", headers=me.headers)
+            answered = time.perf_counter() - t0
+            assert r.status_code == 202, r.text
+            pid = r.json()["id"]
+            for got in (r.json(), client.get(f"{API}/previews/{pid}", headers=me.headers).json()):
+                assert got["status"] == "pending" and got["error"] is None, got
+                assert got["status_detail"].startswith("waiting for the job queue"), got
+            listed = {x["id"]: x for x in client.get(f"{API}/previews", headers=me.headers).json()}
+            assert listed[pid]["status_detail"].startswith("waiting for the job queue")
+            time.sleep(1.5)  # several relay passes meet the broker down: the job keeps waiting
+            assert db_rows(pg_url, "SELECT sent_at FROM job_outbox WHERE subject = :s", s=f"preview/{pid}") == [(None,)]
+
+            redis_server.start()
+            back = datetime.now(UTC)
+            sent = wait_until(
+                lambda: db_rows(
+                    pg_url,
+                    "SELECT sent_at FROM job_outbox WHERE subject = :s AND sent_at IS NOT NULL",
+                    s=f"preview/{pid}",
+                ),
+                30,
+                "the preview's job sent by the API's relay",
+            )[0][0]
+            print(
+                f"\nRECOVERY preview asked for while Redis was down: answered in {answered * 1e3:.0f} ms, "
+                f"sent {(sent - back).total_seconds():.1f} s after Redis was back"
+            )
+            assert client.get(f"{API}/previews/{pid}", headers=me.headers).json()["status_detail"] == (
+                "waiting for a worker on queue 'ocp'"
+            )
+            with running(
+                ["worker", "--queues", "ocp", "--concurrency", "1", "--name", unique_name("pvd")],
+                alcove_env(**settings),
+                tmp_path / "worker.log",
+            ) as worker:
+                wait_until(lambda: worker_ready(worker), 90, "worker ready", worker)
+                done = wait_until(
+                    lambda: (
+                        (g := client.get(f"{API}/previews/{pid}", headers=me.headers).json())["status"]
+                        in ("succeeded", "failed")
+                        and g
+                    ),
+                    120,
+                    "the preview to finish",
+                    worker,
+                )
+            assert done["status"] == "succeeded" and done["result"]["converged"], done
+            assert db_rows(pg_url, "SELECT attempts FROM previews WHERE id = :p", p=pid) == [(1,)]
+            assert db_rows(
+                pg_url,
+                "SELECT send_count, delivered_at IS NOT NULL FROM job_outbox WHERE subject = :s",
+                s=f"preview/{pid}",
+            ) == [(1, True)]
+    finally:
+        redis_server.stop()
+        get_settings.cache_clear()
+        reset_sender()
+        reset_broker_client()

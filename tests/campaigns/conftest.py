@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
+import uuid
 from collections.abc import Iterator
+from pathlib import Path
 from typing import Any
 
 import pytest
@@ -114,3 +116,50 @@ def faults(tmp_path: Any, monkeypatch: pytest.MonkeyPatch) -> Iterator[dict[str,
 def make_campaign():
     """:func:`new_campaign` as a fixture (test modules cannot import conftest)."""
     return new_campaign
+
+
+def _pg_redis(
+    pg_url: str, redis_url: str, tmp_path: Path, monkeypatch: pytest.MonkeyPatch, faults: dict[str, str], **extra: str
+) -> Iterator[dict[str, str]]:
+    from alcove.db import dispose_engines
+    from alcove.jobs import reset_sender
+    from alcove.jobs.outbox import reset_broker_client
+    from alcove.settings import get_settings
+    from tests.integration.procs import alcove_env
+
+    settings = {
+        "database_url": pg_url,
+        "broker_url": redis_url,
+        "broker_key_prefix": f"t-{uuid.uuid4().hex[:8]}:",
+        "data_dir": str(tmp_path / "data"),
+        **extra,
+    }
+    for k, v in settings.items():
+        monkeypatch.setenv(f"ALCOVE_{k.upper()}", v)
+    get_settings.cache_clear()
+    dispose_engines(close=True)
+    reset_sender()
+    reset_broker_client()
+    yield {**alcove_env(**settings, broker_polling_interval="0.05"), **faults}
+    get_settings.cache_clear()
+    dispose_engines(close=True)
+    reset_sender()
+    reset_broker_client()
+
+
+@pytest.fixture
+def pg_redis(
+    pg_url: str, redis_url: str, tmp_path: Path, monkeypatch: pytest.MonkeyPatch, faults: dict[str, str]
+) -> Iterator[dict[str, str]]:
+    """This process and its workers on PostgreSQL + Redis (private key prefix), 3 s leases,
+    all of them test processes reading one fault plan."""
+    yield from _pg_redis(pg_url, redis_url, tmp_path, monkeypatch, faults, job_lease_seconds="3")
+
+
+@pytest.fixture
+def pg_redis_default_lease(
+    pg_url: str, redis_url: str, tmp_path: Path, monkeypatch: pytest.MonkeyPatch, faults: dict[str, str]
+) -> Iterator[dict[str, str]]:
+    """:func:`pg_redis` with the production lease (120 s) and heartbeat settings: whatever
+    recovers within seconds there is the heartbeat or the outbox, not a lease running out."""
+    yield from _pg_redis(pg_url, redis_url, tmp_path, monkeypatch, faults)

@@ -426,7 +426,10 @@ def test_export_and_tables_hold_every_pool_version_model_and_metric(
         "models/model-0001.zip",
         "pool/version-0000.parquet",
         "pool/version-0001.parquet",
+        "validation/suite.json",  # the held-out suite, created but not replayed in this process
     ]
+    suite = json.loads((root / "validation/suite.json").read_text())
+    assert suite["status"] == "replaying" and len(suite["motions"]) == 8 and suite["model_versions"] == []
     assert pq.read_table(root / "pool/version-0001.parquet").num_rows == pv1.n_samples
     rows = list(csv.DictReader(io.StringIO(table.decode())))
     assert len(rows) == pv1.n_samples and {"t", "q_0", "qd_0", "fx", "mz", "origin"} <= set(rows[0])

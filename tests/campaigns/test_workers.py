@@ -14,14 +14,25 @@ import shutil
 import subprocess
 import time
 import uuid
-from collections.abc import Iterator
+from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any
 
 import pytest
 import sqlalchemy as sa
 
-from tests.integration.procs import CLI, Proc, alcove_env, db_rows, free_port, http_ok, pid_alive, start_worker, unique
+from tests.integration.procs import (
+    CLI,
+    PrivateRedis,
+    Proc,
+    alcove_env,
+    db_rows,
+    free_port,
+    http_ok,
+    pid_alive,
+    start_worker,
+    unique,
+)
 from tests.integration.procs import wait_until as wait_for
 
 pytestmark = [pytest.mark.integration, pytest.mark.slow]
@@ -87,6 +98,10 @@ def test_alcove_campaign_run_on_the_embedded_default(tmp_path: Path) -> None:
     assert [m["iteration_index"] for m in out["metrics"]] == [1, 2] and all(
         m["force_rmse"] >= 0 for m in out["metrics"]
     )
+    # the held-out validation suite was replayed by the spawned worker and every model version evaluated on it
+    assert out["validation_suite"]["status"] == "complete" and out["validation_suite"]["motions_done"] == 8
+    assert all(m["validation_force_rmse"] > 0 and m["validation_moment_rmse"] > 0 for m in out["metrics"])
+    assert out["last"]["validation_force_rmse"] == out["metrics"][-1]["validation_force_rmse"]
     url = f"sqlite:///{tmp_path / 'data' / 'alcove.db'}"
     cid = out["campaign_id"]
     assert [v for v, _, _ in pool_hashes(url, cid)] == [0, 1, 2]
@@ -105,6 +120,8 @@ def test_alcove_campaign_run_on_the_embedded_default(tmp_path: Path) -> None:
         [*CLI, "campaign", "status", str(cid), "--json"], env=env, capture_output=True, text=True, timeout=60
     )
     assert json.loads(st.stdout)["campaign"]["status"] == "completed"
+    st = subprocess.run([*CLI, "campaign", "status", str(cid)], env=env, capture_output=True, text=True, timeout=60)
+    assert " · validation F " in st.stdout and "validation suite" in st.stdout and "8/8 motions replayed" in st.stdout
     ex = subprocess.run(
         [*CLI, "campaign", "export", str(cid), "--out", str(tmp_path / "export"), "--format", "csv", "--no-models"],
         env=env,
@@ -173,34 +190,6 @@ def test_campaign_run_without_a_worker_names_the_queue_it_waits_on(tmp_path: Pat
 
 
 # ----------------------------------------------------------------------------- PostgreSQL + Redis
-
-
-@pytest.fixture
-def pg_redis(
-    pg_url: str, redis_url: str, tmp_path: Path, monkeypatch: pytest.MonkeyPatch, faults: dict[str, str]
-) -> Iterator[dict[str, str]]:
-    """This process and its workers on PostgreSQL + Redis (private key prefix), 3 s leases,
-    all of them test processes reading one fault plan."""
-    from alcove.db import dispose_engines
-    from alcove.jobs import reset_sender
-    from alcove.settings import get_settings
-
-    settings = {
-        "database_url": pg_url,
-        "broker_url": redis_url,
-        "broker_key_prefix": f"t-{uuid.uuid4().hex[:8]}:",
-        "data_dir": str(tmp_path / "data"),
-        "job_lease_seconds": "3",
-    }
-    for k, v in settings.items():
-        monkeypatch.setenv(f"ALCOVE_{k.upper()}", v)
-    get_settings.cache_clear()
-    dispose_engines(close=True)
-    reset_sender()
-    yield {**env_for(**settings), **faults}
-    get_settings.cache_clear()
-    dispose_engines(close=True)
-    reset_sender()
 
 
 def quick_campaign(
@@ -306,47 +295,13 @@ def test_sigkill_of_a_worker_during_an_oracle_job_loses_and_duplicates_nothing(
     ) == [(0, None), (1, 0), (2, 1), (3, 2)]
 
 
-class PrivateRedis:
-    """A redis-server of our own (no persistence): restarting it loses every message."""
-
-    def __init__(self, workdir: Path) -> None:
-        self.port = free_port()
-        self.workdir = workdir
-        self.p: subprocess.Popen[bytes] | None = None
-
-    def start(self) -> None:
-        self.p = subprocess.Popen(
-            ["redis-server", "--port", str(self.port), "--save", "", "--appendonly", "no", "--dir", str(self.workdir)],
-            stdout=subprocess.DEVNULL,
-            stderr=subprocess.DEVNULL,
-        )
-        import redis
-
-        wait_for(lambda: _ping(redis.Redis(port=self.port)), 10, "redis-server")
-
-    def stop(self) -> None:
-        if self.p is not None and self.p.poll() is None:
-            self.p.terminate()
-            self.p.wait(timeout=10)
-
-    @property
-    def url(self) -> str:
-        return f"redis://127.0.0.1:{self.port}/0"
-
-
-def _ping(client: Any) -> bool:
-    try:
-        return bool(client.ping())
-    except Exception:
-        return False
-
-
 @pytest.mark.skipif(shutil.which("redis-server") is None, reason="needs the redis-server program")
 def test_a_redis_restart_mid_campaign_loses_no_step(
     pg_redis: dict[str, str], pg_url: str, tmp_path: Path, make_campaign: Any, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     from alcove.jobs import reset_sender
     from alcove.jobs.campaign import enqueue
+    from alcove.jobs.outbox import reset_broker_client
     from alcove.settings import get_settings
 
     redis_server = PrivateRedis(tmp_path)
@@ -354,6 +309,7 @@ def test_a_redis_restart_mid_campaign_loses_no_step(
     monkeypatch.setenv("ALCOVE_BROKER_URL", redis_server.url)
     get_settings.cache_clear()
     reset_sender()
+    reset_broker_client()
     env = {**pg_redis, "ALCOVE_BROKER_URL": redis_server.url}
     expected = reference_pool(make_campaign, seed=12, iterations=2, url=pg_url)
     cid, jobs = quick_campaign(make_campaign, 12, 2, fault={"train": {"sleep_s": 2, "iterations": [2]}})
@@ -495,7 +451,19 @@ def test_an_api_restart_mid_campaign_changes_nothing_and_the_new_api_controls_it
         assert httpx.post(f"{base}/campaigns/{cid}/start", headers=headers, timeout=30).status_code == 200
         wait_for(lambda: at(2, "train", "running"), 180, "the train job of iteration 2", w)
         api.kill()  # no shutdown of any kind
+        killed = datetime.now(UTC)
         api = serve("api2.log")
+        back = datetime.now(UTC)
+        (finished,) = rows(
+            pg_url,
+            "SELECT count(*) FROM iteration_steps WHERE campaign_id = :c AND finished_at > :t",
+            c=cid,
+            t=killed,
+        )
+        print(
+            f"\nRECOVERY API SIGKILL mid-campaign: a new API answered {(back - killed).total_seconds():.1f} s later; "
+            f"meanwhile the workers finished {finished[0]} step(s) (nothing waits for the API)"
+        )
         r = httpx.post(f"{base}/campaigns/{cid}/pause", headers=headers, timeout=30)
         assert r.status_code == 200 and r.json()["campaign"]["status"] in ("pausing", "paused"), r.text
         wait_for(

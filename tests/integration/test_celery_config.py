@@ -4,6 +4,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import pytest
+
 from alcove.jobs import QUEUES, celery_config, create_celery_app, queue_for
 from alcove.settings import Settings
 
@@ -41,3 +43,16 @@ def test_routes_by_job_name() -> None:
     assert queue_for("alcove.reconcile") == "default"
     app = create_celery_app(Settings(broker_url="memory://"))
     assert app.amqp.router.route({}, "alcove.train.fit")["queue"].name == "train"
+
+
+def test_a_worker_counts_as_dead_only_after_several_missed_heartbeats() -> None:
+    """A dead-worker threshold shorter than two heartbeats would take steps from live workers:
+    refused at start, naming both settings."""
+    from pydantic import ValidationError
+
+    assert Settings(worker_heartbeat_seconds=2, worker_dead_seconds=10).worker_dead_seconds == 10
+    with pytest.raises(ValidationError) as err:
+        Settings(worker_heartbeat_seconds=30, worker_dead_seconds=10)
+    assert "ALCOVE_WORKER_DEAD_SECONDS (10) must be at least twice ALCOVE_WORKER_HEARTBEAT_SECONDS (30)" in str(
+        err.value
+    )

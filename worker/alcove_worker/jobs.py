@@ -6,6 +6,7 @@ can send a job by name without importing this module (or torch, or casadi).
 
 from __future__ import annotations
 
+import logging
 from typing import TYPE_CHECKING, Any
 
 from alcove.jobs import SMOKE_JOB
@@ -13,6 +14,8 @@ from alcove_worker.celery_app import app
 
 if TYPE_CHECKING:
     from alcove.campaigns.reconciler import ReconcilerThread
+
+log = logging.getLogger(__name__)
 
 
 @app.task(name=SMOKE_JOB, bind=True)
@@ -70,6 +73,28 @@ def append_step(self: Any, campaign_id: int, iteration: int, step: str, attempt:
     return _run_step(self, campaign_id, iteration, step, attempt)
 
 
+# ----------------------------------------------------------------------------- validation suite
+# A held-out motion replayed by the oracle (message: the motion id; the job claims its row
+# first, so a duplicate is a no-op), and the evaluation of the waiting model versions once
+# a suite is complete (idempotent: one row per model version).
+
+from alcove.oracles.validation import EVALUATE_JOB, MOTION_JOB  # noqa: E402
+
+
+@app.task(name=MOTION_JOB, bind=True, acks_late=True)
+def validation_motion(self: Any, motion_id: int) -> str:
+    from alcove.oracles.validation import run_motion
+
+    return run_motion(int(motion_id), worker_name=self.request.hostname or "unknown")
+
+
+@app.task(name=EVALUATE_JOB, bind=True, acks_late=True)
+def validation_evaluate(self: Any, suite_id: int) -> int:
+    from alcove.surrogates.validation import evaluate_suite
+
+    return evaluate_suite(int(suite_id))
+
+
 # ----------------------------------------------------------------------------- editor previews
 # The message is the preview id; the job claims the row first (a duplicate is a no-op).
 
@@ -105,13 +130,31 @@ _reconciler: ReconcilerThread | None = None
 
 @signals.worker_ready.connect
 def _start_reconciler(sender: Any = None, **_: Any) -> None:
-    """Reconcile at worker start (steps of a worker that died), then every lease/4 s."""
+    """Reconcile at worker start (steps of a worker that died), then every
+    ``ALCOVE_RECONCILE_SECONDS`` (2 s: a dead worker's step runs again within seconds)."""
     global _reconciler
     from alcove.campaigns.reconciler import ReconcilerThread
     from alcove.settings import get_settings
 
-    _reconciler = ReconcilerThread(interval=max(1.0, get_settings().job_lease_seconds / 4))
+    _reconciler = ReconcilerThread(interval=get_settings().reconcile_seconds)
     _reconciler.start()
+
+
+@signals.task_failure.connect
+def _step_process_lost(sender: Any = None, exception: BaseException | None = None, args: Any = None, **_: Any) -> None:
+    """In the worker's main process: the pool process running a step died (SIGKILL, out of
+    memory). The main process still beats, so the heartbeat does not tell; this does."""
+    from billiard.exceptions import WorkerLostError
+
+    if not isinstance(exception, WorkerLostError) or sender is None or sender.name not in STEP_JOBS.values():
+        return
+    from alcove.campaigns.reconciler import release_lost_step
+
+    try:
+        campaign_id, iteration, step, attempt = args
+        release_lost_step(int(campaign_id), int(iteration), str(step), int(attempt), sender.request.hostname or "")
+    except Exception:  # the lease still expires
+        log.exception("could not release the step of a lost pool process")
 
 
 @signals.worker_shutdown.connect

@@ -2,13 +2,15 @@
 
 from __future__ import annotations
 
+from typing import Any
+
 from fastapi import Response
 
-#: ``responses=`` entry of a route answering with a file.
-BINARY = {
-    "content": {"application/octet-stream": {"schema": {"type": "string", "format": "binary"}}},
-    "description": "file download",
-}
+
+def binary(*media_types: str) -> dict[str, Any]:
+    """``responses=`` entry of a route answering with a file of one of ``media_types``."""
+    schema = {"type": "string", "format": "binary"}
+    return {"content": {m: {"schema": schema} for m in media_types}, "description": "file download"}
 
 
 def download(data: bytes, filename: str, media_type: str) -> Response:

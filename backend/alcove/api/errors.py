@@ -16,12 +16,15 @@ from typing import Any
 
 from fastapi import FastAPI, Request
 from fastapi.encoders import jsonable_encoder
+from fastapi.exception_handlers import http_exception_handler
 from fastapi.exceptions import RequestValidationError
 from fastapi.responses import JSONResponse
 from pydantic import BaseModel, Field, ValidationError
 from sqlalchemy import exc as sa_exc
+from starlette.exceptions import HTTPException as StarletteHTTPException
 from starlette.types import ASGIApp, Message, Receive, Scope, Send
 
+from alcove.api.route_table import allowed_methods
 from alcove.errors import (
     AuthenticationFailed,
     Conflict,
@@ -80,6 +83,13 @@ COMMON_RESPONSES: dict[int | str, dict[str, Any]] = {
 def _validation_detail(errors: list[Any]) -> list[dict[str, Any]]:
     out = []
     for e in errors:
+        if e.get("type") == "json_invalid" and len(e.get("loc", ())) == 2:  # FastAPI: ("body", character position)
+            reason = (e.get("ctx") or {}).get("error", "invalid")
+            e = {
+                **e,
+                "loc": ("body",),
+                "msg": f"the request body is not valid JSON: {reason} (character {e['loc'][1]})",
+            }
         loc, msg = merge_message_path(list(e.get("loc", ())), str(e.get("msg", "invalid")))
         item = {
             "loc": loc,
@@ -92,7 +102,30 @@ def _validation_detail(errors: list[Any]) -> list[dict[str, Any]]:
     return detail
 
 
+def _unparseable_body(err: StarletteHTTPException) -> JSONResponse | None:
+    """FastAPI answers 400 "There was an error parsing the body" when a JSON body is not
+    even text (invalid UTF-8); a body that is text but not JSON is already a 422
+    ``json_invalid``. Both are invalid input: 422 with the reason, like every other."""
+    cause = err.__cause__
+    if err.status_code != 400 or cause is None:
+        return None
+    reason = "is not UTF-8 text" if isinstance(cause, UnicodeDecodeError) else f"cannot be parsed ({cause})"
+    item = {"loc": ["body"], "field": "", "msg": f"the request body {reason}", "type": "json_invalid"}
+    return JSONResponse({"detail": [item]}, status_code=422)
+
+
 def install_error_handlers(app: FastAPI) -> None:
+    @app.exception_handler(StarletteHTTPException)
+    async def _http(request: Request, err: StarletteHTTPException) -> Any:
+        unparseable = _unparseable_body(err)
+        if unparseable is not None:
+            return unparseable
+        if err.status_code == 405:
+            # Starlette names only the first matching route's methods; a path has one route per method
+            allow = ", ".join(allowed_methods(app, request.url.path))
+            err = StarletteHTTPException(405, err.detail, headers={**(err.headers or {}), "Allow": allow})
+        return await http_exception_handler(request, err)
+
     @app.exception_handler(RequestValidationError)
     async def _request_validation(request: Request, err: RequestValidationError) -> JSONResponse:
         return JSONResponse({"detail": _validation_detail(list(err.errors()))}, status_code=422)

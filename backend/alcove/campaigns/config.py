@@ -4,13 +4,14 @@ create, edit or fork a campaign with them."""
 
 from __future__ import annotations
 
-from typing import Literal
+from typing import Annotated, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 
 
 class _Strict(BaseModel):
-    model_config = ConfigDict(extra="forbid")
+    # strict: "1" is not a number and 1 or "true" not a boolean, as the schema says (JSON numbers still fill floats)
+    model_config = ConfigDict(extra="forbid", strict=True)
 
 
 # ----------------------------------------------------------------------------- settings
@@ -21,12 +22,16 @@ class PreliminaryConfig(_Strict):
     penalty model (the paper), or uploaded datasets (``dataset_ids``)."""
 
     samples: int = Field(4000, ge=2, le=1_000_000, description="LHS sample count K")
-    velocity_bound: float = Field(2.0, gt=0, le=100, description="|qd| bound of the samples [rad/s]")
+    velocity_bound: float = Field(
+        2.0, gt=0, le=100, description="|qd| bound of the samples [rad/s]; above 0, at most 100"
+    )
     chunks: int = Field(
         10, ge=1, le=1000, description="datasets the samples are dealt into (for the split by simulation)"
     )
-    seed: int | None = Field(None, ge=0, description="LHS seed (default: the campaign seed)")
-    dataset_ids: list[int] | None = Field(None, description="uploaded datasets to use instead of LHS samples")
+    seed: int | None = Field(None, ge=0, lt=2**62, description="LHS seed (default: the campaign seed)")
+    dataset_ids: list[Annotated[int, Field(ge=1, le=2**31 - 1)]] | None = Field(
+        None, description="uploaded datasets to use instead of LHS samples"
+    )
 
 
 class StoppingRules(_Strict):
@@ -36,10 +41,16 @@ class StoppingRules(_Strict):
         200, ge=1, le=100_000, description="stop after iteration k = max_iterations (paper: 200)"
     )
     target_force_rmse: float | None = Field(
-        None, gt=0, description="stop when the iteration's force RMSE [N] is at most this"
+        None,
+        gt=0,
+        le=1e5,
+        description="stop when the iteration's force RMSE [N] is at most this; above 0, at most 1e5 N",
     )
     target_moment_rmse: float | None = Field(
-        None, gt=0, description="stop when the iteration's moment RMSE [N m] is at most this"
+        None,
+        gt=0,
+        le=1e4,
+        description="stop when the iteration's moment RMSE [N m] is at most this; above 0, at most 1e4 N m",
     )
     plateau_window: int | None = Field(
         None,
@@ -47,9 +58,14 @@ class StoppingRules(_Strict):
         le=10_000,
         description="stop when the best force RMSE of the last W iterations is no better than before",
     )
-    plateau_tolerance: float = Field(0.01, ge=0, lt=1, description="relative improvement that still counts as progress")
+    plateau_tolerance: float = Field(
+        0.01, ge=0, lt=1, description="relative improvement that still counts as progress [-]; 0 to below 1"
+    )
     oracle_budget_s: float | None = Field(
-        None, gt=0, description="stop when the oracle's total wall time reaches this [s]"
+        None,
+        gt=0,
+        le=1e7,
+        description="stop when the oracle's total wall time reaches this [s]; above 0, at most 1e7 s (16 weeks)",
     )
 
     @model_validator(mode="after")
@@ -100,7 +116,8 @@ class RunSettings(_Strict):
         0.0025,
         gt=0,
         le=0.1,
-        description="the replayed trajectory is resampled (cubic Hermite) at this step [s]; None: the OCP grid",
+        description="the replayed trajectory is resampled (cubic Hermite) at this step [s], above 0, at most 0.1; "
+        "None: the OCP grid",
     )
     ocp_intervals: int | None = Field(
         None, ge=2, le=20000, description="override the task's intervals per phase (None: as the task says)"
@@ -114,6 +131,16 @@ class RunSettings(_Strict):
             "interval midpoint of the OCP solution (None: unbounded; needs ensemble_size > 1)"
         ),
     )
+    validation_motions: int = Field(
+        8,
+        ge=0,
+        le=64,
+        description=(
+            "held-out validation motions every model version is evaluated on (generalisation error); "
+            "0: no validation suite. Shared by campaigns with the same oracle version, seed and count"
+        ),
+    )
+    validation_seed: int = Field(0, ge=0, le=2**31 - 1, description="seed of the validation suite's motions")
 
 
 class CampaignConfig(_Strict):

@@ -13,6 +13,7 @@ from sqlalchemy.orm import Session
 from alcove.campaigns import repository as repo
 from alcove.campaigns.results import get_detail, list_iterations, metrics_series
 from alcove.campaigns.transitions import config_from_version
+from alcove.campaigns.validation import validation_files
 from alcove.db.arrays import get_bytes
 from alcove.pool import repository as pool_repo
 from alcove.pool import service as pool_service
@@ -41,6 +42,8 @@ METRICS_COLUMNS = [
     "n_pool_samples",
     "model_version_id",
     "dataset_id",
+    "validation_force_rmse",
+    "validation_moment_rmse",
 ]
 
 
@@ -49,8 +52,9 @@ def export_campaign(
 ) -> bytes | Path:
     """Everything a campaign produced: ``campaign.json`` (settings, status, lineage),
     ``metrics.csv``/``metrics.json``, ``iterations.json``, ``pool/version-KKKK.<fmt>``,
-    ``models/model-KKKK.zip``, ``curves/iteration-KKKK.npz``. Written into ``folder`` (returned),
-    or as zip bytes when ``folder`` is None."""
+    ``models/model-KKKK.zip``, ``curves/iteration-KKKK.npz``, ``validation/suite.json`` and
+    ``validation/motion-MM.csv`` (the held-out suite and each model version's error on it).
+    Written into ``folder`` (returned), or as zip bytes when ``folder`` is None."""
     c = repo.get_campaign(s, campaign_id)
     files: dict[str, bytes] = {}
     detail = get_detail(s, campaign_id)
@@ -69,6 +73,7 @@ def export_campaign(
             ],
             "pool_versions": [p.model_dump(mode="json") for p in pool_service.campaign_versions(s, c.id)],
             "model_versions": [m.model_dump(mode="json") for m in surrogates_service.campaign_versions(s, c.id)],
+            "validation_suite": detail.validation.model_dump(mode="json") if detail.validation else None,
         },
         indent=1,
     ).encode()
@@ -90,6 +95,7 @@ def export_campaign(
     for m in repo.metrics_series(s, c.id):
         if m.curves_sha256:
             files[f"curves/iteration-{m.iteration_index:04d}.npz"] = get_bytes(s, m.curves_sha256)
+    files.update(validation_files(s, c))
     if folder is None:
         buf = io.BytesIO()
         with zipfile.ZipFile(buf, "w", zipfile.ZIP_DEFLATED) as zf:

@@ -200,22 +200,29 @@ async def _stream(
     loop = asyncio.get_running_loop()
     deadline = loop.time() + timeout
     try:
-        for text in first:
-            yield text
+        yield "".join(first)
         while (left := deadline - loop.time()) > 0:
             try:
                 frames = await asyncio.wait_for(sub.queue.get(), timeout=min(KEEPALIVE_S, left))
             except TimeoutError:
                 yield ": keep-alive\n\n"
                 continue
+            # what one poll delivered goes out as one write (one wake-up of the viewer), not one per event
+            out: list[str] = []
             for f in frames:
                 if f.id in sent:
                     continue
                 send, last = await accept(f)
                 if send:
-                    yield f.text
+                    out.append(f.text)
                 if last:
-                    return
+                    break
+            else:
+                last = False
+            if out:
+                yield "".join(out)
+            if last:
+                return
     finally:
         hub.unsubscribe(sub)
 
@@ -292,7 +299,7 @@ async def stream_all_campaign_events(
 
 
 @router.get(
-    "/{campaign_id}/events/stream",
+    "/{campaign_id:integer}/events/stream",
     operation_id="stream_campaign_events",
     response_class=StreamingResponse,
     responses=SSE_RESPONSES,

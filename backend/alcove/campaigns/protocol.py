@@ -28,7 +28,7 @@ import time
 import uuid
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, TypeVar
 
 from sqlalchemy.orm import Session
 
@@ -38,6 +38,7 @@ from alcove.campaigns.schemas import CampaignConfig, StepJob
 from alcove.campaigns.state_machine import Outcome, StepRef
 from alcove.campaigns.steps import STEPS, StepContext
 from alcove.db import transaction
+from alcove.jobs.campaign import send_committed, stage
 from alcove.jobs.faults import fault_for
 from alcove.jobs.steps import (
     FailedAttempt,
@@ -106,21 +107,22 @@ def run_step(
     worker_name: str = "local",
     send: Callable[[list[StepJob]], Any] | None = None,
 ) -> dict[str, Any]:
-    """Run one step message. Returns a small status dict (for logs and tests)."""
-    from alcove.jobs.campaign import enqueue
+    """Run one step message. Returns a small status dict (for logs and tests).
 
-    send = send or enqueue
+    The jobs a transaction makes necessary are recorded in the job outbox in that same
+    transaction and sent after its commit (:mod:`alcove.jobs.outbox`); ``send`` replaces
+    that (``drive_inline``: a list in this process, no broker)."""
+    durable = send is None
     t_job = time.perf_counter()
     ref = StepRef(iteration, StepName(step))
     token = uuid.uuid4().hex
     lease = lease_seconds()
 
     status, step_id, config, jobs = transaction(
-        lambda s: _claim(s, campaign_id, ref, attempt, token, worker_name, lease)
+        _staging(lambda s: _claim(s, campaign_id, ref, attempt, token, worker_name, lease), durable)
     )
     if status != "claimed":
-        if jobs:
-            send(jobs)
+        _dispatch(jobs, send)
         return {"status": status, "step": str(ref), "attempt": attempt}
     assert step_id is not None and config is not None
     t_claimed = time.perf_counter()
@@ -170,10 +172,10 @@ def run_step(
             outcome = policy_outcome(config, ref)
         return transitions.complete_step(s, c, ref, row, outcome, result=base, error=failure.message, wall_time_s=wall)
 
-    next_jobs = transaction(complete)
+    next_jobs = transaction(_staging(complete, durable))
     if next_jobs is None:
         return {"status": "lost", "step": str(ref), "attempt": attempt}
-    send(next_jobs)
+    _dispatch(next_jobs, send)
     ended = "done" if failure is None else ("cancelled" if failure.outcome is Outcome.cancelled else "failed")
     return {
         "status": ended,
@@ -183,6 +185,41 @@ def run_step(
         **timing,
         "total_s": time.perf_counter() - t_job,
     }
+
+
+class _Staged(list[StepJob]):
+    """Step jobs already recorded in the outbox (``ids``), to send after the commit."""
+
+    ids: list[int]
+
+
+R = TypeVar("R")
+
+
+def _staging(work: Callable[[Session], R], durable: bool) -> Callable[[Session], R]:
+    """``work`` plus, when ``durable``, recording the jobs it returns (a list, or the last
+    item of a tuple) in the outbox in the same transaction."""
+    if not durable:
+        return work
+
+    def staged(s: Session) -> Any:
+        out: Any = work(s)
+        jobs = out[-1] if isinstance(out, tuple) else out
+        if jobs is None:
+            return out
+        st = _Staged(jobs)
+        st.ids = stage(s, jobs)
+        return (*out[:-1], st) if isinstance(out, tuple) else st
+
+    return staged
+
+
+def _dispatch(jobs: list[StepJob], send: Callable[[list[StepJob]], Any] | None) -> None:
+    if send is not None:
+        if jobs:
+            send(jobs)
+    elif isinstance(jobs, _Staged):
+        send_committed(jobs.ids)
 
 
 def _compute(ctx: StepContext) -> tuple[StepOutput | None, Failure | None]:

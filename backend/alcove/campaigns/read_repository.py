@@ -17,6 +17,7 @@ from alcove.models import (
     IterationMetrics,
     IterationStatus,
     IterationStep,
+    ModelVersion,
     OcpSolution,
     OracleDefinition,
     OracleVersion,
@@ -25,6 +26,9 @@ from alcove.models import (
     TaskDefinition,
     TaskVersion,
     User,
+    ValidationMetrics,
+    ValidationMotion,
+    ValidationSuite,
 )
 from alcove.users.access import visible_clause
 
@@ -142,11 +146,26 @@ def _visible_campaign() -> sa.ColumnElement[bool]:
     )
 
 
+# the validation suite's results arrive after the iteration's (asynchronously): they are in the revisions
+_LAST_VALIDATION = (
+    sa.select(sa.func.max(ValidationMetrics.id))
+    .join(ModelVersion, ModelVersion.id == ValidationMetrics.model_version_id)
+    .where(ModelVersion.campaign_id == Campaign.id)
+    .scalar_subquery()
+)
+_SUITE_PROGRESS = (
+    sa.select(sa.func.count())
+    .where(ValidationMotion.suite_id == Campaign.validation_suite_id, ValidationMotion.status != "queued")
+    .scalar_subquery()
+)
+_SUITE_STATUS = sa.select(ValidationSuite.status).where(ValidationSuite.id == Campaign.validation_suite_id)
+
 # built once: building a statement costs several times more than executing a cached one
 _REVISION = sa.select(
     Campaign.updated_at,
     sa.select(sa.func.count()).where(IterationMetrics.campaign_id == Campaign.id).scalar_subquery(),
     sa.select(sa.func.max(IterationMetrics.id)).where(IterationMetrics.campaign_id == Campaign.id).scalar_subquery(),
+    _LAST_VALIDATION,
 ).where(_visible_campaign())
 #: The detail's revision, one index lookup each: the campaign row, the user's ``can_edit``,
 #: the owner's email, the current iteration's steps (claims and heartbeats bump their
@@ -171,6 +190,12 @@ _DETAIL_REVISION = sa.select(
     .where(IterationMetrics.campaign_id == Campaign.id)
     .order_by(IterationMetrics.iteration_index.desc())
     .limit(1)
+    .scalar_subquery(),
+    _LAST_VALIDATION,
+    _SUITE_PROGRESS,
+    _SUITE_STATUS.scalar_subquery(),
+    sa.select(sa.func.count())
+    .where(ValidationMotion.suite_id == Campaign.validation_suite_id, ValidationMotion.status == "succeeded")
     .scalar_subquery(),
 ).where(_visible_campaign())
 _CURVES_SHA = (

@@ -1,8 +1,11 @@
 """Re-enqueue steps whose worker died or whose message was lost.
 
-* A ``running`` step whose lease expired (the worker was killed: SIGKILL, OOM, machine
-  lost; its lease keeper stopped extending ``lease_until``) goes back to ``queued`` and a
-  message for attempt n+1 is sent; when it has used all its attempts the step fails and
+* A ``running`` step whose worker is dead goes back to ``queued`` and a message for
+  attempt n+1 is sent: its worker stopped beating for ``ALCOVE_WORKER_DEAD_SECONDS``
+  (10 s; workers beat every 2 s from their main process, however long a step computes, so
+  a slow worker keeps its step), or its lease expired (``ALCOVE_JOB_LEASE_SECONDS``, 120 s:
+  the step's own process died while its worker's main process lives on, or a worker that
+  never beat); when it has used all its attempts the step fails and
   the campaign's policy applies. The old job, should it still be alive, loses its claim
   token and its results are discarded.
 * A ``queued`` step whose message is older than ``stale_queued_s`` (lost with a broker
@@ -31,17 +34,24 @@ from alcove.models import Campaign, StepName, StepStatus, utcnow
 log = logging.getLogger(__name__)
 
 
-def reconcile(s: Session, *, stale_queued_s: float) -> list[StepJob]:
-    """Fix the rows (in the caller's transaction) and return the jobs to send after commit."""
+def reconcile(s: Session, *, stale_queued_s: float, dead_worker_s: float | None = None) -> list[StepJob]:
+    """Fix the rows (in the caller's transaction) and return the jobs to send after commit.
+    ``dead_worker_s``: a worker whose heartbeat is older than this is dead and its running
+    steps are taken back at once (None: only when their lease expires)."""
     now = utcnow()
     jobs: list[StepJob] = []
-    for k, row in repo.expired_running_steps(s, now):
+    dead_before = None if dead_worker_s is None else now - timedelta(seconds=dead_worker_s)
+    for k, row, why in repo.abandoned_running_steps(s, now, dead_before):
         c = repo.get_campaign(s, row.campaign_id, lock=True)
         ref = StepRef(k, StepName(row.step))
         if c.is_terminal:
             row.status, row.finished_at, row.claim_token = StepStatus.cancelled.value, now, None
             continue
-        message = f"lease expired on worker {row.worker_name} (attempt {row.attempts})"
+        message = (
+            f"worker {row.worker_name} stopped beating (dead) during attempt {row.attempts}"
+            if why == "dead"
+            else f"lease expired on worker {row.worker_name} (attempt {row.attempts})"
+        )
         if row.attempts >= row.max_attempts:
             row.claim_token = None
             outcome = Outcome.cancelled if c.cancel_requested else _policy(s, c, ref)
@@ -54,7 +64,9 @@ def reconcile(s: Session, *, stale_queued_s: float) -> list[StepJob]:
             now,
             message,
         )
-        repo.add_event(s, c.id, "step_requeued", message, iteration=k, step=row.step, data={"attempt": row.attempts})
+        repo.add_event(
+            s, c.id, "step_requeued", message, iteration=k, step=row.step, data={"attempt": row.attempts, "why": why}
+        )
         jobs.append(StepJob(campaign_id=c.id, iteration=k, step=ref.step, attempt=row.attempts + 1))
     for k, row in repo.stale_queued_steps(s, now - timedelta(seconds=stale_queued_s)):
         c = repo.get_campaign(s, row.campaign_id)
@@ -82,21 +94,63 @@ def _policy(s: Session, c: Campaign, ref: StepRef) -> Outcome:
 
 
 def reconcile_and_enqueue(stale_queued_s: float | None = None) -> list[StepJob]:
-    """One reconciliation pass in its own transaction, then send the jobs."""
+    """One reconciliation pass in its own transaction (the jobs it makes are recorded in the
+    outbox in the same transaction), then send them."""
     from alcove.db import transaction
-    from alcove.jobs.campaign import enqueue
+    from alcove.jobs.campaign import send_committed, stage
     from alcove.settings import get_settings
 
-    stale = stale_queued_s if stale_queued_s is not None else float(get_settings().job_lease_seconds)
-    jobs = transaction(lambda s: reconcile(s, stale_queued_s=stale))
+    settings = get_settings()
+    stale = stale_queued_s if stale_queued_s is not None else float(settings.job_lease_seconds)
+
+    def work(s: Session) -> tuple[list[StepJob], list[int]]:
+        jobs = reconcile(s, stale_queued_s=stale, dead_worker_s=settings.worker_dead_seconds)
+        return jobs, stage(s, jobs)
+
+    jobs, staged = transaction(work)
     if jobs:
         log.warning(
             "reconciler re-enqueued %d step(s): %s",
             len(jobs),
             ", ".join(f"c{j.campaign_id}:{j.iteration}/{j.step.value}#{j.attempt}" for j in jobs),
         )
-        enqueue(jobs)
+        send_committed(staged)
+    _reconcile_validation(stale)
     return jobs
+
+
+def _reconcile_validation(stale_s: float) -> None:
+    """Validation-suite motions whose message was lost or whose worker died: send them again."""
+    from datetime import timedelta
+
+    from alcove.db import transaction
+    from alcove.oracles.validation import reconcile_motions
+
+    ids = transaction(lambda s: reconcile_motions(s, timedelta(seconds=stale_s)))
+    if ids:
+        log.warning("reconciler re-sent %d validation motion(s): %s", len(ids), ids)
+
+
+def release_lost_step(campaign_id: int, iteration: int, step: str, attempt: int, worker_name: str) -> bool:
+    """The pool process running this attempt died (its worker's main process saw it exit
+    and lives on, still beating): expire the step's lease so that the next reconciler pass
+    (seconds) gives it to another job. Only while the step is still this attempt's, on this
+    worker. Returns whether it did."""
+    from alcove.db import transaction
+
+    def work(s: Session) -> bool:
+        row = repo.get_step(s, campaign_id, iteration, step)
+        if row is None or row.status != StepStatus.running.value:
+            return False
+        if row.attempts != attempt or row.worker_name != worker_name:
+            return False
+        row.lease_until = utcnow()
+        return True
+
+    released = transaction(work)
+    if released:
+        log.warning("the process of step c%d:%d/%s#%d died on %s", campaign_id, iteration, step, attempt, worker_name)
+    return released
 
 
 class ReconcilerThread(threading.Thread):

@@ -59,11 +59,26 @@ def check_version_ids(session: Session, user: User, body: Any, fields: list[str]
             raise InvalidInput.one(field, f"no such version {vid} (or not shared with you)") from None
 
 
-def check_datasets(session: Session, user: User, ids: list[int] | None) -> None:
-    """Preliminary datasets must be the user's own uploads."""
+def check_datasets(session: Session, user: User, ids: list[int] | None, task_version_id: int | None = None) -> None:
+    """Preliminary datasets must be the user's own uploads, with values within the range of
+    the campaign's task model (task version ``task_version_id``) when given."""
     if not ids:
         return
     owned = pool_repo.owned_dataset_ids(session, user.id, ids)
     for i, ident in enumerate(ids):
         if ident not in owned:
             raise InvalidInput.one(f"preliminary.dataset_ids.{i}", f"no uploaded dataset {ident} of yours")
+    if task_version_id is None:
+        return
+    from alcove.models import TaskVersion
+    from alcove.pool import service as pool_service
+    from alcove.science.surrogate.dataset import PoolDataError
+
+    version = session.get(TaskVersion, task_version_id)
+    assert version is not None  # resolved by version_id() before
+    state = pool_service.state_range_of_task(version.spec)
+    for i, dataset in enumerate(pool_repo.datasets(session, ids)):
+        try:
+            pool_service.check_datasets_plausible(session, [dataset], state)
+        except PoolDataError as err:
+            raise InvalidInput.one(f"preliminary.dataset_ids.{i}", f"dataset {dataset.id}: {err}") from None

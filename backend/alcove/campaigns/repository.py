@@ -20,6 +20,7 @@ from alcove.models import (
     IterationStep,
     StepStatus,
     User,
+    WorkerHeartbeat,
     utcnow,
 )
 from alcove.users.access import visible_clause
@@ -169,13 +170,22 @@ def _skip_locked(s: Session, q: sa.Select[*Ts]) -> sa.Select[*Ts]:
     return q
 
 
-def expired_running_steps(s: Session, now: datetime) -> list[tuple[int, IterationStep]]:
+def abandoned_running_steps(
+    s: Session, now: datetime, dead_before: datetime | None = None
+) -> list[tuple[int, IterationStep, str]]:
+    """Running steps nobody works on any more, with why: the lease expired (``lease``), or
+    (with ``dead_before``) the worker that claimed them stopped beating before
+    ``dead_before`` or shut down (``dead``). A worker that is alive keeps beating from its
+    main process however long its step computes, so its steps are never taken from it."""
+    hb = WorkerHeartbeat
+    dead = sa.false() if dead_before is None else sa.or_(hb.last_seen_at < dead_before, hb.stopped_at.is_not(None))
     q = (
-        sa.select(Iteration.index, IterationStep)
+        sa.select(Iteration.index, IterationStep, sa.case((dead, "dead"), else_="lease"))
         .join(Iteration, Iteration.id == IterationStep.iteration_id)
-        .where(IterationStep.status == StepStatus.running.value, IterationStep.lease_until < now)
+        .outerjoin(hb, hb.name == IterationStep.worker_name)
+        .where(IterationStep.status == StepStatus.running.value, sa.or_(IterationStep.lease_until < now, dead))
     )
-    return [(i, st) for i, st in s.execute(_skip_locked(s, q))]
+    return [(i, st, why) for i, st, why in s.execute(_skip_locked(s, q))]
 
 
 def stale_queued_steps(s: Session, before: datetime) -> list[tuple[int, IterationStep]]:

@@ -24,6 +24,7 @@ from alcove.campaigns.schemas import (
     TrajectoryPhase,
 )
 from alcove.campaigns.transitions import config_from_version, current_config
+from alcove.campaigns.validation import suite_read, with_validation
 from alcove.db.arrays import get_arrays
 from alcove.errors import NotFound
 from alcove.lineage import holder
@@ -67,7 +68,8 @@ def get_detail(s: Session, campaign_id: int) -> CampaignDetail:
         campaign=CampaignRead.model_validate(c),
         config=cfg,
         current=IterationRead.model_validate(it) if it is not None else None,
-        latest_metrics=_metrics_read(latest) if latest is not None else None,
+        latest_metrics=with_validation(s, [_metrics_read(latest)])[0] if latest is not None else None,
+        validation=suite_read(s, c),
         iterations_finished=sum(1 for d in done if d[1] == IterationStatus.succeeded.value),
         iterations_failed=sum(1 for d in done if d[1] == IterationStatus.failed.value),
         mean_iteration_s=mean,
@@ -90,7 +92,7 @@ def metrics_series(
     ``inherited``, a fork's series starts with its sources' iterations up to the fork point
     (flagged ``inherited``), as its pool and model lineage does."""
     c = repo.get_campaign(s, campaign_id)
-    rows = [_metrics_read(m) for m in repo.metrics_series(s, campaign_id, after)]
+    rows = with_validation(s, [_metrics_read(m) for m in repo.metrics_series(s, campaign_id, after)])
     if not inherited:
         return rows
     before: list[MetricsRead] = []
@@ -100,7 +102,7 @@ def metrics_series(
         own = [m for m in repo.metrics_series(s, src.id, after) if m.iteration_index <= through]
         before = [_metrics_read(m).model_copy(update={"inherited": True}) for m in own] + before
         source, through = src.source_campaign_id, min(through, src.source_iteration or 0)
-    return before + rows
+    return with_validation(s, before) + rows
 
 
 def list_iterations(s: Session, campaign_id: int, after: int | None = None) -> list[IterationRead]:

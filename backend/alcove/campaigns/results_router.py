@@ -13,14 +13,23 @@ from starlette.concurrency import run_in_threadpool
 
 from alcove.api.caching import NOT_MODIFIED, TtlCache, cached_json, read
 from alcove.api.deps import SessionDep
-from alcove.api.downloads import BINARY, download
+from alcove.api.downloads import binary, download
 from alcove.api.params import MAX_ID, IterationIndex, ObjectId
 from alcove.campaigns import export, results
 from alcove.campaigns import read_repository as reads
-from alcove.campaigns.schemas import EventRead, IterationCurves, IterationRead, IterationTrajectory, JobOut, MetricsRead
+from alcove.campaigns.schemas import (
+    EventRead,
+    IterationCurves,
+    IterationRead,
+    IterationTrajectory,
+    JobOut,
+    MetricsRead,
+    ValidationSeries,
+)
+from alcove.campaigns.validation import validation_series
 from alcove.db import get_sessionmaker
 from alcove.errors import NotFound
-from alcove.models import Campaign
+from alcove.models import Campaign, StepStatus
 from alcove.users.access import get_for
 from alcove.users.auth import CurrentUser
 
@@ -50,7 +59,7 @@ After = Annotated[
 
 
 @router.get(
-    "/{campaign_id}/metrics",
+    "/{campaign_id:integer}/metrics",
     response_model=list[MetricsRead],
     operation_id="list_campaign_metrics",
     responses=NOT_MODIFIED,
@@ -96,7 +105,9 @@ async def list_campaign_metrics(
     return await cached_json(request, key, build)
 
 
-@router.get("/{campaign_id}/iterations", response_model=list[IterationRead], operation_id="list_campaign_iterations")
+@router.get(
+    "/{campaign_id:integer}/iterations", response_model=list[IterationRead], operation_id="list_campaign_iterations"
+)
 def list_campaign_iterations(
     campaign_id: ObjectId,
     user: CurrentUser,
@@ -120,7 +131,7 @@ def list_campaign_iterations(
 
 
 @router.get(
-    "/{campaign_id}/iterations/{iteration}/curves",
+    "/{campaign_id:integer}/iterations/{iteration:integer}/curves",
     response_model=IterationCurves,
     operation_id="get_iteration_curves",
     responses=NOT_MODIFIED,
@@ -154,7 +165,7 @@ async def get_iteration_curves(
 
 
 @router.get(
-    "/{campaign_id}/iterations/{iteration}/trajectory",
+    "/{campaign_id:integer}/iterations/{iteration:integer}/trajectory",
     response_model=IterationTrajectory,
     operation_id="get_iteration_trajectory",
     responses=NOT_MODIFIED,
@@ -194,19 +205,30 @@ async def get_iteration_trajectory(
     return await cached_json(request, key, build)
 
 
-@router.get("/{campaign_id}/jobs", response_model=list[JobOut], operation_id="list_campaign_jobs")
+@router.get("/{campaign_id:integer}/jobs", response_model=list[JobOut], operation_id="list_campaign_jobs")
 def list_campaign_jobs(
     campaign_id: ObjectId,
     user: CurrentUser,
     session: SessionDep,
-    status_: Annotated[list[str] | None, Query(alias="status", max_length=10)] = None,
+    status_: Annotated[list[StepStatus] | None, Query(alias="status", max_length=10, description="only these")] = None,
 ) -> list[JobOut]:
     """Every step (the unit of worker work): status, worker, attempts, timings, error."""
     get_for(session, Campaign, campaign_id, user)
-    return [JobOut(**row) for row in results.list_jobs(session, campaign_id, status_)]
+    statuses = [s.value for s in status_] if status_ is not None else None
+    return [JobOut(**row) for row in results.list_jobs(session, campaign_id, statuses)]
 
 
-@router.get("/{campaign_id}/events", response_model=list[EventRead], operation_id="list_campaign_events")
+@router.get(
+    "/{campaign_id:integer}/validation", response_model=ValidationSeries, operation_id="get_campaign_validation"
+)
+def get_campaign_validation(campaign_id: ObjectId, user: CurrentUser, session: SessionDep) -> ValidationSeries:
+    """The held-out validation suite (status, motions replayed, campaigns sharing it) and the
+    generalisation error of each of the campaign's model versions on all its motions (force and
+    moment RMSE in the vector definition, per component, per motion)."""
+    return validation_series(session, get_for(session, Campaign, campaign_id, user))
+
+
+@router.get("/{campaign_id:integer}/events", response_model=list[EventRead], operation_id="list_campaign_events")
 def list_campaign_events(
     campaign_id: ObjectId,
     user: CurrentUser,
@@ -217,7 +239,12 @@ def list_campaign_events(
     return results.list_events(session, campaign_id, after)
 
 
-@router.get("/{campaign_id}/export", operation_id="export_campaign", response_class=Response, responses={200: BINARY})
+@router.get(
+    "/{campaign_id:integer}/export",
+    operation_id="export_campaign",
+    response_class=Response,
+    responses={200: binary("application/zip")},
+)
 def export_campaign(
     campaign_id: ObjectId,
     user: CurrentUser,

@@ -30,7 +30,7 @@ from alcove.campaigns.schemas import (
 )
 from alcove.db import get_sessionmaker
 from alcove.errors import InvalidInput, NotFound
-from alcove.jobs.campaign import send_committed
+from alcove.jobs.campaign import send_committed, stage
 from alcove.models import Campaign, CampaignStatus
 from alcove.users.access import get_for
 from alcove.users.auth import CurrentUser
@@ -114,7 +114,7 @@ def create_campaign(body: CampaignCreateIn, user: CurrentUser, session: SessionD
         )
     else:
         scv_id = surrogate_config_version_for(session, user.id, None)
-    refs.check_datasets(session, user, body.preliminary.dataset_ids)
+    refs.check_datasets(session, user, body.preliminary.dataset_ids, task_version_id)
     data = CampaignCreate(
         name=body.name,
         description=body.description,
@@ -131,12 +131,13 @@ def create_campaign(body: CampaignCreateIn, user: CurrentUser, session: SessionD
     jobs: list[Any] = []
     if body.start:
         campaign, jobs = campaigns.start(session, campaign.id)
+    staged = stage(session, jobs)
     session.commit()
-    send_committed(jobs)
+    send_committed(staged)
     return campaign_out(session, campaign, user)
 
 
-@router.get("/{campaign_id}", response_model=CampaignOut, operation_id="get_campaign", responses=NOT_MODIFIED)
+@router.get("/{campaign_id:integer}", response_model=CampaignOut, operation_id="get_campaign", responses=NOT_MODIFIED)
 async def get_campaign(campaign_id: ObjectId, user: CurrentUser, request: Request) -> Response:
     """Status, current iteration and step, latest metrics, ETA. Polled: answers carry an
     ``ETag``; send it back as ``If-None-Match`` and an unchanged campaign is a bodiless 304."""
@@ -153,7 +154,7 @@ async def get_campaign(campaign_id: ObjectId, user: CurrentUser, request: Reques
     return await cached_json(request, key, build)
 
 
-@router.patch("/{campaign_id}/config", response_model=CampaignOut, operation_id="update_campaign_config")
+@router.patch("/{campaign_id:integer}/config", response_model=CampaignOut, operation_id="update_campaign_config")
 def update_campaign_config(
     campaign_id: ObjectId, body: CampaignConfigUpdate, user: CurrentUser, session: SessionDep
 ) -> CampaignOut:
@@ -171,14 +172,15 @@ def _action(name: str, summary: str) -> None:
     def route(campaign_id: ObjectId, user: CurrentUser, session: SessionDep) -> CampaignOut:
         campaign = get_for(session, Campaign, campaign_id, user, need="edit")
         campaign, jobs = fn(session, campaign.id)
+        staged = stage(session, jobs)
         session.commit()
-        send_committed(jobs)
+        send_committed(staged)
         return campaign_out(session, campaign, user)
 
     route.__name__ = f"{name}_campaign"
     route.__doc__ = summary
     router.add_api_route(
-        f"/{{campaign_id}}/{name}",
+        f"/{{campaign_id:integer}}/{name}",
         route,
         methods=["POST"],
         response_model=CampaignOut,
@@ -193,7 +195,7 @@ _action("resume", "Resume a paused campaign.")
 _action("cancel", "Cancel: queued steps are dropped, a running job stops at its next check.")
 
 
-@router.post("/{campaign_id}/retry", response_model=CampaignOut, operation_id="retry_campaign_step")
+@router.post("/{campaign_id:integer}/retry", response_model=CampaignOut, operation_id="retry_campaign_step")
 def retry_campaign_step(
     campaign_id: ObjectId, user: CurrentUser, session: SessionDep, body: Annotated[RetryIn | None, Body()] = None
 ) -> CampaignOut:
@@ -204,13 +206,17 @@ def retry_campaign_step(
         raise InvalidInput.one("step" if body.step is None else "iteration", "give both iteration and step, or neither")
     step = body.step.value if body.step else None
     campaign, jobs = campaigns.retry_step(session, campaign.id, body.iteration, step)
+    staged = stage(session, jobs)
     session.commit()
-    send_committed(jobs)
+    send_committed(staged)
     return campaign_out(session, campaign, user)
 
 
 @router.post(
-    "/{campaign_id}/fork", response_model=CampaignOut, status_code=status.HTTP_201_CREATED, operation_id="fork_campaign"
+    "/{campaign_id:integer}/fork",
+    response_model=CampaignOut,
+    status_code=status.HTTP_201_CREATED,
+    operation_id="fork_campaign",
 )
 def fork_campaign(campaign_id: ObjectId, body: ForkRequest, user: CurrentUser, session: SessionDep) -> CampaignOut:
     """A new campaign of yours continuing from iteration k of this one (its pool and model),
@@ -220,6 +226,7 @@ def fork_campaign(campaign_id: ObjectId, body: ForkRequest, user: CurrentUser, s
     if body.iteration > MAX_ID:
         raise InvalidInput.one("iteration", "too large")
     campaign, jobs = campaigns.fork(session, source.id, body, user.id)
+    staged = stage(session, jobs)
     session.commit()
-    send_committed(jobs)
+    send_committed(staged)
     return campaign_out(session, campaign, user)

@@ -162,9 +162,51 @@ class MetricsRead(_Read):
     n_pool_samples: int | None
     model_version_id: int | None
     dataset_id: int | None
+    validation_force_rmse: float | None = Field(
+        None,
+        description=(
+            "generalisation error of model k on the held-out validation suite: "
+            "sqrt(mean_i |F_pred,i - F_true,i|^2) over all samples of all motions [N]; null until evaluated"
+        ),
+    )
+    validation_moment_rmse: float | None = Field(
+        None, description="the same for the moment vector [N m]; null until evaluated"
+    )
+    validation_components: dict[str, float] | None = Field(
+        None, description="RMSE of each component fx..mz on the validation suite [N, N m]"
+    )
     extra: dict[str, Any] | None = Field(
         None, description="software versions, per-component RMSE, step timings (only with ?extra=true on the series)"
     )
+
+
+class ValidationSuiteRead(BaseModel):
+    """The held-out validation suite a campaign's model versions are evaluated on (shared per
+    oracle version and suite spec)."""
+
+    id: int
+    status: str = Field(description="replaying | complete | failed")
+    n_motions: int
+    motions_done: int = Field(description="motions replayed and stored")
+    replay_wall_time_s: float | None = Field(None, description="first motion queued to last motion stored [s]")
+    shared_by: int = Field(description="campaigns evaluated on this suite")
+    error: str | None = None
+
+
+class ValidationPoint(BaseModel):
+    """Model version k's generalisation error on the held-out validation suite."""
+
+    iteration_index: int = Field(description="k: the iteration whose train step made the model version")
+    model_version_id: int
+    force_rmse: float = Field(description="sqrt(mean_i |F_pred,i - F_true,i|^2) over all samples of all motions [N]")
+    moment_rmse: float = Field(description="the same for the moment vector [N m]")
+    components: dict[str, float] = Field(description="RMSE of each component fx..mz [N, N m]")
+    per_motion: list[dict[str, float]] = Field(description="force_rmse, moment_rmse, n_samples of each motion")
+
+
+class ValidationSeries(BaseModel):
+    suite: ValidationSuiteRead | None = Field(description="the campaign's held-out validation suite (null: none)")
+    points: list[ValidationPoint] = Field(description="one per own model version evaluated so far, by k")
 
 
 class CampaignDetail(BaseModel):
@@ -172,6 +214,7 @@ class CampaignDetail(BaseModel):
     config: CampaignConfig
     current: IterationRead | None
     latest_metrics: MetricsRead | None
+    validation: ValidationSuiteRead | None = Field(None, description="the held-out validation suite, if any")
     iterations_finished: int
     iterations_failed: int
     mean_iteration_s: float | None
@@ -253,7 +296,8 @@ class EventRead(_Read):
 
 
 class _In(BaseModel):
-    model_config = ConfigDict(extra="forbid")
+    # strict: "1" is not a number and 1 or "true" not a boolean, as the schema says (JSON numbers still fill floats)
+    model_config = ConfigDict(extra="forbid", strict=True)
 
 
 class CampaignCreateIn(_In):
@@ -278,7 +322,7 @@ class CampaignCreateIn(_In):
 
 class RetryIn(_In):
     iteration: int | None = Field(None, ge=0, le=MAX_ID)
-    step: StepName | None = None
+    step: StepName | None = Field(None, strict=False)  # an enum from a JSON string
 
 
 class CampaignSummary(BaseModel):

@@ -1,11 +1,12 @@
 """A campaign's lifecycle: create, edit, start, pause, resume, cancel, retry a failed step,
 fork. Every function takes a ``Session``, never commits, and returns domain objects plus,
-where the change makes work necessary, the :class:`StepJob` list that the caller sends
-with :func:`alcove.jobs.campaign.enqueue` AFTER committing::
+where the change makes work necessary, the :class:`StepJob` list that the caller records
+in the job outbox in the same transaction and sends AFTER committing::
 
     with session_scope() as s:
         campaign, jobs = service.start(s, campaign_id)
-    enqueue(jobs)
+        staged = stage(s, jobs)  # alcove.jobs.campaign
+    send_committed(staged)
 """
 
 from __future__ import annotations

@@ -9,10 +9,14 @@ calls its domain's one entry point, which computes and returns the rows to write
 step           computed by                                     writes
 =============  =============================================  ===========================
 preliminary    :func:`alcove.pool.steps.build_preliminary`     datasets, pool version 0
-train          :func:`alcove.surrogates.steps.train`           model version k
+train          :func:`alcove.surrogates.steps.train`           model version k; the campaign's
+                                                               validation suite (found or created:
+                                                               :func:`alcove.oracles.validation.attach_suite`)
 ocp            :func:`alcove.solving.steps.solve`              OCP solution
 oracle         :func:`alcove.oracles.steps.replay`             oracle run, dataset (or quarantine)
-evaluate       :func:`alcove.surrogates.steps.evaluate`        iteration metrics and curves
+evaluate       :func:`alcove.surrogates.steps.evaluate`        iteration metrics and curves; model k's
+                                                               generalisation error when the suite is
+                                                               complete (:mod:`alcove.surrogates.validation`)
 append         :func:`alcove.pool.steps.append`                pool version k; stopping rules
 =============  =============================================  ===========================
 
@@ -33,17 +37,20 @@ from alcove.campaigns import repository as repo
 from alcove.campaigns import transitions
 from alcove.campaigns.schemas import CampaignConfig
 from alcove.campaigns.state_machine import IterationRecord, StepRef, stop_reason
+from alcove.campaigns.validation import suite_spec
 from alcove.db import session_scope
 from alcove.jobs.steps import FailedAttempt, IterationRef, StepOutput, StepRun, UnusableResult, is_cancellation
 from alcove.models import Campaign, CampaignConfigVersion, Iteration, StepName, SurrogateConfigVersion, utcnow
 from alcove.oracles import repository as oracles_repo
 from alcove.oracles import steps as oracle_steps
+from alcove.oracles import validation as oracle_validation
 from alcove.pool import repository as pool_repo
 from alcove.pool import steps as pool_steps
 from alcove.solving import repository as solving_repo
 from alcove.solving import steps as solving_steps
 from alcove.surrogates import repository as surrogates_repo
 from alcove.surrogates import steps as surrogate_steps
+from alcove.surrogates import validation as surrogate_validation
 from alcove.surrogates.service import software_versions
 from alcove.tasks.service import load_task
 
@@ -124,6 +131,7 @@ def train(ctx: StepContext) -> StepOutput:
         if pv is None or scv is None:
             raise RuntimeError(f"pool version {ctx.k - 1} or the surrogate config of iteration {ctx.k} does not exist")
         parent = surrogates_repo.version_of(s, c.id, ctx.k - 1)
+        needs_suite = c.validation_suite_id is None
         inputs: _TrainInputs = {
             "pool_version_id": pv.id,
             "spec": scv.spec,
@@ -133,7 +141,19 @@ def train(ctx: StepContext) -> StepOutput:
             "preset": ctx.task(s, c).preset(),
             "lineage": {"config_version_id": it.config_version_id},
         }
-    return surrogate_steps.train(ctx.run, **inputs)
+    out = surrogate_steps.train(ctx.run, **inputs)
+    spec, preset = suite_spec(ctx.config.settings), inputs["preset"]
+    motions = oracle_validation.motions_for(spec, preset) if needs_suite else None
+
+    def write(s: Session, at: IterationRef) -> dict[str, Any]:
+        result = out.write(s, at)
+        c = repo.get_campaign(s, at.campaign_id)
+        if c.validation_suite_id is None:  # the first model of a campaign (or of a fork)
+            suite = oracle_validation.attach_suite(s, c, spec, preset, motions)
+            result["validation_suite_id"] = suite.id if suite is not None else None
+        return result
+
+    return StepOutput(write, out.compute_s)
 
 
 def ocp(ctx: StepContext) -> StepOutput:
@@ -230,8 +250,21 @@ def evaluate(ctx: StepContext) -> StepOutput:
                 "config_version_id": it.config_version_id,
             },
         }
-        model_version_id, dataset_id = mv.id, ds.id
-    return surrogate_steps.evaluate(ctx.run, model_version_id=model_version_id, dataset_id=dataset_id, record=record)
+        model_version_id, dataset_id, suite_id = mv.id, ds.id, c.validation_suite_id
+    out = surrogate_steps.evaluate(ctx.run, model_version_id=model_version_id, dataset_id=dataset_id, record=record)
+    if suite_id is None:
+        return out
+    # the generalisation error now if the suite is complete; else the suite's completion evaluates it
+    validation = surrogate_validation.compute_for_model(model_version_id, suite_id)
+    if validation is None:
+        return out
+
+    def write(s: Session, at: IterationRef) -> dict[str, Any]:
+        result = out.write(s, at)
+        surrogate_validation.store_for_model(s, model_version_id, suite_id, validation)
+        return {**result, "validation_force_rmse": validation["force_rmse"]}
+
+    return StepOutput(write, out.compute_s)
 
 
 def append(ctx: StepContext) -> StepOutput:

@@ -120,6 +120,9 @@ def create_celery_app(settings: Settings | None = None, *, include: list[str] | 
     return app
 
 
+#: kombu's retry policy of a quick send: reconnect once or twice, then raise
+QUICK_RETRY = {"max_retries": 2, "interval_start": 0.0, "interval_step": 0.2, "interval_max": 0.3}
+
 _sender_lock = threading.Lock()
 _sender: Celery | None = None
 
@@ -145,15 +148,22 @@ def send_job(
     queue: str | None = None,
     task_id: str | None = None,
     app: Celery | None = None,
+    quick: bool = False,
     **kwargs: Any,
 ) -> str:
     """Send job ``name`` by name (no import of its code) and return the message id.
 
-    Call it only after the transaction that made the job necessary has committed.
+    Call it only after the transaction that made the job necessary has committed (the
+    application sends through :mod:`alcove.jobs.outbox`). ``quick``: give up after a short
+    reconnect (about half a second) instead of kombu's default retries, so that a caller
+    holding a request or a transaction is not kept waiting by a broker that is down.
     """
     q = queue or queue_for(name)
     if q not in QUEUES:
         raise ValueError(f"unknown queue {q!r}; expected one of {QUEUES}")
     tid = task_id or str(uuid.uuid4())
-    (app or get_sender()).send_task(name, args=list(args), kwargs=kwargs, queue=q, routing_key=q, task_id=tid)
+    options: dict[str, Any] = {"retry_policy": QUICK_RETRY} if quick else {}
+    (app or get_sender()).send_task(
+        name, args=list(args), kwargs=kwargs, queue=q, routing_key=q, task_id=tid, **options
+    )
     return tid

@@ -16,6 +16,7 @@ from alcove.jobs import queue_for, send_job
 
 if TYPE_CHECKING:
     from celery import Celery
+    from sqlalchemy.orm import Session
 
 log = logging.getLogger(__name__)
 
@@ -40,7 +41,9 @@ def step_message_id(campaign_id: int, iteration: int, step: str, attempt: int) -
 
 
 def enqueue(jobs: Iterable[Any], app: Celery | None = None) -> list[str]:
-    """Send step jobs (objects with campaign_id, iteration, step, attempt). Call after commit."""
+    """Send step jobs (objects with campaign_id, iteration, step, attempt) directly, without
+    the outbox (tests: an extra or duplicate message). The application records its jobs
+    with :func:`stage` and sends them with :func:`send_committed`."""
     ids = []
     for j in jobs:
         step = getattr(j.step, "value", j.step)
@@ -58,16 +61,32 @@ def enqueue(jobs: Iterable[Any], app: Celery | None = None) -> list[str]:
     return ids
 
 
-def send_committed(jobs: Iterable[Any]) -> None:
-    """Send the jobs a committed change made necessary. A failed send loses nothing: the
-    steps are queued in the database and the reconciler re-sends queued steps nobody claimed."""
-    jobs = list(jobs)
-    if not jobs:
-        return
-    try:
-        enqueue(jobs)
-    except Exception:
-        log.exception("sending %d job(s) failed; the reconciler will re-send them", len(jobs))
+def stage(session: Session, jobs: Iterable[Any]) -> list[int]:
+    """Record step jobs in the outbox, in the caller's transaction (the one that made them
+    necessary); returns the outbox ids for :func:`send_committed` after the commit."""
+    from alcove.jobs import outbox
+
+    ids = []
+    for j in jobs:
+        step = getattr(j.step, "value", j.step)
+        key = step_message_id(j.campaign_id, j.iteration, step, j.attempt)
+        row = outbox.record(
+            session,
+            STEP_JOBS[step],
+            (j.campaign_id, j.iteration, step, j.attempt),
+            subject=f"campaign/{j.campaign_id}/k{j.iteration}/{step}",
+            message_id=f"{key}-{_nonce()}",
+        )
+        ids.append(row.id)
+    return ids
+
+
+def send_committed(staged: list[int]) -> None:
+    """Send the jobs :func:`stage` recorded, after the commit. A failed send loses nothing:
+    the outbox relay sends them when the broker answers."""
+    from alcove.jobs import outbox
+
+    outbox.send_now(staged)
 
 
 def _nonce() -> str:

@@ -45,9 +45,10 @@ from alcove.models.definitions import (
     spec_hash,
 )
 from alcove.models.guards import ImmutableRowError
-from alcove.models.ops import SmokeCheck, WorkerHeartbeat
+from alcove.models.ops import JobOutbox, SmokeCheck, WorkerHeartbeat
 from alcove.models.previews import Preview, PreviewKind, PreviewStatus
 from alcove.models.users import ApiToken, Share, User, hash_password, hash_token, new_token_secret, verify_password
+from alcove.models.validation import MotionStatus, SuiteStatus, ValidationMetrics, ValidationMotion, ValidationSuite
 
 __all__ = [
     "ITERATION_STEPS",
@@ -67,7 +68,9 @@ __all__ = [
     "IterationMetrics",
     "IterationStatus",
     "IterationStep",
+    "JobOutbox",
     "ModelVersion",
+    "MotionStatus",
     "OcpSolution",
     "OracleDefinition",
     "OracleRun",
@@ -85,6 +88,7 @@ __all__ = [
     "SmokeCheck",
     "StepName",
     "StepStatus",
+    "SuiteStatus",
     "SurrogateConfig",
     "SurrogateConfigVersion",
     "TaskDefinition",
@@ -92,6 +96,9 @@ __all__ = [
     "TokenKind",
     "UTCDateTime",
     "User",
+    "ValidationMetrics",
+    "ValidationMotion",
+    "ValidationSuite",
     "WorkerHeartbeat",
     "canonical_json",
     "hash_password",

@@ -167,6 +167,7 @@ class DatasetOrigin(str, enum.Enum):
     preliminary = "preliminary"  # Latin-hypercube samples evaluated by an oracle
     oracle = "oracle"  # one OCP trajectory replayed by the campaign's oracle
     upload = "upload"  # a user-uploaded preliminary data set (CSV)
+    validation = "validation"  # a held-out validation motion replayed by an oracle (never in a pool)
 
 
 class OracleRunStatus(str, enum.Enum):

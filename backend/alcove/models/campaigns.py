@@ -105,6 +105,11 @@ class Campaign(TimestampMixin, Base):
     )
     started_at: Mapped[datetime | None]
     finished_at: Mapped[datetime | None]
+    validation_suite_id: Mapped[int | None] = mapped_column(
+        sa.ForeignKey("validation_suites.id", ondelete="SET NULL"),
+        index=True,
+        comment="the held-out validation suite its model versions are evaluated on (shared)",
+    )
 
     owner: Mapped[User] = relationship()
     task_version: Mapped[TaskVersion] = relationship()

@@ -66,8 +66,6 @@ class User(TimestampMixin, Base):
     role: Mapped[str] = mapped_column(sa.String(16), default=Role.member.value, server_default=Role.member.value)
     is_active: Mapped[bool] = mapped_column(default=True, server_default=sa.true())
     last_login_at: Mapped[datetime | None]
-    failed_login_count: Mapped[int] = mapped_column(default=0, server_default="0")
-    locked_until: Mapped[datetime | None] = mapped_column(comment="login lockout after repeated failures")
 
     tokens: Mapped[list[ApiToken]] = relationship(
         back_populates="user", cascade="all, delete-orphan", passive_deletes=True

@@ -126,13 +126,13 @@ def validate_oracle(body: OracleDraft, user: CurrentUser, session: SessionDep) -
     )
 
 
-@router.get("/{oracle_id}", response_model=OracleOut, operation_id="get_oracle")
+@router.get("/{oracle_id:integer}", response_model=OracleOut, operation_id="get_oracle")
 def get_oracle(oracle_id: ObjectId, user: CurrentUser, session: SessionDep) -> OracleOut:
     definition = repo.get_oracle(session, oracle_id, user)
     return oracle_out(session, definition, repo.latest_version(session, definition), user)
 
 
-@router.put("/{oracle_id}", response_model=OracleOut, operation_id="update_oracle")
+@router.put("/{oracle_id:integer}", response_model=OracleOut, operation_id="update_oracle")
 def update_oracle(oracle_id: ObjectId, body: OracleUpdate, user: CurrentUser, session: SessionDep) -> OracleOut:
     """Rename or edit; a changed type/params creates a new version once a campaign uses the latest one."""
     definition, version = service.update(
@@ -149,7 +149,7 @@ def update_oracle(oracle_id: ObjectId, body: OracleUpdate, user: CurrentUser, se
     return oracle_out(session, definition, version, user)
 
 
-@router.delete("/{oracle_id}", status_code=status.HTTP_204_NO_CONTENT, operation_id="delete_oracle")
+@router.delete("/{oracle_id:integer}", status_code=status.HTTP_204_NO_CONTENT, operation_id="delete_oracle")
 def delete_oracle(oracle_id: ObjectId, user: CurrentUser, session: SessionDep) -> Response:
     definition = repo.get_oracle(session, oracle_id, user, need="owner")
     versioning.delete(session, service.KIND, definition)
@@ -157,13 +157,17 @@ def delete_oracle(oracle_id: ObjectId, user: CurrentUser, session: SessionDep) -
     return Response(status_code=status.HTTP_204_NO_CONTENT)
 
 
-@router.get("/{oracle_id}/versions", response_model=list[OracleVersionOut], operation_id="list_oracle_versions")
+@router.get("/{oracle_id:integer}/versions", response_model=list[OracleVersionOut], operation_id="list_oracle_versions")
 def list_oracle_versions(oracle_id: ObjectId, user: CurrentUser, session: SessionDep) -> list[OracleVersionOut]:
     definition = repo.get_oracle(session, oracle_id, user)
     return [version_out(session, v) for v in repo.versions(session, definition)]
 
 
-@router.get("/{oracle_id}/versions/{version}", response_model=OracleVersionOut, operation_id="get_oracle_version")
+@router.get(
+    "/{oracle_id:integer}/versions/{version:integer}",
+    response_model=OracleVersionOut,
+    operation_id="get_oracle_version",
+)
 def get_oracle_version(
     oracle_id: ObjectId, version: VersionNumber, user: CurrentUser, session: SessionDep
 ) -> OracleVersionOut:
@@ -189,12 +193,12 @@ def create_command_oracle(body: CommandOracleIn, admin: AdminUser, session: Sess
     return CommandOracleOut.model_validate(row)
 
 
-@admin_router.get("/{entry_id}", response_model=CommandOracleOut, operation_id="get_command_oracle")
+@admin_router.get("/{entry_id:integer}", response_model=CommandOracleOut, operation_id="get_command_oracle")
 def get_command_oracle(entry_id: ObjectId, admin: AdminUser, session: SessionDep) -> CommandOracleOut:
     return CommandOracleOut.model_validate(service.get_command(session, entry_id))
 
 
-@admin_router.put("/{entry_id}", response_model=CommandOracleOut, operation_id="update_command_oracle")
+@admin_router.put("/{entry_id:integer}", response_model=CommandOracleOut, operation_id="update_command_oracle")
 def update_command_oracle(
     entry_id: ObjectId, body: CommandOracleIn, admin: AdminUser, session: SessionDep
 ) -> CommandOracleOut:
@@ -203,7 +207,9 @@ def update_command_oracle(
     return CommandOracleOut.model_validate(row)
 
 
-@admin_router.delete("/{entry_id}", status_code=status.HTTP_204_NO_CONTENT, operation_id="delete_command_oracle")
+@admin_router.delete(
+    "/{entry_id:integer}", status_code=status.HTTP_204_NO_CONTENT, operation_id="delete_command_oracle"
+)
 def delete_command_oracle(entry_id: ObjectId, admin: AdminUser, session: SessionDep) -> Response:
     """Remove an entry; oracles referring to it stop validating (disable it to keep them listed)."""
     service.delete_command(session, entry_id)

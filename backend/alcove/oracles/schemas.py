@@ -11,13 +11,16 @@ from alcove.versioning.schemas import DefinitionMeta, VersionMeta
 
 
 class _In(BaseModel):
-    model_config = ConfigDict(extra="forbid")
+    # strict: "1" is not a number and 1 or "true" not a boolean, as the schema says (JSON numbers still fill floats)
+    model_config = ConfigDict(extra="forbid", strict=True)
 
 
 TypeName = Field(
     min_length=1,
     max_length=100,
-    description="a built-in type (`aux-penalty`, `fe-headrest-2d`) or a command catalogue entry's name",
+    description=(
+        "a built-in type (`aux-penalty`, `fe-headrest-2d`, `fe-headrest-3d-ccx`) or a command catalogue entry's name"
+    ),
 )
 
 

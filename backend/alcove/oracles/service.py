@@ -38,6 +38,14 @@ PRESETS: dict[str, dict[str, str]] = {
             "Plane-strain FE headrest (hyperfoam cushion, penalty contact with friction), default parameters."
         ),
     },
+    "fe-headrest-3d-ccx": {
+        "name": "fe-headrest-3d-ccx",
+        "type": "fe-headrest-3d-ccx",
+        "description": (
+            "3D FE headrest in CalculiX (hyperfoam block, rigid ellipsoidal head, penalty contact with friction), "
+            "default parameters; needs ccx on the oracle workers."
+        ),
+    },
 }
 
 

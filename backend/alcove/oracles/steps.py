@@ -22,6 +22,7 @@ from alcove.models import OracleRun, OracleVersion, QuarantinedResult, utcnow
 from alcove.oracles.service import command_catalogue
 from alcove.pool.service import store_dataset
 from alcove.science.json_values import json_safe
+from alcove.science.oracles.builtin import BUILTIN_TYPE_NAMES
 
 if TYPE_CHECKING:
     from alcove.science.geometry import HeadNeckPreset
@@ -31,7 +32,7 @@ if TYPE_CHECKING:
 #: Oracles built per worker process (an FE oracle builds its mesh once), by type, spec and preset.
 _oracles: LRUCache[tuple[str, str, str], Oracle] = LRUCache(maxsize=4)
 _oracles_lock = threading.Lock()
-BUILTIN = ("fe-headrest-2d", "aux-penalty")
+BUILTIN = BUILTIN_TYPE_NAMES
 
 
 def load_oracle(s: Session, oracle_version_id: int, preset: HeadNeckPreset) -> Oracle:

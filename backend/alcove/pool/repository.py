@@ -98,3 +98,17 @@ def add_members(s: Session, pool_version_id: int, members: list[tuple[int, bool]
             for k, (i, added) in enumerate(members)
         ]
         s.execute(sa.insert(PoolVersionMember), rows)
+
+
+def validation_datasets(s: Session, suite_id: int) -> list[Dataset]:
+    """The replayed motions of a validation suite, in motion order (never members of a pool version)."""
+    from alcove.models import ValidationMotion
+
+    return list(
+        s.scalars(
+            sa.select(Dataset)
+            .join(ValidationMotion, ValidationMotion.dataset_id == Dataset.id)
+            .where(ValidationMotion.suite_id == suite_id)
+            .order_by(ValidationMotion.index)
+        )
+    )

@@ -23,7 +23,7 @@ from alcove.pool import repository as repo
 from alcove.pool.schemas import PoolVersionRead
 
 if TYPE_CHECKING:
-    from alcove.science.surrogate.dataset import PoolDataset
+    from alcove.science.surrogate.dataset import PoolDataset, StateRange
 
 FORCE_COLUMNS = ("fx", "fy", "fz", "mx", "my", "mz")
 
@@ -228,15 +228,32 @@ def pool_version_table(s: Session, pool_version: PoolVersion, fmt: str = "csv") 
     return out.getvalue().encode()
 
 
+def state_range_of_task(spec: dict[str, Any]) -> StateRange:
+    """The plausible joint angles and velocities of data for a task's model."""
+    from alcove.science.ocp.task_spec import MAX_ANGULAR_VELOCITY, parse_task
+    from alcove.science.surrogate.dataset import StateRange
+
+    model = parse_task(spec).model
+    what = "the task's joint range theta_min..theta_max"
+    return StateRange(model.theta_min, model.theta_max, MAX_ANGULAR_VELOCITY, what)
+
+
 def upload_preliminary_dataset(
-    s: Session, owner_id: int, source: str | io.TextIOBase, name: str = "upload", chunks: int = 10
+    s: Session,
+    owner_id: int,
+    source: str | io.TextIOBase,
+    name: str = "upload",
+    chunks: int = 10,
+    state: StateRange | None = None,
 ) -> list[Dataset]:
     """Store a preliminary-data CSV (columns ``[simulation,] [t,] q_i, qd_i, fx..mz``) as
-    upload datasets; pass their ids as ``preliminary.dataset_ids`` of a campaign."""
-    from alcove.science.surrogate.dataset import load_preliminary_csv
+    upload datasets; pass their ids as ``preliminary.dataset_ids`` of a campaign. Values are
+    checked against ``state`` (a task's model range; default: what any model allows)."""
+    from alcove.science.surrogate.dataset import check_plausible, load_preliminary_csv
 
     text = source if isinstance(source, io.TextIOBase) else io.StringIO(source)
     pool = load_preliminary_csv(text, origin="upload", chunks=chunks, prefix=name)
+    check_plausible(pool, state)
     out = []
     for ds in pool:
         out.append(
@@ -253,6 +270,14 @@ def upload_preliminary_dataset(
             )
         )
     return out
+
+
+def check_datasets_plausible(s: Session, datasets: list[Dataset], state: StateRange) -> None:
+    """Stored datasets within ``state`` (and the force limits): :class:`PoolDataError`
+    naming the column, the dataset and the row otherwise."""
+    from alcove.science.surrogate.dataset import check_plausible
+
+    check_plausible([_training_dataset(s, d) for d in datasets], state)
 
 
 # ----------------------------------------------------------------------------- a campaign's pool versions

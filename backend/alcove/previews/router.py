@@ -4,7 +4,9 @@
 * ``POST /oracles/{oracle_id}/previews``: replay the FE reference head motion through the oracle (queue ``oracle``);
 * ``GET /previews/{preview_id}`` (poll until ``succeeded`` or ``failed``), ``GET /previews``.
 
-Both POSTs answer 202 with the pending preview. The body may carry an unsaved edit
+Both POSTs answer 202 with the pending preview (its job is recorded before it is sent: while
+the broker is down it waits, ``status_detail`` says "waiting for the job queue", and it is sent
+when the broker is back). The body may carry an unsaved edit
 (``spec`` of the task, ``params`` of the oracle) so an editor can preview before saving;
 it is validated like a save (422 naming the field). Previews are private to the user who
 asked (others get 404); at most :data:`~alcove.previews.service.MAX_ACTIVE_PER_USER` may be
@@ -17,6 +19,7 @@ from typing import Annotated, Any, Literal
 
 from fastapi import APIRouter, Body, Query, status
 from pydantic import BaseModel, ConfigDict, Field
+from sqlalchemy.orm import Session
 
 from alcove.api.deps import SessionDep
 from alcove.api.params import MAX_ID, ObjectId
@@ -35,7 +38,8 @@ RATE_LIMITED: dict[int | str, dict[str, Any]] = {
 
 
 class _In(BaseModel):
-    model_config = ConfigDict(extra="forbid")
+    # strict: "1" is not a number and 1 or "true" not a boolean, as the schema says (JSON numbers still fill floats)
+    model_config = ConfigDict(extra="forbid", strict=True)
 
 
 class TaskPreviewIn(_In):
@@ -123,12 +127,19 @@ class PreviewOut(BaseModel):
     finished_at: datetime | None
     worker_name: str | None
     error: str | None = Field(description="why it failed (bad input found by the worker, solver or oracle error)")
+    status_detail: str | None = Field(
+        None,
+        description=(
+            "what a pending preview waits for: 'waiting for the job queue: ...' while the broker is not reachable "
+            "(its job is kept and sent as soon as the broker is back), or 'waiting for a worker on queue ...'"
+        ),
+    )
     result: TaskPreviewResult | OraclePreviewResult | None = Field(
         None, description="set when succeeded (null in the list)"
     )
 
 
-def preview_out(row: Preview, with_result: bool = True) -> PreviewOut:
+def preview_out(row: Preview, with_result: bool = True, detail: str | None = None) -> PreviewOut:
     result: Any = None
     if with_result and row.result is not None:
         result = (
@@ -149,12 +160,17 @@ def preview_out(row: Preview, with_result: bool = True) -> PreviewOut:
         finished_at=row.finished_at,
         worker_name=row.worker_name,
         error=row.error,
+        status_detail=detail,
         result=result,
     )
 
 
+def _out(session: Session, row: Preview) -> PreviewOut:
+    return preview_out(row, detail=service.status_details(session, [row]).get(row.id))
+
+
 @router.post(
-    "/tasks/{task_id}/previews",
+    "/tasks/{task_id:integer}/previews",
     response_model=PreviewOut,
     status_code=status.HTTP_202_ACCEPTED,
     operation_id="create_task_preview",
@@ -170,12 +186,12 @@ def create_task_preview(
         session, user, task_id, version=body.version, spec=body.spec, intervals=body.intervals
     )
     session.commit()
-    service.send(row.id, row.kind)
-    return preview_out(row)
+    service.send(row.id)
+    return _out(session, row)
 
 
 @router.post(
-    "/oracles/{oracle_id}/previews",
+    "/oracles/{oracle_id:integer}/previews",
     response_model=PreviewOut,
     status_code=status.HTTP_202_ACCEPTED,
     operation_id="create_oracle_preview",
@@ -189,14 +205,14 @@ def create_oracle_preview(
     body = body or OraclePreviewIn()
     row = service.create_oracle_preview(session, user, oracle_id, version=body.version, params=body.params, dt=body.dt)
     session.commit()
-    service.send(row.id, row.kind)
-    return preview_out(row)
+    service.send(row.id)
+    return _out(session, row)
 
 
-@router.get("/previews/{preview_id}", response_model=PreviewOut, operation_id="get_preview")
+@router.get("/previews/{preview_id:integer}", response_model=PreviewOut, operation_id="get_preview")
 def get_preview(preview_id: ObjectId, user: CurrentUser, session: SessionDep) -> PreviewOut:
     """One of your previews: status pending | running | succeeded | failed, result, error."""
-    return preview_out(service.get(session, user, preview_id))
+    return _out(session, service.get(session, user, preview_id))
 
 
 @router.get("/previews", response_model=list[PreviewOut], operation_id="list_previews")
@@ -204,4 +220,6 @@ def list_previews(
     user: CurrentUser, session: SessionDep, limit: Annotated[int, Query(ge=1, le=service.KEEP_PER_USER)] = 20
 ) -> list[PreviewOut]:
     """Your recent previews, newest first (without their results)."""
-    return [preview_out(r, with_result=False) for r in service.list_for(session, user, limit)]
+    rows = service.list_for(session, user, limit)
+    details = service.status_details(session, rows)
+    return [preview_out(r, with_result=False, detail=details.get(r.id)) for r in rows]

@@ -2,8 +2,10 @@
 trajectory" for an oracle (queue ``oracle``).
 
 The API side (:func:`create_task_preview`, :func:`create_oracle_preview`, :func:`get`)
-validates, snapshots what to run into a ``previews`` row and returns it; the route commits
-and only then sends the job by name (:func:`send`). The worker side is
+validates, snapshots what to run into a ``previews`` row and records its job in the job
+outbox (:mod:`alcove.jobs.outbox`) in the same transaction; the route commits and only
+then sends the job (:func:`send`). While the broker is down the job waits in the outbox
+(the preview says "waiting for the job queue") and is sent when the broker is back. The worker side is
 :mod:`alcove.previews.worker`. Importing this module imports neither torch nor casadi.
 """
 
@@ -17,6 +19,7 @@ import sqlalchemy as sa
 from sqlalchemy.orm import Session
 
 from alcove.errors import InvalidInput, NotFound, TooManyRequests
+from alcove.jobs import outbox
 from alcove.models import (
     OracleDefinition,
     Preview,
@@ -145,9 +148,7 @@ def create_task_preview(
         spec=snapshot,
         options={"intervals": intervals, "intervals_per_phase": preview_grid(snapshot, intervals)},
     )
-    session.add(row)
-    session.flush()
-    return row
+    return _with_job(session, row)
 
 
 def create_oracle_preview(
@@ -176,9 +177,40 @@ def create_oracle_preview(
         spec={"type": ov.oracle_type, "params": normalized},
         options={"dt": dt},
     )
+    return _with_job(session, row)
+
+
+def _with_job(session: Session, row: Preview) -> Preview:
+    """Store the preview and record its job in the outbox, in the same transaction."""
     session.add(row)
     session.flush()
+    outbox.record(session, JOB_FOR[row.kind], (row.id,), subject=subject(row.id))
     return row
+
+
+def subject(preview_id: int) -> str:
+    """The outbox subject of a preview's job."""
+    return f"preview/{preview_id}"
+
+
+def status_details(session: Session, rows: list[Preview]) -> dict[int, str]:
+    """What each pending preview waits for, in words: the job queue (the broker was not
+    reachable when it was asked for; it is sent as soon as the broker answers), or a worker."""
+    pending = [r for r in rows if r.status == PreviewStatus.pending.value]
+    if not pending:
+        return {}
+    unsent = outbox.waiting(session, [subject(r.id) for r in pending])
+    out = {}
+    for r in pending:
+        if subject(r.id) in unsent:
+            out[r.id] = f"{outbox.WAITING_FOR_QUEUE}: the broker is not reachable; it is sent as soon as it is back"
+        else:
+            out[r.id] = f"waiting for a worker on queue '{_queue(r)}'"
+    return out
+
+
+def _queue(row: Preview) -> str:
+    return "ocp" if row.kind == PreviewKind.task.value else "oracle"
 
 
 def get(session: Session, user: User, preview_id: int) -> Preview:
@@ -207,13 +239,15 @@ def _fail_if_stale(session: Session, row: Preview) -> None:
     active = (PreviewStatus.pending.value, PreviewStatus.running.value)
     if row.status not in active:
         return
-    since = row.started_at if row.status == PreviewStatus.running.value else row.created_at
+    running = row.status == PreviewStatus.running.value
+    # a pending preview counts from when its job reached the broker: while it waits for the
+    # job queue (broker down) it is not stale, it is sent when the broker is back
+    since = row.started_at if running else outbox.sent_at(session, subject(row.id))
     if since is None or _aware(since) > utcnow() - STALE_AFTER:
         return
-    queue = "ocp" if row.kind == PreviewKind.task.value else "oracle"
-    what = "no worker finished it" if row.status == PreviewStatus.running.value else "no worker took it"
     minutes = int(STALE_AFTER.total_seconds() // 60)
-    error = f"{what} within {minutes} minutes: is a worker listening on queue '{queue}'? Ask for a new preview."
+    what = "no worker finished it" if running else "no worker took it from the job queue"
+    error = f"{what} within {minutes} minutes: is a worker listening on queue '{_queue(row)}'? Ask for a new preview."
     from alcove.db import transaction
 
     now = utcnow()
@@ -246,12 +280,12 @@ def _aware(moment: Any) -> Any:
     return moment if moment.tzinfo is not None else moment.replace(tzinfo=UTC)
 
 
-def send(row_id: int, kind: str) -> None:
-    """Send the job after the commit. A failed send leaves the row pending; it stops counting
-    toward the limit after :data:`STALE_AFTER` (the user can simply ask again)."""
-    from alcove.jobs import send_job
+def send(row_id: int) -> None:
+    """After the commit: send the preview's job now. A failed send loses nothing: the job
+    waits in the outbox (the preview says "waiting for the job queue") and the outbox relay
+    sends it when the broker is back."""
+    from alcove.db import session_scope
 
-    try:
-        send_job(JOB_FOR[kind], row_id, task_id=f"preview-{row_id}")
-    except Exception:
-        log.exception("sending preview %d failed", row_id)
+    with session_scope() as s:
+        ids = outbox.unsent_ids(s, subject(row_id))
+    outbox.send_now(ids)

@@ -16,6 +16,7 @@ from sqlalchemy.orm import Session
 from alcove.errors import InvalidInput, NotFound
 from alcove.models import Preview, PreviewKind, PreviewStatus, utcnow
 from alcove.previews.service import PREVIEW_IPOPT_MAX_ITER, STALE_AFTER, grid_summary, preview_grid
+from alcove.science.oracles.builtin import BUILTIN_TYPE_NAMES
 
 log = logging.getLogger(__name__)
 
@@ -79,7 +80,7 @@ def _snapshot(s: Session, preview_id: int) -> dict[str, Any]:
     if row is None:  # deleted since it was claimed (its owner deleted, or failed as stale and pruned)
         raise NotFound("preview", preview_id)
     catalogue = None
-    if row.kind == PreviewKind.oracle.value and row.spec.get("type") not in ("fe-headrest-2d", "aux-penalty"):
+    if row.kind == PreviewKind.oracle.value and row.spec.get("type") not in BUILTIN_TYPE_NAMES:
         from alcove.oracles.service import command_catalogue
 
         catalogue = command_catalogue(s)  # the administrator's entries: the command run is theirs

@@ -57,7 +57,8 @@ def quantity(
     ``"-"`` for a dimensionless number.
     """
     text = f"{description} [{unit}], {range_text(unit, ge=ge, gt=gt, le=le, lt=lt)}" + (f"; {why}" if why else "")
-    info: FieldInfo = Field(ge=ge, gt=gt, le=le, lt=lt, allow_inf_nan=False, description=text)
+    # strict: a number, not "1" or true (what the schema says; an integer is still a number)
+    info: FieldInfo = Field(ge=ge, gt=gt, le=le, lt=lt, allow_inf_nan=False, strict=True, description=text)
     return info
 
 

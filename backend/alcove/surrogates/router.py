@@ -11,7 +11,7 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
 from alcove import versioning
 from alcove.api.deps import SessionDep
-from alcove.api.downloads import BINARY, download
+from alcove.api.downloads import binary, download
 from alcove.api.params import Limit, ObjectId, Offset, VersionNumber
 from alcove.errors import field_errors_from_pydantic
 from alcove.models import Campaign, SurrogateConfig, User
@@ -30,7 +30,8 @@ KIND = versioning.SURROGATE_CONFIGS
 
 
 class _In(BaseModel):
-    model_config = ConfigDict(extra="forbid")
+    # strict: "1" is not a number and 1 or "true" not a boolean, as the schema says (JSON numbers still fill floats)
+    model_config = ConfigDict(extra="forbid", strict=True)
 
 
 class SurrogateConfigIn(_In):
@@ -132,13 +133,13 @@ def validate_surrogate_config(body: SurrogateConfigDraft, user: CurrentUser) -> 
     return ValidationReport(valid=True, errors=[], normalized=spec.model_dump(mode="json"))
 
 
-@router.get("/{config_id}", response_model=SurrogateConfigOut, operation_id="get_surrogate_config")
+@router.get("/{config_id:integer}", response_model=SurrogateConfigOut, operation_id="get_surrogate_config")
 def get_surrogate_config(config_id: ObjectId, user: CurrentUser, session: SessionDep) -> SurrogateConfigOut:
     definition = get_for(session, SurrogateConfig, config_id, user)
     return config_out(session, definition, versioning.latest(session, KIND, definition), user)
 
 
-@router.put("/{config_id}", response_model=SurrogateConfigOut, operation_id="update_surrogate_config")
+@router.put("/{config_id:integer}", response_model=SurrogateConfigOut, operation_id="update_surrogate_config")
 def update_surrogate_config(
     config_id: ObjectId, body: SurrogateConfigUpdate, user: CurrentUser, session: SessionDep
 ) -> SurrogateConfigOut:
@@ -151,7 +152,7 @@ def update_surrogate_config(
     return config_out(session, definition, version, user)
 
 
-@router.delete("/{config_id}", status_code=status.HTTP_204_NO_CONTENT, operation_id="delete_surrogate_config")
+@router.delete("/{config_id:integer}", status_code=status.HTTP_204_NO_CONTENT, operation_id="delete_surrogate_config")
 def delete_surrogate_config(config_id: ObjectId, user: CurrentUser, session: SessionDep) -> Response:
     versioning.delete(session, KIND, get_for(session, SurrogateConfig, config_id, user, need="owner"))
     session.commit()
@@ -159,7 +160,7 @@ def delete_surrogate_config(config_id: ObjectId, user: CurrentUser, session: Ses
 
 
 @router.get(
-    "/{config_id}/versions",
+    "/{config_id:integer}/versions",
     response_model=list[SurrogateConfigVersionOut],
     operation_id="list_surrogate_config_versions",
 )
@@ -171,7 +172,7 @@ def list_surrogate_config_versions(
 
 
 @router.get(
-    "/{config_id}/versions/{version}",
+    "/{config_id:integer}/versions/{version:integer}",
     response_model=SurrogateConfigVersionOut,
     operation_id="get_surrogate_config_version",
 )
@@ -186,7 +187,7 @@ def get_surrogate_config_version(
 
 
 @model_versions.get(
-    "/{campaign_id}/model-versions", response_model=list[ModelVersionRead], operation_id="list_model_versions"
+    "/{campaign_id:integer}/model-versions", response_model=list[ModelVersionRead], operation_id="list_model_versions"
 )
 def list_model_versions(campaign_id: ObjectId, user: CurrentUser, session: SessionDep) -> list[ModelVersionRead]:
     """Trained models with lineage (pool version, parent model, seed, code and library versions)."""
@@ -195,7 +196,9 @@ def list_model_versions(campaign_id: ObjectId, user: CurrentUser, session: Sessi
 
 
 @model_versions.get(
-    "/{campaign_id}/model-versions/{version}/artifact", response_model=dict[str, Any], operation_id="get_model_artifact"
+    "/{campaign_id:integer}/model-versions/{version:integer}/artifact",
+    response_model=dict[str, Any],
+    operation_id="get_model_artifact",
 )
 def get_model_artifact(
     campaign_id: ObjectId, version: VersionNumber, user: CurrentUser, session: SessionDep
@@ -206,10 +209,10 @@ def get_model_artifact(
 
 
 @model_versions.get(
-    "/{campaign_id}/model-versions/{version}/artifact.zip",
+    "/{campaign_id:integer}/model-versions/{version:integer}/artifact.zip",
     operation_id="download_model_artifact",
     response_class=Response,
-    responses={200: BINARY},
+    responses={200: binary("application/zip")},
 )
 def download_model_artifact(
     campaign_id: ObjectId, version: VersionNumber, user: CurrentUser, session: SessionDep

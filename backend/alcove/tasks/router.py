@@ -104,13 +104,13 @@ def validate_task(body: TaskDraft, user: CurrentUser) -> ValidationReport:
     return ValidationReport(valid=valid, errors=[FieldErrorOut.of(e) for e in errors], normalized=normalized)
 
 
-@router.get("/{task_id}", response_model=TaskOut, operation_id="get_task")
+@router.get("/{task_id:integer}", response_model=TaskOut, operation_id="get_task")
 def get_task(task_id: ObjectId, user: CurrentUser, session: SessionDep) -> TaskOut:
     definition = repo.get_task(session, task_id, user)
     return task_out(session, definition, repo.latest_version(session, definition), user)
 
 
-@router.put("/{task_id}", response_model=TaskOut, operation_id="update_task")
+@router.put("/{task_id:integer}", response_model=TaskOut, operation_id="update_task")
 def update_task(task_id: ObjectId, body: TaskUpdate, user: CurrentUser, session: SessionDep) -> TaskOut:
     """Rename or edit. A changed ``spec`` edits the latest version while no campaign uses it,
     and otherwise creates a new version (used versions never change)."""
@@ -121,7 +121,7 @@ def update_task(task_id: ObjectId, body: TaskUpdate, user: CurrentUser, session:
     return task_out(session, definition, version, user)
 
 
-@router.delete("/{task_id}", status_code=status.HTTP_204_NO_CONTENT, operation_id="delete_task")
+@router.delete("/{task_id:integer}", status_code=status.HTTP_204_NO_CONTENT, operation_id="delete_task")
 def delete_task(task_id: ObjectId, user: CurrentUser, session: SessionDep) -> Response:
     """Delete; a task used by a campaign is archived instead (hidden, kept for its campaigns)."""
     definition = repo.get_task(session, task_id, user, need="owner")
@@ -130,13 +130,15 @@ def delete_task(task_id: ObjectId, user: CurrentUser, session: SessionDep) -> Re
     return Response(status_code=status.HTTP_204_NO_CONTENT)
 
 
-@router.get("/{task_id}/versions", response_model=list[TaskVersionOut], operation_id="list_task_versions")
+@router.get("/{task_id:integer}/versions", response_model=list[TaskVersionOut], operation_id="list_task_versions")
 def list_task_versions(task_id: ObjectId, user: CurrentUser, session: SessionDep) -> list[TaskVersionOut]:
     definition = repo.get_task(session, task_id, user)
     return [version_out(session, v) for v in repo.versions(session, definition)]
 
 
-@router.get("/{task_id}/versions/{version}", response_model=TaskVersionOut, operation_id="get_task_version")
+@router.get(
+    "/{task_id:integer}/versions/{version:integer}", response_model=TaskVersionOut, operation_id="get_task_version"
+)
 def get_task_version(
     task_id: ObjectId, version: VersionNumber, user: CurrentUser, session: SessionDep
 ) -> TaskVersionOut:

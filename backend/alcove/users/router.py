@@ -65,7 +65,7 @@ def login(body: LoginIn, request: Request, session: SessionDep) -> LoginOut:
     An unknown e-mail is answered exactly like a wrong password (401, same body, same work),
     and throttled the same way; an account is never locked for its owner on another address."""
     throttle = login_throttle(request)
-    client = client_address(request, request.app.state.trusted_proxies)
+    client = client_address(request, request.app.state.trusted_proxies, request.app.state.forwarded_header)
     wait = throttle.begin(body.email, client)
     if wait:
         raise LoginLocked("too many failed logins: try again later", wait)
@@ -117,7 +117,7 @@ def create_token(body: TokenCreate, user: CurrentUser, session: SessionDep) -> T
 
 
 @router.delete(
-    "/me/tokens/{token_id}", status_code=status.HTTP_204_NO_CONTENT, tags=["me"], operation_id="revoke_token"
+    "/me/tokens/{token_id:integer}", status_code=status.HTTP_204_NO_CONTENT, tags=["me"], operation_id="revoke_token"
 )
 def revoke_token(token_id: ObjectId, user: CurrentUser, session: SessionDep) -> Response:
     service.revoke_token(session, user, token_id)
@@ -142,12 +142,12 @@ def create_user(body: UserCreate, admin: AdminUser, session: SessionDep) -> User
     return UserOut.model_validate(user)
 
 
-@router.get("/users/{user_id}", response_model=UserOut, tags=["users"], operation_id="get_user")
+@router.get("/users/{user_id:integer}", response_model=UserOut, tags=["users"], operation_id="get_user")
 def get_user(user_id: ObjectId, admin: AdminUser, session: SessionDep) -> UserOut:
     return UserOut.model_validate(service.get_user(session, user_id))
 
 
-@router.patch("/users/{user_id}", response_model=UserOut, tags=["users"], operation_id="update_user")
+@router.patch("/users/{user_id:integer}", response_model=UserOut, tags=["users"], operation_id="update_user")
 def update_user(
     user_id: ObjectId, body: UserUpdate, admin: AdminUser, session: SessionDep, request: Request
 ) -> UserOut:
@@ -188,7 +188,7 @@ def list_shares(
 
 
 @router.delete(
-    "/shares/{share_id}", status_code=status.HTTP_204_NO_CONTENT, tags=["sharing"], operation_id="delete_share"
+    "/shares/{share_id:integer}", status_code=status.HTTP_204_NO_CONTENT, tags=["sharing"], operation_id="delete_share"
 )
 def delete_share(share_id: ObjectId, user: CurrentUser, session: SessionDep) -> Response:
     service.delete_share(session, user, share_id)

@@ -13,7 +13,8 @@ ObjectType = Literal["task", "oracle", "surrogate_config", "campaign"]
 
 
 class _In(BaseModel):
-    model_config = ConfigDict(extra="forbid")
+    # strict: "1" is not a number and 1 or "true" not a boolean, as the schema says (JSON numbers still fill floats)
+    model_config = ConfigDict(extra="forbid", strict=True)
 
 
 class LoginIn(_In):

@@ -12,7 +12,8 @@ from alcove.errors import FieldError
 
 
 class _In(BaseModel):
-    model_config = ConfigDict(extra="forbid")
+    # strict: "1" is not a number and 1 or "true" not a boolean, as the schema says (JSON numbers still fill floats)
+    model_config = ConfigDict(extra="forbid", strict=True)
 
 
 class DefinitionMeta(BaseModel):

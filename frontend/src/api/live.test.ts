@@ -28,6 +28,10 @@ describe("which queries an event changes", () => {
   it("a terminal status refreshes everything that may have changed last", () => {
     expect(keys(ev("status", null, { from: "running", to: "completed" }))).toEqual(expect.arrayContaining(["campaign/7", "campaigns", "jobs/7", "iteration-states/7", "pools/7", "models/7"]));
   });
+  it("an earlier model's generalisation error refreshes the header and the campaign list", () => {
+    expect(keys(ev("validation_evaluated", null))).toEqual(["campaign/7", "validation/7", "campaigns"]);
+    expect(keys(ev("step_succeeded", "evaluate"))).toContain("validation/7");
+  });
   it("the fallback polls less often the longer the stream is down", () => {
     expect([1, 2, 3, 4, 5, 9].map((n) => backoff(FALLBACK_POLL_MS, n))).toEqual([2000, 4000, 8000, 15000, 30000, 30000]);
   });

@@ -179,7 +179,8 @@ export function invalidationsFor(e: CampaignEvent): (readonly unknown[])[] {
       break;
     case "step_succeeded":
       out.push(keys.jobs(id));
-      if (e.step === "train") out.push(keys.models(id));
+      if (e.step === "train") out.push(keys.models(id), keys.validation(id));
+      if (e.step === "evaluate") out.push(keys.validation(id));
       if (e.step === "append") out.push(keys.pools(id), keys.iterationStates(id), keys.campaigns);
       break;
     case "step_failed":
@@ -194,6 +195,9 @@ export function invalidationsFor(e: CampaignEvent): (readonly unknown[])[] {
       break;
     case "forked":
       out.push(keys.campaigns);
+      break;
+    case "validation_evaluated":
+      out.push(keys.validation(id), keys.campaigns);
       break;
     default:
       break;
@@ -303,7 +307,7 @@ function useStream(url: string | null, onEvents: (e: CampaignEvent[]) => void, o
   return { state: url ? state : "off", poll: down ? backoff(FALLBACK_POLL_MS, pollStep) : false };
 }
 
-const pageKeys = (id: number) => [keys.campaign(id), keys.metrics(id), keys.iterationStates(id), keys.jobs(id), keys.pools(id), keys.models(id)];
+const pageKeys = (id: number) => [keys.campaign(id), keys.metrics(id), keys.iterationStates(id), keys.jobs(id), keys.pools(id), keys.models(id), keys.validation(id)];
 
 /**
  * Refetch what may have changed unseen: the queries under `prefixes` (only those on screen are

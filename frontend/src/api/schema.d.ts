@@ -571,6 +571,28 @@ export interface paths {
         patch?: never;
         trace?: never;
     };
+    "/api/v1/campaigns/{campaign_id}/validation": {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        /**
+         * Get Campaign Validation
+         * @description The held-out validation suite (status, motions replayed, campaigns sharing it) and the
+         *     generalisation error of each of the campaign's model versions on all its motions (force and
+         *     moment RMSE in the vector definition, per component, per motion).
+         */
+        get: operations["get_campaign_validation"];
+        put?: never;
+        post?: never;
+        delete?: never;
+        options?: never;
+        head?: never;
+        patch?: never;
+        trace?: never;
+    };
     "/api/v1/health": {
         parameters: {
             query?: never;
@@ -865,8 +887,9 @@ export interface paths {
         put?: never;
         /**
          * Upload Preliminary Dataset
-         * @description Store a preliminary data set (validated); use the returned ids as a campaign's
-         *     ``preliminary.dataset_ids``.
+         * @description Store a preliminary data set (validated: finite values within plausible ranges, joint
+         *     angles within the task's model range when ``task_id`` is given); use the returned ids as
+         *     a campaign's ``preliminary.dataset_ids`` (checked again against the campaign's task).
          */
         post: operations["upload_preliminary_dataset"];
         delete?: never;
@@ -1303,9 +1326,14 @@ export interface components {
             file: string;
             /**
              * Name
-             * @default upload
+             * @description stem of the datasets' names (letters, digits, _ . + -); left out: 'upload'
              */
-            name?: string;
+            name?: string | null;
+            /**
+             * Task Id
+             * @description check the values against this task's model (default: any model's range)
+             */
+            task_id?: number | null;
         };
         /**
          * CampaignConfig
@@ -1409,6 +1437,8 @@ export interface components {
             task_id: number;
             /** Task Version */
             task_version: number;
+            /** @description the held-out validation suite, if any */
+            validation?: components["schemas"]["ValidationSuiteRead"] | null;
         };
         /** CampaignRead */
         CampaignRead: {
@@ -2073,6 +2103,23 @@ export interface components {
             oracle_wall_time_s: number | null;
             /** Train Wall Time S */
             train_wall_time_s: number | null;
+            /**
+             * Validation Components
+             * @description RMSE of each component fx..mz on the validation suite [N, N m]
+             */
+            validation_components?: {
+                [key: string]: number;
+            } | null;
+            /**
+             * Validation Force Rmse
+             * @description generalisation error of model k on the held-out validation suite: sqrt(mean_i |F_pred,i - F_true,i|^2) over all samples of all motions [N]; null until evaluated
+             */
+            validation_force_rmse?: number | null;
+            /**
+             * Validation Moment Rmse
+             * @description the same for the moment vector [N m]; null until evaluated
+             */
+            validation_moment_rmse?: number | null;
         };
         /**
          * ModelSpec
@@ -2253,7 +2300,7 @@ export interface components {
             };
             /**
              * Type
-             * @description a built-in type (`aux-penalty`, `fe-headrest-2d`) or a command catalogue entry's name
+             * @description a built-in type (`aux-penalty`, `fe-headrest-2d`, `fe-headrest-3d-ccx`) or a command catalogue entry's name
              */
             type: string;
         };
@@ -2280,7 +2327,7 @@ export interface components {
             };
             /**
              * Type
-             * @description a built-in type (`aux-penalty`, `fe-headrest-2d`) or a command catalogue entry's name
+             * @description a built-in type (`aux-penalty`, `fe-headrest-2d`, `fe-headrest-3d-ccx`) or a command catalogue entry's name
              */
             type: string;
         };
@@ -2620,7 +2667,7 @@ export interface components {
             seed?: number | null;
             /**
              * Velocity Bound
-             * @description |qd| bound of the samples [rad/s]
+             * @description |qd| bound of the samples [rad/s]; above 0, at most 100
              * @default 2
              */
             velocity_bound?: number;
@@ -2665,6 +2712,11 @@ export interface components {
             /** Started At */
             started_at: string | null;
             status: components["schemas"]["PreviewStatus"];
+            /**
+             * Status Detail
+             * @description what a pending preview waits for: 'waiting for the job queue: ...' while the broker is not reachable (its job is kept and sent as soon as the broker is back), or 'waiting for a worker on queue ...'
+             */
+            status_detail?: string | null;
             /** Task Version Id */
             task_version_id: number | null;
             /** Worker Name */
@@ -2705,7 +2757,7 @@ export interface components {
             ocp_intervals?: number | null;
             /**
              * Replay Dt
-             * @description the replayed trajectory is resampled (cubic Hermite) at this step [s]; None: the OCP grid
+             * @description the replayed trajectory is resampled (cubic Hermite) at this step [s], above 0, at most 0.1; None: the OCP grid
              * @default 0.0025
              */
             replay_dt?: number | null;
@@ -2720,6 +2772,18 @@ export interface components {
              * @description trust region: bound the ensemble's force std sqrt(sigma_fx^2 + sigma_fy^2 + sigma_fz^2) [N] at every interval midpoint of the OCP solution (None: unbounded; needs ensemble_size > 1)
              */
             trust_region_max_std?: number | null;
+            /**
+             * Validation Motions
+             * @description held-out validation motions every model version is evaluated on (generalisation error); 0: no validation suite. Shared by campaigns with the same oracle version, seed and count
+             * @default 8
+             */
+            validation_motions?: number;
+            /**
+             * Validation Seed
+             * @description seed of the validation suite's motions
+             * @default 0
+             */
+            validation_seed?: number;
         };
         /** SampleTrajectory */
         SampleTrajectory: {
@@ -2835,12 +2899,12 @@ export interface components {
             max_iterations?: number | null;
             /**
              * Oracle Budget S
-             * @description stop when the oracle's total wall time reaches this [s]
+             * @description stop when the oracle's total wall time reaches this [s]; above 0, at most 1e7 s (16 weeks)
              */
             oracle_budget_s?: number | null;
             /**
              * Plateau Tolerance
-             * @description relative improvement that still counts as progress
+             * @description relative improvement that still counts as progress [-]; 0 to below 1
              * @default 0.01
              */
             plateau_tolerance?: number;
@@ -2851,12 +2915,12 @@ export interface components {
             plateau_window?: number | null;
             /**
              * Target Force Rmse
-             * @description stop when the iteration's force RMSE [N] is at most this
+             * @description stop when the iteration's force RMSE [N] is at most this; above 0, at most 1e5 N
              */
             target_force_rmse?: number | null;
             /**
              * Target Moment Rmse
-             * @description stop when the iteration's moment RMSE [N m] is at most this
+             * @description stop when the iteration's moment RMSE [N m] is at most this; above 0, at most 1e4 N m
              */
             target_moment_rmse?: number | null;
         };
@@ -2923,7 +2987,7 @@ export interface components {
             preliminary_weight?: number;
             /**
              * Seed
-             * @description seed of splits, initialisation and batch order [-], a whole number at least 0, below 9.22337e18
+             * @description seed of splits, initialisation and batch order [-], a whole number 0 to 9.22337e18
              * @default 0
              */
             seed?: number;
@@ -3531,6 +3595,43 @@ export interface components {
             /** Detail */
             detail: components["schemas"]["FieldErrorItem"][];
         };
+        /**
+         * ValidationPoint
+         * @description Model version k's generalisation error on the held-out validation suite.
+         */
+        ValidationPoint: {
+            /**
+             * Components
+             * @description RMSE of each component fx..mz [N, N m]
+             */
+            components: {
+                [key: string]: number;
+            };
+            /**
+             * Force Rmse
+             * @description sqrt(mean_i |F_pred,i - F_true,i|^2) over all samples of all motions [N]
+             */
+            force_rmse: number;
+            /**
+             * Iteration Index
+             * @description k: the iteration whose train step made the model version
+             */
+            iteration_index: number;
+            /** Model Version Id */
+            model_version_id: number;
+            /**
+             * Moment Rmse
+             * @description the same for the moment vector [N m]
+             */
+            moment_rmse: number;
+            /**
+             * Per Motion
+             * @description force_rmse, moment_rmse, n_samples of each motion
+             */
+            per_motion: {
+                [key: string]: number;
+            }[];
+        };
         /** ValidationReport */
         ValidationReport: {
             /**
@@ -3547,6 +3648,49 @@ export interface components {
             } | null;
             /** Valid */
             valid: boolean;
+        };
+        /** ValidationSeries */
+        ValidationSeries: {
+            /**
+             * Points
+             * @description one per own model version evaluated so far, by k
+             */
+            points: components["schemas"]["ValidationPoint"][];
+            /** @description the campaign's held-out validation suite (null: none) */
+            suite: components["schemas"]["ValidationSuiteRead"] | null;
+        };
+        /**
+         * ValidationSuiteRead
+         * @description The held-out validation suite a campaign's model versions are evaluated on (shared per
+         *     oracle version and suite spec).
+         */
+        ValidationSuiteRead: {
+            /** Error */
+            error?: string | null;
+            /** Id */
+            id: number;
+            /**
+             * Motions Done
+             * @description motions replayed and stored
+             */
+            motions_done: number;
+            /** N Motions */
+            n_motions: number;
+            /**
+             * Replay Wall Time S
+             * @description first motion queued to last motion stored [s]
+             */
+            replay_wall_time_s?: number | null;
+            /**
+             * Shared By
+             * @description campaigns evaluated on this suite
+             */
+            shared_by: number;
+            /**
+             * Status
+             * @description replaying | complete | failed
+             */
+            status: string;
         };
     };
     responses: never;
@@ -4900,7 +5044,7 @@ export interface operations {
                     [name: string]: unknown;
                 };
                 content: {
-                    "application/octet-stream": string;
+                    "application/zip": string;
                 };
             };
             /** @description not authenticated (missing, invalid, expired or revoked token) */
@@ -5342,7 +5486,8 @@ export interface operations {
     list_campaign_jobs: {
         parameters: {
             query?: {
-                status?: string[] | null;
+                /** @description only these */
+                status?: components["schemas"]["StepStatus"][] | null;
             };
             header?: never;
             path: {
@@ -5723,7 +5868,7 @@ export interface operations {
                     [name: string]: unknown;
                 };
                 content: {
-                    "application/octet-stream": string;
+                    "application/zip": string;
                 };
             };
             /** @description not authenticated (missing, invalid, expired or revoked token) */
@@ -5985,7 +6130,8 @@ export interface operations {
                     [name: string]: unknown;
                 };
                 content: {
-                    "application/octet-stream": string;
+                    "application/vnd.apache.parquet": string;
+                    "text/csv": string;
                 };
             };
             /** @description not authenticated (missing, invalid, expired or revoked token) */
@@ -6248,6 +6394,92 @@ export interface operations {
                 };
                 content: {
                     "application/json": components["schemas"]["CampaignOut"];
+                };
+            };
+            /** @description not authenticated (missing, invalid, expired or revoked token) */
+            401: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorOut"];
+                };
+            };
+            /** @description not allowed (admin-only route, or an object shared with you for viewing only) */
+            403: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorOut"];
+                };
+            };
+            /** @description no such object, or not visible to you */
+            404: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorOut"];
+                };
+            };
+            /** @description conflicts with the current state (e.g. a campaign transition, a duplicate) */
+            409: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorOut"];
+                };
+            };
+            /** @description request body too large */
+            413: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorOut"];
+                };
+            };
+            /** @description invalid input: field paths and reasons */
+            422: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ValidationErrorOut"];
+                };
+            };
+            /** @description database busy or unavailable: retry */
+            503: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorOut"];
+                };
+            };
+        };
+    };
+    get_campaign_validation: {
+        parameters: {
+            query?: never;
+            header?: never;
+            path: {
+                /** @description object id */
+                campaign_id: number;
+            };
+            cookie?: never;
+        };
+        requestBody?: never;
+        responses: {
+            /** @description Successful Response */
+            200: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ValidationSeries"];
                 };
             };
             /** @description not authenticated (missing, invalid, expired or revoked token) */

@@ -8,12 +8,13 @@ import { useEffect, useMemo } from "react";
 import { queryOptions, useQuery, type QueryClient } from "@tanstack/react-query";
 import { client, unwrap } from "./client";
 import { mergeMetrics, type MetricPoint } from "../lib/metrics";
-import type { MetricsRow } from "./types";
+import type { MetricsRow, ValidationSeries } from "./types";
 
 export const keys = {
   campaigns: ["campaigns"] as const,
   campaign: (id: number) => ["campaign", id] as const,
   metrics: (id: number) => ["metrics", id] as const,
+  validation: (id: number) => ["validation", id] as const,
   iterationStates: (id: number) => ["iteration-states", id] as const,
   jobs: (id: number) => ["jobs", id] as const,
   pools: (id: number) => ["pools", id] as const,
@@ -55,6 +56,8 @@ export function toPoints(metrics: SeriesRow[], iterations: IterationState[]): Me
     status: byIndex.get(m.iteration_index)?.status ?? "succeeded",
     force_rmse: m.force_rmse ?? null,
     moment_rmse: m.moment_rmse ?? null,
+    validation_force_rmse: m.validation_force_rmse ?? null,
+    validation_moment_rmse: m.validation_moment_rmse ?? null,
     force_rmse_contact: m.force_rmse_contact ?? null,
     moment_rmse_contact: m.moment_rmse_contact ?? null,
     quarantined: false,
@@ -159,13 +162,40 @@ export function ensureIteration(qc: QueryClient, id: number, k: number): Promise
  * do. `latest` is the iteration of the campaign's latest metrics as the detail reports it: the
  * series is refetched until it holds it, so the plot never lags the header.
  */
+/**
+ * The held-out validation suite and each model version's generalisation error: fetched whole
+ * (a few numbers per model version), apart from the incremental metrics series, because an
+ * earlier model's error arrives when the suite's replays finish, after its iteration.
+ */
+export function validationQuery(id: number) {
+  return queryOptions({
+    queryKey: keys.validation(id),
+    queryFn: async ({ signal }): Promise<ValidationSeries> =>
+      unwrap(await client.GET("/api/v1/campaigns/{campaign_id}/validation", { params: { path: { campaign_id: id } }, signal })),
+  });
+}
+
+/** The metrics points with each model version's generalisation error from the validation series. */
+export function withValidation(points: MetricPoint[], validation: ValidationSeries | undefined): MetricPoint[] {
+  if (!validation?.points.length) return points;
+  const byK = new Map(validation.points.map((v) => [v.iteration_index, v]));
+  return points.map((p) => {
+    const v = p.inherited ? undefined : byK.get(p.iteration);
+    return v ? { ...p, validation_force_rmse: v.force_rmse, validation_moment_rmse: v.moment_rmse } : p;
+  });
+}
+
 export function useMetrics(id: number, { inherited = false, latest = null, qc }: { inherited?: boolean; latest?: number | null; qc: QueryClient }) {
   const metrics = useQuery(rawMetricsQuery(id, inherited));
   const states = useQuery(iterationStatesQuery(id));
+  const validation = useQuery(validationQuery(id));
   const loaded = metrics.isSuccess;
   useEffect(() => {
     if (loaded && latest !== null) void ensureIteration(qc, id, latest);
   }, [qc, id, latest, loaded]);
-  const data = useMemo(() => (metrics.data ? toPoints(metrics.data, states.data ?? []) : undefined), [metrics.data, states.data]);
+  const data = useMemo(
+    () => (metrics.data ? withValidation(toPoints(metrics.data, states.data ?? []), validation.data) : undefined),
+    [metrics.data, states.data, validation.data],
+  );
   return { data, isPending: metrics.isPending, isError: metrics.isError, error: metrics.error, refetch: metrics.refetch };
 }

@@ -18,6 +18,7 @@ export type CampaignConfig = Schemas["CampaignConfig"];
 /** An event of the live channel (EventRead; campaign_id names the campaign on the list's stream). */
 export type CampaignEvent = Schemas["EventRead"] & { campaign_id: number };
 export type MetricsRow = Schemas["MetricsRead"];
+export type ValidationSeries = Schemas["ValidationSeries"];
 export type IterationRow = Schemas["IterationRead"];
 export type Job = Schemas["JobOut"];
 export type PoolVersion = Schemas["PoolVersionRead"];

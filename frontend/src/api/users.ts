@@ -3,9 +3,19 @@ import { useMutation, useQuery, useQueryClient } from "@tanstack/react-query";
 import { client, unwrap } from "./client";
 import type { Me, Token } from "./types";
 
+/** Thrown for 429: too many failed sign-ins from this address (``retryAfterS``: seconds to wait). */
+export class SignInThrottled extends Error {
+  readonly retryAfterS: number;
+  constructor(retryAfterS: number) {
+    super(`Too many failed sign-ins from this address: try again in ${retryAfterS} s.`);
+    this.retryAfterS = retryAfterS;
+  }
+}
+
 export async function login(email: string, password: string): Promise<string> {
-  const r = unwrap(await client.POST("/api/v1/auth/login", { body: { email, password } }));
-  return r.access_token;
+  const result = await client.POST("/api/v1/auth/login", { body: { email, password } });
+  if (result.response.status === 429) throw new SignInThrottled(Number(result.response.headers.get("Retry-After")) || 1);
+  return unwrap(result).access_token;
 }
 
 export function useMe() {

@@ -6,8 +6,9 @@ const INHERITED = "#a3a9b6";
 
 /**
  * Force and moment RMSE per iteration (of the error vector, docs/concepts.md), and the same over
- * the samples in contact (dashed, where given); failed and quarantined iterations as red x. A
+ * the samples in contact (dotted, where given); failed and quarantined iterations as red x. A
  * fork's inherited iterations (its source's, up to the fork point) are drawn grey, its own in colour.
+ * Beside them, dashed: model k's generalisation error on the held-out validation suite.
  */
 export function rmseTraces(points: MetricPoint[], name = ""): Trace[] {
   const own = points.filter((p) => !isMarked(p) && !p.inherited);
@@ -27,10 +28,16 @@ export function rmseTraces(points: MetricPoint[], name = ""): Trace[] {
     { x: own.map((p) => p.iteration), y: own.map((p) => p.force_rmse), name: `${prefix}force RMSE [N]`, mode: "lines+markers", type: "scatter", line: { color: "#2f5bd3" } },
     { x: own.map((p) => p.iteration), y: own.map((p) => p.moment_rmse), name: `${prefix}moment RMSE [N m]`, mode: "lines+markers", type: "scatter", line: { color: "#d3662f" } },
   );
+  const validated = own.filter((p) => p.validation_force_rmse != null);
+  if (validated.length)
+    traces.push(
+      { x: validated.map((p) => p.iteration), y: validated.map((p) => p.validation_force_rmse ?? null), name: `${prefix}force RMSE, held-out suite [N]`, mode: "lines+markers", type: "scatter", line: { color: "#2f5bd3", dash: "dash" }, marker: { color: "#2f5bd3", symbol: "diamond-open" } },
+      { x: validated.map((p) => p.iteration), y: validated.map((p) => p.validation_moment_rmse ?? null), name: `${prefix}moment RMSE, held-out suite [N m]`, mode: "lines+markers", type: "scatter", line: { color: "#d3662f", dash: "dash" }, marker: { color: "#d3662f", symbol: "diamond-open" } },
+    );
   if (own.some((p) => p.force_rmse_contact != null))
     traces.push(
-      { x: own.map((p) => p.iteration), y: own.map((p) => p.force_rmse_contact ?? null), name: `${prefix}force RMSE in contact [N]`, mode: "lines", type: "scatter", line: { color: "#2f5bd3", dash: "dash" } },
-      { x: own.map((p) => p.iteration), y: own.map((p) => p.moment_rmse_contact ?? null), name: `${prefix}moment RMSE in contact [N m]`, mode: "lines", type: "scatter", line: { color: "#d3662f", dash: "dash" } },
+      { x: own.map((p) => p.iteration), y: own.map((p) => p.force_rmse_contact ?? null), name: `${prefix}force RMSE in contact [N]`, mode: "lines", type: "scatter", line: { color: "#2f5bd3", dash: "dot" } },
+      { x: own.map((p) => p.iteration), y: own.map((p) => p.moment_rmse_contact ?? null), name: `${prefix}moment RMSE in contact [N m]`, mode: "lines", type: "scatter", line: { color: "#d3662f", dash: "dot" } },
     );
   if (marked.length)
     traces.push({
@@ -55,13 +62,13 @@ export function RmsePlot({ points, logY, onSelect }: { points: MetricPoint[]; lo
       testId="rmse-plot"
       traces={traces}
       xTitle="iteration k"
-      yTitle="RMSE on the new oracle data"
+      yTitle="RMSE: new oracle data (solid), held-out suite (dashed)"
       logY={logY}
       exportName="rmse"
       onPointClick={(x) => onSelect?.(x)}
       height={300}
       extraLayout={xLayout}
-      data={{ iterations: own.filter((p) => p.force_rmse !== null).map((p) => p.iteration).join(","), inherited: points.filter((p) => p.inherited).map((p) => p.iteration).join(",") }}
+      data={{ iterations: own.filter((p) => p.force_rmse !== null).map((p) => p.iteration).join(","), inherited: points.filter((p) => p.inherited).map((p) => p.iteration).join(","), validation: own.filter((p) => p.validation_force_rmse != null).map((p) => p.iteration).join(",") }}
     />
   );
 }

@@ -48,13 +48,26 @@ describe("RMSE plot of a fork", () => {
     expect(traces.some((t) => String(t.name).includes("in contact"))).toBe(false); // none given: no trace
   });
 
-  it("adds the in-contact RMSE as dashed lines where the series has it", () => {
+  it("adds the in-contact RMSE as dotted lines (the held-out suite is dashed) where the series has it", () => {
     const p = (k: number) => ({ iteration: k, status: "succeeded", force_rmse: 1, moment_rmse: 0.1, force_rmse_contact: k === 1 ? null : 2, moment_rmse_contact: 0.3, quarantined: false });
     const traces = rmseTraces([p(1), p(2)]);
     const contact = traces.find((t) => t.name === "force RMSE in contact [N]")!;
     expect(contact.y).toEqual([null, 2]);
-    expect((contact.line as { dash: string }).dash).toBe("dash");
+    expect((contact.line as { dash: string }).dash).toBe("dot");
     expect(traces.find((t) => t.name === "moment RMSE in contact [N m]")!.y).toEqual([0.3, 0.3]);
+  });
+});
+
+describe("RMSE plot with the held-out validation suite", () => {
+  it("draws the generalisation error dashed beside the in-loop RMSE, only where a model was evaluated", () => {
+    const p = (k: number, v: number | null) => ({ iteration: k, status: "succeeded", force_rmse: 1, moment_rmse: 0.1, validation_force_rmse: v, validation_moment_rmse: v === null ? null : v / 10, quarantined: false });
+    const traces = rmseTraces([p(1, 9), p(2, 8), p(3, null)]);
+    const held = traces.filter((t) => String(t.name).includes("held-out suite"));
+    expect(held.map((t) => t.name)).toEqual(["force RMSE, held-out suite [N]", "moment RMSE, held-out suite [N m]"]);
+    expect(held[0].x).toEqual([1, 2]);
+    expect(held[0].y).toEqual([9, 8]);
+    expect((held[0].line as { dash: string }).dash).toBe("dash");
+    expect(rmseTraces([p(1, null)]).some((t) => String(t.name).includes("held-out"))).toBe(false);
   });
 });
 

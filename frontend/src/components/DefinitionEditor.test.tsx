@@ -41,7 +41,9 @@ describe("definition editor shell (tasks and oracles)", () => {
     expect(screen.getByRole("heading", { name: "Oracle: aux" })).toBeInTheDocument();
     await userEvent.type(screen.getByLabelText("Share with"), "bo@lab");
     await userEvent.click(screen.getByRole("button", { name: "Share" }));
-    await waitFor(() => expect(screen.getByText(/bo@lab/)).toBeInTheDocument());
+    await waitFor(() => expect(screen.getAllByText(/bo@lab/)).toHaveLength(2)); // the list and the confirmation
+    // the same words whether or not bo@lab has an account (sharing does not tell)
+    expect(screen.getByRole("status")).toHaveTextContent("Shared with bo@lab. If no account uses this address yet, the account made with it will get it.");
     expect(calls.find((c) => c.method === "POST" && c.path === "/shares")?.body).toEqual({ email: "bo@lab", permission: "view", object_type: "oracle", object_id: 3 });
   });
 });

@@ -139,6 +139,17 @@ function Shares({ kind, id, canEdit }: { kind: DefinitionKind; id: number; canEd
   const { add, remove } = useShare(kind, id);
   const [email, setEmail] = useState("");
   const [permission, setPermission] = useState<"view" | "edit">("view");
+  const [sharedWith, setSharedWith] = useState<string | null>(null);
+  const share = () =>
+    add.mutate(
+      { email, permission },
+      {
+        onSuccess: (s) => {
+          setSharedWith(s.email);
+          setEmail("");
+        },
+      },
+    );
   return (
     <section className="panel" aria-labelledby={`${kind}-shares`}>
       <h2 id={`${kind}-shares`}>Shared with</h2>
@@ -166,10 +177,15 @@ function Shares({ kind, id, canEdit }: { kind: DefinitionKind; id: number; canEd
             <option value="view">can view</option>
             <option value="edit">can edit</option>
           </select>
-          <button type="button" disabled={!email || add.isPending} onClick={() => add.mutate({ email, permission }, { onSuccess: () => setEmail("") })}>
+          <button type="button" disabled={!email || add.isPending} onClick={share}>
             Share
           </button>
           {add.isError && <span className="error-text">{errorMessage(add.error)}</span>}
+          {sharedWith && !add.isError && (
+            <span className="muted" role="status">
+              Shared with {sharedWith}. If no account uses this address yet, the account made with it will get it.
+            </span>
+          )}
         </div>
       )}
     </section>

@@ -1,5 +1,5 @@
 /**
- * The state of an editor preview run by a worker: waiting for a worker, running, failed (with
+ * The state of an editor preview run by a worker: waiting for the job queue or a worker, running, failed (with
  * the worker's reason) or the result, rendered by the editor. Polls until the preview is final.
  */
 import type { ReactNode } from "react";
@@ -27,7 +27,8 @@ export function PreviewPanel<R>({
   if (startError) body = <ErrorBox error={startError} />;
   else if (q.isError) body = <ErrorBox error={q.error} retry={() => void q.refetch()} />;
   else if (!p) body = <Loading label="Asking for a preview…" />;
-  else if (p.status === "pending") body = <Loading label="Waiting for a worker…" />;
+  // what it waits for, from the API: the job queue (broker unreachable: it is sent when it is back) or a worker
+  else if (p.status === "pending") body = <Loading label={capitalized(p.status_detail ?? "waiting for a worker") + "…"} />;
   else if (p.status === "running") body = <Loading label={`Running on ${p.worker_name ?? "a worker"}…`} />;
   else if (p.status === "failed")
     body = (
@@ -49,4 +50,8 @@ export function PreviewPanel<R>({
       {body}
     </section>
   );
+}
+
+function capitalized(text: string): string {
+  return text.charAt(0).toUpperCase() + text.slice(1);
 }

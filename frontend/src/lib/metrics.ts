@@ -6,6 +6,9 @@ export interface MetricPoint {
   force_rmse: number | null;
   /** RMSE of the moment error vector [N m] */
   moment_rmse: number | null;
+  /** model k's generalisation error on the held-out validation suite (null until evaluated) */
+  validation_force_rmse?: number | null;
+  validation_moment_rmse?: number | null;
   /** the same over the samples in contact (|F_true| > 0); null if none or not given */
   force_rmse_contact?: number | null;
   moment_rmse_contact?: number | null;

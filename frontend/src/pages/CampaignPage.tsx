@@ -126,6 +126,13 @@ export function CampaignPage() {
             {own.filter((p) => p.force_rmse !== null).length} iterations with metrics
             {points.length > own.length ? ` (and ${points.length - own.length} inherited from the source, grey)` : ""}
           </span>
+          {c.validation ? (
+            <span className="muted" data-testid="validation-suite" data-status={c.validation.status} title="Every model version is evaluated on these held-out motions (never in the pool); dashed lines.">
+              held-out suite: {c.validation.status}, {c.validation.motions_done}/{c.validation.n_motions} motions
+              {c.validation.shared_by > 1 ? `, shared by ${c.validation.shared_by} campaigns` : ""}
+              {c.validation.error ? ` (${c.validation.error})` : ""}
+            </span>
+          ) : null}
           <span className="spacer" />
           <label className="field-inline">
             <input type="checkbox" checked={logY} onChange={(e) => setLogY(e.target.checked)} /> log axis

@@ -166,4 +166,15 @@ describe("tokens and sign-in", () => {
     await userEvent.click(screen.getByRole("button", { name: "Sign in" }));
     await waitFor(() => expect(localStorage.getItem("alcove.token")).toBe("tok-123"));
   });
+
+  it("says how long to wait when sign-ins from here are throttled", async () => {
+    mockApi({
+      "POST /auth/login": () => new Response(JSON.stringify({ detail: "too many failed logins: try again later" }), { status: 429, headers: { "Content-Type": "application/json", "Retry-After": "8" } }),
+    });
+    renderPage(<SignInPage />, { route: "/signin", token: null });
+    await userEvent.type(screen.getByLabelText("Email"), "ana@lab.org");
+    await userEvent.type(screen.getByLabelText("Password"), "wrong");
+    await userEvent.click(screen.getByRole("button", { name: "Sign in" }));
+    expect(await screen.findByRole("alert")).toHaveTextContent("Too many failed sign-ins from this address: try again in 8 s.");
+  });
 });

@@ -108,6 +108,21 @@ describe("task editor: solve once", () => {
     expect(await screen.findByText(/you have 3 previews pending/, {}, { timeout: 4000 })).toBeInTheDocument();
   });
 
+  it("says when a preview waits for the job queue (the broker is down), not for a worker", async () => {
+    const waiting = "waiting for the job queue: the broker is not reachable; it is sent as soon as it is back";
+    mockApi({
+      ...TASK_ROUTES,
+      "POST /tasks/1/previews": () => jsonResponse(preview("pending", { status_detail: waiting }), 202),
+      "GET /previews/5": () => preview("pending", { status_detail: waiting }),
+    });
+    renderPage(<TaskEditorPage />, { route: "/tasks/1", path: "/tasks/:id" });
+    const button = await screen.findByRole("button", { name: "Solve once" });
+    await waitFor(() => expect(button).toBeEnabled());
+    await userEvent.click(button);
+    expect(await screen.findByText(/Waiting for the job queue: the broker is not reachable/, {}, { timeout: 4000 })).toBeInTheDocument();
+    expect(screen.queryByText(/Waiting for a worker/)).not.toBeInTheDocument();
+  });
+
   it("needs a saved task", async () => {
     mockApi({ ...TASK_ROUTES, "GET /tasks/presets": [{ key: "p", name: "p", description: "", spec: SPEC }] });
     renderPage(<TaskEditorPage />, { route: "/tasks/new" });

@@ -23,7 +23,7 @@ CATALOGUE = Path(__file__).resolve().parents[3] / "examples" / "command-oracle" 
 
 
 def test_builtin_types_and_their_entries():
-    assert set(ORACLE_TYPES) == {"fe-headrest-2d", "aux-penalty"}
+    assert set(ORACLE_TYPES) == {"fe-headrest-2d", "fe-headrest-3d-ccx", "aux-penalty"}
     model, factory = ORACLE_TYPES["aux-penalty"]
     assert model is AuxPenaltyParams
     preset = HeadNeckPreset(theta_contact=0.33)
@@ -55,12 +55,14 @@ def test_build_oracle_validates_parameters_and_names_the_field():
 def test_unknown_type_lists_the_known_ones():
     with pytest.raises(
         OracleInputError,
-        match=r"^oracle: unknown oracle type 'lsdyna'; known: aux-penalty, fe-headrest-2d \(command oracles",
+        match=r"^oracle: unknown oracle type 'lsdyna'; known: aux-penalty, fe-headrest-2d, fe-headrest-3d-ccx "
+        r"\(command oracles",
     ):
         build_oracle("lsdyna", {})
     catalogue = load_command_catalogue(CATALOGUE)
     with pytest.raises(
-        OracleInputError, match=r"known: aux-penalty, fe-headrest-2d, aux-replay, fe-replay, lsdyna-headrest$"
+        OracleInputError,
+        match=r"known: aux-penalty, fe-headrest-2d, fe-headrest-3d-ccx, aux-replay, fe-replay, lsdyna-headrest$",
     ):
         build_oracle("lsdyna", {}, catalogue=catalogue)
 

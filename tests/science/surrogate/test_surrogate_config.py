@@ -37,7 +37,7 @@ def refused(data: dict) -> SurrogateConfigError:
         ("batch_size", "less than or equal to 1000000"),
         ("patience", "less than or equal to 1000"),
         ("max_epochs", "less than or equal to 100000"),
-        ("seed", "less than 9223372036854775808"),
+        ("seed", "less than or equal to 9223372036854775807"),
         ("force.hidden.1", "less than or equal to 4096"),
     ],
 )

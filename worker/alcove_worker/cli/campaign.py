@@ -95,17 +95,19 @@ def _create(
         stopping = dict(cfg.get("stopping") or {})
         if iterations is not None:
             stopping["max_iterations"] = iterations
-        data = CampaignCreate(
-            name=name or cfg.get("name") or f"{task} x {oracle}",
-            description=cfg.get("description", ""),
-            task_version_id=tv,
-            oracle_version_id=ov,
-            surrogate_config_version_id=sv,
-            seed=seed if seed is not None else cfg.get("seed", 0),
-            preliminary=cfg.get("preliminary") or {},
-            stopping=stopping,
-            policies=cfg.get("policies") or {},
-            settings=cfg.get("settings") or {},
+        data = CampaignCreate.model_validate(
+            {
+                "name": name or cfg.get("name") or f"{task} x {oracle}",
+                "description": cfg.get("description", ""),
+                "task_version_id": tv,
+                "oracle_version_id": ov,
+                "surrogate_config_version_id": sv,
+                "seed": seed if seed is not None else cfg.get("seed", 0),
+                "preliminary": cfg.get("preliminary") or {},
+                "stopping": stopping,
+                "policies": cfg.get("policies") or {},
+                "settings": cfg.get("settings") or {},
+            }
         )
         return service.create_campaign(s, user.id, data).id
 
@@ -123,14 +125,19 @@ def _control(action: str, campaign_id: int, **kwargs: Any) -> Any:
     from alcove.campaigns import service
     from alcove.db import transaction
     from alcove.errors import DomainError
-    from alcove.jobs.campaign import enqueue
+    from alcove.jobs.campaign import send_committed, stage
 
     fn = getattr(service, action)
+
+    def work(s: Any) -> tuple[Any, list[int]]:
+        obj, jobs = fn(s, campaign_id, **kwargs)
+        return obj, stage(s, jobs)  # recorded with the change, sent after its commit
+
     try:
-        obj, jobs = transaction(lambda s: fn(s, campaign_id, **kwargs))
+        obj, staged = transaction(work)
     except DomainError as exc:
         fail("campaign", str(exc))
-    enqueue(jobs)
+    send_committed(staged)
     return obj
 
 
@@ -138,7 +145,7 @@ def _control(action: str, campaign_id: int, **kwargs: Any) -> Any:
 def run(
     task: str = typer.Option("head-headrest-2phase", help="task preset"),
     oracle: str = typer.Option(
-        "fe-headrest-2d", help="oracle type: fe-headrest-2d, aux-penalty or a command-catalogue entry"
+        "fe-headrest-2d", help="oracle type: fe-headrest-2d, fe-headrest-3d-ccx, aux-penalty or a catalogue entry"
     ),
     iterations: int | None = typer.Option(
         None, "--iterations", "-n", min=1, help="max_iterations stopping rule (default: the config's, else 200)"
@@ -152,8 +159,15 @@ def run(
     ),
     concurrency: int = typer.Option(1, "--concurrency", "-c", min=1, help="processes of the spawned worker"),
     worker_log: Path | None = typer.Option(None, help="file for the spawned worker's log"),
+    validation_timeout: float = typer.Option(
+        600.0,
+        min=0.0,
+        help="after the campaign, wait at most this long [s] for the validation suite's replays and "
+        "the generalisation error of every model version",
+    ),
 ) -> None:
-    """Create a campaign, run it to the end through Celery, and report its metrics."""
+    """Create a campaign, run it to the end through Celery, and report its metrics (in-loop and
+    on the held-out validation suite: ``validation_force_rmse``, ``validation_moment_rmse``)."""
 
     _ensure_database()
     cfg = _read_config(config)
@@ -172,6 +186,8 @@ def run(
                 err=True,
             )
             detail = following.follow(campaign_id, quiet=True, worker=proc)
+        if detail.campaign.status.value == "completed":
+            detail = following.wait_validation(campaign_id, timeout=validation_timeout, worker=proc)
     finally:
         if proc is not None:
             following.stop_worker(proc)
@@ -213,8 +229,21 @@ def _print_status(campaign_id: int, as_json: bool) -> None:
         + f" · iteration {c.current_iteration} {c.current_step or ''}"
         + f" · finished {detail.iterations_finished}, failed {detail.iterations_failed}"
         + (f" · last RMSE F {m.force_rmse:.4g} N, M {m.moment_rmse:.4g} N m" if m and m.force_rmse is not None else "")
+        + (
+            f" · validation F {m.validation_force_rmse:.4g} N, M {m.validation_moment_rmse:.4g} N m"
+            if m and m.validation_force_rmse is not None and m.validation_moment_rmse is not None
+            else ""
+        )
         + (f" · ETA {detail.eta_s:.0f} s" if detail.eta_s is not None else "")
     )
+    v = detail.validation
+    if v is not None:
+        typer.echo(
+            f"validation suite {v.id}: {v.status}, {v.motions_done}/{v.n_motions} motions replayed, "
+            f"shared by {v.shared_by} campaign(s)"
+            + (f", replayed in {v.replay_wall_time_s:.1f} s" if v.replay_wall_time_s is not None else "")
+            + (f" ({v.error})" if v.error else "")
+        )
     if c.error:
         typer.echo(f"error: {c.error}")
 

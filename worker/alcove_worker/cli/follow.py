@@ -180,6 +180,38 @@ def follow(
             time.sleep(poll)
 
 
+def wait_validation(
+    campaign_id: int, *, timeout: float = 600.0, poll: float = 0.25, worker: subprocess.Popen[bytes] | None = None
+) -> Any:
+    """After the campaign: wait until its validation suite is replayed and every model version is
+    evaluated on it (the suite's motions may still be running on the oracle workers), or failed."""
+    end = time.monotonic() + timeout
+    while True:
+        detail = read_detail(campaign_id)
+        v = detail.validation
+        if v is None or v.status == "failed":
+            return detail
+        if v.status == "complete" and all(
+            m["validation_force_rmse"] is not None for m in read_metrics(campaign_id) if m["model_version_id"]
+        ):
+            return detail
+        if time.monotonic() > end or (worker is not None and worker.poll() is not None):
+            return detail
+        time.sleep(poll)
+
+
+_FIRST_LAST = (
+    "iteration_index",
+    "force_rmse",
+    "moment_rmse",
+    "force_rmse_contact",
+    "moment_rmse_contact",
+    "calibration",
+    "validation_force_rmse",
+    "validation_moment_rmse",
+)
+
+
 def summary(detail: Any, metrics: list[dict[str, Any]], wall: float | None = None) -> dict[str, Any]:
     c = detail.campaign
     out = {
@@ -195,17 +227,11 @@ def summary(detail: Any, metrics: list[dict[str, Any]], wall: float | None = Non
     if wall is not None:
         out["wall_time_s"] = wall
     out["step_median_s"] = _step_medians(c.id)
+    v = detail.validation
+    out["validation_suite"] = v.model_dump(mode="json") if v is not None else None
     if metrics:
-        keys = (
-            "iteration_index",
-            "force_rmse",
-            "moment_rmse",
-            "force_rmse_contact",
-            "moment_rmse_contact",
-            "calibration",
-        )
-        out["first"] = {k: metrics[0].get(k) for k in keys}
-        out["last"] = {k: metrics[-1].get(k) for k in keys}
+        out["first"] = {k: metrics[0].get(k) for k in _FIRST_LAST}
+        out["last"] = {k: metrics[-1].get(k) for k in _FIRST_LAST}
     return out
 
 

@@ -87,7 +87,7 @@ def run_summary(oracle_name: str, result: OracleResult, out: Path | None) -> dic
 @app.command("run")
 def run(
     oracle: str = typer.Option(
-        ..., "--oracle", help="fe-headrest-2d, aux-penalty or the name of a command oracle in the catalogue"
+        ..., "--oracle", help="fe-headrest-2d, fe-headrest-3d-ccx, aux-penalty or a command oracle of the catalogue"
     ),
     trajectory: Path = typer.Option(..., "--trajectory", help="trajectory CSV (t,q_0,qd_0[,tau_0])"),
     out: Path = typer.Option(..., "--out", help="forces CSV to write (t,fx,fy,fz,mx,my,mz; N, N m, headrest frame)"),
@@ -163,7 +163,7 @@ def list_types(
 @app.command("schema")
 def schema(
     oracle_type: str = typer.Argument(
-        ..., metavar="TYPE", help="fe-headrest-2d, aux-penalty or a command oracle's name"
+        ..., metavar="TYPE", help="fe-headrest-2d, fe-headrest-3d-ccx, aux-penalty or a command oracle's name"
     ),
     catalogue: Path | None = typer.Option(
         None, "--catalogue", help="YAML catalogue of command oracles (default: $ALCOVE_COMMAND_ORACLES_FILE)"

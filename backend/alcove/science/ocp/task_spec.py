@@ -372,7 +372,22 @@ TASK_PRESETS: dict[str, dict[str, Any]] = {
             {"name": "rest", "duration": 1.0, "intervals": 100, "w_tau": 1.0, "w_T": 1.0},
         ],
         "final": {"velocity": "rest"},
-    }
+    },
+    "head-headrest-smooth": {
+        "name": "head-headrest-smooth",
+        "description": (
+            "The paper's task with w_T / w_tau = 1000 in the approach (w_T = 1 instead of 1e-4): the actuation holds "
+            "the head against gravity and lowers it onto the headrest (first contact at about 0.25 rad/s, one force "
+            "peak) instead of letting it fall (about 1.5 rad/s, a bounce). See docs/reproduction.md, the weight sweep."
+        ),
+        "model": {"preset": "head-neck-1dof"},
+        "initial": {"q": None, "qd": None},
+        "phases": [
+            {"name": "approach", "duration": 1.0, "intervals": 100, "w_tau": 1e-3, "w_T": 1.0},
+            {"name": "rest", "duration": 1.0, "intervals": 100, "w_tau": 1.0, "w_T": 1.0},
+        ],
+        "final": {"velocity": "rest"},
+    },
 }
 
 

@@ -9,6 +9,7 @@ missing does not break the others. :mod:`.registry` looks types up here;
 from __future__ import annotations
 
 import importlib
+import shutil
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import NamedTuple
@@ -36,6 +37,14 @@ class BuiltinType:
     oracle_class: str
     params_class: str
     description: str
+    program: str | None = None  # an external program the type runs; unavailable where it is not on PATH
+    package: str | None = None  # the package that installs it (named in the unavailable reason)
+
+    def missing_program(self) -> str | None:
+        """Why the type cannot run here (its program is not on PATH), or None."""
+        if self.program is None or shutil.which(self.program) is not None:
+            return None
+        return f"the program '{self.program}' is not on PATH (install the package {self.package or self.program})"
 
     def load(self, name: str) -> OracleType:
         """Import the implementation; :class:`OracleTypeUnavailable` names the type and the reason."""
@@ -67,6 +76,15 @@ BUILTIN_TYPES: dict[str, BuiltinType] = {
         "AuxPenaltyOracle",
         "AuxPenaltyParams",
         "The paper's auxiliary penalty model: one head point against the headrest plane (closed form)",
+    ),
+    "fe-headrest-3d-ccx": BuiltinType(
+        "alcove.science.oracles.fe_headrest_3d",
+        "CcxHeadrestOracle",
+        "CcxHeadrestParams",
+        "3D finite-element headrest in CalculiX (hyperfoam block, rigid ellipsoidal head, penalty contact "
+        "with friction), run through the command-oracle machinery",
+        program="ccx",
+        package="calculix-ccx",
     ),
 }
 BUILTIN_TYPE_NAMES = frozenset(BUILTIN_TYPES)

@@ -87,9 +87,10 @@ def list_oracle_types(catalogue: Mapping[str, CommandOracleSpec] | None = None) 
     for name, entry in BUILTIN_TYPES.items():
         try:
             ORACLE_TYPES[name]
-            available, reason = True, None
+            reason = entry.missing_program()  # on this machine; workers may differ from the API host
         except OracleTypeUnavailable as exc:
-            available, reason = False, exc.reason
+            reason = exc.reason
+        available = reason is None
         rows.append(
             {
                 "name": name,

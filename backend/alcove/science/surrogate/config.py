@@ -82,12 +82,16 @@ class SurrogateConfig(BaseModel):
     seed: WholeNumber = Field(
         0,
         ge=0,
-        lt=2**63,
+        le=2**63 - 1,  # not lt=2**63: a JSON Schema reader in floating point takes 2**63 - 1 for 2**63
         description="seed of splits, initialisation and batch order [-], a whole number "
-        + range_text("", ge=0, lt=2**63),
+        + range_text("", ge=0, le=2**63 - 1),
     )
-    warm_start: bool = Field(True, description="start from the previous model's weights when the architecture matches")
-    normalize_outputs: bool = Field(True, description="train on standardised targets (exported transparently)")
+    warm_start: bool = Field(
+        True, strict=True, description="start from the previous model's weights when the architecture matches"
+    )
+    normalize_outputs: bool = Field(
+        True, strict=True, description="train on standardised targets (exported transparently)"
+    )
     preliminary_weight: Annotated[
         float, quantity("sample weight of preliminary data", "-", ge=0, le=1e6, why="oracle data weigh 1")
     ] = 1.0

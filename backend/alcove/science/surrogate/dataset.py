@@ -31,7 +31,10 @@ One CSV file with a header row; columns in any order:
     contact force on the head [N] and its moment about the head frame origin [N m], in
     the headrest frame.
 
-Every value must be a finite number; errors name the column and the data row.
+Every value must be a finite number within a plausible range (:func:`check_plausible`:
+joint angles within the model's joint range, at most 90 degrees either way from the
+vertical without a task; velocities within +-100 rad/s; forces within +-1e5 N; moments
+within +-1e4 N m); errors name the column and the data row.
 """
 
 from __future__ import annotations
@@ -300,18 +303,71 @@ def load_preliminary_csv(
     return pool
 
 
+#: |contact force| [N] and |moment| [N m] of plausible data: a head on a headrest sees up to a
+#: few kN in a crash; anything beyond this is a unit mistake or garbage, not a measurement.
+MAX_CONTACT_FORCE = 1e5
+MAX_CONTACT_MOMENT = 1e4
+
+
+@dataclass(frozen=True)
+class StateRange:
+    """Plausible joint angles [rad] and velocities [rad/s] of data for one model."""
+
+    q_min: float
+    q_max: float
+    qd_max: float
+    what: str  # where the range comes from, for the error message
+
+
+def default_state_range() -> StateRange:
+    """Without a task: the bounds every task's model keeps to (see :mod:`alcove.science.ocp.task_spec`)."""
+    from alcove.science.ocp.task_spec import ANGLE_LIMIT, MAX_ANGULAR_VELOCITY
+
+    return StateRange(-ANGLE_LIMIT, ANGLE_LIMIT, MAX_ANGULAR_VELOCITY, "the joint range any model allows")
+
+
+def check_plausible(pool: Sequence[PoolDataset], state: StateRange | None = None) -> None:
+    """Every value of every dataset within its plausible range, else :class:`PoolDataError`
+    naming the column (``q_0``, ``qd_0``, ``fx``, ...), the dataset and the row. Data outside
+    the task's model range would train a surrogate on states the OCP can never reach (and
+    values like 1e308 overflow in the standardisation)."""
+    state = state or default_state_range()
+    for ds in pool:
+        checks: list[tuple[str, FloatArray, float, float, str]] = []
+        for i in range(ds.ndof):
+            checks.append((f"q_{i}", ds.q[:, i], state.q_min, state.q_max, f"rad ({state.what})"))
+            checks.append((f"qd_{i}", ds.qd[:, i], -state.qd_max, state.qd_max, "rad/s"))
+        for j, c in enumerate(FORCE_COLUMNS[:3]):
+            checks.append((c, ds.force[:, j], -MAX_CONTACT_FORCE, MAX_CONTACT_FORCE, "N"))
+        for j, c in enumerate(FORCE_COLUMNS[3:]):
+            checks.append((c, ds.moment[:, j], -MAX_CONTACT_MOMENT, MAX_CONTACT_MOMENT, "N m"))
+        for column, values, lo, hi, unit in checks:
+            bad = np.flatnonzero((values < lo) | (values > hi))
+            if bad.size:
+                row = int(bad[0])
+                raise PoolDataError(
+                    column,
+                    f"{values[row]:g} at row {row + 1} of dataset {ds.name} lies outside {lo:g} to {hi:g} {unit}",
+                )
+
+
 def _stacked(columns: dict[str, FloatArray], names: Sequence[str], rows: IndexArray) -> FloatArray:
     """The ``rows`` of the named columns side by side, shape (len(rows), len(names))."""
     return np.stack([columns[c][rows] for c in names], -1)
 
 
 __all__ = [
+    "MAX_CONTACT_FORCE",
+    "MAX_CONTACT_MOMENT",
     "ORIGINS",
     "Origin",
     "PoolDataError",
     "PoolDataset",
+    "StateRange",
+    "check_plausible",
     "check_pool",
     "default_origin",
+    "default_state_range",
     "load_pool_dir",
     "load_preliminary_csv",
     "save_pool_dir",

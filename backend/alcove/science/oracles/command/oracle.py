@@ -67,11 +67,14 @@ class CommandOracle:
                 "q", f"the head-neck preset has 1 degree of freedom (q_0 = theta), the trajectory has {trajectory.ndof}"
             )
         deck = self._rendered_deck(trajectory)
+        extra = self._extra_inputs(trajectory)
         if cancel is not None and cancel():
             raise OracleCancelled(f"command oracle '{self.spec.name}' cancelled before it started")
         workdir = self._make_workdir()
         parameters = {"dt_out": self.params.dt_out, **{key: getattr(self.params, key) for key in self.spec.parameters}}
         write_inputs(workdir, trajectory, parameters, deck, self.spec.rendered_file_name)
+        for name, text in extra.items():
+            (workdir / name).write_text(text)
         diagnostics: dict[str, Any] = {"command": self.spec.name, **dict.fromkeys(SUMMARY_DIAGNOSTICS)}
 
         def failed(reason: str) -> OracleResult:
@@ -124,6 +127,10 @@ class CommandOracle:
         if text is None:
             return None
         return render_template(text, template_values(trajectory, self.preset, self.params, self.spec))
+
+    def _extra_inputs(self, trajectory: Trajectory) -> dict[str, str]:
+        """Further input files (name -> text) a built-in oracle on this machinery writes; none here."""
+        return {}
 
     def _make_workdir(self) -> Path:
         root = self.spec.workdir_root

@@ -9,19 +9,14 @@ from typing import Annotated, Literal
 
 from pydantic import Field, model_validator
 
-from alcove.science.oracles.base import OracleParams
+from alcove.science.oracles.foam_law import FoamLawParams
 from alcove.science.validation import WholeNumber, quantity
 
-FoamModulus = Annotated[float, quantity("hyperfoam modulus mu_i", "Pa", gt=0, le=1e8, why="foams: 1e3 to 1e6 Pa")]
-FoamExponent = Annotated[float, quantity("hyperfoam exponent alpha_i", "-", ge=-50, le=50, why="not 0")]
-FoamBeta = Annotated[
-    float, quantity("hyperfoam beta_i = nu_i / (1 - 2 nu_i)", "-", ge=0, le=10, why="Poisson ratio 0 to about 0.48")
-]
 CushionHeight = Annotated[float, quantity("height along z_H", "m", ge=-0.3, le=0.4, why="within the cushion")]
 MomentPointCoordinate = Annotated[float, quantity("coordinate", "m", ge=-1, le=1, why="within a metre of the head")]
 
 
-class FEHeadrestParams(OracleParams):
+class FEHeadrestParams(FoamLawParams):
     """Plane-strain headrest cushion model: geometry, mesh, foam, contact, stepping, quality gate."""
 
     # ---- cushion geometry (headrest frame H: front face x = 0, cushion at x < 0) -------------
@@ -76,24 +71,7 @@ class FEHeadrestParams(OracleParams):
     )
 
     # ---- foam: Ogden-Storakers hyperfoam terms + Kelvin-Voigt viscosity -----------------------
-    foam_mu: tuple[FoamModulus, ...] = Field(
-        (132.0e3, 1.54e3),
-        min_length=1,
-        max_length=3,
-        description="hyperfoam moduli mu_i [Pa], 1 to 3 terms, each above 0 and at most 1e8",
-    )
-    foam_alpha: tuple[FoamExponent, ...] = Field(
-        (16.4, -2.04),
-        min_length=1,
-        max_length=3,
-        description="hyperfoam exponents alpha_i [-], one per modulus, each -50 to 50 and not 0",
-    )
-    foam_beta: tuple[FoamBeta, ...] = Field(
-        (0.0, 0.0),
-        min_length=1,
-        max_length=3,
-        description="hyperfoam beta_i = nu_i / (1 - 2 nu_i) [-], one per modulus, each 0 to 10",
-    )
+    # foam_mu, foam_alpha, foam_beta: the shared foam law (alcove.science.oracles.foam_law)
     viscosity: Annotated[
         float, quantity("Kelvin-Voigt viscosity on the Green-Lagrange strain rate", "Pa s", ge=0.0, le=1e5)
     ] = 300.0
@@ -159,14 +137,6 @@ class FEHeadrestParams(OracleParams):
 
     @model_validator(mode="after")
     def _check_consistency(self) -> FEHeadrestParams:
-        n = len(self.foam_mu)
-        for name in ("foam_alpha", "foam_beta"):
-            if len(getattr(self, name)) != n:
-                raise ValueError(f"{name}: needs one term per modulus in foam_mu ({n}), got {len(getattr(self, name))}")
-        for i, a in enumerate(self.foam_alpha):
-            if a == 0.0:
-                # with mu_i > 0 and beta_i >= 0 each term is convex in the logarithmic stretches
-                raise ValueError(f"foam_alpha.{i}: must not be 0 (the term would not be stable)")
         if self.element_size_far < self.element_size_contact:
             raise ValueError(
                 f"element_size_far: must be at least element_size_contact ({self.element_size_contact:g} m)"

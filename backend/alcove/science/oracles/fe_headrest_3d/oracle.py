@@ -1,0 +1,254 @@
+"""``fe-headrest-3d-ccx``: the 3D headrest model in CalculiX, run through the command-oracle machinery.
+
+alcove writes the deck (:mod:`.deck`) and ``job.json`` into the working directory and runs
+its own fixed command, ``python -m alcove.science.oracles.fe_headrest_3d.driver``, which
+runs ``ccx`` and writes the forces CSV (:mod:`.driver`). Working directory, timeout, output
+contract and quality gate are those of every ``command`` oracle
+(:class:`~alcove.science.oracles.command.CommandOracle`); no user supplies a command, an
+argument or a template. The head pose comes from q_0 as in ``fe-headrest-2d``
+(:func:`alcove.science.geometry.head_pose_in_headrest`).
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import shutil
+import sys
+import time
+from typing import Any, ClassVar
+
+import numpy as np
+
+from alcove.science.arrays import FloatArray
+from alcove.science.geometry import DEFAULT_PRESET, HeadNeckPreset, head_pose_in_headrest
+from alcove.science.oracles.base import SUMMARY_DIAGNOSTICS, CancelCheck, OracleInputError, OracleResult
+from alcove.science.oracles.command.oracle import CommandOracle
+from alcove.science.oracles.command.spec import CommandOracleParams, CommandOracleSpec
+from alcove.science.oracles.fe_headrest_3d.deck import (
+    HEAD_LAYER,
+    JOB_FILE,
+    JOB_NAME,
+    OUTPUT_FILE,
+    Contact,
+    FoamMaterial,
+    HeadMotion,
+    StepControl,
+    place,
+    write_deck,
+)
+from alcove.science.oracles.fe_headrest_3d.mesh import HexMesh, block_axes, ellipsoid_cap, foam_block
+from alcove.science.oracles.fe_headrest_3d.params import CcxHeadrestParams
+from alcove.science.series import SeriesFormatError, Trajectory
+
+TYPE_NAME = "fe-headrest-3d-ccx"
+CCX_PROGRAM = "ccx"
+CCX_PACKAGE = "calculix-ccx"
+CAP_AZIMUTH = math.radians(60.0)
+CAP_ELEVATION = (math.radians(-65.0), math.radians(65.0))
+APPROACH_STEP = 5e-4  # m of approach per output interval when the head starts in contact
+
+
+def ccx_available() -> str | None:
+    """None if ``ccx`` is on PATH, else why not (naming the package)."""
+    if shutil.which(CCX_PROGRAM) is None:
+        return f"the CalculiX solver '{CCX_PROGRAM}' is not on PATH (install the package {CCX_PACKAGE})"
+    return None
+
+
+def signed_gap(preset: HeadNeckPreset, r: FloatArray, angle: FloatArray, semi_axes: tuple[float, float]) -> FloatArray:
+    """Distance of the undeformed head from the cushion plane x_H = 0 (negative: indentation)."""
+    pr = preset.profile
+    ax, az = semi_axes
+    c, s = np.cos(angle), np.sin(angle)
+    x_centre = r[:, 0] + c * pr.cx - s * pr.cz
+    gap: FloatArray = x_centre - np.sqrt((ax * c) ** 2 + (az * s) ** 2)
+    return gap
+
+
+class _CcxCommand(CommandOracle):
+    """The command oracle with alcove's deck and job file as its inputs."""
+
+    def __init__(
+        self, spec: CommandOracleSpec, params: CommandOracleParams, preset: HeadNeckPreset, files: dict[str, str]
+    ):
+        super().__init__(spec, params, preset)
+        self._files = files
+
+    def _rendered_deck(self, trajectory: Trajectory) -> str | None:
+        return self._files[self.spec.rendered_file_name]
+
+    def _extra_inputs(self, trajectory: Trajectory) -> dict[str, str]:
+        return {k: v for k, v in self._files.items() if k != self.spec.rendered_file_name}
+
+
+class CcxHeadrestOracle:
+    """3D FE headrest oracle in CalculiX (``fe-headrest-3d-ccx``)."""
+
+    type_name: ClassVar[str] = TYPE_NAME
+
+    def __init__(self, params: CcxHeadrestParams | None = None, preset: HeadNeckPreset = DEFAULT_PRESET) -> None:
+        self.params = params if params is not None else CcxHeadrestParams()
+        self.preset = preset
+        p = self.params
+        pr = preset.profile
+        self.semi_axes_xz = p.head_semi_axes_xz or (pr.ax, pr.az)
+        self.block = foam_block(
+            *block_axes(
+                p.cushion_thickness,
+                p.cushion_width,
+                p.cushion_height,
+                p.cushion_bottom,
+                p.element_size_contact,
+                p.element_size_far,
+                p.contact_half_width,
+                p.contact_zone,
+            )
+        )
+        ax, az = self.semi_axes_xz
+        self.head = ellipsoid_cap(
+            (pr.cx, pr.cz),
+            (ax, p.head_half_breadth, az),
+            CAP_AZIMUTH,
+            CAP_ELEVATION,
+            p.head_element_size,
+            HEAD_LAYER,
+        )
+
+    # ---- input -------------------------------------------------------------------------
+    def _validated(self, trajectory: Any) -> Trajectory:
+        try:
+            traj = Trajectory(trajectory.t, trajectory.q, trajectory.qd)
+        except SeriesFormatError as exc:
+            raise OracleInputError(exc.field, exc.reason) from None
+        except AttributeError:
+            raise OracleInputError("trajectory", "expected a Trajectory with t, q and qd") from None
+        if traj.ndof != 1:
+            raise OracleInputError(
+                "q", f"the head-neck preset has 1 degree of freedom (q_0 = theta), got {traj.ndof} columns"
+            )
+        span = traj.t[-1] - traj.t[0]
+        if span < self.params.output_dt * (1 - 1e-9):
+            raise OracleInputError(
+                "t", f"time span {span:g} s is shorter than one output interval ({self.params.output_dt:g} s)"
+            )
+        theta = traj.q[:, 0]
+        pr = self.preset
+        bad = np.flatnonzero((theta < pr.theta_min - 1e-12) | (theta > pr.theta_max + 1e-12))
+        if bad.size:
+            i = int(bad[0])
+            raise OracleInputError(
+                "q_0",
+                f"theta = {theta[i]:.4g} rad at t = {traj.t[i]:.4g} s is outside the model's range "
+                f"[{pr.theta_min}, {pr.theta_max}] rad",
+            )
+        r, a = head_pose_in_headrest(pr, theta)
+        depth = -signed_gap(pr, r, a, self.semi_axes_xz)
+        limit = self.params.max_indentation_fraction * self.params.cushion_thickness
+        if depth.max() > limit:
+            i = int(np.argmax(depth))
+            raise OracleInputError(
+                "q_0",
+                f"at t = {traj.t[i]:.4g} s the head would indent the cushion by {depth[i] * 1e3:.1f} mm, "
+                f"beyond the model's reach ({limit * 1e3:.1f} mm = max_indentation_fraction x cushion_thickness)",
+            )
+        return traj
+
+    # ---- the job -----------------------------------------------------------------------
+    def job_files(self, trajectory: Trajectory) -> tuple[dict[str, str], dict[str, Any]]:
+        """The deck and ``job.json`` for a (validated) trajectory, and the job's description."""
+        p = self.params
+        t0, t1 = float(trajectory.t[0]), float(trajectory.t[-1])
+        n_out = math.floor((t1 - t0) / p.output_dt + 1e-9) + 1
+        t_out = t0 + p.output_dt * np.arange(n_out, dtype=np.float64)
+        theta = trajectory.resample(t_out).q[:, 0]
+        r, a = head_pose_in_headrest(self.preset, theta)
+        gap = signed_gap(self.preset, r, a, self.semi_axes_xz)
+        near = np.flatnonzero(gap < p.clearance)
+        job: dict[str, Any] = {
+            "ccx": CCX_PROGRAM,
+            "threads": p.threads,
+            "t": t_out.tolist(),
+            "tau": [],
+            "first_simulated": n_out,
+            "reaction_tolerance": p.reaction_tolerance,
+        }
+        if near.size == 0:  # the head never comes near the cushion: the force is 0, nothing to solve
+            job["counts"] = {}
+            return {
+                JOB_NAME + ".inp": "** no contact: nothing to solve\n",
+                JOB_FILE: json.dumps(job),
+            }, job
+        k = int(near[0])
+        if k > 0:  # start one output step before the head comes within the clearance
+            start, shift, lead = k - 1, 0.0, 0.0
+            first_out = k
+        else:  # in contact (or close) at the start: approach from the clearance first
+            start, first_out = 0, 0
+            shift = p.clearance - float(gap[0])
+            lead = p.output_dt * max(2, math.ceil(shift / APPROACH_STEP))
+        r0 = r[start] + np.array([shift, 0.0])
+        a0 = float(a[start])
+        tau_path = lead + (t_out[start:] - t_out[start])
+        ux, uz = r[start:, 0] - r0[0], r[start:, 1] - r0[1]
+        rot = -(a[start:] - a0)
+        if lead > 0:
+            tau_path = np.concatenate([[0.0], tau_path])
+            ux, uz, rot = (np.concatenate([[0.0], v]) for v in (ux, uz, rot))
+        motion = HeadMotion(tau_path, ux, uz, rot, lead + (t_out[first_out:] - t_out[start]))
+        head = HexMesh(place(self.head.nodes, (float(r0[0]), float(r0[1])), a0), self.head.elements)
+        dt = p.output_dt
+        deck = write_deck(
+            self.block,
+            head,
+            (float(r0[0]), 0.0, float(r0[1])),
+            FoamMaterial.from_beta(p.foam_terms),
+            Contact(p.penalty, p.friction, p.stick_slope, p.contact_formulation),
+            motion,
+            StepControl(dt * p.max_increment_fraction, dt * p.max_increment_fraction, dt * p.min_increment_fraction),
+        )
+        cog = np.stack([r[first_out:, 0], np.zeros(n_out - first_out), r[first_out:, 1]], -1)
+        job.update(
+            tau=motion.output_tau.tolist(),
+            first_simulated=first_out,
+            cog=cog.tolist(),
+            back_nodes=deck.back_nodes.tolist(),
+            back_xyz=deck.back_coordinates.tolist(),
+            counts=deck.counts,
+        )
+        return {JOB_NAME + ".inp": deck.text, JOB_FILE: json.dumps(job)}, job
+
+    def spec(self) -> CommandOracleSpec:
+        return CommandOracleSpec(
+            name=TYPE_NAME,
+            argv=[sys.executable, "-m", "alcove.science.oracles.fe_headrest_3d.driver"],
+            description="3D headrest model in CalculiX (alcove's own deck and command)",
+            input_file=JOB_NAME + ".inp",
+            allow_user_template=False,
+            output_file=OUTPUT_FILE,
+            timeout_s=self.params.timeout_s,
+        )
+
+    # ---- run -----------------------------------------------------------------------------
+    def run(self, trajectory: Trajectory, cancel: CancelCheck | None = None) -> OracleResult:
+        start = time.perf_counter()
+        traj = self._validated(trajectory)
+        missing = ccx_available()
+        if missing is not None:
+            return OracleResult(False, None, None, dict.fromkeys(SUMMARY_DIAGNOSTICS), 0.0, f"{TYPE_NAME}: {missing}")
+        files, job = self.job_files(traj)
+        command = _CcxCommand(
+            self.spec(),
+            CommandOracleParams(dt_out=self.params.output_dt, keep_workdir=self.params.keep_workdir),
+            self.preset,
+            files,
+        )
+        result = command.run(traj, cancel)
+        result.diagnostics["mesh_foam_elements"] = job.get("counts", {}).get("foam_elements")
+        result.wall_time = time.perf_counter() - start
+        if result.failure_reason is not None:
+            result.failure_reason = result.failure_reason.replace(f"command oracle '{TYPE_NAME}'", TYPE_NAME)
+        return result
+
+
+__all__ = ["CCX_PACKAGE", "CCX_PROGRAM", "TYPE_NAME", "CcxHeadrestOracle", "ccx_available", "signed_gap"]

@@ -1,0 +1,163 @@
+"""Validated parameters of the ``fe-headrest-3d-ccx`` oracle (SI units throughout).
+
+The foam law is the one of ``fe-headrest-2d`` (:class:`~alcove.science.oracles.foam_law.FoamLawParams`);
+the cushion's in-plane geometry and the contact defaults are the same too, so that the two
+models differ only in what a 3D model adds (docs/fe-oracle.md, "The 3D model").
+"""
+
+from __future__ import annotations
+
+from typing import Annotated, Literal
+
+from pydantic import Field, model_validator
+
+from alcove.science.oracles.foam_law import FoamLawParams
+from alcove.science.validation import WholeNumber, quantity
+
+CushionHeight = Annotated[float, quantity("height along z_H", "m", ge=-0.3, le=0.4, why="within the cushion")]
+SemiAxis = Annotated[float, quantity("semi-axis", "m", ge=0.03, le=0.2)]
+
+
+class CcxHeadrestParams(FoamLawParams):
+    """3D headrest cushion in CalculiX: geometry, mesh, contact, step control, run limits."""
+
+    # ---- cushion block (headrest frame H: front face x = 0, block at x < 0) ----------------
+    cushion_thickness: Annotated[
+        float, quantity("foam thickness along -x_H, front face to the fixed back face", "m", ge=0.02, le=0.15)
+    ] = 0.04
+    cushion_height: Annotated[float, quantity("cushion extent along z_H", "m", ge=0.08, le=0.40)] = 0.22
+    cushion_bottom: Annotated[
+        float,
+        quantity("z_H of the cushion's bottom face", "m", ge=-0.30, le=0.0, why="the first-contact point is z_H = 0"),
+    ] = -0.10
+    cushion_width: Annotated[
+        float, quantity("cushion extent along y_H (centred on the head)", "m", ge=0.08, le=0.50)
+    ] = 0.26
+
+    # ---- head: an ellipsoid; in-plane semi-axes and centre from the preset's profile -----------
+    head_half_breadth: Annotated[float, quantity("head semi-axis along y_H (half breadth)", "m", ge=0.04, le=0.12)] = (
+        0.075
+    )
+    head_semi_axes_xz: tuple[SemiAxis, SemiAxis] | None = Field(
+        None,
+        description="head semi-axes (front-back, up-down) [m], each 0.03 to 0.2; none: the preset's head profile",
+    )
+
+    # ---- mesh -------------------------------------------------------------------------------
+    element_size_contact: Annotated[
+        float,
+        quantity(
+            "element size in the contact zone and at the front face",
+            "m",
+            ge=0.002,
+            le=0.02,
+            why="at most cushion_thickness / 3",
+        ),
+    ] = 0.008
+    element_size_far: Annotated[
+        float,
+        quantity(
+            "element size toward the back face and the block's edges",
+            "m",
+            ge=0.002,
+            le=0.06,
+            why="at least element_size_contact",
+        ),
+    ] = 0.03
+    contact_half_width: Annotated[
+        float, quantity("half width along y_H meshed with element_size_contact", "m", ge=0.01, le=0.25)
+    ] = 0.06
+    contact_zone: tuple[CushionHeight, CushionHeight] = Field(
+        (-0.06, 0.07),
+        description="z_H range (low, high) meshed with element_size_contact [m], increasing and inside the "
+        "cushion's z extent",
+    )
+    head_element_size: Annotated[
+        float, quantity("element size of the head's contact surface", "m", ge=0.002, le=0.03)
+    ] = 0.008
+
+    # ---- contact -------------------------------------------------------------------------------
+    penalty: Annotated[
+        float, quantity("normal penalty stiffness (pressure per overclosure)", "Pa/m", ge=1e6, le=1e12)
+    ] = 5e8
+    friction: Annotated[float, quantity("Coulomb friction coefficient head/cushion cover", "-", ge=0.0, le=1.5)] = 0.4
+    contact_formulation: Literal["node-to-surface", "surface-to-surface"] = Field(
+        "node-to-surface",
+        description="ccx's penalty contact: node-to-surface (default: converges through the first touch and "
+        "runs 1.7 x faster here) or surface-to-surface (face-to-face)",
+    )
+    stick_slope: Annotated[
+        float, quantity("tangential penalty stiffness before slip (stick slope)", "Pa/m", ge=1e5, le=1e12)
+    ] = 5e7
+
+    # ---- output and step control ----------------------------------------------------------------
+    output_dt: Annotated[
+        float,
+        quantity("output interval", "s", ge=1e-4, le=0.05, why="0.0025 s gives 401 samples per second"),
+    ] = 0.0025
+    max_increment_fraction: Annotated[
+        float, quantity("largest increment as a fraction of output_dt", "-", gt=0.0, le=1.0)
+    ] = 1.0
+    min_increment_fraction: Annotated[
+        float, quantity("smallest increment (after cutbacks) as a fraction of output_dt", "-", ge=1e-8, le=0.5)
+    ] = 1e-4
+    clearance: Annotated[
+        float,
+        quantity(
+            "the solver starts once the undeformed head is within this distance of the cushion",
+            "m",
+            ge=0.0,
+            le=0.05,
+            why="before that the force is exactly 0",
+        ),
+    ] = 0.001
+    max_indentation_fraction: Annotated[
+        float,
+        quantity(
+            "deepest allowed indentation of the undeformed head, as a fraction of the thickness", "-", gt=0.0, le=0.9
+        ),
+    ] = 0.6
+    reaction_tolerance: Annotated[
+        float,
+        quantity(
+            "gate: allowed mismatch of the head's wrench and the back face's reaction, relative to the peak",
+            "-",
+            ge=1e-4,
+            le=0.2,
+        ),
+    ] = 0.01
+
+    # ---- run ---------------------------------------------------------------------------------------
+    threads: WholeNumber = Field(1, ge=1, le=64, description="threads of ccx's equation solver [-], 1 to 64")
+    timeout_s: Annotated[float, quantity("wall-time limit of one ccx run", "s", gt=0.0, le=86400.0)] = 1800.0
+    keep_workdir: bool = Field(False, description="keep the working directory after a successful run")
+
+    @model_validator(mode="after")
+    def _check_consistency(self) -> CcxHeadrestParams:
+        if self.element_size_far < self.element_size_contact:
+            raise ValueError(
+                f"element_size_far: must be at least element_size_contact ({self.element_size_contact:g} m)"
+            )
+        if self.element_size_contact > self.cushion_thickness / 3.0:
+            raise ValueError(
+                "element_size_contact: must be at most cushion_thickness / 3 "
+                f"({self.cushion_thickness / 3.0:g} m: at least 3 elements through the foam)"
+            )
+        if self.contact_half_width > 0.5 * self.cushion_width:
+            raise ValueError(f"contact_half_width: exceeds half the cushion width ({0.5 * self.cushion_width:g} m)")
+        lo, hi = self.contact_zone
+        top = self.cushion_bottom + self.cushion_height
+        if top <= 0.0:
+            raise ValueError(
+                f"cushion_height: the cushion must extend above the first-contact point z_H = 0 (its top is {top:g} m)"
+            )
+        if not lo < hi:
+            raise ValueError(f"contact_zone.1: must exceed the low end {lo:g} m")
+        if not self.cushion_bottom <= lo:
+            raise ValueError(f"contact_zone.0: lies below the cushion's bottom face {self.cushion_bottom:g} m")
+        if not hi <= top:
+            raise ValueError(f"contact_zone.1: lies above the cushion's top face {top:g} m")
+        return self
+
+
+__all__ = ["CcxHeadrestParams"]

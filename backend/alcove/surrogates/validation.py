@@ -1,0 +1,156 @@
+"""A model version's generalisation error: its error on every motion of the campaign's
+held-out validation suite (motions no pool ever contains), one ``validation_metrics`` row
+per model version.
+
+Two ways in, both idempotent (a row exists at most once per model version; a race between
+them is settled by the unique constraint, and both compute the same numbers):
+
+* :func:`evaluate_model` from the campaign's ``evaluate`` step, when the suite is complete;
+* :func:`evaluate_suite` (job ``alcove.default.validation_evaluate``) once the suite's last
+  motion is stored: every model version of every campaign on that suite that has no row yet.
+
+The metric is computed in ONE place, :func:`generalisation_error`.
+"""
+
+from __future__ import annotations
+
+import logging
+from typing import Any
+
+import numpy as np
+import sqlalchemy as sa
+from sqlalchemy.exc import IntegrityError
+from sqlalchemy.orm import Session
+
+from alcove.models import Campaign, CampaignEvent, ModelVersion, SuiteStatus, ValidationMetrics, ValidationSuite
+from alcove.pool.repository import validation_datasets
+from alcove.pool.service import dataset_arrays
+from alcove.surrogates.service import load_model
+
+log = logging.getLogger(__name__)
+
+
+def generalisation_error(pred: np.ndarray, true: np.ndarray) -> dict[str, Any]:
+    """The error of predicted wrenches ``pred`` against the oracle's ``true`` ((n, 6): fx fy fz mx my mz):
+    ``force_rmse = sqrt(mean_i |F_pred,i - F_true,i|^2)``, ``moment_rmse`` likewise, and the RMSE
+    of each component, by the one definition in :mod:`alcove.science.surrogate.metrics`."""
+    from alcove.science.surrogate.metrics import MetricInputError, component_rmse, vector_rmse
+
+    p, t = np.asarray(pred, float), np.asarray(true, float)
+    if p.ndim != 2 or p.shape[1] != 6 or p.shape[0] == 0 or t.shape != p.shape:
+        raise ValueError(f"prediction and oracle values must have shape (n >= 1, 6), got {p.shape} and {t.shape}")
+    try:
+        components = component_rmse(p, t)
+        return {
+            "force_rmse": vector_rmse(p[:, :3], t[:, :3]),
+            "moment_rmse": vector_rmse(p[:, 3:], t[:, 3:]),
+            "components": components,
+        }
+    except MetricInputError as err:
+        raise ValueError(str(err)) from err
+
+
+def _suite_arrays(s: Session, suite_id: int) -> list[dict[str, np.ndarray]]:
+    return [dataset_arrays(s, ds) for ds in validation_datasets(s, suite_id)]
+
+
+def _metrics(model: Any, motions: list[dict[str, np.ndarray]]) -> dict[str, Any]:
+    from alcove.science.surrogate.training import predict_arrays
+
+    preds, trues, per_motion = [], [], []
+    for a in motions:
+        force, moment = predict_arrays(model, a["q"], a["qd"])
+        pred = np.hstack([force, moment])
+        e = generalisation_error(pred, a["f"])
+        per_motion.append({"force_rmse": e["force_rmse"], "moment_rmse": e["moment_rmse"], "n_samples": len(pred)})
+        preds.append(pred)
+        trues.append(a["f"])
+    total = generalisation_error(np.vstack(preds), np.vstack(trues))
+    return {**total, "per_motion": per_motion, "n_samples": int(sum(len(p) for p in preds))}
+
+
+def _store(s: Session, model_version_id: int, suite_id: int, m: dict[str, Any]) -> bool:
+    """Insert the row unless one exists (the unique constraint settles a race)."""
+    exists = s.scalar(sa.select(ValidationMetrics.id).where(ValidationMetrics.model_version_id == model_version_id))
+    if exists is not None:
+        return False
+    try:
+        with s.begin_nested():
+            s.add(ValidationMetrics(model_version_id=model_version_id, suite_id=suite_id, **m))
+            s.flush()
+    except IntegrityError:
+        return False
+    return True
+
+
+def compute_for_model(model_version_id: int, suite_id: int) -> dict[str, Any] | None:
+    """Model version's generalisation error on a complete suite (None if the suite is not complete)."""
+    from alcove.db import session_scope
+
+    with session_scope() as s:
+        suite = s.get(ValidationSuite, suite_id)
+        if suite is None or suite.status != SuiteStatus.complete.value:
+            return None
+        mv = s.get(ModelVersion, model_version_id)
+        assert mv is not None
+        model = load_model(s, mv)
+        motions = _suite_arrays(s, suite_id)
+    return _metrics(model, motions)
+
+
+def store_for_model(s: Session, model_version_id: int, suite_id: int, metrics: dict[str, Any]) -> bool:
+    return _store(s, model_version_id, suite_id, metrics)
+
+
+def pending_models(s: Session, suite_id: int) -> list[int]:
+    """Model versions of campaigns on the suite without a validation row."""
+    have = sa.select(ValidationMetrics.model_version_id)
+    return list(
+        s.scalars(
+            sa.select(ModelVersion.id)
+            .join(Campaign, Campaign.id == ModelVersion.campaign_id)
+            .where(Campaign.validation_suite_id == suite_id, ModelVersion.id.not_in(have))
+            .order_by(ModelVersion.id)
+        )
+    )
+
+
+def evaluate_suite(suite_id: int) -> int:
+    """Evaluate every waiting model version on a complete suite; returns how many rows it wrote."""
+    from alcove.db import session_scope, transaction
+
+    with session_scope() as s:
+        suite = s.get(ValidationSuite, suite_id)
+        if suite is None or suite.status != SuiteStatus.complete.value:
+            return 0
+        ids = pending_models(s, suite_id)
+        motions = _suite_arrays(s, suite_id)
+    written = 0
+    for mv_id in ids:
+        with session_scope() as s:
+            mv = s.get(ModelVersion, mv_id)
+            if mv is None:
+                continue
+            model, campaign_id, version = load_model(s, mv), mv.campaign_id, mv.version
+        m = _metrics(model, motions)
+
+        def store(
+            s: Session, mv_id: int = mv_id, m: dict[str, Any] = m, c: Any = campaign_id, k: int = version
+        ) -> bool:
+            if not _store(s, mv_id, suite_id, m):
+                return False
+            # the campaign's live stream tells its pages that an earlier iteration's metrics changed
+            s.add(
+                CampaignEvent(
+                    campaign_id=c,
+                    iteration_index=k,
+                    kind="validation_evaluated",
+                    message=f"model version {k} evaluated on validation suite {suite_id}",
+                    data={"suite_id": suite_id, "force_rmse": m["force_rmse"], "moment_rmse": m["moment_rmse"]},
+                )
+            )
+            return True
+
+        written += bool(transaction(store))
+    log.info("validation suite %d: evaluated %d model version(s)", suite_id, written)
+    return written

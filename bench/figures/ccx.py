@@ -1,0 +1,83 @@
+"""Wall time of ``fe-headrest-3d-ccx`` (CalculiX) on the paper's example motion (target <= 300 s).
+
+Run with ``python -m bench.run --only ccx``. The motion is
+``alcove.science.oracles.fe_headrest.reference_motion()`` (1 s, 401 outputs at 0.0025 s,
+first contact at t = 0.29 s); default parameters (8 mm elements in the contact zone). The
+paper's LS-DYNA replay takes about 180 s on a laptop. Each run prints ccx's increments,
+Newton iterations, the mesh and the peak force. The second figure runs two replays at once
+(what two oracle workers do) and reports the wall time of the pair: with 2 free cores it is
+close to one replay's. Skipped where ``ccx`` is not installed; not in ``--quick``.
+"""
+
+from __future__ import annotations
+
+from concurrent.futures import ThreadPoolExecutor
+from typing import Any
+
+from bench.harness import figure, timed
+
+
+def _requires() -> str | None:
+    from alcove.science.oracles.fe_headrest_3d import ccx_available
+
+    return ccx_available()
+
+
+def _setup() -> tuple[Any, Any]:
+    from alcove.science.oracles.fe_headrest import reference_motion
+    from alcove.science.oracles.fe_headrest_3d import CcxHeadrestOracle, CcxHeadrestParams
+
+    return CcxHeadrestOracle(CcxHeadrestParams()), reference_motion()
+
+
+def _replay(oracle: Any, trajectory: Any) -> None:
+    result = oracle.run(trajectory)
+    assert result.ok, result.failure_reason
+    d = result.diagnostics
+    solver = d.get("solver", {})
+    print(
+        f"  ccx {solver.get('ccx_wall_time_s', 0):.1f} s, {solver.get('increments')} increments "
+        f"({solver.get('increment_attempts')} attempts), {d['newton_iterations']} Newton iterations, "
+        f"mesh {solver.get('mesh')}, peak force {solver.get('peak_force_n', 0):.1f} N, "
+        f"peak moment {solver.get('peak_moment_nm', 0):.2f} N m"
+    )
+
+
+@figure(
+    "ccx: fe-headrest-3d-ccx on the paper example motion (1 s, 401 outputs), default mesh",
+    "s",
+    target=300.0,
+    setup=_setup,
+    reps=1,
+    quick_reps=1,
+    quick=False,
+    requires=_requires,
+    group="oracle",
+    notes="default mesh: 8 mm contact zone / 30 mm far; node-to-surface penalty contact, friction 0.4",
+)
+def ccx_reference_motion(ctx: Any) -> float:
+    oracle, trajectory = ctx
+    return timed(lambda: _replay(oracle, trajectory))
+
+
+@figure(
+    "ccx: two fe-headrest-3d-ccx replays at once (2 oracle workers), default mesh",
+    "s",
+    target=300.0,
+    setup=_setup,
+    reps=1,
+    quick_reps=1,
+    quick=False,
+    requires=_requires,
+    group="oracle",
+    notes="wall time of the pair; compare with one replay above (2 cores: about equal when the machine is idle)",
+)
+def ccx_two_in_parallel(ctx: Any) -> float:
+    oracle, trajectory = ctx
+
+    def pair() -> None:
+        with ThreadPoolExecutor(2) as pool:
+            for future in [pool.submit(_replay, oracle, trajectory) for _ in range(2)]:
+                future.result()
+
+    return timed(pair)
