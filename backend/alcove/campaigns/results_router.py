@@ -17,6 +17,7 @@ from alcove.api.downloads import binary, download
 from alcove.api.params import MAX_ID, IterationIndex, ObjectId
 from alcove.campaigns import export, results
 from alcove.campaigns import read_repository as reads
+from alcove.campaigns.quality_schemas import ValidationSeries
 from alcove.campaigns.schemas import (
     EventRead,
     IterationCurves,
@@ -24,7 +25,6 @@ from alcove.campaigns.schemas import (
     IterationTrajectory,
     JobOut,
     MetricsRead,
-    ValidationSeries,
 )
 from alcove.campaigns.validation import validation_series
 from alcove.db import get_sessionmaker

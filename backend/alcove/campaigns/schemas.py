@@ -20,6 +20,7 @@ from alcove.campaigns.config import (
     RunSettings,
     StoppingRules,
 )
+from alcove.campaigns.quality_schemas import TrustRead, ValidationSuiteRead
 from alcove.models.base import CampaignStatus, IterationStatus, StepName, StepStatus
 from alcove.science.surrogate.metrics import DESCRIPTIONS
 
@@ -96,38 +97,6 @@ class IterationRead(_Read):
     )
 
 
-class TrustRead(BaseModel):
-    """Where the surrogate's OCP solution of the iteration can be trusted (alcove.science.surrogate.trust),
-    evaluated at the interval midpoints where the OCP evaluates the contact model."""
-
-    trusted: bool = Field(description="false: the solution relies on force outside the data (see reasons)")
-    reasons: list[str] = Field(description="why it is not trusted: ghost force, ensemble disagreement in contact")
-    ensemble_size: int = Field(description="members K of the model (K = 1 has no std)")
-    contact_fraction: float = Field(description="fraction of the solution with gap <= gap_tolerance (contact phase)")
-    max_std_contact: float | None = Field(
-        description="largest ensemble force std sqrt(sigma_fx^2 + sigma_fy^2 + sigma_fz^2) in the contact phase [N]"
-    )
-    integral_std_contact: float = Field(description="time integral of that std over the contact phase [N s]")
-    max_std: float = Field(description="largest ensemble force std over the whole solution [N]")
-    open_gap_max_force: float = Field(
-        description="largest predicted |F| (ensemble mean) where the geometric gap is open by more than "
-        "gap_tolerance [N] (the ghost force; 0: never clearly open)"
-    )
-    open_gap_at_gap: float | None = Field(description="the gap where that force is predicted [m]")
-    open_gap_at_time: float | None = Field(description="the time where that force is predicted [s]")
-    min_gap: float = Field(description="smallest signed gap head profile - undeformed headrest along its normal [m]")
-    max_pool_distance: float | None = Field(
-        description="largest distance to the nearest pool sample in the surrogate's scaled feature space"
-    )
-    median_pool_distance: float | None = Field(description="median of that distance over the solution")
-    thresholds: dict[str, float] = Field(
-        description="gap_tolerance [m], open_gap_force_tolerance [N], contact_std_threshold [N]"
-    )
-    trust_region_max_std: float | None = Field(
-        None, description="the trust region the OCP was solved with: force std bound [N] (null: none)"
-    )
-
-
 class MetricsRead(_Read):
     campaign_id: int = Field(description="the campaign the iteration ran in (a fork's source for inherited rows)")
     inherited: bool = Field(False, description="an iteration of a fork's source, up to the fork point")
@@ -178,35 +147,6 @@ class MetricsRead(_Read):
     extra: dict[str, Any] | None = Field(
         None, description="software versions, per-component RMSE, step timings (only with ?extra=true on the series)"
     )
-
-
-class ValidationSuiteRead(BaseModel):
-    """The held-out validation suite a campaign's model versions are evaluated on (shared per
-    oracle version and suite spec)."""
-
-    id: int
-    status: str = Field(description="replaying | complete | failed")
-    n_motions: int
-    motions_done: int = Field(description="motions replayed and stored")
-    replay_wall_time_s: float | None = Field(None, description="first motion queued to last motion stored [s]")
-    shared_by: int = Field(description="campaigns evaluated on this suite")
-    error: str | None = None
-
-
-class ValidationPoint(BaseModel):
-    """Model version k's generalisation error on the held-out validation suite."""
-
-    iteration_index: int = Field(description="k: the iteration whose train step made the model version")
-    model_version_id: int
-    force_rmse: float = Field(description="sqrt(mean_i |F_pred,i - F_true,i|^2) over all samples of all motions [N]")
-    moment_rmse: float = Field(description="the same for the moment vector [N m]")
-    components: dict[str, float] = Field(description="RMSE of each component fx..mz [N, N m]")
-    per_motion: list[dict[str, float]] = Field(description="force_rmse, moment_rmse, n_samples of each motion")
-
-
-class ValidationSeries(BaseModel):
-    suite: ValidationSuiteRead | None = Field(description="the campaign's held-out validation suite (null: none)")
-    points: list[ValidationPoint] = Field(description="one per own model version evaluated so far, by k")
 
 
 class CampaignDetail(BaseModel):

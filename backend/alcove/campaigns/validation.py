@@ -11,7 +11,8 @@ from typing import Any
 import sqlalchemy as sa
 from sqlalchemy.orm import Session
 
-from alcove.campaigns.schemas import MetricsRead, ValidationPoint, ValidationSeries, ValidationSuiteRead
+from alcove.campaigns.quality_schemas import ValidationPoint, ValidationSeries, ValidationSuiteRead
+from alcove.campaigns.schemas import MetricsRead
 from alcove.models import Campaign, ModelVersion, MotionStatus, ValidationMetrics, ValidationMotion, ValidationSuite
 
 
