@@ -381,7 +381,7 @@ def test_a_config_edit_creates_a_version_used_by_the_iterations_after_it(
         protocol.run_step(cid, j.iteration, j.step.value, j.attempt, send=queue.extend)
     with session_scope() as s:
         row = service.update_config(
-            s, cid, CampaignConfigUpdate(stopping=StoppingRules(max_iterations=2, target_force_rmse=1e6), note="looser")
+            s, cid, CampaignConfigUpdate(stopping=StoppingRules(max_iterations=2, target_force_rmse=1e5), note="looser")
         )
         assert row.version == 2
     protocol.drive_inline(cid, queue)
