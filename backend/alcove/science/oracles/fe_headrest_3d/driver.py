@@ -150,11 +150,13 @@ def run(workdir: Path) -> dict[str, Any]:
     force = np.linalg.norm(wrench[:, :3], axis=1)
     # first contact: the first output with a force above ccx's round-off (~1e-20 N while the head
     # is clear); a first touch is a single foam node, whose force grows from 0 like Hertz's d^1.5
-    contact = np.flatnonzero(force > FIRST_CONTACT_FRACTION * float(force.max())) if force.max() > 0 else []
+    contact = (
+        np.flatnonzero(force > FIRST_CONTACT_FRACTION * float(force.max())) if force.max() > 0 else np.array([], int)
+    )
     diagnostics.update(
         peak_force_n=float(force.max()),
         peak_moment_nm=float(np.max(np.abs(wrench[:, 4]))),
-        first_contact_time_s=float(t[contact[0]]) if len(contact) else None,
+        first_contact_time_s=float(t[contact[0]]) if contact.size else None,
         max_penetration_m=None,
         dissipated_energy_j=None,
     )
