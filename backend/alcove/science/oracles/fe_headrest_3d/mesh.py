@@ -66,7 +66,7 @@ def block_axes(
 
 def on_lattice(lo: float, hi: float, h: float, bound_lo: float, bound_hi: float) -> tuple[float, float]:
     """The zone [lo, hi] widened to multiples of ``h`` (within the bounds), so that its uniform
-    nodes include 0: the first-contact point y_H = z_H = 0 is a node of the foam's front face
+    nodes include 0 when 0 lies in it: the first-contact point y_H = z_H = 0 is a front-face node
     (node-to-surface contact begins when a foam node touches the head)."""
     k_lo, k_hi = np.floor(lo / h + 1e-9), np.ceil(hi / h - 1e-9)
     if k_lo * h < bound_lo - 1e-12:
