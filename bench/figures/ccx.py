@@ -36,10 +36,11 @@ def _replay(oracle: Any, trajectory: Any) -> None:
     d = result.diagnostics
     solver = d.get("solver", {})
     print(
-        f"  ccx {solver.get('ccx_wall_time_s', 0):.1f} s, {solver.get('increments')} increments "
+        f"  ccx {solver.get('ccx_wall_time_s', 0):.1f} s wall / {solver.get('ccx_cpu_time_s', 0):.1f} s CPU, "
+        f"{solver.get('increments')} increments "
         f"({solver.get('increment_attempts')} attempts), {d['newton_iterations']} Newton iterations, "
         f"mesh {solver.get('mesh')}, peak force {solver.get('peak_force_n', 0):.1f} N, "
-        f"peak moment {solver.get('peak_moment_nm', 0):.2f} N m"
+        f"peak moment {solver.get('peak_moment_nm', 0):.2f} N m, first contact {solver.get('first_contact_time_s')} s"
     )
 
 

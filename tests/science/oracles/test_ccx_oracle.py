@@ -21,6 +21,7 @@ from alcove.science.oracles.base import OracleInputError
 from alcove.science.oracles.fe_headrest.foam import Hyperfoam
 from alcove.science.oracles.fe_headrest_3d import CcxHeadrestOracle, CcxHeadrestParams
 from alcove.science.oracles.fe_headrest_3d import deck as ccx_deck
+from alcove.science.oracles.fe_headrest_3d.driver import FIRST_CONTACT_FRACTION
 from alcove.science.oracles.fe_headrest_3d.mesh import (
     HexMesh,
     ellipsoid_cap,
@@ -118,6 +119,18 @@ def test_meshes_have_positive_volumes_and_the_right_faces():
     assert np.allclose(radial[:, 4:], 1.0)  # face S2 (nodes 5-8) lies on the ellipsoid
 
 
+@pytest.mark.parametrize("h", [0.008, 0.012, 0.007])
+def test_the_first_contact_point_is_a_node_of_the_front_face(h):
+    """Node-to-surface contact begins when a foam node touches the head: the first-contact point
+    y_H = z_H = 0 of the front face is a node, and the contact zone stays uniform (size h)."""
+    block = CcxHeadrestOracle(CcxHeadrestParams(element_size_contact=h, head_element_size=h)).block
+    front = block.mesh.nodes[np.isclose(block.mesh.nodes[:, 0], 0.0)]
+    assert np.min(np.linalg.norm(front[:, 1:], axis=1)) < 1e-12
+    y = np.unique(np.round(front[:, 1], 12))
+    fine = np.diff(y)[np.abs(y[:-1]) < 0.06]
+    np.testing.assert_allclose(fine, h, rtol=1e-9)
+
+
 def test_no_contact_means_zero_force_without_solving(tmp_path):
     oracle = CcxHeadrestOracle(CcxHeadrestParams(**COARSE))
     _, job = oracle.job_files(short_motion(0.10, 0.20))
@@ -197,7 +210,19 @@ def test_planar_motion_gives_a_symmetric_wrench_and_runs_from_the_cli(tmp_path):
     assert proc.returncode == 0, proc.stdout + proc.stderr
     summary = json.loads(proc.stdout)
     assert summary["status"] == "ok" and summary["newton_iterations"] > 0
+    # first contact (first output with a force above round-off) within one output step of the
+    # undeformed head's geometric first touch
+    from alcove.science.geometry import head_pose_in_headrest
+    from alcove.science.oracles.fe_headrest_3d.oracle import signed_gap
+
+    motion = short_motion()
+    r, a = head_pose_in_headrest(DEFAULT_PRESET, motion.q[:, 0])
+    pr = DEFAULT_PRESET.profile
+    touch = motion.t[np.argmax(signed_gap(DEFAULT_PRESET, r, a, (pr.ax, pr.az)) < 0)]
     data = np.loadtxt(out, delimiter=",", skiprows=1)
+    force = np.linalg.norm(data[:, 1:4], axis=1)
+    first = data[np.argmax(force > FIRST_CONTACT_FRACTION * force.max()), 0]
+    assert 0.0 <= first - touch <= 0.01 + 1e-9, (first, touch)
     assert out.read_text().splitlines()[0] == "t,fx,fy,fz,mx,my,mz"
     fx, fy, fz, mx, my, mz = data[:, 1:].T
     peak_f = np.max(np.hypot(fx, fz))

@@ -57,9 +57,25 @@ def block_axes(
     x = np.concatenate([x, [0.0]])
     x[0] = -thickness
     half = 0.5 * width
-    y = graded_axis(-half, half, -contact_half_width, contact_half_width, h_contact, h_far)
-    z = graded_axis(z_bottom, z_bottom + height, contact_zone[0], contact_zone[1], h_contact, h_far)
+    y_lo, y_hi = on_lattice(-contact_half_width, contact_half_width, h_contact, -half, half)
+    y = graded_axis(-half, half, y_lo, y_hi, h_contact, h_far)
+    z_lo, z_hi = on_lattice(contact_zone[0], contact_zone[1], h_contact, z_bottom, z_bottom + height)
+    z = graded_axis(z_bottom, z_bottom + height, z_lo, z_hi, h_contact, h_far)
     return x, y, z
+
+
+def on_lattice(lo: float, hi: float, h: float, bound_lo: float, bound_hi: float) -> tuple[float, float]:
+    """The zone [lo, hi] widened to multiples of ``h`` (within the bounds), so that its uniform
+    nodes include 0 when 0 lies in it: the first-contact point y_H = z_H = 0 is a front-face node
+    (node-to-surface contact begins when a foam node touches the head)."""
+    k_lo, k_hi = np.floor(lo / h + 1e-9), np.ceil(hi / h - 1e-9)
+    if k_lo * h < bound_lo - 1e-12:
+        k_lo += 1
+    if k_hi * h > bound_hi + 1e-12:
+        k_hi -= 1
+    if k_hi <= k_lo:  # a zone narrower than one element: keep it as given
+        return lo, hi
+    return float(k_lo * h), float(k_hi * h)
 
 
 def structured_hexes(nx: int, ny: int, nz: int) -> IndexArray:
@@ -137,5 +153,6 @@ __all__ = [
     "ellipsoid_cap",
     "foam_block",
     "hex_volumes_positive",
+    "on_lattice",
     "structured_hexes",
 ]
