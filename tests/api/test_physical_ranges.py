@@ -49,7 +49,7 @@ def schemas() -> dict[str, dict[str, Any]]:
         "surrogate config": SurrogateConfig.model_json_schema(),
         "campaign config": CampaignConfig.model_json_schema(),
     }
-    for oracle_type in ("aux-penalty", "fe-headrest-2d"):
+    for oracle_type in ("aux-penalty", "fe-headrest-2d", "fe-headrest-3d-ccx"):
         out[f"oracle {oracle_type}"] = params_json_schema(oracle_type)
     return out
 
