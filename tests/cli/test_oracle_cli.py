@@ -224,7 +224,8 @@ def invoke(*args: str):
         (
             lambda d: None,
             ["--oracle", "aux-replay"],
-            "error: oracle: unknown oracle type 'aux-replay'; known: aux-penalty, fe-headrest-2d, fe-headrest-3d-ccx (command oracles need",
+            "error: oracle: unknown oracle type 'aux-replay'; "
+            "known: aux-penalty, fe-headrest-2d, fe-headrest-3d-ccx (command oracles need",
         ),
     ],
 )

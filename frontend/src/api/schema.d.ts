@@ -2769,7 +2769,7 @@ export interface components {
             replay_phases?: number;
             /**
              * Trust Region Max Std
-             * @description trust region: bound the ensemble's force std sqrt(sigma_fx^2 + sigma_fy^2 + sigma_fz^2) [N] at every interval midpoint of the OCP solution (None: unbounded; needs ensemble_size > 1)
+             * @description trust region: bound the ensemble's force std sqrt(sigma_fx^2 + sigma_fy^2 + sigma_fz^2) [N] at every interval midpoint of the OCP solution (above 0 N, at most 10000 N; None: unbounded; needs ensemble_size > 1)
              */
             trust_region_max_std?: number | null;
             /**

@@ -6,9 +6,9 @@ import pytest
 import torch
 
 from alcove.science.geometry import DEFAULT_PRESET, relative_kinematics, relative_kinematics_symbolic
+from alcove.science.surrogate.artifact import casadi_contact_from_artifact
 from alcove.science.surrogate.config import SurrogateConfig
 from alcove.science.surrogate.export import (
-    casadi_contact_from_artifact,
     casadi_contact_function,
     casadi_network_function,
 )

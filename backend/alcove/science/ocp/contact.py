@@ -18,7 +18,7 @@ Models:
   widths -> 0 recover the literal model (tested against
   :func:`alcove.science.oracles.aux_penalty.aux_penalty_wrench`).
 * ``model:FILE``: a trained surrogate, built by
-  ``alcove.science.surrogate.export.casadi_contact_from_artifact(path, preset)``.
+  ``alcove.science.surrogate.artifact.casadi_contact_from_artifact(path, preset)``.
 """
 
 from __future__ import annotations
@@ -127,9 +127,7 @@ def contact_from_spec(spec: str, preset: HeadNeckPreset) -> ca.Function | None:
         path = Path(spec.removeprefix("model:"))
         if not path.exists():
             raise ContactModelError("contact", f"model file {str(path)!r} does not exist")
-        from alcove.science.surrogate.export import (
-            casadi_contact_from_artifact,
-        )  # lazy: delivered by the surrogate issue
+        from alcove.science.surrogate.artifact import casadi_contact_from_artifact  # lazy: torch
 
         return casadi_contact_from_artifact(path, preset)
     raise ContactModelError("contact", f"unknown contact model {spec!r}; use aux, none or model:FILE")

@@ -25,6 +25,7 @@ import warnings
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+import casadi as ca
 import numpy as np
 import torch
 from torch import nn
@@ -243,6 +244,14 @@ def save_artifact(
     return root
 
 
+def casadi_contact_from_artifact(path: str | Path, preset: HeadNeckPreset) -> ca.Function:
+    """Load a model artifact (directory or its ``surrogate.json``) and export it as the OCP's
+    contact function (:func:`.export.casadi_contact_function`)."""
+    from alcove.science.surrogate.export import casadi_contact_function
+
+    return casadi_contact_function(load_artifact(path), preset)
+
+
 def load_artifact(path: str | Path) -> SurrogateModel:
     """Read a model from its folder (or the ``surrogate.json`` inside it)."""
     p = Path(path)
@@ -263,6 +272,7 @@ __all__ = [
     "FORMAT_VERSION",
     "ArtifactError",
     "artifact_dict",
+    "casadi_contact_from_artifact",
     "load_artifact",
     "model_from_dict",
     "save_artifact",

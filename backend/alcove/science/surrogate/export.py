@@ -23,7 +23,6 @@ from __future__ import annotations
 
 import threading
 from collections.abc import Callable
-from pathlib import Path
 
 import casadi as ca
 import numpy as np
@@ -284,15 +283,7 @@ def surrogate_contact(model: SurrogateModel, preset: HeadNeckPreset) -> tuple[ca
     return _parametric_contact(surrogate_architecture(model), preset), surrogate_parameters(model)
 
 
-def casadi_contact_from_artifact(path: str | Path, preset: HeadNeckPreset) -> ca.Function:
-    """Load a model artifact (directory or its ``surrogate.json``) and export it."""
-    from alcove.science.surrogate.artifact import load_artifact
-
-    return casadi_contact_function(load_artifact(path), preset)
-
-
 __all__ = [
-    "casadi_contact_from_artifact",
     "casadi_contact_function",
     "casadi_contact_std_function",
     "casadi_network_function",
