@@ -12,10 +12,12 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any, ClassVar, Protocol
 
+import numpy as np
 from pydantic import BaseModel, ConfigDict
 
+from alcove.science.arrays import FloatArray
 from alcove.science.geometry import HeadNeckPreset, RelativeKinematics
-from alcove.science.series import ForceSeries, Trajectory
+from alcove.science.series import ForceSeries, SeriesFormatError, Trajectory
 
 CancelCheck = Callable[[], bool]
 
@@ -80,3 +82,49 @@ class Oracle(Protocol):
     def preset(self) -> HeadNeckPreset: ...
 
     def run(self, trajectory: Trajectory, cancel: CancelCheck | None = None) -> OracleResult: ...
+
+
+def validated_head_trajectory(
+    trajectory: Any,
+    preset: HeadNeckPreset,
+    output_dt: float,
+    indentation: Callable[[FloatArray], FloatArray],
+    max_indentation: float,
+) -> tuple[Trajectory, FloatArray]:
+    """The checks every head-headrest FE oracle makes of its input, with errors naming the field:
+    a 1-DOF trajectory (``q_0 = theta``) spanning at least one output interval, within the
+    preset's joint range, that never indents the cushion beyond ``max_indentation`` [m].
+    ``indentation(theta)`` is the oracle's own geometric depth [m] per sample. Returns the
+    re-validated trajectory and that depth."""
+    try:
+        traj = Trajectory(trajectory.t, trajectory.q, trajectory.qd)  # (re-)validates time, NaN, shapes
+    except SeriesFormatError as exc:
+        raise OracleInputError(exc.field, exc.reason) from None
+    except AttributeError:
+        raise OracleInputError("trajectory", "expected a Trajectory with t, q and qd") from None
+    if traj.ndof != 1:
+        raise OracleInputError(
+            "q", f"the head-neck preset has 1 degree of freedom (q_0 = theta), got {traj.ndof} columns"
+        )
+    span = traj.t[-1] - traj.t[0]
+    if span < output_dt * (1 - 1e-9):
+        raise OracleInputError("t", f"time span {span:g} s is shorter than one output interval ({output_dt:g} s)")
+    theta = traj.q[:, 0]
+    bad = np.flatnonzero((theta < preset.theta_min - 1e-12) | (theta > preset.theta_max + 1e-12))
+    if bad.size:
+        i = int(bad[0])
+        raise OracleInputError(
+            "q_0",
+            f"theta = {theta[i]:.4g} rad at t = {traj.t[i]:.4g} s is outside the model's range "
+            f"[{preset.theta_min}, {preset.theta_max}] rad",
+        )
+    depth = indentation(theta)
+    if depth.max() > max_indentation:
+        i = int(np.argmax(depth))
+        raise OracleInputError(
+            "q_0",
+            f"at t = {traj.t[i]:.4g} s the head would indent the cushion by {depth[i] * 1e3:.1f} mm, "
+            f"beyond the model's reach ({max_indentation * 1e3:.1f} mm = max_indentation_fraction x "
+            "cushion_thickness)",
+        )
+    return traj, depth

@@ -20,13 +20,19 @@ import numpy as np
 
 from alcove.science.arrays import FloatArray
 from alcove.science.geometry import DEFAULT_PRESET, HeadNeckPreset, head_pose_in_headrest, relative_kinematics
-from alcove.science.oracles.base import CancelCheck, OracleCancelled, OracleInputError, OracleResult
+from alcove.science.oracles.base import (
+    CancelCheck,
+    OracleCancelled,
+    OracleInputError,
+    OracleResult,
+    validated_head_trajectory,
+)
 from alcove.science.oracles.fe_headrest.contact import PenaltyContact, RigidEllipse
 from alcove.science.oracles.fe_headrest.foam import Hyperfoam
 from alcove.science.oracles.fe_headrest.mesh import CushionMesh, build_cushion_mesh
 from alcove.science.oracles.fe_headrest.params import FEHeadrestParams
 from alcove.science.oracles.fe_headrest.solver import CushionSolver, single_threaded_blas
-from alcove.science.series import ForceSeries, SeriesFormatError, Trajectory
+from alcove.science.series import ForceSeries, Trajectory
 
 
 @dataclass(frozen=True)
@@ -84,45 +90,14 @@ class FEHeadrestOracle:
 
     # ---- input -------------------------------------------------------------------------
     def _validated(self, trajectory: Any) -> Trajectory:
-        try:
-            traj = (
-                trajectory
-                if isinstance(trajectory, Trajectory)
-                else Trajectory(trajectory.t, trajectory.q, trajectory.qd)
-            )
-            traj = Trajectory(traj.t, traj.q, traj.qd)  # re-validate (time, NaN, shapes)
-        except SeriesFormatError as exc:
-            raise OracleInputError(exc.field, exc.reason) from None
-        except AttributeError:
-            raise OracleInputError("trajectory", "expected a Trajectory with t, q and qd") from None
-        if traj.ndof != 1:
-            raise OracleInputError(
-                "q", f"the head-neck preset has 1 degree of freedom (q_0 = theta), got {traj.ndof} columns"
-            )
-        span = traj.t[-1] - traj.t[0]
-        if span < self.params.output_dt * (1 - 1e-9):
-            raise OracleInputError(
-                "t", f"time span {span:g} s is shorter than one output interval ({self.params.output_dt:g} s)"
-            )
-        theta = traj.q[:, 0]
-        pr = self.preset
-        bad = np.flatnonzero((theta < pr.theta_min - 1e-12) | (theta > pr.theta_max + 1e-12))
-        if bad.size:
-            i = int(bad[0])
-            raise OracleInputError(
-                "q_0",
-                f"theta = {theta[i]:.4g} rad at t = {traj.t[i]:.4g} s is outside the model's range "
-                f"[{pr.theta_min}, {pr.theta_max}] rad",
-            )
-        depth = profile_indentation(pr, theta)
-        limit = self.params.max_indentation_fraction * self.params.cushion_thickness
-        if depth.max() > limit:
-            i = int(np.argmax(depth))
-            raise OracleInputError(
-                "q_0",
-                f"at t = {traj.t[i]:.4g} s the head would indent the cushion by {depth[i] * 1e3:.1f} mm, "
-                f"beyond the model's reach ({limit * 1e3:.1f} mm = max_indentation_fraction x cushion_thickness)",
-            )
+        p = self.params
+        traj, depth = validated_head_trajectory(
+            trajectory,
+            self.preset,
+            p.output_dt,
+            lambda theta: profile_indentation(self.preset, theta),
+            p.max_indentation_fraction * p.cushion_thickness,
+        )
         self._check_contact_within_cushion(traj, depth)
         return traj
 

@@ -22,7 +22,12 @@ import numpy as np
 
 from alcove.science.arrays import FloatArray
 from alcove.science.geometry import DEFAULT_PRESET, HeadNeckPreset, head_pose_in_headrest
-from alcove.science.oracles.base import SUMMARY_DIAGNOSTICS, CancelCheck, OracleInputError, OracleResult
+from alcove.science.oracles.base import (
+    SUMMARY_DIAGNOSTICS,
+    CancelCheck,
+    OracleResult,
+    validated_head_trajectory,
+)
 from alcove.science.oracles.command.oracle import CommandOracle
 from alcove.science.oracles.command.spec import CommandOracleParams, CommandOracleSpec
 from alcove.science.oracles.fe_headrest_3d.deck import (
@@ -39,7 +44,7 @@ from alcove.science.oracles.fe_headrest_3d.deck import (
 )
 from alcove.science.oracles.fe_headrest_3d.mesh import HexMesh, block_axes, ellipsoid_cap, foam_block
 from alcove.science.oracles.fe_headrest_3d.params import CcxHeadrestParams
-from alcove.science.series import SeriesFormatError, Trajectory
+from alcove.science.series import Trajectory
 
 TYPE_NAME = "fe-headrest-3d-ccx"
 CCX_PROGRAM = "ccx"
@@ -117,41 +122,15 @@ class CcxHeadrestOracle:
 
     # ---- input -------------------------------------------------------------------------
     def _validated(self, trajectory: Any) -> Trajectory:
-        try:
-            traj = Trajectory(trajectory.t, trajectory.q, trajectory.qd)
-        except SeriesFormatError as exc:
-            raise OracleInputError(exc.field, exc.reason) from None
-        except AttributeError:
-            raise OracleInputError("trajectory", "expected a Trajectory with t, q and qd") from None
-        if traj.ndof != 1:
-            raise OracleInputError(
-                "q", f"the head-neck preset has 1 degree of freedom (q_0 = theta), got {traj.ndof} columns"
-            )
-        span = traj.t[-1] - traj.t[0]
-        if span < self.params.output_dt * (1 - 1e-9):
-            raise OracleInputError(
-                "t", f"time span {span:g} s is shorter than one output interval ({self.params.output_dt:g} s)"
-            )
-        theta = traj.q[:, 0]
-        pr = self.preset
-        bad = np.flatnonzero((theta < pr.theta_min - 1e-12) | (theta > pr.theta_max + 1e-12))
-        if bad.size:
-            i = int(bad[0])
-            raise OracleInputError(
-                "q_0",
-                f"theta = {theta[i]:.4g} rad at t = {traj.t[i]:.4g} s is outside the model's range "
-                f"[{pr.theta_min}, {pr.theta_max}] rad",
-            )
-        r, a = head_pose_in_headrest(pr, theta)
-        depth = -signed_gap(pr, r, a, self.semi_axes_xz)
-        limit = self.params.max_indentation_fraction * self.params.cushion_thickness
-        if depth.max() > limit:
-            i = int(np.argmax(depth))
-            raise OracleInputError(
-                "q_0",
-                f"at t = {traj.t[i]:.4g} s the head would indent the cushion by {depth[i] * 1e3:.1f} mm, "
-                f"beyond the model's reach ({limit * 1e3:.1f} mm = max_indentation_fraction x cushion_thickness)",
-            )
+        p = self.params
+
+        def indentation(theta: FloatArray) -> FloatArray:
+            r, a = head_pose_in_headrest(self.preset, theta)
+            return -signed_gap(self.preset, r, a, self.semi_axes_xz)
+
+        traj, _ = validated_head_trajectory(
+            trajectory, self.preset, p.output_dt, indentation, p.max_indentation_fraction * p.cushion_thickness
+        )
         return traj
 
     # ---- the job -----------------------------------------------------------------------
