@@ -24,7 +24,7 @@ API = "/api/v1"
 
 
 @pytest.fixture
-def live(tmp_path: Path, pg_url: str, redis_url: str, api_settings: None, monkeypatch: pytest.MonkeyPatch):
+def live(tmp_path: Path, fresh_pg_url: str, redis_url: str, api_settings: None, monkeypatch: pytest.MonkeyPatch):
     """The API (in this process) and a worker process sharing PostgreSQL and Redis."""
     from alcove.app import create_app
     from alcove.jobs import reset_sender
@@ -33,7 +33,7 @@ def live(tmp_path: Path, pg_url: str, redis_url: str, api_settings: None, monkey
 
     prefix = unique("alcove-api") + ":"
     settings = {
-        "database_url": pg_url,
+        "database_url": fresh_pg_url,  # workers take up every unfinished job in their database
         "broker_url": redis_url,
         "broker_key_prefix": prefix,
         "data_dir": str(tmp_path / "data"),
@@ -68,7 +68,12 @@ def test_full_campaign_lifecycle_over_http(live) -> None:
         client.post(f"{API}/oracles", json={"name": "aux", "type": "aux-penalty", "params": {}}, headers=h), 201
     )
     surrogate = ok(
-        client.post(f"{API}/surrogate-configs", json={"name": "quick", "spec": {"max_epochs": 60}}, headers=h), 201
+        client.post(
+            f"{API}/surrogate-configs",
+            json={"name": "quick", "spec": {"max_epochs": 60, "ensemble_size": 2}},
+            headers=h,
+        ),
+        201,
     )
     body = {
         "name": "lifecycle",
@@ -77,7 +82,7 @@ def test_full_campaign_lifecycle_over_http(live) -> None:
         "surrogate_config_id": surrogate["id"],
         "seed": 3,
         "preliminary": {"samples": 400, "chunks": 4},
-        "settings": {"ocp_intervals": 20, "replay_dt": 0.01},
+        "settings": {"ocp_intervals": 20, "replay_dt": 0.01, "validation_motions": 2},
         "stopping": {"max_iterations": 2},
         "start": True,
     }

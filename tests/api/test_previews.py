@@ -205,7 +205,7 @@ def test_a_preview_no_worker_takes_fails_with_the_reason_and_frees_its_slot(clie
 
 
 @pytest.fixture
-def live(tmp_path: Path, pg_url: str, redis_url: str, api_settings: None, monkeypatch: pytest.MonkeyPatch):
+def live(tmp_path: Path, fresh_pg_url: str, redis_url: str, api_settings: None, monkeypatch: pytest.MonkeyPatch):
     from fastapi.testclient import TestClient
 
     from alcove.app import create_app
@@ -215,7 +215,7 @@ def live(tmp_path: Path, pg_url: str, redis_url: str, api_settings: None, monkey
     from tests.integration.procs import unique as unique_name
 
     settings = {
-        "database_url": pg_url,
+        "database_url": fresh_pg_url,  # workers take up every unfinished job in their database
         "broker_url": redis_url,
         "broker_key_prefix": unique_name("alcove-pv") + ":",
         "data_dir": str(tmp_path / "data"),
@@ -279,7 +279,7 @@ def test_previews_run_on_a_worker(live) -> None:
 @pytest.mark.slow
 @pytest.mark.skipif(shutil.which("redis-server") is None, reason="needs the redis-server program")
 def test_a_preview_asked_for_while_redis_is_down_runs_when_it_is_back(
-    tmp_path: Path, pg_url: str, api_settings: None, monkeypatch: pytest.MonkeyPatch
+    tmp_path: Path, fresh_pg_url: str, api_settings: None, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     """Redis down: the preview answers 202 and says it waits for the job queue (not a wrong
     reason, and it does not go stale); Redis back: the API's outbox relay sends it and a
@@ -297,7 +297,7 @@ def test_a_preview_asked_for_while_redis_is_down_runs_when_it_is_back(
 
     redis_server = PrivateRedis(tmp_path)  # not started: the broker is down
     settings = {
-        "database_url": pg_url,
+        "database_url": fresh_pg_url,
         "broker_url": redis_server.url,
         "data_dir": str(tmp_path / "data"),
         "outbox_relay_seconds": "0.5",
@@ -322,13 +322,15 @@ def test_a_preview_asked_for_while_redis_is_down_runs_when_it_is_back(
             listed = {x["id"]: x for x in client.get(f"{API}/previews", headers=me.headers).json()}
             assert listed[pid]["status_detail"].startswith("waiting for the job queue")
             time.sleep(1.5)  # several relay passes meet the broker down: the job keeps waiting
-            assert db_rows(pg_url, "SELECT sent_at FROM job_outbox WHERE subject = :s", s=f"preview/{pid}") == [(None,)]
+            assert db_rows(fresh_pg_url, "SELECT sent_at FROM job_outbox WHERE subject = :s", s=f"preview/{pid}") == [
+                (None,)
+            ]
 
             redis_server.start()
             back = datetime.now(UTC)
             sent = wait_until(
                 lambda: db_rows(
-                    pg_url,
+                    fresh_pg_url,
                     "SELECT sent_at FROM job_outbox WHERE subject = :s AND sent_at IS NOT NULL",
                     s=f"preview/{pid}",
                 ),
@@ -359,9 +361,9 @@ def test_a_preview_asked_for_while_redis_is_down_runs_when_it_is_back(
                     worker,
                 )
             assert done["status"] == "succeeded" and done["result"]["converged"], done
-            assert db_rows(pg_url, "SELECT attempts FROM previews WHERE id = :p", p=pid) == [(1,)]
+            assert db_rows(fresh_pg_url, "SELECT attempts FROM previews WHERE id = :p", p=pid) == [(1,)]
             assert db_rows(
-                pg_url,
+                fresh_pg_url,
                 "SELECT send_count, delivered_at IS NOT NULL FROM job_outbox WHERE subject = :s",
                 s=f"preview/{pid}",
             ) == [(1, True)]

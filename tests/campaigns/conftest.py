@@ -9,13 +9,15 @@ from typing import Any
 
 import pytest
 
-#: a campaign small enough for tests: few LHS samples, coarse OCP grid, short training
+#: a campaign small enough for tests: few LHS samples, coarse OCP grid, short training, two
+#: held-out validation motions (the suite's own tests ask for more), an ensemble of two (the
+#: smallest with a standard deviation; the default of 5 is tested in the surrogate tests)
 QUICK: dict[str, Any] = {
     "preliminary": {"samples": 400, "chunks": 4},
-    "settings": {"ocp_intervals": 20, "replay_dt": 0.01},
+    "settings": {"ocp_intervals": 20, "replay_dt": 0.01, "validation_motions": 2},
     "stopping": {"max_iterations": 2},
 }
-QUICK_SURROGATE = {"max_epochs": 60}
+QUICK_SURROGATE = {"max_epochs": 60, "ensemble_size": 2}
 
 
 def _use(monkeypatch: pytest.MonkeyPatch, tmp_path: Any, url: str, lease: int) -> None:

@@ -29,6 +29,13 @@ from tests.integration.procs import wait_until as wait_for
 
 pytestmark = [pytest.mark.integration, pytest.mark.slow]
 
+
+@pytest.fixture
+def pg_url(fresh_pg_url: str) -> str:
+    """This module's tests start worker processes: each gets a schema of its own (see fresh_pg_url)."""
+    return fresh_pg_url
+
+
 STEP_ROW = (
     "SELECT s.status, s.attempts, s.worker_name, s.started_at FROM iteration_steps s "
     "JOIN iterations i ON i.id = s.iteration_id WHERE s.campaign_id = :c AND i.index = :k AND s.step = :st"

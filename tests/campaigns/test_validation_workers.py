@@ -17,6 +17,13 @@ from tests.integration.procs import wait_until as wait_for
 
 pytestmark = [pytest.mark.integration, pytest.mark.slow]
 
+
+@pytest.fixture
+def pg_url(fresh_pg_url: str) -> str:
+    """This module's tests start worker processes: each gets a schema of its own (see fresh_pg_url)."""
+    return fresh_pg_url
+
+
 SETTINGS = {"ocp_intervals": 20, "replay_dt": 0.01, "validation_motions": 4, "validation_seed": 5}
 
 

@@ -16,8 +16,8 @@ from typer.testing import CliRunner
 runner = CliRunner()
 QUICK_YAML = """
 preliminary: {samples: 300, chunks: 3}
-settings: {ocp_intervals: 20, replay_dt: 0.01}
-surrogate: {max_epochs: 30}
+settings: {ocp_intervals: 20, replay_dt: 0.01, validation_motions: 2}
+surrogate: {max_epochs: 30, ensemble_size: 2}
 """
 
 
