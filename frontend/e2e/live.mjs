@@ -90,8 +90,19 @@ try {
   for (const ph of spec.phases) ph.intervals = 10;
   const task = await api("POST", "/tasks", { name: `live task ${stamp}`, description: "", spec });
   const oracle = await api("POST", "/oracles", { name: `live oracle ${stamp}`, description: "", type: "aux-penalty", params: {} });
+  // short campaigns: an ensemble of 2 with short training and no held-out suite (run.mjs covers the suite)
+  const surrogate = await api("POST", "/surrogate-configs", { name: `live surrogate ${stamp}`, spec: { max_epochs: 60, ensemble_size: 2 } });
   const newCampaign = (name, iterations, start = true) =>
-    api("POST", "/campaigns", { name, task_id: task.id, oracle_id: oracle.id, start, preliminary: { samples: 300 }, stopping: { max_iterations: iterations } });
+    api("POST", "/campaigns", {
+      name,
+      task_id: task.id,
+      oracle_id: oracle.id,
+      surrogate_config_id: surrogate.id,
+      start,
+      preliminary: { samples: 300 },
+      settings: { validation_motions: 0 },
+      stopping: { max_iterations: iterations },
+    });
 
   step("campaign list: a campaign created and started through the API appears, and its status follows, without reload");
   if (!args["skip-list"]) {
