@@ -9,25 +9,19 @@ from typing import Annotated, Literal
 
 from pydantic import Field, model_validator
 
-from alcove.science.oracles.foam_law import FoamLawParams
+from alcove.science.oracles.cushion import CushionParams
 from alcove.science.validation import WholeNumber, quantity
 
-CushionHeight = Annotated[float, quantity("height along z_H", "m", ge=-0.3, le=0.4, why="within the cushion")]
 MomentPointCoordinate = Annotated[float, quantity("coordinate", "m", ge=-1, le=1, why="within a metre of the head")]
 
 
-class FEHeadrestParams(FoamLawParams):
-    """Plane-strain headrest cushion model: geometry, mesh, foam, contact, stepping, quality gate."""
+class FEHeadrestParams(CushionParams):
+    """Plane-strain headrest cushion model: geometry, mesh, foam, contact, stepping, quality gate.
 
-    # ---- cushion geometry (headrest frame H: front face x = 0, cushion at x < 0) -------------
-    cushion_thickness: Annotated[
-        float, quantity("foam thickness along -x_H, front face to the tied back face", "m", ge=0.02, le=0.15)
-    ] = 0.04
-    cushion_height: Annotated[float, quantity("cushion extent along z_H", "m", ge=0.08, le=0.40)] = 0.22
-    cushion_bottom: Annotated[
-        float,
-        quantity("z_H of the cushion's bottom face", "m", ge=-0.30, le=0.0, why="the first-contact point is z_H = 0"),
-    ] = -0.10
+    The cushion's extent, contact zone, foam law, penalty and friction are the shared
+    :class:`~alcove.science.oracles.cushion.CushionParams`."""
+
+    # ---- plane strain: out-of-plane extent ----------------------------------------------------
     out_of_plane_width: Annotated[
         float, quantity("out-of-plane width that turns N/m into N (one slice)", "m", ge=0.02, le=0.40)
     ] = 0.13
@@ -64,11 +58,6 @@ class FEHeadrestParams(FoamLawParams):
             why="at least element_size_contact",
         ),
     ] = 0.015
-    contact_zone: tuple[CushionHeight, CushionHeight] = Field(
-        (-0.06, 0.07),
-        description="z_H range (low, high) meshed with element_size_contact [m], increasing and inside the "
-        "cushion's z extent (cushion_bottom to cushion_bottom + cushion_height)",
-    )
 
     # ---- foam: Ogden-Storakers hyperfoam terms + Kelvin-Voigt viscosity -----------------------
     # foam_mu, foam_alpha, foam_beta: the shared foam law (alcove.science.oracles.foam_law)
@@ -77,8 +66,7 @@ class FEHeadrestParams(FoamLawParams):
     ] = 300.0
 
     # ---- contact --------------------------------------------------------------------------
-    penalty: Annotated[float, quantity("normal penalty stiffness per unit contact area", "Pa/m", ge=1e6, le=1e12)] = 5e8
-    friction: Annotated[float, quantity("Coulomb friction coefficient head/cushion cover", "-", ge=0.0, le=1.5)] = 0.4
+    # penalty, friction: the shared cushion (alcove.science.oracles.cushion)
     friction_regularization_velocity: Annotated[
         float,
         quantity("slip velocity below which friction is regularized (viscous-like)", "m/s", gt=0.0, le=1.0),
@@ -146,16 +134,4 @@ class FEHeadrestParams(FoamLawParams):
                 "element_size_contact: must be at most cushion_thickness / 4 "
                 f"({0.25 * self.cushion_thickness:g} m: at least 4 elements through the foam)"
             )
-        lo, hi = self.contact_zone
-        top = self.cushion_bottom + self.cushion_height
-        if top <= 0.0:
-            raise ValueError(
-                f"cushion_height: the cushion must extend above the first-contact point z_H = 0 (its top is {top:g} m)"
-            )
-        if not lo < hi:
-            raise ValueError(f"contact_zone.1: must exceed the low end {lo:g} m")
-        if not self.cushion_bottom <= lo:
-            raise ValueError(f"contact_zone.0: lies below the cushion's bottom face {self.cushion_bottom:g} m")
-        if not hi <= top:
-            raise ValueError(f"contact_zone.1: lies above the cushion's top face {top:g} m")
         return self

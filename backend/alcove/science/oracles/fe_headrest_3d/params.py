@@ -1,8 +1,8 @@
 """Validated parameters of the ``fe-headrest-3d-ccx`` oracle (SI units throughout).
 
-The foam law is the one of ``fe-headrest-2d`` (:class:`~alcove.science.oracles.foam_law.FoamLawParams`);
-the cushion's in-plane geometry and the contact defaults are the same too, so that the two
-models differ only in what a 3D model adds (docs/fe-oracle.md, "The 3D model").
+The cushion (its extent, contact zone, foam law, penalty and friction) is the one of
+``fe-headrest-2d``: both inherit :class:`~alcove.science.oracles.cushion.CushionParams`, so that
+the two models differ only in what a 3D model adds (docs/fe-oracle.md, "The 3D model").
 """
 
 from __future__ import annotations
@@ -11,25 +11,17 @@ from typing import Annotated, Literal
 
 from pydantic import Field, model_validator
 
-from alcove.science.oracles.foam_law import FoamLawParams
+from alcove.science.oracles.cushion import CushionParams
 from alcove.science.validation import WholeNumber, quantity
 
-CushionHeight = Annotated[float, quantity("height along z_H", "m", ge=-0.3, le=0.4, why="within the cushion")]
 SemiAxis = Annotated[float, quantity("semi-axis", "m", ge=0.03, le=0.2)]
 
 
-class CcxHeadrestParams(FoamLawParams):
+class CcxHeadrestParams(CushionParams):
     """3D headrest cushion in CalculiX: geometry, mesh, contact, step control, run limits."""
 
-    # ---- cushion block (headrest frame H: front face x = 0, block at x < 0) ----------------
-    cushion_thickness: Annotated[
-        float, quantity("foam thickness along -x_H, front face to the fixed back face", "m", ge=0.02, le=0.15)
-    ] = 0.04
-    cushion_height: Annotated[float, quantity("cushion extent along z_H", "m", ge=0.08, le=0.40)] = 0.22
-    cushion_bottom: Annotated[
-        float,
-        quantity("z_H of the cushion's bottom face", "m", ge=-0.30, le=0.0, why="the first-contact point is z_H = 0"),
-    ] = -0.10
+    # ---- cushion block: thickness, height, bottom and contact zone are the shared cushion's;
+    # the block adds its width along y_H ---------------------------------------------------
     cushion_width: Annotated[
         float, quantity("cushion extent along y_H (centred on the head)", "m", ge=0.08, le=0.50)
     ] = 0.26
@@ -67,20 +59,12 @@ class CcxHeadrestParams(FoamLawParams):
     contact_half_width: Annotated[
         float, quantity("half width along y_H meshed with element_size_contact", "m", ge=0.01, le=0.25)
     ] = 0.06
-    contact_zone: tuple[CushionHeight, CushionHeight] = Field(
-        (-0.06, 0.07),
-        description="z_H range (low, high) meshed with element_size_contact [m], increasing and inside the "
-        "cushion's z extent",
-    )
     head_element_size: Annotated[
         float, quantity("element size of the head's contact surface", "m", ge=0.002, le=0.03)
     ] = 0.008
 
     # ---- contact -------------------------------------------------------------------------------
-    penalty: Annotated[
-        float, quantity("normal penalty stiffness (pressure per overclosure)", "Pa/m", ge=1e6, le=1e12)
-    ] = 5e8
-    friction: Annotated[float, quantity("Coulomb friction coefficient head/cushion cover", "-", ge=0.0, le=1.5)] = 0.4
+    # penalty, friction: the shared cushion's
     contact_formulation: Literal["node-to-surface", "surface-to-surface"] = Field(
         "node-to-surface",
         description="ccx's penalty contact: node-to-surface (default: converges through the first touch and "
@@ -145,18 +129,6 @@ class CcxHeadrestParams(FoamLawParams):
             )
         if self.contact_half_width > 0.5 * self.cushion_width:
             raise ValueError(f"contact_half_width: exceeds half the cushion width ({0.5 * self.cushion_width:g} m)")
-        lo, hi = self.contact_zone
-        top = self.cushion_bottom + self.cushion_height
-        if top <= 0.0:
-            raise ValueError(
-                f"cushion_height: the cushion must extend above the first-contact point z_H = 0 (its top is {top:g} m)"
-            )
-        if not lo < hi:
-            raise ValueError(f"contact_zone.1: must exceed the low end {lo:g} m")
-        if not self.cushion_bottom <= lo:
-            raise ValueError(f"contact_zone.0: lies below the cushion's bottom face {self.cushion_bottom:g} m")
-        if not hi <= top:
-            raise ValueError(f"contact_zone.1: lies above the cushion's top face {top:g} m")
         return self
 
 
