@@ -1,10 +1,13 @@
 """The job outbox: nothing is lost while the broker is down.
 
-Every job the application sends (a campaign step, an editor preview) is first a row of
-``job_outbox``, written by :func:`record` in the transaction that makes the job needed.
-After that transaction commits, the caller sends its rows at once (:func:`send_now`: the
-fast path); a :class:`RelayThread` (one in every API process and one in every worker's main
-process) sends whatever is left:
+Every job the application sends (a campaign step, an editor preview, a validation motion's
+replay or a validation-suite evaluation) is first a row of ``job_outbox``, written by
+:func:`record` in the transaction that makes the job needed. After that transaction commits,
+its rows are sent at once (:func:`send_now`: the fast path; campaign steps through
+:func:`alcove.jobs.campaign.stage` and ``send_committed``, jobs written inside another
+domain's transaction through :func:`alcove.jobs.after_commit.send_after_commit`); a
+:class:`RelayThread` (one in every API process and one in every worker's main process) sends
+whatever is left:
 
 * rows never sent (the broker was unreachable, or the process died between its commit and
   the send): sent as soon as the broker answers again;
