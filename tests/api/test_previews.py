@@ -201,6 +201,51 @@ def test_a_preview_no_worker_takes_fails_with_the_reason_and_frees_its_slot(clie
     assert client.post(f"{API}/tasks/{task_id}/previews", headers=me.headers).status_code == 202
 
 
+def test_a_running_preview_whose_worker_died_fails_within_seconds_and_a_slow_one_is_left_alone(client) -> None:
+    """Its worker's heartbeat is older than ALCOVE_WORKER_DEAD_SECONDS (or the worker shut
+    down): failed with the worker's name and the reason when read, not after STALE_AFTER; a
+    preview whose worker still beats keeps running however long it takes."""
+    from datetime import timedelta
+
+    import sqlalchemy as sa
+
+    from alcove.db import transaction
+    from alcove.jobs.heartbeat import beat, mark_stopped
+    from alcove.models import Preview, WorkerHeartbeat, utcnow
+    from alcove.settings import get_settings
+    from tests.integration.procs import unique
+
+    me = make_account("member", "pv-dead")
+    task_id, _ = _task_and_oracle(client, me)
+    ids = [client.post(f"{API}/tasks/{task_id}/previews", headers=me.headers).json()["id"] for _ in range(3)]
+    names = [unique("pv-w") + "@host" for _ in ids]
+    for n in names:
+        beat(n, starting=True)
+    long_ago = utcnow() - timedelta(minutes=3)  # much less than STALE_AFTER
+    for pid, n in zip(ids, names, strict=True):
+        transaction(
+            lambda s, pid=pid, n=n: s.execute(
+                sa.update(Preview)
+                .where(Preview.id == pid)
+                .values(status="running", started_at=long_ago, worker_name=n, attempts=1)
+            )
+        )
+    silent = utcnow() - timedelta(seconds=get_settings().worker_dead_seconds + 5)
+    transaction(
+        lambda s: s.execute(
+            sa.update(WorkerHeartbeat).where(WorkerHeartbeat.name == names[0]).values(last_seen_at=silent)
+        )
+    )
+    mark_stopped(names[1])
+
+    got = {x["id"]: x for x in client.get(f"{API}/previews", headers=me.headers).json()}
+    assert got[ids[0]]["status"] == "failed", got[ids[0]]
+    assert f"the worker running it ({names[0]}) stopped beating" in got[ids[0]]["error"]
+    assert got[ids[1]]["status"] == "failed" and f"({names[1]}) shut down" in got[ids[1]]["error"]
+    assert got[ids[2]]["status"] == "running"  # its worker beats: a slow preview is not a dead one
+    assert client.get(f"{API}/previews/{ids[0]}", headers=me.headers).json()["status"] == "failed"  # stored
+
+
 # ----------------------------------------------------------------------------- through a worker process
 
 

@@ -27,8 +27,10 @@ from alcove.models import (
     PreviewStatus,
     TaskDefinition,
     User,
+    WorkerHeartbeat,
     utcnow,
 )
+from alcove.settings import get_settings
 from alcove.users.access import get_for
 from alcove.versioning import ORACLES, TASKS, D, Kind, V
 
@@ -231,6 +233,24 @@ def list_for(session: Session, user: User, limit: int) -> list[Preview]:
     return rows
 
 
+def _dead_worker(session: Session, name: str | None) -> str | None:
+    """Why the worker ``name`` is dead (it shut down, or its heartbeat is older than
+    ``ALCOVE_WORKER_DEAD_SECONDS``), or None while it beats or has no heartbeat row (a worker
+    that never beat: only :data:`STALE_AFTER` applies). A slow worker keeps beating from its
+    main process however long a preview computes, so its preview is never failed here."""
+    if not name:
+        return None
+    hb = session.scalar(sa.select(WorkerHeartbeat).where(WorkerHeartbeat.name == name))
+    if hb is None:
+        return None
+    if hb.stopped_at is not None:
+        return "shut down before finishing it"
+    dead_s = get_settings().worker_dead_seconds
+    if _aware(hb.last_seen_at) < utcnow() - timedelta(seconds=dead_s):
+        return f"stopped beating (no heartbeat for more than {dead_s:g} s)"
+    return None
+
+
 def _fail_if_stale(session: Session, row: Preview) -> None:
     """A preview no worker took (or whose worker died) within :data:`STALE_AFTER` is marked
     failed when it is read, with the reason, instead of staying "pending" for ever. The
@@ -240,14 +260,20 @@ def _fail_if_stale(session: Session, row: Preview) -> None:
     if row.status not in active:
         return
     running = row.status == PreviewStatus.running.value
-    # a pending preview counts from when its job reached the broker: while it waits for the
-    # job queue (broker down) it is not stale, it is sent when the broker is back
-    since = row.started_at if running else outbox.sent_at(session, subject(row.id))
-    if since is None or _aware(since) > utcnow() - STALE_AFTER:
-        return
-    minutes = int(STALE_AFTER.total_seconds() // 60)
-    what = "no worker finished it" if running else "no worker took it from the job queue"
-    error = f"{what} within {minutes} minutes: is a worker listening on queue '{_queue(row)}'? Ask for a new preview."
+    dead = _dead_worker(session, row.worker_name) if running else None
+    if dead is not None:
+        error = f"the worker running it ({row.worker_name}) {dead}. Ask for a new preview."
+    else:
+        # a pending preview counts from when its job reached the broker: while it waits for
+        # the job queue (broker down) it is not stale, it is sent when the broker is back
+        since = row.started_at if running else outbox.sent_at(session, subject(row.id))
+        if since is None or _aware(since) > utcnow() - STALE_AFTER:
+            return
+        minutes = int(STALE_AFTER.total_seconds() // 60)
+        what = "no worker finished it" if running else "no worker took it from the job queue"
+        error = (
+            f"{what} within {minutes} minutes: is a worker listening on queue '{_queue(row)}'? Ask for a new preview."
+        )
     from alcove.db import transaction
 
     now = utcnow()
