@@ -59,6 +59,26 @@ def _pg_missing() -> str | None:
     return None
 
 
+class PgSchema:
+    """A fresh schema on the bench's PostgreSQL; ``url`` points at it through search_path,
+    ``drop()`` removes it with everything in it."""
+
+    def __init__(self, prefix: str) -> None:
+        import sqlalchemy as sa
+
+        self.name = f"{prefix}_{uuid.uuid4().hex[:8]}"
+        sep = "&" if "?" in PG_URL else "?"
+        self.url = f"{PG_URL}{sep}options={quote(f'-csearch_path={self.name}')}"
+        self._base = sa.create_engine(PG_URL, poolclass=sa.pool.NullPool)
+        with self._base.begin() as c:
+            c.exec_driver_sql(f'CREATE SCHEMA "{self.name}"')
+
+    def drop(self) -> None:
+        with self._base.begin() as c:
+            c.exec_driver_sql(f'DROP SCHEMA IF EXISTS "{self.name}" CASCADE')
+        self._base.dispose()
+
+
 @functools.cache
 def server() -> dict[str, Any]:
     """Migrated schema + synthetic campaign + uvicorn on a free port (kept for all figures)."""
@@ -66,14 +86,9 @@ def server() -> dict[str, Any]:
     import socket
 
     import httpx
-    import sqlalchemy as sa
 
-    schema = f"alcove_bench_api_{uuid.uuid4().hex[:8]}"
-    sep = "&" if "?" in PG_URL else "?"
-    url = f"{PG_URL}{sep}options={quote(f'-csearch_path={schema}')}"
-    base = sa.create_engine(PG_URL, poolclass=sa.pool.NullPool)
-    with base.begin() as c:
-        c.exec_driver_sql(f'CREATE SCHEMA "{schema}"')
+    schema = PgSchema("alcove_bench_api")
+    url = schema.url
     os.environ["ALCOVE_DATABASE_URL"] = url
     from alcove.db import migrate, session_scope
     from alcove.models import ApiToken, TokenKind, User
@@ -129,9 +144,7 @@ def server() -> dict[str, Any]:
         except subprocess.TimeoutExpired:
             proc.kill()
             proc.wait(timeout=5)
-        with base.begin() as c:
-            c.exec_driver_sql(f'DROP SCHEMA IF EXISTS "{schema}" CASCADE')
-        base.dispose()
+        schema.drop()
 
     atexit.register(stop)
     root = f"http://127.0.0.1:{port}/api/v1"

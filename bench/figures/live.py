@@ -36,12 +36,11 @@ import sys
 import tempfile
 import threading
 import time
-import uuid
 from pathlib import Path
 from typing import Any
-from urllib.parse import quote, urlsplit
+from urllib.parse import urlsplit
 
-from bench.figures.api import PG_URL, _pg_missing
+from bench.figures.api import PgSchema, _pg_missing
 from bench.harness import figure, quick
 from bench.loadgen import process_group_cpu_s, wrk
 
@@ -177,18 +176,13 @@ class Viewers(threading.Thread):
 def watched_campaign() -> dict[str, Any]:
     """Runs the three phases once; the figures read their values from the result."""
     import httpx
-    import sqlalchemy as sa
 
     from alcove.db import migrate
     from alcove.settings import get_settings
     from alcove_worker.cli.serve import default_api_workers
 
-    schema = f"alcove_bench_live_{uuid.uuid4().hex[:8]}"
-    sep = "&" if "?" in PG_URL else "?"
-    url = f"{PG_URL}{sep}options={quote(f'-csearch_path={schema}')}"
-    base = sa.create_engine(PG_URL, poolclass=sa.pool.NullPool)
-    with base.begin() as c:
-        c.exec_driver_sql(f'CREATE SCHEMA "{schema}"')
+    schema = PgSchema("alcove_bench_live")
+    url = schema.url
     tmp = Path(tempfile.mkdtemp(prefix="alcove-bench-live-"))
     env = {k: v for k, v in os.environ.items() if not k.startswith("ALCOVE_")}
     env.update(ALCOVE_DATABASE_URL=url, ALCOVE_DATA_DIR=str(tmp / "data"), ALCOVE_LOG_LEVEL="WARNING")
@@ -301,9 +295,7 @@ def watched_campaign() -> dict[str, Any]:
     finally:
         _stop(worker)
         _stop(api)
-        with base.begin() as c:
-            c.exec_driver_sql(f'DROP SCHEMA IF EXISTS "{schema}" CASCADE')
-        base.dispose()
+        schema.drop()
         for k, v in saved.items():
             if v is None:
                 os.environ.pop(k, None)
