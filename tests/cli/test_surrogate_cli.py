@@ -371,3 +371,31 @@ def test_a_pool_built_by_hand_from_the_real_ocp_and_oracle_commands(tmp_path, qu
     alcove("surrogate", "predict", "--model", "model", "--trajectory", "iter2.traj.csv", "--out", "iter2.pred.csv")
     pred = ForceSeries.from_csv(tmp_path / "iter2.pred.csv")
     assert len(pred.t) == len(Trajectory.from_csv(tmp_path / "iter2.traj.csv").t) and np.all(np.isfinite(pred.force))
+
+
+def test_compare_trains_both_architectures_and_scores_them_on_the_suite(tmp_path, monkeypatch):
+    """`alcove surrogate compare`: the suite replayed here (aux-penalty, 2 motions) and saved, then read
+    back with --suite; the table has both columns, the gated model predicts no force with the gap open."""
+    monkeypatch.chdir(tmp_path)
+    invoke("surrogate", "preliminary", "--out", "pool", "--samples", "300", "--chunks", "3")
+    Path("cfg.json").write_text(json.dumps({"max_epochs": 5, "batch_size": 128, "ensemble_size": 1}))
+    result = invoke(
+        "surrogate", "compare", "--pool", "pool", "--oracle", "aux-penalty", "--motions", "2",
+        "--config", "cfg.json", "--suite-out", "suite",
+    )  # fmt: skip
+    assert result.exit_code == 0, result.output
+    assert "ghost |F| max, gap open [N]" in result.output and "gated" in result.output
+    assert len(list(Path("suite").glob("*.forces.csv"))) == 2
+    result = invoke(
+        "surrogate", "compare", "--pool", "pool", "--suite", "suite", "--config", "cfg.json", "--json",
+        "--models-out", "models",
+    )  # fmt: skip
+    assert result.exit_code == 0, result.output
+    out = json.loads(result.output)
+    paper, gated = out["scores"]
+    assert (paper["architecture"], gated["architecture"], out["suite_motions"]) == ("paper", "gated", 2)
+    assert gated["ghost_force_max"] == 0.0 and gated["grid_ghost_force_max"] == 0.0
+    assert paper["oracle_force_open_max"] == 0.0 and paper["n_open_samples"] > 0
+    assert json.loads(Path("models/gated/surrogate.json").read_text())["architecture"]["name"] == "gated"
+    result = runner.invoke(app, ["surrogate", "compare", "--pool", "pool", "--suite", "pool"])
+    assert result.exit_code == 2 and "error: suite: is the pool itself" in result.output

@@ -87,7 +87,9 @@ def softplus_width_torch(x: torch.Tensor, width: float) -> torch.Tensor:
     return width * (torch.clamp(z, min=0) + torch.log1p(torch.exp(-z.abs())))
 
 
-def gated_net_output_torch(net: str, u: torch.Tensor, gate: torch.Tensor, params: GateParams, axis: int) -> torch.Tensor:
+def gated_net_output_torch(
+    net: str, u: torch.Tensor, gate: torch.Tensor, params: GateParams, axis: int
+) -> torch.Tensor:
     """One net's gated output: ``u`` its de-standardised outputs (3 along ``axis``), ``gate`` broadcastable.
 
     ``force``: ``gate * (softplus_w(u_fx), u_fy, u_fz)``; ``moment``: ``gate * u``.
@@ -158,13 +160,13 @@ __all__ = [
     "DEFAULT_GATE",
     "Gate",
     "GateParams",
+    "gap_from_features",
+    "gap_from_features_symbolic",
+    "gap_from_features_torch",
     "gate_torch",
     "gate_value",
     "gated_net_output_symbolic",
     "gated_net_output_torch",
-    "gap_from_features",
-    "gap_from_features_symbolic",
-    "gap_from_features_torch",
     "gated_wrench_symbolic",
     "gated_wrench_torch",
     "softplus_width_torch",
