@@ -73,10 +73,13 @@ class SuiteScore:
 def replay_suite(
     run: Callable[[Trajectory], ForceSeries], trajectories: Sequence[Trajectory], prefix: str = "validation"
 ) -> list[PoolDataset]:
-    """The suite's motions with the oracle's forces (``run`` raises on a failed replay)."""
+    """The suite's motions with the oracle's forces (``run`` raises on a failed replay); where the
+    oracle reports on its own time grid the motion is resampled onto it (as a campaign stores it)."""
     out = []
     for i, traj in enumerate(trajectories):
         forces = run(traj)
+        if len(forces.t) != len(traj.t) or not np.allclose(forces.t, traj.t, rtol=0, atol=1e-12):
+            traj = traj.resample(forces.t)
         out.append(PoolDataset.from_series(f"{prefix}-{i:02d}", traj, forces, "oracle"))
     return out
 
