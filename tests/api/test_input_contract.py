@@ -119,3 +119,16 @@ def test_downloads_document_their_media_types(app) -> None:
 
 def test_a_nul_character_in_a_path_parameter_names_it(client, owner) -> None:
     nul_error(client.post(f"{API}/tasks/presets/a%00b/copy", headers=owner.headers), "key")
+
+
+def test_a_surrogate_config_takes_the_paper_or_the_gated_architecture(client, owner) -> None:
+    h = owner.headers
+    r = client.post(f"{API}/surrogate-configs", json={"name": "arch", "spec": {"architecture": "contact"}}, headers=h)
+    assert r.status_code == 422, r.text
+    err = r.json()["detail"][0]
+    assert err["field"] == "spec.architecture" and "'paper' or 'gated'" in err["msg"]
+    r = client.post(f"{API}/surrogate-configs", json={"name": "gated", "spec": {"architecture": "gated"}}, headers=h)
+    assert r.status_code == 201, r.text
+    assert r.json()["spec"]["architecture"] == "gated"
+    r = client.post(f"{API}/surrogate-configs", json={"name": "default", "spec": {}}, headers=h)
+    assert r.status_code == 201 and r.json()["spec"]["architecture"] == "paper"

@@ -509,3 +509,23 @@ def test_the_trust_region_setting_bounds_the_ensemble_std_of_the_ocp_solution(
     bounded = first_trust(trust_region_max_std=bound)
     assert bounded["trust_region_max_std"] == bound
     assert bounded["max_std"] <= bound * (1 + 1e-6) < free["max_std"]
+
+
+def test_a_gated_campaign_trains_solves_and_predicts_no_force_with_the_gap_open(
+    sqlite_campaign_db: str, make_campaign
+) -> None:
+    """A surrogate config with "architecture": "gated" through a campaign iteration: the model version
+    records it, the OCP solves with the gated contact function, and the trust diagnostics along the
+    solution find exactly no predicted force where the gap is open (> 2 mm)."""
+    from alcove.surrogates.service import load_model
+
+    cid, jobs = make_campaign(surrogate={"architecture": "gated"}, stopping={"max_iterations": 1})
+    protocol.drive_inline(cid, jobs)
+    with session_scope() as s:
+        (mv,) = surrogates_repo.own_versions(s, cid)
+        assert mv.architecture["output"] == "gated" and mv.training_config["architecture"] == "gated"
+        assert load_model(s, mv).gate is not None
+        (m,) = repository.metrics_series(s, cid)
+        assert m.ocp_success and m.ocp_trust is not None
+        assert m.ocp_trust["open_gap_max_force"] == 0.0
+        assert m.ocp_trust["min_gap"] < m.ocp_trust["thresholds"]["gap_tolerance"]  # the solution does reach contact

@@ -122,6 +122,37 @@ def test_an_ensemble_writes_std_exports_and_std_columns(tmp_path, trajectory_csv
     assert np.all(table[:, 7:] >= 0) and np.any(table[:, 7] > 0)
 
 
+def test_the_gated_architecture_from_the_command_line(tmp_path, trajectory_csv):
+    """`alcove surrogate train --pool DIR --config cfg.json --out MODEL` with "architecture": "gated"
+    (the real console script): the artifact records it, the exports are written, and the prediction
+    along a trajectory is exactly zero wherever the geometry says the gap is clearly open."""
+    invoke("surrogate", "preliminary", "--out", str(tmp_path / "pool"), "--samples", "400", "--chunks", "4")
+    cfg = tmp_path / "cfg.json"
+    cfg.write_text(json.dumps({"architecture": "gated", "max_epochs": 5, "batch_size": 128, "ensemble_size": 2}))
+    env = {k: v for k, v in os.environ.items() if k != "ALCOVE_DATABASE_URL"}
+    proc = subprocess.run(
+        [ALCOVE, "surrogate", "train", "--pool", "pool", "--config", str(cfg), "--out", "model", "--json"],
+        cwd=tmp_path, env=env, capture_output=True, text=True, timeout=300,
+    )  # fmt: skip
+    assert proc.returncode == 0, proc.stderr
+    assert json.loads(proc.stdout)["ensemble_size"] == 2
+    doc = json.loads((tmp_path / "model" / "surrogate.json").read_text())
+    assert doc["config"]["architecture"] == "gated" and doc["architecture"]["name"] == "gated"
+    names = {p.name for p in (tmp_path / "model").iterdir()}
+    assert {"force.casadi", "force_std.casadi", "force.onnx", "moment.onnx", "force.pt"} <= names
+    result = invoke(
+        "surrogate", "predict", "--model", str(tmp_path / "model"), "--trajectory", str(trajectory_csv),
+        "--out", str(tmp_path / "pred.csv"),
+    )  # fmt: skip
+    assert result.exit_code == 0, result.output
+    from alcove.science.geometry import signed_gap
+
+    table = np.loadtxt(tmp_path / "pred.csv", delimiter=",", skiprows=1)
+    gap = signed_gap(DEFAULT_PRESET, Trajectory.from_csv(trajectory_csv).q[:, 0])
+    assert (gap >= 0.002).sum() > 50 and (gap <= 0).sum() > 50  # open and closed phases
+    assert np.all(table[gap >= 0.002, 1:] == 0.0) and np.all(table[:, 1] >= 0.0)
+
+
 def test_same_seed_same_artifact(tmp_path, quick_config):
     invoke("surrogate", "preliminary", "--out", str(tmp_path / "pool"), "--samples", "300", "--chunks", "3")
     for name in ("a", "b"):
@@ -160,6 +191,10 @@ def test_same_seed_same_artifact(tmp_path, quick_config):
             "error: config: force.hidden.1: Input should be greater than or equal to 1",
         ),
         (
+            ["train", "--pool", "pool", "--config", "arch.json", "--out", "m"],
+            "error: config: architecture: Input should be 'paper' or 'gated'",
+        ),
+        (
             ["train", "--pool", "pool", "--config", "missing.json", "--out", "m"],
             "error: config: missing.json does not exist",
         ),
@@ -182,6 +217,7 @@ def test_bad_input_is_one_line_exit_2(tmp_path, monkeypatch, args, message):
     monkeypatch.chdir(tmp_path)
     (tmp_path / "empty").mkdir()
     (tmp_path / "bad.json").write_text('{"force": {"hidden": [6, 0]}}')
+    (tmp_path / "arch.json").write_text('{"architecture": "contact-aware"}')
     invoke("surrogate", "preliminary", "--out", "pool", "--samples", "40", "--chunks", "2")
     result = runner.invoke(app, ["surrogate", *args])
     assert result.exit_code == 2, result.output
@@ -335,3 +371,31 @@ def test_a_pool_built_by_hand_from_the_real_ocp_and_oracle_commands(tmp_path, qu
     alcove("surrogate", "predict", "--model", "model", "--trajectory", "iter2.traj.csv", "--out", "iter2.pred.csv")
     pred = ForceSeries.from_csv(tmp_path / "iter2.pred.csv")
     assert len(pred.t) == len(Trajectory.from_csv(tmp_path / "iter2.traj.csv").t) and np.all(np.isfinite(pred.force))
+
+
+def test_compare_trains_both_architectures_and_scores_them_on_the_suite(tmp_path, monkeypatch):
+    """`alcove surrogate compare`: the suite replayed here (aux-penalty, 2 motions) and saved, then read
+    back with --suite; the table has both columns, the gated model predicts no force with the gap open."""
+    monkeypatch.chdir(tmp_path)
+    invoke("surrogate", "preliminary", "--out", "pool", "--samples", "300", "--chunks", "3")
+    Path("cfg.json").write_text(json.dumps({"max_epochs": 5, "batch_size": 128, "ensemble_size": 1}))
+    result = invoke(
+        "surrogate", "compare", "--pool", "pool", "--oracle", "aux-penalty", "--motions", "2",
+        "--config", "cfg.json", "--suite-out", "suite",
+    )  # fmt: skip
+    assert result.exit_code == 0, result.output
+    assert "ghost |F| max, gap open [N]" in result.output and "gated" in result.output
+    assert len(list(Path("suite").glob("*.forces.csv"))) == 2
+    result = invoke(
+        "surrogate", "compare", "--pool", "pool", "--suite", "suite", "--config", "cfg.json", "--json",
+        "--models-out", "models",
+    )  # fmt: skip
+    assert result.exit_code == 0, result.output
+    out = json.loads(result.output)
+    paper, gated = out["scores"]
+    assert (paper["architecture"], gated["architecture"], out["suite_motions"]) == ("paper", "gated", 2)
+    assert gated["ghost_force_max"] == 0.0 and gated["grid_ghost_force_max"] == 0.0
+    assert paper["oracle_force_open_max"] == 0.0 and paper["n_open_samples"] > 0
+    assert json.loads(Path("models/gated/surrogate.json").read_text())["architecture"]["name"] == "gated"
+    result = runner.invoke(app, ["surrogate", "compare", "--pool", "pool", "--suite", "pool"])
+    assert result.exit_code == 2 and "error: suite: is the pool itself" in result.output

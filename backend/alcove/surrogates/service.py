@@ -120,6 +120,7 @@ def store_model(
             "activation": {"force": model.force_net.activation, "moment": model.moment_net.activation},
             "dtype": model.config.dtype,
             "ensemble_size": model.ensemble_size,
+            "output": model.config.architecture,
         },
         normalisation=doc["normalization"]["input"],
         training_config=model.config.model_dump(mode="json"),

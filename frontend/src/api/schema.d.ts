@@ -2930,6 +2930,13 @@ export interface components {
          */
         SurrogateConfig: {
             /**
+             * Architecture
+             * @description output layer: 'paper' (the MLPs' outputs are the wrench, the paper's) or 'gated' (the wrench is exactly zero where the head is clearly (>= 2 mm) clear of the headrest, and the normal force pushes the head away; docs/concepts.md)
+             * @default paper
+             * @enum {string}
+             */
+            architecture?: "paper" | "gated";
+            /**
              * Batch Size
              * @description samples per Adam step [-], a whole number from 1 to 1e6 (paper: 1024)
              * @default 1024

@@ -1,4 +1,4 @@
-"""The gated output layer's math (not yet wired into training): exactly zero with the gap
+"""The gated output layer's math (the wired architecture: test_gated_model.py): exactly zero with the gap
 clearly open, non-negative normal force, C1 (indeed C2) across the blend, CasADi/PyTorch parity,
 and the gap recovered from the 19 features is the geometry's signed gap."""
 

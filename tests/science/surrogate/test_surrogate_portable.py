@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from alcove.science.geometry import DEFAULT_PRESET as P
-from alcove.science.geometry import relative_kinematics
+from alcove.science.geometry import relative_kinematics, signed_gap
 from alcove.science.surrogate.artifact import save_artifact
 from alcove.science.surrogate.config import SurrogateConfig
 from alcove.science.surrogate.features import features
@@ -43,11 +43,17 @@ print(json.dumps(out))
 """
 
 
-@pytest.fixture(scope="module", params=[1, 3], ids=["K=1", "K=3"])
-def exported(request, smooth_pool, tmp_path_factory):
-    k = request.param
-    model = train_surrogate(smooth_pool, SurrogateConfig(max_epochs=5, batch_size=128, ensemble_size=k), seed=2).model
-    root = tmp_path_factory.mktemp(f"export{k}")
+@pytest.fixture(
+    scope="module",
+    params=[("paper", 1), ("paper", 3), ("gated", 1), ("gated", 3)],
+    ids=["K=1", "K=3", "gated-K=1", "gated-K=3"],
+)
+def exported(request, smooth_pool, contact_pool, tmp_path_factory):
+    architecture, k = request.param
+    pool = contact_pool if architecture == "gated" else smooth_pool
+    cfg = SurrogateConfig(max_epochs=5, batch_size=128, ensemble_size=k, architecture=architecture)
+    model = train_surrogate(pool, cfg, seed=2).model
+    root = tmp_path_factory.mktemp(f"export-{architecture}-{k}")
     save_artifact(model, root, exports=True)
     return model, root
 
@@ -72,6 +78,8 @@ def test_exports_load_and_match_pytorch_without_alcove(exported, tmp_path):
     q, qd = _states()
     x = features(relative_kinematics(P, q, qd))
     assert x[0, 17] == 0.0 and x[1, 17] == 0.0  # alpha_sq
+    gap = signed_gap(P, q)
+    assert (gap >= 0.002).sum() > 5 and (gap <= 0).sum() > 5  # states with the gap clearly open and closed
     data = tmp_path / "states.json"
     data.write_text(json.dumps({"q": q.tolist(), "qd": qd.tolist(), "features": x.tolist(), "k": k}))
     run = subprocess.run(
@@ -86,6 +94,9 @@ def test_exports_load_and_match_pytorch_without_alcove(exported, tmp_path):
             scale = np.maximum(1.0, np.abs(want[key]))
             assert np.max(np.abs(np.array(got[key]) - want[key]) / scale) <= CASADI_TOL, key
             assert np.max(np.abs(np.array(got[key + "_onnx"]) - want[key]) / scale) <= ONNX_RTOL, key + " onnx"
+            if model.architecture == "gated":  # exactly zero where the gap is clearly open, in every file
+                for suffix in ("", "_onnx"):
+                    assert np.all(np.array(got[key + suffix])[gap >= 0.002] == 0.0), key + suffix
 
 
 def test_a_wrong_onnx_graph_is_refused(exported):

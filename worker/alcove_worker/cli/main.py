@@ -4,13 +4,14 @@ from __future__ import annotations
 
 import typer
 
-from alcove_worker.cli import campaign, db, ocp, oracle, serve, surrogate, users
+from alcove_worker.cli import campaign, db, ocp, oracle, serve, surrogate, surrogate_compare, users
 
 app = typer.Typer(
     name="alcove", help="Active-learning campaigns for contact surrogates.", no_args_is_help=True, add_completion=False
 )
 app.add_typer(ocp.app, name="ocp")
 app.add_typer(oracle.app, name="oracle")
+surrogate.app.command(name="compare")(surrogate_compare.compare)
 app.add_typer(surrogate.app, name="surrogate")
 app.add_typer(db.app, name="db")
 app.add_typer(campaign.app, name="campaign")

@@ -14,6 +14,12 @@
     ensemble (K > 1), ``fx_std,..,mz_std`` (the members' standard deviation).
 ``alcove surrogate preliminary --out DIR [--samples K] [--velocity-bound V] [--seed N]``
     writes the Latin hypercube aux-penalty preliminary data as a pool folder.
+``alcove surrogate compare --pool DIR|--campaign ID [--suite DIR | --oracle TYPE] [--config F.json]``
+    trains the ``paper`` and the ``gated`` architecture on the same pool (same config and seed)
+    and scores both on the held-out validation suite (:mod:`alcove.science.surrogate.compare`):
+    a table of force/moment vector RMSE (all samples and in contact) and the ghost force where
+    the gap is open; ``--suite DIR`` reads replayed motions (a pool folder, e.g. from
+    ``--suite-out``), otherwise the suite is replayed with ``--oracle`` here.
 
 Bad input prints one line ``error: <field>: <reason>`` and exits with code 2.
 """

@@ -9,6 +9,9 @@
     Format 2: ``networks`` and ``normalization`` are ensemble member 0; ``members`` lists
     members 1 .. K-1 with their own ``networks`` and ``normalization`` (format 1, one model,
     is still read, as an ensemble of 1).
+    ``architecture``: ``paper`` or ``gated`` (the config's), and for ``gated`` the ``gate``
+    parameters and the head profile the gap is measured from (:mod:`.gated`; informative: the
+    gate is rebuilt from the config and the preset on loading, and a mismatch is an error).
 ``force.pt``, ``moment.pt``
     TorchScript modules mapping raw features (n, 19) to force / moment (n, 3) in the
     headrest frame, normalisation included, for use outside alcove
@@ -22,6 +25,7 @@ from __future__ import annotations
 
 import json
 import warnings
+from dataclasses import asdict
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -34,6 +38,7 @@ import alcove
 from alcove.science.geometry import HeadNeckPreset
 from alcove.science.surrogate.config import SurrogateConfig
 from alcove.science.surrogate.features import FEATURE_NAMES
+from alcove.science.surrogate.gated import R_X, T_00, T_20, Gate
 from alcove.science.surrogate.mlp import MLP, Member, Standardization, SurrogateModel
 
 FORMAT = "alcove-surrogate"
@@ -60,10 +65,25 @@ class _Scripted(nn.Module):
         y_mean: torch.Tensor
         y_scale: torch.Tensor
 
-    def __init__(self, net: MLP, input_norm: Standardization, output_norm: Standardization):
+    def __init__(
+        self,
+        net: MLP,
+        input_norm: Standardization,
+        output_norm: Standardization,
+        gate: Gate | None = None,
+        is_force: bool = False,
+    ):
         super().__init__()
         self.linears = nn.ModuleList([_copy_linear(lin) for lin in net.linears()])
         self.activation = net.activation
+        # the gated architecture's output layer (alcove.science.surrogate.gated, written out for TorchScript)
+        self.gated = gate is not None
+        self.is_force = is_force
+        gp, pr = (gate.params, gate.profile) if gate is not None else (None, None)
+        self.open_gap = gp.open_gap if gp is not None else 0.0
+        self.blend = gp.blend if gp is not None else 1.0
+        self.force_width = gp.force_width if gp is not None else 1.0
+        self.profile = [pr.cx, pr.cz, pr.ax, pr.az] if pr is not None else [0.0, 0.0, 1.0, 1.0]
         self.register_buffer("x_mean", torch.as_tensor(input_norm.mean, dtype=torch.float64))
         self.register_buffer("x_scale", torch.as_tensor(input_norm.divisor, dtype=torch.float64))
         self.register_buffer("y_mean", torch.as_tensor(output_norm.mean, dtype=torch.float64))
@@ -81,7 +101,20 @@ class _Scripted(nn.Module):
                     h = torch.tanh(h)
                 else:
                     h = torch.sigmoid(h)
-        return h * self.y_scale + self.y_mean
+        out = h * self.y_scale + self.y_mean
+        if not self.gated:
+            return out
+        x = x.to(torch.float64)
+        c, s = x[:, 6], x[:, 8]
+        cx, cz, ax, az = self.profile[0], self.profile[1], self.profile[2], self.profile[3]
+        gap = x[:, 0] + c * cx - s * cz - torch.sqrt((ax * c) ** 2 + (az * s) ** 2)
+        t = torch.clamp((self.open_gap - gap) / self.blend, 0.0, 1.0)
+        gate = (t**3 * (10 - 15 * t + 6 * t**2)).unsqueeze(1)
+        if self.is_force:
+            z = out[:, 0:1] / self.force_width
+            fx = self.force_width * (torch.clamp(z, min=0.0) + torch.log1p(torch.exp(-z.abs())))
+            out = torch.cat([fx, out[:, 1:]], 1)
+        return gate * out
 
 
 class _ScriptedMean(nn.Module):
@@ -163,6 +196,18 @@ def _member_from_dict(d: dict[str, Any], dtype: torch.dtype, field: str) -> Memb
     )
 
 
+def _architecture_dict(model: SurrogateModel) -> dict[str, Any]:
+    gate = model.gate
+    if gate is None:
+        return {"name": model.config.architecture}
+    return {
+        "name": model.config.architecture,
+        "gate": asdict(gate.params),
+        "gap": "r_x + T_00 cx - T_20 cz - sqrt((ax T_00)^2 + (az T_20)^2), (cx, cz, ax, az) = preset.profile",
+        "feature_indices": {"r_x": R_X, "T_00": T_00, "T_20": T_20},
+    }
+
+
 def artifact_dict(model: SurrogateModel, lineage: dict[str, Any] | None = None) -> dict[str, Any]:
     """The JSON document of a model (see the module docstring)."""
     return {
@@ -174,6 +219,7 @@ def artifact_dict(model: SurrogateModel, lineage: dict[str, Any] | None = None) 
         "ndof": model.ndof,
         "preset": model.preset.to_dict(),
         "config": model.config.model_dump(mode="json"),
+        "architecture": _architecture_dict(model),
         **_member_dict(model.members[0]),
         "members": [_member_dict(m) for m in model.members[1:]],
         "lineage": {**model.lineage, **(lineage or {})},
@@ -207,13 +253,21 @@ def model_from_dict(doc: dict[str, Any]) -> SurrogateModel:
         dtype = torch.float64 if config.dtype == "float64" else torch.float32
         members = [_member_from_dict(doc, dtype, "")]
         members += [_member_from_dict(m, dtype, f"members.{i}.") for i, m in enumerate(extra)]
-        return SurrogateModel.from_members(
+        model = SurrogateModel.from_members(
             members,
             config=config,
             preset=HeadNeckPreset.from_dict(doc["preset"]),
             ndof=int(doc["ndof"]),
             lineage=dict(doc.get("lineage", {})),
         )
+        recorded = doc.get("architecture")  # absent before the gated architecture: the paper's
+        if recorded is not None and recorded != _architecture_dict(model):
+            raise ArtifactError(
+                "architecture",
+                f"{recorded!r} does not match the config's architecture {config.architecture!r} "
+                "with this alcove's gate",
+            )
+        return model
     except KeyError as exc:
         raise ArtifactError(str(exc.args[0]), "missing entry") from None
 
@@ -233,7 +287,8 @@ def save_artifact(
         )  # torch.jit.script is deprecated but TorchScript is the contract
         for key in ("force", "moment"):
             scripted = [
-                _Scripted(getattr(m, f"{key}_net"), m.input_norm, getattr(m, f"{key}_norm")) for m in model.members
+                _Scripted(getattr(m, f"{key}_net"), m.input_norm, getattr(m, f"{key}_norm"), model.gate, key == "force")
+                for m in model.members
             ]
             module: nn.Module = scripted[0] if len(scripted) == 1 else _ScriptedMean(scripted)
             torch.jit.save(torch.jit.script(module), str(root / doc["torchscript"][key]))

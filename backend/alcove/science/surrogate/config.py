@@ -11,6 +11,11 @@ comes from its origin: ``preliminary_weight`` for preliminary data (decaying by 
 uploaded data).
 This lets a campaign fade out the preliminary data as oracle data accumulates (a remedy for
 the bias toward low forces the paper reports).
+
+Architecture: ``"paper"`` (default) is the paper's: the MLPs' outputs are the wrench.
+``"gated"`` (:mod:`.gated`) puts a contact-aware output layer after them: the wrench is
+exactly zero where the signed gap between head profile and headrest surface is clearly open
+(>= 2 mm), the normal force fx is non-negative, and the layer is C2 in the state.
 """
 
 from __future__ import annotations
@@ -24,6 +29,7 @@ from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, ValidationEr
 from alcove.science.validation import WholeNumber, as_whole_number, error_location, quantity, range_text
 
 Activation = Literal["softplus", "tanh", "sigmoid"]
+Architecture = Literal["paper", "gated"]
 LayerWidth = Annotated[int, Field(ge=1, le=4096), BeforeValidator(as_whole_number)]
 
 
@@ -54,6 +60,12 @@ class SurrogateConfig(BaseModel):
 
     model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
 
+    architecture: Architecture = Field(
+        "paper",
+        description="output layer: 'paper' (the MLPs' outputs are the wrench, the paper's) or 'gated' "
+        "(the wrench is exactly zero where the head is clearly (>= 2 mm) clear of the headrest, and the "
+        "normal force pushes the head away; docs/concepts.md)",
+    )
     force: NetworkConfig = Field(default_factory=lambda: NetworkConfig(hidden=(6, 6, 4)))
     moment: NetworkConfig = Field(default_factory=lambda: NetworkConfig(hidden=(6, 6, 6, 4)))
     learning_rate: Annotated[
@@ -148,4 +160,4 @@ class SurrogateConfig(BaseModel):
         return w
 
 
-__all__ = ["Activation", "NetworkConfig", "SurrogateConfig", "SurrogateConfigError"]
+__all__ = ["Activation", "Architecture", "NetworkConfig", "SurrogateConfig", "SurrogateConfigError"]

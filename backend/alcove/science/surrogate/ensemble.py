@@ -20,6 +20,12 @@ without improvement the member is stopped: its result is frozen at its best epoc
 the batched tensors (its rows of the weights and of Adam's moments are dropped, the others
 continue with the same state and step count, so their arithmetic is unchanged). A net stops
 stepping when all its members have stopped.
+
+The ``gated`` architecture (:class:`GatedOutputs`): the losses compare the gated output with
+the target, both standardised: ``(gate_i * out(net(z_i) * scale + mean) - mean) / divisor``
+with ``out`` the softplus of fx (force net) or the identity, and the sample's gate
+``gate_i`` (a function of the data only: the gap of its pose) carried as a column of the
+data. The ``paper`` architecture's arithmetic is unchanged (no gate column, no output layer).
 """
 
 from __future__ import annotations
@@ -33,6 +39,7 @@ import torch
 from torch import nn
 
 from alcove.science.surrogate.config import SurrogateConfig
+from alcove.science.surrogate.gated import GateParams, gated_net_output_torch
 from alcove.science.surrogate.mlp import MLP, SOFTPLUS_THRESHOLD
 
 NETS = ("force", "moment")
@@ -48,6 +55,25 @@ class MemberTensors:
     z_val: torch.Tensor
     y_val: dict[str, torch.Tensor]
     w_val: torch.Tensor
+    g_train: torch.Tensor | None = None  # (n,) the gate of each sample (gated architecture)
+    g_val: torch.Tensor | None = None
+
+
+@dataclass
+class GatedOutputs:
+    """The gated architecture's output layer in training: the gate parameters and, per net, the
+    members' output standardisations (K, 3) (mean, scale, and the safe divisor)."""
+
+    params: GateParams
+    mean: dict[str, torch.Tensor]
+    scale: dict[str, torch.Tensor]
+    divisor: dict[str, torch.Tensor]
+
+    def standardised(self, net: str, h: torch.Tensor, gate: torch.Tensor, members: torch.Tensor) -> torch.Tensor:
+        """The gated output, standardised, of the nets' outputs ``h`` (K', 3, n) of ``members``, ``gate`` (K', 1, n)."""
+        mean, scale, div = (t[net][members].unsqueeze(2) for t in (self.mean, self.scale, self.divisor))
+        out = gated_net_output_torch(net, h * scale + mean, gate, self.params, axis=1)
+        return (out - mean) / div
 
 
 def _activation(name: str) -> Callable[[torch.Tensor], torch.Tensor]:
@@ -124,6 +150,12 @@ def _stack_padded(rows: list[torch.Tensor], length: int) -> torch.Tensor:
     return out
 
 
+def _gate(g: torch.Tensor | None) -> torch.Tensor:
+    if g is None:
+        raise ValueError("gated training: every member needs the gate of its samples")
+    return g[:, None]
+
+
 def batch_sizes(n: int, n_batches: int, batch_size: int) -> np.ndarray:
     """How a member with ``n`` rows cuts its permutation into ``n_batches`` batches (module docstring)."""
     if n > (n_batches - 1) * batch_size:
@@ -140,8 +172,9 @@ class EnsembleTrainer:
         data: list[MemberTensors],
         config: SurrogateConfig,
         generators: list[torch.Generator],
+        gated: GatedOutputs | None = None,
     ):
-        self.nets, self.config, self.generators = nets, config, generators
+        self.nets, self.config, self.generators, self.gated = nets, config, generators, gated
         self.K = len(data)
         self.batched = {k: BatchedNet(nets[k]) for k in NETS}
         self.optimizers = {
@@ -152,7 +185,15 @@ class EnsembleTrainer:
         self.B = min(config.batch_size, n_max)
         self.S = math.ceil(n_max / self.B)
         # training rows per member, padded with one zero row (weight 0) at index n_max
-        table = [torch.cat([d.z_train, d.y_train["force"], d.y_train["moment"], d.w_train[:, None]], 1) for d in data]
+        if gated is None:
+            table = [
+                torch.cat([d.z_train, d.y_train["force"], d.y_train["moment"], d.w_train[:, None]], 1) for d in data
+            ]
+        else:  # the gate as one more column, before the weight
+            table = [
+                torch.cat([d.z_train, d.y_train["force"], d.y_train["moment"], _gate(d.g_train), d.w_train[:, None]], 1)
+                for d in data
+            ]
         self.table = _stack_padded(table, n_max + 1)
         self.pad_row = n_max
         self.n_in = data[0].z_train.shape[1]
@@ -161,6 +202,7 @@ class EnsembleTrainer:
         self.z_val = _stack_padded([d.z_val for d in data], n_val).transpose(1, 2).contiguous()
         self.y_val = {k: _stack_padded([d.y_val[k] for d in data], n_val).transpose(1, 2) for k in NETS}
         self.w_val = _stack_padded([d.w_val for d in data], n_val)
+        self.g_val = None if gated is None else _stack_padded([_gate(d.g_val) for d in data], n_val).transpose(1, 2)
         self.w_val_sum = torch.clamp(self.w_val.sum(1), min=torch.finfo(self.w_val.dtype).tiny)
         self.stopped = {k: torch.zeros(self.K, dtype=torch.bool) for k in NETS}
         self.active = {k: torch.arange(self.K) for k in NETS}  # the members in the batched tensors, in order
@@ -189,18 +231,25 @@ class EnsembleTrainer:
         z = cols[:, : self.n_in]
         y = {"force": cols[:, self.n_in : self.n_in + 3], "moment": cols[:, self.n_in + 3 : self.n_in + 6]}
         scale = (cols[:, -1] / div.to(cols.dtype) / 3.0).unsqueeze(1)
+        gate = None if self.gated is None else cols[:, self.n_in + 6 : self.n_in + 7]
         active = [k for k in NETS if not bool(self.stopped[k].all())]
         data = {}
         for k in active:
             rows = self.active[k]
             full = rows.numel() == self.K
             data[k] = (z if full else z[rows], y[k] if full else y[k][rows], scale if full else scale[rows])
+        gates = {k: None if gate is None else gate[self.active[k]] for k in active}
         for s in range(self.S):
             sl = slice(s * self.B, (s + 1) * self.B)
             for k in active:
                 zk, yk, wk = data[k]
                 self.optimizers[k].zero_grad(set_to_none=True)
-                loss = ((self.batched[k].forward(zk[:, :, sl]) - yk[:, :, sl]).square() * wk[:, :, sl]).sum()
+                out = self.batched[k].forward(zk[:, :, sl])
+                if self.gated is not None:
+                    gk = gates[k]
+                    assert gk is not None
+                    out = self.gated.standardised(k, out, gk[:, :, sl], self.active[k])
+                loss = ((out - yk[:, :, sl]).square() * wk[:, :, sl]).sum()
                 loss.backward()  # type: ignore[no-untyped-call]
                 self.optimizers[k].step()
 
@@ -211,7 +260,11 @@ class EnsembleTrainer:
                 if bool(self.stopped[k].all()):
                     continue
                 members = self.active[k]
-                err = (self.batched[k].forward(self.z_val[members]) - self.y_val[k][members]).square().mean(1)
+                out = self.batched[k].forward(self.z_val[members])
+                if self.gated is not None:
+                    assert self.g_val is not None
+                    out = self.gated.standardised(k, out, self.g_val[members], members)
+                err = (out - self.y_val[k][members]).square().mean(1)
                 loss = (err * self.w_val[members]).sum(1) / self.w_val_sum[members]
                 full = torch.full((self.K,), math.nan, dtype=torch.float64)
                 full[members] = loss.double()
@@ -242,4 +295,4 @@ class EnsembleTrainer:
             self.batched[k].write(self.best[k], self.nets[k])
 
 
-__all__ = ["NETS", "BatchedNet", "EnsembleTrainer", "MemberTensors", "batch_sizes"]
+__all__ = ["NETS", "BatchedNet", "EnsembleTrainer", "GatedOutputs", "MemberTensors", "batch_sizes"]

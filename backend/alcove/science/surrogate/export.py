@@ -17,6 +17,11 @@ outputs: constrain its square, output ``var``, in an NLP).
 :func:`surrogate_contact` gives the same map with the weights and normalisations as a third
 input ``p`` (:func:`surrogate_parameters`): one function per architecture, so the OCP's NLP
 and IPOPT solver are built once and reused for every model version of that architecture.
+
+The ``gated`` architecture (:mod:`.gated`) adds its output layer after the de-standardisation:
+the signed gap is computed from the same symbolic features with the head profile of the
+preset passed in (the task's, for the OCP's functions; the model's own for the network-only
+function and the portable exports).
 """
 
 from __future__ import annotations
@@ -28,16 +33,18 @@ import casadi as ca
 import numpy as np
 
 from alcove.science.arrays import FloatArray
-from alcove.science.geometry import HeadNeckPreset, relative_kinematics_symbolic
+from alcove.science.geometry import HeadNeckPreset, HeadProfile, relative_kinematics_symbolic
 from alcove.science.surrogate.features import N_FEATURES, features_symbolic
+from alcove.science.surrogate.gated import GateParams, gap_from_features_symbolic, gated_net_output_symbolic
 from alcove.science.surrogate.mlp import MLP, Standardization, SurrogateModel
 
 #: (q, qd) -> (r_rel, v_rel, T_rel, omega_rel) of the contact body in the headrest frame, as SX
 SymbolicKinematics = Callable[[ca.SX, ca.SX], tuple[ca.SX, ca.SX, ca.SX, ca.SX]]
 #: a network's activation and the (rows, columns) of its layers' weights
 NetArchitecture = tuple[str, tuple[tuple[int, int], ...]]
-#: ndof, number of inputs, force net, force outputs, moment net, moment outputs, ensemble members
-Architecture = tuple[int, int, NetArchitecture, int, NetArchitecture, int, int]
+#: ndof, number of inputs, force net, force outputs, moment net, moment outputs, ensemble members,
+#: the gate parameters (open_gap, blend, force_width) of the gated architecture or None
+Architecture = tuple[int, int, NetArchitecture, int, NetArchitecture, int, int, tuple[float, float, float] | None]
 
 
 def _activation(name: str, x: ca.SX) -> ca.SX:
@@ -70,14 +77,26 @@ def _destandardize(norm: Standardization, z: ca.SX) -> ca.SX:
     return z * ca.DM(norm.scale) + ca.DM(norm.mean)
 
 
-def member_wrenches_symbolic(model: SurrogateModel, feats: ca.SX) -> list[ca.SX]:
-    """Every member's wrench (6 x 1) from the raw feature vector (19 x 1)."""
+def _gated(force: ca.SX, moment: ca.SX, gap: ca.SX | None, params: GateParams | None) -> ca.SX:
+    if gap is None or params is None:
+        return ca.vertcat(force, moment)
+    return ca.vertcat(
+        gated_net_output_symbolic("force", force, gap, params),
+        gated_net_output_symbolic("moment", moment, gap, params),
+    )
+
+
+def member_wrenches_symbolic(model: SurrogateModel, feats: ca.SX, profile: HeadProfile | None = None) -> list[ca.SX]:
+    """Every member's wrench (6 x 1) from the raw feature vector (19 x 1); the gated
+    architecture's gap with ``profile`` (default: the model's preset's head profile)."""
+    gate = model.gate
+    gap = None if gate is None else gap_from_features_symbolic(feats, profile or gate.profile)
     out = []
     for m in model.members:
         z = _standardize(m.input_norm, feats)
         force = _destandardize(m.force_norm, mlp_symbolic(m.force_net, z))
         moment = _destandardize(m.moment_norm, mlp_symbolic(m.moment_net, z))
-        out.append(ca.vertcat(force, moment))
+        out.append(_gated(force, moment, gap, None if gate is None else gate.params))
     return out
 
 
@@ -88,14 +107,14 @@ def _mean_var(wrenches: list[ca.SX]) -> tuple[ca.SX, ca.SX]:
     return mean, var
 
 
-def wrench_symbolic(model: SurrogateModel, feats: ca.SX) -> ca.SX:
+def wrench_symbolic(model: SurrogateModel, feats: ca.SX, profile: HeadProfile | None = None) -> ca.SX:
     """Wrench (6 x 1), the ensemble mean, from the raw feature vector (19 x 1)."""
-    return _mean_var(member_wrenches_symbolic(model, feats))[0]
+    return _mean_var(member_wrenches_symbolic(model, feats, profile))[0]
 
 
-def wrench_var_symbolic(model: SurrogateModel, feats: ca.SX) -> ca.SX:
+def wrench_var_symbolic(model: SurrogateModel, feats: ca.SX, profile: HeadProfile | None = None) -> ca.SX:
     """The members' variance of the wrench (6 x 1), ``mean_k (w_k - mean)^2``."""
-    return _mean_var(member_wrenches_symbolic(model, feats))[1]
+    return _mean_var(member_wrenches_symbolic(model, feats, profile))[1]
 
 
 def casadi_network_function(model: SurrogateModel) -> ca.Function:
@@ -114,7 +133,7 @@ def casadi_contact_function(
     :func:`alcove.science.geometry.relative_kinematics_symbolic`.
     """
     q, qd, feats = _state_features(model, preset, kinematics)
-    wrench = wrench_symbolic(model, feats)
+    wrench = wrench_symbolic(model, feats, preset.profile)
     return ca.Function("contact_surrogate", [q, qd], [wrench], ["q", "qd"], ["wrench"])
 
 
@@ -140,7 +159,7 @@ def casadi_contact_std_function(
 ) -> ca.Function:
     """``(q, qd) -> (std, var)`` (6 x 1 each): the ensemble's standard deviation and variance per output."""
     q, qd, feats = _state_features(model, preset, kinematics)
-    _, var = _mean_var(member_wrenches_symbolic(model, feats))
+    _, var = _mean_var(member_wrenches_symbolic(model, feats, preset.profile))
     return ca.Function("contact_surrogate_std", [q, qd], [ca.sqrt(var), var], ["q", "qd"], ["std", "var"])
 
 
@@ -159,6 +178,7 @@ def surrogate_architecture(model: SurrogateModel) -> Architecture:
         _net_architecture(model.moment_net),
         len(model.moment_norm.mean),
         model.ensemble_size,
+        None if (gate := model.gate) is None else (gate.params.open_gap, gate.params.blend, gate.params.force_width),
     )
 
 
@@ -229,7 +249,7 @@ def _parametric_contact(architecture: Architecture, preset: HeadNeckPreset, std:
 
 
 def _build_parametric_contact(architecture: Architecture, preset: HeadNeckPreset, std: bool) -> ca.Function:
-    ndof, _, force_arch, n_force, moment_arch, n_moment, n_members = architecture
+    ndof, _, force_arch, n_force, moment_arch, n_moment, n_members, gate = architecture
     if ndof != 1:
         raise ValueError(
             f"kinematics: the model has {ndof} degrees of freedom; the parametric export supports the 1-DOF preset"
@@ -239,6 +259,8 @@ def _build_parametric_contact(architecture: Architecture, preset: HeadNeckPreset
     q, qd, p = ca.SX.sym("q", ndof), ca.SX.sym("qd", ndof), ca.SX.sym("p", n_par)
     read = _Reader(p)
     feats = features_symbolic(*relative_kinematics_symbolic(preset, q[0], qd[0]))
+    params = None if gate is None else GateParams(*gate)
+    gap = None if gate is None else gap_from_features_symbolic(feats, preset.profile)
     wrenches = []
     for _ in range(n_members):
         # structurally zero features (planar motion) drop out of the first layer
@@ -246,7 +268,7 @@ def _build_parametric_contact(architecture: Architecture, preset: HeadNeckPreset
         force = force * read.take(n_force) + read.take(n_force)
         moment = _mlp_parametric(moment_arch, feats, read)
         moment = moment * read.take(n_moment) + read.take(n_moment)
-        wrenches.append(ca.vertcat(force, moment))
+        wrenches.append(_gated(force, moment, gap, params))
     assert read.at == n_par
     mean, var = _mean_var(wrenches)
     if std:

@@ -1,8 +1,12 @@
-"""The contact-aware output layer of the ``gated`` architecture (issue 16, item 2): building blocks.
+"""The contact-aware output layer of the ``gated`` architecture (issue 16, item 2).
 
-NOT YET WIRED into training, configs or exports: this module holds the math and its tests
-(the gap feature, the gate, the output layer in PyTorch and CasADi); the architecture
-option ``"gated"`` of a surrogate config does not exist yet.
+A surrogate config with ``"architecture": "gated"`` keeps the paper's two MLPs and features
+and puts this layer after their de-standardised outputs: in training (:mod:`.ensemble`, the
+loss is taken on the gated output), prediction (:class:`.mlp.SurrogateModel`), the OCP's
+CasADi function (:mod:`.export`), TorchScript (:mod:`.artifact`) and the portable CasADi and
+ONNX exports (:mod:`.portable`). The gate parameters are :data:`DEFAULT_GATE` (recorded in
+``surrogate.json``); the head profile is the model's preset's (the OCP's function takes the
+task's preset).
 
 Signed gap from the 19 features
     The features hold the head origin in the headrest frame (``r_x``) and the first column of
@@ -53,6 +57,61 @@ class GateParams:
                 raise ValueError(f"{name}: must be a positive finite number, got {value!r}")
 
 
+DEFAULT_GATE = GateParams()
+
+
+@dataclass(frozen=True)
+class Gate:
+    """The gate of a model: where it closes and the head profile the gap is measured from."""
+
+    params: GateParams
+    profile: HeadProfile
+
+
+def gate_value(gap: FloatArray, params: GateParams) -> FloatArray:
+    """The gate ``g(s)`` in [0, 1] (NumPy): 0 for gap >= open_gap, 1 for gap <= open_gap - blend."""
+    s = np.clip((params.open_gap - np.asarray(gap, float)) / params.blend, 0.0, 1.0)
+    out: FloatArray = s**3 * (10 - 15 * s + 6 * s**2)
+    return out
+
+
+def gate_torch(gap: torch.Tensor, params: GateParams) -> torch.Tensor:
+    """The gate ``g(s)`` (PyTorch)."""
+    s = torch.clamp((params.open_gap - gap) / params.blend, 0.0, 1.0)
+    return s**3 * (10 - 15 * s + 6 * s**2)
+
+
+def softplus_width_torch(x: torch.Tensor, width: float) -> torch.Tensor:
+    """``w log(1 + exp(x / w))`` written as the CasADi and ONNX exports write it."""
+    z = x / width
+    return width * (torch.clamp(z, min=0) + torch.log1p(torch.exp(-z.abs())))
+
+
+def gated_net_output_torch(
+    net: str, u: torch.Tensor, gate: torch.Tensor, params: GateParams, axis: int
+) -> torch.Tensor:
+    """One net's gated output: ``u`` its de-standardised outputs (3 along ``axis``), ``gate`` broadcastable.
+
+    ``force``: ``gate * (softplus_w(u_fx), u_fy, u_fz)``; ``moment``: ``gate * u``.
+    """
+    if net == "force":
+        fx = softplus_width_torch(u.narrow(axis, 0, 1), params.force_width)
+        u = torch.cat([fx, u.narrow(axis, 1, u.shape[axis] - 1)], axis)
+    return gate * u
+
+
+def gated_net_output_symbolic(net: str, u: Symbolic, gap: Symbolic, params: GateParams) -> Symbolic:
+    """CasADi version of :func:`gated_net_output_torch` for one net's column ``u`` (3 x 1)."""
+    import casadi as ca
+
+    s = ca.fmin(ca.fmax((params.open_gap - gap) / params.blend, 0), 1)
+    gate = s**3 * (10 - 15 * s + 6 * s**2)
+    if net == "force":
+        z = u[0] / params.force_width
+        u = ca.vertcat(params.force_width * (ca.fmax(z, 0) + ca.log1p(ca.exp(-ca.fabs(z)))), u[1:])
+    return gate * u
+
+
 def gap_from_features(x: FloatArray, profile: HeadProfile) -> FloatArray:
     """Signed gap [m] from raw features (n, 19) (NumPy)."""
     x = np.asarray(x, float)
@@ -98,10 +157,17 @@ def gated_wrench_symbolic(u: Symbolic, gap: Symbolic, params: GateParams) -> Sym
 
 
 __all__ = [
+    "DEFAULT_GATE",
+    "Gate",
     "GateParams",
     "gap_from_features",
     "gap_from_features_symbolic",
     "gap_from_features_torch",
+    "gate_torch",
+    "gate_value",
+    "gated_net_output_symbolic",
+    "gated_net_output_torch",
     "gated_wrench_symbolic",
     "gated_wrench_torch",
+    "softplus_width_torch",
 ]

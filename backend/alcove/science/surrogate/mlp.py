@@ -8,7 +8,9 @@ rebuild (``max(x, 0) + log1p(exp(-|x|))``).
 
 ``SurrogateModel``: force and moment nets, the input standardisation (mean, scale per
 feature, from the training split) and the output standardisation; ``__call__`` maps raw
-features (n, 19) to force (n, 3) and moment (n, 3) in the headrest frame.
+features (n, 19) to force (n, 3) and moment (n, 3) in the headrest frame. With the ``gated``
+architecture (:attr:`SurrogateModel.gate`) the de-standardised outputs go through the
+contact-aware output layer of :mod:`.gated`.
 """
 
 from __future__ import annotations
@@ -25,6 +27,7 @@ from alcove.science.arrays import FloatArray
 from alcove.science.geometry import HeadNeckPreset
 from alcove.science.surrogate.config import NetworkConfig, SurrogateConfig
 from alcove.science.surrogate.features import N_FEATURES
+from alcove.science.surrogate.gated import DEFAULT_GATE, Gate, gap_from_features, gate_value, gated_net_output_torch
 
 N_OUTPUTS = 3
 SOFTPLUS_THRESHOLD = 40.0
@@ -132,14 +135,22 @@ class Member:
     force_norm: Standardization
     moment_norm: Standardization
 
-    def predict_features(self, x: FloatArray) -> tuple[FloatArray, FloatArray]:
-        """Force (n, 3) and moment (n, 3) of this member for raw features x (n, 19)."""
+    def predict_features(self, x: FloatArray, gate: Gate | None = None) -> tuple[FloatArray, FloatArray]:
+        """Force (n, 3) and moment (n, 3) of this member for raw features x (n, 19); ``gate``: the
+        ``gated`` architecture's output layer (None: the paper's)."""
         dtype = next(self.force_net.parameters()).dtype
         z = torch.as_tensor((np.asarray(x, float) - self.input_norm.mean) / self.input_norm.divisor, dtype=dtype)
         with torch.no_grad():
             f = self.force_net(z).double().numpy()
             m = self.moment_net(z).double().numpy()
-        return f * self.force_norm.scale + self.force_norm.mean, m * self.moment_norm.scale + self.moment_norm.mean
+        f, m = f * self.force_norm.scale + self.force_norm.mean, m * self.moment_norm.scale + self.moment_norm.mean
+        if gate is None:
+            return f, m
+        g = torch.as_tensor(gate_value(gap_from_features(x, gate.profile), gate.params)[:, None])
+        return (
+            gated_net_output_torch("force", torch.as_tensor(f), g, gate.params, axis=1).numpy(),
+            gated_net_output_torch("moment", torch.as_tensor(m), g, gate.params, axis=1).numpy(),
+        )
 
 
 @dataclass
@@ -176,6 +187,15 @@ class SurrogateModel:
         return next(self.force_net.parameters()).dtype
 
     @property
+    def architecture(self) -> str:
+        return self.config.architecture
+
+    @property
+    def gate(self) -> Gate | None:
+        """The gated architecture's output layer (the default gate, the preset's head profile); None for ``paper``."""
+        return Gate(DEFAULT_GATE, self.preset.profile) if self.config.architecture == "gated" else None
+
+    @property
     def members(self) -> list[Member]:
         first = Member(self.force_net, self.moment_net, self.input_norm, self.force_norm, self.moment_norm)
         return [first, *self.extra_members]
@@ -209,13 +229,14 @@ class SurrogateModel:
 
     def predict_members(self, x: FloatArray) -> tuple[FloatArray, FloatArray]:
         """Every member's force and moment, each (K, n, 3)."""
-        outs = [m.predict_features(x) for m in self.members]
+        gate = self.gate
+        outs = [m.predict_features(x, gate) for m in self.members]
         return np.stack([f for f, _ in outs]), np.stack([m for _, m in outs])
 
     def predict_ensemble(self, x: FloatArray) -> Prediction:
         """Ensemble mean and standard deviation (over members, ddof 0) of force and moment."""
         if not self.extra_members:
-            f, m = self.members[0].predict_features(x)
+            f, m = self.members[0].predict_features(x, self.gate)
             return Prediction(f, m, np.zeros_like(f), np.zeros_like(m))
         f, m = self.predict_members(x)
         return Prediction(f.mean(0), m.mean(0), f.std(0), m.std(0))

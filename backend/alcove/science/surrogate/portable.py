@@ -13,6 +13,11 @@ Written next to ``surrogate.json`` by :func:`write_exports`; none needs alcove t
     ``surrogate.json``'s ``feature_names``), outputs ``mean`` (n x 3) and, for K > 1, ``std``
     (n x 3). Built node by node from the weights (MatMul, Add, softplus as
     ``Relu(x) + Log(1 + Exp(-|x|))``) and checked with onnxruntime against PyTorch when written.
+
+The ``gated`` architecture's output layer (:mod:`.gated`) is in every file: the CasADi files
+take it from :mod:`.export`; the ONNX graph computes the signed gap from the features
+``r_x``, ``T_00``, ``T_20`` and the head profile of ``surrogate.json``'s preset, the gate
+(``Min(Max(.., 0), 1)`` and the quintic smoothstep) and the softplus of fx, per member.
 """
 
 from __future__ import annotations
@@ -25,6 +30,7 @@ import numpy as np
 from alcove.science.arrays import FloatArray
 from alcove.science.surrogate.export import _mean_var, _state_features, member_wrenches_symbolic
 from alcove.science.surrogate.features import N_FEATURES
+from alcove.science.surrogate.gated import R_X, T_00, T_20, Gate
 from alcove.science.surrogate.mlp import Member, SurrogateModel
 
 NETS = {"force": slice(0, 3), "moment": slice(3, 6)}
@@ -53,7 +59,47 @@ def casadi_net_functions(model: SurrogateModel) -> dict[str, ca.Function]:
     return out
 
 
-def _onnx_member(g: _Graph, m: Member, net: str) -> str:
+def _onnx_gate(g: _Graph, gate: Gate) -> str:
+    """The gate (n x 1) of the gated architecture from the raw features (module docstring)."""
+    pr, gp = gate.profile, gate.params
+
+    def column(i: int) -> str:
+        return g.op("Gather", "features", g.const([i], np.int64), axis=1)
+
+    c, s, rx = column(T_00), column(T_20), column(R_X)
+    radius = g.op(
+        "Sqrt",
+        g.op(
+            "Add",
+            g.op("Mul", g.op("Mul", c, c), g.const(pr.ax**2)),
+            g.op("Mul", g.op("Mul", s, s), g.const(pr.az**2)),
+        ),
+    )
+    gap = g.op(
+        "Sub", g.op("Sub", g.op("Add", rx, g.op("Mul", c, g.const(pr.cx))), g.op("Mul", s, g.const(pr.cz))), radius
+    )
+    t = g.op("Div", g.op("Sub", g.const(gp.open_gap), gap), g.const(gp.blend))
+    t = g.op("Min", g.op("Max", t, g.const(0.0)), g.const(1.0))
+    poly = g.op(
+        "Add", g.op("Sub", g.const(10.0), g.op("Mul", t, g.const(15.0))), g.op("Mul", g.op("Mul", t, t), g.const(6.0))
+    )
+    return g.op("Mul", g.op("Mul", g.op("Mul", t, t), t), poly)
+
+
+def _onnx_gated_output(g: _Graph, net: str, out: str, gate_node: str, width: float) -> str:
+    """``gate * (softplus_w(fx), fy, fz)`` (force) or ``gate * out`` (moment)."""
+    if net == "force":
+
+        def cols(a: int, b: int) -> str:
+            return g.op("Slice", out, g.const([a], np.int64), g.const([b], np.int64), g.const([1], np.int64))
+
+        fx = g.op("Div", cols(0, 1), g.const(width))
+        fx = g.op("Mul", g.activation("softplus", fx), g.const(width))
+        out = g.op("Concat", fx, cols(1, 3), axis=1)
+    return g.op("Mul", out, gate_node)
+
+
+def _onnx_member(g: _Graph, m: Member, net: str, gate: Gate | None = None, gate_node: str | None = None) -> str:
     """Node names of one member's net: raw features -> physical output (n x 3)."""
     mlp = getattr(m, f"{net}_net")
     norm = getattr(m, f"{net}_norm")
@@ -64,7 +110,10 @@ def _onnx_member(g: _Graph, m: Member, net: str) -> str:
         h = g.op("Add", g.op("MatMul", h, g.const(w)), g.const(lin.bias.detach().double().numpy()))
         if i < len(linears) - 1:
             h = g.activation(mlp.activation, h)
-    return g.op("Add", g.op("Mul", h, g.const(norm.scale)), g.const(norm.mean))
+    out = g.op("Add", g.op("Mul", h, g.const(norm.scale)), g.const(norm.mean))
+    if gate is None or gate_node is None:
+        return out
+    return _onnx_gated_output(g, net, out, gate_node, gate.params.force_width)
 
 
 class _Graph:
@@ -108,7 +157,9 @@ def onnx_model(model: SurrogateModel, net: str) -> bytes:
     from onnx import TensorProto, helper
 
     g = _Graph()
-    outs = [_onnx_member(g, m, net) for m in model.members]
+    gate = model.gate
+    gate_node = None if gate is None else _onnx_gate(g, gate)
+    outs = [_onnx_member(g, m, net, gate, gate_node) for m in model.members]
     outputs = [helper.make_tensor_value_info("mean", TensorProto.DOUBLE, ["n", 3])]
     if len(outs) == 1:
         g.op("Identity", outs[0], out="mean")

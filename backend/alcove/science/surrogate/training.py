@@ -12,6 +12,9 @@
    weighted MSE), each net of each member with early stopping on its validation loss
    (patience 6), keeping its best weights. Prediction is the members' mean, with their
    standard deviation (:meth:`.mlp.SurrogateModel.predict_ensemble`).
+   With ``architecture: "gated"`` the loss is taken on the gated output (:mod:`.gated`,
+   :class:`.ensemble.GatedOutputs`): each sample's gate comes from its signed gap, computed
+   from its features and the preset's head profile.
 4. Reproducible: a member's splits come from ``numpy.random.default_rng(seed_k)``, its
    initialisation and batch order from a local ``torch.Generator(seed_k)``; training runs on one thread, so the
    same pool and seed give bit-identical weights. The global RNGs are not touched.
@@ -33,8 +36,9 @@ from alcove.science.geometry import DEFAULT_PRESET, HeadNeckPreset, RelativeKine
 from alcove.science.series import ForceSeries
 from alcove.science.surrogate.config import SurrogateConfig
 from alcove.science.surrogate.dataset import PoolDataError, PoolDataset, check_pool
-from alcove.science.surrogate.ensemble import NETS, EnsembleTrainer, MemberTensors
+from alcove.science.surrogate.ensemble import NETS, EnsembleTrainer, GatedOutputs, MemberTensors
 from alcove.science.surrogate.features import features
+from alcove.science.surrogate.gated import DEFAULT_GATE, gap_from_features, gate_value
 from alcove.science.surrogate.metrics import vector_rmse
 from alcove.science.surrogate.mlp import MLP, Member, Prediction, Standardization, SurrogateModel
 
@@ -178,6 +182,13 @@ def train_surrogate(
         return torch.as_tensor(np.ascontiguousarray(a), dtype=dtype)
 
     previous = warm_start.members if warm_start is not None and config.warm_start else []
+    cold_reason = None
+    if previous and warm_start is not None and warm_start.config.architecture != config.architecture:
+        cold_reason = f"cold: architecture {warm_start.config.architecture} -> {config.architecture}"
+        previous = []
+    gated = config.architecture == "gated"
+    gate_all = gate_value(gap_from_features(x, preset.profile), DEFAULT_GATE) if gated else None
+    norms: dict[str, list[Standardization]] = {n: [] for n in NETS}
     members: list[Member] = []
     data: list[MemberTensors] = []
     generators: list[torch.Generator] = []
@@ -210,12 +221,16 @@ def train_surrogate(
                     warm_k[n] = f"cold: architecture {old} -> {now}"
             elif previous:
                 warm_k[n] = "cold: the previous model has fewer members"
+            elif cold_reason is not None:
+                warm_k[n] = cold_reason
+            norms[n].append(out_norm[n])
         warm.append(warm_k)
         z = tensor((x - input_norm.mean) / input_norm.divisor)
         yz = {n: tensor((y[n] - out_norm[n].mean) / out_norm[n].divisor) for n in NETS}
         w_all = tensor(w / w[is_train].mean())
         tr = torch.as_tensor(np.flatnonzero(is_train))
         va = torch.as_tensor(np.flatnonzero(split.sample_split == "validation"))
+        g_all = None if gate_all is None else tensor(gate_all)
         data.append(
             MemberTensors(
                 z_train=z[tr],
@@ -224,6 +239,8 @@ def train_surrogate(
                 z_val=z[va],
                 y_val={n: yz[n][va] for n in NETS},
                 w_val=w_all[va],
+                g_train=None if g_all is None else g_all[tr],
+                g_val=None if g_all is None else g_all[va],
             )
         )
         generators.append(generator)
@@ -232,8 +249,16 @@ def train_surrogate(
     n_threads = torch.get_num_threads()
     torch.set_num_threads(1)
     try:
+        gated_outputs = None
+        if gated:
+            gated_outputs = GatedOutputs(
+                DEFAULT_GATE,
+                mean={n: tensor(np.stack([nm.mean for nm in norms[n]])) for n in NETS},
+                scale={n: tensor(np.stack([nm.scale for nm in norms[n]])) for n in NETS},
+                divisor={n: tensor(np.stack([nm.divisor for nm in norms[n]])) for n in NETS},
+            )
         trainer = EnsembleTrainer(
-            {n: [getattr(m, f"{n}_net") for m in members] for n in NETS}, data, config, generators
+            {n: [getattr(m, f"{n}_net") for m in members] for n in NETS}, data, config, generators, gated_outputs
         )
         for epoch in range(1, config.max_epochs + 1):
             if cancel is not None and cancel():
@@ -277,8 +302,9 @@ def _training_metrics(
 ) -> TrainingMetrics:
     """Each member's RMSE on its own splits (:func:`.metrics.vector_rmse`), their mean per split."""
     per_member: list[dict[str, dict[str, float | None]]] = []
+    gate = model.gate
     for member, split in zip(model.members, splits, strict=True):
-        pred = dict(zip(NETS, member.predict_features(x), strict=True))
+        pred = dict(zip(NETS, member.predict_features(x, gate), strict=True))
         per_member.append(
             {
                 n: {s: vector_rmse(pred[n][split.sample_split == s], y[n][split.sample_split == s]) for s in SPLITS}

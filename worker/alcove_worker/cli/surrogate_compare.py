@@ -1,0 +1,174 @@
+"""`alcove surrogate compare`: the ``paper`` and ``gated`` architectures trained on one pool and
+scored side by side on the held-out validation suite (:mod:`alcove.science.surrogate.compare`).
+
+Registered on the ``surrogate`` group by :mod:`alcove_worker.cli.main`; bad input prints one line
+``error: <field>: <reason>`` and exits with code 2, a failed oracle replay exits with code 1.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import typer
+
+from alcove_worker.cli.surrogate import _bad_input, _campaign_inputs, _task_preset
+
+if TYPE_CHECKING:
+    from alcove.science.geometry import HeadNeckPreset
+    from alcove.science.surrogate.dataset import PoolDataset
+
+
+def _print_comparison(scores: list[dict[str, Any]], title: str) -> None:
+    from rich.console import Console
+    from rich.markup import escape
+    from rich.table import Table
+
+    def fmt(v: float | None) -> str:
+        return "-" if v is None else f"{v:.4g}"
+
+    rows = [
+        ("force RMSE [N]", "force_rmse"),
+        ("moment RMSE [N m]", "moment_rmse"),
+        ("force RMSE in contact [N]", "force_rmse_contact"),
+        ("moment RMSE in contact [N m]", "moment_rmse_contact"),
+        ("ghost |F| max, gap open [N]", "ghost_force_max"),
+        ("ghost |F| RMS, gap open [N]", "ghost_force_rms"),
+        ("ghost |M| max, gap open [N m]", "ghost_moment_max"),
+        ("oracle |F| max, gap open [N]", "oracle_force_open_max"),
+        ("ghost |F| max, state grid [N]", "grid_ghost_force_max"),
+        ("test force RMSE (in training) [N]", "test_force_rmse"),
+        ("test moment RMSE (in training) [N m]", "test_moment_rmse"),
+    ]
+    table = Table(title=title)
+    table.add_column("metric")
+    for sc in scores:
+        table.add_column(sc["architecture"], justify="right")
+    for label, key in rows:
+        table.add_row(escape(label), *(fmt(sc[key]) for sc in scores))
+    table.add_row("epochs force / moment", *(f"{sc['epochs']['force']} / {sc['epochs']['moment']}" for sc in scores))
+    console = Console()
+    console.print(table)
+    s0 = scores[0]
+    console.print(
+        f"suite: {s0['n_samples']} samples, {s0['n_contact_samples']} in contact, {s0['n_open_samples']} with the "
+        "gap open (signed gap >= 2 mm); RMSE of the force (moment) error vector over the suite"
+    )
+
+
+def compare(
+    pool_dir: Path | None = typer.Option(None, "--pool", help="pool folder of NAME.traj.csv + NAME.forces.csv pairs"),
+    campaign: int | None = typer.Option(
+        None, "--campaign", help="the campaign's latest pool version, surrogate config, task geometry and seed"
+    ),
+    suite_dir: Path | None = typer.Option(
+        None, "--suite", help="held-out motions already replayed (a pool folder; none of them in the pool)"
+    ),
+    oracle: str = typer.Option(
+        "fe-headrest-2d", "--oracle", help="without --suite: the oracle that replays the validation suite here"
+    ),
+    oracle_params: Path | None = typer.Option(None, "--oracle-params", help="JSON object of oracle parameters"),
+    motions: int = typer.Option(8, "--motions", min=1, max=64, help="without --suite: motions of the suite"),
+    suite_seed: int = typer.Option(0, "--suite-seed", min=0, help="without --suite: seed of the suite's motions"),
+    suite_out: Path | None = typer.Option(None, "--suite-out", help="save the replayed suite as a pool folder"),
+    config_file: Path | None = typer.Option(
+        None, "--config", help="surrogate configuration as JSON (its architecture is overridden; default: the paper's)"
+    ),
+    seed: int | None = typer.Option(None, "--seed", min=0, help="training seed of both (default: config's/campaign's)"),
+    task: str | None = typer.Option(
+        None, "--task", help="task preset of the pool's geometry (default: head-neck-1dof)"
+    ),
+    task_file: Path | None = typer.Option(None, "--task-file", help="task definition as JSON (instead of --task)"),
+    models_out: Path | None = typer.Option(None, "--models-out", help="write both models to DIR/paper and DIR/gated"),
+    json_output: bool = typer.Option(False, "--json", help="print the scores as JSON"),
+    database_url: str | None = typer.Option(None, "--database-url", envvar="ALCOVE_DATABASE_URL", hidden=True),
+) -> None:
+    """Train the paper and the gated architecture on one pool and score both on the validation suite."""
+    from alcove.science.surrogate.artifact import save_artifact
+    from alcove.science.surrogate.compare import compare_architectures, replay_suite
+    from alcove.science.surrogate.config import SurrogateConfig, SurrogateConfigError
+    from alcove.science.surrogate.dataset import PoolDataError, load_pool_dir, save_pool_dir
+
+    if (pool_dir is None) == (campaign is None):
+        _bad_input("pool", "give exactly one of --pool DIR and --campaign ID")
+    config_data: dict[str, Any] = {}
+    default_seed: int | None = None
+    if campaign is not None:
+        pool, config_data, preset, default_seed, _ = _campaign_inputs(campaign, database_url)
+    else:
+        preset = _task_preset(task, task_file)
+        assert pool_dir is not None
+        try:
+            pool = load_pool_dir(pool_dir)
+        except PoolDataError as exc:
+            _bad_input(f"pool: {exc.field}", exc.reason)
+    try:
+        if config_file is not None:
+            if not config_file.exists():
+                _bad_input("config", f"{config_file} does not exist")
+            config = SurrogateConfig.from_json(config_file)
+        else:
+            config = SurrogateConfig.parse(config_data)
+    except SurrogateConfigError as exc:
+        _bad_input(f"config: {exc.field}", exc.reason)
+    if suite_dir is not None:
+        try:
+            suite = load_pool_dir(suite_dir)
+        except PoolDataError as exc:
+            _bad_input(f"suite: {exc.field}", exc.reason)
+    else:
+        suite = _replay_suite(oracle, oracle_params, motions, suite_seed, preset, replay_suite)
+        if suite_out is not None:
+            save_pool_dir(suite, suite_out)
+    if suite_dir is not None and pool_dir is not None and suite_dir.resolve() == pool_dir.resolve():
+        _bad_input("suite", "is the pool itself: the suite must be held out")
+    run_seed = seed if seed is not None else (default_seed if default_seed is not None else config.seed)
+    try:
+        scores, models = compare_architectures(pool, suite, config, run_seed, preset)
+    except PoolDataError as exc:
+        _bad_input(f"pool: {exc.field}", exc.reason)
+    if models_out is not None:
+        for arch, model in models.items():
+            save_artifact(model, models_out / arch, exports=True)
+    rows = [sc.to_dict() for sc in scores]
+    if json_output:
+        typer.echo(json.dumps({"seed": run_seed, "datasets": len(pool), "suite_motions": len(suite), "scores": rows}))
+    else:
+        _print_comparison(rows, f"paper vs gated: {len(pool)} datasets, {len(suite)} held-out motions, seed {run_seed}")
+
+
+def _replay_suite(
+    oracle: str, params_file: Path | None, motions: int, seed: int, preset: HeadNeckPreset, replay: Any
+) -> list[PoolDataset]:
+    """The validation suite's motions replayed with ``oracle`` in this process."""
+    from alcove.science.oracles.base import OracleInputError
+    from alcove.science.oracles.registry import build_oracle
+    from alcove.science.validation_suite import SuiteSpec, suite_trajectories
+
+    values: dict[str, Any] = {}
+    if params_file is not None:
+        try:
+            values = json.loads(params_file.read_text())
+        except (FileNotFoundError, json.JSONDecodeError, UnicodeDecodeError) as exc:
+            _bad_input("oracle-params", f"cannot read {params_file}: {exc}")
+        if not isinstance(values, dict):
+            _bad_input("oracle-params", "must hold a JSON object")
+    try:
+        instance = build_oracle(oracle, values, preset=preset)
+        trajectories = suite_trajectories(SuiteSpec(motions=motions, seed=seed), preset)
+    except OracleInputError as exc:
+        _bad_input(f"oracle: {exc.field}", exc.reason)
+    except ValueError as exc:
+        _bad_input("suite", str(exc))
+
+    def run(traj: Any) -> Any:
+        result = instance.run(traj)
+        if not result.ok:
+            typer.echo(f"error: suite: the oracle failed a motion: {result.failure_reason}", err=True)
+            raise typer.Exit(1)
+        return result.forces
+
+    typer.echo(f"replaying {len(trajectories)} validation-suite motions with {oracle} ...", err=True)
+    suite: list[PoolDataset] = replay(run, trajectories)
+    return suite
