@@ -20,20 +20,20 @@ def offset_chain(**kw) -> PlanarChain:
     """Three links with COG offsets off the link axis, a base tilt, joint springs and the head
     on the middle link with its own origin and tilt: every option of the chain at once."""
     links = (Link(4.0, 0.2, 0.05, 0.45, com_x=0.03), Link(2.5, 0.15, 0.02, 0.3, com_x=-0.02), Link(1.2, 0.1, 0.01))
-    defaults = dict(
-        q_min=(-3,) * 3,
-        q_max=(3,) * 3,
-        torque_limit=(50,) * 3,
-        base=(0.1, -0.2),
-        base_angle=0.15,
-        headrest=Headrest((-0.3, 0.6), 0.2),
-        stiffness=(5.0, 2.0, 1.0),
-        q_rest=(0.1, -0.2, 0.0),
-        contact_link=1,
-        contact_origin=(0.04, 0.22),
-        contact_angle=-0.3,
-        profile=HeadProfile(),
-    )
+    defaults = {
+        "q_min": (-3,) * 3,
+        "q_max": (3,) * 3,
+        "torque_limit": (50,) * 3,
+        "base": (0.1, -0.2),
+        "base_angle": 0.15,
+        "headrest": Headrest((-0.3, 0.6), 0.2),
+        "stiffness": (5.0, 2.0, 1.0),
+        "q_rest": (0.1, -0.2, 0.0),
+        "contact_link": 1,
+        "contact_origin": (0.04, 0.22),
+        "contact_angle": -0.3,
+        "profile": HeadProfile(),
+    }
     return PlanarChain(links, **{**defaults, **kw})
 
 

@@ -39,6 +39,7 @@ JOINT_LIMIT = math.pi / 2  # rad: relative joint angles of a planar body chain
 MAX_TORQUE = 200.0  # N m (same bound as the task's torque bounds)
 
 Length = Annotated[float, quantity("coordinate in a link frame", "m", ge=-2, le=2)]
+WorldCoordinate = Annotated[float, quantity("world coordinate", "m", ge=-5, le=5)]
 
 
 class _Strict(BaseModel):
@@ -122,9 +123,9 @@ class HeadrestSpec(_Strict):
     """The headrest: a plane (the undeformed cushion surface) with outward normal x_H."""
 
     tilt: Annotated[float, quantity("headrest inclination (backward)", "rad", ge=-JOINT_LIMIT, le=JOINT_LIMIT)]
-    origin: tuple[Annotated[float, quantity("x", "m", ge=-5, le=5)], Annotated[float, quantity("z", "m", ge=-5, le=5)]] | (
-        None
-    ) = Field(None, description="world (x, z) of a point of the cushion surface [m]; give this or touch_q")
+    origin: tuple[WorldCoordinate, WorldCoordinate] | None = Field(
+        None, description="world (x, z) of a point of the cushion surface [m]; give this or touch_q"
+    )
     touch_q: list[Annotated[float, quantity("joint angle", "rad", ge=-JOINT_LIMIT, le=JOINT_LIMIT)]] | None = Field(
         None,
         description="joint pose [rad], one per joint, at which the head profile first touches the undeformed "
