@@ -300,7 +300,7 @@ _C0 = {
 CHAIN_PRESETS: dict[str, dict[str, Any]] = {
     "head-neck-2dof": {
         "links": [_NECK, _HEAD],
-        "joints": [{**_T1, "q0": 0.232}, _C0],
+        "joints": [{**_T1, "q0": 0.232, "q_rest": 0.232}, _C0],
         "contact_body": {"link": 1, "origin": None},
         "headrest": {"tilt": 0.31, "touch_q": [0.31, 0.0]},
     },
@@ -311,8 +311,19 @@ CHAIN_PRESETS: dict[str, dict[str, Any]] = {
             _HEAD,
         ],
         "joints": [
-            {"name": "hip", "q_min": 0.2, "q_max": 0.5, "q0": 0.35, "torque_limit": 200.0},
-            {**_T1, "q0": -0.118},
+            # assumed: the seat back as a stiff torsional spring at the hip, relaxed so that it
+            # carries the gravity moment at q0 (44.9 N m); damping ratio about 0.3
+            {
+                "name": "hip",
+                "q_min": 0.2,
+                "q_max": 0.5,
+                "q0": 0.35,
+                "torque_limit": 200.0,
+                "stiffness": 1000.0,
+                "q_rest": 0.305,
+                "damping": 50.0,
+            },
+            {**_T1, "q0": -0.118, "q_rest": -0.118},
             _C0,
         ],
         "contact_body": {"link": 2, "origin": None},
