@@ -17,7 +17,13 @@ PHASES = copy.deepcopy(TASK_PRESETS["head-headrest-2phase"]["phases"])
 
 
 def chain_task(model: dict, **extra) -> dict:
-    return {"name": "chain-task", "model": model, "phases": copy.deepcopy(PHASES), "final": {"velocity": "rest"}, **extra}
+    return {
+        "name": "chain-task",
+        "model": model,
+        "phases": copy.deepcopy(PHASES),
+        "final": {"velocity": "rest"},
+        **extra,
+    }
 
 
 def one_dof_as_chain() -> dict:
