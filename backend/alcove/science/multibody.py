@@ -152,7 +152,7 @@ class PlanarChain:
         return out
 
     @staticmethod
-    def _point(joint: Symbolic, phi: Symbolic, x: float, z: float) -> Symbolic:
+    def _point(joint: Symbolic | ca.DM, phi: Symbolic, x: float, z: float) -> Symbolic:
         """World (x, z) of the point (x, z) of a link frame at ``joint`` with angle ``phi``."""
         axis = ca.vertcat(-ca.sin(phi), ca.cos(phi))  # rot2(phi) @ (0, 1)
         out = joint + z * axis
@@ -160,10 +160,10 @@ class PlanarChain:
             out = out + x * ca.vertcat(ca.cos(phi), ca.sin(phi))  # rot2(phi) @ (1, 0)
         return out
 
-    def joint_positions(self, q: Symbolic) -> list[Symbolic]:
+    def joint_positions(self, q: Symbolic) -> list[Symbolic | ca.DM]:
         """World (x, z) of every joint and of the end of the last link (list of n + 1 2x1)."""
         joint: ca.DM | Symbolic = ca.DM(self.base)
-        out = [joint]
+        out: list[Symbolic | ca.DM] = [joint]
         for link, phi in zip(self.links, self.angles(q), strict=True):
             joint = joint + link.length * ca.vertcat(-ca.sin(phi), ca.cos(phi))
             out.append(joint)

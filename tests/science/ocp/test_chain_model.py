@@ -208,3 +208,7 @@ def test_the_papers_task_on_a_chain_preset_solves_and_rests_on_the_headrest(name
     balance = sol.controls[-1] + np.asarray(chain.gravity_force(q_end)).ravel()
     balance += chain.generalized_contact_force(q_end, wrench)[0]
     np.testing.assert_allclose(balance, 0.0, atol=1e-3)
+
+
+def test_one_dof_defaults_sent_along_by_a_form_are_not_an_error_with_a_chain_preset():
+    assert parse_task(chain_task({"preset": "head-neck-2dof", "mass": DEFAULT_PRESET.mass})).model.ndof == 2

@@ -142,9 +142,9 @@ def contact_from_spec(spec: str, preset: HeadNeckPreset | PlanarChain) -> ca.Fun
         return None
     if spec == "aux":
         return chain_aux_contact(preset) if isinstance(preset, PlanarChain) else aux_contact(preset)
-    if isinstance(preset, PlanarChain) and spec.startswith("model:"):
-        raise ContactModelError("contact", "surrogate models take the head-neck-1dof preset only so far")
     if spec.startswith("model:"):
+        if isinstance(preset, PlanarChain):
+            raise ContactModelError("contact", "surrogate models take the head-neck-1dof preset only so far")
         path = Path(spec.removeprefix("model:"))
         if not path.exists():
             raise ContactModelError("contact", f"model file {str(path)!r} does not exist")

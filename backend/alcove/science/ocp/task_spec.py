@@ -76,7 +76,7 @@ def _fail(field: str, reason: str) -> None:
     raise ValueError(f"{field}: {reason}")
 
 
-ONE_DOF = "head-neck-1dof"
+ONE_DOF: Literal["head-neck-1dof"] = "head-neck-1dof"
 #: the 1-DOF preset's own parameters (the other models are described by ``chain``)
 ONE_DOF_FIELDS = (
     "mass",
@@ -176,8 +176,8 @@ class ModelSpec(_Strict):
         if self.preset != ONE_DOF:
             if self.chain is None:
                 _fail("model.chain", f"is required with preset {self.preset!r}")
-            for name in ONE_DOF_FIELDS:
-                if name in self.model_fields_set:
+            for name in ONE_DOF_FIELDS:  # a form may send the defaults along: only a changed value is an error
+                if name in self.model_fields_set and getattr(self, name) != type(self).model_fields[name].default:
                     _fail(
                         f"model.{name}",
                         f"belongs to the head-neck-1dof preset; with preset {self.preset!r} edit model.chain instead",
