@@ -293,6 +293,19 @@ class PlanarChain:
         return self._fn_relkin
 
     @cached_property
+    def head_pose_function(self) -> ca.Function:
+        """(q, qd) -> [x, z, angle, vx, vz, omega] (6x1) of the contact body in H: its origin's
+        position and velocity along x_H and z_H [m, m/s], its tilt relative to the headrest
+        (backward positive) and that tilt's rate [rad, rad/s] (``omega = -omega_y``)."""
+        q, qd = self._sym
+        _, phi = self.contact_pose_world(q)
+        r_rel, v_rel, _, _ = self._fn_relkin.call([q, qd])
+        angle = phi - self.headrest.tilt
+        rate = ca.jtimes(angle, q, qd)
+        out = ca.vertcat(r_rel[0], r_rel[2], angle, v_rel[0], v_rel[2], rate)
+        return ca.Function("head_pose", [q, qd], [out], ["q", "qd"], ["pose"])
+
+    @cached_property
     def contact_jacobian(self) -> ca.Function:
         """q -> J (6 x n) with [v_rel; omega_rel] = J qd in H."""
         return self._fn_jacobian
@@ -327,6 +340,13 @@ class PlanarChain:
         n = q.shape[0]
         r, v, T, w = (np.asarray(out) for out in self._fn_relkin.map(n).call([q.T, qd.T]))
         return RelativeKinematics(r_rel=r.T, v_rel=v.T, T_rel=T.reshape(3, n, 3).transpose(1, 0, 2), omega_rel=w.T)
+
+    def head_pose(self, q: FloatArray, qd: FloatArray) -> FloatArray:
+        """The contact body's planar pose and twist in H for samples: (n, 6) with the columns
+        ``head_x, head_z, head_angle, head_vx, head_vz, head_omega`` (m, rad, m/s, rad/s)."""
+        q, qd = self._as_samples(q), self._as_samples(qd)
+        pose: FloatArray = np.asarray(self.head_pose_function.map(q.shape[0])(q.T, qd.T)).T
+        return pose
 
     def generalized_contact_force(self, q: FloatArray, wrench: FloatArray) -> FloatArray:
         """J(q)^T w for samples: q (n, ndof), wrench (n, 6) -> (n, ndof)."""

@@ -216,3 +216,26 @@ def test_a_contact_force_in_the_del_equations_is_the_mapped_wrench():
     q_torque, _ = simulate(chain, q0, qd0, h, N, tau=tau)
     np.testing.assert_allclose(q_torque, q_contact, atol=1e-12)
     assert np.abs(q_contact[-1] - simulate(chain, q0, qd0, h, N)[0][-1]).max() > 1e-3  # the push mattered
+
+
+def test_head_pose_and_twist_in_the_headrest_frame_along_a_motion():
+    """head_pose (x, z, angle, vx, vz, omega in H) of the 3-link chain along a motion: the
+    pose agrees with relative_kinematics (1e-14) and the rates with central differences of the
+    pose along a smooth cubic q(t) (step 1e-5 s, 1e-7)."""
+    chain = offset_chain()
+    rng = np.random.default_rng(11)
+    a, b, c = rng.normal(size=(3, 3))
+
+    def q_of(t):
+        return a + b * t + c * t**3
+
+    def qd_of(t):
+        return b + 3 * c * t**2
+
+    for t in (0.1, 0.4, 0.9):
+        pose = chain.head_pose(q_of(t), qd_of(t))[0]
+        kin = chain.relative_kinematics(q_of(t), qd_of(t))
+        np.testing.assert_allclose(pose[:3], [kin.r_rel[0, 0], kin.r_rel[0, 2], kin.angle[0]], atol=1e-14)
+        dt = 1e-5
+        ahead, behind = chain.head_pose(q_of(t + dt), qd_of(t + dt))[0], chain.head_pose(q_of(t - dt), qd_of(t - dt))[0]
+        np.testing.assert_allclose(pose[3:], (ahead[:3] - behind[:3]) / (2 * dt), atol=1e-7)
