@@ -212,3 +212,25 @@ def test_the_papers_task_on_a_chain_preset_solves_and_rests_on_the_headrest(name
 
 def test_one_dof_defaults_sent_along_by_a_form_are_not_an_error_with_a_chain_preset():
     assert parse_task(chain_task({"preset": "head-neck-2dof", "mass": DEFAULT_PRESET.mass})).model.ndof == 2
+
+
+@pytest.mark.parametrize(
+    ("path", "value", "field"),
+    [
+        ("links.0.mass", -1.0, "spec.model.chain.links.0.mass"),
+        ("links.1.inertia_com", -0.01, "spec.model.chain.links.1.inertia_com"),
+        ("joints.1.q0", 0.5, "spec.model.chain.joints.1.q0"),
+        ("headrest.touch_q", [0.1, 0.0], "spec.model.chain.joints"),
+    ],
+)
+def test_the_api_reports_the_same_chain_field(path, value, field):
+    """The API's field errors (alcove.errors) carry the same path, under 'spec'."""
+    from pydantic import ValidationError
+
+    from alcove.errors import field_errors_from_pydantic
+    from alcove.science.ocp.task_spec import TaskSpec
+
+    with pytest.raises(ValidationError) as info:
+        TaskSpec.model_validate(chain_task(two_dof_with(path, value)))
+    (first, *_) = field_errors_from_pydantic(info.value, base=("spec",))
+    assert first.field == field
