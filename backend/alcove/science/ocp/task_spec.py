@@ -1,9 +1,10 @@
 """The user's OCP task definition (pydantic), its validation and the task presets.
 
-A task names a model preset with editable parameters, the initial state, one or more
+A task names a model (the 1-DOF head-neck preset with editable parameters, an n-DOF preset
+or a user-defined planar chain, :mod:`.chain_model`), the initial state, one or more
 phases (duration, intervals, cost weights w_tau / w_T, optional bounds and target pose at
 the phase end), the final condition and an optional endpoint cost. Angles in rad, torques
-in N m, durations in s. Lists have one entry per joint (the head-neck preset has one).
+in N m, durations in s. Lists have one entry per joint (the 1-DOF preset has one).
 
 Errors name the field with its path, e.g. ``phases.1.duration: ...``; use
 :func:`parse_task` to get a :class:`TaskSpecError` with ``field`` and ``reason``.
