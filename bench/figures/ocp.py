@@ -9,7 +9,8 @@
 * trained surrogate, warm: the next model version in the same process, as in a campaign:
   the weights are NLP parameters (``surrogate_contact``), so the NLP and solver built for the
   previous version are reused and IPOPT is warm-started from the previous version's solution;
-* trained surrogate, new version from the passive guess: the same without the warm start.
+* trained surrogate, new version from the passive guess: the same without the warm start;
+* the same task on the 2- and 3-joint chain presets (group ``ocp-chains``), aux contact, cached NLP.
 
 The surrogates are trained in the setup on the preliminary aux-penalty LHS data (default
 architecture and ensemble size K = 5, so the contact model is the mean of five member pairs;
@@ -89,6 +90,48 @@ def ocp_aux_cold(ctx: Any) -> float:
     task, _ = ctx
     clear_cache()
     return _solve(task, aux_contact(task.preset()))
+
+
+def _chain_setup(preset: str) -> tuple[Any, Any]:
+    """The paper's two-phase task on an n-DOF chain preset with the aux contact fed by the head pose."""
+    from alcove.science.ocp.contact import chain_aux_contact
+    from alcove.science.ocp.solve import solve_task
+    from alcove.science.ocp.task_spec import parse_task, task_preset
+
+    data = task_preset(TASK).model_dump(mode="json")
+    data["model"] = {"preset": preset}
+    task = parse_task(data)
+    contact = chain_aux_contact(task.chain())
+    assert solve_task(task, contact).converged  # builds and caches the NLP
+    return task, contact
+
+
+@figure(
+    "ocp head-headrest on head-neck-2dof, aux contact, 200 intervals (cached NLP)",
+    "s",
+    target=1.0,
+    setup=lambda: _chain_setup("head-neck-2dof"),
+    reps=5,
+    quick_reps=2,
+    group="ocp-chains",
+)
+def ocp_chain_2dof_cached(ctx: Any) -> float:
+    task, contact = ctx
+    return _solve(task, contact)
+
+
+@figure(
+    "ocp head-headrest on trunk-neck-head-3dof, aux contact, 200 intervals (cached NLP)",
+    "s",
+    target=2.0,
+    setup=lambda: _chain_setup("trunk-neck-head-3dof"),
+    reps=5,
+    quick_reps=2,
+    group="ocp-chains",
+)
+def ocp_chain_3dof_cached(ctx: Any) -> float:
+    task, contact = ctx
+    return _solve(task, contact)
 
 
 @lru_cache(maxsize=1)

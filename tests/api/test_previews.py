@@ -417,3 +417,13 @@ def test_a_preview_asked_for_while_redis_is_down_runs_when_it_is_back(
         get_settings.cache_clear()
         reset_sender()
         reset_broker_client()
+
+
+def test_solve_once_takes_a_chain_model() -> None:
+    """The one-off solve of the task editor (aux contact) on the 2-DOF head-neck preset."""
+    from alcove.previews.worker import solve_task_once
+
+    spec = {**small_task_spec(), "model": {"preset": "head-neck-2dof"}}
+    out = solve_task_once(spec, [50] * len(spec["phases"]))
+    assert out["converged"], out["status"]
+    assert np.asarray(out["q"]).shape == (50 * len(spec["phases"]) + 1, 2)

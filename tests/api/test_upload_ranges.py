@@ -97,3 +97,13 @@ def test_another_members_task_is_not_a_range(client, owner, other, task_id) -> N
 def test_a_nul_character_in_the_file_is_a_clear_error(client, owner) -> None:
     field, msg = field_error(upload(client, owner, csv_rows().replace(b"s0", b"s\x000", 1)))
     assert field.startswith("file") and msg
+
+
+def test_a_chain_task_is_refused_as_the_range_of_1dof_data() -> None:
+    """Data sets are 1-DOF (q_0, qd_0) so far: a task with a chain model is refused by name, not
+    checked against the 1-DOF defaults its model would otherwise still carry."""
+    from alcove.errors import InvalidInput
+    from alcove.pool.service import state_range_of_task
+
+    with pytest.raises(InvalidInput, match="head-neck-1dof preset only"):
+        state_range_of_task({**small_task_spec(), "model": {"preset": "head-neck-2dof"}})

@@ -203,3 +203,44 @@ def test_ghost_force_solution_is_flagged_untrusted(tmp_path, ghost_case):
     assert bounded.exit_code == 0, bounded.output
     out = json.loads(bounded.stdout)
     assert out["trust_region_max_std"] == 2.0 and out["trust"]["max_std"] <= 2.0 * (1 + 1e-6)
+
+
+EXAMPLES = Path(__file__).resolve().parents[2] / "examples" / "tasks"
+
+
+def test_solve_a_task_file_with_a_chain_model(tmp_path):
+    """The 2-DOF example task solves from the CLI; the CSV has one q/qd/tau column per joint."""
+    out = tmp_path / "t.csv"
+    res = runner.invoke(
+        app, ["ocp", "solve", "--task-file", str(EXAMPLES / "head-headrest-2dof.json"), "--out", str(out), "--json"]
+    )
+    assert res.exit_code == 0, res.stderr
+    assert json.loads(res.stdout)["converged"]
+    assert out.read_text().splitlines()[0] == "t,q_0,q_1,qd_0,qd_1,tau_0,tau_1"
+    assert Trajectory.from_csv(out).q.shape == (201, 2)
+
+
+def test_a_bad_chain_in_a_task_file_names_the_field(tmp_path):
+    data = json.loads((EXAMPLES / "user-chain-3link.json").read_text())
+    data["model"]["chain"]["links"][1]["mass"] = -2.0
+    (tmp_path / "task.json").write_text(json.dumps(data))
+    res = runner.invoke(
+        app, ["ocp", "solve", "--task-file", str(tmp_path / "task.json"), "--out", str(tmp_path / "t.csv")]
+    )
+    assert res.exit_code == 2
+    assert "error: model.chain.links.1.mass: " in res.stderr
+    res = runner.invoke(
+        app,
+        [
+            "ocp",
+            "solve",
+            "--task-file",
+            str(EXAMPLES / "head-headrest-2dof.json"),
+            "--contact",
+            "model:x.pt",
+            "--out",
+            str(tmp_path / "t.csv"),
+        ],
+    )
+    assert res.exit_code == 2
+    assert "head-neck-1dof preset only" in res.stderr

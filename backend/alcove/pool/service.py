@@ -17,7 +17,7 @@ from cachetools import LRUCache
 from sqlalchemy.orm import Session
 
 from alcove.db.arrays import get_arrays, put_arrays
-from alcove.errors import NotFound
+from alcove.errors import InvalidInput, NotFound
 from alcove.models import Dataset, PoolVersion
 from alcove.pool import repository as repo
 from alcove.pool.schemas import PoolVersionRead
@@ -234,6 +234,10 @@ def state_range_of_task(spec: dict[str, Any]) -> StateRange:
     from alcove.science.surrogate.dataset import StateRange
 
     model = parse_task(spec).model
+    if model.is_chain:  # the pool's data (joint columns q_0, qd_0) and features are 1-DOF so far
+        raise InvalidInput.one(
+            "task", f"its model {model.preset!r} is a chain; data sets take the head-neck-1dof preset only so far"
+        )
     what = "the task's joint range theta_min..theta_max"
     return StateRange(model.theta_min, model.theta_max, MAX_ANGULAR_VELOCITY, what)
 

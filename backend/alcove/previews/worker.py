@@ -119,7 +119,7 @@ def solve_task_once(spec: dict[str, Any], per_phase: list[int], intervals: int |
     """Solve the task once with the auxiliary (penalty) contact, ``per_phase[m]`` intervals in
     phase m: the trajectory on the OCP grid (t, q, qd, node torques tau), the solver's status,
     cost, iterations, wall time, and the grid in words (``intervals``: what the request asked)."""
-    from alcove.science.ocp.contact import aux_contact
+    from alcove.science.ocp.contact import contact_from_spec
     from alcove.science.ocp.solve import solve_task
     from alcove.science.ocp.task_spec import parse_task
 
@@ -128,9 +128,9 @@ def solve_task_once(spec: dict[str, Any], per_phase: list[int], intervals: int |
     data = {**spec, "phases": [{**ph, "intervals": n} for ph, n in zip(spec["phases"], per_phase, strict=True)]}
     task = parse_task(data)
     t0 = time.perf_counter()
-    sol = solve_task(
-        task, aux_contact(task.preset()), max_attempts=1, ipopt_options={"ipopt.max_iter": PREVIEW_IPOPT_MAX_ITER}
-    )
+    # a chain model (n-DOF preset or user-defined): the aux contact fed by its head's pose
+    aux = contact_from_spec("aux", task.chain() if task.model.is_chain else task.preset())
+    sol = solve_task(task, aux, max_attempts=1, ipopt_options={"ipopt.max_iter": PREVIEW_IPOPT_MAX_ITER})
     return {
         "t": _finite(sol.t),
         "q": _finite(sol.q),

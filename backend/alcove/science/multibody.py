@@ -8,17 +8,26 @@ Coordinates. ``q_0`` is the absolute angle of link 0 from the vertical; ``q_i`` 
 the angle of link i relative to link i-1, so link i has the absolute angle
 ``phi_i = q_0 + ... + q_i``. For the one-link head-neck preset ``q_0 = theta``.
 
+The base frame sits at ``base`` (world x, z) tilted back by ``base_angle``, so link 0 has
+the absolute angle ``phi_0 = base_angle + q_0`` (``base_angle = 0``: ``q_0`` is absolute).
 Link i starts at its joint, points along its body z axis and carries its centre of gravity
-at ``com_distance`` along that axis; the next joint sits at ``length``. The *contact body*
-is the last link; its frame has its origin at the link's centre of gravity (the head
-frame of the geometry module). The headrest frame H is fixed in space.
+at ``(com_x, com_distance)`` in its frame (x forward, z along the link); the next joint
+sits at ``length`` along the axis. The *contact body* (the head) is rigidly attached to
+link ``contact_link`` (default: the last): its frame origin is at ``contact_origin`` in that
+link's frame (default: the link's centre of gravity, the head frame of the geometry
+module) and it is tilted back by ``contact_angle`` relative to the link. It carries the
+head profile ``profile``. The headrest frame H is fixed in space.
 
-Equations of motion (L = T - V)::
+Joints may have passive elements: a linear spring ``-k_i (q_i - q_rest_i)`` (part of the
+potential, so the chain stays a Lagrangian system) and a linear damper ``-c_i qd_i`` (a
+non-conservative force, applied like the torques).
 
-    M(q) qdd + C(q, qd) = tau + g(q) + J(q)^T w
+Equations of motion (L = T - V, V = gravity + springs)::
+
+    M(q) qdd + C(q, qd) = tau + g(q) - c qd + J(q)^T w
 
 with ``M`` the mass matrix, ``C = Mdot qd - dT/dq`` the Coriolis/centrifugal terms,
-``g = -dV/dq`` the generalized gravity force and ``w = [F; M]`` the contact force on the
+``g = -dV/dq`` the generalized gravity and spring force and ``w = [F; M]`` the contact force on the
 contact body and its moment about the body frame origin, both in H. ``J`` (6 x n) maps joint
 velocities to the body twist in H, ``[v; omega] = J qd``; by virtual power its transpose
 maps the wrench to generalized forces.
@@ -37,19 +46,21 @@ import casadi as ca
 import numpy as np
 
 from alcove.science.arrays import FloatArray
-from alcove.science.geometry import GRAVITY, HeadNeckPreset, RelativeKinematics
+from alcove.science.geometry import GRAVITY, HeadNeckPreset, HeadProfile, RelativeKinematics
 from alcove.science.symbolic import Symbolic
 
 
 @dataclass(frozen=True)
 class Link:
     """A rigid link: mass [kg], joint-to-next-joint length [m], COG distance from its joint
-    along the link axis [m] and moment of inertia about its COG [kg m^2]."""
+    along the link axis [m], moment of inertia about its COG [kg m^2] and the COG's forward
+    offset from the link axis [m] (``com_x``)."""
 
     mass: float
     com_distance: float
     inertia_com: float
     length: float = 0.0
+    com_x: float = 0.0
 
     def __post_init__(self) -> None:
         if not self.mass > 0:
@@ -77,14 +88,32 @@ class PlanarChain:
     gravity: float = GRAVITY
     base: tuple[float, float] = (0.0, 0.0)
     headrest: Headrest = field(default_factory=Headrest)
+    base_angle: float = 0.0
+    #: joint springs k_i [N m/rad] about q_rest_i [rad] and dampers c_i [N m s/rad]; None: none
+    stiffness: tuple[float, ...] | None = None
+    q_rest: tuple[float, ...] | None = None
+    damping: tuple[float, ...] | None = None
+    #: the contact body: index of the link carrying it (negative: from the end), its origin
+    #: in that link's frame (None: the link's COG), its backward tilt relative to the link
+    contact_link: int = -1
+    contact_origin: tuple[float, float] | None = None
+    contact_angle: float = 0.0
+    profile: HeadProfile = field(default_factory=HeadProfile)
 
     def __post_init__(self) -> None:
         n = len(self.links)
         if n < 1:
             raise ValueError("links: a chain needs at least one link")
-        for name in ("q_min", "q_max", "torque_limit"):
-            if len(getattr(self, name)) != n:
-                raise ValueError(f"{name}: expected {n} values, got {len(getattr(self, name))}")
+        for name in ("q_min", "q_max", "torque_limit", "stiffness", "q_rest", "damping"):
+            value = getattr(self, name)
+            if value is not None and len(value) != n:
+                raise ValueError(f"{name}: expected {n} values, got {len(value)}")
+        for name in ("stiffness", "damping"):
+            value = getattr(self, name)
+            if value is not None and any(not v >= 0 for v in value):
+                raise ValueError(f"{name}: every value must be >= 0")
+        if not -n <= self.contact_link < n:
+            raise ValueError(f"contact_link: must index one of the {n} links, got {self.contact_link}")
         for i, (lo, hi) in enumerate(zip(self.q_min, self.q_max, strict=False)):
             if not lo < hi:
                 raise ValueError(f"q_min[{i}]: must be below q_max[{i}] ({lo} >= {hi})")
@@ -104,6 +133,7 @@ class PlanarChain:
             torque_limit=(preset.torque_limit,),
             gravity=preset.gravity,
             headrest=Headrest((float(o[0]), float(o[1])), preset.tilt),
+            profile=preset.profile,
         )
 
     @property
@@ -111,34 +141,68 @@ class PlanarChain:
         return len(self.links)
 
     # ---- kinematics (CasADi expressions of SX or MX symbols) ------------------------
+    # Terms whose parameter is zero are left out (not multiplied by 0), so the default
+    # chain is the same expression graph as before these options existed: the 1-DOF preset
+    # gives bit-identical numbers.
     def angles(self, q: Symbolic) -> list[Symbolic]:
         """Absolute angles phi_i of the links (list of scalars)."""
-        out = [q[0]]
+        out = [q[0] + self.base_angle if self.base_angle else q[0]]
         for i in range(1, self.ndof):
             out.append(out[-1] + q[i])
         return out
 
-    def com_positions(self, q: Symbolic) -> list[Symbolic]:
-        """World (x, z) of every link's COG (list of 2x1)."""
-        joint: ca.DM | Symbolic = ca.DM(self.base)
-        out = []
-        for link, phi in zip(self.links, self.angles(q), strict=True):
-            axis = ca.vertcat(-ca.sin(phi), ca.cos(phi))  # rot2(phi) @ (0, 1)
-            out.append(joint + link.com_distance * axis)
-            joint = joint + link.length * axis
+    @staticmethod
+    def _point(joint: Symbolic | ca.DM, phi: Symbolic, x: float, z: float) -> Symbolic:
+        """World (x, z) of the point (x, z) of a link frame at ``joint`` with angle ``phi``."""
+        axis = ca.vertcat(-ca.sin(phi), ca.cos(phi))  # rot2(phi) @ (0, 1)
+        out = joint + z * axis
+        if x:
+            out = out + x * ca.vertcat(ca.cos(phi), ca.sin(phi))  # rot2(phi) @ (1, 0)
         return out
 
+    def joint_positions(self, q: Symbolic) -> list[Symbolic | ca.DM]:
+        """World (x, z) of every joint and of the end of the last link (list of n + 1 2x1)."""
+        joint: ca.DM | Symbolic = ca.DM(self.base)
+        out: list[Symbolic | ca.DM] = [joint]
+        for link, phi in zip(self.links, self.angles(q), strict=True):
+            joint = joint + link.length * ca.vertcat(-ca.sin(phi), ca.cos(phi))
+            out.append(joint)
+        return out
+
+    def com_positions(self, q: Symbolic) -> list[Symbolic]:
+        """World (x, z) of every link's COG (list of 2x1)."""
+        joints = self.joint_positions(q)
+        return [
+            self._point(joint, phi, link.com_x, link.com_distance)
+            for link, joint, phi in zip(self.links, joints, self.angles(q), strict=False)
+        ]
+
     def potential_energy(self, q: Symbolic) -> Symbolic:
-        """V(q) = sum m_i g z_i (zero at the height of the base joint)."""
+        """V(q) = sum m_i g z_i (zero at the height of the base joint) + sum k_i (q_i - q_rest_i)^2 / 2."""
         heights = [link.mass * self.gravity * c[1] for link, c in zip(self.links, self.com_positions(q), strict=True)]
         energy = heights[0]
         for height in heights[1:]:
             energy = energy + height
+        if self.stiffness is not None and any(self.stiffness):
+            rest = ca.DM(self.q_rest if self.q_rest is not None else [0.0] * self.ndof)
+            energy = energy + 0.5 * ca.dot(ca.DM(self.stiffness), (q - rest) ** 2)
         return energy
+
+    def damping_force(self, qd: Symbolic) -> Symbolic | None:
+        """-c qd, the joint dampers' generalized force (None without dampers)."""
+        if self.damping is None or not any(self.damping):
+            return None
+        return -ca.DM(self.damping) * qd
 
     def contact_pose_world(self, q: Symbolic) -> tuple[Symbolic, Symbolic]:
         """World (x, z) of the contact body frame origin and its absolute angle."""
-        return self.com_positions(q)[-1], self.angles(q)[-1]
+        k = self.contact_link % self.ndof
+        phi = self.angles(q)[k]
+        if self.contact_origin is None:
+            pos = self.com_positions(q)[k]
+        else:
+            pos = self._point(self.joint_positions(q)[k], phi, *self.contact_origin)
+        return pos, (phi + self.contact_angle if self.contact_angle else phi)
 
     def generalized_contact_force_expr(self, q: Symbolic, wrench: Symbolic) -> Symbolic:
         """J(q)^T w for symbols."""
@@ -206,7 +270,7 @@ class PlanarChain:
 
     @cached_property
     def gravity_force(self) -> ca.Function:
-        """Generalized gravity force g(q) = -dV/dq (on the right-hand side of the EOM)."""
+        """Generalized gravity (and joint spring) force g(q) = -dV/dq (on the right-hand side of the EOM)."""
         q, _ = self._sym
         return ca.Function("gravity_force", [q], [-ca.gradient(self.potential_energy(q), q)], ["q"], ["g"])
 
@@ -229,6 +293,19 @@ class PlanarChain:
         return self._fn_relkin
 
     @cached_property
+    def head_pose_function(self) -> ca.Function:
+        """(q, qd) -> [x, z, angle, vx, vz, omega] (6x1) of the contact body in H: its origin's
+        position and velocity along x_H and z_H [m, m/s], its tilt relative to the headrest
+        (backward positive) and that tilt's rate [rad, rad/s] (``omega = -omega_y``)."""
+        q, qd = self._sym
+        _, phi = self.contact_pose_world(q)
+        r_rel, v_rel, _, _ = self._fn_relkin.call([q, qd])
+        angle = phi - self.headrest.tilt
+        rate = ca.jtimes(angle, q, qd)
+        out = ca.vertcat(r_rel[0], r_rel[2], angle, v_rel[0], v_rel[2], rate)
+        return ca.Function("head_pose", [q, qd], [out], ["q", "qd"], ["pose"])
+
+    @cached_property
     def contact_jacobian(self) -> ca.Function:
         """q -> J (6 x n) with [v_rel; omega_rel] = J qd in H."""
         return self._fn_jacobian
@@ -240,6 +317,9 @@ class PlanarChain:
         tau = ca.SX.sym("tau", self.ndof)
         w = ca.SX.sym("wrench", 6)
         rhs = tau + self.gravity_force(q) + ca.mtimes(self._fn_jacobian(q).T, w) - self.coriolis(q, qd)
+        damping = self.damping_force(qd)
+        if damping is not None:
+            rhs = rhs + damping
         qdd = ca.solve(self._fn_mass(q), rhs)
         return ca.Function("forward_dynamics", [q, qd, tau, w], [qdd], ["q", "qd", "tau", "wrench"], ["qdd"])
 
@@ -260,6 +340,13 @@ class PlanarChain:
         n = q.shape[0]
         r, v, T, w = (np.asarray(out) for out in self._fn_relkin.map(n).call([q.T, qd.T]))
         return RelativeKinematics(r_rel=r.T, v_rel=v.T, T_rel=T.reshape(3, n, 3).transpose(1, 0, 2), omega_rel=w.T)
+
+    def head_pose(self, q: FloatArray, qd: FloatArray) -> FloatArray:
+        """The contact body's planar pose and twist in H for samples: (n, 6) with the columns
+        ``head_x, head_z, head_angle, head_vx, head_vz, head_omega`` (m, rad, m/s, rad/s)."""
+        q, qd = self._as_samples(q), self._as_samples(qd)
+        pose: FloatArray = np.asarray(self.head_pose_function.map(q.shape[0])(q.T, qd.T)).T
+        return pose
 
     def generalized_contact_force(self, q: FloatArray, wrench: FloatArray) -> FloatArray:
         """J(q)^T w for samples: q (n, ndof), wrench (n, 6) -> (n, ndof)."""

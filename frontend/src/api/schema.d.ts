@@ -1312,6 +1312,30 @@ export interface paths {
 export type webhooks = Record<string, never>;
 export interface components {
     schemas: {
+        /**
+         * BaseSpec
+         * @description Pose of the base frame (the first joint) in the world.
+         */
+        BaseSpec: {
+            /**
+             * Angle
+             * @description base frame backward tilt (added to q_0) [rad], -1.5708 to 1.5708 rad
+             * @default 0
+             */
+            angle?: number;
+            /**
+             * X
+             * @description base joint x (forward) [m], -5 to 5 m
+             * @default 0
+             */
+            x?: number;
+            /**
+             * Z
+             * @description base joint z (up) [m], -5 to 5 m
+             * @default 0
+             */
+            z?: number;
+        };
         /** Body_upload_preliminary_dataset */
         Body_upload_preliminary_dataset: {
             /**
@@ -1564,6 +1588,25 @@ export interface components {
             /** Task Version */
             task_version: number;
         };
+        /**
+         * ChainSpec
+         * @description A planar open chain of 1 to 6 links (one joint per link).
+         */
+        ChainSpec: {
+            base?: components["schemas"]["BaseSpec"];
+            contact_body?: components["schemas"]["ContactBodySpec"];
+            /**
+             * Gravity
+             * @description gravitational acceleration [m/s^2], 0 to 100 m/s^2; 0 is weightless, 100 is about 10 g
+             * @default 9.81
+             */
+            gravity?: number;
+            headrest: components["schemas"]["HeadrestSpec"];
+            /** Joints */
+            joints: components["schemas"]["JointSpec"][];
+            /** Links */
+            links: components["schemas"]["LinkSpec"][];
+        };
         /** Check */
         Check: {
             /**
@@ -1642,6 +1685,32 @@ export interface components {
             updated_at: string;
             /** Working Dir */
             working_dir: string | null;
+        };
+        /**
+         * ContactBodySpec
+         * @description The contact body (head): the link carrying it, its frame in that link's frame, its profile.
+         */
+        ContactBodySpec: {
+            /**
+             * Angle
+             * @description head frame tilt relative to the link [rad], -3.14159 to 3.14159 rad
+             * @default 0
+             */
+            angle?: number;
+            /**
+             * Link
+             * @description index of the link carrying the head [-], 0 to 5 (0: the first link); null = the last link
+             */
+            link?: number | null;
+            /**
+             * Origin
+             * @description head frame origin (x, z) in the link frame [m]; null = the link's COG
+             */
+            origin?: [
+                number,
+                number
+            ] | null;
+            profile?: components["schemas"]["ProfileSpec"];
         };
         /** CopyPreset */
         CopyPreset: {
@@ -1793,6 +1862,37 @@ export interface components {
             surrogate_config_version_id?: number | null;
             /** Task Version Id */
             task_version_id?: number | null;
+        };
+        /**
+         * HeadrestSpec
+         * @description The headrest: a plane (the undeformed cushion surface) with outward normal x_H.
+         */
+        HeadrestSpec: {
+            /**
+             * Origin
+             * @description world (x, z) of a point of the cushion surface [m]; give this or touch_q
+             */
+            origin?: [
+                number,
+                number
+            ] | null;
+            /**
+             * Surface
+             * @description shape of the undeformed cushion surface (a plane)
+             * @default plane
+             * @constant
+             */
+            surface?: "plane";
+            /**
+             * Tilt
+             * @description headrest inclination (backward) [rad], -1.5708 to 1.5708 rad
+             */
+            tilt: number;
+            /**
+             * Touch Q
+             * @description joint pose [rad], one per joint, at which the head profile first touches the undeformed headrest (the surface is placed through that point); give this or origin
+             */
+            touch_q?: number[] | null;
         };
         /** Health */
         Health: {
@@ -1972,6 +2072,90 @@ export interface components {
             /** Worker Name */
             worker_name: string | null;
         };
+        /**
+         * JointSpec
+         * @description A revolute joint at the proximal end of its link (angle relative to the previous link).
+         */
+        JointSpec: {
+            /**
+             * Damping
+             * @description passive joint damping [N m s/rad], 0 to 1000 N m s/rad
+             * @default 0
+             */
+            damping?: number;
+            /**
+             * Name
+             * @default
+             */
+            name?: string;
+            /**
+             * Q0
+             * @description initial joint angle [rad], -1.5708 to 1.5708 rad; within q_min..q_max
+             */
+            q0: number;
+            /**
+             * Q Max
+             * @description upper joint limit [rad], -1.5708 to 1.5708 rad; above q_min
+             */
+            q_max: number;
+            /**
+             * Q Min
+             * @description lower joint limit [rad], -1.5708 to 1.5708 rad
+             */
+            q_min: number;
+            /**
+             * Q Rest
+             * @description angle at which the joint spring is relaxed [rad], -1.5708 to 1.5708 rad
+             * @default 0
+             */
+            q_rest?: number;
+            /**
+             * Stiffness
+             * @description passive joint stiffness [N m/rad], 0 to 10000 N m/rad
+             * @default 0
+             */
+            stiffness?: number;
+            /**
+             * Torque Limit
+             * @description joint torque limit [N m], above 0, at most 200 N m; an adult neck's largest is 30-60 N m
+             */
+            torque_limit: number;
+        };
+        /**
+         * LinkSpec
+         * @description A rigid link: mass, COG in the link frame, inertia about the COG, length to the next joint.
+         */
+        LinkSpec: {
+            /**
+             * Com
+             * @description COG (x forward, z along the link from its joint) in the link frame [m], each -2 to 2
+             */
+            com: [
+                number,
+                number
+            ];
+            /**
+             * Inertia Com
+             * @description moment of inertia about the COG (pitch) [kg m^2], 0 to 50 kg m^2
+             */
+            inertia_com: number;
+            /**
+             * Length
+             * @description distance from the link's joint to the next joint [m], 0 to 2 m; 0 for the last link
+             * @default 0
+             */
+            length?: number;
+            /**
+             * Mass
+             * @description link mass [kg], above 0, at most 200 kg; a whole adult trunk is about 30-40 kg
+             */
+            mass: number;
+            /**
+             * Name
+             * @default
+             */
+            name?: string;
+        };
         /** LoginIn */
         LoginIn: {
             /**
@@ -2123,9 +2307,14 @@ export interface components {
         };
         /**
          * ModelSpec
-         * @description Model preset and its parameters (defaults: the paper's head-neck model).
+         * @description The model: the paper's 1-DOF head-neck preset with its parameters (the default), an
+         *     n-DOF preset (``head-neck-2dof``, ``trunk-neck-head-3dof``) or a user-defined planar chain
+         *     (``preset: "chain"``). The last three are described by ``chain``; an n-DOF preset fills in
+         *     every part of ``chain`` that is not given (top-level keys: give ``links`` and you give all links).
          */
         ModelSpec: {
+            /** @description the planar chain of an n-DOF preset or of a user-defined model; null for head-neck-1dof */
+            chain?: components["schemas"]["ChainSpec"] | null;
             /**
              * Com Distance
              * @description distance from the joint (C7/T1) to the head COG [m], above 0, at most 0.5 m
@@ -2152,10 +2341,11 @@ export interface components {
             mass?: number;
             /**
              * Preset
+             * @description head-neck-1dof (the paper's model; its parameters are the fields below), head-neck-2dof, trunk-neck-head-3dof or chain (a user-defined chain: give model.chain)
              * @default head-neck-1dof
-             * @constant
+             * @enum {string}
              */
-            preset?: "head-neck-1dof";
+            preset?: "head-neck-1dof" | "head-neck-2dof" | "trunk-neck-head-3dof" | "chain";
             /**
              * Theta0
              * @description initial angle [rad], -1.5708 to 1.5708 rad; within theta_min..theta_max
@@ -2727,6 +2917,36 @@ export interface components {
          * @enum {string}
          */
         PreviewStatus: "pending" | "running" | "succeeded" | "failed";
+        /**
+         * ProfileSpec
+         * @description The elliptic occipital profile in the contact body frame (defaults: the shared head profile).
+         */
+        ProfileSpec: {
+            /**
+             * Ax
+             * @description profile semi-axis front-back [m], above 0, at most 0.5 m
+             * @default 0.095
+             */
+            ax?: number;
+            /**
+             * Az
+             * @description profile semi-axis up-down [m], above 0, at most 0.5 m
+             * @default 0.11
+             */
+            az?: number;
+            /**
+             * Cx
+             * @description profile centre x [m], -0.5 to 0.5 m
+             * @default 0
+             */
+            cx?: number;
+            /**
+             * Cz
+             * @description profile centre z [m], -0.5 to 0.5 m
+             * @default -0.05
+             */
+            cz?: number;
+        };
         /** Readiness */
         Readiness: {
             broker: components["schemas"]["Check"];

@@ -3,7 +3,9 @@
 ``alcove ocp solve --task head-headrest-2phase [--task-file F.json] [--contact aux|none|model:FILE]
 [--intervals N] [--trust-region-max-std N] [--pool DIR] --out traj.csv [--json]`` writes the
 solution on the OCP grid as a trajectory CSV (``t,q_0,..,qd_0,..,tau_0,..``) and prints a
-summary (status, iterations, cost, constraint violation, wall time). Bad input prints
+summary (status, iterations, cost, constraint violation, wall time). A task file may use any
+model (``head-neck-1dof``, ``head-neck-2dof``, ``trunk-neck-head-3dof`` or a user-defined
+``chain``, docs/multibody.md); chains take the contacts ``aux`` and ``none`` so far. Bad input prints
 ``error: <field>: <reason>`` and exits with code 2; a solve that does not converge still
 writes the CSV (when its numbers are finite) but exits with code 1.
 
@@ -80,7 +82,8 @@ def solve(
         _bad_input("out", f"directory {out.parent} does not exist")
     spec = _load_task(task if task_file is None else None, task_file, intervals)
     try:
-        contact_fn = contact_from_spec(contact, spec.preset())
+        # a chain model (n-DOF preset or user-defined): the aux contact fed by its head's pose
+        contact_fn = contact_from_spec(contact, spec.chain() if spec.model.is_chain else spec.preset())
     except ContactModelError as exc:
         _bad_input(exc.field, exc.reason)
     except ImportError as exc:

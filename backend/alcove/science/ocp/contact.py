@@ -26,8 +26,10 @@ from __future__ import annotations
 from pathlib import Path
 
 import casadi as ca
+import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
 
+from alcove.science.arrays import FloatArray
 from alcove.science.geometry import HeadNeckPreset
 from alcove.science.multibody import PlanarChain
 from alcove.science.oracles.aux_penalty import AuxPenaltyParams, contact_point
@@ -79,15 +81,30 @@ def aux_contact(
 ) -> ca.Function:
     """The smooth auxiliary penalty model as a contact-model slot function.
 
-    ``chain`` defaults to the 1-DOF chain of ``preset``; the point r_sp is given in the
-    frame of the chain's contact body (the head frame).
+    ``chain`` defaults to the 1-DOF chain of ``preset``; the point r_sp (default: the back
+    point of ``preset``'s profile) is given in the frame of the chain's contact body (the head frame).
     """
     params = params or AuxPenaltyParams()
+    return _aux(chain or PlanarChain.from_preset(preset), contact_point(preset, params), params, smoothing)
+
+
+def chain_aux_contact(
+    chain: PlanarChain, params: AuxPenaltyParams | None = None, smoothing: AuxSmoothing | None = None
+) -> ca.Function:
+    """The smooth auxiliary penalty model for any chain, fed by its contact body's pose; r_sp
+    defaults to the back point of the chain's head profile."""
+    params = params or AuxPenaltyParams()
+    r_sp = np.asarray(params.r_sp, float) if params.r_sp is not None else chain.profile.back_point()
+    if r_sp.size == 2:
+        r_sp = np.array([r_sp[0], 0.0, r_sp[1]])
+    return _aux(chain, r_sp, params, smoothing)
+
+
+def _aux(chain: PlanarChain, r_sp: FloatArray, params: AuxPenaltyParams, smoothing: AuxSmoothing | None) -> ca.Function:
     smoothing = smoothing or AuxSmoothing()
-    chain = chain or PlanarChain.from_preset(preset)
     q, qd = ca.SX.sym("q", chain.ndof), ca.SX.sym("qd", chain.ndof)
     r_rel, v_rel, T_rel, omega_rel = chain.relative_kinematics_function(q, qd)
-    arm = ca.mtimes(T_rel, ca.DM(contact_point(preset, params)))  # r_sp in H
+    arm = ca.mtimes(T_rel, ca.DM(r_sp))  # r_sp in H
     point = r_rel + arm
     point_vel = v_rel + ca.cross(omega_rel, arm)
     p = softplus(-point[0], smoothing.penetration_width)  # penetration along -x_H
@@ -117,13 +134,17 @@ def check_contact_function(fn: ca.Function, ndof: int) -> None:
         raise ContactModelError("contact.wrench", f"output must be 6x1, got {fn.size_out(0)[0]}x{fn.size_out(0)[1]}")
 
 
-def contact_from_spec(spec: str, preset: HeadNeckPreset) -> ca.Function | None:
-    """Parse ``aux``, ``none`` or ``model:FILE`` into a contact function (``None`` for none)."""
+def contact_from_spec(spec: str, preset: HeadNeckPreset | PlanarChain) -> ca.Function | None:
+    """Parse ``aux``, ``none`` or ``model:FILE`` into a contact function (``None`` for none).
+
+    ``preset``: the 1-DOF preset, or the task's chain (``aux`` and ``none`` only, so far)."""
     if spec == "none":
         return None
     if spec == "aux":
-        return aux_contact(preset)
+        return chain_aux_contact(preset) if isinstance(preset, PlanarChain) else aux_contact(preset)
     if spec.startswith("model:"):
+        if isinstance(preset, PlanarChain):
+            raise ContactModelError("contact", "surrogate models take the head-neck-1dof preset only so far")
         path = Path(spec.removeprefix("model:"))
         if not path.exists():
             raise ContactModelError("contact", f"model file {str(path)!r} does not exist")
@@ -137,6 +158,7 @@ __all__ = [
     "AuxSmoothing",
     "ContactModelError",
     "aux_contact",
+    "chain_aux_contact",
     "check_contact_function",
     "contact_from_spec",
     "no_contact",

@@ -3,9 +3,10 @@
 On an interval of step h between the nodes q_a and q_b (midpoint rule)::
 
     L_d(q_a, q_b) = h L(q_m, v),          q_m = (q_a + q_b) / 2,  v = (q_b - q_a) / h
-    f^- = f^+ = h/2 (u + J(q_m)^T w(q_m, v))
+    f^- = f^+ = h/2 (u - c v + J(q_m)^T w(q_m, v))
 
-with u the interval torque and w the contact wrench. :func:`interval_functions` gives the
+with u the interval torque, c the joint dampers (if any) and w the contact wrench; joint
+springs are part of L (the chain's potential). :func:`interval_functions` gives the
 two sides of the forced discrete Euler-Lagrange equations, ``D1 L_d + f^-`` (= -p_a) and
 ``D2 L_d + f^+`` (= p_b), and the running cost terms ``h u^T u`` and ``h T(q_m, v)``, as
 SX functions that the transcription (:mod:`.dmocc`) and the rollouts (:mod:`.rollout`)
@@ -36,6 +37,9 @@ def interval_functions(chain: PlanarChain, contact: ca.Function | None) -> tuple
     qm, v = 0.5 * (qa + qb), (qb - qa) / h
     Ld = h * chain.lagrangian(qm, v)
     force = u
+    damping = chain.damping_force(v)
+    if damping is not None:
+        force = force + damping
     if contact is not None:
         wrench = contact(qm, v, par) if n_par else contact(qm, v)
         force = force + chain.generalized_contact_force_expr(qm, wrench)

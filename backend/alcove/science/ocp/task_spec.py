@@ -1,9 +1,10 @@
 """The user's OCP task definition (pydantic), its validation and the task presets.
 
-A task names a model preset with editable parameters, the initial state, one or more
+A task names a model (the 1-DOF head-neck preset with editable parameters, an n-DOF preset
+or a user-defined planar chain, :mod:`.chain_model`), the initial state, one or more
 phases (duration, intervals, cost weights w_tau / w_T, optional bounds and target pose at
 the phase end), the final condition and an optional endpoint cost. Angles in rad, torques
-in N m, durations in s. Lists have one entry per joint (the head-neck preset has one).
+in N m, durations in s. Lists have one entry per joint (the 1-DOF preset has one).
 
 Errors name the field with its path, e.g. ``phases.1.duration: ...``; use
 :func:`parse_task` to get a :class:`TaskSpecError` with ``field`` and ``reason``.
@@ -18,10 +19,20 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Annotated, Any, Literal
 
 import numpy as np
-from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
+from pydantic import (
+    BaseModel,
+    ConfigDict,
+    Field,
+    SerializationInfo,
+    SerializerFunctionWrapHandler,
+    ValidationError,
+    model_serializer,
+    model_validator,
+)
 
 from alcove.science.arrays import FloatArray
 from alcove.science.geometry import HeadNeckPreset
+from alcove.science.ocp.chain_model import CHAIN_PRESETS, ChainSpec, chain_preset
 from alcove.science.ocp.problem import DiscreteProblem, PhaseGrid
 from alcove.science.validation import WholeNumber, error_location, quantity
 
@@ -66,10 +77,36 @@ def _fail(field: str, reason: str) -> None:
     raise ValueError(f"{field}: {reason}")
 
 
-class ModelSpec(_Strict):
-    """Model preset and its parameters (defaults: the paper's head-neck model)."""
+ONE_DOF: Literal["head-neck-1dof"] = "head-neck-1dof"
+#: the 1-DOF preset's own parameters (the other models are described by ``chain``)
+ONE_DOF_FIELDS = (
+    "mass",
+    "com_distance",
+    "inertia_joint",
+    "theta_min",
+    "theta_max",
+    "theta0",
+    "torque_limit",
+    "gravity",
+    "theta_contact",
+    "tilt",
+)
 
-    preset: Literal["head-neck-1dof"] = "head-neck-1dof"
+
+class ModelSpec(_Strict):
+    """The model: the paper's 1-DOF head-neck preset with its parameters (the default), an
+    n-DOF preset (``head-neck-2dof``, ``trunk-neck-head-3dof``) or a user-defined planar chain
+    (``preset: "chain"``). The last three are described by ``chain``; an n-DOF preset fills in
+    every part of ``chain`` that is not given (top-level keys: give ``links`` and you give all links)."""
+
+    preset: Literal["head-neck-1dof", "head-neck-2dof", "trunk-neck-head-3dof", "chain"] = Field(
+        ONE_DOF,
+        description="head-neck-1dof (the paper's model; its parameters are the fields below), head-neck-2dof, "
+        "trunk-neck-head-3dof or chain (a user-defined chain: give model.chain)",
+    )
+    chain: ChainSpec | None = Field(
+        None, description="the planar chain of an n-DOF preset or of a user-defined model; null for head-neck-1dof"
+    )
     mass: Annotated[
         float, quantity("head mass", "kg", gt=0, le=20, why="an adult head weighs about 4-5 kg (de Leva 1996)")
     ] = _DEFAULT.mass
@@ -111,8 +148,44 @@ class ModelSpec(_Strict):
         _DEFAULT.tilt
     )
 
+    @model_validator(mode="before")
+    @classmethod
+    def _fill_preset_chain(cls, data: Any) -> Any:
+        if isinstance(data, dict) and data.get("preset") in CHAIN_PRESETS:
+            given = data.get("chain")
+            chain = chain_preset(data["preset"])
+            if isinstance(given, dict):
+                chain.update(given)
+            elif given is not None:
+                return data  # let pydantic report the wrong type
+            data = {**data, "chain": chain}
+        return data
+
+    @model_serializer(mode="wrap")
+    def _dump(self, handler: SerializerFunctionWrapHandler, info: SerializationInfo) -> dict[str, Any]:
+        # a 1-DOF model dumps as before chains existed; a chain model without the unused 1-DOF fields
+        data: dict[str, Any] = handler(self)
+        if self.preset == ONE_DOF:
+            data.pop("chain", None)
+        else:
+            for name in ONE_DOF_FIELDS:
+                data.pop(name, None)
+        return data
+
     @model_validator(mode="after")
     def _consistent(self) -> ModelSpec:
+        if self.preset != ONE_DOF:
+            if self.chain is None:
+                _fail("model.chain", f"is required with preset {self.preset!r}")
+            for name in ONE_DOF_FIELDS:  # a form may send the defaults along: only a changed value is an error
+                if name in self.model_fields_set and getattr(self, name) != type(self).model_fields[name].default:
+                    _fail(
+                        f"model.{name}",
+                        f"belongs to the head-neck-1dof preset; with preset {self.preset!r} edit model.chain instead",
+                    )
+            return self
+        if self.chain is not None:
+            _fail("model.chain", "must be null with the head-neck-1dof preset (its parameters are the model's fields)")
         if not self.theta_min < self.theta_max:
             _fail("model.theta_max", f"must exceed theta_min ({self.theta_max:g} <= {self.theta_min:g} rad)")
         if not self.theta_min <= self.theta0 <= self.theta_max:
@@ -130,11 +203,47 @@ class ModelSpec(_Strict):
 
     @property
     def ndof(self) -> int:
-        return 1
+        return 1 if self.chain is None else self.chain.ndof
+
+    @property
+    def is_chain(self) -> bool:
+        """True for every model but the 1-DOF preset."""
+        return self.chain is not None
+
+    @property
+    def joint_min(self) -> FloatArray:
+        """Lower joint limits [rad], one per joint."""
+        return np.array([self.theta_min]) if self.chain is None else self.chain.q_min
+
+    @property
+    def joint_max(self) -> FloatArray:
+        return np.array([self.theta_max]) if self.chain is None else self.chain.q_max
+
+    @property
+    def torque_limits(self) -> FloatArray:
+        return np.array([self.torque_limit]) if self.chain is None else self.chain.torque_limits
+
+    @property
+    def q_initial(self) -> FloatArray:
+        """The model's initial pose [rad] (theta0, or the chain's joint q0)."""
+        return np.array([self.theta0]) if self.chain is None else self.chain.q0
 
     def to_preset(self) -> HeadNeckPreset:
-        data = self.model_dump(exclude={"preset"})
+        if self.chain is not None:
+            raise TaskSpecError(
+                "model.preset",
+                f"{self.preset!r} is a chain model; this step takes only the head-neck-1dof preset so far",
+            )
+        data = self.model_dump(exclude={"preset", "chain"})
         return HeadNeckPreset(**data)
+
+    def to_chain(self) -> PlanarChain:
+        """The model as a planar chain (CasADi)."""
+        from alcove.science.multibody import PlanarChain
+
+        if self.chain is not None:
+            return self.chain.to_chain()
+        return PlanarChain.from_preset(self.to_preset())
 
 
 class InitialState(_Strict):
@@ -223,8 +332,8 @@ class TaskSpec(_Strict):
     @model_validator(mode="after")
     def _consistent(self) -> TaskSpec:
         n = self.model.ndof
-        joint_lo, joint_hi = np.full(n, self.model.theta_min), np.full(n, self.model.theta_max)
-        torque_limit = np.full(n, self.model.torque_limit)
+        joint_lo, joint_hi = self.model.joint_min, self.model.joint_max
+        torque_limit = self.model.torque_limits
 
         def vec(value: Sequence[float] | None, path: str, default: FloatArray) -> FloatArray:
             if value is None:
@@ -251,7 +360,7 @@ class TaskSpec(_Strict):
             for j in np.flatnonzero(tmax > torque_limit):
                 _fail(
                     f"phases.{m}.tau_max.{j}",
-                    f"{tmax[j]:g} N m exceeds the model's torque_limit {self.model.torque_limit:g} N m",
+                    f"{tmax[j]:g} N m exceeds the model's torque_limit {torque_limit[j]:g} N m",
                 )
             if ph.target_q is not None:
                 target = vec(ph.target_q, f"phases.{m}.target_q", lo)
@@ -266,8 +375,12 @@ class TaskSpec(_Strict):
                         "the next phase's bounds",
                     )
             bounds.append((lo, hi))
-        q0 = vec(self.initial.q, "initial.q", np.full(n, self.model.theta0))
+        q0 = vec(self.initial.q, "initial.q", self.model.q_initial)
         within(q0, *bounds[0], "initial.q", "the joint range of the first phase")
+        if self.model.chain is not None and self.initial.q is not None:
+            gap = self.model.chain.head_gap(q0)
+            if not gap > 0:
+                _fail("initial.q", f"the head starts inside the cushion (gap {gap * 1e3:.3g} mm)")
         vec(self.initial.qd, "initial.qd", np.zeros(n))
         if self.initial.velocity == "free" and self.initial.qd is not None:
             _fail("initial.qd", "must be null when the initial velocity is free")
@@ -298,17 +411,16 @@ class TaskSpec(_Strict):
         return parse_task(data)
 
     def preset(self) -> HeadNeckPreset:
+        """The 1-DOF preset's parameters (:class:`TaskSpecError` for a chain model)."""
         return self.model.to_preset()
 
     def chain(self) -> PlanarChain:
-        from alcove.science.multibody import PlanarChain
-
-        return PlanarChain.from_preset(self.preset())
+        return self.model.to_chain()
 
     def discrete_problem(self) -> DiscreteProblem:
         """Resolve defaults into the numbers the DMOCC transcription needs."""
         m = self.model
-        lo0, hi0, t0 = np.array([m.theta_min]), np.array([m.theta_max]), np.array([m.torque_limit])
+        lo0, hi0, t0 = m.joint_min, m.joint_max, m.torque_limits
 
         def arr(value: list[float] | None, default: FloatArray) -> FloatArray:
             return default if value is None else np.asarray(value, float)
@@ -329,7 +441,7 @@ class TaskSpec(_Strict):
         ini, fin, ec = self.initial, self.final, self.endpoint_cost
         return DiscreteProblem(
             phases=phases,
-            q_start=arr(ini.q, np.array([m.theta0])),
+            q_start=arr(ini.q, m.q_initial),
             qd_start=None if ini.velocity == "free" else arr(ini.qd, np.zeros(m.ndof)),
             q_end=None if fin.q is None else np.asarray(fin.q, float),
             qd_end=np.zeros(m.ndof) if fin.velocity == "rest" else None,
