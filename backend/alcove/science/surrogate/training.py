@@ -235,6 +235,9 @@ def train_surrogate(
         trainer = EnsembleTrainer(
             {n: [getattr(m, f"{n}_net") for m in members] for n in NETS}, data, config, generators
         )
+        if any(flag is True for wk in warm for flag in wk.values()):
+            # the previous model's weights are the first candidate of early stopping (epoch 0)
+            trainer.validate(0)
         for epoch in range(1, config.max_epochs + 1):
             if cancel is not None and cancel():
                 raise TrainingCancelled(f"training cancelled in epoch {epoch}")
@@ -277,8 +280,9 @@ def _training_metrics(
 ) -> TrainingMetrics:
     """Each member's RMSE on its own splits (:func:`.metrics.vector_rmse`), their mean per split."""
     per_member: list[dict[str, dict[str, float | None]]] = []
-    for member, split in zip(model.members, splits, strict=True):
-        pred = dict(zip(NETS, member.predict_features(x), strict=True))
+    forces, moments = model.predict_members(x)
+    for k, split in enumerate(splits):
+        pred = {"force": forces[k], "moment": moments[k]}
         per_member.append(
             {
                 n: {s: vector_rmse(pred[n][split.sample_split == s], y[n][split.sample_split == s]) for s in SPLITS}
