@@ -4,7 +4,10 @@ Every net (force, moment) of the K members is held as batched weight tensors
 ``W_l (K, out, in)``, ``b_l (K, out)``; one ``torch.baddbmm`` per layer evaluates all K members
 on their own batch, autograd gives the gradient and ``torch.optim.Adam`` updates all members at
 once. The members' losses are disjoint sums and Adam is elementwise, so each member's
-trajectory is the one it would have trained alone on the same batches.
+trajectory is the one it would have trained alone on the same batches. Both nets take one loss
+(the sum of theirs: disjoint graphs), one backward pass and one Adam step per batch; first-layer
+inputs that are exactly zero in every training row are left out of the trained tensors
+(:class:`BatchedNet`; their gradient is exactly zero, so Adam would never move those weights).
 
 Batches: member k shuffles its own training rows every epoch (``torch.randperm`` with its own
 generator) and cuts the permutation into ``S = ceil(n_max / batch_size)`` batches, ``n_max`` the

@@ -10,7 +10,9 @@
    MLPs of all members are trained together, vectorised over the members
    (:mod:`.ensemble`: batched weights, autograd, ``torch.optim.Adam``; lr 0.01, batch 1024,
    weighted MSE), each net of each member with early stopping on its validation loss
-   (patience 6), keeping its best weights. Prediction is the members' mean, with their
+   (patience 6), keeping its best weights. A warm start (``warm_start``: the previous model's
+   weights per member) makes those weights the first candidate (epoch 0): a member keeps them
+   when no epoch improves on them within the patience. Prediction is the members' mean, with their
    standard deviation (:meth:`.mlp.SurrogateModel.predict_ensemble`).
 4. Reproducible: a member's splits come from ``numpy.random.default_rng(seed_k)``, its
    initialisation and batch order from a local ``torch.Generator(seed_k)``; training runs on one thread, so the
