@@ -270,7 +270,7 @@ def _trust_region_setup() -> dict[str, Any]:
 
 
 @figure(
-    "ocp head-headrest trained surrogate K = 5, 200 intervals, trust region (cached NLP, passive guess)",
+    "ocp head-headrest trained surrogate K = 5, 200 intervals, trust region (cached NLP, default guesses)",
     "s",
     target=1.0,
     setup=_trust_region_setup,
