@@ -132,6 +132,28 @@ def surrogate_training_cpu(ctx: Any) -> float:
     return time.process_time() - start
 
 
+@figure(
+    "surrogate training CPU, K = 5 ensemble on 80,000 samples",
+    "cpu s",
+    target=12.0,
+    setup=_seeded_pool,
+    reps=3,
+    quick=False,
+    group="surrogate",
+    notes="process CPU time of the K = 5 training: less sensitive to a shared machine's load than the wall time",
+)
+def surrogate_training_ensemble_cpu(ctx: Any) -> float:
+    import time
+
+    from alcove.science.surrogate.config import SurrogateConfig
+    from alcove.science.surrogate.training import train_surrogate
+
+    pool, seeds = ctx
+    start = time.process_time()
+    train_surrogate(pool, SurrogateConfig(ensemble_size=5), seed=next(seeds))
+    return time.process_time() - start
+
+
 def _step_setup(k: int) -> Any:
     import torch
 
@@ -234,6 +256,28 @@ def surrogate_training_warm(ctx: Any) -> float:
 
     pool, previous = ctx
     return timed(lambda: train_surrogate(pool, SurrogateConfig(ensemble_size=5), seed=1, warm_start=previous))
+
+
+@figure(
+    "surrogate training CPU, K = 5, 80,000 samples, warm start from the previous iteration's model",
+    "cpu s",
+    target=2.0,
+    setup=_warm_setup,
+    reps=3,
+    quick=False,
+    group="surrogate",
+    notes="process CPU time of the warm-started training",
+)
+def surrogate_training_warm_cpu(ctx: Any) -> float:
+    import time
+
+    from alcove.science.surrogate.config import SurrogateConfig
+    from alcove.science.surrogate.training import train_surrogate
+
+    pool, previous = ctx
+    start = time.process_time()
+    train_surrogate(pool, SurrogateConfig(ensemble_size=5), seed=1, warm_start=previous)
+    return time.process_time() - start
 
 
 def _predict_setup() -> tuple[Any, np.ndarray, np.ndarray, np.ndarray]:

@@ -80,12 +80,18 @@ def structured_derivatives(
     par: ca.MX,
     g: ca.MX,
     node_rows: IntArray,
+    path: ca.Function | None = None,
+    path_row: int = 0,
 ) -> tuple[ca.Function, ca.Function]:
     """``jac_g(x, p) -> (g, J)`` and ``hess_lag(x, p, lam_f, lam_g) -> triu(H)`` for nlpsol.
 
     ``dynamics`` are the interval functions with contact, ``mechanics`` those without.
 
     ``node_rows`` (N+1, ndof): the row of g holding the constraint of node k (-1: none).
+    ``path`` ``(q, qd, p) -> scalar``: a path constraint at every interval midpoint, rows
+    ``path_row .. path_row + N - 1`` of g (:func:`.dmocc.nlp_expressions`); like the contact it
+    depends on z_k only through y = (q_k+1/2, v_k), so its gradient and its multiplier-weighted
+    Hessian are taken in y and mapped back with T.
     """
     n, N = chain.ndof, problem.intervals
     n_q = n * (N + 1)
@@ -103,22 +109,30 @@ def structured_derivatives(
     jac_z = ca.jacobian(ca.vertcat(mech_left, mech_right), z)
     lag_mech = ca.dot(lam_a, mech_left) + ca.dot(lam_b, mech_right) + sigma * (wt * effort + wk * kinetic)
     hess_z = ca.hessian(lag_mech, z)[0]
+    # the contact force and the path constraint depend on z only through y = (q_k+1/2, v_k):
+    # differentiate in the 2 ndof directions of y and map back with the constant-in-z matrix T = dy/dz
+    y = ca.SX.sym("y", 2 * n)
+    eye, zeros = ca.SX.eye(n), ca.SX.zeros(n, n)
+    T = ca.vertcat(ca.horzcat(0.5 * eye, 0.5 * eye, zeros), ca.horzcat(-eye / h, eye / h, zeros))
+    y_of_z = ca.vertcat(0.5 * (qa + qb), (qb - qa) / h)
     if contact is not None:
-        # the contact force depends on z only through y = (q_k+1/2, v_k): differentiate in the
-        # 2 ndof directions of y and map back with the constant-in-z matrix T = dy/dz
-        y, lam_c = ca.SX.sym("y", 2 * n), ca.SX.sym("lam_c", n)
+        lam_c = ca.SX.sym("lam_c", n)
         wrench = contact(y[:n], y[n:], p) if n_par else contact(y[:n], y[n:])
         force = chain.generalized_contact_force_expr(y[:n], wrench)
         contact_jac = ca.Function("contact_jac", [y, p], [ca.jacobian(force, y)])
         contact_hess = ca.Function("contact_hess", [y, p, lam_c], [ca.hessian(ca.dot(lam_c, force), y)[0]])
-        eye, zeros = ca.SX.eye(n), ca.SX.zeros(n, n)
-        T = ca.vertcat(ca.horzcat(0.5 * eye, 0.5 * eye, zeros), ca.horzcat(-eye / h, eye / h, zeros))
-        y_of_z = ca.vertcat(0.5 * (qa + qb), (qb - qa) / h)
         df = 0.5 * h * ca.mtimes(contact_jac(y_of_z, p), T)
         jac_z = jac_z + ca.vertcat(df, df)
         hess_z = hess_z + ca.mtimes([T.T, contact_hess(y_of_z, p, 0.5 * h * (lam_a + lam_b)), T])
+    lam_p = ca.SX.sym("lam_path")
+    if path is not None:
+        value = path(y[:n], y[n:], p)
+        path_jac = ca.Function("path_jac", [y, p], [ca.jacobian(value, y)])
+        path_hess = ca.Function("path_hess", [y, p, lam_p], [ca.hessian(lam_p * value, y)[0]])
+        hess_z = hess_z + ca.mtimes([T.T, path_hess(y_of_z, p, lam_p), T])
+        local_path_jac = ca.Function("local_path_jac", [z, h, p], [ca.densify(ca.mtimes(path_jac(y_of_z, p), T))])
     local_jac = ca.Function("local_jac", [z, h, p], [ca.densify(jac_z)])
-    local_hess = ca.Function("local_hess", [z, h, wt, wk, p, lam_a, lam_b, sigma], [ca.densify(hess_z)])
+    local_hess = ca.Function("local_hess", [z, h, wt, wk, p, lam_a, lam_b, sigma, lam_p], [ca.densify(hess_z)])
 
     # boundary momenta (constraint terms) and endpoint cost on the first / last interval
     zero = ca.SX.zeros(n)
@@ -156,11 +170,14 @@ def structured_derivatives(
     J_local = local_jac.map(N)(Z, H, Pm)
     first_rows = node_rows[:1] if problem.qd_start is not None else -np.ones((1, n), int)
     last_rows = node_rows[-1:] if problem.qd_end is not None else -np.ones((1, n), int)
-    J = _scatter(
-        m,
-        x.shape[0],
-        [(J_local, jac_rows, z_cols), (first_jac(z0), first_rows, z_cols[:1]), (last_jac(zN), last_rows, z_cols[-1:])],
-    )
+    jac_blocks = [
+        (J_local, jac_rows, z_cols),
+        (first_jac(z0), first_rows, z_cols[:1]),
+        (last_jac(zN), last_rows, z_cols[-1:]),
+    ]
+    if path is not None:
+        jac_blocks.append((local_path_jac.map(N)(Z, H, Pm), path_row + np.arange(N)[:, None], z_cols))
+    J = _scatter(m, x.shape[0], jac_blocks)
     jac_g = ca.Function("nlp_jac_g", [x, par], [g, J], ["x", "p"], ["g", "jac_g_x"])
 
     lam_f = ca.MX.sym("lam_f")
@@ -169,7 +186,8 @@ def structured_derivatives(
     padded = ca.vertcat(lam_g, 0)
     node_lam = padded[np.where(node_rows.ravel() >= 0, node_rows.ravel(), m).tolist()]
     LN = ca.reshape(node_lam, n, N + 1)
-    H_local = local_hess.map(N)(Z, H, W_tau, W_T, Pm, LN[:, :-1], LN[:, 1:], ca.repmat(lam_f, 1, N))
+    lam_path = lam_g[path_row : path_row + N].T if path is not None else ca.MX.zeros(1, N)
+    H_local = local_hess.map(N)(Z, H, W_tau, W_T, Pm, LN[:, :-1], LN[:, 1:], ca.repmat(lam_f, 1, N), lam_path)
     hess = _scatter(
         x.shape[0],
         x.shape[0],

@@ -177,7 +177,7 @@ class Transcription:
     graph: str = "MX"
     derivatives: str = "auto"
     #: optional path constraint ``(q, qd, p) -> scalar <= path_upper`` at every interval midpoint
-    #: (e.g. the ensemble's force variance: the trust region); uses CasADi's derivatives
+    #: (e.g. the ensemble's force variance: the trust region); its derivatives are structured too
     path: ca.Function | None = None
     path_upper: float = np.inf
     #: the passive-motion initial guess (:mod:`.solve`), kept once computed for a contact
@@ -198,9 +198,7 @@ class Transcription:
         if self.path is not None:
             self.path = _prepare_path(self.path, n, self.n_par)
         if self.derivatives == "auto":
-            self.derivatives = "structured" if self.graph == "MX" and self.path is None else "casadi"
-        if self.derivatives == "structured" and self.path is not None:
-            raise ValueError("derivatives: a path constraint needs derivatives='casadi'")
+            self.derivatives = "structured" if self.graph == "MX" else "casadi"
         if self.derivatives not in ("structured", "casadi"):
             raise ValueError(f"derivatives: must be 'structured' or 'casadi', got {self.derivatives!r}")
         if self.derivatives == "structured" and self.graph != "MX":
@@ -225,6 +223,8 @@ class Transcription:
                     mx.par,
                     mx.g,
                     self._constraint_rows(),
+                    self.path,
+                    int(mx.g.shape[0]) - N,
                 )
                 self._derivative_options = {"jac_g": jac_g, "hess_lag": hess_lag}
         else:

@@ -4,7 +4,10 @@ Every net (force, moment) of the K members is held as batched weight tensors
 ``W_l (K, out, in)``, ``b_l (K, out)``; one ``torch.baddbmm`` per layer evaluates all K members
 on their own batch, autograd gives the gradient and ``torch.optim.Adam`` updates all members at
 once. The members' losses are disjoint sums and Adam is elementwise, so each member's
-trajectory is the one it would have trained alone on the same batches.
+trajectory is the one it would have trained alone on the same batches. Both nets take one loss
+(the sum of theirs: disjoint graphs), one backward pass and one Adam step per batch; first-layer
+inputs that are exactly zero in every training row are left out of the trained tensors
+(:class:`BatchedNet`; their gradient is exactly zero, so Adam would never move those weights).
 
 Batches: member k shuffles its own training rows every epoch (``torch.randperm`` with its own
 generator) and cuts the permutation into ``S = ceil(n_max / batch_size)`` batches, ``n_max`` the
@@ -85,14 +88,25 @@ def _activation(name: str) -> Callable[[torch.Tensor], torch.Tensor]:
 
 
 class BatchedNet:
-    """The same MLP architecture for K members as batched weight tensors (leaf tensors with grad)."""
+    """The same MLP architecture for K members as batched weight tensors (leaf tensors with grad).
 
-    def __init__(self, nets: list[MLP]):
+    ``columns``: the input rows the first layer is trained on (default all). Inputs that are
+    exactly zero in every member's training rows (the structurally constant features of planar
+    motion, centred to 0) give their first-layer weights an exactly zero gradient, so Adam never
+    moves them (its moments stay 0): they are left out of the batched tensors (fewer operations
+    per step) and kept aside unchanged (:meth:`full_parameters`).
+    """
+
+    def __init__(self, nets: list[MLP], columns: torch.Tensor | None = None):
         self.activation = _activation(nets[0].activation)
         layers = [net.linears() for net in nets]
-        self.weights = [
-            torch.stack([ls[i].weight.detach() for ls in layers]).requires_grad_() for i in range(len(layers[0]))
-        ]
+        full = [torch.stack([ls[i].weight.detach() for ls in layers]) for i in range(len(layers[0]))]
+        n_in = full[0].shape[2]
+        self.columns = torch.arange(n_in) if columns is None else columns
+        self.reduced = self.columns.numel() < n_in
+        self.first_full = full[0].clone()  # (K, out, n_in): the left-out columns keep these values
+        full[0] = full[0][:, :, self.columns] if self.reduced else full[0]
+        self.weights = [w.clone().requires_grad_() for w in full]
         self.biases = [
             torch.stack([ls[i].bias.detach() for ls in layers]).requires_grad_() for i in range(len(layers[0]))
         ]
@@ -100,39 +114,40 @@ class BatchedNet:
     def parameters(self) -> list[torch.Tensor]:
         return [t for pair in zip(self.weights, self.biases, strict=True) for t in pair]
 
-    def forward(self, z: torch.Tensor) -> torch.Tensor:
-        """(K, n_in, n) -> (K, n_out, n): samples as columns (the faster layout for small widths)."""
+    def full_parameters(self) -> list[torch.Tensor]:
+        """The parameters (detached) with the first layer's left-out input columns restored."""
+        out = [p.detach() for p in self.parameters()]
+        if self.reduced:
+            out[0] = self.first_full.index_copy(2, self.columns, out[0])
+        return out
+
+    def forward(self, z: torch.Tensor, weights: list[torch.Tensor] | None = None) -> torch.Tensor:
+        """(K, n_in, n) -> (K, n_out, n): samples as columns (the faster layout for small widths).
+        ``z`` holds the trained input rows (``columns``) unless ``weights`` (full) are given."""
+        ws = self.weights if weights is None else weights
         h = z
-        last = len(self.weights) - 1
-        for i, (w, b) in enumerate(zip(self.weights, self.biases, strict=True)):
+        last = len(ws) - 1
+        for i, (w, b) in enumerate(zip(ws, self.biases, strict=True)):
             h = torch.baddbmm(b.unsqueeze(2), w, h)
             if i < last:
                 h = self.activation(h)
         return h
 
     def snapshot(self) -> list[torch.Tensor]:
-        return [p.detach().clone() for p in self.parameters()]
+        return [p.clone() for p in self.full_parameters()]
 
     def keep(self, best: list[torch.Tensor], rows: torch.Tensor, members: torch.Tensor) -> None:
         """Copy the batch rows ``rows`` into ``best`` at the members ``members`` (both index tensors)."""
-        for b, p in zip(best, self.parameters(), strict=True):
-            b[members] = p.detach()[rows]
+        for b, p in zip(best, self.full_parameters(), strict=True):
+            b[members] = p[rows]
 
-    def select(self, rows: torch.Tensor, optimizer: torch.optim.Adam) -> torch.optim.Adam:
-        """Keep only the batch rows ``rows``: new leaf tensors and an Adam carrying their moments and step."""
+    def select(self, rows: torch.Tensor) -> list[tuple[torch.Tensor, torch.Tensor]]:
+        """Keep only the batch rows ``rows``: new leaf tensors; returns (old, new) pairs of parameters."""
         old = self.parameters()
         new = [p.detach()[rows].clone().requires_grad_() for p in old]
         self.weights, self.biases = new[0::2], new[1::2]
-        adam = torch.optim.Adam(new, **{k: optimizer.defaults[k] for k in ("lr", "betas", "eps", "fused")})
-        for p_old, p_new in zip(old, new, strict=True):
-            state = optimizer.state.get(p_old)
-            if state:
-                adam.state[p_new] = {
-                    "step": state["step"].clone(),
-                    "exp_avg": state["exp_avg"][rows].clone(),
-                    "exp_avg_sq": state["exp_avg_sq"][rows].clone(),
-                }
-        return adam
+        self.first_full = self.first_full[rows]
+        return list(zip(old, new, strict=True))
 
     def write(self, best: list[torch.Tensor], nets: list[MLP]) -> None:
         with torch.no_grad():
@@ -176,27 +191,35 @@ class EnsembleTrainer:
     ):
         self.nets, self.config, self.generators, self.gated = nets, config, generators, gated
         self.K = len(data)
-        self.batched = {k: BatchedNet(nets[k]) for k in NETS}
-        self.optimizers = {
-            k: torch.optim.Adam(self.batched[k].parameters(), lr=config.learning_rate, fused=True) for k in NETS
-        }
+        # input rows that are not exactly zero in some member's training rows (BatchedNet)
+        nonzero = torch.stack([(d.z_train != 0).any(0) for d in data]).any(0)
+        self.columns = torch.nonzero(nonzero).flatten()
+        self.batched = {k: BatchedNet(nets[k], self.columns) for k in NETS}
+        self.optimizer = torch.optim.Adam(
+            [p for k in NETS for p in self.batched[k].parameters()], lr=config.learning_rate, fused=True
+        )
         self.n_rows = [d.z_train.shape[0] for d in data]
         n_max = max(self.n_rows)
         self.B = min(config.batch_size, n_max)
         self.S = math.ceil(n_max / self.B)
-        # training rows per member, padded with one zero row (weight 0) at index n_max
-        if gated is None:
-            table = [
-                torch.cat([d.z_train, d.y_train["force"], d.y_train["moment"], d.w_train[:, None]], 1) for d in data
-            ]
-        else:  # the gate as one more column, before the weight
-            table = [
-                torch.cat([d.z_train, d.y_train["force"], d.y_train["moment"], _gate(d.g_train), d.w_train[:, None]], 1)
-                for d in data
-            ]
-        self.table = _stack_padded(table, n_max + 1)
+        # training rows per member as columns (K, C, n_max + 1): the trained features, force and
+        # moment targets, (gated: the gate,) weight; padded with one zero column (weight 0) at index n_max
+        table = [
+            torch.cat(
+                [
+                    d.z_train[:, self.columns],
+                    d.y_train["force"],
+                    d.y_train["moment"],
+                    *([] if gated is None else [_gate(d.g_train)]),
+                    d.w_train[:, None],
+                ],
+                1,
+            )
+            for d in data
+        ]
+        self.table = _stack_padded(table, n_max + 1).transpose(1, 2).contiguous()
         self.pad_row = n_max
-        self.n_in = data[0].z_train.shape[1]
+        self.n_in = self.columns.numel()
         self.sizes = [batch_sizes(n, self.S, self.B) for n in self.n_rows]
         n_val = max(d.z_val.shape[0] for d in data)
         self.z_val = _stack_padded([d.z_val for d in data], n_val).transpose(1, 2).contiguous()
@@ -225,47 +248,91 @@ class EnsembleTrainer:
             div[k, dest] = sizes[chunk]
         return torch.from_numpy(idx), torch.from_numpy(div)
 
+    def _active_nets(self) -> list[str]:
+        return [k for k in NETS if not bool(self.stopped[k].all())]
+
     def epoch(self) -> None:
+        """One epoch: per batch one loss (the sum over the active nets: their graphs are disjoint,
+        so each net's gradient is its own), one backward pass and one Adam step for both nets."""
         idx, div = self._epoch_layout()
-        cols = self.table[torch.arange(self.K)[:, None], idx].transpose(1, 2).contiguous()  # (K, C, S*B)
+        C = self.table.shape[1]
+        cols = self.table.gather(2, idx.unsqueeze(1).expand(self.K, C, idx.shape[1]))  # (K, C, S*B)
         z = cols[:, : self.n_in]
         y = {"force": cols[:, self.n_in : self.n_in + 3], "moment": cols[:, self.n_in + 3 : self.n_in + 6]}
         scale = (cols[:, -1] / div.to(cols.dtype) / 3.0).unsqueeze(1)
         gate = None if self.gated is None else cols[:, self.n_in + 6 : self.n_in + 7]
-        active = [k for k in NETS if not bool(self.stopped[k].all())]
-        data = {}
+        active = self._active_nets()
+        data = []
         for k in active:
             rows = self.active[k]
             full = rows.numel() == self.K
-            data[k] = (z if full else z[rows], y[k] if full else y[k][rows], scale if full else scale[rows])
-        gates = {k: None if gate is None else gate[self.active[k]] for k in active}
+            data.append(
+                (
+                    k,
+                    self.batched[k],
+                    z if full else z[rows],
+                    y[k] if full else y[k][rows],
+                    scale if full else scale[rows],
+                    None if gate is None else (gate if full else gate[rows]),
+                )
+            )
+        optimizer = self.optimizer
         for s in range(self.S):
             sl = slice(s * self.B, (s + 1) * self.B)
-            for k in active:
-                zk, yk, wk = data[k]
-                self.optimizers[k].zero_grad(set_to_none=True)
-                out = self.batched[k].forward(zk[:, :, sl])
-                if self.gated is not None:
-                    gk = gates[k]
-                    assert gk is not None
-                    out = self.gated.standardised(k, out, gk[:, :, sl], self.active[k])
-                loss = ((out - yk[:, :, sl]).square() * wk[:, :, sl]).sum()
-                loss.backward()  # type: ignore[no-untyped-call]
-                self.optimizers[k].step()
+            optimizer.zero_grad(set_to_none=True)
+            loss = sum(
+                ((self._output(k, net.forward(zk[:, :, sl]), gk, sl) - yk[:, :, sl]).square() * wk[:, :, sl]).sum()
+                for k, net, zk, yk, wk, gk in data
+            )
+            loss.backward()  # type: ignore[union-attr]
+            optimizer.step()
+
+    def _output(self, k: str, out: torch.Tensor, gate: torch.Tensor | None, sl: slice) -> torch.Tensor:
+        """The nets' standardised outputs as trained: the paper's as they are, the ``gated``
+        architecture's through its output layer (``gate``: the active members' gate columns)."""
+        if self.gated is None:
+            return out
+        assert gate is not None
+        return self.gated.standardised(k, out, gate[:, :, sl], self.active[k])
+
+    def _rebuild_optimizer(self, replaced: dict[torch.Tensor, tuple[torch.Tensor, torch.Tensor]]) -> None:
+        """A new Adam over the active nets' parameters, carrying every kept row's moments and step
+        (``replaced``: old parameter -> (new parameter, kept rows))."""
+        old_state = self.optimizer.state
+        params = [p for k in self._active_nets() for p in self.batched[k].parameters()]
+        defaults = self.optimizer.defaults
+        adam = torch.optim.Adam(params, **{k: defaults[k] for k in ("lr", "betas", "eps", "fused")})
+        new_to_old = {id(new): (old, rows) for old, (new, rows) in replaced.items()}
+        for p in params:
+            old, rows = new_to_old.get(id(p), (p, None))
+            state = old_state.get(old)
+            if state:
+                adam.state[p] = {
+                    "step": state["step"].clone(),
+                    "exp_avg": state["exp_avg"] if rows is None else state["exp_avg"][rows].clone(),
+                    "exp_avg_sq": state["exp_avg_sq"] if rows is None else state["exp_avg_sq"][rows].clone(),
+                }
+        self.optimizer = adam
 
     def validate(self, epoch: int) -> bool:
-        """Validation losses, best weights, stopping; False when every member of every net has stopped."""
+        """Validation losses, best weights, stopping; False when every member of every net has stopped.
+
+        ``epoch`` 0 (before any step) makes the starting weights a candidate: a warm start keeps the
+        previous model's weights of a member when no epoch improves on them within ``patience``."""
+        changed = False
+        replaced: dict[torch.Tensor, tuple[torch.Tensor, torch.Tensor]] = {}
         with torch.no_grad():
             for k in NETS:
                 if bool(self.stopped[k].all()):
                     continue
                 members = self.active[k]
-                out = self.batched[k].forward(self.z_val[members])
+                net = self.batched[k]
+                out = net.forward(self.z_val[members], net.full_parameters()[0::2])
                 if self.gated is not None:
                     assert self.g_val is not None
                     out = self.gated.standardised(k, out, self.g_val[members], members)
-                err = (out - self.y_val[k][members]).square().mean(1)
-                loss = (err * self.w_val[members]).sum(1) / self.w_val_sum[members]
+                err = (out - self.y_val[k][members]).square()
+                loss = (err.mean(1) * self.w_val[members]).sum(1) / self.w_val_sum[members]
                 full = torch.full((self.K,), math.nan, dtype=torch.float64)
                 full[members] = loss.double()
                 self.history[k].append(full.tolist())
@@ -273,7 +340,7 @@ class EnsembleTrainer:
                 if bool(improved.any()):
                     rows = torch.nonzero(improved).flatten()
                     self.best_loss[k][members[rows]] = loss[rows].double()
-                    self.batched[k].keep(self.best[k], rows, members[rows])
+                    net.keep(self.best[k], rows, members[rows])
                 keep = []
                 for row, m in enumerate(members.tolist()):
                     self.epochs[k][m] = epoch
@@ -283,11 +350,15 @@ class EnsembleTrainer:
                         self.stopped[k][m] = True
                         continue
                     keep.append(row)
-                if keep and len(keep) < members.numel():  # some stopped: they leave the batched tensors
-                    rows = torch.tensor(keep)
-                    self.optimizers[k] = self.batched[k].select(rows, self.optimizers[k])
-                    self.active[k] = members[rows]
-        return not all(bool(self.stopped[k].all()) for k in NETS)
+                if len(keep) < members.numel():  # some stopped: they leave the batched tensors
+                    changed = True
+                    if keep:
+                        rows = torch.tensor(keep)
+                        replaced.update({old: (new, rows) for old, new in net.select(rows)})
+                        self.active[k] = members[rows]
+        if changed and self._active_nets():
+            self._rebuild_optimizer(replaced)
+        return bool(self._active_nets())
 
     def finish(self) -> None:
         """Write every member's best weights into its nets."""

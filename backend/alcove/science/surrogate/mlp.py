@@ -181,6 +181,7 @@ class SurrogateModel:
     ndof: int = 1
     lineage: dict[str, Any] = field(default_factory=dict)
     extra_members: list[Member] = field(default_factory=list)
+    _stacked: _StackedEnsemble | None = field(default=None, init=False, repr=False, compare=False)
 
     @property
     def dtype(self) -> torch.dtype:
@@ -228,23 +229,89 @@ class SurrogateModel:
         )
 
     def predict_members(self, x: FloatArray) -> tuple[FloatArray, FloatArray]:
-        """Every member's force and moment, each (K, n, 3)."""
+        """Every member's force and moment, each (K, n, 3): one batched forward of all members
+        (:class:`_StackedEnsemble`, cached until a weight changes), on one thread; with the
+        ``gated`` architecture through its output layer (:meth:`Member.predict_features`' gate)."""
+        stacked = self._stacked
+        if stacked is None or not stacked.valid(self):
+            stacked = self._stacked = _StackedEnsemble(self)
+        f, m = stacked.predict(x)
         gate = self.gate
-        outs = [m.predict_features(x, gate) for m in self.members]
-        return np.stack([f for f, _ in outs]), np.stack([m for _, m in outs])
+        if gate is None:
+            return f, m
+        g = torch.as_tensor(gate_value(gap_from_features(x, gate.profile), gate.params)[None, :, None])
+        return (
+            gated_net_output_torch("force", torch.as_tensor(f), g, gate.params, axis=2).numpy(),
+            gated_net_output_torch("moment", torch.as_tensor(m), g, gate.params, axis=2).numpy(),
+        )
 
     def predict_ensemble(self, x: FloatArray) -> Prediction:
         """Ensemble mean and standard deviation (over members, ddof 0) of force and moment."""
-        if not self.extra_members:
-            f, m = self.members[0].predict_features(x, self.gate)
-            return Prediction(f, m, np.zeros_like(f), np.zeros_like(m))
         f, m = self.predict_members(x)
+        if f.shape[0] == 1:
+            return Prediction(f[0], m[0], np.zeros_like(f[0]), np.zeros_like(m[0]))
         return Prediction(f.mean(0), m.mean(0), f.std(0), m.std(0))
 
     def predict_features(self, x: FloatArray) -> tuple[FloatArray, FloatArray]:
         """Force (n, 3) and moment (n, 3), the ensemble mean, for raw features x (n, 19)."""
         p = self.predict_ensemble(x)
         return p.force, p.moment
+
+
+def _weights_key(model: SurrogateModel) -> tuple[tuple[int, int], ...]:
+    """Identity and in-place version of every weight tensor: changes when a weight does."""
+    return tuple(
+        (id(p), p._version) for m in model.members for net in (m.force_net, m.moment_net) for p in net.parameters()
+    )
+
+
+class _StackedEnsemble:
+    """All members' weights and normalisations stacked (K leading) for one batched forward per net.
+
+    Built from a model's members on first prediction and kept on the model while its weight
+    tensors are the same objects, unmodified (:func:`_weights_key`). Member k's result is that
+    of :meth:`Member.predict_features` (the same standardisation and layers, as batched products).
+    """
+
+    def __init__(self, model: SurrogateModel):
+        members = model.members
+        self.key = _weights_key(model)
+        self.dtype = model.dtype
+        self.mean = np.stack([np.asarray(m.input_norm.mean, float) for m in members])[:, None, :]
+        self.divisor = np.stack([np.asarray(m.input_norm.divisor, float) for m in members])[:, None, :]
+        self.nets = []
+        for net_name, norm_name in (("force_net", "force_norm"), ("moment_net", "moment_norm")):
+            nets: list[MLP] = [getattr(m, net_name) for m in members]
+            layers = [n.linears() for n in nets]
+            weights = [torch.stack([ls[i].weight.detach() for ls in layers]) for i in range(len(layers[0]))]
+            biases = [torch.stack([ls[i].bias.detach() for ls in layers])[:, :, None] for i in range(len(layers[0]))]
+            norms = [getattr(m, norm_name) for m in members]
+            scale = np.stack([np.asarray(n.scale, float) for n in norms])[:, None, :]
+            mean = np.stack([np.asarray(n.mean, float) for n in norms])[:, None, :]
+            self.nets.append((nets[0].activation, weights, biases, scale, mean))
+
+    def valid(self, model: SurrogateModel) -> bool:
+        return self.key == _weights_key(model)
+
+    def predict(self, x: FloatArray) -> tuple[FloatArray, FloatArray]:
+        z = torch.as_tensor((np.asarray(x, float)[None] - self.mean) / self.divisor, dtype=self.dtype)
+        z = z.transpose(1, 2)  # (K, n_in, n): samples as columns
+        threads = torch.get_num_threads()
+        torch.set_num_threads(1)  # tiny products: threads only add synchronisation (and contend on a shared machine)
+        try:
+            outs = []
+            with torch.inference_mode():
+                for activation, weights, biases, scale, mean in self.nets:
+                    fn = _ACTIVATIONS[activation]()
+                    h = z
+                    for i, (w, b) in enumerate(zip(weights, biases, strict=True)):
+                        h = torch.baddbmm(b, w, h)
+                        if i < len(weights) - 1:
+                            h = fn(h)
+                    outs.append(h.transpose(1, 2).double().numpy() * scale + mean)
+        finally:
+            torch.set_num_threads(threads)
+        return outs[0], outs[1]
 
 
 __all__ = ["MLP", "N_OUTPUTS", "Member", "Prediction", "Softplus", "Standardization", "SurrogateModel"]

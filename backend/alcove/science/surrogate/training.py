@@ -10,7 +10,9 @@
    MLPs of all members are trained together, vectorised over the members
    (:mod:`.ensemble`: batched weights, autograd, ``torch.optim.Adam``; lr 0.01, batch 1024,
    weighted MSE), each net of each member with early stopping on its validation loss
-   (patience 6), keeping its best weights. Prediction is the members' mean, with their
+   (patience 6), keeping its best weights. A warm start (``warm_start``: the previous model's
+   weights per member) makes those weights the first candidate (epoch 0): a member keeps them
+   when no epoch improves on them within the patience. Prediction is the members' mean, with their
    standard deviation (:meth:`.mlp.SurrogateModel.predict_ensemble`).
    With ``architecture: "gated"`` the loss is taken on the gated output (:mod:`.gated`,
    :class:`.ensemble.GatedOutputs`): each sample's gate comes from its signed gap, computed
@@ -260,6 +262,9 @@ def train_surrogate(
         trainer = EnsembleTrainer(
             {n: [getattr(m, f"{n}_net") for m in members] for n in NETS}, data, config, generators, gated_outputs
         )
+        if any(flag is True for wk in warm for flag in wk.values()):
+            # the previous model's weights are the first candidate of early stopping (epoch 0)
+            trainer.validate(0)
         for epoch in range(1, config.max_epochs + 1):
             if cancel is not None and cancel():
                 raise TrainingCancelled(f"training cancelled in epoch {epoch}")
@@ -302,9 +307,9 @@ def _training_metrics(
 ) -> TrainingMetrics:
     """Each member's RMSE on its own splits (:func:`.metrics.vector_rmse`), their mean per split."""
     per_member: list[dict[str, dict[str, float | None]]] = []
-    gate = model.gate
-    for member, split in zip(model.members, splits, strict=True):
-        pred = dict(zip(NETS, member.predict_features(x, gate), strict=True))
+    forces, moments = model.predict_members(x)  # through the gate with the gated architecture
+    for k, split in enumerate(splits):
+        pred = {"force": forces[k], "moment": moments[k]}
         per_member.append(
             {
                 n: {s: vector_rmse(pred[n][split.sample_split == s], y[n][split.sample_split == s]) for s in SPLITS}
