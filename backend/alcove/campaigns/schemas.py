@@ -92,6 +92,11 @@ class IterationRead(_Read):
     error: str | None
     started_at: datetime | None
     finished_at: datetime | None
+    scenario: dict[str, Any] | None = Field(
+        None,
+        description="the scenario the iteration's OCP solved (strategy random-scenarios): seed, iteration, slot "
+        "and values (parameter path -> drawn value); null: the task as written (strategy paper)",
+    )
     steps: list[StepRead] | None = Field(
         None, description="the iteration's steps (null in the compact list: ask with ?steps=true)"
     )
