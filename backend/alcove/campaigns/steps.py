@@ -175,6 +175,7 @@ def ocp(ctx: StepContext) -> StepOutput:
             raise RuntimeError(f"model version {ctx.k} does not exist")
         previous = solving_repo.previous_converged(s, c.id, ctx.k)
         scenario = ctx.scenario(s, c)
+        nominal_preset = ctx.task(s, c).preset()
     # the paper's strategy solves the task as written: nothing to store (null)
     stored = scenario.to_json() if ctx.config.settings.strategy != "paper" else None
     try:
@@ -185,6 +186,7 @@ def ocp(ctx: StepContext) -> StepOutput:
             previous_solution_id=previous.id if previous is not None else None,
             initial_guesses=ctx.config.policies.ocp_initial_guesses,
             trust_region_max_std=ctx.config.settings.trust_region_max_std,
+            pool_preset=nominal_preset,
         )
     except UnusableResult as err:  # no converged solution: the iteration still shows its scenario
         raise UnusableResult(err.reason, _storing_scenario(err.write, stored)) from None
@@ -218,6 +220,7 @@ def oracle(ctx: StepContext) -> StepOutput:
                 raise RuntimeError(f"iteration {ctx.k} has no converged OCP solution")
             # the scenario the OCP solved (stored with the iteration): its headrest is the oracle's
             task, solution_id, sha = from_json(ctx.task(s, c), it.scenario), sol.id, sol.trajectory_sha256
+            scenario = it.scenario is not None
         ctx.before_compute()
         settings = ctx.config.settings
         out = oracle_steps.replay(
@@ -228,6 +231,7 @@ def oracle(ctx: StepContext) -> StepOutput:
             trajectory_sha256=sha,
             replay_phases=settings.replay_phases,
             replay_dt=settings.replay_dt,
+            scenario=scenario,
         )
     except UnusableResult as err:
         raise UnusableResult(err.reason, _counting_oracle_time(err.write)) from None
