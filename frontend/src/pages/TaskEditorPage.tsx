@@ -225,6 +225,7 @@ function TaskEditor({ existing, presets }: { existing: Task | undefined; presets
         previewing={sample.isPending}
         onPreview={previewScenarios}
         canPreview={!!existing && view.problems.length === 0}
+        previewError={generalFailure(sample.error)}
       />
       <PreviewPanel<TaskPreviewResult>
         id={previewId}

@@ -43,6 +43,7 @@ export function ScenarioRanges({
   previewing,
   onPreview,
   canPreview,
+  previewError,
 }: {
   ranges: RangeRow[];
   onChange: (r: RangeRow[] | null) => void;
@@ -51,6 +52,7 @@ export function ScenarioRanges({
   previewing: boolean;
   onPreview: () => void;
   canPreview: boolean;
+  previewError?: string | null;
 }) {
   const set = (i: number, key: keyof RangeRow, value: unknown) => onChange(ranges.map((r, k) => (k === i ? { ...r, [key]: value } : r)));
   const remove = (i: number) => {
@@ -114,6 +116,11 @@ export function ScenarioRanges({
           {previewing ? "Sampling…" : "Preview scenarios"}
         </button>
       </div>
+      {previewError && (
+        <p className="error-text" role="alert">
+          {previewError}
+        </p>
+      )}
       {preview && (
         <table className="table" aria-label="sampled scenarios" data-testid="scenario-preview">
           <caption className="muted">Scenarios of iterations 1 to {preview.scenarios.length} of a random-scenarios campaign with seed {preview.seed}</caption>
