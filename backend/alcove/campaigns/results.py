@@ -181,6 +181,7 @@ def iteration_trajectory(s: Session, campaign_id: int, iteration: int) -> Iterat
         duration=t0 - start,
         phases=phases,
         replay_phases=n_replayed,
+        scenario=it.scenario,
         replay_t_end=phases[n_replayed - 1].t_end,
         replay_dt=settings.replay_dt,
         solver=OcpSolverSummary(

@@ -1953,6 +1953,13 @@ export interface components {
              * @description end of the replayed part [s]
              */
             replay_t_end: number;
+            /**
+             * Scenario
+             * @description the scenario the OCP solved (strategy random-scenarios: seed, iteration, slot, values); null: the task as written
+             */
+            scenario?: {
+                [key: string]: unknown;
+            } | null;
             solver: components["schemas"]["OcpSolverSummary"];
             /**
              * T
