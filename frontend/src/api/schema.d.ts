@@ -2560,12 +2560,12 @@ export interface components {
         ParameterRange: {
             /**
              * High
-             * @description upper end of the uniform range (at least low), in the parameter's unit
+             * @description upper end of the uniform range, at least low [the parameter's unit], -1e6 to 1e6 the parameter's unit; and within the parameter's own range
              */
             high: number;
             /**
              * Low
-             * @description lower end of the uniform range, in the parameter's unit
+             * @description lower end of the uniform range [the parameter's unit], -1e6 to 1e6 the parameter's unit; and within the parameter's own range
              */
             low: number;
             /**

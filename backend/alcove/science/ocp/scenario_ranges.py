@@ -10,6 +10,12 @@ from typing import Annotated, Any
 
 from pydantic import BaseModel, ConfigDict, Field
 
+from alcove.science.validation import quantity
+
+#: the widest any rangeable parameter may go (the cost weights' bound, MAX_WEIGHT of the task spec);
+#: each end is then checked against its parameter's own range
+RANGE_LIMIT = 1e6
+
 #: at most this many ranges per task
 MAX_RANGES = 32
 
@@ -50,8 +56,26 @@ class ParameterRange(BaseModel):
             "model.headrest_offset; one of: " + ", ".join(PARAMETER_NAMES),
         ),
     ]
-    low: float = Field(description="lower end of the uniform range, in the parameter's unit")
-    high: float = Field(description="upper end of the uniform range (at least low), in the parameter's unit")
+    low: Annotated[
+        float,
+        quantity(
+            "lower end of the uniform range",
+            "the parameter's unit",
+            ge=-RANGE_LIMIT,
+            le=RANGE_LIMIT,
+            why="and within the parameter's own range",
+        ),
+    ]
+    high: Annotated[
+        float,
+        quantity(
+            "upper end of the uniform range, at least low",
+            "the parameter's unit",
+            ge=-RANGE_LIMIT,
+            le=RANGE_LIMIT,
+            why="and within the parameter's own range",
+        ),
+    ]
 
 
 def describe(parameter: str) -> tuple[str, str] | None:
