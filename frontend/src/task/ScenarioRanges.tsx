@@ -22,8 +22,6 @@ export const RANGE_PARAMETERS = [
   "endpoint_cost.w_qd",
   "endpoint_cost.q_ref.0",
   "model.headrest_offset",
-  "model.tilt",
-  "model.theta_contact",
 ];
 
 /** The paths of the section's fields, for placing errors. */

@@ -102,6 +102,8 @@ def test_a_stored_scenario_gives_back_its_task():
         ([{"parameter": "initial.q.0", "low": 0.15, "high": 0.5}], "ranges.0.high", "joint range"),
         ([{"parameter": "initial.q.0", "low": 0.3, "high": 0.15}], "ranges.0.high", "at least low"),
         ([{"parameter": "model.mass", "low": 4, "high": 5}], "ranges.0.parameter", "cannot be varied"),
+        # the training features would use the wrong headrest for data simulated with another tilt (not done)
+        ([{"parameter": "model.tilt", "low": 0.3, "high": 0.32}], "ranges.0.parameter", "cannot be varied"),
         ([{"parameter": "phases.2.duration", "low": 0.5, "high": 1}], "ranges.0.low", "2 phases"),
         ([{"parameter": "phases.0.duration", "low": 0.0, "high": 1}], "ranges.0.low", "phases.0.duration"),
         ([{"parameter": "model.headrest_offset", "low": -0.05, "high": 0}], "ranges.0.low", "headrest_offset"),

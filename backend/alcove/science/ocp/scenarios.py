@@ -21,8 +21,6 @@ Parameters that may be ranged (``{j}`` a joint index, ``{m}`` a phase index):
 ``endpoint_cost.w_qd``,         have an endpoint cost)
 ``endpoint_cost.q_ref.{j}``
 ``model.headrest_offset``       headrest moved along its normal [m] (positive: toward the head)
-``model.tilt``                  headrest inclination [rad]
-``model.theta_contact``         headrest position as the angle of first contact [rad]
 ==============================  =======================================================
 
 Every range is checked against the model's validated ranges by building the task at its
