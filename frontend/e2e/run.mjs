@@ -159,6 +159,18 @@ try {
   const grid = (await page.getByTestId("solve-grid").innerText()).trim();
   if (!grid.includes(Array(nPhases).fill("10").join(" + ")) || !grid.includes("the task's own grid")) throw new Error(`solve-once grid: ${grid}`);
   await screenshot(page, "task-editor.png", { fullPage: true });
+
+  step("scenario ranges: a preview of 5 draws within the range (not saved)");
+  await page.getByRole("button", { name: "Add range" }).click();
+  await page.getByTestId("validation-state").filter({ hasText: "valid" }).waitFor({ timeout: 15_000 });
+  await page.getByRole("button", { name: "Preview scenarios" }).click();
+  const scenarioRows = page.getByTestId("scenario-preview").locator("tbody tr");
+  await waitFor(async () => (await scenarioRows.count()) === 5, "5 previewed scenarios");
+  for (const text of await scenarioRows.allInnerTexts()) {
+    const value = Number(text.trim().split(/\s+/)[1]);
+    if (!(value >= 0.15 && value <= 0.3)) throw new Error(`previewed scenario outside its range: ${text}`);
+  }
+  await page.getByTestId("scenario-ranges").screenshot({ path: resolve(artifacts, "scenario-ranges.png") });
   checkpoint("task");
 
   step("create an aux-penalty oracle");

@@ -177,6 +177,7 @@ SPECS: dict[str, Spec] = {
     "delete_task": ("owned", lambda o, a: Call(path={"task_id": o.task()}), NO_CONTENT),
     "list_task_versions": ("owned", lambda o, a: Call(path={"task_id": o.task()}), OK),
     "get_task_version": ("owned", lambda o, a: Call(path={"task_id": o.task(), "version": 1}), OK),
+    "preview_task_scenarios": ("owned", lambda o, a: Call(path={"task_id": o.task()}, json={"n": 2}), OK),
     # ---- oracles
     "list_oracles": ("any", lambda o, a: Call(), OK),
     "create_oracle": ("any", lambda o, a: Call(json={"name": "o", "type": "aux-penalty"}), CREATED),

@@ -59,6 +59,7 @@ def sqlite_campaign_db(sqlite_url: str, monkeypatch: pytest.MonkeyPatch, tmp_pat
 
 def new_campaign(
     oracle: str = "aux-penalty",
+    task: str = "head-headrest-2phase",
     surrogate: dict | None = None,
     start: bool = True,
     fault: dict[str, dict[str, Any]] | None = None,
@@ -81,7 +82,7 @@ def new_campaign(
         u = presets.local_user(s)
         data = CampaignCreate(
             name=cfg.pop("name", "test"),
-            task_version_id=presets.task_version_from_preset(s, u.id, "head-headrest-2phase"),
+            task_version_id=presets.task_version_from_preset(s, u.id, task),
             oracle_version_id=presets.oracle_version_for(s, u.id, oracle),
             surrogate_config_version_id=presets.surrogate_config_version_for(
                 s, u.id, {**QUICK_SURROGATE, **(surrogate or {})}

@@ -105,6 +105,8 @@ def test_alcove_campaign_run_on_the_embedded_default(tmp_path: Path) -> None:
     assert [m["iteration_index"] for m in out["metrics"]] == [1, 2] and all(
         m["force_rmse"] >= 0 for m in out["metrics"]
     )
+    # the paper's strategy (the default) solves the task as written: no scenario per iteration
+    assert [m["scenario"] for m in out["metrics"]] == [None, None]
     # the held-out validation suite was replayed by the spawned worker and every model version evaluated on it
     assert out["validation_suite"]["status"] == "complete" and out["validation_suite"]["motions_done"] == 2
     assert all(m["validation_force_rmse"] > 0 and m["validation_moment_rmse"] > 0 for m in out["metrics"])

@@ -147,3 +147,11 @@ def test_pause_resume_cancel_and_bad_transitions_name_the_reason(store: Path) ->
     assert (d["campaign"]["status"], d["campaign"]["stop_reason"]) == ("cancelled", "cancelled")
     missing = cli("status", "999999")
     assert missing.exit_code == 2 and "campaign" in missing.output and "999999" in missing.output, missing.output
+
+
+def test_run_refuses_an_unknown_strategy_naming_the_setting(store: Path) -> None:
+    """`campaign run --strategy` goes into the campaign's settings and is validated there (before any worker starts)."""
+    bad = cli(
+        "run", "--no-worker", "--task", "head-headrest-scenarios", "--strategy", "greedy", "--oracle", "aux-penalty"
+    )
+    assert bad.exit_code == 2 and "settings.strategy" in bad.output, bad.output

@@ -142,6 +142,14 @@ class RunSettings(_Strict):
         ),
     )
     validation_seed: int = Field(0, ge=0, le=2**31 - 1, description="seed of the validation suite's motions")
+    strategy: Literal["paper", "random-scenarios"] = Field(
+        "paper",
+        description=(
+            "acquisition strategy (docs/active-learning.md): 'paper' solves the task as written every iteration "
+            "(the paper's loop); 'random-scenarios' solves a scenario drawn from the task's ranges with the "
+            "campaign seed and the iteration index (stored with the iteration)"
+        ),
+    )
 
 
 class CampaignConfig(_Strict):

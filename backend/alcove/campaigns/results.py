@@ -39,6 +39,7 @@ from alcove.models import (
     User,
 )
 from alcove.oracles import repository as oracles_repo
+from alcove.science.ocp.scenarios import apply_to_spec
 from alcove.solving import repository as solving_repo
 from alcove.users.access import can_edit
 
@@ -153,6 +154,8 @@ def iteration_trajectory(s: Session, campaign_id: int, iteration: int) -> Iterat
     task_version = s.get(TaskVersion, owner.task_version_id)
     assert task_version is not None  # a campaign's task version cannot be deleted (foreign key, RESTRICT)
     spec = task_version.spec
+    if it.scenario and it.scenario.get("values"):  # the phases of the scenario solved (durations may vary)
+        spec = apply_to_spec(spec, it.scenario["values"])
     cv = s.get(CampaignConfigVersion, it.config_version_id) if it.config_version_id else None
     settings = (config_from_version(cv) if cv is not None else current_config(s, owner)).settings
     a = get_arrays(s, sol.trajectory_sha256)
@@ -178,6 +181,7 @@ def iteration_trajectory(s: Session, campaign_id: int, iteration: int) -> Iterat
         duration=t0 - start,
         phases=phases,
         replay_phases=n_replayed,
+        scenario=it.scenario,
         replay_t_end=phases[n_replayed - 1].t_end,
         replay_dt=settings.replay_dt,
         solver=OcpSolverSummary(

@@ -92,6 +92,11 @@ class IterationRead(_Read):
     error: str | None
     started_at: datetime | None
     finished_at: datetime | None
+    scenario: dict[str, Any] | None = Field(
+        None,
+        description="the scenario the iteration's OCP solved (strategy random-scenarios): seed, iteration, slot "
+        "and values (parameter path -> drawn value); null: the task as written (strategy paper)",
+    )
     steps: list[StepRead] | None = Field(
         None, description="the iteration's steps (null in the compact list: ask with ?steps=true)"
     )
@@ -218,6 +223,11 @@ class IterationTrajectory(BaseModel):
     )
     duration: float = Field(description="the task's duration: the sum of the phase durations [s]")
     phases: list[TrajectoryPhase]
+    scenario: dict[str, Any] | None = Field(
+        None,
+        description="the scenario the OCP solved (strategy random-scenarios: seed, iteration, slot, values); "
+        "null: the task as written",
+    )
     replay_phases: int = Field(description="the oracle replays the first N phases (the iteration's setting)")
     replay_t_end: float = Field(description="end of the replayed part [s]")
     replay_dt: float | None = Field(None, description="the replay's resampling step [s]; null: the OCP grid")

@@ -46,6 +46,8 @@ from alcove.oracles import steps as oracle_steps
 from alcove.oracles import validation as oracle_validation
 from alcove.pool import repository as pool_repo
 from alcove.pool import steps as pool_steps
+from alcove.science.ocp import acquisition
+from alcove.science.ocp.scenarios import Scenario, from_json
 from alcove.solving import repository as solving_repo
 from alcove.solving import steps as solving_steps
 from alcove.surrogates import repository as surrogates_repo
@@ -75,7 +77,15 @@ class StepContext:
         self.run.before_compute(self.ref.step.value)
 
     def task(self, s: Session, c: Campaign) -> TaskSpec:
+        """The task as written (its ranges, if any, left aside by the steps that use its preset:
+        preliminary data, training and the validation suite are the nominal task's)."""
         return load_task(s, c.task_version_id, self.config.settings.ocp_intervals)
+
+    def scenario(self, s: Session, c: Campaign) -> Scenario:
+        """The scenario iteration k solves under the campaign's strategy (seeded by the campaign
+        seed and k: a re-run or re-delivered step draws the same one)."""
+        chosen = acquisition.strategy(self.config.settings.strategy).candidates(self.task(s, c), c.seed, self.k, 1)
+        return chosen[0]
 
 
 def derive_seed(campaign_seed: int, iteration: int, salt: int = 0) -> int:
@@ -164,15 +174,36 @@ def ocp(ctx: StepContext) -> StepOutput:
         if mv is None:
             raise RuntimeError(f"model version {ctx.k} does not exist")
         previous = solving_repo.previous_converged(s, c.id, ctx.k)
-        task = ctx.task(s, c)
-    return solving_steps.solve(
-        ctx.run,
-        task=task,
-        model_version_id=mv.id,
-        previous_solution_id=previous.id if previous is not None else None,
-        initial_guesses=ctx.config.policies.ocp_initial_guesses,
-        trust_region_max_std=ctx.config.settings.trust_region_max_std,
-    )
+        scenario = ctx.scenario(s, c)
+        nominal_preset = ctx.task(s, c).preset()
+    # the paper's strategy solves the task as written: nothing to store (null)
+    stored = scenario.to_json() if ctx.config.settings.strategy != "paper" else None
+    try:
+        out = solving_steps.solve(
+            ctx.run,
+            task=scenario.task,
+            model_version_id=mv.id,
+            previous_solution_id=previous.id if previous is not None else None,
+            initial_guesses=ctx.config.policies.ocp_initial_guesses,
+            trust_region_max_std=ctx.config.settings.trust_region_max_std,
+            pool_preset=nominal_preset,
+        )
+    except UnusableResult as err:  # no converged solution: the iteration still shows its scenario
+        raise UnusableResult(err.reason, _storing_scenario(err.write, stored)) from None
+    return StepOutput(_storing_scenario(out.write, stored), out.compute_s)
+
+
+def _storing_scenario(
+    write: Callable[[Session, IterationRef], dict[str, Any]] | None, stored: dict[str, Any] | None
+) -> Callable[[Session, IterationRef], dict[str, Any]]:
+    def with_scenario(s: Session, at: IterationRef) -> dict[str, Any]:
+        result = write(s, at) if write is not None else {}
+        it = s.get(Iteration, at.iteration_id)
+        assert it is not None
+        it.scenario = stored
+        return {**result, "scenario": stored} if stored is not None else result
+
+    return with_scenario
 
 
 def oracle(ctx: StepContext) -> StepOutput:
@@ -187,7 +218,9 @@ def oracle(ctx: StepContext) -> StepOutput:
             sol = solving_repo.latest_of_iteration(s, it.id)
             if sol is None or not sol.success or sol.trajectory_sha256 is None:
                 raise RuntimeError(f"iteration {ctx.k} has no converged OCP solution")
-            task, solution_id, sha = ctx.task(s, c), sol.id, sol.trajectory_sha256
+            # the scenario the OCP solved (stored with the iteration): its headrest is the oracle's
+            task, solution_id, sha = from_json(ctx.task(s, c), it.scenario), sol.id, sol.trajectory_sha256
+            scenario = it.scenario is not None
         ctx.before_compute()
         settings = ctx.config.settings
         out = oracle_steps.replay(
@@ -198,6 +231,7 @@ def oracle(ctx: StepContext) -> StepOutput:
             trajectory_sha256=sha,
             replay_phases=settings.replay_phases,
             replay_dt=settings.replay_dt,
+            scenario=scenario,
         )
     except UnusableResult as err:
         raise UnusableResult(err.reason, _counting_oracle_time(err.write)) from None

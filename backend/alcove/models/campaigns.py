@@ -188,6 +188,10 @@ class Iteration(Base):
     created_at: Mapped[datetime] = mapped_column(default=utcnow, server_default=sa.func.now())
     started_at: Mapped[datetime | None]
     finished_at: Mapped[datetime | None]
+    scenario: Mapped[dict[str, Any] | None] = mapped_column(
+        comment="the scenario the iteration's OCP solved (random-scenarios: seed, iteration, slot, values); "
+        "null: the task as written",
+    )
 
     campaign: Mapped[Campaign] = relationship(back_populates="iterations")
     config_version: Mapped[CampaignConfigVersion] = relationship()

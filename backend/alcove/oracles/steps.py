@@ -62,16 +62,20 @@ def replay(
     trajectory_sha256: str,
     replay_phases: int,
     replay_dt: float | None,
+    scenario: bool = False,
 ) -> StepOutput:
     """Replay the first ``replay_phases`` phases of the solution in the oracle. A result
     that passes the quality gate becomes the iteration's dataset; one that does not is
-    quarantined with its reason (:class:`UnusableResult`)."""
+    quarantined with its reason (:class:`UnusableResult`). ``scenario``: ``task`` is a scenario
+    drawn from the campaign's task (its dataset records the scenario's headrest offset)."""
     from alcove.science.ocp.replay import replay_trajectory
 
     with session_scope() as s:
         oracle = load_oracle(s, oracle_version_id, task.preset())
         arrays = get_arrays(s, trajectory_sha256)
     traj = replay_trajectory(arrays, task, replay_phases, replay_dt)
+    # a scenario's headrest: the features of these samples are relative to it (None: the task's own)
+    headrest = {"headrest_offset": task.preset().headrest_offset} if scenario else {}
     tau = traj.tau
     assert tau is not None  # replay_trajectory always carries the solution's torques
     started = utcnow()
@@ -121,7 +125,7 @@ def replay(
                 campaign_id=at.campaign_id,
                 iteration_id=at.iteration_id,
                 oracle_run_id=row.id,
-                meta={"oracle_version_id": oracle_version_id},
+                meta={"oracle_version_id": oracle_version_id, **headrest},
             )
             out["dataset_id"] = ds.id
         else:

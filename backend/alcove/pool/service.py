@@ -139,7 +139,17 @@ def _training_dataset(s: Session, d: Dataset) -> PoolDataset:
 
     a = dataset_arrays(s, d)
     origin = d.origin if d.origin in ("preliminary", "oracle", "upload") else "oracle"
-    return PoolDataset(_pool_name(d), a["t"], a["q"], a["qd"], a["f"][:, :3], a["f"][:, 3:], origin)
+    offset = (d.meta or {}).get("headrest_offset")  # a scenario's moved headrest (issue 17)
+    return PoolDataset(
+        _pool_name(d),
+        a["t"],
+        a["q"],
+        a["qd"],
+        a["f"][:, :3],
+        a["f"][:, 3:],
+        origin,
+        headrest_offset=None if offset is None else float(offset),
+    )
 
 
 def _cached_pool(url: str, pool_version_id: int, content_hash: str) -> list[PoolDataset] | None:

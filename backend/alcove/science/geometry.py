@@ -101,8 +101,10 @@ class HeadNeckPreset:
     """The paper's 1-DOF head-neck model and its headrest (preset ``head-neck-1dof``).
 
     Anthropometry after de Leva (1996), 50th percentile male; all values editable.
-    The headrest is placed so that the head first touches it at ``theta_contact``;
-    ``tilt`` is the headrest's backward inclination.
+    The headrest is placed so that the head first touches it at ``theta_contact``, then
+    moved by ``headrest_offset`` along its outward normal x_H (positive: toward the head,
+    which then touches it earlier; a scenario's "headrest offset"); ``tilt`` is the
+    headrest's backward inclination.
     """
 
     mass: float = 5.0  # kg
@@ -115,6 +117,7 @@ class HeadNeckPreset:
     gravity: float = GRAVITY
     theta_contact: float = 0.31  # rad, first contact with the undeformed headrest
     tilt: float = 0.31  # rad, headrest inclination (x_H = normal)
+    headrest_offset: float = 0.0  # m, headrest moved along x_H from its theta_contact placement
     profile: HeadProfile = field(default_factory=HeadProfile)
 
     # ---- derived geometry -------------------------------------------------------
@@ -124,8 +127,14 @@ class HeadNeckPreset:
 
     @property
     def headrest_origin(self) -> FloatArray:
-        """World (x, z) of the headrest frame origin: the head's back point at first contact."""
-        return self.head_point_world(self.profile.back_point(), self.theta_contact)
+        """World (x, z) of the headrest frame origin: the head's back point at ``theta_contact``,
+        moved by ``headrest_offset`` along the headrest normal x_H = (cos tilt, sin tilt)."""
+        origin = self.head_point_world(self.profile.back_point(), self.theta_contact)
+        if self.headrest_offset == 0.0:  # the paper's placement, bit for bit
+            return origin
+        normal = np.array([math.cos(self.tilt), math.sin(self.tilt)])
+        moved: FloatArray = origin + self.headrest_offset * normal
+        return moved
 
     def head_origin_world(self, theta: float) -> FloatArray:
         """World (x, z) of the head frame origin (COG) at the head angle ``theta``."""
@@ -226,6 +235,26 @@ def signed_gap_symbolic(preset: HeadNeckPreset, theta: Symbolic) -> Symbolic:
     return r_rel[0] + c * pr.cx - s * pr.cz - ca.sqrt((pr.ax * c) ** 2 + (pr.az * s) ** 2)
 
 
+def first_contact_angle(preset: HeadNeckPreset) -> float:
+    """The head angle [rad] at which the head profile first touches the undeformed headrest
+    (the root of :func:`signed_gap`): ``theta_contact`` for the paper's placement
+    (``headrest_offset = 0``, ``tilt = theta_contact``), earlier for a headrest moved toward
+    the head. Found with SciPy's ``brentq`` within 1 rad either side of ``theta_contact``
+    (the gap falls monotonically as the head tilts back there)."""
+    from scipy.optimize import brentq
+
+    if preset.headrest_offset == 0.0 and preset.tilt == preset.theta_contact:
+        return preset.theta_contact
+
+    def gap(theta: float) -> float:
+        return float(signed_gap(preset, theta)[0])
+
+    lo, hi = preset.theta_contact - 1.0, preset.theta_contact + 1.0
+    if not gap(lo) > 0.0 > gap(hi):
+        raise ValueError(f"no first contact within {lo:.3g}..{hi:.3g} rad (headrest offset {preset.headrest_offset} m)")
+    return float(brentq(gap, lo, hi, xtol=1e-12))
+
+
 DEFAULT_PRESET = HeadNeckPreset()
 
 __all__ = [
@@ -234,6 +263,7 @@ __all__ = [
     "HeadNeckPreset",
     "HeadProfile",
     "RelativeKinematics",
+    "first_contact_angle",
     "head_pose_in_headrest",
     "relative_kinematics",
     "relative_kinematics_symbolic",

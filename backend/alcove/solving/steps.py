@@ -21,6 +21,7 @@ from alcove.science.json_values import json_safe
 from alcove.surrogates.service import load_model
 
 if TYPE_CHECKING:
+    from alcove.science.geometry import HeadNeckPreset
     from alcove.science.ocp.solve import OcpSolution as Solution
     from alcove.science.ocp.task_spec import TaskSpec
 
@@ -61,6 +62,7 @@ def solve(
     previous_solution_id: int | None,
     initial_guesses: int,
     trust_region_max_std: float | None = None,
+    pool_preset: HeadNeckPreset | None = None,
 ) -> StepOutput:
     """Solve ``task`` with the model version's networks as the contact model (their weights
     are NLP parameters: one NLP per architecture and process, reused across versions).
@@ -68,10 +70,11 @@ def solve(
     With ``trust_region_max_std`` [N] (and an ensemble) the ensemble's force std is bounded
     along the solution. The solution's trust diagnostics
     (:func:`alcove.science.surrogate.trust.assess_solution`, the nearest-sample distance to the
-    pool the model was trained on) are stored in the solution's ``stats["trust"]``."""
+    pool the model was trained on, its samples relative to ``pool_preset``'s headrest, default the
+    task's) are stored in the solution's ``stats["trust"]``."""
     from alcove.science.ocp.solve import solve_task
     from alcove.science.surrogate.export import surrogate_contact, surrogate_contact_std
-    from alcove.science.surrogate.training import pool_features, preset_kinematics
+    from alcove.science.surrogate.training import moved_headrest, pool_features, preset_kinematics
     from alcove.science.surrogate.trust import assess_solution, force_variance_function
 
     with session_scope() as s:
@@ -87,6 +90,7 @@ def solve(
     run.check_cancel()
     t0 = time.perf_counter()
     preset = task.preset()
+    base = pool_preset if pool_preset is not None else preset  # the pool's own headrest (a scenario's may be moved)
     contact, contact_params = surrogate_contact(model, preset)
     path = None
     if trust_region_max_std is not None and model.ensemble_size > 1:
@@ -103,9 +107,8 @@ def solve(
         on_attempt=lambda _attempt: run.check_cancel(),  # cancel between IPOPT runs
         path=path,
     )
-    trust = assess_solution(
-        model, preset, sol.t, sol.q, None if pool is None else pool_features(pool, preset_kinematics(preset))
-    ).to_dict()
+    pool_x = None if pool is None else pool_features(pool, preset_kinematics(base), moved_headrest(base))
+    trust = assess_solution(model, preset, sol.t, sol.q, pool_x).to_dict()
     trust["trust_region_max_std"] = trust_region_max_std if path is not None else None
     compute = time.perf_counter() - t0
     arrays = {"t": sol.t, "q": sol.q, "qd": sol.qd, "tau": sol.tau, "controls": sol.controls}

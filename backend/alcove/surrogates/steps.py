@@ -87,11 +87,12 @@ def evaluate(run: StepRun, *, model_version_id: int, dataset_id: int, record: di
         ds = s.get(Dataset, dataset_id)
         assert mv is not None and ds is not None
         a = dataset_arrays(s, ds)
+        offset = (ds.meta or {}).get("headrest_offset")  # a scenario's moved headrest (issue 17)
         model = load_model(s, mv)
         model_info = {"seed": mv.seed, "force": mv.test_force_rmse, "moment": mv.test_moment_rmse}
         train_wall_time_s = mv.train_wall_time_s
     run.check_cancel()
-    pred = predict_ensemble(model, a["q"], a["qd"])
+    pred = predict_ensemble(model, a["q"], a["qd"], headrest_offset=offset)
     f_pred = np.hstack([pred.force, pred.moment])
     f_std = np.hstack([pred.force_std, pred.moment_std]) if model.ensemble_size > 1 else None
     f_true = a["f"]

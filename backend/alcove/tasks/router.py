@@ -13,7 +13,17 @@ from alcove.models import TaskDefinition, User
 from alcove.science.ocp.task_spec import TaskSpec
 from alcove.tasks import repository as repo
 from alcove.tasks import service
-from alcove.tasks.schemas import TaskDraft, TaskIn, TaskOut, TaskPresetOut, TaskUpdate, TaskVersionOut
+from alcove.tasks.schemas import (
+    ScenarioOut,
+    ScenarioPreviewIn,
+    ScenarioPreviewOut,
+    TaskDraft,
+    TaskIn,
+    TaskOut,
+    TaskPresetOut,
+    TaskUpdate,
+    TaskVersionOut,
+)
 from alcove.users.access import can_edit
 from alcove.users.auth import CurrentUser
 from alcove.versioning.schemas import CopyPreset, FieldErrorOut, ValidationReport
@@ -144,3 +154,22 @@ def get_task_version(
 ) -> TaskVersionOut:
     definition = repo.get_task(session, task_id, user)
     return version_out(session, repo.get_version(session, definition, version))
+
+
+@router.post(
+    "/{task_id:integer}/scenarios/preview", response_model=ScenarioPreviewOut, operation_id="preview_task_scenarios"
+)
+def preview_task_scenarios(
+    task_id: ObjectId, body: ScenarioPreviewIn, user: CurrentUser, session: SessionDep
+) -> ScenarioPreviewOut:
+    """A few scenarios drawn from the task's ranges (or a draft ``spec``'s): those iterations
+    1..n of a ``random-scenarios`` campaign with ``seed`` would solve. Nothing is saved."""
+    definition = repo.get_task(session, task_id, user)
+    raw = body.spec if body.spec is not None else repo.latest_version(session, definition).spec
+    spec = service.require_valid(raw)
+    scenarios = service.preview_scenarios(spec, body.n, body.seed)
+    return ScenarioPreviewOut(
+        seed=body.seed,
+        ranges=[r.model_dump() for r in spec.ranges or []],
+        scenarios=[ScenarioOut(**d) for d in scenarios],
+    )

@@ -53,3 +53,23 @@ class TaskPresetOut(BaseModel):
     name: str
     description: str
     spec: dict[str, Any]
+
+
+class ScenarioPreviewIn(_In):
+    """Sample a task's scenarios: the stored task's latest version, or a draft ``spec`` (the editor's unsaved form)."""
+
+    n: int = Field(5, ge=1, le=50, description="scenarios to draw (1 to 50)")
+    seed: int = Field(0, ge=0, lt=2**62, description="the campaign seed the draws follow")
+    spec: dict[str, Any] | None = Field(None, description="a draft task spec instead of the stored one")
+
+
+class ScenarioOut(BaseModel):
+    iteration: int = Field(description="the iteration of a random-scenarios campaign with this seed that solves it")
+    values: dict[str, float] = Field(description="drawn value per ranged parameter (dotted path in the spec)")
+    spec: dict[str, Any] = Field(description="the concrete, validated task of this scenario (no ranges)")
+
+
+class ScenarioPreviewOut(BaseModel):
+    seed: int
+    ranges: list[dict[str, Any]] = Field(description="the task's ranges (empty: one scenario, the task itself)")
+    scenarios: list[ScenarioOut]

@@ -139,3 +139,20 @@ def load_task(s: Session, task_version_id: int, intervals: int | None = None) ->
         with _tasks_lock:
             _tasks[key] = task
     return task
+
+
+def preview_scenarios(spec: TaskSpec, n: int, seed: int) -> list[dict[str, Any]]:
+    """The scenarios iterations 1..n of a random-scenarios campaign with ``seed`` would solve
+    (a task without ranges: n times the task itself). A drawn combination that is not a valid
+    task is a field error on ``spec.ranges``."""
+    from alcove.science.ocp.scenarios import preview
+    from alcove.science.ocp.task_spec import TaskSpecError
+
+    try:
+        drawn = preview(spec, seed, n)
+    except TaskSpecError as exc:
+        raise InvalidInput([FieldError(("spec", *exc.field.split(".")), exc.reason)]) from exc
+    return [
+        {"iteration": sc.iteration, "values": sc.values, "spec": dump(sc.task.model_copy(update={"ranges": None}))}
+        for sc in drawn
+    ]

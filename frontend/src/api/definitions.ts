@@ -6,7 +6,7 @@ import { useMutation, useQuery, useQueryClient } from "@tanstack/react-query";
 import { client, unwrap } from "./client";
 import { ApiError, fieldErrors, type FieldError } from "./errors";
 import type { JsonSchema } from "../components/SchemaForm";
-import type { Oracle, OracleType, Schemas, Share, SurrogateConfig, Task, TaskPreset, TaskSpecDraft } from "./types";
+import type { Oracle, OracleType, ScenarioPreview, Schemas, Share, SurrogateConfig, Task, TaskPreset, TaskSpecDraft } from "./types";
 
 export type DefinitionKind = "task" | "oracle";
 
@@ -135,6 +135,13 @@ async function fieldProblems(call: () => Promise<unknown>): Promise<FieldError[]
 /** Field-level problems of a draft, without saving (empty list: valid). */
 export function validateTask(body: { name: string; description: string; spec: TaskSpecDraft }): Promise<FieldError[]> {
   return fieldProblems(async () => unwrap(await client.POST("/api/v1/tasks/validate", { body })));
+}
+/** Scenarios iterations 1..n of a random-scenarios campaign with ``seed`` would solve (a draft spec, or the saved one). */
+export function useScenarioPreview(id: number | null) {
+  return useMutation({
+    mutationFn: async (body: { n: number; seed: number; spec?: TaskSpecDraft }): Promise<ScenarioPreview> =>
+      unwrap(await client.POST("/api/v1/tasks/{task_id}/scenarios/preview", { params: { path: { task_id: id ?? 0 } }, body })),
+  });
 }
 export function useSaveTask(id: number | null) {
   const qc = useQueryClient();

@@ -1235,6 +1235,27 @@ export interface paths {
         patch?: never;
         trace?: never;
     };
+    "/api/v1/tasks/{task_id}/scenarios/preview": {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        get?: never;
+        put?: never;
+        /**
+         * Preview Task Scenarios
+         * @description A few scenarios drawn from the task's ranges (or a draft ``spec``'s): those iterations
+         *     1..n of a ``random-scenarios`` campaign with ``seed`` would solve. Nothing is saved.
+         */
+        post: operations["preview_task_scenarios"];
+        delete?: never;
+        options?: never;
+        head?: never;
+        patch?: never;
+        trace?: never;
+    };
     "/api/v1/tasks/{task_id}/versions": {
         parameters: {
             query?: never;
@@ -1972,6 +1993,13 @@ export interface components {
             id: number;
             /** Index */
             index: number;
+            /**
+             * Scenario
+             * @description the scenario the iteration's OCP solved (strategy random-scenarios): seed, iteration, slot and values (parameter path -> drawn value); null: the task as written (strategy paper)
+             */
+            scenario?: {
+                [key: string]: unknown;
+            } | null;
             /** Started At */
             started_at: string | null;
             status: components["schemas"]["IterationStatus"];
@@ -2025,6 +2053,13 @@ export interface components {
              * @description end of the replayed part [s]
              */
             replay_t_end: number;
+            /**
+             * Scenario
+             * @description the scenario the OCP solved (strategy random-scenarios: seed, iteration, slot, values); null: the task as written
+             */
+            scenario?: {
+                [key: string]: unknown;
+            } | null;
             solver: components["schemas"]["OcpSolverSummary"];
             /**
              * T
@@ -2327,6 +2362,12 @@ export interface components {
              * @default 9.81
              */
             gravity?: number;
+            /**
+             * Headrest Offset
+             * @description headrest moved along its normal from its theta_contact placement (positive: toward the head) [m], -0.02 to 0.02 m; a headrest adjustment; the oracles' cushion covers the contact zone over this range
+             * @default 0
+             */
+            headrest_offset?: number;
             /**
              * Inertia Joint
              * @description moment of inertia about the joint [kg m^2], above 0, at most 5 kg m^2; at least mass * com_distance^2 (the inertia about the COG is not negative)
@@ -2702,6 +2743,27 @@ export interface components {
             /** Version */
             version: number;
         };
+        /**
+         * ParameterRange
+         * @description A uniform range of one task parameter, named by its dotted path in the task spec.
+         */
+        ParameterRange: {
+            /**
+             * High
+             * @description upper end of the uniform range, at least low [the parameter's unit], -1e6 to 1e6 the parameter's unit; and within the parameter's own range
+             */
+            high: number;
+            /**
+             * Low
+             * @description lower end of the uniform range [the parameter's unit], -1e6 to 1e6 the parameter's unit; and within the parameter's own range
+             */
+            low: number;
+            /**
+             * Parameter
+             * @description dotted path of the parameter in the task, e.g. initial.q.0, phases.0.duration, model.headrest_offset; one of: initial.q.{j}, initial.qd.{j}, phases.{m}.duration, phases.{m}.w_tau, phases.{m}.w_T, phases.{m}.target_q.{j}, final.q.{j}, endpoint_cost.w_q, endpoint_cost.w_qd, endpoint_cost.q_ref.{j}, model.headrest_offset
+             */
+            parameter: string;
+        };
         /** PhaseSpec */
         PhaseSpec: {
             /**
@@ -2988,6 +3050,13 @@ export interface components {
              */
             replay_phases?: number;
             /**
+             * Strategy
+             * @description acquisition strategy (docs/active-learning.md): 'paper' solves the task as written every iteration (the paper's loop); 'random-scenarios' solves a scenario drawn from the task's ranges with the campaign seed and the iteration index (stored with the iteration)
+             * @default paper
+             * @enum {string}
+             */
+            strategy?: "paper" | "random-scenarios";
+            /**
              * Trust Region Max Std
              * @description trust region: bound the ensemble's force std sqrt(sigma_fx^2 + sigma_fy^2 + sigma_fz^2) [N] at every interval midpoint of the OCP solution (above 0 N, at most 10000 N; None: unbounded; needs ensemble_size > 1)
              */
@@ -3013,6 +3082,67 @@ export interface components {
             qd: (number | null)[][];
             /** T */
             t: number[];
+        };
+        /** ScenarioOut */
+        ScenarioOut: {
+            /**
+             * Iteration
+             * @description the iteration of a random-scenarios campaign with this seed that solves it
+             */
+            iteration: number;
+            /**
+             * Spec
+             * @description the concrete, validated task of this scenario (no ranges)
+             */
+            spec: {
+                [key: string]: unknown;
+            };
+            /**
+             * Values
+             * @description drawn value per ranged parameter (dotted path in the spec)
+             */
+            values: {
+                [key: string]: number;
+            };
+        };
+        /**
+         * ScenarioPreviewIn
+         * @description Sample a task's scenarios: the stored task's latest version, or a draft ``spec`` (the editor's unsaved form).
+         */
+        ScenarioPreviewIn: {
+            /**
+             * N
+             * @description scenarios to draw (1 to 50)
+             * @default 5
+             */
+            n?: number;
+            /**
+             * Seed
+             * @description the campaign seed the draws follow
+             * @default 0
+             */
+            seed?: number;
+            /**
+             * Spec
+             * @description a draft task spec instead of the stored one
+             */
+            spec?: {
+                [key: string]: unknown;
+            } | null;
+        };
+        /** ScenarioPreviewOut */
+        ScenarioPreviewOut: {
+            /**
+             * Ranges
+             * @description the task's ranges (empty: one scenario, the task itself)
+             */
+            ranges: {
+                [key: string]: unknown;
+            }[];
+            /** Scenarios */
+            scenarios: components["schemas"]["ScenarioOut"][];
+            /** Seed */
+            seed: number;
         };
         /** ShareCreate */
         ShareCreate: {
@@ -3521,6 +3651,11 @@ export interface components {
             name?: string;
             /** Phases */
             phases: components["schemas"]["PhaseSpec"][];
+            /**
+             * Ranges
+             * @description scenario ranges: uniform ranges of some parameters (alcove.science.ocp.scenarios); null or empty: the task has one scenario, itself
+             */
+            ranges?: components["schemas"]["ParameterRange"][] | null;
         };
         /** TaskUpdate */
         TaskUpdate: {
@@ -10642,6 +10777,96 @@ export interface operations {
                     "application/json": {
                         detail?: string;
                     };
+                };
+            };
+            /** @description database busy or unavailable: retry */
+            503: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorOut"];
+                };
+            };
+        };
+    };
+    preview_task_scenarios: {
+        parameters: {
+            query?: never;
+            header?: never;
+            path: {
+                /** @description object id */
+                task_id: number;
+            };
+            cookie?: never;
+        };
+        requestBody: {
+            content: {
+                "application/json": components["schemas"]["ScenarioPreviewIn"];
+            };
+        };
+        responses: {
+            /** @description Successful Response */
+            200: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ScenarioPreviewOut"];
+                };
+            };
+            /** @description not authenticated (missing, invalid, expired or revoked token) */
+            401: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorOut"];
+                };
+            };
+            /** @description not allowed (admin-only route, or an object shared with you for viewing only) */
+            403: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorOut"];
+                };
+            };
+            /** @description no such object, or not visible to you */
+            404: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorOut"];
+                };
+            };
+            /** @description conflicts with the current state (e.g. a campaign transition, a duplicate) */
+            409: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorOut"];
+                };
+            };
+            /** @description request body too large */
+            413: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorOut"];
+                };
+            };
+            /** @description invalid input: field paths and reasons */
+            422: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ValidationErrorOut"];
                 };
             };
             /** @description database busy or unavailable: retry */

@@ -26,6 +26,7 @@ export type ModelVersion = Schemas["ModelVersionRead"];
 export type Task = Schemas["TaskOut"];
 export type TaskVersion = Schemas["TaskVersionOut"];
 export type TaskPreset = Schemas["TaskPresetOut"];
+export type ScenarioPreview = Schemas["ScenarioPreviewOut"];
 export type Oracle = Schemas["OracleOut"];
 export type OracleVersion = Schemas["OracleVersionOut"];
 export type OracleType = Schemas["OracleTypeOut"];

@@ -1,5 +1,5 @@
 import { describe, expect, it } from "vitest";
-import { clipPhases, phaseShapes, phaseSpans, replayMarks, replayText, solverRows, trajectoryPhases } from "./TrajectoryPanel";
+import { clipPhases, phaseShapes, phaseSpans, replayMarks, replayText, scenarioText, solverRows, trajectoryPhases } from "./TrajectoryPanel";
 
 describe("phases of a trajectory", () => {
   const spans = phaseSpans([{ name: "approach", duration: 0.2 }, { name: "rest", duration: 1 }]);
@@ -79,5 +79,16 @@ describe("the whole OCP trajectory", () => {
     });
     const failed = Object.fromEntries(solverRows({ status: "Maximum_Iterations_Exceeded", converged: false, iterations: null, cost: null, wall_time_s: null, attempt: 2, initial_guess: "default", message: "x" }));
     expect([failed.Converged, failed["IPOPT iterations"], failed.Cost, failed["Wall time"]]).toEqual(["no", "—", "—", "—"]);
+  });
+});
+
+describe("the scenario an iteration solved", () => {
+  it("lists the drawn values; none for the task as written", () => {
+    expect(scenarioText({ seed: 7, iteration: 2, slot: 0, values: { "initial.q.0": 0.2345678, "model.headrest_offset": -0.0031 } })).toBe(
+      "Scenario (seed 7, draw 2): initial.q.0 = 0.2346, model.headrest_offset = -0.003100",
+    );
+    expect(scenarioText(null)).toBeNull();
+    expect(scenarioText(undefined)).toBeNull();
+    expect(scenarioText({ seed: 7, iteration: 2, slot: 0, values: {} })).toBeNull();
   });
 });

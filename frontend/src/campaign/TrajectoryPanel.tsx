@@ -93,6 +93,14 @@ export function trajectoryPhases(data: Pick<WholeTrajectory, "phases">): (Phase 
   return data.phases.map((p, i) => ({ name: p.name || `phase ${i + 1}`, t_start: p.t_start, t_end: p.t_end, replayed: p.replayed }));
 }
 
+/** The scenario an iteration solved (strategy random-scenarios), in words; null: the task as written. */
+export function scenarioText(scenario: WholeTrajectory["scenario"]): string | null {
+  const values = (scenario?.values ?? {}) as Record<string, number>;
+  const keys = Object.keys(values);
+  if (!scenario || !keys.length) return null;
+  return `Scenario (seed ${String(scenario.seed)}, draw ${String(scenario.iteration)}): ${keys.map((k) => `${k} = ${fmtNumber(values[k], 4)}`).join(", ")}`;
+}
+
 /** The solver summary as label/value rows. */
 export function solverRows(s: WholeTrajectory["solver"]): [string, string][] {
   return [
@@ -145,6 +153,11 @@ export function TrajectoryPanel({ campaignId, iteration }: { campaignId: number;
         Iteration {iteration}'s OCP solution over the whole task ({fmtNumber(d.duration, 3)} s, {d.t.length} nodes; phases {phases.map((p) => p.name).join(" → ")}).{" "}
         {replayText(d)}
       </p>
+      {scenarioText(d.scenario) && (
+        <p className="hint" data-testid="iteration-scenario">
+          {scenarioText(d.scenario)}
+        </p>
+      )}
       <div className="grid2">
         <Plot testId="angle-plot" traces={angle} shapes={shapes} extraLayout={layout} xTitle="t [s]" yTitle="joint angle θ [rad]" exportName={`angle-k${iteration}`} height={280} />
         <Plot testId="torque-plot" traces={torque} shapes={shapes} extraLayout={layout} xTitle="t [s]" yTitle="joint torque τ [N m]" exportName={`torque-k${iteration}`} height={280} />

@@ -1,11 +1,12 @@
 import { useEffect, useMemo, useState } from "react";
 import { useNavigate, useParams } from "react-router-dom";
-import { useSaveTask, useTask, useTaskPresets, useTaskSchema, validateTask } from "../api/definitions";
+import { useSaveTask, useScenarioPreview, useTask, useTaskPresets, useTaskSchema, validateTask } from "../api/definitions";
 import { isPreviewFinal, useCreateTaskPreview, usePreview } from "../api/previews";
 import { columns, type Task, type TaskPreset, type TaskPreviewResult, type TaskSpecDraft } from "../api/types";
 import { errorMessage, type FieldError } from "../api/errors";
 import { FieldMessages, parseNumberList, SchemaForm, schemaFieldPaths, schemaLocalErrors, type JsonSchema } from "../components/SchemaForm";
 import { PhasesTable, phaseFieldPaths, phaseLocalErrors, type PhaseRow } from "../task/PhasesTable";
+import { ScenarioRanges, rangeFieldPaths, type RangeRow } from "../task/ScenarioRanges";
 import { ErrorBox, Loading } from "../components/States";
 import { Plot, type Trace } from "../components/Plot";
 import { phaseShapes } from "../campaign/TrajectoryPanel";
@@ -90,6 +91,7 @@ function TaskEditor({ existing, presets }: { existing: Task | undefined; presets
   const schema = useTaskSchema();
   const save = useSaveTask(taskId);
   const solve = useCreateTaskPreview(taskId);
+  const sample = useScenarioPreview(taskId);
   const [previewId, setPreviewId] = useState<number | null>(null);
   const preview = usePreview(previewId);
   const solving = solve.isPending || (previewId !== null && !isPreviewFinal(preview.data));
@@ -118,22 +120,33 @@ function TaskEditor({ existing, presets }: { existing: Task | undefined; presets
   const modelSchema = (root?.$defs?.ModelSpec ?? null) as JsonSchema | null;
   const phaseSchema = (root?.$defs?.PhaseSpec ?? null) as JsonSchema | null;
   const phases = useMemo(() => (spec.phases ?? []) as PhaseRow[], [spec.phases]);
+  const ranges = useMemo(() => (spec.ranges ?? []) as RangeRow[], [spec.ranges]);
   const view: ErrorView = useMemo(() => {
     const local = [
       ...(modelSchema && root ? schemaLocalErrors(modelSchema, spec.model, root, "model") : []),
       ...phaseLocalErrors(phases, phaseSchema, root),
       ...listProblems(spec),
     ];
-    const known = ["name", "description", "phases", ...(modelSchema && root ? schemaFieldPaths(modelSchema, root, "model") : []), ...phaseFieldPaths(phases), ...BOUNDARY_FIELDS];
+    const known = ["name", "description", "phases", ...(modelSchema && root ? schemaFieldPaths(modelSchema, root, "model") : []), ...phaseFieldPaths(phases), ...BOUNDARY_FIELDS, ...rangeFieldPaths(ranges)];
     const label = (p: string) => (p === "name" ? "Name" : p === "description" ? "Description" : root ? schemaLabel(root, p) : p);
-    return errorView([local, specPaths(validated?.errors ?? []), specPaths(serverProblems(save.error)), specPaths(serverProblems(solve.error))], known, label);
-  }, [modelSchema, phaseSchema, root, spec, phases, validated, save.error, solve.error]);
+    return errorView(
+      [local, specPaths(validated?.errors ?? []), specPaths(serverProblems(save.error)), specPaths(serverProblems(solve.error)), specPaths(serverProblems(sample.error))],
+      known,
+      label,
+    );
+  }, [modelSchema, phaseSchema, root, spec, phases, ranges, validated, save.error, solve.error, sample.error]);
 
   function solveOnce() {
     setPreviewId(null);
     // the task as it is on screen: an unsaved edit is sent along, else the saved version is solved
     const edited = JSON.stringify(spec) !== JSON.stringify(existing?.spec);
     solve.mutate(edited ? { spec } : {}, { onSuccess: (p) => setPreviewId(p.id) });
+  }
+
+  function previewScenarios() {
+    // the ranges as they are on screen (an unsaved edit is sent along)
+    const edited = JSON.stringify(spec) !== JSON.stringify(existing?.spec);
+    sample.mutate(edited ? { n: 5, seed: 0, spec } : { n: 5, seed: 0 });
   }
 
   function onSave() {
@@ -204,6 +217,16 @@ function TaskEditor({ existing, presets }: { existing: Task | undefined; presets
           <BoundaryFields title="Final condition" value={(spec.final ?? {}) as Record<string, unknown>} fields={["q"]} velocityOptions={["rest", "free"]} errors={view} prefix="final" onChange={(final) => setSpec({ ...spec, final })} />
         </div>
       </section>
+      <ScenarioRanges
+        ranges={ranges}
+        onChange={(r) => setSpec({ ...spec, ranges: r })}
+        errors={view}
+        preview={sample.data}
+        previewing={sample.isPending}
+        onPreview={previewScenarios}
+        canPreview={!!existing && view.problems.length === 0}
+        previewError={generalFailure(sample.error)}
+      />
       <PreviewPanel<TaskPreviewResult>
         id={previewId}
         title="Solve once (auxiliary contact)"

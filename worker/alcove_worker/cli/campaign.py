@@ -153,7 +153,14 @@ def run(
     config: Path | None = typer.Option(None, "--config", help="YAML/JSON campaign settings"),
     name: str | None = typer.Option(None, help="campaign name"),
     seed: int | None = typer.Option(None, min=0, help="campaign seed"),
-    as_json: bool = typer.Option(False, "--json", help="print the per-iteration metrics as JSON at the end"),
+    strategy: str | None = typer.Option(
+        None,
+        help="acquisition strategy: paper (the task as written) or random-scenarios (a scenario drawn from the "
+        "task's ranges every iteration); default: the config's, else paper",
+    ),
+    as_json: bool = typer.Option(
+        False, "--json", help="print the per-iteration metrics (with the scenario solved) as JSON at the end"
+    ),
     spawn: bool = typer.Option(
         True, "--worker/--no-worker", help="spawn a worker process (off: external `alcove worker`s run the steps)"
     ),
@@ -171,6 +178,8 @@ def run(
 
     _ensure_database()
     cfg = _read_config(config)
+    if strategy is not None:
+        cfg["settings"] = {**(cfg.get("settings") or {}), "strategy": strategy}
     campaign_id = _create(task, oracle, iterations, cfg, name, seed)
     proc = following.spawn_worker(concurrency, log_path=worker_log) if spawn else None
     t0 = time.perf_counter()

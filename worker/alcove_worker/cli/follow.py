@@ -41,7 +41,10 @@ def read_metrics(campaign_id: int) -> list[dict[str, Any]]:
     from alcove.db import session_scope
 
     with session_scope() as s:
-        return [m.model_dump(mode="json") for m in results.metrics_series(s, campaign_id)]
+        rows = [m.model_dump(mode="json") for m in results.metrics_series(s, campaign_id)]
+        # the scenario each iteration's OCP solved (null: the task as written)
+        scenarios = {it.index: it.scenario for it in results.list_iterations(s, campaign_id)}
+    return [{**row, "scenario": scenarios.get(row["iteration_index"])} for row in rows]
 
 
 def spawn_worker(

@@ -34,6 +34,7 @@ from alcove.science.arrays import FloatArray
 from alcove.science.geometry import HeadNeckPreset
 from alcove.science.ocp.chain_model import CHAIN_PRESETS, ChainSpec, chain_preset
 from alcove.science.ocp.problem import DiscreteProblem, PhaseGrid
+from alcove.science.ocp.scenario_ranges import ParameterRange, check_ranges
 from alcove.science.validation import WholeNumber, error_location, quantity
 
 if TYPE_CHECKING:  # CasADi is imported only when a chain is built,
@@ -47,6 +48,7 @@ ANGLE_LIMIT = math.pi / 2
 MAX_TORQUE = 200.0  # N m: an adult neck's largest extension torque is about 30-60 N m
 MAX_ANGULAR_VELOCITY = 100.0  # rad/s: head angular velocities in crashes peak at about 30-50 rad/s
 MAX_WEIGHT = 1e6  # cost weights: the paper's are 1e-4 to 1
+MAX_HEADREST_OFFSET = 0.02  # m: the scenarios of issue 17 move the headrest by +-5 mm
 
 Angle = Annotated[
     float, quantity("joint angle", "rad", ge=-ANGLE_LIMIT, le=ANGLE_LIMIT, why="within the model's joint range")
@@ -147,6 +149,16 @@ class ModelSpec(_Strict):
     tilt: Annotated[float, quantity("headrest inclination (backward)", "rad", ge=-ANGLE_LIMIT, le=ANGLE_LIMIT)] = (
         _DEFAULT.tilt
     )
+    headrest_offset: Annotated[
+        float,
+        quantity(
+            "headrest moved along its normal from its theta_contact placement (positive: toward the head)",
+            "m",
+            ge=-MAX_HEADREST_OFFSET,
+            le=MAX_HEADREST_OFFSET,
+            why="a headrest adjustment; the oracles' cushion covers the contact zone over this range",
+        ),
+    ] = _DEFAULT.headrest_offset
 
     @model_validator(mode="before")
     @classmethod
@@ -328,6 +340,11 @@ class TaskSpec(_Strict):
     phases: list[PhaseSpec] = Field(min_length=1)
     final: FinalCondition = Field(default_factory=FinalCondition)
     endpoint_cost: EndpointCost | None = None
+    ranges: list[ParameterRange] | None = Field(
+        None,
+        description="scenario ranges: uniform ranges of some parameters (alcove.science.ocp.scenarios); "
+        "null or empty: the task has one scenario, itself",
+    )
 
     @model_validator(mode="after")
     def _consistent(self) -> TaskSpec:
@@ -392,6 +409,8 @@ class TaskSpec(_Strict):
                 _fail("endpoint_cost.q_ref", "is required when w_q > 0")
             if ec.q_ref is not None:
                 within(vec(ec.q_ref, "endpoint_cost.q_ref", q0), joint_lo, joint_hi, "endpoint_cost.q_ref", model_range)
+        if self.ranges:
+            check_ranges(self, parse_task)
         return self
 
     # ---- derived ------------------------------------------------------------------
@@ -499,6 +518,26 @@ TASK_PRESETS: dict[str, dict[str, Any]] = {
             {"name": "rest", "duration": 1.0, "intervals": 100, "w_tau": 1.0, "w_T": 1.0},
         ],
         "final": {"velocity": "rest"},
+    },
+    "head-headrest-scenarios": {
+        "name": "head-headrest-scenarios",
+        "description": (
+            "The paper's task (head-headrest-2phase) as a distribution of scenarios (issue 17): start angle 0.15 to "
+            "0.30 rad, initial speed 0 to 0.5 rad/s toward the headrest, headrest moved +-5 mm along its normal. "
+            "Its nominal scenario is the paper's task; a random-scenarios campaign solves a new draw every iteration."
+        ),
+        "model": {"preset": "head-neck-1dof"},
+        "initial": {"q": None, "qd": None},
+        "phases": [
+            {"name": "approach", "duration": 1.0, "intervals": 100, "w_tau": 1e-3, "w_T": 1e-4},
+            {"name": "rest", "duration": 1.0, "intervals": 100, "w_tau": 1.0, "w_T": 1.0},
+        ],
+        "final": {"velocity": "rest"},
+        "ranges": [
+            {"parameter": "initial.q.0", "low": 0.15, "high": 0.30},
+            {"parameter": "initial.qd.0", "low": 0.0, "high": 0.5},
+            {"parameter": "model.headrest_offset", "low": -0.005, "high": 0.005},
+        ],
     },
 }
 

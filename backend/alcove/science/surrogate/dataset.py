@@ -86,6 +86,9 @@ class PoolDataset:
     moment: FloatArray
     origin: str = "oracle"
     weight: float | None = None
+    #: m: the headrest offset of the scenario the data were simulated in (HeadNeckPreset.headrest_offset;
+    #: the features are relative to that headrest); None: the task's own headrest
+    headrest_offset: float | None = None
 
     def __post_init__(self) -> None:
         if not isinstance(self.name, str) or not _NAME.match(self.name):

@@ -26,7 +26,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 from typing import Any
 
 import numpy as np
@@ -135,8 +135,26 @@ def split_pool(pool: list[PoolDataset], config: SurrogateConfig, seed: int) -> P
     )
 
 
-def pool_features(pool: list[PoolDataset], kinematics: KinematicsFn) -> FloatArray:
-    return np.concatenate([features(kinematics(ds.q, ds.qd)) for ds in pool])
+def moved_headrest(preset: HeadNeckPreset) -> Callable[[float], KinematicsFn]:
+    """Kinematics of ``preset`` with its headrest moved to a dataset's ``headrest_offset`` [m]."""
+    return lambda offset: preset_kinematics(replace(preset, headrest_offset=offset))
+
+
+def pool_features(
+    pool: list[PoolDataset], kinematics: KinematicsFn, moved: Callable[[float], KinematicsFn] | None = None
+) -> FloatArray:
+    """The features of every sample, each dataset's relative to its own headrest: ``kinematics``
+    for the task's headrest, ``moved(offset)`` for a dataset simulated with a scenario's
+    ``headrest_offset`` (issue 17)."""
+
+    def kin(ds: PoolDataset) -> KinematicsFn:
+        if ds.headrest_offset is None:
+            return kinematics
+        if moved is None:
+            raise PoolDataError(f"{ds.name}.headrest_offset", "needs the preset's kinematics (moved_headrest)")
+        return moved(ds.headrest_offset)
+
+    return np.concatenate([features(kin(ds)(ds.q, ds.qd)) for ds in pool])
 
 
 def sample_weights(pool: list[PoolDataset], config: SurrogateConfig) -> FloatArray:
@@ -175,7 +193,7 @@ def train_surrogate(
     seeds = member_seeds if member_seeds is not None else [member_seed(seed, k) for k in range(config.ensemble_size)]
     splits = [split_pool(pool, config, s) for s in seeds]
     kin = kinematics or preset_kinematics(preset)
-    x = pool_features(pool, kin)
+    x = pool_features(pool, kin, moved_headrest(preset) if kinematics is None else None)
     y = {"force": np.concatenate([ds.force for ds in pool]), "moment": np.concatenate([ds.moment for ds in pool])}
     w = sample_weights(pool, config)
     dtype = torch.float64 if config.dtype == "float64" else torch.float32
@@ -339,9 +357,14 @@ def _training_metrics(
 
 
 def predict_ensemble(
-    model: SurrogateModel, q: FloatArray, qd: FloatArray, kinematics: KinematicsFn | None = None
+    model: SurrogateModel,
+    q: FloatArray,
+    qd: FloatArray,
+    kinematics: KinematicsFn | None = None,
+    headrest_offset: float | None = None,
 ) -> Prediction:
-    """Ensemble mean and standard deviation of force and moment (each (n, 3)) at states q, qd."""
+    """Ensemble mean and standard deviation of force and moment (each (n, 3)) at states q, qd
+    (with the model's headrest moved to ``headrest_offset`` [m] unless ``kinematics`` is given)."""
     q = np.asarray(q, float)
     qd = np.asarray(qd, float)
     q = q[:, None] if q.ndim == 1 else q
@@ -350,8 +373,10 @@ def predict_ensemble(
         raise PoolDataError("qd", f"has shape {qd.shape} but q has {q.shape}")
     if q.shape[1] != model.ndof:
         raise PoolDataError("q", f"has {q.shape[1]} degrees of freedom, the model was trained on {model.ndof}")
-    kin = (kinematics or preset_kinematics(model.preset))(q, qd)
-    return model.predict_ensemble(features(kin))
+    if kinematics is None:
+        preset = model.preset if headrest_offset is None else replace(model.preset, headrest_offset=headrest_offset)
+        kinematics = preset_kinematics(preset)
+    return model.predict_ensemble(features(kinematics(q, qd)))
 
 
 def predict_arrays(
@@ -376,6 +401,7 @@ __all__ = [
     "TrainingMetrics",
     "TrainingResult",
     "member_seed",
+    "moved_headrest",
     "predict",
     "predict_arrays",
     "predict_ensemble",

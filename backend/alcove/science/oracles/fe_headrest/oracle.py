@@ -19,7 +19,13 @@ from typing import Any, ClassVar
 import numpy as np
 
 from alcove.science.arrays import FloatArray
-from alcove.science.geometry import DEFAULT_PRESET, HeadNeckPreset, head_pose_in_headrest, relative_kinematics
+from alcove.science.geometry import (
+    DEFAULT_PRESET,
+    HeadNeckPreset,
+    first_contact_angle,
+    head_pose_in_headrest,
+    relative_kinematics,
+)
 from alcove.science.oracles.base import (
     CancelCheck,
     OracleCancelled,
@@ -132,7 +138,7 @@ class FEHeadrestOracle:
         if depth <= 0.0:
             return None
         n = max(4, int(np.ceil(depth / 5e-4)))
-        path = np.linspace(min(self.preset.theta_contact, theta_start), theta_start, n + 1)[1:]
+        path = np.linspace(min(first_contact_angle(self.preset), theta_start), theta_start, n + 1)[1:]
         r, a = head_pose_in_headrest(self.preset, path)
         stored, failure = [], None
         for j, solver in enumerate(solvers):

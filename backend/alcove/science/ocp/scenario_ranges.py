@@ -1,0 +1,165 @@
+"""The ranges of a task's parameters (``TaskSpec.ranges``) and their checks: the part of
+:mod:`alcove.science.ocp.scenarios` the task spec itself needs (this module does not import the
+task spec; the checks get its parser as an argument, so the science imports stay acyclic)."""
+
+from __future__ import annotations
+
+import re
+from collections.abc import Callable
+from typing import Annotated, Any
+
+from pydantic import BaseModel, ConfigDict, Field
+
+from alcove.science.validation import quantity
+
+#: the widest any rangeable parameter may go (the cost weights' bound, MAX_WEIGHT of the task spec);
+#: each end is then checked against its parameter's own range
+RANGE_LIMIT = 1e6
+
+#: at most this many ranges per task
+MAX_RANGES = 32
+
+#: the parameters that may be ranged: path pattern ({m} a phase, {j} a joint index) -> (what, unit)
+PARAMETERS: dict[str, tuple[str, str]] = {
+    "initial.q.{j}": ("initial angle", "rad"),
+    "initial.qd.{j}": ("initial angular velocity", "rad/s"),
+    "phases.{m}.duration": ("phase duration", "s"),
+    "phases.{m}.w_tau": ("running-cost torque weight", "1/(N^2 m^2 s)"),
+    "phases.{m}.w_T": ("running-cost kinetic-energy weight", "1/(J s)"),
+    "phases.{m}.target_q.{j}": ("target pose at the phase end", "rad"),
+    "final.q.{j}": ("final pose", "rad"),
+    "endpoint_cost.w_q": ("endpoint pose weight", "1/rad^2"),
+    "endpoint_cost.w_qd": ("endpoint velocity weight", "s^2/rad^2"),
+    "endpoint_cost.q_ref.{j}": ("endpoint reference pose", "rad"),
+    "model.headrest_offset": ("headrest offset along its normal", "m"),
+    # not model.tilt / model.theta_contact: an oracle dataset records only its headrest offset, and
+    # the training features of a dataset simulated with another tilt would be wrong (not done yet)
+}
+_COMPILED = [
+    (re.compile("^" + re.escape(p).replace(r"\{m\}", r"\d+").replace(r"\{j\}", r"\d+") + "$"), what)
+    for p, what in PARAMETERS.items()
+]
+PARAMETER_NAMES = list(PARAMETERS)
+
+
+class ParameterRange(BaseModel):
+    """A uniform range of one task parameter, named by its dotted path in the task spec."""
+
+    model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
+
+    parameter: Annotated[
+        str,
+        Field(
+            min_length=1,
+            max_length=80,
+            description="dotted path of the parameter in the task, e.g. initial.q.0, phases.0.duration, "
+            "model.headrest_offset; one of: " + ", ".join(PARAMETER_NAMES),
+        ),
+    ]
+    low: Annotated[
+        float,
+        quantity(
+            "lower end of the uniform range",
+            "the parameter's unit",
+            ge=-RANGE_LIMIT,
+            le=RANGE_LIMIT,
+            why="and within the parameter's own range",
+        ),
+    ]
+    high: Annotated[
+        float,
+        quantity(
+            "upper end of the uniform range, at least low",
+            "the parameter's unit",
+            ge=-RANGE_LIMIT,
+            le=RANGE_LIMIT,
+            why="and within the parameter's own range",
+        ),
+    ]
+
+
+def describe(parameter: str) -> tuple[str, str] | None:
+    """(what, unit) of a parameter path that may be ranged, else None."""
+    for pattern, what in _COMPILED:
+        if pattern.match(parameter):
+            return what
+    return None
+
+
+# ----------------------------------------------------------------------------- applying values
+
+
+def _defaults(data: dict[str, Any], ndof: int) -> dict[str, list[float]]:
+    return {
+        "initial.q": [float(data["model"]["theta0"])] * ndof,
+        "initial.qd": [0.0] * ndof,
+    }
+
+
+def set_value(data: dict[str, Any], parameter: str, value: float, ndof: int) -> None:
+    """Set ``parameter`` (a dotted path) in the dumped task ``data``; raise ValueError(reason)."""
+    parts = parameter.split(".")
+    node: Any = data
+    for depth, part in enumerate(parts[:-1]):
+        key: Any = int(part) if part.isdigit() else part
+        if isinstance(node, list):
+            if key >= len(node):
+                raise ValueError(f"index {key} out of range: the task has {len(node)} {parts[depth - 1]}")
+            child = node[key]
+        else:
+            child = node.get(key)
+        if child is None:
+            prefix = ".".join(parts[: depth + 1])
+            default = _defaults(data, ndof).get(prefix)
+            if default is None:
+                raise ValueError(f"the task has no {prefix} to vary (set it first)")
+            child = list(default)
+            node[key] = child
+        node = child
+    last = parts[-1]
+    if isinstance(node, list):
+        j = int(last)
+        if j >= len(node):
+            raise ValueError(f"joint index {j} out of range: the model has {len(node)} joint(s)")
+        node[j] = float(value)
+    else:
+        node[last] = float(value)
+
+
+def check_ranges(task: Any, parse: Callable[[dict[str, Any]], Any]) -> None:
+    """Validate ``task.ranges`` (a TaskSpec): known parameters, low <= high, no duplicates, and
+    each end a valid task (the model's validated ranges: ``parse`` builds the task with that one
+    value set, all others as written). Raises ``ValueError("ranges.i.field: reason")``.
+
+    The task's cross-field rules (start and target poses within the phase bounds, ...) each
+    involve at most one parameter that may be ranged, so valid ends make every value between
+    them valid; a draw is validated again all the same (:func:`~alcove.science.ocp.scenarios.draw`)."""
+    ranges = task.ranges or []
+    if len(ranges) > MAX_RANGES:
+        raise ValueError(f"ranges: at most {MAX_RANGES} ranges, got {len(ranges)}")
+    seen: dict[str, int] = {}
+    for i, r in enumerate(ranges):
+        if describe(r.parameter) is None:
+            raise ValueError(
+                f"ranges.{i}.parameter: {r.parameter!r} cannot be varied; known: {', '.join(PARAMETER_NAMES)}"
+            )
+        if r.parameter in seen:
+            raise ValueError(f"ranges.{i}.parameter: {r.parameter} is ranged twice (also ranges.{seen[r.parameter]})")
+        seen[r.parameter] = i
+        if r.parameter.startswith("initial.qd.") and task.initial.velocity == "free":
+            raise ValueError(f"ranges.{i}.parameter: the initial velocity is free (left to the optimizer)")
+        if not r.low <= r.high:
+            raise ValueError(f"ranges.{i}.high: must be at least low ({r.high:g} < {r.low:g})")
+        for end in ("low", "high"):
+            value = getattr(r, end)
+            data = task.model_dump()
+            data["ranges"] = None
+            try:
+                set_value(data, r.parameter, value, task.model.ndof)
+            except ValueError as exc:
+                raise ValueError(f"ranges.{i}.{end}: {r.parameter} = {value:g}: {exc}") from exc
+            try:
+                parse(data)
+            except ValueError as exc:  # TaskSpecError: field and reason
+                where = f"{getattr(exc, 'field', '')}: {getattr(exc, 'reason', exc)}"
+                raise ValueError(f"ranges.{i}.{end}: {r.parameter} = {value:g} is not a valid task ({where})") from exc

@@ -1,0 +1,147 @@
+/** The task's scenario ranges (uniform ranges of some parameters) and a preview of sampled scenarios. */
+import { FieldMessages, parseNumber } from "../components/SchemaForm";
+import type { ScenarioPreview } from "../api/types";
+import type { ErrorView } from "../lib/formErrors";
+
+export interface RangeRow {
+  parameter: string;
+  low: number;
+  high: number;
+}
+
+/** The parameters a range may name (alcove.science.ocp.scenarios.PARAMETERS; i: phase, j: joint). */
+export const RANGE_PARAMETERS = [
+  "initial.q.0",
+  "initial.qd.0",
+  "phases.0.duration",
+  "phases.0.w_tau",
+  "phases.0.w_T",
+  "phases.0.target_q.0",
+  "final.q.0",
+  "endpoint_cost.w_q",
+  "endpoint_cost.w_qd",
+  "endpoint_cost.q_ref.0",
+  "model.headrest_offset",
+];
+
+/** The paths of the section's fields, for placing errors. */
+export function rangeFieldPaths(ranges: RangeRow[]): string[] {
+  return ["ranges", ...ranges.flatMap((_, i) => ["parameter", "low", "high"].map((f) => `ranges.${i}.${f}`))];
+}
+
+function fmt(v: number): string {
+  return Number.isInteger(v) ? String(v) : v.toPrecision(4);
+}
+
+export function ScenarioRanges({
+  ranges,
+  onChange,
+  errors,
+  preview,
+  previewing,
+  onPreview,
+  canPreview,
+  previewError,
+}: {
+  ranges: RangeRow[];
+  onChange: (r: RangeRow[] | null) => void;
+  errors: ErrorView;
+  preview: ScenarioPreview | undefined;
+  previewing: boolean;
+  onPreview: () => void;
+  canPreview: boolean;
+  previewError?: string | null;
+}) {
+  const set = (i: number, key: keyof RangeRow, value: unknown) => onChange(ranges.map((r, k) => (k === i ? { ...r, [key]: value } : r)));
+  const remove = (i: number) => {
+    const rest = ranges.filter((_, k) => k !== i);
+    onChange(rest.length ? rest : null);
+  };
+  const columns = preview ? Array.from(new Set(preview.scenarios.flatMap((s) => Object.keys(s.values)))) : [];
+  return (
+    <section className="panel" aria-labelledby="ranges-title" data-testid="scenario-ranges">
+      <h2 id="ranges-title">Scenario ranges</h2>
+      <p className="hint">
+        Uniform ranges of some parameters make the task a distribution of scenarios: a campaign with the strategy random-scenarios solves a new draw every iteration (seeded by the campaign seed and the
+        iteration). No ranges: the task has one scenario, itself. Units are the parameter&apos;s (rad, rad/s, s, m).
+      </p>
+      <datalist id="range-parameters">
+        {RANGE_PARAMETERS.map((p) => (
+          <option key={p} value={p} />
+        ))}
+      </datalist>
+      {ranges.length > 0 && (
+        <table className="table" aria-label="scenario ranges">
+          <thead>
+            <tr>
+              <th>parameter</th>
+              <th>low</th>
+              <th>high</th>
+              <th />
+            </tr>
+          </thead>
+          <tbody>
+            {ranges.map((r, i) => (
+              <tr key={`${i}:${r.parameter}:${r.low}:${r.high}`}>
+                {(["parameter", "low", "high"] as const).map((f) => (
+                  <td key={f}>
+                    <input
+                      aria-label={`range ${i + 1} ${f}`}
+                      list={f === "parameter" ? "range-parameters" : undefined}
+                      defaultValue={f === "parameter" ? r.parameter : Number.isFinite(r[f]) ? String(r[f]) : ""}
+                      onBlur={(e) => set(i, f, f === "parameter" ? e.target.value.trim() : parseNumber(e.target.value))}
+                      aria-invalid={errors.at(`ranges.${i}.${f}`).length > 0}
+                    />
+                    <FieldMessages problems={errors.at(`ranges.${i}.${f}`)} />
+                  </td>
+                ))}
+                <td>
+                  <button type="button" onClick={() => remove(i)} aria-label={`remove range ${i + 1}`}>
+                    Remove
+                  </button>
+                </td>
+              </tr>
+            ))}
+          </tbody>
+        </table>
+      )}
+      <FieldMessages problems={errors.at("ranges")} />
+      <div className="row">
+        <button type="button" onClick={() => onChange([...ranges, { parameter: "initial.q.0", low: 0.15, high: 0.3 }])}>
+          Add range
+        </button>
+        <button type="button" disabled={!canPreview || previewing || ranges.length === 0} onClick={onPreview} title={canPreview ? "Draw 5 scenarios with seed 0" : "Create the task first, and fix its problems"}>
+          {previewing ? "Sampling…" : "Preview scenarios"}
+        </button>
+      </div>
+      {previewError && (
+        <p className="error-text" role="alert">
+          {previewError}
+        </p>
+      )}
+      {preview && (
+        <table className="table" aria-label="sampled scenarios" data-testid="scenario-preview">
+          <caption className="muted">Scenarios of iterations 1 to {preview.scenarios.length} of a random-scenarios campaign with seed {preview.seed}</caption>
+          <thead>
+            <tr>
+              <th>iteration</th>
+              {columns.map((c) => (
+                <th key={c}>{c}</th>
+              ))}
+            </tr>
+          </thead>
+          <tbody>
+            {preview.scenarios.map((s) => (
+              <tr key={s.iteration}>
+                <td>{s.iteration}</td>
+                {columns.map((c) => (
+                  <td key={c}>{s.values[c] === undefined ? "" : fmt(s.values[c])}</td>
+                ))}
+              </tr>
+            ))}
+          </tbody>
+        </table>
+      )}
+    </section>
+  );
+}
