@@ -167,3 +167,24 @@ def test_a_headrest_offset_moves_the_headrest_along_its_normal(offset):
 def test_no_offset_is_the_papers_headrest_bit_for_bit():
     assert HeadNeckPreset(headrest_offset=0.0).headrest_origin.tobytes() == HeadNeckPreset().headrest_origin.tobytes()
     assert first_contact_angle(HeadNeckPreset()) == HeadNeckPreset().theta_contact
+
+
+def test_a_chain_task_ranges_its_initial_state_from_the_chains_own_pose():
+    """A chain task without an explicit initial state: a ranged joint angle starts from the
+    chain's q0 (the other joints keep theirs), every draw is a valid task; a headrest offset
+    (a head-neck-1dof parameter) is refused for a chain, naming the field."""
+    import json
+    from pathlib import Path
+
+    spec = json.loads((Path(__file__).parents[3] / "examples/tasks/head-headrest-2dof.json").read_text())
+    base = parse_task(spec)
+    q0 = [j.q0 for j in base.model.chain.joints]
+    spec["ranges"] = [{"parameter": "initial.q.1", "low": q0[1] - 0.02, "high": q0[1] + 0.02}]
+    task = parse_task(spec)
+    for scenario in sc.preview(task, seed=4, n=5):
+        drawn = sc.apply_values(task, scenario.values)
+        assert drawn.initial.q[0] == q0[0]  # not ranged: the chain's own starting angle
+        assert q0[1] - 0.02 <= drawn.initial.q[1] <= q0[1] + 0.02
+    spec["ranges"] = [{"parameter": "model.headrest_offset", "low": -0.005, "high": 0.005}]
+    with pytest.raises(TaskSpecError, match="model.headrest_offset"):
+        parse_task(spec)

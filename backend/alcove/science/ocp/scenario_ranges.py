@@ -90,10 +90,12 @@ def describe(parameter: str) -> tuple[str, str] | None:
 
 
 def _defaults(data: dict[str, Any], ndof: int) -> dict[str, list[float]]:
-    return {
-        "initial.q": [float(data["model"]["theta0"])] * ndof,
-        "initial.qd": [0.0] * ndof,
-    }
+    """The task's initial state where it gives none: the model's starting pose (each chain
+    joint's ``q0``, or the 1-DOF preset's ``theta0``), at rest."""
+    model = data["model"]
+    chain = model.get("chain")
+    q = [float(j["q0"]) for j in chain["joints"]] if chain else [float(model["theta0"])] * ndof
+    return {"initial.q": q, "initial.qd": [0.0] * ndof}
 
 
 def set_value(data: dict[str, Any], parameter: str, value: float, ndof: int) -> None:

@@ -175,8 +175,12 @@ class ModelSpec(_Strict):
 
     @model_serializer(mode="wrap")
     def _dump(self, handler: SerializerFunctionWrapHandler, info: SerializationInfo) -> dict[str, Any]:
-        # a 1-DOF model dumps as before chains existed; a chain model without the unused 1-DOF fields
+        # a 1-DOF model dumps as before chains and scenarios existed (stored task versions keep
+        # their content; headrest_offset only when it is not 0); a chain model without the
+        # unused 1-DOF fields
         data: dict[str, Any] = handler(self)
+        if data.get("headrest_offset") == 0.0:
+            data.pop("headrest_offset")
         if self.preset == ONE_DOF:
             data.pop("chain", None)
         else:
@@ -189,6 +193,12 @@ class ModelSpec(_Strict):
         if self.preset != ONE_DOF:
             if self.chain is None:
                 _fail("model.chain", f"is required with preset {self.preset!r}")
+            if self.headrest_offset != 0.0:
+                _fail(
+                    "model.headrest_offset",
+                    f"moves the head-neck-1dof preset's headrest; with preset {self.preset!r} place the headrest "
+                    "in model.chain.headrest",
+                )
             for name in ONE_DOF_FIELDS:  # a form may send the defaults along: only a changed value is an error
                 if name in self.model_fields_set and getattr(self, name) != type(self).model_fields[name].default:
                     _fail(
