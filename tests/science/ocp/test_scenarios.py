@@ -186,5 +186,5 @@ def test_a_chain_task_ranges_its_initial_state_from_the_chains_own_pose():
         assert drawn.initial.q[0] == q0[0]  # not ranged: the chain's own starting angle
         assert q0[1] - 0.02 <= drawn.initial.q[1] <= q0[1] + 0.02
     spec["ranges"] = [{"parameter": "model.headrest_offset", "low": -0.005, "high": 0.005}]
-    with pytest.raises(TaskSpecError, match="model.headrest_offset"):
+    with pytest.raises(TaskSpecError, match=r"model\.headrest_offset"):
         parse_task(spec)
