@@ -144,9 +144,9 @@ class CcxHeadrestOracle:
         # the outputs must reach the trajectory's end (the command oracle's gate): a span that is
         # not a whole number of output intervals ends with one shorter interval (or, closer than
         # 1e-3 of an interval, with the last output moved onto the end)
-        gap = t1 - float(t_out[-1])
-        if gap > END_TOLERANCE * max(1.0, t1 - t0):
-            if gap < 1e-3 * p.output_dt and n_out > 1:
+        short = t1 - float(t_out[-1])
+        if short > END_TOLERANCE * max(1.0, t1 - t0):
+            if short < 1e-3 * p.output_dt and n_out > 1:
                 t_out[-1] = t1
             else:
                 t_out = np.append(t_out, t1)
