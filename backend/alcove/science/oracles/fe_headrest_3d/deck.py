@@ -78,12 +78,19 @@ class HeadMotion:
     output_tau: FloatArray
 
 
+#: ccx's q_u^alpha in ``*CONTROLS, PARAMETERS=FIELD``: the force [N] that ccx's relative
+#: residual criteria are taken of (instead of the average force, ~0 when contact begins)
+FORCE_SCALE = 10.0
+RESIDUAL_CRITERION = 0.005  # R_n: largest residual 0.05 N (with a small enough correction)
+
+
 @dataclass(frozen=True)
 class StepControl:
     initial: float
     maximum: float
     minimum: float
     max_increments: int = 100000
+    residual_floor: float = FORCE_SCALE * 1e-8  # N; ccx's default R_l = 1e-8
 
 
 @dataclass
@@ -191,10 +198,19 @@ def write_deck(
         f"{_number(control.initial)}, {_number(motion.tau[-1])}, {_number(control.minimum)}, "
         f"{_number(control.maximum)}\n"
     )
-    # absolute tolerances (q_u = 10 N: largest residual 0.05 N, or 0.01 N whatever the
-    # correction): ccx's defaults are relative to the average force and to the increment's
-    # displacement, both ~0 when contact begins, and never converge there
-    out.write("*CONTROLS, PARAMETERS=FIELD, FIELD=DISPLACEMENT\n0.005, 0.01, 0.0, 10.0, 0.02, 1e-3, 1e-3, 1e-8\n")
+    # absolute tolerances (q_u = 10 N: largest residual 0.05 N with a correction below 1 % of
+    # the increment's displacement, or 0.01 N whatever the correction while the average force is
+    # below 0.01 N): ccx's defaults are relative to the average force and to the increment's
+    # displacement, both ~0 when contact begins, and never converge there. R_l: a residual below
+    # ``residual_floor`` is equilibrium whatever the correction; without it, where the head barely
+    # moves (a dwell, a turn, a cut-back increment) the correction's round-off and stick-slip
+    # noise (~1e-7 m) exceeds 1 % of the increment's displacement and ccx cuts back to its minimum
+    # increment although the residual is ~1e-4 N (docs/fe-oracle.md, "Robust convergence")
+    out.write(
+        "*CONTROLS, PARAMETERS=FIELD, FIELD=DISPLACEMENT\n"
+        f"{_number(RESIDUAL_CRITERION)}, 0.01, 0.0, {_number(FORCE_SCALE)}, 0.02, 1e-3, 1e-3, "
+        f"{_number(control.residual_floor / FORCE_SCALE)}\n"
+    )
     out.write("*BOUNDARY, AMPLITUDE=HX\n" + f"{ref_node}, 1, 1, 1.0\n")
     out.write("*BOUNDARY, AMPLITUDE=HZ\n" + f"{ref_node}, 3, 3, 1.0\n")
     out.write("*BOUNDARY, AMPLITUDE=HRY\n" + f"{rot_node}, 2, 2, 1.0\n")

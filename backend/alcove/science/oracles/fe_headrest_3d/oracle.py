@@ -51,6 +51,7 @@ CCX_PROGRAM = "ccx"
 CCX_PACKAGE = "calculix-ccx"
 CAP_AZIMUTH = math.radians(60.0)
 CAP_ELEVATION = (math.radians(-65.0), math.radians(65.0))
+END_TOLERANCE = 1e-7  # of the span (at least 1 s): an output this close to the end is at the end
 APPROACH_STEP = 5e-4  # m of approach per output interval when the head starts in contact
 
 
@@ -140,6 +141,16 @@ class CcxHeadrestOracle:
         t0, t1 = float(trajectory.t[0]), float(trajectory.t[-1])
         n_out = math.floor((t1 - t0) / p.output_dt + 1e-9) + 1
         t_out = t0 + p.output_dt * np.arange(n_out, dtype=np.float64)
+        # the outputs must reach the trajectory's end (the command oracle's gate): a span that is
+        # not a whole number of output intervals ends with one shorter interval (or, closer than
+        # 1e-3 of an interval, with the last output moved onto the end)
+        short = t1 - float(t_out[-1])
+        if short > END_TOLERANCE * max(1.0, t1 - t0):
+            if short < 1e-3 * p.output_dt and n_out > 1:
+                t_out[-1] = t1
+            else:
+                t_out = np.append(t_out, t1)
+                n_out += 1
         theta = trajectory.resample(t_out).q[:, 0]
         r, a = head_pose_in_headrest(self.preset, theta)
         gap = signed_gap(self.preset, r, a, self.semi_axes_xz)
@@ -184,7 +195,12 @@ class CcxHeadrestOracle:
             FoamMaterial.from_beta(p.foam_terms),
             Contact(p.penalty, p.friction, p.stick_slope, p.contact_formulation),
             motion,
-            StepControl(dt * p.max_increment_fraction, dt * p.max_increment_fraction, dt * p.min_increment_fraction),
+            StepControl(
+                dt * p.max_increment_fraction,
+                dt * p.max_increment_fraction,
+                dt * p.min_increment_fraction,
+                residual_floor=p.residual_floor,
+            ),
         )
         cog = np.stack([r[first_out:, 0], np.zeros(n_out - first_out), r[first_out:, 1]], -1)
         job.update(

@@ -85,6 +85,17 @@ class CcxHeadrestParams(CushionParams):
     min_increment_fraction: Annotated[
         float, quantity("smallest increment (after cutbacks) as a fraction of output_dt", "-", ge=1e-8, le=0.5)
     ] = 1e-4
+    residual_floor: Annotated[
+        float,
+        quantity(
+            "largest residual force (any node, any direction) that counts as equilibrium whatever the "
+            "displacement correction (ccx's R_l x q_u)",
+            "N",
+            ge=1e-7,
+            le=0.05,
+            why="1e-7 N is ccx's own default; at most the residual criterion 0.05 N",
+        ),
+    ] = 0.005
     clearance: Annotated[
         float,
         quantity(
