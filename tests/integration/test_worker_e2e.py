@@ -52,9 +52,9 @@ def test_embedded_worker_round_trip(tmp_path: Path) -> None:
     ]
 
 
-def test_postgres_redis_worker_round_trip(tmp_path: Path, pg_url: str, redis_url: str) -> None:
+def test_postgres_redis_worker_round_trip(tmp_path: Path, fresh_pg_url: str, redis_url: str) -> None:
     env = alcove_env(
-        database_url=pg_url,
+        database_url=fresh_pg_url,
         broker_url=redis_url,
         broker_key_prefix=unique("alcove-test") + ":",
         data_dir=tmp_path / "data",
@@ -66,15 +66,15 @@ def test_postgres_redis_worker_round_trip(tmp_path: Path, pg_url: str, redis_url
     ) as w:
         wait_until(lambda: worker_ready(w), 60, "worker ready", w)
         tokens = [smoke(env, queue=q)["token"] for q in ("ocp", "oracle", "train", "default")]
-        got = db_rows(pg_url, "SELECT token, worker_name FROM smoke_checks")
+        got = db_rows(fresh_pg_url, "SELECT token, worker_name FROM smoke_checks")
         assert {t for t, _ in got} >= set(tokens)
         assert "Connected to redis://" in w.output()
     assert not (tmp_path / "data" / "alcove.db").exists(), "the worker must not fall back to SQLite"
 
 
-def test_duplicate_delivery_of_the_smoke_job_is_a_no_op(tmp_path: Path, pg_url: str, redis_url: str) -> None:
+def test_duplicate_delivery_of_the_smoke_job_is_a_no_op(tmp_path: Path, fresh_pg_url: str, redis_url: str) -> None:
     env = alcove_env(
-        database_url=pg_url,
+        database_url=fresh_pg_url,
         broker_url=redis_url,
         broker_key_prefix=unique("alcove-test") + ":",
         data_dir=tmp_path / "data",
@@ -101,7 +101,7 @@ def test_duplicate_delivery_of_the_smoke_job_is_a_no_op(tmp_path: Path, pg_url: 
             "both deliveries handled",
             w,
         )
-    assert db_rows(pg_url, f"SELECT count(*) FROM smoke_checks WHERE token = 'dup-{token}'") == [(1,)]
+    assert db_rows(fresh_pg_url, f"SELECT count(*) FROM smoke_checks WHERE token = 'dup-{token}'") == [(1,)]
 
 
 def test_alcove_up_embedded(tmp_path: Path) -> None:

@@ -117,7 +117,10 @@ function TaskEditor({ existing, presets }: { existing: Task | undefined; presets
   const checking = validated?.key !== draftKey;
 
   const root = schema.data;
-  const modelSchema = (root?.$defs?.ModelSpec ?? null) as JsonSchema | null;
+  const fullModelSchema = (root?.$defs?.ModelSpec ?? null) as JsonSchema | null;
+  const preset = (spec.model as { preset?: string } | undefined)?.preset ?? "head-neck-1dof";
+  // the head-neck-1dof preset has no chain: its form does not show the (empty) chain group
+  const modelSchema = useMemo(() => withoutChain(fullModelSchema, preset), [fullModelSchema, preset]);
   const phaseSchema = (root?.$defs?.PhaseSpec ?? null) as JsonSchema | null;
   const phases = useMemo(() => (spec.phases ?? []) as PhaseRow[], [spec.phases]);
   const ranges = useMemo(() => (spec.ranges ?? []) as RangeRow[], [spec.ranges]);
@@ -280,4 +283,13 @@ function BoundaryFields({
       ))}
     </fieldset>
   );
+}
+
+/** The model's schema without its ``chain`` group for the head-neck-1dof preset (its
+ * parameters are the model's own fields; the chain must stay null). */
+function withoutChain(schema: JsonSchema | null, preset: string): JsonSchema | null {
+  if (!schema || preset !== "head-neck-1dof" || !schema.properties?.chain) return schema;
+  const properties = { ...schema.properties };
+  delete properties.chain;
+  return { ...schema, properties };
 }
