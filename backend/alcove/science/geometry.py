@@ -35,6 +35,7 @@ applied to ``(x, z)`` with ``x -> x cos(phi) - z sin(phi)``, ``z -> x sin(phi) +
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import asdict, dataclass, field, replace
 from typing import TYPE_CHECKING, Any
 
@@ -199,6 +200,88 @@ def relative_kinematics(preset: HeadNeckPreset, theta: FloatArray, theta_dot: Fl
     return RelativeKinematics(r_rel=r_rel, v_rel=v_rel, T_rel=T_rel, omega_rel=omega_rel)
 
 
+#: The contact body's planar pose and twist relative to the headrest, in H: its frame origin's
+#: position and velocity along x_H and z_H [m, m/s], its tilt relative to the headrest
+#: (backward positive, ``angle = phi - tilt``) and that tilt's rate [rad, rad/s]
+#: (``omega_rel = (0, -head_omega, 0)``). The columns of a trajectory's pose (``Trajectory.pose``).
+POSE_COLUMNS: tuple[str, ...] = ("head_x", "head_z", "head_angle", "head_vx", "head_vz", "head_omega")
+
+#: ``(q (n, ndof), qd (n, ndof)) -> pose (n, 6)``: a model's head pose as a function of its joint state
+PoseFunction = Callable[[FloatArray, FloatArray], FloatArray]
+
+
+def kinematics_from_pose(pose: FloatArray) -> RelativeKinematics:
+    """The relative kinematics (:class:`RelativeKinematics`) of planar head poses (n, 6): what
+    the oracles, the auxiliary model and the surrogate's features read. For poses of the 1-DOF
+    preset (:func:`preset_pose`) they are the same numbers, bit for bit, as
+    :func:`relative_kinematics` (the same operations on the same values)."""
+    pose = np.asarray(pose, float).reshape(-1, len(POSE_COLUMNS))
+    zeros = np.zeros(pose.shape[0])
+    return RelativeKinematics(
+        r_rel=np.stack([pose[:, 0], zeros, pose[:, 1]], -1),
+        v_rel=np.stack([pose[:, 3], zeros, pose[:, 4]], -1),
+        T_rel=rot3_from_tilt(pose[:, 2]),
+        omega_rel=np.stack([zeros, -pose[:, 5], zeros], -1),
+    )
+
+
+def pose_from_kinematics(kin: RelativeKinematics) -> FloatArray:
+    """The planar pose (n, 6) of relative kinematics (the inverse of :func:`kinematics_from_pose`)."""
+    pose: FloatArray = np.stack(
+        [kin.r_rel[:, 0], kin.r_rel[:, 2], kin.angle, kin.v_rel[:, 0], kin.v_rel[:, 2], -kin.omega_rel[:, 1]], -1
+    )
+    return pose
+
+
+def preset_pose(preset: HeadNeckPreset, q: FloatArray, qd: FloatArray) -> FloatArray:
+    """The head pose (n, 6) of the 1-DOF preset at joint states q, qd ((n,) or (n, 1); ``q_0 = theta``),
+    headrest offset included: ``head_angle = theta - tilt`` and ``head_omega = theta_dot``."""
+    theta = np.asarray(q, float).reshape(-1)
+    theta_dot = np.asarray(qd, float).reshape(-1)
+    kin = relative_kinematics(preset, theta, theta_dot)
+    pose: FloatArray = np.stack(
+        [kin.r_rel[:, 0], kin.r_rel[:, 2], theta - preset.tilt, kin.v_rel[:, 0], kin.v_rel[:, 2], theta_dot], -1
+    )
+    return pose
+
+
+def preset_pose_function(preset: HeadNeckPreset) -> PoseFunction:
+    """:func:`preset_pose` for one preset, checking that the joint state has one column."""
+
+    def pose(q: FloatArray, qd: FloatArray) -> FloatArray:
+        q, qd = np.asarray(q, float), np.asarray(qd, float)
+        if q.ndim == 2 and q.shape[1] != 1:
+            raise ValueError(f"q: the head-neck-1dof preset has 1 joint, got {q.shape[1]} columns")
+        return preset_pose(preset, q, qd)
+
+    return pose
+
+
+def kinematics_from_pose_symbolic(pose: Symbolic) -> tuple[Symbolic, Symbolic, Symbolic, Symbolic]:
+    """CasADi version of :func:`kinematics_from_pose` for one pose (6 x 1, SX or MX)."""
+    import casadi as ca
+
+    c, s = ca.cos(pose[2]), ca.sin(pose[2])
+    T_rel = ca.vertcat(ca.horzcat(c, 0, -s), ca.horzcat(0, 1, 0), ca.horzcat(s, 0, c))
+    return (
+        ca.vertcat(pose[0], 0, pose[1]),
+        ca.vertcat(pose[3], 0, pose[4]),
+        T_rel,
+        ca.vertcat(0, -pose[5], 0),
+    )
+
+
+def profile_gap(profile: HeadProfile, pose: FloatArray) -> FloatArray:
+    """Signed gap [m] between the head profile at planar poses (n, >= 3) and the undeformed
+    headrest plane x_H = 0 (the closed form of :func:`signed_gap`, for any model's pose)."""
+    pose = np.asarray(pose, float)
+    c, s = np.cos(pose[:, 2]), np.sin(pose[:, 2])
+    gap: FloatArray = (
+        pose[:, 0] + c * profile.cx - s * profile.cz - np.sqrt((profile.ax * c) ** 2 + (profile.az * s) ** 2)
+    )
+    return gap
+
+
 def head_pose_in_headrest(preset: HeadNeckPreset, theta: FloatArray) -> tuple[FloatArray, FloatArray]:
     """Planar pose of the head frame in H: (x, z) of its origin, shape (n, 2), and tilt (n,)."""
     kin = relative_kinematics(preset, theta, np.zeros_like(np.atleast_1d(theta)))
@@ -260,11 +343,19 @@ DEFAULT_PRESET = HeadNeckPreset()
 __all__ = [
     "DEFAULT_PRESET",
     "GRAVITY",
+    "POSE_COLUMNS",
     "HeadNeckPreset",
     "HeadProfile",
+    "PoseFunction",
     "RelativeKinematics",
     "first_contact_angle",
     "head_pose_in_headrest",
+    "kinematics_from_pose",
+    "kinematics_from_pose_symbolic",
+    "pose_from_kinematics",
+    "preset_pose",
+    "preset_pose_function",
+    "profile_gap",
     "relative_kinematics",
     "relative_kinematics_symbolic",
     "rot2",

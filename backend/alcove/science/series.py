@@ -3,7 +3,12 @@
 Two file formats, used by the CLI, the ``command`` oracle contract and pool folders:
 
 * trajectory CSV: header ``t,q_0,...,q_{n-1},qd_0,...,qd_{n-1},tau_0,...,tau_{n-1}``
-  (s, rad, rad/s, N m). ``tau`` columns may be absent (an oracle does not need them).
+  (s, rad, rad/s, N m), then the contact body's pose and twist relative to the headrest
+  ``head_x,head_z,head_angle,head_vx,head_vz,head_omega`` (headrest frame; m, rad, m/s,
+  rad/s; :data:`alcove.science.geometry.POSE_COLUMNS`). ``tau`` columns may be absent (an
+  oracle does not need them); the pose columns may be absent only for a 1-joint trajectory
+  (a file of the head-neck-1dof preset from before they existed: the reader computes the
+  pose from that preset).
 * forces CSV: header ``t,fx,fy,fz,mx,my,mz`` (s, N, N m; contact force on the head and
   its moment about the head frame origin, both in the headrest frame).
 
@@ -16,12 +21,13 @@ from __future__ import annotations
 import csv
 import io
 import re
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
 from alcove.science.arrays import FloatArray
+from alcove.science.geometry import POSE_COLUMNS, PoseFunction
 
 FORCE_COLUMNS = ("fx", "fy", "fz", "mx", "my", "mz")
 
@@ -37,12 +43,22 @@ class SeriesFormatError(ValueError):
 
 @dataclass(frozen=True)
 class Trajectory:
-    """Joint trajectory on a time grid: t (n,), q (n, ndof), qd (n, ndof), tau (n, ndof) or None."""
+    """Joint trajectory on a time grid: t (n,), q (n, ndof), qd (n, ndof), tau (n, ndof) or None,
+    and the contact body's pose and twist relative to the headrest, ``pose`` (n, 6) with the
+    columns :data:`~alcove.science.geometry.POSE_COLUMNS`, or None.
+
+    ``model`` (optional) is the task model's pose as a function of the joint state: given, the
+    pose is computed from it (unless ``pose`` is given too) and :meth:`resample` recomputes it at
+    the new samples; without it, :meth:`resample` interpolates the pose columns linearly like
+    the joint columns.
+    """
 
     t: FloatArray
     q: FloatArray
     qd: FloatArray
     tau: FloatArray | None = None
+    pose: FloatArray | None = None
+    model: PoseFunction | None = field(default=None, compare=False, repr=False)
 
     def __post_init__(self) -> None:
         t = np.asarray(self.t, float)
@@ -66,6 +82,23 @@ class Trajectory:
             if arr.shape[1] != q.shape[1]:
                 raise SeriesFormatError(name, f"has {arr.shape[1]} columns, expected {q.shape[1]}")
             _check_finite(arr, name)
+        pose = self.pose
+        if pose is None and self.model is not None:
+            pose = self.model(q, qd)
+        if pose is not None:
+            pose = np.asarray(pose, float)
+            if pose.ndim != 2 or pose.shape != (t.shape[0], len(POSE_COLUMNS)):
+                raise SeriesFormatError(
+                    "pose",
+                    f"has shape {pose.shape}, expected ({t.shape[0]}, {len(POSE_COLUMNS)}) ({', '.join(POSE_COLUMNS)})",
+                )
+            for j, name in enumerate(POSE_COLUMNS):
+                _check_finite(pose[:, j], name)
+        object.__setattr__(self, "pose", pose)
+
+    def with_model(self, model: PoseFunction) -> Trajectory:
+        """The same joint motion with its pose computed from ``model`` (and recomputed on resampling)."""
+        return Trajectory(self.t, self.q, self.qd, self.tau, None, model)
 
     @property
     def ndof(self) -> int:
@@ -83,11 +116,22 @@ class Trajectory:
         def interp(a: FloatArray) -> FloatArray:
             return np.stack([np.interp(t_new, self.t, a[:, j]) for j in range(a.shape[1])], -1)
 
-        return Trajectory(t_new, interp(self.q), interp(self.qd), None if self.tau is None else interp(self.tau))
+        tau = None if self.tau is None else interp(self.tau)
+        if self.model is not None:
+            return Trajectory(t_new, interp(self.q), interp(self.qd), tau, None, self.model)
+        pose = None if self.pose is None else interp(self.pose)
+        return Trajectory(t_new, interp(self.q), interp(self.qd), tau, pose)
 
     def window(self, t0: float, t1: float) -> Trajectory:
         m = (self.t >= t0 - 1e-12) & (self.t <= t1 + 1e-12)
-        return Trajectory(self.t[m], self.q[m], self.qd[m], None if self.tau is None else self.tau[m])
+        return Trajectory(
+            self.t[m],
+            self.q[m],
+            self.qd[m],
+            None if self.tau is None else self.tau[m],
+            None if self.pose is None else self.pose[m],
+            self.model,
+        )
 
     # ---- CSV -------------------------------------------------------------------
     def header(self) -> list[str]:
@@ -95,10 +139,14 @@ class Trajectory:
         cols = ["t"] + [f"q_{i}" for i in range(n)] + [f"qd_{i}" for i in range(n)]
         if self.tau is not None:
             cols += [f"tau_{i}" for i in range(n)]
+        if self.pose is not None:
+            cols += list(POSE_COLUMNS)
         return cols
 
     def to_array(self) -> FloatArray:
         parts = [self.t[:, None], self.q, self.qd] + ([self.tau] if self.tau is not None else [])
+        if self.pose is not None:
+            parts.append(self.pose)
         return np.hstack(parts)
 
     def to_csv(self, path: str | Path | None = None) -> str:
@@ -108,7 +156,10 @@ class Trajectory:
         return text
 
     @classmethod
-    def from_csv(cls, source: str | Path | io.TextIOBase) -> Trajectory:
+    def from_csv(cls, source: str | Path | io.TextIOBase, model: PoseFunction | None = None) -> Trajectory:
+        """Read a trajectory CSV. Without pose columns, ``model`` (the head-neck-1dof preset's pose,
+        :func:`alcove.science.geometry.preset_pose_function`) computes the pose; a file of several
+        joints needs the pose columns."""
         header, data = _read_csv(source)
         if not header or header[0] != "t":
             raise SeriesFormatError("t", "the first column must be 't'")
@@ -129,17 +180,30 @@ class Trajectory:
             | {f"q_{i}" for i in range(n)}
             | {f"qd_{i}" for i in range(n)}
             | {f"tau_{i}" for i in range(len(tau_cols))}
+            | set(POSE_COLUMNS)
         )
         unknown = [c for c in header if c not in known]
         if unknown:
             raise SeriesFormatError(unknown[0], "unknown column")
+        given = [c for c in POSE_COLUMNS if c in header]
+        if given and len(given) != len(POSE_COLUMNS):
+            missing = next(c for c in POSE_COLUMNS if c not in header)
+            raise SeriesFormatError(missing, f"missing: give all pose columns {','.join(POSE_COLUMNS)} or none")
+        if not given and n != 1:
+            raise SeriesFormatError(
+                POSE_COLUMNS[0],
+                f"missing: a trajectory of {n} joints needs the pose columns {','.join(POSE_COLUMNS)} "
+                "(only a 1-joint file of the head-neck-1dof preset may leave them out)",
+            )
         col = {c: j for j, c in enumerate(header)}
 
-        def take(names: list[str]) -> FloatArray:
+        def take(names: list[str] | tuple[str, ...]) -> FloatArray:
             return data[:, [col[c] for c in names]]
 
         tau = take([f"tau_{i}" for i in range(n)]) if tau_cols else None
-        return cls(data[:, 0], take([f"q_{i}" for i in range(n)]), take([f"qd_{i}" for i in range(n)]), tau)
+        pose = take(POSE_COLUMNS) if given else None
+        q, qd = take([f"q_{i}" for i in range(n)]), take([f"qd_{i}" for i in range(n)])
+        return cls(data[:, 0], q, qd, tau, pose, None if given else model)
 
 
 @dataclass(frozen=True)

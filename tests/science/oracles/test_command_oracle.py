@@ -274,7 +274,7 @@ def test_user_input_is_validated(tmp_path):
     locked = {"locked": CommandOracleSpec(name="locked", argv=["x"], allow_user_template=False)}
     with pytest.raises(OracleInputError, match=r"^params.template: .*does not accept user templates"):
         build_oracle("locked", {"template": "*KEYWORD"}, catalogue=locked)
-    with pytest.raises(OracleInputError, match=r"^q: "):
+    with pytest.raises(OracleInputError, match=r"^head_x: a trajectory of 2 joints needs the contact body.s pose"):
         CommandOracle(locked["locked"]).run(Trajectory(np.linspace(0, 1, 3), np.zeros((3, 2)), np.zeros((3, 2))))
 
 

@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 from pydantic import ValidationError
 
-from alcove.science.geometry import DEFAULT_PRESET, head_pose_in_headrest
+from alcove.science.geometry import DEFAULT_PRESET, head_pose_in_headrest, preset_pose
 from alcove.science.oracles.base import OracleCancelled, OracleInputError
 from alcove.science.oracles.fe_headrest import FEHeadrestOracle, FEHeadrestParams, reference_motion
 from alcove.science.oracles.fe_headrest.oracle import profile_indentation
@@ -64,7 +64,7 @@ def test_reference_motion_forces_are_of_the_papers_order_and_pass_the_gate(refer
 def test_no_force_before_contact_and_the_force_pushes_the_head_away(reference_run):
     trajectory, result = reference_run
     f = result.forces
-    clear = profile_indentation(DEFAULT_PRESET, trajectory.q[:, 0]) == 0
+    clear = profile_indentation(DEFAULT_PRESET.profile, preset_pose(DEFAULT_PRESET, trajectory.q, trajectory.qd)) == 0
     before = f.t < result.diagnostics["first_contact_time_s"]
     assert np.all(f.force[before] == 0) and np.all(f.moment[before] == 0)
     assert np.all(f.force[clear & before] == 0)
@@ -98,7 +98,8 @@ def test_no_force_after_separation_and_dissipation_vanishes_with_viscosity():
             d["stored_energy_end_j"] + d["viscous_dissipation_j"], rel=0.02, abs=1e-6
         )
         f = result.forces
-        depth = profile_indentation(DEFAULT_PRESET, trajectory.resample(f.t).q[:, 0])
+        on_out = trajectory.resample(f.t)
+        depth = profile_indentation(DEFAULT_PRESET.profile, preset_pose(DEFAULT_PRESET, on_out.q, on_out.qd))
         assert np.all(f.force[(depth == 0) & (f.t > 0.2)] == 0)  # separated: no force at all
         assert np.all(f.force[depth == 0] == 0)  # the head never pulls: no force when clear
     assert dissipated[1000.0] > dissipated[100.0] > 0
@@ -219,12 +220,22 @@ def test_cancel_is_checked_between_steps():
 def test_bad_trajectories_give_clear_errors():
     oracle = FEHeadrestOracle()
     t = np.linspace(0, 0.1, 41)
-    with pytest.raises(OracleInputError, match=r"^q_0: .*outside the model's range"):
-        oracle.run(Trajectory(t, np.full_like(t, 0.5), np.zeros_like(t)))
+    # geometric range checks, naming the sample: beyond what the foam block can take ...
+    press = np.where(t > 0.05, 0.7, 0.3)  # 0.7 rad: 28.9 mm into the 40 mm cushion, 24 mm allowed
+    with pytest.raises(
+        OracleInputError, match=r"^head_x: sample 21 \(t = 0.0525 s\): the head would indent the cushion by .* mm, "
+        r"beyond what the foam block can take"
+    ):
+        oracle.run(Trajectory(t, press, np.zeros_like(t)))
     deep = FEHeadrestParams(cushion_thickness=0.02, element_size_contact=0.004, max_indentation_fraction=0.3)
-    with pytest.raises(OracleInputError, match=r"^q_0: .*beyond the model's reach"):
+    with pytest.raises(OracleInputError, match=r"^head_x: sample 0 \(t = 0 s\): .*beyond what the foam block"):
         FEHeadrestOracle(deep).run(Trajectory(t, np.full_like(t, 0.43), np.zeros_like(t)))
-    with pytest.raises(OracleInputError, match=r"^q: .*1 degree of freedom"):
+    # ... and the head leaving the modelled region: touching above the cushion's top face
+    pose = preset_pose(DEFAULT_PRESET, np.full_like(t, 0.32), np.zeros_like(t))
+    pose[7:, 1] += 0.2  # the head slides up along the surface, still 1 mm or so into it
+    with pytest.raises(OracleInputError, match=r"^head_z: sample 7 \(t = 0.0175 s\): .*outside the modelled region"):
+        oracle.run(Trajectory(t, np.full((t.size, 2), 0.3), np.zeros((t.size, 2)), pose=pose))
+    with pytest.raises(OracleInputError, match=r"^head_x: a trajectory of 2 joints needs the contact body's pose"):
         oracle.run(Trajectory(t, np.full((t.size, 2), 0.3), np.zeros((t.size, 2))))
     theta = np.full_like(t, 0.3)
     theta[5] = np.nan

@@ -19,19 +19,19 @@ def replay_trajectory(
 ) -> Trajectory:
     """The first ``phases`` phases of the solution (``t``, ``q``, ``qd``, ``tau``); with
     ``dt``, resampled on a grid of that step with cubic Hermite interpolation (q with its
-    derivative qd), the torque linearly."""
+    derivative qd), the torque linearly. The trajectory carries the task model's pose
+    function: its pose is the contact body's, computed from the joint state (also after
+    an oracle resamples it)."""
     t, q, qd, tau = arrays["t"], arrays["q"], arrays["qd"], arrays["tau"]
     t_end = t[0] + sum(ph.duration for ph in task.phases[:phases])
+    pose = task.model.pose_function()  # the oracles read the head's pose, computed from the task's model
     if dt is None:
         m = t <= t_end + 1e-9
-        return Trajectory(t[m], q[m], qd[m], tau[m])
+        return Trajectory(t[m], q[m], qd[m], tau[m], model=pose)
     n = math.floor((t_end - t[0]) / dt + 1e-9) + 1
     grid = np.minimum(t[0] + dt * np.arange(n), t_end)
     spline = CubicHermiteSpline(t, q, qd, axis=0)
     tau_g = np.stack([np.interp(grid, t, tau[:, j]) for j in range(q.shape[1])], -1)
-    q_g = spline(grid)
-    preset = task.preset()
-    if q.shape[1] == 1 and hasattr(preset, "theta_min"):
-        # the cubic may overshoot the joint range between nodes that sit on a bound
-        q_g = np.clip(q_g, preset.theta_min, preset.theta_max)
-    return Trajectory(grid, q_g, spline.derivative()(grid), tau_g)
+    # the cubic may overshoot the joint range between nodes that sit on a bound
+    q_g = np.clip(spline(grid), task.model.joint_min, task.model.joint_max)
+    return Trajectory(grid, q_g, spline.derivative()(grid), tau_g, model=pose)

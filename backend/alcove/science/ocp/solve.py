@@ -111,7 +111,8 @@ class OcpSolution:
 
     @property
     def trajectory(self) -> Trajectory:
-        return Trajectory(self.t, self.q, self.qd, self.tau)
+        """The solution on its grid, with the contact body's pose (``Trajectory.pose``) from the chain."""
+        return Trajectory(self.t, self.q, self.qd, self.tau, model=self.chain.head_pose)
 
     def resample(self, t_grid: FloatArray) -> Trajectory:
         """The solution on ``t_grid``: cubic Hermite q (with qd its derivative) kept within the
@@ -126,7 +127,7 @@ class OcpSolution:
         tau = np.stack([np.interp(t_grid, self.t, self.tau[:, j]) for j in range(self.q.shape[1])], -1)
         # between nodes that sit on a joint limit the cubic may overshoot it slightly
         q = np.clip(spline(t_grid), self.chain.q_min, self.chain.q_max)
-        return Trajectory(t_grid, q, spline.derivative()(t_grid), tau)
+        return Trajectory(t_grid, q, spline.derivative()(t_grid), tau, model=self.chain.head_pose)
 
     def head_pose(self, t_grid: FloatArray | None = None) -> RelativeKinematics:
         """Pose and velocity of the head relative to the headrest (in H) on the OCP grid or ``t_grid``."""

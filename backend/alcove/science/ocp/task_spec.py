@@ -31,7 +31,7 @@ from pydantic import (
 )
 
 from alcove.science.arrays import FloatArray
-from alcove.science.geometry import HeadNeckPreset
+from alcove.science.geometry import HeadNeckPreset, PoseFunction, preset_pose_function
 from alcove.science.ocp.chain_model import CHAIN_PRESETS, ChainSpec, chain_preset
 from alcove.science.ocp.problem import DiscreteProblem, PhaseGrid
 from alcove.science.ocp.scenario_ranges import ParameterRange, check_ranges
@@ -266,6 +266,25 @@ class ModelSpec(_Strict):
         if self.chain is not None:
             return self.chain.to_chain()
         return PlanarChain.from_preset(self.to_preset())
+
+    def pose_function(self) -> PoseFunction:
+        """``(q, qd) -> pose (n, 6)``: the contact body's pose and twist relative to the headrest
+        (:data:`alcove.science.geometry.POSE_COLUMNS`) at joint states of this model. The 1-DOF
+        preset's is the NumPy geometry (:func:`alcove.science.geometry.preset_pose`, headrest
+        offset included); a chain's is its CasADi kinematics (``PlanarChain.head_pose``)."""
+        if self.chain is None:
+            return preset_pose_function(self.to_preset())
+        return self.chain.to_chain().head_pose
+
+    def oracle_preset(self) -> HeadNeckPreset:
+        """What an oracle reads of the model besides a trajectory's pose: the head profile and
+        the headrest tilt. The 1-DOF preset itself (a 1-joint trajectory without a pose is its);
+        for a chain a preset carrying the chain's profile and headrest tilt (its joint fields
+        are never read: the chain's trajectories carry their pose)."""
+        if self.chain is None:
+            return self.to_preset()
+        tilt = self.chain.headrest.tilt
+        return HeadNeckPreset(tilt=tilt, theta_contact=tilt, profile=self.chain.contact_body.profile.to_profile())
 
 
 class InitialState(_Strict):

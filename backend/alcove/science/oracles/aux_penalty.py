@@ -26,15 +26,14 @@ import numpy as np
 from pydantic import Field
 
 from alcove.science.arrays import FloatArray
-from alcove.science.geometry import DEFAULT_PRESET, HeadNeckPreset, RelativeKinematics, relative_kinematics
-from alcove.science.oracles.base import CancelCheck, OracleCancelled, OracleInputError, OracleParams, OracleResult
+from alcove.science.geometry import DEFAULT_PRESET, HeadNeckPreset, RelativeKinematics, kinematics_from_pose
+from alcove.science.oracles.base import CancelCheck, OracleCancelled, OracleParams, OracleResult, posed_trajectory
 from alcove.science.series import ForceSeries, Trajectory
 from alcove.science.validation import quantity
 
 K_PAPER_N_PER_MM2 = 6.0
 D0_PAPER_NS_PER_MM = 0.1
 P_REF_PAPER_MM = 2.0
-THETA_TOLERANCE = 1e-6  # rad, slack on the preset's joint range (round-off in CSV files)
 
 
 HeadCoordinate = Annotated[
@@ -111,8 +110,9 @@ def dissipated_energy(t: FloatArray, p: FloatArray, pdot: FloatArray, fx: FloatA
 class AuxPenaltyOracle:
     """The auxiliary penalty model as an oracle (type ``aux-penalty``): fast, closed form.
 
-    Replays a 1-DOF head-neck trajectory (``q_0`` = theta, ``qd_0`` = theta_dot) and returns the
-    force and moment at the trajectory's own time samples. Diagnostics: the point's maximum
+    Replays the contact body's pose (``Trajectory.pose``; a 1-joint trajectory without one is
+    the head-neck-1dof preset's) and returns the force and moment at the trajectory's own time
+    samples. ``preset`` gives the head profile (r_sp defaults to its back point). Diagnostics: the point's maximum
     penetration, the dissipated energy and the number of samples in contact; there are no
     Newton iterations.
     """
@@ -127,8 +127,9 @@ class AuxPenaltyOracle:
         start = time.perf_counter()
         if cancel is not None and cancel():
             raise OracleCancelled("aux-penalty run cancelled before it started")
-        theta, theta_dot = self._joint_motion(trajectory)
-        kin = relative_kinematics(self.preset, theta, theta_dot)
+        trajectory = posed_trajectory(trajectory, self.preset)
+        assert trajectory.pose is not None
+        kin = kinematics_from_pose(trajectory.pose)
         force, moment = aux_penalty_wrench(self.preset, self.params, kin)
         p, pdot = penetration(self.preset, self.params, kin)
         in_contact = force[:, 0] > 0
@@ -146,20 +147,3 @@ class AuxPenaltyOracle:
             diagnostics=diagnostics,
             wall_time=time.perf_counter() - start,
         )
-
-    def _joint_motion(self, trajectory: Trajectory) -> tuple[FloatArray, FloatArray]:
-        if trajectory.ndof != 1:
-            raise OracleInputError(
-                "q", f"the head-neck preset has 1 degree of freedom (q_0 = theta), the trajectory has {trajectory.ndof}"
-            )
-        theta = trajectory.q[:, 0]
-        lo, hi = self.preset.theta_min, self.preset.theta_max
-        outside = (theta < lo - THETA_TOLERANCE) | (theta > hi + THETA_TOLERANCE)
-        if outside.any():
-            i = int(np.argmax(outside))
-            raise OracleInputError(
-                "q_0",
-                f"theta = {theta[i]:.4g} rad at t = {trajectory.t[i]:.4g} s is outside the preset's range "
-                f"[{lo}, {hi}] rad",
-            )
-        return theta, trajectory.qd[:, 0]

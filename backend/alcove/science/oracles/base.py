@@ -1,9 +1,11 @@
 """The one interface every oracle implements.
 
-An oracle replays a joint trajectory and returns the contact force and moment on the head
-over time (headrest frame, moment about the head frame origin), the relative kinematics it
-used, and run diagnostics. A run that fails the oracle's quality gate comes back with
-``ok=False`` and a ``failure_reason``; its numbers must never be used as data.
+An oracle replays a trajectory and returns the contact force and moment on the head over
+time (headrest frame, moment about the head frame origin), the relative kinematics it used,
+and run diagnostics. It reads the contact body's pose and twist relative to the headrest
+(``Trajectory.pose``), never a joint angle, so it works for any chain; a 1-joint trajectory
+without a pose is the head-neck-1dof preset's (:func:`posed_trajectory`). A run that fails
+the oracle's quality gate comes back with ``ok=False`` and a ``failure_reason``; its numbers must never be used as data.
 """
 
 from __future__ import annotations
@@ -16,7 +18,13 @@ import numpy as np
 from pydantic import BaseModel, ConfigDict
 
 from alcove.science.arrays import FloatArray
-from alcove.science.geometry import HeadNeckPreset, RelativeKinematics
+from alcove.science.geometry import (
+    POSE_COLUMNS,
+    HeadNeckPreset,
+    HeadProfile,
+    RelativeKinematics,
+    preset_pose_function,
+)
 from alcove.science.series import ForceSeries, SeriesFormatError, Trajectory
 
 CancelCheck = Callable[[], bool]
@@ -84,6 +92,40 @@ class Oracle(Protocol):
     def run(self, trajectory: Trajectory, cancel: CancelCheck | None = None) -> OracleResult: ...
 
 
+def posed_trajectory(trajectory: Any, preset: HeadNeckPreset) -> Trajectory:
+    """The trajectory (re-validated: time, NaN, shapes) with the contact body's pose, which is
+    all an oracle reads: its own pose columns, or for a 1-joint trajectory without them (a file
+    from before the pose columns existed) the pose of the head-neck-1dof preset ``preset``,
+    headrest offset included, recomputed from the joint state whenever the oracle resamples."""
+    try:
+        traj = Trajectory(
+            trajectory.t,
+            trajectory.q,
+            trajectory.qd,
+            getattr(trajectory, "tau", None),
+            getattr(trajectory, "pose", None),
+            getattr(trajectory, "model", None),
+        )
+    except SeriesFormatError as exc:
+        raise OracleInputError(exc.field, exc.reason) from None
+    except AttributeError:
+        raise OracleInputError("trajectory", "expected a Trajectory with t, q and qd") from None
+    if traj.pose is None:
+        if traj.ndof != 1:
+            raise OracleInputError(
+                POSE_COLUMNS[0],
+                f"a trajectory of {traj.ndof} joints needs the contact body's pose ({', '.join(POSE_COLUMNS)}); "
+                "only a 1-joint trajectory of the head-neck-1dof preset may leave it out",
+            )
+        traj = traj.with_model(preset_pose_function(preset))
+    return traj
+
+
+def sample_label(traj: Trajectory, i: int) -> str:
+    """``sample i (t = ... s)``: how an input error names a sample."""
+    return f"sample {i} (t = {traj.t[i]:.4g} s)"
+
+
 def validated_head_trajectory(
     trajectory: Any,
     preset: HeadNeckPreset,
@@ -91,40 +133,48 @@ def validated_head_trajectory(
     indentation: Callable[[FloatArray], FloatArray],
     max_indentation: float,
 ) -> tuple[Trajectory, FloatArray]:
-    """The checks every head-headrest FE oracle makes of its input, with errors naming the field:
-    a 1-DOF trajectory (``q_0 = theta``) spanning at least one output interval, within the
-    preset's joint range, that never indents the cushion beyond ``max_indentation`` [m].
-    ``indentation(theta)`` is the oracle's own geometric depth [m] per sample. Returns the
-    re-validated trajectory and that depth."""
-    try:
-        traj = Trajectory(trajectory.t, trajectory.q, trajectory.qd)  # (re-)validates time, NaN, shapes
-    except SeriesFormatError as exc:
-        raise OracleInputError(exc.field, exc.reason) from None
-    except AttributeError:
-        raise OracleInputError("trajectory", "expected a Trajectory with t, q and qd") from None
-    if traj.ndof != 1:
-        raise OracleInputError(
-            "q", f"the head-neck preset has 1 degree of freedom (q_0 = theta), got {traj.ndof} columns"
-        )
+    """The checks every head-headrest FE oracle makes of its input, with errors naming the field,
+    the sample and the reason: a trajectory with the contact body's pose (:func:`posed_trajectory`)
+    spanning at least one output interval whose head never indents the cushion beyond
+    ``max_indentation`` [m] (what the foam block can take). ``indentation(pose)`` is the oracle's
+    own geometric depth [m] per sample. Returns the trajectory and that depth."""
+    traj = posed_trajectory(trajectory, preset)
     span = traj.t[-1] - traj.t[0]
     if span < output_dt * (1 - 1e-9):
         raise OracleInputError("t", f"time span {span:g} s is shorter than one output interval ({output_dt:g} s)")
-    theta = traj.q[:, 0]
-    bad = np.flatnonzero((theta < preset.theta_min - 1e-12) | (theta > preset.theta_max + 1e-12))
-    if bad.size:
-        i = int(bad[0])
-        raise OracleInputError(
-            "q_0",
-            f"theta = {theta[i]:.4g} rad at t = {traj.t[i]:.4g} s is outside the model's range "
-            f"[{preset.theta_min}, {preset.theta_max}] rad",
-        )
-    depth = indentation(theta)
+    assert traj.pose is not None
+    depth = indentation(traj.pose)
     if depth.max() > max_indentation:
         i = int(np.argmax(depth))
         raise OracleInputError(
-            "q_0",
-            f"at t = {traj.t[i]:.4g} s the head would indent the cushion by {depth[i] * 1e3:.1f} mm, "
-            f"beyond the model's reach ({max_indentation * 1e3:.1f} mm = max_indentation_fraction x "
+            "head_x",
+            f"{sample_label(traj, i)}: the head would indent the cushion by {depth[i] * 1e3:.1f} mm, "
+            f"beyond what the foam block can take ({max_indentation * 1e3:.1f} mm = max_indentation_fraction x "
             "cushion_thickness)",
         )
     return traj, depth
+
+
+def check_contact_within_cushion(
+    traj: Trajectory, depth: FloatArray, profile: HeadProfile, bottom: float, top: float
+) -> None:
+    """The head leaving the modelled region: raise :class:`OracleInputError` naming the first
+    sample (among those with ``depth > 0``) whose undeformed profile would enter the cushion
+    (x_H < 0) outside its height, z_H in [``bottom``, ``top``]."""
+    touching = np.flatnonzero(depth > 0)
+    if not touching.size:
+        return
+    assert traj.pose is not None
+    pose = traj.pose[touching]
+    pts = profile.points(200)
+    c, s = np.cos(pose[:, 2])[:, None], np.sin(pose[:, 2])[:, None]
+    x = pose[:, :1] + c * pts[None, :, 0] - s * pts[None, :, 1]
+    z = pose[:, 1:2] + s * pts[None, :, 0] + c * pts[None, :, 1]
+    beyond = np.any((x < 0) & ((z < bottom) | (z > top)), axis=1)
+    if np.any(beyond):
+        i = int(touching[np.argmax(beyond)])
+        raise OracleInputError(
+            "head_z",
+            f"{sample_label(traj, i)}: the head would touch the cushion beyond its ends, outside the modelled "
+            f"region (z_H in [{bottom:g}, {top:g}] m)",
+        )

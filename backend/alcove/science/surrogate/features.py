@@ -1,7 +1,8 @@
 """The paper's 19 input features of the contact surrogate, in NumPy and CasADi.
 
 From the relative kinematics of the head w.r.t. the headrest (all in the current
-headrest frame H, see :mod:`alcove.science.geometry`):
+headrest frame H, see :mod:`alcove.science.geometry`), which are those of the contact body's
+planar pose and twist (:func:`pose_features`; any chain's head, never a joint angle):
 
 ====================  ===  =========================================================
 r_rel                  3   position of the head frame origin
@@ -29,7 +30,7 @@ from typing import TYPE_CHECKING, TypeVar
 import numpy as np
 
 from alcove.science.arrays import FloatArray
-from alcove.science.geometry import RelativeKinematics
+from alcove.science.geometry import RelativeKinematics, kinematics_from_pose
 
 if TYPE_CHECKING:  # CasADi is imported only by the symbolic features, when they are built
     import casadi as ca
@@ -85,6 +86,12 @@ def features(kin: RelativeKinematics) -> FloatArray:
     return np.concatenate([r, v, T6, w, squares], axis=1)
 
 
+def pose_features(pose: FloatArray) -> FloatArray:
+    """Feature matrix (n, 19) of the contact body's planar poses and twists in H (n, 6; the columns
+    :data:`alcove.science.geometry.POSE_COLUMNS`)."""
+    return features(kinematics_from_pose(pose))
+
+
 def alpha_squared_symbolic(T: Symbolic) -> Symbolic:
     """CasADi version of :func:`alpha_squared` for one 3x3 rotation (SX or MX)."""
     import casadi as ca
@@ -123,5 +130,6 @@ __all__ = [
     "alpha_squared_symbolic",
     "features",
     "features_symbolic",
+    "pose_features",
     "rotation_cos_sin2",
 ]

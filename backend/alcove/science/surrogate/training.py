@@ -34,7 +34,14 @@ import torch
 from numpy.typing import NDArray
 
 from alcove.science.arrays import FloatArray
-from alcove.science.geometry import DEFAULT_PRESET, HeadNeckPreset, RelativeKinematics, relative_kinematics
+from alcove.science.geometry import (
+    DEFAULT_PRESET,
+    HeadNeckPreset,
+    PoseFunction,
+    RelativeKinematics,
+    kinematics_from_pose,
+    preset_pose,
+)
 from alcove.science.series import ForceSeries
 from alcove.science.surrogate.config import SurrogateConfig
 from alcove.science.surrogate.dataset import PoolDataError, PoolDataset, check_pool
@@ -92,7 +99,9 @@ class TrainingResult:
 
 
 def preset_kinematics(preset: HeadNeckPreset) -> KinematicsFn:
-    """NumPy kinematics of the 1-DOF head-neck preset as a function of q, qd (n, 1)."""
+    """NumPy kinematics of the 1-DOF head-neck preset as a function of q, qd (n, 1), through
+    the head's pose (:func:`alcove.science.geometry.preset_pose`; the same numbers, bit for bit,
+    as :func:`alcove.science.geometry.relative_kinematics`)."""
 
     def kin(q: FloatArray, qd: FloatArray) -> RelativeKinematics:
         if q.shape[1] != 1:
@@ -100,9 +109,15 @@ def preset_kinematics(preset: HeadNeckPreset) -> KinematicsFn:
                 "q",
                 f"the head-neck preset has 1 degree of freedom, got {q.shape[1]}; pass kinematics= for other chains",
             )
-        return relative_kinematics(preset, q[:, 0], qd[:, 0])
+        return kinematics_from_pose(preset_pose(preset, q[:, 0], qd[:, 0]))
 
     return kin
+
+
+def pose_kinematics(pose: PoseFunction) -> KinematicsFn:
+    """The kinematics of any model from its head pose function ``(q, qd) -> pose (n, 6)``
+    (e.g. ``ModelSpec.pose_function()`` of a chain task)."""
+    return lambda q, qd: kinematics_from_pose(pose(q, qd))
 
 
 def split_pool(pool: list[PoolDataset], config: SurrogateConfig, seed: int) -> PoolSplit:
@@ -402,6 +417,7 @@ __all__ = [
     "TrainingResult",
     "member_seed",
     "moved_headrest",
+    "pose_kinematics",
     "predict",
     "predict_arrays",
     "predict_ensemble",

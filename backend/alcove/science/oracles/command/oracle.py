@@ -15,7 +15,7 @@ import time
 from pathlib import Path
 from typing import Any, ClassVar
 
-from alcove.science.geometry import DEFAULT_PRESET, HeadNeckPreset, relative_kinematics
+from alcove.science.geometry import DEFAULT_PRESET, HeadNeckPreset, kinematics_from_pose
 from alcove.science.oracles.base import (
     SUMMARY_DIAGNOSTICS,
     CancelCheck,
@@ -23,6 +23,7 @@ from alcove.science.oracles.base import (
     OracleInputError,
     OracleParams,
     OracleResult,
+    posed_trajectory,
 )
 from alcove.science.oracles.command.contract import (
     STDERR_FILE,
@@ -62,10 +63,7 @@ class CommandOracle:
 
     def run(self, trajectory: Trajectory, cancel: CancelCheck | None = None) -> OracleResult:
         start = time.perf_counter()
-        if trajectory.ndof != 1:
-            raise OracleInputError(
-                "q", f"the head-neck preset has 1 degree of freedom (q_0 = theta), the trajectory has {trajectory.ndof}"
-            )
+        trajectory = posed_trajectory(trajectory, self.preset)
         deck = self._rendered_deck(trajectory)
         extra = self._extra_inputs(trajectory)
         if cancel is not None and cancel():
@@ -113,7 +111,8 @@ class CommandOracle:
             return failed(f"output: {gate.failure}")
         forces = gate.forces
         sampled = trajectory.resample(forces.t.clip(trajectory.t[0], trajectory.t[-1]))
-        kinematics = relative_kinematics(self.preset, sampled.q[:, 0], sampled.qd[:, 0])
+        assert sampled.pose is not None
+        kinematics = kinematics_from_pose(sampled.pose)
         if self.params.keep_workdir:
             diagnostics["workdir"] = str(workdir)
         else:

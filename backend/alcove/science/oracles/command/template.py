@@ -13,8 +13,8 @@ from collections.abc import Mapping
 import numpy as np
 
 from alcove.science.arrays import FloatArray
-from alcove.science.geometry import HeadNeckPreset, relative_kinematics
-from alcove.science.oracles.base import OracleInputError
+from alcove.science.geometry import HeadNeckPreset
+from alcove.science.oracles.base import OracleInputError, posed_trajectory
 from alcove.science.oracles.command.contract import TRAJECTORY_FILE
 from alcove.science.oracles.command.spec import CommandOracleParams, CommandOracleSpec
 from alcove.science.series import Trajectory
@@ -73,22 +73,24 @@ def template_values(
     for card fields (mm, degrees, times, ``dt_out`` and the entry's parameters) fit in 10
     characters (:func:`card_number`).
     """
-    t, theta = trajectory.t, trajectory.q[:, 0]
-    kin = relative_kinematics(preset, theta, trajectory.qd[:, 0])
-    x, z = kin.r_rel[:, 0], kin.r_rel[:, 2]
-    rotation0 = preset.tilt - float(theta[0])
+    t = trajectory.t
+    pose = posed_trajectory(trajectory, preset).pose
+    assert pose is not None
+    x, z, angle = pose[:, 0], pose[:, 1], pose[:, 2]
+    tilt = angle + preset.tilt  # the head's absolute backward tilt (theta for the head-neck-1dof preset)
+    rotation0 = -float(angle[0])
     values = {
-        "motion_curve": curve_lines(t, theta),
+        "motion_curve": curve_lines(t, tilt),
         "head_x_curve": curve_lines(t, x - x[0]),
         "head_z_curve": curve_lines(t, z - z[0]),
-        "head_rotation_curve": curve_lines(t, theta[0] - theta),
+        "head_rotation_curve": curve_lines(t, angle[0] - angle),
         "head_x0": si_number(x[0]),
         "head_z0": si_number(z[0]),
         "head_x0_mm": card_number(1e3 * x[0]),
         "head_z0_mm": card_number(1e3 * z[0]),
         "head_rotation0": si_number(rotation0),
         "head_rotation0_deg": card_number(np.degrees(rotation0)),
-        "theta_start": si_number(theta[0]),
+        "theta_start": si_number(tilt[0]),
         "headrest_tilt": si_number(preset.tilt),
         "t_start": card_number(t[0]),
         "t_end": card_number(t[-1]),

@@ -1,7 +1,8 @@
 """The ``fe-headrest-2d`` oracle: replay a head trajectory against a plane-strain FE cushion.
 
-The head is rigid and follows the trajectory exactly (poses from
-``alcove.science.geometry``); its occipital profile is the preset's ellipse. The cushion is
+The head is rigid and follows the trajectory's pose exactly (``Trajectory.pose``, the
+contact body's pose relative to the headrest, whatever the chain); its occipital profile is
+the preset's ellipse. The cushion is
 a hyperfoam block whose front face is the plane x_H = 0 and whose back face is tied to
 the rigid headrest bar. Output: the contact force on the head and its moment about the
 moment reference point (default: the head frame origin), both in the headrest frame H, at
@@ -19,18 +20,12 @@ from typing import Any, ClassVar
 import numpy as np
 
 from alcove.science.arrays import FloatArray
-from alcove.science.geometry import (
-    DEFAULT_PRESET,
-    HeadNeckPreset,
-    first_contact_angle,
-    head_pose_in_headrest,
-    relative_kinematics,
-)
+from alcove.science.geometry import DEFAULT_PRESET, HeadNeckPreset, HeadProfile, kinematics_from_pose
 from alcove.science.oracles.base import (
     CancelCheck,
     OracleCancelled,
-    OracleInputError,
     OracleResult,
+    check_contact_within_cushion,
     validated_head_trajectory,
 )
 from alcove.science.oracles.fe_headrest.contact import PenaltyContact, RigidEllipse
@@ -64,12 +59,12 @@ def head_slices(preset: HeadNeckPreset, params: FEHeadrestParams) -> list[Slice]
     return out
 
 
-def profile_indentation(preset: HeadNeckPreset, theta: FloatArray) -> FloatArray:
-    """Depth of the undeformed head profile (ellipse) below the cushion surface x_H = 0 (>= 0)."""
-    r, angle = head_pose_in_headrest(preset, theta)
-    pr = preset.profile
-    c, s = np.cos(angle), np.sin(angle)
-    x_centre = r[:, 0] + c * pr.cx - s * pr.cz
+def profile_indentation(profile: HeadProfile, pose: FloatArray) -> FloatArray:
+    """Depth of the undeformed head profile (ellipse) below the cushion surface x_H = 0 (>= 0)
+    at planar head poses (n, >= 3: head_x, head_z, head_angle, ...)."""
+    pr = profile
+    c, s = np.cos(pose[:, 2]), np.sin(pose[:, 2])
+    x_centre = pose[:, 0] + c * pr.cx - s * pr.cz
     reach = np.sqrt((pr.ax * c) ** 2 + (pr.az * s) ** 2)
     return np.maximum(0.0, reach - x_centre)
 
@@ -101,45 +96,33 @@ class FEHeadrestOracle:
             trajectory,
             self.preset,
             p.output_dt,
-            lambda theta: profile_indentation(self.preset, theta),
+            lambda pose: profile_indentation(self.preset.profile, pose),
             p.max_indentation_fraction * p.cushion_thickness,
         )
         self._check_contact_within_cushion(traj, depth)
         return traj
 
     def _check_contact_within_cushion(self, traj: Trajectory, depth: FloatArray) -> None:
-        touching = depth > 0
-        if not np.any(touching):
-            return
-        theta = traj.q[touching, 0]
-        r, angle = head_pose_in_headrest(self.preset, theta)
-        pts = self.preset.profile.points(200)
-        c, s = np.cos(angle)[:, None], np.sin(angle)[:, None]
-        x = r[:, :1] + c * pts[None, :, 0] - s * pts[None, :, 1]
-        z = r[:, 1:] + s * pts[None, :, 0] + c * pts[None, :, 1]
-        zin = z[x < 0]
         bottom = self.params.cushion_bottom
-        top = bottom + self.params.cushion_height
-        if zin.size and (zin.min() < bottom or zin.max() > top):
-            raise OracleInputError(
-                "q_0", f"the head would touch the cushion beyond its ends (z_H in [{bottom:g}, {top:g}] m)"
-            )
+        check_contact_within_cushion(traj, depth, self.preset.profile, bottom, bottom + self.params.cushion_height)
 
     def _preload(
-        self, solvers: list[CushionSolver], theta_start: float, dt: float
+        self, solvers: list[CushionSolver], pose_start: FloatArray, dt: float
     ) -> tuple[list[float], str | None] | None:
         """A trajectory that starts with the head in the cushion starts from static equilibrium.
 
-        The head is moved quasi-statically (no viscous stress) along its path from first
-        contact to the start pose, in steps of at most ~0.5 mm of indentation; the energy
-        stored then is the initial energy of the balance. Returns None if the head starts clear.
+        The head is moved quasi-statically (no viscous stress) at its start orientation along
+        the cushion normal -x_H from first contact to the start pose, in steps of at most
+        ~0.5 mm of indentation; the energy stored then is the initial energy of the balance.
+        Returns None if the head starts clear.
         """
-        depth = float(profile_indentation(self.preset, np.array([theta_start]))[0])
+        depth = float(profile_indentation(self.preset.profile, pose_start[None, :])[0])
         if depth <= 0.0:
             return None
         n = max(4, int(np.ceil(depth / 5e-4)))
-        path = np.linspace(min(first_contact_angle(self.preset), theta_start), theta_start, n + 1)[1:]
-        r, a = head_pose_in_headrest(self.preset, path)
+        steps = np.linspace(0.0, 1.0, n + 1)[1:]
+        r = np.stack([pose_start[0] + depth * (1.0 - steps), np.full(n, pose_start[1])], -1)
+        a = np.full(n, pose_start[2])
         stored, failure = [], None
         for j, solver in enumerate(solvers):
             viscosity, solver.viscosity = solver.viscosity, 0.0
@@ -171,8 +154,8 @@ class FEHeadrestOracle:
         dt = p.output_dt / p.substeps
         t_fine = np.minimum(t0 + dt * np.arange(n_fine), t1)
         fine = traj.resample(t_fine)
-        theta = fine.q[:, 0]
-        r_all, a_all = head_pose_in_headrest(self.preset, theta)
+        assert fine.pose is not None
+        r_all, a_all = fine.pose[:, :2], fine.pose[:, 2]
 
         solvers = [
             CushionSolver(
@@ -204,7 +187,7 @@ class FEHeadrestOracle:
         first_contact: float | None = None
         failure: str | None = None
         stored_start = 0.0
-        preload_steps = self._preload(solvers, float(theta[0]), dt)
+        preload_steps = self._preload(solvers, fine.pose[0], dt)
         if preload_steps is not None:
             failure = preload_steps[1]
             stored_start = float(sum(w * e for w, e in zip(widths, preload_steps[0], strict=False)))
@@ -272,7 +255,8 @@ class FEHeadrestOracle:
         m_out = moment_origin[idx] + d[:, 1] * f_out[:, 0] - d[:, 0] * f_out[:, 1]
         zeros = np.zeros(n_out)
         out = traj.resample(t_out)
-        kin = relative_kinematics(self.preset, out.q[:, 0], out.qd[:, 0])
+        assert out.pose is not None
+        kin = kinematics_from_pose(out.pose)
 
         energy_ok = dissipated >= -p.energy_tolerance * energy_scale
         if failure is None and max_pen > p.max_penetration:

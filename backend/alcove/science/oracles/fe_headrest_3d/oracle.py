@@ -5,8 +5,9 @@ its own fixed command, ``python -m alcove.science.oracles.fe_headrest_3d.driver`
 runs ``ccx`` and writes the forces CSV (:mod:`.driver`). Working directory, timeout, output
 contract and quality gate are those of every ``command`` oracle
 (:class:`~alcove.science.oracles.command.CommandOracle`); no user supplies a command, an
-argument or a template. The head pose comes from q_0 as in ``fe-headrest-2d``
-(:func:`alcove.science.geometry.head_pose_in_headrest`).
+argument or a template. The head follows the trajectory's pose (``Trajectory.pose``, the
+contact body's pose relative to the headrest, whatever the chain) as in ``fe-headrest-2d``:
+the deck's rigid-body amplitude curves are its x_H, z_H displacements and rotation.
 """
 
 from __future__ import annotations
@@ -21,11 +22,13 @@ from typing import Any, ClassVar
 import numpy as np
 
 from alcove.science.arrays import FloatArray
-from alcove.science.geometry import DEFAULT_PRESET, HeadNeckPreset, head_pose_in_headrest
+from alcove.science.geometry import DEFAULT_PRESET, HeadNeckPreset, HeadProfile
 from alcove.science.oracles.base import (
     SUMMARY_DIAGNOSTICS,
     CancelCheck,
     OracleResult,
+    check_contact_within_cushion,
+    posed_trajectory,
     validated_head_trajectory,
 )
 from alcove.science.oracles.command.oracle import CommandOracle
@@ -125,13 +128,15 @@ class CcxHeadrestOracle:
     def _validated(self, trajectory: Any) -> Trajectory:
         p = self.params
 
-        def indentation(theta: FloatArray) -> FloatArray:
-            r, a = head_pose_in_headrest(self.preset, theta)
-            return -signed_gap(self.preset, r, a, self.semi_axes_xz)
+        def indentation(pose: FloatArray) -> FloatArray:
+            return -signed_gap(self.preset, pose[:, :2], pose[:, 2], self.semi_axes_xz)
 
-        traj, _ = validated_head_trajectory(
+        traj, depth = validated_head_trajectory(
             trajectory, self.preset, p.output_dt, indentation, p.max_indentation_fraction * p.cushion_thickness
         )
+        pr = self.preset.profile
+        head = HeadProfile(pr.cx, pr.cz, *self.semi_axes_xz)
+        check_contact_within_cushion(traj, depth, head, p.cushion_bottom, p.cushion_bottom + p.cushion_height)
         return traj
 
     # ---- the job -----------------------------------------------------------------------
@@ -151,8 +156,11 @@ class CcxHeadrestOracle:
             else:
                 t_out = np.append(t_out, t1)
                 n_out += 1
-        theta = trajectory.resample(t_out).q[:, 0]
-        r, a = head_pose_in_headrest(self.preset, theta)
+        pose = trajectory.resample(t_out).pose
+        if pose is None:  # a trajectory that was not validated: the 1-DOF preset's joint-only form
+            pose = posed_trajectory(trajectory, self.preset).resample(t_out).pose
+        assert pose is not None
+        r, a = pose[:, :2], pose[:, 2]
         gap = signed_gap(self.preset, r, a, self.semi_axes_xz)
         near = np.flatnonzero(gap < p.clearance)
         job: dict[str, Any] = {
