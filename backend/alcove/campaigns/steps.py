@@ -88,6 +88,16 @@ class StepContext:
         return chosen[0]
 
 
+def _kinematics(task: TaskSpec) -> Any:
+    """A chain task's kinematics for the surrogate's features (from its contact body's pose);
+    None for the 1-DOF preset, whose features come from the preset as before."""
+    if not task.model.is_chain:
+        return None
+    from alcove.science.surrogate.training import pose_kinematics
+
+    return pose_kinematics(task.model.pose_function())
+
+
 def derive_seed(campaign_seed: int, iteration: int, salt: int = 0) -> int:
     """A reproducible per-iteration seed (independent streams for different k)."""
     state = np.random.SeedSequence([int(campaign_seed), int(iteration), salt]).generate_state(1, np.uint64)[0]
@@ -107,7 +117,7 @@ def preliminary(ctx: StepContext) -> StepOutput:
     pre = ctx.config.preliminary
     with session_scope() as s:
         c = repo.get_campaign(s, ctx.campaign_id)
-        preset, seed = ctx.task(s, c).preset(), c.seed
+        model, seed = ctx.task(s, c).model, c.seed
     spec = pool_steps.PreliminarySpec(
         samples=pre.samples,
         velocity_bound=pre.velocity_bound,
@@ -116,7 +126,9 @@ def preliminary(ctx: StepContext) -> StepOutput:
         dataset_ids=pre.dataset_ids,
         meta={"lhs": pre.model_dump(mode="json")},
     )
-    return pool_steps.build_preliminary(ctx.run, spec, preset)
+    if model.is_chain:  # samples over the chain's joint box, the wrench from its head's pose
+        return pool_steps.build_preliminary(ctx.run, spec, model.oracle_preset(), model)
+    return pool_steps.build_preliminary(ctx.run, spec, model.to_preset())
 
 
 class _TrainInputs(TypedDict):
@@ -129,6 +141,7 @@ class _TrainInputs(TypedDict):
     parent_model_id: int | None
     preset: HeadNeckPreset
     lineage: dict[str, Any]
+    kinematics: Any
 
 
 def train(ctx: StepContext) -> StepOutput:
@@ -141,15 +154,18 @@ def train(ctx: StepContext) -> StepOutput:
         if pv is None or scv is None:
             raise RuntimeError(f"pool version {ctx.k - 1} or the surrogate config of iteration {ctx.k} does not exist")
         parent = surrogates_repo.version_of(s, c.id, ctx.k - 1)
-        needs_suite = c.validation_suite_id is None
+        task = ctx.task(s, c)
+        # the held-out suite's press motions are the 1-DOF preset's: a chain campaign has none
+        needs_suite = c.validation_suite_id is None and not task.model.is_chain
         inputs: _TrainInputs = {
             "pool_version_id": pv.id,
             "spec": scv.spec,
             "config_version_id": scv.id,
             "seed": derive_seed(c.seed, ctx.k),
             "parent_model_id": parent.id if parent is not None else None,
-            "preset": ctx.task(s, c).preset(),
+            "preset": task.model.oracle_preset(),
             "lineage": {"config_version_id": it.config_version_id},
+            "kinematics": _kinematics(task),
         }
     out = surrogate_steps.train(ctx.run, **inputs)
     spec, preset = suite_spec(ctx.config.settings), inputs["preset"]
@@ -158,7 +174,7 @@ def train(ctx: StepContext) -> StepOutput:
     def write(s: Session, at: IterationRef) -> dict[str, Any]:
         result = out.write(s, at)
         c = repo.get_campaign(s, at.campaign_id)
-        if c.validation_suite_id is None:  # the first model of a campaign (or of a fork)
+        if needs_suite and c.validation_suite_id is None:  # the first model of a campaign (or of a fork)
             suite = oracle_validation.attach_suite(s, c, spec, preset, motions)
             result["validation_suite_id"] = suite.id if suite is not None else None
         return result
@@ -175,7 +191,7 @@ def ocp(ctx: StepContext) -> StepOutput:
             raise RuntimeError(f"model version {ctx.k} does not exist")
         previous = solving_repo.previous_converged(s, c.id, ctx.k)
         scenario = ctx.scenario(s, c)
-        nominal_preset = ctx.task(s, c).preset()
+        nominal_preset = ctx.task(s, c).model.oracle_preset()
     # the paper's strategy solves the task as written: nothing to store (null)
     stored = scenario.to_json() if ctx.config.settings.strategy != "paper" else None
     try:
@@ -285,7 +301,10 @@ def evaluate(ctx: StepContext) -> StepOutput:
             },
         }
         model_version_id, dataset_id, suite_id = mv.id, ds.id, c.validation_suite_id
-    out = surrogate_steps.evaluate(ctx.run, model_version_id=model_version_id, dataset_id=dataset_id, record=record)
+        kinematics = _kinematics(ctx.task(s, c))
+    out = surrogate_steps.evaluate(
+        ctx.run, model_version_id=model_version_id, dataset_id=dataset_id, record=record, kinematics=kinematics
+    )
     if suite_id is None:
         return out
     # the generalisation error now if the suite is complete; else the suite's completion evaluates it

@@ -71,11 +71,11 @@ def replay(
     from alcove.science.ocp.replay import replay_trajectory
 
     with session_scope() as s:
-        oracle = load_oracle(s, oracle_version_id, task.preset())
+        oracle = load_oracle(s, oracle_version_id, task.model.oracle_preset())
         arrays = get_arrays(s, trajectory_sha256)
     traj = replay_trajectory(arrays, task, replay_phases, replay_dt)
     # a scenario's headrest: the features of these samples are relative to it (None: the task's own)
-    headrest = {"headrest_offset": task.preset().headrest_offset} if scenario else {}
+    headrest = {"headrest_offset": task.model.headrest_offset} if scenario else {}
     tau = traj.tau
     assert tau is not None  # replay_trajectory always carries the solution's torques
     started = utcnow()

@@ -29,15 +29,27 @@ class PreliminarySpec:
     meta: dict[str, Any]
 
 
-def build_preliminary(run: StepRun, spec: PreliminarySpec, preset: Any) -> StepOutput:
-    """Pool version 0 of a campaign."""
+def build_preliminary(run: StepRun, spec: PreliminarySpec, preset: Any, model: Any = None) -> StepOutput:
+    """Pool version 0 of a campaign. ``model``: the task's ``ModelSpec`` when it is a chain
+    (samples over its joint box, the wrench from its head's pose); None: the 1-DOF ``preset``."""
     pool = None
     if not spec.dataset_ids:
-        from alcove.science.surrogate.preliminary import preliminary_pool
+        from alcove.science.surrogate.preliminary import chain_preliminary_pool, preliminary_pool
 
-        pool = preliminary_pool(
-            preset, samples=spec.samples, velocity_bound=spec.velocity_bound, seed=spec.seed, chunks=spec.chunks
-        )
+        if model is not None:
+            pool = chain_preliminary_pool(
+                model.pose_function(),
+                model.oracle_preset(),
+                (model.joint_min, model.joint_max),
+                samples=spec.samples,
+                velocity_bound=spec.velocity_bound,
+                seed=spec.seed,
+                chunks=spec.chunks,
+            )
+        else:
+            pool = preliminary_pool(
+                preset, samples=spec.samples, velocity_bound=spec.velocity_bound, seed=spec.seed, chunks=spec.chunks
+            )
         run.check_cancel()
 
     def write(s: Session, at: IterationRef) -> dict[str, Any]:

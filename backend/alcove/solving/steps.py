@@ -74,7 +74,7 @@ def solve(
     task's) are stored in the solution's ``stats["trust"]``."""
     from alcove.science.ocp.solve import solve_task
     from alcove.science.surrogate.export import surrogate_contact, surrogate_contact_std
-    from alcove.science.surrogate.training import moved_headrest, pool_features, preset_kinematics
+    from alcove.science.surrogate.training import moved_headrest, pool_features, pose_kinematics, preset_kinematics
     from alcove.science.surrogate.trust import assess_solution, force_variance_function
 
     with session_scope() as s:
@@ -89,12 +89,14 @@ def solve(
             previous = stored_solution(s, s.get(OcpSolution, previous_solution_id), task)
     run.check_cancel()
     t0 = time.perf_counter()
-    preset = task.preset()
+    # a chain's features come from its contact body's pose (its kinematics); the 1-DOF preset's as before
+    chain = task.chain() if task.model.is_chain else None
+    preset = task.model.oracle_preset()
     base = pool_preset if pool_preset is not None else preset  # the pool's own headrest (a scenario's may be moved)
-    contact, contact_params = surrogate_contact(model, preset)
+    contact, contact_params = surrogate_contact(model, preset, chain)
     path = None
     if trust_region_max_std is not None and model.ensemble_size > 1:
-        std_fn, _ = surrogate_contact_std(model, preset)
+        std_fn, _ = surrogate_contact_std(model, preset, chain)
         path = (force_variance_function(std_fn), float(trust_region_max_std) ** 2)
     max_iter = run.fault.ipopt_max_iter if run.fault is not None else None
     sol = solve_task(
@@ -107,8 +109,14 @@ def solve(
         on_attempt=lambda _attempt: run.check_cancel(),  # cancel between IPOPT runs
         path=path,
     )
-    pool_x = None if pool is None else pool_features(pool, preset_kinematics(base), moved_headrest(base))
-    trust = assess_solution(model, preset, sol.t, sol.q, pool_x).to_dict()
+    kinematics = None if chain is None else pose_kinematics(chain.head_pose)
+    if pool is None:
+        pool_x = None
+    elif kinematics is not None:
+        pool_x = pool_features(pool, kinematics)
+    else:
+        pool_x = pool_features(pool, preset_kinematics(base), moved_headrest(base))
+    trust = assess_solution(model, preset, sol.t, sol.q, pool_x, kinematics=kinematics).to_dict()
     trust["trust_region_max_std"] = trust_region_max_std if path is not None else None
     compute = time.perf_counter() - t0
     arrays = {"t": sol.t, "q": sol.q, "qd": sol.qd, "tau": sol.tau, "controls": sol.controls}

@@ -28,9 +28,11 @@ def train(
     parent_model_id: int | None,
     preset: Any,
     lineage: dict[str, Any],
+    kinematics: Any = None,
 ) -> StepOutput:
     """Model version k: the force and moment networks trained on ``pool_version_id``
-    (warm-started from the parent model if the config says so)."""
+    (warm-started from the parent model if the config says so). ``kinematics``: a chain
+    task's (features from its head's pose); None: the 1-DOF ``preset``'s."""
     from alcove.science.surrogate.config import SurrogateConfig
     from alcove.science.surrogate.training import TrainingCancelled, train_surrogate
 
@@ -43,7 +45,9 @@ def train(
         warm = load_model(s, parent) if parent is not None and config.warm_start else None
     t0 = time.perf_counter()
     try:
-        result = train_surrogate(pool, config, seed, warm_start=warm, cancel=run.cancelled, preset=preset)
+        result = train_surrogate(
+            pool, config, seed, warm_start=warm, cancel=run.cancelled, preset=preset, kinematics=kinematics
+        )
     except TrainingCancelled as err:
         raise StepCancelled(str(err)) from None
     compute = time.perf_counter() - t0
@@ -72,7 +76,9 @@ def train(
     return StepOutput(write, compute_s=compute)
 
 
-def evaluate(run: StepRun, *, model_version_id: int, dataset_id: int, record: dict[str, Any]) -> StepOutput:
+def evaluate(
+    run: StepRun, *, model_version_id: int, dataset_id: int, record: dict[str, Any], kinematics: Any = None
+) -> StepOutput:
     """Model version k's error on iteration k's oracle data (:mod:`alcove.science.surrogate.metrics`:
     force and moment RMSE, in contact, calibration, per component; the largest error) and the
     curves the dashboard plots (with the ensemble's std for K > 1), stored as the
@@ -92,7 +98,7 @@ def evaluate(run: StepRun, *, model_version_id: int, dataset_id: int, record: di
         model_info = {"seed": mv.seed, "force": mv.test_force_rmse, "moment": mv.test_moment_rmse}
         train_wall_time_s = mv.train_wall_time_s
     run.check_cancel()
-    pred = predict_ensemble(model, a["q"], a["qd"], headrest_offset=offset)
+    pred = predict_ensemble(model, a["q"], a["qd"], headrest_offset=offset, kinematics=kinematics)
     f_pred = np.hstack([pred.force, pred.moment])
     f_std = np.hstack([pred.force_std, pred.moment_std]) if model.ensemble_size > 1 else None
     f_true = a["f"]

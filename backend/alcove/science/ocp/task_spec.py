@@ -548,6 +548,20 @@ TASK_PRESETS: dict[str, dict[str, Any]] = {
         ],
         "final": {"velocity": "rest"},
     },
+    "head-headrest-2dof": {
+        "name": "head-headrest-2dof",
+        "description": (
+            "The paper's two-phase task (2 s, two phases of 1 s) on the two-pivot head-neck model (C7/T1 and C0/C1, "
+            "model preset head-neck-2dof): the head moves onto the headrest and rests there."
+        ),
+        "model": {"preset": "head-neck-2dof"},
+        "initial": {"q": None, "qd": None},
+        "phases": [
+            {"name": "approach", "duration": 1.0, "intervals": 100, "w_tau": 1e-3, "w_T": 1e-4},
+            {"name": "rest", "duration": 1.0, "intervals": 100, "w_tau": 1.0, "w_T": 1.0},
+        ],
+        "final": {"velocity": "rest"},
+    },
     "head-headrest-scenarios": {
         "name": "head-headrest-scenarios",
         "description": (

@@ -26,8 +26,10 @@ function and the portable exports).
 
 from __future__ import annotations
 
+import dataclasses
 import threading
 from collections.abc import Callable
+from typing import TYPE_CHECKING, Any
 
 import casadi as ca
 import numpy as np
@@ -37,6 +39,9 @@ from alcove.science.geometry import HeadNeckPreset, HeadProfile, relative_kinema
 from alcove.science.surrogate.features import N_FEATURES, features_symbolic
 from alcove.science.surrogate.gated import GateParams, gap_from_features_symbolic, gated_net_output_symbolic
 from alcove.science.surrogate.mlp import MLP, Standardization, SurrogateModel
+
+if TYPE_CHECKING:
+    from alcove.science.multibody import PlanarChain
 
 #: (q, qd) -> (r_rel, v_rel, T_rel, omega_rel) of the contact body in the headrest frame, as SX
 SymbolicKinematics = Callable[[ca.SX, ca.SX], tuple[ca.SX, ca.SX, ca.SX, ca.SX]]
@@ -232,33 +237,44 @@ class _ThreadCache(threading.local):
     """SX graphs are not for concurrent use: one cache of parametric contacts per thread, as the OCP's."""
 
     def __init__(self) -> None:
-        self.contacts: dict[tuple[Architecture, HeadNeckPreset, bool], ca.Function] = {}
+        self.contacts: dict[tuple[Architecture, HeadNeckPreset, bool, Any], ca.Function] = {}
 
 
 _LOCAL = _ThreadCache()
 
 
-def _parametric_contact(architecture: Architecture, preset: HeadNeckPreset, std: bool = False) -> ca.Function:
+def _parametric_contact(
+    architecture: Architecture, preset: HeadNeckPreset, std: bool = False, chain: PlanarChain | None = None
+) -> ca.Function:
     cache = _LOCAL.contacts
-    key = (architecture, preset, std)
+    key = (architecture, preset, std, None if chain is None else dataclasses.astuple(chain))
     if key not in cache:
         if len(cache) >= 16:
             cache.pop(next(iter(cache)))
-        cache[key] = _build_parametric_contact(architecture, preset, std)
+        cache[key] = _build_parametric_contact(architecture, preset, std, chain)
     return cache[key]
 
 
-def _build_parametric_contact(architecture: Architecture, preset: HeadNeckPreset, std: bool) -> ca.Function:
+def _build_parametric_contact(
+    architecture: Architecture, preset: HeadNeckPreset, std: bool, chain: PlanarChain | None = None
+) -> ca.Function:
     ndof, _, force_arch, n_force, moment_arch, n_moment, n_members, gate = architecture
-    if ndof != 1:
+    if ndof != (1 if chain is None else chain.ndof):
         raise ValueError(
-            f"kinematics: the model has {ndof} degrees of freedom; the parametric export supports the 1-DOF preset"
+            f"kinematics: the model has {ndof} degrees of freedom, the "
+            + ("1-DOF preset 1" if chain is None else f"chain {chain.ndof}")
         )
     n_member = 2 * (n_force + n_moment) + sum(r * c + r for arch in (force_arch, moment_arch) for r, c in arch[1])
     n_par = n_members * n_member
     q, qd, p = ca.SX.sym("q", ndof), ca.SX.sym("qd", ndof), ca.SX.sym("p", n_par)
     read = _Reader(p)
-    feats = features_symbolic(*relative_kinematics_symbolic(preset, q[0], qd[0]))
+    # the features of the contact body's pose: the 1-DOF preset's geometry, or the chain's
+    kin = (
+        relative_kinematics_symbolic(preset, q[0], qd[0])
+        if chain is None
+        else chain.relative_kinematics_function(q, qd)
+    )
+    feats = features_symbolic(*kin)
     params = None if gate is None else GateParams(*gate)
     gap = None if gate is None else gap_from_features_symbolic(feats, preset.profile)
     wrenches = []
@@ -276,11 +292,13 @@ def _build_parametric_contact(architecture: Architecture, preset: HeadNeckPreset
     return ca.Function("contact_surrogate_p", [q, qd, p], [mean], ["q", "qd", "p"], ["wrench"])
 
 
-def surrogate_contact_std(model: SurrogateModel, preset: HeadNeckPreset) -> tuple[ca.Function, FloatArray]:
+def surrogate_contact_std(
+    model: SurrogateModel, preset: HeadNeckPreset, chain: PlanarChain | None = None
+) -> tuple[ca.Function, FloatArray]:
     """``((q, qd, p) -> (std, var), p values)``: the ensemble's spread with the weights as
     parameters (the same ``p`` as :func:`surrogate_contact`)."""
     _check_parametric(model)
-    return _parametric_contact(surrogate_architecture(model), preset, std=True), surrogate_parameters(model)
+    return _parametric_contact(surrogate_architecture(model), preset, True, chain), surrogate_parameters(model)
 
 
 def _check_parametric(model: SurrogateModel) -> None:
@@ -294,15 +312,20 @@ def _check_parametric(model: SurrogateModel) -> None:
             raise ValueError(f"model: the networks must take the {N_FEATURES} contact features")
 
 
-def surrogate_contact(model: SurrogateModel, preset: HeadNeckPreset) -> tuple[ca.Function, FloatArray]:
+def surrogate_contact(
+    model: SurrogateModel, preset: HeadNeckPreset, chain: PlanarChain | None = None
+) -> tuple[ca.Function, FloatArray]:
     """``((q, qd, p) -> wrench, p values)``: the contact-model slot with the weights as parameters.
+
+    ``chain``: the task's chain (its contact body's pose gives the features); None: the 1-DOF
+    ``preset``. ``preset`` gives the head profile of the gated architecture.
 
     The function depends only on the architecture and the preset (one cached object per
     pair and thread), so ``solve_task(task, fn, contact_params=p)`` reuses one NLP for every model
     version of an architecture. Same values as :func:`casadi_contact_function`.
     """
     _check_parametric(model)
-    return _parametric_contact(surrogate_architecture(model), preset), surrogate_parameters(model)
+    return _parametric_contact(surrogate_architecture(model), preset, False, chain), surrogate_parameters(model)
 
 
 __all__ = [

@@ -11,6 +11,13 @@ Default K: about 30 % of the samples over the preset's joint range touch the cus
 ``DEFAULT_SAMPLES = 4000`` gives ~1200 contact samples, enough for the default MLP pair
 to fit the penalty force and moment to ~1-3 % of their range on fresh samples
 (``tests/science/surrogate/test_surrogate_preliminary.py`` checks it).
+
+A chain model (:func:`chain_preliminary_pool`) is sampled the same way over its joint box
+(positions and velocities of every joint), the wrench computed from the head's pose; the
+joint box of a neck chain reaches far deeper into the cushion than any motion the oracle
+can replay, so samples whose head would indent the undeformed cushion by more than
+``max_indentation`` (default 24 mm: what the FE oracle's foam block takes, 0.6 x 40 mm) are
+left out (the 1-DOF preset's joint range reaches 8.8 mm).
 """
 
 from __future__ import annotations
@@ -18,7 +25,8 @@ from __future__ import annotations
 import numpy as np
 from scipy.stats import qmc
 
-from alcove.science.geometry import HeadNeckPreset, relative_kinematics
+from alcove.science.arrays import FloatArray
+from alcove.science.geometry import HeadNeckPreset, PoseFunction, kinematics_from_pose, profile_gap, relative_kinematics
 from alcove.science.oracles.aux_penalty import AuxPenaltyParams, aux_penalty_wrench
 from alcove.science.surrogate.dataset import PoolDataError, PoolDataset
 
@@ -77,4 +85,75 @@ def preliminary_pool(
     return pool
 
 
-__all__ = ["DEFAULT_CHUNKS", "DEFAULT_SAMPLES", "DEFAULT_VELOCITY_BOUND", "preliminary_pool"]
+DEFAULT_MAX_INDENTATION = 0.024  # m
+
+
+def chain_preliminary_pool(
+    pose: PoseFunction,
+    preset: HeadNeckPreset,
+    q_bounds: tuple[FloatArray, FloatArray],
+    samples: int = DEFAULT_SAMPLES,
+    velocity_bound: float = DEFAULT_VELOCITY_BOUND,
+    params: AuxPenaltyParams | None = None,
+    seed: int = 0,
+    chunks: int = DEFAULT_CHUNKS,
+    max_indentation: float = DEFAULT_MAX_INDENTATION,
+) -> list[PoolDataset]:
+    """Latin hypercube preliminary data for a chain of n joints: q and qd of every joint drawn
+    from ``q_bounds`` (two arrays of n) and ``[-velocity_bound, velocity_bound]``, the head's pose
+    from ``pose`` (``ModelSpec.pose_function()``), the wrench of the auxiliary penalty model
+    (``preset``: the head profile, ``ModelSpec.oracle_preset()``). Samples whose head would
+    indent the cushion by more than ``max_indentation`` [m] are left out: the hypercube is drawn
+    four times as large and the first ``samples`` acceptable points kept."""
+    lo, hi = (np.asarray(b, float).ravel() for b in q_bounds)
+    n = lo.size
+    if not (lo.size == hi.size >= 1 and np.all(np.isfinite(lo)) and np.all(np.isfinite(hi)) and np.all(lo < hi)):
+        raise PoolDataError("q_bounds", f"must be finite with lower < upper per joint, got ({lo!r}, {hi!r})")
+    if not isinstance(samples, (int, np.integer)) or samples < 2:
+        raise PoolDataError("samples", f"must be an integer >= 2, got {samples!r}")
+    if not (np.isfinite(velocity_bound) and velocity_bound > 0):
+        raise PoolDataError("velocity_bound", f"must be a positive number, got {velocity_bound!r}")
+    if not 1 <= chunks <= samples // 2:
+        raise PoolDataError("chunks", f"must lie in 1..{samples // 2} (at least two samples per dataset), got {chunks}")
+    drawn = 4 * samples
+    unit = qmc.LatinHypercube(d=2 * n, rng=np.random.default_rng(seed)).random(drawn)
+    x = qmc.scale(
+        unit, np.concatenate([lo, np.full(n, -velocity_bound)]), np.concatenate([hi, np.full(n, velocity_bound)])
+    )
+    q, qd = x[:, :n], x[:, n:]
+    poses = pose(q, qd)
+    keep = np.flatnonzero(profile_gap(preset.profile, poses) >= -max_indentation)
+    if keep.size < samples:
+        raise PoolDataError(
+            "samples",
+            f"only {keep.size} of {drawn} drawn samples indent the cushion by at most {max_indentation * 1e3:g} mm; "
+            f"ask for at most {keep.size}",
+        )
+    keep = keep[:samples]
+    q, qd, poses = q[keep], qd[keep], poses[keep]
+    force, moment = aux_penalty_wrench(preset, params or AuxPenaltyParams(), kinematics_from_pose(poses))
+    pool = []
+    for c in range(chunks):
+        idx = np.arange(c, samples, chunks)
+        pool.append(
+            PoolDataset(
+                f"preliminary-{c:02d}",
+                np.arange(idx.size, dtype=float),
+                q[idx],
+                qd[idx],
+                force[idx],
+                moment[idx],
+                origin="preliminary",
+            )
+        )
+    return pool
+
+
+__all__ = [
+    "DEFAULT_CHUNKS",
+    "DEFAULT_MAX_INDENTATION",
+    "DEFAULT_SAMPLES",
+    "DEFAULT_VELOCITY_BOUND",
+    "chain_preliminary_pool",
+    "preliminary_pool",
+]

@@ -28,6 +28,7 @@ square root is not where the members agree exactly).
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import asdict, dataclass, field
 from typing import Any
 
@@ -37,7 +38,14 @@ from pydantic import BaseModel, ConfigDict, Field
 from scipy.spatial import cKDTree
 
 from alcove.science.arrays import FloatArray
-from alcove.science.geometry import HeadNeckPreset, relative_kinematics, signed_gap
+from alcove.science.geometry import (
+    HeadNeckPreset,
+    RelativeKinematics,
+    pose_from_kinematics,
+    profile_gap,
+    relative_kinematics,
+    signed_gap,
+)
 from alcove.science.surrogate.features import features
 from alcove.science.surrogate.mlp import SurrogateModel
 
@@ -116,12 +124,21 @@ def trust_curves(
     t: FloatArray,
     q: FloatArray,
     pool_features: FloatArray | None = None,
+    kinematics: Callable[[FloatArray, FloatArray], RelativeKinematics] | None = None,
 ) -> TrustCurves:
-    """Gap, ensemble mean force, force std and pool distance at the solution's interval midpoints (1-DOF preset)."""
-    if model.ndof != 1:
-        raise ValueError(f"model: trust diagnostics need the 1-DOF preset's geometry, the model has {model.ndof} DOF")
+    """Gap, ensemble mean force, force std and pool distance at the solution's interval midpoints:
+    the 1-DOF ``preset``'s geometry, or a chain's head from ``kinematics(q, qd)`` (the gap of
+    ``preset``'s head profile at the head's pose)."""
     tm, qm, v = midpoints(t, q)
-    x = features(relative_kinematics(preset, qm[:, 0], v[:, 0]))
+    if kinematics is not None:
+        kin = kinematics(qm, v)
+        x = features(kin)
+        gap = profile_gap(preset.profile, pose_from_kinematics(kin))
+    else:
+        if model.ndof != 1:
+            raise ValueError(f"model: the model has {model.ndof} DOF; pass the chain's kinematics")
+        x = features(relative_kinematics(preset, qm[:, 0], v[:, 0]))
+        gap = signed_gap(preset, qm[:, 0])
     pred = model.predict_ensemble(x)
     distance: FloatArray | None = None
     if pool_features is not None:
@@ -132,7 +149,7 @@ def trust_curves(
     return TrustCurves(
         t=tm,
         q=qm[:, 0],
-        gap=signed_gap(preset, qm[:, 0]),
+        gap=gap,
         force=pred.force,
         force_std=np.sqrt(np.sum(pred.force_std**2, axis=1)),
         pool_distance=distance,
@@ -187,9 +204,12 @@ def assess_solution(
     q: FloatArray,
     pool_features: FloatArray | None = None,
     thresholds: TrustThresholds | None = None,
+    kinematics: Callable[[FloatArray, FloatArray], RelativeKinematics] | None = None,
 ) -> TrustReport:
-    """Trust diagnostics of an OCP solution (nodes ``t``, ``q``) solved with ``model`` as the contact."""
-    return assess_curves(trust_curves(model, preset, t, q, pool_features), model.ensemble_size, thresholds)
+    """Trust diagnostics of an OCP solution (nodes ``t``, ``q``) solved with ``model`` as the contact
+    (``kinematics``: a chain's, see :func:`trust_curves`)."""
+    curves = trust_curves(model, preset, t, q, pool_features, kinematics)
+    return assess_curves(curves, model.ensemble_size, thresholds)
 
 
 def force_variance_function(std_function: ca.Function) -> ca.Function:
