@@ -34,13 +34,13 @@ def build_preliminary(run: StepRun, spec: PreliminarySpec, preset: Any, model: A
     (samples over its joint box, the wrench from its head's pose); None: the 1-DOF ``preset``."""
     pool = None
     if not spec.dataset_ids:
-        from alcove.science.surrogate.preliminary import chain_preliminary_pool, preliminary_pool
+        from alcove.science.surrogate.preliminary import chain_box, chain_preliminary_pool, preliminary_pool
 
         if model is not None:
             pool = chain_preliminary_pool(
                 model.pose_function(),
                 model.oracle_preset(),
-                (model.joint_min, model.joint_max),
+                chain_box(model.q_initial, model.joint_min, model.joint_max),
                 samples=spec.samples,
                 velocity_bound=spec.velocity_bound,
                 seed=spec.seed,

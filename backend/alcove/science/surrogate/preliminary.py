@@ -12,12 +12,14 @@ Default K: about 30 % of the samples over the preset's joint range touch the cus
 to fit the penalty force and moment to ~1-3 % of their range on fresh samples
 (``tests/science/surrogate/test_surrogate_preliminary.py`` checks it).
 
-A chain model (:func:`chain_preliminary_pool`) is sampled the same way over its joint box
-(positions and velocities of every joint), the wrench computed from the head's pose; the
-joint box of a neck chain reaches far deeper into the cushion than any motion the oracle
+A chain model (:func:`chain_preliminary_pool`) is sampled the same way over a joint box
+(positions and velocities of every joint; :func:`chain_box`: the initial pose +- 0.2 rad per
+joint within the joint range, as the 1-DOF preset's range is theta0 +- 0.2 rad), the wrench
+computed from the head's pose; the box of a neck chain reaches far deeper into the cushion than any motion the oracle
 can replay, so samples whose head would indent the undeformed cushion by more than
-``max_indentation`` (default 24 mm: what the FE oracle's foam block takes, 0.6 x 40 mm) are
-left out (the 1-DOF preset's joint range reaches 8.8 mm).
+``max_indentation`` are left out (default 10 mm, about the reach of the 1-DOF preset's joint
+range, 8.8 mm at theta_max: the penalty force k p^2 stays below 600 N, the range of the
+1-DOF preliminary data, instead of the 3.5 kN at the FE oracle's 24 mm reach).
 """
 
 from __future__ import annotations
@@ -85,7 +87,15 @@ def preliminary_pool(
     return pool
 
 
-DEFAULT_MAX_INDENTATION = 0.024  # m
+DEFAULT_MAX_INDENTATION = 0.010  # m
+#: rad: a chain's box spans its initial pose +- this per joint (the 1-DOF preset's range is theta0 +- 0.2 rad)
+CHAIN_HALF_WIDTH = 0.2
+
+
+def chain_box(q0: FloatArray, q_min: FloatArray, q_max: FloatArray) -> tuple[FloatArray, FloatArray]:
+    """The joint box of a chain's preliminary data: ``q0 +- CHAIN_HALF_WIDTH`` within the joint range."""
+    q0 = np.asarray(q0, float)
+    return np.maximum(q_min, q0 - CHAIN_HALF_WIDTH), np.minimum(q_max, q0 + CHAIN_HALF_WIDTH)
 
 
 def chain_preliminary_pool(
@@ -154,6 +164,8 @@ __all__ = [
     "DEFAULT_MAX_INDENTATION",
     "DEFAULT_SAMPLES",
     "DEFAULT_VELOCITY_BOUND",
+    "CHAIN_HALF_WIDTH",
+    "chain_box",
     "chain_preliminary_pool",
     "preliminary_pool",
 ]
