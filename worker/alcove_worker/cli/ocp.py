@@ -2,10 +2,11 @@
 
 ``alcove ocp solve --task head-headrest-2phase [--task-file F.json] [--contact aux|none|model:FILE]
 [--intervals N] [--trust-region-max-std N] [--pool DIR] --out traj.csv [--json]`` writes the
-solution on the OCP grid as a trajectory CSV (``t,q_0,..,qd_0,..,tau_0,..``) and prints a
+solution on the OCP grid as a trajectory CSV (``t,q_0,..,qd_0,..,tau_0,..`` and the head's pose
+``head_x,head_z,head_angle,head_vx,head_vz,head_omega``) and prints a
 summary (status, iterations, cost, constraint violation, wall time). A task file may use any
 model (``head-neck-1dof``, ``head-neck-2dof``, ``trunk-neck-head-3dof`` or a user-defined
-``chain``, docs/multibody.md); chains take the contacts ``aux`` and ``none`` so far. Bad input prints
+``chain``, docs/multibody.md) with any contact. Bad input prints
 ``error: <field>: <reason>`` and exits with code 2; a solve that does not converge still
 writes the CSV (when its numbers are finite) but exits with code 1.
 
@@ -133,7 +134,9 @@ def _trust_inputs(contact: str, spec: TaskSpec, max_std: float | None, pool: Pat
     from alcove_worker.cli.trust import TrustInputError, TrustInputs
 
     try:
-        return TrustInputs.load(Path(contact.removeprefix("model:")), spec.preset(), max_std, pool)
+        chain = spec.chain() if spec.model.is_chain else None
+        model_path = Path(contact.removeprefix("model:"))
+        return TrustInputs.load(model_path, spec.model.oracle_preset(), max_std, pool, chain)
     except TrustInputError as exc:
         _bad_input(exc.field, exc.reason)
 

@@ -10,6 +10,7 @@ import casadi as ca
 import numpy as np
 
 from alcove.science.geometry import HeadNeckPreset
+from alcove.science.multibody import PlanarChain
 from alcove.science.surrogate.mlp import SurrogateModel
 from alcove.science.surrogate.trust import TrustReport, assess_solution
 
@@ -26,13 +27,22 @@ class TrustInputs:
     preset: HeadNeckPreset
     path: tuple[ca.Function, float] | None
     pool_features: np.ndarray | None
+    chain: PlanarChain | None = None
 
     @classmethod
-    def load(cls, model_path: Path, preset: HeadNeckPreset, max_std: float | None, pool: Path | None) -> TrustInputs:
+    def load(
+        cls,
+        model_path: Path,
+        preset: HeadNeckPreset,
+        max_std: float | None,
+        pool: Path | None,
+        chain: PlanarChain | None = None,
+    ) -> TrustInputs:
+        """``chain``: a chain task's model (the features from its head's pose); None: the 1-DOF ``preset``."""
         from alcove.science.surrogate.artifact import load_artifact
         from alcove.science.surrogate.dataset import PoolDataError, load_pool_dir
         from alcove.science.surrogate.export import casadi_contact_std_function
-        from alcove.science.surrogate.training import pool_features, preset_kinematics
+        from alcove.science.surrogate.training import pool_features, pose_kinematics, preset_kinematics
         from alcove.science.surrogate.trust import force_variance_function
 
         try:
@@ -47,16 +57,21 @@ class TrustInputs:
                 raise TrustInputError(
                     "trust-region-max-std", "the model is a single network (ensemble_size 1): it has no std to bound"
                 )
-            path = (force_variance_function(casadi_contact_std_function(model, preset)), max_std**2)
+            sym = None if chain is None else chain.relative_kinematics_function
+            path = (force_variance_function(casadi_contact_std_function(model, preset, sym)), max_std**2)
         features = None
         if pool is not None:
             if not pool.is_dir():
                 raise TrustInputError("pool", f"{pool} is not a folder")
             try:
-                features = pool_features(load_pool_dir(pool), preset_kinematics(preset))
+                kin = preset_kinematics(preset) if chain is None else pose_kinematics(chain.head_pose)
+                features = pool_features(load_pool_dir(pool), kin)
             except PoolDataError as exc:
                 raise TrustInputError(f"pool.{exc.field}", exc.reason) from exc
-        return cls(model, preset, path, features)
+        return cls(model, preset, path, features, chain)
 
     def assess(self, t: np.ndarray, q: np.ndarray) -> TrustReport:
-        return assess_solution(self.model, self.preset, t, q, self.pool_features)
+        from alcove.science.surrogate.training import pose_kinematics
+
+        kin = None if self.chain is None else pose_kinematics(self.chain.head_pose)
+        return assess_solution(self.model, self.preset, t, q, self.pool_features, kinematics=kin)

@@ -137,17 +137,25 @@ def check_contact_function(fn: ca.Function, ndof: int) -> None:
 def contact_from_spec(spec: str, preset: HeadNeckPreset | PlanarChain) -> ca.Function | None:
     """Parse ``aux``, ``none`` or ``model:FILE`` into a contact function (``None`` for none).
 
-    ``preset``: the 1-DOF preset, or the task's chain (``aux`` and ``none`` only, so far)."""
+    ``preset``: the 1-DOF preset, or the task's chain (a surrogate then reads its contact body's pose)."""
     if spec == "none":
         return None
     if spec == "aux":
         return chain_aux_contact(preset) if isinstance(preset, PlanarChain) else aux_contact(preset)
     if spec.startswith("model:"):
-        if isinstance(preset, PlanarChain):
-            raise ContactModelError("contact", "surrogate models take the head-neck-1dof preset only so far")
         path = Path(spec.removeprefix("model:"))
         if not path.exists():
             raise ContactModelError("contact", f"model file {str(path)!r} does not exist")
+        if isinstance(preset, PlanarChain):  # the features of the chain's contact body's pose
+            from alcove.science.surrogate.artifact import load_artifact
+            from alcove.science.surrogate.export import casadi_contact_function
+
+            model = load_artifact(path)
+            if model.ndof != preset.ndof:
+                raise ContactModelError(
+                    "contact", f"the model was trained on {model.ndof} joint(s), the task's chain has {preset.ndof}"
+                )
+            return casadi_contact_function(model, model.preset, preset.relative_kinematics_function)
         from alcove.science.surrogate.artifact import casadi_contact_from_artifact  # lazy: torch
 
         return casadi_contact_from_artifact(path, preset)

@@ -160,11 +160,11 @@ def chain_preliminary_pool(
 
 
 __all__ = [
+    "CHAIN_HALF_WIDTH",
     "DEFAULT_CHUNKS",
     "DEFAULT_MAX_INDENTATION",
     "DEFAULT_SAMPLES",
     "DEFAULT_VELOCITY_BOUND",
-    "CHAIN_HALF_WIDTH",
     "chain_box",
     "chain_preliminary_pool",
     "preliminary_pool",
