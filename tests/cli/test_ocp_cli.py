@@ -5,10 +5,12 @@ import subprocess
 import sys
 from pathlib import Path
 
+import numpy as np
 import pytest
 from typer.testing import CliRunner
 
 from alcove.science.geometry import DEFAULT_PRESET
+from alcove.science.ocp.task_spec import task_preset
 from alcove.science.series import Trajectory
 from alcove_worker.cli.main import app
 
@@ -43,7 +45,7 @@ def test_solve_writes_the_trajectory_and_a_json_summary(tmp_path):
     for key in ("iterations", "cost", "wall_time_s", "constraint_violation"):
         assert key in summary
     text = (tmp_path / "traj.csv").read_text()
-    assert text.splitlines()[0] == "t,q_0,qd_0,tau_0"
+    assert text.splitlines()[0] == "t,q_0,qd_0,tau_0,head_x,head_z,head_angle,head_vx,head_vz,head_omega"
     traj = Trajectory.from_csv(tmp_path / "traj.csv")
     assert len(traj) == 81 and traj.t[-1] == pytest.approx(2.0)
     assert traj.q[0, 0] == pytest.approx(DEFAULT_PRESET.theta0) and traj.q.max() > DEFAULT_PRESET.theta_contact
@@ -209,15 +211,20 @@ EXAMPLES = Path(__file__).resolve().parents[2] / "examples" / "tasks"
 
 
 def test_solve_a_task_file_with_a_chain_model(tmp_path):
-    """The 2-DOF example task solves from the CLI; the CSV has one q/qd/tau column per joint."""
+    """The 2-DOF example task solves from the CLI; the CSV has one q/qd/tau column per joint and the
+    head's pose in the headrest frame (the chain's kinematics at the joint columns)."""
     out = tmp_path / "t.csv"
     res = runner.invoke(
         app, ["ocp", "solve", "--task-file", str(EXAMPLES / "head-headrest-2dof.json"), "--out", str(out), "--json"]
     )
     assert res.exit_code == 0, res.stderr
     assert json.loads(res.stdout)["converged"]
-    assert out.read_text().splitlines()[0] == "t,q_0,q_1,qd_0,qd_1,tau_0,tau_1"
-    assert Trajectory.from_csv(out).q.shape == (201, 2)
+    header = "t,q_0,q_1,qd_0,qd_1,tau_0,tau_1,head_x,head_z,head_angle,head_vx,head_vz,head_omega"
+    assert out.read_text().splitlines()[0] == header
+    traj = Trajectory.from_csv(out)
+    assert traj.q.shape == (201, 2)
+    chain = task_preset("head-headrest-2dof").chain()
+    np.testing.assert_allclose(traj.pose, chain.head_pose(traj.q, traj.qd), rtol=0, atol=1e-14)
 
 
 def test_a_bad_chain_in_a_task_file_names_the_field(tmp_path):
@@ -242,5 +249,5 @@ def test_a_bad_chain_in_a_task_file_names_the_field(tmp_path):
             str(tmp_path / "t.csv"),
         ],
     )
-    assert res.exit_code == 2
-    assert "head-neck-1dof preset only" in res.stderr
+    assert res.exit_code == 2  # chains take surrogate contacts too: the file is checked
+    assert res.stderr == "error: contact: model file 'x.pt' does not exist\n"

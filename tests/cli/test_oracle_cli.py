@@ -202,9 +202,9 @@ def invoke(*args: str):
             "error: trajectory: qd_0: expected 1 velocity columns",
         ),
         (
-            lambda d: (d / "traj.csv").write_text("t,q_0,qd_0\n0,0.2,0\n1,0.9,0\n"),
+            lambda d: (d / "traj.csv").write_text("t,q_0,q_1,qd_0,qd_1\n0,0.2,0,0,0\n1,0.3,0,0,0\n"),
             ["--oracle", "aux-penalty"],
-            "error: q_0: theta = 0.9 rad at t = 1 s is outside",
+            "error: trajectory: head_x: missing: a trajectory of 2 joints needs the pose columns",
         ),
         (
             lambda d: None,
