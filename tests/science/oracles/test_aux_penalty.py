@@ -5,7 +5,6 @@ d0 = 0.1 N s/mm, p_ref = 2 mm) and compared with the SI implementation.
 """
 
 import math
-
 from types import SimpleNamespace
 
 import numpy as np

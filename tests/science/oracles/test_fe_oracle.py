@@ -223,8 +223,9 @@ def test_bad_trajectories_give_clear_errors():
     # geometric range checks, naming the sample: beyond what the foam block can take ...
     press = np.where(t > 0.05, 0.7, 0.3)  # 0.7 rad: 28.9 mm into the 40 mm cushion, 24 mm allowed
     with pytest.raises(
-        OracleInputError, match=r"^head_x: sample 21 \(t = 0.0525 s\): the head would indent the cushion by .* mm, "
-        r"beyond what the foam block can take"
+        OracleInputError,
+        match=r"^head_x: sample 21 \(t = 0.0525 s\): the head would indent the cushion by .* mm, "
+        r"beyond what the foam block can take",
     ):
         oracle.run(Trajectory(t, press, np.zeros_like(t)))
     deep = FEHeadrestParams(cushion_thickness=0.02, element_size_contact=0.004, max_indentation_fraction=0.3)

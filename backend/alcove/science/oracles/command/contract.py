@@ -39,22 +39,24 @@ RESERVED_FILES = frozenset({TRAJECTORY_FILE, PARAMS_FILE, DIAGNOSTICS_FILE, STDO
 #: Placeholders every template may use (besides the entry's declared parameters).
 TEMPLATE_PLACEHOLDERS: dict[str, str] = {
     "motion_curve": (
-        "theta(t) of the trajectory as *DEFINE_CURVE data lines: t [s], theta [rad] (2 fields of 20 characters)"
+        "the head's absolute backward tilt head_angle + tilt (theta for the 1-DOF preset) over t as *DEFINE_CURVE "
+        "data lines: t [s], angle [rad] (2 fields of 20 characters)"
     ),
     "head_x_curve": "x_H displacement of the head frame origin from its start [m] over t, as curve data lines",
     "head_z_curve": "z_H displacement of the head frame origin from its start [m] over t, as curve data lines",
     "head_rotation_curve": (
-        "rotation of the head about y_H from its start [rad] over t (= theta(t0) - theta(t)), as curve data lines"
+        "rotation of the head about y_H from its start [rad] over t (= head_angle(t0) - head_angle(t)), "
+        "as curve data lines"
     ),
     "head_x0": "x_H of the head frame origin at the start [m]",
     "head_z0": "z_H of the head frame origin at the start [m]",
     "head_x0_mm": "the same in mm",
     "head_z0_mm": "the same in mm",
     "head_rotation0": (
-        "rotation of the head frame about y_H relative to the headrest frame at the start [rad] (= tilt - theta_start)"
+        "rotation of the head frame about y_H relative to the headrest frame at the start [rad] (= -head_angle(t0))"
     ),
     "head_rotation0_deg": "the same in degrees",
-    "theta_start": "theta at the start [rad]",
+    "theta_start": "the head's absolute tilt at the start, head_angle(t0) + tilt (theta for the 1-DOF preset) [rad]",
     "headrest_tilt": "backward tilt of the headrest [rad]",
     "t_start": "first time of the trajectory [s]",
     "t_end": "last time of the trajectory [s]",
