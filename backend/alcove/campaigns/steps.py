@@ -98,6 +98,19 @@ def _kinematics(task: TaskSpec) -> Any:
     return pose_kinematics(task.model.pose_function())
 
 
+def _suite_model(task: TaskSpec) -> Any:
+    """The validation suite's model: the 1-DOF preset, or a chain's joint line
+    (:func:`alcove.science.validation_suite.chain_suite_model`)."""
+    m = task.model
+    if not m.is_chain:
+        return m.to_preset()
+    from alcove.science.validation_suite import chain_suite_model
+
+    return chain_suite_model(
+        m.model_dump(mode="json"), m.pose_function(), m.oracle_preset(), m.q_initial, m.joint_min, m.joint_max
+    )
+
+
 def derive_seed(campaign_seed: int, iteration: int, salt: int = 0) -> int:
     """A reproducible per-iteration seed (independent streams for different k)."""
     state = np.random.SeedSequence([int(campaign_seed), int(iteration), salt]).generate_state(1, np.uint64)[0]
@@ -155,8 +168,7 @@ def train(ctx: StepContext) -> StepOutput:
             raise RuntimeError(f"pool version {ctx.k - 1} or the surrogate config of iteration {ctx.k} does not exist")
         parent = surrogates_repo.version_of(s, c.id, ctx.k - 1)
         task = ctx.task(s, c)
-        # the held-out suite's press motions are the 1-DOF preset's: a chain campaign has none
-        needs_suite = c.validation_suite_id is None and not task.model.is_chain
+        needs_suite = c.validation_suite_id is None
         inputs: _TrainInputs = {
             "pool_version_id": pv.id,
             "spec": scv.spec,
@@ -169,13 +181,14 @@ def train(ctx: StepContext) -> StepOutput:
         }
     out = surrogate_steps.train(ctx.run, **inputs)
     spec, preset = suite_spec(ctx.config.settings), inputs["preset"]
-    motions = oracle_validation.motions_for(spec, preset) if needs_suite else None
+    suite_model = _suite_model(task) if spec.motions > 0 else preset
+    motions = oracle_validation.motions_for(spec, suite_model) if needs_suite else None
 
     def write(s: Session, at: IterationRef) -> dict[str, Any]:
         result = out.write(s, at)
         c = repo.get_campaign(s, at.campaign_id)
-        if needs_suite and c.validation_suite_id is None:  # the first model of a campaign (or of a fork)
-            suite = oracle_validation.attach_suite(s, c, spec, preset, motions)
+        if c.validation_suite_id is None:  # the first model of a campaign (or of a fork)
+            suite = oracle_validation.attach_suite(s, c, spec, suite_model, motions)
             result["validation_suite_id"] = suite.id if suite is not None else None
         return result
 

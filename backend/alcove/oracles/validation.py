@@ -131,8 +131,15 @@ def run_motion(motion_id: int, worker_name: str = "local") -> str:
     """The job of one motion: claim, replay, record. Returns the motion's status (or ``duplicate``)."""
     from alcove.db import session_scope, transaction
     from alcove.oracles.steps import load_oracle
-    from alcove.science.geometry import HeadNeckPreset
-    from alcove.science.validation_suite import PressMotion, SuiteSpec, press_trajectory
+    from alcove.science.ocp.task_spec import ModelSpec
+    from alcove.science.validation_suite import (
+        ChainSuiteModel,
+        PressMotion,
+        SuiteSpec,
+        chain_press_trajectory,
+        press_trajectory,
+        suite_model_from_dict,
+    )
 
     token = uuid.uuid4().hex
     attempt = transaction(lambda s: claim(s, motion_id, token, worker_name))
@@ -146,11 +153,16 @@ def run_motion(motion_id: int, worker_name: str = "local") -> str:
             assert row is not None
             suite = s.get(ValidationSuite, row.suite_id)
             assert suite is not None
-            preset = HeadNeckPreset.from_dict(suite.preset)
+            suite_model = suite_model_from_dict(suite.preset)
             spec = SuiteSpec.from_dict(suite.spec)
+            model = ModelSpec.model_validate(suite_model.model) if isinstance(suite_model, ChainSuiteModel) else None
+            preset = suite_model if model is None else model.oracle_preset()
             oracle = load_oracle(s, suite.oracle_version_id, preset)
             params = dict(row.params)
-        traj = press_trajectory(PressMotion(**params), spec.dt)
+        if isinstance(suite_model, ChainSuiteModel) and model is not None:  # a chain's motion along its joint line
+            traj = chain_press_trajectory(PressMotion(**params), spec.dt, suite_model, model.pose_function())
+        else:
+            traj = press_trajectory(PressMotion(**params), spec.dt)
         res = oracle.run(traj)
     except Exception as err:
         log.exception("validation motion %d failed (attempt %d)", motion_id, attempt)

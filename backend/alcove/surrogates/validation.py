@@ -54,12 +54,23 @@ def _suite_arrays(s: Session, suite_id: int) -> list[dict[str, np.ndarray]]:
     return [dataset_arrays(s, ds) for ds in validation_datasets(s, suite_id)]
 
 
-def _metrics(model: Any, motions: list[dict[str, np.ndarray]]) -> dict[str, Any]:
+def suite_kinematics(suite: ValidationSuite) -> Any:
+    """The kinematics of a chain suite's motions (features from the chain's head pose); None for
+    the 1-DOF preset's suites (the model's own preset)."""
+    if "chain_suite" not in (suite.preset or {}):
+        return None
+    from alcove.science.ocp.task_spec import ModelSpec
+    from alcove.science.surrogate.training import pose_kinematics
+
+    return pose_kinematics(ModelSpec.model_validate(suite.preset["chain_suite"]["model"]).pose_function())
+
+
+def _metrics(model: Any, motions: list[dict[str, np.ndarray]], kinematics: Any = None) -> dict[str, Any]:
     from alcove.science.surrogate.training import predict_arrays
 
     preds, trues, per_motion = [], [], []
     for a in motions:
-        force, moment = predict_arrays(model, a["q"], a["qd"])
+        force, moment = predict_arrays(model, a["q"], a["qd"], kinematics)
         pred = np.hstack([force, moment])
         e = generalisation_error(pred, a["f"])
         per_motion.append({"force_rmse": e["force_rmse"], "moment_rmse": e["moment_rmse"], "n_samples": len(pred)})
@@ -95,7 +106,8 @@ def compute_for_model(model_version_id: int, suite_id: int) -> dict[str, Any] | 
         assert mv is not None
         model = load_model(s, mv)
         motions = _suite_arrays(s, suite_id)
-    return _metrics(model, motions)
+        kinematics = suite_kinematics(suite)
+    return _metrics(model, motions, kinematics)
 
 
 def store_for_model(s: Session, model_version_id: int, suite_id: int, metrics: dict[str, Any]) -> bool:
@@ -125,6 +137,7 @@ def evaluate_suite(suite_id: int) -> int:
             return 0
         ids = pending_models(s, suite_id)
         motions = _suite_arrays(s, suite_id)
+        kinematics = suite_kinematics(suite)
     written = 0
     for mv_id in ids:
         with session_scope() as s:
@@ -132,7 +145,7 @@ def evaluate_suite(suite_id: int) -> int:
             if mv is None:
                 continue
             model, campaign_id, version = load_model(s, mv), mv.campaign_id, mv.version
-        m = _metrics(model, motions)
+        m = _metrics(model, motions, kinematics)
 
         def store(
             s: Session, mv_id: int = mv_id, m: dict[str, Any] = m, c: Any = campaign_id, k: int = version

@@ -104,3 +104,33 @@ def test_a_pool_of_two_joints_needs_the_chains_kinematics():
     pool = [PoolDataset(f"x{i}", np.arange(3.0), z2, z2, z3, z3) for i in range(4)]
     with pytest.raises(PoolDataError, match=r"^q: the head-neck preset has 1 degree of freedom, got 2"):
         train_surrogate(pool, SurrogateConfig.parse({"ensemble_size": 1}), seed=0)
+
+
+@pytest.mark.parametrize("name", ["head-neck-2dof", "trunk-neck-head-3dof"])
+def test_a_chains_validation_suite_presses_its_head_as_deep_as_the_1dof_suite(name):
+    from alcove.science.ocp.task_spec import parse_task
+    from alcove.science.validation_suite import (
+        SuiteSpec,
+        chain_press_trajectory,
+        chain_suite_model,
+        motion_parameters,
+        press_trajectory,
+        suite_model_from_dict,
+    )
+
+    data = task_preset("head-headrest-2phase").model_dump(mode="json")
+    data["model"] = {"preset": name}
+    m = parse_task(data).model
+    pose, head = m.pose_function(), m.oracle_preset()
+    suite = chain_suite_model(m.model_dump(mode="json"), pose, head, m.q_initial, m.joint_min, m.joint_max)
+    assert suite_model_from_dict(suite.to_dict()) == suite
+    q_c = np.array([suite.q_contact])
+    assert abs(profile_gap(head.profile, pose(q_c, np.zeros_like(q_c)))[0]) < 1e-9  # the line's first contact
+    spec = SuiteSpec()
+    for motion in motion_parameters(spec, suite):
+        traj = chain_press_trajectory(motion, spec.dt, suite, pose)
+        assert np.all((traj.q >= m.joint_min) & (traj.q <= m.joint_max))
+        np.testing.assert_allclose(traj.pose, pose(traj.q, traj.qd), atol=1e-15)
+        depth = -profile_gap(head.profile, traj.pose).min()
+        ref = -signed_gap(P, press_trajectory(motion, spec.dt).q[:, 0]).min()
+        assert ref > 0.002 and depth == pytest.approx(ref, rel=0.1)  # same rate at first contact: within 10 %
