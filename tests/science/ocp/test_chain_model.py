@@ -125,10 +125,13 @@ def test_presets_fill_in_what_is_not_given_and_round_trip():
         assert model.ndof == len(CHAIN_PRESETS[name]["links"])
 
 
-def test_the_oracle_path_refuses_a_chain_with_a_clear_error():
+def test_the_1dof_parameters_of_a_chain_are_refused_and_its_oracles_get_its_head():
     task = parse_task(chain_task({"preset": "head-neck-2dof"}))
     with pytest.raises(TaskSpecError, match=r"^model.preset: 'head-neck-2dof' is a chain model"):
         task.preset()
+    head = task.model.oracle_preset()  # what an oracle reads besides the pose: the profile and the tilt
+    assert head.profile == task.model.chain.contact_body.profile.to_profile()
+    assert head.tilt == task.model.chain.headrest.tilt
 
 
 # ---- the NumPy kinematics of validation against the CasADi chain --------------------------------
