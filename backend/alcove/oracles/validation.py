@@ -155,12 +155,15 @@ def run_motion(motion_id: int, worker_name: str = "local") -> str:
             assert suite is not None
             suite_model = suite_model_from_dict(suite.preset)
             spec = SuiteSpec.from_dict(suite.spec)
-            model = ModelSpec.model_validate(suite_model.model) if isinstance(suite_model, ChainSuiteModel) else None
-            preset = suite_model if model is None else model.oracle_preset()
+            if isinstance(suite_model, ChainSuiteModel):
+                preset = ModelSpec.model_validate(suite_model.model).oracle_preset()
+            else:
+                preset = suite_model
             oracle = load_oracle(s, suite.oracle_version_id, preset)
             params = dict(row.params)
-        if isinstance(suite_model, ChainSuiteModel) and model is not None:  # a chain's motion along its joint line
-            traj = chain_press_trajectory(PressMotion(**params), spec.dt, suite_model, model.pose_function())
+        if isinstance(suite_model, ChainSuiteModel):  # a chain's motion along its joint line
+            pose = ModelSpec.model_validate(suite_model.model).pose_function()
+            traj = chain_press_trajectory(PressMotion(**params), spec.dt, suite_model, pose)
         else:
             traj = press_trajectory(PressMotion(**params), spec.dt)
         res = oracle.run(traj)

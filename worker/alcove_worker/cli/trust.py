@@ -41,7 +41,7 @@ class TrustInputs:
         """``chain``: a chain task's model (the features from its head's pose); None: the 1-DOF ``preset``."""
         from alcove.science.surrogate.artifact import load_artifact
         from alcove.science.surrogate.dataset import PoolDataError, load_pool_dir
-        from alcove.science.surrogate.export import casadi_contact_std_function
+        from alcove.science.surrogate.export import casadi_contact_std_function, chain_kinematics
         from alcove.science.surrogate.training import pool_features, pose_kinematics, preset_kinematics
         from alcove.science.surrogate.trust import force_variance_function
 
@@ -57,7 +57,7 @@ class TrustInputs:
                 raise TrustInputError(
                     "trust-region-max-std", "the model is a single network (ensemble_size 1): it has no std to bound"
                 )
-            sym = None if chain is None else chain.relative_kinematics_function
+            sym = None if chain is None else chain_kinematics(chain)
             path = (force_variance_function(casadi_contact_std_function(model, preset, sym)), max_std**2)
         features = None
         if pool is not None:

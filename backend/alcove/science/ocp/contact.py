@@ -148,14 +148,14 @@ def contact_from_spec(spec: str, preset: HeadNeckPreset | PlanarChain) -> ca.Fun
             raise ContactModelError("contact", f"model file {str(path)!r} does not exist")
         if isinstance(preset, PlanarChain):  # the features of the chain's contact body's pose
             from alcove.science.surrogate.artifact import load_artifact
-            from alcove.science.surrogate.export import casadi_contact_function
+            from alcove.science.surrogate.export import casadi_contact_function, chain_kinematics
 
             model = load_artifact(path)
             if model.ndof != preset.ndof:
                 raise ContactModelError(
                     "contact", f"the model was trained on {model.ndof} joint(s), the task's chain has {preset.ndof}"
                 )
-            return casadi_contact_function(model, model.preset, preset.relative_kinematics_function)
+            return casadi_contact_function(model, model.preset, chain_kinematics(preset))
         from alcove.science.surrogate.artifact import casadi_contact_from_artifact  # lazy: torch
 
         return casadi_contact_from_artifact(path, preset)

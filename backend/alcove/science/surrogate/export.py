@@ -159,6 +159,17 @@ def _state_features(
     return q, qd, features_symbolic(*kin)
 
 
+def chain_kinematics(chain: PlanarChain) -> SymbolicKinematics:
+    """A chain's symbolic kinematics of its contact body relative to the headrest (the features'
+    input, for :func:`casadi_contact_function`)."""
+
+    def kin(q: ca.SX, qd: ca.SX) -> tuple[ca.SX, ca.SX, ca.SX, ca.SX]:
+        r_rel, v_rel, T_rel, omega_rel = chain.relative_kinematics_function(q, qd)
+        return r_rel, v_rel, T_rel, omega_rel
+
+    return kin
+
+
 def casadi_contact_std_function(
     model: SurrogateModel, preset: HeadNeckPreset, kinematics: SymbolicKinematics | None = None
 ) -> ca.Function:
@@ -332,6 +343,7 @@ __all__ = [
     "casadi_contact_function",
     "casadi_contact_std_function",
     "casadi_network_function",
+    "chain_kinematics",
     "member_wrenches_symbolic",
     "mlp_symbolic",
     "surrogate_architecture",
