@@ -89,7 +89,9 @@ def run(
     oracle: str = typer.Option(
         ..., "--oracle", help="fe-headrest-2d, fe-headrest-3d-ccx, aux-penalty or a command oracle of the catalogue"
     ),
-    trajectory: Path = typer.Option(..., "--trajectory", help="trajectory CSV (t,q_i,qd_i[,tau_i],head_x..head_omega; docs/external-solvers.md)"),
+    trajectory: Path = typer.Option(
+        ..., "--trajectory", help="trajectory CSV (t,q_i,qd_i[,tau_i],head_x..head_omega; docs/external-solvers.md)"
+    ),
     out: Path = typer.Option(..., "--out", help="forces CSV to write (t,fx,fy,fz,mx,my,mz; N, N m, headrest frame)"),
     params: Path | None = typer.Option(None, "--params", help="JSON object of oracle parameters"),
     catalogue: Path | None = typer.Option(
