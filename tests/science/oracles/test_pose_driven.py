@@ -161,3 +161,22 @@ def test_resampling_recomputes_the_pose_from_the_model_or_interpolates_the_colum
     columns_only = Trajectory(traj.t, traj.q, traj.qd, pose=traj.pose).resample(grid)
     for j in range(6):
         np.testing.assert_allclose(columns_only.pose[:, j], np.interp(grid, traj.t, traj.pose[:, j]), atol=1e-15)
+
+
+def test_ccx_deck_amplitudes_come_from_the_pose():
+    """The 3D oracle's rigid-body amplitude curves (x_H, z_H, rotation) and head placement: a chain's
+    pose gives the deck of the old q-driven path (numbers written with 12 digits or fewer)."""
+    from alcove.science.oracles.fe_headrest_3d import CcxHeadrestOracle
+
+    oracle = CcxHeadrestOracle()
+    t, theta, theta_dot = press()
+    old_files, old_job = oracle.job_files(oracle._validated(Trajectory(t, theta, theta_dot)))
+    new_files, new_job = oracle.job_files(oracle._validated(two_joint_trajectory()))
+    assert old_job["first_simulated"] == new_job["first_simulated"] and old_job["tau"] == new_job["tau"]
+    np.testing.assert_allclose(new_job["cog"], old_job["cog"], rtol=0, atol=1e-12)
+    old_lines, new_lines = (f["headrest.inp"].splitlines() for f in (old_files, new_files))
+    assert len(old_lines) == len(new_lines) > 100
+    differ = [(a, b) for a, b in zip(old_lines, new_lines, strict=True) if a != b]
+    for a, b in differ:  # only last-digit round-off in numeric fields
+        fa, fb = (np.array([float(x) for x in line.split(",") if x.strip()]) for line in (a, b))
+        np.testing.assert_allclose(fb, fa, rtol=1e-9, atol=1e-12)
