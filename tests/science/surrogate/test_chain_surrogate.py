@@ -81,6 +81,26 @@ def test_the_ocp_contact_on_a_chain_is_the_numpy_prediction_from_the_heads_pose(
     np.testing.assert_allclose(direct, expected, rtol=0, atol=1e-9 * scale)
 
 
+def test_a_saved_chain_surrogate_is_the_contact_of_alcove_ocp_solve(chain_model, tmp_path):
+    from alcove.science.ocp.contact import ContactModelError, contact_from_spec
+    from alcove.science.surrogate.artifact import save_artifact
+
+    chain, model = chain_model
+    save_artifact(model, tmp_path / "m")
+    fn = contact_from_spec(f"model:{tmp_path / 'm'}", chain)
+    q, qd = np.array([[0.33, 0.02]]), np.array([[0.4, -0.1]])
+    pred = predict_ensemble(model, q, qd, kinematics=pose_kinematics(chain.head_pose))
+    np.testing.assert_allclose(np.asarray(fn(q.T, qd.T)).ravel(), np.hstack([pred.force, pred.moment])[0], atol=1e-9)
+    three = task_preset("head-headrest-2phase").model_dump(mode="json")
+    three["model"] = {"preset": "trunk-neck-head-3dof"}
+    from alcove.science.ocp.task_spec import parse_task
+
+    with pytest.raises(
+        ContactModelError, match=r"^contact: the model was trained on 2 joint\(s\), the task's chain has 3"
+    ):
+        contact_from_spec(f"model:{tmp_path / 'm'}", parse_task(three).chain())
+
+
 def test_trust_curves_of_a_straight_chain_are_the_1dof_presets(chain_model):
     chain, model = chain_model
     t = np.linspace(0.0, 1.0, 41)
