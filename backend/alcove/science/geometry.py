@@ -245,16 +245,23 @@ def preset_pose(preset: HeadNeckPreset, q: FloatArray, qd: FloatArray) -> FloatA
     return pose
 
 
-def preset_pose_function(preset: HeadNeckPreset) -> PoseFunction:
-    """:func:`preset_pose` for one preset, checking that the joint state has one column."""
+@dataclass(frozen=True)
+class PresetPose:
+    """:func:`preset_pose` of one preset as a :data:`PoseFunction` (checking that the joint state
+    has one column); ``preset`` tells an oracle the head's joint path (e.g. from first contact)."""
 
-    def pose(q: FloatArray, qd: FloatArray) -> FloatArray:
+    preset: HeadNeckPreset
+
+    def __call__(self, q: FloatArray, qd: FloatArray) -> FloatArray:
         q, qd = np.asarray(q, float), np.asarray(qd, float)
         if q.ndim == 2 and q.shape[1] != 1:
             raise ValueError(f"q: the head-neck-1dof preset has 1 joint, got {q.shape[1]} columns")
-        return preset_pose(preset, q, qd)
+        return preset_pose(self.preset, q, qd)
 
-    return pose
+
+def preset_pose_function(preset: HeadNeckPreset) -> PresetPose:
+    """:func:`preset_pose` for one preset (:class:`PresetPose`)."""
+    return PresetPose(preset)
 
 
 def kinematics_from_pose_symbolic(pose: Symbolic) -> tuple[Symbolic, Symbolic, Symbolic, Symbolic]:
@@ -347,6 +354,7 @@ __all__ = [
     "HeadNeckPreset",
     "HeadProfile",
     "PoseFunction",
+    "PresetPose",
     "RelativeKinematics",
     "first_contact_angle",
     "head_pose_in_headrest",

@@ -180,3 +180,23 @@ def test_ccx_deck_amplitudes_come_from_the_pose():
     for a, b in differ:  # only last-digit round-off in numeric fields
         fa, fb = (np.array([float(x) for x in line.split(",") if x.strip()]) for line in (a, b))
         np.testing.assert_allclose(fb, fa, rtol=1e-9, atol=1e-12)
+
+
+def test_a_pose_alone_starting_in_contact_is_preloaded_along_the_normal_to_the_same_state():
+    """Held still 10 mm or so into the cushion from t = 0. The 1-DOF joint trajectory is preloaded
+    along the head's own path, the same pose given alone along the cushion normal: without
+    friction the cushion is elastic during the preload, so both reach the same equilibrium
+    (force to 1e-4 of its value: Newton's tolerance over two different paths)."""
+    t = np.arange(0.0, 0.05 + 1e-9, 0.0025)
+    params = FEHeadrestParams(friction=0.0)
+    joint = FEHeadrestOracle(params).run(Trajectory(t, np.full_like(t, 0.36), np.zeros_like(t)))
+    pose = preset_pose(P, np.full_like(t, 0.36), np.zeros_like(t))
+    alone = FEHeadrestOracle(params).run(Trajectory(t, np.zeros((t.size, 3)), np.zeros((t.size, 3)), pose=pose))
+    assert joint.ok and alone.ok, (joint.failure_reason, alone.failure_reason)
+    f0 = joint.forces.force[0]
+    assert f0[0] > 10.0
+    np.testing.assert_allclose(alone.forces.force, joint.forces.force, rtol=0, atol=1e-4 * np.linalg.norm(f0))
+    np.testing.assert_allclose(alone.forces.moment, joint.forces.moment, rtol=0, atol=1e-4 * np.linalg.norm(f0))
+    d = alone.diagnostics
+    assert abs(d["dissipated_energy_j"]) < 1e-6 * d["stored_energy_start_j"]
+    assert d["stored_energy_start_j"] == pytest.approx(joint.diagnostics["stored_energy_start_j"], rel=1e-4)

@@ -20,7 +20,14 @@ from typing import Any, ClassVar
 import numpy as np
 
 from alcove.science.arrays import FloatArray
-from alcove.science.geometry import DEFAULT_PRESET, HeadNeckPreset, HeadProfile, kinematics_from_pose
+from alcove.science.geometry import (
+    DEFAULT_PRESET,
+    HeadNeckPreset,
+    HeadProfile,
+    PresetPose,
+    first_contact_angle,
+    kinematics_from_pose,
+)
 from alcove.science.oracles.base import (
     CancelCheck,
     OracleCancelled,
@@ -107,22 +114,31 @@ class FEHeadrestOracle:
         check_contact_within_cushion(traj, depth, self.preset.profile, bottom, bottom + self.params.cushion_height)
 
     def _preload(
-        self, solvers: list[CushionSolver], pose_start: FloatArray, dt: float
+        self, solvers: list[CushionSolver], traj: Trajectory, dt: float
     ) -> tuple[list[float], str | None] | None:
         """A trajectory that starts with the head in the cushion starts from static equilibrium.
 
-        The head is moved quasi-statically (no viscous stress) at its start orientation along
-        the cushion normal -x_H from first contact to the start pose, in steps of at most
-        ~0.5 mm of indentation; the energy stored then is the initial energy of the balance.
-        Returns None if the head starts clear.
+        The head is moved quasi-statically (no viscous stress) from first contact to the start
+        pose, in steps of at most ~0.5 mm of indentation; the energy stored then is the initial
+        energy of the balance. The path: for the 1-DOF preset's joint trajectory, the head's own
+        (theta from first contact); for a pose alone, at the start orientation along the cushion
+        normal -x_H. Returns None if the head starts clear.
         """
+        assert traj.pose is not None
+        pose_start = traj.pose[0]
         depth = float(profile_indentation(self.preset.profile, pose_start[None, :])[0])
         if depth <= 0.0:
             return None
         n = max(4, int(np.ceil(depth / 5e-4)))
-        steps = np.linspace(0.0, 1.0, n + 1)[1:]
-        r = np.stack([pose_start[0] + depth * (1.0 - steps), np.full(n, pose_start[1])], -1)
-        a = np.full(n, pose_start[2])
+        if isinstance(traj.model, PresetPose):
+            theta_start = float(traj.q[0, 0])
+            path = np.linspace(min(first_contact_angle(traj.model.preset), theta_start), theta_start, n + 1)[1:]
+            poses = traj.model(path, np.zeros_like(path))
+            r, a = poses[:, :2], poses[:, 2]
+        else:
+            steps = np.linspace(0.0, 1.0, n + 1)[1:]
+            r = np.stack([pose_start[0] + depth * (1.0 - steps), np.full(n, pose_start[1])], -1)
+            a = np.full(n, pose_start[2])
         stored, failure = [], None
         for j, solver in enumerate(solvers):
             viscosity, solver.viscosity = solver.viscosity, 0.0
@@ -187,7 +203,7 @@ class FEHeadrestOracle:
         first_contact: float | None = None
         failure: str | None = None
         stored_start = 0.0
-        preload_steps = self._preload(solvers, fine.pose[0], dt)
+        preload_steps = self._preload(solvers, fine, dt)
         if preload_steps is not None:
             failure = preload_steps[1]
             stored_start = float(sum(w * e for w, e in zip(widths, preload_steps[0], strict=False)))
