@@ -31,6 +31,7 @@ from pydantic import (
 )
 
 from alcove.science.arrays import FloatArray
+from alcove.science.errors import FieldError
 from alcove.science.geometry import HeadNeckPreset
 from alcove.science.ocp.chain_model import CHAIN_PRESETS, ChainSpec, chain_preset
 from alcove.science.ocp.problem import DiscreteProblem, PhaseGrid
@@ -61,13 +62,8 @@ TorqueBound = Annotated[
 ]
 
 
-class TaskSpecError(ValueError):
+class TaskSpecError(FieldError):
     """Invalid task definition; ``field`` is the dotted path of the offending field."""
-
-    def __init__(self, field: str, reason: str):
-        self.field = field
-        self.reason = reason
-        super().__init__(f"{field}: {reason}")
 
 
 class _Strict(BaseModel):
