@@ -57,3 +57,54 @@ def test_training_pool_from_cached_parent_equals_a_fresh_read(sqlite_campaign_db
     pool_service._pool_cache[key] = ("not-the-hash", [])
     again = transaction(lambda s: pool_service.load_training_pool(s, s.get(PoolVersion, key[1])))
     assert len(again) > 0
+
+
+def test_equal_arrays_with_a_moved_headrest_are_different_pool_content(sqlite_campaign_db: str) -> None:
+    """The pool version's content hash covers what training reads: the same arrays against a
+    headrest moved by a scenario (features are computed against it) give a different hash; an
+    offset of 0 or none gives the bare array hash, sha256 over the members' array hashes, as
+    pools stored before offsets existed have it."""
+    import hashlib
+
+    from alcove.campaigns.presets import local_user
+    from alcove.db import transaction
+    from alcove.db.migrate import upgrade
+    from alcove.models import Iteration
+    from alcove.pool import service as pool_service
+    from tests.api.synthetic import synthesize_campaign
+
+    upgrade()
+    n = 30
+    t = np.linspace(0, 1, n)
+    arrays = {"t": t, "q": 0.2 + 0.1 * t[:, None], "qd": np.full((n, 1), 0.1), "f": np.outer(t, np.arange(6.0))}
+
+    def versions(s: Any) -> dict[str, str]:
+        c = synthesize_campaign(s, local_user(s).id, iterations=1, pool_samples=10)
+        last = s.query(Iteration).filter_by(campaign_id=c.id).order_by(Iteration.index.desc()).first()
+        hashes: dict[str, str] = {}
+        for k, (label, meta) in enumerate(
+            [
+                ("none", None),
+                ("zero", {"headrest_offset": 0.0}),
+                ("+3mm", {"headrest_offset": 0.003}),
+                ("-3mm", {"headrest_offset": -0.003}),
+            ]
+        ):
+            it = Iteration(campaign_id=c.id, index=10 + k, config_version_id=last.config_version_id, status="succeeded")
+            s.add(it)
+            s.flush()
+            it_id = it.id
+            ds = pool_service.store_dataset(
+                s, **arrays, origin="oracle", name=f"d{label}", campaign_id=c.id, iteration_id=it_id, meta=meta
+            )
+            pv = pool_service.create_version(
+                s, campaign_id=c.id, iteration_id=it_id, version=10 + k, parent=None, new_datasets=[ds]
+            )
+            hashes[label] = pv.content_hash
+            hashes["sha"] = ds.content_sha256
+        return hashes
+
+    h = transaction(versions)
+    bare = hashlib.sha256(h["sha"].encode()).hexdigest()
+    assert h["none"] == h["zero"] == bare
+    assert len({h["none"], h["+3mm"], h["-3mm"]}) == 3

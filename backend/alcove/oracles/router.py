@@ -24,7 +24,6 @@ from alcove.oracles.schemas import (
     OracleUpdate,
     OracleVersionOut,
 )
-from alcove.users.access import can_edit
 from alcove.users.auth import AdminUser, CurrentUser
 from alcove.versioning.schemas import CopyPreset, FieldErrorOut, ValidationReport
 
@@ -37,18 +36,7 @@ def oracle_out(
     session: SessionDep, definition: OracleDefinition, version: Any, user: User, owner_email: str | None = None
 ) -> OracleOut:
     return OracleOut(
-        id=definition.id,
-        name=definition.name,
-        description=definition.description,
-        owner_id=definition.owner_id,
-        owner=owner_email or (definition.owner.email if definition.owner else None),
-        preset_key=definition.preset_key,
-        version=version.version,
-        version_locked=repo.is_used(session, version),
-        can_edit=can_edit(session, definition, user),
-        archived=definition.archived_at is not None,
-        created_at=definition.created_at,
-        updated_at=definition.updated_at,
+        **versioning.definition_meta(session, repo.KIND, definition, version, user, owner_email),
         type=version.oracle_type,
         params=version.spec,
     )
@@ -56,11 +44,7 @@ def oracle_out(
 
 def version_out(session: SessionDep, version: Any) -> OracleVersionOut:
     return OracleVersionOut(
-        version=version.version,
-        spec_hash=version.spec_hash,
-        note=version.note,
-        locked=repo.is_used(session, version),
-        created_at=version.created_at,
+        **versioning.version_meta(session, repo.KIND, version),
         type=version.oracle_type,
         params=version.spec,
     )

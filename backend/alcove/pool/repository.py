@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from typing import Any
+
 import sqlalchemy as sa
 from sqlalchemy.orm import Session
 
@@ -33,15 +35,26 @@ def datasets(s: Session, ids: list[int]) -> list[Dataset]:
 
 
 def member_summaries(s: Session, pool_version_id: int) -> list[tuple[int, str, int]]:
-    """(dataset id, content hash, n_samples) of the members in order: no ORM objects (cheap
-    for pools of hundreds of datasets)."""
+    """(dataset id, content key, n_samples) of the members in order: no ORM objects (cheap
+    for pools of hundreds of datasets). The content key is :func:`content_key`."""
     q = (
-        sa.select(Dataset.id, Dataset.content_sha256, Dataset.n_samples)
+        sa.select(Dataset.id, Dataset.content_sha256, Dataset.n_samples, Dataset.meta)
         .join(PoolVersionMember, PoolVersionMember.dataset_id == Dataset.id)
         .where(PoolVersionMember.pool_version_id == pool_version_id)
         .order_by(PoolVersionMember.position)
     )
-    return [(int(i), str(h), int(n)) for i, h, n in s.execute(q)]
+    return [(int(i), content_key(str(h), meta), int(n)) for i, h, n, meta in s.execute(q)]
+
+
+def content_key(sha256: str, meta: dict[str, Any] | None) -> str:
+    """What a dataset contributes to its pool version's content hash: its arrays' hash and, for a
+    scenario's moved headrest, the offset (the features are computed against it, so equal arrays
+    with different offsets are different training data). Datasets without an offset keep the
+    bare array hash, so the hashes of pools stored before offsets existed do not change."""
+    offset = (meta or {}).get("headrest_offset")
+    if offset is None or float(offset) == 0.0:
+        return sha256
+    return f"{sha256}@headrest_offset={float(offset)!r}"
 
 
 def added_members(s: Session, pool_version_id: int) -> list[Dataset]:

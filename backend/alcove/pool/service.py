@@ -103,11 +103,11 @@ def create_version(
     for d in new_datasets:
         if d.id not in have:
             have.add(d.id)
-            ordered.append((d.id, d.content_sha256, int(d.n_samples)))
+            ordered.append((d.id, repo.content_key(d.content_sha256, d.meta), int(d.n_samples)))
             added.add(d.id)
     h = hashlib.sha256()
-    for _, sha, _ in ordered:
-        h.update(sha.encode())
+    for _, key, _ in ordered:
+        h.update(key.encode())
     pv = PoolVersion(
         campaign_id=campaign_id,
         iteration_id=iteration_id,

@@ -27,18 +27,14 @@ from pathlib import Path
 import numpy as np
 
 from alcove.science.arrays import FloatArray
+from alcove.science.errors import FieldError
 from alcove.science.geometry import POSE_COLUMNS, PoseFunction
 
 FORCE_COLUMNS = ("fx", "fy", "fz", "mx", "my", "mz")
 
 
-class SeriesFormatError(ValueError):
+class SeriesFormatError(FieldError):
     """A trajectory or forces table is malformed. ``field`` names the offending column."""
-
-    def __init__(self, field: str, reason: str):
-        self.field = field
-        self.reason = reason
-        super().__init__(f"{field}: {reason}")
 
 
 @dataclass(frozen=True)

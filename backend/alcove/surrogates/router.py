@@ -20,7 +20,7 @@ from alcove.surrogates import service
 from alcove.surrogates.artifact_export import artifact_zip_paths
 from alcove.surrogates.schemas import ModelVersionRead
 from alcove.surrogates.service import artifact_document
-from alcove.users.access import can_edit, get_for
+from alcove.users.access import get_for
 from alcove.users.auth import CurrentUser
 from alcove.versioning.schemas import DefinitionMeta, FieldErrorOut, ValidationReport, VersionMeta
 
@@ -66,29 +66,14 @@ def config_out(
     session: SessionDep, definition: SurrogateConfig, version: Any, user: User, owner_email: str | None = None
 ) -> SurrogateConfigOut:
     return SurrogateConfigOut(
-        id=definition.id,
-        name=definition.name,
-        description=definition.description,
-        owner_id=definition.owner_id,
-        owner=owner_email or (definition.owner.email if definition.owner else None),
-        preset_key=definition.preset_key,
-        version=version.version,
-        version_locked=versioning.is_used(session, KIND, version),
-        can_edit=can_edit(session, definition, user),
-        archived=definition.archived_at is not None,
-        created_at=definition.created_at,
-        updated_at=definition.updated_at,
+        **versioning.definition_meta(session, KIND, definition, version, user, owner_email),
         spec=version.spec,
     )
 
 
 def version_out(session: SessionDep, version: Any) -> SurrogateConfigVersionOut:
     return SurrogateConfigVersionOut(
-        version=version.version,
-        spec_hash=version.spec_hash,
-        note=version.note,
-        locked=versioning.is_used(session, KIND, version),
-        created_at=version.created_at,
+        **versioning.version_meta(session, KIND, version),
         spec=version.spec,
     )
 

@@ -31,7 +31,7 @@ from alcove.models import (
     spec_hash,
     utcnow,
 )
-from alcove.users.access import visible_clause
+from alcove.users.access import can_edit, visible_clause
 
 #: the versioned definitions and their version rows
 DefinitionRow = TaskDefinition | OracleDefinition | SurrogateConfig
@@ -117,6 +117,39 @@ def is_used(session: Session, kind: Kind[D, V], version: V) -> bool:
     if version.locked_at is not None:
         return True
     return session.scalar(sa.select(sa.exists().where(kind.campaign_column == version.id))) or False
+
+
+def definition_meta(
+    session: Session, kind: Kind[D, V], definition: D, version: V, user: User, owner_email: str | None = None
+) -> dict[str, Any]:
+    """The fields every versioned definition shows (:class:`alcove.versioning.schemas.DefinitionMeta`)."""
+    d: Any = definition
+    return {
+        "id": d.id,
+        "name": d.name,
+        "description": d.description,
+        "owner_id": d.owner_id,
+        "owner": owner_email or (d.owner.email if d.owner else None),
+        "preset_key": d.preset_key,
+        "version": version.version,
+        "version_locked": is_used(session, kind, version),
+        "can_edit": can_edit(session, d, user),
+        "archived": d.archived_at is not None,
+        "created_at": d.created_at,
+        "updated_at": d.updated_at,
+    }
+
+
+def version_meta(session: Session, kind: Kind[D, V], version: V) -> dict[str, Any]:
+    """The fields every version shows (:class:`alcove.versioning.schemas.VersionMeta`)."""
+    v: Any = version
+    return {
+        "version": v.version,
+        "spec_hash": v.spec_hash,
+        "note": v.note,
+        "locked": is_used(session, kind, version),
+        "created_at": v.created_at,
+    }
 
 
 def definition_used(session: Session, kind: Kind[D, V], definition: D) -> bool:

@@ -14,7 +14,7 @@ from alcove.science.geometry import HeadProfile
 from alcove.science.multibody import Headrest, Link, PlanarChain
 from alcove.science.ocp.rollout import simulate
 
-G = 9.81
+from .double_pendulum import G, double_pendulum, textbook_rhs
 
 
 def offset_chain(**kw) -> PlanarChain:
@@ -72,30 +72,6 @@ def test_unforced_chain_energy_stays_bounded_without_drift():
 
 
 # ---- double pendulum against the continuous equations ------------------------------------
-M1, M2, L1, C1, C2, I1, I2 = 2.0, 1.0, 0.5, 0.25, 0.3, 0.04, 0.02
-
-
-def double_pendulum() -> PlanarChain:
-    return PlanarChain((Link(M1, C1, I1, L1), Link(M2, C2, I2, 0.6)), (-10, -10), (10, 10), (10, 10), gravity=G)
-
-
-def textbook_rhs(_t: float, x: np.ndarray) -> list[float]:
-    """Double pendulum in relative angles, written out by hand (Spong, Hutchinson & Vidyasagar,
-    Robot Modeling and Control, the two-link arm) with V = m1 g c1 cos q1 + m2 g (l1 cos q1 + c2 cos(q1 + q2))
-    for angles measured from the upward vertical."""
-    q1, q2, w1, w2 = x
-    m11 = I1 + I2 + M1 * C1**2 + M2 * (L1**2 + C2**2 + 2 * L1 * C2 * np.cos(q2))
-    m12 = I2 + M2 * (C2**2 + L1 * C2 * np.cos(q2))
-    m22 = I2 + M2 * C2**2
-    h = -M2 * L1 * C2 * np.sin(q2)
-    coriolis = np.array([h * (2 * w1 * w2 + w2**2), -h * w1**2])
-    gravity = np.array(
-        [M1 * G * C1 * np.sin(q1) + M2 * G * (L1 * np.sin(q1) + C2 * np.sin(q1 + q2)), M2 * G * C2 * np.sin(q1 + q2)]
-    )
-    acc = np.linalg.solve([[m11, m12], [m12, m22]], gravity - coriolis)
-    return [w1, w2, acc[0], acc[1]]
-
-
 def test_double_pendulum_converges_to_the_continuous_solution_at_second_order():
     """Hanging double pendulum (q1 near pi) released with a swing: the DEL nodes at T = 1 s
     against solve_ivp (DOP853, rtol = atol = 1e-12) of the hand-written equations; the

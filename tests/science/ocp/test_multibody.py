@@ -7,6 +7,8 @@ from scipy.integrate import solve_ivp
 from alcove.science.geometry import DEFAULT_PRESET, HeadNeckPreset, relative_kinematics
 from alcove.science.multibody import Headrest, Link, PlanarChain
 
+from .double_pendulum import double_pendulum, textbook_mass_matrix
+
 
 def three_link_chain() -> PlanarChain:
     links = (Link(4.0, 0.2, 0.05, 0.45), Link(2.5, 0.15, 0.02, 0.3), Link(1.2, 0.1, 0.01, 0.2))
@@ -45,14 +47,10 @@ def test_mass_matrix_symmetric_positive_definite():
 
 
 def test_double_pendulum_mass_matrix_matches_textbook_formula():
-    m1, m2, l1, c1, c2, I1, I2 = 2.0, 1.0, 0.5, 0.25, 0.3, 0.04, 0.02
-    chain = PlanarChain((Link(m1, c1, I1, l1), Link(m2, c2, I2, 0.6)), (-3, -3), (3, 3), (10, 10))
+    chain = double_pendulum()
     for q2 in (-1.0, 0.0, 0.7):
-        q = np.array([0.3, q2])
-        M = np.asarray(chain.mass_matrix(q))
-        m11 = I1 + I2 + m1 * c1**2 + m2 * (l1**2 + c2**2 + 2 * l1 * c2 * np.cos(q2))
-        m12 = I2 + m2 * (c2**2 + l1 * c2 * np.cos(q2))
-        np.testing.assert_allclose(M, [[m11, m12], [m12, I2 + m2 * c2**2]], rtol=1e-13)
+        M = np.asarray(chain.mass_matrix(np.array([0.3, q2])))
+        np.testing.assert_allclose(M, textbook_mass_matrix(q2), rtol=1e-13)
 
 
 def test_gravity_pushes_the_head_toward_the_headrest():

@@ -27,6 +27,7 @@ Bad input prints one line ``error: <field>: <reason>`` and exits with code 2.
 from __future__ import annotations
 
 import json
+from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, NoReturn
 
@@ -34,6 +35,7 @@ import typer
 
 if TYPE_CHECKING:
     from alcove.science.geometry import HeadNeckPreset
+    from alcove.science.surrogate.config import SurrogateConfig
     from alcove.science.surrogate.dataset import PoolDataset
 
 app = typer.Typer(
@@ -118,6 +120,56 @@ def _campaign_inputs(
         _bad_input("campaign", f"cannot read the database ({type(exc).__name__}: {str(exc).splitlines()[0]})")
 
 
+@dataclass(frozen=True)
+class TrainingInputs:
+    """What ``surrogate train`` and ``surrogate compare`` read: a pool, a config, the geometry."""
+
+    pool: list[PoolDataset]
+    config: SurrogateConfig
+    preset: HeadNeckPreset
+    default_seed: int | None
+    lineage: dict[str, Any]
+
+
+def load_training_inputs(
+    pool_dir: Path | None,
+    campaign: int | None,
+    config_file: Path | None,
+    task: str | None,
+    task_file: Path | None,
+    database_url: str | None,
+) -> TrainingInputs:
+    """The pool (``--pool DIR`` or ``--campaign ID``), the surrogate config (``--config`` or the
+    campaign's / the paper's) and the task geometry; bad input exits 2 naming the option."""
+    from alcove.science.surrogate.config import SurrogateConfig, SurrogateConfigError
+    from alcove.science.surrogate.dataset import PoolDataError, load_pool_dir
+
+    if (pool_dir is None) == (campaign is None):
+        _bad_input("pool", "give exactly one of --pool DIR and --campaign ID")
+    config_data: dict[str, Any] = {}
+    default_seed: int | None = None
+    if campaign is not None:
+        pool, config_data, preset, default_seed, lineage = _campaign_inputs(campaign, database_url)
+    else:
+        preset = _task_preset(task, task_file)
+        assert pool_dir is not None  # exactly one of --pool and --campaign (checked above)
+        try:
+            pool = load_pool_dir(pool_dir)
+        except PoolDataError as exc:
+            _bad_input(f"pool: {exc.field}", exc.reason)
+        lineage = {"pool_dir": str(pool_dir)}
+    try:
+        if config_file is not None:
+            if not config_file.exists():
+                _bad_input("config", f"{config_file} does not exist")
+            config = SurrogateConfig.from_json(config_file)
+        else:
+            config = SurrogateConfig.parse(config_data)
+    except SurrogateConfigError as exc:
+        _bad_input(f"config: {exc.field}", exc.reason)
+    return TrainingInputs(pool, config, preset, default_seed, lineage)
+
+
 def _print_metrics(metrics: dict[str, Any], out: Path) -> None:
     from rich.console import Console
     from rich.table import Table
@@ -177,51 +229,29 @@ def train(
 ) -> None:
     """Train an ensemble of force and moment MLPs on a pool and write the model artifact and exports."""
     from alcove.science.surrogate.artifact import save_artifact
-    from alcove.science.surrogate.config import SurrogateConfig, SurrogateConfigError
-    from alcove.science.surrogate.dataset import PoolDataError, load_pool_dir
+    from alcove.science.surrogate.config import SurrogateConfigError
+    from alcove.science.surrogate.dataset import PoolDataError
     from alcove.science.surrogate.training import train_surrogate
 
-    if (pool_dir is None) == (campaign is None):
-        _bad_input("pool", "give exactly one of --pool DIR and --campaign ID")
     if out.exists() and not out.is_dir():
         _bad_input("out", f"{out} exists and is not a folder")
-    lineage: dict[str, Any] = {}
-    config_data: dict[str, Any] = {}
-    if campaign is not None:
-        pool, config_data, preset, default_seed, lineage = _campaign_inputs(campaign, database_url)
-    else:
-        preset = _task_preset(task, task_file)
-        assert pool_dir is not None  # exactly one of --pool and --campaign (checked above)
-        try:
-            pool = load_pool_dir(pool_dir)
-        except PoolDataError as exc:
-            _bad_input(f"pool: {exc.field}", exc.reason)
-        default_seed = None
-        lineage = {"pool_dir": str(pool_dir)}
-    try:
-        if config_file is not None:
-            if not config_file.exists():
-                _bad_input("config", f"{config_file} does not exist")
-            config = SurrogateConfig.from_json(config_file)
-        else:
-            config = SurrogateConfig.parse(config_data)
-    except SurrogateConfigError as exc:
-        _bad_input(f"config: {exc.field}", exc.reason)
+    inputs = load_training_inputs(pool_dir, campaign, config_file, task, task_file, database_url)
+    config, default_seed = inputs.config, inputs.default_seed
     run_seed = seed if seed is not None else (default_seed if default_seed is not None else config.seed)
     try:
-        result = train_surrogate(pool, config, run_seed, preset=preset)
+        result = train_surrogate(inputs.pool, config, run_seed, preset=inputs.preset)
     except PoolDataError as exc:
         _bad_input(f"pool: {exc.field}", exc.reason)
     except SurrogateConfigError as exc:
         _bad_input(f"config: {exc.field}", exc.reason)
-    save_artifact(result.model, out, lineage=lineage, exports=True)
+    save_artifact(result.model, out, lineage=inputs.lineage, exports=True)
     metrics = result.metrics.to_dict()
     if json_output:
         summary = {
             "status": "ok",
             "out": str(out),
             "seed": run_seed,
-            "datasets": len(pool),
+            "datasets": len(inputs.pool),
             "test_sets": result.split.test_sets,
             "ensemble_size": result.model.ensemble_size,
             "files": sorted(p.name for p in out.iterdir()),

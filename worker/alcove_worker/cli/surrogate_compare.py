@@ -13,7 +13,7 @@ from typing import TYPE_CHECKING, Any
 
 import typer
 
-from alcove_worker.cli.surrogate import _bad_input, _campaign_inputs, _task_preset
+from alcove_worker.cli.surrogate import _bad_input, load_training_inputs
 
 if TYPE_CHECKING:
     from alcove.science.geometry import HeadNeckPreset
@@ -87,31 +87,10 @@ def compare(
     """Train the paper and the gated architecture on one pool and score both on the validation suite."""
     from alcove.science.surrogate.artifact import save_artifact
     from alcove.science.surrogate.compare import compare_architectures, replay_suite
-    from alcove.science.surrogate.config import SurrogateConfig, SurrogateConfigError
     from alcove.science.surrogate.dataset import PoolDataError, load_pool_dir, save_pool_dir
 
-    if (pool_dir is None) == (campaign is None):
-        _bad_input("pool", "give exactly one of --pool DIR and --campaign ID")
-    config_data: dict[str, Any] = {}
-    default_seed: int | None = None
-    if campaign is not None:
-        pool, config_data, preset, default_seed, _ = _campaign_inputs(campaign, database_url)
-    else:
-        preset = _task_preset(task, task_file)
-        assert pool_dir is not None
-        try:
-            pool = load_pool_dir(pool_dir)
-        except PoolDataError as exc:
-            _bad_input(f"pool: {exc.field}", exc.reason)
-    try:
-        if config_file is not None:
-            if not config_file.exists():
-                _bad_input("config", f"{config_file} does not exist")
-            config = SurrogateConfig.from_json(config_file)
-        else:
-            config = SurrogateConfig.parse(config_data)
-    except SurrogateConfigError as exc:
-        _bad_input(f"config: {exc.field}", exc.reason)
+    inputs = load_training_inputs(pool_dir, campaign, config_file, task, task_file, database_url)
+    pool, config, preset, default_seed = inputs.pool, inputs.config, inputs.preset, inputs.default_seed
     if suite_dir is not None:
         try:
             suite = load_pool_dir(suite_dir)

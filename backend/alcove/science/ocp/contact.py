@@ -30,6 +30,7 @@ import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
 
 from alcove.science.arrays import FloatArray
+from alcove.science.errors import FieldError
 from alcove.science.geometry import HeadNeckPreset
 from alcove.science.multibody import PlanarChain
 from alcove.science.oracles.aux_penalty import AuxPenaltyParams, contact_point
@@ -38,13 +39,8 @@ from alcove.science.symbolic import Symbolic
 WRENCH_SIZE = 6
 
 
-class ContactModelError(ValueError):
+class ContactModelError(FieldError):
     """A contact model is malformed or cannot be built; ``field`` names what is wrong."""
-
-    def __init__(self, field: str, reason: str):
-        self.field = field
-        self.reason = reason
-        super().__init__(f"{field}: {reason}")
 
 
 class AuxSmoothing(BaseModel):

@@ -31,6 +31,7 @@ from pydantic import (
 )
 
 from alcove.science.arrays import FloatArray
+from alcove.science.errors import FieldError
 from alcove.science.geometry import HeadNeckPreset, PoseFunction, preset_pose_function
 from alcove.science.ocp.chain_model import CHAIN_PRESETS, ChainSpec, chain_preset
 from alcove.science.ocp.problem import DiscreteProblem, PhaseGrid
@@ -61,13 +62,8 @@ TorqueBound = Annotated[
 ]
 
 
-class TaskSpecError(ValueError):
+class TaskSpecError(FieldError):
     """Invalid task definition; ``field`` is the dotted path of the offending field."""
-
-    def __init__(self, field: str, reason: str):
-        self.field = field
-        self.reason = reason
-        super().__init__(f"{field}: {reason}")
 
 
 class _Strict(BaseModel):
@@ -562,26 +558,20 @@ TASK_PRESETS: dict[str, dict[str, Any]] = {
         ],
         "final": {"velocity": "rest"},
     },
-    "head-headrest-scenarios": {
-        "name": "head-headrest-scenarios",
-        "description": (
-            "The paper's task (head-headrest-2phase) as a distribution of scenarios (issue 17): start angle 0.15 to "
-            "0.30 rad, initial speed 0 to 0.5 rad/s toward the headrest, headrest moved +-5 mm along its normal. "
-            "Its nominal scenario is the paper's task; a random-scenarios campaign solves a new draw every iteration."
-        ),
-        "model": {"preset": "head-neck-1dof"},
-        "initial": {"q": None, "qd": None},
-        "phases": [
-            {"name": "approach", "duration": 1.0, "intervals": 100, "w_tau": 1e-3, "w_T": 1e-4},
-            {"name": "rest", "duration": 1.0, "intervals": 100, "w_tau": 1.0, "w_T": 1.0},
-        ],
-        "final": {"velocity": "rest"},
-        "ranges": [
-            {"parameter": "initial.q.0", "low": 0.15, "high": 0.30},
-            {"parameter": "initial.qd.0", "low": 0.0, "high": 0.5},
-            {"parameter": "model.headrest_offset", "low": -0.005, "high": 0.005},
-        ],
-    },
+}
+TASK_PRESETS["head-headrest-scenarios"] = {
+    **TASK_PRESETS["head-headrest-2phase"],
+    "name": "head-headrest-scenarios",
+    "description": (
+        "The paper's task (head-headrest-2phase) as a distribution of scenarios (issue 17): start angle 0.15 to "
+        "0.30 rad, initial speed 0 to 0.5 rad/s toward the headrest, headrest moved +-5 mm along its normal. "
+        "Its nominal scenario is the paper's task; a random-scenarios campaign solves a new draw every iteration."
+    ),
+    "ranges": [
+        {"parameter": "initial.q.0", "low": 0.15, "high": 0.30},
+        {"parameter": "initial.qd.0", "low": 0.0, "high": 0.5},
+        {"parameter": "model.headrest_offset", "low": -0.005, "high": 0.005},
+    ],
 }
 
 

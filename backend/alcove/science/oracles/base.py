@@ -18,6 +18,7 @@ import numpy as np
 from pydantic import BaseModel, ConfigDict
 
 from alcove.science.arrays import FloatArray
+from alcove.science.errors import FieldError
 from alcove.science.geometry import (
     POSE_COLUMNS,
     HeadNeckPreset,
@@ -35,13 +36,8 @@ CancelCheck = Callable[[], bool]
 SUMMARY_DIAGNOSTICS = ("max_penetration_m", "dissipated_energy_j", "newton_iterations")
 
 
-class OracleInputError(ValueError):
+class OracleInputError(FieldError):
     """Bad input to an oracle (trajectory or parameters); ``field`` names what is wrong."""
-
-    def __init__(self, field: str, reason: str):
-        self.field = field
-        self.reason = reason
-        super().__init__(f"{field}: {reason}")
 
 
 class OracleCancelled(RuntimeError):

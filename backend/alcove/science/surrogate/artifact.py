@@ -35,6 +35,7 @@ import torch
 from torch import nn
 
 import alcove
+from alcove.science.errors import FieldError
 from alcove.science.geometry import HeadNeckPreset
 from alcove.science.surrogate.config import SurrogateConfig
 from alcove.science.surrogate.features import FEATURE_NAMES
@@ -47,13 +48,8 @@ READABLE_VERSIONS = (1, 2)
 JSON_NAME = "surrogate.json"
 
 
-class ArtifactError(ValueError):
+class ArtifactError(FieldError):
     """A model artifact cannot be read; ``field`` names what is wrong."""
-
-    def __init__(self, field: str, reason: str):
-        self.field = field
-        self.reason = reason
-        super().__init__(f"{field}: {reason}")
 
 
 class _Scripted(nn.Module):

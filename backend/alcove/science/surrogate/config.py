@@ -26,6 +26,7 @@ from typing import Annotated, Any, Literal
 
 from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, ValidationError
 
+from alcove.science.errors import FieldError
 from alcove.science.validation import WholeNumber, as_whole_number, error_location, quantity, range_text
 
 Activation = Literal["softplus", "tanh", "sigmoid"]
@@ -33,13 +34,8 @@ Architecture = Literal["paper", "gated"]
 LayerWidth = Annotated[int, Field(ge=1, le=4096), BeforeValidator(as_whole_number)]
 
 
-class SurrogateConfigError(ValueError):
+class SurrogateConfigError(FieldError):
     """Invalid surrogate configuration; ``field`` is the dotted path of the offending entry."""
-
-    def __init__(self, field: str, reason: str):
-        self.field = field
-        self.reason = reason
-        super().__init__(f"{field}: {reason}")
 
 
 class NetworkConfig(BaseModel):

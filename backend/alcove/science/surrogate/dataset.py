@@ -51,6 +51,7 @@ from typing import Literal, TypedDict
 import numpy as np
 
 from alcove.science.arrays import FloatArray, IndexArray
+from alcove.science.errors import FieldError
 from alcove.science.series import FORCE_COLUMNS, ForceSeries, SeriesFormatError, Trajectory
 
 Origin = Literal["preliminary", "oracle", "upload"]
@@ -65,13 +66,8 @@ class ManifestEntry(TypedDict, total=False):
     weight: float
 
 
-class PoolDataError(ValueError):
+class PoolDataError(FieldError):
     """A dataset or pool is malformed; ``field`` names what is wrong."""
-
-    def __init__(self, field: str, reason: str):
-        self.field = field
-        self.reason = reason
-        super().__init__(f"{field}: {reason}")
 
 
 @dataclass(frozen=True)

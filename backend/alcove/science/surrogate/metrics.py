@@ -28,17 +28,14 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from alcove.science.arrays import BoolArray, FloatArray
+from alcove.science.errors import FieldError
 
 COMPONENTS = ("fx", "fy", "fz", "mx", "my", "mz")
 CALIBRATION_K = 2.0  # half-width of the calibration band in standard deviations
 
 
-class MetricInputError(ValueError):
+class MetricInputError(FieldError):
     """Arrays of the wrong shape or with non-finite values; ``field`` names the array."""
-
-    def __init__(self, field: str, reason: str):
-        self.field, self.reason = field, reason
-        super().__init__(f"{field}: {reason}")
 
 
 def _wrench(name: str, a: ArrayLike, shape: tuple[int, ...] | None = None) -> FloatArray:

@@ -14,6 +14,7 @@ from typing import Any
 
 from pydantic import BaseModel, ConfigDict, Field, create_model, field_validator, model_validator
 
+from alcove.science.errors import FieldError
 from alcove.science.oracles.base import OracleParams
 from alcove.science.oracles.command.contract import DEFAULT_OUTPUT_FILE, RESERVED_FILES, TEMPLATE_PLACEHOLDERS
 
@@ -23,13 +24,8 @@ PARAMETER_NAME = re.compile(r"[a-z][a-z0-9_]*")
 MAX_TIMEOUT_S = 7 * 24 * 3600.0
 
 
-class CatalogueError(ValueError):
+class CatalogueError(FieldError):
     """The administrator's command catalogue is invalid; ``field`` names the offending entry/key."""
-
-    def __init__(self, field: str, reason: str):
-        self.field = field
-        self.reason = reason
-        super().__init__(f"{field}: {reason}")
 
 
 class CommandParameter(BaseModel):
