@@ -238,7 +238,7 @@ def test_predict_rejects_a_trajectory_of_another_chain(tmp_path, quick_config):
         str(tmp_path / "m"),
     )
     t = np.linspace(0, 1, 5)
-    Trajectory(t, np.c_[t, t], np.c_[t, t]).to_csv(tmp_path / "two.csv")
+    Trajectory(t, np.c_[t, t], np.c_[t, t], pose=np.zeros((5, 6))).to_csv(tmp_path / "two.csv")  # 2 joints
     result = runner.invoke(
         app,
         [
