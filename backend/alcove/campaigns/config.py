@@ -150,6 +150,33 @@ class RunSettings(_Strict):
             "campaign seed and the iteration index (stored with the iteration)"
         ),
     )
+    batch: int = Field(
+        1,
+        ge=1,
+        le=64,
+        description=(
+            "batch size q: trajectories the oracle replays per iteration, in parallel oracle jobs, appended as one "
+            "pool version (1 to 64; strategy 'paper' takes 1 only)"
+        ),
+    )
+    max_concurrent_oracle_jobs: int | None = Field(
+        None,
+        ge=1,
+        le=64,
+        description=(
+            "at most this many of the campaign's oracle jobs queued or running at once (1 to 64; None: no cap); "
+            "the rest wait and start as running ones finish"
+        ),
+    )
+
+    @model_validator(mode="after")
+    def _batch_needs_a_batch_strategy(self) -> RunSettings:
+        if self.batch > 1 and self.strategy == "paper":
+            raise ValueError(
+                f"batch: strategy 'paper' replays one trajectory per iteration (batch 1), got {self.batch}; "
+                "use strategy 'random-scenarios' for q > 1"
+            )
+        return self
 
 
 class CampaignConfig(_Strict):

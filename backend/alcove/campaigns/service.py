@@ -15,6 +15,7 @@ from datetime import datetime
 
 from sqlalchemy.orm import Session
 
+from alcove.campaigns import fan
 from alcove.campaigns import repository as repo
 from alcove.campaigns.schemas import CampaignConfig, CampaignConfigUpdate, CampaignCreate, ForkRequest, StepJob
 from alcove.campaigns.state_machine import (
@@ -179,20 +180,29 @@ def pause(s: Session, campaign_id: int) -> tuple[Campaign, list[StepJob]]:
     return c, apply_decision(s, c, d, note="pause requested")
 
 
-def _waiting_step(s: Session, c: Campaign) -> StepRef | None:
+def _waiting_steps(s: Session, c: Campaign) -> tuple[StepRef, ...]:
+    """The steps waiting to run: the last pending one, or all pending parallel slots of its
+    iteration (oracle slots: as many as the campaign's concurrency cap allows)."""
     rows = repo.steps_of_campaign(s, c.id, [StepStatus.pending.value])
     if not rows:
-        return None
-    k, row = rows[-1]
-    return StepRef(k, StepName(row.step))
+        return ()
+    k = rows[-1][0]
+    refs = [StepRef(i, StepName(row.step), row.slot) for i, row in rows if i == k]
+    oracles = [r for r in refs if r.step is StepName.oracle]
+    it = repo.get_iteration(s, c.id, k)
+    assert it is not None
+    room = fan.start_now(s, c, fan.iteration_settings(s, it))
+    if room is not None and len(oracles) > room:  # the rest stay pending until running ones end
+        refs = [r for r in refs if r.step is not StepName.oracle] + oracles[:room]
+    return tuple(refs)
 
 
 def resume(s: Session, campaign_id: int) -> tuple[Campaign, list[StepJob]]:
     c = repo.get_campaign(s, campaign_id, lock=True)
-    nxt = _waiting_step(s, c)
-    if c.status == CampaignStatus.paused.value and nxt is None:
+    waiting = _waiting_steps(s, c)
+    if c.status == CampaignStatus.paused.value and not waiting:
         raise InvalidTransition(c.status, "resume", "no step is waiting")
-    return c, apply_decision(s, c, transition(state_of(c), Resume(nxt)), note="resumed")
+    return c, apply_decision(s, c, transition(state_of(c), Resume(waiting)), note="resumed")
 
 
 def cancel(s: Session, campaign_id: int) -> tuple[Campaign, list[StepJob]]:

@@ -11,6 +11,7 @@ exactly -d (round-off: 1e-15 m) and so the oracles' penetration by +d.
 from __future__ import annotations
 
 import copy
+import json
 
 import numpy as np
 import pytest
@@ -135,8 +136,18 @@ def test_a_free_initial_velocity_cannot_be_ranged():
 def test_unknown_strategy_and_batches_are_refused():
     with pytest.raises(ValueError, match="unknown 'greedy'"):
         acquisition.strategy("greedy")
-    with pytest.raises(ValueError, match="only q = 1"):
-        acquisition.strategy("random-scenarios").candidates(task_preset(PRESET), 0, 1, 4)
+    with pytest.raises(ValueError, match="batch: strategy 'paper'"):
+        acquisition.strategy("paper").candidates(task_preset(PRESET), 0, 1, 4)
+
+
+def test_a_batch_draws_distinct_reproducible_scenarios_slot_by_slot():
+    """random-scenarios with q = 4: slot j of the batch is the scenario one ocp job draws for slot
+    j alone (what the fanned-out jobs solve), the same on every call, and the slots differ."""
+    strategy, task = acquisition.strategy("random-scenarios"), task_preset(PRESET)
+    batch = strategy.candidates(task, 7, 3, 4)
+    assert [b.to_json() for b in batch] == [strategy.scenario(task, 7, 3, j).to_json() for j in range(4)]
+    assert [b.to_json() for b in batch] == [b.to_json() for b in strategy.candidates(task, 7, 3, 4)]
+    assert len({json.dumps(b.to_json()["values"], sort_keys=True) for b in batch}) == 4
 
 
 # ----------------------------------------------------------------------------- the headrest offset

@@ -155,11 +155,26 @@ def run(
     seed: int | None = typer.Option(None, min=0, help="campaign seed"),
     strategy: str | None = typer.Option(
         None,
-        help="acquisition strategy: paper (the task as written) or random-scenarios (a scenario drawn from the "
+        help="acquisition strategy: paper (the task as written) or random-scenarios (q scenarios drawn from the "
         "task's ranges every iteration); default: the config's, else paper",
     ),
+    batch: int | None = typer.Option(
+        None,
+        "--batch",
+        "-q",
+        help="batch size q: trajectories replayed per iteration in parallel oracle jobs "
+        "(default: the config's, else 1)",
+    ),
+    max_oracle_jobs: int | None = typer.Option(
+        None,
+        "--max-oracle-jobs",
+        help="at most this many of the campaign's oracle jobs at once (default: the config's, else no cap)",
+    ),
     as_json: bool = typer.Option(
-        False, "--json", help="print the per-iteration metrics (with the scenario solved) as JSON at the end"
+        False,
+        "--json",
+        help="print the per-iteration metrics (with the scenario solved, oracle_calls and the picked scenarios) as "
+        "JSON at the end",
     ),
     spawn: bool = typer.Option(
         True, "--worker/--no-worker", help="spawn a worker process (off: external `alcove worker`s run the steps)"
@@ -178,8 +193,9 @@ def run(
 
     _ensure_database()
     cfg = _read_config(config)
-    if strategy is not None:
-        cfg["settings"] = {**(cfg.get("settings") or {}), "strategy": strategy}
+    given = {"strategy": strategy, "batch": batch, "max_concurrent_oracle_jobs": max_oracle_jobs}
+    if any(v is not None for v in given.values()):
+        cfg["settings"] = {**(cfg.get("settings") or {}), **{k: v for k, v in given.items() if v is not None}}
     campaign_id = _create(task, oracle, iterations, cfg, name, seed)
     proc = following.spawn_worker(concurrency, log_path=worker_log) if spawn else None
     t0 = time.perf_counter()

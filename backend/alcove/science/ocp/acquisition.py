@@ -5,15 +5,16 @@ iteration's OCP solves with the current surrogate; the oracle then replays each 
 trajectory. Everything is seeded by the campaign seed and k, so a step re-run by another worker
 (or a re-delivered job) solves the same scenario.
 
-Implemented (q = 1):
+Implemented:
 
-* ``paper``: the nominal task every iteration, no exploration (the paper's loop, exactly).
-* ``random-scenarios``: scenario ``(seed, k, slot)`` drawn uniformly from the task's ranges
-  (:func:`alcove.science.ocp.scenarios.draw`); a task without ranges gives the nominal task.
+* ``paper``: the nominal task every iteration, no exploration (the paper's loop, exactly); q = 1.
+* ``random-scenarios``: q scenarios ``(seed, k, slot)``, slot = 0 .. q-1, drawn uniformly from
+  the task's ranges (:func:`alcove.science.ocp.scenarios.draw`); a task without ranges gives the
+  nominal task. The campaign solves each in its own ``ocp`` job (slot) and replays each in its
+  own ``oracle`` job (:meth:`Strategy.scenario` draws one slot's scenario on its own).
 
-Not yet (see docs/active-learning.md): q > 1 (the slots are already in the seed stream) and
-``ensemble-disagreement``, which needs candidate solves and the ensemble's scores: it will
-propose C candidates with :meth:`Strategy.candidates` and pick q of them from their scores.
+Not yet (see docs/active-learning.md): ``ensemble-disagreement``, which needs candidate solves
+and the ensemble's scores: it will propose C candidates and pick q of them from their scores.
 """
 
 from __future__ import annotations
@@ -38,6 +39,10 @@ class Strategy(Protocol):
         """The scenarios iteration ``iteration`` of a campaign with ``seed`` solves (``q`` of them)."""
         ...
 
+    def scenario(self, task: TaskSpec, seed: int, iteration: int, slot: int) -> Scenario:
+        """Slot ``slot`` of :meth:`candidates` on its own (what one ocp job solves)."""
+        ...
+
 
 @dataclass(frozen=True)
 class Paper:
@@ -46,8 +51,14 @@ class Paper:
     name: StrategyName = "paper"
 
     def candidates(self, task: TaskSpec, seed: int, iteration: int, q: int) -> list[Scenario]:
-        _check_batch(q)
+        if q != 1:
+            raise ValueError(f"batch: strategy 'paper' replays one trajectory per iteration (q = 1), got {q}")
         return [Scenario(task=nominal(task))]
+
+    def scenario(self, task: TaskSpec, seed: int, iteration: int, slot: int) -> Scenario:
+        if slot != 0:
+            raise ValueError(f"slot: strategy 'paper' has slot 0 only, got {slot}")
+        return Scenario(task=nominal(task))
 
 
 @dataclass(frozen=True)
@@ -57,13 +68,14 @@ class RandomScenarios:
     name: StrategyName = "random-scenarios"
 
     def candidates(self, task: TaskSpec, seed: int, iteration: int, q: int) -> list[Scenario]:
-        _check_batch(q)
+        if q < 1:
+            raise ValueError(f"batch: q must be at least 1, got {q}")
         return [draw(task, seed, iteration, slot) for slot in range(q)]
 
-
-def _check_batch(q: int) -> None:
-    if q != 1:  # the campaign's fan-out to q oracle jobs is the next increment
-        raise ValueError(f"batch size q = {q}: only q = 1 is implemented")
+    def scenario(self, task: TaskSpec, seed: int, iteration: int, slot: int) -> Scenario:
+        if slot < 0:
+            raise ValueError(f"slot: must be >= 0, got {slot}")
+        return draw(task, seed, iteration, slot)
 
 
 def strategy(name: str) -> Strategy:
