@@ -207,9 +207,10 @@ def test_a_redis_restart_between_fan_out_and_fan_in_loses_nothing(
     make_campaign: Any,
     monkeypatch: pytest.MonkeyPatch,
 ) -> None:
-    """Picks 0 and 2 are replayed, pick 1 (4 s) is still running when Redis stops; it finishes
-    while Redis is down, so the fan-in's evaluate job waits in the outbox; Redis comes back empty
-    (every message lost) and the outbox sends it: evaluate and append run once, nothing is redone."""
+    """Redis stops while pick 1 (slowed to 6 s) is being replayed and stays down until that job
+    has committed: whatever else was queued in Redis is lost, and the jobs the completions made
+    necessary (the other picks, the fan-in's evaluate) wait in the outbox. Redis comes back empty;
+    the outbox sends them again: every slot runs once, the fan-in once, nothing is redone."""
     from alcove.jobs import reset_sender
     from alcove.jobs.outbox import reset_broker_client
     from alcove.settings import get_settings
@@ -221,31 +222,13 @@ def test_a_redis_restart_between_fan_out_and_fan_in_loses_nothing(
     reset_sender()
     reset_broker_client()
     env = {**pg_redis_default_lease, "ALCOVE_BROKER_URL": redis_server.url}
-    cid = start(make_campaign, 32, {"oracle": {"sleep_s": 4, "slots": [1]}})
+    cid = start(make_campaign, 32, {"oracle": {"sleep_s": 6, "slots": [1]}})
     procs = [start_worker(env, tmp_path / f"{n}.log", n) for n in (unique("r"), unique("r"))]
     try:
-        wait_for(
-            lambda: (
-                (r := slots(pg_url, cid)).get(("oracle", 1), ("",))[0] == "running"
-                and all(r.get(("oracle", j), ("",))[0] == "succeeded" for j in (0, 2))
-            ),
-            240,
-            "picks 0 and 2 replayed, pick 1 running",
-            procs[0],
-        )
+        wait_for(lambda: slots(pg_url, cid).get(("oracle", 1), ("",))[0] == "running", 240, "pick 1 running", procs[0])
+        time.sleep(1.0)
         redis_server.stop()
-        wait_for(
-            lambda: (
-                db_rows(
-                    pg_url,
-                    "SELECT sent_at FROM job_outbox WHERE subject = :s",
-                    s=f"campaign/{cid}/k1/evaluate",
-                )
-                == [(None,)]
-            ),
-            60,
-            "the fan-in's evaluate job recorded, unsent",
-        )
+        wait_for(lambda: slots(pg_url, cid)[("oracle", 1)][0] != "running", 60, "pick 1 to commit without Redis")
         redis_server.start()
         wait_for(lambda: db_rows(pg_url, ENDED, c=cid), 240, "the campaign to end", procs[0])
     finally:
