@@ -67,6 +67,16 @@ class StoppingRules(_Strict):
         le=1e7,
         description="stop when the oracle's total wall time reaches this [s]; above 0, at most 1e7 s (16 weeks)",
     )
+    min_disagreement: float | None = Field(
+        None,
+        gt=0,
+        le=1e4,
+        description=(
+            "strategy 'ensemble-disagreement': stop when the highest candidate score (ensemble force std over "
+            "the contact phase) falls below this [N]; the iteration then asks the oracle nothing; above 0, at "
+            "most 1e4 N"
+        ),
+    )
 
     @model_validator(mode="after")
     def _some_rule(self) -> StoppingRules:
@@ -76,6 +86,7 @@ class StoppingRules(_Strict):
             and self.target_moment_rmse is None
             and self.plateau_window is None
             and self.oracle_budget_s is None
+            and self.min_disagreement is None
         ):
             raise ValueError("at least one stopping rule is needed (e.g. max_iterations)")
         return self
@@ -142,12 +153,29 @@ class RunSettings(_Strict):
         ),
     )
     validation_seed: int = Field(0, ge=0, le=2**31 - 1, description="seed of the validation suite's motions")
-    strategy: Literal["paper", "random-scenarios"] = Field(
+    strategy: Literal["paper", "random-scenarios", "ensemble-disagreement"] = Field(
         "paper",
         description=(
             "acquisition strategy (docs/active-learning.md): 'paper' solves the task as written every iteration "
-            "(the paper's loop); 'random-scenarios' solves a scenario drawn from the task's ranges with the "
-            "campaign seed and the iteration index (stored with the iteration)"
+            "(the paper's loop); 'random-scenarios' solves q scenarios drawn from the task's ranges with the "
+            "campaign seed, the iteration index and the slot; 'ensemble-disagreement' draws C candidate scenarios, "
+            "solves each with the ensemble mean, scores each by the ensemble's disagreement over its contact phase "
+            "and replays the q best that are far enough apart"
+        ),
+    )
+    candidates: int = Field(
+        8,
+        ge=1,
+        le=64,
+        description="candidate scenarios C solved per iteration by 'ensemble-disagreement' (1 to 64, at least q)",
+    )
+    min_distance: float = Field(
+        0.1,
+        ge=0,
+        le=10,
+        description=(
+            "'ensemble-disagreement': no two picks closer than this in the scenarios' feature space (each ranged "
+            "parameter scaled to [0, 1]); 0 to 10"
         ),
     )
     batch: int = Field(
@@ -174,8 +202,10 @@ class RunSettings(_Strict):
         if self.batch > 1 and self.strategy == "paper":
             raise ValueError(
                 f"batch: strategy 'paper' replays one trajectory per iteration (batch 1), got {self.batch}; "
-                "use strategy 'random-scenarios' for q > 1"
+                "use strategy 'random-scenarios' or 'ensemble-disagreement' for q > 1"
             )
+        if self.strategy == "ensemble-disagreement" and self.candidates < self.batch:
+            raise ValueError(f"candidates: {self.candidates} candidates cannot give a batch of {self.batch}")
         return self
 
 

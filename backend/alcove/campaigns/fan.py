@@ -14,6 +14,7 @@ alone by the reconciler: the other slots keep their results.
 from __future__ import annotations
 
 from collections.abc import Sequence
+from dataclasses import replace
 from typing import Protocol
 
 from sqlalchemy.orm import Session
@@ -28,7 +29,38 @@ OPEN = (StepStatus.pending.value, StepStatus.queued.value, StepStatus.running.va
 
 def ocp_slots(settings: RunSettings) -> int:
     """How many ocp jobs an iteration fans out into under ``settings``."""
+    if settings.strategy == "ensemble-disagreement":
+        return settings.candidates
     return settings.batch if settings.strategy == "random-scenarios" else 1
+
+
+def selects(settings: RunSettings) -> bool:
+    """Whether the strategy picks among its solved candidates (else ocp slot j feeds oracle slot j)."""
+    return settings.strategy == "ensemble-disagreement"
+
+
+def select_picks(s: Session, c: Campaign, it: Iteration, settings: RunSettings) -> tuple[int, ...]:
+    """The fan-in of a selecting strategy's candidate solves: pick at most q of the iteration's
+    candidates (:func:`alcove.science.ocp.acquisition.select_batch`), write the picks on their
+    rows (oracle slot i replays the candidate picked i-th) and return their ocp slots. Runs once,
+    in the transaction of the last candidate's completion."""
+    from alcove.campaigns.transitions import config_from_version
+    from alcove.science.ocp.acquisition import select_batch
+
+    cands = repo.candidates(s, it.id)
+    cv = s.get(CampaignConfigVersion, it.config_version_id)
+    assert cv is not None
+    threshold = config_from_version(cv).stopping.min_disagreement
+    scores = [cand.score if cand.converged else None for cand in cands]
+    width = max((len(cand.features or []) for cand in cands), default=0)
+    features = [list(cand.features or [0.0] * width) for cand in cands]
+    picks = select_batch(scores, features, settings.batch, settings.min_distance, threshold)
+    by_slot = {cand.slot: cand for cand in cands}
+    for i, pk in enumerate(picks):
+        row = by_slot[cands[pk.slot].slot]
+        row.pick, row.pick_reason = i, pk.reason
+    s.flush()
+    return tuple(cands[pk.slot].slot for pk in picks)
 
 
 def iteration_settings(s: Session, it: Iteration) -> RunSettings:
@@ -80,4 +112,8 @@ def fan_state(s: Session, c: Campaign, it: Iteration, ref: StepRef, outcome: Out
     if ref.step not in (StepName.ocp, StepName.oracle):
         return Fan()
     rows = repo.slot_steps(s, it.id, [StepName.ocp.value, StepName.oracle.value])
-    return fan_of(rows, ref, ocp_slots(settings), start_now(s, c, settings))
+    fan = fan_of(rows, ref, ocp_slots(settings), start_now(s, c, settings))
+    if ref.step is StepName.ocp and selects(settings):
+        picks = select_picks(s, c, it, settings) if fan.open == 0 else ()
+        fan = replace(fan, selects=True, picks=picks)
+    return fan

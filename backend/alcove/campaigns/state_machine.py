@@ -300,7 +300,11 @@ class IterationRecord:
 
 
 def stop_reason(
-    rules: Any, iteration: int, history: Sequence[IterationRecord], oracle_wall_time_s: float
+    rules: Any,
+    iteration: int,
+    history: Sequence[IterationRecord],
+    oracle_wall_time_s: float,
+    top_score: float | None = None,
 ) -> str | None:
     """The first stopping rule that fires after iteration ``iteration`` finished, or None.
 
@@ -312,8 +316,13 @@ def stop_reason(
     * ``plateau``: over the last ``plateau_window`` iterations with metrics, the best force
       RMSE improved on the best before them by less than ``plateau_tolerance`` (relative);
     * ``oracle_budget``: the oracle's total wall time reached ``oracle_budget_s``;
-    * ``max_iterations``: iteration index ``iteration`` >= ``max_iterations``.
+    * ``max_iterations``: iteration index ``iteration`` >= ``max_iterations``;
+    * ``min_disagreement``: the iteration's highest candidate score ``top_score`` (strategy
+      ensemble-disagreement) fell below ``min_disagreement`` (checked first: that iteration asked
+      the oracle nothing).
     """
+    if rules.min_disagreement is not None and top_score is not None and top_score < rules.min_disagreement:
+        return "min_disagreement"
     latest = history[-1] if history and history[-1].iteration == iteration else None
     tf, tm = rules.target_force_rmse, rules.target_moment_rmse
     if latest is not None and (tf is not None or tm is not None):

@@ -184,7 +184,11 @@ def ocp(ctx: StepContext) -> StepOutput:
             raise RuntimeError(f"model version {ctx.k} does not exist")
         previous = solving_repo.previous_converged(s, c.id, ctx.k)
         scenario = ctx.scenario(s, c)
-        batch = ctx.config.settings.batch > 1 or repo.has_candidates(s, c.id, ctx.k)
+        settings = ctx.config.settings
+        batch = (
+            settings.batch > 1 or settings.strategy == "ensemble-disagreement" or repo.has_candidates(s, c.id, ctx.k)
+        )
+        features = acquisition.scenario_features(ctx.task(s, c), scenario.values) if batch else None
         nominal_preset = ctx.task(s, c).preset()
     # the paper's strategy solves the task as written: nothing to store (null)
     stored = scenario.to_json() if ctx.config.settings.strategy != "paper" else None
@@ -199,15 +203,20 @@ def ocp(ctx: StepContext) -> StepOutput:
             pool_preset=nominal_preset,
         )
     except UnusableResult as err:  # no converged solution: the iteration still shows its scenario
-        raise UnusableResult(err.reason, _storing_scenario(err.write, stored, batch)) from None
-    return StepOutput(_storing_scenario(out.write, stored, batch), out.compute_s)
+        raise UnusableResult(err.reason, _storing_scenario(err.write, stored, features, settings.strategy)) from None
+    return StepOutput(_storing_scenario(out.write, stored, features, settings.strategy), out.compute_s)
 
 
 def _storing_scenario(
-    write: Callable[[Session, IterationRef], dict[str, Any]] | None, stored: dict[str, Any] | None, batch: bool
+    write: Callable[[Session, IterationRef], dict[str, Any]] | None,
+    stored: dict[str, Any] | None,
+    features: list[float] | None,
+    strategy: str,
 ) -> Callable[[Session, IterationRef], dict[str, Any]]:
-    """The solve's rows, the scenario on the iteration (slot 0's) and, in a batch, the slot's
-    candidate row (picked at once by random-scenarios: pick = slot)."""
+    """The solve's rows, the scenario on the iteration (slot 0's) and, in a batch (``features``
+    given), the slot's candidate row: picked at once by random-scenarios (pick = slot); scored by
+    ensemble-disagreement (the ensemble's largest force std over the contact phase, from the
+    solution's trust diagnostics; 0 without contact) and picked at the fan-in."""
 
     def with_scenario(s: Session, at: IterationRef) -> dict[str, Any]:
         result = write(s, at) if write is not None else {}
@@ -215,17 +224,28 @@ def _storing_scenario(
         assert it is not None
         if at.slot == 0:
             it.scenario = stored
-        if batch:
+        if features is not None:
+            converged = bool(result.get("converged"))
+            score = None
+            if strategy == "ensemble-disagreement" and converged:
+                sol = s.get(OcpSolution, result["ocp_solution_id"])
+                assert sol is not None
+                score = float((sol.stats or {}).get("trust", {}).get("max_std_contact") or 0.0)
+            replayed = strategy == "random-scenarios" and converged
             repo.put_candidate(
                 s,
                 it.id,
                 at.slot,
                 scenario=stored,
                 ocp_solution_id=result.get("ocp_solution_id"),
-                converged=bool(result.get("converged")),
-                pick=at.slot if result.get("converged") else None,
-                pick_reason="random-scenarios: every drawn scenario is replayed" if result.get("converged") else None,
+                converged=converged,
+                score=score,
+                features=features,
+                pick=at.slot if replayed else None,
+                pick_reason="random-scenarios: every drawn scenario is replayed" if replayed else None,
             )
+            if score is not None:
+                result = {**result, "score": score}
         return {**result, "scenario": stored} if stored is not None else result
 
     return with_scenario
@@ -360,7 +380,9 @@ def append(ctx: StepContext) -> StepOutput:
         c = repo.get_campaign(s, at.campaign_id)
         history = [IterationRecord(*row) for row in repo.rmse_history(s, c.id)]
         rules = transitions.current_config(s, c).stopping
-        reason = stop_reason(rules, ctx.k, history, c.oracle_wall_time_s or 0.0)
+        scores = [cand.score for cand in repo.candidates(s, at.iteration_id) if cand.score is not None]
+        top = max(scores) if scores else None
+        reason = stop_reason(rules, ctx.k, history, c.oracle_wall_time_s or 0.0, top_score=top)
         return {**result, "stop_reason": reason, **software_versions()}
 
     return StepOutput(write)

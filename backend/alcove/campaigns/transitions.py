@@ -221,7 +221,7 @@ def complete_step(
     it = repo.get_iteration(s, c.id, ref.iteration)
     assert it is not None
     fan = fan_state(s, c, it, ref, outcome)
-    no_data = fan.open == 0 and fan.oracle_ok == 0
+    no_data = fan.open == 0 and fan.oracle_ok == 0 and not fan.picks
     if outcome is Outcome.iteration_failed and (no_data or ref.step not in (StepName.ocp, StepName.oracle)):
         # the iteration has no data (a batch with some picks replayed still succeeds; the
         # failed picks say why on their steps)
