@@ -23,7 +23,7 @@ import sqlalchemy as sa
 from alcove.campaigns import protocol, repository, results
 from alcove.db import session_scope
 from alcove.db.arrays import get_arrays
-from alcove.models import Dataset
+from alcove.models import Dataset, OcpSolution
 from alcove.pool import repository as pool_repo
 from tests.integration.procs import PrivateRedis, db_rows, start_worker, unique
 from tests.integration.procs import wait_until as wait_for
@@ -87,6 +87,56 @@ def test_a_batch_iteration_solves_q_seeded_scenarios_and_appends_them_as_one_poo
         assert protocol.run_step(cid, 1, step, 1, slot=slot)["status"] == "duplicate"
     with session_scope() as s:
         assert s.scalar(count_datasets) == n_datasets
+
+
+def test_ensemble_disagreement_replays_the_most_disputed_candidates_and_stops_when_none_is(
+    sqlite_campaign_db: str, make_campaign
+) -> None:
+    """C = 4 candidates solved in four ocp jobs and scored by the ensemble's force std over their
+    contact phase (the solution's trust diagnostic); with no minimum distance the q = 2 picks are
+    the two highest scores, replayed in two oracle jobs and appended as one pool version. A
+    threshold above every score stops the campaign after an iteration that asked the oracle nothing."""
+    settings = {"strategy": "ensemble-disagreement", "batch": 2, "candidates": 4, "min_distance": 0.0}
+    cid, jobs = make_campaign(task=TASK, seed=3, settings={**BATCH, **settings}, stopping={"max_iterations": 1})
+    protocol.drive_inline(cid, jobs)
+    with session_scope() as s:
+        assert repository.get_campaign(s, cid).status == "completed"
+        it = repository.get_iteration(s, cid, 1)
+        cands = repository.candidates(s, it.id)
+        assert [c.slot for c in cands] == [0, 1, 2, 3] and all(c.converged for c in cands)
+        for c in cands:
+            sol = s.get(OcpSolution, c.ocp_solution_id)
+            assert c.score == (sol.stats["trust"]["max_std_contact"] or 0.0) and c.score >= 0
+        ranked = sorted(cands, key=lambda c: (-c.score, c.slot))
+        assert [c.slot for c in sorted((c for c in cands if c.pick is not None), key=lambda c: c.pick)] == [
+            c.slot for c in ranked[:2]
+        ]
+        assert all(c.dataset_id is not None for c in ranked[:2]) and all(c.dataset_id is None for c in ranked[2:])
+        pv, prev = pool_repo.version_of(s, cid, 1), pool_repo.version_of(s, cid, 0)
+        assert pv.n_datasets == prev.n_datasets + 2
+        assert {(st.step, st.slot) for st in it.steps if st.step in ("ocp", "oracle")} == {
+            *(("ocp", j) for j in range(4)),
+            ("oracle", 0),
+            ("oracle", 1),
+        }
+        top = ranked[0].score
+        assert top > 0  # the two-member ensemble disagrees somewhere in contact
+
+    stop = {**settings, "candidates": 2}
+    cid, jobs = make_campaign(
+        task=TASK, seed=3, settings={**BATCH, **stop}, stopping={"max_iterations": 3, "min_disagreement": top * 2 + 1}
+    )
+    protocol.drive_inline(cid, jobs)
+    with session_scope() as s:
+        c = repository.get_campaign(s, cid)
+        assert (c.status, c.stop_reason) == ("completed", "min_disagreement")
+        it = repository.get_iteration(s, cid, 1)
+        assert it.oracle_calls == 0 and all(c.pick is None for c in repository.candidates(s, it.id))
+        assert {st.step: st.status for st in it.steps if st.step in ("evaluate", "append")} == {
+            "evaluate": "skipped",
+            "append": "succeeded",
+        }
+        assert pool_repo.version_of(s, cid, 1).n_datasets == pool_repo.version_of(s, cid, 0).n_datasets
 
 
 # ----------------------------------------------------------------------------- real workers

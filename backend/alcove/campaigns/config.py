@@ -6,7 +6,7 @@ from __future__ import annotations
 
 from typing import Annotated, Literal
 
-from pydantic import BaseModel, ConfigDict, Field, model_validator
+from pydantic import BaseModel, ConfigDict, Field, ValidationInfo, field_validator, model_validator
 
 
 class _Strict(BaseModel):
@@ -197,16 +197,18 @@ class RunSettings(_Strict):
         ),
     )
 
-    @model_validator(mode="after")
-    def _batch_needs_a_batch_strategy(self) -> RunSettings:
-        if self.batch > 1 and self.strategy == "paper":
+    @field_validator("batch")
+    @classmethod
+    def _batch_needs_a_batch_strategy(cls, batch: int, info: ValidationInfo) -> int:
+        strategy, candidates = info.data.get("strategy"), info.data.get("candidates")
+        if batch > 1 and strategy == "paper":
             raise ValueError(
-                f"batch: strategy 'paper' replays one trajectory per iteration (batch 1), got {self.batch}; "
+                f"strategy 'paper' replays one trajectory per iteration (batch 1), got {batch}; "
                 "use strategy 'random-scenarios' or 'ensemble-disagreement' for q > 1"
             )
-        if self.strategy == "ensemble-disagreement" and self.candidates < self.batch:
-            raise ValueError(f"candidates: {self.candidates} candidates cannot give a batch of {self.batch}")
-        return self
+        if strategy == "ensemble-disagreement" and candidates is not None and batch > candidates:
+            raise ValueError(f"a batch of {batch} needs at least as many candidates, got candidates = {candidates}")
+        return batch
 
 
 class CampaignConfig(_Strict):

@@ -155,13 +155,23 @@ def run(
     seed: int | None = typer.Option(None, min=0, help="campaign seed"),
     strategy: str | None = typer.Option(
         None,
-        help="acquisition strategy: paper (the task as written) or random-scenarios (q scenarios drawn from the "
-        "task's ranges every iteration); default: the config's, else paper",
+        help="acquisition strategy: paper (the task as written), random-scenarios (q scenarios drawn from the "
+        "task's ranges every iteration) or ensemble-disagreement (C candidates, the q most disputed replayed); "
+        "default: the config's, else paper",
+    ),
+    candidates: int | None = typer.Option(
+        None,
+        "--candidates",
+        help="candidate scenarios C per iteration (ensemble-disagreement; default: the config's, else 8)",
+    ),
+    min_disagreement: float | None = typer.Option(
+        None,
+        "--min-disagreement",
+        help="stop when the highest candidate score falls below this [N] (ensemble-disagreement)",
     ),
     batch: int | None = typer.Option(
         None,
         "--batch",
-        "-q",
         help="batch size q: trajectories replayed per iteration in parallel oracle jobs "
         "(default: the config's, else 1)",
     ),
@@ -193,9 +203,16 @@ def run(
 
     _ensure_database()
     cfg = _read_config(config)
-    given = {"strategy": strategy, "batch": batch, "max_concurrent_oracle_jobs": max_oracle_jobs}
+    given = {
+        "strategy": strategy,
+        "batch": batch,
+        "candidates": candidates,
+        "max_concurrent_oracle_jobs": max_oracle_jobs,
+    }
     if any(v is not None for v in given.values()):
         cfg["settings"] = {**(cfg.get("settings") or {}), **{k: v for k, v in given.items() if v is not None}}
+    if min_disagreement is not None:
+        cfg["stopping"] = {**(cfg.get("stopping") or {}), "min_disagreement": min_disagreement}
     campaign_id = _create(task, oracle, iterations, cfg, name, seed)
     proc = following.spawn_worker(concurrency, log_path=worker_log) if spawn else None
     t0 = time.perf_counter()
