@@ -31,6 +31,7 @@ from tests.integration.procs import wait_until as wait_for
 TASK = "head-headrest-scenarios"
 Q = 3
 BATCH = {"strategy": "random-scenarios", "batch": Q, "validation_motions": 0}
+LIGHT: dict[str, Any] = {"preliminary": {"samples": 200, "chunks": 2}, "surrogate": {"max_epochs": 20}}
 
 
 def test_a_batch_iteration_solves_q_seeded_scenarios_and_appends_them_as_one_pool_version(
@@ -40,7 +41,7 @@ def test_a_batch_iteration_solves_q_seeded_scenarios_and_appends_them_as_one_poo
     from alcove.science.ocp.task_spec import task_preset
 
     seed = 11
-    cid, jobs = make_campaign(task=TASK, seed=seed, settings=BATCH, stopping={"max_iterations": 2})
+    cid, jobs = make_campaign(task=TASK, seed=seed, settings=BATCH, stopping={"max_iterations": 2}, **LIGHT)
     count_datasets = sa.select(sa.func.count()).select_from(Dataset).where(Dataset.campaign_id == cid)
     protocol.drive_inline(cid, jobs)
     task = task_preset(TASK)
@@ -139,6 +140,43 @@ def test_ensemble_disagreement_replays_the_most_disputed_candidates_and_stops_wh
         assert pool_repo.version_of(s, cid, 1).n_datasets == pool_repo.version_of(s, cid, 0).n_datasets
 
 
+def test_retrying_a_batch_slot_that_failed_the_campaign_runs_the_slots_it_cancelled_too(
+    sqlite_campaign_db: str, make_campaign, faults
+) -> None:
+    """Policy stop: ocp slot 0 does not converge and fails the campaign, which cancels the queued
+    slot 1. A retry runs slot 0 again and slot 1 with it; the iteration then fans in as usual."""
+    from alcove.campaigns import service
+    from alcove.jobs.faults import inject
+
+    cid, jobs = make_campaign(
+        task=TASK,
+        seed=5,
+        settings={**BATCH, "batch": 2},
+        stopping={"max_iterations": 1},
+        policies={"ocp_on_failure": "stop"},
+        fault={"ocp": {"ipopt_max_iter": 1, "slots": [0]}},
+        **LIGHT,
+    )
+    protocol.drive_inline(cid, jobs)
+    with session_scope() as s:
+        c = repository.get_campaign(s, cid)
+        assert c.status == "failed"
+        it = repository.get_iteration(s, cid, 1)
+        assert {(st.step, st.slot): st.status for st in it.steps if st.step == "ocp"} == {
+            ("ocp", 0): "failed",
+            ("ocp", 1): "cancelled",
+        }
+        inject(cid, None)
+        c, jobs = service.retry_step(s, cid)
+        assert sorted((j.step.value, j.slot, j.attempt) for j in jobs) == [("ocp", 0, 2), ("ocp", 1, 1)]
+    protocol.drive_inline(cid, jobs)
+    with session_scope() as s:
+        assert repository.get_campaign(s, cid).status == "completed"
+        it = repository.get_iteration(s, cid, 1)
+        assert all(st.status == "succeeded" for st in it.steps)
+        assert pool_repo.version_of(s, cid, 1).n_datasets == pool_repo.version_of(s, cid, 0).n_datasets + 2
+
+
 # ----------------------------------------------------------------------------- real workers
 
 
@@ -172,6 +210,7 @@ def start(make_campaign: Any, seed: int, fault: dict[str, Any] | None = None, **
         stopping={"max_iterations": 1},
         fault=fault,
         start=False,
+        **LIGHT,  # what these tests check needs no accurate model
     )
     send_committed(transaction(lambda s: stage(s, service.start(s, cid)[1])))
     return cid
@@ -199,16 +238,22 @@ def appended_once(url: str, cid: int, q: int) -> None:
 def test_a_worker_killed_in_one_of_three_oracle_jobs_costs_that_job_only(
     pg_redis_default_lease: dict[str, str], pg_url: str, tmp_path: Path, make_campaign: Any
 ) -> None:
-    """Three oracle jobs fan out to three workers; the one replaying pick 1 (slowed to 6 s) is
-    SIGKILLed: another worker replays pick 1 again (attempt 2) once the dead worker's heartbeat is
+    """Three oracle jobs fan out to two workers; the one replaying pick 1 (slowed to 6 s) is
+    SIGKILLed: the other worker replays pick 1 again (attempt 2) once the dead worker's heartbeat is
     stale, picks 0 and 2 keep their first and only run, and the fan-in appends the three datasets
     as one pool version. Duplicate messages of every finished step then change nothing."""
     from alcove.campaigns.schemas import StepJob
     from alcove.jobs.campaign import enqueue
 
     cid = start(make_campaign, 31, {"oracle": {"sleep_s": 6, "slots": [1]}})
-    env = pg_redis_default_lease
-    workers = {n: start_worker(env, tmp_path / f"{n}.log", n) for n in (unique("b") for _ in range(3))}
+    # a dead worker is noticed after 4 s (production: 10 s): still the heartbeat, never the 120 s lease
+    env = {
+        **pg_redis_default_lease,
+        "ALCOVE_WORKER_DEAD_SECONDS": "4",
+        "ALCOVE_WORKER_HEARTBEAT_SECONDS": "1",
+        "ALCOVE_RECONCILE_SECONDS": "1",
+    }
+    workers = {n: start_worker(env, tmp_path / f"{n}.log", n) for n in (unique("b") for _ in range(2))}
 
     def alive() -> Any:
         return next(p for p in workers.values() if p.alive())

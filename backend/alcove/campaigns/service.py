@@ -11,6 +11,7 @@ in the job outbox in the same transaction and sends AFTER committing::
 
 from __future__ import annotations
 
+from dataclasses import replace
 from datetime import datetime
 
 from sqlalchemy.orm import Session
@@ -225,11 +226,18 @@ def retry_step(
             raise Conflict(f"nothing to retry: no step of campaign {c.id} has failed (campaign status: {c.status})")
         raise Conflict(f"nothing to retry: step {step} of iteration {iteration} has not failed")
     k, row = failed[-1]
-    ref = StepRef(k, StepName(row.step))
+    ref = StepRef(k, StepName(row.step), row.slot)
     d = transition(state_of(c), RetryStep(ref))
-    row.max_attempts = row.attempts + getattr(current_config(s, c).policies, ATTEMPTS_FIELD[ref.step])
-    row.error = None
-    row.config_version_id = repo.config_version(s, c).id  # a retry runs with the current settings (e.g. after an edit)
+    # a batch: the parallel slots the failure cancelled run again with it (the finished ones keep their results)
+    again = [row]
+    if ref.step in (StepName.ocp, StepName.oracle):
+        siblings = repo.slot_steps(s, row.iteration_id, [StepName.ocp.value, StepName.oracle.value])
+        again += [r for r in siblings if r is not row and r.status == StepStatus.cancelled.value]
+        d = replace(d, enqueue=tuple(StepRef(k, StepName(r.step), r.slot) for r in again))
+    for r in again:
+        r.max_attempts = r.attempts + getattr(current_config(s, c).policies, ATTEMPTS_FIELD[StepName(r.step)])
+        r.error = None
+        r.config_version_id = repo.config_version(s, c).id  # a retry runs with the current settings
     it = repo.get_iteration(s, c.id, k)
     if it is not None:
         it.status, it.finished_at, it.error = IterationStatus.running.value, None, None
