@@ -338,7 +338,11 @@ def evaluate(ctx: StepContext) -> StepOutput:
             ),
             "n_pool_samples": pv_prev.n_samples if pv_prev else None,
             "extra": {
-                "step_wall_time_s": {st.step: st.wall_time_s for st in it.steps if st.wall_time_s is not None},
+                "step_wall_time_s": {
+                    (f"{st.step}[{st.slot}]" if st.slot else st.step): st.wall_time_s
+                    for st in it.steps
+                    if st.wall_time_s is not None
+                },
                 "config_version_id": it.config_version_id,
             },
         }
