@@ -33,8 +33,8 @@ from typing import TYPE_CHECKING, Any, TypedDict
 import numpy as np
 from sqlalchemy.orm import Session
 
+from alcove.campaigns import candidates, transitions
 from alcove.campaigns import repository as repo
-from alcove.campaigns import transitions
 from alcove.campaigns.schemas import CampaignConfig
 from alcove.campaigns.state_machine import IterationRecord, StepRef, stop_reason
 from alcove.campaigns.validation import suite_spec
@@ -203,52 +203,10 @@ def ocp(ctx: StepContext) -> StepOutput:
             pool_preset=nominal_preset,
         )
     except UnusableResult as err:  # no converged solution: the iteration still shows its scenario
-        raise UnusableResult(err.reason, _storing_scenario(err.write, stored, features, settings.strategy)) from None
-    return StepOutput(_storing_scenario(out.write, stored, features, settings.strategy), out.compute_s)
-
-
-def _storing_scenario(
-    write: Callable[[Session, IterationRef], dict[str, Any]] | None,
-    stored: dict[str, Any] | None,
-    features: list[float] | None,
-    strategy: str,
-) -> Callable[[Session, IterationRef], dict[str, Any]]:
-    """The solve's rows, the scenario on the iteration (slot 0's) and, in a batch (``features``
-    given), the slot's candidate row: picked at once by random-scenarios (pick = slot); scored by
-    ensemble-disagreement (the ensemble's largest force std over the contact phase, from the
-    solution's trust diagnostics; 0 without contact) and picked at the fan-in."""
-
-    def with_scenario(s: Session, at: IterationRef) -> dict[str, Any]:
-        result = write(s, at) if write is not None else {}
-        it = s.get(Iteration, at.iteration_id)
-        assert it is not None
-        if at.slot == 0:
-            it.scenario = stored
-        if features is not None:
-            converged = bool(result.get("converged"))
-            score = None
-            if strategy == "ensemble-disagreement" and converged:
-                sol = s.get(OcpSolution, result["ocp_solution_id"])
-                assert sol is not None
-                score = float((sol.stats or {}).get("trust", {}).get("max_std_contact") or 0.0)
-            replayed = strategy == "random-scenarios" and converged
-            repo.put_candidate(
-                s,
-                it.id,
-                at.slot,
-                scenario=stored,
-                ocp_solution_id=result.get("ocp_solution_id"),
-                converged=converged,
-                score=score,
-                features=features,
-                pick=at.slot if replayed else None,
-                pick_reason="random-scenarios: every drawn scenario is replayed" if replayed else None,
-            )
-            if score is not None:
-                result = {**result, "score": score}
-        return {**result, "scenario": stored} if stored is not None else result
-
-    return with_scenario
+        raise UnusableResult(
+            err.reason, candidates.storing_scenario(err.write, stored, features, settings.strategy)
+        ) from None
+    return StepOutput(candidates.storing_scenario(out.write, stored, features, settings.strategy), out.compute_s)
 
 
 def oracle(ctx: StepContext) -> StepOutput:
