@@ -44,7 +44,7 @@ def _env(data_dir: Path) -> dict[str, str]:
     return env
 
 
-def run_campaign(oracle: str, iterations: int, config_yaml: str = "") -> dict[str, Any]:
+def run_campaign(oracle: str, iterations: int, config_yaml: str = "", extra: tuple[str, ...] = ()) -> dict[str, Any]:
     """Run a campaign through a spawned worker; return the CLI's JSON and per-step rows."""
     import sqlalchemy as sa
 
@@ -62,6 +62,7 @@ def run_campaign(oracle: str, iterations: int, config_yaml: str = "") -> dict[st
         "--json",
         "--worker-log",
         str(tmp / "worker.log"),
+        *extra,
     ]
     if config_yaml:
         (tmp / "config.yaml").write_text(config_yaml)
@@ -76,7 +77,8 @@ def run_campaign(oracle: str, iterations: int, config_yaml: str = "") -> dict[st
             dict(row._mapping)
             for row in c.execute(
                 sa.text(
-                    'SELECT i."index" AS k, s.step, s.wall_time_s, s.result, s.queued_at, s.started_at, s.finished_at '
+                    'SELECT i."index" AS k, s.step, s.slot, s.wall_time_s, s.result, s.queued_at, s.started_at, '
+                    "s.finished_at "
                     "FROM iteration_steps s JOIN iterations i ON i.id = s.iteration_id "
                     "WHERE s.campaign_id = :c ORDER BY s.id"
                 ),
@@ -296,3 +298,75 @@ def paper_campaign(_: Any) -> float:
         f"overhead share {statistics.median(b['share_percent']):.1f} %"
     )
     return float(run["wall_time_s"]) / 60.0
+
+
+# ----------------------------------------------------------------------------- batches (issue 17)
+
+BATCH_Q = 4
+
+
+@functools.lru_cache
+def batch_campaign(processes: int) -> dict[str, Any]:
+    """random-scenarios with q = 4 on fe-headrest-2d (head-headrest-scenarios), 2 iterations,
+    one spawned worker with ``processes`` pool processes (its oracle jobs run that many at once)."""
+    run = run_campaign(
+        "fe-headrest-2d",
+        2,
+        "settings: {validation_motions: 0}\n",
+        (
+            "--task",
+            "head-headrest-scenarios",
+            "--strategy",
+            "random-scenarios",
+            "--batch",
+            str(BATCH_Q),
+            "-c",
+            str(processes),
+        ),
+    )
+    oracle = [st for st in run["steps"] if st["k"] == 2 and st["step"] == "oracle"]
+    wall = _seconds(min(st["queued_at"] for st in oracle), max(st["finished_at"] for st in oracle))
+    run["oracle_wall_per_call_s"] = wall / len(oracle)
+    # orchestration of iteration 2: every job's wall time minus its bare compute (claim, inputs, writes,
+    # the fan-in, the next messages), plus the queue latency of the serial steps; the ocp and oracle
+    # slots' queue time is mostly waiting for a free process behind their siblings (capacity, not overhead)
+    steps = [st for st in run["steps"] if st["k"] == 2 and st["wall_time_s"] is not None]
+    overhead = sum(max(st["wall_time_s"] - float(st["result"].get("compute_s", 0.0)), 0.0) for st in steps)
+    overhead += sum(_seconds(st["queued_at"], st["started_at"]) for st in steps if st["step"] not in ("ocp", "oracle"))
+    iteration = _seconds(min(st["queued_at"] for st in steps), max(st["finished_at"] for st in steps))
+    run["overhead_share"] = 100.0 * overhead / iteration
+    print(
+        f"  {processes} process(es): iteration 2 took {iteration:.2f} s, its {len(oracle)} oracle jobs {wall:.2f} s "
+        f"(bare compute {[round(float(st['result'].get('compute_s', 0)), 2) for st in oracle]} s); "
+        f"orchestration {overhead:.2f} s"
+    )
+    return run
+
+
+@figure(
+    "campaign: batch q = 4, oracle wall time per oracle call, 2 worker processes / 1",
+    "ratio",
+    target=0.6,
+    reps=1,
+    quick_reps=1,
+    group="campaign",
+    notes="random-scenarios, fe-headrest-2d, iteration 2: first oracle job queued to last one finished, / q; "
+    "one spawned worker with 2 pool processes vs 1 (on a shared machine the ratio also measures the load)",
+)
+def batch_parallel_ratio(_: Any) -> float:
+    return batch_campaign(2)["oracle_wall_per_call_s"] / batch_campaign(1)["oracle_wall_per_call_s"]
+
+
+@figure(
+    "campaign: orchestration share of a batch iteration (q = 4, 2 processes)",
+    "%",
+    target=5.0,
+    reps=1,
+    quick_reps=1,
+    group="campaign",
+    notes="iteration 2: every job's wall time minus its bare compute (parallel slots counted each) + the queue "
+    "latency of train, evaluate and append, over the iteration's wall time (first message queued to append "
+    "committed); the slots' queue time, waiting for a free process behind their siblings, is not counted",
+)
+def batch_overhead_share(_: Any) -> float:
+    return float(batch_campaign(2)["overhead_share"])

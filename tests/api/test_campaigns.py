@@ -430,3 +430,24 @@ def test_a_forks_metrics_can_include_the_inherited_iterations(client, owner: Acc
     assert [(r["campaign_id"], r["iteration_index"]) for r in rows] == [(finished, 1)]
     own = client.get(f"{API}/campaigns/{finished}/metrics", params={"inherited": True}, headers=owner.headers).json()
     assert own and not any(r["inherited"] for r in own)
+
+
+@pytest.mark.parametrize(
+    ("settings", "stopping", "field"),
+    [
+        ({"batch": 2}, {}, "settings.batch"),  # strategy paper replays one trajectory
+        ({"strategy": "ensemble-disagreement", "batch": 4, "candidates": 3}, {}, "settings.batch"),
+        ({"strategy": "ensemble-disagreement", "candidates": 0}, {}, "settings.candidates"),
+        ({"strategy": "random-scenarios", "max_concurrent_oracle_jobs": 0}, {}, "settings.max_concurrent_oracle_jobs"),
+        ({"strategy": "ensemble-disagreement", "min_distance": -1}, {}, "settings.min_distance"),
+        ({"strategy": "ensemble-disagreement"}, {"min_disagreement": 0}, "stopping.min_disagreement"),
+    ],
+)
+def test_bad_batch_settings_are_422_naming_the_field(client, owner: Account, settings, stopping, field) -> None:
+    task = client.post(f"{API}/tasks", json={"name": "t", "spec": small_task_spec()}, headers=owner.headers).json()
+    oracle = client.post(f"{API}/oracles/presets/aux-penalty/copy", headers=owner.headers).json()
+    body = {"name": "x", "task_id": task["id"], "oracle_id": oracle["id"], "settings": settings}
+    if stopping:
+        body["stopping"] = {"max_iterations": 2, **stopping}
+    r = client.post(f"{API}/campaigns", json=body, headers=owner.headers)
+    assert r.status_code == 422 and r.json()["detail"][0]["field"] == field, r.text

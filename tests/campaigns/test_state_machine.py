@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from typing import Any
+
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
@@ -9,6 +11,8 @@ from hypothesis import strategies as st
 from alcove.campaigns.schemas import StoppingRules
 from alcove.campaigns.state_machine import (
     Cancel,
+    Decision,
+    Fan,
     InvalidTransition,
     IterationRecord,
     Outcome,
@@ -70,12 +74,12 @@ def test_pause_lets_the_running_step_finish_then_parks_the_next_step_until_resum
     assert d.status is S.pausing and d.pause_requested and not d.enqueue
     d = transition(State(S.pausing, pause_requested=True), StepFinished(StepRef(1, N.ocp), Outcome.succeeded))
     assert d.status is S.paused and d.enqueue == () and d.pending == StepRef(1, N.oracle)
-    d = transition(State(S.paused), Resume(StepRef(1, N.oracle)))
+    d = transition(State(S.paused), Resume((StepRef(1, N.oracle),)))
     assert d.status is S.running and d.enqueue == (StepRef(1, N.oracle),)
 
 
 def test_resume_while_still_pausing_forgets_the_request_and_sends_nothing() -> None:
-    d = transition(State(S.pausing, pause_requested=True), Resume(None))
+    d = transition(State(S.pausing, pause_requested=True), Resume())
     assert d.status is S.running and not d.pause_requested and d.enqueue == ()
 
 
@@ -138,7 +142,7 @@ def test_whatever_happens_each_iteration_ends_in_exactly_one_append_and_steps_ne
             state = State(transition(state, Pause()).status, pause_requested=True)
             continue
         if action == "resume" and state.status is S.paused:
-            d = transition(state, Resume(waiting))
+            d = transition(state, Resume((waiting,) if waiting else ()))
             state, pending, waiting = State(d.status), list(d.enqueue), None
             continue
         if not pending:
@@ -203,3 +207,109 @@ def test_oracle_budget_fires_on_the_total_oracle_wall_time() -> None:
 def test_stopping_rules_need_at_least_one_rule() -> None:
     with pytest.raises(ValueError, match="at least one stopping rule"):
         StoppingRules(max_iterations=None)
+
+
+# ----------------------------------------------------------------------------- batch fan-out / fan-in
+
+
+class _Row:
+    def __init__(self, step: str, slot: int, status: str) -> None:
+        self.step, self.slot, self.status = step, slot, status
+
+
+@settings(max_examples=150, deadline=None)
+@given(
+    q=st.integers(1, 5),
+    cap=st.one_of(st.none(), st.integers(1, 3)),
+    script=st.lists(
+        st.tuples(st.sampled_from(["ok", "fail", "pause", "resume"]), st.integers(0, 20)), min_size=0, max_size=40
+    ),
+)
+def test_a_batch_fans_out_and_back_in_exactly_once_whatever_the_order(
+    q: int, cap: int | None, script: list[tuple[str, int]]
+) -> None:
+    """Iteration 1 of a random-scenarios campaign with q slots and an oracle cap: its jobs end in
+    any order, some fail, the campaign is paused and resumed in between (a claimed job of a
+    pausing campaign parks its step, as the protocol does). The rows play the database and
+    :func:`fan_of` reads them as the completing transaction does. Whatever happens: each slot's
+    ocp and oracle job runs once (nothing is redone), never more than ``cap`` oracle jobs are
+    queued or running, ``evaluate`` runs iff some pick produced data and after every pick ended,
+    and the iteration reaches exactly one ``append``."""
+    from alcove.campaigns.fan import fan_of
+
+    rows: dict[tuple[str, int], str] = {}
+    queue: list[StepRef] = []
+    ran: list[StepRef] = []
+    state = State(S.running)
+
+    def oracles_busy() -> int:
+        return sum(st_ in ("queued", "running") for (step, _), st_ in rows.items() if step == "oracle")
+
+    def apply(d: Any) -> None:
+        nonlocal state
+        for r in d.skip:
+            rows[(r.step.value, r.slot)] = "skipped"
+        for r in ((d.pending,) if d.pending else ()) + d.wait:
+            if rows.get((r.step.value, r.slot), "pending") == "pending":
+                rows[(r.step.value, r.slot)] = "pending"
+        for r in d.enqueue:
+            rows[(r.step.value, r.slot)] = "queued"
+            queue.append(r)
+        state = State(d.status, pause_requested=d.pause_requested)
+        assert cap is None or oracles_busy() <= cap
+
+    def room() -> int | None:
+        return None if cap is None else max(0, cap - oracles_busy())
+
+    def resume() -> None:
+        pending = [StepRef(1, N(step), slot) for (step, slot), st_ in sorted(rows.items()) if st_ == "pending"]
+        oracles = [r for r in pending if r.step is N.oracle]
+        n = room()
+        if n is not None and len(oracles) > n:
+            pending = [r for r in pending if r.step is not N.oracle] + oracles[:n]
+        apply(transition(state, Resume(tuple(pending))))
+
+    def finish(i: int, ok: bool) -> None:
+        ref = queue.pop(i % len(queue))
+        if state.pause_requested or state.status in (S.pausing, S.paused):  # the claim parks it
+            rows[(ref.step.value, ref.slot)] = "pending"
+            if not any(s_ in ("queued", "running") for s_ in rows.values()):  # the last busy one: paused
+                apply(Decision(S.paused))
+            return
+        ran.append(ref)
+        outcome = Outcome.succeeded if ok or ref.step not in (N.ocp, N.oracle) else Outcome.iteration_failed
+        rows[(ref.step.value, ref.slot)] = "succeeded" if outcome is Outcome.succeeded else "failed"
+        if ref.step is N.append:
+            return
+        fan = Fan()
+        if ref.step in (N.ocp, N.oracle):
+            slot_rows = [_Row(s, j, v) for (s, j), v in rows.items() if s in ("ocp", "oracle")]
+            fan = fan_of(slot_rows, ref, q, room())
+        if ref.step is N.evaluate:  # the pick rows all ended before it was sent
+            assert all(v not in ("pending", "queued", "running") for (s, _), v in rows.items() if s != "evaluate")
+        apply(transition(state, StepFinished(ref, outcome, fan=fan)))
+
+    apply(transition(state, StepFinished(StepRef(1, N.train), Outcome.succeeded, fan=Fan(ocp_slots=q))))
+    for action, i in script:
+        if action == "pause" and state.status is S.running:
+            apply(transition(state, Pause()))
+        elif action == "resume" and state.status in (S.paused, S.pausing):
+            resume()
+        elif action in ("ok", "fail") and queue:
+            finish(i, action == "ok")
+    for _ in range(100):  # then everything succeeds until the iteration is appended
+        if state.status in (S.paused, S.pausing) and not queue:
+            resume()
+        if not queue:
+            break
+        finish(0, True)
+    assert [r.step for r in ran].count(N.append) == 1, ran
+    for step in (N.ocp, N.oracle):
+        slots = [r.slot for r in ran if r.step is step]
+        assert len(slots) == len(set(slots)), f"{step.value} slot run twice: {ran}"
+    assert sorted(r.slot for r in ran if r.step is N.ocp) == list(range(q))
+    ocp_ok = {j for j in range(q) if rows[("ocp", j)] == "succeeded"}
+    assert {r.slot for r in ran if r.step is N.oracle} == ocp_ok
+    some_data = any(rows.get(("oracle", j)) == "succeeded" for j in range(q))
+    assert (N.evaluate in [r.step for r in ran]) == some_data
+    assert [r.step for r in ran][-1] is N.append

@@ -72,7 +72,8 @@ def run_queued_steps(cid: int) -> None:
             .all()
         )
         jobs = [
-            StepJob(campaign_id=cid, iteration=k, step=StepName(st.step), attempt=st.attempts + 1) for k, st in queued
+            StepJob(campaign_id=cid, iteration=k, step=StepName(st.step), attempt=st.attempts + 1, slot=st.slot)
+            for k, st in queued
         ]
     drive_inline(cid, jobs)
 
@@ -155,3 +156,44 @@ def test_run_refuses_an_unknown_strategy_naming_the_setting(store: Path) -> None
         "run", "--no-worker", "--task", "head-headrest-scenarios", "--strategy", "greedy", "--oracle", "aux-penalty"
     )
     assert bad.exit_code == 2 and "settings.strategy" in bad.output, bad.output
+
+
+@pytest.mark.parametrize(
+    ("args", "field"),
+    [
+        (["--strategy", "paper", "--batch", "2"], "settings.batch"),
+        (["--strategy", "ensemble-disagreement", "--batch", "4", "--candidates", "2"], "settings.batch"),
+        (["--strategy", "random-scenarios", "--batch", "0"], "settings.batch"),
+        (["--strategy", "ensemble-disagreement", "--candidates", "65"], "settings.candidates"),
+        (["--strategy", "random-scenarios", "--max-oracle-jobs", "0"], "settings.max_concurrent_oracle_jobs"),
+        (["--strategy", "ensemble-disagreement", "--min-disagreement", "-1"], "stopping.min_disagreement"),
+    ],
+)
+def test_run_refuses_bad_batch_settings_naming_the_field(store: Path, args: list[str], field: str) -> None:
+    bad = cli("run", "--no-worker", "--task", "head-headrest-scenarios", "--oracle", "aux-penalty", *args)
+    assert bad.exit_code == 2 and field in bad.output, bad.output
+
+
+def test_the_json_report_gives_each_iterations_oracle_calls_and_picked_scenarios(store: Path) -> None:
+    """What `campaign run --json` prints per iteration (``follow.read_metrics``): for an
+    ensemble-disagreement batch, its oracle calls and the picked scenarios with their scores and
+    in-loop RMSE, whose mean is the iteration's."""
+    from alcove_worker.cli.follow import read_metrics
+
+    cfg = store / "batch.yaml"
+    cfg.write_text(
+        QUICK_YAML.replace(
+            "validation_motions: 2",
+            "validation_motions: 0, strategy: ensemble-disagreement, batch: 2, candidates: 3, min_distance: 0",
+        )
+    )
+    out = ok("create", "--task", "head-headrest-scenarios", "--oracle", "aux-penalty", "-n", "1", "--config", str(cfg))
+    cid = int(out.strip())
+    ok("start", str(cid))
+    run_queued_steps(cid)
+    (row,) = read_metrics(cid)
+    assert row["iteration_index"] == 1 and row["oracle_calls"] == 2
+    assert [p["pick"] for p in row["picks"]] == [0, 1]
+    assert row["picks"][0]["score"] >= row["picks"][1]["score"]
+    assert all(p["scenario"]["iteration"] == 1 and p["slot"] in (0, 1, 2) for p in row["picks"])
+    assert row["force_rmse"] == pytest.approx(sum(p["force_rmse"] for p in row["picks"]) / 2, rel=1e-12)

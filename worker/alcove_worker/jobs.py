@@ -27,7 +27,7 @@ def smoke(self: Any, token: str, sent_at: float | None = None) -> int:
 
 
 # ----------------------------------------------------------------------------- campaign steps
-# One job per step type; the message is (campaign_id, iteration, step, attempt). The job
+# One job per step type; the message is (campaign_id, iteration, step, attempt[, slot]). The job
 # claims its step row first, so a duplicate delivery is a no-op (see alcove.campaigns.protocol).
 
 from celery import signals  # noqa: E402
@@ -35,42 +35,51 @@ from celery import signals  # noqa: E402
 from alcove.jobs.campaign import RECONCILE_JOB, STEP_JOBS  # noqa: E402
 
 
-def _run_step(job: Any, campaign_id: int, iteration: int, step: str, attempt: int) -> dict[str, Any]:
+def _run_step(job: Any, campaign_id: int, iteration: int, step: str, attempt: int, slot: int) -> dict[str, Any]:
     from alcove.campaigns.protocol import run_step
 
     return run_step(
-        int(campaign_id), int(iteration), str(step), int(attempt), worker_name=job.request.hostname or "unknown"
+        int(campaign_id),
+        int(iteration),
+        str(step),
+        int(attempt),
+        worker_name=job.request.hostname or "unknown",
+        slot=int(slot),
     )
 
 
 @app.task(name=STEP_JOBS["preliminary"], bind=True, acks_late=True)
-def preliminary_step(self: Any, campaign_id: int, iteration: int, step: str, attempt: int) -> dict[str, Any]:
-    return _run_step(self, campaign_id, iteration, step, attempt)
+def preliminary_step(
+    self: Any, campaign_id: int, iteration: int, step: str, attempt: int, slot: int = 0
+) -> dict[str, Any]:
+    return _run_step(self, campaign_id, iteration, step, attempt, slot)
 
 
 @app.task(name=STEP_JOBS["train"], bind=True, acks_late=True)
-def train_step(self: Any, campaign_id: int, iteration: int, step: str, attempt: int) -> dict[str, Any]:
-    return _run_step(self, campaign_id, iteration, step, attempt)
+def train_step(self: Any, campaign_id: int, iteration: int, step: str, attempt: int, slot: int = 0) -> dict[str, Any]:
+    return _run_step(self, campaign_id, iteration, step, attempt, slot)
 
 
 @app.task(name=STEP_JOBS["ocp"], bind=True, acks_late=True)
-def ocp_step(self: Any, campaign_id: int, iteration: int, step: str, attempt: int) -> dict[str, Any]:
-    return _run_step(self, campaign_id, iteration, step, attempt)
+def ocp_step(self: Any, campaign_id: int, iteration: int, step: str, attempt: int, slot: int = 0) -> dict[str, Any]:
+    return _run_step(self, campaign_id, iteration, step, attempt, slot)
 
 
 @app.task(name=STEP_JOBS["oracle"], bind=True, acks_late=True)
-def oracle_step(self: Any, campaign_id: int, iteration: int, step: str, attempt: int) -> dict[str, Any]:
-    return _run_step(self, campaign_id, iteration, step, attempt)
+def oracle_step(self: Any, campaign_id: int, iteration: int, step: str, attempt: int, slot: int = 0) -> dict[str, Any]:
+    return _run_step(self, campaign_id, iteration, step, attempt, slot)
 
 
 @app.task(name=STEP_JOBS["evaluate"], bind=True, acks_late=True)
-def evaluate_step(self: Any, campaign_id: int, iteration: int, step: str, attempt: int) -> dict[str, Any]:
-    return _run_step(self, campaign_id, iteration, step, attempt)
+def evaluate_step(
+    self: Any, campaign_id: int, iteration: int, step: str, attempt: int, slot: int = 0
+) -> dict[str, Any]:
+    return _run_step(self, campaign_id, iteration, step, attempt, slot)
 
 
 @app.task(name=STEP_JOBS["append"], bind=True, acks_late=True)
-def append_step(self: Any, campaign_id: int, iteration: int, step: str, attempt: int) -> dict[str, Any]:
-    return _run_step(self, campaign_id, iteration, step, attempt)
+def append_step(self: Any, campaign_id: int, iteration: int, step: str, attempt: int, slot: int = 0) -> dict[str, Any]:
+    return _run_step(self, campaign_id, iteration, step, attempt, slot)
 
 
 # ----------------------------------------------------------------------------- validation suite
@@ -151,8 +160,10 @@ def _step_process_lost(sender: Any = None, exception: BaseException | None = Non
     from alcove.campaigns.reconciler import release_lost_step
 
     try:
-        campaign_id, iteration, step, attempt = args
-        release_lost_step(int(campaign_id), int(iteration), str(step), int(attempt), sender.request.hostname or "")
+        campaign_id, iteration, step, attempt, *slot = args
+        release_lost_step(
+            int(campaign_id), int(iteration), str(step), int(attempt), sender.request.hostname or "", *map(int, slot)
+        )
     except Exception:  # the lease still expires
         log.exception("could not release the step of a lost pool process")
 

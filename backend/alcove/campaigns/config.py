@@ -6,7 +6,7 @@ from __future__ import annotations
 
 from typing import Annotated, Literal
 
-from pydantic import BaseModel, ConfigDict, Field, model_validator
+from pydantic import BaseModel, ConfigDict, Field, ValidationInfo, field_validator, model_validator
 
 
 class _Strict(BaseModel):
@@ -67,6 +67,16 @@ class StoppingRules(_Strict):
         le=1e7,
         description="stop when the oracle's total wall time reaches this [s]; above 0, at most 1e7 s (16 weeks)",
     )
+    min_disagreement: float | None = Field(
+        None,
+        gt=0,
+        le=1e4,
+        description=(
+            "strategy 'ensemble-disagreement': stop when the highest candidate score (ensemble force std over "
+            "the contact phase) falls below this [N]; the iteration then asks the oracle nothing; above 0, at "
+            "most 1e4 N"
+        ),
+    )
 
     @model_validator(mode="after")
     def _some_rule(self) -> StoppingRules:
@@ -76,6 +86,7 @@ class StoppingRules(_Strict):
             and self.target_moment_rmse is None
             and self.plateau_window is None
             and self.oracle_budget_s is None
+            and self.min_disagreement is None
         ):
             raise ValueError("at least one stopping rule is needed (e.g. max_iterations)")
         return self
@@ -142,14 +153,62 @@ class RunSettings(_Strict):
         ),
     )
     validation_seed: int = Field(0, ge=0, le=2**31 - 1, description="seed of the validation suite's motions")
-    strategy: Literal["paper", "random-scenarios"] = Field(
+    strategy: Literal["paper", "random-scenarios", "ensemble-disagreement"] = Field(
         "paper",
         description=(
             "acquisition strategy (docs/active-learning.md): 'paper' solves the task as written every iteration "
-            "(the paper's loop); 'random-scenarios' solves a scenario drawn from the task's ranges with the "
-            "campaign seed and the iteration index (stored with the iteration)"
+            "(the paper's loop); 'random-scenarios' solves q scenarios drawn from the task's ranges with the "
+            "campaign seed, the iteration index and the slot; 'ensemble-disagreement' draws C candidate scenarios, "
+            "solves each with the ensemble mean, scores each by the ensemble's disagreement over its contact phase "
+            "and replays the q best that are far enough apart"
         ),
     )
+    candidates: int = Field(
+        8,
+        ge=1,
+        le=64,
+        description="candidate scenarios C solved per iteration by 'ensemble-disagreement' (1 to 64, at least q)",
+    )
+    min_distance: float = Field(
+        0.1,
+        ge=0,
+        le=10,
+        description=(
+            "'ensemble-disagreement': no two picks closer than this in the scenarios' feature space (each ranged "
+            "parameter scaled to [0, 1]); 0 to 10"
+        ),
+    )
+    batch: int = Field(
+        1,
+        ge=1,
+        le=64,
+        description=(
+            "batch size q: trajectories the oracle replays per iteration, in parallel oracle jobs, appended as one "
+            "pool version (1 to 64; strategy 'paper' takes 1 only)"
+        ),
+    )
+    max_concurrent_oracle_jobs: int | None = Field(
+        None,
+        ge=1,
+        le=64,
+        description=(
+            "at most this many of the campaign's oracle jobs queued or running at once (1 to 64; None: no cap); "
+            "the rest wait and start as running ones finish"
+        ),
+    )
+
+    @field_validator("batch")
+    @classmethod
+    def _batch_needs_a_batch_strategy(cls, batch: int, info: ValidationInfo) -> int:
+        strategy, candidates = info.data.get("strategy"), info.data.get("candidates")
+        if batch > 1 and strategy == "paper":
+            raise ValueError(
+                f"strategy 'paper' replays one trajectory per iteration (batch 1), got {batch}; "
+                "use strategy 'random-scenarios' or 'ensemble-disagreement' for q > 1"
+            )
+        if strategy == "ensemble-disagreement" and candidates is not None and batch > candidates:
+            raise ValueError(f"a batch of {batch} needs at least as many candidates, got candidates = {candidates}")
+        return batch
 
 
 class CampaignConfig(_Strict):

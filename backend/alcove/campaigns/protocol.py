@@ -106,6 +106,7 @@ def run_step(
     *,
     worker_name: str = "local",
     send: Callable[[list[StepJob]], Any] | None = None,
+    slot: int = 0,
 ) -> dict[str, Any]:
     """Run one step message. Returns a small status dict (for logs and tests).
 
@@ -114,7 +115,7 @@ def run_step(
     that (``drive_inline``: a list in this process, no broker)."""
     durable = send is None
     t_job = time.perf_counter()
-    ref = StepRef(iteration, StepName(step))
+    ref = StepRef(iteration, StepName(step), slot)
     token = uuid.uuid4().hex
     lease = lease_seconds()
 
@@ -129,7 +130,10 @@ def run_step(
     keeper = LeaseKeeper(step_id, token, lease, interval=max(0.5, lease / 4))
     keeper.start()
     run = StepRun(
-        attempt, worker_name, lambda: keeper.cancel_requested, fault_for(campaign_id, ref.step.value, ref.iteration)
+        attempt,
+        worker_name,
+        lambda: keeper.cancel_requested,
+        fault_for(campaign_id, ref.step.value, ref.iteration, ref.slot),
     )
     try:
         output, failure = _compute(StepContext(campaign_id, ref, config, run))
@@ -146,7 +150,7 @@ def run_step(
         if row is None:
             return None  # the reconciler gave the step to another job
         c = repo.get_campaign(s, campaign_id, lock=True)
-        at = IterationRef(c.id, row.iteration_id, ref.iteration)
+        at = IterationRef(c.id, row.iteration_id, ref.iteration, ref.slot)
         wall = time.perf_counter() - t_job  # the step's wall time: up to the writing of its results
         base = {**timing, "worker": worker_name, "queue_latency_s": _latency(row)}
         if output is not None:
@@ -181,7 +185,7 @@ def run_step(
         "status": ended,
         "step": str(ref),
         "attempt": attempt,
-        "next": [f"{j.iteration}/{j.step.value}#{j.attempt}" for j in next_jobs],
+        "next": [f"{j.iteration}/{j.step.value}[{j.slot}]#{j.attempt}" for j in next_jobs],
         **timing,
         "total_s": time.perf_counter() - t_job,
     }
@@ -246,7 +250,7 @@ def _compute(ctx: StepContext) -> tuple[StepOutput | None, Failure | None]:
 def _claim(
     s: Session, campaign_id: int, ref: StepRef, attempt: int, token: str, worker: str, lease: float
 ) -> tuple[str, int | None, CampaignConfig | None, list[StepJob]]:
-    row = repo.get_step(s, campaign_id, ref.iteration, ref.step.value)
+    row = repo.get_step(s, campaign_id, ref.iteration, ref.step.value, ref.slot)
     if row is None:
         return "missing", None, None, []
     if row.status != StepStatus.queued.value or row.attempts != attempt - 1:
@@ -260,6 +264,9 @@ def _claim(
         return "cancelled", None, None, jobs
     if c.pause_requested or c.status in (CampaignStatus.pausing.value, CampaignStatus.paused.value):
         row.status = StepStatus.pending.value
+        s.flush()
+        if repo.steps_of_campaign(s, c.id, [StepStatus.running.value, StepStatus.queued.value]):
+            return "paused", None, None, []  # parallel slots still busy: the last one pauses the campaign
         transitions.apply_decision(
             s, c, transitions.Decision(CampaignStatus.paused), note="paused before the next step"
         )
@@ -273,7 +280,13 @@ def _claim(
     cv = s.get(CampaignConfigVersion, row.config_version_id or it.config_version_id)
     config = transitions.config_from_version(cv) if cv is not None else transitions.current_config(s, c)
     repo.add_event(
-        s, campaign_id, "step_started", worker, iteration=ref.iteration, step=ref.step.value, data={"attempt": attempt}
+        s,
+        campaign_id,
+        "step_started",
+        worker,
+        iteration=ref.iteration,
+        step=ref.step.value,
+        data={"attempt": attempt, **({"slot": ref.slot} if ref.slot else {})},
     )
     return "claimed", row.id, config, []
 
@@ -293,7 +306,11 @@ def _requeue(s: Session, campaign_id: int, ref: StepRef, row: IterationStep, mes
         step=ref.step.value,
         data={"attempt": row.attempts},
     )
-    return [StepJob(campaign_id=campaign_id, iteration=ref.iteration, step=ref.step, attempt=row.attempts + 1)]
+    return [
+        StepJob(
+            campaign_id=campaign_id, iteration=ref.iteration, step=ref.step, attempt=row.attempts + 1, slot=ref.slot
+        )
+    ]
 
 
 def _latency(row: IterationStep) -> float | None:
@@ -319,6 +336,8 @@ def drive_inline(campaign_id: int, jobs: list[StepJob], *, max_steps: int = 100_
     n = 0
     while queue and n < max_steps:
         j = queue.pop(0)
-        run_step(j.campaign_id, j.iteration, j.step.value, j.attempt, worker_name="inline", send=queue.extend)
+        run_step(
+            j.campaign_id, j.iteration, j.step.value, j.attempt, worker_name="inline", send=queue.extend, slot=j.slot
+        )
         n += 1
     return n

@@ -43,7 +43,7 @@ def reconcile(s: Session, *, stale_queued_s: float, dead_worker_s: float | None 
     dead_before = None if dead_worker_s is None else now - timedelta(seconds=dead_worker_s)
     for k, row, why in repo.abandoned_running_steps(s, now, dead_before):
         c = repo.get_campaign(s, row.campaign_id, lock=True)
-        ref = StepRef(k, StepName(row.step))
+        ref = StepRef(k, StepName(row.step), row.slot)
         if c.is_terminal:
             row.status, row.finished_at, row.claim_token = StepStatus.cancelled.value, now, None
             continue
@@ -65,9 +65,15 @@ def reconcile(s: Session, *, stale_queued_s: float, dead_worker_s: float | None 
             message,
         )
         repo.add_event(
-            s, c.id, "step_requeued", message, iteration=k, step=row.step, data={"attempt": row.attempts, "why": why}
+            s,
+            c.id,
+            "step_requeued",
+            message,
+            iteration=k,
+            step=row.step,
+            data={"attempt": row.attempts, "why": why, "slot": row.slot},
         )
-        jobs.append(StepJob(campaign_id=c.id, iteration=k, step=ref.step, attempt=row.attempts + 1))
+        jobs.append(StepJob(campaign_id=c.id, iteration=k, step=ref.step, attempt=row.attempts + 1, slot=row.slot))
     for k, row in repo.stale_queued_steps(s, now - timedelta(seconds=stale_queued_s)):
         c = repo.get_campaign(s, row.campaign_id)
         if c.is_terminal:
@@ -83,7 +89,9 @@ def reconcile(s: Session, *, stale_queued_s: float, dead_worker_s: float | None 
             step=row.step,
             data={"attempt": row.attempts + 1},
         )
-        jobs.append(StepJob(campaign_id=c.id, iteration=k, step=StepName(row.step), attempt=row.attempts + 1))
+        jobs.append(
+            StepJob(campaign_id=c.id, iteration=k, step=StepName(row.step), attempt=row.attempts + 1, slot=row.slot)
+        )
     return jobs
 
 
@@ -131,7 +139,9 @@ def _reconcile_validation(stale_s: float) -> None:
         log.warning("reconciler re-sent %d validation motion(s): %s", len(ids), ids)
 
 
-def release_lost_step(campaign_id: int, iteration: int, step: str, attempt: int, worker_name: str) -> bool:
+def release_lost_step(
+    campaign_id: int, iteration: int, step: str, attempt: int, worker_name: str, slot: int = 0
+) -> bool:
     """The pool process running this attempt died (its worker's main process saw it exit
     and lives on, still beating): expire the step's lease so that the next reconciler pass
     (seconds) gives it to another job. Only while the step is still this attempt's, on this
@@ -139,7 +149,7 @@ def release_lost_step(campaign_id: int, iteration: int, step: str, attempt: int,
     from alcove.db import transaction
 
     def work(s: Session) -> bool:
-        row = repo.get_step(s, campaign_id, iteration, step)
+        row = repo.get_step(s, campaign_id, iteration, step, slot)
         if row is None or row.status != StepStatus.running.value:
             return False
         if row.attempts != attempt or row.worker_name != worker_name:

@@ -15,9 +15,11 @@ from alcove.models import (
     CampaignConfigVersion,
     CampaignEvent,
     Iteration,
+    IterationCandidate,
     IterationMetrics,
     IterationStatus,
     IterationStep,
+    StepName,
     StepStatus,
     User,
     WorkerHeartbeat,
@@ -81,12 +83,33 @@ def list_iterations(s: Session, campaign_id: int, after: int | None = None) -> l
     return list(s.scalars(q))
 
 
-def get_step(s: Session, campaign_id: int, index: int, step: str) -> IterationStep | None:
+def get_step(s: Session, campaign_id: int, index: int, step: str, slot: int = 0) -> IterationStep | None:
     return s.scalar(
         sa.select(IterationStep)
         .join(Iteration, Iteration.id == IterationStep.iteration_id)
-        .where(IterationStep.campaign_id == campaign_id, Iteration.index == index, IterationStep.step == step)
+        .where(
+            IterationStep.campaign_id == campaign_id,
+            Iteration.index == index,
+            IterationStep.step == step,
+            IterationStep.slot == slot,
+        )
     )
+
+
+def slot_steps(s: Session, iteration_id: int, steps: Sequence[str]) -> list[IterationStep]:
+    """The iteration's rows of ``steps`` (all slots), by step and slot."""
+    q = sa.select(IterationStep).where(IterationStep.iteration_id == iteration_id, IterationStep.step.in_(list(steps)))
+    return list(s.scalars(q.order_by(IterationStep.step, IterationStep.slot)))
+
+
+def active_oracle_steps(s: Session, campaign_id: int) -> int:
+    """The campaign's oracle jobs queued or running (what its concurrency cap counts)."""
+    q = sa.select(sa.func.count()).where(
+        IterationStep.campaign_id == campaign_id,
+        IterationStep.step == StepName.oracle.value,
+        IterationStep.status.in_([StepStatus.queued.value, StepStatus.running.value]),
+    )
+    return int(s.scalar(q) or 0)
 
 
 def steps_of_campaign(
@@ -321,3 +344,51 @@ def unfinished_iterations(s: Session, campaign_id: int) -> list[Iteration]:
     unfinished = [IterationStatus.pending.value, IterationStatus.running.value]
     q = sa.select(Iteration).where(Iteration.campaign_id == campaign_id, Iteration.status.in_(unfinished))
     return list(s.scalars(q))
+
+
+def has_candidates(s: Session, campaign_id: int, index: int) -> bool:
+    """Whether iteration ``index`` stores candidate rows (a batch iteration)."""
+    q = (
+        sa.select(sa.func.count())
+        .select_from(IterationCandidate)
+        .join(Iteration, Iteration.id == IterationCandidate.iteration_id)
+        .where(Iteration.campaign_id == campaign_id, Iteration.index == index)
+    )
+    return bool(s.scalar(q))
+
+
+def put_candidate(s: Session, iteration_id: int, slot: int, **values: Any) -> IterationCandidate:
+    """The candidate row of ocp slot ``slot`` (created, or updated by a later attempt)."""
+    row = s.scalar(
+        sa.select(IterationCandidate).where(
+            IterationCandidate.iteration_id == iteration_id, IterationCandidate.slot == slot
+        )
+    )
+    if row is None:
+        row = IterationCandidate(iteration_id=iteration_id, slot=slot)
+        s.add(row)
+    for k, v in values.items():
+        setattr(row, k, v)
+    s.flush()
+    return row
+
+
+def picked_candidate(s: Session, iteration_id: int, pick: int) -> IterationCandidate | None:
+    return s.scalar(
+        sa.select(IterationCandidate).where(
+            IterationCandidate.iteration_id == iteration_id, IterationCandidate.pick == pick
+        )
+    )
+
+
+def candidates(s: Session, iteration_id: int) -> list[IterationCandidate]:
+    q = sa.select(IterationCandidate).where(IterationCandidate.iteration_id == iteration_id)
+    return list(s.scalars(q.order_by(IterationCandidate.slot)))
+
+
+def set_candidate_rmse(
+    s: Session, iteration_id: int, dataset_id: int, force_rmse: float | None, moment_rmse: float | None
+) -> None:
+    for row in candidates(s, iteration_id):
+        if row.dataset_id == dataset_id:
+            row.force_rmse, row.moment_rmse = force_rmse, moment_rmse

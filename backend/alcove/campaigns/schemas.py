@@ -38,6 +38,7 @@ class StepJob(BaseModel):
     iteration: int
     step: StepName
     attempt: int
+    slot: int = 0
 
 
 class CampaignRead(_Read):
@@ -68,6 +69,9 @@ class CampaignRead(_Read):
 class StepRead(_Read):
     id: int
     step: StepName
+    slot: int = Field(
+        0, description="which of the iteration's parallel jobs of this step (ocp: candidate, oracle: pick)"
+    )
     status: StepStatus
     queue: str
     attempts: int
@@ -81,6 +85,21 @@ class StepRead(_Read):
     wall_time_s: float | None
     error: str | None
     result: dict[str, Any]
+
+
+class CandidateRead(_Read):
+    """A scenario the iteration's OCP solved (ocp slot ``slot``) and, if picked, its replay."""
+
+    slot: int = Field(description="the ocp slot (job) that solved it")
+    scenario: dict[str, Any] | None = Field(description="seed, iteration, slot, values; null: the task as written")
+    converged: bool | None = Field(description="whether its OCP converged")
+    score: float | None = Field(None, description="ensemble disagreement over its contact phase [N] (if scored)")
+    pick: int | None = Field(description="the oracle slot that replayed it; null: not picked")
+    pick_reason: str | None = Field(None, description="why it was picked")
+    oracle_run_id: int | None = None
+    dataset_id: int | None = None
+    force_rmse: float | None = Field(None, description="in-loop force RMSE of model k on its oracle data [N]")
+    moment_rmse: float | None = Field(None, description="in-loop moment RMSE [N m]")
 
 
 class IterationRead(_Read):
@@ -99,6 +118,12 @@ class IterationRead(_Read):
     )
     steps: list[StepRead] | None = Field(
         None, description="the iteration's steps (null in the compact list: ask with ?steps=true)"
+    )
+    oracle_calls: int = Field(0, description="oracle runs the iteration made (every attempt that reached the oracle)")
+    candidates: list[CandidateRead] = Field(
+        default_factory=list,
+        description="a batch iteration's candidate scenarios (ocp slots) and which were picked; empty: one trajectory "
+        "(the iteration's scenario)",
     )
 
 

@@ -11,10 +11,12 @@ in the job outbox in the same transaction and sends AFTER committing::
 
 from __future__ import annotations
 
+from dataclasses import replace
 from datetime import datetime
 
 from sqlalchemy.orm import Session
 
+from alcove.campaigns import fan
 from alcove.campaigns import repository as repo
 from alcove.campaigns.schemas import CampaignConfig, CampaignConfigUpdate, CampaignCreate, ForkRequest, StepJob
 from alcove.campaigns.state_machine import (
@@ -179,20 +181,29 @@ def pause(s: Session, campaign_id: int) -> tuple[Campaign, list[StepJob]]:
     return c, apply_decision(s, c, d, note="pause requested")
 
 
-def _waiting_step(s: Session, c: Campaign) -> StepRef | None:
+def _waiting_steps(s: Session, c: Campaign) -> tuple[StepRef, ...]:
+    """The steps waiting to run: the last pending one, or all pending parallel slots of its
+    iteration (oracle slots: as many as the campaign's concurrency cap allows)."""
     rows = repo.steps_of_campaign(s, c.id, [StepStatus.pending.value])
     if not rows:
-        return None
-    k, row = rows[-1]
-    return StepRef(k, StepName(row.step))
+        return ()
+    k = rows[-1][0]
+    refs = [StepRef(i, StepName(row.step), row.slot) for i, row in rows if i == k]
+    oracles = [r for r in refs if r.step is StepName.oracle]
+    it = repo.get_iteration(s, c.id, k)
+    assert it is not None
+    room = fan.start_now(s, c, fan.iteration_settings(s, it))
+    if room is not None and len(oracles) > room:  # the rest stay pending until running ones end
+        refs = [r for r in refs if r.step is not StepName.oracle] + oracles[:room]
+    return tuple(refs)
 
 
 def resume(s: Session, campaign_id: int) -> tuple[Campaign, list[StepJob]]:
     c = repo.get_campaign(s, campaign_id, lock=True)
-    nxt = _waiting_step(s, c)
-    if c.status == CampaignStatus.paused.value and nxt is None:
+    waiting = _waiting_steps(s, c)
+    if c.status == CampaignStatus.paused.value and not waiting:
         raise InvalidTransition(c.status, "resume", "no step is waiting")
-    return c, apply_decision(s, c, transition(state_of(c), Resume(nxt)), note="resumed")
+    return c, apply_decision(s, c, transition(state_of(c), Resume(waiting)), note="resumed")
 
 
 def cancel(s: Session, campaign_id: int) -> tuple[Campaign, list[StepJob]]:
@@ -215,11 +226,18 @@ def retry_step(
             raise Conflict(f"nothing to retry: no step of campaign {c.id} has failed (campaign status: {c.status})")
         raise Conflict(f"nothing to retry: step {step} of iteration {iteration} has not failed")
     k, row = failed[-1]
-    ref = StepRef(k, StepName(row.step))
+    ref = StepRef(k, StepName(row.step), row.slot)
     d = transition(state_of(c), RetryStep(ref))
-    row.max_attempts = row.attempts + getattr(current_config(s, c).policies, ATTEMPTS_FIELD[ref.step])
-    row.error = None
-    row.config_version_id = repo.config_version(s, c).id  # a retry runs with the current settings (e.g. after an edit)
+    # a batch: the parallel slots the failure cancelled run again with it (the finished ones keep their results)
+    again = [row]
+    if ref.step in (StepName.ocp, StepName.oracle):
+        siblings = repo.slot_steps(s, row.iteration_id, [StepName.ocp.value, StepName.oracle.value])
+        again += [r for r in siblings if r is not row and r.status == StepStatus.cancelled.value]
+        d = replace(d, enqueue=tuple(StepRef(k, StepName(r.step), r.slot) for r in again))
+    for r in again:
+        r.max_attempts = r.attempts + getattr(current_config(s, c).policies, ATTEMPTS_FIELD[StepName(r.step)])
+        r.error = None
+        r.config_version_id = repo.config_version(s, c).id  # a retry runs with the current settings
     it = repo.get_iteration(s, c.id, k)
     if it is not None:
         it.status, it.finished_at, it.error = IterationStatus.running.value, None, None

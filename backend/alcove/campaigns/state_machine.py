@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from enum import Enum
 from typing import Any
 
@@ -40,15 +40,19 @@ class InvalidTransition(Conflict, ValueError):
 
 @dataclass(frozen=True, order=True)
 class StepRef:
-    """Step ``step`` of iteration ``iteration``."""
+    """Step ``step`` of iteration ``iteration``; ``slot``: which of the iteration's parallel
+    jobs of that step (``ocp``: the candidate, ``oracle``: the pick; 0 for the other steps)."""
 
     iteration: int
     step: StepName
+    slot: int = 0
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "step", StepName(self.step))
         if self.iteration < 0:
             raise ValueError(f"iteration: must be >= 0, got {self.iteration}")
+        if self.slot < 0 or (self.slot and self.step not in (StepName.ocp, StepName.oracle)):
+            raise ValueError(f"slot: {self.step.value} has no slot {self.slot} (only ocp and oracle fan out)")
         if (self.step is StepName.preliminary) != (self.iteration == 0):
             raise ValueError(
                 f"step: {self.step.value} cannot run in iteration {self.iteration} (preliminary is iteration 0 only)"
@@ -66,7 +70,7 @@ class StepRef:
         return [StepRef(self.iteration, s) for s in ITERATION_STEPS[i + 1 : -1]]
 
     def __str__(self) -> str:
-        return f"{self.iteration}/{self.step.value}"
+        return f"{self.iteration}/{self.step.value}" + (f"[{self.slot}]" if self.slot else "")
 
 
 class Outcome(str, Enum):
@@ -95,7 +99,9 @@ class Pause:
 
 @dataclass(frozen=True)
 class Resume:
-    next: StepRef | None  # the step waiting to run (None: a step is still running)
+    #: the steps waiting to run (several: parallel slots, as many as the concurrency cap allows;
+    #: empty: a step is still running)
+    waiting: tuple[StepRef, ...] = ()
 
 
 @dataclass(frozen=True)
@@ -104,11 +110,39 @@ class Cancel:
 
 
 @dataclass(frozen=True)
+class Fan:
+    """What the database says about the iteration's parallel slots when one of them finished
+    (the completing transaction holds the campaign's lock, so completions are serialised and
+    exactly one of them sees ``open == 0``: the fan-in).
+
+    ``ocp_slots``: the number of ocp jobs a finished ``train`` fans out into (C candidates, or q);
+    ``selects``: the strategy picks among the candidates once all are solved (else ocp slot j
+    feeds oracle slot j); ``open``: ocp/oracle slots of the iteration not finished yet (this one
+    excluded); ``picks``: at the fan-in of a selecting strategy, the candidates' ocp slots picked
+    (oracle slot i replays ``picks[i]``); ``oracle_ok``: the other oracle slots that produced a
+    dataset;
+    ``start_now``: how many of the oracle jobs this completion makes necessary may be sent now
+    (the campaign's concurrency cap, None: all; the rest wait ``pending``); ``release``: after an
+    oracle slot ended, the waiting oracle slots the freed capacity starts; ``busy``: sibling slots
+    queued or running (a pause waits for them)."""
+
+    ocp_slots: int = 1
+    selects: bool = False
+    open: int = 0
+    picks: tuple[int, ...] = ()
+    oracle_ok: int = 0
+    start_now: int | None = None
+    release: tuple[int, ...] = ()
+    busy: int = 0
+
+
+@dataclass(frozen=True)
 class StepFinished:
     ref: StepRef
     outcome: Outcome
     stop_reason: str | None = None  # set by the append step when a stopping rule fired
     error: str | None = None
+    fan: Fan = field(default_factory=Fan)
 
 
 @dataclass(frozen=True)
@@ -135,6 +169,8 @@ class Decision:
     enqueue: tuple[StepRef, ...] = ()
     #: a step to create but leave pending (the campaign paused before it)
     pending: StepRef | None = None
+    #: more steps to create pending (oracle picks beyond the concurrency cap; paused fan-outs)
+    wait: tuple[StepRef, ...] = ()
     #: steps to mark skipped (after an iteration failure under policy continue)
     skip: tuple[StepRef, ...] = ()
     stop_reason: str | None = None
@@ -165,12 +201,12 @@ def transition(state: State, event: Event) -> Decision:
             if st not in (S.queued, S.running):
                 raise InvalidTransition(st, "pause")
             return Decision(S.pausing, pause_requested=True)
-        case Resume(next_ref):
-            if st is S.pausing:  # the step is still running; just forget the request
-                return Decision(S.running)
+        case Resume(waiting):
+            if st is S.pausing:  # a step is still running; forget the request (and start parallel
+                return Decision(S.running, enqueue=waiting)  # slots a claim parked meanwhile)
             if st is not S.paused:
                 raise InvalidTransition(st, "resume", "only a paused campaign can be resumed")
-            return Decision(S.running, enqueue=(next_ref,) if next_ref is not None else ())
+            return Decision(S.running, enqueue=waiting)
         case Cancel(step_running):
             if st in CampaignStatus.terminal():
                 raise InvalidTransition(st, "cancel")
@@ -183,12 +219,14 @@ def transition(state: State, event: Event) -> Decision:
             if st is not S.failed:
                 raise InvalidTransition(st, "retry a step of", "only a failed campaign has a step to retry")
             return Decision(S.running, enqueue=(ref,))
-        case StepFinished(ref, outcome, reason, error):
-            return _step_finished(state, ref, outcome, reason, error)
+        case StepFinished(ref, outcome, reason, error, fan):
+            return _step_finished(state, ref, outcome, reason, error, fan)
     raise TypeError(f"unknown event {event!r}")
 
 
-def _step_finished(state: State, ref: StepRef, outcome: Outcome, reason: str | None, error: str | None) -> Decision:
+def _step_finished(
+    state: State, ref: StepRef, outcome: Outcome, reason: str | None, error: str | None, fan: Fan
+) -> Decision:
     st = state.status
     if st in CampaignStatus.terminal():
         raise InvalidTransition(st, f"finish step {ref} of")
@@ -196,17 +234,57 @@ def _step_finished(state: State, ref: StepRef, outcome: Outcome, reason: str | N
         return Decision(S.cancelled, stop_reason="cancelled", cancel_requested=True)
     if outcome is Outcome.failed:
         return Decision(S.failed, stop_reason="error", error=error or f"step {ref} failed")
-    if outcome is Outcome.iteration_failed:
-        if ref.step in (StepName.preliminary, StepName.train, StepName.append):
-            return Decision(S.failed, stop_reason="error", error=error or f"step {ref} failed")
-        nxt, skip = StepRef(ref.iteration, StepName.append), tuple(ref.skipped_until_append())
+    if outcome is Outcome.iteration_failed and ref.step in (StepName.preliminary, StepName.train, StepName.append):
+        return Decision(S.failed, stop_reason="error", error=error or f"step {ref} failed")
+    if ref.step is StepName.append and outcome is Outcome.succeeded and reason:
+        return Decision(S.completed, stop_reason=reason)
+    k = ref.iteration
+    if ref.step is StepName.oracle and outcome is Outcome.succeeded:
+        fan = replace(fan, oracle_ok=fan.oracle_ok + 1)  # this one's dataset
+    nxt: tuple[StepRef, ...] = ()
+    oracles: tuple[StepRef, ...] = ()  # oracle jobs to start, as many as the concurrency cap allows
+    skip: tuple[StepRef, ...] = ()
+    if ref.step is StepName.train:  # fan-out: one ocp job per candidate
+        nxt = tuple(StepRef(k, StepName.ocp, j) for j in range(max(fan.ocp_slots, 1)))
+    elif ref.step is StepName.ocp and not fan.selects:  # ocp slot j feeds oracle slot j
+        if outcome is Outcome.succeeded:
+            oracles = (StepRef(k, StepName.oracle, ref.slot),)
+        else:
+            skip = (StepRef(k, StepName.oracle, ref.slot),)
+            nxt, skip = _fan_in(k, fan), skip + _skipped_evaluate(k, fan)
+    elif ref.step is StepName.ocp:  # a selecting strategy: wait for every candidate, then pick
+        if fan.open:
+            pass
+        elif fan.picks:
+            oracles = tuple(StepRef(k, StepName.oracle, i) for i in range(len(fan.picks)))
+        else:  # nothing worth asking the oracle: no data this iteration
+            nxt, skip = (StepRef(k, StepName.append),), (StepRef(k, StepName.evaluate),)
+    elif ref.step is StepName.oracle:
+        oracles = tuple(StepRef(k, StepName.oracle, j) for j in fan.release)
+        nxt, skip = _fan_in(k, fan), _skipped_evaluate(k, fan)
     else:
-        if ref.step is StepName.append and reason:
-            return Decision(S.completed, stop_reason=reason)
-        nxt, skip = ref.following(), ()
+        nxt = (ref.following(),)
+    n = len(oracles) if fan.start_now is None else max(0, min(fan.start_now, len(oracles)))
+    start, wait = nxt + oracles[:n], oracles[n:]
     if state.pause_requested or st in (S.pausing, S.paused):
-        return Decision(S.paused, pending=nxt, skip=skip, pause_requested=False)
-    return Decision(S.running, enqueue=(nxt,), skip=skip)
+        if fan.busy:  # siblings still running: the campaign pauses when the last of them ends
+            return Decision(S.pausing, wait=start + wait, skip=skip, pause_requested=True)
+        return Decision(
+            S.paused, pending=start[0] if start else None, wait=start[1:] + wait, skip=skip, pause_requested=False
+        )
+    return Decision(S.running, enqueue=start, wait=wait, skip=skip)
+
+
+def _fan_in(k: int, fan: Fan) -> tuple[StepRef, ...]:
+    """After an ocp (non-selecting) or oracle slot ended: nothing while others are open; then
+    ``evaluate`` if some pick produced a dataset, else straight to ``append`` (no new data)."""
+    if fan.open:
+        return ()
+    return (StepRef(k, StepName.evaluate),) if fan.oracle_ok else (StepRef(k, StepName.append),)
+
+
+def _skipped_evaluate(k: int, fan: Fan) -> tuple[StepRef, ...]:
+    return (StepRef(k, StepName.evaluate),) if not fan.open and not fan.oracle_ok else ()
 
 
 # ----------------------------------------------------------------------------- stopping rules
@@ -222,7 +300,11 @@ class IterationRecord:
 
 
 def stop_reason(
-    rules: Any, iteration: int, history: Sequence[IterationRecord], oracle_wall_time_s: float
+    rules: Any,
+    iteration: int,
+    history: Sequence[IterationRecord],
+    oracle_wall_time_s: float,
+    top_score: float | None = None,
 ) -> str | None:
     """The first stopping rule that fires after iteration ``iteration`` finished, or None.
 
@@ -234,8 +316,13 @@ def stop_reason(
     * ``plateau``: over the last ``plateau_window`` iterations with metrics, the best force
       RMSE improved on the best before them by less than ``plateau_tolerance`` (relative);
     * ``oracle_budget``: the oracle's total wall time reached ``oracle_budget_s``;
-    * ``max_iterations``: iteration index ``iteration`` >= ``max_iterations``.
+    * ``max_iterations``: iteration index ``iteration`` >= ``max_iterations``;
+    * ``min_disagreement``: the iteration's highest candidate score ``top_score`` (strategy
+      ensemble-disagreement) fell below ``min_disagreement`` (checked first: that iteration asked
+      the oracle nothing).
     """
+    if rules.min_disagreement is not None and top_score is not None and top_score < rules.min_disagreement:
+        return "min_disagreement"
     latest = history[-1] if history and history[-1].iteration == iteration else None
     tf, tm = rules.target_force_rmse, rules.target_moment_rmse
     if latest is not None and (tf is not None or tm is not None):
@@ -261,6 +348,7 @@ __all__ = [
     "Cancel",
     "Decision",
     "Event",
+    "Fan",
     "InvalidTransition",
     "IterationRecord",
     "Outcome",

@@ -33,14 +33,22 @@ from typing import TYPE_CHECKING, Any, TypedDict
 import numpy as np
 from sqlalchemy.orm import Session
 
+from alcove.campaigns import candidates, transitions
 from alcove.campaigns import repository as repo
-from alcove.campaigns import transitions
 from alcove.campaigns.schemas import CampaignConfig
 from alcove.campaigns.state_machine import IterationRecord, StepRef, stop_reason
 from alcove.campaigns.validation import suite_spec
 from alcove.db import session_scope
 from alcove.jobs.steps import FailedAttempt, IterationRef, StepOutput, StepRun, UnusableResult, is_cancellation
-from alcove.models import Campaign, CampaignConfigVersion, Iteration, StepName, SurrogateConfigVersion, utcnow
+from alcove.models import (
+    Campaign,
+    CampaignConfigVersion,
+    Iteration,
+    OcpSolution,
+    StepName,
+    SurrogateConfigVersion,
+    utcnow,
+)
 from alcove.oracles import repository as oracles_repo
 from alcove.oracles import steps as oracle_steps
 from alcove.oracles import validation as oracle_validation
@@ -82,10 +90,11 @@ class StepContext:
         return load_task(s, c.task_version_id, self.config.settings.ocp_intervals)
 
     def scenario(self, s: Session, c: Campaign) -> Scenario:
-        """The scenario iteration k solves under the campaign's strategy (seeded by the campaign
-        seed and k: a re-run or re-delivered step draws the same one)."""
-        chosen = acquisition.strategy(self.config.settings.strategy).candidates(self.task(s, c), c.seed, self.k, 1)
-        return chosen[0]
+        """The scenario ocp slot ``ref.slot`` of iteration k solves under the campaign's strategy
+        (seeded by the campaign seed, k and the slot: a re-run or re-delivered step draws the same one)."""
+        return acquisition.strategy(self.config.settings.strategy).scenario(
+            self.task(s, c), c.seed, self.k, self.ref.slot
+        )
 
 
 def _kinematics(task: TaskSpec) -> Any:
@@ -204,6 +213,11 @@ def ocp(ctx: StepContext) -> StepOutput:
             raise RuntimeError(f"model version {ctx.k} does not exist")
         previous = solving_repo.previous_converged(s, c.id, ctx.k)
         scenario = ctx.scenario(s, c)
+        settings = ctx.config.settings
+        batch = (
+            settings.batch > 1 or settings.strategy == "ensemble-disagreement" or repo.has_candidates(s, c.id, ctx.k)
+        )
+        features = acquisition.scenario_features(ctx.task(s, c), scenario.values) if batch else None
         nominal_preset = ctx.task(s, c).model.oracle_preset()
     # the paper's strategy solves the task as written: nothing to store (null)
     stored = scenario.to_json() if ctx.config.settings.strategy != "paper" else None
@@ -218,21 +232,10 @@ def ocp(ctx: StepContext) -> StepOutput:
             pool_preset=nominal_preset,
         )
     except UnusableResult as err:  # no converged solution: the iteration still shows its scenario
-        raise UnusableResult(err.reason, _storing_scenario(err.write, stored)) from None
-    return StepOutput(_storing_scenario(out.write, stored), out.compute_s)
-
-
-def _storing_scenario(
-    write: Callable[[Session, IterationRef], dict[str, Any]] | None, stored: dict[str, Any] | None
-) -> Callable[[Session, IterationRef], dict[str, Any]]:
-    def with_scenario(s: Session, at: IterationRef) -> dict[str, Any]:
-        result = write(s, at) if write is not None else {}
-        it = s.get(Iteration, at.iteration_id)
-        assert it is not None
-        it.scenario = stored
-        return {**result, "scenario": stored} if stored is not None else result
-
-    return with_scenario
+        raise UnusableResult(
+            err.reason, candidates.storing_scenario(err.write, stored, features, settings.strategy)
+        ) from None
+    return StepOutput(candidates.storing_scenario(out.write, stored, features, settings.strategy), out.compute_s)
 
 
 def oracle(ctx: StepContext) -> StepOutput:
@@ -244,12 +247,18 @@ def oracle(ctx: StepContext) -> StepOutput:
         with session_scope() as s:
             c, it = _iteration(s, ctx)
             oracle_version_id = c.oracle_version_id
-            sol = solving_repo.latest_of_iteration(s, it.id)
+            # oracle slot i replays the candidate picked as i (no candidate rows: the one solution)
+            cand = repo.picked_candidate(s, it.id, ctx.ref.slot)
+            if cand is not None:
+                sol = s.get(OcpSolution, cand.ocp_solution_id) if cand.ocp_solution_id is not None else None
+                stored = cand.scenario
+            else:
+                sol, stored = solving_repo.latest_of_iteration(s, it.id), it.scenario
             if sol is None or not sol.success or sol.trajectory_sha256 is None:
-                raise RuntimeError(f"iteration {ctx.k} has no converged OCP solution")
+                raise RuntimeError(f"iteration {ctx.k} (oracle slot {ctx.ref.slot}) has no converged OCP solution")
             # the scenario the OCP solved (stored with the iteration): its headrest is the oracle's
-            task, solution_id, sha = from_json(ctx.task(s, c), it.scenario), sol.id, sol.trajectory_sha256
-            scenario = it.scenario is not None
+            task, solution_id, sha = from_json(ctx.task(s, c), stored), sol.id, sol.trajectory_sha256
+            scenario = stored is not None
         ctx.before_compute()
         settings = ctx.config.settings
         out = oracle_steps.replay(
@@ -280,6 +289,9 @@ def _counting_oracle_time(
         c = s.get(Campaign, at.campaign_id)
         assert c is not None
         c.oracle_wall_time_s = (c.oracle_wall_time_s or 0.0) + float(result.get("wall_time_s", 0.0))
+        cand = repo.picked_candidate(s, at.iteration_id, at.slot)
+        if cand is not None:
+            cand.oracle_run_id, cand.dataset_id = result.get("oracle_run_id"), result.get("dataset_id")
         return result
 
     return counted
@@ -289,14 +301,15 @@ def evaluate(ctx: StepContext) -> StepOutput:
     ctx.before_compute()
     with session_scope() as s:
         c, it = _iteration(s, ctx)
-        ds = pool_repo.oracle_dataset(s, it.id)
-        if ds is None:
+        datasets = pool_repo.oracle_datasets(s, it.id)
+        if not datasets:
             raise RuntimeError(f"iteration {ctx.k} has no oracle dataset")
         mv = surrogates_repo.version_of(s, c.id, ctx.k)
         if mv is None:
             raise RuntimeError(f"model version {ctx.k} does not exist")
         sol = solving_repo.latest_of_iteration(s, it.id)
-        runs = [r for r in oracles_repo.runs_of_iteration(s, it.id) if r.status == "ok"]
+        ok_runs = {r.slot: r for r in oracles_repo.runs_of_iteration(s, it.id) if r.status == "ok"}  # latest per slot
+        runs = list(ok_runs.values())
         pv_prev = pool_repo.version_of(s, c.id, ctx.k - 1)
         record = {
             "ocp_success": sol.success if sol else None,
@@ -306,18 +319,33 @@ def evaluate(ctx: StepContext) -> StepOutput:
             "ocp_wall_time_s": sol.wall_time_s if sol else None,
             "ocp_trusted": (sol.stats or {}).get("trust", {}).get("trusted") if sol else None,
             "ocp_trust": (sol.stats or {}).get("trust") if sol else None,
-            "oracle_wall_time_s": runs[-1].wall_time_s if runs else None,
+            # the oracle's wall time of the iteration: of its one replay, or the sum over a batch's picks
+            "oracle_wall_time_s": (
+                runs[-1].wall_time_s if len(runs) == 1 else sum(r.wall_time_s or 0.0 for r in runs) if runs else None
+            ),
             "n_pool_samples": pv_prev.n_samples if pv_prev else None,
             "extra": {
-                "step_wall_time_s": {st.step: st.wall_time_s for st in it.steps if st.wall_time_s is not None},
+                "step_wall_time_s": {
+                    (f"{st.step}[{st.slot}]" if st.slot else st.step): st.wall_time_s
+                    for st in it.steps
+                    if st.wall_time_s is not None
+                },
                 "config_version_id": it.config_version_id,
             },
         }
-        model_version_id, dataset_id, suite_id = mv.id, ds.id, c.validation_suite_id
+        model_version_id, dataset_ids, suite_id = mv.id, [d.id for d in datasets], c.validation_suite_id
         kinematics = _kinematics(ctx.task(s, c))
-    out = surrogate_steps.evaluate(
-        ctx.run, model_version_id=model_version_id, dataset_id=dataset_id, record=record, kinematics=kinematics
+    evaluated = surrogate_steps.evaluate(
+        ctx.run, model_version_id=model_version_id, dataset_ids=dataset_ids, record=record, kinematics=kinematics
     )
+
+    def per_pick(s: Session, at: IterationRef) -> dict[str, Any]:
+        result = evaluated.write(s, at)
+        for p in result.get("picks", []):  # a batch: the in-loop RMSE of each picked trajectory
+            repo.set_candidate_rmse(s, at.iteration_id, p["dataset_id"], p["force_rmse"], p["moment_rmse"])
+        return result
+
+    out = StepOutput(per_pick, evaluated.compute_s)
     if suite_id is None:
         return out
     # the generalisation error now if the suite is complete; else the suite's completion evaluates it
@@ -344,7 +372,9 @@ def append(ctx: StepContext) -> StepOutput:
         c = repo.get_campaign(s, at.campaign_id)
         history = [IterationRecord(*row) for row in repo.rmse_history(s, c.id)]
         rules = transitions.current_config(s, c).stopping
-        reason = stop_reason(rules, ctx.k, history, c.oracle_wall_time_s or 0.0)
+        scores = [cand.score for cand in repo.candidates(s, at.iteration_id) if cand.score is not None]
+        top = max(scores) if scores else None
+        reason = stop_reason(rules, ctx.k, history, c.oracle_wall_time_s or 0.0, top_score=top)
         return {**result, "stop_reason": reason, **software_versions()}
 
     return StepOutput(write)

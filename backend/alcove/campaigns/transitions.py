@@ -13,6 +13,7 @@ from typing import Any
 from sqlalchemy.orm import Session
 
 from alcove.campaigns import repository as repo
+from alcove.campaigns.fan import fan_state
 from alcove.campaigns.schemas import CampaignConfig, StepJob
 from alcove.campaigns.state_machine import Decision, Outcome, State, StepFinished, StepRef, transition
 from alcove.jobs.campaign import step_queue
@@ -101,13 +102,14 @@ def _ensure_iteration(s: Session, c: Campaign, index: int) -> Iteration:
 
 def _ensure_step(s: Session, c: Campaign, ref: StepRef, status: StepStatus) -> IterationStep:
     it = _ensure_iteration(s, c, ref.iteration)
-    row = repo.get_step(s, c.id, ref.iteration, ref.step.value)
+    row = repo.get_step(s, c.id, ref.iteration, ref.step.value, ref.slot)
     if row is None:
         policies = current_config(s, c).policies
         row = IterationStep(
             campaign_id=c.id,
             iteration_id=it.id,
             step=ref.step.value,
+            slot=ref.slot,
             queue=step_queue(ref.step.value),
             config_version_id=it.config_version_id,
             max_attempts=getattr(policies, ATTEMPTS_FIELD[ref.step]),
@@ -131,7 +133,7 @@ def _ensure_step(s: Session, c: Campaign, ref: StepRef, status: StepStatus) -> I
 
 
 def _job(c: Campaign, ref: StepRef, row: IterationStep) -> StepJob:
-    return StepJob(campaign_id=c.id, iteration=ref.iteration, step=ref.step, attempt=row.attempts + 1)
+    return StepJob(campaign_id=c.id, iteration=ref.iteration, step=ref.step, attempt=row.attempts + 1, slot=ref.slot)
 
 
 def apply_decision(s: Session, c: Campaign, d: Decision, *, note: str = "") -> list[StepJob]:
@@ -149,8 +151,8 @@ def apply_decision(s: Session, c: Campaign, d: Decision, *, note: str = "") -> l
         row = _ensure_step(s, c, ref, StepStatus.skipped)
         row.finished_at = utcnow()
     jobs = []
-    if d.pending is not None:
-        _ensure_step(s, c, d.pending, StepStatus.pending)
+    for ref in (d.pending, *d.wait) if d.pending is not None else d.wait:
+        _ensure_step(s, c, ref, StepStatus.pending)
     for ref in d.enqueue:
         row = _ensure_step(s, c, ref, StepStatus.queued)
         jobs.append(_job(c, ref, row))
@@ -172,11 +174,17 @@ def apply_decision(s: Session, c: Campaign, d: Decision, *, note: str = "") -> l
 
 
 def _close_open_steps(s: Session, c: Campaign, status: CampaignStatus) -> None:
-    """At a terminal state: pending/queued steps are cancelled; unfinished iterations end."""
+    """At a terminal state: pending/queued steps are cancelled, and so are the running parallel
+    slots of the iteration (their jobs lose their claim and stop at their next check);
+    unfinished iterations end."""
     now = utcnow()
-    for _, row in repo.steps_of_campaign(s, c.id, [StepStatus.pending.value, StepStatus.queued.value]):
+    for _, row in repo.steps_of_campaign(
+        s, c.id, [StepStatus.pending.value, StepStatus.queued.value, StepStatus.running.value]
+    ):
         row.status = StepStatus.cancelled.value
         row.finished_at = now
+        row.claim_token = None
+        row.lease_until = None
     for it in repo.unfinished_iterations(s, c.id):
         it.status = IterationStatus.failed.value if status is CampaignStatus.failed else IterationStatus.cancelled.value
         it.finished_at = now
@@ -212,7 +220,11 @@ def complete_step(
         row.result = {**(row.result or {}), **result}
     it = repo.get_iteration(s, c.id, ref.iteration)
     assert it is not None
-    if outcome is Outcome.iteration_failed:
+    fan = fan_state(s, c, it, ref, outcome)
+    no_data = fan.open == 0 and fan.oracle_ok == 0 and not fan.picks
+    if outcome is Outcome.iteration_failed and (no_data or ref.step not in (StepName.ocp, StepName.oracle)):
+        # the iteration has no data (a batch with some picks replayed still succeeds; the
+        # failed picks say why on their steps)
         it.error = error or f"{ref.step.value} failed"
     if ref.step in (StepName.append, StepName.preliminary) and outcome is Outcome.succeeded:
         it.status = IterationStatus.failed.value if it.error else IterationStatus.succeeded.value
@@ -227,9 +239,10 @@ def complete_step(
         step=ref.step.value,
         data={
             "attempt": row.attempts,
+            **({"slot": ref.slot} if ref.slot else {}),
             "wall_time_s": wall_time_s,
             **({"stop_reason": stop_reason} if stop_reason else {}),
         },
     )
-    d = transition(state_of(c), StepFinished(ref, outcome, stop_reason, error))
+    d = transition(state_of(c), StepFinished(ref, outcome, stop_reason, error, fan))
     return apply_decision(s, c, d)

@@ -35,9 +35,15 @@ def step_queue(step: str) -> str:
     return queue_for(STEP_JOBS[step])
 
 
-def step_message_id(campaign_id: int, iteration: int, step: str, attempt: int) -> str:
+def step_message_id(campaign_id: int, iteration: int, step: str, attempt: int, slot: int = 0) -> str:
     """Deterministic message id: a re-send of the same attempt is recognisable in logs."""
-    return f"c{campaign_id}-k{iteration}-{step}-a{attempt}"
+    return f"c{campaign_id}-k{iteration}-{step}" + (f"-s{slot}" if slot else "") + f"-a{attempt}"
+
+
+def _args(j: Any, step: str) -> tuple[Any, ...]:
+    """The message: (campaign id, iteration, step, attempt[, slot]) (slot only when not 0)."""
+    slot = int(getattr(j, "slot", 0))
+    return (j.campaign_id, j.iteration, step, j.attempt, *((slot,) if slot else ()))
 
 
 def enqueue(jobs: Iterable[Any], app: Celery | None = None) -> list[str]:
@@ -50,11 +56,8 @@ def enqueue(jobs: Iterable[Any], app: Celery | None = None) -> list[str]:
         ids.append(
             send_job(
                 STEP_JOBS[step],
-                j.campaign_id,
-                j.iteration,
-                step,
-                j.attempt,
-                task_id=f"{step_message_id(j.campaign_id, j.iteration, step, j.attempt)}-{_nonce()}",
+                *_args(j, step),
+                task_id=f"{step_message_id(*_args(j, step))}-{_nonce()}",
                 app=app,
             )
         )
@@ -69,12 +72,13 @@ def stage(session: Session, jobs: Iterable[Any]) -> list[int]:
     ids = []
     for j in jobs:
         step = getattr(j.step, "value", j.step)
-        key = step_message_id(j.campaign_id, j.iteration, step, j.attempt)
+        key = step_message_id(*_args(j, step))
+        slot = int(getattr(j, "slot", 0))
         row = outbox.record(
             session,
             STEP_JOBS[step],
-            (j.campaign_id, j.iteration, step, j.attempt),
-            subject=f"campaign/{j.campaign_id}/k{j.iteration}/{step}",
+            _args(j, step),
+            subject=f"campaign/{j.campaign_id}/k{j.iteration}/{step}" + (f"/{slot}" if slot else ""),
             message_id=f"{key}-{_nonce()}",
         )
         ids.append(row.id)

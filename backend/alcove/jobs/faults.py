@@ -34,6 +34,7 @@ class StepFault(BaseModel):
     ipopt_max_iter: int | None = Field(None, ge=0, description="ocp: IPOPT's iteration limit (1: does not converge)")
     gate_fail: bool = Field(False, description="oracle: the quality gate quarantines the result")
     iterations: list[int] | None = Field(None, description="only these iterations (default: all)")
+    slots: list[int] | None = Field(None, description="only these slots of a fanned-out step (default: all)")
 
 
 class FaultPlan(BaseModel):
@@ -68,7 +69,7 @@ class _PlanFile:
 _PLAN = _PlanFile()
 
 
-def fault_for(campaign_id: int, step: str, iteration: int) -> StepFault | None:
+def fault_for(campaign_id: int, step: str, iteration: int, slot: int = 0) -> StepFault | None:
     """The fault a test injected into this step, or None (always None outside tests)."""
     settings = get_settings()
     if not settings.testing or settings.fault_plan is None:
@@ -76,6 +77,8 @@ def fault_for(campaign_id: int, step: str, iteration: int) -> StepFault | None:
     plan = _PLAN.read(settings.fault_plan).campaigns
     fault = plan.get(str(campaign_id), plan.get("*", {})).get(step)
     if fault is None or (fault.iterations is not None and iteration not in fault.iterations):
+        return None
+    if fault.slots is not None and slot not in fault.slots:
         return None
     return fault
 

@@ -27,6 +27,7 @@ class IterationRef:
     campaign_id: int
     iteration_id: int
     index: int
+    slot: int = 0  # which of the iteration's parallel jobs of the step (ocp: candidate, oracle: pick)
 
 
 #: Stores a step's results (in the completing transaction); returns what the step row records.

@@ -21,7 +21,14 @@ from alcove.models.base import (
     UTCDateTime,
     utcnow,
 )
-from alcove.models.campaigns import Campaign, CampaignConfigVersion, CampaignEvent, Iteration, IterationStep
+from alcove.models.campaigns import (
+    Campaign,
+    CampaignConfigVersion,
+    CampaignEvent,
+    Iteration,
+    IterationCandidate,
+    IterationStep,
+)
 from alcove.models.data import (
     Blob,
     Dataset,
@@ -65,6 +72,7 @@ __all__ = [
     "DatasetOrigin",
     "ImmutableRowError",
     "Iteration",
+    "IterationCandidate",
     "IterationMetrics",
     "IterationStatus",
     "IterationStep",

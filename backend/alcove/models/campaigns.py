@@ -34,6 +34,7 @@ from alcove.models.base import (
 )
 
 if TYPE_CHECKING:
+    from alcove.models.data import OracleRun
     from alcove.models.definitions import OracleVersion, SurrogateConfigVersion, TaskVersion
     from alcove.models.users import User
 
@@ -198,6 +199,49 @@ class Iteration(Base):
     steps: Mapped[list[IterationStep]] = relationship(
         back_populates="iteration", order_by="IterationStep.id", cascade="all, delete-orphan", passive_deletes=True
     )
+    candidates: Mapped[list[IterationCandidate]] = relationship(
+        order_by="IterationCandidate.slot", cascade="all, delete-orphan", passive_deletes=True
+    )
+    oracle_runs: Mapped[list[OracleRun]] = relationship(
+        primaryjoin="Iteration.id == foreign(OracleRun.iteration_id)", viewonly=True, order_by="OracleRun.id"
+    )
+
+    @property
+    def oracle_calls(self) -> int:
+        """Oracle runs the iteration made (every attempt that reached the oracle; a job lost
+        with its worker leaves none)."""
+        return len(self.oracle_runs)
+
+    @property
+    def picks(self) -> list[IterationCandidate]:
+        """The candidates the oracle replayed, in pick order."""
+        return sorted((c for c in self.candidates if c.pick is not None), key=lambda c: c.pick or 0)
+
+
+class IterationCandidate(Base):
+    """One scenario an iteration's OCP solved (ocp slot ``slot``) and, if it was picked, the
+    oracle slot that replayed it (``pick``), with what came out (issue 17). ``random-scenarios``
+    picks every candidate (pick = slot); ``ensemble-disagreement`` scores C candidates and picks q."""
+
+    __tablename__ = "iteration_candidates"
+    __table_args__ = (sa.UniqueConstraint("iteration_id", "slot"), sa.UniqueConstraint("iteration_id", "pick"))
+
+    id: Mapped[int] = mapped_column(primary_key=True)
+    iteration_id: Mapped[int] = mapped_column(sa.ForeignKey("iterations.id", ondelete="CASCADE"), index=True)
+    slot: Mapped[int] = mapped_column(comment="the ocp slot that solved it")
+    scenario: Mapped[dict[str, Any] | None] = mapped_column(comment="seed, iteration, slot, values; null: the task")
+    ocp_solution_id: Mapped[int | None] = mapped_column(sa.ForeignKey("ocp_solutions.id", ondelete="SET NULL"))
+    converged: Mapped[bool | None]
+    score: Mapped[float | None] = mapped_column(
+        sa.Float, comment="ensemble disagreement over the contact phase [N] (ensemble-disagreement)"
+    )
+    features: Mapped[list[Any] | None] = mapped_column(comment="the point in feature space the diversity rule uses")
+    pick: Mapped[int | None] = mapped_column(comment="the oracle slot that replays it; null: not picked")
+    pick_reason: Mapped[str | None] = mapped_column(sa.Text)
+    oracle_run_id: Mapped[int | None] = mapped_column(sa.ForeignKey("oracle_runs.id", ondelete="SET NULL"))
+    dataset_id: Mapped[int | None] = mapped_column(sa.ForeignKey("datasets.id", ondelete="SET NULL"))
+    force_rmse: Mapped[float | None] = mapped_column(sa.Float, comment="in-loop force RMSE on its oracle data [N]")
+    moment_rmse: Mapped[float | None] = mapped_column(sa.Float)
 
 
 class IterationStep(Base):
@@ -205,7 +249,7 @@ class IterationStep(Base):
 
     __tablename__ = "iteration_steps"
     __table_args__ = (
-        sa.UniqueConstraint("iteration_id", "step"),
+        sa.UniqueConstraint("iteration_id", "step", "slot"),
         enum_check("step", StepName),
         enum_check("status", StepStatus),
         sa.Index("ix_iteration_steps_status_lease_until", "status", "lease_until"),
@@ -216,6 +260,12 @@ class IterationStep(Base):
     campaign_id: Mapped[int] = mapped_column(sa.ForeignKey("campaigns.id", ondelete="CASCADE"))
     iteration_id: Mapped[int] = mapped_column(sa.ForeignKey("iterations.id", ondelete="CASCADE"), index=True)
     step: Mapped[str] = mapped_column(sa.String(16))
+    slot: Mapped[int] = mapped_column(
+        default=0,
+        server_default="0",
+        comment="which of the iteration's parallel jobs of this step (ocp: the candidate, oracle: the pick); "
+        "0 for the rest",
+    )
     status: Mapped[str] = mapped_column(
         sa.String(16), default=StepStatus.pending.value, server_default=StepStatus.pending.value
     )

@@ -196,11 +196,12 @@ class OcpSolution(Base):
     """One solve attempt of the task with a model version as the contact model."""
 
     __tablename__ = "ocp_solutions"
-    __table_args__ = (sa.UniqueConstraint("iteration_id", "attempt"),)
+    __table_args__ = (sa.UniqueConstraint("iteration_id", "slot", "attempt"),)
 
     id: Mapped[int] = mapped_column(primary_key=True)
     campaign_id: Mapped[int | None] = mapped_column(sa.ForeignKey("campaigns.id", ondelete="CASCADE"), index=True)
     iteration_id: Mapped[int | None] = mapped_column(sa.ForeignKey("iterations.id", ondelete="CASCADE"))
+    slot: Mapped[int] = mapped_column(default=0, server_default="0", comment="the iteration's ocp slot (candidate)")
     model_version_id: Mapped[int | None] = mapped_column(
         sa.ForeignKey("model_versions.id", ondelete="RESTRICT"), index=True
     )
@@ -223,11 +224,12 @@ class OracleRun(Base):
     """One oracle replay (attempt) of a trajectory."""
 
     __tablename__ = "oracle_runs"
-    __table_args__ = (enum_check("status", OracleRunStatus), sa.UniqueConstraint("iteration_id", "attempt"))
+    __table_args__ = (enum_check("status", OracleRunStatus), sa.UniqueConstraint("iteration_id", "slot", "attempt"))
 
     id: Mapped[int] = mapped_column(primary_key=True)
     campaign_id: Mapped[int | None] = mapped_column(sa.ForeignKey("campaigns.id", ondelete="CASCADE"), index=True)
     iteration_id: Mapped[int | None] = mapped_column(sa.ForeignKey("iterations.id", ondelete="CASCADE"))
+    slot: Mapped[int] = mapped_column(default=0, server_default="0", comment="the iteration's oracle slot (pick)")
     oracle_version_id: Mapped[int | None] = mapped_column(
         sa.ForeignKey("oracle_versions.id", ondelete="RESTRICT"), index=True
     )

@@ -94,6 +94,7 @@ def replay(
         row = OracleRun(
             campaign_id=at.campaign_id,
             iteration_id=at.iteration_id,
+            slot=at.slot,
             oracle_version_id=oracle_version_id,
             ocp_solution_id=solution_id,
             attempt=run.attempt,
@@ -121,7 +122,7 @@ def replay(
                 qd=on_grid.qd,
                 f=np.hstack([f.force, f.moment]),
                 origin="oracle",
-                name=f"iteration-{at.index:04d}",
+                name=f"iteration-{at.index:04d}" + (f"-pick-{at.slot}" if at.slot else ""),
                 campaign_id=at.campaign_id,
                 iteration_id=at.iteration_id,
                 oracle_run_id=row.id,
@@ -155,6 +156,7 @@ def failed_run(run: StepRun, oracle_version_id: int, started: datetime, message:
             OracleRun(
                 campaign_id=at.campaign_id,
                 iteration_id=at.iteration_id,
+                slot=at.slot,
                 oracle_version_id=oracle_version_id,
                 attempt=run.attempt,
                 status="failed",

@@ -9,7 +9,7 @@ from sqlalchemy.orm import Session
 
 from alcove.errors import NotFound
 from alcove.lineage import holder
-from alcove.models import Dataset, PoolVersion, PoolVersionMember
+from alcove.models import Dataset, OracleRun, PoolVersion, PoolVersionMember
 
 
 def get_pool_version(s: Session, pool_version_id: int) -> PoolVersion | None:
@@ -95,6 +95,18 @@ def own_versions(s: Session, campaign_id: int) -> list[PoolVersion]:
 def oracle_dataset(s: Session, iteration_id: int) -> Dataset | None:
     """The dataset an iteration's oracle run produced (None if it has none)."""
     return s.scalar(sa.select(Dataset).where(Dataset.iteration_id == iteration_id, Dataset.origin == "oracle"))
+
+
+def oracle_datasets(s: Session, iteration_id: int) -> list[Dataset]:
+    """The datasets an iteration's oracle runs produced, in the order of their oracle slots
+    (one for the paper's loop, one per replayed pick for a batch)."""
+    q = (
+        sa.select(Dataset)
+        .join(OracleRun, OracleRun.id == Dataset.oracle_run_id)
+        .where(Dataset.iteration_id == iteration_id, Dataset.origin == "oracle")
+        .order_by(OracleRun.slot, Dataset.id)
+    )
+    return list(s.scalars(q))
 
 
 def owned_dataset_ids(s: Session, owner_id: int, ids: list[int]) -> set[int]:

@@ -81,26 +81,27 @@ def build_preliminary(run: StepRun, spec: PreliminarySpec, preset: Any, model: A
 
 def append(parent_version: int) -> StepOutput:
     """Pool version k: version ``parent_version`` (k-1, possibly a fork source's) plus the
-    dataset the iteration's oracle produced (none if the iteration failed)."""
+    datasets the iteration's oracle jobs produced (one per replayed pick, in pick order; none if
+    the iteration failed), as one version."""
 
     def write(s: Session, at: IterationRef) -> dict[str, Any]:
         parent: PoolVersion | None = repo.version_of(s, at.campaign_id, parent_version)
         if parent is None:
             raise RuntimeError(f"pool version {parent_version} does not exist")
-        ds = repo.oracle_dataset(s, at.iteration_id)
+        new = repo.oracle_datasets(s, at.iteration_id)
         pv = create_version(
             s,
             campaign_id=at.campaign_id,
             iteration_id=at.iteration_id,
             version=at.index,
             parent=parent,
-            new_datasets=[ds] if ds is not None else [],
+            new_datasets=new,
         )
         return {
             "pool_version_id": pv.id,
             "n_datasets": pv.n_datasets,
             "n_samples": pv.n_samples,
-            "appended": ds.id if ds else None,
+            "appended": new[0].id if len(new) == 1 else [d.id for d in new] if new else None,
         }
 
     return StepOutput(write)

@@ -12,9 +12,9 @@ from alcove.models import Iteration, OcpSolution
 LOOKBACK = 21
 
 
-def latest_of_iteration(s: Session, iteration_id: int) -> OcpSolution | None:
-    """The iteration's latest solve attempt (converged or not)."""
-    q = sa.select(OcpSolution).where(OcpSolution.iteration_id == iteration_id)
+def latest_of_iteration(s: Session, iteration_id: int, slot: int = 0) -> OcpSolution | None:
+    """The iteration's latest solve attempt (converged or not) of ocp slot ``slot``."""
+    q = sa.select(OcpSolution).where(OcpSolution.iteration_id == iteration_id, OcpSolution.slot == slot)
     return s.scalar(q.order_by(OcpSolution.attempt.desc()).limit(1))
 
 
@@ -27,7 +27,7 @@ def previous_converged(s: Session, campaign_id: int, index: int) -> OcpSolution 
             sa.select(OcpSolution)
             .join(Iteration, Iteration.id == OcpSolution.iteration_id)
             .where(Iteration.campaign_id == cid, Iteration.index == jj, OcpSolution.success.is_(True))
-            .order_by(OcpSolution.attempt.desc())
+            .order_by(OcpSolution.slot, OcpSolution.attempt.desc())  # a batch: its first converged slot
             .limit(1)
         )
         if row is not None:

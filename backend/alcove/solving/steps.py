@@ -131,6 +131,7 @@ def solve(
         row = OcpSolution(
             campaign_id=at.campaign_id,
             iteration_id=at.iteration_id,
+            slot=at.slot,
             model_version_id=model_version_id,
             attempt=run.attempt,
             initial_guess=sol.attempts[-1]["guess"] if sol.attempts else "default",

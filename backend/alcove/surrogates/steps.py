@@ -77,46 +77,81 @@ def train(
 
 
 def evaluate(
-    run: StepRun, *, model_version_id: int, dataset_id: int, record: dict[str, Any], kinematics: Any = None
+    run: StepRun, *, model_version_id: int, dataset_ids: list[int], record: dict[str, Any], kinematics: Any = None
 ) -> StepOutput:
     """Model version k's error on iteration k's oracle data (:mod:`alcove.science.surrogate.metrics`:
     force and moment RMSE, in contact, calibration, per component; the largest error) and the
     curves the dashboard plots (with the ensemble's std for K > 1), stored as the
     iteration's metrics row together with the iteration's other figures in ``record``
-    (``IterationMetrics`` columns, plus ``extra``)."""
+    (``IterationMetrics`` columns, plus ``extra``).
+
+    A batch iteration (several picks, ``dataset_ids`` in pick order) is scored per picked
+    trajectory (``result["picks"]``); its metrics row holds their mean (the largest errors: the
+    largest of all) and the first pick's curves. With one dataset: that dataset's figures."""
     from alcove.models import Dataset
     from alcove.science.surrogate.metrics import wrench_metrics
     from alcove.science.surrogate.training import predict_ensemble
 
+    if not dataset_ids:
+        raise ValueError("dataset_ids: the iteration has no oracle dataset to evaluate on")
     with session_scope() as s:
         mv = s.get(ModelVersion, model_version_id)
-        ds = s.get(Dataset, dataset_id)
-        assert mv is not None and ds is not None
-        a = dataset_arrays(s, ds)
-        offset = (ds.meta or {}).get("headrest_offset")  # a scenario's moved headrest (issue 17)
+        assert mv is not None
+        data = []
+        for dataset_id in dataset_ids:
+            ds = s.get(Dataset, dataset_id)
+            assert ds is not None
+            # a scenario's moved headrest (issue 17)
+            data.append((dataset_arrays(s, ds), (ds.meta or {}).get("headrest_offset")))
         model = load_model(s, mv)
         model_info = {"seed": mv.seed, "force": mv.test_force_rmse, "moment": mv.test_moment_rmse}
         train_wall_time_s = mv.train_wall_time_s
     run.check_cancel()
-    pred = predict_ensemble(model, a["q"], a["qd"], headrest_offset=offset, kinematics=kinematics)
-    f_pred = np.hstack([pred.force, pred.moment])
-    f_std = np.hstack([pred.force_std, pred.moment_std]) if model.ensemble_size > 1 else None
-    f_true = a["f"]
-    err = f_pred - f_true
-    honest = wrench_metrics(f_pred, f_true, f_std)
+    picks: list[dict[str, Any]] = []
+    for a, offset in data:
+        pred = predict_ensemble(model, a["q"], a["qd"], headrest_offset=offset, kinematics=kinematics)
+        f_pred = np.hstack([pred.force, pred.moment])
+        f_std = np.hstack([pred.force_std, pred.moment_std]) if model.ensemble_size > 1 else None
+        err = f_pred - a["f"]
+        honest = wrench_metrics(f_pred, a["f"], f_std)
+        picks.append(
+            {
+                "honest": honest,
+                "force_max_error": float(np.linalg.norm(err[:, :3], axis=1).max()),
+                "moment_max_error": float(np.linalg.norm(err[:, 3:], axis=1).max()),
+                "f_pred": f_pred,
+                "f_std": f_std,
+            }
+        )
+
+    def mean(key: str) -> Any:
+        values = [p["honest"][key] for p in picks if p["honest"][key] is not None]
+        return float(np.mean(values)) if values else None
+
     metrics = {
-        "force_rmse": honest["force_rmse"],
-        "moment_rmse": honest["moment_rmse"],
-        "force_rmse_contact": honest["force_rmse_contact"],
-        "moment_rmse_contact": honest["moment_rmse_contact"],
-        "calibration": honest["calibration"],
-        "force_max_error": float(np.linalg.norm(err[:, :3], axis=1).max()),
-        "moment_max_error": float(np.linalg.norm(err[:, 3:], axis=1).max()),
+        "force_rmse": mean("force_rmse"),
+        "moment_rmse": mean("moment_rmse"),
+        "force_rmse_contact": mean("force_rmse_contact"),
+        "moment_rmse_contact": mean("moment_rmse_contact"),
+        "calibration": mean("calibration"),
+        "force_max_error": max(p["force_max_error"] for p in picks),
+        "moment_max_error": max(p["moment_max_error"] for p in picks),
     }
+    per_pick = [
+        {"dataset_id": d, "force_rmse": p["honest"]["force_rmse"], "moment_rmse": p["honest"]["moment_rmse"]}
+        for d, p in zip(dataset_ids, picks, strict=True)
+    ]
+    a, first = data[0][0], picks[0]
+    honest = {
+        **first["honest"],
+        "n_contact_samples": sum(p["honest"]["n_contact_samples"] for p in picks),
+        **{f"rmse_{c}": mean(f"rmse_{c}") for c in FORCE_COLUMNS},
+    }
+    dataset_id = dataset_ids[0]
     per_component = {c: honest[f"rmse_{c}"] for c in FORCE_COLUMNS}
-    curve_arrays = {"t": a["t"], "q": a["q"], "qd": a["qd"], "f_true": f_true, "f_pred": f_pred}
-    if f_std is not None:
-        curve_arrays["f_std"] = f_std
+    curve_arrays = {"t": a["t"], "q": a["q"], "qd": a["qd"], "f_true": a["f"], "f_pred": first["f_pred"]}
+    if first["f_std"] is not None:
+        curve_arrays["f_std"] = first["f_std"]
 
     def write(s: Session, at: IterationRef) -> dict[str, Any]:
         curves = put_arrays(s, curve_arrays)
@@ -124,7 +159,7 @@ def evaluate(
             **software_versions(),
             "model_seed": model_info["seed"],
             "rmse_components": per_component,
-            "n_samples": len(a["t"]),
+            "n_samples": sum(len(d[0]["t"]) for d in data),
             "n_contact_samples": honest["n_contact_samples"],
             "ensemble_size": model.ensemble_size,
             "model_test_rmse": {"force": model_info["force"], "moment": model_info["moment"]},
@@ -144,6 +179,6 @@ def evaluate(
         )
         s.add(m)
         s.flush()
-        return {"metrics_id": m.id, **metrics}
+        return {"metrics_id": m.id, **metrics, **({"picks": per_pick} if len(per_pick) > 1 else {})}
 
     return StepOutput(write)

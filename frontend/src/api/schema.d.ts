@@ -1610,6 +1610,58 @@ export interface components {
             task_version: number;
         };
         /**
+         * CandidateRead
+         * @description A scenario the iteration's OCP solved (ocp slot ``slot``) and, if picked, its replay.
+         */
+        CandidateRead: {
+            /**
+             * Converged
+             * @description whether its OCP converged
+             */
+            converged: boolean | null;
+            /** Dataset Id */
+            dataset_id?: number | null;
+            /**
+             * Force Rmse
+             * @description in-loop force RMSE of model k on its oracle data [N]
+             */
+            force_rmse?: number | null;
+            /**
+             * Moment Rmse
+             * @description in-loop moment RMSE [N m]
+             */
+            moment_rmse?: number | null;
+            /** Oracle Run Id */
+            oracle_run_id?: number | null;
+            /**
+             * Pick
+             * @description the oracle slot that replayed it; null: not picked
+             */
+            pick: number | null;
+            /**
+             * Pick Reason
+             * @description why it was picked
+             */
+            pick_reason?: string | null;
+            /**
+             * Scenario
+             * @description seed, iteration, slot, values; null: the task as written
+             */
+            scenario: {
+                [key: string]: unknown;
+            } | null;
+            /**
+             * Score
+             * @description ensemble disagreement over its contact phase [N] (if scored)
+             */
+            score?: number | null;
+            /**
+             * Slot
+             * @description the ocp slot (job) that solved it
+             */
+            slot: number;
+        };
+        /**
          * ChainSpec
          * @description A planar open chain of 1 to 6 links (one joint per link).
          */
@@ -1981,6 +2033,11 @@ export interface components {
         };
         /** IterationRead */
         IterationRead: {
+            /**
+             * Candidates
+             * @description a batch iteration's candidate scenarios (ocp slots) and which were picked; empty: one trajectory (the iteration's scenario)
+             */
+            candidates?: components["schemas"]["CandidateRead"][];
             /** Config Version Id */
             config_version_id: number;
             /** Current Step */
@@ -1993,6 +2050,12 @@ export interface components {
             id: number;
             /** Index */
             index: number;
+            /**
+             * Oracle Calls
+             * @description oracle runs the iteration made (every attempt that reached the oracle)
+             * @default 0
+             */
+            oracle_calls?: number;
             /**
              * Scenario
              * @description the scenario the iteration's OCP solved (strategy random-scenarios): seed, iteration, slot and values (parameter path -> drawn value); null: the task as written (strategy paper)
@@ -2098,6 +2161,12 @@ export interface components {
             result: {
                 [key: string]: unknown;
             };
+            /**
+             * Slot
+             * @description which of the iteration's parallel jobs of this step (ocp: candidate, oracle: pick)
+             * @default 0
+             */
+            slot?: number;
             /** Started At */
             started_at: string | null;
             status: components["schemas"]["StepStatus"];
@@ -3033,6 +3102,29 @@ export interface components {
          */
         RunSettings: {
             /**
+             * Batch
+             * @description batch size q: trajectories the oracle replays per iteration, in parallel oracle jobs, appended as one pool version (1 to 64; strategy 'paper' takes 1 only)
+             * @default 1
+             */
+            batch?: number;
+            /**
+             * Candidates
+             * @description candidate scenarios C solved per iteration by 'ensemble-disagreement' (1 to 64, at least q)
+             * @default 8
+             */
+            candidates?: number;
+            /**
+             * Max Concurrent Oracle Jobs
+             * @description at most this many of the campaign's oracle jobs queued or running at once (1 to 64; None: no cap); the rest wait and start as running ones finish
+             */
+            max_concurrent_oracle_jobs?: number | null;
+            /**
+             * Min Distance
+             * @description 'ensemble-disagreement': no two picks closer than this in the scenarios' feature space (each ranged parameter scaled to [0, 1]); 0 to 10
+             * @default 0.1
+             */
+            min_distance?: number;
+            /**
              * Ocp Intervals
              * @description override the task's intervals per phase (None: as the task says)
              */
@@ -3051,11 +3143,11 @@ export interface components {
             replay_phases?: number;
             /**
              * Strategy
-             * @description acquisition strategy (docs/active-learning.md): 'paper' solves the task as written every iteration (the paper's loop); 'random-scenarios' solves a scenario drawn from the task's ranges with the campaign seed and the iteration index (stored with the iteration)
+             * @description acquisition strategy (docs/active-learning.md): 'paper' solves the task as written every iteration (the paper's loop); 'random-scenarios' solves q scenarios drawn from the task's ranges with the campaign seed, the iteration index and the slot; 'ensemble-disagreement' draws C candidate scenarios, solves each with the ensemble mean, scores each by the ensemble's disagreement over its contact phase and replays the q best that are far enough apart
              * @default paper
              * @enum {string}
              */
-            strategy?: "paper" | "random-scenarios";
+            strategy?: "paper" | "random-scenarios" | "ensemble-disagreement";
             /**
              * Trust Region Max Std
              * @description trust region: bound the ensemble's force std sqrt(sigma_fx^2 + sigma_fy^2 + sigma_fz^2) [N] at every interval midpoint of the OCP solution (above 0 N, at most 10000 N; None: unbounded; needs ensemble_size > 1)
@@ -3222,6 +3314,12 @@ export interface components {
             result: {
                 [key: string]: unknown;
             };
+            /**
+             * Slot
+             * @description which of the iteration's parallel jobs of this step (ocp: candidate, oracle: pick)
+             * @default 0
+             */
+            slot?: number;
             /** Started At */
             started_at: string | null;
             status: components["schemas"]["StepStatus"];
@@ -3247,6 +3345,11 @@ export interface components {
              * @default 200
              */
             max_iterations?: number | null;
+            /**
+             * Min Disagreement
+             * @description strategy 'ensemble-disagreement': stop when the highest candidate score (ensemble force std over the contact phase) falls below this [N]; the iteration then asks the oracle nothing; above 0, at most 1e4 N
+             */
+            min_disagreement?: number | null;
             /**
              * Oracle Budget S
              * @description stop when the oracle's total wall time reaches this [s]; above 0, at most 1e7 s (16 weeks)

@@ -11,9 +11,13 @@ exactly -d (round-off: 1e-15 m) and so the oracles' penetration by +d.
 from __future__ import annotations
 
 import copy
+import json
 
 import numpy as np
 import pytest
+from hypothesis import given
+from hypothesis import settings as hyp_settings
+from hypothesis import strategies as st
 from scipy import stats
 
 from alcove.science.geometry import HeadNeckPreset, first_contact_angle, relative_kinematics, signed_gap
@@ -135,8 +139,18 @@ def test_a_free_initial_velocity_cannot_be_ranged():
 def test_unknown_strategy_and_batches_are_refused():
     with pytest.raises(ValueError, match="unknown 'greedy'"):
         acquisition.strategy("greedy")
-    with pytest.raises(ValueError, match="only q = 1"):
-        acquisition.strategy("random-scenarios").candidates(task_preset(PRESET), 0, 1, 4)
+    with pytest.raises(ValueError, match="batch: strategy 'paper'"):
+        acquisition.strategy("paper").candidates(task_preset(PRESET), 0, 1, 4)
+
+
+def test_a_batch_draws_distinct_reproducible_scenarios_slot_by_slot():
+    """random-scenarios with q = 4: slot j of the batch is the scenario one ocp job draws for slot
+    j alone (what the fanned-out jobs solve), the same on every call, and the slots differ."""
+    strategy, task = acquisition.strategy("random-scenarios"), task_preset(PRESET)
+    batch = strategy.candidates(task, 7, 3, 4)
+    assert [b.to_json() for b in batch] == [strategy.scenario(task, 7, 3, j).to_json() for j in range(4)]
+    assert [b.to_json() for b in batch] == [b.to_json() for b in strategy.candidates(task, 7, 3, 4)]
+    assert len({json.dumps(b.to_json()["values"], sort_keys=True) for b in batch}) == 4
 
 
 # ----------------------------------------------------------------------------- the headrest offset
@@ -188,3 +202,52 @@ def test_a_chain_task_ranges_its_initial_state_from_the_chains_own_pose():
     spec["ranges"] = [{"parameter": "model.headrest_offset", "low": -0.005, "high": 0.005}]
     with pytest.raises(TaskSpecError, match=r"model\.headrest_offset"):
         parse_task(spec)
+
+
+# ----------------------------------------------------------------------------- the batch selection rule
+
+
+def test_select_batch_takes_the_highest_scores_no_two_picks_too_close():
+    scores, x = [1.0, 5.0, 3.0, 4.0], [[0.0], [0.05], [0.5], [0.9]]
+    assert [p.slot for p in acquisition.select_batch(scores, x, 3, 0.1)] == [1, 3, 2]
+    # 2 is 0.45 from 3 and 0 is 0.05 from 1: too close at 0.5
+    assert [p.slot for p in acquisition.select_batch(scores, x, 3, 0.5)] == [1, 3]
+    assert [p.slot for p in acquisition.select_batch(scores, x, 1, 0.0)] == [1]
+    # a candidate whose OCP did not converge (None) is never picked; ties go to the lower slot
+    assert [p.slot for p in acquisition.select_batch([None, 2.0, 2.0], [[0], [0.3], [0.6]], 3, 0)] == [1, 2]
+    # the stopping rule: the highest score below the threshold asks the oracle nothing
+    assert acquisition.select_batch(scores, x, 3, 0.1, threshold=5.5) == []
+    assert [p.slot for p in acquisition.select_batch(scores, x, 1, 0.1, threshold=5.0)] == [1]
+    with pytest.raises(ValueError, match="features"):
+        acquisition.select_batch(scores, x[:2], 2, 0.1)
+
+
+@given(
+    st.lists(st.tuples(st.floats(0, 10), st.floats(0, 1), st.floats(0, 1)), min_size=1, max_size=12),
+    st.integers(1, 5),
+    st.floats(0, 0.8),
+)
+@hyp_settings(max_examples=200, deadline=None)
+def test_select_batch_is_the_greedy_max_score_rule_with_a_minimum_distance(cands, q, d_min):
+    """Picks are at most q, pairwise at least d_min apart, in descending score; and every
+    candidate left out was either outranked by q picks or too close to a pick scoring at least
+    as high (greedy: nothing better was skipped)."""
+    scores = [c[0] for c in cands]
+    x = np.array([c[1:] for c in cands])
+    picks = [p.slot for p in acquisition.select_batch(scores, x.tolist(), q, d_min)]
+    assert len(picks) <= q and len(set(picks)) == len(picks)
+    assert [scores[j] for j in picks] == sorted((scores[j] for j in picks), reverse=True)
+    for a in picks:
+        for b in picks:
+            assert a == b or np.linalg.norm(x[a] - x[b]) >= d_min
+    if len(picks) < q:
+        for j in set(range(len(cands))) - set(picks):
+            assert any(scores[p] >= scores[j] and np.linalg.norm(x[p] - x[j]) < d_min for p in picks)
+
+
+def test_scenario_features_scale_each_range_to_the_unit_interval():
+    task = task_preset(PRESET)
+    lows = {r.parameter: r.low for r in task.ranges}
+    highs = {r.parameter: r.high for r in task.ranges}
+    assert acquisition.scenario_features(task, lows) == [0.0] * len(task.ranges)
+    assert acquisition.scenario_features(task, highs) == [1.0] * len(task.ranges)

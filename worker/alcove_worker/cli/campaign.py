@@ -21,104 +21,13 @@ from typing import Any
 import typer
 
 from alcove_worker.cli import follow as following
+from alcove_worker.cli.campaign_config import create_campaign, ensure_database, read_config
 from alcove_worker.cli.follow import fail
 
 app = typer.Typer(
     help="Active-learning campaigns: run, create, start, pause, resume, cancel, retry, fork, status, export.",
     no_args_is_help=True,
 )
-
-
-def _read_config(path: Path | None) -> dict[str, Any]:
-    if path is None:
-        return {}
-    if not path.exists():
-        fail("--config", f"{path} does not exist")
-    text = path.read_text()
-    try:
-        if path.suffix.lower() == ".json":
-            data = json.loads(text)
-        else:
-            import yaml
-
-            data = yaml.safe_load(text)
-    except Exception as exc:
-        fail("--config", f"cannot parse {path}: {exc}")
-    if data is None:
-        return {}
-    if not isinstance(data, dict):
-        fail("--config", "must be a mapping")
-    known = {
-        "name",
-        "description",
-        "seed",
-        "preliminary",
-        "stopping",
-        "policies",
-        "settings",
-        "surrogate",
-        "oracle_params",
-        "task_spec",
-    }
-    unknown = sorted(set(data) - known)
-    if unknown:
-        fail(f"--config.{unknown[0]}", f"unknown key (known: {', '.join(sorted(known))})")
-    return data
-
-
-def _ensure_database() -> None:
-    from alcove.db import migrate
-    from alcove.settings import get_settings
-
-    s = get_settings()
-    if s.is_sqlite:
-        s.data_dir.mkdir(parents=True, exist_ok=True)
-        migrate.upgrade()
-    elif not migrate.is_up_to_date():
-        fail("database", "not migrated to the code's head revision; run `alcove db upgrade`")
-
-
-def _create(
-    task: str, oracle: str, iterations: int | None, cfg: dict[str, Any], name: str | None, seed: int | None
-) -> int:
-    from pydantic import ValidationError
-
-    from alcove.campaigns import presets, service
-    from alcove.campaigns.schemas import CampaignCreate
-    from alcove.db import transaction
-
-    def work(s: Any) -> int:
-        user = presets.local_user(s)
-        tv = presets.task_version_from_preset(s, user.id, task, cfg.get("task_spec"))
-        ov = presets.oracle_version_for(s, user.id, oracle, cfg.get("oracle_params"))
-        sv = presets.surrogate_config_version_for(s, user.id, cfg.get("surrogate"))
-        stopping = dict(cfg.get("stopping") or {})
-        if iterations is not None:
-            stopping["max_iterations"] = iterations
-        data = CampaignCreate.model_validate(
-            {
-                "name": name or cfg.get("name") or f"{task} x {oracle}",
-                "description": cfg.get("description", ""),
-                "task_version_id": tv,
-                "oracle_version_id": ov,
-                "surrogate_config_version_id": sv,
-                "seed": seed if seed is not None else cfg.get("seed", 0),
-                "preliminary": cfg.get("preliminary") or {},
-                "stopping": stopping,
-                "policies": cfg.get("policies") or {},
-                "settings": cfg.get("settings") or {},
-            }
-        )
-        return service.create_campaign(s, user.id, data).id
-
-    try:
-        return transaction(work)
-    except ValidationError as exc:
-        err = exc.errors()[0]
-        fail(".".join(str(p) for p in err["loc"]) or "config", err["msg"])
-    except ValueError as exc:  # the science modules' input errors name the field
-        fail(getattr(exc, "field", "config"), getattr(exc, "reason", str(exc)))
-    raise AssertionError("unreachable")
 
 
 def _control(action: str, campaign_id: int, **kwargs: Any) -> Any:
@@ -155,11 +64,36 @@ def run(
     seed: int | None = typer.Option(None, min=0, help="campaign seed"),
     strategy: str | None = typer.Option(
         None,
-        help="acquisition strategy: paper (the task as written) or random-scenarios (a scenario drawn from the "
-        "task's ranges every iteration); default: the config's, else paper",
+        help="acquisition strategy: paper (the task as written), random-scenarios (q scenarios drawn from the "
+        "task's ranges every iteration) or ensemble-disagreement (C candidates, the q most disputed replayed); "
+        "default: the config's, else paper",
+    ),
+    candidates: int | None = typer.Option(
+        None,
+        "--candidates",
+        help="candidate scenarios C per iteration (ensemble-disagreement; default: the config's, else 8)",
+    ),
+    min_disagreement: float | None = typer.Option(
+        None,
+        "--min-disagreement",
+        help="stop when the highest candidate score falls below this [N] (ensemble-disagreement)",
+    ),
+    batch: int | None = typer.Option(
+        None,
+        "--batch",
+        help="batch size q: trajectories replayed per iteration in parallel oracle jobs "
+        "(default: the config's, else 1)",
+    ),
+    max_oracle_jobs: int | None = typer.Option(
+        None,
+        "--max-oracle-jobs",
+        help="at most this many of the campaign's oracle jobs at once (default: the config's, else no cap)",
     ),
     as_json: bool = typer.Option(
-        False, "--json", help="print the per-iteration metrics (with the scenario solved) as JSON at the end"
+        False,
+        "--json",
+        help="print the per-iteration metrics (with the scenario solved, oracle_calls and the picked scenarios) as "
+        "JSON at the end",
     ),
     spawn: bool = typer.Option(
         True, "--worker/--no-worker", help="spawn a worker process (off: external `alcove worker`s run the steps)"
@@ -176,11 +110,19 @@ def run(
     """Create a campaign, run it to the end through Celery, and report its metrics (in-loop and
     on the held-out validation suite: ``validation_force_rmse``, ``validation_moment_rmse``)."""
 
-    _ensure_database()
-    cfg = _read_config(config)
-    if strategy is not None:
-        cfg["settings"] = {**(cfg.get("settings") or {}), "strategy": strategy}
-    campaign_id = _create(task, oracle, iterations, cfg, name, seed)
+    ensure_database()
+    cfg = read_config(config)
+    given = {
+        "strategy": strategy,
+        "batch": batch,
+        "candidates": candidates,
+        "max_concurrent_oracle_jobs": max_oracle_jobs,
+    }
+    if any(v is not None for v in given.values()):
+        cfg["settings"] = {**(cfg.get("settings") or {}), **{k: v for k, v in given.items() if v is not None}}
+    if min_disagreement is not None:
+        cfg["stopping"] = {**(cfg.get("stopping") or {}), "min_disagreement": min_disagreement}
+    campaign_id = create_campaign(task, oracle, iterations, cfg, name, seed)
     proc = following.spawn_worker(concurrency, log_path=worker_log) if spawn else None
     t0 = time.perf_counter()
     try:
@@ -221,8 +163,8 @@ def create(
     seed: int | None = typer.Option(None, min=0),
 ) -> None:
     """Create a draft campaign and print its id."""
-    _ensure_database()
-    typer.echo(_create(task, oracle, iterations, _read_config(config), name, seed))
+    ensure_database()
+    typer.echo(create_campaign(task, oracle, iterations, read_config(config), name, seed))
 
 
 def _print_status(campaign_id: int, as_json: bool) -> None:
@@ -315,7 +257,7 @@ def fork(
     from alcove.campaigns.schemas import ForkRequest, StoppingRules
     from alcove.db import transaction
 
-    cfg = _read_config(config)
+    cfg = read_config(config)
     detail = following.read_detail(campaign_id)
     stopping = dict(cfg.get("stopping") or detail.config.stopping.model_dump())
     if iterations is not None:

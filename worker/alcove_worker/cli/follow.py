@@ -42,9 +42,31 @@ def read_metrics(campaign_id: int) -> list[dict[str, Any]]:
 
     with session_scope() as s:
         rows = [m.model_dump(mode="json") for m in results.metrics_series(s, campaign_id)]
-        # the scenario each iteration's OCP solved (null: the task as written)
-        scenarios = {it.index: it.scenario for it in results.list_iterations(s, campaign_id)}
-    return [{**row, "scenario": scenarios.get(row["iteration_index"])} for row in rows]
+        # the scenario each iteration's OCP solved (null: the task as written), its oracle calls and,
+        # for a batch, the picked scenarios with each one's in-loop RMSE
+        its = {it.index: it for it in results.list_iterations(s, campaign_id)}
+    return [{**row, **_iteration_fields(its.get(row["iteration_index"]))} for row in rows]
+
+
+def _iteration_fields(it: Any) -> dict[str, Any]:
+    if it is None:
+        return {"scenario": None, "oracle_calls": None, "picks": []}
+    picks = sorted((c for c in it.candidates if c.pick is not None), key=lambda c: c.pick)
+    return {
+        "scenario": it.scenario,
+        "oracle_calls": it.oracle_calls,
+        "picks": [
+            {
+                "pick": c.pick,
+                "slot": c.slot,
+                "scenario": c.scenario,
+                "score": c.score,
+                "force_rmse": c.force_rmse,
+                "moment_rmse": c.moment_rmse,
+            }
+            for c in picks
+        ],
+    }
 
 
 def spawn_worker(

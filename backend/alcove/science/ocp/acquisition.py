@@ -5,29 +5,38 @@ iteration's OCP solves with the current surrogate; the oracle then replays each 
 trajectory. Everything is seeded by the campaign seed and k, so a step re-run by another worker
 (or a re-delivered job) solves the same scenario.
 
-Implemented (q = 1):
+Implemented:
 
-* ``paper``: the nominal task every iteration, no exploration (the paper's loop, exactly).
-* ``random-scenarios``: scenario ``(seed, k, slot)`` drawn uniformly from the task's ranges
-  (:func:`alcove.science.ocp.scenarios.draw`); a task without ranges gives the nominal task.
+* ``paper``: the nominal task every iteration, no exploration (the paper's loop, exactly); q = 1.
+* ``random-scenarios``: q scenarios ``(seed, k, slot)``, slot = 0 .. q-1, drawn uniformly from
+  the task's ranges (:func:`alcove.science.ocp.scenarios.draw`); a task without ranges gives the
+  nominal task. The campaign solves each in its own ``ocp`` job (slot) and replays each in its
+  own ``oracle`` job (:meth:`Strategy.scenario` draws one slot's scenario on its own).
 
-Not yet (see docs/active-learning.md): q > 1 (the slots are already in the seed stream) and
-``ensemble-disagreement``, which needs candidate solves and the ensemble's scores: it will
-propose C candidates with :meth:`Strategy.candidates` and pick q of them from their scores.
+* ``ensemble-disagreement`` (query by committee): C candidate scenarios drawn as
+  ``random-scenarios`` draws them (slots 0 .. C-1), each solved with the ensemble mean in its own
+  ``ocp`` job and scored by the ensemble's disagreement over its contact phase (the largest
+  ensemble force std |sigma_F| [N] at the solution's midpoints in contact, the OCP's trust
+  diagnostic ``max_std_contact``; 0 without contact); :func:`select_batch` then picks at most q of
+  them, the highest scores first, no two closer than ``min_distance`` in the scenarios' feature
+  space (:func:`scenario_features`: each ranged parameter scaled to [0, 1] over its range).
 """
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Literal, Protocol
+
+import numpy as np
 
 from alcove.science.ocp.scenarios import Scenario, draw, nominal
 
 if TYPE_CHECKING:
     from alcove.science.ocp.task_spec import TaskSpec
 
-StrategyName = Literal["paper", "random-scenarios"]
-STRATEGIES: tuple[StrategyName, ...] = ("paper", "random-scenarios")
+StrategyName = Literal["paper", "random-scenarios", "ensemble-disagreement"]
+STRATEGIES: tuple[StrategyName, ...] = ("paper", "random-scenarios", "ensemble-disagreement")
 
 
 class Strategy(Protocol):
@@ -38,6 +47,10 @@ class Strategy(Protocol):
         """The scenarios iteration ``iteration`` of a campaign with ``seed`` solves (``q`` of them)."""
         ...
 
+    def scenario(self, task: TaskSpec, seed: int, iteration: int, slot: int) -> Scenario:
+        """Slot ``slot`` of :meth:`candidates` on its own (what one ocp job solves)."""
+        ...
+
 
 @dataclass(frozen=True)
 class Paper:
@@ -46,8 +59,14 @@ class Paper:
     name: StrategyName = "paper"
 
     def candidates(self, task: TaskSpec, seed: int, iteration: int, q: int) -> list[Scenario]:
-        _check_batch(q)
+        if q != 1:
+            raise ValueError(f"batch: strategy 'paper' replays one trajectory per iteration (q = 1), got {q}")
         return [Scenario(task=nominal(task))]
+
+    def scenario(self, task: TaskSpec, seed: int, iteration: int, slot: int) -> Scenario:
+        if slot != 0:
+            raise ValueError(f"slot: strategy 'paper' has slot 0 only, got {slot}")
+        return Scenario(task=nominal(task))
 
 
 @dataclass(frozen=True)
@@ -57,13 +76,22 @@ class RandomScenarios:
     name: StrategyName = "random-scenarios"
 
     def candidates(self, task: TaskSpec, seed: int, iteration: int, q: int) -> list[Scenario]:
-        _check_batch(q)
+        if q < 1:
+            raise ValueError(f"batch: q must be at least 1, got {q}")
         return [draw(task, seed, iteration, slot) for slot in range(q)]
 
+    def scenario(self, task: TaskSpec, seed: int, iteration: int, slot: int) -> Scenario:
+        if slot < 0:
+            raise ValueError(f"slot: must be >= 0, got {slot}")
+        return draw(task, seed, iteration, slot)
 
-def _check_batch(q: int) -> None:
-    if q != 1:  # the campaign's fan-out to q oracle jobs is the next increment
-        raise ValueError(f"batch size q = {q}: only q = 1 is implemented")
+
+@dataclass(frozen=True)
+class EnsembleDisagreement(RandomScenarios):
+    """C candidates drawn as :class:`RandomScenarios` draws them; the campaign scores them and
+    picks q with :func:`select_batch`."""
+
+    name: StrategyName = "ensemble-disagreement"
 
 
 def strategy(name: str) -> Strategy:
@@ -72,7 +100,76 @@ def strategy(name: str) -> Strategy:
         return Paper()
     if name == "random-scenarios":
         return RandomScenarios()
+    if name == "ensemble-disagreement":
+        return EnsembleDisagreement()
     raise ValueError(f"strategy: unknown {name!r}; known: {', '.join(STRATEGIES)}")
 
 
-__all__ = ["STRATEGIES", "Paper", "RandomScenarios", "Strategy", "StrategyName", "strategy"]
+def scenario_features(task: TaskSpec, values: dict[str, float]) -> list[float]:
+    """A scenario's point in the feature space of the diversity rule: each of the task's ranged
+    parameters scaled to [0, 1] over its range (declaration order; a range of zero width: 0)."""
+    out = []
+    for r in task.ranges or []:
+        width = r.high - r.low
+        out.append(float((values[r.parameter] - r.low) / width) if width > 0 else 0.0)
+    return out
+
+
+@dataclass(frozen=True)
+class Pick:
+    slot: int  # the candidate (ocp slot)
+    reason: str
+
+
+def select_batch(
+    scores: Sequence[float | None],
+    features: Sequence[Sequence[float]],
+    q: int,
+    min_distance: float,
+    threshold: float | None = None,
+) -> list[Pick]:
+    """At most ``q`` candidates to replay, in pick order. Candidates are taken by descending
+    score (ties: the lower slot); one is skipped if its Euclidean distance in ``features`` to a
+    pick already made is below ``min_distance``. A candidate without a score (its OCP did not
+    converge) is never picked. With ``threshold``: no pick at all when the highest score is below
+    it (the uncertainty stopping rule). Fewer than q picks when too few candidates are far enough
+    apart."""
+    if q < 1:
+        raise ValueError(f"batch: q must be at least 1, got {q}")
+    if min_distance < 0:
+        raise ValueError(f"min_distance: must be >= 0, got {min_distance}")
+    if len(scores) != len(features):
+        raise ValueError(f"features: {len(features)} rows for {len(scores)} candidates")
+    scored = [(float(sc), j) for j, sc in enumerate(scores) if sc is not None and np.isfinite(sc)]
+    if not scored:
+        return []
+    top = max(sc for sc, _ in scored)
+    if threshold is not None and top < threshold:
+        return []
+    x = np.asarray(features, float).reshape(len(scores), -1)
+    picks: list[Pick] = []
+    for sc, j in sorted(scored, key=lambda p: (-p[0], p[1])):
+        if len(picks) == q:
+            break
+        near = min((float(np.linalg.norm(x[j] - x[p.slot])) for p in picks), default=np.inf)
+        if near < min_distance:
+            continue
+        reason = f"disagreement {sc:.4g} N (rank {len(picks) + 1})"
+        if picks:
+            reason += f"; nearest pick at {near:.3g} >= {min_distance:g}"
+        picks.append(Pick(j, reason))
+    return picks
+
+
+__all__ = [
+    "STRATEGIES",
+    "EnsembleDisagreement",
+    "Paper",
+    "Pick",
+    "RandomScenarios",
+    "Strategy",
+    "StrategyName",
+    "scenario_features",
+    "select_batch",
+    "strategy",
+]

@@ -1,0 +1,57 @@
+"""A batch iteration's candidate rows (``iteration_candidates``, issue 17): what an ocp slot
+records about the scenario it solved, in the transaction that completes it."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from typing import Any
+
+from sqlalchemy.orm import Session
+
+from alcove.campaigns import repository as repo
+from alcove.jobs.steps import IterationRef
+from alcove.models import Iteration, OcpSolution
+
+
+def storing_scenario(
+    write: Callable[[Session, IterationRef], dict[str, Any]] | None,
+    stored: dict[str, Any] | None,
+    features: list[float] | None,
+    strategy: str,
+) -> Callable[[Session, IterationRef], dict[str, Any]]:
+    """The solve's rows, the scenario on the iteration (slot 0's) and, in a batch (``features``
+    given), the slot's candidate row: picked at once by random-scenarios (pick = slot); scored by
+    ensemble-disagreement (the ensemble's largest force std over the contact phase, from the
+    solution's trust diagnostics; 0 without contact) and picked at the fan-in."""
+
+    def with_scenario(s: Session, at: IterationRef) -> dict[str, Any]:
+        result = write(s, at) if write is not None else {}
+        it = s.get(Iteration, at.iteration_id)
+        assert it is not None
+        if at.slot == 0:
+            it.scenario = stored
+        if features is not None:
+            converged = bool(result.get("converged"))
+            score = None
+            if strategy == "ensemble-disagreement" and converged:
+                sol = s.get(OcpSolution, result["ocp_solution_id"])
+                assert sol is not None
+                score = float((sol.stats or {}).get("trust", {}).get("max_std_contact") or 0.0)
+            replayed = strategy == "random-scenarios" and converged
+            repo.put_candidate(
+                s,
+                it.id,
+                at.slot,
+                scenario=stored,
+                ocp_solution_id=result.get("ocp_solution_id"),
+                converged=converged,
+                score=score,
+                features=features,
+                pick=at.slot if replayed else None,
+                pick_reason="random-scenarios: every drawn scenario is replayed" if replayed else None,
+            )
+            if score is not None:
+                result = {**result, "score": score}
+        return {**result, "scenario": stored} if stored is not None else result
+
+    return with_scenario

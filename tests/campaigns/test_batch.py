@@ -1,0 +1,387 @@
+"""Batch acquisition (issue 17): an iteration fans out into q ocp and q oracle jobs and fans back in.
+
+* in this process (the real protocol, no broker): the q scenarios are the seeded draws of slots
+  0..q-1, each solved and replayed in its own slot; the q datasets are appended as ONE pool
+  version; the in-loop RMSE is stored per pick and the iteration's is their mean; duplicate
+  deliveries of finished slots are no-ops;
+* real Celery workers on PostgreSQL + Redis (a schema of their own): a worker SIGKILLed in one of
+  three oracle jobs costs that job only; Redis restarted between the fan-out and the fan-in loses
+  nothing; two campaigns sharing one oracle worker (each capped at one oracle job) both advance.
+"""
+
+from __future__ import annotations
+
+import shutil
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+import sqlalchemy as sa
+
+from alcove.campaigns import protocol, repository, results
+from alcove.db import session_scope
+from alcove.db.arrays import get_arrays
+from alcove.models import Dataset, OcpSolution
+from alcove.pool import repository as pool_repo
+from tests.integration.procs import PrivateRedis, db_rows, start_worker, unique
+from tests.integration.procs import wait_until as wait_for
+
+TASK = "head-headrest-scenarios"
+Q = 3
+BATCH = {"strategy": "random-scenarios", "batch": Q, "validation_motions": 0}
+LIGHT: dict[str, Any] = {"preliminary": {"samples": 200, "chunks": 2}, "surrogate": {"max_epochs": 20}}
+
+
+def test_a_batch_iteration_solves_q_seeded_scenarios_and_appends_them_as_one_pool_version(
+    sqlite_campaign_db: str, make_campaign
+) -> None:
+    from alcove.science.ocp import scenarios
+    from alcove.science.ocp.task_spec import task_preset
+
+    seed = 11
+    cid, jobs = make_campaign(task=TASK, seed=seed, settings=BATCH, stopping={"max_iterations": 1}, **LIGHT)
+    count_datasets = sa.select(sa.func.count()).select_from(Dataset).where(Dataset.campaign_id == cid)
+    protocol.drive_inline(cid, jobs)
+    task = task_preset(TASK)
+    with session_scope() as s:
+        assert repository.get_campaign(s, cid).status == "completed"
+        k = 1
+        it = repository.get_iteration(s, cid, k)
+        assert it.status == "succeeded"
+        steps = {(st.step, st.slot): st for st in it.steps}
+        # q ocp and q oracle jobs, one evaluate and one append, each run once
+        assert sorted(steps) == sorted(
+            [("train", 0), ("evaluate", 0), ("append", 0)] + [(step, j) for step in ("ocp", "oracle") for j in range(Q)]
+        )
+        assert all(st.status == "succeeded" and st.attempts == 1 for st in steps.values())
+        cands = repository.candidates(s, it.id)
+        assert [c.slot for c in cands] == [c.pick for c in cands] == list(range(Q))
+        for c in cands:
+            # slot j solved the draw (campaign seed, k, j): its trajectory starts at the drawn state
+            assert c.scenario == scenarios.draw(task, seed, k, c.slot).to_json()
+            ds = s.get(Dataset, c.dataset_id)
+            a = get_arrays(s, ds.content_sha256)
+            np.testing.assert_allclose(a["q"][0, 0], c.scenario["values"]["initial.q.0"], atol=1e-8)
+            assert ds.meta["headrest_offset"] == c.scenario["values"]["model.headrest_offset"]
+        assert len({str(c.scenario["values"]) for c in cands}) == Q
+        # the q datasets, in pick order, are what pool version k adds to version k-1: one version
+        pv, prev = pool_repo.version_of(s, cid, k), pool_repo.version_of(s, cid, k - 1)
+        assert [d.id for d in pool_repo.oracle_datasets(s, it.id)] == [c.dataset_id for c in cands]
+        assert pv.n_datasets == prev.n_datasets + Q
+        added = sorted(m.dataset_id for m in pv.members if m.added_in_this_version)
+        assert added == sorted(c.dataset_id for c in cands)
+        # the in-loop RMSE per pick, and the iteration's as their mean
+        m = repository.metrics_of(s, cid, k)
+        rmse = [c.force_rmse for c in cands]
+        assert all(r is not None and r > 0 for r in rmse)
+        assert m.force_rmse == pytest.approx(float(np.mean(rmse)), rel=1e-12)
+        assert m.moment_rmse == pytest.approx(float(np.mean([c.moment_rmse for c in cands])), rel=1e-12)
+        # the API's iteration list shows the oracle calls and the picks
+        listed = {i.index: i for i in results.list_iterations(s, cid)}
+        assert listed[1].oracle_calls == Q and [c.pick for c in listed[1].candidates] == list(range(Q))
+        n_datasets = s.scalar(count_datasets)
+    # duplicate deliveries of finished slots (and of the fan-in's evaluate and append) are no-ops
+    for step, slot in (("ocp", 1), ("oracle", 2), ("oracle", 0), ("evaluate", 0), ("append", 0)):
+        assert protocol.run_step(cid, 1, step, 1, slot=slot)["status"] == "duplicate"
+    with session_scope() as s:
+        assert s.scalar(count_datasets) == n_datasets
+
+
+def test_ensemble_disagreement_replays_the_most_disputed_candidates_and_stops_when_none_is(
+    sqlite_campaign_db: str, make_campaign
+) -> None:
+    """C = 4 candidates solved in four ocp jobs and scored by the ensemble's force std over their
+    contact phase (the solution's trust diagnostic); with no minimum distance the q = 2 picks are
+    the two highest scores, replayed in two oracle jobs and appended as one pool version. A
+    threshold above every score stops the campaign after an iteration that asked the oracle nothing."""
+    settings = {"strategy": "ensemble-disagreement", "batch": 2, "candidates": 4, "min_distance": 0.0}
+    cid, jobs = make_campaign(task=TASK, seed=3, settings={**BATCH, **settings}, stopping={"max_iterations": 1})
+    protocol.drive_inline(cid, jobs)
+    with session_scope() as s:
+        assert repository.get_campaign(s, cid).status == "completed"
+        it = repository.get_iteration(s, cid, 1)
+        cands = repository.candidates(s, it.id)
+        assert [c.slot for c in cands] == [0, 1, 2, 3] and all(c.converged for c in cands)
+        for c in cands:
+            sol = s.get(OcpSolution, c.ocp_solution_id)
+            assert c.score == (sol.stats["trust"]["max_std_contact"] or 0.0) and c.score >= 0
+        ranked = sorted(cands, key=lambda c: (-c.score, c.slot))
+        assert [c.slot for c in sorted((c for c in cands if c.pick is not None), key=lambda c: c.pick)] == [
+            c.slot for c in ranked[:2]
+        ]
+        assert all(c.dataset_id is not None for c in ranked[:2]) and all(c.dataset_id is None for c in ranked[2:])
+        pv, prev = pool_repo.version_of(s, cid, 1), pool_repo.version_of(s, cid, 0)
+        assert pv.n_datasets == prev.n_datasets + 2
+        assert {(st.step, st.slot) for st in it.steps if st.step in ("ocp", "oracle")} == {
+            *(("ocp", j) for j in range(4)),
+            ("oracle", 0),
+            ("oracle", 1),
+        }
+        top = ranked[0].score
+        assert top > 0  # the two-member ensemble disagrees somewhere in contact
+
+    stop = {**settings, "candidates": 2}
+    cid, jobs = make_campaign(
+        task=TASK, seed=3, settings={**BATCH, **stop}, stopping={"max_iterations": 3, "min_disagreement": top * 2 + 1}
+    )
+    protocol.drive_inline(cid, jobs)
+    with session_scope() as s:
+        c = repository.get_campaign(s, cid)
+        assert (c.status, c.stop_reason) == ("completed", "min_disagreement")
+        it = repository.get_iteration(s, cid, 1)
+        assert it.oracle_calls == 0 and all(c.pick is None for c in repository.candidates(s, it.id))
+        assert {st.step: st.status for st in it.steps if st.step in ("evaluate", "append")} == {
+            "evaluate": "skipped",
+            "append": "succeeded",
+        }
+        assert pool_repo.version_of(s, cid, 1).n_datasets == pool_repo.version_of(s, cid, 0).n_datasets
+
+
+def test_retrying_a_batch_slot_that_failed_the_campaign_runs_the_slots_it_cancelled_too(
+    sqlite_campaign_db: str, make_campaign, faults
+) -> None:
+    """Policy stop: ocp slot 0 does not converge and fails the campaign, which cancels the queued
+    slot 1. A retry runs slot 0 again and slot 1 with it; the iteration then fans in as usual."""
+    from alcove.campaigns import service
+    from alcove.jobs.faults import inject
+
+    cid, jobs = make_campaign(
+        task=TASK,
+        seed=5,
+        settings={**BATCH, "batch": 2},
+        stopping={"max_iterations": 1},
+        policies={"ocp_on_failure": "stop"},
+        fault={"ocp": {"ipopt_max_iter": 1, "slots": [0]}},
+        **LIGHT,
+    )
+    protocol.drive_inline(cid, jobs)
+    with session_scope() as s:
+        c = repository.get_campaign(s, cid)
+        assert c.status == "failed"
+        it = repository.get_iteration(s, cid, 1)
+        assert {(st.step, st.slot): st.status for st in it.steps if st.step == "ocp"} == {
+            ("ocp", 0): "failed",
+            ("ocp", 1): "cancelled",
+        }
+        inject(cid, None)
+        c, jobs = service.retry_step(s, cid)
+        assert sorted((j.step.value, j.slot, j.attempt) for j in jobs) == [("ocp", 0, 2), ("ocp", 1, 1)]
+    protocol.drive_inline(cid, jobs)
+    with session_scope() as s:
+        assert repository.get_campaign(s, cid).status == "completed"
+        it = repository.get_iteration(s, cid, 1)
+        assert all(st.status == "succeeded" for st in it.steps)
+        assert pool_repo.version_of(s, cid, 1).n_datasets == pool_repo.version_of(s, cid, 0).n_datasets + 2
+
+
+# ----------------------------------------------------------------------------- real workers
+
+
+@pytest.fixture
+def pg_url(fresh_pg_url: str) -> str:
+    """Worker processes take up every unfinished step of their database: a schema of our own."""
+    return fresh_pg_url
+
+
+ENDED = "SELECT status, stop_reason FROM campaigns WHERE id = :c AND status IN ('completed', 'failed', 'cancelled')"
+SLOTS = (
+    "SELECT s.step, s.slot, s.status, s.attempts, s.worker_name FROM iteration_steps s "
+    "JOIN iterations i ON i.id = s.iteration_id WHERE s.campaign_id = :c AND i.index = :k ORDER BY s.step, s.slot"
+)
+
+
+def slots(url: str, cid: int, k: int = 1) -> dict[tuple[str, int], tuple[Any, ...]]:
+    return {(r[0], r[1]): r[2:] for r in db_rows(url, SLOTS, c=cid, k=k)}
+
+
+def start(make_campaign: Any, seed: int, fault: dict[str, Any] | None = None, **settings: Any) -> int:
+    """A one-iteration batch campaign started the way the API does (the first job through the outbox)."""
+    from alcove.campaigns import service
+    from alcove.db import transaction
+    from alcove.jobs.campaign import send_committed, stage
+
+    cid, _ = make_campaign(
+        task=TASK,
+        seed=seed,
+        settings={**BATCH, **settings},
+        stopping={"max_iterations": 1},
+        fault=fault,
+        start=False,
+        **LIGHT,  # what these tests check needs no accurate model
+    )
+    send_committed(transaction(lambda s: stage(s, service.start(s, cid)[1])))
+    return cid
+
+
+def appended_once(url: str, cid: int, q: int) -> None:
+    """Pool version 1 = version 0 + the q oracle datasets, and nothing else was stored."""
+    oracle = db_rows(url, "SELECT count(*) FROM datasets WHERE campaign_id = :c AND origin = 'oracle'", c=cid)
+    assert oracle == [(q,)]
+    versions = db_rows(
+        url,
+        "SELECT version, n_datasets FROM pool_versions WHERE campaign_id = :c ORDER BY version",
+        c=cid,
+    )
+    assert [v for v, _ in versions] == [0, 1] and versions[1][1] == versions[0][1] + q
+    added = db_rows(
+        url,
+        "SELECT count(*) FROM pool_version_members m JOIN pool_versions p ON p.id = m.pool_version_id "
+        "WHERE p.campaign_id = :c AND p.version = 1 AND m.added_in_this_version",
+        c=cid,
+    )
+    assert added == [(q,)]
+
+
+def test_a_worker_killed_in_one_of_three_oracle_jobs_costs_that_job_only(
+    pg_redis_default_lease: dict[str, str], pg_url: str, tmp_path: Path, make_campaign: Any
+) -> None:
+    """Three oracle jobs fan out to two workers; the one replaying pick 1 (slowed to 4 s) is
+    SIGKILLed: the other worker replays pick 1 again (attempt 2) once the dead worker's heartbeat is
+    stale, picks 0 and 2 keep their first and only run, and the fan-in appends the three datasets
+    as one pool version. Duplicate messages of every finished step then change nothing."""
+    from alcove.campaigns.schemas import StepJob
+    from alcove.jobs.campaign import enqueue
+
+    cid = start(make_campaign, 31, {"oracle": {"sleep_s": 4, "slots": [1]}})
+    # a dead worker is noticed after 4 s (production: 10 s): still the heartbeat, never the 120 s lease
+    env = {
+        **pg_redis_default_lease,
+        "ALCOVE_WORKER_DEAD_SECONDS": "4",
+        "ALCOVE_WORKER_HEARTBEAT_SECONDS": "1",
+        "ALCOVE_RECONCILE_SECONDS": "1",
+    }
+    workers = {n: start_worker(env, tmp_path / f"{n}.log", n) for n in (unique("b") for _ in range(2))}
+
+    def alive() -> Any:
+        return next(p for p in workers.values() if p.alive())
+
+    try:
+        first = wait_for(
+            lambda: (r := slots(pg_url, cid).get(("oracle", 1))) and r[0] == "running" and r, 240, "pick 1", alive()
+        )
+        time.sleep(1.0)
+        workers[first[2].split("@")[0]].kill()
+        wait_for(lambda: db_rows(pg_url, ENDED, c=cid), 240, "the campaign to end", alive())
+        got = slots(pg_url, cid)
+        enqueue(
+            [StepJob(campaign_id=cid, iteration=1, step=st, attempt=1, slot=j) for (st, j) in got]
+            + [StepJob(campaign_id=cid, iteration=1, step="oracle", attempt=2, slot=1)]
+        )
+        time.sleep(3.0)  # the duplicates arrive and are refused
+    finally:
+        for p in workers.values():
+            p.stop()
+    assert db_rows(pg_url, ENDED, c=cid) == [("completed", "max_iterations")]
+    assert slots(pg_url, cid) == got
+    assert {k: v[:2] for k, v in got.items()} == {
+        **{("ocp", j): ("succeeded", 1) for j in range(Q)},
+        ("oracle", 0): ("succeeded", 1),
+        ("oracle", 1): ("succeeded", 2),  # the killed job, and only it, ran again
+        ("oracle", 2): ("succeeded", 1),
+        ("train", 0): ("succeeded", 1),
+        ("evaluate", 0): ("succeeded", 1),
+        ("append", 0): ("succeeded", 1),
+    }
+    requeued = db_rows(
+        pg_url, "SELECT step, data FROM campaign_events WHERE campaign_id = :c AND kind = 'step_requeued'", c=cid
+    )
+    assert [(st, d["slot"], d["why"]) for st, d in requeued] == [("oracle", 1, "dead")]
+    runs = db_rows(pg_url, "SELECT slot, status FROM oracle_runs WHERE campaign_id = :c ORDER BY slot", c=cid)
+    assert runs == [(0, "ok"), (1, "ok"), (2, "ok")]  # the killed attempt never reached its commit
+    appended_once(pg_url, cid, Q)
+
+
+@pytest.mark.skipif(shutil.which("redis-server") is None, reason="needs the redis-server program")
+def test_a_redis_restart_between_fan_out_and_fan_in_loses_nothing(
+    pg_redis_default_lease: dict[str, str],
+    pg_url: str,
+    tmp_path: Path,
+    make_campaign: Any,
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """Redis stops while pick 1 (slowed to 4 s) is being replayed and stays down until that job
+    has committed: whatever else was queued in Redis is lost, and the jobs the completions made
+    necessary (the other picks, the fan-in's evaluate) wait in the outbox. Redis comes back empty;
+    the outbox sends them again: every slot runs once, the fan-in once, nothing is redone."""
+    from alcove.jobs import reset_sender
+    from alcove.jobs.outbox import reset_broker_client
+    from alcove.settings import get_settings
+
+    redis_server = PrivateRedis(tmp_path)
+    redis_server.start()
+    monkeypatch.setenv("ALCOVE_BROKER_URL", redis_server.url)
+    get_settings.cache_clear()
+    reset_sender()
+    reset_broker_client()
+    env = {**pg_redis_default_lease, "ALCOVE_BROKER_URL": redis_server.url}
+    cid = start(make_campaign, 32, {"oracle": {"sleep_s": 4, "slots": [1]}})
+    procs = [start_worker(env, tmp_path / f"{n}.log", n) for n in (unique("r"), unique("r"))]
+    try:
+        wait_for(lambda: slots(pg_url, cid).get(("oracle", 1), ("",))[0] == "running", 240, "pick 1 running", procs[0])
+        time.sleep(1.0)
+        redis_server.stop()
+        wait_for(lambda: slots(pg_url, cid)[("oracle", 1)][0] != "running", 60, "pick 1 to commit without Redis")
+        redis_server.start()
+        wait_for(lambda: db_rows(pg_url, ENDED, c=cid), 240, "the campaign to end", procs[0])
+    finally:
+        for p in procs:
+            p.stop()
+        redis_server.stop()
+    assert db_rows(pg_url, ENDED, c=cid) == [("completed", "max_iterations")]
+    assert {k: v[:2] for k, v in slots(pg_url, cid).items()} == {
+        **{(st, j): ("succeeded", 1) for st in ("ocp", "oracle") for j in range(Q)},
+        **{(st, 0): ("succeeded", 1) for st in ("train", "evaluate", "append")},
+    }
+    appended_once(pg_url, cid, Q)
+
+
+def test_two_campaigns_sharing_one_oracle_worker_both_advance(
+    pg_redis_default_lease: dict[str, str], pg_url: str, tmp_path: Path, make_campaign: Any
+) -> None:
+    """Two batch campaigns (q = 3, each capped at one oracle job at a time) on one oracle worker
+    of one process: their oracle jobs interleave (neither waits for all of the other's), the cap
+    holds (never two oracle jobs of one campaign queued or running), and both complete."""
+    env = pg_redis_default_lease
+    cids = [start(make_campaign, seed, max_concurrent_oracle_jobs=1) for seed in (41, 42)]
+    procs = [
+        start_worker(env, tmp_path / "main.log", unique("m"), queues="default,train,ocp"),
+        start_worker(env, tmp_path / "oracle.log", unique("o"), queues="oracle"),
+    ]
+    most = dict.fromkeys(cids, 0)
+    try:
+        deadline = time.monotonic() + 300
+        while not all(db_rows(pg_url, ENDED, c=cid) for cid in cids):
+            assert time.monotonic() < deadline, "the campaigns did not end"
+            assert all(p.alive() for p in procs)
+            for cid in cids:
+                busy = db_rows(
+                    pg_url,
+                    "SELECT count(*) FROM iteration_steps WHERE campaign_id = :c AND step = 'oracle' "
+                    "AND status IN ('queued', 'running')",
+                    c=cid,
+                )[0][0]
+                most[cid] = max(most[cid], busy)
+            time.sleep(0.05)
+    finally:
+        for p in procs:
+            p.stop()
+    for cid in cids:
+        assert db_rows(pg_url, ENDED, c=cid) == [("completed", "max_iterations")]
+        appended_once(pg_url, cid, Q)
+    assert most == dict.fromkeys(cids, 1)
+    order = [
+        c
+        for (c,) in db_rows(
+            pg_url,
+            "SELECT campaign_id FROM oracle_runs WHERE campaign_id IN (:a, :b) ORDER BY started_at",
+            a=cids[0],
+            b=cids[1],
+        )
+    ]
+    assert sorted(order) == sorted(cids * Q)
+    # each campaign's first replay came before the other's last one: neither waited for all of the other's
+    last = {cid: max(i for i, c in enumerate(order) if c == cid) for cid in cids}
+    a, b = cids
+    assert order.index(a) < last[b] and order.index(b) < last[a], order
