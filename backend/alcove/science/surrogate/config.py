@@ -80,6 +80,41 @@ class SurrogateConfig(BaseModel):
         le=1000,
         description="early stopping: epochs without a better validation loss [-], 1 to 1000 (paper: 6)",
     )
+    warm_learning_rate: Annotated[
+        float,
+        quantity(
+            "Adam learning rate of a warm-started net (every member carries its previous weights)",
+            "-",
+            gt=0,
+            le=1,
+            why="smaller than learning_rate: Adam's fresh moments would otherwise kick the carried weights away",
+        ),
+    ] = 0.001
+    warm_max_epochs: WholeNumber = Field(
+        4,
+        ge=1,
+        le=100_000,
+        description="most epochs of a warm-started net per training [-], 1 to 100000 (at most max_epochs); "
+        "a campaign's model keeps training over its iterations",
+    )
+    warm_patience: WholeNumber = Field(
+        2,
+        ge=1,
+        le=1000,
+        description="early stopping of a warm-started net: epochs without a clear improvement "
+        "(warm_min_improvement) on its carried weights' validation loss [-], 1 to 1000",
+    )
+    warm_min_improvement: Annotated[
+        float,
+        quantity(
+            "relative decrease of the best validation loss an epoch of a warm-started net must reach to count "
+            "as better (the carried weights are epoch 0)",
+            "-",
+            ge=0,
+            lt=1,
+            why="0: any decrease",
+        ),
+    ] = 0.01
     max_epochs: WholeNumber = Field(
         1000, ge=1, le=100_000, description="most epochs per training [-], a whole number from 1 to 100000"
     )
