@@ -3361,6 +3361,30 @@ export interface components {
              */
             validation_fraction?: number;
             /**
+             * Warm Learning Rate
+             * @description Adam learning rate of a warm-started net (every member carries its previous weights) [-], above 0, at most 1; smaller than learning_rate: Adam's fresh moments would otherwise kick the carried weights away
+             * @default 0.001
+             */
+            warm_learning_rate?: number;
+            /**
+             * Warm Max Epochs
+             * @description most epochs of a warm-started net per training [-], 1 to 100000 (at most max_epochs); a campaign's model keeps training over its iterations
+             * @default 4
+             */
+            warm_max_epochs?: number;
+            /**
+             * Warm Min Improvement
+             * @description relative decrease of the best validation loss an epoch of a warm-started net must reach to count as better (the carried weights are epoch 0) [-], at least 0, below 1; 0: any decrease
+             * @default 0.01
+             */
+            warm_min_improvement?: number;
+            /**
+             * Warm Patience
+             * @description early stopping of a warm-started net: epochs without a clear improvement (warm_min_improvement) on its carried weights' validation loss [-], 1 to 1000
+             * @default 2
+             */
+            warm_patience?: number;
+            /**
              * Warm Start
              * @description start from the previous model's weights when the architecture matches
              * @default true

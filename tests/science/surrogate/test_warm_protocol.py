@@ -111,3 +111,16 @@ def test_warm_start_from_converged_weights_on_an_unchanged_pool_stops_and_return
         for net in ("force_net", "moment_net"):
             for name, value in getattr(new, net).state_dict().items():
                 assert torch.equal(value, getattr(old, net).state_dict()[name]), (net, name)
+
+
+def test_warm_training_of_an_undertrained_model_is_bounded_by_warm_max_epochs(smooth_pool):
+    """A barely trained model (3 epochs) keeps improving: each warm-started net trains exactly
+    warm_max_epochs epochs and ends with a validation loss no worse than its carried weights'."""
+    rough = train_surrogate(smooth_pool, SurrogateConfig(ensemble_size=2, max_epochs=3), seed=0).model
+    cfg = SurrogateConfig(ensemble_size=2, warm_max_epochs=3, warm_min_improvement=0.0, warm_patience=3)
+    warm = train_surrogate(smooth_pool, cfg, seed=1, warm_start=rough)
+    for m in warm.metrics.members:
+        assert m["epochs"] == {"force": 3, "moment": 3}
+    for net in ("force", "moment"):  # member 0's validation loss: epoch 0 (carried) .. 3
+        history = warm.history[net]
+        assert len(history) == 4 and min(history[1:]) < history[0]

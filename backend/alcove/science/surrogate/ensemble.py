@@ -6,7 +6,7 @@ on their own batch, autograd gives the gradient and ``torch.optim.Adam`` updates
 once. The members' losses are disjoint sums and Adam is elementwise, so each member's
 trajectory is the one it would have trained alone on the same batches. Both nets take one loss
 (the sum of theirs: disjoint graphs), one backward pass and one Adam step per batch; first-layer
-inputs that are exactly zero in every training row are left out of the trained tensors
+inputs that are exactly zero in every training and validation row are left out of the trained tensors
 (:class:`BatchedNet`; their gradient is exactly zero, so Adam would never move those weights).
 
 Batches: member k shuffles its own training rows every epoch (``torch.randperm`` with its own
@@ -93,7 +93,7 @@ class BatchedNet:
     """The same MLP architecture for K members as batched weight tensors (leaf tensors with grad).
 
     ``columns``: the input rows the first layer is trained on (default all). Inputs that are
-    exactly zero in every member's training rows (the structurally constant features of planar
+    exactly zero in every member's training and validation rows (the structurally constant features of planar
     motion, centred to 0) give their first-layer weights an exactly zero gradient, so Adam never
     moves them (its moments stay 0): they are left out of the batched tensors (fewer operations
     per step) and kept aside unchanged (:meth:`full_parameters`).
@@ -227,7 +227,8 @@ class EnsembleTrainer:
             k: StoppingRule.warm(config) if self.warm[k] else StoppingRule.paper(config) for k in NETS
         }
         # input rows that are not exactly zero in some member's training rows (BatchedNet)
-        nonzero = torch.stack([(d.z_train != 0).any(0) for d in data]).any(0)
+        # (and validation rows: validation then runs on the same reduced first layer)
+        nonzero = torch.stack([(d.z_train != 0).any(0) | (d.z_val != 0).any(0) for d in data]).any(0)
         self.columns = torch.nonzero(nonzero).flatten()
         self.batched = {k: BatchedNet(nets[k], self.columns) for k in NETS}
         self.optimizer = torch.optim.Adam(
@@ -259,7 +260,7 @@ class EnsembleTrainer:
         self.n_in = self.columns.numel()
         self.sizes = [batch_sizes(n, self.S, self.B) for n in self.n_rows]
         n_val = max(d.z_val.shape[0] for d in data)
-        self.z_val = _stack_padded([d.z_val for d in data], n_val).transpose(1, 2).contiguous()
+        self.z_val = _stack_padded([d.z_val[:, self.columns] for d in data], n_val).transpose(1, 2).contiguous()
         self.y_val = {k: _stack_padded([d.y_val[k] for d in data], n_val).transpose(1, 2) for k in NETS}
         self.w_val = _stack_padded([d.w_val for d in data], n_val)
         self.g_val = None if gated is None else _stack_padded([_gate(d.g_val) for d in data], n_val).transpose(1, 2)
@@ -368,7 +369,7 @@ class EnsembleTrainer:
                     continue
                 members = self.active[k]
                 net = self.batched[k]
-                out = net.forward(self.z_val[members], net.full_parameters()[0::2])
+                out = net.forward(self.z_val[members])
                 if self.gated is not None:
                     assert self.g_val is not None
                     out = self.gated.standardised(k, out, self.g_val[members], members)
@@ -387,7 +388,7 @@ class EnsembleTrainer:
                     self.epochs[k][m] = epoch
                     if improved[row]:
                         self.best_epoch[k][m] = epoch
-                    elif epoch - self.best_epoch[k][m] >= self.rule[k].patience or epoch >= self.rule[k].max_epochs:
+                    if epoch - self.best_epoch[k][m] >= self.rule[k].patience or epoch >= self.rule[k].max_epochs:
                         self.stopped[k][m] = True
                         continue
                     keep.append(row)

@@ -1,7 +1,15 @@
 """Training protocol of the surrogate (the paper's, as the default) and prediction.
 
 1. Split the pool by simulation: ``test_fraction`` (30 %) of the datasets, whole, to the
-   test set; the rest is split pointwise ``validation_fraction`` (20 %) into validation.
+   test set; the rest is split pointwise ``validation_fraction`` (20 %) into validation
+   (:func:`split_pool`, the paper's split, with the member's seed). A warm-started chain keeps
+   its split (:class:`SplitPlan`, recorded in the model's lineage): the datasets of the chain's
+   first, cold training (its *base*) keep the labels of that paper's split, and every dataset
+   added later is labelled by a function of (member split seed, dataset name) alone
+   (:func:`stable_dataset_labels`: test with probability ``test_fraction``, else each sample
+   validation with probability ``validation_fraction``). So no sample ever moves between
+   train, validation and test along a campaign, and the carried weights are judged on the same
+   validation samples as before. A cold training (K = 1: the paper's protocol) is unchanged.
 2. Features (:mod:`.features`) standardised with the mean and standard deviation of the
    train points; targets standardised the same way (``normalize_outputs``).
 3. Ensemble of ``ensemble_size`` K members (default 5; K = 1 is the paper's single model):
@@ -11,8 +19,14 @@
    (:mod:`.ensemble`: batched weights, autograd, ``torch.optim.Adam``; lr 0.01, batch 1024,
    weighted MSE), each net of each member with early stopping on its validation loss
    (patience 6), keeping its best weights. A warm start (``warm_start``: the previous model's
-   weights per member) makes those weights the first candidate (epoch 0): a member keeps them
-   when no epoch improves on them within the patience. Prediction is the members' mean, with their
+   weights per member) makes those weights the first candidate (epoch 0), and a net whose
+   members all carry weights trains as a fine-tuning (:class:`.ensemble.StoppingRule`):
+   ``warm_learning_rate`` (0.001: Adam's fresh moments at 0.01 kick converged weights away,
+   the first epoch's validation loss 1.7 to 2.5 times the carried one), at most
+   ``warm_max_epochs`` (4) epochs, and a new best only when the validation loss drops by
+   ``warm_min_improvement`` (1 %), with patience ``warm_patience`` (2); a member keeps its
+   carried weights when no epoch beats them so. A campaign's model thus keeps training over
+   its iterations, a few epochs each. Prediction is the members' mean, with their
    standard deviation (:meth:`.mlp.SurrogateModel.predict_ensemble`).
    With ``architecture: "gated"`` the loss is taken on the gated output (:mod:`.gated`,
    :class:`.ensemble.GatedOutputs`): each sample's gate comes from its signed gap, computed
@@ -245,7 +259,17 @@ def pool_features(
             raise PoolDataError(f"{ds.name}.headrest_offset", "needs the preset's kinematics (moved_headrest)")
         return moved(ds.headrest_offset)
 
-    return np.concatenate([features(kin(ds)(ds.q, ds.qd)) for ds in pool])
+    # one kinematics call per headrest (the kinematics are per sample): datasets grouped by offset
+    groups: dict[float | None, list[int]] = {}
+    for i, ds in enumerate(pool):
+        groups.setdefault(ds.headrest_offset, []).append(i)
+    out: list[FloatArray] = [np.empty(0)] * len(pool)
+    for members in groups.values():
+        fn = kin(pool[members[0]])
+        x = features(fn(np.concatenate([pool[i].q for i in members]), np.concatenate([pool[i].qd for i in members])))
+        for i, part in zip(members, np.split(x, np.cumsum([pool[i].n_samples for i in members])[:-1]), strict=True):
+            out[i] = part
+    return np.concatenate(out)
 
 
 def sample_weights(pool: list[PoolDataset], config: SurrogateConfig) -> FloatArray:
