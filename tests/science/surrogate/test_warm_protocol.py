@@ -39,7 +39,9 @@ def test_a_sample_never_moves_between_train_validation_and_test_as_the_pool_grow
     first = [_labels_by_dataset(grown_pool[:10], sp) for sp in model.splits]
     # the cold training is the paper's split with the members' own seeds, and starts the plan
     for k, seed in enumerate(model.model.lineage["member_seeds"]):
-        np.testing.assert_array_equal(model.splits[k].sample_split, split_pool(grown_pool[:10], ONE_EPOCH, seed).sample_split)
+        np.testing.assert_array_equal(
+            model.splits[k].sample_split, split_pool(grown_pool[:10], ONE_EPOCH, seed).sample_split
+        )
     seen = [dict(f) for f in first]
     previous = model.model
     for n in range(14, 31, 4):
@@ -85,7 +87,9 @@ def test_a_plan_that_leaves_no_validation_sample_starts_anew(grown_pool):
     assert result.model.lineage["split"]["note"].startswith("new plan: the previous plan leaves a member")
     assert result.model.lineage["split"]["base"] == [[pool[0].name, 60]]
     np.testing.assert_array_equal(result.split.sample_split, split_pool(pool, cfg, 3).sample_split)
-    assert SplitPlan.from_lineage({"split": SplitPlan((1,), gone, 0.3, 0.2).to_dict()}) == SplitPlan((1,), gone, 0.3, 0.2)
+    assert SplitPlan.from_lineage({"split": SplitPlan((1,), gone, 0.3, 0.2).to_dict()}) == SplitPlan(
+        (1,), gone, 0.3, 0.2
+    )
     assert SplitPlan.from_lineage({}) is None and SplitPlan.from_lineage({"split": {"protocol": "x"}}) is None
 
 

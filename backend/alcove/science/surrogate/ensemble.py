@@ -223,9 +223,7 @@ class EnsembleTrainer:
         # of the net carries its previous weights (module docstring)
         warm = warm or {}
         self.warm = {k: bool(warm.get(k)) and all(warm[k]) for k in NETS}
-        self.rule = {
-            k: StoppingRule.warm(config) if self.warm[k] else StoppingRule.paper(config) for k in NETS
-        }
+        self.rule = {k: StoppingRule.warm(config) if self.warm[k] else StoppingRule.paper(config) for k in NETS}
         # input rows that are not exactly zero in some member's training rows (BatchedNet)
         # (and validation rows: validation then runs on the same reduced first layer)
         nonzero = torch.stack([(d.z_train != 0).any(0) | (d.z_val != 0).any(0) for d in data]).any(0)

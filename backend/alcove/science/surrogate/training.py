@@ -219,7 +219,9 @@ def stable_dataset_labels(name: str, n_samples: int, config: SurrogateConfig, se
     return np.where(validation, "validation", "train").astype(object)
 
 
-def stable_split(pool: list[PoolDataset], config: SurrogateConfig, seed: int, base: tuple[tuple[str, int], ...]) -> PoolSplit | None:
+def stable_split(
+    pool: list[PoolDataset], config: SurrogateConfig, seed: int, base: tuple[tuple[str, int], ...]
+) -> PoolSplit | None:
     """The stable split of ``pool`` for one member (split seed ``seed``): the base datasets keep
     their labels of the paper's split of the base, the others get :func:`stable_dataset_labels`.
     None when it leaves no train or no validation sample (the caller falls back to the paper's split)."""
