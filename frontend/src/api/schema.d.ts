@@ -1885,6 +1885,31 @@ export interface components {
             task_version_id?: number | null;
         };
         /**
+         * GateConfig
+         * @description The ``gated`` architecture's output layer: where the wrench is cut off and how soft the
+         *     normal force's softplus is (docs/concepts.md).
+         */
+        GateConfig: {
+            /**
+             * Blend
+             * @description width of the smooth blend below open_gap (the gate is one for gap <= open_gap - blend) [m], above 0, at most 0.05 m; 2 mm
+             * @default 0.002
+             */
+            blend?: number;
+            /**
+             * Force Width
+             * @description width of the softplus that keeps the normal force fx >= 0 [N], above 0, at most 1000 N; 1 N
+             * @default 1
+             */
+            force_width?: number;
+            /**
+             * Open Gap
+             * @description signed gap beyond which the predicted wrench is exactly zero [m], above 0, at most 0.05 m; 2 mm
+             * @default 0.002
+             */
+            open_gap?: number;
+        };
+        /**
          * HeadrestSpec
          * @description The headrest: a plane (the undeformed cushion surface) with outward normal x_H.
          */
@@ -3281,7 +3306,7 @@ export interface components {
         SurrogateConfig: {
             /**
              * Architecture
-             * @description output layer: 'paper' (the MLPs' outputs are the wrench, the paper's) or 'gated' (the wrench is exactly zero where the head is clearly (>= 2 mm) clear of the headrest, and the normal force pushes the head away; docs/concepts.md)
+             * @description output layer: 'paper' (the MLPs' outputs are the wrench, the paper's) or 'gated' (the wrench is exactly zero where the head is clear of the headrest by gate.open_gap (default 2 mm), and the normal force pushes the head away; docs/concepts.md)
              * @default paper
              * @enum {string}
              */
@@ -3306,6 +3331,8 @@ export interface components {
              */
             ensemble_size?: number;
             force?: components["schemas"]["NetworkConfig"];
+            /** @description the gated architecture's output layer (unused by 'paper') */
+            gate?: components["schemas"]["GateConfig"];
             /**
              * Learning Rate
              * @description Adam learning rate (step size on standardised data) [-], above 0, at most 1; paper: 0.01

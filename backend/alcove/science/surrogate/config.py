@@ -15,7 +15,7 @@ the bias toward low forces the paper reports).
 Architecture: ``"paper"`` (default) is the paper's: the MLPs' outputs are the wrench.
 ``"gated"`` (:mod:`.gated`) puts a contact-aware output layer after them: the wrench is
 exactly zero where the signed gap between head profile and headrest surface is clearly open
-(>= 2 mm), the normal force fx is non-negative, and the layer is C2 in the state.
+(>= ``gate.open_gap``, 2 mm by default), the normal force fx is non-negative, and the layer is C2 in the state.
 """
 
 from __future__ import annotations
@@ -55,6 +55,31 @@ class NetworkConfig(BaseModel):
     activation: Activation = Field("softplus", description="activation of the hidden layers")
 
 
+class GateConfig(BaseModel):
+    """The ``gated`` architecture's output layer: where the wrench is cut off and how soft the
+    normal force's softplus is (docs/concepts.md)."""
+
+    model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
+
+    open_gap: Annotated[
+        float,
+        quantity("signed gap beyond which the predicted wrench is exactly zero", "m", gt=0, le=0.05, why="2 mm"),
+    ] = 0.002
+    blend: Annotated[
+        float,
+        quantity(
+            "width of the smooth blend below open_gap (the gate is one for gap <= open_gap - blend)",
+            "m",
+            gt=0,
+            le=0.05,
+            why="2 mm",
+        ),
+    ] = 0.002
+    force_width: Annotated[
+        float, quantity("width of the softplus that keeps the normal force fx >= 0", "N", gt=0, le=1000, why="1 N")
+    ] = 1.0
+
+
 class SurrogateConfig(BaseModel):
     """Architecture and training protocol of one surrogate model pair."""
 
@@ -63,8 +88,11 @@ class SurrogateConfig(BaseModel):
     architecture: Architecture = Field(
         "paper",
         description="output layer: 'paper' (the MLPs' outputs are the wrench, the paper's) or 'gated' "
-        "(the wrench is exactly zero where the head is clearly (>= 2 mm) clear of the headrest, and the "
+        "(the wrench is exactly zero where the head is clear of the headrest by gate.open_gap (default 2 mm), and the "
         "normal force pushes the head away; docs/concepts.md)",
+    )
+    gate: GateConfig = Field(
+        default_factory=GateConfig, description="the gated architecture's output layer (unused by 'paper')"
     )
     force: NetworkConfig = Field(default_factory=lambda: NetworkConfig(hidden=(6, 6, 4)))
     moment: NetworkConfig = Field(default_factory=lambda: NetworkConfig(hidden=(6, 6, 6, 4)))
@@ -195,4 +223,4 @@ class SurrogateConfig(BaseModel):
         return w
 
 
-__all__ = ["Activation", "Architecture", "NetworkConfig", "SurrogateConfig", "SurrogateConfigError"]
+__all__ = ["Activation", "Architecture", "GateConfig", "NetworkConfig", "SurrogateConfig", "SurrogateConfigError"]

@@ -55,7 +55,7 @@ from alcove.science.surrogate.config import SurrogateConfig
 from alcove.science.surrogate.dataset import PoolDataError, PoolDataset, check_pool
 from alcove.science.surrogate.ensemble import NETS, EnsembleTrainer, GatedOutputs, MemberTensors
 from alcove.science.surrogate.features import features
-from alcove.science.surrogate.gated import DEFAULT_GATE, gap_from_features, gate_value
+from alcove.science.surrogate.gated import gap_from_features, gate_params, gate_value
 from alcove.science.surrogate.metrics import vector_rmse
 from alcove.science.surrogate.mlp import MLP, Member, Prediction, Standardization, SurrogateModel
 
@@ -351,7 +351,7 @@ def train_surrogate(
         cold_reason = f"cold: architecture {warm_start.config.architecture} -> {config.architecture}"
         previous = []
     gated = config.architecture == "gated"
-    gate_all = gate_value(gap_from_features(x, preset.profile), DEFAULT_GATE) if gated else None
+    gate_all = gate_value(gap_from_features(x, preset.profile), gate_params(config)) if gated else None
     norms: dict[str, list[Standardization]] = {n: [] for n in NETS}
     members: list[Member] = []
     data: list[MemberTensors] = []
@@ -416,7 +416,7 @@ def train_surrogate(
         gated_outputs = None
         if gated:
             gated_outputs = GatedOutputs(
-                DEFAULT_GATE,
+                gate_params(config),
                 mean={n: tensor(np.stack([nm.mean for nm in norms[n]])) for n in NETS},
                 scale={n: tensor(np.stack([nm.scale for nm in norms[n]])) for n in NETS},
                 divisor={n: tensor(np.stack([nm.divisor for nm in norms[n]])) for n in NETS},
