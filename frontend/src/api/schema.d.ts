@@ -1937,6 +1937,31 @@ export interface components {
             task_version_id?: number | null;
         };
         /**
+         * GateConfig
+         * @description The ``gated`` architecture's output layer: where the wrench is cut off and how soft the
+         *     normal force's softplus is (docs/concepts.md).
+         */
+        GateConfig: {
+            /**
+             * Blend
+             * @description width of the smooth blend below open_gap (the gate is one for gap <= open_gap - blend) [m], above 0, at most 0.05 m; 2 mm
+             * @default 0.002
+             */
+            blend?: number;
+            /**
+             * Force Width
+             * @description width of the softplus that keeps the normal force fx >= 0 [N], above 0, at most 1000 N; 1 N
+             * @default 1
+             */
+            force_width?: number;
+            /**
+             * Open Gap
+             * @description signed gap beyond which the predicted wrench is exactly zero [m], above 0, at most 0.05 m; 2 mm
+             * @default 0.002
+             */
+            open_gap?: number;
+        };
+        /**
          * HeadrestSpec
          * @description The headrest: a plane (the undeformed cushion surface) with outward normal x_H.
          */
@@ -3384,7 +3409,7 @@ export interface components {
         SurrogateConfig: {
             /**
              * Architecture
-             * @description output layer: 'paper' (the MLPs' outputs are the wrench, the paper's) or 'gated' (the wrench is exactly zero where the head is clearly (>= 2 mm) clear of the headrest, and the normal force pushes the head away; docs/concepts.md)
+             * @description output layer: 'paper' (the MLPs' outputs are the wrench, the paper's) or 'gated' (the wrench is exactly zero where the head is clear of the headrest by gate.open_gap (default 2 mm), and the normal force pushes the head away; docs/concepts.md)
              * @default paper
              * @enum {string}
              */
@@ -3409,6 +3434,8 @@ export interface components {
              */
             ensemble_size?: number;
             force?: components["schemas"]["NetworkConfig"];
+            /** @description the gated architecture's output layer (unused by 'paper') */
+            gate?: components["schemas"]["GateConfig"];
             /**
              * Learning Rate
              * @description Adam learning rate (step size on standardised data) [-], above 0, at most 1; paper: 0.01
@@ -3463,6 +3490,30 @@ export interface components {
              * @default 0.2
              */
             validation_fraction?: number;
+            /**
+             * Warm Learning Rate
+             * @description Adam learning rate of a warm-started net (every member carries its previous weights) [-], above 0, at most 1; smaller than learning_rate: Adam's fresh moments would otherwise kick the carried weights away
+             * @default 0.001
+             */
+            warm_learning_rate?: number;
+            /**
+             * Warm Max Epochs
+             * @description most epochs of a warm-started net per training [-], 1 to 100000 (at most max_epochs); a campaign's model keeps training over its iterations
+             * @default 4
+             */
+            warm_max_epochs?: number;
+            /**
+             * Warm Min Improvement
+             * @description relative decrease of the best validation loss an epoch of a warm-started net must reach to count as better (the carried weights are epoch 0) [-], at least 0, below 1; 0: any decrease
+             * @default 0.01
+             */
+            warm_min_improvement?: number;
+            /**
+             * Warm Patience
+             * @description early stopping of a warm-started net: epochs without a clear improvement (warm_min_improvement) on its carried weights' validation loss [-], 1 to 1000
+             * @default 2
+             */
+            warm_patience?: number;
             /**
              * Warm Start
              * @description start from the previous model's weights when the architecture matches

@@ -235,3 +235,31 @@ def test_a_paper_warm_start_does_not_seed_a_gated_model(contact_pool):
     paper = train_surrogate(contact_pool, GATED.model_copy(update={"architecture": "paper", "max_epochs": 3}), seed=0)
     gated = train_surrogate(contact_pool, GATED.model_copy(update={"max_epochs": 3}), seed=0, warm_start=paper.model)
     assert gated.model.lineage["warm_start"] == dict.fromkeys(("force", "moment"), "cold: architecture paper -> gated")
+
+
+def test_the_gate_is_configurable_and_validated(contact_pool, tmp_path):
+    """A 5 mm open gap and 3 mm blend: exactly zero beyond 5 mm (in torch, CasADi and the loaded
+    artifact), not forced to zero between 2 and 5 mm; bad values name their field."""
+    cfg = GATED.model_copy(
+        update={"max_epochs": 5, "gate": SurrogateConfig.parse({"gate": {"open_gap": 0.005, "blend": 0.003}}).gate}
+    )
+    model = train_surrogate(contact_pool, cfg, seed=0).model
+    assert model.gate is not None and (model.gate.params.open_gap, model.gate.params.blend) == (0.005, 0.003)
+    q_open = q_at_gap(0.005)
+    q = np.linspace(P.theta_min, q_open - 1e-10, 50)
+    assert np.all(signed_gap(P, q) >= 0.005)
+    p = predict_ensemble(model, q, np.zeros_like(q))
+    assert np.all(p.force == 0.0) and np.all(p.moment == 0.0)
+    fn, values = surrogate_contact(model, P)
+    assert all(np.all(np.asarray(fn(qi, 0.0, values)) == 0.0) for qi in q[::10])
+    q_band = np.array([q_at_gap(0.003)])  # inside the blend: the gate is strictly between 0 and 1
+    x_band = torch.as_tensor(features(relative_kinematics(P, q_band, q_band * 0)))
+    g = gate_torch(gap_from_features_torch(x_band, P.profile), model.gate.params)
+    assert 0.0 < float(g[0]) < 1.0
+    save_artifact(model, tmp_path / "g", exports=False)
+    loaded = load_artifact(tmp_path / "g")
+    assert loaded.gate is not None and loaded.gate.params == model.gate.params
+    for field, value in (("open_gap", 0.0), ("blend", 0.1), ("force_width", -1.0)):
+        with pytest.raises(SurrogateConfigError) as info:
+            SurrogateConfig.parse({"gate": {field: value}})
+        assert info.value.field == f"gate.{field}"

@@ -128,12 +128,20 @@ def test_warm_start_starts_from_the_previous_weights(smooth_pool, trained_smooth
 def test_warm_start_keeps_the_previous_weights_when_no_epoch_improves_on_them(smooth_pool, trained_smooth):
     """Early stopping's candidates include the starting weights (epoch 0) of a warm start: with a
     step size that makes every epoch worse (lr 0.5 on standardised data), the result is the previous
-    model, bit for bit, after ``patience`` epochs; a cold start from the same config moves."""
+    model, bit for bit, after ``warm_patience`` epochs; a cold start from the same config moves."""
     first = trained_smooth.model
-    wild = SurrogateConfig(ensemble_size=1, learning_rate=0.5, patience=3, max_epochs=50)
+    wild = SurrogateConfig(
+        ensemble_size=1,
+        learning_rate=0.5,
+        warm_learning_rate=0.5,
+        warm_patience=3,
+        warm_min_improvement=0.0,
+        warm_max_epochs=50,
+        max_epochs=50,
+    )
     warm = train_surrogate(smooth_pool, wild, seed=0, warm_start=first)
     assert warm.metrics.best_epoch == {"force": 0, "moment": 0}
-    assert warm.metrics.epochs == {"force": 3, "moment": 3}  # threshold: stopped after patience epochs
+    assert warm.metrics.epochs == {"force": 3, "moment": 3}  # threshold: stopped after warm_patience epochs
     for net in ("force_net", "moment_net"):
         for name, value in getattr(warm.model, net).state_dict().items():
             assert torch.equal(value, getattr(first, net).state_dict()[name]), (net, name)

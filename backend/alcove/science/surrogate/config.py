@@ -15,7 +15,7 @@ the bias toward low forces the paper reports).
 Architecture: ``"paper"`` (default) is the paper's: the MLPs' outputs are the wrench.
 ``"gated"`` (:mod:`.gated`) puts a contact-aware output layer after them: the wrench is
 exactly zero where the signed gap between head profile and headrest surface is clearly open
-(>= 2 mm), the normal force fx is non-negative, and the layer is C2 in the state.
+(>= ``gate.open_gap``, 2 mm by default), the normal force fx is non-negative, and the layer is C2 in the state.
 """
 
 from __future__ import annotations
@@ -51,6 +51,31 @@ class NetworkConfig(BaseModel):
     activation: Activation = Field("softplus", description="activation of the hidden layers")
 
 
+class GateConfig(BaseModel):
+    """The ``gated`` architecture's output layer: where the wrench is cut off and how soft the
+    normal force's softplus is (docs/concepts.md)."""
+
+    model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
+
+    open_gap: Annotated[
+        float,
+        quantity("signed gap beyond which the predicted wrench is exactly zero", "m", gt=0, le=0.05, why="2 mm"),
+    ] = 0.002
+    blend: Annotated[
+        float,
+        quantity(
+            "width of the smooth blend below open_gap (the gate is one for gap <= open_gap - blend)",
+            "m",
+            gt=0,
+            le=0.05,
+            why="2 mm",
+        ),
+    ] = 0.002
+    force_width: Annotated[
+        float, quantity("width of the softplus that keeps the normal force fx >= 0", "N", gt=0, le=1000, why="1 N")
+    ] = 1.0
+
+
 class SurrogateConfig(BaseModel):
     """Architecture and training protocol of one surrogate model pair."""
 
@@ -59,8 +84,11 @@ class SurrogateConfig(BaseModel):
     architecture: Architecture = Field(
         "paper",
         description="output layer: 'paper' (the MLPs' outputs are the wrench, the paper's) or 'gated' "
-        "(the wrench is exactly zero where the head is clearly (>= 2 mm) clear of the headrest, and the "
+        "(the wrench is exactly zero where the head is clear of the headrest by gate.open_gap (default 2 mm), and the "
         "normal force pushes the head away; docs/concepts.md)",
+    )
+    gate: GateConfig = Field(
+        default_factory=GateConfig, description="the gated architecture's output layer (unused by 'paper')"
     )
     force: NetworkConfig = Field(default_factory=lambda: NetworkConfig(hidden=(6, 6, 4)))
     moment: NetworkConfig = Field(default_factory=lambda: NetworkConfig(hidden=(6, 6, 6, 4)))
@@ -76,6 +104,41 @@ class SurrogateConfig(BaseModel):
         le=1000,
         description="early stopping: epochs without a better validation loss [-], 1 to 1000 (paper: 6)",
     )
+    warm_learning_rate: Annotated[
+        float,
+        quantity(
+            "Adam learning rate of a warm-started net (every member carries its previous weights)",
+            "-",
+            gt=0,
+            le=1,
+            why="smaller than learning_rate: Adam's fresh moments would otherwise kick the carried weights away",
+        ),
+    ] = 0.001
+    warm_max_epochs: WholeNumber = Field(
+        4,
+        ge=1,
+        le=100_000,
+        description="most epochs of a warm-started net per training [-], 1 to 100000 (at most max_epochs); "
+        "a campaign's model keeps training over its iterations",
+    )
+    warm_patience: WholeNumber = Field(
+        2,
+        ge=1,
+        le=1000,
+        description="early stopping of a warm-started net: epochs without a clear improvement "
+        "(warm_min_improvement) on its carried weights' validation loss [-], 1 to 1000",
+    )
+    warm_min_improvement: Annotated[
+        float,
+        quantity(
+            "relative decrease of the best validation loss an epoch of a warm-started net must reach to count "
+            "as better (the carried weights are epoch 0)",
+            "-",
+            ge=0,
+            lt=1,
+            why="0: any decrease",
+        ),
+    ] = 0.01
     max_epochs: WholeNumber = Field(
         1000, ge=1, le=100_000, description="most epochs per training [-], a whole number from 1 to 100000"
     )
@@ -156,4 +219,4 @@ class SurrogateConfig(BaseModel):
         return w
 
 
-__all__ = ["Activation", "Architecture", "NetworkConfig", "SurrogateConfig", "SurrogateConfigError"]
+__all__ = ["Activation", "Architecture", "GateConfig", "NetworkConfig", "SurrogateConfig", "SurrogateConfigError"]

@@ -6,7 +6,7 @@ on their own batch, autograd gives the gradient and ``torch.optim.Adam`` updates
 once. The members' losses are disjoint sums and Adam is elementwise, so each member's
 trajectory is the one it would have trained alone on the same batches. Both nets take one loss
 (the sum of theirs: disjoint graphs), one backward pass and one Adam step per batch; first-layer
-inputs that are exactly zero in every training row are left out of the trained tensors
+inputs that are exactly zero in every training and validation row are left out of the trained tensors
 (:class:`BatchedNet`; their gradient is exactly zero, so Adam would never move those weights).
 
 Batches: member k shuffles its own training rows every epoch (``torch.randperm`` with its own
@@ -19,7 +19,9 @@ member is ``sum_i w_i mean_c (net(z_i) - y_i)_c^2 / n_batch``.
 
 Early stopping per net and member: the validation loss ``sum_i w_i mean_c err^2 / sum_i w_i``
 after every epoch; the weights of a member's best epoch are kept; after ``patience`` epochs
-without improvement the member is stopped: its result is frozen at its best epoch and it leaves
+without improvement the member is stopped (a net with carried weights, ``warm``: its carried
+weights are epoch 0, an epoch improves only when its loss is below ``(1 - warm_min_improvement)``
+times the best, and the patience is ``warm_patience``): its result is frozen at its best epoch and it leaves
 the batched tensors (its rows of the weights and of Adam's moments are dropped, the others
 continue with the same state and step count, so their arithmetic is unchanged). A net stops
 stepping when all its members have stopped.
@@ -91,7 +93,7 @@ class BatchedNet:
     """The same MLP architecture for K members as batched weight tensors (leaf tensors with grad).
 
     ``columns``: the input rows the first layer is trained on (default all). Inputs that are
-    exactly zero in every member's training rows (the structurally constant features of planar
+    exactly zero in every member's training and validation rows (the structurally constant features of planar
     motion, centred to 0) give their first-layer weights an exactly zero gradient, so Adam never
     moves them (its moments stay 0): they are left out of the batched tensors (fewer operations
     per step) and kept aside unchanged (:meth:`full_parameters`).
@@ -157,6 +159,31 @@ class BatchedNet:
                     lin.bias.copy_(b[k])
 
 
+@dataclass(frozen=True)
+class StoppingRule:
+    """Step size and early stopping of one net: a new best needs a validation loss below
+    ``(1 - min_improvement)`` times the best so far; a member stops after ``patience`` epochs
+    without one, or at ``max_epochs``."""
+
+    learning_rate: float
+    patience: int
+    min_improvement: float
+    max_epochs: int
+
+    @classmethod
+    def paper(cls, config: SurrogateConfig) -> StoppingRule:
+        return cls(config.learning_rate, config.patience, 0.0, config.max_epochs)
+
+    @classmethod
+    def warm(cls, config: SurrogateConfig) -> StoppingRule:
+        return cls(
+            config.warm_learning_rate,
+            config.warm_patience,
+            config.warm_min_improvement,
+            min(config.warm_max_epochs, config.max_epochs),
+        )
+
+
 def _stack_padded(rows: list[torch.Tensor], length: int) -> torch.Tensor:
     """(K, length, ...) with each member's rows first and zeros after."""
     out = rows[0].new_zeros((len(rows), length, *rows[0].shape[1:]))
@@ -188,15 +215,24 @@ class EnsembleTrainer:
         config: SurrogateConfig,
         generators: list[torch.Generator],
         gated: GatedOutputs | None = None,
+        warm: dict[str, list[bool]] | None = None,
     ):
         self.nets, self.config, self.generators, self.gated = nets, config, generators, gated
         self.K = len(data)
+        # the stopping rule and step size per net: the paper's, or the warm start's when every member
+        # of the net carries its previous weights (module docstring)
+        warm = warm or {}
+        self.warm = {k: bool(warm.get(k)) and all(warm[k]) for k in NETS}
+        self.rule = {k: StoppingRule.warm(config) if self.warm[k] else StoppingRule.paper(config) for k in NETS}
         # input rows that are not exactly zero in some member's training rows (BatchedNet)
-        nonzero = torch.stack([(d.z_train != 0).any(0) for d in data]).any(0)
+        # (and validation rows: validation then runs on the same reduced first layer)
+        nonzero = torch.stack([(d.z_train != 0).any(0) | (d.z_val != 0).any(0) for d in data]).any(0)
         self.columns = torch.nonzero(nonzero).flatten()
         self.batched = {k: BatchedNet(nets[k], self.columns) for k in NETS}
         self.optimizer = torch.optim.Adam(
-            [p for k in NETS for p in self.batched[k].parameters()], lr=config.learning_rate, fused=True
+            [{"params": self.batched[k].parameters(), "lr": self.rule[k].learning_rate, "net": k} for k in NETS],
+            lr=config.learning_rate,
+            fused=True,
         )
         self.n_rows = [d.z_train.shape[0] for d in data]
         n_max = max(self.n_rows)
@@ -222,7 +258,7 @@ class EnsembleTrainer:
         self.n_in = self.columns.numel()
         self.sizes = [batch_sizes(n, self.S, self.B) for n in self.n_rows]
         n_val = max(d.z_val.shape[0] for d in data)
-        self.z_val = _stack_padded([d.z_val for d in data], n_val).transpose(1, 2).contiguous()
+        self.z_val = _stack_padded([d.z_val[:, self.columns] for d in data], n_val).transpose(1, 2).contiguous()
         self.y_val = {k: _stack_padded([d.y_val[k] for d in data], n_val).transpose(1, 2) for k in NETS}
         self.w_val = _stack_padded([d.w_val for d in data], n_val)
         self.g_val = None if gated is None else _stack_padded([_gate(d.g_val) for d in data], n_val).transpose(1, 2)
@@ -299,9 +335,13 @@ class EnsembleTrainer:
         """A new Adam over the active nets' parameters, carrying every kept row's moments and step
         (``replaced``: old parameter -> (new parameter, kept rows))."""
         old_state = self.optimizer.state
-        params = [p for k in self._active_nets() for p in self.batched[k].parameters()]
+        active = self._active_nets()
+        params = [p for k in active for p in self.batched[k].parameters()]
         defaults = self.optimizer.defaults
-        adam = torch.optim.Adam(params, **{k: defaults[k] for k in ("lr", "betas", "eps", "fused")})
+        adam = torch.optim.Adam(
+            [{"params": self.batched[k].parameters(), "lr": self.rule[k].learning_rate, "net": k} for k in active],
+            **{k: defaults[k] for k in ("lr", "betas", "eps", "fused")},
+        )
         new_to_old = {id(new): (old, rows) for old, (new, rows) in replaced.items()}
         for p in params:
             old, rows = new_to_old.get(id(p), (p, None))
@@ -327,7 +367,7 @@ class EnsembleTrainer:
                     continue
                 members = self.active[k]
                 net = self.batched[k]
-                out = net.forward(self.z_val[members], net.full_parameters()[0::2])
+                out = net.forward(self.z_val[members])
                 if self.gated is not None:
                     assert self.g_val is not None
                     out = self.gated.standardised(k, out, self.g_val[members], members)
@@ -336,7 +376,7 @@ class EnsembleTrainer:
                 full = torch.full((self.K,), math.nan, dtype=torch.float64)
                 full[members] = loss.double()
                 self.history[k].append(full.tolist())
-                improved = loss < self.best_loss[k][members]
+                improved = loss.double() < self.best_loss[k][members] * (1.0 - self.rule[k].min_improvement)
                 if bool(improved.any()):
                     rows = torch.nonzero(improved).flatten()
                     self.best_loss[k][members[rows]] = loss[rows].double()
@@ -346,7 +386,7 @@ class EnsembleTrainer:
                     self.epochs[k][m] = epoch
                     if improved[row]:
                         self.best_epoch[k][m] = epoch
-                    elif epoch - self.best_epoch[k][m] >= self.config.patience:
+                    if epoch - self.best_epoch[k][m] >= self.rule[k].patience or epoch >= self.rule[k].max_epochs:
                         self.stopped[k][m] = True
                         continue
                     keep.append(row)
@@ -366,4 +406,4 @@ class EnsembleTrainer:
             self.batched[k].write(self.best[k], self.nets[k])
 
 
-__all__ = ["NETS", "BatchedNet", "EnsembleTrainer", "GatedOutputs", "MemberTensors", "batch_sizes"]
+__all__ = ["NETS", "BatchedNet", "EnsembleTrainer", "GatedOutputs", "MemberTensors", "StoppingRule", "batch_sizes"]

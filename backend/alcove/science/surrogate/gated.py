@@ -4,9 +4,9 @@ A surrogate config with ``"architecture": "gated"`` keeps the paper's two MLPs a
 and puts this layer after their de-standardised outputs: in training (:mod:`.ensemble`, the
 loss is taken on the gated output), prediction (:class:`.mlp.SurrogateModel`), the OCP's
 CasADi function (:mod:`.export`), TorchScript (:mod:`.artifact`) and the portable CasADi and
-ONNX exports (:mod:`.portable`). The gate parameters are :data:`DEFAULT_GATE` (recorded in
-``surrogate.json``); the head profile is the model's preset's (the OCP's function takes the
-task's preset).
+ONNX exports (:mod:`.portable`). The gate parameters are the config's ``gate`` (:func:`gate_params`;
+default :data:`DEFAULT_GATE`, recorded in ``surrogate.json``); the head profile is the model's
+preset's (the OCP's function takes the task's preset).
 
 Signed gap from the 19 features
     The features hold the head origin in the headrest frame (``r_x``) and the first column of
@@ -37,6 +37,7 @@ from alcove.science.arrays import FloatArray
 from alcove.science.geometry import HeadProfile
 
 if TYPE_CHECKING:
+    from alcove.science.surrogate.config import SurrogateConfig
     from alcove.science.symbolic import Symbolic
 
 R_X, T_00, T_20 = 0, 6, 8  # indices in FEATURE_NAMES
@@ -58,6 +59,12 @@ class GateParams:
 
 
 DEFAULT_GATE = GateParams()
+
+
+def gate_params(config: SurrogateConfig) -> GateParams:
+    """The gate parameters of a surrogate config (its ``gate`` entry)."""
+    g = config.gate
+    return GateParams(open_gap=g.open_gap, blend=g.blend, force_width=g.force_width)
 
 
 @dataclass(frozen=True)
@@ -163,6 +170,7 @@ __all__ = [
     "gap_from_features",
     "gap_from_features_symbolic",
     "gap_from_features_torch",
+    "gate_params",
     "gate_torch",
     "gate_value",
     "gated_net_output_symbolic",

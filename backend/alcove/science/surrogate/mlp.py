@@ -27,7 +27,7 @@ from alcove.science.arrays import FloatArray
 from alcove.science.geometry import HeadNeckPreset
 from alcove.science.surrogate.config import NetworkConfig, SurrogateConfig
 from alcove.science.surrogate.features import N_FEATURES
-from alcove.science.surrogate.gated import DEFAULT_GATE, Gate, gap_from_features, gate_value, gated_net_output_torch
+from alcove.science.surrogate.gated import Gate, gap_from_features, gate_params, gate_value, gated_net_output_torch
 
 N_OUTPUTS = 3
 SOFTPLUS_THRESHOLD = 40.0
@@ -193,8 +193,8 @@ class SurrogateModel:
 
     @property
     def gate(self) -> Gate | None:
-        """The gated architecture's output layer (the default gate, the preset's head profile); None for ``paper``."""
-        return Gate(DEFAULT_GATE, self.preset.profile) if self.config.architecture == "gated" else None
+        """The gated architecture's output layer (the config's gate, the preset's head profile); None for ``paper``."""
+        return Gate(gate_params(self.config), self.preset.profile) if self.config.architecture == "gated" else None
 
     @property
     def members(self) -> list[Member]:

@@ -1,7 +1,15 @@
 """Training protocol of the surrogate (the paper's, as the default) and prediction.
 
 1. Split the pool by simulation: ``test_fraction`` (30 %) of the datasets, whole, to the
-   test set; the rest is split pointwise ``validation_fraction`` (20 %) into validation.
+   test set; the rest is split pointwise ``validation_fraction`` (20 %) into validation
+   (:func:`split_pool`, the paper's split, with the member's seed). A warm-started chain keeps
+   its split (:class:`SplitPlan`, recorded in the model's lineage): the datasets of the chain's
+   first, cold training (its *base*) keep the labels of that paper's split, and every dataset
+   added later is labelled by a function of (member split seed, dataset name) alone
+   (:func:`stable_dataset_labels`: test with probability ``test_fraction``, else each sample
+   validation with probability ``validation_fraction``). So no sample ever moves between
+   train, validation and test along a campaign, and the carried weights are judged on the same
+   validation samples as before. A cold training (K = 1: the paper's protocol) is unchanged.
 2. Features (:mod:`.features`) standardised with the mean and standard deviation of the
    train points; targets standardised the same way (``normalize_outputs``).
 3. Ensemble of ``ensemble_size`` K members (default 5; K = 1 is the paper's single model):
@@ -11,8 +19,14 @@
    (:mod:`.ensemble`: batched weights, autograd, ``torch.optim.Adam``; lr 0.01, batch 1024,
    weighted MSE), each net of each member with early stopping on its validation loss
    (patience 6), keeping its best weights. A warm start (``warm_start``: the previous model's
-   weights per member) makes those weights the first candidate (epoch 0): a member keeps them
-   when no epoch improves on them within the patience. Prediction is the members' mean, with their
+   weights per member) makes those weights the first candidate (epoch 0), and a net whose
+   members all carry weights trains as a fine-tuning (:class:`.ensemble.StoppingRule`):
+   ``warm_learning_rate`` (0.001: Adam's fresh moments at 0.01 kick converged weights away,
+   the first epoch's validation loss 1.7 to 2.5 times the carried one), at most
+   ``warm_max_epochs`` (4) epochs, and a new best only when the validation loss drops by
+   ``warm_min_improvement`` (1 %), with patience ``warm_patience`` (2); a member keeps its
+   carried weights when no epoch beats them so. A campaign's model thus keeps training over
+   its iterations, a few epochs each. Prediction is the members' mean, with their
    standard deviation (:meth:`.mlp.SurrogateModel.predict_ensemble`).
    With ``architecture: "gated"`` the loss is taken on the gated output (:mod:`.gated`,
    :class:`.ensemble.GatedOutputs`): each sample's gate comes from its signed gap, computed
@@ -24,6 +38,7 @@
 
 from __future__ import annotations
 
+import hashlib
 import time
 from collections.abc import Callable
 from dataclasses import asdict, dataclass, field, replace
@@ -47,7 +62,7 @@ from alcove.science.surrogate.config import SurrogateConfig
 from alcove.science.surrogate.dataset import PoolDataError, PoolDataset, check_pool
 from alcove.science.surrogate.ensemble import NETS, EnsembleTrainer, GatedOutputs, MemberTensors
 from alcove.science.surrogate.features import features
-from alcove.science.surrogate.gated import DEFAULT_GATE, gap_from_features, gate_value
+from alcove.science.surrogate.gated import gap_from_features, gate_params, gate_value
 from alcove.science.surrogate.metrics import vector_rmse
 from alcove.science.surrogate.mlp import MLP, Member, Prediction, Standardization, SurrogateModel
 
@@ -120,21 +135,19 @@ def pose_kinematics(pose: PoseFunction) -> KinematicsFn:
     return lambda q, qd: kinematics_from_pose(pose(q, qd))
 
 
-def split_pool(pool: list[PoolDataset], config: SurrogateConfig, seed: int) -> PoolSplit:
-    """Whole simulations to the test set, then the training part pointwise into train/validation."""
-    check_pool(pool)
+def _paper_labels(counts: list[int], config: SurrogateConfig, seed: int) -> tuple[NDArray[np.object_], set[int]]:
+    """The paper's split of datasets with ``counts`` samples: labels over the stacked samples and the
+    test datasets' indices. Depends on the counts and the seed only (not on the values)."""
     rng = np.random.default_rng([seed, 0x5E1175])
-    n = len(pool)
+    n = len(counts)
     n_test = round(config.test_fraction * n)
     if config.test_fraction > 0 and n >= 2:
         n_test = max(n_test, 1)
     n_test = min(n_test, n - 1)
     order = rng.permutation(n)
     test_ids = set(order[:n_test].tolist())
-    labels = []
-    for i, ds in enumerate(pool):
-        labels.append(np.full(ds.n_samples, "test" if i in test_ids else "train", dtype=object))
-    sample_split = np.concatenate(labels)
+    labels = [np.full(c, "test" if i in test_ids else "train", dtype=object) for i, c in enumerate(counts)]
+    sample_split = np.concatenate(labels) if labels else np.zeros(0, dtype=object)
     train_pos = np.flatnonzero(sample_split == "train")
     m = train_pos.size
     if m < 2:
@@ -143,11 +156,105 @@ def split_pool(pool: list[PoolDataset], config: SurrogateConfig, seed: int) -> P
         )
     n_val = min(max(round(config.validation_fraction * m), 1), m - 1)
     sample_split[rng.choice(train_pos, size=n_val, replace=False)] = "validation"
+    return sample_split, test_ids
+
+
+def _split_from_labels(pool: list[PoolDataset], sample_split: NDArray[np.object_]) -> PoolSplit:
+    offsets = np.cumsum([0] + [ds.n_samples for ds in pool])
+    test = [bool(ds.n_samples) and sample_split[offsets[i]] == "test" for i, ds in enumerate(pool)]
     return PoolSplit(
-        training_sets=[ds.name for i, ds in enumerate(pool) if i not in test_ids],
-        test_sets=[pool[i].name for i in sorted(test_ids)],
+        training_sets=[ds.name for ds, t in zip(pool, test, strict=True) if not t],
+        test_sets=[ds.name for ds, t in zip(pool, test, strict=True) if t],
         sample_split=sample_split,
     )
+
+
+def split_pool(pool: list[PoolDataset], config: SurrogateConfig, seed: int) -> PoolSplit:
+    """The paper's split: whole simulations to the test set (``test_fraction`` of them, at least one
+    from two on, never all), then the training part pointwise into train/validation
+    (``validation_fraction`` of its samples, at least one of each)."""
+    check_pool(pool)
+    sample_split, _ = _paper_labels([ds.n_samples for ds in pool], config, seed)
+    return _split_from_labels(pool, sample_split)
+
+
+@dataclass(frozen=True)
+class SplitPlan:
+    """How a warm-started chain of trainings splits its pool (the stable split; module docstring).
+
+    ``base``: the (name, samples) of the datasets of the chain's first (cold) training, split
+    as the paper does with the member's split seed; every other dataset is split by
+    :func:`stable_dataset_labels` of its name. ``seeds``: one split seed per member.
+    """
+
+    seeds: tuple[int, ...]
+    base: tuple[tuple[str, int], ...]
+    test_fraction: float
+    validation_fraction: float
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "protocol": "stable",
+            "seeds": list(self.seeds),
+            "base": [list(b) for b in self.base],
+            "test_fraction": self.test_fraction,
+            "validation_fraction": self.validation_fraction,
+        }
+
+    def fits(self, config: SurrogateConfig) -> bool:
+        """Whether ``config`` splits with the same shares (else the chain's split starts anew)."""
+        return self.test_fraction == config.test_fraction and self.validation_fraction == config.validation_fraction
+
+    @classmethod
+    def from_lineage(cls, lineage: dict[str, Any]) -> SplitPlan | None:
+        """The plan a model was trained with (its first cold training's base, if that was recorded)."""
+        doc = lineage.get("split")
+        if not isinstance(doc, dict) or doc.get("protocol") != "stable":
+            return None
+        try:
+            seeds = tuple(int(s) for s in doc["seeds"])
+            base = tuple((str(name), int(n)) for name, n in doc["base"])
+            fractions = float(doc["test_fraction"]), float(doc["validation_fraction"])
+        except (KeyError, TypeError, ValueError):
+            return None
+        return cls(seeds, base, *fractions) if seeds and base else None
+
+
+def stable_dataset_labels(name: str, n_samples: int, config: SurrogateConfig, seed: int) -> NDArray[np.object_]:
+    """The stable split of one dataset outside the base: a function of (split seed, name) only, so a
+    dataset keeps its labels in every later training of the chain. The whole dataset is test with
+    probability ``test_fraction``; otherwise each sample is validation with probability
+    ``validation_fraction`` (the shares hold in expectation)."""
+    digest = int.from_bytes(hashlib.blake2b(name.encode(), digest_size=8).digest(), "little")
+    rng = np.random.default_rng([int(seed), 0x57AB1E, digest])
+    is_test = rng.random() < config.test_fraction
+    validation = rng.random(n_samples) < config.validation_fraction
+    if is_test:
+        return np.full(n_samples, "test", dtype=object)
+    return np.where(validation, "validation", "train").astype(object)
+
+
+def stable_split(
+    pool: list[PoolDataset], config: SurrogateConfig, seed: int, base: tuple[tuple[str, int], ...]
+) -> PoolSplit | None:
+    """The stable split of ``pool`` for one member (split seed ``seed``): the base datasets keep
+    their labels of the paper's split of the base, the others get :func:`stable_dataset_labels`.
+    None when it leaves no train or no validation sample (the caller falls back to the paper's split)."""
+    check_pool(pool)
+    base_labels, _ = _paper_labels([n for _, n in base], config, seed)
+    offsets = np.cumsum([0] + [n for _, n in base])
+    in_base = {name: (offsets[i], n) for i, (name, n) in enumerate(base)}
+    labels = []
+    for ds in pool:
+        at = in_base.get(ds.name)
+        if at is not None and at[1] == ds.n_samples:
+            labels.append(base_labels[at[0] : at[0] + at[1]])
+        else:
+            labels.append(stable_dataset_labels(ds.name, ds.n_samples, config, seed))
+    sample_split = np.concatenate(labels)
+    if not (np.any(sample_split == "train") and np.any(sample_split == "validation")):
+        return None
+    return _split_from_labels(pool, sample_split)
 
 
 def moved_headrest(preset: HeadNeckPreset) -> Callable[[float], KinematicsFn]:
@@ -169,7 +276,17 @@ def pool_features(
             raise PoolDataError(f"{ds.name}.headrest_offset", "needs the preset's kinematics (moved_headrest)")
         return moved(ds.headrest_offset)
 
-    return np.concatenate([features(kin(ds)(ds.q, ds.qd)) for ds in pool])
+    # one kinematics call per headrest (the kinematics are per sample): datasets grouped by offset
+    groups: dict[float | None, list[int]] = {}
+    for i, ds in enumerate(pool):
+        groups.setdefault(ds.headrest_offset, []).append(i)
+    out: list[FloatArray] = [np.empty(0)] * len(pool)
+    for members in groups.values():
+        fn = kin(pool[members[0]])
+        x = features(fn(np.concatenate([pool[i].q for i in members]), np.concatenate([pool[i].qd for i in members])))
+        for i, part in zip(members, np.split(x, np.cumsum([pool[i].n_samples for i in members])[:-1]), strict=True):
+            out[i] = part
+    return np.concatenate(out)
 
 
 def sample_weights(pool: list[PoolDataset], config: SurrogateConfig) -> FloatArray:
@@ -189,6 +306,33 @@ def member_seed(seed: int, k: int) -> int:
     return int(np.random.SeedSequence([int(seed), k]).generate_state(1, np.uint64)[0] >> np.uint64(1))
 
 
+def _member_splits(
+    pool: list[PoolDataset], config: SurrogateConfig, seeds: list[int], warm_start: SurrogateModel | None
+) -> tuple[SplitPlan, list[PoolSplit], str | None]:
+    """Every member's split and the plan the model records (module docstring, step 1).
+
+    A cold training (or a warm start from a model without a stable plan) splits as the paper
+    does with the members' seeds and makes this pool the base of a new plan. A warm start
+    continues the previous model's plan: member k keeps its split seed (a member the previous
+    model lacks takes its own seed), the base datasets their labels, and every dataset added
+    since its stable labels, so no sample changes between train, validation and test."""
+    previous = SplitPlan.from_lineage(warm_start.lineage) if warm_start is not None and config.warm_start else None
+    note = None
+    if previous is not None and not previous.fits(config):
+        note = "new plan: test_fraction or validation_fraction changed"
+        previous = None
+    if previous is not None:
+        split_seeds = [previous.seeds[k] if k < len(previous.seeds) else s for k, s in enumerate(seeds)]
+        stable = [stable_split(pool, config, s, previous.base) for s in split_seeds]
+        if all(sp is not None for sp in stable):
+            plan = SplitPlan(tuple(split_seeds), previous.base, config.test_fraction, config.validation_fraction)
+            return plan, [sp for sp in stable if sp is not None], None
+        note = "new plan: the previous plan leaves a member without train or validation samples in this pool"
+    base = tuple((ds.name, ds.n_samples) for ds in pool)
+    plan = SplitPlan(tuple(int(s) for s in seeds), base, config.test_fraction, config.validation_fraction)
+    return plan, [split_pool(pool, config, s) for s in seeds], note
+
+
 def train_surrogate(
     pool: list[PoolDataset],
     config: SurrogateConfig,
@@ -206,7 +350,7 @@ def train_surrogate(
     """
     t_start = time.perf_counter()
     seeds = member_seeds if member_seeds is not None else [member_seed(seed, k) for k in range(config.ensemble_size)]
-    splits = [split_pool(pool, config, s) for s in seeds]
+    plan, splits, split_note = _member_splits(pool, config, seeds, warm_start)
     kin = kinematics or preset_kinematics(preset)
     x = pool_features(pool, kin, moved_headrest(preset) if kinematics is None else None)
     y = {"force": np.concatenate([ds.force for ds in pool]), "moment": np.concatenate([ds.moment for ds in pool])}
@@ -222,7 +366,7 @@ def train_surrogate(
         cold_reason = f"cold: architecture {warm_start.config.architecture} -> {config.architecture}"
         previous = []
     gated = config.architecture == "gated"
-    gate_all = gate_value(gap_from_features(x, preset.profile), DEFAULT_GATE) if gated else None
+    gate_all = gate_value(gap_from_features(x, preset.profile), gate_params(config)) if gated else None
     norms: dict[str, list[Standardization]] = {n: [] for n in NETS}
     members: list[Member] = []
     data: list[MemberTensors] = []
@@ -287,13 +431,18 @@ def train_surrogate(
         gated_outputs = None
         if gated:
             gated_outputs = GatedOutputs(
-                DEFAULT_GATE,
+                gate_params(config),
                 mean={n: tensor(np.stack([nm.mean for nm in norms[n]])) for n in NETS},
                 scale={n: tensor(np.stack([nm.scale for nm in norms[n]])) for n in NETS},
                 divisor={n: tensor(np.stack([nm.divisor for nm in norms[n]])) for n in NETS},
             )
         trainer = EnsembleTrainer(
-            {n: [getattr(m, f"{n}_net") for m in members] for n in NETS}, data, config, generators, gated_outputs
+            {n: [getattr(m, f"{n}_net") for m in members] for n in NETS},
+            data,
+            config,
+            generators,
+            gated_outputs,
+            warm={n: [wk.get(n) is True for wk in warm] for n in NETS},
         )
         if any(flag is True for wk in warm for flag in wk.values()):
             # the previous model's weights are the first candidate of early stopping (epoch 0)
@@ -321,6 +470,7 @@ def train_surrogate(
             "member_test_sets": [sp.test_sets for sp in splits],
             "samples": int(x.shape[0]),
             "warm_start": (warm[0] or False) if len(warm) == 1 else [wk or False for wk in warm],
+            "split": {**plan.to_dict(), **({"note": split_note} if split_note else {})},
             "training": "torch (vectorised over members)",
         },
     )
@@ -412,6 +562,7 @@ def predict(
 
 __all__ = [
     "PoolSplit",
+    "SplitPlan",
     "TrainingCancelled",
     "TrainingMetrics",
     "TrainingResult",
@@ -424,5 +575,7 @@ __all__ = [
     "preset_kinematics",
     "sample_weights",
     "split_pool",
+    "stable_dataset_labels",
+    "stable_split",
     "train_surrogate",
 ]
