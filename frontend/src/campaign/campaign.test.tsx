@@ -12,7 +12,7 @@ import type { CampaignOut, IterationCurves } from "../api/types";
 import { jsonResponse, mockApi, renderPage } from "../test/utils";
 
 const wrench = (k: number) => ({ fx: [k, k + 1], fy: [0, 0], fz: [1, 2], mx: [0, 0], my: [0.1, 0.2], mz: [0, 0] });
-const curves = (k: number): IterationCurves => ({ iteration: k, t: [0, 0.1], truth: wrench(k), predicted: wrench(k + 0.5) });
+const curves = (k: number): IterationCurves => ({ iteration: k, t: [0, 0.1], q: [[0.2], [0.3]], truth: wrench(k), predicted: wrench(k + 0.5), std: null });
 
 describe("force overlay at paper scale", () => {
   it("200 iterations: colour by iteration on one scale, one colorbar, no legend entry per iteration", () => {
