@@ -50,7 +50,12 @@ CUSTOM_CHAIN: dict[str, Any] = {
 }
 
 #: the head-neck-1dof preset with its headrest moved and tilted (a scenario's headrest)
-MOVED_HEADREST: dict[str, Any] = {"preset": "head-neck-1dof", "tilt": 0.2, "theta_contact": 0.3, "headrest_offset": 0.004}
+MOVED_HEADREST: dict[str, Any] = {
+    "preset": "head-neck-1dof",
+    "tilt": 0.2,
+    "theta_contact": 0.3,
+    "headrest_offset": 0.004,
+}
 
 
 def _models() -> list[tuple[str, dict[str, Any]]]:

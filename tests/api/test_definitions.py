@@ -116,7 +116,9 @@ def test_model_presets_are_served_whole_and_each_is_a_valid_task_model(client, o
     base = client.get(f"{API}/tasks/presets", headers=owner.headers).json()[0]["spec"]
     for p in presets:
         report = client.post(
-            f"{API}/tasks/validate", json={"name": p["key"], "spec": {**base, "model": p["model"]}}, headers=owner.headers
+            f"{API}/tasks/validate",
+            json={"name": p["key"], "spec": {**base, "model": p["model"]}},
+            headers=owner.headers,
         ).json()
         assert report["valid"], (p["key"], report["errors"])
     assert client.get(f"{API}/tasks/model-presets").status_code == 401

@@ -14,13 +14,13 @@ from alcove.science.ocp.task_spec import TaskSpec
 from alcove.tasks import repository as repo
 from alcove.tasks import service
 from alcove.tasks.schemas import (
+    ModelPresetOut,
     ScenarioOut,
     ScenarioPreviewIn,
     ScenarioPreviewOut,
     TaskDraft,
     TaskIn,
     TaskOut,
-    ModelPresetOut,
     TaskPresetOut,
     TaskUpdate,
     TaskVersionOut,

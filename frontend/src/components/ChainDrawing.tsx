@@ -102,6 +102,10 @@ export function ChainDrawing({ chain, q, frames, force, forceScale, height = 320
         </defs>
         <polygon data-part="cushion" points={pts(cushion(chain, view.zc))} fill="rgba(211,102,47,0.18)" stroke="#d3662f" strokeWidth={1.5} vectorEffect="non-scaling-stroke" />
         <polygon data-part="head" points={pts(outline)} fill={gap < 0 ? "rgba(179,38,30,0.12)" : "rgba(47,91,211,0.10)"} stroke="#2f5bd3" strokeWidth={1.5} vectorEffect="non-scaling-stroke" />
+        {/* each link's COG hangs on its joint (a link of length 0, the head, is drawn this way) */}
+        {p.coms.map(([x, z], i) => (
+          <line key={`b${i}`} x1={p.joints[i][0]} y1={-p.joints[i][1]} x2={x} y2={-z} stroke="#3b4256" strokeOpacity={0.55} strokeWidth={1.5} vectorEffect="non-scaling-stroke" />
+        ))}
         <polyline data-part="links" points={pts(p.joints)} fill="none" stroke="#3b4256" strokeWidth={4} strokeLinecap="round" strokeLinejoin="round" vectorEffect="non-scaling-stroke" />
         {/* the base: a fixed support under the first joint */}
         <polygon points={pts([p.joints[0], [p.joints[0][0] - 1.6 * r, p.joints[0][1] - 2.2 * r], [p.joints[0][0] + 1.6 * r, p.joints[0][1] - 2.2 * r]])} fill="#6b7385" />

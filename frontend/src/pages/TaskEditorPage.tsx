@@ -99,7 +99,7 @@ function SolvePreview({ result, phases, model }: { result: TaskPreviewResult; ph
         ) : (
           <p className="muted">The model of this solution cannot be drawn (a number is missing).</p>
         )}
-        {force && <Plot testId="preview-force" traces={forceTraces} shapes={shapes} xTitle="t [s]" yTitle="contact force on the head (auxiliary model) [N]" exportName="solve-force" height={300} cursorX={chain ? cursor : null} />}
+        {force && <Plot testId="preview-force" traces={forceTraces} shapes={shapes} xTitle="t [s]" yTitle="contact force on the head [N]" exportName="solve-force" height={300} cursorX={chain ? cursor : null} />}
       </div>
     </div>
   );
@@ -191,6 +191,7 @@ function TaskEditor({ existing, presets }: { existing: Task | undefined; presets
     if (next === "chain") fresh = chainModel ? { preset: "chain", chain: spec.model?.chain } : oneDofAsChain(spec.model ?? {});
     else fresh = structuredClone(modelPresets.data?.find((p: ModelPreset) => p.key === next)?.model ?? null) as Record<string, unknown> | null;
     if (!fresh) return setSpec({ ...spec, model });
+    save.reset(); // a refused save's problems concerned the other model
     const joints = (m: Record<string, unknown> | undefined) => (isChainModel(m) ? ((m?.chain as { links?: unknown[] } | undefined)?.links?.length ?? 0) : 1);
     setSpec(joints(fresh) === joints(spec.model) ? { ...spec, model: fresh } : withoutJointLists({ ...spec, model: fresh }));
     if (joints(fresh) !== joints(spec.model)) setJointsKey((k) => k + 1);

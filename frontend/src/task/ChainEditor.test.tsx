@@ -53,6 +53,8 @@ function api() {
 }
 
 const drawing = () => screen.getByTestId("model-drawing");
+/** whole pages in jsdom take a few seconds on a loaded 2-core machine */
+const SLOW = 30_000;
 
 describe("task editor: the model as a chain", () => {
   it("a chain preset: links and joints with units and ranges, a drawing that follows the values, the API's errors at their cell", async () => {
@@ -72,6 +74,7 @@ describe("task editor: the model as a chain", () => {
     expect(links).toHaveTextContent("> 0, ≤ 200"); // the schema's range of a link mass
     const joints = screen.getByTestId("chain-joints");
     expect(joints).toHaveTextContent("q0 (start) [rad]");
+    expect(joints).toHaveTextContent("-1.571 to 1.571"); // ±π/2, to 4 digits
     // the 1-DOF parameters are gone: gravity is the chain's, once
     expect(screen.getAllByLabelText(/^gravity/)).toHaveLength(1);
     expect(screen.queryByLabelText(/^theta0/)).toBeNull();
@@ -88,7 +91,7 @@ describe("task editor: the model as a chain", () => {
 
     // outside the joint's range: the API's message at that cell, by its path
     fireEvent.change(screen.getByLabelText("joint 2 q0 (start) [rad]"), { target: { value: "0.5" } });
-    const message = await screen.findByText(/lies outside the joint range/, {}, { timeout: 3000 });
+    const message = await screen.findByText(/lies outside the joint range/, {}, { timeout: 10_000 });
     expect(message).toHaveAttribute("data-error-path", "model.chain.joints.1.q0");
     expect(within(joints).getByText(/lies outside the joint range/)).toBe(message);
     expect(screen.getByLabelText("joint 2 q0 (start) [rad]")).toHaveAttribute("aria-invalid", "true");
@@ -98,7 +101,7 @@ describe("task editor: the model as a chain", () => {
     fireEvent.click(screen.getByRole("button", { name: "Add link" }));
     expect(within(screen.getByTestId("chain-links")).getAllByRole("row")).toHaveLength(4);
     expect(drawing()).toHaveAttribute("data-links", "3");
-  });
+  }, SLOW);
 
   it("the 1-DOF model as a user-defined chain keeps its picture", async () => {
     api();
@@ -109,8 +112,8 @@ describe("task editor: the model as a chain", () => {
     await screen.findByTestId("chain-links");
     expect(screen.getByLabelText("link 1 mass [kg]")).toHaveValue(5);
     expect(drawing()).toHaveAttribute("data-head", before);
-    await waitFor(() => expect(screen.getByTestId("validation-state")).toHaveTextContent("valid"), { timeout: 3000 });
-  });
+    await waitFor(() => expect(screen.getByTestId("validation-state")).toHaveTextContent("valid"), { timeout: 10_000 });
+  }, SLOW);
 });
 
 describe("adding and removing links", () => {
@@ -167,11 +170,11 @@ describe("playback", () => {
     fireEvent.change(screen.getByLabelText("speed"), { target: { value: "1" } }); // real time: 0.4 s
     fireEvent.click(screen.getByRole("button", { name: "Play" }));
     expect(screen.getByTestId("chain-player")).toHaveAttribute("data-playing", "true");
-    await waitFor(() => expect(screen.getByTestId("chain-player")).toHaveAttribute("data-playing", "false"), { timeout: 5000 });
+    await waitFor(() => expect(screen.getByTestId("chain-player")).toHaveAttribute("data-playing", "false"), { timeout: 15_000 });
     expect(screen.getByTestId("chain-player")).toHaveAttribute("data-index", "40");
     expect(screen.getByTestId("force")).toHaveAttribute("data-cursor", String(t[40]));
     await act(async () => {});
-  });
+  }, SLOW);
 
   it("sampleAt: the last sample at or before a time", () => {
     expect(sampleAt(t, -1)).toBe(0);

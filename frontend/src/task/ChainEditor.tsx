@@ -67,8 +67,10 @@ function cellSchema(root: JsonSchema | undefined, def: "LinkSpec" | "JointSpec",
 
 /** "0 to 200" from a schema's bounds (> for exclusive ones). */
 export function rangeText(s: JsonSchema): string {
-  const lo = s.minimum !== undefined ? `${s.minimum}` : s.exclusiveMinimum !== undefined ? `> ${s.exclusiveMinimum}` : null;
-  const hi = s.maximum !== undefined ? `${s.maximum}` : s.exclusiveMaximum !== undefined ? `< ${s.exclusiveMaximum}` : null;
+  // 4 significant digits: ±π/2 reads -1.571 to 1.571, not 16 digits
+  const short = (x: number) => String(Number(x.toPrecision(4)));
+  const lo = s.minimum !== undefined ? short(s.minimum) : s.exclusiveMinimum !== undefined ? `> ${short(s.exclusiveMinimum)}` : null;
+  const hi = s.maximum !== undefined ? short(s.maximum) : s.exclusiveMaximum !== undefined ? `< ${short(s.exclusiveMaximum)}` : null;
   if (lo !== null && hi !== null) return lo.startsWith(">") ? `${lo}, ≤ ${hi}` : `${lo} to ${hi}`;
   return lo ?? (hi !== null ? `≤ ${hi}` : "");
 }
