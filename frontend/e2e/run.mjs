@@ -365,6 +365,12 @@ try {
     // both phases: the curve goes past the first phase (0.2 s, set above) to the end of the task
     if (!(drawn.tMax > 0.2 + 1e-6)) throw new Error(`${plot}: the curve ends at t = ${drawn.tMax} s, inside the first phase`);
   }
+  // the whole solution played back: the slider moves the cursor on the angle and torque plots
+  const trajectoryT = await page.evaluate(() => /** @type {any} */ (document.querySelector("[data-testid=angle-plot]")).data[0].x);
+  await page.getByTestId("trajectory-player").waitFor({ timeout: 15_000 });
+  const late = trajectoryT.length - 1;
+  await setRange(page.getByTestId("trajectory-player").getByLabel("Time"), String(late));
+  await waitFor(async () => (await page.getByTestId("angle-plot").getAttribute("data-cursor")) === String(trajectoryT[late]) && (await page.getByTestId("torque-plot").getAttribute("data-cursor")) === String(trajectoryT[late]), "the cursor at the end of the whole solution", 5000, 100);
   const solver = await page.getByTestId("solver-summary").innerText();
   if (!/Solve_Succeeded|Solved_To_Acceptable_Level/.test(solver)) throw new Error(`solver summary: ${solver}`);
   await screenshot(page, "campaign-trajectory.png", { fullPage: true });
