@@ -65,22 +65,17 @@ export function ChainPlayer({ chain, t, q, force, index, setIndex, testId = "cha
     const from = startIndex.current >= n - 1 ? 0 : startIndex.current;
     const t0 = t[from];
     const wall0 = performance.now();
-    let last = -1;
-    let frame = 0;
-    const tick = (now: number) => {
-      const time = t0 + ((now - wall0) / 1000) * speed;
-      if (now - last >= 1000 / FPS || time >= t[n - 1]) {
-        last = now;
-        setRef.current(sampleAt(t, time));
-      }
+    // a timer at FPS (not requestAnimationFrame: the picture needs no more, and a timer also
+    // runs where frames are not painted)
+    const timer = setInterval(() => {
+      const time = t0 + ((performance.now() - wall0) / 1000) * speed;
+      setRef.current(sampleAt(t, time));
       if (time >= t[n - 1]) {
+        clearInterval(timer);
         setPlaying(false);
-        return;
       }
-      frame = requestAnimationFrame(tick);
-    };
-    frame = requestAnimationFrame(tick);
-    return () => cancelAnimationFrame(frame);
+    }, 1000 / FPS);
+    return () => clearInterval(timer);
   }, [playing, speed, t, n]);
 
   if (n === 0) return null;
