@@ -15,6 +15,8 @@
  *    and its RMSE plot shows the inherited iterations greyed;
  *  - a bad form submit: one message per problem at its field, the count agrees, no uncaught
  *    page error or console error;
+ *  - the task editor's chain model (2-DOF preset): tables of links and joints, the drawing
+ *    follows an edit, the API's error shows at its cell (model.chain.joints.1.q0);
  *  - no request of the page goes to another origin (list, campaign page, every tab, a plot's
  *    PNG download from its toolbar).
  *
@@ -270,6 +272,27 @@ try {
   if (newPageErrors.length || newConsole.length) throw new Error(`errors during the bad submit: ${[...newPageErrors, ...newConsole].join(" | ")}`);
   step(`  ${paths.length} problems, each once: ${texts.join(" | ")}`);
   await page.screenshot({ path: resolve(artifacts, "task-form-errors.png"), fullPage: true });
+
+  step("the model as a chain: the 2-DOF preset's links and joints, a drawing that follows, the API's error at its cell");
+  await page.getByLabel("preset", { exact: true }).selectOption("head-neck-2dof");
+  await page.getByTestId("chain-links").waitFor();
+  const modelDrawing = page.getByTestId("model-drawing");
+  await page.locator("[data-testid=model-drawing][data-links='2']").waitFor();
+  if ((await page.getByLabel(/^gravity/).count()) !== 1) throw new Error(`${await page.getByLabel(/^gravity/).count()} gravity fields for a chain model`);
+  const gapBefore = Number(await modelDrawing.getAttribute("data-gap-mm"));
+  await page.getByLabel("joint 2 q0 (start) [rad]").fill("0.5");
+  await page.locator("[data-testid=chain-joints] [data-error-path='model.chain.joints.1.q0']").waitFor({ timeout: 10_000 });
+  const q0Message = await page.locator("[data-error-path='model.chain.joints.1.q0']").innerText();
+  const drawnQ = await modelDrawing.getAttribute("data-q");
+  if (!drawnQ?.endsWith(",0.5000")) throw new Error(`the drawing shows q = ${drawnQ} after joint 2's q0 became 0.5`);
+  const gapAfter = Number(await modelDrawing.getAttribute("data-gap-mm"));
+  if (!(gapAfter < gapBefore)) throw new Error(`tilting the head back did not bring it closer: gap ${gapBefore} -> ${gapAfter} mm`);
+  const chainPaths = await page.locator("[data-error-path]").evaluateAll((els) => els.map((e) => e.getAttribute("data-error-path")));
+  if (new Set(chainPaths).size !== chainPaths.length) throw new Error(`a problem is shown twice: ${chainPaths}`);
+  await page.getByLabel("joint 2 q0 (start) [rad]").fill("0.1");
+  await page.locator("[data-error-path='model.chain.joints.1.q0']").waitFor({ state: "detached", timeout: 10_000 });
+  step(`  q0 = 0.5 rad: "${q0Message}"; the head ${gapBefore} -> ${gapAfter} mm from the headrest`);
+  await page.screenshot({ path: resolve(artifacts, "task-chain-editor.png"), fullPage: true });
 
   step("no request went to another host");
   if (foreign.length) throw new Error(`requests to other hosts: ${foreign.join(" | ")}`);

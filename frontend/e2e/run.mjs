@@ -66,6 +66,14 @@ async function waitFor(fn, what, timeout = 30_000, interval = 500) {
   throw new Error(`timed out waiting for ${what} (last: ${last})`);
 }
 
+/** Set a slider (input type=range) as a user's drag does: the value, then an input event. */
+async function setRange(locator, value) {
+  await locator.evaluate((el, v) => {
+    Object.getOwnPropertyDescriptor(HTMLInputElement.prototype, "value").set.call(el, String(v));
+    el.dispatchEvent(new Event("input", { bubbles: true }));
+  }, value);
+}
+
 async function selectByText(select, text, timeout = 15_000) {
   // the options arrive with the list query: wait for them
   const deadline = Date.now() + timeout;
@@ -158,6 +166,43 @@ try {
   // solved on the task's own grid (10 per phase, set above), not a preview default
   const grid = (await page.getByTestId("solve-grid").innerText()).trim();
   if (!grid.includes(Array(nPhases).fill("10").join(" + ")) || !grid.includes("the task's own grid")) throw new Error(`solve-once grid: ${grid}`);
+  step("play the solution back: the 1-DOF chain moves into the cushion, the force arrow and the plots' cursor follow");
+  const previewT = await page.evaluate(() => /** @type {any} */ (document.querySelector("[data-testid=preview-angle]")).data[0].x);
+  const drawingQ = () => page.getByTestId("preview-player-drawing").getAttribute("data-q");
+  const q0 = await drawingQ();
+  const modelGap = Number(await page.getByTestId("model-drawing").getAttribute("data-gap-mm"));
+  if (!(modelGap > 0)) throw new Error(`the model drawing's gap at the initial pose: ${modelGap} mm`);
+  // the slider to the sample with the largest contact force: the head is in the cushion, the arrow drawn
+  const fx = await page.evaluate(() => /** @type {any} */ (document.querySelector("[data-testid=preview-force]")).data[0].y);
+  const peak = fx.reduce((best, v, i) => (v > fx[best] ? i : best), 0);
+  if (!(fx[peak] > 0)) throw new Error("the solve-once preview has no contact force");
+  await setRange(page.getByTestId("preview-player").getByLabel("Time"), String(peak));
+  await waitFor(async () => (await page.getByTestId("preview-force").getAttribute("data-cursor")) === String(previewT[peak]), "the force plot's cursor at the slider's time", 5000, 100);
+  for (const plot of ["preview-angle", "preview-torque"])
+    if ((await page.getByTestId(plot).getAttribute("data-cursor")) !== String(previewT[peak])) throw new Error(`${plot}: no cursor at t = ${previewT[peak]}`);
+  // Plotly drew the cursor: a line shape at the slider's time
+  await page.locator("[data-testid=preview-force] .shapelayer path").first().waitFor();
+  const atPeak = await page.getByTestId("preview-player-drawing").evaluate((svg) => ({ gap: Number(svg.getAttribute("data-gap-mm")), force: Number(svg.getAttribute("data-force")), arrow: Boolean(svg.querySelector("[data-part=force]")), q: svg.getAttribute("data-q") }));
+  if (!atPeak.arrow || !(atPeak.gap < 0) || !(atPeak.force > 0) || atPeak.q === q0) throw new Error(`the picture at the force peak: ${JSON.stringify(atPeak)}`);
+  step(`  at t = ${previewT[peak].toFixed(3)} s: pressed in ${(-atPeak.gap).toFixed(1)} mm, arrow ${atPeak.force} N (start: ${modelGap} mm clear)`);
+  // playback from the start at real time moves the picture and the cursor
+  await setRange(page.getByTestId("preview-player").getByLabel("Time"), "0");
+  await page.getByTestId("preview-player").getByLabel("speed").selectOption("1");
+  await page.getByTestId("preview-player-play").click();
+  const cursors = new Set();
+  await waitFor(
+    async () => {
+      cursors.add(await page.getByTestId("preview-force").getAttribute("data-cursor"));
+      return (await page.getByTestId("preview-player").getAttribute("data-playing")) === "false";
+    },
+    "the playback to end",
+    15_000,
+    100,
+  );
+  const lastIndex = Number(await page.getByTestId("preview-player").getAttribute("data-index"));
+  if (lastIndex !== previewT.length - 1 || cursors.size < 3) throw new Error(`playback ended at sample ${lastIndex} of ${previewT.length}, cursor seen at ${cursors.size} times`);
+  step(`  played to the end: the cursor moved through ${cursors.size} times`);
+  await setRange(page.getByTestId("preview-player").getByLabel("Time"), String(peak));
   await screenshot(page, "task-editor.png", { fullPage: true });
 
   step("scenario ranges: a preview of 5 draws within the range (not saved)");
@@ -273,6 +318,30 @@ try {
   const forceTraces = Number(await page.getByTestId("force-plot").getAttribute("data-traces"));
   if (forceTraces < 2) throw new Error(`force plot has ${forceTraces} traces, expected oracle and surrogate`);
 
+  step("the ensemble's mean +- 2 std band against the oracle; the motion played back with the force plot's cursor");
+  await page.locator("[data-testid=force-plot][data-band='2std'][data-rendered=true]").waitFor({ timeout: 10_000 });
+  const band = await page.evaluate(() => {
+    const el = /** @type {any} */ (document.querySelector("[data-testid=force-plot]"));
+    const upper = el.data.find((tr) => tr.fill === "tonexty");
+    const lower = el.data[el.data.indexOf(upper) - 1];
+    const mean = el.data.find((tr) => /surrogate \(ensemble mean\)/.test(tr.name));
+    const width = upper.y.map((v, i) => v - lower.y[i]);
+    const centred = upper.y.every((v, i) => Math.abs((v + lower.y[i]) / 2 - mean.y[i]) <= 1e-9 * (1 + Math.abs(mean.y[i])));
+    return { fills: el.querySelectorAll(".fills path, path.js-fill").length, maxWidth: Math.max(...width), minWidth: Math.min(...width), centred, name: upper.name };
+  });
+  if (!band.centred || !(band.maxWidth > 0) || band.minWidth < 0 || !band.fills) throw new Error(`force band: ${JSON.stringify(band)}`);
+  step(`  ${band.name}: width up to ${band.maxWidth.toFixed(2)} N, centred on the mean, ${band.fills} filled area(s) drawn`);
+  const calibration = (await page.getByTestId("calibration-plot").getAttribute("data-iterations")) ?? "";
+  if (!calibration.split(",").filter(Boolean).length) throw new Error("no iteration on the calibration plot");
+  step(`  calibration plotted for iterations ${calibration}; header: ${(await page.getByTestId("latest-calibration").innerText()).trim()}`);
+  const player = page.getByTestId("iteration-player");
+  await player.waitFor({ timeout: 15_000 });
+  const curveT = await page.evaluate(() => /** @type {any} */ (document.querySelector("[data-testid=force-plot]")).data.find((tr) => / oracle$/.test(tr.name)).x);
+  const mid = Math.floor(curveT.length * 0.6);
+  await setRange(player.getByLabel("Time"), String(mid));
+  await waitFor(async () => (await page.getByTestId("force-plot").getAttribute("data-cursor")) === String(curveT[mid]) && (await page.getByTestId("moment-plot").getAttribute("data-cursor")) === String(curveT[mid]), "the cursor on the force and moment plots", 5000, 100);
+  if ((await page.getByTestId("iteration-player-time-value").innerText()).trim() !== `t = ${curveT[mid].toFixed(3)} s`) throw new Error("the player's time and the slider disagree");
+
   step("trajectory: the whole OCP solution, every phase shaded, the replayed part marked");
   await page.getByRole("tab", { name: "Trajectory" }).click();
   await waitFor(async () => (await plotPoints(page, "angle-plot")) > 0, "joint angle curve");
@@ -296,6 +365,12 @@ try {
     // both phases: the curve goes past the first phase (0.2 s, set above) to the end of the task
     if (!(drawn.tMax > 0.2 + 1e-6)) throw new Error(`${plot}: the curve ends at t = ${drawn.tMax} s, inside the first phase`);
   }
+  // the whole solution played back: the slider moves the cursor on the angle and torque plots
+  const trajectoryT = await page.evaluate(() => /** @type {any} */ (document.querySelector("[data-testid=angle-plot]")).data[0].x);
+  await page.getByTestId("trajectory-player").waitFor({ timeout: 15_000 });
+  const late = trajectoryT.length - 1;
+  await setRange(page.getByTestId("trajectory-player").getByLabel("Time"), String(late));
+  await waitFor(async () => (await page.getByTestId("angle-plot").getAttribute("data-cursor")) === String(trajectoryT[late]) && (await page.getByTestId("torque-plot").getAttribute("data-cursor")) === String(trajectoryT[late]), "the cursor at the end of the whole solution", 5000, 100);
   const solver = await page.getByTestId("solver-summary").innerText();
   if (!/Solve_Succeeded|Solved_To_Acceptable_Level/.test(solver)) throw new Error(`solver summary: ${solver}`);
   await screenshot(page, "campaign-trajectory.png", { fullPage: true });

@@ -169,6 +169,7 @@ SPECS: dict[str, Spec] = {
     "list_tasks": ("any", lambda o, a: Call(), OK),
     "create_task": ("any", lambda o, a: Call(json={"name": "t", "spec": small_task_spec()}), CREATED),
     "list_task_presets": ("any", lambda o, a: Call(), OK),
+    "list_model_presets": ("any", lambda o, a: Call(), OK),
     "copy_task_preset": ("any", lambda o, a: Call(path={"key": "head-headrest-2phase"}), CREATED),
     "get_task_schema": ("any", lambda o, a: Call(), OK),
     "validate_task": ("any", lambda o, a: Call(json={"spec": small_task_spec()}), OK),

@@ -100,6 +100,30 @@ def test_presets_are_listed_and_copied_and_schemas_served(client, owner: Account
     assert client.get(f"{API}/oracles/types/nope/schema", headers=owner.headers).status_code == 404
 
 
+def test_model_presets_are_served_whole_and_each_is_a_valid_task_model(client, owner: Account) -> None:
+    """The task editor loads a model preset's parameters when it is chosen: every preset of
+    ``model.preset`` but the user-defined ``chain``, each with all its numbers, each accepted
+    as the model of a task (1 joint: the paper's task; n joints: its phases without per-joint lists)."""
+    from alcove.science.ocp.task_spec import ModelSpec
+
+    presets = client.get(f"{API}/tasks/model-presets", headers=owner.headers).json()
+    by_key = {p["key"]: p for p in presets}
+    assert set(by_key) == set(ModelSpec.model_fields["preset"].annotation.__args__) - {"chain"}  # type: ignore[union-attr]
+    assert by_key["head-neck-1dof"]["model"]["theta0"] == 0.232 and "chain" not in by_key["head-neck-1dof"]["model"]
+    two = by_key["head-neck-2dof"]
+    assert two["ndof"] == 2 and len(two["model"]["chain"]["links"]) == 2 and "mass" not in two["model"]
+    assert all(j["torque_limit"] > 0 and "damping" in j for j in two["model"]["chain"]["joints"])  # defaults filled in
+    base = client.get(f"{API}/tasks/presets", headers=owner.headers).json()[0]["spec"]
+    for p in presets:
+        report = client.post(
+            f"{API}/tasks/validate",
+            json={"name": p["key"], "spec": {**base, "model": p["model"]}},
+            headers=owner.headers,
+        ).json()
+        assert report["valid"], (p["key"], report["errors"])
+    assert client.get(f"{API}/tasks/model-presets").status_code == 401
+
+
 def test_oracle_params_are_validated_per_type(client, owner: Account) -> None:
     r = client.post(
         f"{API}/oracles", json={"name": "aux", "type": "aux-penalty", "params": {"k": 1e5}}, headers=owner.headers

@@ -95,6 +95,7 @@ def test_the_jobs_compute_the_science_and_ignore_duplicates(client) -> None:
     assert res["intervals_per_phase"] == [8, 8] and res["grid"] == "8 + 8 intervals (the task's own grid)"
     t, q, tau = np.array(res["t"]), np.array(res["q"]), np.array(res["tau"])
     assert t.shape == (17,) and q.shape == tau.shape == (17, 1) and np.all(np.diff(t) > 0)
+    assert np.asarray(res["wrench"]).shape == (17, 6)
     spec = small_task_spec()
     assert t[-1] == pytest.approx(sum(ph["duration"] for ph in spec["phases"]))
 
@@ -426,4 +427,18 @@ def test_solve_once_takes_a_chain_model() -> None:
     spec = {**small_task_spec(), "model": {"preset": "head-neck-2dof"}}
     out = solve_task_once(spec, [50] * len(spec["phases"]))
     assert out["converged"], out["status"]
-    assert np.asarray(out["q"]).shape == (50 * len(spec["phases"]) + 1, 2)
+    q = np.asarray(out["q"])
+    assert q.shape == (50 * len(spec["phases"]) + 1, 2)
+    # the aux contact's wrench at the nodes (the editor's force plot and arrow): a normal force
+    # pushing the head away (fx >= 0), nothing out of the plane, zero where the head is clear
+    from alcove.science.ocp.task_spec import ModelSpec
+
+    w = np.asarray(out["wrench"])
+    assert w.shape == (len(q), 6)
+    assert np.all(w[:, [1, 2, 3, 5]] == 0) and np.all(w[:, 0] >= 0)
+    chain = ModelSpec.model_validate({"preset": "head-neck-2dof"}).chain
+    assert chain is not None
+    gap = np.array([chain.head_gap(row) for row in q])
+    clear = gap > 2e-3  # threshold: well beyond the contact's smoothing widths (about 0.1 mm)
+    assert clear.any() and np.all(w[clear, 0] < 1e-6)
+    assert w[:, 0].max() > 1.0 and gap.min() < 0  # the head presses into the cushion: a force

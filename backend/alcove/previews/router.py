@@ -78,6 +78,11 @@ class TaskPreviewResult(BaseModel):
     q: list[list[float | None]]
     qd: list[list[float | None]]
     tau: list[list[float | None]] = Field(description="joint torque at the nodes [N m]")
+    wrench: list[list[float | None]] | None = Field(
+        None,
+        description="(n, 6): the auxiliary contact's wrench on the head at the nodes, fx fy fz [N] and mx my mz "
+        "[N m] about the head frame origin, in the headrest frame; null in previews made before it was recorded",
+    )
     status: str
     converged: bool
     cost: float | None

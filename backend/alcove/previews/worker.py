@@ -115,9 +115,21 @@ def compute(kind: str, spec: dict[str, Any], options: dict[str, Any], catalogue:
     return test_oracle(spec["type"], spec.get("params") or {}, float(options.get("dt") or 0.0025), catalogue)
 
 
+def _node_wrench(contact: Any, q: Any, qd: Any) -> Any:
+    """The contact model's wrench (fx fy fz mx my mz on the head, in H) at the solution's nodes
+    (the picture's force arrow and force plot; the OCP itself evaluates it between nodes)."""
+    import numpy as np
+
+    q, qd = np.asarray(q, float), np.asarray(qd, float)
+    if contact is None or q.ndim != 2 or not len(q):
+        return None
+    return _finite(np.asarray(contact.map(q.shape[0])(q.T, qd.T)).T)
+
+
 def solve_task_once(spec: dict[str, Any], per_phase: list[int], intervals: int | None = None) -> dict[str, Any]:
     """Solve the task once with the auxiliary (penalty) contact, ``per_phase[m]`` intervals in
-    phase m: the trajectory on the OCP grid (t, q, qd, node torques tau), the solver's status,
+    phase m: the trajectory on the OCP grid (t, q, qd, node torques tau, the contact wrench at the
+    nodes), the solver's status,
     cost, iterations, wall time, and the grid in words (``intervals``: what the request asked)."""
     from alcove.science.ocp.contact import contact_from_spec
     from alcove.science.ocp.solve import solve_task
@@ -132,6 +144,7 @@ def solve_task_once(spec: dict[str, Any], per_phase: list[int], intervals: int |
     aux = contact_from_spec("aux", task.chain() if task.model.is_chain else task.preset())
     sol = solve_task(task, aux, max_attempts=1, ipopt_options={"ipopt.max_iter": PREVIEW_IPOPT_MAX_ITER})
     return {
+        "wrench": _node_wrench(aux, sol.q, sol.qd),
         "t": _finite(sol.t),
         "q": _finite(sol.q),
         "qd": _finite(sol.qd),

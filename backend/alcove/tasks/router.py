@@ -14,6 +14,7 @@ from alcove.science.ocp.task_spec import TaskSpec
 from alcove.tasks import repository as repo
 from alcove.tasks import service
 from alcove.tasks.schemas import (
+    ModelPresetOut,
     ScenarioOut,
     ScenarioPreviewIn,
     ScenarioPreviewOut,
@@ -73,6 +74,13 @@ def create_task(body: TaskIn, user: CurrentUser, session: SessionDep) -> TaskOut
 def list_task_presets(user: CurrentUser) -> list[TaskPresetOut]:
     """Built-in tasks (e.g. ``head-headrest-2phase``, the paper's proof of concept)."""
     return [TaskPresetOut(**p) for p in service.presets()]
+
+
+@router.get("/model-presets", response_model=list[ModelPresetOut], operation_id="list_model_presets")
+def list_model_presets(user: CurrentUser) -> list[ModelPresetOut]:
+    """The model presets (``model.preset``) with all their parameters: the 1-DOF head-neck model and
+    the n-DOF chains, each as the ``model`` of a task spec."""
+    return [ModelPresetOut(**p) for p in service.model_presets()]
 
 
 @router.post(

@@ -55,6 +55,17 @@ class TaskPresetOut(BaseModel):
     spec: dict[str, Any]
 
 
+class ModelPresetOut(BaseModel):
+    """A model preset (``model.preset``) with every parameter filled in: the model part of a task spec."""
+
+    key: str = Field(description="the value of model.preset")
+    description: str
+    ndof: int = Field(description="joints of the model")
+    model: dict[str, Any] = Field(
+        description="the model as a task spec holds it: the 1-DOF preset's parameters, or preset and chain"
+    )
+
+
 class ScenarioPreviewIn(_In):
     """Sample a task's scenarios: the stored task's latest version, or a draft ``spec`` (the editor's unsaved form)."""
 

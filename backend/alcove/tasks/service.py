@@ -72,6 +72,25 @@ def update(
     return definition, version, created
 
 
+MODEL_PRESET_DESCRIPTIONS = {
+    "head-neck-1dof": "the paper's model: one joint (C7/T1) and the head, de Leva (1996) 50th percentile male",
+    "head-neck-2dof": "neck link and head, joints C7/T1 and C0/C1 (parameters and sources: docs/multibody.md)",
+    "trunk-neck-head-3dof": "trunk, neck and head, joints hip, C7/T1 and C0/C1 (docs/multibody.md)",
+}
+
+
+def model_presets() -> list[dict[str, Any]]:
+    """The model presets, each as the ``model`` part of a task spec with every parameter filled in
+    (what the task editor loads when the preset is chosen)."""
+    from alcove.science.ocp.task_spec import ModelSpec
+
+    out = []
+    for key, description in MODEL_PRESET_DESCRIPTIONS.items():
+        model = ModelSpec.model_validate({"preset": key})
+        out.append({"key": key, "description": description, "ndof": model.ndof, "model": model.model_dump(mode="json")})
+    return out
+
+
 def presets() -> list[dict[str, Any]]:
     out = []
     for key, raw in TASK_PRESETS.items():

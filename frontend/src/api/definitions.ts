@@ -6,7 +6,7 @@ import { useMutation, useQuery, useQueryClient } from "@tanstack/react-query";
 import { client, unwrap } from "./client";
 import { ApiError, fieldErrors, type FieldError } from "./errors";
 import type { JsonSchema } from "../components/SchemaForm";
-import type { Oracle, OracleType, ScenarioPreview, Schemas, Share, SurrogateConfig, Task, TaskPreset, TaskSpecDraft } from "./types";
+import type { ModelPreset, Oracle, OracleType, ScenarioPreview, Schemas, Share, SurrogateConfig, Task, TaskPreset, TaskSpecDraft } from "./types";
 
 export type DefinitionKind = "task" | "oracle";
 
@@ -119,6 +119,10 @@ export function useShare(kind: DefinitionKind, id: number | null) {
 // ------------------------------------------------------------------ tasks
 export function useTaskPresets() {
   return useQuery({ queryKey: ["task-presets"], queryFn: async (): Promise<TaskPreset[]> => unwrap(await client.GET("/api/v1/tasks/presets")), staleTime: Infinity });
+}
+/** The model presets (model.preset) with every parameter: what the editor loads when one is chosen. */
+export function useModelPresets() {
+  return useQuery({ queryKey: ["model-presets"], queryFn: async (): Promise<ModelPreset[]> => unwrap(await client.GET("/api/v1/tasks/model-presets")), staleTime: Infinity });
 }
 export function useTaskSchema() {
   return useQuery({ queryKey: ["task-schema"], queryFn: async () => unwrap(await client.GET("/api/v1/tasks/schema")) as JsonSchema, staleTime: Infinity });

@@ -1108,6 +1108,27 @@ export interface paths {
         patch?: never;
         trace?: never;
     };
+    "/api/v1/tasks/model-presets": {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        /**
+         * List Model Presets
+         * @description The model presets (``model.preset``) with all their parameters: the 1-DOF head-neck model and
+         *     the n-DOF chains, each as the ``model`` of a task spec.
+         */
+        get: operations["list_model_presets"];
+        put?: never;
+        post?: never;
+        delete?: never;
+        options?: never;
+        head?: never;
+        patch?: never;
+        trace?: never;
+    };
     "/api/v1/tasks/presets": {
         parameters: {
             query?: never;
@@ -2433,6 +2454,31 @@ export interface components {
              * @description the same for the moment vector [N m]; null until evaluated
              */
             validation_moment_rmse?: number | null;
+        };
+        /**
+         * ModelPresetOut
+         * @description A model preset (``model.preset``) with every parameter filled in: the model part of a task spec.
+         */
+        ModelPresetOut: {
+            /** Description */
+            description: string;
+            /**
+             * Key
+             * @description the value of model.preset
+             */
+            key: string;
+            /**
+             * Model
+             * @description the model as a task spec holds it: the 1-DOF preset's parameters, or preset and chain
+             */
+            model: {
+                [key: string]: unknown;
+            };
+            /**
+             * Ndof
+             * @description joints of the model
+             */
+            ndof: number;
         };
         /**
          * ModelSpec
@@ -3783,6 +3829,11 @@ export interface components {
             tau: (number | null)[][];
             /** Wall Time S */
             wall_time_s: number;
+            /**
+             * Wrench
+             * @description (n, 6): the auxiliary contact's wrench on the head at the nodes, fx fy fz [N] and mx my mz [N m] about the head frame origin, in the headrest frame; null in previews made before it was recorded
+             */
+            wrench?: (number | null)[][] | null;
         };
         /**
          * TaskSpec
@@ -10172,6 +10223,89 @@ export interface operations {
                 };
                 content: {
                     "application/json": components["schemas"]["TaskOut"];
+                };
+            };
+            /** @description not authenticated (missing, invalid, expired or revoked token) */
+            401: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorOut"];
+                };
+            };
+            /** @description not allowed (admin-only route, or an object shared with you for viewing only) */
+            403: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorOut"];
+                };
+            };
+            /** @description no such object, or not visible to you */
+            404: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorOut"];
+                };
+            };
+            /** @description conflicts with the current state (e.g. a campaign transition, a duplicate) */
+            409: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorOut"];
+                };
+            };
+            /** @description request body too large */
+            413: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorOut"];
+                };
+            };
+            /** @description invalid input: field paths and reasons */
+            422: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ValidationErrorOut"];
+                };
+            };
+            /** @description database busy or unavailable: retry */
+            503: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorOut"];
+                };
+            };
+        };
+    };
+    list_model_presets: {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        requestBody?: never;
+        responses: {
+            /** @description Successful Response */
+            200: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ModelPresetOut"][];
                 };
             };
             /** @description not authenticated (missing, invalid, expired or revoked token) */

@@ -60,6 +60,7 @@ export function toPoints(metrics: SeriesRow[], iterations: IterationState[]): Me
     validation_moment_rmse: m.validation_moment_rmse ?? null,
     force_rmse_contact: m.force_rmse_contact ?? null,
     moment_rmse_contact: m.moment_rmse_contact ?? null,
+    calibration: m.calibration ?? null,
     quarantined: false,
     inherited: Boolean(m.inherited),
     ocp_trusted: m.ocp_trusted ?? null,

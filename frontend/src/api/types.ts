@@ -26,6 +26,7 @@ export type ModelVersion = Schemas["ModelVersionRead"];
 export type Task = Schemas["TaskOut"];
 export type TaskVersion = Schemas["TaskVersionOut"];
 export type TaskPreset = Schemas["TaskPresetOut"];
+export type ModelPreset = Schemas["ModelPresetOut"];
 export type ScenarioPreview = Schemas["ScenarioPreviewOut"];
 export type Oracle = Schemas["OracleOut"];
 export type OracleVersion = Schemas["OracleVersionOut"];
@@ -46,8 +47,13 @@ export type Wrench = Record<"fx" | "fy" | "fz" | "mx" | "my" | "mz", number[]>;
 export interface IterationCurves {
   iteration: number;
   t: number[];
+  /** joint angles at the samples, one row per sample (n, ndof) [rad] */
+  q: number[][];
   truth: Wrench;
+  /** the model's prediction: the ensemble mean */
   predicted: Wrench;
+  /** the ensemble's standard deviation per output; null for a single model (K = 1) */
+  std: Wrench | null;
 }
 
 /** GET .../iterations/{k}/trajectory with q, qd, tau as one array per joint (rows are time samples on the wire). */

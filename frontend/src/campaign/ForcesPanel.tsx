@@ -1,8 +1,11 @@
 import { useMemo, useState } from "react";
-import { useQueries } from "@tanstack/react-query";
+import { useQueries, useQuery } from "@tanstack/react-query";
 import type { Dash } from "plotly.js-dist-min";
 import { Plot, type Trace } from "../components/Plot";
-import { iterationQuery } from "../api/campaigns";
+import { iterationQuery, trajectoryQuery } from "../api/campaigns";
+import { useTaskVersion } from "../api/definitions";
+import { ChainPlayer } from "../components/ChainPlayer";
+import { resolveModel } from "../lib/kinematics";
 import type { IterationCurves } from "../api/types";
 import { ErrorBox, Empty, Loading } from "../components/States";
 import type { MetricPoint } from "../lib/metrics";
@@ -16,9 +19,23 @@ type Component = (typeof FORCE_COMPONENTS)[number] | (typeof MOMENT_COMPONENTS)[
 const COMPONENT_COLOR: Record<Component, string> = { fx: "#2f5bd3", fy: "#1d7a45", fz: "#d3662f", mx: "#8a3ffc", my: "#b3261e", mz: "#007d79" };
 const COMPONENT_DASH: Record<Component, Dash> = { fx: "solid", fy: "dashdot", fz: "longdash", mx: "solid", my: "solid", mz: "longdash" };
 
+/** Half-width of the ensemble band in standard deviations (the calibration metric's: mean +- 2 std). */
+export const BAND_K = 2;
+
+/** mean - k std and mean + k std, sample by sample. */
+export function band(mean: number[], std: number[], k: number): [number[], number[]] {
+  return [mean.map((m, i) => m - k * std[i]), mean.map((m, i) => m + k * std[i])];
+}
+
+/** A #rrggbb colour with an alpha, for fills. */
+export function translucent(color: string, alpha: number): string {
+  const [r, g, b] = [1, 3, 5].map((i) => Number.parseInt(color.slice(i, i + 2), 16));
+  return `rgba(${r},${g},${b},${alpha})`;
+}
+
 /**
  * The traces of the force (or moment) plot. One iteration: a colour per component, oracle
- * solid, surrogate dashed, a small legend. Several: the colour is the iteration on a sequential
+ * solid, surrogate dashed (an ensemble's mean, in a shaded band of mean ± 2 std), a small legend. Several: the colour is the iteration on a sequential
  * scale (one colorbar, no legend entry per iteration, so the plot keeps its size), the
  * component is the line style, the surrogate a thinner dotted line.
  */
@@ -28,8 +45,16 @@ export function wrenchTraces(curves: IterationCurves[], components: readonly Com
     for (const c of curves)
       for (const comp of components) {
         const color = COMPONENT_COLOR[comp];
+        const std = c.std?.[comp];
+        // the ensemble's +-2 std band around its mean, drawn first (below the lines): the lower
+        // edge, then the upper edge filled down to it
+        if (std?.length === c.t.length) {
+          const [lo, hi] = band(c.predicted[comp], std, BAND_K);
+          traces.push({ x: c.t, y: lo, name: `${comp} −2σ`, mode: "lines", type: "scatter", line: { width: 0, color }, showlegend: false, hoverinfo: "skip" });
+          traces.push({ x: c.t, y: hi, name: `${comp} surrogate ±2σ`, mode: "lines", type: "scatter", line: { width: 0, color }, fill: "tonexty", fillcolor: translucent(color, 0.18), hoverinfo: "skip" });
+        }
         traces.push({ x: c.t, y: c.truth[comp], name: `${comp} oracle`, mode: "lines", type: "scatter", line: { color, width: 2 } });
-        traces.push({ x: c.t, y: c.predicted[comp], name: `${comp} surrogate`, mode: "lines", type: "scatter", line: { color, width: 1.5, dash: "dash" } });
+        traces.push({ x: c.t, y: c.predicted[comp], name: std ? `${comp} surrogate (ensemble mean)` : `${comp} surrogate`, mode: "lines", type: "scatter", line: { color, width: 1.5, dash: "dash" } });
       }
     return traces;
   }
@@ -71,6 +96,43 @@ export function TrustBadge({ point }: { point: MetricPoint | undefined }) {
   );
 }
 
+/**
+ * The model iteration k solved with: the task version's model with the iteration's scenario
+ * values of model parameters set (strategy random-scenarios moves e.g. the headrest).
+ */
+export function iterationModel(model: Record<string, unknown> | undefined, scenario: unknown): Record<string, unknown> | undefined {
+  const values = ((scenario as { values?: Record<string, number> } | null | undefined)?.values ?? {}) as Record<string, number>;
+  const own = Object.entries(values).filter(([path]) => path.startsWith("model."));
+  if (!model || !own.length) return model;
+  const out = structuredClone(model);
+  for (const [path, value] of own) {
+    const parts = path.split(".").slice(1);
+    let node: Record<string, unknown> = out;
+    for (const part of parts.slice(0, -1)) node = (node[part] ??= {}) as Record<string, unknown>;
+    node[parts[parts.length - 1]] = value;
+  }
+  return out;
+}
+
+/** Iteration k played back: the chain moving along the replayed trajectory, the oracle's force as an arrow. */
+function IterationPlayback({ campaignId, curves, task, index, setIndex }: { campaignId: number; curves: IterationCurves; task: { id: number; version: number } | undefined; index: number; setIndex: (i: number) => void }) {
+  const version = useTaskVersion(task?.id, task?.version);
+  const trajectory = useQuery({ ...trajectoryQuery(campaignId, curves.iteration), enabled: Boolean(task) });
+  const spec = version.data?.spec as { model?: Record<string, unknown> } | undefined;
+  const scenario = trajectory.data?.scenario;
+  const chain = useMemo(() => resolveModel(iterationModel(spec?.model, scenario)), [spec, scenario]);
+  const force = useMemo(() => ({ fx: curves.truth.fx, fz: curves.truth.fz }), [curves]);
+  if (!chain || (task && trajectory.isPending)) return null;
+  return (
+    <div className="grid2" style={{ marginTop: 10 }}>
+      <ChainPlayer chain={chain} t={curves.t} q={curves.q} force={force} index={index} setIndex={setIndex} testId="iteration-player" label={`Iteration ${curves.iteration}'s motion`} />
+      <p className="hint">
+        Iteration {curves.iteration}&apos;s motion as the oracle replayed it: the chain, the head&apos;s occipital profile and the headrest cushion (the profile overlapping the cushion is how far it is pressed in); the arrow is the oracle&apos;s contact force on the head, drawn at the profile point nearest the headrest. The slider and playback move the red cursor on the force and moment plots.
+      </p>
+    </div>
+  );
+}
+
 export function ordinal(n: number): string {
   const tens = n % 100;
   const suffix = tens >= 11 && tens <= 13 ? "th" : ({ 1: "st", 2: "nd", 3: "rd" } as Record<number, string>)[n % 10] ?? "th";
@@ -84,8 +146,11 @@ export function ForcesPanel({
   setIteration,
   overlay,
   setOverlay,
+  task,
 }: {
   campaignId: number;
+  /** the campaign's task version (the model the playback draws) */
+  task?: { id: number; version: number };
   points: MetricPoint[];
   iteration: number | null;
   setIteration: (k: number) => void;
@@ -113,6 +178,12 @@ export function ForcesPanel({
   const curves = useMemo(() => loaded, [loadedKey]);
   const forceTraces = useMemo(() => wrenchTraces(curves, forceComps), [curves, forceComps]);
   const momentTraces = useMemo(() => wrenchTraces(curves, momentComps), [curves, momentComps]);
+  const hasBand = !overlaid && curves.some((c) => c.std !== null);
+  // the playback's sample, per iteration (a new iteration starts at its beginning)
+  const [played, setPlayed] = useState<{ k: number | null; index: number }>({ k: null, index: 0 });
+  const index = played.k === k ? played.index : 0;
+  const single = !overlaid && curves.length === 1 && curves[0].iteration === k ? curves[0] : null;
+  const cursor = single ? single.t[Math.min(index, single.t.length - 1)] : null;
 
   if (available.length === 0) return <Empty title="No iteration has oracle data yet">Forces appear when the first iteration's oracle step is done.</Empty>;
   const error = results.find((r) => r.isError)?.error;
@@ -212,20 +283,23 @@ export function ForcesPanel({
             <div className="toolbar" role="group" aria-label="Force components">
               {compToggle(forceComps, setForceComps, FORCE_COMPONENTS)}
             </div>
-            <Plot testId="force-plot" traces={forceTraces} xTitle="t [s]" yTitle="force [N]" exportName={`forces-k${k}`} height={300} />
+            <Plot testId="force-plot" traces={forceTraces} xTitle="t [s]" yTitle="force [N]" exportName={`forces-k${k}`} height={300} data={{ band: hasBand ? "2std" : "" }} cursorX={cursor} />
           </div>
           <div>
             <div className="toolbar" role="group" aria-label="Moment components">
               {compToggle(momentComps, setMomentComps, MOMENT_COMPONENTS)}
             </div>
-            <Plot testId="moment-plot" traces={momentTraces} xTitle="t [s]" yTitle="moment [N m]" exportName={`moments-k${k}`} height={300} />
+            <Plot testId="moment-plot" traces={momentTraces} xTitle="t [s]" yTitle="moment [N m]" exportName={`moments-k${k}`} height={300} data={{ band: hasBand ? "2std" : "" }} cursorX={cursor} />
           </div>
         </div>
       )}
+      {single && <IterationPlayback campaignId={campaignId} curves={single} task={task} index={index} setIndex={(i) => setPlayed({ k: single.iteration, index: i })} />}
       <p className="hint">
         {overlaid
           ? "Colour: iteration k (dark: early, light: late). Thick line: oracle (truth); thin dotted: surrogate model k's prediction. Components: fx solid, fy dash-dot, fz long dash (moments likewise)."
-          : "Solid: oracle (truth). Dashed: prediction of surrogate model k (trained on pool version k−1, the contact model of iteration k's OCP) on the same trajectory, data it has not seen."}{" "}
+          : `Solid: oracle (truth). Dashed: prediction of surrogate model k (trained on pool version k−1, the contact model of iteration k's OCP) on the same trajectory, data it has not seen.${
+              hasBand ? " Shaded: the ensemble's mean ± 2 standard deviations (where the members disagree, the model is not sure)." : ""
+            }`}{" "}
         Forces and moments act on the head, in the headrest frame.
       </p>
     </div>

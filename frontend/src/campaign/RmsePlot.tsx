@@ -1,4 +1,5 @@
 import { useMemo } from "react";
+import type { Layout } from "plotly.js-dist-min";
 import { Plot, type Trace } from "../components/Plot";
 import { isMarked, type MetricPoint } from "../lib/metrics";
 
@@ -69,6 +70,56 @@ export function RmsePlot({ points, logY, onSelect }: { points: MetricPoint[]; lo
       height={300}
       extraLayout={xLayout}
       data={{ iterations: own.filter((p) => p.force_rmse !== null).map((p) => p.iteration).join(","), inherited: points.filter((p) => p.inherited).map((p) => p.iteration).join(","), validation: own.filter((p) => p.validation_force_rmse != null).map((p) => p.iteration).join(",") }}
+    />
+  );
+}
+
+/** For normally distributed errors, the share inside mean +- 2 std (the calibration's nominal value). */
+export const NOMINAL_COVERAGE = 0.9545;
+
+/**
+ * The ensemble's calibration per iteration: the fraction of iteration k's oracle values that
+ * lie inside model k's mean +- 2 std (docs/concepts.md). Near the nominal 95 %: the band is
+ * honest; far below: the ensemble is over-confident. Null (K = 1) iterations are left out.
+ */
+export function calibrationTraces(points: MetricPoint[]): Trace[] {
+  const own = points.filter((p) => !isMarked(p) && !p.inherited && p.calibration != null);
+  const inherited = points.filter((p) => !isMarked(p) && p.inherited && p.calibration != null);
+  const traces: Trace[] = [];
+  if (inherited.length)
+    traces.push({ x: inherited.map((p) => p.iteration), y: inherited.map((p) => 100 * (p.calibration ?? 0)), name: "inherited", mode: "lines+markers", type: "scatter", line: { color: INHERITED }, marker: { color: INHERITED, symbol: "circle-open" } });
+  traces.push({ x: own.map((p) => p.iteration), y: own.map((p) => 100 * (p.calibration ?? 0)), name: "inside mean ± 2σ [%]", mode: "lines+markers", type: "scatter", line: { color: "#1d7a45" } });
+  return traces;
+}
+
+export function hasCalibration(points: MetricPoint[]): boolean {
+  return points.some((p) => p.calibration != null);
+}
+
+export function CalibrationPlot({ points }: { points: MetricPoint[] }) {
+  const traces = useMemo(() => calibrationTraces(points), [points]);
+  const layout = useMemo<Partial<Layout>>(
+    () => ({
+      yaxis: { title: { text: "oracle values inside mean ± 2σ [%]" }, range: [0, 102] as [number, number], zeroline: false },
+      xaxis: { title: { text: "iteration k" }, zeroline: false },
+      showlegend: false,
+      annotations: [{ xref: "paper" as const, x: 1, xanchor: "right" as const, y: 100 * NOMINAL_COVERAGE, yanchor: "bottom" as const, text: "nominal 95.4 %", showarrow: false, font: { size: 11, color: "#6b7385" } }],
+    }),
+    [],
+  );
+  const shapes = useMemo(() => [{ type: "line" as const, xref: "paper" as const, x0: 0, x1: 1, y0: 100 * NOMINAL_COVERAGE, y1: 100 * NOMINAL_COVERAGE, line: { color: "#6b7385", dash: "dot" as const, width: 1 } }], []);
+  const own = points.filter((p) => !p.inherited && p.calibration != null);
+  return (
+    <Plot
+      testId="calibration-plot"
+      traces={traces}
+      shapes={shapes}
+      xTitle="iteration k"
+      yTitle="oracle values inside mean ± 2σ [%]"
+      exportName="calibration"
+      height={300}
+      extraLayout={layout}
+      data={{ iterations: own.map((p) => p.iteration).join(",") }}
     />
   );
 }

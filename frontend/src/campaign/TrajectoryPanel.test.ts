@@ -1,5 +1,5 @@
 import { describe, expect, it } from "vitest";
-import { clipPhases, phaseShapes, phaseSpans, replayMarks, replayText, scenarioText, solverRows, trajectoryPhases } from "./TrajectoryPanel";
+import { forceOnGrid, clipPhases, phaseShapes, phaseSpans, replayMarks, replayText, scenarioText, solverRows, trajectoryPhases } from "./TrajectoryPanel";
 
 describe("phases of a trajectory", () => {
   const spans = phaseSpans([{ name: "approach", duration: 0.2 }, { name: "rest", duration: 1 }]);
@@ -90,5 +90,15 @@ describe("the scenario an iteration solved", () => {
     expect(scenarioText(null)).toBeNull();
     expect(scenarioText(undefined)).toBeNull();
     expect(scenarioText({ seed: 7, iteration: 2, slot: 0, values: {} })).toBeNull();
+  });
+});
+
+describe("the oracle's force on the OCP grid (the playback's arrow)", () => {
+  it("the replayed sample at or before each node within the replayed part, none after it", () => {
+    const curves = { t: [0, 0.05, 0.1, 0.15, 0.2], truth: { fx: [0, 0, 10, 20, 5], fy: [], fz: [0, 0, 1, 2, 0.5], mx: [], my: [], mz: [] } };
+    const f = forceOnGrid([0, 0.1, 0.12, 0.2, 0.3, 0.4], 0.2, curves)!;
+    expect(f.fx).toEqual([0, 10, 10, 5, null, null]);
+    expect(f.fz).toEqual([0, 1, 1, 0.5, null, null]);
+    expect(forceOnGrid([0, 0.1], 0.2, undefined)).toBeNull();
   });
 });

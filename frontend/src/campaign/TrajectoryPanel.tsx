@@ -1,9 +1,13 @@
-import { useMemo } from "react";
+import { useMemo, useState } from "react";
 import { useQuery } from "@tanstack/react-query";
 import type { Annotation, Layout, Shape } from "plotly.js-dist-min";
 import { Plot, type Trace } from "../components/Plot";
-import { trajectoryQuery } from "../api/campaigns";
-import type { Phase, WholeTrajectory } from "../api/types";
+import { iterationQuery, trajectoryQuery } from "../api/campaigns";
+import { useTaskVersion } from "../api/definitions";
+import { ChainPlayer, sampleAt } from "../components/ChainPlayer";
+import { resolveModel } from "../lib/kinematics";
+import { iterationModel } from "./ForcesPanel";
+import type { IterationCurves, Phase, WholeTrajectory } from "../api/types";
 import { ApiError } from "../api/errors";
 import { Empty, ErrorBox, Loading, StatusBadge } from "../components/States";
 import { fmtNumber } from "../lib/format";
@@ -123,8 +127,30 @@ export function replayText(data: Pick<WholeTrajectory, "phases" | "replay_t_end"
   return `The oracle replayed ${replayed.join(", ")} (t ≤ ${fmtNumber(data.replay_t_end, 3)} s, ${grid}).${tail}`;
 }
 
-export function TrajectoryPanel({ campaignId, iteration }: { campaignId: number; iteration: number | null }) {
+/**
+ * The oracle's contact force (fx, fz in H) at the OCP grid's times: the replayed sample at or
+ * before each time within the replayed part, none (null) after it.
+ */
+export function forceOnGrid(t: readonly number[], replayEnd: number, curves: Pick<IterationCurves, "t" | "truth"> | undefined): { fx: (number | null)[]; fz: (number | null)[] } | null {
+  if (!curves?.t.length) return null;
+  const eps = 1e-9 * Math.max(1, Math.abs(replayEnd));
+  const at = t.map((time) => (time <= replayEnd + eps ? sampleAt(curves.t, time) : -1));
+  return { fx: at.map((i) => (i < 0 ? null : curves.truth.fx[i])), fz: at.map((i) => (i < 0 ? null : curves.truth.fz[i])) };
+}
+
+export function TrajectoryPanel({ campaignId, iteration, task }: { campaignId: number; iteration: number | null; task?: { id: number; version: number } }) {
   const q = useQuery({ ...trajectoryQuery(campaignId, iteration ?? 0), enabled: iteration !== null });
+  // the playback: the task version's model (with the iteration's scenario), the oracle's force where it replayed
+  const version = useTaskVersion(task?.id, task?.version);
+  const curves = useQuery({ ...iterationQuery(campaignId, iteration ?? 0), enabled: iteration !== null && iteration > 0 });
+  const scenario = q.data?.scenario;
+  const spec = version.data?.spec as { model?: Record<string, unknown> } | undefined;
+  const chain = useMemo(() => resolveModel(iterationModel(spec?.model, scenario)), [spec, scenario]);
+  const rows = useMemo(() => (q.data ? q.data.t.map((_, i) => q.data.q.map((col) => col[i])) : []), [q.data]);
+  const force = useMemo(() => (q.data ? forceOnGrid(q.data.t, q.data.replay_t_end, curves.data) : null), [q.data, curves.data]);
+  const [played, setPlayed] = useState<{ k: number | null; index: number }>({ k: null, index: 0 });
+  const index = played.k === iteration ? played.index : 0;
+  const cursor = chain && q.data?.t.length ? q.data.t[Math.min(index, q.data.t.length - 1)] : null;
   const phases = useMemo(() => (q.data ? trajectoryPhases(q.data) : []), [q.data]);
   const marks = useMemo(() => (q.data && q.data.t.length ? replayMarks(q.data.t[0], q.data.replay_t_end) : null), [q.data]);
   const shapes = useMemo(() => [...phaseShapes(phases), ...(marks?.shapes ?? [])], [phases, marks]);
@@ -159,9 +185,17 @@ export function TrajectoryPanel({ campaignId, iteration }: { campaignId: number;
         </p>
       )}
       <div className="grid2">
-        <Plot testId="angle-plot" traces={angle} shapes={shapes} extraLayout={layout} xTitle="t [s]" yTitle="joint angle θ [rad]" exportName={`angle-k${iteration}`} height={280} />
-        <Plot testId="torque-plot" traces={torque} shapes={shapes} extraLayout={layout} xTitle="t [s]" yTitle="joint torque τ [N m]" exportName={`torque-k${iteration}`} height={280} />
+        <Plot testId="angle-plot" traces={angle} shapes={shapes} extraLayout={layout} xTitle="t [s]" yTitle="joint angle θ [rad]" exportName={`angle-k${iteration}`} height={280} cursorX={cursor} />
+        <Plot testId="torque-plot" traces={torque} shapes={shapes} extraLayout={layout} xTitle="t [s]" yTitle="joint torque τ [N m]" exportName={`torque-k${iteration}`} height={280} cursorX={cursor} />
       </div>
+      {chain && (
+        <div className="grid2" style={{ marginTop: 10 }}>
+          <ChainPlayer chain={chain} t={d.t} q={rows} force={force} index={index} setIndex={(i) => setPlayed({ k: iteration, index: i })} testId="trajectory-player" label={`Iteration ${iteration}'s OCP solution`} />
+          <p className="hint">
+            Iteration {iteration}&apos;s whole OCP solution played back: the chain, the head&apos;s occipital profile and the headrest cushion at each node; the arrow is the oracle&apos;s contact force on the head where the oracle replayed the motion (t ≤ {fmtNumber(d.replay_t_end, 3)} s). The slider and playback move the red cursor on the angle and torque plots.
+          </p>
+        </div>
+      )}
       <h3 style={{ margin: "12px 0 6px", fontSize: 14 }}>
         OCP solve <StatusBadge status={d.solver.converged ? "succeeded" : "failed"} />
       </h3>

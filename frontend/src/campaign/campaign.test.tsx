@@ -3,7 +3,7 @@ import { render, screen, waitFor, within } from "@testing-library/react";
 import userEvent from "@testing-library/user-event";
 import Plotly from "plotly.js-basic-dist-min";
 import { wrenchTraces } from "./ForcesPanel";
-import { rmseTraces } from "./RmsePlot";
+import { calibrationTraces, hasCalibration, rmseTraces } from "./RmsePlot";
 import { forkDefaults, DEFAULT_FURTHER } from "./ForkDialog";
 import { Controls } from "./Controls";
 import { progressText } from "../api/campaigns";
@@ -12,7 +12,7 @@ import type { CampaignOut, IterationCurves } from "../api/types";
 import { jsonResponse, mockApi, renderPage } from "../test/utils";
 
 const wrench = (k: number) => ({ fx: [k, k + 1], fy: [0, 0], fz: [1, 2], mx: [0, 0], my: [0.1, 0.2], mz: [0, 0] });
-const curves = (k: number): IterationCurves => ({ iteration: k, t: [0, 0.1], truth: wrench(k), predicted: wrench(k + 0.5) });
+const curves = (k: number): IterationCurves => ({ iteration: k, t: [0, 0.1], q: [[0.2], [0.3]], truth: wrench(k), predicted: wrench(k + 0.5), std: null });
 
 describe("force overlay at paper scale", () => {
   it("200 iterations: colour by iteration on one scale, one colorbar, no legend entry per iteration", () => {
@@ -32,6 +32,35 @@ describe("force overlay at paper scale", () => {
   it("one iteration: a colour per component and a small legend (oracle / surrogate)", () => {
     const traces = wrenchTraces([curves(3)], ["fx", "fz"]);
     expect(traces.map((t) => t.name)).toEqual(["fx oracle", "fx surrogate", "fz oracle", "fz surrogate"]);
+  });
+});
+
+describe("an ensemble's prediction with its spread", () => {
+  const std = { fx: [0.5, 1], fy: [0, 0], fz: [0.25, 0], mx: [0, 0], my: [0.01, 0.02], mz: [0, 0] };
+  it("one iteration: the mean dashed inside a shaded band of mean ± 2 std, drawn below the lines", () => {
+    const traces = wrenchTraces([{ ...curves(3), std }], ["fx", "fz"]);
+    expect(traces.map((t) => t.name)).toEqual(["fx −2σ", "fx surrogate ±2σ", "fx oracle", "fx surrogate (ensemble mean)", "fz −2σ", "fz surrogate ±2σ", "fz oracle", "fz surrogate (ensemble mean)"]);
+    // predicted fx = [3.5, 4.5]: the band is [3.5 - 2 * 0.5, 4.5 - 2 * 1] .. [3.5 + 1, 4.5 + 2]
+    expect(traces[0].y).toEqual([2.5, 2.5]);
+    expect(traces[1].y).toEqual([4.5, 6.5]);
+    expect(traces[1].fill).toBe("tonexty"); // filled down to the lower edge
+    expect(traces[0].showlegend).toBe(false);
+    // a zero std (fz at t = 0.1) is a band of zero width at the mean
+    expect(traces[4].y).toEqual([0.5, 2]);
+    expect(traces[5].y).toEqual([1.5, 2]);
+  });
+
+  it("a single model (K = 1) and an overlay of iterations draw no band", () => {
+    expect(wrenchTraces([curves(3)], ["fx"]).some((t) => t.fill)).toBe(false);
+    expect(wrenchTraces([{ ...curves(3), std }, { ...curves(4), std }], ["fx"]).some((t) => t.fill)).toBe(false);
+  });
+
+  it("calibration per iteration in percent, K = 1 iterations (null) left out", () => {
+    const p = (k: number, calibration: number | null) => ({ iteration: k, status: "succeeded", force_rmse: 1, moment_rmse: 0.1, quarantined: false, calibration });
+    expect(hasCalibration([p(1, null)])).toBe(false);
+    const [trace] = calibrationTraces([p(1, 0.5), p(2, null), p(3, 0.95)]);
+    expect(trace.x).toEqual([1, 3]);
+    expect(trace.y).toEqual([50, 95]);
   });
 });
 

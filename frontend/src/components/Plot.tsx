@@ -24,6 +24,17 @@ export interface PlotProps {
   extraLayout?: Partial<Layout>;
   /** extra data-* attributes for tests (e.g. {iterations: "1,2,3"} -> data-iterations) */
   data?: Record<string, string>;
+  /** a vertical cursor line at this x (a playback's time); moved without redrawing the traces */
+  cursorX?: number | null;
+}
+
+/** The vertical cursor line at x (in data x, over the whole plot height). */
+export function cursorShape(x: number): Partial<Shape> {
+  return { type: "line", xref: "x", yref: "paper", x0: x, x1: x, y0: 0, y1: 1, line: { color: "#b3261e", width: 1.5 }, layer: "above" } as Partial<Shape>;
+}
+
+function withCursor(shapes: Partial<Shape>[] | undefined, x: number | null | undefined): Partial<Shape>[] | undefined {
+  return x === null || x === undefined || !Number.isFinite(x) ? shapes : [...(shapes ?? []), cursorShape(x)];
 }
 
 /**
@@ -80,11 +91,16 @@ export function Plot({
   onPointClick,
   extraLayout,
   data,
+  cursorX,
 }: PlotProps) {
   const ref = useRef<HTMLDivElement>(null);
   const clickRef = useRef(onPointClick);
+  const cursorRef = useRef(cursorX);
+  const shapesRef = useRef(shapes);
   useEffect(() => {
     clickRef.current = onPointClick;
+    cursorRef.current = cursorX;
+    shapesRef.current = shapes;
   });
 
   useEffect(() => {
@@ -97,7 +113,7 @@ export function Plot({
       xaxis: { title: { text: xTitle ?? "" }, zeroline: false },
       yaxis: { title: { text: yTitle ?? "" }, type: logY ? "log" : "linear", exponentformat: "power", ...(logY ? logAxisTicks(traces) : {}) },
       legend: { orientation: "h", x: 0, y: 1.02, xanchor: "left", yanchor: "bottom" },
-      shapes,
+      shapes: withCursor(shapes, cursorRef.current),
       paper_bgcolor: "rgba(0,0,0,0)",
       plot_bgcolor: "#fff",
       font: { family: "system-ui, sans-serif", size: 12 },
@@ -128,6 +144,13 @@ export function Plot({
     };
   }, [traces, title, xTitle, yTitle, logY, height, shapes, exportName, extraLayout, testId]);
 
+  // the cursor alone: a relayout of the shapes once the plot is drawn (the traces stay)
+  useEffect(() => {
+    const el = ref.current;
+    if (!el || el.dataset.rendered !== "true") return;
+    void loadPlotly().then((Plotly) => Plotly.relayout(el, { shapes: withCursor(shapesRef.current, cursorX) ?? [] }));
+  }, [cursorX]);
+
   useEffect(() => {
     const el = ref.current;
     return () => {
@@ -143,6 +166,7 @@ export function Plot({
       data-traces={traces.length}
       data-points={pointCount(traces)}
       data-shapes={shapes?.length ?? 0}
+      data-cursor={cursorX === null || cursorX === undefined ? "" : String(cursorX)}
       data-log-y={logY ? "true" : "false"}
       {...Object.fromEntries(Object.entries(data ?? {}).map(([k, v]) => [`data-${k}`, v]))}
       role="img"

@@ -12,6 +12,8 @@ export interface MetricPoint {
   /** the same over the samples in contact (|F_true| > 0); null if none or not given */
   force_rmse_contact?: number | null;
   moment_rmse_contact?: number | null;
+  /** the ensemble's calibration: fraction of oracle values inside mean +- 2 std (null for K = 1) */
+  calibration?: number | null;
   /** the oracle result of this iteration failed its quality gate */
   quarantined: boolean;
   /** a fork's iteration from its source campaign (shown greyed) */

@@ -6,7 +6,7 @@ import { useCampaignLive, type Live } from "../api/live";
 import { useOracle, useTask } from "../api/definitions";
 import { isLive } from "../api/types";
 import { Empty, ErrorBox, Loading, StatusBadge } from "../components/States";
-import { RmsePlot } from "../campaign/RmsePlot";
+import { CalibrationPlot, hasCalibration, RmsePlot } from "../campaign/RmsePlot";
 import { loadPlotly } from "../components/Plot";
 import { ForcesPanel } from "../campaign/ForcesPanel";
 import { TrajectoryPanel } from "../campaign/TrajectoryPanel";
@@ -94,6 +94,12 @@ export function CampaignPage() {
           </dd>
           <dt>Moment RMSE</dt>
           <dd>{fmtNumber(c.latest_metrics?.moment_rmse)} N m</dd>
+          {c.latest_metrics?.calibration != null && (
+            <>
+              <dt title="fraction of the latest iteration's oracle values inside the ensemble's mean ± 2 std (nominal 95.4 %)">Calibration</dt>
+              <dd data-testid="latest-calibration">{fmtNumber(100 * c.latest_metrics.calibration, 3)} % inside ± 2σ</dd>
+            </>
+          )}
           <dt>Owner</dt>
           <dd>{c.owner}</dd>
           <dt>Started</dt>
@@ -147,14 +153,17 @@ export function CampaignPage() {
             {r.status === "draft" ? "Start the campaign to run its first iteration." : "The RMSE of each iteration appears here as soon as it is evaluated."}
           </Empty>
         ) : (
-          <RmsePlot
-            points={points}
-            logY={logY}
-            onSelect={(it) => {
-              // one navigation for both: the clicked iteration on the forces tab
-              if (own.some((p) => p.iteration === it)) setParams({ k: String(it), tab: null });
-            }}
-          />
+          <div className={hasCalibration(points) ? "rmse-with-calibration" : undefined}>
+            <RmsePlot
+              points={points}
+              logY={logY}
+              onSelect={(it) => {
+                // one navigation for both: the clicked iteration on the forces tab
+                if (own.some((p) => p.iteration === it)) setParams({ k: String(it), tab: null });
+              }}
+            />
+            {hasCalibration(points) && <CalibrationPlot points={points} />}
+          </div>
         )}
       </section>
       <section className="panel">
@@ -187,8 +196,8 @@ export function CampaignPage() {
           ))}
         </div>
         <div role="tabpanel" id={`panel-${tab}`} aria-labelledby={`tab-${tab}`}>
-          {tab === "forces" && <ForcesPanel campaignId={id} points={points} iteration={k} setIteration={(it) => setSelected([it])} overlay={overlay} setOverlay={setOverlay} />}
-          {tab === "trajectory" && <TrajectoryPanel campaignId={id} iteration={trajectoryK} />}
+          {tab === "forces" && <ForcesPanel campaignId={id} points={points} iteration={k} setIteration={(it) => setSelected([it])} overlay={overlay} setOverlay={setOverlay} task={{ id: c.task_id, version: c.task_version }} />}
+          {tab === "trajectory" && <TrajectoryPanel campaignId={id} iteration={trajectoryK} task={{ id: c.task_id, version: c.task_version }} />}
           {tab === "jobs" && <JobsTable campaignId={id} />}
           {tab === "versions" && <VersionsPanel campaignId={id} />}
         </div>

@@ -1,14 +1,18 @@
 import { useEffect, useMemo, useState } from "react";
 import { useNavigate, useParams } from "react-router-dom";
-import { useSaveTask, useScenarioPreview, useTask, useTaskPresets, useTaskSchema, validateTask } from "../api/definitions";
+import { useModelPresets, useSaveTask, useScenarioPreview, useTask, useTaskPresets, useTaskSchema, validateTask } from "../api/definitions";
 import { isPreviewFinal, useCreateTaskPreview, usePreview } from "../api/previews";
-import { columns, type Task, type TaskPreset, type TaskPreviewResult, type TaskSpecDraft } from "../api/types";
+import { columns, type ModelPreset, type Task, type TaskPreset, type TaskPreviewResult, type TaskSpecDraft } from "../api/types";
 import { errorMessage, type FieldError } from "../api/errors";
 import { FieldMessages, parseNumberList, SchemaForm, schemaFieldPaths, schemaLocalErrors, type JsonSchema } from "../components/SchemaForm";
 import { PhasesTable, phaseFieldPaths, phaseLocalErrors, type PhaseRow } from "../task/PhasesTable";
 import { ScenarioRanges, rangeFieldPaths, type RangeRow } from "../task/ScenarioRanges";
 import { ErrorBox, Loading } from "../components/States";
 import { Plot, type Trace } from "../components/Plot";
+import { ChainDrawing } from "../components/ChainDrawing";
+import { ChainPlayer } from "../components/ChainPlayer";
+import { ChainEditor, chainFieldPaths, chainLocalErrors } from "../task/ChainEditor";
+import { initialPose, isChainModel, oneDofAsChain, resolveModel } from "../lib/kinematics";
 import { phaseShapes } from "../campaign/TrajectoryPanel";
 import { PreviewPanel } from "../components/PreviewPanel";
 import { DefinitionEditor } from "../components/DefinitionEditor";
@@ -48,10 +52,31 @@ function jointTraces(t: number[], rows: (number | null)[][], name: string, unit:
   return cols.map((y, j) => ({ x: t, y, name: cols.length > 1 ? `${name}_${j} [${unit}]` : `${name} [${unit}]`, mode: "lines", type: "scatter" }));
 }
 
-function SolvePreview({ result, phases }: { result: TaskPreviewResult; phases: PhaseRow[] }) {
+/** Rows (time) x 6 -> the force components fx, fz in the headrest frame (null rows: gaps). */
+function forceColumns(rows: (number | null)[][] | null | undefined): { fx: (number | null)[]; fz: (number | null)[] } | null {
+  if (!rows?.length) return null;
+  return { fx: rows.map((r) => r[0]), fz: rows.map((r) => r[2]) };
+}
+
+function SolvePreview({ result, phases, model }: { result: TaskPreviewResult; phases: PhaseRow[]; model: Record<string, unknown> | undefined }) {
   const shapes = useMemo(() => phaseShapes(phaseSpans(phases)), [phases]);
   const angle = useMemo(() => jointTraces(result.t, result.q, "θ", "rad"), [result]);
   const torque = useMemo(() => jointTraces(result.t, result.tau, "τ", "N m"), [result]);
+  const force = useMemo(() => forceColumns(result.wrench), [result]);
+  const forceTraces = useMemo<Trace[]>(
+    () =>
+      force
+        ? [
+            { x: result.t, y: force.fx, name: "fx (normal) [N]", mode: "lines", type: "scatter", line: { color: "#2f5bd3" } },
+            { x: result.t, y: force.fz, name: "fz (along the surface) [N]", mode: "lines", type: "scatter", line: { color: "#d3662f", dash: "longdash" } },
+          ]
+        : [],
+    [force, result.t],
+  );
+  const chain = useMemo(() => resolveModel(model), [model]);
+  const rows = useMemo(() => result.q.map((r) => r.map((v) => v ?? Number.NaN)), [result]);
+  const [index, setIndex] = useState(0);
+  const cursor = result.t[Math.min(index, result.t.length - 1)];
   return (
     <div data-testid="solve-preview">
       <p className={result.converged ? "muted" : "error-text"} data-testid="solve-summary">
@@ -65,8 +90,16 @@ function SolvePreview({ result, phases }: { result: TaskPreviewResult; phases: P
         </span>
       </p>
       <div className="grid2">
-        <Plot testId="preview-angle" traces={angle} shapes={shapes} xTitle="t [s]" yTitle="joint angle θ [rad]" exportName="solve-angle" height={260} />
-        <Plot testId="preview-torque" traces={torque} shapes={shapes} xTitle="t [s]" yTitle="joint torque τ [N m]" exportName="solve-torque" height={260} />
+        <Plot testId="preview-angle" traces={angle} shapes={shapes} xTitle="t [s]" yTitle="joint angle θ [rad]" exportName="solve-angle" height={260} cursorX={chain ? cursor : null} />
+        <Plot testId="preview-torque" traces={torque} shapes={shapes} xTitle="t [s]" yTitle="joint torque τ [N m]" exportName="solve-torque" height={260} cursorX={chain ? cursor : null} />
+      </div>
+      <div className="grid2">
+        {chain ? (
+          <ChainPlayer chain={chain} t={result.t} q={rows} force={force} index={index} setIndex={setIndex} testId="preview-player" label="The solution" />
+        ) : (
+          <p className="muted">The model of this solution cannot be drawn (a number is missing).</p>
+        )}
+        {force && <Plot testId="preview-force" traces={forceTraces} shapes={shapes} xTitle="t [s]" yTitle="contact force on the head [N]" exportName="solve-force" height={300} cursorX={chain ? cursor : null} />}
       </div>
     </div>
   );
@@ -94,6 +127,11 @@ function TaskEditor({ existing, presets }: { existing: Task | undefined; presets
   const sample = useScenarioPreview(taskId);
   const [previewId, setPreviewId] = useState<number | null>(null);
   const preview = usePreview(previewId);
+  const modelPresets = useModelPresets();
+  // the model the previewed solution was solved with (the drawing plays it back)
+  const [solvedModel, setSolvedModel] = useState<Record<string, unknown> | undefined>(undefined);
+  // bumped when the number of joints changes: the per-joint list fields (typed text) start afresh
+  const [jointsKey, setJointsKey] = useState(0);
   const solving = solve.isPending || (previewId !== null && !isPreviewFinal(preview.data));
   const [name, setName] = useState(existing?.name ?? "");
   const [description, setDescription] = useState(existing?.description ?? "");
@@ -120,30 +158,56 @@ function TaskEditor({ existing, presets }: { existing: Task | undefined; presets
   const fullModelSchema = (root?.$defs?.ModelSpec ?? null) as JsonSchema | null;
   const preset = (spec.model as { preset?: string } | undefined)?.preset ?? "head-neck-1dof";
   // the head-neck-1dof preset has no chain: its form does not show the (empty) chain group
-  const modelSchema = useMemo(() => withoutChain(fullModelSchema, preset), [fullModelSchema, preset]);
+  const modelSchema = useMemo(() => modelFormSchema(fullModelSchema, preset), [fullModelSchema, preset]);
+  const chainModel = isChainModel(spec.model);
+  const chainSpec = useMemo(() => (chainModel ? ((spec.model?.chain ?? {}) as Record<string, unknown>) : undefined), [chainModel, spec.model]);
   const phaseSchema = (root?.$defs?.PhaseSpec ?? null) as JsonSchema | null;
   const phases = useMemo(() => (spec.phases ?? []) as PhaseRow[], [spec.phases]);
   const ranges = useMemo(() => (spec.ranges ?? []) as RangeRow[], [spec.ranges]);
   const view: ErrorView = useMemo(() => {
     const local = [
       ...(modelSchema && root ? schemaLocalErrors(modelSchema, spec.model, root, "model") : []),
+      ...chainLocalErrors(chainSpec, root),
       ...phaseLocalErrors(phases, phaseSchema, root),
       ...listProblems(spec),
     ];
-    const known = ["name", "description", "phases", ...(modelSchema && root ? schemaFieldPaths(modelSchema, root, "model") : []), ...phaseFieldPaths(phases), ...BOUNDARY_FIELDS, ...rangeFieldPaths(ranges)];
+    const known = ["name", "description", "phases", ...(modelSchema && root ? schemaFieldPaths(modelSchema, root, "model") : []), ...(chainSpec ? chainFieldPaths(chainSpec, root) : []), ...phaseFieldPaths(phases), ...BOUNDARY_FIELDS, ...rangeFieldPaths(ranges)];
     const label = (p: string) => (p === "name" ? "Name" : p === "description" ? "Description" : root ? schemaLabel(root, p) : p);
     return errorView(
       [local, specPaths(validated?.errors ?? []), specPaths(serverProblems(save.error)), specPaths(serverProblems(solve.error)), specPaths(serverProblems(sample.error))],
       known,
       label,
     );
-  }, [modelSchema, phaseSchema, root, spec, phases, ranges, validated, save.error, solve.error, sample.error]);
+  }, [modelSchema, chainSpec, phaseSchema, root, spec, phases, ranges, validated, save.error, solve.error, sample.error]);
+
+  const drawn = useMemo(() => resolveModel(spec.model), [spec.model]);
+  const initialQ = (spec.initial as { q?: unknown } | undefined)?.q;
+
+  /** A model edit; a new preset loads that preset's model (a user-defined chain starts from the model on screen). */
+  function changeModel(model: Record<string, unknown>) {
+    const next = (model.preset as string | undefined) ?? "head-neck-1dof";
+    if (next === preset) return setSpec({ ...spec, model });
+    let fresh: Record<string, unknown> | null = null;
+    if (next === "chain") fresh = chainModel ? { preset: "chain", chain: spec.model?.chain } : oneDofAsChain(spec.model ?? {});
+    else fresh = structuredClone(modelPresets.data?.find((p: ModelPreset) => p.key === next)?.model ?? null) as Record<string, unknown> | null;
+    if (!fresh) return setSpec({ ...spec, model });
+    save.reset(); // a refused save's problems concerned the other model
+    const joints = (m: Record<string, unknown> | undefined) => (isChainModel(m) ? ((m?.chain as { links?: unknown[] } | undefined)?.links?.length ?? 0) : 1);
+    setSpec(joints(fresh) === joints(spec.model) ? { ...spec, model: fresh } : withoutJointLists({ ...spec, model: fresh }));
+    if (joints(fresh) !== joints(spec.model)) setJointsKey((k) => k + 1);
+  }
 
   function solveOnce() {
     setPreviewId(null);
     // the task as it is on screen: an unsaved edit is sent along, else the saved version is solved
     const edited = JSON.stringify(spec) !== JSON.stringify(existing?.spec);
-    solve.mutate(edited ? { spec } : {}, { onSuccess: (p) => setPreviewId(p.id) });
+    const model = spec.model;
+    solve.mutate(edited ? { spec } : {}, {
+      onSuccess: (p) => {
+        setSolvedModel(model);
+        setPreviewId(p.id);
+      },
+    });
   }
 
   function previewScenarios() {
@@ -197,13 +261,28 @@ function TaskEditor({ existing, presets }: { existing: Task | undefined; presets
     >
       <section className="panel" aria-labelledby="model-title">
         <h2 id="model-title">Model</h2>
-        {modelSchema && root ? (
-          <SchemaForm schema={{ ...modelSchema, $defs: root.$defs }} value={(spec.model ?? {}) as Record<string, unknown>} onChange={(model) => setSpec({ ...spec, model })} errors={view} prefix="model" />
-        ) : schema.isPending ? (
-          <Loading />
-        ) : (
-          <p className="muted">The API offers no schema for the model; it is kept as in the preset.</p>
-        )}
+        <div className="model-with-drawing">
+          <div>
+            {modelSchema && root ? (
+              <SchemaForm schema={{ ...modelSchema, $defs: root.$defs }} value={(spec.model ?? {}) as Record<string, unknown>} onChange={changeModel} errors={view} prefix="model" />
+            ) : schema.isPending ? (
+              <Loading />
+            ) : (
+              <p className="muted">The API offers no schema for the model; it is kept as in the preset.</p>
+            )}
+          </div>
+          <div>
+            {drawn ? (
+              <ChainDrawing chain={drawn} q={initialPose(drawn, initialQ)} testId="model-drawing" label="The model at the initial pose" />
+            ) : (
+              <p className="muted" data-testid="model-drawing-missing">
+                The drawing appears when every number of the model is given.
+              </p>
+            )}
+            <p className="hint">At the initial pose (x forward to the right, z up): links and joints, the head with its occipital profile (blue), the headrest cushion (orange).</p>
+          </div>
+        </div>
+        {chainSpec && root && <ChainEditor key={`chain-${jointsKey}`} chain={chainSpec} root={root} errors={view} onChange={(chain) => setSpec({ ...spec, model: { ...spec.model, chain } })} />}
       </section>
       <section className="panel" aria-labelledby="phases-title">
         <h2 id="phases-title">Phases</h2>
@@ -211,11 +290,11 @@ function TaskEditor({ existing, presets }: { existing: Task | undefined; presets
           Running cost per phase: w_τ τᵀτ + w_T T (kinetic energy). Empty bounds use the model&apos;s joint range and torque limit. Total{" "}
           {phases.reduce((s, p) => s + (Number(p.duration) || 0), 0).toFixed(3)} s, {phases.reduce((s, p) => s + (Number(p.intervals) || 0), 0)} intervals.
         </p>
-        <PhasesTable phases={phases} onChange={(p) => setSpec({ ...spec, phases: p })} errors={view} />
+        <PhasesTable key={`phases-${jointsKey}`} phases={phases} onChange={(p) => setSpec({ ...spec, phases: p })} errors={view} />
       </section>
       <section className="panel" aria-labelledby="bc-title">
         <h2 id="bc-title">Start and end</h2>
-        <div className="row">
+        <div className="row" key={`bc-${jointsKey}`}>
           <BoundaryFields title="Initial state" value={(spec.initial ?? {}) as Record<string, unknown>} fields={["q", "qd"]} velocityOptions={["given", "free"]} errors={view} prefix="initial" onChange={(initial) => setSpec({ ...spec, initial })} />
           <BoundaryFields title="Final condition" value={(spec.final ?? {}) as Record<string, unknown>} fields={["q"]} velocityOptions={["rest", "free"]} errors={view} prefix="final" onChange={(final) => setSpec({ ...spec, final })} />
         </div>
@@ -234,7 +313,7 @@ function TaskEditor({ existing, presets }: { existing: Task | undefined; presets
         id={previewId}
         title="Solve once (auxiliary contact)"
         startError={generalFailure(solve.error) ? solve.error : undefined}
-        render={(result) => <SolvePreview result={result} phases={phases} />}
+        render={(result) => <SolvePreview result={result} phases={phases} model={solvedModel ?? spec.model} />}
       />
     </DefinitionEditor>
   );
@@ -285,11 +364,28 @@ function BoundaryFields({
   );
 }
 
-/** The model's schema without its ``chain`` group for the head-neck-1dof preset (its
- * parameters are the model's own fields; the chain must stay null). */
-function withoutChain(schema: JsonSchema | null, preset: string): JsonSchema | null {
-  if (!schema || preset !== "head-neck-1dof" || !schema.properties?.chain) return schema;
-  const properties = { ...schema.properties };
-  delete properties.chain;
-  return { ...schema, properties };
+/** The model's form: the head-neck-1dof preset's parameters (without the chain group, which
+ * must stay null), or for a chain model the preset alone (the chain editor shows the chain; the
+ * 1-DOF parameters do not apply). */
+function modelFormSchema(schema: JsonSchema | null, preset: string): JsonSchema | null {
+  if (!schema?.properties) return schema;
+  if (preset === "head-neck-1dof") {
+    const properties = { ...schema.properties };
+    delete properties.chain;
+    return { ...schema, properties };
+  }
+  return { ...schema, properties: { preset: schema.properties.preset } };
+}
+
+/** The task with every per-joint list back to its default (the number of joints changed). */
+function withoutJointLists(spec: TaskSpecDraft): TaskSpecDraft {
+  const clear = (o: unknown, keys: string[]) => (o && typeof o === "object" ? { ...(o as Record<string, unknown>), ...Object.fromEntries(keys.map((k) => [k, null])) } : o);
+  return {
+    ...spec,
+    phases: (spec.phases ?? []).map((p) => clear(p, ["q_min", "q_max", "tau_max", "target_q"])),
+    initial: clear(spec.initial, ["q", "qd"]),
+    final: clear(spec.final, ["q"]),
+    endpoint_cost: spec.endpoint_cost ? clear(spec.endpoint_cost, ["q_ref"]) : spec.endpoint_cost,
+    ranges: Array.isArray(spec.ranges) ? spec.ranges.filter((r) => !/^(initial|final)\.q/.test(String((r as { parameter?: unknown }).parameter ?? ""))) : spec.ranges,
+  };
 }

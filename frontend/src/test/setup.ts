@@ -13,6 +13,7 @@ vi.mock("plotly.js-basic-dist-min", () => ({
       el.removeAllListeners = (name: string) => void delete el.__plotly![name];
       return Promise.resolve();
     }),
+    relayout: vi.fn(() => Promise.resolve()),
     purge: vi.fn(),
     Plots: { resize: vi.fn() },
   },
