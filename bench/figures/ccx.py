@@ -7,6 +7,13 @@ paper's LS-DYNA replay takes about 180 s on a laptop. Each run prints ccx's incr
 Newton iterations, the mesh and the peak force. The second figure runs two replays at once
 (what two oracle workers do) and reports the wall time of the pair: with 2 free cores it is
 close to one replay's. Skipped where ``ccx`` is not installed; not in ``--quick``.
+
+``python -m bench.run --only "ccx mesh"``: mesh convergence at full length (the test
+``test_peak_force_at_the_default_mesh_is_within_5_percent_of_a_refined_mesh`` runs the loading
+half of the same press at 0.05 s outputs): a press of the validation suite's kind, used to tune
+nothing (``PressMotion(start=0.26, depth=0.40, speed=1.0, dwell=0.05)``, 0.575 s, outputs
+every 0.025 s, loading and unloading), at the default mesh (8 mm in the contact zone and on the
+head) and at 6 mm. The figure is the peak force's relative difference [%] (target <= 5 %).
 """
 
 from __future__ import annotations
@@ -30,7 +37,7 @@ def _setup() -> tuple[Any, Any]:
     return CcxHeadrestOracle(CcxHeadrestParams()), reference_motion()
 
 
-def _replay(oracle: Any, trajectory: Any) -> None:
+def _replay(oracle: Any, trajectory: Any) -> Any:
     result = oracle.run(trajectory)
     assert result.ok, result.failure_reason
     d = result.diagnostics
@@ -42,6 +49,7 @@ def _replay(oracle: Any, trajectory: Any) -> None:
         f"mesh {solver.get('mesh')}, peak force {solver.get('peak_force_n', 0):.1f} N, "
         f"peak moment {solver.get('peak_moment_nm', 0):.2f} N m, first contact {solver.get('first_contact_time_s')} s"
     )
+    return result
 
 
 @figure(
@@ -82,3 +90,47 @@ def ccx_two_in_parallel(ctx: Any) -> float:
                 future.result()
 
     return timed(pair)
+
+
+#: the mesh-convergence motion (a press of the validation suite's kind, used to tune nothing)
+MESH_MOTION = {"start": 0.26, "depth": 0.40, "speed": 1.0, "dwell": 0.05}
+
+
+def _mesh_setup() -> Any:
+    from alcove.science.validation_suite import PressMotion, press_trajectory
+
+    return press_trajectory(PressMotion(**MESH_MOTION), 0.025)
+
+
+@figure(
+    "ccx mesh: fe-headrest-3d-ccx peak force, default 8 mm mesh vs refined 6 mm (validation-suite press)",
+    "%",
+    target=5.0,
+    setup=_mesh_setup,
+    reps=1,
+    quick_reps=1,
+    quick=False,
+    requires=_requires,
+    group="oracle",
+    notes="|F_8mm - F_6mm| / F_6mm of the peak |F|; 0.575 s press at 0.025 s outputs; contact zone and head together",
+)
+def ccx_mesh_convergence(trajectory: Any) -> float:
+    import time
+
+    import numpy as np
+
+    from alcove.science.oracles.fe_headrest_3d import CcxHeadrestOracle, CcxHeadrestParams
+
+    peaks = {}
+    for h in (0.008, 0.006):
+        start = time.perf_counter()
+        params = CcxHeadrestParams(element_size_contact=h, head_element_size=h, output_dt=0.025)
+        result = _replay(CcxHeadrestOracle(params), trajectory)
+        peaks[h] = (
+            float(np.max(np.linalg.norm(result.forces.force, axis=1))),
+            float(np.max(np.abs(result.forces.moment[:, 1]))),
+        )
+        print(f"  {h * 1e3:.0f} mm: {time.perf_counter() - start:.0f} s wall, peak |F| {peaks[h][0]:.2f} N")
+    (f8, m8), (f6, m6) = peaks[0.008], peaks[0.006]
+    print(f"  peak |my| {m8:.3f} vs {m6:.3f} N m ({100 * abs(m8 - m6) / m6:.1f} %)")
+    return 100.0 * abs(f8 - f6) / f6
