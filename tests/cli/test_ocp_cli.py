@@ -95,6 +95,7 @@ def test_not_converged_exits_1_and_says_so(tmp_path):
         (["--contact", "model:/nonexistent.json"], "error: contact: model file"),
         (["--task", "nope"], "error: task: unknown task preset"),
         (["--task-file", "/nonexistent.json"], "error: task-file:"),
+        (["--task", "/nonexistent.json"], "error: task: /nonexistent.json does not exist"),
     ],
 )
 def test_bad_input_exits_2_naming_the_field(tmp_path, args, message):
@@ -110,6 +111,15 @@ def test_unwritable_out_is_rejected_before_solving(tmp_path, where, message):
     assert res.exit_code == 2
     assert message in res.stderr
     assert not (tmp_path / "missing").exists()
+
+
+def test_show_prints_a_chain_presets_model():
+    """`alcove ocp show TASK` prints the task with its whole model (links and joints of a chain)."""
+    res = runner.invoke(app, ["ocp", "show", "head-headrest-2dof"])
+    assert res.exit_code == 0, res.stderr
+    chain = json.loads(res.stdout)
+    assert chain["name"] == "head-headrest-2dof" and chain["model"]["preset"] == "head-neck-2dof"
+    assert len(chain["model"]["chain"]["links"]) == len(chain["model"]["chain"]["joints"]) == 2
 
 
 def test_bad_task_file_names_the_field(tmp_path):
@@ -210,12 +220,14 @@ def test_ghost_force_solution_is_flagged_untrusted(tmp_path, ghost_case):
 EXAMPLES = Path(__file__).resolve().parents[2] / "examples" / "tasks"
 
 
-def test_solve_a_task_file_with_a_chain_model(tmp_path):
-    """The 2-DOF example task solves from the CLI; the CSV has one q/qd/tau column per joint and the
-    head's pose in the headrest frame (the chain's kinematics at the joint columns)."""
+@pytest.mark.parametrize("option", ["--task-file", "--task"])
+def test_solve_a_task_file_with_a_chain_model(tmp_path, option):
+    """The 2-DOF example task solves from the CLI (``--task-file F`` or ``--task F.json``); the CSV has
+    one q/qd/tau column per joint and the head's pose in the headrest frame (the chain's kinematics
+    at the joint columns)."""
     out = tmp_path / "t.csv"
     res = runner.invoke(
-        app, ["ocp", "solve", "--task-file", str(EXAMPLES / "head-headrest-2dof.json"), "--out", str(out), "--json"]
+        app, ["ocp", "solve", option, str(EXAMPLES / "head-headrest-2dof.json"), "--out", str(out), "--json"]
     )
     assert res.exit_code == 0, res.stderr
     assert json.loads(res.stdout)["converged"]

@@ -49,6 +49,11 @@ def _load_task(task: str | None, task_file: Path | None, intervals: int | None) 
             if not task_file.exists():
                 _bad_input("task-file", f"{task_file} does not exist")
             spec = parse_task(task_file)
+        elif task is not None and task.endswith(".json"):  # --task FILE.json: a task definition file
+            path = Path(task)
+            if not path.is_file():
+                _bad_input("task", f"{task} does not exist (a task preset name or a task definition .json file)")
+            spec = parse_task(path)
         else:
             spec = task_preset(task or "head-headrest-2phase")
         if intervals is not None:
@@ -60,7 +65,9 @@ def _load_task(task: str | None, task_file: Path | None, intervals: int | None) 
 
 @app.command()
 def solve(
-    task: str = typer.Option("head-headrest-2phase", help="task preset name (ignored with --task-file)"),
+    task: str = typer.Option(
+        "head-headrest-2phase", help="task preset name, or a task definition FILE.json (ignored with --task-file)"
+    ),
     task_file: Path | None = typer.Option(None, "--task-file", help="task definition as JSON (see `alcove ocp show`)"),
     contact: str = typer.Option("aux", help="contact model: aux, none or model:FILE (a trained surrogate artifact)"),
     intervals: int | None = typer.Option(None, min=1, help="DMOCC intervals per phase (overrides the task)"),
@@ -152,8 +159,9 @@ def list_tasks() -> None:
 
 @app.command()
 def show(
+    name: str | None = typer.Argument(None, help="task preset name (as --task)"),
     task: str = typer.Option("head-headrest-2phase", help="task preset name"),
 ) -> None:
-    """Print a task preset as JSON (a starting point for --task-file)."""
-    spec = _load_task(task, None, None)
+    """Print a task preset as JSON, its model included (a starting point for --task-file)."""
+    spec = _load_task(name or task, None, None)
     typer.echo(spec.model_dump_json(indent=2))
