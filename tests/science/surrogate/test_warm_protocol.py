@@ -73,19 +73,36 @@ def test_stable_labels_hold_the_shares_in_expectation():
     assert not np.array_equal(stable_dataset_labels("sim-3.10", 50, cfg, seed=12), again)
 
 
+def test_the_split_follows_the_data_not_the_names_a_database_gives_them(grown_pool):
+    """A campaign's datasets are named ``name.<database id>``: the same campaign run in another
+    database (other ids) must split, and so train, alike. The same data under other names get the
+    same warm-start split; other data under the same names do not."""
+    from dataclasses import replace
+
+    model = train_surrogate(grown_pool[:10], ONE_EPOCH, seed=0).model
+    renamed = [replace(ds, name=f"elsewhere.{900 + i}") for i, ds in enumerate(grown_pool[:14])]
+    a = train_surrogate(grown_pool[:14], ONE_EPOCH, seed=5, warm_start=model)
+    b = train_surrogate(renamed, ONE_EPOCH, seed=5, warm_start=model)
+    for sa, sb in zip(a.splits, b.splits, strict=True):
+        np.testing.assert_array_equal(sa.sample_split, sb.sample_split)
+    assert renamed[3].content_key == grown_pool[3].content_key
+    moved = replace(grown_pool[3], force=grown_pool[3].force + 1.0)
+    assert moved.content_key != grown_pool[3].content_key
+
+
 def test_a_plan_that_leaves_no_validation_sample_starts_anew(grown_pool):
     """The plan's base datasets are gone and the stable labels of the pool's only dataset hold no
     validation sample: that plan cannot train, so the training splits as the paper does (a new plan)."""
     cfg = SurrogateConfig(test_fraction=0.0, validation_fraction=0.05, max_epochs=1, ensemble_size=1)
     pool = grown_pool[:1]
-    seed = next(s for s in range(1000) if "validation" not in stable_dataset_labels(pool[0].name, 60, cfg, s))
+    seed = next(s for s in range(1000) if "validation" not in stable_dataset_labels(pool[0].content_key, 60, cfg, s))
     gone = (("gone-a", 40), ("gone-b", 40))
     assert stable_split(pool, cfg, seed, gone) is None
     model = train_surrogate(pool, cfg, seed=0).model
     model.lineage["split"] = SplitPlan((seed,), gone, 0.0, 0.05).to_dict()
     result = train_surrogate(pool, cfg, seed=3, warm_start=model)
     assert result.model.lineage["split"]["note"].startswith("new plan: the previous plan leaves a member")
-    assert result.model.lineage["split"]["base"] == [[pool[0].name, 60]]
+    assert result.model.lineage["split"]["base"] == [[pool[0].content_key, 60]]
     np.testing.assert_array_equal(result.split.sample_split, split_pool(pool, cfg, 3).sample_split)
     assert SplitPlan.from_lineage({"split": SplitPlan((1,), gone, 0.3, 0.2).to_dict()}) == SplitPlan(
         (1,), gone, 0.3, 0.2

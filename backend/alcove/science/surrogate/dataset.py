@@ -40,11 +40,13 @@ within +-1e4 N m); errors name the column and the data row.
 from __future__ import annotations
 
 import csv
+import hashlib
 import io
 import json
 import re
 from collections.abc import Sequence
 from dataclasses import dataclass
+from functools import cached_property
 from pathlib import Path
 from typing import Literal, TypedDict
 
@@ -122,6 +124,17 @@ class PoolDataset:
             object.__setattr__(self, key, a)
         if n > 1 and np.any(np.diff(t) <= 0):
             raise PoolDataError(f"{self.name}.t", "time must increase strictly")
+
+    @cached_property
+    def content_key(self) -> str:
+        """A digest of what the dataset is (its arrays and headrest offset), not of where it is stored:
+        the same data get the same key in any database or folder (the stable warm-start split keys on it)."""
+        h = hashlib.blake2b(digest_size=16)
+        for a in (self.t, self.q, self.qd, self.force, self.moment):
+            h.update(np.ascontiguousarray(a, dtype=np.float64).tobytes())
+            h.update(str(np.shape(a)).encode())
+        h.update(repr(self.headrest_offset).encode())
+        return h.hexdigest()
 
     @property
     def n_samples(self) -> int:

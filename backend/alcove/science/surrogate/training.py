@@ -182,9 +182,11 @@ def split_pool(pool: list[PoolDataset], config: SurrogateConfig, seed: int) -> P
 class SplitPlan:
     """How a warm-started chain of trainings splits its pool (the stable split; module docstring).
 
-    ``base``: the (name, samples) of the datasets of the chain's first (cold) training, split
-    as the paper does with the member's split seed; every other dataset is split by
-    :func:`stable_dataset_labels` of its name. ``seeds``: one split seed per member.
+    ``base``: the (content key, samples) of the datasets of the chain's first (cold) training,
+    split as the paper does with the member's split seed; every other dataset is split by
+    :func:`stable_dataset_labels` of its content key (:attr:`PoolDataset.content_key`: the data,
+    not the name, which holds a database id, so a campaign splits alike in any database).
+    ``seeds``: one split seed per member.
     """
 
     seeds: tuple[int, ...]
@@ -220,12 +222,12 @@ class SplitPlan:
         return cls(seeds, base, *fractions) if seeds and base else None
 
 
-def stable_dataset_labels(name: str, n_samples: int, config: SurrogateConfig, seed: int) -> NDArray[np.object_]:
-    """The stable split of one dataset outside the base: a function of (split seed, name) only, so a
+def stable_dataset_labels(key: str, n_samples: int, config: SurrogateConfig, seed: int) -> NDArray[np.object_]:
+    """The stable split of one dataset outside the base: a function of (split seed, key) only, so a
     dataset keeps its labels in every later training of the chain. The whole dataset is test with
     probability ``test_fraction``; otherwise each sample is validation with probability
     ``validation_fraction`` (the shares hold in expectation)."""
-    digest = int.from_bytes(hashlib.blake2b(name.encode(), digest_size=8).digest(), "little")
+    digest = int.from_bytes(hashlib.blake2b(key.encode(), digest_size=8).digest(), "little")
     rng = np.random.default_rng([int(seed), 0x57AB1E, digest])
     is_test = rng.random() < config.test_fraction
     validation = rng.random(n_samples) < config.validation_fraction
@@ -243,14 +245,14 @@ def stable_split(
     check_pool(pool)
     base_labels, _ = _paper_labels([n for _, n in base], config, seed)
     offsets = np.cumsum([0] + [n for _, n in base])
-    in_base = {name: (offsets[i], n) for i, (name, n) in enumerate(base)}
+    in_base = {key: (offsets[i], n) for i, (key, n) in enumerate(base)}
     labels = []
     for ds in pool:
-        at = in_base.get(ds.name)
+        at = in_base.get(ds.content_key)
         if at is not None and at[1] == ds.n_samples:
             labels.append(base_labels[at[0] : at[0] + at[1]])
         else:
-            labels.append(stable_dataset_labels(ds.name, ds.n_samples, config, seed))
+            labels.append(stable_dataset_labels(ds.content_key, ds.n_samples, config, seed))
     sample_split = np.concatenate(labels)
     if not (np.any(sample_split == "train") and np.any(sample_split == "validation")):
         return None
@@ -328,7 +330,7 @@ def _member_splits(
             plan = SplitPlan(tuple(split_seeds), previous.base, config.test_fraction, config.validation_fraction)
             return plan, [sp for sp in stable if sp is not None], None
         note = "new plan: the previous plan leaves a member without train or validation samples in this pool"
-    base = tuple((ds.name, ds.n_samples) for ds in pool)
+    base = tuple((ds.content_key, ds.n_samples) for ds in pool)
     plan = SplitPlan(tuple(int(s) for s in seeds), base, config.test_fraction, config.validation_fraction)
     return plan, [split_pool(pool, config, s) for s in seeds], note
 
