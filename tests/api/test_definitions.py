@@ -80,7 +80,12 @@ def test_validate_reports_field_errors_without_saving(client, owner: Account) ->
 
 def test_presets_are_listed_and_copied_and_schemas_served(client, owner: Account) -> None:
     presets = client.get(f"{API}/tasks/presets", headers=owner.headers).json()
-    assert [p["key"] for p in presets] == ["head-headrest-2phase", "head-headrest-smooth", "head-headrest-scenarios"]
+    assert [p["key"] for p in presets] == [
+        "head-headrest-2phase",
+        "head-headrest-smooth",
+        "head-headrest-2dof",
+        "head-headrest-scenarios",
+    ]
     copy = client.post(f"{API}/tasks/presets/head-headrest-2phase/copy", json={"name": "mine"}, headers=owner.headers)
     assert (
         copy.status_code == 201
