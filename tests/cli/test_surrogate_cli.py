@@ -399,3 +399,88 @@ def test_compare_trains_both_architectures_and_scores_them_on_the_suite(tmp_path
     assert json.loads(Path("models/gated/surrogate.json").read_text())["architecture"]["name"] == "gated"
     result = runner.invoke(app, ["surrogate", "compare", "--pool", "pool", "--suite", "pool"])
     assert result.exit_code == 2 and "error: suite: is the pool itself" in result.output
+
+
+def test_train_and_predict_on_a_chain_pool(tmp_path):
+    """A pool of the 2-DOF task's own trajectories (OCP solutions replayed by aux-penalty, which reads
+    the head's pose): `surrogate train --task head-headrest-2dof` trains on features of the head's
+    pose, and `surrogate predict` reads a 2-joint trajectory's pose columns. The model must explain
+    the data: its force RMSE on a trajectory of the pool below a third of the force's RMS."""
+    pool = tmp_path / "pool"
+    pool.mkdir()
+    for n in (40, 50, 60, 70):
+        traj = pool / f"ocp{n}.traj.csv"
+        solved = runner.invoke(
+            app, ["ocp", "solve", "--task", "head-headrest-2dof", "--intervals", str(n), "--out", str(traj)]
+        )
+        assert solved.exit_code == 0, solved.output
+        ran = runner.invoke(
+            app,
+            [
+                "oracle",
+                "run",
+                "--oracle",
+                "aux-penalty",
+                "--trajectory",
+                str(traj),
+                "--out",
+                str(pool / f"ocp{n}.forces.csv"),
+            ],
+        )
+        assert ran.exit_code == 0, ran.output
+    (tmp_path / "cfg.json").write_text(json.dumps({"max_epochs": 300, "ensemble_size": 2, "batch_size": 128}))
+    trained = runner.invoke(
+        app,
+        [
+            "surrogate",
+            "train",
+            "--pool",
+            str(pool),
+            "--task",
+            "head-headrest-2dof",
+            "--config",
+            str(tmp_path / "cfg.json"),
+            "--out",
+            str(tmp_path / "m"),
+            "--json",
+        ],
+    )
+    assert trained.exit_code == 0, trained.output
+    assert json.loads(trained.stdout)["ensemble_size"] == 2
+    import casadi as ca
+
+    from alcove.science.surrogate.artifact import load_artifact
+    from alcove.science.surrogate.features import N_FEATURES
+
+    # a chain model's CasADi exports take the 19 features of the head's pose and give the model's mean
+    force_fn = ca.Function.load(str(tmp_path / "m" / "force.casadi"))
+    assert force_fn.name_in() == ["features"] and force_fn.size1_in(0) == N_FEATURES
+    model = load_artifact(tmp_path / "m")
+    x = model.input_norm.mean + model.input_norm.divisor * np.linspace(-1, 1, N_FEATURES)
+    mean = model.predict_ensemble(x[None, :])
+    np.testing.assert_allclose(np.asarray(force_fn(x)).ravel(), mean.force[0], rtol=0, atol=1e-10)
+    predicted = runner.invoke(
+        app,
+        [
+            "surrogate",
+            "predict",
+            "--model",
+            str(tmp_path / "m"),
+            "--trajectory",
+            str(pool / "ocp60.traj.csv"),
+            "--out",
+            str(tmp_path / "p.csv"),
+        ],
+    )
+    assert predicted.exit_code == 0, predicted.output
+    pred = np.genfromtxt(tmp_path / "p.csv", delimiter=",", names=True)
+    true = ForceSeries.from_csv(pool / "ocp60.forces.csv")
+    err = np.c_[pred["fx"], pred["fy"], pred["fz"]] - true.force
+    rms = np.sqrt(np.mean(np.sum(true.force**2, axis=1)))
+    rmse = np.sqrt(np.mean(np.sum(err**2, axis=1)))
+    assert rms > 1.0 and rmse < rms / 3, (rmse, rms)
+    # the 1-DOF command `surrogate preliminary` still refuses a chain task, naming it
+    refused = runner.invoke(
+        app, ["surrogate", "preliminary", "--out", str(tmp_path / "pre"), "--task", "head-headrest-2dof"]
+    )
+    assert refused.exit_code == 2 and "task:" in refused.output

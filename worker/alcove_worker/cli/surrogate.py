@@ -51,19 +51,34 @@ def _bad_input(field: str, reason: str) -> NoReturn:
 
 
 def _task_preset(task: str | None, task_file: Path | None) -> HeadNeckPreset:
+    preset, kinematics = _task_geometry(task, task_file)
+    if kinematics is not None:
+        _bad_input("task", "this command takes the head-neck-1dof model only so far, not a chain")
+    return preset
+
+
+def _task_geometry(task: str | None, task_file: Path | None) -> tuple[HeadNeckPreset, Any]:
+    """The task's geometry: its 1-DOF preset (the head-neck-1dof preset by default) and, for a
+    chain model, the kinematics of its contact body's pose (features from the head's pose)."""
     from alcove.science.geometry import DEFAULT_PRESET
 
     if task is None and task_file is None:
-        return DEFAULT_PRESET
+        return DEFAULT_PRESET, None
     from alcove.science.ocp.task_spec import TaskSpecError, parse_task, task_preset
 
     try:
         if task_file is not None:
             if not task_file.exists():
                 _bad_input("task-file", f"{task_file} does not exist")
-            return parse_task(task_file).preset()
-        assert task is not None  # task and task_file are not both None (returned above)
-        return task_preset(task).preset()
+            spec = parse_task(task_file)
+        else:
+            assert task is not None  # task and task_file are not both None (returned above)
+            spec = task_preset(task)
+        if not spec.model.is_chain:
+            return spec.preset(), None
+        from alcove.science.surrogate.training import pose_kinematics
+
+        return spec.model.oracle_preset(), pose_kinematics(spec.model.pose_function())
     except TaskSpecError as exc:
         _bad_input(exc.field, exc.reason)
 
@@ -129,6 +144,8 @@ class TrainingInputs:
     preset: HeadNeckPreset
     default_seed: int | None
     lineage: dict[str, Any]
+    #: a chain task's pose kinematics (None: the preset's own)
+    kinematics: Any = None
 
 
 def load_training_inputs(
@@ -148,10 +165,11 @@ def load_training_inputs(
         _bad_input("pool", "give exactly one of --pool DIR and --campaign ID")
     config_data: dict[str, Any] = {}
     default_seed: int | None = None
+    kinematics = None
     if campaign is not None:
         pool, config_data, preset, default_seed, lineage = _campaign_inputs(campaign, database_url)
     else:
-        preset = _task_preset(task, task_file)
+        preset, kinematics = _task_geometry(task, task_file)
         assert pool_dir is not None  # exactly one of --pool and --campaign (checked above)
         try:
             pool = load_pool_dir(pool_dir)
@@ -167,7 +185,7 @@ def load_training_inputs(
             config = SurrogateConfig.parse(config_data)
     except SurrogateConfigError as exc:
         _bad_input(f"config: {exc.field}", exc.reason)
-    return TrainingInputs(pool, config, preset, default_seed, lineage)
+    return TrainingInputs(pool, config, preset, default_seed, lineage, kinematics)
 
 
 def _print_metrics(metrics: dict[str, Any], out: Path) -> None:
@@ -239,7 +257,7 @@ def train(
     config, default_seed = inputs.config, inputs.default_seed
     run_seed = seed if seed is not None else (default_seed if default_seed is not None else config.seed)
     try:
-        result = train_surrogate(inputs.pool, config, run_seed, preset=inputs.preset)
+        result = train_surrogate(inputs.pool, config, run_seed, preset=inputs.preset, kinematics=inputs.kinematics)
     except PoolDataError as exc:
         _bad_input(f"pool: {exc.field}", exc.reason)
     except SurrogateConfigError as exc:
@@ -288,8 +306,16 @@ def predict(
         _bad_input(f"trajectory: {exc.field}", exc.reason)
     if not out.parent.is_dir():
         _bad_input("out", f"folder {out.parent} does not exist")
+    kinematics = None
+    if traj.q.shape[1] > 1:  # a chain: the features come from the head's pose columns of the file
+        from alcove.science.geometry import kinematics_from_pose
+
+        if traj.pose is None:
+            _bad_input("trajectory", "a trajectory of several joints must carry the head pose columns (head_x, ...)")
+        pose = traj.pose
+        kinematics = lambda _q, _qd: kinematics_from_pose(pose)  # noqa: E731
     try:
-        p = predict_ensemble(surrogate, traj.q, traj.qd)
+        p = predict_ensemble(surrogate, traj.q, traj.qd, kinematics=kinematics)
     except PoolDataError as exc:
         _bad_input(f"trajectory: {exc.field}", exc.reason)
     forces = ForceSeries(np.asarray(traj.t, float), p.force, p.moment)

@@ -90,6 +90,8 @@ def compare(
     from alcove.science.surrogate.dataset import PoolDataError, load_pool_dir, save_pool_dir
 
     inputs = load_training_inputs(pool_dir, campaign, config_file, task, task_file, database_url)
+    if inputs.kinematics is not None:
+        _bad_input("task", "surrogate compare takes the head-neck-1dof model only so far, not a chain")
     pool, config, preset, default_seed = inputs.pool, inputs.config, inputs.preset, inputs.default_seed
     if suite_dir is not None:
         try:

@@ -47,15 +47,21 @@ class ExportError(RuntimeError):
 
 
 def casadi_net_functions(model: SurrogateModel) -> dict[str, ca.Function]:
-    """File stem -> Function: ``force``, ``moment`` (mean) and, for K > 1, ``force_std``, ``moment_std``."""
-    q, qd, feats = _state_features(model, model.preset, None)
+    """File stem -> Function: ``force``, ``moment`` (mean) and, for K > 1, ``force_std``, ``moment_std``;
+    of ``(q, qd)`` for the 1-DOF preset, of the 19 ``features`` (:mod:`.features`) for a chain model."""
+    if model.ndof == 1:  # the 1-DOF preset: functions of the joint state (q, qd)
+        q, qd, feats = _state_features(model, model.preset, None)
+        inputs, names = [q, qd], ["q", "qd"]
+    else:  # a chain: functions of the 19 features of the head's pose (the chain's kinematics are the task's)
+        feats = ca.SX.sym("features", N_FEATURES)
+        inputs, names = [feats], ["features"]
     mean, var = _mean_var(member_wrenches_symbolic(model, feats))
     out: dict[str, ca.Function] = {}
     for net, rows in NETS.items():
-        out[net] = ca.Function(net, [q, qd], [mean[rows]], ["q", "qd"], [net])
+        out[net] = ca.Function(net, inputs, [mean[rows]], names, [net])
         if model.ensemble_size > 1:
             v = var[rows]
-            out[f"{net}_std"] = ca.Function(f"{net}_std", [q, qd], [ca.sqrt(v), v], ["q", "qd"], ["std", "var"])
+            out[f"{net}_std"] = ca.Function(f"{net}_std", inputs, [ca.sqrt(v), v], names, ["std", "var"])
     return out
 
 
