@@ -174,6 +174,24 @@ def test_run_refuses_bad_batch_settings_naming_the_field(store: Path, args: list
     assert bad.exit_code == 2 and field in bad.output, bad.output
 
 
+@pytest.mark.parametrize(
+    ("config", "message"),
+    [
+        ({"surrogate": {"validation_motions": 2}}, "error: surrogate.validation_motions: Extra inputs"),
+        ({"surrogate": {"ensemble_size": 0}}, "error: surrogate.ensemble_size:"),
+        ({"oracle_params": {"penalty": -1}}, "error: oracle_params.penalty:"),
+        ({"task_spec": {"phases": []}}, "error: task_spec.phases"),
+    ],
+)
+def test_a_bad_config_section_names_the_field_inside_it(store: Path, config: dict[str, Any], message: str) -> None:
+    """A bad value in a --config section is named with the section's path, and no campaign is made."""
+    cfg = store / "bad.json"
+    cfg.write_text(json.dumps(config))
+    bad = cli("run", "--no-worker", "--oracle", "aux-penalty", "-n", "1", "--config", str(cfg))
+    assert bad.exit_code == 2 and bad.output.strip().splitlines()[-1].startswith(message), bad.output
+    assert json.loads(ok("list", "--json")) == []
+
+
 def test_the_json_report_gives_each_iterations_oracle_calls_and_picked_scenarios(store: Path) -> None:
     """What `campaign run --json` prints per iteration (``follow.read_metrics``): for an
     ensemble-disagreement batch, its oracle calls and the picked scenarios with their scores and

@@ -52,9 +52,10 @@ def _find_or_create(
 
 
 def task_version_from_preset(s: Session, owner_id: int, preset: str, spec: dict[str, Any] | None = None) -> int:
-    from alcove.science.ocp.task_spec import task_preset
+    from alcove.science.ocp.task_spec import parse_task, task_preset
 
-    body = spec if spec is not None else task_preset(preset).model_dump(mode="json")
+    # a given spec is validated like the API's (TaskSpecError names the field) and stored normalised
+    body = (parse_task(spec) if spec is not None else task_preset(preset)).model_dump(mode="json")
     return _find_or_create(s, owner_id, TASKS, preset, preset, body)
 
 

@@ -67,12 +67,24 @@ def create_campaign(
     from alcove.campaigns import presets, service
     from alcove.campaigns.schemas import CampaignCreate
     from alcove.db import transaction
+    from alcove.science.errors import FieldError
+
+    def section(name: str, given: Any, make: Any) -> Any:
+        """``make()``, with a bad value's field named inside its --config section (``surrogate.x``)."""
+        try:
+            return make()
+        except FieldError as exc:
+            if given is None:  # the preset's own values: the error is not the config's
+                raise
+            field = exc.field.removeprefix("params.") if name == "oracle_params" else exc.field
+            raise FieldError(f"{name}.{field}", exc.reason) from exc
 
     def work(s: Any) -> int:
         user = presets.local_user(s)
-        tv = presets.task_version_from_preset(s, user.id, task, cfg.get("task_spec"))
-        ov = presets.oracle_version_for(s, user.id, oracle, cfg.get("oracle_params"))
-        sv = presets.surrogate_config_version_for(s, user.id, cfg.get("surrogate"))
+        spec, params, surrogate = cfg.get("task_spec"), cfg.get("oracle_params"), cfg.get("surrogate")
+        tv = section("task_spec", spec, lambda: presets.task_version_from_preset(s, user.id, task, spec))
+        ov = section("oracle_params", params, lambda: presets.oracle_version_for(s, user.id, oracle, params))
+        sv = section("surrogate", surrogate, lambda: presets.surrogate_config_version_for(s, user.id, surrogate))
         stopping = dict(cfg.get("stopping") or {})
         if iterations is not None:
             stopping["max_iterations"] = iterations
