@@ -70,21 +70,7 @@ def preliminary_pool(
     x = qmc.scale(unit, [lo, v_lo], [hi, v_hi])
     q, qd = x[:, 0], x[:, 1]
     force, moment = aux_penalty_wrench(preset, params or AuxPenaltyParams(), relative_kinematics(preset, q, qd))
-    pool = []
-    for c in range(chunks):
-        idx = np.arange(c, samples, chunks)
-        pool.append(
-            PoolDataset(
-                f"preliminary-{c:02d}",
-                np.arange(idx.size, dtype=float),
-                q[idx],
-                qd[idx],
-                force[idx],
-                moment[idx],
-                origin="preliminary",
-            )
-        )
-    return pool
+    return _chunked(q, qd, force, moment, samples, chunks)
 
 
 DEFAULT_MAX_INDENTATION = 0.010  # m
@@ -142,6 +128,13 @@ def chain_preliminary_pool(
     keep = keep[:samples]
     q, qd, poses = q[keep], qd[keep], poses[keep]
     force, moment = aux_penalty_wrench(preset, params or AuxPenaltyParams(), kinematics_from_pose(poses))
+    return _chunked(q, qd, force, moment, samples, chunks)
+
+
+def _chunked(
+    q: FloatArray, qd: FloatArray, force: FloatArray, moment: FloatArray, samples: int, chunks: int
+) -> list[PoolDataset]:
+    """The samples dealt round-robin into ``chunks`` preliminary datasets (sample i to chunk i mod chunks)."""
     pool = []
     for c in range(chunks):
         idx = np.arange(c, samples, chunks)
