@@ -4,9 +4,12 @@ create, edit or fork a campaign with them."""
 
 from __future__ import annotations
 
-from typing import Annotated, Literal
+from typing import TYPE_CHECKING, Annotated, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, ValidationInfo, field_validator, model_validator
+
+if TYPE_CHECKING:
+    from alcove.models import CampaignConfigVersion
 
 
 class _Strict(BaseModel):
@@ -260,3 +263,15 @@ class ForkRequest(_Strict):
 
 
 # ----------------------------------------------------------------------------- reads
+
+
+def config_from_version(row: CampaignConfigVersion) -> CampaignConfig:
+    """The campaign configuration a stored config version holds."""
+    return CampaignConfig.model_validate(
+        {
+            "preliminary": row.preliminary_config,
+            "stopping": row.stopping_rules,
+            "policies": row.policies,
+            "settings": row.settings,
+        }
+    )

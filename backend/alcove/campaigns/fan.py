@@ -20,7 +20,7 @@ from typing import Protocol
 from sqlalchemy.orm import Session
 
 from alcove.campaigns import repository as repo
-from alcove.campaigns.config import RunSettings
+from alcove.campaigns.config import RunSettings, config_from_version
 from alcove.campaigns.state_machine import Fan, Outcome, StepRef
 from alcove.models import Campaign, CampaignConfigVersion, Iteration, StepName, StepStatus
 
@@ -44,7 +44,6 @@ def select_picks(s: Session, c: Campaign, it: Iteration, settings: RunSettings) 
     candidates (:func:`alcove.science.ocp.acquisition.select_batch`), write the picks on their
     rows (oracle slot i replays the candidate picked i-th) and return their ocp slots. Runs once,
     in the transaction of the last candidate's completion."""
-    from alcove.campaigns.transitions import config_from_version
     from alcove.science.ocp.acquisition import select_batch
 
     cands = repo.candidates(s, it.id)

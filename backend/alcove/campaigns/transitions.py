@@ -13,6 +13,7 @@ from typing import Any
 from sqlalchemy.orm import Session
 
 from alcove.campaigns import repository as repo
+from alcove.campaigns.config import config_from_version
 from alcove.campaigns.fan import fan_state
 from alcove.campaigns.schemas import CampaignConfig, StepJob
 from alcove.campaigns.state_machine import Decision, Outcome, State, StepFinished, StepRef, transition
@@ -39,17 +40,6 @@ ATTEMPTS_FIELD = {
     StepName.evaluate: "evaluate_max_attempts",
     StepName.append: "append_max_attempts",
 }
-
-
-def config_from_version(row: CampaignConfigVersion) -> CampaignConfig:
-    return CampaignConfig.model_validate(
-        {
-            "preliminary": row.preliminary_config,
-            "stopping": row.stopping_rules,
-            "policies": row.policies,
-            "settings": row.settings,
-        }
-    )
 
 
 def current_config(s: Session, campaign: Campaign) -> CampaignConfig:
