@@ -345,12 +345,21 @@ def test_two_campaigns_sharing_one_oracle_worker_both_advance(
     holds (never two oracle jobs of one campaign queued or running), and both complete."""
     env = pg_redis_default_lease
     cids = [start(make_campaign, seed, max_concurrent_oracle_jobs=1) for seed in (41, 42)]
-    procs = [
-        start_worker(env, tmp_path / "main.log", unique("m"), queues="default,train,ocp"),
-        start_worker(env, tmp_path / "oracle.log", unique("o"), queues="oracle"),
-    ]
+    procs = [start_worker(env, tmp_path / "main.log", unique("m"), queues="default,train,ocp")]
     most = dict.fromkeys(cids, 0)
+    queued_oracle = (
+        "SELECT count(*) FROM iteration_steps WHERE campaign_id = :c AND step = 'oracle' AND status = 'queued'"
+    )
     try:
+        # the oracle worker starts once both campaigns wait on it: how fast one campaign's ocp jobs
+        # run beside the other's replays must not decide the order, only the queue's fairness
+        wait_for(
+            lambda: all(db_rows(pg_url, queued_oracle, c=cid)[0][0] >= 1 for cid in cids),
+            timeout=240,
+            what="both campaigns queue an oracle job",
+            proc=procs[0],
+        )
+        procs.append(start_worker(env, tmp_path / "oracle.log", unique("o"), queues="oracle"))
         deadline = time.monotonic() + 300
         while not all(db_rows(pg_url, ENDED, c=cid) for cid in cids):
             assert time.monotonic() < deadline, "the campaigns did not end"
