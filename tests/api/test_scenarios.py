@@ -38,6 +38,16 @@ def test_a_preview_draws_reproducible_scenarios_within_the_ranges(client, owner:
     assert bad.status_code == 422
     assert bad.json()["detail"][0]["field"] == "spec.ranges.0.high", bad.json()
     assert "joint range" in bad.json()["detail"][0]["msg"]
+    # a normal range's draft previews with its shape; a shape field the distribution does not take is named
+    shaped = {"parameter": "initial.q.0", "low": 0.15, "high": 0.3, "distribution": "normal", "mean": 0.2, "std": 0.01}
+    ok = preview(client, owner, task["id"], n=3, spec={**task["spec"], "ranges": [shaped]})
+    assert ok.status_code == 200, ok.text
+    assert ok.json()["ranges"][0]["distribution"] == "normal"
+    assert all(0.15 <= s["values"]["initial.q.0"] <= 0.3 for s in ok.json()["scenarios"])
+    bad = preview(client, owner, task["id"], n=2, spec={**task["spec"], "ranges": [{**shaped, "mode": 0.2}]})
+    assert bad.status_code == 422
+    assert bad.json()["detail"][0]["field"] == "spec.ranges.0.mode", bad.json()
+    assert "only with distribution triangular" in bad.json()["detail"][0]["msg"]
     assert preview(client, owner, task["id"], n=0).status_code == 422
     # private to who may see the task; authenticated only
     assert preview(client, other, task["id"]).status_code == 404

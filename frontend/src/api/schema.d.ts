@@ -2885,24 +2885,48 @@ export interface components {
         };
         /**
          * ParameterRange
-         * @description A uniform range of one task parameter, named by its dotted path in the task spec.
+         * @description The range of one task parameter, named by its dotted path in the task spec, and how its
+         *     values are drawn: ``uniform`` on [low, high] (the default), ``normal`` with ``mean`` and
+         *     ``std`` truncated to [low, high], or ``triangular`` on [low, high] with its peak at ``mode``.
          */
         ParameterRange: {
             /**
+             * Distribution
+             * @description how values are drawn: uniform on [low, high]; normal with mean and std, truncated to [low, high]; triangular on [low, high] peaking at mode
+             * @default uniform
+             * @enum {string}
+             */
+            distribution?: "uniform" | "normal" | "triangular";
+            /**
              * High
-             * @description upper end of the uniform range, at least low [the parameter's unit], -1e6 to 1e6 the parameter's unit; and within the parameter's own range
+             * @description upper end of the range, at least low (no value is drawn above it) [the parameter's unit], -1e6 to 1e6 the parameter's unit; and within the parameter's own range
              */
             high: number;
             /**
              * Low
-             * @description lower end of the uniform range [the parameter's unit], -1e6 to 1e6 the parameter's unit; and within the parameter's own range
+             * @description lower end of the range (no value is drawn below it) [the parameter's unit], -1e6 to 1e6 the parameter's unit; and within the parameter's own range
              */
             low: number;
+            /**
+             * Mean
+             * @description centre of the normal distribution (the parameter's unit), within [low, high]; only with distribution normal
+             */
+            mean?: number | null;
+            /**
+             * Mode
+             * @description peak of the triangular distribution (the parameter's unit), within [low, high]; only with distribution triangular
+             */
+            mode?: number | null;
             /**
              * Parameter
              * @description dotted path of the parameter in the task, e.g. initial.q.0, phases.0.duration, model.headrest_offset; one of: initial.q.{j}, initial.qd.{j}, phases.{m}.duration, phases.{m}.w_tau, phases.{m}.w_T, phases.{m}.target_q.{j}, final.q.{j}, endpoint_cost.w_q, endpoint_cost.w_qd, endpoint_cost.q_ref.{j}, model.headrest_offset
              */
             parameter: string;
+            /**
+             * Std
+             * @description standard deviation of the normal distribution before truncation (the parameter's unit), above 0; only with distribution normal
+             */
+            std?: number | null;
         };
         /** PhaseSpec */
         PhaseSpec: {
@@ -3858,7 +3882,7 @@ export interface components {
             phases: components["schemas"]["PhaseSpec"][];
             /**
              * Ranges
-             * @description scenario ranges: uniform ranges of some parameters (alcove.science.ocp.scenarios); null or empty: the task has one scenario, itself
+             * @description scenario ranges: ranges of some parameters and how their values are drawn (uniform, truncated normal or triangular; alcove.science.ocp.scenarios); null or empty: the task has one scenario, itself
              */
             ranges?: components["schemas"]["ParameterRange"][] | null;
         };

@@ -32,6 +32,25 @@ describe("scenario ranges of a task", () => {
     expect(onChange).toHaveBeenLastCalledWith(null);
   });
 
+  it("switches a range's distribution and edits its shape; back to uniform drops the shape", () => {
+    const onChange = vi.fn();
+    const { rerender } = render(<ScenarioRanges ranges={ranges} onChange={onChange} errors={view()} preview={undefined} previewing={false} onPreview={() => {}} canPreview />);
+    expect(screen.queryByLabelText("range 1 mean")).toBeNull();
+    fireEvent.change(screen.getByLabelText("range 1 distribution"), { target: { value: "normal" } });
+    const normal = onChange.mock.lastCall?.[0] as RangeRow[];
+    expect(normal[0]).toEqual({ ...ranges[0], distribution: "normal", mean: expect.closeTo(0.225, 12), std: expect.closeTo(0.025, 12) });
+    rerender(<ScenarioRanges ranges={normal} onChange={onChange} errors={view([{ field: "ranges.0.std", message: "Input should be greater than 0" }])} preview={undefined} previewing={false} onPreview={() => {}} canPreview />);
+    const std = screen.getByLabelText("range 1 std");
+    expect(std.getAttribute("aria-invalid")).toBe("true");
+    fireEvent.change(std, { target: { value: "0.05" } });
+    fireEvent.blur(std);
+    expect(onChange).toHaveBeenLastCalledWith([{ ...normal[0], std: 0.05 }, ranges[1]]);
+    fireEvent.change(screen.getByLabelText("range 1 distribution"), { target: { value: "triangular" } });
+    expect(onChange).toHaveBeenLastCalledWith([{ ...ranges[0], distribution: "triangular", mode: expect.closeTo(0.225, 12) }, ranges[1]]);
+    fireEvent.change(screen.getByLabelText("range 1 distribution"), { target: { value: "uniform" } });
+    expect(onChange).toHaveBeenLastCalledWith([ranges[0], ranges[1]]);
+  });
+
   it("shows the server's error at the range it names", () => {
     const errors = view([{ field: "ranges.0.high", message: "initial.q.0 = 0.5 is not a valid task" }]);
     render(<ScenarioRanges ranges={ranges} onChange={() => {}} errors={errors} preview={undefined} previewing={false} onPreview={() => {}} canPreview />);

@@ -1,12 +1,31 @@
-/** The task's scenario ranges (uniform ranges of some parameters) and a preview of sampled scenarios. */
+/** The task's scenario ranges (ranges of some parameters, each with how its values are drawn) and a preview of sampled scenarios. */
 import { FieldMessages, parseNumber } from "../components/SchemaForm";
 import type { ScenarioPreview } from "../api/types";
 import type { ErrorView } from "../lib/formErrors";
+
+export type Distribution = "uniform" | "normal" | "triangular";
 
 export interface RangeRow {
   parameter: string;
   low: number;
   high: number;
+  /** absent: uniform */
+  distribution?: Distribution;
+  mean?: number;
+  std?: number;
+  mode?: number;
+}
+
+/** The shape fields each distribution takes (alcove.science.ocp.scenario_ranges.ParameterRange). */
+const SHAPE_FIELDS: Record<Distribution, ("mean" | "std" | "mode")[]> = { uniform: [], normal: ["mean", "std"], triangular: ["mode"] };
+
+/** A row with another distribution: the new shape's fields start at the range's middle (and a sixth of its width as std); the old shape's are dropped. */
+export function withDistribution(r: RangeRow, distribution: Distribution): RangeRow {
+  const { mean: _m, std: _s, mode: _o, distribution: _d, ...base } = r;
+  const mid = (r.low + r.high) / 2;
+  if (distribution === "normal") return { ...base, distribution, mean: mid, std: (r.high - r.low) / 6 || 1e-3 };
+  if (distribution === "triangular") return { ...base, distribution, mode: mid };
+  return base;
 }
 
 /** The parameters a range may name (alcove.science.ocp.scenarios.PARAMETERS; i: phase, j: joint). */
@@ -26,7 +45,7 @@ export const RANGE_PARAMETERS = [
 
 /** The paths of the section's fields, for placing errors. */
 export function rangeFieldPaths(ranges: RangeRow[]): string[] {
-  return ["ranges", ...ranges.flatMap((_, i) => ["parameter", "low", "high"].map((f) => `ranges.${i}.${f}`))];
+  return ["ranges", ...ranges.flatMap((_, i) => ["parameter", "low", "high", "distribution", "mean", "std", "mode"].map((f) => `ranges.${i}.${f}`))];
 }
 
 function fmt(v: number): string {
@@ -62,8 +81,9 @@ export function ScenarioRanges({
     <section className="panel" aria-labelledby="ranges-title" data-testid="scenario-ranges">
       <h2 id="ranges-title">Scenario ranges</h2>
       <p className="hint">
-        Uniform ranges of some parameters make the task a distribution of scenarios: a campaign with the strategy random-scenarios solves a new draw every iteration (seeded by the campaign seed and the
-        iteration). No ranges: the task has one scenario, itself. Units are the parameter&apos;s (rad, rad/s, s, m).
+        Ranges of some parameters make the task a distribution of scenarios: a campaign with the strategy random-scenarios solves a new draw every iteration (seeded by the campaign seed and the
+        iteration). Values are drawn uniformly between low and high, or from a normal distribution (mean, std) truncated to them, or a triangular one peaking at its mode. No ranges: the task has one
+        scenario, itself. Units are the parameter&apos;s (rad, rad/s, s, m).
       </p>
       <datalist id="range-parameters">
         {RANGE_PARAMETERS.map((p) => (
@@ -77,12 +97,14 @@ export function ScenarioRanges({
               <th>parameter</th>
               <th>low</th>
               <th>high</th>
+              <th>distribution</th>
+              <th>shape</th>
               <th />
             </tr>
           </thead>
           <tbody>
             {ranges.map((r, i) => (
-              <tr key={`${i}:${r.parameter}:${r.low}:${r.high}`}>
+              <tr key={`${i}:${r.parameter}:${r.low}:${r.high}:${r.distribution ?? "uniform"}:${r.mean}:${r.std}:${r.mode}`}>
                 {(["parameter", "low", "high"] as const).map((f) => (
                   <td key={f}>
                     <input
@@ -95,6 +117,36 @@ export function ScenarioRanges({
                     <FieldMessages problems={errors.at(`ranges.${i}.${f}`)} />
                   </td>
                 ))}
+                <td>
+                  <select
+                    aria-label={`range ${i + 1} distribution`}
+                    value={r.distribution ?? "uniform"}
+                    onChange={(e) => onChange(ranges.map((row, k) => (k === i ? withDistribution(row, e.target.value as Distribution) : row)))}
+                    aria-invalid={errors.at(`ranges.${i}.distribution`).length > 0}
+                  >
+                    {(Object.keys(SHAPE_FIELDS) as Distribution[]).map((d) => (
+                      <option key={d} value={d}>
+                        {d}
+                      </option>
+                    ))}
+                  </select>
+                  <FieldMessages problems={errors.at(`ranges.${i}.distribution`)} />
+                </td>
+                <td>
+                  {SHAPE_FIELDS[r.distribution ?? "uniform"].map((f) => (
+                    <label key={f} className="inline">
+                      {f}{" "}
+                      <input
+                        aria-label={`range ${i + 1} ${f}`}
+                        size={7}
+                        defaultValue={Number.isFinite(r[f]) ? String(r[f]) : ""}
+                        onBlur={(e) => set(i, f, parseNumber(e.target.value))}
+                        aria-invalid={errors.at(`ranges.${i}.${f}`).length > 0}
+                      />
+                      <FieldMessages problems={errors.at(`ranges.${i}.${f}`)} />
+                    </label>
+                  ))}
+                </td>
                 <td>
                   <button type="button" onClick={() => remove(i)} aria-label={`remove range ${i + 1}`}>
                     Remove

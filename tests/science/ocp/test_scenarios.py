@@ -63,6 +63,33 @@ def test_draws_lie_within_their_ranges_and_are_uniform():
     assert d.task.preset().headrest_offset == d.values["model.headrest_offset"]
 
 
+@pytest.mark.parametrize(
+    ("shape", "reference"),
+    [
+        # normal (mean 0.2, std 0.03) truncated to [0.15, 0.30]: SciPy's truncnorm
+        (
+            {"distribution": "normal", "mean": 0.2, "std": 0.03},
+            stats.truncnorm((0.15 - 0.2) / 0.03, (0.3 - 0.2) / 0.03, 0.2, 0.03),
+        ),
+        # triangular on [0.15, 0.30] peaking at 0.25: SciPy's triang with c = (mode - low) / (high - low)
+        ({"distribution": "triangular", "mode": 0.25}, stats.triang((0.25 - 0.15) / 0.15, loc=0.15, scale=0.15)),
+    ],
+)
+def test_draws_follow_their_declared_distribution(shape, reference):
+    """300 draws of a normal (truncated) or triangular range: each inside [low, high], and the
+    sample passes a Kolmogorov-Smirnov test against the declared distribution (p > 1e-3, fixed
+    seed) while failing it against the uniform one (p < 1e-3): the shape is really used."""
+    task = parse_task(spec_with([{"parameter": "initial.q.0", "low": 0.15, "high": 0.30, **shape}]))
+    values = np.array([sc.draw(task, seed=5, iteration=k).values["initial.q.0"] for k in range(1, 301)])
+    assert values.min() >= 0.15 and values.max() <= 0.30
+    assert stats.kstest(values, reference.cdf).pvalue > 1e-3
+    assert stats.kstest(values, stats.uniform(loc=0.15, scale=0.15).cdf).pvalue < 1e-3
+    # the stored spec keeps the shape; a uniform range dumps as it did before shapes existed
+    (stored,) = task.model_dump(mode="json")["ranges"]
+    assert stored == {"parameter": "initial.q.0", "low": 0.15, "high": 0.30, **shape}
+    assert task_preset(PRESET).model_dump(mode="json")["ranges"] == TASK_PRESETS[PRESET]["ranges"]
+
+
 def test_draws_are_reproducible_per_seed_and_iteration():
     task = task_preset(PRESET)
     assert sc.draw(task, 11, 4).values == sc.draw(task, 11, 4).values
@@ -119,6 +146,36 @@ def test_a_stored_scenario_gives_back_its_task():
             "twice",
         ),
         ([{"parameter": "initial.q.0", "low": 0.2, "high": float("inf")}], "ranges.0.high", "finite"),
+        (
+            [{"parameter": "initial.q.0", "low": 0.2, "high": 0.3, "distribution": "normal", "std": 0.1}],
+            "ranges.0.mean",
+            "required with distribution normal",
+        ),
+        (
+            [{"parameter": "initial.q.0", "low": 0.2, "high": 0.3, "distribution": "normal", "mean": 0.4, "std": 0.1}],
+            "ranges.0.mean",
+            "within [low, high]",
+        ),
+        (
+            [{"parameter": "initial.q.0", "low": 0.2, "high": 0.3, "distribution": "normal", "mean": 0.25, "std": 0}],
+            "ranges.0.std",
+            "greater than 0",
+        ),
+        (
+            [{"parameter": "initial.q.0", "low": 0.2, "high": 0.3, "mode": 0.25}],
+            "ranges.0.mode",
+            "only with distribution triangular",
+        ),
+        (
+            [{"parameter": "initial.q.0", "low": 0.2, "high": 0.3, "distribution": "triangular"}],
+            "ranges.0.mode",
+            "required",
+        ),
+        (
+            [{"parameter": "initial.q.0", "low": 0.2, "high": 0.3, "distribution": "beta"}],
+            "ranges.0.distribution",
+            "uniform",
+        ),
     ],
 )
 def test_invalid_ranges_name_the_field(ranges, field, words):

@@ -6,9 +6,9 @@ from __future__ import annotations
 
 import re
 from collections.abc import Callable
-from typing import Annotated, Any
+from typing import Annotated, Any, Literal
 
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import BaseModel, ConfigDict, Field, SerializerFunctionWrapHandler, model_serializer
 
 from alcove.science.validation import quantity
 
@@ -42,8 +42,14 @@ _COMPILED = [
 PARAMETER_NAMES = list(PARAMETERS)
 
 
+#: how a range's values are drawn (alcove.science.ocp.scenarios.draw_value)
+DISTRIBUTIONS = ("uniform", "normal", "triangular")
+
+
 class ParameterRange(BaseModel):
-    """A uniform range of one task parameter, named by its dotted path in the task spec."""
+    """The range of one task parameter, named by its dotted path in the task spec, and how its
+    values are drawn: ``uniform`` on [low, high] (the default), ``normal`` with ``mean`` and
+    ``std`` truncated to [low, high], or ``triangular`` on [low, high] with its peak at ``mode``."""
 
     model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
 
@@ -59,7 +65,7 @@ class ParameterRange(BaseModel):
     low: Annotated[
         float,
         quantity(
-            "lower end of the uniform range",
+            "lower end of the range (no value is drawn below it)",
             "the parameter's unit",
             ge=-RANGE_LIMIT,
             le=RANGE_LIMIT,
@@ -69,13 +75,76 @@ class ParameterRange(BaseModel):
     high: Annotated[
         float,
         quantity(
-            "upper end of the uniform range, at least low",
+            "upper end of the range, at least low (no value is drawn above it)",
             "the parameter's unit",
             ge=-RANGE_LIMIT,
             le=RANGE_LIMIT,
             why="and within the parameter's own range",
         ),
     ]
+    distribution: Annotated[
+        Literal["uniform", "normal", "triangular"],
+        Field(
+            description="how values are drawn: uniform on [low, high]; normal with mean and std, truncated "
+            "to [low, high]; triangular on [low, high] peaking at mode"
+        ),
+    ] = "uniform"
+    mean: Annotated[
+        float | None,
+        Field(
+            ge=-RANGE_LIMIT,
+            le=RANGE_LIMIT,
+            description="centre of the normal distribution (the parameter's unit), within [low, high]; "
+            "only with distribution normal",
+        ),
+    ] = None
+    std: Annotated[
+        float | None,
+        Field(
+            gt=0,
+            le=RANGE_LIMIT,
+            description="standard deviation of the normal distribution before truncation (the parameter's "
+            "unit), above 0; only with distribution normal",
+        ),
+    ] = None
+    mode: Annotated[
+        float | None,
+        Field(
+            ge=-RANGE_LIMIT,
+            le=RANGE_LIMIT,
+            description="peak of the triangular distribution (the parameter's unit), within [low, high]; "
+            "only with distribution triangular",
+        ),
+    ] = None
+
+    @model_serializer(mode="wrap")
+    def _without_defaults(self, handler: SerializerFunctionWrapHandler) -> dict[str, Any]:
+        """A uniform range dumps as before distributions existed (parameter, low, high), so stored
+        task specs and their content hashes do not change; unused shape fields are left out."""
+        data: dict[str, Any] = handler(self)
+        if data.get("distribution") == "uniform":
+            del data["distribution"]
+        for key in ("mean", "std", "mode"):
+            if data.get(key) is None:
+                data.pop(key, None)
+        return data
+
+
+def check_distribution(r: ParameterRange) -> tuple[str, str] | None:
+    """(field, reason) if ``r``'s distribution fields do not fit together, else None (low <= high
+    is checked before)."""
+    used = {"normal": ("mean", "std"), "triangular": ("mode",), "uniform": ()}[r.distribution]
+    for key in ("mean", "std", "mode"):
+        value = getattr(r, key)
+        if key in used and value is None:
+            return key, f"required with distribution {r.distribution}"
+        if key not in used and value is not None:
+            return key, f"only with distribution {'normal' if key != 'mode' else 'triangular'}, not {r.distribution}"
+    for key in ("mean", "mode"):
+        value = getattr(r, key)
+        if value is not None and not r.low <= value <= r.high:
+            return key, f"must lie within [low, high] = [{r.low:g}, {r.high:g}], got {value:g}"
+    return None
 
 
 def describe(parameter: str) -> tuple[str, str] | None:
@@ -152,6 +221,9 @@ def check_ranges(task: Any, parse: Callable[[dict[str, Any]], Any]) -> None:
             raise ValueError(f"ranges.{i}.parameter: the initial velocity is free (left to the optimizer)")
         if not r.low <= r.high:
             raise ValueError(f"ranges.{i}.high: must be at least low ({r.high:g} < {r.low:g})")
+        problem = check_distribution(r)
+        if problem is not None:
+            raise ValueError(f"ranges.{i}.{problem[0]}: {problem[1]}")
         for end in ("low", "high"):
             value = getattr(r, end)
             data = task.model_dump()

@@ -1,7 +1,9 @@
 """Scenarios: a task as a distribution (issue 17, first increment).
 
-A task may declare uniform **ranges** for some of its numeric parameters (``TaskSpec.ranges``):
-each names the parameter by its dotted path in the task spec and gives ``low`` and ``high``.
+A task may declare **ranges** for some of its numeric parameters (``TaskSpec.ranges``): each
+names the parameter by its dotted path in the task spec, gives ``low`` and ``high`` and how values
+are drawn between them (``distribution``: ``uniform``, the default; ``normal`` with ``mean`` and
+``std``, truncated to [low, high]; ``triangular`` peaking at ``mode``).
 A **scenario** is one concrete, validated task instance: the task with every ranged parameter
 set to a value drawn from its range and no ranges left. A task without ranges has exactly one
 scenario, the task itself (the paper's case: :func:`nominal` returns the very same object).
@@ -42,6 +44,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
+from scipy.stats import truncnorm
 
 from alcove.science.ocp.scenario_ranges import PARAMETERS, ParameterRange, describe, set_value
 from alcove.science.ocp.task_spec import TaskSpec, TaskSpecError, parse_task
@@ -98,16 +101,34 @@ def generator(seed: int, iteration: int, slot: int = 0) -> np.random.Generator:
     return np.random.default_rng(np.random.SeedSequence([int(seed), int(iteration), int(slot), SALT]))
 
 
+def draw_value(r: ParameterRange, rng: np.random.Generator) -> float:
+    """One value of range ``r`` from ``rng``: uniform on [low, high]; normal (mean, std) truncated to
+    [low, high] (SciPy's ``truncnorm``, by inversion: one uniform number per draw, like the others);
+    triangular on [low, high] with its peak at ``mode``. A range with low = high gives low."""
+    if not r.high > r.low:
+        return float(r.low)
+    if r.distribution == "normal":
+        assert r.mean is not None and r.std is not None
+        a, b = (r.low - r.mean) / r.std, (r.high - r.mean) / r.std
+        value = float(truncnorm.ppf(rng.uniform(), a, b, loc=r.mean, scale=r.std))
+        return min(max(value, r.low), r.high)  # the inversion's last bit of rounding
+    if r.distribution == "triangular":
+        assert r.mode is not None
+        return float(rng.triangular(r.low, r.mode, r.high))
+    return float(rng.uniform(r.low, r.high))
+
+
 def draw(task: TaskSpec, seed: int, iteration: int, slot: int = 0) -> Scenario:
-    """Scenario ``(seed, iteration, slot)`` of ``task``: every range drawn uniformly, in the
-    order declared. A task without ranges gives its nominal spec unchanged (the same object).
+    """Scenario ``(seed, iteration, slot)`` of ``task``: every range drawn from its distribution
+    (:func:`draw_value`), in the order declared. A task without ranges gives its nominal spec
+    unchanged (the same object).
 
     Raises :class:`~alcove.science.ocp.task_spec.TaskSpecError` (field ``ranges``) if the drawn
     combination breaks a cross-field rule of the task."""
     if not task.ranges:
         return Scenario(task=task, seed=seed, iteration=iteration, slot=slot)
     rng = generator(seed, iteration, slot)
-    values = {r.parameter: float(rng.uniform(r.low, r.high)) if r.high > r.low else r.low for r in task.ranges}
+    values = {r.parameter: draw_value(r, rng) for r in task.ranges}
     try:
         concrete = apply_values(task, values)
     except TaskSpecError as exc:
@@ -140,6 +161,7 @@ __all__ = [
     "apply_values",
     "describe",
     "draw",
+    "draw_value",
     "from_json",
     "generator",
     "nominal",

@@ -367,8 +367,9 @@ class TaskSpec(_Strict):
     endpoint_cost: EndpointCost | None = None
     ranges: list[ParameterRange] | None = Field(
         None,
-        description="scenario ranges: uniform ranges of some parameters (alcove.science.ocp.scenarios); "
-        "null or empty: the task has one scenario, itself",
+        description="scenario ranges: ranges of some parameters and how their values are drawn (uniform, "
+        "truncated normal or triangular; alcove.science.ocp.scenarios); null or empty: the task has one "
+        "scenario, itself",
     )
 
     @model_validator(mode="after")
