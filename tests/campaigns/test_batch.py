@@ -353,8 +353,13 @@ def test_two_campaigns_sharing_one_oracle_worker_both_advance(
     try:
         # the oracle worker starts once both campaigns wait on it: how fast one campaign's ocp jobs
         # run beside the other's replays must not decide the order, only the queue's fairness
+        def both_wait() -> bool:
+            for cid in cids:
+                most[cid] = max(most[cid], db_rows(pg_url, queued_oracle, c=cid)[0][0])
+            return all(n >= 1 for n in most.values())
+
         wait_for(
-            lambda: all(db_rows(pg_url, queued_oracle, c=cid)[0][0] >= 1 for cid in cids),
+            both_wait,
             timeout=240,
             what="both campaigns queue an oracle job",
             proc=procs[0],
