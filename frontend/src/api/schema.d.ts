@@ -2910,7 +2910,7 @@ export interface components {
             low: number;
             /**
              * Parameter
-             * @description dotted path of the parameter in the task, e.g. initial.q.0, phases.0.duration, model.headrest_offset; one of: initial.q.{j}, initial.qd.{j}, phases.{m}.duration, phases.{m}.w_tau, phases.{m}.w_T, phases.{m}.target_q.{j}, final.q.{j}, endpoint_cost.w_q, endpoint_cost.w_qd, endpoint_cost.q_ref.{j}, model.headrest_offset
+             * @description dotted path of the parameter in the task, e.g. initial.q.0, phases.0.duration, model.headrest_offset; one of: initial.q.{j}, initial.qd.{j}, phases.{m}.duration, phases.{m}.w_tau, phases.{m}.w_T, phases.{m}.target_q.{j}, final.q.{j}, endpoint_cost.w_q, endpoint_cost.w_qd, endpoint_cost.q_ref.{j}, model.headrest_offset, model.tilt
              */
             parameter: string;
         };

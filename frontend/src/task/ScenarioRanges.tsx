@@ -22,6 +22,8 @@ export const RANGE_PARAMETERS = [
   "endpoint_cost.w_qd",
   "endpoint_cost.q_ref.0",
   "model.headrest_offset",
+  // within +-0.05 rad of the task's own tilt (MAX_TILT_DEVIATION)
+  "model.tilt",
 ];
 
 /** The paths of the section's fields, for placing errors. */
@@ -63,7 +65,7 @@ export function ScenarioRanges({
       <h2 id="ranges-title">Scenario ranges</h2>
       <p className="hint">
         Uniform ranges of some parameters make the task a distribution of scenarios: a campaign with the strategy random-scenarios solves a new draw every iteration (seeded by the campaign seed and the
-        iteration). No ranges: the task has one scenario, itself. Units are the parameter&apos;s (rad, rad/s, s, m).
+        iteration). No ranges: the task has one scenario, itself. Units are the parameter&apos;s (rad, rad/s, s, m); a headrest tilt (model.tilt) stays within ±0.05 rad of the task&apos;s own.
       </p>
       <datalist id="range-parameters">
         {RANGE_PARAMETERS.map((p) => (
