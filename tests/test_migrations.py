@@ -181,3 +181,79 @@ def test_0007_converts_stored_rmse_to_the_error_vector_definition(tmp_path) -> N
     assert frmse == pytest.approx(old_force, rel=1e-14) and mrmse == pytest.approx(old_moment, rel=1e-14)
     assert back["target_force_rmse"] == pytest.approx(2.0, rel=1e-14)
     eng.dispose()
+
+
+def test_0019_marks_earlier_validation_rows_as_calibration_not_recorded(tmp_path) -> None:
+    """A validation-suite evaluation stored before 0019 never computed the calibration: after the
+    upgrade its calibration is null with ``calibration_recorded`` false (not mistaken for a single
+    model's null, which is recorded); a row written afterwards is recorded by default."""
+    import numpy as np
+    from sqlalchemy.orm import Session
+
+    from alcove import models as m
+    from alcove.campaigns import presets, service
+    from alcove.campaigns.schemas import CampaignCreate
+    from alcove.db import arrays
+
+    url = f"sqlite:///{tmp_path / 'm.db'}"
+    migrate.upgrade(url, "head")
+    eng = make_engine(url)
+    with Session(eng) as s:
+        u = presets.local_user(s)
+        data = CampaignCreate(
+            name="old",
+            task_version_id=presets.task_version_from_preset(s, u.id, "head-headrest-2phase"),
+            oracle_version_id=presets.oracle_version_for(s, u.id, "aux-penalty"),
+            surrogate_config_version_id=presets.surrogate_config_version_for(s, u.id, None),
+        )
+        c = service.create_campaign(s, u.id, data)
+        s.flush()
+        it = m.Iteration(campaign_id=c.id, index=0, config_version_id=c.config_versions[0].id)
+        s.add(it)
+        s.flush()
+        pv = m.PoolVersion(campaign_id=c.id, iteration_id=it.id, version=0, content_hash="0" * 64)
+        s.add(pv)
+        s.flush()
+        w = arrays.put_arrays(s, {"W0": np.zeros((6, 19))})
+        common = {"campaign_id": c.id, "pool_version_id": pv.id, "seed": 1, "architecture": {}, "normalisation": {}}
+        common.update(weights_sha256=w, code_version="0", library_versions={})
+        mv_ids = []
+        for k in (1, 2):
+            mv = m.ModelVersion(version=k, **common)
+            s.add(mv)
+            s.flush()
+            mv_ids.append(mv.id)
+        suite = m.ValidationSuite(
+            oracle_version_id=data.oracle_version_id, spec_hash="0" * 64, spec={}, preset={}, n_motions=1
+        )
+        s.add(suite)
+        s.commit()
+        suite_id = suite.id
+    migrate.downgrade(url, "0018")
+    row = {
+        "suite_id": suite_id,
+        "force_rmse": 2.5,
+        "moment_rmse": 0.5,
+        "components": {},
+        "per_motion": [],
+        "n_samples": 10,
+    }
+    vm = sa.table(
+        "validation_metrics",
+        *(sa.column(k) for k in ("model_version_id", "suite_id", "force_rmse", "moment_rmse", "n_samples")),
+        sa.column("components", sa.JSON),
+        sa.column("per_motion", sa.JSON),
+    )
+    with eng.begin() as conn:
+        conn.execute(sa.insert(vm).values(model_version_id=mv_ids[0], **row))
+    migrate.upgrade(url, "head")
+    with Session(eng) as s:
+        s.add(m.ValidationMetrics(model_version_id=mv_ids[1], **row))  # today's writer (K = 1: null, recorded)
+        s.commit()
+        got = s.execute(
+            sa.select(m.ValidationMetrics.model_version_id, m.ValidationMetrics.calibration_recorded).order_by(
+                m.ValidationMetrics.model_version_id
+            )
+        ).all()
+    eng.dispose()
+    assert [tuple(r) for r in got] == [(mv_ids[0], False), (mv_ids[1], True)]

@@ -63,10 +63,12 @@ def new_campaign(
     surrogate: dict | None = None,
     start: bool = True,
     fault: dict[str, dict[str, Any]] | None = None,
+    task_spec: dict[str, Any] | None = None,
     **overrides: Any,
 ):
     """Create (and start) a quick campaign; returns (campaign id, jobs to run). ``fault``:
-    the faults its steps meet (needs the ``faults`` fixture: test processes only)."""
+    the faults its steps meet (needs the ``faults`` fixture: test processes only); ``task_spec``:
+    the task as a spec (stored under the name ``task``) instead of the preset."""
     from alcove.campaigns import presets, service
     from alcove.campaigns.schemas import CampaignCreate
     from alcove.db import transaction
@@ -82,7 +84,7 @@ def new_campaign(
         u = presets.local_user(s)
         data = CampaignCreate(
             name=cfg.pop("name", "test"),
-            task_version_id=presets.task_version_from_preset(s, u.id, task),
+            task_version_id=presets.task_version_from_preset(s, u.id, task, task_spec),
             oracle_version_id=presets.oracle_version_for(s, u.id, oracle),
             surrogate_config_version_id=presets.surrogate_config_version_for(
                 s, u.id, {**QUICK_SURROGATE, **(surrogate or {})}

@@ -12,6 +12,7 @@ from __future__ import annotations
 from datetime import timedelta
 
 import numpy as np
+import pytest
 import sqlalchemy as sa
 
 from alcove.campaigns import protocol, repository, results
@@ -95,3 +96,68 @@ def test_random_scenarios_solve_one_seeded_draw_per_iteration_and_a_rerun_draws_
     assert protocol.run_step(cid, 1, "ocp", 2)["status"] == "duplicate"
     with session_scope() as s:
         assert repository.get_iteration(s, cid, 1).scenario == stored[1]
+
+
+def test_a_tilted_headrest_scenario_is_simulated_recorded_trained_and_scored_against_its_tilt(
+    sqlite_campaign_db: str, make_campaign
+) -> None:
+    """A task that ranges the headrest tilt (model.tilt, +-0.05 rad around 0.31): the oracle
+    (aux-penalty) replays the drawn scenario against the tilted headrest (its forces are the
+    penalty law's with that tilt, 1e-9 N, and not the untilted headrest's), the dataset records
+    the tilt, the next model trains on it with the tilt, and the in-loop metrics score the model
+    against the tilted headrest."""
+    import copy
+
+    from alcove.models import IterationMetrics
+    from alcove.science.ocp import scenarios
+    from alcove.science.ocp.task_spec import TASK_PRESETS, parse_task
+    from alcove.science.surrogate.metrics import wrench_metrics
+    from alcove.science.surrogate.training import predict_ensemble
+    from alcove.surrogates.service import load_model
+
+    spec = copy.deepcopy(TASK_PRESETS[TASK])
+    # starting pressed into the cushion (first contact at 0.31 rad), so the replay is in contact
+    spec["ranges"] = [
+        {"parameter": "initial.q.0", "low": 0.37, "high": 0.40},
+        {"parameter": "model.tilt", "low": 0.26, "high": 0.36},
+    ]
+    task = parse_task(spec)
+    cid, jobs = make_campaign(
+        task=TASK, task_spec=spec, seed=2, settings={"strategy": "random-scenarios"}, stopping={"max_iterations": 1}
+    )
+    protocol.drive_inline(cid, jobs)
+    with session_scope() as s:
+        assert repository.get_campaign(s, cid).status == "completed"
+        it = repository.get_iteration(s, cid, 1)
+        tilt = it.scenario["values"]["model.tilt"]
+        assert 0.26 <= tilt <= 0.36 and abs(tilt - 0.31) > 1e-3
+        ds = pool_repo.oracle_dataset(s, it.id)
+        assert ds.meta["headrest_tilt"] == tilt and ds.meta["headrest_offset"] == 0.0
+        data = get_arrays(s, ds.content_sha256)
+        tilted = scenarios.from_json(task, it.scenario).preset()
+        assert tilted.tilt == tilt
+        kin = relative_kinematics(tilted, data["q"][:, 0], data["qd"][:, 0])
+        force, _ = aux_penalty_wrench(tilted, AuxPenaltyParams(), kin)
+        np.testing.assert_allclose(data["f"][:, :3], force, rtol=0, atol=1e-9)
+        untilted = task.preset()
+        force0, _ = aux_penalty_wrench(
+            untilted, AuxPenaltyParams(), relative_kinematics(untilted, data["q"][:, 0], data["qd"][:, 0])
+        )
+        assert np.max(np.abs(force0 - data["f"][:, :3])) > 1.0  # [N]: the other geometry is not what was simulated
+        # the pool's training dataset carries the tilt (its features are the tilted headrest's)
+        (trained,) = [
+            d for d in pool_service.load_training_pool(s, pool_repo.version_of(s, cid, 1)) if d.origin == "oracle"
+        ]
+        assert (trained.headrest_offset, trained.headrest_tilt) == (0.0, tilt)
+        # iteration 1's in-loop metrics: model 1 against the oracle data, features of the tilted headrest
+        row = s.query(IterationMetrics).filter_by(campaign_id=cid, iteration_index=1).one()
+        from alcove.models import ModelVersion
+
+        model = load_model(s, s.get(ModelVersion, row.model_version_id))
+    pred = predict_ensemble(model, data["q"], data["qd"], headrest_offset=0.0, headrest_tilt=tilt)
+    expected = wrench_metrics(np.hstack([pred.force, pred.moment]), data["f"])["force_rmse"]
+    assert row.force_rmse == pytest.approx(expected, rel=1e-12)
+    pred0 = predict_ensemble(model, data["q"], data["qd"], headrest_offset=0.0)
+    assert wrench_metrics(np.hstack([pred0.force, pred0.moment]), data["f"])["force_rmse"] != pytest.approx(
+        expected, rel=1e-6
+    )

@@ -30,6 +30,43 @@ def test_generalisation_error_is_the_vector_norm_rmse_with_structural_zeros() ->
         generalisation_error(np.zeros((2, 5)), np.zeros((2, 5)))
 
 
+def _hand_calibration_case() -> tuple[list[np.ndarray], list[np.ndarray], list[np.ndarray | None]]:
+    """Two motions, K > 1. Informative components: fx and my (fy, fz, mx, mz are 0 in every sample).
+    Motion 0 (2 samples): fx errors 1, 3 with std 1 (|e| <= 2 s: in, out); my errors 0.5, 0.5 with
+    std 0.25 (in: 0.5 <= 0.5, on the band's edge). Motion 1 (1 sample): fx error 2 with std 0.5
+    (out), my error 0 with std 0 (in). Per (sample, informative component): 4 of 6 inside."""
+    true0 = np.zeros((2, 6))
+    true0[:, 0] = (10.0, 20.0)
+    true0[:, 4] = (1.0, 2.0)
+    pred0 = true0.copy()
+    pred0[:, 0] += (1.0, -3.0)
+    pred0[:, 4] += (0.5, -0.5)
+    std0 = np.zeros((2, 6))
+    std0[:, 0], std0[:, 4] = 1.0, 0.25
+    std0[:, 1] = 5.0  # a structurally zero component's spread does not count
+    true1 = np.zeros((1, 6))
+    true1[0, 0], true1[0, 4] = 5.0, 3.0
+    pred1 = true1.copy()
+    pred1[0, 0] += 2.0
+    std1 = np.zeros((1, 6))
+    std1[0, 0] = 0.5
+    return [pred0, pred1], [true0, true1], [std0, std1]
+
+
+def test_validation_calibration_is_the_share_inside_two_std_and_null_without_spread() -> None:
+    from alcove.surrogates.validation import metrics_from_predictions
+
+    preds, trues, stds = _hand_calibration_case()
+    m = metrics_from_predictions(preds, trues, stds)
+    assert m["calibration"] == pytest.approx(4 / 6, abs=1e-15)
+    assert [p["calibration"] for p in m["per_motion"]] == pytest.approx([3 / 4, 1 / 2], abs=1e-15)
+    assert m["calibration_recorded"] is True
+    # K = 1: no std, so null (not 0, which would claim every value outside the band)
+    single = metrics_from_predictions(preds, trues, [None, None])
+    assert single["calibration"] is None and [p["calibration"] for p in single["per_motion"]] == [None, None]
+    assert single["force_rmse"] == m["force_rmse"]
+
+
 def _suite_rows(url: str, suite_id: int) -> Any:
     from tests.integration.procs import db_rows
 
@@ -42,6 +79,7 @@ def test_suite_is_shared_replayed_once_never_pooled_and_evaluates_every_model(
     campaign_db: str, make_campaign: Any
 ) -> None:
     from alcove.campaigns import protocol
+    from alcove.models import Campaign
     from alcove.oracles.validation import run_motion
     from alcove.surrogates.validation import evaluate_suite
     from tests.integration.procs import db_rows
@@ -59,13 +97,37 @@ def test_suite_is_shared_replayed_once_never_pooled_and_evaluates_every_model(
     assert [run_motion(m, "w") for m in motions] == ["succeeded"] * 3
     assert [run_motion(m, "w") for m in motions] == ["duplicate"] * 3  # a duplicate delivery does nothing
     assert db_rows(campaign_db, "SELECT status FROM validation_suites WHERE id = :s", s=suite_id) == [("complete",)]
-    assert evaluate_suite(suite_id) == 2  # model versions 1 and 2
+    # model version 1 of a: a hand-computed ensemble evaluation (calibration 4/6) through the storage path
+    from alcove.db import transaction
+    from alcove.surrogates.validation import metrics_from_predictions, store_for_model
+
+    ((mv1,),) = db_rows(campaign_db, "SELECT id FROM model_versions WHERE campaign_id = :c AND version = 1", c=a)
+    hand = metrics_from_predictions(*_hand_calibration_case())
+    assert transaction(lambda s: store_for_model(s, mv1, suite_id, hand)) is True
+    assert evaluate_suite(suite_id) == 1  # model version 2 (the campaign's own K = 2 ensemble)
     assert evaluate_suite(suite_id) == 0  # idempotent
+    cal = "SELECT mv.version, v.calibration, v.calibration_recorded FROM validation_metrics v "
+    cal += "JOIN model_versions mv ON mv.id = v.model_version_id WHERE mv.campaign_id = :c ORDER BY mv.version"
+    (v1, v2) = db_rows(campaign_db, cal, c=a)
+    assert v1 == (1, pytest.approx(4 / 6, abs=1e-15), True)
+    assert v2[0] == 2 and 0.0 <= v2[1] <= 1.0 and v2[2]
+    from alcove.campaigns.results import metrics_series
+    from alcove.campaigns.validation import validation_series
+    from alcove.db import session_scope
+
+    with session_scope() as s:
+        served = [(m.validation_calibration, m.validation_calibration_recorded) for m in metrics_series(s, a)]
+        points = validation_series(s, s.get(Campaign, a)).points
+    assert served == [(pytest.approx(4 / 6, abs=1e-15), True), (v2[1], True)]
+    assert [p.calibration for p in points] == [pytest.approx(4 / 6, abs=1e-15), v2[1]]
+    assert points[0].per_motion[0]["calibration"] == pytest.approx(3 / 4, abs=1e-15)
 
     # a second campaign with the same oracle version and suite spec shares the suite (not replayed again);
-    # its models are evaluated in their evaluate step, the suite being complete
-    b, jobs = make_campaign(seed=2, settings=settings, stopping={"max_iterations": 2})
+    # its models are evaluated in their evaluate step, the suite being complete. A single model
+    # (K = 1): no spread, so its validation calibration is stored as null (recorded), not 0
+    b, jobs = make_campaign(seed=2, settings=settings, stopping={"max_iterations": 2}, surrogate={"ensemble_size": 1})
     protocol.drive_inline(b, jobs)
+    assert db_rows(campaign_db, cal, c=b) == [(1, None, True), (2, None, True)]
     assert db_rows(campaign_db, "SELECT validation_suite_id FROM campaigns WHERE id = :c", c=b) == [(suite_id,)]
     # (the database is shared with other tests: every query is restricted to this test's objects)
     assert db_rows(campaign_db, "SELECT count(*) FROM validation_suites WHERE id > :s", s=suite_id) == [(0,)]
@@ -124,8 +186,10 @@ def test_suite_is_shared_replayed_once_never_pooled_and_evaluates_every_model(
     ]
     doc = json.loads(z.read(f"campaign-{b}/validation/suite.json"))
     assert [m["version"] for m in doc["model_versions"]] == [1, 2] and len(doc["model_versions"][0]["per_motion"]) == 3
+    assert [(m["calibration"], m["calibration_recorded"]) for m in doc["model_versions"]] == [(None, True)] * 2
     metrics = list(csv.DictReader(io.StringIO(z.read(f"campaign-{b}/metrics.csv").decode())))
     assert all(float(r["validation_force_rmse"]) > 0 for r in metrics)
+    assert [(r["validation_calibration"], r["validation_calibration_recorded"]) for r in metrics] == [("", "True")] * 2
     motion = list(csv.DictReader(io.StringIO(z.read(f"campaign-{b}/validation/motion-00.csv").decode())))
     assert {"t", "q0", "qd0", "fx", "mz"} <= set(motion[0]) and max(abs(float(r["fx"])) for r in motion) > 0
 

@@ -44,6 +44,8 @@ METRICS_COLUMNS = [
     "dataset_id",
     "validation_force_rmse",
     "validation_moment_rmse",
+    "validation_calibration",
+    "validation_calibration_recorded",
 ]
 
 

@@ -6,6 +6,8 @@ from __future__ import annotations
 
 from pydantic import BaseModel, Field
 
+from alcove.science.surrogate.metrics import DESCRIPTIONS
+
 
 class TrustRead(BaseModel):
     """Where the surrogate's OCP solution of the iteration can be trusted (alcove.science.surrogate.trust),
@@ -60,7 +62,18 @@ class ValidationPoint(BaseModel):
     force_rmse: float = Field(description="sqrt(mean_i |F_pred,i - F_true,i|^2) over all samples of all motions [N]")
     moment_rmse: float = Field(description="the same for the moment vector [N m]")
     components: dict[str, float] = Field(description="RMSE of each component fx..mz [N, N m]")
-    per_motion: list[dict[str, float]] = Field(description="force_rmse, moment_rmse, n_samples of each motion")
+    calibration: float | None = Field(
+        None,
+        description=DESCRIPTIONS["calibration"] + "; over all samples of all motions; null also when not recorded",
+    )
+    calibration_recorded: bool = Field(
+        True,
+        description="false: evaluated before migration 0019, which did not compute the calibration (its null does "
+        "not mean K = 1)",
+    )
+    per_motion: list[dict[str, float | None]] = Field(
+        description="force_rmse, moment_rmse, calibration (evaluations since migration 0019), n_samples of each motion"
+    )
 
 
 class ValidationSeries(BaseModel):

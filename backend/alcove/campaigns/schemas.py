@@ -174,6 +174,17 @@ class MetricsRead(_Read):
     validation_components: dict[str, float] | None = Field(
         None, description="RMSE of each component fx..mz on the validation suite [N, N m]"
     )
+    validation_calibration: float | None = Field(
+        None,
+        description=DESCRIPTIONS["calibration"]
+        + "; of model k on all samples of all motions of the held-out validation "
+        "suite; null until evaluated or when not recorded (validation_calibration_recorded)",
+    )
+    validation_calibration_recorded: bool | None = Field(
+        None,
+        description="false: the validation suite evaluation predates migration 0019 and did not compute the "
+        "calibration (its null does not mean K = 1); null until evaluated",
+    )
     extra: dict[str, Any] | None = Field(
         None, description="software versions, per-component RMSE, step timings (only with ?extra=true on the series)"
     )

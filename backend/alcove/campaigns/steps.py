@@ -55,6 +55,7 @@ from alcove.oracles import validation as oracle_validation
 from alcove.pool import repository as pool_repo
 from alcove.pool import steps as pool_steps
 from alcove.science.ocp import acquisition
+from alcove.science.ocp.scenario_ranges import TILT_PARAMETER
 from alcove.science.ocp.scenarios import Scenario, from_json
 from alcove.solving import repository as solving_repo
 from alcove.solving import steps as solving_steps
@@ -259,6 +260,8 @@ def oracle(ctx: StepContext) -> StepOutput:
             # the scenario the OCP solved (stored with the iteration): its headrest is the oracle's
             task, solution_id, sha = from_json(ctx.task(s, c), stored), sol.id, sol.trajectory_sha256
             scenario = stored is not None
+            # a drawn headrest tilt is recorded with the dataset (its features are relative to it)
+            record_tilt = scenario and TILT_PARAMETER in ((stored or {}).get("values") or {})
         ctx.before_compute()
         settings = ctx.config.settings
         out = oracle_steps.replay(
@@ -270,6 +273,7 @@ def oracle(ctx: StepContext) -> StepOutput:
             replay_phases=settings.replay_phases,
             replay_dt=settings.replay_dt,
             scenario=scenario,
+            record_tilt=record_tilt,
         )
     except UnusableResult as err:
         raise UnusableResult(err.reason, _counting_oracle_time(err.write)) from None

@@ -46,6 +46,8 @@ def with_validation(s: Session, rows: list[MetricsRead]) -> list[MetricsRead]:
                     "validation_force_rmse": v.force_rmse,
                     "validation_moment_rmse": v.moment_rmse,
                     "validation_components": dict(v.components),
+                    "validation_calibration": v.calibration,
+                    "validation_calibration_recorded": v.calibration_recorded,
                 }
             )
         )
@@ -93,6 +95,8 @@ def validation_series(s: Session, campaign: Campaign) -> ValidationSeries:
                 force_rmse=v.force_rmse,
                 moment_rmse=v.moment_rmse,
                 components=dict(v.components),
+                calibration=v.calibration,
+                calibration_recorded=v.calibration_recorded,
                 per_motion=list(v.per_motion),
             )
             for k, v in rows
@@ -143,6 +147,8 @@ def validation_files(s: Session, campaign: Campaign) -> dict[str, bytes]:
                 "force_rmse": v.force_rmse,
                 "moment_rmse": v.moment_rmse,
                 "components": v.components,
+                "calibration": v.calibration,
+                "calibration_recorded": v.calibration_recorded,
                 "per_motion": v.per_motion,
                 "n_samples": v.n_samples,
             }

@@ -100,6 +100,14 @@ class ValidationMetrics(Base):
     force_rmse: Mapped[float] = mapped_column(sa.Float, comment="N: sqrt(mean |F_pred - F_true|^2) over all samples")
     moment_rmse: Mapped[float] = mapped_column(sa.Float, comment="N m: the same for the moment vector")
     components: Mapped[dict[str, Any]] = mapped_column(comment="RMSE per component fx..mz")
+    calibration: Mapped[float | None] = mapped_column(
+        sa.Float, comment="share of oracle values within mean +- 2 std; null for K = 1 or when not recorded"
+    )
+    calibration_recorded: Mapped[bool] = mapped_column(
+        default=True,
+        server_default=sa.true(),
+        comment="false: evaluated before migration 0019, when the calibration was not computed (null, not 'K = 1')",
+    )
     per_motion: Mapped[list[Any]] = mapped_column(comment="force and moment RMSE per motion, in suite order")
     n_samples: Mapped[int]
     created_at: Mapped[datetime] = mapped_column(default=utcnow, server_default=sa.func.now())

@@ -63,11 +63,13 @@ def replay(
     replay_phases: int,
     replay_dt: float | None,
     scenario: bool = False,
+    record_tilt: bool = False,
 ) -> StepOutput:
     """Replay the first ``replay_phases`` phases of the solution in the oracle. A result
     that passes the quality gate becomes the iteration's dataset; one that does not is
     quarantined with its reason (:class:`UnusableResult`). ``scenario``: ``task`` is a scenario
-    drawn from the campaign's task (its dataset records the scenario's headrest offset)."""
+    drawn from the campaign's task (its dataset records the scenario's headrest offset and, with
+    ``record_tilt`` (the scenario drew ``model.tilt``), its headrest tilt)."""
     from alcove.science.ocp.replay import replay_trajectory
 
     with session_scope() as s:
@@ -75,7 +77,9 @@ def replay(
         arrays = get_arrays(s, trajectory_sha256)
     traj = replay_trajectory(arrays, task, replay_phases, replay_dt)
     # a scenario's headrest: the features of these samples are relative to it (None: the task's own)
-    headrest = {"headrest_offset": task.model.headrest_offset} if scenario else {}
+    headrest: dict[str, float] = {"headrest_offset": task.model.headrest_offset} if scenario else {}
+    if scenario and record_tilt:
+        headrest["headrest_tilt"] = task.model.tilt
     tau = traj.tau
     assert tau is not None  # replay_trajectory always carries the solution's torques
     started = utcnow()

@@ -48,13 +48,15 @@ def member_summaries(s: Session, pool_version_id: int) -> list[tuple[int, str, i
 
 def content_key(sha256: str, meta: dict[str, Any] | None) -> str:
     """What a dataset contributes to its pool version's content hash: its arrays' hash and, for a
-    scenario's moved headrest, the offset (the features are computed against it, so equal arrays
-    with different offsets are different training data). Datasets without an offset keep the
-    bare array hash, so the hashes of pools stored before offsets existed do not change."""
+    scenario's moved headrest, the offset and the recorded tilt (the features are computed against
+    them, so equal arrays with different headrests are different training data). Datasets without
+    an offset or tilt keep the bare array hash, so the hashes of pools stored before offsets
+    existed do not change."""
     offset = (meta or {}).get("headrest_offset")
-    if offset is None or float(offset) == 0.0:
-        return sha256
-    return f"{sha256}@headrest_offset={float(offset)!r}"
+    tilt = (meta or {}).get("headrest_tilt")
+    key = sha256 if offset is None or float(offset) == 0.0 else f"{sha256}@headrest_offset={float(offset)!r}"
+    # a recorded tilt (a scenario that drew model.tilt) always counts: there is no tilt that means "as before"
+    return key if tilt is None else f"{key}@headrest_tilt={float(tilt)!r}"
 
 
 def added_members(s: Session, pool_version_id: int) -> list[Dataset]:

@@ -140,6 +140,7 @@ def _training_dataset(s: Session, d: Dataset) -> PoolDataset:
     a = dataset_arrays(s, d)
     origin = d.origin if d.origin in ("preliminary", "oracle", "upload") else "oracle"
     offset = (d.meta or {}).get("headrest_offset")  # a scenario's moved headrest (issue 17)
+    tilt = (d.meta or {}).get("headrest_tilt")  # and its tilt, where the scenario drew it
     return PoolDataset(
         _pool_name(d),
         a["t"],
@@ -149,6 +150,7 @@ def _training_dataset(s: Session, d: Dataset) -> PoolDataset:
         a["f"][:, 3:],
         origin,
         headrest_offset=None if offset is None else float(offset),
+        headrest_tilt=None if tilt is None else float(tilt),
     )
 
 

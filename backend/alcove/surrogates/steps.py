@@ -102,14 +102,17 @@ def evaluate(
             ds = s.get(Dataset, dataset_id)
             assert ds is not None
             # a scenario's moved headrest (issue 17)
-            data.append((dataset_arrays(s, ds), (ds.meta or {}).get("headrest_offset")))
+            meta = ds.meta or {}
+            data.append((dataset_arrays(s, ds), (meta.get("headrest_offset"), meta.get("headrest_tilt"))))
         model = load_model(s, mv)
         model_info = {"seed": mv.seed, "force": mv.test_force_rmse, "moment": mv.test_moment_rmse}
         train_wall_time_s = mv.train_wall_time_s
     run.check_cancel()
     picks: list[dict[str, Any]] = []
-    for a, offset in data:
-        pred = predict_ensemble(model, a["q"], a["qd"], headrest_offset=offset, kinematics=kinematics)
+    for a, (offset, tilt) in data:
+        pred = predict_ensemble(
+            model, a["q"], a["qd"], headrest_offset=offset, headrest_tilt=tilt, kinematics=kinematics
+        )
         f_pred = np.hstack([pred.force, pred.moment])
         f_std = np.hstack([pred.force_std, pred.moment_std]) if model.ensemble_size > 1 else None
         err = f_pred - a["f"]

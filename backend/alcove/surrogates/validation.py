@@ -30,11 +30,13 @@ from alcove.surrogates.service import load_model
 log = logging.getLogger(__name__)
 
 
-def generalisation_error(pred: np.ndarray, true: np.ndarray) -> dict[str, Any]:
+def generalisation_error(pred: np.ndarray, true: np.ndarray, std: np.ndarray | None = None) -> dict[str, Any]:
     """The error of predicted wrenches ``pred`` against the oracle's ``true`` ((n, 6): fx fy fz mx my mz):
-    ``force_rmse = sqrt(mean_i |F_pred,i - F_true,i|^2)``, ``moment_rmse`` likewise, and the RMSE
-    of each component, by the one definition in :mod:`alcove.science.surrogate.metrics`."""
-    from alcove.science.surrogate.metrics import MetricInputError, component_rmse, vector_rmse
+    ``force_rmse = sqrt(mean_i |F_pred,i - F_true,i|^2)``, ``moment_rmse`` likewise, the RMSE
+    of each component and, given the ensemble's ``std`` (K > 1; None for a single model, which
+    has no spread), the ``calibration`` (the fraction of oracle values inside the mean +- 2 std),
+    by the one definition in :mod:`alcove.science.surrogate.metrics`."""
+    from alcove.science.surrogate.metrics import MetricInputError, calibration, component_rmse, vector_rmse
 
     p, t = np.asarray(pred, float), np.asarray(true, float)
     if p.ndim != 2 or p.shape[1] != 6 or p.shape[0] == 0 or t.shape != p.shape:
@@ -45,6 +47,7 @@ def generalisation_error(pred: np.ndarray, true: np.ndarray) -> dict[str, Any]:
             "force_rmse": vector_rmse(p[:, :3], t[:, :3]),
             "moment_rmse": vector_rmse(p[:, 3:], t[:, 3:]),
             "components": components,
+            "calibration": None if std is None else calibration(p, t, std),
         }
     except MetricInputError as err:
         raise ValueError(str(err)) from err
@@ -66,18 +69,38 @@ def suite_kinematics(suite: ValidationSuite) -> Any:
 
 
 def _metrics(model: Any, motions: list[dict[str, np.ndarray]], kinematics: Any = None) -> dict[str, Any]:
-    from alcove.science.surrogate.training import predict_arrays
+    from alcove.science.surrogate.training import predict_ensemble
 
-    preds, trues, per_motion = [], [], []
+    preds, stds, trues = [], [], []
     for a in motions:
-        force, moment = predict_arrays(model, a["q"], a["qd"], kinematics)
-        pred = np.hstack([force, moment])
-        e = generalisation_error(pred, a["f"])
-        per_motion.append({"force_rmse": e["force_rmse"], "moment_rmse": e["moment_rmse"], "n_samples": len(pred)})
-        preds.append(pred)
+        p = predict_ensemble(model, a["q"], a["qd"], kinematics)
+        preds.append(np.hstack([p.force, p.moment]))
+        # a single model (K = 1) has no spread: no std, so its calibration is null (not 0)
+        stds.append(np.hstack([p.force_std, p.moment_std]) if model.ensemble_size > 1 else None)
         trues.append(a["f"])
-    total = generalisation_error(np.vstack(preds), np.vstack(trues))
-    return {**total, "per_motion": per_motion, "n_samples": int(sum(len(p) for p in preds))}
+    return metrics_from_predictions(preds, trues, stds)
+
+
+def metrics_from_predictions(
+    preds: list[np.ndarray], trues: list[np.ndarray], stds: list[np.ndarray | None]
+) -> dict[str, Any]:
+    """The validation-metrics row of one model version from its predictions on each motion
+    (``stds``: the ensemble's std per motion, None for K = 1): the generalisation error over all
+    samples of all motions, per motion, and the calibration."""
+    per_motion = []
+    for pred, true, std in zip(preds, trues, stds, strict=True):
+        e = generalisation_error(pred, true, std)
+        per_motion.append(
+            {
+                "force_rmse": e["force_rmse"],
+                "moment_rmse": e["moment_rmse"],
+                "calibration": e["calibration"],
+                "n_samples": len(pred),
+            }
+        )
+    std_all = None if any(s is None for s in stds) else np.vstack([s for s in stds if s is not None])
+    total = generalisation_error(np.vstack(preds), np.vstack(trues), std_all)
+    return {**total, "calibration_recorded": True, "per_motion": per_motion, "n_samples": int(sum(map(len, preds)))}
 
 
 def _store(s: Session, model_version_id: int, suite_id: int, m: dict[str, Any]) -> bool:

@@ -2438,6 +2438,16 @@ export interface components {
             /** Train Wall Time S */
             train_wall_time_s: number | null;
             /**
+             * Validation Calibration
+             * @description fraction of oracle values inside the ensemble mean +- 2 std, over the components not zero in every sample; null for a single model (K = 1); of model k on all samples of all motions of the held-out validation suite; null until evaluated or when not recorded (validation_calibration_recorded)
+             */
+            validation_calibration?: number | null;
+            /**
+             * Validation Calibration Recorded
+             * @description false: the validation suite evaluation predates migration 0019 and did not compute the calibration (its null does not mean K = 1); null until evaluated
+             */
+            validation_calibration_recorded?: boolean | null;
+            /**
              * Validation Components
              * @description RMSE of each component fx..mz on the validation suite [N, N m]
              */
@@ -2919,7 +2929,7 @@ export interface components {
             mode?: number | null;
             /**
              * Parameter
-             * @description dotted path of the parameter in the task, e.g. initial.q.0, phases.0.duration, model.headrest_offset; one of: initial.q.{j}, initial.qd.{j}, phases.{m}.duration, phases.{m}.w_tau, phases.{m}.w_T, phases.{m}.target_q.{j}, final.q.{j}, endpoint_cost.w_q, endpoint_cost.w_qd, endpoint_cost.q_ref.{j}, model.headrest_offset
+             * @description dotted path of the parameter in the task, e.g. initial.q.0, phases.0.duration, model.headrest_offset; one of: initial.q.{j}, initial.qd.{j}, phases.{m}.duration, phases.{m}.w_tau, phases.{m}.w_T, phases.{m}.target_q.{j}, final.q.{j}, endpoint_cost.w_q, endpoint_cost.w_qd, endpoint_cost.q_ref.{j}, model.headrest_offset, model.tilt
              */
             parameter: string;
             /**
@@ -4192,6 +4202,17 @@ export interface components {
          */
         ValidationPoint: {
             /**
+             * Calibration
+             * @description fraction of oracle values inside the ensemble mean +- 2 std, over the components not zero in every sample; null for a single model (K = 1); over all samples of all motions; null also when not recorded
+             */
+            calibration?: number | null;
+            /**
+             * Calibration Recorded
+             * @description false: evaluated before migration 0019, which did not compute the calibration (its null does not mean K = 1)
+             * @default true
+             */
+            calibration_recorded?: boolean;
+            /**
              * Components
              * @description RMSE of each component fx..mz [N, N m]
              */
@@ -4217,10 +4238,10 @@ export interface components {
             moment_rmse: number;
             /**
              * Per Motion
-             * @description force_rmse, moment_rmse, n_samples of each motion
+             * @description force_rmse, moment_rmse, calibration (evaluations since migration 0019), n_samples of each motion
              */
             per_motion: {
-                [key: string]: number;
+                [key: string]: number | null;
             }[];
         };
         /** ValidationReport */

@@ -58,6 +58,7 @@ export function toPoints(metrics: SeriesRow[], iterations: IterationState[]): Me
     moment_rmse: m.moment_rmse ?? null,
     validation_force_rmse: m.validation_force_rmse ?? null,
     validation_moment_rmse: m.validation_moment_rmse ?? null,
+    validation_calibration: m.validation_calibration ?? null,
     force_rmse_contact: m.force_rmse_contact ?? null,
     moment_rmse_contact: m.moment_rmse_contact ?? null,
     calibration: m.calibration ?? null,
@@ -182,7 +183,7 @@ export function withValidation(points: MetricPoint[], validation: ValidationSeri
   const byK = new Map(validation.points.map((v) => [v.iteration_index, v]));
   return points.map((p) => {
     const v = p.inherited ? undefined : byK.get(p.iteration);
-    return v ? { ...p, validation_force_rmse: v.force_rmse, validation_moment_rmse: v.moment_rmse } : p;
+    return v ? { ...p, validation_force_rmse: v.force_rmse, validation_moment_rmse: v.moment_rmse, validation_calibration: v.calibration ?? null } : p;
   });
 }
 

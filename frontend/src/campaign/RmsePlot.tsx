@@ -81,6 +81,7 @@ export const NOMINAL_COVERAGE = 0.9545;
  * The ensemble's calibration per iteration: the fraction of iteration k's oracle values that
  * lie inside model k's mean +- 2 std (docs/concepts.md). Near the nominal 95 %: the band is
  * honest; far below: the ensemble is over-confident. Null (K = 1) iterations are left out.
+ * Beside it, dashed: model k's calibration on the held-out validation suite (where evaluated).
  */
 export function calibrationTraces(points: MetricPoint[]): Trace[] {
   const own = points.filter((p) => !isMarked(p) && !p.inherited && p.calibration != null);
@@ -89,11 +90,14 @@ export function calibrationTraces(points: MetricPoint[]): Trace[] {
   if (inherited.length)
     traces.push({ x: inherited.map((p) => p.iteration), y: inherited.map((p) => 100 * (p.calibration ?? 0)), name: "inherited", mode: "lines+markers", type: "scatter", line: { color: INHERITED }, marker: { color: INHERITED, symbol: "circle-open" } });
   traces.push({ x: own.map((p) => p.iteration), y: own.map((p) => 100 * (p.calibration ?? 0)), name: "inside mean ± 2σ [%]", mode: "lines+markers", type: "scatter", line: { color: "#1d7a45" } });
+  const validated = points.filter((p) => !isMarked(p) && !p.inherited && p.validation_calibration != null);
+  if (validated.length)
+    traces.push({ x: validated.map((p) => p.iteration), y: validated.map((p) => 100 * (p.validation_calibration ?? 0)), name: "inside mean ± 2σ, held-out suite [%]", mode: "lines+markers", type: "scatter", line: { color: "#1d7a45", dash: "dash" }, marker: { color: "#1d7a45", symbol: "diamond-open" } });
   return traces;
 }
 
 export function hasCalibration(points: MetricPoint[]): boolean {
-  return points.some((p) => p.calibration != null);
+  return points.some((p) => p.calibration != null || p.validation_calibration != null);
 }
 
 export function CalibrationPlot({ points }: { points: MetricPoint[] }) {
@@ -115,11 +119,11 @@ export function CalibrationPlot({ points }: { points: MetricPoint[] }) {
       traces={traces}
       shapes={shapes}
       xTitle="iteration k"
-      yTitle="oracle values inside mean ± 2σ [%]"
+      yTitle="oracle values inside mean ± 2σ [%]: new oracle data (solid), held-out suite (dashed)"
       exportName="calibration"
       height={300}
       extraLayout={layout}
-      data={{ iterations: own.map((p) => p.iteration).join(",") }}
+      data={{ iterations: own.map((p) => p.iteration).join(","), validation: points.filter((p) => !p.inherited && p.validation_calibration != null).map((p) => p.iteration).join(",") }}
     />
   );
 }

@@ -62,6 +62,19 @@ describe("an ensemble's prediction with its spread", () => {
     expect(trace.x).toEqual([1, 3]);
     expect(trace.y).toEqual([50, 95]);
   });
+
+  it("the held-out suite's calibration as a dashed line beside the in-loop one", () => {
+    const p = (k: number, calibration: number | null, validation_calibration: number | null) => ({ iteration: k, status: "succeeded", force_rmse: 1, moment_rmse: 0.1, quarantined: false, calibration, validation_calibration });
+    expect(calibrationTraces([p(1, 0.5, null)])).toHaveLength(1); // not evaluated yet: no dashed line
+    const traces = calibrationTraces([p(1, 0.5, 0.25), p(2, 0.75, null), p(3, 0.9, 0.625)]);
+    expect(traces).toHaveLength(2);
+    const [inLoop, suite] = traces;
+    expect((inLoop.line as { dash?: string }).dash).toBeUndefined();
+    expect((suite.line as { dash?: string }).dash).toBe("dash");
+    expect(suite.x).toEqual([1, 3]);
+    expect(suite.y).toEqual([25, 62.5]);
+    expect(hasCalibration([p(1, null, 0.8)])).toBe(true); // an ensemble scored only on the suite so far
+  });
 });
 
 describe("RMSE plot of a fork", () => {

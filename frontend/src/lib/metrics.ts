@@ -9,6 +9,8 @@ export interface MetricPoint {
   /** model k's generalisation error on the held-out validation suite (null until evaluated) */
   validation_force_rmse?: number | null;
   validation_moment_rmse?: number | null;
+  /** the ensemble's calibration on the held-out validation suite (null: K = 1, not evaluated, or not recorded) */
+  validation_calibration?: number | null;
   /** the same over the samples in contact (|F_true| > 0); null if none or not given */
   force_rmse_contact?: number | null;
   moment_rmse_contact?: number | null;

@@ -51,6 +51,14 @@ describe("scenario ranges of a task", () => {
     expect(onChange).toHaveBeenLastCalledWith([ranges[0], ranges[1]]);
   });
 
+  it("suggests the headrest tilt and offset among the parameters", () => {
+    const { container } = render(<ScenarioRanges ranges={ranges} onChange={() => {}} errors={view()} preview={undefined} previewing={false} onPreview={() => {}} canPreview />);
+    const options = Array.from(container.querySelectorAll("#range-parameters option")).map((o) => o.getAttribute("value"));
+    expect(options).toContain("model.tilt");
+    expect(options).toContain("model.headrest_offset");
+    expect(options).not.toContain("model.theta_contact");
+  });
+
   it("shows the server's error at the range it names", () => {
     const errors = view([{ field: "ranges.0.high", message: "initial.q.0 = 0.5 is not a valid task" }]);
     render(<ScenarioRanges ranges={ranges} onChange={() => {}} errors={errors} preview={undefined} previewing={false} onPreview={() => {}} canPreview />);

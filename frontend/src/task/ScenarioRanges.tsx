@@ -41,6 +41,8 @@ export const RANGE_PARAMETERS = [
   "endpoint_cost.w_qd",
   "endpoint_cost.q_ref.0",
   "model.headrest_offset",
+  // within +-0.05 rad of the task's own tilt (MAX_TILT_DEVIATION)
+  "model.tilt",
 ];
 
 /** The paths of the section's fields, for placing errors. */
@@ -83,7 +85,7 @@ export function ScenarioRanges({
       <p className="hint">
         Ranges of some parameters make the task a distribution of scenarios: a campaign with the strategy random-scenarios solves a new draw every iteration (seeded by the campaign seed and the
         iteration). Values are drawn uniformly between low and high, or from a normal distribution (mean, std) truncated to them, or a triangular one peaking at its mode. No ranges: the task has one
-        scenario, itself. Units are the parameter&apos;s (rad, rad/s, s, m).
+        scenario, itself. Units are the parameter&apos;s (rad, rad/s, s, m); a headrest tilt (model.tilt) stays within ±0.05 rad of the task&apos;s own.
       </p>
       <datalist id="range-parameters">
         {RANGE_PARAMETERS.map((p) => (

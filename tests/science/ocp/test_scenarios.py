@@ -5,7 +5,9 @@ uniform (Kolmogorov-Smirnov against U(low, high), p > 1e-3 on a fixed seed); the
 (seed, iteration) draws the same scenario and other seeds or iterations draw other ones; a task
 without ranges is its own and only scenario (the same object, so the paper's case is bit for
 bit today's); moving the headrest by d along its normal shifts the head's x_H coordinate by
-exactly -d (round-off: 1e-15 m) and so the oracles' penetration by +d.
+exactly -d (round-off: 1e-15 m) and so the oracles' penetration by +d; tilting it by D about its
+origin (where the head first touched it) opens a penetration of (rho / 2) D^2 at theta_contact,
+rho = az^2 / ax the profile's radius of curvature there, whichever way it tilts.
 """
 
 from __future__ import annotations
@@ -133,8 +135,11 @@ def test_a_stored_scenario_gives_back_its_task():
         ([{"parameter": "initial.q.0", "low": 0.15, "high": 0.5}], "ranges.0.high", "joint range"),
         ([{"parameter": "initial.q.0", "low": 0.3, "high": 0.15}], "ranges.0.high", "at least low"),
         ([{"parameter": "model.mass", "low": 4, "high": 5}], "ranges.0.parameter", "cannot be varied"),
-        # the training features would use the wrong headrest for data simulated with another tilt (not done)
-        ([{"parameter": "model.tilt", "low": 0.3, "high": 0.32}], "ranges.0.parameter", "cannot be varied"),
+        # a dataset does not record the headrest's placement angle (not done)
+        ([{"parameter": "model.theta_contact", "low": 0.3, "high": 0.32}], "ranges.0.parameter", "cannot be varied"),
+        # a tilt stays within MAX_TILT_DEVIATION = 0.05 rad of the task's own (0.31 rad)
+        ([{"parameter": "model.tilt", "low": 0.25, "high": 0.32}], "ranges.0.low", "model.tilt = 0.25 rad"),
+        ([{"parameter": "model.tilt", "low": 0.3, "high": 0.3601}], "ranges.0.high", "within +-0.05 rad"),
         ([{"parameter": "phases.2.duration", "low": 0.5, "high": 1}], "ranges.0.low", "2 phases"),
         ([{"parameter": "phases.0.duration", "low": 0.0, "high": 1}], "ranges.0.low", "phases.0.duration"),
         ([{"parameter": "model.headrest_offset", "low": -0.05, "high": 0}], "ranges.0.low", "headrest_offset"),
@@ -233,6 +238,94 @@ def test_a_headrest_offset_moves_the_headrest_along_its_normal(offset):
     theta_c = first_contact_angle(moved)
     assert abs(signed_gap(moved, theta_c)[0]) < 1e-12
     assert (theta_c < nominal.theta_contact) == (offset > 0)
+
+
+def _brute_gap(preset: HeadNeckPreset, theta: np.ndarray) -> np.ndarray:
+    """The gap by brute force, independent of the closed form and of the kinematics: the least
+    distance along the headrest normal (cos tilt, sin tilt) from its origin to 40,001 points of
+    the profile ellipse placed in the world at each head angle (sampling error < 2e-9 m)."""
+    from alcove.science.geometry import rot2
+
+    pr = preset.profile
+    s = np.linspace(0.0, 2.0 * np.pi, 40_001)
+    pts = np.stack([pr.cx + pr.ax * np.cos(s), pr.cz + pr.az * np.sin(s)], -1)
+    n = np.array([np.cos(preset.tilt), np.sin(preset.tilt)])
+    o = preset.headrest_origin
+    return np.array([((preset.head_origin_world(th) + pts @ rot2(th).T - o) @ n).min() for th in theta])
+
+
+@pytest.mark.parametrize("tilt_change", [-0.05, 0.03])
+def test_a_headrest_tilt_turns_the_headrest_about_its_origin_and_the_features_follow(tilt_change):
+    """A dataset recorded with a scenario's headrest tilt: its training features (pool_features
+    with the moved headrest) are relative to the tilted headrest. The gap read back from them is
+    the brute-force gap of the tilted geometry (1e-8 m); at theta_contact the head now penetrates
+    the tilted cushion by (rho / 2) D^2 (0.1 % relative: the next term is O(D^4)), so the contact
+    onset comes earlier for either sign of D."""
+    from alcove.science.surrogate.dataset import PoolDataset
+    from alcove.science.surrogate.gated import gap_from_features
+    from alcove.science.surrogate.training import moved_headrest, pool_features, preset_kinematics
+
+    nominal = HeadNeckPreset()
+    tilted = HeadNeckPreset(tilt=nominal.tilt + tilt_change)
+    theta = np.linspace(0.2, 0.42, 23)
+    zeros = np.zeros((theta.size, 3))
+    data = PoolDataset("press", np.arange(theta.size) * 0.01, theta, np.full_like(theta, 0.3), zeros, zeros)
+    recorded = PoolDataset(
+        "press", data.t, data.q, data.qd, zeros, zeros, headrest_offset=0.0, headrest_tilt=tilted.tilt
+    )
+    x = pool_features([data, recorded], preset_kinematics(nominal), moved_headrest(nominal))
+    x_nominal, x_tilted = np.split(x, 2)
+    expected = _brute_gap(tilted, theta)
+    np.testing.assert_allclose(gap_from_features(x_tilted, nominal.profile), expected, rtol=0, atol=1e-8)
+    np.testing.assert_allclose(signed_gap(tilted, theta), expected, rtol=0, atol=1e-8)
+    # the untilted features would be another geometry (here by more than 0.1 mm somewhere)
+    assert np.max(np.abs(gap_from_features(x_nominal, nominal.profile) - expected)) > 1e-4
+    # the relative orientation turns by -D: cos(theta - tilt) (round-off 1e-15)
+    from alcove.science.surrogate.gated import T_00
+
+    np.testing.assert_allclose(x_tilted[:, T_00], np.cos(theta - tilted.tilt), rtol=0, atol=1e-15)
+    # contact onset: the head touched the untilted headrest at theta_contact; tilted about that
+    # point, the cushion is penetrated there by (rho / 2) D^2, rho = az^2 / ax at the back point
+    pr = nominal.profile
+    depth = -signed_gap(tilted, nominal.theta_contact)[0]
+    assert depth == pytest.approx(0.5 * pr.az**2 / pr.ax * tilt_change**2, rel=1e-3)
+    onset = first_contact_angle(tilted)
+    assert abs(_brute_gap(tilted, np.array([onset]))[0]) < 1e-8
+    assert onset < nominal.theta_contact
+
+
+def test_a_recorded_tilt_changes_the_content_key_and_no_tilt_keeps_it():
+    from alcove.pool.repository import content_key
+    from alcove.science.surrogate.dataset import PoolDataset
+
+    sha = "ab" * 32
+    assert content_key(sha, {"headrest_offset": 0.0}) == sha  # as before tilts were recorded
+    assert content_key(sha, {"headrest_offset": 0.0, "headrest_tilt": 0.31}) == f"{sha}@headrest_tilt=0.31"
+    assert content_key(sha, {"headrest_offset": 0.002, "headrest_tilt": 0.33}) == (
+        f"{sha}@headrest_offset=0.002@headrest_tilt=0.33"
+    )
+    z = np.zeros((2, 3))
+    plain = PoolDataset("d", np.arange(2.0), np.zeros(2), np.zeros(2), z, z, headrest_offset=0.0)
+    tilted = PoolDataset("d", np.arange(2.0), np.zeros(2), np.zeros(2), z, z, headrest_offset=0.0, headrest_tilt=0.31)
+    # the digest without a tilt is the one of before tilts were recorded: arrays, shapes, offset
+    import hashlib
+
+    h = hashlib.blake2b(digest_size=16)
+    for a in (plain.t, plain.q, plain.qd, plain.force, plain.moment):
+        h.update(np.ascontiguousarray(a, dtype=np.float64).tobytes())
+        h.update(str(np.shape(a)).encode())
+    h.update(repr(0.0).encode())
+    assert plain.content_key == h.hexdigest()
+    assert tilted.content_key != plain.content_key
+
+
+def test_a_tilt_range_within_its_bound_draws_tilted_scenarios():
+    from alcove.science.ocp.scenario_ranges import MAX_TILT_DEVIATION
+
+    task = parse_task(spec_with([{"parameter": "model.tilt", "low": 0.31 - MAX_TILT_DEVIATION, "high": 0.36}]))
+    d = sc.draw(task, 3, 1)
+    assert 0.26 <= d.values["model.tilt"] <= 0.36
+    assert d.task.preset().tilt == d.values["model.tilt"] and d.task.preset().theta_contact == 0.31
 
 
 def test_no_offset_is_the_papers_headrest_bit_for_bit():

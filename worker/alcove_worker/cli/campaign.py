@@ -108,7 +108,8 @@ def run(
     ),
 ) -> None:
     """Create a campaign, run it to the end through Celery, and report its metrics (in-loop and
-    on the held-out validation suite: ``validation_force_rmse``, ``validation_moment_rmse``)."""
+    on the held-out validation suite: ``validation_force_rmse``, ``validation_moment_rmse``,
+    ``validation_calibration``)."""
 
     ensure_database()
     cfg = read_config(config)
@@ -183,6 +184,13 @@ def _print_status(campaign_id: int, as_json: bool) -> None:
         + (
             f" · validation F {m.validation_force_rmse:.4g} N, M {m.validation_moment_rmse:.4g} N m"
             if m and m.validation_force_rmse is not None and m.validation_moment_rmse is not None
+            else ""
+        )
+        + (
+            f" · validation calibration {m.validation_calibration:.3f}"
+            if m and m.validation_calibration is not None
+            else " · validation calibration not recorded (evaluated before migration 0019)"
+            if m and m.validation_calibration_recorded is False
             else ""
         )
         + (f" · ETA {detail.eta_s:.0f} s" if detail.eta_s is not None else "")

@@ -234,6 +234,8 @@ _FIRST_LAST = (
     "calibration",
     "validation_force_rmse",
     "validation_moment_rmse",
+    "validation_calibration",
+    "validation_calibration_recorded",
 )
 
 

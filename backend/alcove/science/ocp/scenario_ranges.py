@@ -19,6 +19,15 @@ RANGE_LIMIT = 1e6
 #: at most this many ranges per task
 MAX_RANGES = 32
 
+#: the headrest tilt, the one model geometry parameter besides the offset that a scenario may draw
+TILT_PARAMETER = "model.tilt"
+
+#: rad: a ranged headrest tilt stays within this of the task's own (the head-neck-1dof preset's
+#: ``tilt`` as the task writes it, 0.31 rad in the paper): the headrest turns about its origin (the
+#: head's back point at ``theta_contact``, moved by the offset), and the oracles' cushion covers
+#: the contact zone over this range
+MAX_TILT_DEVIATION = 0.05
+
 #: the parameters that may be ranged: path pattern ({m} a phase, {j} a joint index) -> (what, unit)
 PARAMETERS: dict[str, tuple[str, str]] = {
     "initial.q.{j}": ("initial angle", "rad"),
@@ -32,8 +41,10 @@ PARAMETERS: dict[str, tuple[str, str]] = {
     "endpoint_cost.w_qd": ("endpoint velocity weight", "s^2/rad^2"),
     "endpoint_cost.q_ref.{j}": ("endpoint reference pose", "rad"),
     "model.headrest_offset": ("headrest offset along its normal", "m"),
-    # not model.tilt / model.theta_contact: an oracle dataset records only its headrest offset, and
-    # the training features of a dataset simulated with another tilt would be wrong (not done yet)
+    # an oracle dataset of a scenario that draws the tilt records it (meta.headrest_tilt): its
+    # training features are relative to the tilted headrest
+    TILT_PARAMETER: ("headrest inclination (backward)", "rad"),
+    # not model.theta_contact: a dataset does not record the headrest's placement angle (not done yet)
 }
 _COMPILED = [
     (re.compile("^" + re.escape(p).replace(r"\{m\}", r"\d+").replace(r"\{j\}", r"\d+") + "$"), what)
@@ -197,6 +208,17 @@ def set_value(data: dict[str, Any], parameter: str, value: float, ndof: int) -> 
         node[last] = float(value)
 
 
+def _check_tilt(i: int, r: ParameterRange, nominal: float) -> None:
+    for end in ("low", "high"):
+        value = float(getattr(r, end))
+        if abs(value - nominal) > MAX_TILT_DEVIATION + 1e-12:
+            raise ValueError(
+                f"ranges.{i}.{end}: {TILT_PARAMETER} = {value:g} rad is {abs(value - nominal):.3g} rad from the "
+                f"task's headrest tilt {nominal:g} rad; a ranged tilt stays within +-{MAX_TILT_DEVIATION:g} rad of it "
+                "(the oracles' cushion covers the contact zone over that range)"
+            )
+
+
 def check_ranges(task: Any, parse: Callable[[dict[str, Any]], Any]) -> None:
     """Validate ``task.ranges`` (a TaskSpec): known parameters, low <= high, no duplicates, and
     each end a valid task (the model's validated ranges: ``parse`` builds the task with that one
@@ -224,6 +246,8 @@ def check_ranges(task: Any, parse: Callable[[dict[str, Any]], Any]) -> None:
         problem = check_distribution(r)
         if problem is not None:
             raise ValueError(f"ranges.{i}.{problem[0]}: {problem[1]}")
+        if r.parameter == TILT_PARAMETER:
+            _check_tilt(i, r, float(task.model.tilt))
         for end in ("low", "high"):
             value = getattr(r, end)
             data = task.model_dump()

@@ -23,6 +23,10 @@ Parameters that may be ranged (``{j}`` a joint index, ``{m}`` a phase index):
 ``endpoint_cost.w_qd``,         have an endpoint cost)
 ``endpoint_cost.q_ref.{j}``
 ``model.headrest_offset``       headrest moved along its normal [m] (positive: toward the head)
+``model.tilt``                  headrest inclination [rad], within +-0.05 rad
+                                (``MAX_TILT_DEVIATION``) of the task's own; the headrest
+                                turns about its origin (the head's back point at
+                                ``theta_contact``), so the head touches it earlier
 ==============================  =======================================================
 
 Every range is checked against the model's validated ranges by building the task at its

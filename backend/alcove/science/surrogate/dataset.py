@@ -87,6 +87,9 @@ class PoolDataset:
     #: m: the headrest offset of the scenario the data were simulated in (HeadNeckPreset.headrest_offset;
     #: the features are relative to that headrest); None: the task's own headrest
     headrest_offset: float | None = None
+    #: rad: the headrest tilt of the scenario the data were simulated in (HeadNeckPreset.tilt), recorded
+    #: when the scenario drew it; None: the task's own tilt
+    headrest_tilt: float | None = None
 
     def __post_init__(self) -> None:
         if not isinstance(self.name, str) or not _NAME.match(self.name):
@@ -127,13 +130,15 @@ class PoolDataset:
 
     @cached_property
     def content_key(self) -> str:
-        """A digest of what the dataset is (its arrays and headrest offset), not of where it is stored:
+        """A digest of what the dataset is (its arrays, headrest offset and tilt), not of where it is stored:
         the same data get the same key in any database or folder (the stable warm-start split keys on it)."""
         h = hashlib.blake2b(digest_size=16)
         for a in (self.t, self.q, self.qd, self.force, self.moment):
             h.update(np.ascontiguousarray(a, dtype=np.float64).tobytes())
             h.update(str(np.shape(a)).encode())
         h.update(repr(self.headrest_offset).encode())
+        if self.headrest_tilt is not None:  # only then: the keys of data without a recorded tilt stay as they were
+            h.update(f"tilt={self.headrest_tilt!r}".encode())
         return h.hexdigest()
 
     @property

@@ -259,29 +259,48 @@ def stable_split(
     return _split_from_labels(pool, sample_split)
 
 
-def moved_headrest(preset: HeadNeckPreset) -> Callable[[float], KinematicsFn]:
-    """Kinematics of ``preset`` with its headrest moved to a dataset's ``headrest_offset`` [m]."""
-    return lambda offset: preset_kinematics(replace(preset, headrest_offset=offset))
+#: kinematics of a preset with its headrest moved to ``(offset [m], tilt [rad])`` (None: the preset's own)
+MovedHeadrest = Callable[[float | None, float | None], KinematicsFn]
 
 
-def pool_features(
-    pool: list[PoolDataset], kinematics: KinematicsFn, moved: Callable[[float], KinematicsFn] | None = None
-) -> FloatArray:
+def headrest_preset(preset: HeadNeckPreset, offset: float | None = None, tilt: float | None = None) -> HeadNeckPreset:
+    """``preset`` with its headrest moved by ``offset`` [m] along its normal and inclined at ``tilt``
+    [rad] (a dataset's ``headrest_offset`` / ``headrest_tilt``; None keeps the preset's own). The
+    headrest turns about its origin, the head's back point at ``theta_contact`` moved by the offset."""
+    if offset is not None:
+        preset = replace(preset, headrest_offset=offset)
+    if tilt is not None:
+        preset = replace(preset, tilt=tilt)
+    return preset
+
+
+def moved_headrest(preset: HeadNeckPreset) -> MovedHeadrest:
+    """Kinematics of ``preset`` with its headrest moved to a dataset's ``headrest_offset`` [m] and
+    inclined at its ``headrest_tilt`` [rad] (see :func:`headrest_preset`)."""
+
+    def moved(offset: float | None, tilt: float | None = None) -> KinematicsFn:
+        return preset_kinematics(headrest_preset(preset, offset, tilt))
+
+    return moved
+
+
+def pool_features(pool: list[PoolDataset], kinematics: KinematicsFn, moved: MovedHeadrest | None = None) -> FloatArray:
     """The features of every sample, each dataset's relative to its own headrest: ``kinematics``
-    for the task's headrest, ``moved(offset)`` for a dataset simulated with a scenario's
-    ``headrest_offset`` (issue 17)."""
+    for the task's headrest, ``moved(offset, tilt)`` for a dataset simulated with a scenario's
+    ``headrest_offset`` and/or ``headrest_tilt`` (issue 17)."""
 
     def kin(ds: PoolDataset) -> KinematicsFn:
-        if ds.headrest_offset is None:
+        if ds.headrest_offset is None and ds.headrest_tilt is None:
             return kinematics
         if moved is None:
-            raise PoolDataError(f"{ds.name}.headrest_offset", "needs the preset's kinematics (moved_headrest)")
-        return moved(ds.headrest_offset)
+            field = "headrest_offset" if ds.headrest_offset is not None else "headrest_tilt"
+            raise PoolDataError(f"{ds.name}.{field}", "needs the preset's kinematics (moved_headrest)")
+        return moved(ds.headrest_offset, ds.headrest_tilt)
 
-    # one kinematics call per headrest (the kinematics are per sample): datasets grouped by offset
-    groups: dict[float | None, list[int]] = {}
+    # one kinematics call per headrest (the kinematics are per sample): datasets grouped by offset and tilt
+    groups: dict[tuple[float | None, float | None], list[int]] = {}
     for i, ds in enumerate(pool):
-        groups.setdefault(ds.headrest_offset, []).append(i)
+        groups.setdefault((ds.headrest_offset, ds.headrest_tilt), []).append(i)
     out: list[FloatArray] = [np.empty(0)] * len(pool)
     for members in groups.values():
         fn = kin(pool[members[0]])
@@ -529,9 +548,11 @@ def predict_ensemble(
     qd: FloatArray,
     kinematics: KinematicsFn | None = None,
     headrest_offset: float | None = None,
+    headrest_tilt: float | None = None,
 ) -> Prediction:
     """Ensemble mean and standard deviation of force and moment (each (n, 3)) at states q, qd
-    (with the model's headrest moved to ``headrest_offset`` [m] unless ``kinematics`` is given)."""
+    (with the model's headrest moved to ``headrest_offset`` [m] and inclined at ``headrest_tilt``
+    [rad] unless ``kinematics`` is given)."""
     q = np.asarray(q, float)
     qd = np.asarray(qd, float)
     q = q[:, None] if q.ndim == 1 else q
@@ -541,8 +562,7 @@ def predict_ensemble(
     if q.shape[1] != model.ndof:
         raise PoolDataError("q", f"has {q.shape[1]} degrees of freedom, the model was trained on {model.ndof}")
     if kinematics is None:
-        preset = model.preset if headrest_offset is None else replace(model.preset, headrest_offset=headrest_offset)
-        kinematics = preset_kinematics(preset)
+        kinematics = preset_kinematics(headrest_preset(model.preset, headrest_offset, headrest_tilt))
     return model.predict_ensemble(features(kinematics(q, qd)))
 
 
@@ -568,6 +588,7 @@ __all__ = [
     "TrainingCancelled",
     "TrainingMetrics",
     "TrainingResult",
+    "headrest_preset",
     "member_seed",
     "moved_headrest",
     "pose_kinematics",
