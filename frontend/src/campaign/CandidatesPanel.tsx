@@ -76,7 +76,7 @@ function ScorePlot({ data }: { data: IterationCandidates }) {
       height={260}
       exportName="candidate-scores"
       extraLayout={{ showlegend: false }}
-      data={{ picked: data.candidates.filter(isPicked).map((c) => c.slot).join(",") }}
+      data={{ picked: data.candidates.filter(isPicked).sort((a, b) => (a.pick ?? 0) - (b.pick ?? 0)).map((c) => c.slot).join(",") }}
     />
   );
 }
