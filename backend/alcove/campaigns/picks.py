@@ -93,12 +93,21 @@ def iteration_candidates(s: Session, campaign_id: int, k: int) -> IterationCandi
     solved = solved or any(c.pick is not None for c in cands)
     whys = _why(cands, st.strategy, st.batch, st.min_distance, cfg.stopping.min_disagreement, solved)
     scores = [c.score for c in cands if c.score is not None]
+    # the first pick's curves are the metrics row's too (iterations stored before every pick's were kept)
+    evaluated = (
+        s.scalar(sa.select(IterationMetrics.curves_sha256).where(IterationMetrics.iteration_id == it.id)) is not None
+    )
     rows = []
     for c, (rank, why) in zip(cands, whys, strict=True):
         base = {f: getattr(c, f) for f in CandidateDetail.model_fields if hasattr(c, f)}
         rows.append(
             CandidateDetail.model_validate(
-                {**base, "rank": rank, "why": why, "has_curves": c.curves_sha256 is not None or c.pick == 0}
+                {
+                    **base,
+                    "rank": rank,
+                    "why": why,
+                    "has_curves": c.curves_sha256 is not None or (c.pick == 0 and evaluated),
+                }
             )
         )
     return IterationCandidates(

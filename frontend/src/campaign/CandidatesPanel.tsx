@@ -178,8 +178,19 @@ export function CandidatesTable({ data, shown, toggle }: { data: IterationCandid
   );
 }
 
+const POLL_MS = 3000;
+
+/** Whether an iteration's candidates will not change any more: no candidate waits for the
+ * others, every pick's curves are stored (or there is no pick). Until then the tab polls. */
+export function settled(data: IterationCandidates | undefined): boolean {
+  if (!data) return false;
+  if (data.strategy === "paper") return true;
+  if (data.candidates.length < data.n_candidates || data.candidates.some((c) => c.why.code === "pending")) return false;
+  return data.candidates.every((c) => !isPicked(c) || c.has_curves);
+}
+
 export function CandidatesPanel({ campaignId, iteration }: { campaignId: number; iteration: number | null }) {
-  const q = useQuery({ ...candidatesQuery(campaignId, iteration ?? 0), enabled: iteration !== null && iteration > 0 });
+  const q = useQuery({ ...candidatesQuery(campaignId, iteration ?? 0), enabled: iteration !== null && iteration > 0, refetchInterval: (query) => (settled(query.state.data) ? false : POLL_MS) });
   const [shown, setShown] = useState<number[]>([]);
   if (iteration === null || iteration === 0) return <Empty title="No iteration with candidates yet">Candidates appear once an iteration's OCP has solved them.</Empty>;
   if (q.isPending) return <Loading label="Loading candidates…" />;
