@@ -414,6 +414,7 @@ try {
   if (whys.length !== 3 || whys[0] !== "picked-top" || whys[1] !== "picked-far") throw new Error(`candidates' why: ${whys}`);
   await page.locator("[data-testid=pick-forces][data-band=true][data-rendered=true]").nth(1).waitFor({ timeout: 30_000 });
   step(`  candidates by rank: ${whys.join(", ")}`);
+  await page.screenshot({ path: resolve(artifacts, "campaign-candidates.png"), fullPage: true, animations: "disabled" });
   await page.getByTestId("x-axis").getByLabel("oracle calls").check();
   await page.locator("[data-testid=rmse-plot][data-xaxis=oracle]").waitFor();
 

@@ -7,7 +7,7 @@
 import { useMemo, useState } from "react";
 import { useQueries, useQuery } from "@tanstack/react-query";
 import { candidatesQuery, candidateTrajectoryQuery, pickCurvesQuery } from "../api/campaigns";
-import type { CandidateDetail, IterationCandidates } from "../api/types";
+import type { CandidateDetail, IterationCandidates, IterationCurves } from "../api/types";
 import { Plot, type Trace } from "../components/Plot";
 import { Empty, ErrorBox, Loading } from "../components/States";
 import { fmtNumber } from "../lib/format";
@@ -81,6 +81,14 @@ function ScorePlot({ data }: { data: IterationCandidates }) {
   );
 }
 
+type Comp = "fx" | "fy" | "fz" | "mx" | "my" | "mz";
+
+/** The components that are not zero throughout (the planar model's fy, mx, mz are zero by construction). */
+export function activeComponents(c: IterationCurves, comps: readonly Comp[]): Comp[] {
+  const nonzero = comps.filter((k) => c.truth[k].some((v) => v !== 0) || c.predicted[k].some((v) => v !== 0));
+  return nonzero.length ? nonzero : [...comps];
+}
+
 function PickForces({ campaignId, iteration, picks }: { campaignId: number; iteration: number; picks: CandidateDetail[] }) {
   const [moment, setMoment] = useState(false);
   const curves = useQueries({ queries: picks.map((c) => pickCurvesQuery(campaignId, iteration, c.pick ?? 0)) });
@@ -100,17 +108,20 @@ function PickForces({ campaignId, iteration, picks }: { campaignId: number; iter
           if (q.isPending) return <Loading key={c.slot} label={`Loading pick ${(c.pick ?? 0) + 1}…`} />;
           if (q.isError) return <ErrorBox key={c.slot} error={q.error} />;
           return (
-            <Plot
-              key={c.slot}
-              testId="pick-forces"
-              traces={wrenchTraces([q.data], comps)}
-              title={`pick ${(c.pick ?? 0) + 1} (slot ${c.slot})${c.force_rmse != null ? `: force RMSE ${fmtNumber(c.force_rmse)} N` : ""}`}
-              xTitle="t [s]"
-              yTitle={moment ? "moment [N m]" : "force [N]"}
-              height={280}
-              exportName={`iteration-${iteration}-pick-${(c.pick ?? 0) + 1}`}
-              data={{ pick: String(c.pick), band: q.data.std ? "true" : "false" }}
-            />
+            <figure key={c.slot} style={{ margin: 0 }}>
+              <figcaption className="muted">
+                pick {(c.pick ?? 0) + 1} (slot {c.slot}){c.force_rmse != null ? `: force RMSE ${fmtNumber(c.force_rmse)} N` : ""}
+              </figcaption>
+              <Plot
+                testId="pick-forces"
+                traces={wrenchTraces([q.data], activeComponents(q.data, comps))}
+                xTitle="t [s]"
+                yTitle={moment ? "moment [N m]" : "force [N]"}
+                height={300}
+                exportName={`iteration-${iteration}-pick-${(c.pick ?? 0) + 1}`}
+                data={{ pick: String(c.pick), band: q.data.std ? "true" : "false" }}
+              />
+            </figure>
           );
         })}
       </div>

@@ -78,12 +78,14 @@ describe("the candidates & picks tab", () => {
     expect(screen.getByTestId("candidates-summary")).toHaveTextContent("4 of 4 candidates solved, 2 picked (q = 2)");
     const scores = screen.getByTestId("candidate-scores");
     expect(scores).toHaveAttribute("data-picked", "2,1");
-    // one plot per pick, each with the oracle, the ensemble mean and its ±2σ band for fx fy fz
+    // one plot per pick, each with the oracle, the ensemble mean and its ±2σ band for fx and fz (fy is zero throughout)
     await waitFor(() => expect(screen.getAllByTestId("pick-forces")).toHaveLength(2));
     const picks = screen.getAllByTestId("pick-forces");
     expect(picks.map((p) => p.dataset.pick)).toEqual(["0", "1"]);
     expect(picks.every((p) => p.dataset.band === "true")).toBe(true);
-    expect(picks[0]).toHaveAttribute("data-traces", String(3 * 4));
+    expect(picks[0]).toHaveAttribute("data-traces", String(2 * 4));
+    await userEvent.click(screen.getByLabelText("moments"));
+    await waitFor(() => expect(screen.getAllByTestId("pick-forces")[0]).toHaveAttribute("data-traces", String(1 * 4))); // my only
     // a candidate's OCP solution on demand
     await userEvent.click(screen.getByLabelText("show the OCP solution of slot 0"));
     await waitFor(() => expect(screen.getByTestId("candidate-trajectories")).toHaveAttribute("data-points", "2"));
