@@ -193,6 +193,22 @@ def _what_the_user_sees(cid: int, ranked: list[Any], forces: dict[int, np.ndarra
     assert [(p["slot"], p["force_rmse"]) for p in row["picks"]] == [(c.slot, c.force_rmse) for c in ranked[:2]]
 
 
+def test_the_cost_axes_add_up_oracle_calls_and_iteration_wall_time_until_each_evaluation() -> None:
+    """Hand-worked: iteration 1 (1 call, 0..10 s, evaluated at 8 s), 2 (3 calls, 12..27 s,
+    evaluated at 22 s: 10 s before it + 10 s of its own; the 2 s pause between them not counted),
+    3 (failed: no call, no end, no metrics row: nothing of its own)."""
+    from datetime import datetime, timedelta
+
+    t0 = datetime(2026, 1, 1)
+    at = [t0 + timedelta(seconds=x) for x in (0, 10, 8, 12, 27, 22, 30)]
+    costs = [
+        picks.Cost(1, 1, at[0], at[1], at[2]),
+        picks.Cost(2, 3, at[3], at[4], at[5]),
+        picks.Cost(3, 0, at[6], None, None),
+    ]
+    assert picks.cumulative_costs(costs) == {1: (1, 1, 8.0), 2: (3, 4, 20.0), 3: (0, 4, 25.0)}
+
+
 def test_retrying_a_batch_slot_that_failed_the_campaign_runs_the_slots_it_cancelled_too(
     sqlite_campaign_db: str, make_campaign, faults
 ) -> None:

@@ -149,7 +149,7 @@ def pick_curves(s: Session, campaign_id: int, k: int, pick: int) -> IterationCur
 
 
 @dataclass(frozen=True)
-class _Cost:
+class Cost:
     index: int
     calls: int
     started: datetime | None
@@ -161,9 +161,9 @@ def _seconds(a: datetime | None, b: datetime | None) -> float:
     return max((b - a).total_seconds(), 0.0) if a is not None and b is not None else 0.0
 
 
-def _costs(s: Session, c: Campaign) -> list[_Cost]:
+def _costs(s: Session, c: Campaign) -> list[Cost]:
     """Iterations 1.. of the campaign's lineage: its sources' up to the fork point, then its own."""
-    out: list[_Cost] = []
+    out: list[Cost] = []
     first = 1
     if c.source_campaign_id is not None and c.source_iteration is not None:
         src = s.get(Campaign, c.source_campaign_id)
@@ -179,20 +179,28 @@ def _costs(s: Session, c: Campaign) -> list[_Cost]:
         .where(Iteration.campaign_id == c.id, Iteration.index >= first)
         .order_by(Iteration.index)
     )
-    return out + [_Cost(*row) for row in s.execute(q)]
+    return out + [Cost(*row) for row in s.execute(q)]
+
+
+def cumulative_costs(costs: list[Cost]) -> dict[int, tuple[int, int, float]]:
+    """Per iteration index: (its oracle calls, the oracle calls of it and every iteration before,
+    the wall time of every iteration before from start to end plus its own from its start until
+    its evaluation, or its end if it has no metrics row) over ``costs`` in lineage order."""
+    at: dict[int, tuple[int, int, float]] = {}
+    calls = 0
+    wall = 0.0
+    for r in costs:
+        at[r.index] = (r.calls, calls + r.calls, wall + _seconds(r.started, r.evaluated or r.finished))
+        calls += r.calls
+        wall += _seconds(r.started, r.finished)
+    return at
 
 
 def with_costs(s: Session, c: Campaign, rows: list[MetricsRead], iteration_ids: dict[int, int]) -> list[MetricsRead]:
     """The series' rows with iteration k's oracle calls, the cumulative oracle calls and wall
     time of iterations 1..k (until model k was evaluated), and each pick's RMSE.
     ``iteration_ids``: iteration index -> iteration id of the rows."""
-    at: dict[int, tuple[int, int, float]] = {}
-    calls = 0
-    wall = 0.0
-    for r in _costs(s, c):
-        at[r.index] = (r.calls, calls + r.calls, wall + _seconds(r.started, r.evaluated or r.finished))
-        calls += r.calls
-        wall += _seconds(r.started, r.finished)
+    at = cumulative_costs(_costs(s, c))
     picks: dict[int, list[PickRmse]] = {}
     if iteration_ids:
         q = (
@@ -224,4 +232,4 @@ def with_costs(s: Session, c: Campaign, rows: list[MetricsRead], iteration_ids: 
     return out
 
 
-__all__ = ["iteration_candidates", "pick_curves", "with_costs"]
+__all__ = ["Cost", "cumulative_costs", "iteration_candidates", "pick_curves", "with_costs"]
