@@ -200,7 +200,41 @@ export function settled(data: IterationCandidates | undefined): boolean {
   return data.candidates.every((c) => !isPicked(c) || c.has_curves);
 }
 
-export function CandidatesPanel({ campaignId, iteration }: { campaignId: number; iteration: number | null }) {
+/** Which iteration the tab shows (also one without metrics, e.g. one the stopping rule ended). */
+function IterationPicker({ iteration, last, setIteration }: { iteration: number | null; last: number; setIteration?: (k: number) => void }) {
+  if (!setIteration || last < 1) return null;
+  return (
+    <label className="field-inline">
+      iteration
+      <input
+        type="number"
+        min={1}
+        max={last}
+        step={1}
+        value={iteration ?? ""}
+        style={{ width: "6em" }}
+        onChange={(e) => {
+          const k = Number(e.target.value);
+          if (Number.isInteger(k) && k >= 1 && k <= last) setIteration(k);
+        }}
+        aria-label="iteration of the candidates"
+      />
+      <span className="muted">of {last}</span>
+    </label>
+  );
+}
+
+export function CandidatesPanel({ campaignId, iteration, last = 0, setIteration }: { campaignId: number; iteration: number | null; last?: number; setIteration?: (k: number) => void }) {
+  const picker = <IterationPicker iteration={iteration} last={last} setIteration={setIteration} />;
+  return (
+    <>
+      <div className="toolbar">{picker}</div>
+      <CandidatesOf campaignId={campaignId} iteration={iteration} />
+    </>
+  );
+}
+
+function CandidatesOf({ campaignId, iteration }: { campaignId: number; iteration: number | null }) {
   const q = useQuery({ ...candidatesQuery(campaignId, iteration ?? 0), enabled: iteration !== null && iteration > 0, refetchInterval: (query) => (settled(query.state.data) ? false : POLL_MS) });
   const [shown, setShown] = useState<number[]>([]);
   if (iteration === null || iteration === 0) return <Empty title="No iteration with candidates yet">Candidates appear once an iteration's OCP has solved them.</Empty>;

@@ -94,8 +94,13 @@ describe("the candidates & picks tab", () => {
 
   it("says a paper iteration has no candidates", async () => {
     mockApi({ "GET /campaigns/5/iterations/2/candidates": { ...CANDIDATES, strategy: "paper", batch: 1, n_candidates: 1, candidates: [] } });
-    renderPage(<CandidatesPanel campaignId={5} iteration={2} />);
+    const chosen: number[] = [];
+    renderPage(<CandidatesPanel campaignId={5} iteration={2} last={3} setIteration={(k) => chosen.push(k)} />);
     expect(await screen.findByText("Iteration 2 has no candidates")).toBeInTheDocument();
+    // any iteration can be chosen, also one without metrics (e.g. the one the stopping rule ended)
+    fireEvent.change(screen.getByLabelText("iteration of the candidates"), { target: { value: "3" } });
+    fireEvent.change(screen.getByLabelText("iteration of the candidates"), { target: { value: "4" } });
+    expect(chosen).toEqual([3]);
     expect(scenarioText(null)).toBe("the task as written");
   });
 });

@@ -205,7 +205,7 @@ export function CampaignPage() {
         </div>
         <div role="tabpanel" id={`panel-${tab}`} aria-labelledby={`tab-${tab}`}>
           {tab === "forces" && <ForcesPanel campaignId={id} points={points} iteration={k} setIteration={(it) => setSelected([it])} overlay={overlay} setOverlay={setOverlay} task={{ id: c.task_id, version: c.task_version }} />}
-          {tab === "candidates" && <CandidatesPanel campaignId={id} iteration={trajectoryK} />}
+          {tab === "candidates" && <CandidatesPanel campaignId={id} iteration={trajectoryK} last={r.current_iteration} setIteration={(it) => setSelected([it])} />}
           {tab === "trajectory" && <TrajectoryPanel campaignId={id} iteration={trajectoryK} task={{ id: c.task_id, version: c.task_version }} />}
           {tab === "jobs" && <JobsTable campaignId={id} />}
           {tab === "versions" && <VersionsPanel campaignId={id} />}
