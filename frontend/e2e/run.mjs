@@ -225,6 +225,7 @@ try {
   await page.getByLabel("Type").selectOption("aux-penalty");
   await page.getByRole("button", { name: "Create oracle" }).click();
   await page.waitForURL(/\/oracles\/\d+$/);
+  const oracleUrl = page.url();
 
   step("test the oracle on a sample trajectory (preview run by the worker)");
   await page.getByRole("button", { name: "Test on a sample trajectory" }).click();
@@ -249,6 +250,27 @@ try {
   await page.getByRole("button", { name: "Create campaign" }).click();
   await page.waitForURL(/\/campaigns\/\d+/);
   const campaignUrl = page.url();
+  // beside it, a small batch campaign through the API (the candidates tab is opened at the end):
+  // ensemble-disagreement, C = 3 candidates of the scenario preset, q = 2 picks, one iteration
+  const token = await page.evaluate(() => localStorage.getItem("alcove.token"));
+  const api = async (method, path, body) => {
+    const r = await page.request.fetch(`${baseUrl}/api/v1${path}`, { method, data: body, headers: { Authorization: `Bearer ${token}` } });
+    if (!r.ok()) throw new Error(`${method} ${path}: ${r.status()} ${await r.text()}`);
+    return r.json();
+  };
+  const scenarioPreset = (await api("GET", "/tasks/presets")).find((p) => p.key === "head-headrest-scenarios");
+  const batchTask = await api("POST", "/tasks", { name: `e2e scenarios ${stamp}`, description: "", spec: scenarioPreset.spec });
+  const batchSurrogate = await api("POST", "/surrogate-configs", { name: `e2e ensemble ${stamp}`, spec: { max_epochs: 40, ensemble_size: 2 } });
+  const batchCampaign = await api("POST", "/campaigns", {
+    name: `e2e batch ${stamp}`,
+    task_id: batchTask.id,
+    oracle_id: Number(/\/oracles\/(\d+)/.exec(oracleUrl)[1]),
+    surrogate_config_id: batchSurrogate.id,
+    start: true,
+    preliminary: { samples: 200 },
+    settings: { validation_motions: 0, ocp_intervals: 20, replay_dt: 0.01, strategy: "ensemble-disagreement", batch: 2, candidates: 3, min_distance: 0 },
+    stopping: { max_iterations: 1 },
+  });
   checkpoint("campaign");
 
   step("watch the RMSE plot gain points from >= 2 iterations");
@@ -383,6 +405,18 @@ try {
   await download.saveAs(modelPath);
   const size = statSync(modelPath).size;
   if (size < 100) throw new Error(`downloaded model is ${size} bytes`);
+
+  step("a batch campaign's candidates tab: every candidate ranked with why, the picks' forces in the ensemble's band");
+  await page.goto(`${baseUrl}/campaigns/${batchCampaign.id}?tab=candidates&k=1`);
+  const candidateRows = page.getByTestId("candidates-table").locator("tbody tr");
+  await waitFor(async () => (await page.locator("[data-testid=candidates-table] tbody tr[data-picked=true]").count()) === 2, "2 picks of 3 candidates", campaignTimeout);
+  const whys = await candidateRows.evaluateAll((rows) => rows.map((r) => r.dataset.why));
+  if (whys.length !== 3 || whys[0] !== "picked-top" || whys[1] !== "picked-far") throw new Error(`candidates' why: ${whys}`);
+  await page.locator("[data-testid=pick-forces][data-band=true][data-rendered=true]").nth(1).waitFor({ timeout: 30_000 });
+  step(`  candidates by rank: ${whys.join(", ")}`);
+  await page.screenshot({ path: resolve(artifacts, "campaign-candidates.png"), fullPage: true, animations: "disabled" });
+  await page.getByTestId("x-axis").getByLabel("oracle calls").check();
+  await page.locator("[data-testid=rmse-plot][data-xaxis=oracle]").waitFor();
 
   step("screenshots of the campaign page and the campaigns list");
   await page.goto(campaignUrl.split("?")[0] + "?tab=forces");

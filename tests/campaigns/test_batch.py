@@ -20,7 +20,7 @@ import numpy as np
 import pytest
 import sqlalchemy as sa
 
-from alcove.campaigns import protocol, repository, results
+from alcove.campaigns import picks, protocol, repository, results
 from alcove.db import session_scope
 from alcove.db.arrays import get_arrays
 from alcove.models import Dataset, OcpSolution
@@ -121,6 +121,8 @@ def test_ensemble_disagreement_replays_the_most_disputed_candidates_and_stops_wh
         }
         top = ranked[0].score
         assert top > 0  # the two-member ensemble disagrees somewhere in contact
+        dataset_forces = {c.slot: get_arrays(s, s.get(Dataset, c.dataset_id).content_sha256)["f"] for c in ranked[:2]}
+    _what_the_user_sees(cid, ranked, dataset_forces)
 
     stop = {**settings, "candidates": 2}
     cid, jobs = make_campaign(
@@ -137,6 +139,74 @@ def test_ensemble_disagreement_replays_the_most_disputed_candidates_and_stops_wh
             "append": "succeeded",
         }
         assert pool_repo.version_of(s, cid, 1).n_datasets == pool_repo.version_of(s, cid, 0).n_datasets
+        why = picks.iteration_candidates(s, cid, 1)
+        assert [c.why.code for c in why.candidates] == ["below-threshold"] * 2 and why.min_disagreement > top
+
+
+def _what_the_user_sees(cid: int, ranked: list[Any], forces: dict[int, np.ndarray]) -> None:
+    """The API of the candidates tab: every candidate ranked with why (q = 2, min_distance 0:
+    the top score, then the next by distance, the rest not in the top q), each pick's curves
+    (the oracle's forces of its dataset; its RMSE recomputed from them is the stored one), each
+    candidate's OCP trajectory, and the series' oracle calls for the x axis."""
+    from fastapi.testclient import TestClient
+
+    from alcove.app import create_app
+    from alcove.models import ApiToken, Campaign, TokenKind, User
+    from alcove.settings import get_settings
+
+    with session_scope() as s:  # a token of the campaign's owner
+        token, secret = ApiToken.issue(s.get(User, s.get(Campaign, cid).owner_id), kind=TokenKind.personal, name="t")
+        s.add(token)
+    headers = {"Authorization": f"Bearer {secret}"}
+    settings = get_settings().model_copy(update={"static_dir": Path(get_settings().data_dir) / "no-frontend"})
+    api = TestClient(create_app(settings))
+    base = f"/api/v1/campaigns/{cid}/iterations/1"
+    r = api.get(f"{base}/candidates", headers=headers)
+    assert r.status_code == 200, r.text
+    body = r.json()
+    assert (body["strategy"], body["batch"], body["n_candidates"], body["min_distance"]) == (
+        "ensemble-disagreement",
+        2,
+        4,
+        0.0,
+    )
+    by_slot = {c["slot"]: c for c in body["candidates"]}
+    assert [by_slot[c.slot]["rank"] for c in ranked] == [1, 2, 3, 4]
+    assert [by_slot[c.slot]["why"]["code"] for c in ranked] == ["picked-top", "picked-far", "batch-full", "batch-full"]
+    assert by_slot[ranked[1].slot]["why"]["nearest_pick"] == 0 and by_slot[ranked[0].slot]["pick"] == 0
+    for pick, c in enumerate(ranked[:2]):
+        curves = api.get(f"{base}/picks/{pick}/curves", headers=headers).json()
+        assert (curves["pick"], curves["slot"]) == (pick, c.slot)
+        f_true, f_pred, f_std = (np.array(curves[key]) for key in ("f_true", "f_pred", "f_std"))
+        np.testing.assert_array_equal(f_true, forces[c.slot])
+        assert f_std.shape == f_pred.shape and (f_std >= 0).all() and f_std.max() > 0  # two members disagree
+        rmse = float(np.sqrt(np.mean(np.sum((f_pred[:, :3] - f_true[:, :3]) ** 2, axis=1))))
+        assert rmse == pytest.approx(c.force_rmse, rel=1e-9)
+    assert api.get(f"{base}/picks/2/curves", headers=headers).status_code == 404
+    for c in ranked:  # every candidate's OCP solution, over the scenario it solved
+        traj = api.get(f"{base}/candidates/{c.slot}/trajectory", headers=headers).json()
+        assert traj["slot"] == c.slot and traj["scenario"] == c.scenario
+        assert traj["q"][0][0] == pytest.approx(c.scenario["values"]["initial.q.0"], abs=1e-8)
+    series = api.get(f"/api/v1/campaigns/{cid}/metrics", headers=headers).json()
+    row = next(r for r in series if r["iteration_index"] == 1)
+    assert row["oracle_calls"] == row["cumulative_oracle_calls"] == 2 and row["cumulative_wall_time_s"] > 0
+    assert [(p["slot"], p["force_rmse"]) for p in row["picks"]] == [(c.slot, c.force_rmse) for c in ranked[:2]]
+
+
+def test_the_cost_axes_add_up_oracle_calls_and_iteration_wall_time_until_each_evaluation() -> None:
+    """Hand-worked: iteration 1 (1 call, 0..10 s, evaluated at 8 s), 2 (3 calls, 12..27 s,
+    evaluated at 22 s: 10 s before it + 10 s of its own; the 2 s pause between them not counted),
+    3 (failed: no call, no end, no metrics row: nothing of its own)."""
+    from datetime import datetime, timedelta
+
+    t0 = datetime(2026, 1, 1)
+    at = [t0 + timedelta(seconds=x) for x in (0, 10, 8, 12, 27, 22, 30)]
+    costs = [
+        picks.Cost(1, 1, at[0], at[1], at[2]),
+        picks.Cost(2, 3, at[3], at[4], at[5]),
+        picks.Cost(3, 0, at[6], None, None),
+    ]
+    assert picks.cumulative_costs(costs) == {1: (1, 1, 8.0), 2: (3, 4, 20.0), 3: (0, 4, 25.0)}
 
 
 def test_retrying_a_batch_slot_that_failed_the_campaign_runs_the_slots_it_cancelled_too(

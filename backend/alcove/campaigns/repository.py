@@ -387,8 +387,14 @@ def candidates(s: Session, iteration_id: int) -> list[IterationCandidate]:
 
 
 def set_candidate_rmse(
-    s: Session, iteration_id: int, dataset_id: int, force_rmse: float | None, moment_rmse: float | None
+    s: Session,
+    iteration_id: int,
+    dataset_id: int,
+    force_rmse: float | None,
+    moment_rmse: float | None,
+    curves_sha256: str | None = None,
 ) -> None:
     for row in candidates(s, iteration_id):
         if row.dataset_id == dataset_id:
             row.force_rmse, row.moment_rmse = force_rmse, moment_rmse
+            row.curves_sha256 = curves_sha256

@@ -92,18 +92,23 @@ def metrics_series(
     """Per-iteration metrics; ``after=k`` returns only iterations > k (cheap polling). With
     ``inherited``, a fork's series starts with its sources' iterations up to the fork point
     (flagged ``inherited``), as its pool and model lineage does."""
+    from alcove.campaigns.picks import with_costs
+
     c = repo.get_campaign(s, campaign_id)
-    rows = with_validation(s, [_metrics_read(m) for m in repo.metrics_series(s, campaign_id, after)])
+    orm = repo.metrics_series(s, campaign_id, after)
+    ids = {m.iteration_index: m.iteration_id for m in orm}
+    rows = with_validation(s, [_metrics_read(m) for m in orm])
     if not inherited:
-        return rows
+        return with_costs(s, c, rows, ids)
     before: list[MetricsRead] = []
     source, through = c.source_campaign_id, c.source_iteration
     while source is not None and through is not None:
         src = repo.get_campaign(s, source)
         own = [m for m in repo.metrics_series(s, src.id, after) if m.iteration_index <= through]
+        ids.update({m.iteration_index: m.iteration_id for m in own})
         before = [_metrics_read(m).model_copy(update={"inherited": True}) for m in own] + before
         source, through = src.source_campaign_id, min(through, src.source_iteration or 0)
-    return with_validation(s, before) + rows
+    return with_costs(s, c, with_validation(s, before) + rows, ids)
 
 
 def list_iterations(s: Session, campaign_id: int, after: int | None = None) -> list[IterationRead]:
@@ -139,23 +144,29 @@ def no_solution_message(campaign_id: int, iteration: int) -> str:
     )
 
 
-def iteration_trajectory(s: Session, campaign_id: int, iteration: int) -> IterationTrajectory:
+def iteration_trajectory(s: Session, campaign_id: int, iteration: int, slot: int | None = None) -> IterationTrajectory:
     """Iteration k's whole OCP solution (its latest attempt, converged or not) over every
     phase of the task, with the phase boundaries, the part the oracle replayed and the
-    solver summary. An iteration up to a fork's source iteration reads the source's."""
+    solver summary. An iteration up to a fork's source iteration reads the source's. With
+    ``slot``: the solution of that candidate (ocp slot) of a batch iteration, and its scenario."""
     c = repo.get_campaign(s, campaign_id)
     cid, k = holder(s, c.id, iteration)
     it = repo.get_iteration(s, cid, k)
-    sol = solving_repo.latest_of_iteration(s, it.id) if it is not None else None
+    sol = solving_repo.latest_of_iteration(s, it.id, slot or 0) if it is not None else None
     if it is None or sol is None or sol.trajectory_sha256 is None:
-        raise NotFound("iteration", message=no_solution_message(campaign_id, iteration))
+        what = no_solution_message(campaign_id, iteration)
+        raise NotFound("iteration", message=what if slot is None else f"{what[:-1]}; or has no candidate {slot})")
+    scenario = it.scenario
+    if slot is not None:
+        cand = next((row for row in repo.candidates(s, it.id) if row.slot == slot), None)
+        scenario = cand.scenario if cand is not None else scenario
     owner = c if cid == c.id else s.get(Campaign, cid)
     assert owner is not None  # holder() found campaign cid
     task_version = s.get(TaskVersion, owner.task_version_id)
     assert task_version is not None  # a campaign's task version cannot be deleted (foreign key, RESTRICT)
     spec = task_version.spec
-    if it.scenario and it.scenario.get("values"):  # the phases of the scenario solved (durations may vary)
-        spec = apply_to_spec(spec, it.scenario["values"])
+    if scenario and scenario.get("values"):  # the phases of the scenario solved (durations may vary)
+        spec = apply_to_spec(spec, scenario["values"])
     cv = s.get(CampaignConfigVersion, it.config_version_id) if it.config_version_id else None
     settings = (config_from_version(cv) if cv is not None else current_config(s, owner)).settings
     a = get_arrays(s, sol.trajectory_sha256)
@@ -181,7 +192,8 @@ def iteration_trajectory(s: Session, campaign_id: int, iteration: int) -> Iterat
         duration=t0 - start,
         phases=phases,
         replay_phases=n_replayed,
-        scenario=it.scenario,
+        scenario=scenario,
+        slot=sol.slot,
         replay_t_end=phases[n_replayed - 1].t_end,
         replay_dt=settings.replay_dt,
         solver=OcpSolverSummary(

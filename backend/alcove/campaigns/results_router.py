@@ -7,7 +7,7 @@ from __future__ import annotations
 
 from typing import Annotated, Literal
 
-from fastapi import APIRouter, Query, Request, Response
+from fastapi import APIRouter, Path, Query, Request, Response
 from pydantic import TypeAdapter
 from starlette.concurrency import run_in_threadpool
 
@@ -15,11 +15,12 @@ from alcove.api.caching import NOT_MODIFIED, TtlCache, cached_json, read
 from alcove.api.deps import SessionDep
 from alcove.api.downloads import binary, download
 from alcove.api.params import MAX_ID, IterationIndex, ObjectId
-from alcove.campaigns import export, results
+from alcove.campaigns import export, picks, results
 from alcove.campaigns import read_repository as reads
 from alcove.campaigns.quality_schemas import ValidationSeries
 from alcove.campaigns.schemas import (
     EventRead,
+    IterationCandidates,
     IterationCurves,
     IterationRead,
     IterationTrajectory,
@@ -203,6 +204,56 @@ async def get_iteration_trajectory(
             return results.iteration_trajectory(session, campaign_id, iteration).model_dump_json().encode()
 
     return await cached_json(request, key, build)
+
+
+Slot = Annotated[int, Path(ge=0, le=63, description="the candidate's ocp slot (0 to 63)")]
+PickIndex = Annotated[int, Path(ge=0, le=63, description="pick order: 0 = the first pick (0 to 63)")]
+
+
+@router.get(
+    "/{campaign_id:integer}/iterations/{iteration:integer}/candidates",
+    response_model=IterationCandidates,
+    operation_id="get_iteration_candidates",
+)
+def get_iteration_candidates(
+    campaign_id: ObjectId, iteration: IterationIndex, user: CurrentUser, session: SessionDep
+) -> IterationCandidates:
+    """Iteration k's candidate scenarios (ocp slots), each with its score, its rank, whether it
+    was picked and why (from the acquisition rule and the iteration's settings: top score, next
+    by the minimum distance, too close to a pick, not in the top q, below the stopping threshold,
+    not converged), its OCP solution (``.../candidates/{slot}/trajectory``) and whether the
+    pick's curves are stored (``.../picks/{pick}/curves``). Empty for strategy ``paper``."""
+    get_for(session, Campaign, campaign_id, user)
+    return picks.iteration_candidates(session, campaign_id, iteration)
+
+
+@router.get(
+    "/{campaign_id:integer}/iterations/{iteration:integer}/candidates/{slot:integer}/trajectory",
+    response_model=IterationTrajectory,
+    operation_id="get_candidate_trajectory",
+)
+def get_candidate_trajectory(
+    campaign_id: ObjectId, iteration: IterationIndex, slot: Slot, user: CurrentUser, session: SessionDep
+) -> IterationTrajectory:
+    """Candidate ``slot``'s whole OCP solution (its latest attempt) over the scenario it solved,
+    as ``.../trajectory`` gives the first slot's."""
+    get_for(session, Campaign, campaign_id, user)
+    return results.iteration_trajectory(session, campaign_id, iteration, slot=slot)
+
+
+@router.get(
+    "/{campaign_id:integer}/iterations/{iteration:integer}/picks/{pick:integer}/curves",
+    response_model=IterationCurves,
+    operation_id="get_pick_curves",
+)
+def get_pick_curves(
+    campaign_id: ObjectId, iteration: IterationIndex, pick: PickIndex, user: CurrentUser, session: SessionDep
+) -> IterationCurves:
+    """Pick ``pick`` of iteration k: model k's prediction (ensemble mean, and its standard
+    deviation for K > 1) and the oracle's forces along that picked trajectory (t, q, qd on the
+    oracle's grid; columns fx fy fz mx my mz). Pick 0's are the iteration's curves."""
+    get_for(session, Campaign, campaign_id, user)
+    return picks.pick_curves(session, campaign_id, iteration, pick)
 
 
 @router.get("/{campaign_id:integer}/jobs", response_model=list[JobOut], operation_id="list_campaign_jobs")

@@ -20,6 +20,13 @@ from alcove.campaigns.config import (
     RunSettings,
     StoppingRules,
 )
+from alcove.campaigns.pick_schemas import (
+    CandidateDetail,
+    CandidateRead,
+    CandidateWhy,
+    IterationCandidates,
+    PickRmse,
+)
 from alcove.campaigns.quality_schemas import TrustRead, ValidationSuiteRead
 from alcove.models.base import CampaignStatus, IterationStatus, StepName, StepStatus
 from alcove.science.surrogate.metrics import DESCRIPTIONS
@@ -85,21 +92,6 @@ class StepRead(_Read):
     wall_time_s: float | None
     error: str | None
     result: dict[str, Any]
-
-
-class CandidateRead(_Read):
-    """A scenario the iteration's OCP solved (ocp slot ``slot``) and, if picked, its replay."""
-
-    slot: int = Field(description="the ocp slot (job) that solved it")
-    scenario: dict[str, Any] | None = Field(description="seed, iteration, slot, values; null: the task as written")
-    converged: bool | None = Field(description="whether its OCP converged")
-    score: float | None = Field(None, description="ensemble disagreement over its contact phase [N] (if scored)")
-    pick: int | None = Field(description="the oracle slot that replayed it; null: not picked")
-    pick_reason: str | None = Field(None, description="why it was picked")
-    oracle_run_id: int | None = None
-    dataset_id: int | None = None
-    force_rmse: float | None = Field(None, description="in-loop force RMSE of model k on its oracle data [N]")
-    moment_rmse: float | None = Field(None, description="in-loop moment RMSE [N m]")
 
 
 class IterationRead(_Read):
@@ -185,6 +177,22 @@ class MetricsRead(_Read):
         description="false: the validation suite evaluation predates migration 0019 and did not compute the "
         "calibration (its null does not mean K = 1); null until evaluated",
     )
+    oracle_calls: int | None = Field(None, description="oracle runs iteration k made")
+    cumulative_oracle_calls: int | None = Field(
+        None,
+        description="oracle runs of iterations 1..k (a fork: its sources' up to the fork point included; the "
+        "preliminary data of iteration 0 not counted): an x axis on which strategies and batch sizes compare",
+    )
+    cumulative_wall_time_s: float | None = Field(
+        None,
+        description="wall time of iterations 1..k until model k was evaluated [s]: finished iterations from start "
+        "to end, iteration k from its start to its metrics row (pauses between iterations not counted; a fork "
+        "includes its sources' up to the fork point)",
+    )
+    picks: list[PickRmse] = Field(
+        default_factory=list,
+        description="a batch iteration's in-loop RMSE per picked trajectory (the row's RMSEs are their mean)",
+    )
     extra: dict[str, Any] | None = Field(
         None, description="software versions, per-component RMSE, step timings (only with ?extra=true on the series)"
     )
@@ -221,6 +229,8 @@ class IterationCurves(BaseModel):
     f_std: list[list[float]] | None = Field(
         None, description="(n, 6): the ensemble's standard deviation per output; null for a single model (K = 1)"
     )
+    pick: int | None = Field(None, description="the picked trajectory these are of (batch iterations; 0: first)")
+    slot: int | None = Field(None, description="that pick's candidate (ocp slot)")
 
 
 class TrajectoryPhase(BaseModel):
@@ -268,6 +278,7 @@ class IterationTrajectory(BaseModel):
     replay_t_end: float = Field(description="end of the replayed part [s]")
     replay_dt: float | None = Field(None, description="the replay's resampling step [s]; null: the OCP grid")
     solver: OcpSolverSummary
+    slot: int = Field(0, description="the ocp slot (candidate) solved")
 
 
 class EventRead(_Read):
@@ -370,8 +381,11 @@ __all__ = [
     "CampaignOut",
     "CampaignRead",
     "CampaignSummary",
+    "CandidateDetail",
+    "CandidateWhy",
     "EventRead",
     "ForkRequest",
+    "IterationCandidates",
     "IterationCurves",
     "IterationRead",
     "IterationTrajectory",
@@ -379,6 +393,7 @@ __all__ = [
     "MetricsRead",
     "OcpSolverSummary",
     "OnFailure",
+    "PickRmse",
     "Policies",
     "PreliminaryConfig",
     "RetryIn",

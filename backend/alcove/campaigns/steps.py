@@ -345,8 +345,10 @@ def evaluate(ctx: StepContext) -> StepOutput:
 
     def per_pick(s: Session, at: IterationRef) -> dict[str, Any]:
         result = evaluated.write(s, at)
-        for p in result.get("picks", []):  # a batch: the in-loop RMSE of each picked trajectory
-            repo.set_candidate_rmse(s, at.iteration_id, p["dataset_id"], p["force_rmse"], p["moment_rmse"])
+        for p in result.get("picks", []):  # a batch: the in-loop RMSE and curves of each picked trajectory
+            repo.set_candidate_rmse(
+                s, at.iteration_id, p["dataset_id"], p["force_rmse"], p["moment_rmse"], p.get("curves_sha256")
+            )
         return result
 
     out = StepOutput(per_pick, evaluated.compute_s)

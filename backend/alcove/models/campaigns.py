@@ -242,6 +242,10 @@ class IterationCandidate(Base):
     dataset_id: Mapped[int | None] = mapped_column(sa.ForeignKey("datasets.id", ondelete="SET NULL"))
     force_rmse: Mapped[float | None] = mapped_column(sa.Float, comment="in-loop force RMSE on its oracle data [N]")
     moment_rmse: Mapped[float | None] = mapped_column(sa.Float)
+    curves_sha256: Mapped[str | None] = mapped_column(
+        sa.ForeignKey("blobs.sha256", ondelete="RESTRICT"),
+        comment="a pick's curves: t, q, qd, f_true, f_pred (ensemble mean), f_std (K > 1)",
+    )
 
 
 class IterationStep(Base):

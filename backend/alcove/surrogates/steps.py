@@ -86,8 +86,9 @@ def evaluate(
     (``IterationMetrics`` columns, plus ``extra``).
 
     A batch iteration (several picks, ``dataset_ids`` in pick order) is scored per picked
-    trajectory (``result["picks"]``); its metrics row holds their mean (the largest errors: the
-    largest of all) and the first pick's curves. With one dataset: that dataset's figures."""
+    trajectory (``result["picks"]``: dataset, RMSEs and the content hash of that pick's curves);
+    its metrics row holds their mean (the largest errors: the largest of all) and the first
+    pick's curves. With one dataset: that dataset's figures."""
     from alcove.models import Dataset
     from alcove.science.surrogate.metrics import wrench_metrics
     from alcove.science.surrogate.training import predict_ensemble
@@ -144,6 +145,14 @@ def evaluate(
         {"dataset_id": d, "force_rmse": p["honest"]["force_rmse"], "moment_rmse": p["honest"]["moment_rmse"]}
         for d, p in zip(dataset_ids, picks, strict=True)
     ]
+    # every pick's curves (the first pick's are also the metrics row's): model k's prediction with
+    # the ensemble's std against the oracle along each picked trajectory
+    pick_curves = []
+    for (arrays, _), p in zip(data, picks, strict=True):
+        pc = {"t": arrays["t"], "q": arrays["q"], "qd": arrays["qd"], "f_true": arrays["f"], "f_pred": p["f_pred"]}
+        if p["f_std"] is not None:
+            pc["f_std"] = p["f_std"]
+        pick_curves.append(pc)
     a, first = data[0][0], picks[0]
     honest = {
         **first["honest"],
@@ -182,6 +191,8 @@ def evaluate(
         )
         s.add(m)
         s.flush()
-        return {"metrics_id": m.id, **metrics, **({"picks": per_pick} if len(per_pick) > 1 else {})}
+        shas = [curves if i == 0 else put_arrays(s, pc) for i, pc in enumerate(pick_curves)]
+        picked = [{**p, "curves_sha256": sha} for p, sha in zip(per_pick, shas, strict=True)]
+        return {"metrics_id": m.id, **metrics, "picks": picked}
 
     return StepOutput(write)

@@ -68,6 +68,40 @@ export function iterationQuery(id: number, k: number) {
   });
 }
 
+/** Iteration k's candidates, ranked, with which were picked and why (changes until the fan-in). */
+export function candidatesQuery(id: number, k: number) {
+  return queryOptions({
+    queryKey: keys.candidates(id, k),
+    queryFn: async ({ signal }) =>
+      unwrap(await client.GET("/api/v1/campaigns/{campaign_id}/iterations/{iteration}/candidates", { params: { path: { campaign_id: id, iteration: k } }, signal })),
+    staleTime: 5_000,
+  });
+}
+
+/** Candidate `slot`'s whole OCP solution of iteration k (over the scenario it solved). */
+export function candidateTrajectoryQuery(id: number, k: number, slot: number) {
+  return queryOptions({
+    queryKey: [...keys.trajectory(id, k), "slot", slot] as const,
+    queryFn: async (): Promise<WholeTrajectory> => {
+      const r = unwrap(await client.GET("/api/v1/campaigns/{campaign_id}/iterations/{iteration}/candidates/{slot}/trajectory", { params: { path: { campaign_id: id, iteration: k, slot } } }));
+      return { ...r, q: columns(r.q), qd: columns(r.qd), tau: columns(r.tau) };
+    },
+    staleTime: 60_000,
+  });
+}
+
+/** Pick `pick` of iteration k: the oracle's forces and the surrogate's mean and std along it; immutable. */
+export function pickCurvesQuery(id: number, k: number, pick: number) {
+  return queryOptions({
+    queryKey: keys.pickCurves(id, k, pick),
+    queryFn: async (): Promise<IterationCurves> => {
+      const c = unwrap(await client.GET("/api/v1/campaigns/{campaign_id}/iterations/{iteration}/picks/{pick}/curves", { params: { path: { campaign_id: id, iteration: k, pick } } }));
+      return { iteration: c.iteration_index, t: c.t, q: c.q, truth: wrench(c.f_true), predicted: wrench(c.f_pred), std: c.f_std ? wrench(c.f_std) : null };
+    },
+    staleTime: Infinity,
+  });
+}
+
 /** Jobs, newest first. */
 export function useJobs(id: number) {
   return useQuery({

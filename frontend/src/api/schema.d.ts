@@ -301,6 +301,51 @@ export interface paths {
         patch?: never;
         trace?: never;
     };
+    "/api/v1/campaigns/{campaign_id}/iterations/{iteration}/candidates": {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        /**
+         * Get Iteration Candidates
+         * @description Iteration k's candidate scenarios (ocp slots), each with its score, its rank, whether it
+         *     was picked and why (from the acquisition rule and the iteration's settings: top score, next
+         *     by the minimum distance, too close to a pick, not in the top q, below the stopping threshold,
+         *     not converged), its OCP solution (``.../candidates/{slot}/trajectory``) and whether the
+         *     pick's curves are stored (``.../picks/{pick}/curves``). Empty for strategy ``paper``.
+         */
+        get: operations["get_iteration_candidates"];
+        put?: never;
+        post?: never;
+        delete?: never;
+        options?: never;
+        head?: never;
+        patch?: never;
+        trace?: never;
+    };
+    "/api/v1/campaigns/{campaign_id}/iterations/{iteration}/candidates/{slot}/trajectory": {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        /**
+         * Get Candidate Trajectory
+         * @description Candidate ``slot``'s whole OCP solution (its latest attempt) over the scenario it solved,
+         *     as ``.../trajectory`` gives the first slot's.
+         */
+        get: operations["get_candidate_trajectory"];
+        put?: never;
+        post?: never;
+        delete?: never;
+        options?: never;
+        head?: never;
+        patch?: never;
+        trace?: never;
+    };
     "/api/v1/campaigns/{campaign_id}/iterations/{iteration}/curves": {
         parameters: {
             query?: never;
@@ -315,6 +360,28 @@ export interface paths {
          *     mx my mz in the headrest frame). Immutable once there: cached, with an ``ETag``.
          */
         get: operations["get_iteration_curves"];
+        put?: never;
+        post?: never;
+        delete?: never;
+        options?: never;
+        head?: never;
+        patch?: never;
+        trace?: never;
+    };
+    "/api/v1/campaigns/{campaign_id}/iterations/{iteration}/picks/{pick}/curves": {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        /**
+         * Get Pick Curves
+         * @description Pick ``pick`` of iteration k: model k's prediction (ensemble mean, and its standard
+         *     deviation for K > 1) and the oracle's forces along that picked trajectory (t, q, qd on the
+         *     oracle's grid; columns fx fy fz mx my mz). Pick 0's are the iteration's curves.
+         */
+        get: operations["get_pick_curves"];
         put?: never;
         post?: never;
         delete?: never;
@@ -1630,6 +1697,77 @@ export interface components {
             /** Task Version */
             task_version: number;
         };
+        /** CandidateDetail */
+        CandidateDetail: {
+            /**
+             * Converged
+             * @description whether its OCP converged
+             */
+            converged: boolean | null;
+            /** Dataset Id */
+            dataset_id?: number | null;
+            /**
+             * Features
+             * @description its point in the diversity rule's feature space
+             */
+            features?: number[] | null;
+            /**
+             * Force Rmse
+             * @description in-loop force RMSE of model k on its oracle data [N]
+             */
+            force_rmse?: number | null;
+            /**
+             * Has Curves
+             * @description the pick's curves are stored (.../iterations/{k}/picks/{pick}/curves)
+             * @default false
+             */
+            has_curves?: boolean;
+            /**
+             * Moment Rmse
+             * @description in-loop moment RMSE [N m]
+             */
+            moment_rmse?: number | null;
+            /**
+             * Ocp Solution Id
+             * @description its OCP solution (the trajectory: .../candidates/{slot}/trajectory)
+             */
+            ocp_solution_id?: number | null;
+            /** Oracle Run Id */
+            oracle_run_id?: number | null;
+            /**
+             * Pick
+             * @description the oracle slot that replayed it; null: not picked
+             */
+            pick: number | null;
+            /**
+             * Pick Reason
+             * @description why it was picked
+             */
+            pick_reason?: string | null;
+            /**
+             * Rank
+             * @description by descending score (ties: lower slot), 1 = highest; null: not scored
+             */
+            rank: number | null;
+            /**
+             * Scenario
+             * @description seed, iteration, slot, values; null: the task as written
+             */
+            scenario: {
+                [key: string]: unknown;
+            } | null;
+            /**
+             * Score
+             * @description ensemble disagreement over its contact phase [N] (if scored)
+             */
+            score?: number | null;
+            /**
+             * Slot
+             * @description the ocp slot (job) that solved it
+             */
+            slot: number;
+            why: components["schemas"]["CandidateWhy"];
+        };
         /**
          * CandidateRead
          * @description A scenario the iteration's OCP solved (ocp slot ``slot``) and, if picked, its replay.
@@ -1652,6 +1790,11 @@ export interface components {
              * @description in-loop moment RMSE [N m]
              */
             moment_rmse?: number | null;
+            /**
+             * Ocp Solution Id
+             * @description its OCP solution (the trajectory: .../candidates/{slot}/trajectory)
+             */
+            ocp_solution_id?: number | null;
             /** Oracle Run Id */
             oracle_run_id?: number | null;
             /**
@@ -1681,6 +1824,34 @@ export interface components {
              * @description the ocp slot (job) that solved it
              */
             slot: number;
+        };
+        /**
+         * CandidateWhy
+         * @description Why a candidate was or was not picked, derived from the acquisition rule
+         *     (:func:`alcove.science.ocp.acquisition.explain_selection`) with the iteration's settings.
+         */
+        CandidateWhy: {
+            /**
+             * Code
+             * @description picked-top: the highest score; picked-far: the next highest score at least min_distance from every earlier pick; replayed: random-scenarios replays every converged draw; not-converged: its OCP did not converge (never picked); below-threshold: the iteration's highest score is below stopping.min_disagreement, nothing was picked; too-close: closer than min_distance to an earlier pick (nearest_pick); batch-full: q picks were made before its turn (not in the top q); pending: the iteration's candidates are not all solved yet
+             * @enum {string}
+             */
+            code: "picked-top" | "picked-far" | "replayed" | "not-converged" | "below-threshold" | "too-close" | "batch-full" | "pending";
+            /**
+             * Distance
+             * @description its distance to that pick (features scaled to [0, 1])
+             */
+            distance?: number | null;
+            /**
+             * Nearest Pick
+             * @description the pick (0 = first) nearest to it in feature space when it was considered
+             */
+            nearest_pick?: number | null;
+            /**
+             * Text
+             * @description the same for a person, with the figures
+             */
+            text: string;
         };
         /**
          * ChainSpec
@@ -2044,6 +2215,49 @@ export interface components {
             velocity?: "given" | "free";
         };
         /**
+         * IterationCandidates
+         * @description All candidates of an iteration, ranked, with which were picked and why.
+         */
+        IterationCandidates: {
+            /**
+             * Batch
+             * @description q: at most this many picks
+             */
+            batch: number;
+            /**
+             * Candidates
+             * @description by slot; empty for strategy paper
+             */
+            candidates: components["schemas"]["CandidateDetail"][];
+            /** Iteration Index */
+            iteration_index: number;
+            /**
+             * Min Disagreement
+             * @description the stopping threshold on the highest score [N]
+             */
+            min_disagreement?: number | null;
+            /**
+             * Min Distance
+             * @description ensemble-disagreement: the diversity rule's distance
+             */
+            min_distance?: number | null;
+            /**
+             * N Candidates
+             * @description C: candidate scenarios solved (ensemble-disagreement), else q
+             */
+            n_candidates: number;
+            /**
+             * Strategy
+             * @description the iteration's acquisition strategy
+             */
+            strategy: string;
+            /**
+             * Top Score
+             * @description the highest candidate score [N]
+             */
+            top_score?: number | null;
+        };
+        /**
          * IterationCurves
          * @description Model k's prediction and the oracle's truth along iteration k's trajectory.
          */
@@ -2065,10 +2279,20 @@ export interface components {
             f_true: number[][];
             /** Iteration Index */
             iteration_index: number;
+            /**
+             * Pick
+             * @description the picked trajectory these are of (batch iterations; 0: first)
+             */
+            pick?: number | null;
             /** Q */
             q: number[][];
             /** Qd */
             qd: number[][];
+            /**
+             * Slot
+             * @description that pick's candidate (ocp slot)
+             */
+            slot?: number | null;
             /** T */
             t: number[];
             /**
@@ -2169,6 +2393,12 @@ export interface components {
             scenario?: {
                 [key: string]: unknown;
             } | null;
+            /**
+             * Slot
+             * @description the ocp slot (candidate) solved
+             * @default 0
+             */
+            slot?: number;
             solver: components["schemas"]["OcpSolverSummary"];
             /**
              * T
@@ -2359,6 +2589,16 @@ export interface components {
              * @description the campaign the iteration ran in (a fork's source for inherited rows)
              */
             campaign_id: number;
+            /**
+             * Cumulative Oracle Calls
+             * @description oracle runs of iterations 1..k (a fork: its sources' up to the fork point included; the preliminary data of iteration 0 not counted): an x axis on which strategies and batch sizes compare
+             */
+            cumulative_oracle_calls?: number | null;
+            /**
+             * Cumulative Wall Time S
+             * @description wall time of iterations 1..k until model k was evaluated [s]: finished iterations from start to end, iteration k from its start to its metrics row (pauses between iterations not counted; a fork includes its sources' up to the fork point)
+             */
+            cumulative_wall_time_s?: number | null;
             /** Dataset Id */
             dataset_id: number | null;
             /**
@@ -2433,8 +2673,18 @@ export interface components {
             ocp_trusted?: boolean | null;
             /** Ocp Wall Time S */
             ocp_wall_time_s: number | null;
+            /**
+             * Oracle Calls
+             * @description oracle runs iteration k made
+             */
+            oracle_calls?: number | null;
             /** Oracle Wall Time S */
             oracle_wall_time_s: number | null;
+            /**
+             * Picks
+             * @description a batch iteration's in-loop RMSE per picked trajectory (the row's RMSEs are their mean)
+             */
+            picks?: components["schemas"]["PickRmse"][];
             /** Train Wall Time S */
             train_wall_time_s: number | null;
             /**
@@ -2986,6 +3236,29 @@ export interface components {
              * @description weight of tau^T tau in the running cost [1/(N^2 m^2 s)], 0 to 1e6 1/(N^2 m^2 s); paper: 1e-3, 1
              */
             w_tau: number;
+        };
+        /** PickRmse */
+        PickRmse: {
+            /**
+             * Force Rmse
+             * @description model k's force RMSE on this pick's oracle data [N]
+             */
+            force_rmse?: number | null;
+            /**
+             * Moment Rmse
+             * @description [N m]
+             */
+            moment_rmse?: number | null;
+            /**
+             * Pick
+             * @description pick order (oracle slot)
+             */
+            pick: number;
+            /**
+             * Slot
+             * @description the candidate's ocp slot
+             */
+            slot: number;
         };
         /**
          * Policies
@@ -5905,6 +6178,184 @@ export interface operations {
             };
         };
     };
+    get_iteration_candidates: {
+        parameters: {
+            query?: never;
+            header?: never;
+            path: {
+                /** @description object id */
+                campaign_id: number;
+                /** @description iteration index k (0 = preliminary data) */
+                iteration: number;
+            };
+            cookie?: never;
+        };
+        requestBody?: never;
+        responses: {
+            /** @description Successful Response */
+            200: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["IterationCandidates"];
+                };
+            };
+            /** @description not authenticated (missing, invalid, expired or revoked token) */
+            401: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorOut"];
+                };
+            };
+            /** @description not allowed (admin-only route, or an object shared with you for viewing only) */
+            403: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorOut"];
+                };
+            };
+            /** @description no such object, or not visible to you */
+            404: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorOut"];
+                };
+            };
+            /** @description conflicts with the current state (e.g. a campaign transition, a duplicate) */
+            409: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorOut"];
+                };
+            };
+            /** @description request body too large */
+            413: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorOut"];
+                };
+            };
+            /** @description invalid input: field paths and reasons */
+            422: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ValidationErrorOut"];
+                };
+            };
+            /** @description database busy or unavailable: retry */
+            503: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorOut"];
+                };
+            };
+        };
+    };
+    get_candidate_trajectory: {
+        parameters: {
+            query?: never;
+            header?: never;
+            path: {
+                /** @description object id */
+                campaign_id: number;
+                /** @description iteration index k (0 = preliminary data) */
+                iteration: number;
+                /** @description the candidate's ocp slot (0 to 63) */
+                slot: number;
+            };
+            cookie?: never;
+        };
+        requestBody?: never;
+        responses: {
+            /** @description Successful Response */
+            200: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["IterationTrajectory"];
+                };
+            };
+            /** @description not authenticated (missing, invalid, expired or revoked token) */
+            401: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorOut"];
+                };
+            };
+            /** @description not allowed (admin-only route, or an object shared with you for viewing only) */
+            403: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorOut"];
+                };
+            };
+            /** @description no such object, or not visible to you */
+            404: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorOut"];
+                };
+            };
+            /** @description conflicts with the current state (e.g. a campaign transition, a duplicate) */
+            409: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorOut"];
+                };
+            };
+            /** @description request body too large */
+            413: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorOut"];
+                };
+            };
+            /** @description invalid input: field paths and reasons */
+            422: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ValidationErrorOut"];
+                };
+            };
+            /** @description database busy or unavailable: retry */
+            503: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorOut"];
+                };
+            };
+        };
+    };
     get_iteration_curves: {
         parameters: {
             query?: never;
@@ -5934,6 +6385,96 @@ export interface operations {
                     [name: string]: unknown;
                 };
                 content?: never;
+            };
+            /** @description not authenticated (missing, invalid, expired or revoked token) */
+            401: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorOut"];
+                };
+            };
+            /** @description not allowed (admin-only route, or an object shared with you for viewing only) */
+            403: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorOut"];
+                };
+            };
+            /** @description no such object, or not visible to you */
+            404: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorOut"];
+                };
+            };
+            /** @description conflicts with the current state (e.g. a campaign transition, a duplicate) */
+            409: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorOut"];
+                };
+            };
+            /** @description request body too large */
+            413: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorOut"];
+                };
+            };
+            /** @description invalid input: field paths and reasons */
+            422: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ValidationErrorOut"];
+                };
+            };
+            /** @description database busy or unavailable: retry */
+            503: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorOut"];
+                };
+            };
+        };
+    };
+    get_pick_curves: {
+        parameters: {
+            query?: never;
+            header?: never;
+            path: {
+                /** @description object id */
+                campaign_id: number;
+                /** @description iteration index k (0 = preliminary data) */
+                iteration: number;
+                /** @description pick order: 0 = the first pick (0 to 63) */
+                pick: number;
+            };
+            cookie?: never;
+        };
+        requestBody?: never;
+        responses: {
+            /** @description Successful Response */
+            200: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["IterationCurves"];
+                };
             };
             /** @description not authenticated (missing, invalid, expired or revoked token) */
             401: {

@@ -21,6 +21,8 @@ export const keys = {
   models: (id: number) => ["models", id] as const,
   curves: (id: number, k: number) => ["iteration", id, k] as const,
   trajectory: (id: number, k: number) => ["trajectory", id, k] as const,
+  candidates: (id: number, k: number) => ["candidates", id, k] as const,
+  pickCurves: (id: number, k: number, pick: number) => ["pick-curves", id, k, pick] as const,
 };
 
 /** A metrics row as the series keeps it: `inherited` rows belong to a fork's source campaigns. */
@@ -66,6 +68,9 @@ export function toPoints(metrics: SeriesRow[], iterations: IterationState[]): Me
     inherited: Boolean(m.inherited),
     ocp_trusted: m.ocp_trusted ?? null,
     trust_reasons: m.ocp_trust?.reasons ?? [],
+    cumulative_oracle_calls: m.cumulative_oracle_calls ?? null,
+    cumulative_wall_time_s: m.cumulative_wall_time_s ?? null,
+    picks: m.picks ?? [],
   }));
   const withMetrics = new Set(points.map((p) => p.iteration));
   for (const it of iterations) {

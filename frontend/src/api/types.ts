@@ -38,6 +38,8 @@ export type TaskPreviewResult = Schemas["TaskPreviewResult"];
 export type OraclePreviewResult = Schemas["OraclePreviewResult"];
 export type ForkRequest = Schemas["ForkRequest"];
 export type IterationTrajectory = Schemas["IterationTrajectory"];
+export type IterationCandidates = Schemas["IterationCandidates"];
+export type CandidateDetail = Schemas["CandidateDetail"];
 
 /** A task spec as the editor holds it: the schema's TaskSpec while being edited (may be invalid). */
 export type TaskSpecDraft = Record<string, unknown> & { phases?: unknown[]; model?: Record<string, unknown> };

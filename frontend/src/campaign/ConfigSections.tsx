@@ -50,11 +50,14 @@ export function ConfigSections({
   onChange,
   errors = noErrors,
   only,
+  omit = [],
 }: {
   value: ConfigDraft;
   onChange: (v: ConfigDraft) => void;
   errors?: ErrorView;
   only?: readonly string[];
+  /** dotted paths ("settings.batch") another section of the page edits */
+  omit?: readonly string[];
 }) {
   const openapi = useOpenApi();
   if (openapi.isPending) return <Loading label="Loading settings form…" />;
@@ -64,7 +67,8 @@ export function ConfigSections({
       {sections(only).map(([key, schemaName, title]) => {
         const schema = componentSchema(openapi.data, schemaName);
         if (!schema) return null;
-        const body = <SchemaForm schema={schema} value={value[key] ?? {}} onChange={(v) => onChange({ ...value, [key]: v })} errors={errors} prefix={key} />;
+        const hidden = omit.filter((p) => p.startsWith(`${key}.`)).map((p) => p.slice(key.length + 1));
+        const body = <SchemaForm schema={schema} value={value[key] ?? {}} onChange={(v) => onChange({ ...value, [key]: v })} errors={errors} prefix={key} omit={hidden} />;
         return key === "policies" ? (
           <details key={key} className="panel" open={errors.problems.some((p) => p.field?.startsWith("policies."))}>
             <summary>{title}</summary>

@@ -2,6 +2,7 @@ import { useMemo } from "react";
 import type { Layout } from "plotly.js-dist-min";
 import { Plot, type Trace } from "../components/Plot";
 import { isMarked, type MetricPoint } from "../lib/metrics";
+import { iterationAt, xOf, xTitle, type XAxis } from "../lib/xaxis";
 
 const INHERITED = "#a3a9b6";
 
@@ -11,7 +12,8 @@ const INHERITED = "#a3a9b6";
  * fork's inherited iterations (its source's, up to the fork point) are drawn grey, its own in colour.
  * Beside them, dashed: model k's generalisation error on the held-out validation suite.
  */
-export function rmseTraces(points: MetricPoint[], name = ""): Trace[] {
+export function rmseTraces(points: MetricPoint[], name = "", axis: XAxis = "iteration"): Trace[] {
+  const X = (p: MetricPoint) => xOf(p, axis);
   const own = points.filter((p) => !isMarked(p) && !p.inherited);
   const inherited = points.filter((p) => !isMarked(p) && p.inherited);
   const marked = points.filter(isMarked);
@@ -21,28 +23,39 @@ export function rmseTraces(points: MetricPoint[], name = ""): Trace[] {
     // joined to the first own iteration, so the line continues across the fork point
     const bridge = own.length ? [...inherited, own[0]] : inherited;
     traces.push(
-      { x: bridge.map((p) => p.iteration), y: bridge.map((p) => p.force_rmse), name: `${prefix}force RMSE [N], inherited`, mode: "lines+markers", type: "scatter", line: { color: INHERITED }, marker: { color: INHERITED, symbol: "circle-open" } },
-      { x: bridge.map((p) => p.iteration), y: bridge.map((p) => p.moment_rmse), name: `${prefix}moment RMSE [N m], inherited`, mode: "lines+markers", type: "scatter", line: { color: INHERITED, dash: "dot" }, marker: { color: INHERITED, symbol: "square-open" } },
+      { x: bridge.map(X), y: bridge.map((p) => p.force_rmse), name: `${prefix}force RMSE [N], inherited`, mode: "lines+markers", type: "scatter", line: { color: INHERITED }, marker: { color: INHERITED, symbol: "circle-open" } },
+      { x: bridge.map(X), y: bridge.map((p) => p.moment_rmse), name: `${prefix}moment RMSE [N m], inherited`, mode: "lines+markers", type: "scatter", line: { color: INHERITED, dash: "dot" }, marker: { color: INHERITED, symbol: "square-open" } },
     );
   }
   traces.push(
-    { x: own.map((p) => p.iteration), y: own.map((p) => p.force_rmse), name: `${prefix}force RMSE [N]`, mode: "lines+markers", type: "scatter", line: { color: "#2f5bd3" } },
-    { x: own.map((p) => p.iteration), y: own.map((p) => p.moment_rmse), name: `${prefix}moment RMSE [N m]`, mode: "lines+markers", type: "scatter", line: { color: "#d3662f" } },
+    { x: own.map(X), y: own.map((p) => p.force_rmse), name: `${prefix}force RMSE [N]`, mode: "lines+markers", type: "scatter", line: { color: "#2f5bd3" } },
+    { x: own.map(X), y: own.map((p) => p.moment_rmse), name: `${prefix}moment RMSE [N m]`, mode: "lines+markers", type: "scatter", line: { color: "#d3662f" } },
   );
   const validated = own.filter((p) => p.validation_force_rmse != null);
   if (validated.length)
     traces.push(
-      { x: validated.map((p) => p.iteration), y: validated.map((p) => p.validation_force_rmse ?? null), name: `${prefix}force RMSE, held-out suite [N]`, mode: "lines+markers", type: "scatter", line: { color: "#2f5bd3", dash: "dash" }, marker: { color: "#2f5bd3", symbol: "diamond-open" } },
-      { x: validated.map((p) => p.iteration), y: validated.map((p) => p.validation_moment_rmse ?? null), name: `${prefix}moment RMSE, held-out suite [N m]`, mode: "lines+markers", type: "scatter", line: { color: "#d3662f", dash: "dash" }, marker: { color: "#d3662f", symbol: "diamond-open" } },
+      { x: validated.map(X), y: validated.map((p) => p.validation_force_rmse ?? null), name: `${prefix}force RMSE, held-out suite [N]`, mode: "lines+markers", type: "scatter", line: { color: "#2f5bd3", dash: "dash" }, marker: { color: "#2f5bd3", symbol: "diamond-open" } },
+      { x: validated.map(X), y: validated.map((p) => p.validation_moment_rmse ?? null), name: `${prefix}moment RMSE, held-out suite [N m]`, mode: "lines+markers", type: "scatter", line: { color: "#d3662f", dash: "dash" }, marker: { color: "#d3662f", symbol: "diamond-open" } },
     );
   if (own.some((p) => p.force_rmse_contact != null))
     traces.push(
-      { x: own.map((p) => p.iteration), y: own.map((p) => p.force_rmse_contact ?? null), name: `${prefix}force RMSE in contact [N]`, mode: "lines", type: "scatter", line: { color: "#2f5bd3", dash: "dot" } },
-      { x: own.map((p) => p.iteration), y: own.map((p) => p.moment_rmse_contact ?? null), name: `${prefix}moment RMSE in contact [N m]`, mode: "lines", type: "scatter", line: { color: "#d3662f", dash: "dot" } },
+      { x: own.map(X), y: own.map((p) => p.force_rmse_contact ?? null), name: `${prefix}force RMSE in contact [N]`, mode: "lines", type: "scatter", line: { color: "#2f5bd3", dash: "dot" } },
+      { x: own.map(X), y: own.map((p) => p.moment_rmse_contact ?? null), name: `${prefix}moment RMSE in contact [N m]`, mode: "lines", type: "scatter", line: { color: "#d3662f", dash: "dot" } },
     );
+  const picks = own.flatMap((p) => (p.picks ?? []).map((pk) => ({ x: X(p), k: p.iteration, ...pk })));
+  if (picks.length)
+    traces.push({
+      x: picks.map((p) => p.x),
+      y: picks.map((p) => p.force_rmse ?? null),
+      text: picks.map((p) => `k = ${p.k}, pick ${p.pick + 1} (slot ${p.slot})`),
+      name: `${prefix}force RMSE per pick [N]`,
+      mode: "markers",
+      type: "scatter",
+      marker: { color: "#2f5bd3", size: 5, opacity: 0.5 },
+    });
   if (marked.length)
     traces.push({
-      x: marked.map((p) => p.iteration),
+      x: marked.map(X),
       y: marked.map((p) => p.force_rmse ?? p.moment_rmse ?? null),
       text: marked.map((p) => (p.quarantined ? "quarantined" : p.status)),
       name: "failed / quarantined",
@@ -53,23 +66,26 @@ export function rmseTraces(points: MetricPoint[], name = ""): Trace[] {
   return traces;
 }
 
-export function RmsePlot({ points, logY, onSelect }: { points: MetricPoint[]; logY: boolean; onSelect?: (k: number) => void }) {
-  const traces = useMemo(() => rmseTraces(points), [points]);
-  const few = points.length > 0 && points[points.length - 1].iteration <= 12;
-  const xLayout = useMemo(() => ({ xaxis: { title: { text: "iteration k" }, dtick: few ? 1 : undefined, zeroline: false } }), [few]);
+export function RmsePlot({ points, logY, onSelect, xAxis = "iteration" }: { points: MetricPoint[]; logY: boolean; onSelect?: (k: number) => void; xAxis?: XAxis }) {
+  const traces = useMemo(() => rmseTraces(points, "", xAxis), [points, xAxis]);
+  const few = xAxis === "iteration" && points.length > 0 && points[points.length - 1].iteration <= 12;
+  const xLayout = useMemo(() => ({ xaxis: { title: { text: xTitle(xAxis) }, dtick: few ? 1 : undefined, zeroline: false } }), [few, xAxis]);
   const own = points.filter((p) => !p.inherited);
   return (
     <Plot
       testId="rmse-plot"
       traces={traces}
-      xTitle="iteration k"
+      xTitle={xTitle(xAxis)}
       yTitle="RMSE: new oracle data (solid), held-out suite (dashed)"
       logY={logY}
       exportName="rmse"
-      onPointClick={(x) => onSelect?.(x)}
+      onPointClick={(x) => {
+        const k = iterationAt(points, xAxis, x);
+        if (k !== null) onSelect?.(k);
+      }}
       height={300}
       extraLayout={xLayout}
-      data={{ iterations: own.filter((p) => p.force_rmse !== null).map((p) => p.iteration).join(","), inherited: points.filter((p) => p.inherited).map((p) => p.iteration).join(","), validation: own.filter((p) => p.validation_force_rmse != null).map((p) => p.iteration).join(",") }}
+      data={{ xaxis: xAxis, iterations: own.filter((p) => p.force_rmse !== null).map((p) => p.iteration).join(","), inherited: points.filter((p) => p.inherited).map((p) => p.iteration).join(","), validation: own.filter((p) => p.validation_force_rmse != null).map((p) => p.iteration).join(",") }}
     />
   );
 }
@@ -83,16 +99,17 @@ export const NOMINAL_COVERAGE = 0.9545;
  * honest; far below: the ensemble is over-confident. Null (K = 1) iterations are left out.
  * Beside it, dashed: model k's calibration on the held-out validation suite (where evaluated).
  */
-export function calibrationTraces(points: MetricPoint[]): Trace[] {
+export function calibrationTraces(points: MetricPoint[], axis: XAxis = "iteration"): Trace[] {
+  const X = (p: MetricPoint) => xOf(p, axis);
   const own = points.filter((p) => !isMarked(p) && !p.inherited && p.calibration != null);
   const inherited = points.filter((p) => !isMarked(p) && p.inherited && p.calibration != null);
   const traces: Trace[] = [];
   if (inherited.length)
-    traces.push({ x: inherited.map((p) => p.iteration), y: inherited.map((p) => 100 * (p.calibration ?? 0)), name: "inherited", mode: "lines+markers", type: "scatter", line: { color: INHERITED }, marker: { color: INHERITED, symbol: "circle-open" } });
-  traces.push({ x: own.map((p) => p.iteration), y: own.map((p) => 100 * (p.calibration ?? 0)), name: "inside mean ± 2σ [%]", mode: "lines+markers", type: "scatter", line: { color: "#1d7a45" } });
+    traces.push({ x: inherited.map(X), y: inherited.map((p) => 100 * (p.calibration ?? 0)), name: "inherited", mode: "lines+markers", type: "scatter", line: { color: INHERITED }, marker: { color: INHERITED, symbol: "circle-open" } });
+  traces.push({ x: own.map(X), y: own.map((p) => 100 * (p.calibration ?? 0)), name: "inside mean ± 2σ [%]", mode: "lines+markers", type: "scatter", line: { color: "#1d7a45" } });
   const validated = points.filter((p) => !isMarked(p) && !p.inherited && p.validation_calibration != null);
   if (validated.length)
-    traces.push({ x: validated.map((p) => p.iteration), y: validated.map((p) => 100 * (p.validation_calibration ?? 0)), name: "inside mean ± 2σ, held-out suite [%]", mode: "lines+markers", type: "scatter", line: { color: "#1d7a45", dash: "dash" }, marker: { color: "#1d7a45", symbol: "diamond-open" } });
+    traces.push({ x: validated.map(X), y: validated.map((p) => 100 * (p.validation_calibration ?? 0)), name: "inside mean ± 2σ, held-out suite [%]", mode: "lines+markers", type: "scatter", line: { color: "#1d7a45", dash: "dash" }, marker: { color: "#1d7a45", symbol: "diamond-open" } });
   return traces;
 }
 
@@ -100,16 +117,16 @@ export function hasCalibration(points: MetricPoint[]): boolean {
   return points.some((p) => p.calibration != null || p.validation_calibration != null);
 }
 
-export function CalibrationPlot({ points }: { points: MetricPoint[] }) {
-  const traces = useMemo(() => calibrationTraces(points), [points]);
+export function CalibrationPlot({ points, xAxis = "iteration" }: { points: MetricPoint[]; xAxis?: XAxis }) {
+  const traces = useMemo(() => calibrationTraces(points, xAxis), [points, xAxis]);
   const layout = useMemo<Partial<Layout>>(
     () => ({
       yaxis: { title: { text: "oracle values inside mean ± 2σ [%]" }, range: [0, 102] as [number, number], zeroline: false },
-      xaxis: { title: { text: "iteration k" }, zeroline: false },
+      xaxis: { title: { text: xTitle(xAxis) }, zeroline: false },
       showlegend: false,
       annotations: [{ xref: "paper" as const, x: 1, xanchor: "right" as const, y: 100 * NOMINAL_COVERAGE, yanchor: "bottom" as const, text: "nominal 95.4 %", showarrow: false, font: { size: 11, color: "#6b7385" } }],
     }),
-    [],
+    [xAxis],
   );
   const shapes = useMemo(() => [{ type: "line" as const, xref: "paper" as const, x0: 0, x1: 1, y0: 100 * NOMINAL_COVERAGE, y1: 100 * NOMINAL_COVERAGE, line: { color: "#6b7385", dash: "dot" as const, width: 1 } }], []);
   const own = points.filter((p) => !p.inherited && p.calibration != null);
@@ -118,12 +135,12 @@ export function CalibrationPlot({ points }: { points: MetricPoint[] }) {
       testId="calibration-plot"
       traces={traces}
       shapes={shapes}
-      xTitle="iteration k"
+      xTitle={xTitle(xAxis)}
       yTitle="oracle values inside mean ± 2σ [%]: new oracle data (solid), held-out suite (dashed)"
       exportName="calibration"
       height={300}
       extraLayout={layout}
-      data={{ iterations: own.map((p) => p.iteration).join(","), validation: points.filter((p) => !p.inherited && p.validation_calibration != null).map((p) => p.iteration).join(",") }}
+      data={{ xaxis: xAxis, iterations: own.map((p) => p.iteration).join(","), validation: points.filter((p) => !p.inherited && p.validation_calibration != null).map((p) => p.iteration).join(",") }}
     />
   );
 }

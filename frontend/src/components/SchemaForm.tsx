@@ -306,11 +306,13 @@ export interface SchemaFormProps {
   /** the form's problems; this form's fields are at `prefix` + their dotted path */
   errors?: ErrorView;
   prefix?: string;
+  /** top-level fields another part of the page edits (not shown here) */
+  omit?: readonly string[];
 }
 
-export function SchemaForm({ schema, value, onChange, errors = noErrors, prefix = "" }: SchemaFormProps) {
+export function SchemaForm({ schema, value, onChange, errors = noErrors, prefix = "", omit = [] }: SchemaFormProps) {
   const root = resolveRef(schema, schema);
-  const props = root.properties ?? {};
+  const props = Object.fromEntries(Object.entries(root.properties ?? {}).filter(([k]) => !omit.includes(k)));
   if (Object.keys(props).length === 0) return <p className="muted">This type has no parameters.</p>;
   return (
     <div className="schema-form">

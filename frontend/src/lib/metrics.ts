@@ -24,6 +24,12 @@ export interface MetricPoint {
   ocp_trusted?: boolean | null;
   /** why it is not trusted (ghost force, ensemble disagreement in contact) */
   trust_reasons?: string[];
+  /** oracle runs of iterations 1..k (a fork's sources' included): an x axis across strategies */
+  cumulative_oracle_calls?: number | null;
+  /** wall time of iterations 1..k until model k was evaluated [s] */
+  cumulative_wall_time_s?: number | null;
+  /** a batch iteration's in-loop RMSE per picked trajectory (the point's RMSE is their mean) */
+  picks?: { pick: number; slot: number; force_rmse?: number | null; moment_rmse?: number | null }[];
 }
 
 /** Merge newly fetched points into the known series (by iteration, newer wins), sorted. */

@@ -10,6 +10,9 @@ import { CalibrationPlot, hasCalibration, RmsePlot } from "../campaign/RmsePlot"
 import { loadPlotly } from "../components/Plot";
 import { ForcesPanel } from "../campaign/ForcesPanel";
 import { TrajectoryPanel } from "../campaign/TrajectoryPanel";
+import { CandidatesPanel } from "../campaign/CandidatesPanel";
+import { XAxisSwitch } from "../components/XAxisSwitch";
+import { isXAxis } from "../lib/xaxis";
 import { JobsTable, VersionsPanel } from "../campaign/JobsAndVersions";
 import { Controls } from "../campaign/Controls";
 import { fmtDate, fmtDuration, fmtNumber } from "../lib/format";
@@ -18,6 +21,7 @@ import { useBoolParam, useIntListParam, useSetParams, useStringParam } from "../
 const TABS = [
   ["forces", "Forces & moments"],
   ["trajectory", "Trajectory"],
+  ["candidates", "Candidates & picks"],
   ["jobs", "Jobs"],
   ["versions", "Pool & models"],
 ] as const;
@@ -47,6 +51,8 @@ export function CampaignPage() {
   const [selected, setSelected] = useIntListParam("k");
   const [overlay, setOverlay] = useStringParam("overlay");
   const [tab, setTab] = useStringParam("tab", "forces");
+  const [xRaw, setXAxis] = useStringParam("x", "iteration");
+  const xAxis = isXAxis(xRaw) ? xRaw : "iteration";
   const setParams = useSetParams();
   const oracle = useOracle(c?.oracle_id ?? null);
   const task = useTask(c?.task_id ?? null);
@@ -126,7 +132,7 @@ export function CampaignPage() {
       <section className="panel" aria-labelledby="rmse-title">
         <div className="toolbar">
           <h2 id="rmse-title" style={{ margin: 0 }}>
-            RMSE per iteration
+            RMSE per {xAxis === "iteration" ? "iteration" : xAxis === "oracle" ? "oracle call" : "wall time"}
           </h2>
           <span className="muted" data-testid="rmse-count">
             {own.filter((p) => p.force_rmse !== null).length} iterations with metrics
@@ -140,6 +146,7 @@ export function CampaignPage() {
             </span>
           ) : null}
           <span className="spacer" />
+          <XAxisSwitch value={xAxis} onChange={setXAxis} />
           <label className="field-inline">
             <input type="checkbox" checked={logY} onChange={(e) => setLogY(e.target.checked)} /> log axis
           </label>
@@ -157,12 +164,13 @@ export function CampaignPage() {
             <RmsePlot
               points={points}
               logY={logY}
+              xAxis={xAxis}
               onSelect={(it) => {
                 // one navigation for both: the clicked iteration on the forces tab
                 if (own.some((p) => p.iteration === it)) setParams({ k: String(it), tab: null });
               }}
             />
-            {hasCalibration(points) && <CalibrationPlot points={points} />}
+            {hasCalibration(points) && <CalibrationPlot points={points} xAxis={xAxis} />}
           </div>
         )}
       </section>
@@ -197,6 +205,7 @@ export function CampaignPage() {
         </div>
         <div role="tabpanel" id={`panel-${tab}`} aria-labelledby={`tab-${tab}`}>
           {tab === "forces" && <ForcesPanel campaignId={id} points={points} iteration={k} setIteration={(it) => setSelected([it])} overlay={overlay} setOverlay={setOverlay} task={{ id: c.task_id, version: c.task_version }} />}
+          {tab === "candidates" && <CandidatesPanel campaignId={id} iteration={trajectoryK} last={r.current_iteration} setIteration={(it) => setSelected([it])} />}
           {tab === "trajectory" && <TrajectoryPanel campaignId={id} iteration={trajectoryK} task={{ id: c.task_id, version: c.task_version }} />}
           {tab === "jobs" && <JobsTable campaignId={id} />}
           {tab === "versions" && <VersionsPanel campaignId={id} />}

@@ -7,6 +7,7 @@ import { FieldMessages } from "../components/SchemaForm";
 import { ErrorCount, FormErrors, serverProblems } from "../components/FormErrors";
 import { errorView } from "../lib/formErrors";
 import { ConfigSections, configFieldPaths, configLabel, configLocalErrors, useConfigDefaults, type ConfigDraft } from "../campaign/ConfigSections";
+import { EXPLORATION_PATHS, ExplorationSection, explorationErrors } from "../campaign/ExplorationSection";
 
 export function NewCampaignPage() {
   const navigate = useNavigate();
@@ -30,7 +31,7 @@ export function NewCampaignPage() {
   const openapi = useOpenApi();
   const [submitted, setSubmitted] = useState(false);
   const own = ["name", "seed", "task_id", "oracle_id", "surrogate_config_id"];
-  const local = config ? configLocalErrors(openapi.data, config) : [];
+  const local = config ? [...configLocalErrors(openapi.data, config), ...explorationErrors(config)] : [];
   const view = errorView([submitted ? local : [], serverProblems(create.error)], [...own, ...configFieldPaths(openapi.data)], (p) =>
     own.includes(p) ? p : configLabel(openapi.data, p),
   );
@@ -123,7 +124,8 @@ export function NewCampaignPage() {
           </div>
         </div>
       </section>
-      {config && <ConfigSections value={config} onChange={setConfig} errors={view} />}
+      {config && <ExplorationSection value={config} onChange={setConfig} errors={view} />}
+      {config && <ConfigSections value={config} onChange={setConfig} errors={view} omit={EXPLORATION_PATHS} />}
     </form>
   );
 }

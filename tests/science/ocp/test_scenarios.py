@@ -372,6 +372,34 @@ def test_select_batch_takes_the_highest_scores_no_two_picks_too_close():
         acquisition.select_batch(scores, x[:2], 2, 0.1)
 
 
+def test_explain_selection_says_why_each_candidate_was_or_was_not_picked():
+    """Hand-worked case, q = 2, min_distance 0.5: slot 1 (5.0) is the top pick; slot 3 (4.0,
+    0.85 from slot 1) the second; slot 2 (3.0) comes after the batch is full; slot 0 (1.0) too;
+    slot 4 never converged. With q = 3, slot 2 is 0.4 from pick 2 (slot 3): too close; slot 0 is
+    0.05 from pick 1: too close."""
+    scores, x = [1.0, 5.0, 3.0, 4.0, None], [[0.0], [0.05], [0.5], [0.9], [0.3]]
+    v = acquisition.explain_selection(scores, x, 2, 0.5)
+    assert [(w.rank, w.pick, w.code) for w in v] == [
+        (4, None, "batch-full"),
+        (1, 0, "picked-top"),
+        (3, None, "batch-full"),
+        (2, 1, "picked-far"),
+        (None, None, "not-converged"),
+    ]
+    assert v[3].nearest_pick == 0 and v[3].distance == pytest.approx(0.85)
+    v = acquisition.explain_selection(scores, x, 3, 0.5)
+    assert [w.code for w in v] == ["too-close", "picked-top", "too-close", "picked-far", "not-converged"]
+    assert (v[2].nearest_pick, v[2].distance) == (1, pytest.approx(0.4)) and "pick 2 (slot 3)" in v[2].reason
+    assert (v[0].nearest_pick, v[0].distance) == (0, pytest.approx(0.05))
+    # the stopping rule: every scored candidate is below-threshold, nothing picked
+    v = acquisition.explain_selection(scores, x, 2, 0.5, threshold=6.0)
+    assert [w.code for w in v] == ["below-threshold"] * 4 + ["not-converged"]
+    # the explanation is select_batch's decision, pick for pick
+    v = acquisition.explain_selection(scores, x, 2, 0.5)
+    picks = acquisition.select_batch(scores, x, 2, 0.5)
+    assert [(p.slot, p.reason) for p in picks] == [(1, v[1].reason), (3, v[3].reason)]
+
+
 @given(
     st.lists(st.tuples(st.floats(0, 10), st.floats(0, 1), st.floats(0, 1)), min_size=1, max_size=12),
     st.integers(1, 5),

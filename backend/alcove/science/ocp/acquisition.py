@@ -121,6 +121,92 @@ class Pick:
     reason: str
 
 
+#: Why a candidate was or was not picked (:func:`explain_selection`):
+#: ``picked-top`` the highest score; ``picked-far`` the next highest score at least
+#: ``min_distance`` from every earlier pick; ``not-converged`` its OCP did not converge (no
+#: score); ``below-threshold`` the highest score of all is below the stopping threshold, so
+#: nothing is picked; ``too-close`` closer than ``min_distance`` to an earlier pick;
+#: ``batch-full`` q picks were made before its turn (not in the top q).
+VerdictCode = Literal["picked-top", "picked-far", "not-converged", "below-threshold", "too-close", "batch-full"]
+
+
+@dataclass(frozen=True)
+class Verdict:
+    """One candidate's outcome in :func:`explain_selection`."""
+
+    rank: int | None  # by descending score (ties: lower slot), 1 = highest; None: no score
+    pick: int | None  # pick order (0 = first pick); None: not picked
+    code: VerdictCode
+    reason: str
+    nearest_pick: int | None = None  # the pick (order) nearest to it when it was considered
+    distance: float | None = None  # its distance to that pick in feature space
+
+
+def explain_selection(
+    scores: Sequence[float | None],
+    features: Sequence[Sequence[float]],
+    q: int,
+    min_distance: float,
+    threshold: float | None = None,
+) -> list[Verdict]:
+    """Per candidate (in the order given), its rank and whether and why :func:`select_batch`
+    picks it: candidates are taken by descending score (ties: the lower slot); the first is
+    picked; each next one is picked if its Euclidean distance in ``features`` to every pick
+    already made is at least ``min_distance``, else skipped (``too-close``); once q are picked
+    the rest are ``batch-full``. A candidate without a finite score (its OCP did not converge)
+    is never picked. With ``threshold``: nothing is picked when the highest score is below it."""
+    if q < 1:
+        raise ValueError(f"batch: q must be at least 1, got {q}")
+    if min_distance < 0:
+        raise ValueError(f"min_distance: must be >= 0, got {min_distance}")
+    if len(scores) != len(features):
+        raise ValueError(f"features: {len(features)} rows for {len(scores)} candidates")
+    out: list[Verdict | None] = [None] * len(scores)
+    for j, sc in enumerate(scores):
+        if sc is None or not np.isfinite(sc):
+            out[j] = Verdict(None, None, "not-converged", "its OCP did not converge: not scored, never picked")
+    scored = sorted(
+        ((float(sc), j) for j, sc in enumerate(scores) if sc is not None and np.isfinite(sc)),
+        key=lambda p: (-p[0], p[1]),
+    )
+    top = scored[0][0] if scored else None
+    x = np.asarray(features, float).reshape(len(scores), -1)
+    picks: list[int] = []  # candidate indices, in pick order
+    for rank, (sc, j) in enumerate(scored, start=1):
+        if threshold is not None and top is not None and top < threshold:
+            out[j] = Verdict(
+                rank,
+                None,
+                "below-threshold",
+                f"disagreement {sc:.4g} N; the highest, {top:.4g} N, is below the stopping threshold "
+                f"{threshold:g} N: nothing is picked",
+            )
+            continue
+        if len(picks) == q:
+            out[j] = Verdict(rank, None, "batch-full", f"disagreement {sc:.4g} N: not in the top q = {q} (batch full)")
+            continue
+        dists = [float(np.linalg.norm(x[j] - x[p])) for p in picks]
+        near_i = int(np.argmin(dists)) if dists else None
+        near = dists[near_i] if near_i is not None else None
+        if near is not None and near_i is not None and near < min_distance:
+            out[j] = Verdict(
+                rank,
+                None,
+                "too-close",
+                f"disagreement {sc:.4g} N, but {near:.3g} from pick {near_i + 1} (slot {picks[near_i]}) "
+                f"< min_distance {min_distance:g}",
+                near_i,
+                near,
+            )
+            continue
+        reason = f"disagreement {sc:.4g} N (rank {len(picks) + 1})"
+        if near is not None:
+            reason += f"; nearest pick at {near:.3g} >= {min_distance:g}"
+        out[j] = Verdict(rank, len(picks), "picked-far" if picks else "picked-top", reason, near_i, near)
+        picks.append(j)
+    return [v for v in out if v is not None]
+
+
 def select_batch(
     scores: Sequence[float | None],
     features: Sequence[Sequence[float]],
@@ -128,37 +214,15 @@ def select_batch(
     min_distance: float,
     threshold: float | None = None,
 ) -> list[Pick]:
-    """At most ``q`` candidates to replay, in pick order. Candidates are taken by descending
-    score (ties: the lower slot); one is skipped if its Euclidean distance in ``features`` to a
-    pick already made is below ``min_distance``. A candidate without a score (its OCP did not
-    converge) is never picked. With ``threshold``: no pick at all when the highest score is below
-    it (the uncertainty stopping rule). Fewer than q picks when too few candidates are far enough
-    apart."""
-    if q < 1:
-        raise ValueError(f"batch: q must be at least 1, got {q}")
-    if min_distance < 0:
-        raise ValueError(f"min_distance: must be >= 0, got {min_distance}")
-    if len(scores) != len(features):
-        raise ValueError(f"features: {len(features)} rows for {len(scores)} candidates")
-    scored = [(float(sc), j) for j, sc in enumerate(scores) if sc is not None and np.isfinite(sc)]
-    if not scored:
-        return []
-    top = max(sc for sc, _ in scored)
-    if threshold is not None and top < threshold:
-        return []
-    x = np.asarray(features, float).reshape(len(scores), -1)
-    picks: list[Pick] = []
-    for sc, j in sorted(scored, key=lambda p: (-p[0], p[1])):
-        if len(picks) == q:
-            break
-        near = min((float(np.linalg.norm(x[j] - x[p.slot])) for p in picks), default=np.inf)
-        if near < min_distance:
-            continue
-        reason = f"disagreement {sc:.4g} N (rank {len(picks) + 1})"
-        if picks:
-            reason += f"; nearest pick at {near:.3g} >= {min_distance:g}"
-        picks.append(Pick(j, reason))
-    return picks
+    """At most ``q`` candidates to replay, in pick order (:func:`explain_selection`). Candidates
+    are taken by descending score (ties: the lower slot); one is skipped if its Euclidean
+    distance in ``features`` to a pick already made is below ``min_distance``. A candidate
+    without a score (its OCP did not converge) is never picked. With ``threshold``: no pick at
+    all when the highest score is below it (the uncertainty stopping rule). Fewer than q picks
+    when too few candidates are far enough apart."""
+    verdicts = explain_selection(scores, features, q, min_distance, threshold)
+    picked = sorted((v.pick, j, v.reason) for j, v in enumerate(verdicts) if v.pick is not None)
+    return [Pick(j, reason) for _, j, reason in picked]
 
 
 __all__ = [
@@ -169,6 +233,9 @@ __all__ = [
     "RandomScenarios",
     "Strategy",
     "StrategyName",
+    "Verdict",
+    "VerdictCode",
+    "explain_selection",
     "scenario_features",
     "select_batch",
     "strategy",
