@@ -155,17 +155,35 @@ def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item
             item.add_marker(pytest.mark.serial)
 
 
+#: the parallel phase's longest files (or ``SAME_WORKER`` groups), longest first: handed out before
+#: the others so that no long file starts last while the other worker idles (seconds: one run)
+LONG_FIRST: tuple[str, ...] = ()
+
+
 @pytest.hookimpl(optionalhook=True)  # a hook of pytest-xdist: unknown without it (``-p no:xdist``)
 def pytest_xdist_make_scheduler(config: pytest.Config, log: Any) -> Any:
-    """``--dist loadfile``, except that the files of ``SAME_WORKER`` count as one file."""
+    """``--dist loadfile``, except that the files of ``SAME_WORKER`` count as one file and the
+    files of ``LONG_FIRST`` are handed out first (then xdist's order: most tests first)."""
     if config.getoption("dist") != "loadfile":
         return None
     from xdist.scheduler import LoadFileScheduling
 
+    rank = {scope: i for i, scope in enumerate(LONG_FIRST)}
+
     class Scheduler(LoadFileScheduling):
+        ordered = False
+
         def _split_scope(self, nodeid: str) -> str:
             path = super()._split_scope(nodeid)
             return SAME_WORKER.get(path, path)
+
+        def _assign_work_unit(self, node: Any) -> None:
+            if not self.ordered:  # the first assignment: the queue is complete
+                self.ordered = True
+                queue = sorted(self.workqueue.items(), key=lambda unit: rank.get(unit[0], len(rank)))
+                self.workqueue.clear()
+                self.workqueue.update(queue)
+            super()._assign_work_unit(node)
 
     return Scheduler(config, log)
 
