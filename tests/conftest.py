@@ -156,8 +156,16 @@ def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item
 
 
 #: the parallel phase's longest files (or ``SAME_WORKER`` groups), longest first: handed out before
-#: the others so that no long file starts last while the other worker idles (seconds: one run)
-LONG_FIRST: tuple[str, ...] = ()
+#: the others so that no long file starts last while the other worker idles (from CI's durations;
+#: a file missing here only starts later)
+LONG_FIRST: tuple[str, ...] = (
+    "tests/science/oracles/test_ccx_oracle.py",  # mesh convergence and the planar ccx runs, ~100 s
+    "ghost_case",  # the ghost-force ensemble, ~25 s, and the tests on it
+    "tests/campaigns/test_flows.py",
+    "tests/api/test_schemathesis.py",  # a time budget of ~30 s
+    "tests/test_reproduce_quick.py",  # the quick reproduction, ~27 s
+    "tests/api/test_sqlite_concurrency.py",
+)
 
 
 @pytest.hookimpl(optionalhook=True)  # a hook of pytest-xdist: unknown without it (``-p no:xdist``)
