@@ -16,8 +16,9 @@ kills them, restarts Redis, drives the browser, or measures time against its nei
 ``SERIAL_FIXTURES`` and ``SERIAL_PATHS``); a test file's other tests stay in the parallel
 phase. Each xdist worker has its own PostgreSQL schemas (named after the process), SQLite files
 (its own temporary folder) and Redis database (:func:`redis_url`). Under xdist a file's tests
-stay together on one worker (``--dist loadfile``: module fixtures are built once), and the
-files that share an expensive session fixture go to the same worker (``SAME_WORKER``).
+stay together on one worker (``--dist loadfile``: module fixtures are built once), the files
+that share an expensive session fixture go to the same worker (``SAME_WORKER``), and the longest
+start first (``LONG_FIRST``).
 
 CI never skips: when ``CI`` is set (``CI=true``), every skip is turned into a failure that
 shows the skip's reason, whatever skipped: ``pytest.skip`` in a test or fixture, a
@@ -155,23 +156,33 @@ def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item
             item.add_marker(pytest.mark.serial)
 
 
-#: the parallel phase's longest files (or ``SAME_WORKER`` groups), longest first: handed out before
-#: the others so that no long file starts last while the other worker idles (from CI's durations;
-#: a file missing here only starts later)
+#: files whose tests share no expensive fixture and together take minutes: each test is handed out
+#: on its own, so that both workers share them
+EACH_TEST_ALONE = frozenset({"tests/science/oracles/test_ccx_oracle.py"})
+
+#: the parallel phase's longest files, tests (of ``EACH_TEST_ALONE``) or ``SAME_WORKER`` groups,
+#: longest first: handed out before the others, so that none starts last while the other worker
+#: idles (from the durations of CI and of one local run; one missing here only starts later)
+_CCX = "tests/science/oracles/test_ccx_oracle.py::"
 LONG_FIRST: tuple[str, ...] = (
-    "tests/science/oracles/test_ccx_oracle.py",  # mesh convergence and the planar ccx runs, ~100 s
-    "ghost_case",  # the ghost-force ensemble, ~25 s, and the tests on it
-    "tests/campaigns/test_flows.py",
-    "tests/api/test_schemathesis.py",  # a time budget of ~30 s
+    f"{_CCX}test_peak_force_at_the_default_mesh_is_within_5_percent_of_a_refined_mesh",  # ~60 s
+    f"{_CCX}test_planar_motion_gives_a_symmetric_wrench_and_runs_from_the_cli",  # ~40 s
+    "tests/cli/test_surrogate_cli.py",  # ~45 s in all
     "tests/test_reproduce_quick.py",  # the quick reproduction, ~27 s
-    "tests/api/test_sqlite_concurrency.py",
+    "tests/api/test_schemathesis.py",  # a time budget of 30 s
+    "ghost_case",  # the ghost-force ensemble, ~25 s to train, and the tests on it
+    "tests/campaigns/test_validation_suite.py",
+    "tests/campaigns/test_flows.py",
+    f"{_CCX}test_a_deep_press_that_stalled_ccx_replays_with_sane_physics",
+    "tests/science/surrogate/test_warm_protocol.py",
 )
 
 
 @pytest.hookimpl(optionalhook=True)  # a hook of pytest-xdist: unknown without it (``-p no:xdist``)
 def pytest_xdist_make_scheduler(config: pytest.Config, log: Any) -> Any:
-    """``--dist loadfile``, except that the files of ``SAME_WORKER`` count as one file and the
-    files of ``LONG_FIRST`` are handed out first (then xdist's order: most tests first)."""
+    """``--dist loadfile``, except that the files of ``SAME_WORKER`` count as one file, the tests
+    of ``EACH_TEST_ALONE`` as one file each, and those of ``LONG_FIRST`` are handed out first
+    (then xdist's order: most tests first)."""
     if config.getoption("dist") != "loadfile":
         return None
     from xdist.scheduler import LoadFileScheduling
@@ -183,7 +194,7 @@ def pytest_xdist_make_scheduler(config: pytest.Config, log: Any) -> Any:
 
         def _split_scope(self, nodeid: str) -> str:
             path = super()._split_scope(nodeid)
-            return SAME_WORKER.get(path, path)
+            return nodeid if path in EACH_TEST_ALONE else SAME_WORKER.get(path, path)
 
         def _assign_work_unit(self, node: Any) -> None:
             if not self.ordered:  # the first assignment: the queue is complete
