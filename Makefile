@@ -1,6 +1,6 @@
 # alcove: one entry point.
 #   make up     set up .venv, build the web UI (if present), migrate, run `alcove up`
-#   make test   set up .venv, build the web UI (if present), run the whole test suite
+#   make test   set up .venv, build the web UI (if present), run the whole test suite (two phases, see test:)
 #   make bench  run the benchmarks (bench/run.py)
 # Everything is installed into .venv/ at the repository root, never the system Python.
 
@@ -63,10 +63,22 @@ up: install frontend
 worker: install
 	$(ALCOVE) worker
 
+# The suite in two phases: first the tests not marked `serial` on $(XDIST_WORKERS) pytest-xdist
+# workers (a file's tests stay on one worker), then the `serial` ones alone: those that start or
+# kill worker processes, restart Redis, drive the browser or compare timings (tests/conftest.py
+# marks them). Both phases always run; make test fails if either fails or collects no tests
+# (pytest's exit code 5).
+XDIST_WORKERS ?= 2
 test: install frontend
-	@set +e; $(PY) -m pytest tests $(PYTEST_ARGS); rc=$$?; \
-	if [ $$rc -eq 5 ]; then echo "pytest collected no tests: treated as a failure" >&2; fi; \
-	exit $$rc
+	@set +e; \
+	$(PY) -m pytest tests -m "not serial" -n $(XDIST_WORKERS) --dist loadfile $(PYTEST_ARGS); rc1=$$?; \
+	$(PY) -m pytest tests -m serial $(PYTEST_ARGS); rc2=$$?; \
+	for rc in $$rc1 $$rc2; do \
+	  if [ $$rc -eq 5 ]; then echo "pytest collected no tests in a phase: treated as a failure" >&2; fi; \
+	done; \
+	echo "make test: parallel phase exited with $$rc1, serial phase with $$rc2"; \
+	if [ $$rc1 -ne 0 ]; then exit $$rc1; fi; \
+	exit $$rc2
 
 # lint and types: what CI checks besides the tests (.ci/run runs it before make test)
 PY_SOURCES := backend worker tests bench scripts migrations

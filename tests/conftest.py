@@ -9,6 +9,17 @@
 
 When a service is down the tests needing it are skipped locally.
 
+Two phases (``make test``): the tests marked ``serial`` run alone, the others on two
+pytest-xdist workers (``-n 2``). ``serial`` is applied here, at collection
+(:func:`pytest_collection_modifyitems`), to every test that starts worker or API processes,
+kills them, restarts Redis, drives the browser, or measures time against its neighbours (see
+``SERIAL_FIXTURES`` and ``SERIAL_PATHS``); a test file's other tests stay in the parallel
+phase. Each xdist worker has its own PostgreSQL schemas (named after the process), SQLite files
+(its own temporary folder) and Redis database (:func:`redis_url`). Under xdist a file's tests
+stay together on one worker (``--dist loadfile``: module fixtures are built once), the files
+that share an expensive session fixture go to the same worker (``SAME_WORKER``), and the longest
+start first (``LONG_FIRST``).
+
 CI never skips: when ``CI`` is set (``CI=true``), every skip is turned into a failure that
 shows the skip's reason, whatever skipped: ``pytest.skip`` in a test or fixture, a
 ``skip``/``skipif`` marker, ``pytest.importorskip``, or a module skipped as a whole (then
@@ -26,7 +37,7 @@ import uuid
 from collections.abc import Generator, Iterator
 from pathlib import Path
 from typing import Any
-from urllib.parse import quote
+from urllib.parse import quote, urlsplit, urlunsplit
 
 import pytest
 import sqlalchemy as sa
@@ -98,6 +109,102 @@ def pytest_make_collect_report(
 def service_unavailable(what: str, err: BaseException | str) -> None:
     """Skip: a service this test needs is down (under CI the skip fails, see above)."""
     pytest.skip(f"{what} is not available: {err}")
+
+
+# ----------------------------------------------------------------------------- two phases
+
+#: a test that uses one of these starts worker or API processes (its own PostgreSQL schema, Redis)
+#: or the browser's ``alcove up``: it runs in the serial phase
+SERIAL_FIXTURES = frozenset({"fresh_pg_url", "redis_url", "alcove_server"})
+
+#: folders, files and tests in the serial phase, and why (besides the tests the fixtures above catch)
+SERIAL_PATHS = {
+    "tests/e2e": "a real browser, `alcove up`, and Vitest (which runs its own workers on every core)",
+    "tests/campaigns/test_workers.py": "starts and kills worker processes on the embedded default",
+    "tests/integration/test_worker_e2e.py": "starts worker and `alcove up` processes on the embedded default",
+    "tests/api/test_login_throttle.py::test_enumeration_timing_existing_and_unknown_emails_answer_alike": (
+        "compares login times (paired, but a neighbour's load is noise)"
+    ),
+}
+
+#: files that share an expensive session fixture run on one xdist worker (the fixture is built once)
+SAME_WORKER = {
+    "tests/cli/test_ocp_cli.py": "ghost_case",  # the ghost-force ensemble, ~25 s to train
+    "tests/science/surrogate/test_trust.py": "ghost_case",
+}
+
+
+def _relpath(item: pytest.Item) -> str:
+    try:
+        return item.path.relative_to(item.config.rootpath).as_posix()
+    except ValueError:  # outside the rootdir
+        return item.path.as_posix()
+
+
+def is_serial(item: pytest.Item) -> bool:
+    path = _relpath(item)
+    test = f"{path}::{item.name.split('[')[0]}"
+    if any(path == p or test == p or path.startswith(p + "/") for p in SERIAL_PATHS):
+        return True
+    return not SERIAL_FIXTURES.isdisjoint(getattr(item, "fixturenames", ()))
+
+
+@pytest.hookimpl(tryfirst=True)  # before ``-m`` deselects by marker
+def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
+    for item in items:
+        if is_serial(item):
+            item.add_marker(pytest.mark.serial)
+
+
+#: files whose tests share no expensive fixture and together take minutes: each test is handed out
+#: on its own, so that both workers share them
+EACH_TEST_ALONE = frozenset({"tests/science/oracles/test_ccx_oracle.py"})
+
+#: the parallel phase's longest files, tests (of ``EACH_TEST_ALONE``) or ``SAME_WORKER`` groups,
+#: longest first: handed out before the others, so that none starts last while the other worker
+#: idles (from the durations of CI and of one local run; one missing here only starts later)
+_CCX = "tests/science/oracles/test_ccx_oracle.py::"
+LONG_FIRST: tuple[str, ...] = (
+    f"{_CCX}test_peak_force_at_the_default_mesh_is_within_5_percent_of_a_refined_mesh",  # ~60 s
+    f"{_CCX}test_planar_motion_gives_a_symmetric_wrench_and_runs_from_the_cli",  # ~40 s
+    "tests/cli/test_surrogate_cli.py",  # ~45 s in all
+    "tests/test_reproduce_quick.py",  # the quick reproduction, ~27 s
+    "tests/api/test_schemathesis.py",  # a time budget of 30 s
+    "ghost_case",  # the ghost-force ensemble, ~25 s to train, and the tests on it
+    "tests/campaigns/test_validation_suite.py",
+    "tests/campaigns/test_flows.py",
+    f"{_CCX}test_a_deep_press_that_stalled_ccx_replays_with_sane_physics",
+    "tests/science/surrogate/test_warm_protocol.py",
+)
+
+
+@pytest.hookimpl(optionalhook=True)  # a hook of pytest-xdist: unknown without it (``-p no:xdist``)
+def pytest_xdist_make_scheduler(config: pytest.Config, log: Any) -> Any:
+    """``--dist loadfile``, except that the files of ``SAME_WORKER`` count as one file, the tests
+    of ``EACH_TEST_ALONE`` as one file each, and those of ``LONG_FIRST`` are handed out first
+    (then xdist's order: most tests first)."""
+    if config.getoption("dist") != "loadfile":
+        return None
+    from xdist.scheduler import LoadFileScheduling
+
+    rank = {scope: i for i, scope in enumerate(LONG_FIRST)}
+
+    class Scheduler(LoadFileScheduling):
+        ordered = False
+
+        def _split_scope(self, nodeid: str) -> str:
+            path = super()._split_scope(nodeid)
+            return nodeid if path in EACH_TEST_ALONE else SAME_WORKER.get(path, path)
+
+        def _assign_work_unit(self, node: Any) -> None:
+            if not self.ordered:  # the first assignment: the queue is complete
+                self.ordered = True
+                queue = sorted(self.workqueue.items(), key=lambda unit: rank.get(unit[0], len(rank)))
+                self.workqueue.clear()
+                self.workqueue.update(queue)
+            super()._assign_work_unit(node)
+
+    return Scheduler(config, log)
 
 
 # ----------------------------------------------------------------------------- services
@@ -253,9 +360,22 @@ def db_session(request: pytest.FixtureRequest) -> Session:
     return request.getfixturevalue("sqlite_session" if request.param == "sqlite" else "pg_session")
 
 
+def _redis_db_for_this_process(url: str) -> str:
+    """``url`` itself, or under pytest-xdist worker ``gwN`` the database N below it (mod 16):
+    each worker flushes its own database, never another's."""
+    worker = os.environ.get("PYTEST_XDIST_WORKER", "")
+    if not worker.startswith("gw"):
+        return url
+    parts = urlsplit(url)
+    db = (int(parts.path.strip("/") or 0) - int(worker[2:])) % 16
+    return urlunsplit(parts._replace(path=f"/{db}"))
+
+
 @pytest.fixture(scope="session")
 def redis_url() -> str:
-    url = os.environ.get("ALCOVE_TEST_REDIS_URL", "redis://127.0.0.1:6379/15")
+    """Redis for this test session, flushed at its start: ``ALCOVE_TEST_REDIS_URL`` or
+    ``redis://127.0.0.1:6379/15`` (under xdist, one database per worker)."""
+    url = _redis_db_for_this_process(os.environ.get("ALCOVE_TEST_REDIS_URL", "redis://127.0.0.1:6379/15"))
     import redis
 
     try:

@@ -77,3 +77,24 @@ def test_without_the_testing_setting_no_fault_is_ever_read(monkeypatch, tmp_path
             faults.inject(1, {"train": {"sleep_s": 1}})
     finally:
         get_settings.cache_clear()
+
+
+def test_an_injected_sleep_can_be_limited_to_the_first_attempts(monkeypatch) -> None:
+    """``sleep_attempts``: the attempts up to it sleep, a later one (the re-run after a kill) does
+    not; without it every attempt sleeps. (Sleeps counted, not timed.)"""
+    import time
+
+    from alcove.jobs.faults import StepFault
+    from alcove.jobs.steps import StepRun
+
+    naps: list[float] = []
+    monkeypatch.setattr(time, "sleep", naps.append)  # returns at once: the sleep loop spins until sleep_s passed
+
+    def sleeps(attempt: int, **fault: float) -> bool:
+        naps.clear()
+        StepRun(attempt=attempt, fault=StepFault(sleep_s=0.05, **fault)).before_compute("train")
+        return bool(naps)
+
+    assert sleeps(1, sleep_attempts=1) and sleeps(2, sleep_attempts=2)
+    assert not sleeps(2, sleep_attempts=1) and not sleeps(3, sleep_attempts=2)
+    assert sleeps(1) and sleeps(5)

@@ -80,9 +80,11 @@ def test_a_killed_workers_step_runs_again_within_seconds(
 ) -> None:
     """Four workers; the one running the train step is SIGKILLed in the middle of it, then the
     one running the ocp step, then the one running the oracle step: each time another worker
-    runs the step again within seconds (measured from the kill to the new attempt's claim)."""
+    runs the step again within seconds (measured from the kill to the new attempt's claim). Each
+    step's first attempt is slowed by 6 s (the kill lands in it); the re-run computes at once."""
     steps = ("train", "ocp", "oracle")
-    cid = start_through_the_outbox(make_campaign, 21, {st: {"sleep_s": 6, "iterations": [1]} for st in steps})
+    slow_first = {"sleep_s": 6, "sleep_attempts": 1, "iterations": [1]}
+    cid = start_through_the_outbox(make_campaign, 21, dict.fromkeys(steps, slow_first))
     workers = {
         n: start_worker(pg_redis_default_lease, tmp_path / f"{n}.log", n) for n in (unique("k") for _ in range(4))
     }
@@ -98,7 +100,7 @@ def test_a_killed_workers_step_runs_again_within_seconds(
                 f"the {step} step",
                 alive(),
             )
-            time.sleep(1.0)  # in the middle of the step (it takes 6 s and more)
+            time.sleep(1.0)  # in the middle of the step (its first attempt takes 6 s and more)
             workers[first[2].split("@")[0]].kill()
             killed_at = datetime.now(UTC)
             again = wait_for(
@@ -265,7 +267,7 @@ def test_a_killed_pool_process_is_noticed_by_its_worker(
     import os
     import signal
 
-    cid = start_through_the_outbox(make_campaign, 25, {"train": {"sleep_s": 6, "iterations": [1]}})
+    cid = start_through_the_outbox(make_campaign, 25, {"train": {"sleep_s": 6, "sleep_attempts": 1, "iterations": [1]}})
     w = start_worker(pg_redis_default_lease, tmp_path / "w.log", unique("kp"))
     try:
         wait_for(lambda: (r := step_row(pg_url, cid, 1, "train")) and r[0] == "running", 240, "the train step", w)

@@ -221,7 +221,9 @@ def test_sigkill_of_a_worker_during_an_oracle_job_loses_and_duplicates_nothing(
     from alcove.jobs.campaign import enqueue
 
     expected = reference_pool(make_campaign, seed=11, iterations=3, url=pg_url)
-    cid, jobs = quick_campaign(make_campaign, 11, 3, fault={"oracle": {"sleep_s": 3, "iterations": [2]}})
+    cid, jobs = quick_campaign(
+        make_campaign, 11, 3, fault={"oracle": {"sleep_s": 3, "sleep_attempts": 1, "iterations": [2]}}
+    )
     w1 = start_worker(pg_redis, tmp_path / "w1.log", f"w1-{uuid.uuid4().hex[:4]}")
     try:
         enqueue(jobs)

@@ -30,6 +30,9 @@ class StepFault(BaseModel):
     model_config = ConfigDict(extra="forbid")
 
     sleep_s: float = Field(0.0, ge=0, le=600, description="sleep this long before computing (cancellable)")
+    sleep_attempts: int | None = Field(
+        None, ge=1, description="sleep only in attempts up to this number (default: every attempt)"
+    )
     raise_attempts: int = Field(0, ge=0, description="attempts up to this number raise an error")
     ipopt_max_iter: int | None = Field(None, ge=0, description="ocp: IPOPT's iteration limit (1: does not converge)")
     gate_fail: bool = Field(False, description="oracle: the quality gate quarantines the result")

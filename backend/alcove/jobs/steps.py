@@ -88,7 +88,8 @@ class StepRun:
         fault = self.fault
         if fault is None:
             return
-        end = time.monotonic() + fault.sleep_s
+        sleeps = fault.sleep_attempts is None or self.attempt <= fault.sleep_attempts
+        end = time.monotonic() + (fault.sleep_s if sleeps else 0.0)
         while time.monotonic() < end:
             self.check_cancel()
             time.sleep(0.05)
