@@ -80,6 +80,17 @@ def test_an_unparseable_body_is_a_422_with_the_reason(client, owner, body) -> No
     assert item["loc"] == ["body"] and item["type"] == "json_invalid" and "request body" in item["msg"]
 
 
+def test_a_malformed_multipart_upload_is_a_422_with_the_reason(client, owner) -> None:
+    """A multipart body whose part header breaks off (Starlette's parser: "Invalid multipart data.", a
+    400 the API schema does not list) is invalid input like any other: 422 naming the body."""
+    body = b"--XyZ\r\nno colon in this header line\r\n\r\n1,2\r\n--XyZ--\r\n"
+    headers = {**owner.headers, "Content-Type": "multipart/form-data; boundary=XyZ"}
+    r = client.post(f"{API}/preliminary-datasets", content=body, headers=headers)
+    assert r.status_code == 422, r.text
+    (item,) = r.json()["detail"]
+    assert item["loc"] == ["body"] and item["type"] == "multipart_invalid" and "multipart/form-data" in item["msg"]
+
+
 @pytest.mark.parametrize(
     ("method", "path", "allow"),
     [

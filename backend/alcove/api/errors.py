@@ -22,6 +22,7 @@ from fastapi.responses import JSONResponse
 from pydantic import BaseModel, Field, ValidationError
 from sqlalchemy import exc as sa_exc
 from starlette.exceptions import HTTPException as StarletteHTTPException
+from starlette.formparsers import MultiPartException
 from starlette.types import ASGIApp, Message, Receive, Scope, Send
 
 from alcove.api.route_table import allowed_methods
@@ -105,9 +106,21 @@ def _validation_detail(errors: list[Any]) -> list[dict[str, Any]]:
 def _unparseable_body(err: StarletteHTTPException) -> JSONResponse | None:
     """FastAPI answers 400 "There was an error parsing the body" when a JSON body is not
     even text (invalid UTF-8); a body that is text but not JSON is already a 422
-    ``json_invalid``. Both are invalid input: 422 with the reason, like every other."""
+    ``json_invalid``. Starlette answers 400 "Invalid multipart data." when an upload's
+    multipart body is malformed (its ``MultiPartException`` is the context of the 400). All are
+    invalid input: 422 with the reason, like every other."""
+    if err.status_code != 400:
+        return None
+    if isinstance(err.__context__, MultiPartException):
+        item = {
+            "loc": ["body"],
+            "field": "",
+            "msg": f"the request body is not valid multipart/form-data ({err.__context__.message})",
+            "type": "multipart_invalid",
+        }
+        return JSONResponse({"detail": [item]}, status_code=422)
     cause = err.__cause__
-    if err.status_code != 400 or cause is None:
+    if cause is None:
         return None
     reason = "is not UTF-8 text" if isinstance(cause, UnicodeDecodeError) else f"cannot be parsed ({cause})"
     item = {"loc": ["body"], "field": "", "msg": f"the request body {reason}", "type": "json_invalid"}
