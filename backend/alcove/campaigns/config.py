@@ -214,6 +214,20 @@ class RunSettings(_Strict):
         return batch
 
 
+def strategy_problem(settings: RunSettings, ensemble_size: int) -> str | None:
+    """Why ``settings.strategy`` cannot run with a surrogate of ``ensemble_size`` members, or None.
+
+    ``ensemble-disagreement`` scores a candidate by the members' spread (their force std): an
+    ensemble of one has no disagreement, every score would be 0 and the picks arbitrary."""
+    if settings.strategy == "ensemble-disagreement" and ensemble_size < 2:
+        return (
+            f"strategy 'ensemble-disagreement' needs a surrogate ensemble of at least 2 members, the surrogate "
+            f"config has ensemble_size {ensemble_size}: an ensemble of one has no disagreement to score "
+            "candidates by (use 'random-scenarios', or a surrogate config with ensemble_size >= 2)"
+        )
+    return None
+
+
 class CampaignConfig(_Strict):
     """The editable part of a campaign; a snapshot of it is a campaign config version."""
 

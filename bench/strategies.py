@@ -1,0 +1,547 @@
+"""Acquisition strategies at equal oracle budgets (issue 17, "the measurement that matters").
+
+``python -m bench.strategies`` runs one campaign per (strategy, seed) on ``fe-headrest-2d`` with
+the task preset ``head-headrest-scenarios`` until it has made ``max(budgets)`` oracle calls, and
+scores the model version trained on the pool after B oracle calls, for each budget B, on the
+held-out validation suite (vector RMSE of the force [N] and of the moment [N m] over the suite's
+8 press motions). Every campaign uses the same preliminary data (LHS seed 0), the same
+surrogate configuration and the same validation suite (seed 0); the campaign seed drives the
+scenario draws, the training seeds and the OCP.
+
+Oracle calls are counted as the campaign counts them (``Iteration.oracle_calls``: every oracle
+attempt, also those of failed iterations). The model for budget B is model version j + 1,
+trained on pool version j, where j is the last iteration whose cumulative oracle calls are at
+most B. A campaign stops once it has made ``max(budgets)`` calls: its last iteration's train
+step (the model on the final pool) runs, the rest of that iteration does not.
+
+Every campaign runs in this process's child (``--one``), its steps in that process
+(``protocol.drive_inline``'s loop: the real step protocol and rows on an embedded SQLite store
+in ``--work-dir``, no broker); ``--jobs`` children run at once. Each child writes its result
+file after every budget it scores, so a cut-off run keeps its completed rows; ``--salvage``
+rebuilds the results JSON, table and plot from those files, ``--report-only`` the table and plot
+from the results JSON.
+
+Usage::
+
+    python -m bench.strategies [--seeds 0 1 2] [--budgets 8 16 32 64] [--candidates 16] [--jobs 2]
+    python -m bench.strategies --salvage        # after a cut-off run
+    python -m bench.strategies --report-only
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import platform
+import resource
+import statistics
+import subprocess
+import sys
+import time
+from pathlib import Path
+from typing import Any
+
+ROOT = Path(__file__).resolve().parent.parent
+OUT_DIR = ROOT / "docs" / "active-learning"
+RESULTS = OUT_DIR / "strategies.json"
+PLOT = OUT_DIR / "strategies.png"
+WORK_DIR = Path("/tmp/alcove-bench-strategies")
+
+TASK = "head-headrest-scenarios"
+ORACLE = "fe-headrest-2d"
+STRATEGIES = ("paper", "random-scenarios", "ensemble-disagreement")
+BUDGETS = (8, 16, 32, 64)
+SEEDS = (0, 1, 2)
+BATCH = 4
+CANDIDATES = 16
+PRELIMINARY_SEED = 0
+VALIDATION_SEED = 0
+
+
+# ----------------------------------------------------------------------------- pure logic
+
+
+def budget_models(cumulative: list[int], budgets: list[int]) -> dict[int, int | None]:
+    """For each budget B the pool version j whose model (version j + 1) is scored: the last
+    iteration j (0 = preliminary) whose cumulative oracle calls ``cumulative[j]`` are at most B,
+    once the campaign has reached B (``cumulative[-1] >= B``); None while it has not."""
+    out: dict[int, int | None] = {}
+    for b in budgets:
+        if not cumulative or cumulative[-1] < b:
+            out[b] = None
+            continue
+        out[b] = max(j for j, c in enumerate(cumulative) if c <= b)
+    return out
+
+
+def calls_to_reach(curve: list[tuple[int, float]], target: float) -> int | None:
+    """The fewest oracle calls at which ``curve`` ((calls, error), ascending calls) is at most ``target``."""
+    for calls, err in sorted(curve):
+        if err <= target:
+            return calls
+    return None
+
+
+def mean_curve(curves: list[list[tuple[int, float]]]) -> list[tuple[int, float]]:
+    """The mean over seeds at the call counts every seed's curve has."""
+    if not curves:
+        return []
+    common = set.intersection(*(set(c for c, _ in cv) for cv in curves))
+    return [(c, statistics.fmean(dict(cv)[c] for cv in curves)) for c in sorted(common)]
+
+
+# ----------------------------------------------------------------------------- one campaign (child)
+
+
+def _cpu() -> float:
+    r = resource.getrusage(resource.RUSAGE_SELF)
+    return r.ru_utime + r.ru_stime
+
+
+def _write_atomic(path: Path, data: Any) -> None:
+    tmp = path.with_suffix(".tmp")
+    tmp.write_text(json.dumps(data, indent=1))
+    tmp.replace(path)
+
+
+def _fresh_store(data_dir: Path) -> None:
+    data_dir.mkdir(parents=True, exist_ok=True)
+    os.environ["ALCOVE_DATA_DIR"] = str(data_dir)
+    os.environ["ALCOVE_DATABASE_URL"] = ""
+    os.environ["ALCOVE_BROKER_URL"] = ""
+    from alcove.db import migrate
+    from alcove.settings import get_settings
+
+    get_settings.cache_clear()
+    migrate.upgrade()
+
+
+def _settings(strategy: str, batch: int, candidates: int) -> dict[str, Any]:
+    s: dict[str, Any] = {"strategy": strategy, "validation_motions": 8, "validation_seed": VALIDATION_SEED}
+    if strategy != "paper":
+        s["batch"] = batch
+    if strategy == "ensemble-disagreement":
+        s["candidates"] = candidates
+    return s
+
+
+def _cumulative(s: Any, campaign_id: int, upto: int) -> list[int]:
+    """Cumulative oracle calls after iterations 0 .. upto (every attempt, also of failed iterations)."""
+    from alcove.models import Iteration
+
+    calls = {it.index: it.oracle_calls for it in s.query(Iteration).filter(Iteration.campaign_id == campaign_id)}
+    out, total = [], 0
+    for k in range(upto + 1):
+        total += calls.get(k, 0)
+        out.append(total)
+    return out
+
+
+def _run_suite(campaign_id: int) -> int | None:
+    """Replay the campaign's validation motions still queued (in this process); the suite id once complete."""
+    from alcove.db import session_scope
+    from alcove.models import Campaign, SuiteStatus, ValidationMotion, ValidationSuite
+    from alcove.oracles.validation import run_motion
+
+    with session_scope() as s:
+        c = s.get(Campaign, campaign_id)
+        sid = c.validation_suite_id if c is not None else None
+        if sid is None:
+            return None
+        ids = [m.id for m in s.query(ValidationMotion).filter_by(suite_id=sid, status="queued")]
+    for i in ids:
+        run_motion(i, "bench")
+    with session_scope() as s:
+        suite = s.get(ValidationSuite, sid)
+        return sid if suite is not None and suite.status == SuiteStatus.complete.value else None
+
+
+def _score(campaign_id: int, suite_id: int, version: int) -> dict[str, Any]:
+    from alcove.db import session_scope
+    from alcove.models import ModelVersion, ValidationMetrics
+    from alcove.surrogates.validation import compute_for_model
+
+    with session_scope() as s:
+        mv = s.query(ModelVersion).filter_by(campaign_id=campaign_id, version=version).one()
+        row = s.query(ValidationMetrics).filter_by(model_version_id=mv.id).one_or_none()
+        if row is not None:
+            return {"force_rmse": row.force_rmse, "moment_rmse": row.moment_rmse}
+        mv_id = mv.id
+    m = compute_for_model(mv_id, suite_id)
+    assert m is not None, "the validation suite is not complete"
+    return {"force_rmse": m["force_rmse"], "moment_rmse": m["moment_rmse"]}
+
+
+def _iterations(campaign_id: int) -> list[dict[str, Any]]:
+    from alcove.db import session_scope
+    from alcove.models import Iteration, IterationMetrics, ModelVersion, ValidationMetrics
+
+    with session_scope() as s:
+        val = {
+            mv.version: (vm.force_rmse, vm.moment_rmse)
+            for mv, vm in s.query(ModelVersion, ValidationMetrics)
+            .join(ValidationMetrics, ValidationMetrics.model_version_id == ModelVersion.id)
+            .filter(ModelVersion.campaign_id == campaign_id)
+        }
+        loop = {
+            m.iteration_index: (m.force_rmse, m.moment_rmse)
+            for m in s.query(IterationMetrics).filter(IterationMetrics.campaign_id == campaign_id)
+        }
+        rows = []
+        for it in s.query(Iteration).filter(Iteration.campaign_id == campaign_id).order_by(Iteration.index):
+            rows.append(
+                {
+                    "k": it.index,
+                    "status": it.status,
+                    "oracle_calls": it.oracle_calls,
+                    "scenario": (it.scenario or {}).get("values"),
+                    "in_loop_rmse": loop.get(it.index),
+                    "validation_of_model_k": val.get(it.index),
+                    "candidates": [
+                        {
+                            "slot": c.slot,
+                            "values": (c.scenario or {}).get("values"),
+                            "converged": c.converged,
+                            "score": c.score,
+                            "pick": c.pick,
+                            "force_rmse": c.force_rmse,
+                        }
+                        for c in it.candidates
+                    ],
+                }
+            )
+    return rows
+
+
+def run_one(
+    strategy: str,
+    seed: int,
+    budgets: list[int],
+    out: Path,
+    data_dir: Path,
+    *,
+    batch: int,
+    candidates: int,
+    surrogate: dict[str, Any],
+) -> dict[str, Any]:
+    """One campaign until max(budgets) oracle calls; writes ``out`` after every scored budget."""
+    t0, cpu0 = time.perf_counter(), _cpu()
+    _fresh_store(data_dir)
+    from alcove.campaigns import presets, service
+    from alcove.campaigns.protocol import run_step
+    from alcove.campaigns.schemas import CampaignCreate
+    from alcove.db import session_scope, transaction
+
+    settings = _settings(strategy, batch, candidates)
+
+    def create(s: Any) -> int:
+        user = presets.local_user(s)
+        data = CampaignCreate(
+            name=f"bench {strategy} seed {seed}",
+            description="python -m bench.strategies",
+            seed=seed,
+            task_version_id=presets.task_version_from_preset(s, user.id, TASK),
+            oracle_version_id=presets.oracle_version_for(s, user.id, ORACLE, {}),
+            surrogate_config_version_id=presets.surrogate_config_version_for(s, user.id, surrogate),
+            preliminary={"seed": PRELIMINARY_SEED},
+            stopping={"max_iterations": 100_000},
+            settings=settings,
+        )
+        return service.create_campaign(s, user.id, data).id
+
+    cid = transaction(create)
+    _, jobs = transaction(lambda s: service.start(s, cid))
+    result: dict[str, Any] = {
+        "strategy": strategy,
+        "seed": seed,
+        "settings": settings,
+        "surrogate": surrogate,
+        "budgets": {},
+        "complete": False,
+    }
+    top = max(budgets)
+    queue, suite_id, steps = list(jobs), None, 0
+    while queue:
+        j = queue.pop(0)
+        last = False
+        if j.step.value == "train" and j.iteration > 1:
+            with session_scope() as s:
+                last = _cumulative(s, cid, j.iteration - 1)[-1] >= top
+        run_step(j.campaign_id, j.iteration, j.step.value, j.attempt, worker_name="bench", send=queue.extend, slot=j.slot)
+        steps += 1
+        if j.step.value != "train":
+            continue
+        if suite_id is None:
+            suite_id = _run_suite(cid)
+        with session_scope() as s:
+            cum = _cumulative(s, cid, j.iteration - 1)
+        for b, pv in budget_models(cum, budgets).items():
+            if pv is None or str(b) in result["budgets"] or suite_id is None:
+                continue
+            result["budgets"][str(b)] = {"oracle_calls": cum[pv], "pool_version": pv, "model_version": pv + 1}
+            result["budgets"][str(b)].update(_score(cid, suite_id, pv + 1))
+        if j.iteration == 1 and suite_id is not None:
+            result["budgets"]["0"] = {"oracle_calls": 0, "pool_version": 0, "model_version": 1, **_score(cid, suite_id, 1)}
+        result.update(wall_s=time.perf_counter() - t0, cpu_s=_cpu() - cpu0, iterations_run=j.iteration, steps=steps)
+        print(
+            f"[{strategy} seed {seed}] iteration {j.iteration} trained, {cum[-1]} oracle calls, "
+            f"{result['wall_s'] / 60:.1f} min (CPU {result['cpu_s'] / 60:.1f} min); "
+            + ", ".join(f"B={b}: {v['force_rmse']:.2f} N" for b, v in sorted(result["budgets"].items(), key=lambda x: int(x[0]))),
+            flush=True,
+        )
+        result["iterations"] = _iterations(cid)
+        _write_atomic(out, result)
+        if last:
+            break
+    result["complete"] = all(str(b) in result["budgets"] for b in budgets)
+    result["iterations"] = _iterations(cid)
+    result.update(wall_s=time.perf_counter() - t0, cpu_s=_cpu() - cpu0)
+    _write_atomic(out, result)
+    return result
+
+
+# ----------------------------------------------------------------------------- report
+
+
+def _runs_from(work: Path) -> list[dict[str, Any]]:
+    return [json.loads(p.read_text()) for p in sorted(work.glob("run-*.json"))]
+
+
+def collect(work: Path, meta: dict[str, Any]) -> dict[str, Any]:
+    runs = _runs_from(work)
+    return {**meta, "runs": runs}
+
+
+def summary(results: dict[str, Any]) -> dict[str, Any]:
+    """Mean, standard deviation, min and max over seeds per (strategy, budget); the goal checks."""
+    budgets = [0, *results["budgets"]]
+    table: dict[str, dict[int, dict[str, Any]]] = {}
+    curves: dict[str, list[list[tuple[int, float]]]] = {}
+    for strat in results["strategies"]:
+        runs = [r for r in results["runs"] if r["strategy"] == strat]
+        table[strat] = {}
+        for b in budgets:
+            vals = [r["budgets"][str(b)] for r in runs if str(b) in r["budgets"]]
+            if not vals:
+                continue
+            f = [v["force_rmse"] for v in vals]
+            m = [v["moment_rmse"] for v in vals]
+            table[strat][b] = {
+                "n": len(vals),
+                "seeds": [r["seed"] for r in runs if str(b) in r["budgets"]],
+                "force_mean": statistics.fmean(f),
+                "force_sd": statistics.stdev(f) if len(f) > 1 else 0.0,
+                "force_min": min(f),
+                "force_max": max(f),
+                "moment_mean": statistics.fmean(m),
+                "moment_sd": statistics.stdev(m) if len(m) > 1 else 0.0,
+            }
+        # the validation error of every model version over the oracle calls its pool holds
+        per_seed = []
+        for r in runs:
+            cum, total, cv = {}, 0, []
+            for it in r.get("iterations", []):
+                total += it["oracle_calls"]
+                cum[it["k"]] = total
+            for it in r.get("iterations", []):
+                v = it.get("validation_of_model_k")
+                if v is not None and it["k"] - 1 in cum:
+                    cv.append((cum[it["k"] - 1], v[0]))
+            if cv:
+                per_seed.append(sorted(cv))
+        curves[strat] = per_seed
+    goals: dict[str, Any] = {}
+    ed, rnd, pap = (table.get(s, {}) for s in STRATEGIES[::-1])
+    top = max(results["budgets"])
+    common = [b for b in results["budgets"] if b in ed and b in rnd]
+    if common:
+        goals["beats_random"] = {
+            str(b): {"ed": ed[b]["force_mean"], "random": rnd[b]["force_mean"], "ratio": ed[b]["force_mean"] / rnd[b]["force_mean"]}
+            for b in common
+        }
+        goals["beats_random_every_budget"] = all(ed[b]["force_mean"] < rnd[b]["force_mean"] for b in common)
+    ed_curve = mean_curve(curves.get("ensemble-disagreement", []))
+    for name, ref, limit in (("random", rnd, top // 2), ("paper", pap, top // 4)):
+        if top in ref and ed_curve:
+            target = ref[top]["force_mean"]
+            need = calls_to_reach(ed_curve, target)
+            goals[f"reach_{name}_{top}"] = {
+                "target_force_rmse": target,
+                "calls_needed": need,
+                "limit": limit,
+                "met": need is not None and need <= limit,
+                "ed_at_limit": dict(ed_curve).get(limit),
+            }
+    return {"table": table, "curves": curves, "goals": goals}
+
+
+def print_table(results: dict[str, Any], summ: dict[str, Any]) -> None:
+    from rich.console import Console
+    from rich.table import Table
+
+    console = Console() if sys.stdout.isatty() else Console(width=160)
+    t = Table(title=f"validation-suite error at equal oracle budgets ({ORACLE}, {TASK})")
+    for c in ("strategy", "oracle calls", "seeds", "force RMSE [N] mean +- sd", "min - max", "moment RMSE [N m] mean +- sd"):
+        t.add_column(c, justify="left" if c == "strategy" else "right")
+    for strat, rows in summ["table"].items():
+        for b, r in sorted(rows.items()):
+            t.add_row(
+                strat,
+                str(b),
+                str(r["n"]),
+                f"{r['force_mean']:.2f} +- {r['force_sd']:.2f}",
+                f"{r['force_min']:.2f} - {r['force_max']:.2f}",
+                f"{r['moment_mean']:.3f} +- {r['moment_sd']:.3f}",
+            )
+    console.print(t)
+    console.print(json.dumps(summ["goals"], indent=1))
+
+
+def plot(results: dict[str, Any], summ: dict[str, Any], path: Path) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, axes = plt.subplots(1, 2, figsize=(11, 4.2))
+    colors = {"paper": "tab:gray", "random-scenarios": "tab:blue", "ensemble-disagreement": "tab:red"}
+    for ax, key, unit in ((axes[0], "force", "N"), (axes[1], "moment", "N m")):
+        for strat, rows in summ["table"].items():
+            bs = sorted(b for b in rows if b > 0)
+            if not bs:
+                continue
+            mean = [rows[b][f"{key}_mean"] for b in bs]
+            sd = [rows[b][f"{key}_sd"] for b in bs]
+            ax.errorbar(bs, mean, yerr=sd, marker="o", capsize=3, color=colors.get(strat), label=f"{strat} (n={rows[bs[0]]['n']})")
+            if 0 in rows:
+                ax.axhline(rows[0][f"{key}_mean"], color="k", lw=0.6, ls=":")
+        if key == "force":
+            for strat, per_seed in summ["curves"].items():
+                for cv in per_seed:
+                    xs = [c for c, _ in cv if c > 0]
+                    ys = [e for c, e in cv if c > 0]
+                    ax.plot(xs, ys, color=colors.get(strat), lw=0.6, alpha=0.35)
+        ax.set_xscale("log", base=2)
+        ax.set_xticks(results["budgets"], [str(b) for b in results["budgets"]])
+        ax.set_xlabel("oracle calls (pool the model was trained on)")
+        ax.set_ylabel(f"validation-suite {key} RMSE [{unit}]")
+        ax.grid(alpha=0.3)
+    axes[0].set_title("force (mean +- sd over seeds; thin: every model version)", fontsize=9)
+    axes[1].set_title("moment (mean +- sd over seeds); dotted: preliminary-only model", fontsize=9)
+    axes[0].legend(fontsize=8)
+    fig.tight_layout()
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def report(results: dict[str, Any], out: Path, plot_path: Path) -> dict[str, Any]:
+    summ = summary(results)
+    results["summary"] = {
+        "table": {s: {str(b): r for b, r in rows.items()} for s, rows in summ["table"].items()},
+        "goals": summ["goals"],
+    }
+    out.parent.mkdir(parents=True, exist_ok=True)
+    _write_atomic(out, results)
+    plot(results, summ, plot_path)
+    print_table(results, summ)
+    print(f"wrote {out} and {plot_path}")
+    return summ
+
+
+# ----------------------------------------------------------------------------- main
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--strategies", nargs="+", default=list(STRATEGIES), choices=STRATEGIES)
+    ap.add_argument("--seeds", nargs="+", type=int, default=list(SEEDS))
+    ap.add_argument("--budgets", nargs="+", type=int, default=list(BUDGETS))
+    ap.add_argument("--batch", type=int, default=BATCH, help="q of random-scenarios and ensemble-disagreement")
+    ap.add_argument("--candidates", type=int, default=CANDIDATES, help="C of ensemble-disagreement")
+    ap.add_argument("--surrogate", default="{}", help="surrogate config JSON (default: alcove's, an ensemble of 5)")
+    ap.add_argument("--jobs", type=int, default=1, help="campaigns run at once (child processes)")
+    ap.add_argument("--work-dir", type=Path, default=WORK_DIR, help="stores and per-run result files")
+    ap.add_argument("--out", type=Path, default=RESULTS)
+    ap.add_argument("--plot", type=Path, default=PLOT)
+    ap.add_argument("--report-only", action="store_true", help="table and plot from --out, nothing run")
+    ap.add_argument("--salvage", action="store_true", help="--out, table and plot from the run files in --work-dir")
+    ap.add_argument("--one", nargs=2, metavar=("STRATEGY", "SEED"), help=argparse.SUPPRESS)
+    args = ap.parse_args(argv)
+    budgets = sorted(set(args.budgets))
+    if any(b < 1 for b in budgets):
+        ap.error("--budgets: oracle call budgets must be at least 1")
+    surrogate = json.loads(args.surrogate)
+
+    if args.one:
+        strategy, seed = args.one[0], int(args.one[1])
+        tag = f"{strategy}-{seed}"
+        run_one(
+            strategy,
+            seed,
+            budgets,
+            args.work_dir / f"run-{tag}.json",
+            args.work_dir / f"store-{tag}",
+            batch=args.batch,
+            candidates=args.candidates,
+            surrogate=surrogate,
+        )
+        return 0
+
+    if args.report_only:
+        report(json.loads(args.out.read_text()), args.out, args.plot)
+        return 0
+
+    meta_path = args.work_dir / "meta.json"
+    if args.salvage:
+        meta = json.loads(meta_path.read_text())
+        report(collect(args.work_dir, meta), args.out, args.plot)
+        return 0
+
+    args.work_dir.mkdir(parents=True, exist_ok=True)
+    meta = {
+        "oracle": ORACLE,
+        "task": TASK,
+        "strategies": args.strategies,
+        "seeds": args.seeds,
+        "budgets": budgets,
+        "batch": args.batch,
+        "candidates": args.candidates,
+        "surrogate": surrogate,
+        "preliminary_seed": PRELIMINARY_SEED,
+        "validation_seed": VALIDATION_SEED,
+        "jobs": args.jobs,
+        "machine": platform.platform(),
+        "python": sys.version.split()[0],
+        "started": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()),
+    }
+    _write_atomic(meta_path, meta)
+    # seed-major order: a cut-off run has whole seeds of every strategy
+    todo = [(st, sd) for sd in args.seeds for st in args.strategies]
+    running: list[tuple[subprocess.Popen[bytes], str]] = []
+    env = {**os.environ, "OMP_NUM_THREADS": "1", "MKL_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1"}
+    t0 = time.perf_counter()
+    while todo or running:
+        while todo and len(running) < args.jobs:
+            st, sd = todo.pop(0)
+            log = open(args.work_dir / f"log-{st}-{sd}.txt", "ab")  # noqa: SIM115 (closed with the process)
+            argv = [sys.executable, "-m", "bench.strategies", "--one", st, str(sd), "--work-dir", str(args.work_dir)]
+            argv += ["--budgets", *map(str, budgets), "--batch", str(args.batch), "--candidates", str(args.candidates)]
+            argv += ["--surrogate", args.surrogate]
+            running.append((subprocess.Popen(argv, stdout=log, stderr=subprocess.STDOUT, env=env, cwd=ROOT), f"{st}-{sd}"))
+        time.sleep(5)
+        for p, tag in list(running):
+            if p.poll() is not None:
+                running.remove((p, tag))
+                print(f"{tag}: exit {p.returncode} after {(time.perf_counter() - t0) / 60:.1f} min", flush=True)
+                meta["wall_s"] = time.perf_counter() - t0
+                report(collect(args.work_dir, meta), args.out, args.plot)
+    r = resource.getrusage(resource.RUSAGE_CHILDREN)
+    meta["wall_s"], meta["children_cpu_s"] = time.perf_counter() - t0, r.ru_utime + r.ru_stime
+    report(collect(args.work_dir, meta), args.out, args.plot)
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
