@@ -35,12 +35,13 @@ import json
 import os
 import platform
 import resource
-import statistics
 import subprocess
 import sys
 import time
 from pathlib import Path
 from typing import Any
+
+from bench.strategies_report import collect, report, write_atomic
 
 ROOT = Path(__file__).resolve().parent.parent
 OUT_DIR = ROOT / "docs" / "active-learning"
@@ -75,34 +76,12 @@ def budget_models(cumulative: list[int], budgets: list[int]) -> dict[int, int | 
     return out
 
 
-def calls_to_reach(curve: list[tuple[int, float]], target: float) -> int | None:
-    """The fewest oracle calls at which ``curve`` ((calls, error), ascending calls) is at most ``target``."""
-    for calls, err in sorted(curve):
-        if err <= target:
-            return calls
-    return None
-
-
-def mean_curve(curves: list[list[tuple[int, float]]]) -> list[tuple[int, float]]:
-    """The mean over seeds at the call counts every seed's curve has."""
-    if not curves:
-        return []
-    common = set.intersection(*(set(c for c, _ in cv) for cv in curves))
-    return [(c, statistics.fmean(dict(cv)[c] for cv in curves)) for c in sorted(common)]
-
-
 # ----------------------------------------------------------------------------- one campaign (child)
 
 
 def _cpu() -> float:
     r = resource.getrusage(resource.RUSAGE_SELF)
     return r.ru_utime + r.ru_stime
-
-
-def _write_atomic(path: Path, data: Any) -> None:
-    tmp = path.with_suffix(".tmp")
-    tmp.write_text(json.dumps(data, indent=1))
-    tmp.replace(path)
 
 
 def _fresh_store(data_dir: Path) -> None:
@@ -268,7 +247,9 @@ def run_one(
         if j.step.value == "train" and j.iteration > 1:
             with session_scope() as s:
                 last = _cumulative(s, cid, j.iteration - 1)[-1] >= top
-        run_step(j.campaign_id, j.iteration, j.step.value, j.attempt, worker_name="bench", send=queue.extend, slot=j.slot)
+        run_step(
+            j.campaign_id, j.iteration, j.step.value, j.attempt, worker_name="bench", send=queue.extend, slot=j.slot
+        )
         steps += 1
         if j.step.value != "train":
             continue
@@ -282,172 +263,30 @@ def run_one(
             result["budgets"][str(b)] = {"oracle_calls": cum[pv], "pool_version": pv, "model_version": pv + 1}
             result["budgets"][str(b)].update(_score(cid, suite_id, pv + 1))
         if j.iteration == 1 and suite_id is not None:
-            result["budgets"]["0"] = {"oracle_calls": 0, "pool_version": 0, "model_version": 1, **_score(cid, suite_id, 1)}
+            result["budgets"]["0"] = {
+                "oracle_calls": 0,
+                "pool_version": 0,
+                "model_version": 1,
+                **_score(cid, suite_id, 1),
+            }
         result.update(wall_s=time.perf_counter() - t0, cpu_s=_cpu() - cpu0, iterations_run=j.iteration, steps=steps)
         print(
             f"[{strategy} seed {seed}] iteration {j.iteration} trained, {cum[-1]} oracle calls, "
             f"{result['wall_s'] / 60:.1f} min (CPU {result['cpu_s'] / 60:.1f} min); "
-            + ", ".join(f"B={b}: {v['force_rmse']:.2f} N" for b, v in sorted(result["budgets"].items(), key=lambda x: int(x[0]))),
+            + ", ".join(
+                f"B={b}: {v['force_rmse']:.2f} N" for b, v in sorted(result["budgets"].items(), key=lambda x: int(x[0]))
+            ),
             flush=True,
         )
         result["iterations"] = _iterations(cid)
-        _write_atomic(out, result)
+        write_atomic(out, result)
         if last:
             break
     result["complete"] = all(str(b) in result["budgets"] for b in budgets)
     result["iterations"] = _iterations(cid)
     result.update(wall_s=time.perf_counter() - t0, cpu_s=_cpu() - cpu0)
-    _write_atomic(out, result)
+    write_atomic(out, result)
     return result
-
-
-# ----------------------------------------------------------------------------- report
-
-
-def _runs_from(work: Path) -> list[dict[str, Any]]:
-    return [json.loads(p.read_text()) for p in sorted(work.glob("run-*.json"))]
-
-
-def collect(work: Path, meta: dict[str, Any]) -> dict[str, Any]:
-    runs = _runs_from(work)
-    return {**meta, "runs": runs}
-
-
-def summary(results: dict[str, Any]) -> dict[str, Any]:
-    """Mean, standard deviation, min and max over seeds per (strategy, budget); the goal checks."""
-    budgets = [0, *results["budgets"]]
-    table: dict[str, dict[int, dict[str, Any]]] = {}
-    curves: dict[str, list[list[tuple[int, float]]]] = {}
-    for strat in results["strategies"]:
-        runs = [r for r in results["runs"] if r["strategy"] == strat]
-        table[strat] = {}
-        for b in budgets:
-            vals = [r["budgets"][str(b)] for r in runs if str(b) in r["budgets"]]
-            if not vals:
-                continue
-            f = [v["force_rmse"] for v in vals]
-            m = [v["moment_rmse"] for v in vals]
-            table[strat][b] = {
-                "n": len(vals),
-                "seeds": [r["seed"] for r in runs if str(b) in r["budgets"]],
-                "force_mean": statistics.fmean(f),
-                "force_sd": statistics.stdev(f) if len(f) > 1 else 0.0,
-                "force_min": min(f),
-                "force_max": max(f),
-                "moment_mean": statistics.fmean(m),
-                "moment_sd": statistics.stdev(m) if len(m) > 1 else 0.0,
-            }
-        # the validation error of every model version over the oracle calls its pool holds
-        per_seed = []
-        for r in runs:
-            cum, total, cv = {}, 0, []
-            for it in r.get("iterations", []):
-                total += it["oracle_calls"]
-                cum[it["k"]] = total
-            for it in r.get("iterations", []):
-                v = it.get("validation_of_model_k")
-                if v is not None and it["k"] - 1 in cum:
-                    cv.append((cum[it["k"] - 1], v[0]))
-            if cv:
-                per_seed.append(sorted(cv))
-        curves[strat] = per_seed
-    goals: dict[str, Any] = {}
-    ed, rnd, pap = (table.get(s, {}) for s in STRATEGIES[::-1])
-    top = max(results["budgets"])
-    common = [b for b in results["budgets"] if b in ed and b in rnd]
-    if common:
-        goals["beats_random"] = {
-            str(b): {"ed": ed[b]["force_mean"], "random": rnd[b]["force_mean"], "ratio": ed[b]["force_mean"] / rnd[b]["force_mean"]}
-            for b in common
-        }
-        goals["beats_random_every_budget"] = all(ed[b]["force_mean"] < rnd[b]["force_mean"] for b in common)
-    ed_curve = mean_curve(curves.get("ensemble-disagreement", []))
-    for name, ref, limit in (("random", rnd, top // 2), ("paper", pap, top // 4)):
-        if top in ref and ed_curve:
-            target = ref[top]["force_mean"]
-            need = calls_to_reach(ed_curve, target)
-            goals[f"reach_{name}_{top}"] = {
-                "target_force_rmse": target,
-                "calls_needed": need,
-                "limit": limit,
-                "met": need is not None and need <= limit,
-                "ed_at_limit": dict(ed_curve).get(limit),
-            }
-    return {"table": table, "curves": curves, "goals": goals}
-
-
-def print_table(results: dict[str, Any], summ: dict[str, Any]) -> None:
-    from rich.console import Console
-    from rich.table import Table
-
-    console = Console() if sys.stdout.isatty() else Console(width=160)
-    t = Table(title=f"validation-suite error at equal oracle budgets ({ORACLE}, {TASK})")
-    for c in ("strategy", "oracle calls", "seeds", "force RMSE [N] mean +- sd", "min - max", "moment RMSE [N m] mean +- sd"):
-        t.add_column(c, justify="left" if c == "strategy" else "right")
-    for strat, rows in summ["table"].items():
-        for b, r in sorted(rows.items()):
-            t.add_row(
-                strat,
-                str(b),
-                str(r["n"]),
-                f"{r['force_mean']:.2f} +- {r['force_sd']:.2f}",
-                f"{r['force_min']:.2f} - {r['force_max']:.2f}",
-                f"{r['moment_mean']:.3f} +- {r['moment_sd']:.3f}",
-            )
-    console.print(t)
-    console.print(json.dumps(summ["goals"], indent=1))
-
-
-def plot(results: dict[str, Any], summ: dict[str, Any], path: Path) -> None:
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    fig, axes = plt.subplots(1, 2, figsize=(11, 4.2))
-    colors = {"paper": "tab:gray", "random-scenarios": "tab:blue", "ensemble-disagreement": "tab:red"}
-    for ax, key, unit in ((axes[0], "force", "N"), (axes[1], "moment", "N m")):
-        for strat, rows in summ["table"].items():
-            bs = sorted(b for b in rows if b > 0)
-            if not bs:
-                continue
-            mean = [rows[b][f"{key}_mean"] for b in bs]
-            sd = [rows[b][f"{key}_sd"] for b in bs]
-            ax.errorbar(bs, mean, yerr=sd, marker="o", capsize=3, color=colors.get(strat), label=f"{strat} (n={rows[bs[0]]['n']})")
-            if 0 in rows:
-                ax.axhline(rows[0][f"{key}_mean"], color="k", lw=0.6, ls=":")
-        if key == "force":
-            for strat, per_seed in summ["curves"].items():
-                for cv in per_seed:
-                    xs = [c for c, _ in cv if c > 0]
-                    ys = [e for c, e in cv if c > 0]
-                    ax.plot(xs, ys, color=colors.get(strat), lw=0.6, alpha=0.35)
-        ax.set_xscale("log", base=2)
-        ax.set_xticks(results["budgets"], [str(b) for b in results["budgets"]])
-        ax.set_xlabel("oracle calls (pool the model was trained on)")
-        ax.set_ylabel(f"validation-suite {key} RMSE [{unit}]")
-        ax.grid(alpha=0.3)
-    axes[0].set_title("force (mean +- sd over seeds; thin: every model version)", fontsize=9)
-    axes[1].set_title("moment (mean +- sd over seeds); dotted: preliminary-only model", fontsize=9)
-    axes[0].legend(fontsize=8)
-    fig.tight_layout()
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-
-
-def report(results: dict[str, Any], out: Path, plot_path: Path) -> dict[str, Any]:
-    summ = summary(results)
-    results["summary"] = {
-        "table": {s: {str(b): r for b, r in rows.items()} for s, rows in summ["table"].items()},
-        "goals": summ["goals"],
-    }
-    out.parent.mkdir(parents=True, exist_ok=True)
-    _write_atomic(out, results)
-    plot(results, summ, plot_path)
-    print_table(results, summ)
-    print(f"wrote {out} and {plot_path}")
-    return summ
 
 
 # ----------------------------------------------------------------------------- main
@@ -516,7 +355,7 @@ def main(argv: list[str] | None = None) -> int:
         "python": sys.version.split()[0],
         "started": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()),
     }
-    _write_atomic(meta_path, meta)
+    write_atomic(meta_path, meta)
     # seed-major order: a cut-off run has whole seeds of every strategy
     todo = [(st, sd) for sd in args.seeds for st in args.strategies]
     running: list[tuple[subprocess.Popen[bytes], str]] = []
@@ -529,7 +368,9 @@ def main(argv: list[str] | None = None) -> int:
             argv = [sys.executable, "-m", "bench.strategies", "--one", st, str(sd), "--work-dir", str(args.work_dir)]
             argv += ["--budgets", *map(str, budgets), "--batch", str(args.batch), "--candidates", str(args.candidates)]
             argv += ["--surrogate", args.surrogate]
-            running.append((subprocess.Popen(argv, stdout=log, stderr=subprocess.STDOUT, env=env, cwd=ROOT), f"{st}-{sd}"))
+            running.append(
+                (subprocess.Popen(argv, stdout=log, stderr=subprocess.STDOUT, env=env, cwd=ROOT), f"{st}-{sd}")
+            )
         time.sleep(5)
         for p, tag in list(running):
             if p.poll() is not None:
