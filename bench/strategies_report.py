@@ -112,7 +112,51 @@ def summary(results: dict[str, Any]) -> dict[str, Any]:
                 "met": need is not None and need <= limit,
                 "ed_at_limit": dict(ed_curve).get(limit),
             }
-    return {"table": table, "curves": curves, "goals": goals}
+    return {"table": table, "curves": curves, "goals": goals, "picks": picks(results)}
+
+
+RANGES = {"initial.q.0": (0.15, 0.30), "initial.qd.0": (0.0, 0.5), "model.headrest_offset": (-0.005, 0.005)}
+
+
+def picks(results: dict[str, Any]) -> dict[str, Any]:
+    """Where the replayed scenarios land (mean of each ranged parameter scaled to [0, 1] over its
+    range; uniform draws give 0.5), their in-loop force RMSE, and for ensemble-disagreement the
+    scores of picked and unpicked candidates and how the score ranks the picks' actual error."""
+    from scipy.stats import spearmanr
+
+    out: dict[str, Any] = {}
+    for strat in results["strategies"]:
+        chosen, others, err, score_err = [], [], [], []
+        for r in (r for r in results["runs"] if r["strategy"] == strat):
+            for it in r.get("iterations", []):
+                for c in it["candidates"]:
+                    (chosen if c["pick"] is not None else others).append(c)
+                    if c["pick"] is not None and c["force_rmse"] is not None:
+                        err.append(c["force_rmse"])
+                        if c["score"] is not None:
+                            score_err.append((c["score"], c["force_rmse"]))
+        if not chosen:
+            continue
+        row: dict[str, Any] = {
+            "replayed": len(chosen),
+            "in_loop_force_rmse_mean": statistics.fmean(err) if err else None,
+            "scaled_mean": {
+                k: statistics.fmean((c["values"][k] - lo) / (hi - lo) for c in chosen if c["values"])
+                for k, (lo, hi) in RANGES.items()
+            },
+        }
+        scored = [c["score"] for c in chosen if c["score"] is not None]
+        if scored:
+            rest = [c["score"] for c in others if c["score"] is not None]
+            row["score_picked_mean"] = statistics.fmean(scored)
+            row["score_unpicked_mean"] = statistics.fmean(rest) if rest else None
+            row["not_converged"] = sum(1 for c in chosen + others if c["converged"] is False)
+            row["candidates"] = len(chosen) + len(others)
+        if len(score_err) > 2:
+            rho = spearmanr([s for s, _ in score_err], [e for _, e in score_err])
+            row["spearman_score_vs_in_loop_error"] = float(rho.statistic)
+        out[strat] = row
+    return out
 
 
 def print_table(results: dict[str, Any], summ: dict[str, Any]) -> None:
@@ -141,7 +185,7 @@ def print_table(results: dict[str, Any], summ: dict[str, Any]) -> None:
                 f"{r['moment_mean']:.3f} +- {r['moment_sd']:.3f}",
             )
     console.print(t)
-    console.print(json.dumps(summ["goals"], indent=1))
+    console.print(json.dumps({"goals": summ["goals"], "picks": summ["picks"]}, indent=1))
 
 
 def plot(results: dict[str, Any], summ: dict[str, Any], path: Path) -> None:
@@ -195,6 +239,7 @@ def report(results: dict[str, Any], out: Path, plot_path: Path) -> dict[str, Any
     results["summary"] = {
         "table": {s: {str(b): r for b, r in rows.items()} for s, rows in summ["table"].items()},
         "goals": summ["goals"],
+        "picks": summ["picks"],
     }
     out.parent.mkdir(parents=True, exist_ok=True)
     write_atomic(out, results)
