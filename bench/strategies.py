@@ -21,11 +21,8 @@ file after every budget it scores, so a cut-off run keeps its completed rows; ``
 rebuilds the results JSON, table and plot from those files, ``--report-only`` the table and plot
 from the results JSON.
 
-Usage::
-
-    python -m bench.strategies [--seeds 0 1 2] [--budgets 8 16 32 64] [--candidates 16] [--jobs 2]
-    python -m bench.strategies --salvage        # after a cut-off run
-    python -m bench.strategies --report-only
+Usage: ``python -m bench.strategies [--seeds 0 1 2] [--budgets 8 16 32 64] [--candidates 16]
+[--jobs 2]``, then ``--salvage`` after a cut-off run, ``--report-only``, ``--retrain S SEED B``.
 """
 
 from __future__ import annotations
@@ -42,11 +39,13 @@ from pathlib import Path
 from typing import Any
 
 from bench.strategies_report import collect, report, write_atomic
+from bench.strategies_store import iterations, retrain
 
 ROOT = Path(__file__).resolve().parent.parent
-OUT_DIR = ROOT / "docs" / "active-learning"
-RESULTS = OUT_DIR / "strategies.json"
-PLOT = OUT_DIR / "strategies.png"
+RESULTS, PLOT = (
+    ROOT / "docs" / "active-learning" / "strategies.json",
+    ROOT / "docs" / "active-learning" / "strategies.png",
+)
 WORK_DIR = Path("/tmp/alcove-bench-strategies")
 
 TASK = "head-headrest-scenarios"
@@ -152,47 +151,6 @@ def _score(campaign_id: int, suite_id: int, version: int) -> dict[str, Any]:
     return {"force_rmse": m["force_rmse"], "moment_rmse": m["moment_rmse"]}
 
 
-def _iterations(campaign_id: int) -> list[dict[str, Any]]:
-    from alcove.db import session_scope
-    from alcove.models import Iteration, IterationMetrics, ModelVersion, ValidationMetrics
-
-    with session_scope() as s:
-        val = {
-            mv.version: (vm.force_rmse, vm.moment_rmse)
-            for mv, vm in s.query(ModelVersion, ValidationMetrics)
-            .join(ValidationMetrics, ValidationMetrics.model_version_id == ModelVersion.id)
-            .filter(ModelVersion.campaign_id == campaign_id)
-        }
-        loop = {
-            m.iteration_index: (m.force_rmse, m.moment_rmse)
-            for m in s.query(IterationMetrics).filter(IterationMetrics.campaign_id == campaign_id)
-        }
-        rows = []
-        for it in s.query(Iteration).filter(Iteration.campaign_id == campaign_id).order_by(Iteration.index):
-            rows.append(
-                {
-                    "k": it.index,
-                    "status": it.status,
-                    "oracle_calls": it.oracle_calls,
-                    "scenario": (it.scenario or {}).get("values"),
-                    "in_loop_rmse": loop.get(it.index),
-                    "validation_of_model_k": val.get(it.index),
-                    "candidates": [
-                        {
-                            "slot": c.slot,
-                            "values": (c.scenario or {}).get("values"),
-                            "converged": c.converged,
-                            "score": c.score,
-                            "pick": c.pick,
-                            "force_rmse": c.force_rmse,
-                        }
-                        for c in it.candidates
-                    ],
-                }
-            )
-    return rows
-
-
 def run_one(
     strategy: str,
     seed: int,
@@ -278,12 +236,12 @@ def run_one(
             ),
             flush=True,
         )
-        result["iterations"] = _iterations(cid)
+        result["iterations"] = iterations(cid)
         write_atomic(out, result)
         if last:
             break
     result["complete"] = all(str(b) in result["budgets"] for b in budgets)
-    result["iterations"] = _iterations(cid)
+    result["iterations"] = iterations(cid)
     result.update(wall_s=time.perf_counter() - t0, cpu_s=_cpu() - cpu0)
     write_atomic(out, result)
     return result
@@ -306,6 +264,12 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--plot", type=Path, default=PLOT)
     ap.add_argument("--report-only", action="store_true", help="table and plot from --out, nothing run")
     ap.add_argument("--salvage", action="store_true", help="--out, table and plot from the run files in --work-dir")
+    ap.add_argument(
+        "--retrain",
+        nargs=3,
+        metavar=("STRATEGY", "SEED", "BUDGET"),
+        help="diagnostic: that run's pool after BUDGET calls trained from scratch (appended to retrain.jsonl)",
+    )
     ap.add_argument("--one", nargs=2, metavar=("STRATEGY", "SEED"), help=argparse.SUPPRESS)
     args = ap.parse_args(argv)
     budgets = sorted(set(args.budgets))
@@ -326,6 +290,15 @@ def main(argv: list[str] | None = None) -> int:
             candidates=args.candidates,
             surrogate=surrogate,
         )
+        return 0
+
+    if args.retrain:
+        st, sd, b = args.retrain[0], int(args.retrain[1]), int(args.retrain[2])
+        row = retrain(args.work_dir / f"run-{st}-{sd}.json", args.work_dir / f"store-{st}-{sd}", b, sd)
+        print(json.dumps(row))
+        if row is not None:
+            with (args.work_dir / "retrain.jsonl").open("a") as f:
+                f.write(json.dumps(row) + "\n")
         return 0
 
     if args.report_only:
