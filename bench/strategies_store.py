@@ -33,7 +33,7 @@ def retrain(run_file: Path, store: Path, budget: int, seed: int) -> dict[str, An
 
     t0, cpu0 = time.perf_counter(), _cpu()
     with session_scope() as s:
-        c = s.query(Campaign).one()
+        c = s.query(Campaign).order_by(Campaign.id).first()  # the run's campaign: the first in its store
         pv = s.query(PoolVersion).filter_by(campaign_id=c.id, version=row["pool_version"]).one()
         pool = load_training_pool(s, pv)
         motions = _suite_arrays(s, c.validation_suite_id)
