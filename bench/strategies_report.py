@@ -83,6 +83,9 @@ def summary(results: dict[str, Any]) -> dict[str, Any]:
                 v = it.get("validation_of_model_k")
                 if v is not None and it["k"] - 1 in cum:
                     cv.append((cum[it["k"] - 1], v[0]))
+            # the scored budgets (their model may be the last one trained, never evaluated in the loop)
+            seen = {c for c, _ in cv}
+            cv += [(v["oracle_calls"], v["force_rmse"]) for v in r["budgets"].values() if v["oracle_calls"] not in seen]
             if cv:
                 per_seed.append(sorted(cv))
         curves[strat] = per_seed
@@ -111,6 +114,7 @@ def summary(results: dict[str, Any]) -> dict[str, Any]:
                 "limit": limit,
                 "met": need is not None and need <= limit,
                 "ed_at_limit": dict(ed_curve).get(limit),
+                "ed_calls_measured": max(c for c, _ in ed_curve),  # on every seed; null above: not reached
             }
     return {"table": table, "curves": curves, "goals": goals, "picks": picks(results)}
 
