@@ -113,6 +113,5 @@ def create_campaign(
     except ValueError as exc:  # the science modules' input errors name the field
         fail(getattr(exc, "field", "config"), getattr(exc, "reason", str(exc)))
     except InvalidInput as exc:  # the service's cross-definition checks (e.g. settings.strategy)
-        err = exc.errors[0]
-        fail(err.field, err.msg)
+        fail(exc.errors[0].field, exc.errors[0].msg)
     raise AssertionError("unreachable")
