@@ -451,3 +451,33 @@ def test_bad_batch_settings_are_422_naming_the_field(client, owner: Account, set
         body["stopping"] = {"max_iterations": 2, **stopping}
     r = client.post(f"{API}/campaigns", json=body, headers=owner.headers)
     assert r.status_code == 422 and r.json()["detail"][0]["field"] == field, r.text
+
+
+def test_ensemble_disagreement_with_an_ensemble_of_one_is_422_naming_the_strategy(client, owner: Account) -> None:
+    """An ensemble of one member has no disagreement: every candidate would score 0. Refused
+    at creation, naming settings.strategy; K = 2 is accepted, and K = 1 with random-scenarios."""
+    task = client.post(f"{API}/tasks", json={"name": "t", "spec": small_task_spec()}, headers=owner.headers).json()
+    oracle = client.post(f"{API}/oracles/presets/aux-penalty/copy", headers=owner.headers).json()
+    sizes = {}
+    for k in (1, 2):
+        sizes[k] = client.post(
+            f"{API}/surrogate-configs", json={"name": f"k{k}", "spec": {"ensemble_size": k}}, headers=owner.headers
+        ).json()["id"]
+    body = {"name": "x", "task_id": task["id"], "oracle_id": oracle["id"]}
+    ed = {"strategy": "ensemble-disagreement", "batch": 2, "candidates": 4}
+    r = client.post(
+        f"{API}/campaigns", json={**body, "surrogate_config_id": sizes[1], "settings": ed}, headers=owner.headers
+    )
+    assert r.status_code == 422, r.text
+    detail = r.json()["detail"][0]
+    assert detail["field"] == "settings.strategy" and "no disagreement" in detail["msg"], r.text
+    ok = client.post(
+        f"{API}/campaigns", json={**body, "surrogate_config_id": sizes[2], "settings": ed}, headers=owner.headers
+    )
+    assert ok.status_code == 201, ok.text
+    single = client.post(
+        f"{API}/campaigns",
+        json={**body, "surrogate_config_id": sizes[1], "settings": {"strategy": "random-scenarios"}},
+        headers=owner.headers,
+    )
+    assert single.status_code == 201, single.text

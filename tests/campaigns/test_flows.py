@@ -293,6 +293,25 @@ def test_an_oracle_that_keeps_raising_is_retried_then_its_iteration_fails(
         ].failure_reason
 
 
+def test_max_oracle_calls_counts_the_calls_of_failed_iterations(sqlite_campaign_db: str, make_campaign, faults) -> None:
+    """An oracle that always raises: each iteration makes 2 calls (2 attempts) and fails. The
+    budget of 3 calls is reached after iteration 2 (4 calls), not never (no iteration produced
+    data), and the raised attempts' time counts toward the oracle wall time."""
+    cid, jobs = make_campaign(
+        stopping={"max_iterations": 10, "max_oracle_calls": 3},
+        policies={"oracle_max_attempts": 2},
+        fault={"oracle": {"raise_attempts": 99}},
+    )
+    protocol.drive_inline(cid, jobs)
+    assert status(cid) == ("completed", "oracle_calls")
+    with session_scope() as s:
+        its = [repository.get_iteration(s, cid, k) for k in (1, 2)]
+        assert [(it.status, it.oracle_calls) for it in its] == [("failed", 2), ("failed", 2)]
+        assert repository.get_iteration(s, cid, 3) is None
+        assert repository.oracle_calls(s, cid) == 4
+        assert repository.get_campaign(s, cid).oracle_wall_time_s > 0.0
+
+
 def test_an_oracle_result_failing_the_quality_gate_is_quarantined_never_appended(
     sqlite_campaign_db: str, make_campaign, faults
 ) -> None:

@@ -8,6 +8,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from alcove.campaigns.config import RunSettings, strategy_problem
 from alcove.campaigns.schemas import StoppingRules
 from alcove.campaigns.state_machine import (
     Cancel,
@@ -196,6 +197,26 @@ def test_plateau_fires_when_the_last_window_does_not_beat_the_best_before_it() -
     flat = hist((10, 1), (5, 1), (5.2, 1), (4.9, 1), (5.1, 1))
     assert stop_reason(rules, 5, flat, 0.0) == "plateau"
     assert stop_reason(rules, 3, flat[:3], 0.0) is None  # not enough history yet
+
+
+def test_max_oracle_calls_fires_once_the_calls_reach_the_budget() -> None:
+    rules = StoppingRules(max_iterations=None, max_oracle_calls=64)
+    assert stop_reason(rules, 15, hist((1, 1)), 0.0, oracle_calls=63) is None
+    assert stop_reason(rules, 16, hist((1, 1)), 0.0, oracle_calls=64) == "oracle_calls"
+    assert stop_reason(rules, 14, hist((1, 1)), 0.0, oracle_calls=66) == "oracle_calls"  # a batch overshoots
+    assert StoppingRules(max_iterations=None, max_oracle_calls=1).max_oracle_calls == 1  # a rule on its own
+    with pytest.raises(ValueError, match="max_oracle_calls"):
+        StoppingRules(max_oracle_calls=0)
+
+
+def test_ensemble_disagreement_needs_an_ensemble_of_two() -> None:
+    """An ensemble of one has no spread: ensemble-disagreement would score every candidate 0."""
+    ed = RunSettings(strategy="ensemble-disagreement", batch=2, candidates=4)
+    problem = strategy_problem(ed, 1)
+    assert problem is not None and "no disagreement" in problem and "ensemble_size 1" in problem
+    assert strategy_problem(ed, 2) is None
+    assert strategy_problem(RunSettings(strategy="random-scenarios", batch=2), 1) is None
+    assert strategy_problem(RunSettings(), 1) is None
 
 
 def test_oracle_budget_fires_on_the_total_oracle_wall_time() -> None:

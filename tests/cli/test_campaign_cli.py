@@ -174,6 +174,14 @@ def test_run_refuses_bad_batch_settings_naming_the_field(store: Path, args: list
     assert bad.exit_code == 2 and field in bad.output, bad.output
 
 
+def test_run_refuses_ensemble_disagreement_with_an_ensemble_of_one(store: Path, tmp_path: Path) -> None:
+    cfg = tmp_path / "one.yaml"
+    cfg.write_text("surrogate: {ensemble_size: 1}\n")
+    args = ["--strategy", "ensemble-disagreement", "--batch", "2", "--candidates", "4", "--config", str(cfg)]
+    bad = cli("run", "--no-worker", "--task", "head-headrest-scenarios", "--oracle", "aux-penalty", *args)
+    assert bad.exit_code == 2 and "settings.strategy" in bad.output and "no disagreement" in bad.output, bad.output
+
+
 @pytest.mark.parametrize(
     ("config", "message"),
     [

@@ -70,6 +70,16 @@ class StoppingRules(_Strict):
         le=1e7,
         description="stop when the oracle's total wall time reaches this [s]; above 0, at most 1e7 s (16 weeks)",
     )
+    max_oracle_calls: int | None = Field(
+        None,
+        ge=1,
+        le=1_000_000,
+        description=(
+            "stop when the campaign has made this many oracle calls: every oracle run, also a failed attempt and "
+            "the calls of failed iterations (checked after each iteration: a batch may end up to q - 1 above it); "
+            "1 to 1e6"
+        ),
+    )
     min_disagreement: float | None = Field(
         None,
         gt=0,
@@ -89,6 +99,7 @@ class StoppingRules(_Strict):
             and self.target_moment_rmse is None
             and self.plateau_window is None
             and self.oracle_budget_s is None
+            and self.max_oracle_calls is None
             and self.min_disagreement is None
         ):
             raise ValueError("at least one stopping rule is needed (e.g. max_iterations)")
@@ -212,6 +223,20 @@ class RunSettings(_Strict):
         if strategy == "ensemble-disagreement" and candidates is not None and batch > candidates:
             raise ValueError(f"a batch of {batch} needs at least as many candidates, got candidates = {candidates}")
         return batch
+
+
+def strategy_problem(settings: RunSettings, ensemble_size: int) -> str | None:
+    """Why ``settings.strategy`` cannot run with a surrogate of ``ensemble_size`` members, or None.
+
+    ``ensemble-disagreement`` scores a candidate by the members' spread (their force std): an
+    ensemble of one has no disagreement, every score would be 0 and the picks arbitrary."""
+    if settings.strategy == "ensemble-disagreement" and ensemble_size < 2:
+        return (
+            f"strategy 'ensemble-disagreement' needs a surrogate ensemble of at least 2 members, the surrogate "
+            f"config has ensemble_size {ensemble_size}: an ensemble of one has no disagreement to score "
+            "candidates by (use 'random-scenarios', or a surrogate config with ensemble_size >= 2)"
+        )
+    return None
 
 
 class CampaignConfig(_Strict):

@@ -19,6 +19,7 @@ from alcove.models import (
     IterationMetrics,
     IterationStatus,
     IterationStep,
+    OracleRun,
     StepName,
     StepStatus,
     User,
@@ -239,6 +240,11 @@ def rmse_history(s: Session, campaign_id: int) -> list[tuple[int, float | None, 
         .order_by(IterationMetrics.iteration_index)
     )
     return [(int(k), f, m) for k, f, m in s.execute(q)]
+
+
+def oracle_calls(s: Session, campaign_id: int) -> int:
+    """The campaign's oracle runs: every attempt, also failed ones and those of failed iterations."""
+    return int(s.scalar(sa.select(sa.func.count(OracleRun.id)).where(OracleRun.campaign_id == campaign_id)) or 0)
 
 
 def latest_metrics(s: Session, campaign_id: int) -> IterationMetrics | None:

@@ -18,6 +18,7 @@ from sqlalchemy.orm import Session
 
 from alcove.campaigns import fan
 from alcove.campaigns import repository as repo
+from alcove.campaigns.config import strategy_problem
 from alcove.campaigns.schemas import CampaignConfig, CampaignConfigUpdate, CampaignCreate, ForkRequest, StepJob
 from alcove.campaigns.state_machine import (
     Cancel,
@@ -37,7 +38,7 @@ from alcove.campaigns.transitions import (
     current_config,
     state_of,
 )
-from alcove.errors import Conflict, NotFound
+from alcove.errors import Conflict, InvalidInput, NotFound
 from alcove.models import (
     Campaign,
     CampaignConfigVersion,
@@ -79,6 +80,19 @@ def _check_definitions(
             raise NotFound(label, ident, message=f"{field}: no {label} {ident}")
 
 
+def _check_strategy(s: Session, cfg: CampaignConfig, surrogate_config_version_id: int) -> None:
+    """The acquisition strategy must suit the surrogate (422 naming ``settings.strategy``)."""
+    from alcove.science.surrogate.config import SurrogateConfig
+
+    scv = s.get(SurrogateConfigVersion, surrogate_config_version_id)
+    if scv is None or cfg.settings.strategy == "paper":
+        return
+    size = (scv.spec or {}).get("ensemble_size", SurrogateConfig.model_fields["ensemble_size"].default)
+    problem = strategy_problem(cfg.settings, int(size))
+    if problem is not None:
+        raise InvalidInput.one("settings.strategy", problem)
+
+
 def _lock_definitions(s: Session, campaign: Campaign) -> None:
     now = utcnow()
     _lock_version(s, TaskVersion, campaign.task_version_id, now)
@@ -105,6 +119,7 @@ def create_campaign(
     cfg = CampaignConfig.model_validate(data.model_dump(include={"preliminary", "stopping", "policies", "settings"}))
     if cfg.preliminary.dataset_ids:
         pool_repo.datasets(s, cfg.preliminary.dataset_ids)  # raises NotFound naming the id
+    _check_strategy(s, cfg, data.surrogate_config_version_id)
     c = Campaign(
         owner_id=owner_id,
         name=data.name,
@@ -139,6 +154,7 @@ def update_config(
     scv = update.surrogate_config_version_id or c.surrogate_config_version_id
     if update.surrogate_config_version_id is not None:
         _check_definitions(s, c.task_version_id, c.oracle_version_id, scv)
+    _check_strategy(s, new, scv)
     row = add_config_version(s, c, new, scv, user_id, update.note or "edited")
     if c.status != CampaignStatus.draft.value:
         _lock_definitions(s, c)

@@ -305,6 +305,7 @@ def stop_reason(
     history: Sequence[IterationRecord],
     oracle_wall_time_s: float,
     top_score: float | None = None,
+    oracle_calls: int = 0,
 ) -> str | None:
     """The first stopping rule that fires after iteration ``iteration`` finished, or None.
 
@@ -316,6 +317,8 @@ def stop_reason(
     * ``plateau``: over the last ``plateau_window`` iterations with metrics, the best force
       RMSE improved on the best before them by less than ``plateau_tolerance`` (relative);
     * ``oracle_budget``: the oracle's total wall time reached ``oracle_budget_s``;
+    * ``oracle_calls``: the campaign's oracle calls ``oracle_calls`` (every oracle run, also
+      failed attempts and the calls of failed iterations) reached ``max_oracle_calls``;
     * ``max_iterations``: iteration index ``iteration`` >= ``max_iterations``;
     * ``min_disagreement``: the iteration's highest candidate score ``top_score`` (strategy
       ensemble-disagreement) fell below ``min_disagreement`` (checked first: that iteration asked
@@ -339,6 +342,8 @@ def stop_reason(
                 return "plateau"
     if rules.oracle_budget_s is not None and oracle_wall_time_s >= rules.oracle_budget_s:
         return "oracle_budget"
+    if rules.max_oracle_calls is not None and oracle_calls >= rules.max_oracle_calls:
+        return "oracle_calls"
     if rules.max_iterations is not None and iteration >= rules.max_iterations:
         return "max_iterations"
     return None

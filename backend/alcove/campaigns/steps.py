@@ -66,6 +66,8 @@ from alcove.surrogates.service import software_versions
 from alcove.tasks.service import load_task
 
 if TYPE_CHECKING:
+    from datetime import datetime
+
     from alcove.science.geometry import HeadNeckPreset
     from alcove.science.ocp.task_spec import TaskSpec
 
@@ -281,20 +283,25 @@ def oracle(ctx: StepContext) -> StepOutput:
         if is_cancellation(err) or oracle_version_id is None:
             raise
         message = f"{type(err).__name__}: {err}"
-        raise FailedAttempt(err, oracle_steps.failed_run(ctx.run, oracle_version_id, started, message)) from err
+        failed = oracle_steps.failed_run(ctx.run, oracle_version_id, started, message)
+        raise FailedAttempt(err, _counting_oracle_time(failed, started)) from err
     return StepOutput(_counting_oracle_time(out.write), out.compute_s)
 
 
 def _counting_oracle_time(
-    write: Callable[[Session, IterationRef], dict[str, Any]] | None,
+    write: Callable[[Session, IterationRef], dict[str, Any]] | None, raised_since: datetime | None = None
 ) -> Callable[[Session, IterationRef], dict[str, Any]]:
+    """Add the oracle's wall time to the campaign's (``oracle_budget_s``); an attempt that raised
+    (``raised_since``: when it started) spent oracle time too."""
+
     def counted(s: Session, at: IterationRef) -> dict[str, Any]:
         result = write(s, at) if write is not None else {}
         c = s.get(Campaign, at.campaign_id)
         assert c is not None
-        c.oracle_wall_time_s = (c.oracle_wall_time_s or 0.0) + float(result.get("wall_time_s", 0.0))
+        spent = result.get("wall_time_s", 0.0) if raised_since is None else (utcnow() - raised_since).total_seconds()
+        c.oracle_wall_time_s = (c.oracle_wall_time_s or 0.0) + max(float(spent), 0.0)
         cand = repo.picked_candidate(s, at.iteration_id, at.slot)
-        if cand is not None:
+        if cand is not None and raised_since is None:
             cand.oracle_run_id, cand.dataset_id = result.get("oracle_run_id"), result.get("dataset_id")
         return result
 
@@ -380,7 +387,8 @@ def append(ctx: StepContext) -> StepOutput:
         rules = transitions.current_config(s, c).stopping
         scores = [cand.score for cand in repo.candidates(s, at.iteration_id) if cand.score is not None]
         top = max(scores) if scores else None
-        reason = stop_reason(rules, ctx.k, history, c.oracle_wall_time_s or 0.0, top_score=top)
+        calls = repo.oracle_calls(s, c.id)
+        reason = stop_reason(rules, ctx.k, history, c.oracle_wall_time_s or 0.0, top_score=top, oracle_calls=calls)
         return {**result, "stop_reason": reason, **software_versions()}
 
     return StepOutput(write)

@@ -3724,6 +3724,11 @@ export interface components {
              */
             max_iterations?: number | null;
             /**
+             * Max Oracle Calls
+             * @description stop when the campaign has made this many oracle calls: every oracle run, also a failed attempt and the calls of failed iterations (checked after each iteration: a batch may end up to q - 1 above it); 1 to 1e6
+             */
+            max_oracle_calls?: number | null;
+            /**
              * Min Disagreement
              * @description strategy 'ensemble-disagreement': stop when the highest candidate score (ensemble force std over the contact phase) falls below this [N]; the iteration then asks the oracle nothing; above 0, at most 1e4 N
              */

@@ -67,6 +67,7 @@ def create_campaign(
     from alcove.campaigns import presets, service
     from alcove.campaigns.schemas import CampaignCreate
     from alcove.db import transaction
+    from alcove.errors import InvalidInput
     from alcove.science.errors import FieldError
 
     def section(name: str, given: Any, make: Any) -> Any:
@@ -111,4 +112,6 @@ def create_campaign(
         fail(".".join(str(p) for p in err["loc"]) or "config", err["msg"])
     except ValueError as exc:  # the science modules' input errors name the field
         fail(getattr(exc, "field", "config"), getattr(exc, "reason", str(exc)))
+    except InvalidInput as exc:  # the service's cross-definition checks (e.g. settings.strategy)
+        fail(exc.errors[0].field, exc.errors[0].msg)
     raise AssertionError("unreachable")
