@@ -20,7 +20,7 @@ import numpy as np
 import pytest
 import sqlalchemy as sa
 
-from alcove.campaigns import picks, protocol, repository, results
+from alcove.campaigns import candidate_repository, picks, protocol, repository, results
 from alcove.db import session_scope
 from alcove.db.arrays import get_arrays
 from alcove.models import Dataset, OcpSolution
@@ -56,7 +56,7 @@ def test_a_batch_iteration_solves_q_seeded_scenarios_and_appends_them_as_one_poo
             [("train", 0), ("evaluate", 0), ("append", 0)] + [(step, j) for step in ("ocp", "oracle") for j in range(Q)]
         )
         assert all(st.status == "succeeded" and st.attempts == 1 for st in steps.values())
-        cands = repository.candidates(s, it.id)
+        cands = candidate_repository.candidates(s, it.id)
         assert [c.slot for c in cands] == [c.pick for c in cands] == list(range(Q))
         for c in cands:
             # slot j solved the draw (campaign seed, k, j): its trajectory starts at the drawn state
@@ -102,7 +102,7 @@ def test_ensemble_disagreement_replays_the_most_disputed_candidates_and_stops_wh
     with session_scope() as s:
         assert repository.get_campaign(s, cid).status == "completed"
         it = repository.get_iteration(s, cid, 1)
-        cands = repository.candidates(s, it.id)
+        cands = candidate_repository.candidates(s, it.id)
         assert [c.slot for c in cands] == [0, 1, 2, 3] and all(c.converged for c in cands)
         for c in cands:
             sol = s.get(OcpSolution, c.ocp_solution_id)
@@ -133,7 +133,7 @@ def test_ensemble_disagreement_replays_the_most_disputed_candidates_and_stops_wh
         c = repository.get_campaign(s, cid)
         assert (c.status, c.stop_reason) == ("completed", "min_disagreement")
         it = repository.get_iteration(s, cid, 1)
-        assert it.oracle_calls == 0 and all(c.pick is None for c in repository.candidates(s, it.id))
+        assert it.oracle_calls == 0 and all(c.pick is None for c in candidate_repository.candidates(s, it.id))
         assert {st.step: st.status for st in it.steps if st.step in ("evaluate", "append")} == {
             "evaluate": "skipped",
             "append": "succeeded",

@@ -1,16 +1,18 @@
 """A batch iteration's candidate rows (``iteration_candidates``, issue 17): what an ocp slot
-records about the scenario it solved, in the transaction that completes it."""
+records about the scenario it solved, and what an oracle slot records about its replay, each in
+the transaction that completes the step."""
 
 from __future__ import annotations
 
 from collections.abc import Callable
+from datetime import datetime
 from typing import Any
 
 from sqlalchemy.orm import Session
 
-from alcove.campaigns import repository as repo
+from alcove.campaigns import candidate_repository as candidate_repo
 from alcove.jobs.steps import IterationRef
-from alcove.models import Iteration, OcpSolution
+from alcove.models import Campaign, Iteration, OcpSolution, utcnow
 
 
 def storing_scenario(
@@ -38,7 +40,7 @@ def storing_scenario(
                 assert sol is not None
                 score = float((sol.stats or {}).get("trust", {}).get("max_std_contact") or 0.0)
             replayed = strategy == "random-scenarios" and converged
-            repo.put_candidate(
+            candidate_repo.put_candidate(
                 s,
                 it.id,
                 at.slot,
@@ -55,3 +57,24 @@ def storing_scenario(
         return {**result, "scenario": stored} if stored is not None else result
 
     return with_scenario
+
+
+def recording_replay(
+    write: Callable[[Session, IterationRef], dict[str, Any]] | None, raised_since: datetime | None = None
+) -> Callable[[Session, IterationRef], dict[str, Any]]:
+    """An oracle slot's write, which also adds the oracle's wall time to the campaign's
+    (``oracle_budget_s``; an attempt that raised, ``raised_since`` when it started, spent oracle
+    time too) and records the replay's run and dataset on the picked candidate's row."""
+
+    def counted(s: Session, at: IterationRef) -> dict[str, Any]:
+        result = write(s, at) if write is not None else {}
+        c = s.get(Campaign, at.campaign_id)
+        assert c is not None
+        spent = result.get("wall_time_s", 0.0) if raised_since is None else (utcnow() - raised_since).total_seconds()
+        c.oracle_wall_time_s = (c.oracle_wall_time_s or 0.0) + max(float(spent), 0.0)
+        cand = candidate_repo.picked_candidate(s, at.iteration_id, at.slot)
+        if cand is not None and raised_since is None:
+            cand.oracle_run_id, cand.dataset_id = result.get("oracle_run_id"), result.get("dataset_id")
+        return result
+
+    return counted

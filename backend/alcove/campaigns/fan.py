@@ -19,6 +19,7 @@ from typing import Protocol
 
 from sqlalchemy.orm import Session
 
+from alcove.campaigns import candidate_repository as candidate_repo
 from alcove.campaigns import repository as repo
 from alcove.campaigns.config import RunSettings, config_from_version
 from alcove.campaigns.state_machine import Fan, Outcome, StepRef
@@ -46,7 +47,7 @@ def select_picks(s: Session, c: Campaign, it: Iteration, settings: RunSettings) 
     in the transaction of the last candidate's completion."""
     from alcove.science.ocp.acquisition import select_batch
 
-    cands = repo.candidates(s, it.id)
+    cands = candidate_repo.candidates(s, it.id)
     cv = s.get(CampaignConfigVersion, it.config_version_id)
     assert cv is not None
     threshold = config_from_version(cv).stopping.min_disagreement

@@ -15,7 +15,6 @@ from alcove.models import (
     CampaignConfigVersion,
     CampaignEvent,
     Iteration,
-    IterationCandidate,
     IterationMetrics,
     IterationStatus,
     IterationStep,
@@ -350,57 +349,3 @@ def unfinished_iterations(s: Session, campaign_id: int) -> list[Iteration]:
     unfinished = [IterationStatus.pending.value, IterationStatus.running.value]
     q = sa.select(Iteration).where(Iteration.campaign_id == campaign_id, Iteration.status.in_(unfinished))
     return list(s.scalars(q))
-
-
-def has_candidates(s: Session, campaign_id: int, index: int) -> bool:
-    """Whether iteration ``index`` stores candidate rows (a batch iteration)."""
-    q = (
-        sa.select(sa.func.count())
-        .select_from(IterationCandidate)
-        .join(Iteration, Iteration.id == IterationCandidate.iteration_id)
-        .where(Iteration.campaign_id == campaign_id, Iteration.index == index)
-    )
-    return bool(s.scalar(q))
-
-
-def put_candidate(s: Session, iteration_id: int, slot: int, **values: Any) -> IterationCandidate:
-    """The candidate row of ocp slot ``slot`` (created, or updated by a later attempt)."""
-    row = s.scalar(
-        sa.select(IterationCandidate).where(
-            IterationCandidate.iteration_id == iteration_id, IterationCandidate.slot == slot
-        )
-    )
-    if row is None:
-        row = IterationCandidate(iteration_id=iteration_id, slot=slot)
-        s.add(row)
-    for k, v in values.items():
-        setattr(row, k, v)
-    s.flush()
-    return row
-
-
-def picked_candidate(s: Session, iteration_id: int, pick: int) -> IterationCandidate | None:
-    return s.scalar(
-        sa.select(IterationCandidate).where(
-            IterationCandidate.iteration_id == iteration_id, IterationCandidate.pick == pick
-        )
-    )
-
-
-def candidates(s: Session, iteration_id: int) -> list[IterationCandidate]:
-    q = sa.select(IterationCandidate).where(IterationCandidate.iteration_id == iteration_id)
-    return list(s.scalars(q.order_by(IterationCandidate.slot)))
-
-
-def set_candidate_rmse(
-    s: Session,
-    iteration_id: int,
-    dataset_id: int,
-    force_rmse: float | None,
-    moment_rmse: float | None,
-    curves_sha256: str | None = None,
-) -> None:
-    for row in candidates(s, iteration_id):
-        if row.dataset_id == dataset_id:
-            row.force_rmse, row.moment_rmse = force_rmse, moment_rmse
-            row.curves_sha256 = curves_sha256

@@ -9,6 +9,7 @@ from typing import Any
 import numpy as np
 from sqlalchemy.orm import Session
 
+from alcove.campaigns import candidate_repository as candidate_repo
 from alcove.campaigns import repository as repo
 from alcove.campaigns.schemas import (
     CampaignDetail,
@@ -158,7 +159,7 @@ def iteration_trajectory(s: Session, campaign_id: int, iteration: int, slot: int
         raise NotFound("iteration", message=what if slot is None else f"{what[:-1]}; or has no candidate {slot})")
     scenario = it.scenario
     if slot is not None:
-        cand = next((row for row in repo.candidates(s, it.id) if row.slot == slot), None)
+        cand = next((row for row in candidate_repo.candidates(s, it.id) if row.slot == slot), None)
         scenario = cand.scenario if cand is not None else scenario
     owner = c if cid == c.id else s.get(Campaign, cid)
     assert owner is not None  # holder() found campaign cid

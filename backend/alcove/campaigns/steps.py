@@ -33,6 +33,7 @@ from typing import TYPE_CHECKING, Any, TypedDict
 import numpy as np
 from sqlalchemy.orm import Session
 
+from alcove.campaigns import candidate_repository as candidate_repo
 from alcove.campaigns import candidates, transitions
 from alcove.campaigns import repository as repo
 from alcove.campaigns.schemas import CampaignConfig
@@ -66,8 +67,6 @@ from alcove.surrogates.service import software_versions
 from alcove.tasks.service import load_task
 
 if TYPE_CHECKING:
-    from datetime import datetime
-
     from alcove.science.geometry import HeadNeckPreset
     from alcove.science.ocp.task_spec import TaskSpec
 
@@ -218,7 +217,9 @@ def ocp(ctx: StepContext) -> StepOutput:
         scenario = ctx.scenario(s, c)
         settings = ctx.config.settings
         batch = (
-            settings.batch > 1 or settings.strategy == "ensemble-disagreement" or repo.has_candidates(s, c.id, ctx.k)
+            settings.batch > 1
+            or settings.strategy == "ensemble-disagreement"
+            or candidate_repo.has_candidates(s, c.id, ctx.k)
         )
         features = acquisition.scenario_features(ctx.task(s, c), scenario.values) if batch else None
         nominal_preset = ctx.task(s, c).model.oracle_preset()
@@ -251,7 +252,7 @@ def oracle(ctx: StepContext) -> StepOutput:
             c, it = _iteration(s, ctx)
             oracle_version_id = c.oracle_version_id
             # oracle slot i replays the candidate picked as i (no candidate rows: the one solution)
-            cand = repo.picked_candidate(s, it.id, ctx.ref.slot)
+            cand = candidate_repo.picked_candidate(s, it.id, ctx.ref.slot)
             if cand is not None:
                 sol = s.get(OcpSolution, cand.ocp_solution_id) if cand.ocp_solution_id is not None else None
                 stored = cand.scenario
@@ -278,34 +279,14 @@ def oracle(ctx: StepContext) -> StepOutput:
             record_tilt=record_tilt,
         )
     except UnusableResult as err:
-        raise UnusableResult(err.reason, _counting_oracle_time(err.write)) from None
+        raise UnusableResult(err.reason, candidates.recording_replay(err.write)) from None
     except Exception as err:
         if is_cancellation(err) or oracle_version_id is None:
             raise
         message = f"{type(err).__name__}: {err}"
         failed = oracle_steps.failed_run(ctx.run, oracle_version_id, started, message)
-        raise FailedAttempt(err, _counting_oracle_time(failed, started)) from err
-    return StepOutput(_counting_oracle_time(out.write), out.compute_s)
-
-
-def _counting_oracle_time(
-    write: Callable[[Session, IterationRef], dict[str, Any]] | None, raised_since: datetime | None = None
-) -> Callable[[Session, IterationRef], dict[str, Any]]:
-    """Add the oracle's wall time to the campaign's (``oracle_budget_s``); an attempt that raised
-    (``raised_since``: when it started) spent oracle time too."""
-
-    def counted(s: Session, at: IterationRef) -> dict[str, Any]:
-        result = write(s, at) if write is not None else {}
-        c = s.get(Campaign, at.campaign_id)
-        assert c is not None
-        spent = result.get("wall_time_s", 0.0) if raised_since is None else (utcnow() - raised_since).total_seconds()
-        c.oracle_wall_time_s = (c.oracle_wall_time_s or 0.0) + max(float(spent), 0.0)
-        cand = repo.picked_candidate(s, at.iteration_id, at.slot)
-        if cand is not None and raised_since is None:
-            cand.oracle_run_id, cand.dataset_id = result.get("oracle_run_id"), result.get("dataset_id")
-        return result
-
-    return counted
+        raise FailedAttempt(err, candidates.recording_replay(failed, started)) from err
+    return StepOutput(candidates.recording_replay(out.write), out.compute_s)
 
 
 def evaluate(ctx: StepContext) -> StepOutput:
@@ -353,7 +334,7 @@ def evaluate(ctx: StepContext) -> StepOutput:
     def per_pick(s: Session, at: IterationRef) -> dict[str, Any]:
         result = evaluated.write(s, at)
         for p in result.get("picks", []):  # a batch: the in-loop RMSE and curves of each picked trajectory
-            repo.set_candidate_rmse(
+            candidate_repo.set_candidate_rmse(
                 s, at.iteration_id, p["dataset_id"], p["force_rmse"], p["moment_rmse"], p.get("curves_sha256")
             )
         return result
@@ -385,7 +366,7 @@ def append(ctx: StepContext) -> StepOutput:
         c = repo.get_campaign(s, at.campaign_id)
         history = [IterationRecord(*row) for row in repo.rmse_history(s, c.id)]
         rules = transitions.current_config(s, c).stopping
-        scores = [cand.score for cand in repo.candidates(s, at.iteration_id) if cand.score is not None]
+        scores = [cand.score for cand in candidate_repo.candidates(s, at.iteration_id) if cand.score is not None]
         top = max(scores) if scores else None
         calls = repo.oracle_calls(s, c.id)
         reason = stop_reason(rules, ctx.k, history, c.oracle_wall_time_s or 0.0, top_score=top, oracle_calls=calls)

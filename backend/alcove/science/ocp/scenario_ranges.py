@@ -102,29 +102,32 @@ class ParameterRange(BaseModel):
     ] = "uniform"
     mean: Annotated[
         float | None,
-        Field(
+        quantity(
+            "centre of the normal distribution, within [low, high]",
+            "the parameter's unit",
             ge=-RANGE_LIMIT,
             le=RANGE_LIMIT,
-            description="centre of the normal distribution (the parameter's unit), within [low, high]; "
-            "only with distribution normal",
+            why="only with distribution normal",
         ),
     ] = None
     std: Annotated[
         float | None,
-        Field(
+        quantity(
+            "standard deviation of the normal distribution before truncation",
+            "the parameter's unit",
             gt=0,
             le=RANGE_LIMIT,
-            description="standard deviation of the normal distribution before truncation (the parameter's "
-            "unit), above 0; only with distribution normal",
+            why="only with distribution normal",
         ),
     ] = None
     mode: Annotated[
         float | None,
-        Field(
+        quantity(
+            "peak of the triangular distribution, within [low, high]",
+            "the parameter's unit",
             ge=-RANGE_LIMIT,
             le=RANGE_LIMIT,
-            description="peak of the triangular distribution (the parameter's unit), within [low, high]; "
-            "only with distribution triangular",
+            why="only with distribution triangular",
         ),
     ] = None
 
