@@ -39,7 +39,7 @@ from pathlib import Path
 from typing import Any
 
 from bench.strategies_report import collect, report, write_atomic
-from bench.strategies_store import iterations, retrain
+from bench.strategies_store import TASK, cpu_seconds, fresh_store, iterations, retrain
 
 ROOT = Path(__file__).resolve().parent.parent
 RESULTS, PLOT = (
@@ -48,7 +48,6 @@ RESULTS, PLOT = (
 )
 WORK_DIR = Path("/tmp/alcove-bench-strategies")
 
-TASK = "head-headrest-scenarios"
 ORACLE = "fe-headrest-2d"
 STRATEGIES = ("paper", "random-scenarios", "ensemble-disagreement")
 BUDGETS = (8, 16, 32, 64)
@@ -76,23 +75,6 @@ def budget_models(cumulative: list[int], budgets: list[int]) -> dict[int, int | 
 
 
 # ----------------------------------------------------------------------------- one campaign (child)
-
-
-def _cpu() -> float:
-    r = resource.getrusage(resource.RUSAGE_SELF)
-    return r.ru_utime + r.ru_stime
-
-
-def _fresh_store(data_dir: Path) -> None:
-    data_dir.mkdir(parents=True, exist_ok=True)
-    os.environ["ALCOVE_DATA_DIR"] = str(data_dir)
-    os.environ["ALCOVE_DATABASE_URL"] = ""
-    os.environ["ALCOVE_BROKER_URL"] = ""
-    from alcove.db import migrate
-    from alcove.settings import get_settings
-
-    get_settings.cache_clear()
-    migrate.upgrade()
 
 
 def _settings(strategy: str, batch: int, candidates: int) -> dict[str, Any]:
@@ -163,8 +145,8 @@ def run_one(
     surrogate: dict[str, Any],
 ) -> dict[str, Any]:
     """One campaign until max(budgets) oracle calls; writes ``out`` after every scored budget."""
-    t0, cpu0 = time.perf_counter(), _cpu()
-    _fresh_store(data_dir)
+    t0, cpu0 = time.perf_counter(), cpu_seconds()
+    fresh_store(data_dir)
     from alcove.campaigns import presets, service
     from alcove.campaigns.protocol import run_step
     from alcove.campaigns.schemas import CampaignCreate
@@ -227,7 +209,9 @@ def run_one(
                 "model_version": 1,
                 **_score(cid, suite_id, 1),
             }
-        result.update(wall_s=time.perf_counter() - t0, cpu_s=_cpu() - cpu0, iterations_run=j.iteration, steps=steps)
+        result.update(
+            wall_s=time.perf_counter() - t0, cpu_s=cpu_seconds() - cpu0, iterations_run=j.iteration, steps=steps
+        )
         print(
             f"[{strategy} seed {seed}] iteration {j.iteration} trained, {cum[-1]} oracle calls, "
             f"{result['wall_s'] / 60:.1f} min (CPU {result['cpu_s'] / 60:.1f} min); "
@@ -242,7 +226,7 @@ def run_one(
             break
     result["complete"] = all(str(b) in result["budgets"] for b in budgets)
     result["iterations"] = iterations(cid)
-    result.update(wall_s=time.perf_counter() - t0, cpu_s=_cpu() - cpu0)
+    result.update(wall_s=time.perf_counter() - t0, cpu_s=cpu_seconds() - cpu0)
     write_atomic(out, result)
     return result
 

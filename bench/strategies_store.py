@@ -5,9 +5,32 @@ candidates, scores, picks, in-loop and validation errors) for the result file, a
 from __future__ import annotations
 
 import json
+import os
+import resource
 import time
 from pathlib import Path
 from typing import Any
+
+TASK = "head-headrest-scenarios"
+
+
+def cpu_seconds() -> float:
+    """CPU time of this process so far [s] (user + system)."""
+    r = resource.getrusage(resource.RUSAGE_SELF)
+    return r.ru_utime + r.ru_stime
+
+
+def fresh_store(data_dir: Path) -> None:
+    """Point alcove at a new embedded store in ``data_dir`` (SQLite, no broker) and migrate it."""
+    data_dir.mkdir(parents=True, exist_ok=True)
+    os.environ["ALCOVE_DATA_DIR"] = str(data_dir)
+    os.environ["ALCOVE_DATABASE_URL"] = ""
+    os.environ["ALCOVE_BROKER_URL"] = ""
+    from alcove.db import migrate
+    from alcove.settings import get_settings
+
+    get_settings.cache_clear()
+    migrate.upgrade()
 
 
 def retrain(run_file: Path, store: Path, budget: int, seed: int) -> dict[str, Any] | None:
@@ -19,9 +42,7 @@ def retrain(run_file: Path, store: Path, budget: int, seed: int) -> dict[str, An
     row = run["budgets"].get(str(budget))
     if row is None:
         return None
-    from bench.strategies import _fresh_store
-
-    _fresh_store(store)
+    fresh_store(store)
     from alcove.db import session_scope
     from alcove.models import Campaign, PoolVersion
     from alcove.pool.service import load_training_pool
@@ -29,9 +50,8 @@ def retrain(run_file: Path, store: Path, budget: int, seed: int) -> dict[str, An
     from alcove.science.surrogate.config import SurrogateConfig
     from alcove.science.surrogate.training import train_surrogate
     from alcove.surrogates.validation import _metrics, _suite_arrays
-    from bench.strategies import TASK, _cpu
 
-    t0, cpu0 = time.perf_counter(), _cpu()
+    t0, cpu0 = time.perf_counter(), cpu_seconds()
     with session_scope() as s:
         c = s.query(Campaign).order_by(Campaign.id).first()  # the run's campaign: the first in its store
         pv = s.query(PoolVersion).filter_by(campaign_id=c.id, version=row["pool_version"]).one()
@@ -51,7 +71,7 @@ def retrain(run_file: Path, store: Path, budget: int, seed: int) -> dict[str, An
         "retrained_moment_rmse": m["moment_rmse"],
         "epochs": result.metrics.epochs,
         "wall_s": time.perf_counter() - t0,
-        "cpu_s": _cpu() - cpu0,
+        "cpu_s": cpu_seconds() - cpu0,
     }
 
 
