@@ -3169,12 +3169,12 @@ export interface components {
             low: number;
             /**
              * Mean
-             * @description centre of the normal distribution (the parameter's unit), within [low, high]; only with distribution normal
+             * @description centre of the normal distribution, within [low, high] [the parameter's unit], -1e6 to 1e6 the parameter's unit; only with distribution normal
              */
             mean?: number | null;
             /**
              * Mode
-             * @description peak of the triangular distribution (the parameter's unit), within [low, high]; only with distribution triangular
+             * @description peak of the triangular distribution, within [low, high] [the parameter's unit], -1e6 to 1e6 the parameter's unit; only with distribution triangular
              */
             mode?: number | null;
             /**
@@ -3184,7 +3184,7 @@ export interface components {
             parameter: string;
             /**
              * Std
-             * @description standard deviation of the normal distribution before truncation (the parameter's unit), above 0; only with distribution normal
+             * @description standard deviation of the normal distribution before truncation [the parameter's unit], above 0, at most 1e6 the parameter's unit; only with distribution normal
              */
             std?: number | null;
         };
