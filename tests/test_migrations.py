@@ -31,6 +31,20 @@ def _round_trip(url: str) -> None:
     assert migrate.schema_diff(url) == []
 
 
+def old_campaign_data(s, user_id: int, **fields):
+    """A paper campaign's create body (aux-penalty, the default surrogate) named "old"."""
+    from alcove.campaigns import presets
+    from alcove.campaigns.schemas import CampaignCreate
+
+    return CampaignCreate(
+        name="old",
+        task_version_id=presets.task_version_from_preset(s, user_id, "head-headrest-2phase"),
+        oracle_version_id=presets.oracle_version_for(s, user_id, "aux-penalty"),
+        surrogate_config_version_id=presets.surrogate_config_version_for(s, user_id, None),
+        **fields,
+    )
+
+
 def test_sqlite_upgrade_downgrade_upgrade(tmp_path) -> None:
     _round_trip(f"sqlite:///{tmp_path / 'm.db'}")
 
@@ -63,7 +77,7 @@ def test_0004_drops_fault_injection_from_stored_run_settings(tmp_path) -> None:
     from sqlalchemy.orm import Session
 
     from alcove.campaigns import presets, service
-    from alcove.campaigns.schemas import CampaignCreate, RunSettings
+    from alcove.campaigns.schemas import RunSettings
     from alcove.campaigns.transitions import config_from_version
     from alcove.models import CampaignConfigVersion
 
@@ -72,13 +86,7 @@ def test_0004_drops_fault_injection_from_stored_run_settings(tmp_path) -> None:
     eng = make_engine(url)
     with Session(eng) as s:
         u = presets.local_user(s)
-        data = CampaignCreate(
-            name="old",
-            task_version_id=presets.task_version_from_preset(s, u.id, "head-headrest-2phase"),
-            oracle_version_id=presets.oracle_version_for(s, u.id, "aux-penalty"),
-            surrogate_config_version_id=presets.surrogate_config_version_for(s, u.id, None),
-            settings=RunSettings(ocp_intervals=30),
-        )
+        data = old_campaign_data(s, u.id, settings=RunSettings(ocp_intervals=30))
         service.create_campaign(s, u.id, data)
         s.commit()
     migrate.downgrade(url, "0003")
@@ -111,7 +119,7 @@ def test_0007_converts_stored_rmse_to_the_error_vector_definition(tmp_path) -> N
     from sqlalchemy.orm import Session
 
     from alcove.campaigns import presets, service
-    from alcove.campaigns.schemas import CampaignCreate, StoppingRules
+    from alcove.campaigns.schemas import StoppingRules
     from alcove.db.arrays import put_arrays
     from alcove.models import CampaignConfigVersion, Iteration, IterationMetrics
 
@@ -124,13 +132,7 @@ def test_0007_converts_stored_rmse_to_the_error_vector_definition(tmp_path) -> N
     old_force, old_moment = math.sqrt(25 / 6), math.sqrt(4 / 6)  # the component-mean definition
     with Session(eng) as s:
         u = presets.local_user(s)
-        data = CampaignCreate(
-            name="old",
-            task_version_id=presets.task_version_from_preset(s, u.id, "head-headrest-2phase"),
-            oracle_version_id=presets.oracle_version_for(s, u.id, "aux-penalty"),
-            surrogate_config_version_id=presets.surrogate_config_version_for(s, u.id, None),
-            stopping=StoppingRules(max_iterations=5, target_force_rmse=2.0),
-        )
+        data = old_campaign_data(s, u.id, stopping=StoppingRules(max_iterations=5, target_force_rmse=2.0))
         c = service.create_campaign(s, u.id, data)
         s.flush()
         ccv = s.scalars(sa.select(CampaignConfigVersion)).one()
@@ -192,7 +194,6 @@ def test_0019_marks_earlier_validation_rows_as_calibration_not_recorded(tmp_path
 
     from alcove import models as m
     from alcove.campaigns import presets, service
-    from alcove.campaigns.schemas import CampaignCreate
     from alcove.db import arrays
 
     url = f"sqlite:///{tmp_path / 'm.db'}"
@@ -200,12 +201,7 @@ def test_0019_marks_earlier_validation_rows_as_calibration_not_recorded(tmp_path
     eng = make_engine(url)
     with Session(eng) as s:
         u = presets.local_user(s)
-        data = CampaignCreate(
-            name="old",
-            task_version_id=presets.task_version_from_preset(s, u.id, "head-headrest-2phase"),
-            oracle_version_id=presets.oracle_version_for(s, u.id, "aux-penalty"),
-            surrogate_config_version_id=presets.surrogate_config_version_for(s, u.id, None),
-        )
+        data = old_campaign_data(s, u.id)
         c = service.create_campaign(s, u.id, data)
         s.flush()
         it = m.Iteration(campaign_id=c.id, index=0, config_version_id=c.config_versions[0].id)

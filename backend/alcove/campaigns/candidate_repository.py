@@ -22,13 +22,18 @@ def has_candidates(s: Session, campaign_id: int, index: int) -> bool:
     return bool(s.scalar(q))
 
 
-def put_candidate(s: Session, iteration_id: int, slot: int, **values: Any) -> IterationCandidate:
-    """The candidate row of ocp slot ``slot`` (created, or updated by a later attempt)."""
-    row = s.scalar(
+def candidate_of_slot(s: Session, iteration_id: int, slot: int) -> IterationCandidate | None:
+    """The candidate row of ocp slot ``slot``, if stored."""
+    return s.scalar(
         sa.select(IterationCandidate).where(
             IterationCandidate.iteration_id == iteration_id, IterationCandidate.slot == slot
         )
     )
+
+
+def put_candidate(s: Session, iteration_id: int, slot: int, **values: Any) -> IterationCandidate:
+    """The candidate row of ocp slot ``slot`` (created, or updated by a later attempt)."""
+    row = candidate_of_slot(s, iteration_id, slot)
     if row is None:
         row = IterationCandidate(iteration_id=iteration_id, slot=slot)
         s.add(row)

@@ -159,7 +159,7 @@ def iteration_trajectory(s: Session, campaign_id: int, iteration: int, slot: int
         raise NotFound("iteration", message=what if slot is None else f"{what[:-1]}; or has no candidate {slot})")
     scenario = it.scenario
     if slot is not None:
-        cand = next((row for row in candidate_repo.candidates(s, it.id) if row.slot == slot), None)
+        cand = candidate_repo.candidate_of_slot(s, it.id, slot)
         scenario = cand.scenario if cand is not None else scenario
     owner = c if cid == c.id else s.get(Campaign, cid)
     assert owner is not None  # holder() found campaign cid

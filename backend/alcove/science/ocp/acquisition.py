@@ -172,8 +172,9 @@ def explain_selection(
     top = scored[0][0] if scored else None
     x = np.asarray(features, float).reshape(len(scores), -1)
     picks: list[int] = []  # candidate indices, in pick order
+    below_threshold = threshold is not None and top is not None and top < threshold
     for rank, (sc, j) in enumerate(scored, start=1):
-        if threshold is not None and top is not None and top < threshold:
+        if below_threshold:
             out[j] = Verdict(
                 rank,
                 None,
@@ -188,7 +189,7 @@ def explain_selection(
         dists = [float(np.linalg.norm(x[j] - x[p])) for p in picks]
         near_i = int(np.argmin(dists)) if dists else None
         near = dists[near_i] if near_i is not None else None
-        if near is not None and near_i is not None and near < min_distance:
+        if near_i is not None and near is not None and near < min_distance:
             out[j] = Verdict(
                 rank,
                 None,
