@@ -164,7 +164,9 @@ def run_one(
             oracle_version_id=presets.oracle_version_for(s, user.id, ORACLE, {}),
             surrogate_config_version_id=presets.surrogate_config_version_for(s, user.id, surrogate),
             preliminary={"seed": PRELIMINARY_SEED},
-            stopping={"max_iterations": 100_000},
+            # a guard, not a budget: ensemble-disagreement picks at most q per iteration and none
+            # when no candidate touches the headrest, so iterations can run without oracle calls
+            stopping={"max_iterations": 4 * max(budgets)},
             settings=settings,
         )
         return service.create_campaign(s, user.id, data).id
@@ -308,6 +310,9 @@ def main(argv: list[str] | None = None) -> int:
         "preliminary_seed": PRELIMINARY_SEED,
         "validation_seed": VALIDATION_SEED,
         "jobs": args.jobs,
+        "commit": subprocess.run(
+            ["git", "rev-parse", "--short", "HEAD"], capture_output=True, text=True, cwd=ROOT, check=False
+        ).stdout.strip(),
         "machine": platform.platform(),
         "python": sys.version.split()[0],
         "started": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()),

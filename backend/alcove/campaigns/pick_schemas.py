@@ -39,6 +39,7 @@ WhyCode = Literal[
     "below-threshold",
     "too-close",
     "batch-full",
+    "no-contact",
     "pending",
 ]
 
@@ -53,7 +54,8 @@ class CandidateWhy(BaseModel):
             "earlier pick; replayed: random-scenarios replays every converged draw; not-converged: its OCP did not "
             "converge (never picked); below-threshold: the iteration's highest score is below "
             "stopping.min_disagreement, nothing was picked; too-close: closer than min_distance to an earlier pick "
-            "(nearest_pick); batch-full: q picks were made before its turn (not in the top q); pending: the "
+            "(nearest_pick); batch-full: q picks were made before its turn (not in the top q); no-contact: score 0, "
+            "its OCP solution never touches the headrest (never picked); pending: the "
             "iteration's candidates are not all solved yet"
         )
     )

@@ -26,6 +26,7 @@ export const WHY_LABEL: Record<string, string> = {
   "below-threshold": "below stopping threshold",
   "too-close": "too close to a pick",
   "batch-full": "not in top q",
+  "no-contact": "no contact",
   pending: "waiting for the other candidates",
 };
 

@@ -409,7 +409,7 @@ def test_explain_selection_says_why_each_candidate_was_or_was_not_picked():
 def test_select_batch_is_the_greedy_max_score_rule_with_a_minimum_distance(cands, q, d_min):
     """Picks are at most q, pairwise at least d_min apart, in descending score; and every
     candidate left out was either outranked by q picks or too close to a pick scoring at least
-    as high (greedy: nothing better was skipped)."""
+    as high (greedy: nothing better was skipped), or has score 0 (no contact: never picked)."""
     scores = [c[0] for c in cands]
     x = np.array([c[1:] for c in cands])
     picks = [p.slot for p in acquisition.select_batch(scores, x.tolist(), q, d_min)]
@@ -418,9 +418,30 @@ def test_select_batch_is_the_greedy_max_score_rule_with_a_minimum_distance(cands
     for a in picks:
         for b in picks:
             assert a == b or np.linalg.norm(x[a] - x[b]) >= d_min
+    assert all(scores[j] > 0 for j in picks)
     if len(picks) < q:
         for j in set(range(len(cands))) - set(picks):
-            assert any(scores[p] >= scores[j] and np.linalg.norm(x[p] - x[j]) < d_min for p in picks)
+            assert scores[j] == 0 or any(scores[p] >= scores[j] and np.linalg.norm(x[p] - x[j]) < d_min for p in picks)
+
+
+def test_candidates_without_contact_are_never_picked_even_when_the_batch_is_not_full():
+    """Score 0 means the candidate's OCP solution never touches the headrest (no contact
+    phase): its replay holds no contact force to learn, so it is skipped even when fewer than q
+    candidates are in contact, and an iteration whose candidates all miss picks nothing."""
+    scores, x = [0.0, 2.0, 0.0, 1.0, None], [[0.0], [0.2], [0.4], [0.6], [0.8]]
+    v = acquisition.explain_selection(scores, x, 4, 0.1)
+    assert [(w.rank, w.pick, w.code) for w in v] == [
+        (3, None, "no-contact"),
+        (1, 0, "picked-top"),
+        (4, None, "no-contact"),
+        (2, 1, "picked-far"),
+        (None, None, "not-converged"),
+    ]
+    assert "never touches the headrest" in v[0].reason
+    assert [p.slot for p in acquisition.select_batch(scores, x, 4, 0.1)] == [1, 3]
+    assert acquisition.select_batch([0.0, 0.0, None], [[0.0], [0.5], [1.0]], 2, 0.0) == []
+    # a tiny but positive disagreement is contact: still picked
+    assert [p.slot for p in acquisition.select_batch([0.0, 1e-9], [[0.0], [1.0]], 2, 0.0)] == [1]
 
 
 def test_scenario_features_scale_each_range_to_the_unit_interval():

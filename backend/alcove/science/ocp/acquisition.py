@@ -19,7 +19,8 @@ Implemented:
   ensemble force std |sigma_F| [N] at the solution's midpoints in contact, the OCP's trust
   diagnostic ``max_std_contact``; 0 without contact); :func:`select_batch` then picks at most q of
   them, the highest scores first, no two closer than ``min_distance`` in the scenarios' feature
-  space (:func:`scenario_features`: each ranged parameter scaled to [0, 1] over its range).
+  space (:func:`scenario_features`: each ranged parameter scaled to [0, 1] over its range);
+  candidates with score 0 (no contact) are never picked.
 """
 
 from __future__ import annotations
@@ -126,8 +127,12 @@ class Pick:
 #: ``min_distance`` from every earlier pick; ``not-converged`` its OCP did not converge (no
 #: score); ``below-threshold`` the highest score of all is below the stopping threshold, so
 #: nothing is picked; ``too-close`` closer than ``min_distance`` to an earlier pick;
-#: ``batch-full`` q picks were made before its turn (not in the top q).
-VerdictCode = Literal["picked-top", "picked-far", "not-converged", "below-threshold", "too-close", "batch-full"]
+#: ``batch-full`` q picks were made before its turn (not in the top q); ``no-contact`` its score is
+#: 0: its OCP solution never touches the headrest, so its replay would teach the contact model
+#: nothing (never picked, also when fewer than q candidates are in contact).
+VerdictCode = Literal[
+    "picked-top", "picked-far", "not-converged", "below-threshold", "too-close", "batch-full", "no-contact"
+]
 
 
 @dataclass(frozen=True)
@@ -154,7 +159,9 @@ def explain_selection(
     picked; each next one is picked if its Euclidean distance in ``features`` to every pick
     already made is at least ``min_distance``, else skipped (``too-close``); once q are picked
     the rest are ``batch-full``. A candidate without a finite score (its OCP did not converge)
-    is never picked. With ``threshold``: nothing is picked when the highest score is below it."""
+    is never picked, nor one whose score is 0 (no contact along its solution: ``no-contact``),
+    so an iteration may pick fewer than q, or none. With ``threshold``: nothing is picked when
+    the highest score is below it."""
     if q < 1:
         raise ValueError(f"batch: q must be at least 1, got {q}")
     if min_distance < 0:
@@ -181,6 +188,15 @@ def explain_selection(
                 "below-threshold",
                 f"disagreement {sc:.4g} N; the highest, {top:.4g} N, is below the stopping threshold "
                 f"{threshold:g} N: nothing is picked",
+            )
+            continue
+        if sc <= 0.0:
+            out[j] = Verdict(
+                rank,
+                None,
+                "no-contact",
+                "disagreement 0: its OCP solution never touches the headrest, its replay would not teach "
+                "the contact model: never picked",
             )
             continue
         if len(picks) == q:
@@ -218,9 +234,10 @@ def select_batch(
     """At most ``q`` candidates to replay, in pick order (:func:`explain_selection`). Candidates
     are taken by descending score (ties: the lower slot); one is skipped if its Euclidean
     distance in ``features`` to a pick already made is below ``min_distance``. A candidate
-    without a score (its OCP did not converge) is never picked. With ``threshold``: no pick at
-    all when the highest score is below it (the uncertainty stopping rule). Fewer than q picks
-    when too few candidates are far enough apart."""
+    without a score (its OCP did not converge) is never picked, nor one with score 0 (its
+    solution never touches the headrest). With ``threshold``: no pick at all when the highest
+    score is below it (the uncertainty stopping rule). Fewer than q picks when too few candidates
+    are in contact or far enough apart."""
     verdicts = explain_selection(scores, features, q, min_distance, threshold)
     picked = sorted((v.pick, j, v.reason) for j, v in enumerate(verdicts) if v.pick is not None)
     return [Pick(j, reason) for _, j, reason in picked]
