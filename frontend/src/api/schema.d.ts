@@ -1833,10 +1833,10 @@ export interface components {
         CandidateWhy: {
             /**
              * Code
-             * @description picked-top: the highest score; picked-far: the next highest score at least min_distance from every earlier pick; replayed: random-scenarios replays every converged draw; not-converged: its OCP did not converge (never picked); below-threshold: the iteration's highest score is below stopping.min_disagreement, nothing was picked; too-close: closer than min_distance to an earlier pick (nearest_pick); batch-full: q picks were made before its turn (not in the top q); pending: the iteration's candidates are not all solved yet
+             * @description picked-top: the highest score; picked-far: the next highest score at least min_distance from every earlier pick; replayed: random-scenarios replays every converged draw; not-converged: its OCP did not converge (never picked); below-threshold: the iteration's highest score is below stopping.min_disagreement, nothing was picked; too-close: closer than min_distance to an earlier pick (nearest_pick); batch-full: q picks were made before its turn (not in the top q); no-contact: score 0, its OCP solution never touches the headrest (never picked); pending: the iteration's candidates are not all solved yet
              * @enum {string}
              */
-            code: "picked-top" | "picked-far" | "replayed" | "not-converged" | "below-threshold" | "too-close" | "batch-full" | "pending";
+            code: "picked-top" | "picked-far" | "replayed" | "not-converged" | "below-threshold" | "too-close" | "batch-full" | "no-contact" | "pending";
             /**
              * Distance
              * @description its distance to that pick (features scaled to [0, 1])
