@@ -38,7 +38,7 @@ import time
 from pathlib import Path
 from typing import Any
 
-from bench.strategies_report import collect, report, write_atomic
+from bench.strategies_report import collect, merge, report, write_atomic
 from bench.strategies_store import TASK, cpu_seconds, fresh_store, iterations, retrain
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -236,6 +236,12 @@ def run_one(
 # ----------------------------------------------------------------------------- main
 
 
+def _collected(args: argparse.Namespace, meta: dict[str, Any]) -> dict[str, Any]:
+    """The run files in ``--work-dir``, with ``--merge``'s earlier runs if given."""
+    results = collect(args.work_dir, meta)
+    return merge(results, json.loads(args.merge.read_text())) if args.merge else results
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--strategies", nargs="+", default=list(STRATEGIES), choices=STRATEGIES)
@@ -255,6 +261,12 @@ def main(argv: list[str] | None = None) -> int:
         nargs=3,
         metavar=("STRATEGY", "SEED", "BUDGET"),
         help="diagnostic: that run's pool after BUDGET calls trained from scratch (appended to retrain.jsonl)",
+    )
+    ap.add_argument(
+        "--merge",
+        type=Path,
+        help="an earlier results JSON: its runs of (strategy, seed) not run here join the report; those run "
+        "here again are kept as '<strategy> (earlier)'",
     )
     ap.add_argument("--one", nargs=2, metavar=("STRATEGY", "SEED"), help=argparse.SUPPRESS)
     args = ap.parse_args(argv)
@@ -294,7 +306,7 @@ def main(argv: list[str] | None = None) -> int:
     meta_path = args.work_dir / "meta.json"
     if args.salvage:
         meta = json.loads(meta_path.read_text())
-        report(collect(args.work_dir, meta), args.out, args.plot)
+        report(_collected(args, meta), args.out, args.plot)
         return 0
 
     args.work_dir.mkdir(parents=True, exist_ok=True)
@@ -339,10 +351,10 @@ def main(argv: list[str] | None = None) -> int:
                 running.remove((p, tag))
                 print(f"{tag}: exit {p.returncode} after {(time.perf_counter() - t0) / 60:.1f} min", flush=True)
                 meta["wall_s"] = time.perf_counter() - t0
-                report(collect(args.work_dir, meta), args.out, args.plot)
+                report(_collected(args, meta), args.out, args.plot)
     r = resource.getrusage(resource.RUSAGE_CHILDREN)
     meta["wall_s"], meta["children_cpu_s"] = time.perf_counter() - t0, r.ru_utime + r.ru_stime
-    report(collect(args.work_dir, meta), args.out, args.plot)
+    report(_collected(args, meta), args.out, args.plot)
     return 0
 
 

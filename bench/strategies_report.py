@@ -48,6 +48,30 @@ def collect(work: Path, meta: dict[str, Any]) -> dict[str, Any]:
     return {**meta, "runs": runs}
 
 
+#: what ``merge`` appends to the strategy name of an earlier run that a new run replaces
+EARLIER = " (earlier)"
+
+
+def merge(results: dict[str, Any], earlier: dict[str, Any]) -> dict[str, Any]:
+    """``results`` with the runs of an earlier results JSON added: a (strategy, seed) the new
+    runs lack is taken as it was (the same strategy, e.g. a re-run of one strategy beside the
+    others' earlier runs); one they have is kept for comparison under the strategy's name with
+    ``EARLIER`` appended. Budgets, batch and candidates must agree."""
+    for key in ("oracle", "task", "budgets", "batch", "candidates", "preliminary_seed", "validation_seed"):
+        if results.get(key) != earlier.get(key):
+            raise ValueError(f"--merge: {key} differs ({results.get(key)!r} here, {earlier.get(key)!r} there)")
+    have = {(r["strategy"], r["seed"]) for r in results["runs"]}
+    runs, strategies = list(results["runs"]), list(results["strategies"])
+    for r in earlier["runs"]:
+        name = r["strategy"] + EARLIER if (r["strategy"], r["seed"]) in have else r["strategy"]
+        runs.append({**r, "strategy": name})
+        if name not in strategies:
+            strategies.append(name)
+    order = [PAPER, RANDOM, ED]
+    strategies.sort(key=lambda n: (order.index(n.removesuffix(EARLIER)) if n.removesuffix(EARLIER) in order else 9, n))
+    return {**results, "runs": runs, "strategies": strategies, "merged_from": earlier.get("started")}
+
+
 def summary(results: dict[str, Any]) -> dict[str, Any]:
     """Mean, standard deviation, min and max over seeds per (strategy, budget); the goal checks."""
     budgets = [0, *results["budgets"]]
@@ -213,13 +237,17 @@ def plot(results: dict[str, Any], summ: dict[str, Any], path: Path) -> None:
                 yerr=sd,
                 marker="o",
                 capsize=3,
-                color=colors.get(strat),
+                color=colors.get(strat.removesuffix(EARLIER)),
+                ls="--" if strat.endswith(EARLIER) else "-",
+                alpha=0.55 if strat.endswith(EARLIER) else 1.0,
                 label=f"{strat} (n={rows[bs[0]]['n']})",
             )
             if 0 in rows:
                 ax.axhline(rows[0][f"{key}_mean"], color="k", lw=0.6, ls=":")
         if key == "force":
             for strat, per_seed in summ["curves"].items():
+                if strat.endswith(EARLIER):
+                    continue
                 for cv in per_seed:
                     xs = [c for c, _ in cv if c > 0]
                     ys = [e for c, e in cv if c > 0]
