@@ -207,11 +207,13 @@ def test_the_json_report_gives_each_iterations_oracle_calls_and_picked_scenarios
     from alcove_worker.cli.follow import read_metrics
 
     cfg = store / "batch.yaml"
+    # the quick model's OCP must reach the headrest (candidates without contact are never picked):
+    # 60 epochs, as the campaign tests' quick surrogate
     cfg.write_text(
         QUICK_YAML.replace(
             "validation_motions: 2",
             "validation_motions: 0, strategy: ensemble-disagreement, batch: 2, candidates: 3, min_distance: 0",
-        )
+        ).replace("max_epochs: 30", "max_epochs: 60")
     )
     out = ok("create", "--task", "head-headrest-scenarios", "--oracle", "aux-penalty", "-n", "1", "--config", str(cfg))
     cid = int(out.strip())
