@@ -3,6 +3,7 @@ import { screen, waitFor, within } from "@testing-library/react";
 import userEvent from "@testing-library/user-event";
 import { ForcesPanel } from "./ForcesPanel";
 import { batchPicks, pickLabel } from "./PickChooser";
+import type { CandidateDetail } from "../api/types";
 import type { MetricPoint } from "../lib/metrics";
 import { mockApi, renderPage } from "../test/utils";
 
@@ -20,7 +21,7 @@ const candidate = (slot: number, pick: number | null, value: number) => ({
   moment_rmse: null,
   ocp_solution_id: 100 + slot,
   features: [slot / 4],
-  why: { code: pick === null ? "batch-full" : "picked-top", text: "", nearest_pick: null, distance: null },
+  why: { code: (pick === null ? "batch-full" : "picked-top") as CandidateDetail["why"]["code"], text: "", nearest_pick: null, distance: null },
   has_curves: pick !== null,
 });
 const CANDIDATES = {
