@@ -139,6 +139,13 @@ _tasks: LRUCache[tuple[int, int | None], TaskSpec] = LRUCache(maxsize=64)
 _tasks_lock = threading.Lock()
 
 
+def forget_parsed_tasks() -> None:
+    """Empty the parsed-task cache: its keys are version ids of one database, so a process that
+    switches databases (a test's fresh store) must not reuse them."""
+    with _tasks_lock:
+        _tasks.clear()
+
+
 def load_task(s: Session, task_version_id: int, intervals: int | None = None) -> TaskSpec:
     """The task of a version as the OCP code uses it (optionally with another number of
     intervals per phase); parsed once per process."""

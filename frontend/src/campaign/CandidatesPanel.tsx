@@ -11,7 +11,10 @@ import type { CandidateDetail, IterationCandidates, IterationCurves } from "../a
 import { Plot, type Trace } from "../components/Plot";
 import { Empty, ErrorBox, Loading } from "../components/States";
 import { fmtNumber } from "../lib/format";
+import { scenarioText } from "../lib/scenario";
 import { wrenchTraces } from "./ForcesPanel";
+
+export { scenarioText };
 
 const PICKED = "#1d7a45";
 const NOT_PICKED = "#a3a9b6";
@@ -34,14 +37,6 @@ export function isPicked(c: CandidateDetail): boolean {
   return c.pick != null;
 }
 
-/** "initial.q.0 = 0.21, model.headrest_offset = -0.0012": a scenario's drawn values. */
-export function scenarioText(scenario: CandidateDetail["scenario"]): string {
-  const values = (scenario as { values?: Record<string, number> } | null | undefined)?.values;
-  if (!values || !Object.keys(values).length) return "the task as written";
-  return Object.entries(values)
-    .map(([k, v]) => `${k} = ${fmtNumber(v, 3)}`)
-    .join(", ");
-}
 
 /** The scores as bars by slot: picked green, not picked grey, not converged red (no bar). */
 export function scoreTraces(cands: CandidateDetail[]): Trace[] {

@@ -2,7 +2,7 @@ import { useMemo, useState } from "react";
 import { useQueries, useQuery } from "@tanstack/react-query";
 import type { Dash } from "plotly.js-dist-min";
 import { Plot, type Trace } from "../components/Plot";
-import { iterationQuery, trajectoryQuery } from "../api/campaigns";
+import { candidateTrajectoryQuery, iterationQuery, pickCurvesQuery, trajectoryQuery } from "../api/campaigns";
 import { useTaskVersion } from "../api/definitions";
 import { ChainPlayer } from "../components/ChainPlayer";
 import { resolveModel } from "../lib/kinematics";
@@ -11,6 +11,7 @@ import { ErrorBox, Empty, Loading } from "../components/States";
 import type { MetricPoint } from "../lib/metrics";
 import { everyKth, formatSelection, lastN, parseSelection } from "../lib/selection";
 import { iterationColor, PLOTLY_SCALE } from "../lib/colors";
+import { batchPicks, PickChooser } from "./PickChooser";
 
 const FORCE_COMPONENTS = ["fx", "fy", "fz"] as const;
 const MOMENT_COMPONENTS = ["mx", "my", "mz"] as const;
@@ -114,10 +115,13 @@ export function iterationModel(model: Record<string, unknown> | undefined, scena
   return out;
 }
 
-/** Iteration k played back: the chain moving along the replayed trajectory, the oracle's force as an arrow. */
-function IterationPlayback({ campaignId, curves, task, index, setIndex }: { campaignId: number; curves: IterationCurves; task: { id: number; version: number } | undefined; index: number; setIndex: (i: number) => void }) {
+/** Iteration k played back: the chain moving along the replayed trajectory, the oracle's force as an arrow.
+ * ``slot``: a batch pick's candidate (its scenario's model); none: the iteration's trajectory. */
+function IterationPlayback({ campaignId, curves, task, index, setIndex, slot }: { campaignId: number; curves: IterationCurves; task: { id: number; version: number } | undefined; index: number; setIndex: (i: number) => void; slot?: number }) {
   const version = useTaskVersion(task?.id, task?.version);
-  const trajectory = useQuery({ ...trajectoryQuery(campaignId, curves.iteration), enabled: Boolean(task) });
+  const own = useQuery({ ...trajectoryQuery(campaignId, curves.iteration), enabled: Boolean(task) && slot === undefined });
+  const picked = useQuery({ ...candidateTrajectoryQuery(campaignId, curves.iteration, slot ?? 0), enabled: Boolean(task) && slot !== undefined });
+  const trajectory = slot === undefined ? own : picked;
   const spec = version.data?.spec as { model?: Record<string, unknown> } | undefined;
   const scenario = trajectory.data?.scenario;
   const chain = useMemo(() => resolveModel(iterationModel(spec?.model, scenario)), [spec, scenario]);
@@ -169,11 +173,17 @@ export function ForcesPanel({
     return [...new Set([...extra, k])].sort((a, b) => a - b).slice(-MAX_OVERLAY);
   }, [k, selection.iterations]);
   const overlaid = shown.length > 1;
+  // a batch iteration's picks: the one shown (pick 0 = the first, the iteration's own curves); none in an overlay
+  const point = points.find((p) => p.iteration === k);
+  const picks = overlaid ? [] : batchPicks(point);
+  const [chosen, setChosen] = useState<{ k: number | null; pick: number }>({ k: null, pick: 0 });
+  const pick = chosen.k === k && picks.some((p) => p.pick === chosen.pick) ? chosen.pick : 0;
+  const pickSlot = picks.find((p) => p.pick === pick)?.slot;
   const [forceComps, setForceComps] = useState<Component[]>(["fx", "fz"]);
   const [momentComps, setMomentComps] = useState<Component[]>(["my"]);
-  const results = useQueries({ queries: shown.map((it) => iterationQuery(campaignId, it)) });
+  const results = useQueries({ queries: shown.map((it) => (it === k && pick > 0 ? pickCurvesQuery(campaignId, it, pick) : iterationQuery(campaignId, it))) });
   const loaded = results.map((r) => r.data).filter((d): d is IterationCurves => Boolean(d));
-  const loadedKey = loaded.map((c) => c.iteration).join();
+  const loadedKey = `${loaded.map((c) => c.iteration).join()}|${pick}`;
   // eslint-disable-next-line react-hooks/exhaustive-deps -- the curves are immutable: the loaded iterations identify them
   const curves = useMemo(() => loaded, [loadedKey]);
   const forceTraces = useMemo(() => wrenchTraces(curves, forceComps), [curves, forceComps]);
@@ -203,7 +213,7 @@ export function ForcesPanel({
     ));
 
   return (
-    <div data-testid="forces-panel" data-iteration={k ?? ""} data-shown={shown.join(",")}>
+    <div data-testid="forces-panel" data-iteration={k ?? ""} data-shown={shown.join(",")} data-pick={picks.length ? pick : ""}>
       <div className="slider">
         <label htmlFor="iteration-slider">Iteration</label>
         <input
@@ -223,7 +233,9 @@ export function ForcesPanel({
         <output htmlFor="iteration-slider" data-testid="iteration-value">
           k = {k}
         </output>
-        <TrustBadge point={points.find((p) => p.iteration === k)} />
+        {/* the metrics row's OCP figures are slot 0's */}
+        {(pickSlot === undefined || pickSlot === 0) && <TrustBadge point={point} />}
+        {k !== null && <PickChooser campaignId={campaignId} iteration={k} picks={picks} pick={pick} setPick={(p) => setChosen({ k, pick: p })} />}
       </div>
       <form
         className="toolbar"
@@ -283,21 +295,23 @@ export function ForcesPanel({
             <div className="toolbar" role="group" aria-label="Force components">
               {compToggle(forceComps, setForceComps, FORCE_COMPONENTS)}
             </div>
-            <Plot testId="force-plot" traces={forceTraces} xTitle="t [s]" yTitle="force [N]" exportName={`forces-k${k}`} height={300} data={{ band: hasBand ? "2std" : "" }} cursorX={cursor} />
+            <Plot testId="force-plot" traces={forceTraces} xTitle="t [s]" yTitle="force [N]" exportName={`forces-k${k}${picks.length ? `-pick${pick + 1}` : ""}`} height={300} data={{ band: hasBand ? "2std" : "" }} cursorX={cursor} />
           </div>
           <div>
             <div className="toolbar" role="group" aria-label="Moment components">
               {compToggle(momentComps, setMomentComps, MOMENT_COMPONENTS)}
             </div>
-            <Plot testId="moment-plot" traces={momentTraces} xTitle="t [s]" yTitle="moment [N m]" exportName={`moments-k${k}`} height={300} data={{ band: hasBand ? "2std" : "" }} cursorX={cursor} />
+            <Plot testId="moment-plot" traces={momentTraces} xTitle="t [s]" yTitle="moment [N m]" exportName={`moments-k${k}${picks.length ? `-pick${pick + 1}` : ""}`} height={300} data={{ band: hasBand ? "2std" : "" }} cursorX={cursor} />
           </div>
         </div>
       )}
-      {single && <IterationPlayback campaignId={campaignId} curves={single} task={task} index={index} setIndex={(i) => setPlayed({ k: single.iteration, index: i })} />}
+      {single && <IterationPlayback key={pick} campaignId={campaignId} curves={single} task={task} slot={pickSlot} index={index} setIndex={(i) => setPlayed({ k: single.iteration, index: i })} />}
       <p className="hint">
         {overlaid
           ? "Colour: iteration k (dark: early, light: late). Thick line: oracle (truth); thin dotted: surrogate model k's prediction. Components: fx solid, fy dash-dot, fz long dash (moments likewise)."
           : `Solid: oracle (truth). Dashed: prediction of surrogate model k (trained on pool version k−1, the contact model of iteration k's OCP) on the same trajectory, data it has not seen.${
+              picks.length ? ` Iteration ${k} replayed ${picks.length} picked trajectories: this is pick ${pick + 1}'s.` : ""
+            }${
               hasBand ? " Shaded: the ensemble's mean ± 2 standard deviations (where the members disagree, the model is not sure)." : ""
             }`}{" "}
         Forces and moments act on the head, in the headrest frame.

@@ -22,10 +22,13 @@ import typer
 
 from alcove_worker.cli import follow as following
 from alcove_worker.cli.campaign_config import create_campaign, ensure_database, read_config
+from alcove_worker.cli.candidates import candidates
 from alcove_worker.cli.follow import fail
 
 app = typer.Typer(
-    help="Active-learning campaigns: run, create, start, pause, resume, cancel, retry, fork, status, export.",
+    help=(
+        "Active-learning campaigns: run, create, start, pause, resume, cancel, retry, fork, status, candidates, export."
+    ),
     no_args_is_help=True,
 )
 
@@ -296,6 +299,9 @@ def fork(
 def status(campaign_id: int = _id_arg(), as_json: bool = typer.Option(False, "--json")) -> None:
     """Status, current iteration and step, latest RMSE, ETA."""
     _print_status(campaign_id, as_json)
+
+
+app.command(name="candidates")(candidates)
 
 
 @app.command(name="list")
