@@ -279,7 +279,8 @@ def _trust_region_setup() -> dict[str, Any]:
     quick=False,
     group="ocp",
     notes="ensemble force variance <= bound^2 at every interval midpoint, the bound midway between the start "
-    "state's std and the unbounded solution's maximum; structured derivatives; first guess: holding still",
+    "state's std and the unbounded solution's maximum; structured derivatives, the path term's Hessian "
+    "convexified, mu_init 1e-6; first guess: holding still",
 )
 def ocp_surrogate_trust_region(ctx: dict[str, Any]) -> float:
     return _solve(ctx["task"], ctx["contact"], contact_params=ctx["current"], path=ctx["path"])

@@ -23,7 +23,7 @@ def derivatives(tr: Transcription, x: np.ndarray, lam_f: float, lam_g: np.ndarra
 
 def compare(chain, problem, contact=None, seed=0, path=None):
     auto = Transcription(chain, problem, contact, derivatives="casadi", path=path, path_upper=1.0)
-    mine = Transcription(chain, problem, contact, path=path, path_upper=1.0)
+    mine = Transcription(chain, problem, contact, path=path, path_upper=1.0, path_hessian="exact")
     assert mine.derivatives == "structured"
     rng = np.random.default_rng(seed)
     n, N = chain.ndof, problem.intervals
@@ -79,3 +79,56 @@ def test_path_constraint_derivatives_are_structured_and_exact():
     big = np.full(2, 10.0)
     phases2 = (PhaseGrid(0.2, 3, 0.5, 0.1, -big, big, big), PhaseGrid(0.4, 4, 1.0, 2.0, -big, big, big))
     compare(two, DiscreteProblem(phases2, None, None, None, np.array([0.1, 0.0])), seed=5, path=_path_function(2))
+
+
+def test_psd_part_of_a_2x2_matrix_is_the_eigenvalue_clipped_matrix():
+    """(H + |H|) / 2 in closed form equals clipping the negative eigenvalues to 0 (numpy's eigh)."""
+    from alcove.science.ocp.derivatives import psd_part_2x2
+
+    H = ca.SX.sym("H", 2, 2)
+    fn = ca.Function("psd", [H], [psd_part_2x2(H)])
+    rng = np.random.default_rng(7)
+    cases = [rng.normal(size=(2, 2)) * 10.0 ** rng.uniform(-3, 3) for _ in range(50)]
+    cases += [np.diag([2.0, -3.0]), np.diag([-1.0, -4.0]), np.diag([5.0, 0.0]), np.eye(2), np.zeros((2, 2))]
+    for A in cases:
+        A = 0.5 * (A + A.T)
+        w, V = np.linalg.eigh(A)
+        expected = (V * np.maximum(w, 0)) @ V.T
+        np.testing.assert_allclose(np.asarray(fn(A)), expected, atol=1e-12 * max(1.0, np.abs(A).max()))
+
+
+def test_convex_path_hessian_reaches_the_exact_solution():
+    """With the path Hessian convexified IPOPT converges to the same KKT point as with the exact
+    Hessian, the bound active and held: only the Newton model differs, not the problem."""
+    chain = PlanarChain.from_preset(DEFAULT_PRESET)
+    lo, hi, t = np.array([0.032]), np.array([0.432]), np.array([30.0])
+    phases = (PhaseGrid(0.3, 15, 1e-3, 1e-4, lo, hi, t), PhaseGrid(0.5, 15, 1.0, 1.0, lo, hi, t))
+    problem = DiscreteProblem(phases, np.array([0.232]), np.zeros(1), None, np.zeros(1))
+    q, qd = ca.SX.sym("q"), ca.SX.sym("qd")
+    path = ca.Function("path", [q, qd], [qd**2 * (1 + ca.sin(20 * q) ** 2)])  # nonconvex in (q, qd)
+    solutions = []
+    for mode in ("exact", "convex"):
+        tr = Transcription(chain, problem, aux_contact(DEFAULT_PRESET), path=path, path_upper=0.04, path_hessian=mode)
+        x0 = tr.pack(np.full((tr.problem.intervals + 1, 1), 0.232), np.zeros((tr.problem.intervals, 1)))
+        res = tr.solve(x0)
+        assert res["stats"]["success"], res["stats"]["return_status"]
+        path_rows = res["g"][-tr.problem.intervals :]
+        assert path_rows.max() <= 0.04 + 1e-8
+        assert path_rows.max() > 0.04 - 1e-6  # the bound is active: the constraint matters
+        solutions.append((tr, res))
+    (exact, at), (convex, _) = solutions
+    # the two Newton models differ at the solution (the path term's Hessian is indefinite there)
+    _, H_exact = derivatives(exact, at["x"], 1.0, at["lam_g"])
+    _, H_convex = derivatives(convex, at["x"], 1.0, at["lam_g"])
+    assert np.abs(H_exact - H_convex).max() > 1e-3 * np.abs(H_exact).max()
+    solutions = [res for _, res in solutions]
+    np.testing.assert_allclose(solutions[1]["x"], solutions[0]["x"], atol=1e-6)
+    assert abs(solutions[1]["cost"] - solutions[0]["cost"]) <= 1e-8 * max(1.0, abs(solutions[0]["cost"]))
+
+
+def test_path_hessian_mode_is_checked():
+    chain = PlanarChain.from_preset(DEFAULT_PRESET)
+    lo, hi, t = np.array([0.032]), np.array([0.432]), np.array([30.0])
+    problem = DiscreteProblem((PhaseGrid(0.3, 4, 1e-3, 1e-4, lo, hi, t),), np.array([0.232]), None, None, None)
+    with pytest.raises(ValueError, match="path_hessian"):
+        Transcription(chain, problem, None, path=_path_function(1), path_upper=1.0, path_hessian="gauss")

@@ -68,6 +68,20 @@ def _scatter(nrow: int, ncol: int, blocks: Sequence[tuple[ca.MX, IntArray, IntAr
     return ca.MX(sparsity, ca.mtimes(A_dm, ca.vertcat(*parts)))
 
 
+def psd_part_2x2(H: ca.SX) -> ca.SX:
+    """The positive semidefinite part (H + |H|) / 2 of a symmetric 2 x 2 matrix, in closed form.
+
+    |H| = sqrt(H^2) and for a 2 x 2 positive semidefinite M, sqrt(M) = (M + sqrt(det M) I) /
+    sqrt(tr M + 2 sqrt(det M)); here sqrt(det H^2) = |det H|. A positive semidefinite H is
+    returned unchanged (up to rounding), a negative semidefinite one as 0.
+    """
+    H2 = ca.mtimes(H, H)
+    det = ca.fabs(H[0, 0] * H[1, 1] - H[0, 1] * H[1, 0])
+    scale = ca.sqrt(H2[0, 0] + H2[1, 1] + 2 * det)
+    absolute = (H2 + det * ca.SX.eye(2)) / ca.fmax(scale, 1e-300)
+    return 0.5 * (H + absolute)
+
+
 def structured_derivatives(
     chain: PlanarChain,
     problem: DiscreteProblem,
@@ -82,6 +96,7 @@ def structured_derivatives(
     node_rows: IntArray,
     path: ca.Function | None = None,
     path_row: int = 0,
+    path_hessian: str = "exact",
 ) -> tuple[ca.Function, ca.Function]:
     """``jac_g(x, p) -> (g, J)`` and ``hess_lag(x, p, lam_f, lam_g) -> triu(H)`` for nlpsol.
 
@@ -91,7 +106,11 @@ def structured_derivatives(
     ``path`` ``(q, qd, p) -> scalar``: a path constraint at every interval midpoint, rows
     ``path_row .. path_row + N - 1`` of g (:func:`.dmocc.nlp_expressions`); like the contact it
     depends on z_k only through y = (q_k+1/2, v_k), so its gradient and its multiplier-weighted
-    Hessian are taken in y and mapped back with T.
+    Hessian are taken in y and mapped back with T. ``path_hessian="convex"``: the path term's
+    Hessian block in y is replaced by its positive semidefinite part (:func:`psd_part_2x2`; for a
+    1-DOF chain, where y has 2 entries; exact otherwise): a convexified Hessian of the Lagrangian.
+    IPOPT still converges to a KKT point of the exact problem (the gradients and the
+    constraint values are exact; only its Newton model changes).
     """
     n, N = chain.ndof, problem.intervals
     n_q = n * (N + 1)
@@ -129,7 +148,10 @@ def structured_derivatives(
         value = path(y[:n], y[n:], p)
         path_jac = ca.Function("path_jac", [y, p], [ca.jacobian(value, y)])
         path_hess = ca.Function("path_hess", [y, p, lam_p], [ca.hessian(lam_p * value, y)[0]])
-        hess_z = hess_z + ca.mtimes([T.T, path_hess(y_of_z, p, lam_p), T])
+        path_block = path_hess(y_of_z, p, lam_p)
+        if path_hessian == "convex" and 2 * n == 2:
+            path_block = psd_part_2x2(path_block)
+        hess_z = hess_z + ca.mtimes([T.T, path_block, T])
         local_path_jac = ca.Function("local_path_jac", [z, h, p], [ca.densify(ca.mtimes(path_jac(y_of_z, p), T))])
     local_jac = ca.Function("local_jac", [z, h, p], [ca.densify(jac_z)])
     local_hess = ca.Function("local_hess", [z, h, wt, wk, p, lam_a, lam_b, sigma, lam_p], [ca.densify(hess_z)])
@@ -204,4 +226,4 @@ def structured_derivatives(
     return jac_g, hess_lag
 
 
-__all__ = ["structured_derivatives"]
+__all__ = ["psd_part_2x2", "structured_derivatives"]

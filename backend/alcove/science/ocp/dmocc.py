@@ -56,6 +56,13 @@ DEFAULT_IPOPT_OPTIONS: SolverOptions = {
 }
 
 
+#: with a path constraint (the trust region) the first guess is holding still, feasible but far
+#: from the optimum: a smaller barrier parameter than the default's 1e-4 (with the convexified
+#: path Hessian: 27 instead of 35 iterations on the bench's K = 5 trust region, 1e-5: 29,
+#: 1e-7: 31, 1e-8: 37; docs/ocp.md)
+PATH_IPOPT_OPTIONS: SolverOptions = {"ipopt.mu_init": 1e-6}
+
+
 WARM_START_OPTIONS: SolverOptions = {
     "ipopt.warm_start_init_point": "yes",
     "ipopt.mu_init": 1e-6,
@@ -180,6 +187,9 @@ class Transcription:
     #: (e.g. the ensemble's force variance: the trust region); its derivatives are structured too
     path: ca.Function | None = None
     path_upper: float = np.inf
+    #: ``"convex"``: the path constraint's Hessian term in IPOPT's Newton model is its positive
+    #: semidefinite part (1-DOF chains; :func:`.derivatives.psd_part_2x2`), ``"exact"``: as derived
+    path_hessian: str = "convex"
     #: the passive-motion initial guess (:mod:`.solve`), kept once computed for a contact
     #: without parameters: it depends on nothing but this NLP
     passive_guess: FloatArray | None = field(default=None, init=False, repr=False, compare=False)
@@ -199,6 +209,8 @@ class Transcription:
             self.path = _prepare_path(self.path, n, self.n_par)
         if self.derivatives == "auto":
             self.derivatives = "structured" if self.graph == "MX" else "casadi"
+        if self.path_hessian not in ("exact", "convex"):
+            raise ValueError(f"path_hessian: must be 'exact' or 'convex', got {self.path_hessian!r}")
         if self.derivatives not in ("structured", "casadi"):
             raise ValueError(f"derivatives: must be 'structured' or 'casadi', got {self.derivatives!r}")
         if self.derivatives == "structured" and self.graph != "MX":
@@ -225,6 +237,7 @@ class Transcription:
                     self._constraint_rows(),
                     self.path,
                     int(mx.g.shape[0]) - N,
+                    self.path_hessian,
                 )
                 self._derivative_options = {"jac_g": jac_g, "hess_lag": hess_lag}
         else:
@@ -311,7 +324,8 @@ class Transcription:
     def solver(self) -> ca.Function:
         """IPOPT on this NLP (built on first use)."""
         if self._solver is None:
-            options = {**DEFAULT_IPOPT_OPTIONS, **self._derivative_options, **self.ipopt_options}
+            path_options = PATH_IPOPT_OPTIONS if self.path is not None else {}
+            options = {**DEFAULT_IPOPT_OPTIONS, **path_options, **self._derivative_options, **self.ipopt_options}
             self._solver = ca.nlpsol("dmocc", "ipopt", self._nlp, options)
         return self._solver
 

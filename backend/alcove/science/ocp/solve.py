@@ -329,8 +329,9 @@ def initial_guesses(
     solution: it stays at the start state, so it satisfies a bound the start state satisfies,
     while passive motion falls into the contact where the members disagree most; from that
     infeasible start IPOPT often ends in local infeasibility (measured on the head-headrest
-    task with a K = 5 ensemble, bench/figures/ocp.py: static 73 iterations to the optimum, passive
-    32 iterations to "infeasible" and then the ramp 89 iterations)."""
+    task with a K = 5 ensemble, bench/figures/ocp.py, with the exact path Hessian: static 73
+    iterations to the optimum, passive 32 iterations to "infeasible" and then the ramp 89
+    iterations; static with the convexified path Hessian and mu_init 1e-6: 27, docs/ocp.md)."""
     out: list[tuple[str, Callable[[], FloatArray]]] = []
     if previous is not None and previous.q.shape[1] == tr.chain.ndof:
         out.append(("previous", lambda: _guess_from_solution(tr, previous)))
