@@ -119,7 +119,6 @@ SERIAL_FIXTURES = frozenset({"fresh_pg_url", "redis_url", "alcove_server"})
 
 #: folders, files and tests in the serial phase, and why (besides the tests the fixtures above catch)
 SERIAL_PATHS = {
-    "tests/e2e": "a real browser, `alcove up`, and Vitest (which runs its own workers on every core)",
     "tests/campaigns/test_workers.py": "starts and kills worker processes on the embedded default",
     "tests/integration/test_worker_e2e.py": "starts worker and `alcove up` processes on the embedded default",
     "tests/api/test_login_throttle.py::test_enumeration_timing_existing_and_unknown_emails_answer_alike": (
@@ -166,6 +165,7 @@ EACH_TEST_ALONE = frozenset({"tests/science/oracles/test_ccx_oracle.py"})
 _CCX = "tests/science/oracles/test_ccx_oracle.py::"
 LONG_FIRST: tuple[str, ...] = (
     f"{_CCX}test_peak_force_at_the_default_mesh_is_within_5_percent_of_a_refined_mesh",  # ~60 s
+    "tests/e2e/test_frontend.py",  # Vitest on one thread, ~60 s
     f"{_CCX}test_planar_motion_gives_a_symmetric_wrench_and_runs_from_the_cli",  # ~40 s
     "tests/cli/test_surrogate_cli.py",  # ~45 s in all
     "tests/test_reproduce_quick.py",  # the quick reproduction, ~27 s

@@ -1,5 +1,6 @@
 """The frontend's own checks, run from pytest so `make test` covers them: the generated API
-client matches the backend's live OpenAPI schema, and the Vitest component tests pass."""
+client matches the backend's live OpenAPI schema, and the Vitest component tests pass. Neither
+starts a server or a browser: both run in the parallel phase (tests/conftest.py)."""
 
 from __future__ import annotations
 
@@ -32,10 +33,16 @@ def test_generated_api_client_matches_the_live_openapi_schema() -> None:
     assert result.returncode == 0, result.stderr + result.stdout
 
 
+#: Vitest here runs in the parallel phase of `make test`, beside another pytest-xdist worker: one
+#: thread of its own (not one per core), and 30 s per test instead of 5 s, the time a test
+#: that waits on nothing may take on a loaded machine (a test that hangs still fails)
+VITEST_ARGS = ("--maxWorkers=1", "--testTimeout=30000")
+
+
 def test_vitest_component_tests_pass() -> None:
     _require_node()
     result = subprocess.run(
-        ["npx", "vitest", "--run", "--reporter=dot"],
+        ["npx", "vitest", "--run", "--reporter=dot", *VITEST_ARGS],
         cwd=FRONTEND,
         capture_output=True,
         text=True,
