@@ -11,25 +11,39 @@ from alcove.science.ocp.dmocc import Transcription
 from alcove.science.ocp.problem import DiscreteProblem, PhaseGrid
 
 
-def derivatives(tr: Transcription, x: np.ndarray, lam_f: float, lam_g: np.ndarray):
+def derivatives(tr: Transcription, x: np.ndarray, lam_f: float, lam_g: np.ndarray, par=()):
     if tr.derivatives == "structured":
         jac, hess = tr._derivative_options["jac_g"], tr._derivative_options["hess_lag"]
     else:
         jac, hess = tr.solver.get_function("nlp_jac_g"), tr.solver.get_function("nlp_hess_l")
-    J = np.asarray(ca.densify(jac(x, [])[1]))
-    H = np.triu(np.asarray(ca.densify(hess(x, [], lam_f, lam_g))))
+    J = np.asarray(ca.densify(jac(x, par)[1]))
+    H = np.triu(np.asarray(ca.densify(hess(x, par, lam_f, lam_g))))
     return J, H
 
 
-def compare(chain, problem, contact=None, seed=0, path=None):
+def compare(chain, problem, contact=None, seed=0, path=None, par=(), q_range=(0.25, 0.4)):
     auto = Transcription(chain, problem, contact, derivatives="casadi", path=path, path_upper=1.0)
     mine = Transcription(chain, problem, contact, path=path, path_upper=1.0, path_hessian="exact")
     assert mine.derivatives == "structured"
     rng = np.random.default_rng(seed)
     n, N = chain.ndof, problem.intervals
-    x = np.concatenate([rng.uniform(0.25, 0.4, n * (N + 1)), rng.normal(size=n * N)])
+    x = np.concatenate([rng.uniform(*q_range, n * (N + 1)), rng.normal(size=n * N)])
     lam_g = rng.normal(size=np.size(auto.lbg))
-    (Ja, Ha), (Jm, Hm) = derivatives(auto, x, 0.7, lam_g), derivatives(mine, x, 0.7, lam_g)
+    (Ja, Ha), (Jm, Hm) = derivatives(auto, x, 0.7, lam_g, par), derivatives(mine, x, 0.7, lam_g, par)
+    # the constraint values jac_g returns (assembled from the local blocks) are the NLP's g
+    g_auto = np.asarray(auto.solver.get_function("nlp_g")(x, par)).ravel()
+    np.testing.assert_allclose(
+        np.asarray(mine._derivative_options["jac_g"](x, par)[0]).ravel(),
+        g_auto,
+        rtol=1e-12,
+        atol=1e-12 * np.abs(g_auto).max(),
+    )
+    np.testing.assert_allclose(
+        np.asarray(mine.solver.get_function("nlp_g")(x, par)).ravel(),
+        g_auto,
+        rtol=1e-12,
+        atol=1e-12 * np.abs(g_auto).max(),
+    )
     np.testing.assert_allclose(Jm, Ja, rtol=1e-10, atol=1e-10 * np.abs(Ja).max())
     np.testing.assert_allclose(Hm, Ha, rtol=1e-10, atol=1e-10 * np.abs(Ha).max())
     assert np.abs(Ha).max() > 0
@@ -79,6 +93,56 @@ def test_path_constraint_derivatives_are_structured_and_exact():
     big = np.full(2, 10.0)
     phases2 = (PhaseGrid(0.2, 3, 0.5, 0.1, -big, big, big), PhaseGrid(0.4, 4, 1.0, 2.0, -big, big, big))
     compare(two, DiscreteProblem(phases2, None, None, None, np.array([0.1, 0.0])), seed=5, path=_path_function(2))
+
+
+def test_ensemble_contact_and_its_variance_evaluate_each_member_once_and_stay_exact():
+    """The trust region on an ensemble: the contact (the members' mean) and the path constraint
+    (their force variance) evaluate the same member networks. The structured derivatives build
+    both in one graph with the common members merged: exact against CasADi's own derivatives
+    (weights as NLP parameters), and smaller than the two graphs apart."""
+    import torch
+
+    from alcove.science.geometry import relative_kinematics
+    from alcove.science.surrogate.config import SurrogateConfig
+    from alcove.science.surrogate.export import surrogate_contact, surrogate_contact_std
+    from alcove.science.surrogate.features import features
+    from alcove.science.surrogate.mlp import MLP, Member, Standardization, SurrogateModel
+    from alcove.science.surrogate.trust import force_variance_function
+
+    P = DEFAULT_PRESET
+    cfg = SurrogateConfig(ensemble_size=3)
+    rng = np.random.default_rng(4)
+    th = rng.uniform(P.theta_min, P.theta_max, 300)
+    x_norm = Standardization.fit(features(relative_kinematics(P, th, rng.uniform(-2, 2, 300))))
+    members = []
+    for k in range(3):
+        g = torch.Generator().manual_seed(k)
+        nets = [MLP.from_config(cfg.force), MLP.from_config(cfg.moment)]
+        for net in nets:
+            net.reset_parameters(g)
+        out = Standardization(rng.normal(size=3), np.array([40.0, 1.0, 5.0]))
+        members.append(Member(nets[0], nets[1], x_norm, out, Standardization(rng.normal(size=3), np.ones(3))))
+    model = SurrogateModel.from_members(members, cfg, P)
+    contact, par = surrogate_contact(model, P)
+    std_fn, _ = surrogate_contact_std(model, P)
+    path = force_variance_function(std_fn)
+    chain = PlanarChain.from_preset(P)
+    lo, hi, t = np.array([P.theta_min]), np.array([P.theta_max]), np.array([30.0])
+    phases = (PhaseGrid(0.3, 5, 1e-3, 1e-4, lo, hi, t), PhaseGrid(0.5, 4, 1.0, 1.0, lo, hi, t))
+    problem = DiscreteProblem(phases, np.array([0.5 * (P.theta_min + P.theta_max)]), np.zeros(1), None, np.zeros(1))
+    compare(chain, problem, contact, seed=2, path=path, par=par, q_range=(P.theta_min, P.theta_max))
+
+    def local_jac_size(path):
+        tr = Transcription(chain, problem, contact, path=path, path_upper=1.0)
+        return next(
+            f for f in tr._derivative_options["jac_g"].find_functions() if f.name() == "local_jac"
+        ).n_instructions()
+
+    y, p = ca.SX.sym("y", 2), ca.SX.sym("p", par.size)
+    value = path(y[:1], y[1:], p)
+    path_apart = ca.Function("path_apart", [y, p], [value, ca.jacobian(value, y)]).n_instructions()
+    # the variance adds its few operations on top of the members, not the members a second time
+    assert local_jac_size(path) - local_jac_size(None) < 0.5 * path_apart
 
 
 def test_psd_part_of_a_2x2_matrix_is_the_eigenvalue_clipped_matrix():

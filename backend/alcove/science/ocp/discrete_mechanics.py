@@ -19,6 +19,8 @@ import casadi as ca
 
 from alcove.science.multibody import PlanarChain
 from alcove.science.ocp.contact import ContactModelError, check_contact_function
+from alcove.science.ocp.problem import DiscreteProblem
+from alcove.science.symbolic import Symbolic
 
 
 def contact_parameter_count(contact: ca.Function | None) -> int:
@@ -53,6 +55,39 @@ def interval_functions(chain: PlanarChain, contact: ca.Function | None) -> tuple
     return dynamics, cost
 
 
+def with_path(dynamics: ca.Function, path: ca.Function, ndof: int, n_par: int) -> ca.Function:
+    """One SX function ``(qa, qb, u, h, p) -> (left, right, path value at the midpoint)``.
+
+    The contact model and a path constraint on the same ensemble (the trust region) evaluate
+    the same member networks: building both in one graph and eliminating common
+    subexpressions (``ca.cse``) evaluates each member once per interval, not twice.
+    """
+    qa, qb, u = ca.SX.sym("qa", ndof), ca.SX.sym("qb", ndof), ca.SX.sym("u", ndof)
+    h, par = ca.SX.sym("h"), ca.SX.sym("p", n_par)
+    left, right = dynamics(qa, qb, u, h, par)
+    value = path(0.5 * (qa + qb), (qb - qa) / h, par)
+    outs = ca.cse([left, right, value])
+    names = ["qa", "qb", "u", "h", "p"]
+    return ca.Function("interval_dynamics_path", [qa, qb, u, h, par], outs, names, ["left", "right", "path"])
+
+
+def node_constraints(
+    chain: PlanarChain, prob: DiscreteProblem, Q: Symbolic, left: Symbolic, right: Symbolic
+) -> list[Symbolic]:
+    """The constraint rows of the grid, in order: the start momentum (if ``qd_start``), the DEL
+    equations of the inner nodes, the end momentum (if ``qd_end``); ``left``/``right`` (ndof x N)
+    are the interval sides of :func:`interval_functions` mapped over the grid, ``Q`` the nodes."""
+    N = prob.intervals
+    g = []
+    if prob.qd_start is not None:
+        g.append(ca.mtimes(chain.mass_matrix(Q[:, 0]), ca.DM(prob.qd_start)) + left[:, 0])
+    if N > 1:
+        g.append(ca.vec(right[:, :-1] + left[:, 1:]))
+    if prob.qd_end is not None:
+        g.append(right[:, N - 1] - ca.mtimes(chain.mass_matrix(Q[:, N]), ca.DM(prob.qd_end)))
+    return g
+
+
 def prepare_contact(contact: ca.Function | None, ndof: int) -> ca.Function | None:
     """Check a contact function against the slot, expand it to SX and make sure CasADi can
     take its second derivatives (IPOPT gets exact Hessians); :class:`ContactModelError` if not."""
@@ -74,4 +109,4 @@ def prepare_contact(contact: ca.Function | None, ndof: int) -> ca.Function | Non
     return contact
 
 
-__all__ = ["contact_parameter_count", "interval_functions", "prepare_contact"]
+__all__ = ["contact_parameter_count", "interval_functions", "node_constraints", "prepare_contact", "with_path"]

@@ -35,7 +35,13 @@ import numpy as np
 from alcove.science.arrays import FloatArray, IntArray
 from alcove.science.multibody import PlanarChain
 from alcove.science.ocp.derivatives import structured_derivatives
-from alcove.science.ocp.discrete_mechanics import contact_parameter_count, interval_functions, prepare_contact
+from alcove.science.ocp.discrete_mechanics import (
+    contact_parameter_count,
+    interval_functions,
+    node_constraints,
+    prepare_contact,
+    with_path,
+)
 from alcove.science.ocp.problem import DiscreteProblem, PhaseGrid
 from alcove.science.ocp.rollout import passive_rollout, simulate
 from alcove.science.symbolic import Symbolic
@@ -123,22 +129,16 @@ def nlp_expressions(
     w_tau = ca.DM([prob.phases[m].w_tau for m in phase]).T
     w_T = ca.DM([prob.phases[m].w_T for m in phase]).T
     Pm = ca.repmat(par, 1, N)
-    left, right = dynamics.map(N).call([Q[:, :-1], Q[:, 1:], U, H, Pm])
+    if path is not None:
+        # one graph for the contact and the path constraint: the ensemble's members evaluated once
+        left, right, values = with_path(dynamics, path, n, n_par).map(N).call([Q[:, :-1], Q[:, 1:], U, H, Pm])
+    else:
+        left, right = dynamics.map(N).call([Q[:, :-1], Q[:, 1:], U, H, Pm])
     effort, kinetic = interval_cost.map(N).call([Q[:, :-1], Q[:, 1:], U, H])
     cost = ca.sum2(w_tau * effort) + ca.sum2(w_T * kinetic)
-
-    g = []
-    if prob.qd_start is not None:
-        p0 = ca.mtimes(chain.mass_matrix(Q[:, 0]), ca.DM(prob.qd_start))
-        g.append(p0 + left[:, 0])
-    if N > 1:
-        g.append(ca.vec(right[:, :-1] + left[:, 1:]))
-    if prob.qd_end is not None:
-        pN = ca.mtimes(chain.mass_matrix(Q[:, N]), ca.DM(prob.qd_end))
-        g.append(right[:, N - 1] - pN)
+    g = node_constraints(chain, prob, Q, left, right)
     if path is not None:
-        qm, v = 0.5 * (Q[:, :-1] + Q[:, 1:]), (Q[:, 1:] - Q[:, :-1]) / ca.repmat(H, n, 1)
-        g.append(ca.vec(path.map(N).call([qm, v, Pm])[0]))
+        g.append(ca.vec(values))
 
     # endpoint cost
     qN = Q[:, N]
@@ -226,7 +226,6 @@ class Transcription:
                 jac_g, hess_lag = structured_derivatives(
                     chain,
                     prob,
-                    dynamics,
                     interval_functions(chain, None)[0],
                     self.contact,
                     interval_cost,
