@@ -77,3 +77,27 @@ def test_caches_are_safe_from_many_threads() -> None:
         t.join()
     assert not errors, errors[:3]
     assert len(responses._data) <= 16 and len(ttl._data) <= 16
+
+
+def test_parsed_task_cache_never_returns_another_tasks_spec_for_a_reused_version_id(sqlite_session) -> None:
+    """SQLite reuses a rolled-back row's id: the parsed-task cache is keyed by the spec itself,
+    so the second task with the first one's version id is parsed anew, not served from the cache."""
+    from alcove.models import User
+    from alcove.science.ocp.task_spec import TASK_PRESETS, TaskSpec
+    from alcove.tasks import service
+
+    owner = User(email="cache-owner@example.org", role="member")
+    sqlite_session.add(owner)
+    sqlite_session.flush()
+    base = TaskSpec.model_validate(TASK_PRESETS["head-headrest-2phase"])
+    specs = [base.model_copy(update={"name": name}) for name in ("first", "second")]
+    loaded, ids = [], []
+    for spec in specs:
+        attempt = sqlite_session.begin_nested()
+        _, version = service.create(sqlite_session, owner, name=spec.name, description="", spec=spec)
+        sqlite_session.flush()
+        loaded.append(service.load_task(sqlite_session, version.id))
+        ids.append(version.id)
+        attempt.rollback()
+    assert ids[0] == ids[1]  # the case the cache must survive
+    assert [task.name for task in loaded] == ["first", "second"]

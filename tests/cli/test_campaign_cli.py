@@ -27,9 +27,7 @@ def store(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Iterator[Path]:
     from alcove.db import dispose_engines
     from alcove.jobs import reset_sender
     from alcove.settings import get_settings
-    from alcove.tasks.service import forget_parsed_tasks
 
-    forget_parsed_tasks()  # task version ids of an earlier test's store mean other tasks here
     for k in ("ALCOVE_DATABASE_URL", "ALCOVE_BROKER_URL"):
         monkeypatch.delenv(k, raising=False)
     monkeypatch.setenv("ALCOVE_DATA_DIR", str(tmp_path / "data"))

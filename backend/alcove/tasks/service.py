@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 import threading
 from typing import Any
 
@@ -11,7 +12,7 @@ from sqlalchemy.orm import Session
 
 from alcove import versioning
 from alcove.errors import FieldError, InvalidInput, NotFound, field_errors_from_pydantic
-from alcove.models import TaskDefinition, User
+from alcove.models import TaskDefinition, TaskVersion, User
 from alcove.science.ocp.task_spec import TASK_PRESETS, TaskSpec
 from alcove.tasks import repository as repo
 from alcove.users.access import can_edit
@@ -134,31 +135,25 @@ def require_valid(spec: Any) -> TaskSpec:
     return parsed
 
 
-#: Parsed tasks by (task version, interval override): a version's spec never changes.
-_tasks: LRUCache[tuple[int, int | None], TaskSpec] = LRUCache(maxsize=64)
+#: Parsed tasks by (the spec's canonical JSON, interval override): keyed by content, not by the
+#: version id, so a process that sees several databases (or an id reused after a rollback on
+#: SQLite) never gets another database's task.
+_tasks: LRUCache[tuple[str, int | None], TaskSpec] = LRUCache(maxsize=64)
 _tasks_lock = threading.Lock()
-
-
-def forget_parsed_tasks() -> None:
-    """Empty the parsed-task cache: its keys are version ids of one database, so a process that
-    switches databases (a test's fresh store) must not reuse them."""
-    with _tasks_lock:
-        _tasks.clear()
 
 
 def load_task(s: Session, task_version_id: int, intervals: int | None = None) -> TaskSpec:
     """The task of a version as the OCP code uses it (optionally with another number of
-    intervals per phase); parsed once per process."""
-    from alcove.models import TaskVersion
+    intervals per phase); each spec parsed once per process."""
     from alcove.science.ocp.task_spec import parse_task
 
-    key = (task_version_id, intervals)
+    tv = s.get(TaskVersion, task_version_id)
+    if tv is None:
+        raise NotFound("task version", task_version_id)
+    key = (json.dumps(tv.spec, sort_keys=True), intervals)
     with _tasks_lock:
         task = _tasks.get(key)
     if task is None:
-        tv = s.get(TaskVersion, task_version_id)
-        if tv is None:
-            raise NotFound("task version", task_version_id)
         task = parse_task(tv.spec)
         if intervals:
             task = task.with_intervals(intervals)
