@@ -17,6 +17,7 @@ PACKAGE = REPO / "backend" / "alcove"
 FLOORS: dict[str, int] = {
     "settings": 0,
     "errors": 0,
+    "ids": 0,
     "models": 1,
     "science": 1,
     "db": 2,

@@ -7,7 +7,7 @@ from typing import Annotated
 from fastapi import Path, Query
 from starlette.convertors import Convertor, register_url_convertor
 
-MAX_ID = 2**31 - 1
+from alcove.ids import MAX_ID
 
 
 class SignedIntegerConvertor(Convertor[int]):

@@ -7,6 +7,8 @@ from typing import Literal
 
 from pydantic import BaseModel, ConfigDict, Field, field_validator
 
+from alcove.ids import MAX_ID
+
 EMAIL_PATTERN = r"^[^@\s]+@[^@\s]+$"
 
 ObjectType = Literal["task", "oracle", "surrogate_config", "campaign"]
@@ -95,7 +97,7 @@ class TokenCreated(TokenOut):
 
 class ShareCreate(_In):
     object_type: ObjectType
-    object_id: int = Field(ge=1, le=2**31 - 1)
+    object_id: int = Field(ge=1, le=MAX_ID)
     email: str = Field(
         min_length=3,
         max_length=320,

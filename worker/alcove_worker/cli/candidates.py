@@ -9,9 +9,8 @@ from typing import Any
 
 import typer
 
+from alcove.ids import MAX_ID
 from alcove_worker.cli.follow import fail
-
-MAX_ID = 2**31 - 1  # the API's bound on ids and iteration indices (alcove.api.params)
 
 
 def read_candidates(campaign_id: int, iteration: int) -> Any:
