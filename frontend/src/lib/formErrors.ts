@@ -4,7 +4,7 @@
  * or, if no field owns it, once in the form's summary. The count the form shows is the number
  * of problems, so badge and messages agree. Labels are human-readable, taken from the schema.
  */
-import { resolveRef, unwrapNullable, type JsonSchema } from "../components/SchemaForm";
+import { resolveRef, unwrapNullable, type JsonSchema } from "./jsonSchema";
 import { humanMessage, type FieldError } from "../api/errors";
 export { humanMessage };
 
