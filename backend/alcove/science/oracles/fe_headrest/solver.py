@@ -31,6 +31,9 @@ from alcove.science.oracles.fe_headrest.mesh import CushionMesh
 
 Pose = tuple[FloatArray, float]
 
+#: levels of step halving for a step whose Newton iteration fails (at most 2**3 = 8 substeps)
+MAX_CUTBACKS = 3
+
 
 def single_threaded_blas() -> threadpool_limits:
     """Context limiting BLAS/LAPACK to one thread: the small banded factorizations are ~100x
@@ -74,6 +77,8 @@ class Evaluation:
 
 class CushionSolver:
     """State and Newton solver of one plane-strain slice of the cushion."""
+
+    max_cutbacks = MAX_CUTBACKS
 
     def __init__(
         self,
@@ -220,7 +225,34 @@ class CushionSolver:
         return solution
 
     # ---- one time step ---------------------------------------------------------------
-    def step(self, pose: Pose, dt: float) -> StepResult:
+    def step(self, pose: Pose, dt: float, cutbacks: int | None = None) -> StepResult:
+        """Advance to ``pose`` over ``dt``. A step whose Newton iteration does not converge is
+        cut back, as FE codes do: the state is restored and the step retried as two half steps
+        (the pose interpolated linearly), each again cut back if needed, at most ``cutbacks``
+        levels deep (2**cutbacks substeps; default :attr:`max_cutbacks`). A step that converges is
+        never cut back, so its result does not change. Iterations count every attempt; dissipation
+        sums the substeps."""
+        cutbacks = self.max_cutbacks if cutbacks is None else cutbacks
+        state = (self.u, self.u_old, self.u_older, self.E_prev, self.normal_force_prev)
+        saved = (*(a.copy() for a in state), self.pose_prev)
+        result = self._advance(pose, dt)
+        if result.converged or cutbacks == 0 or saved[5] is None:
+            return result
+        self.u, self.u_old, self.u_older, self.E_prev, self.normal_force_prev, self.pose_prev = saved
+        start = saved[5]
+        middle = (0.5 * (np.asarray(start[0]) + np.asarray(pose[0])), 0.5 * (start[1] + pose[1]))
+        first = self.step(middle, 0.5 * dt, cutbacks - 1)
+        if not first.converged:
+            first.iterations += result.iterations
+            return first
+        second = self.step(pose, 0.5 * dt, cutbacks - 1)
+        second.iterations += result.iterations + first.iterations
+        second.viscous_dissipation += first.viscous_dissipation
+        second.friction_dissipation += first.friction_dissipation
+        second.max_penetration = max(second.max_penetration, first.max_penetration)
+        return second
+
+    def _advance(self, pose: Pose, dt: float) -> StepResult:
         pose_prev = self.pose_prev if self.pose_prev is not None else pose
         x_prev = self.surface_positions(self.u)
         local_prev = self.contact.local_coordinates(x_prev, pose_prev)
