@@ -233,13 +233,13 @@ class CushionSolver:
         never cut back, so its result does not change. Iterations count every attempt; dissipation
         sums the substeps."""
         cutbacks = self.max_cutbacks if cutbacks is None else cutbacks
-        state = (self.u, self.u_old, self.u_older, self.E_prev, self.normal_force_prev)
-        saved = (*(a.copy() for a in state), self.pose_prev)
+        u, u_old, u_older = self.u.copy(), self.u_old.copy(), self.u_older.copy()
+        E_prev, normal_force_prev, start = self.E_prev.copy(), self.normal_force_prev.copy(), self.pose_prev
         result = self._advance(pose, dt)
-        if result.converged or cutbacks == 0 or saved[5] is None:
+        if result.converged or cutbacks == 0 or start is None:
             return result
-        self.u, self.u_old, self.u_older, self.E_prev, self.normal_force_prev, self.pose_prev = saved
-        start = saved[5]
+        self.u, self.u_old, self.u_older, self.E_prev = u, u_old, u_older, E_prev
+        self.normal_force_prev, self.pose_prev = normal_force_prev, start
         middle = (0.5 * (np.asarray(start[0]) + np.asarray(pose[0])), 0.5 * (start[1] + pose[1]))
         first = self.step(middle, 0.5 * dt, cutbacks - 1)
         if not first.converged:
