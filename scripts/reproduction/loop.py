@@ -135,16 +135,20 @@ def part_campaign(rep: Report, iterations: int, oracle: str) -> CampaignRun:
             "%",
             f"peak {fmt(peak_m)} N m",
         )
-        # the honest definition: the RMS of the error vector's norm, sqrt(mean |F_pred - F_true|^2)
+        # the campaign's force_rmse is the vector definition, sqrt(mean |F_pred - F_true|^2) (recomputed
+        # here from the curves); the per-component mean over fx, fy, fz (fy = 0 by construction) is
+        # sqrt(3) smaller: the definition the campaign used before migration 0007
         vec_f = float(np.sqrt(np.mean(np.sum((fp[:, :3] - ft[:, :3]) ** 2, axis=1))))
         vec_m = float(np.sqrt(np.mean(np.sum((fp[:, 3:] - ft[:, 3:]) ** 2, axis=1))))
+        per_component_f = float(np.sqrt(np.mean((fp[:, :3] - ft[:, :3]) ** 2)))
         rep.add(
             s,
             "force RMSE, vector norm sqrt(mean |F_pred - F_true|^2), last iteration",
             PAPER["force_rmse"],
             vec_f,
             "N",
-            "the per-component mean above is sqrt(3) smaller: it averages over fx, fy, fz (fy = 0 by construction)",
+            f"the campaign's force_rmse (above); the per-component mean over fx, fy, fz (fy = 0 by construction) "
+            f"is sqrt(3) smaller: {fmt(per_component_f)} N",
         )
         rep.add(
             s,
@@ -158,7 +162,7 @@ def part_campaign(rep: Report, iterations: int, oracle: str) -> CampaignRun:
         ratio = np.linalg.norm(fp[:, :3], axis=1).max() / peak_f
         rep.add(s, "predicted / true peak |F|, last iteration", PAPER["peak_ratio"], ratio, "")
         rep.facts.update(
-            rel_force=100 * last.force_rmse / peak_f,
+            rel_force=100 * per_component_f / peak_f,
             rel_moment=100 * last.moment_rmse / peak_m,
             peak_ratio=float(ratio),
         )

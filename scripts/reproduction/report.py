@@ -113,9 +113,10 @@ DIFFERENCES = """\
 - **The RMSE.** The paper's final RMSE (3.32 N, 0.265 N m) is measured against its LS-DYNA model;
   ours against `fe-headrest-2d`. The absolute RMSE scales with the forces of the oracle; the
   relative error (RMSE over the peak) and the trend are what carry over. The campaign's
-  `force_rmse` column averages the squared error over fx, fy and fz (fy is zero by construction
-  in the planar model), which is sqrt(3) below the error of the force vector; the comparison
-  above uses the vector definition sqrt(mean |F_pred - F_true|^2). Both are measured on the
+  `force_rmse` is the error of the force vector, sqrt(mean |F_pred - F_true|^2)
+  ([concepts.md](concepts.md)); a mean over fx, fy and fz (fy is zero by construction in the
+  planar model), alcove's definition before migration 0007, would be sqrt(3) smaller. The
+  paper does not state its definition. Both are measured on the
   campaign's own next trajectory; the held-out validation suite (8 prescribed press motions,
   [concepts.md](concepts.md#the-held-out-validation-suite)) measures the error away from it.
 - **The approach.** With the paper's weights (w_T = 1e-4, w_tau = 1e-3 in the approach) our
