@@ -121,7 +121,7 @@ def service_unavailable(what: str, err: BaseException | str) -> None:
     pytest.skip(f"{what} is not available: {err}")
 
 
-# ----------------------------------------------------------------------------- two phases
+# ----------------------------------------------------------------------------- the phases of make test
 
 #: a test that uses one of these starts worker or API processes (its own PostgreSQL schema, Redis)
 #: or the browser's ``alcove up``: it runs in the serial phase
