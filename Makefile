@@ -1,6 +1,6 @@
 # alcove: one entry point.
 #   make up     set up .venv, build the web UI (if present), migrate, run `alcove up`
-#   make test   set up .venv, build the web UI (if present), run the whole test suite (two phases, see test:)
+#   make test   set up .venv, build the web UI (if present), run the whole test suite (three phases, see test:)
 #   make bench  run the benchmarks (bench/run.py)
 # Everything is installed into .venv/ at the repository root, never the system Python.
 
@@ -63,22 +63,27 @@ up: install frontend
 worker: install
 	$(ALCOVE) worker
 
-# The suite in two phases: first the tests not marked `serial` on $(XDIST_WORKERS) pytest-xdist
-# workers (a file's tests stay on one worker), then the `serial` ones alone: those that start or
-# kill worker processes, restart Redis, drive the browser or compare timings (tests/conftest.py
-# marks them). Both phases always run; make test fails if either fails or collects no tests
-# (pytest's exit code 5).
+# The suite in three phases (tests/conftest.py marks the tests):
+#   1. the tests not marked `serial`, on $(XDIST_WORKERS) pytest-xdist workers (a file's tests stay on one
+#      worker, the listed ones are handed out one by one);
+#   2. the `serial` tests not marked `alone`, also on $(XDIST_WORKERS) workers: they start or kill worker and
+#      API processes, restart a Redis server of their own or drive the browser, each on a PostgreSQL schema,
+#      Redis key prefix, data folder and ports of its own (under xdist a Redis database per worker);
+#   3. the `alone` tests, one at a time with nothing beside them: they compare timings or hold a live
+#      worker to a dead-worker threshold of a few seconds.
+# Every phase always runs; make test fails if any fails or collects no tests (pytest's exit code 5).
 XDIST_WORKERS ?= 2
 test: install frontend
 	@set +e; \
 	$(PY) -m pytest tests -m "not serial" -n $(XDIST_WORKERS) --dist loadfile $(PYTEST_ARGS); rc1=$$?; \
-	$(PY) -m pytest tests -m serial $(PYTEST_ARGS); rc2=$$?; \
-	for rc in $$rc1 $$rc2; do \
+	$(PY) -m pytest tests -m "serial and not alone" -n $(XDIST_WORKERS) --dist loadfile $(PYTEST_ARGS); rc2=$$?; \
+	$(PY) -m pytest tests -m alone $(PYTEST_ARGS); rc3=$$?; \
+	for rc in $$rc1 $$rc2 $$rc3; do \
 	  if [ $$rc -eq 5 ]; then echo "pytest collected no tests in a phase: treated as a failure" >&2; fi; \
 	done; \
-	echo "make test: parallel phase exited with $$rc1, serial phase with $$rc2"; \
-	if [ $$rc1 -ne 0 ]; then exit $$rc1; fi; \
-	exit $$rc2
+	echo "make test: parallel phase exited with $$rc1, serial phase with $$rc2, alone phase with $$rc3"; \
+	for rc in $$rc1 $$rc2; do if [ $$rc -ne 0 ]; then exit $$rc; fi; done; \
+	exit $$rc3
 
 # lint and types: what CI checks besides the tests (.ci/run runs it before make test)
 PY_SOURCES := backend worker tests bench scripts migrations

@@ -9,16 +9,26 @@
 
 When a service is down the tests needing it are skipped locally.
 
-Two phases (``make test``): the tests marked ``serial`` run alone, the others on two
-pytest-xdist workers (``-n 2``). ``serial`` is applied here, at collection
-(:func:`pytest_collection_modifyitems`), to every test that starts worker or API processes,
-kills them, restarts Redis, drives the browser, or measures time against its neighbours (see
-``SERIAL_FIXTURES`` and ``SERIAL_PATHS``); a test file's other tests stay in the parallel
-phase. Each xdist worker has its own PostgreSQL schemas (named after the process), SQLite files
-(its own temporary folder) and Redis database (:func:`redis_url`). Under xdist a file's tests
-stay together on one worker (``--dist loadfile``: module fixtures are built once), the files
-that share an expensive session fixture go to the same worker (``SAME_WORKER``), and the longest
-start first (``LONG_FIRST``).
+Three phases (``make test``), each its own pytest run:
+
+1. the tests not marked ``serial``, on two pytest-xdist workers (``-n 2``);
+2. the ``serial`` tests not marked ``alone``, also on two xdist workers: they start worker or API
+   processes, kill them, restart a Redis server of their own or drive the browser, each with a
+   PostgreSQL schema, Redis key prefix, data folder and ports of its own, but two of them beside
+   two other tests' processes would overload the machine;
+3. the ``alone`` tests, one after the other, nothing beside them: they compare times, or hold a
+   live worker to a dead-worker threshold of a few seconds that a neighbour's load could break.
+
+``serial`` is applied here, at collection (:func:`pytest_collection_modifyitems`), to every test
+that starts worker or API processes, kills them, restarts Redis, drives the browser, or
+measures time against its neighbours (see ``SERIAL_FIXTURES`` and ``SERIAL_PATHS``), and
+``alone`` (with ``serial``) to those of ``ALONE_PATHS``; a test file's other tests stay in the
+parallel phase. Each xdist worker has its own PostgreSQL schemas (named after the process),
+SQLite files (its own temporary folder) and Redis database (:func:`redis_url`). Under xdist a
+file's tests stay together on one worker (``--dist loadfile``: module fixtures are built once),
+except those of ``ONE_TEST_PER_UNIT`` (handed out one by one), the files that share an expensive
+session fixture go to the same worker (``SAME_WORKER``), and the longest start first
+(``LONG_FIRST``).
 
 CI never skips: when ``CI`` is set (``CI=true``), every skip is turned into a failure that
 shows the skip's reason, whatever skipped: ``pytest.skip`` in a test or fixture, a
@@ -111,7 +121,7 @@ def service_unavailable(what: str, err: BaseException | str) -> None:
     pytest.skip(f"{what} is not available: {err}")
 
 
-# ----------------------------------------------------------------------------- two phases
+# ----------------------------------------------------------------------------- the phases of make test
 
 #: a test that uses one of these starts worker or API processes (its own PostgreSQL schema, Redis)
 #: or the browser's ``alcove up``: it runs in the serial phase
@@ -121,8 +131,18 @@ SERIAL_FIXTURES = frozenset({"fresh_pg_url", "redis_url", "alcove_server"})
 SERIAL_PATHS = {
     "tests/campaigns/test_workers.py": "starts and kills worker processes on the embedded default",
     "tests/integration/test_worker_e2e.py": "starts worker and `alcove up` processes on the embedded default",
+}
+
+#: serial tests that run in the third phase, with nothing beside them, and why
+ALONE_PATHS = {
     "tests/api/test_login_throttle.py::test_enumeration_timing_existing_and_unknown_emails_answer_alike": (
         "compares login times (paired, but a neighbour's load is noise)"
+    ),
+    "tests/campaigns/test_recovery.py::test_a_killed_workers_step_runs_again_within_seconds": (
+        "a 4 s dead-worker threshold: a live worker slowed by a neighbour must not look dead"
+    ),
+    "tests/campaigns/test_recovery.py::test_a_slow_worker_keeps_its_step": (
+        "a live worker must keep beating within a 4 s dead-worker threshold"
     ),
 }
 
@@ -130,6 +150,8 @@ SERIAL_PATHS = {
 SAME_WORKER = {
     "tests/cli/test_ocp_cli.py": "ghost_case",  # the ghost-force ensemble, ~25 s to train
     "tests/science/surrogate/test_trust.py": "ghost_case",
+    "tests/e2e/test_browser.py": "alcove_server",  # `alcove up` for the browser (serial phase)
+    "tests/e2e/test_csp.py": "alcove_server",
 }
 
 
@@ -140,12 +162,20 @@ def _relpath(item: pytest.Item) -> str:
         return item.path.as_posix()
 
 
-def is_serial(item: pytest.Item) -> bool:
+def _listed(item: pytest.Item, paths: dict[str, str]) -> bool:
     path = _relpath(item)
     test = f"{path}::{item.name.split('[')[0]}"
-    if any(path == p or test == p or path.startswith(p + "/") for p in SERIAL_PATHS):
+    return any(path == p or test == p or path.startswith(p + "/") for p in paths)
+
+
+def is_serial(item: pytest.Item) -> bool:
+    if _listed(item, SERIAL_PATHS) or _listed(item, ALONE_PATHS):
         return True
     return not SERIAL_FIXTURES.isdisjoint(getattr(item, "fixturenames", ()))
+
+
+def is_alone(item: pytest.Item) -> bool:
+    return _listed(item, ALONE_PATHS)
 
 
 @pytest.hookimpl(tryfirst=True)  # before ``-m`` deselects by marker
@@ -153,16 +183,28 @@ def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item
     for item in items:
         if is_serial(item):
             item.add_marker(pytest.mark.serial)
+        if is_alone(item):
+            item.add_marker(pytest.mark.alone)
 
 
 #: files whose tests share no expensive fixture and together take minutes: each test is handed out
 #: on its own, so that both workers share them
-EACH_TEST_ALONE = frozenset({"tests/science/oracles/test_ccx_oracle.py"})
+ONE_TEST_PER_UNIT = frozenset(
+    {
+        "tests/science/oracles/test_ccx_oracle.py",
+        # the serial phase's (each test has a schema, key prefix, data folder and ports of its own)
+        "tests/campaigns/test_workers.py",
+        "tests/campaigns/test_batch.py",
+        "tests/campaigns/test_recovery.py",
+        "tests/integration/test_worker_e2e.py",
+    }
+)
 
-#: the parallel phase's longest files, tests (of ``EACH_TEST_ALONE``) or ``SAME_WORKER`` groups,
+#: the parallel phase's longest files, tests (of ``ONE_TEST_PER_UNIT``) or ``SAME_WORKER`` groups,
 #: longest first: handed out before the others, so that none starts last while the other worker
 #: idles (from the durations of CI and of one local run; one missing here only starts later)
 _CCX = "tests/science/oracles/test_ccx_oracle.py::"
+_WORKERS = "tests/campaigns/test_workers.py::"
 LONG_FIRST: tuple[str, ...] = (
     f"{_CCX}test_peak_force_at_the_default_mesh_is_within_5_percent_of_a_refined_mesh",  # ~60 s
     "tests/e2e/test_frontend.py",  # Vitest on one thread, ~60 s
@@ -175,13 +217,22 @@ LONG_FIRST: tuple[str, ...] = (
     "tests/campaigns/test_flows.py",
     f"{_CCX}test_a_deep_press_that_stalled_ccx_replays_with_sane_physics",
     "tests/science/surrogate/test_warm_protocol.py",
+    # the serial phase's
+    "alcove_server",  # `alcove up` and three browser runs, ~65 s
+    f"{_WORKERS}test_campaign_run_without_a_worker_names_the_queue_it_waits_on",  # ~27 s
+    f"{_WORKERS}test_killing_the_controlling_process_leaves_a_campaign_that_a_new_worker_finishes",
+    f"{_WORKERS}test_alcove_campaign_run_on_the_embedded_default",
+    "tests/campaigns/test_batch.py::test_a_redis_restart_between_fan_out_and_fan_in_loses_nothing",
+    f"{_WORKERS}test_sigkill_of_a_worker_during_an_oracle_job_loses_and_duplicates_nothing",
+    "tests/campaigns/test_batch.py::test_a_worker_killed_in_one_of_three_oracle_jobs_costs_that_job_only",
+    f"{_WORKERS}test_an_api_restart_mid_campaign_changes_nothing_and_the_new_api_controls_it",
 )
 
 
 @pytest.hookimpl(optionalhook=True)  # a hook of pytest-xdist: unknown without it (``-p no:xdist``)
 def pytest_xdist_make_scheduler(config: pytest.Config, log: Any) -> Any:
     """``--dist loadfile``, except that the files of ``SAME_WORKER`` count as one file, the tests
-    of ``EACH_TEST_ALONE`` as one file each, and those of ``LONG_FIRST`` are handed out first
+    of ``ONE_TEST_PER_UNIT`` as one file each, and those of ``LONG_FIRST`` are handed out first
     (then xdist's order: most tests first)."""
     if config.getoption("dist") != "loadfile":
         return None
@@ -194,7 +245,7 @@ def pytest_xdist_make_scheduler(config: pytest.Config, log: Any) -> Any:
 
         def _split_scope(self, nodeid: str) -> str:
             path = super()._split_scope(nodeid)
-            return nodeid if path in EACH_TEST_ALONE else SAME_WORKER.get(path, path)
+            return nodeid if path in ONE_TEST_PER_UNIT else SAME_WORKER.get(path, path)
 
         def _assign_work_unit(self, node: Any) -> None:
             if not self.ordered:  # the first assignment: the queue is complete

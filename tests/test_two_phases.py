@@ -1,6 +1,7 @@
-"""The two phases of ``make test`` (``tests/conftest.py``): tests that start worker processes
+"""The phases of ``make test`` (``tests/conftest.py``): tests that start worker processes
 (through the fixtures that give them a database schema or Redis of their own), drive the browser,
-or sit in a listed file are marked ``serial``; the others are not. Each phase is its own pytest
+or sit in a listed file are marked ``serial``; the others are not. The listed serial tests that
+compare timings also get ``alone`` (the third phase). Each phase is its own pytest
 run, so a phase that selects nothing exits 5 (which ``make test`` fails on). Under pytest-xdist
 each worker flushes a Redis database of its own."""
 
@@ -45,11 +46,27 @@ def test_plain_parametrized(n):
 @pytest.fixture
 def scratch(pytester: pytest.Pytester) -> pytest.Pytester:
     pytester.makeconftest((REPO / "tests" / "conftest.py").read_text())
-    pytester.makeini("[pytest]\nmarkers =\n    serial: runs alone\n")
+    pytester.makeini("[pytest]\nmarkers =\n    serial: not in parallel\n    alone: nothing beside it\n")
     pytester.makepyfile(test_scratch=SCRATCH)
     (pytester.path / "tests" / "campaigns").mkdir(parents=True)
     (pytester.path / "tests" / "campaigns" / "test_workers.py").write_text("def test_listed_file():\n    pass\n")
+    (pytester.path / "tests" / "campaigns" / "test_recovery.py").write_text(RECOVERY)
     return pytester
+
+
+#: a file with a test listed in ALONE_PATHS (the slow worker) beside a serial one that is not
+RECOVERY = """
+def test_a_slow_worker_keeps_its_step():
+    pass
+
+
+def test_a_job_whose_sender_died_after_the_commit_is_sent_by_a_workers_relay(fresh_pg_url):
+    pass
+
+
+def test_plain_in_a_listed_file():
+    pass
+"""
 
 
 def selected(result: pytest.RunResult) -> set[str]:
@@ -58,9 +75,32 @@ def selected(result: pytest.RunResult) -> set[str]:
 
 def test_serial_marks_worker_tests_and_listed_files_only(scratch: pytest.Pytester) -> None:
     serial = scratch.runpytest("-p", "no:cacheprovider", "--strict-markers", "-m", "serial", "--collect-only", "-q")
-    assert selected(serial) == {"test_starts_workers", "test_listed_file"}
+    assert selected(serial) == {
+        "test_starts_workers",
+        "test_listed_file",
+        "test_a_slow_worker_keeps_its_step",
+        "test_a_job_whose_sender_died_after_the_commit_is_sent_by_a_workers_relay",
+    }
     rest = scratch.runpytest("-p", "no:cacheprovider", "-m", "not serial", "--collect-only", "-q")
-    assert selected(rest) == {"test_plain", "test_plain_parametrized[1]", "test_plain_parametrized[2]"}
+    assert selected(rest) == {
+        "test_plain",
+        "test_plain_parametrized[1]",
+        "test_plain_parametrized[2]",
+        "test_plain_in_a_listed_file",
+    }
+
+
+def test_the_phases_split_serial_tests_into_parallel_ones_and_those_that_run_alone(scratch: pytest.Pytester) -> None:
+    """make test's phases 2 and 3: every serial test is in exactly one of them."""
+    args = ("-p", "no:cacheprovider", "--strict-markers", "--collect-only", "-q")
+    alone = scratch.runpytest(*args, "-m", "alone")
+    assert selected(alone) == {"test_a_slow_worker_keeps_its_step"}
+    beside = scratch.runpytest(*args, "-m", "serial and not alone")
+    assert selected(beside) == {
+        "test_starts_workers",
+        "test_listed_file",
+        "test_a_job_whose_sender_died_after_the_commit_is_sent_by_a_workers_relay",
+    }
 
 
 def test_a_phase_that_selects_nothing_exits_5(scratch: pytest.Pytester) -> None:

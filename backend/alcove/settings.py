@@ -73,6 +73,14 @@ class Settings(BaseSettings):
     worker_stale_seconds: float = Field(
         default=60.0, description="A worker not seen for this long counts as gone (readiness, reconciler)"
     )
+    worker_watch_seconds: float = Field(
+        default=5.0,
+        gt=0,
+        description=(
+            "How often (s) `alcove campaign run --no-worker` checks that a live worker serves the queue "
+            "its campaign waits on"
+        ),
+    )
     worker_concurrency: int | None = Field(
         default=None, description="Processes per worker started by `alcove up` (default: CPU count)"
     )

@@ -25,7 +25,7 @@ from alcove.db import session_scope
 from alcove.db.arrays import get_arrays
 from alcove.models import Dataset, OcpSolution
 from alcove.pool import repository as pool_repo
-from tests.integration.procs import PrivateRedis, db_rows, start_worker, unique
+from tests.integration.procs import PrivateRedis, db_rows, start_worker, stop_all, unique
 from tests.integration.procs import wait_until as wait_for
 
 TASK = "head-headrest-scenarios"
@@ -341,8 +341,7 @@ def test_a_worker_killed_in_one_of_three_oracle_jobs_costs_that_job_only(
         )
         time.sleep(3.0)  # the duplicates arrive and are refused
     finally:
-        for p in workers.values():
-            p.stop()
+        stop_all(workers.values())
     assert db_rows(pg_url, ENDED, c=cid) == [("completed", "max_iterations")]
     assert slots(pg_url, cid) == got
     assert {k: v[:2] for k, v in got.items()} == {
@@ -396,8 +395,7 @@ def test_a_redis_restart_between_fan_out_and_fan_in_loses_nothing(
         redis_server.start()
         wait_for(lambda: db_rows(pg_url, ENDED, c=cid), 240, "the campaign to end", procs[0])
     finally:
-        for p in procs:
-            p.stop()
+        stop_all(procs)
         redis_server.stop()
     assert db_rows(pg_url, ENDED, c=cid) == [("completed", "max_iterations")]
     assert {k: v[:2] for k, v in slots(pg_url, cid).items()} == {
@@ -449,8 +447,7 @@ def test_two_campaigns_sharing_one_oracle_worker_both_advance(
                 most[cid] = max(most[cid], busy)
             time.sleep(0.05)
     finally:
-        for p in procs:
-            p.stop()
+        stop_all(procs)
     for cid in cids:
         assert db_rows(pg_url, ENDED, c=cid) == [("completed", "max_iterations")]
         appended_once(pg_url, cid, Q)

@@ -27,7 +27,7 @@ from typing import Any
 
 import pytest
 
-from tests.integration.procs import PrivateRedis, db_rows, start_worker, unique
+from tests.integration.procs import PrivateRedis, db_rows, start_worker, stop_all, unique
 from tests.integration.procs import wait_until as wait_for
 
 pytestmark = [pytest.mark.integration, pytest.mark.slow]
@@ -85,11 +85,6 @@ KILL_THRESHOLDS = (
 )
 
 
-def stop_all(procs: dict[str, Any]) -> None:
-    for p in procs.values():
-        p.stop()
-
-
 def test_a_killed_workers_step_runs_again_within_seconds(
     pg_redis_default_lease: dict[str, str], pg_url: str, tmp_path: Path, make_campaign: Any
 ) -> None:
@@ -130,7 +125,7 @@ def test_a_killed_workers_step_runs_again_within_seconds(
             assert recovery < 60, recovery  # a generous bound: the target is 30 s, the lease 120 s
         wait_for(lambda: db_rows(pg_url, ENDED, c=cid), 240, "the campaign to end", alive())
     finally:
-        stop_all(workers)
+        stop_all(workers.values())
     assert db_rows(pg_url, ENDED, c=cid) == [("completed", "max_iterations")]
     for step in steps:
         assert step_row(pg_url, cid, 1, step)[:2] == ("succeeded", 2)
@@ -158,7 +153,7 @@ def test_a_slow_worker_keeps_its_step(
             lambda: step_row(pg_url, cid, 0, "preliminary")[0] == "succeeded", 120, "the slow step to finish", other
         )
     finally:
-        stop_all(workers)
+        stop_all(workers.values())
     assert step_row(pg_url, cid, 0, "preliminary")[:2] == ("succeeded", 1)
     assert events(pg_url, cid, "step_requeued", "preliminary") == []
     assert [d["attempt"] for (d,) in events(pg_url, cid, "step_started", "preliminary")] == [1]
@@ -215,7 +210,7 @@ def test_jobs_wait_for_redis_and_a_restart_before_pick_up_loses_nothing(
         procs["ocp"] = start_worker(env, tmp_path / "ocp.log", unique("ro"), queues="ocp")
         wait_for(lambda: db_rows(pg_url, ENDED, c=cid), 240, "the campaign to end", procs["main"])
     finally:
-        stop_all(procs)
+        stop_all(procs.values())
         redis_server.stop()
     print(
         f"\nRECOVERY Redis down while a step finished: next job sent {waited:.1f} s after Redis was back; "

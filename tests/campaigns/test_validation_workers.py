@@ -12,7 +12,7 @@ from typing import Any
 
 import pytest
 
-from tests.integration.procs import alcove_env, db_rows, start_worker
+from tests.integration.procs import alcove_env, db_rows, start_worker, stop_all
 from tests.integration.procs import wait_until as wait_for
 
 pytestmark = [pytest.mark.integration, pytest.mark.slow]
@@ -91,8 +91,7 @@ def test_two_campaigns_share_one_suite_replayed_once_and_every_model_is_evaluate
         send_job(MOTION_JOB, motion_id)  # a duplicate delivery of a finished motion: a no-op
         wait_for(lambda: "duplicate" in oracle.output(), 60, "the duplicate motion job", oracle)
     finally:
-        steps.stop()
-        oracle.stop()
+        stop_all([steps, oracle])
 
     suites = db_rows(pg_url, "SELECT validation_suite_id FROM campaigns WHERE id IN (:a, :b)", a=a, b=b)
     assert len({s for (s,) in suites}) == 1 and suites[0][0] is not None  # one suite, shared

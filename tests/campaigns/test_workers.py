@@ -31,6 +31,7 @@ from tests.integration.procs import (
     http_ok,
     pid_alive,
     start_worker,
+    stop_all,
     unique,
 )
 from tests.integration.procs import wait_until as wait_for
@@ -151,7 +152,7 @@ def test_campaign_run_without_a_worker_names_the_queue_it_waits_on(tmp_path: Pat
     --json, without a terminal) instead of waiting silently, and goes on once workers appear."""
     cfg = tmp_path / "quick.yaml"
     cfg.write_text(QUICK_YAML)
-    env = env_for(data_dir=tmp_path / "data")
+    env = env_for(data_dir=tmp_path / "data", worker_watch_seconds=1)  # checked every 1 s, not 5 s
     run = Proc(
         [
             "campaign",
@@ -193,9 +194,7 @@ def test_campaign_run_without_a_worker_names_the_queue_it_waits_on(tmp_path: Pat
         out = json.loads([line for line in run.output().splitlines() if line.startswith("{")][-1])
         assert (out["status"], out["iterations_finished"]) == ("completed", 1)
     finally:
-        run.stop()
-        for w in workers:
-            w.stop()
+        stop_all([run, *workers])
 
 
 # ----------------------------------------------------------------------------- PostgreSQL + Redis
@@ -499,8 +498,7 @@ def test_an_api_restart_mid_campaign_changes_nothing_and_the_new_api_controls_it
             == "completed"
         )
     finally:
-        api.stop()
-        w.stop()
+        stop_all([api, w])
     assert rows(pg_url, "SELECT status, stop_reason FROM campaigns WHERE id = :c", c=cid) == [
         ("completed", "max_iterations")
     ]

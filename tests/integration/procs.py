@@ -10,7 +10,7 @@ import subprocess
 import sys
 import time
 import uuid
-from collections.abc import Iterator
+from collections.abc import Iterable, Iterator
 from contextlib import contextmanager, suppress
 from pathlib import Path
 from typing import Any
@@ -59,14 +59,33 @@ class Proc:
             os.killpg(self.p.pid, signal.SIGKILL)
         self.p.wait(timeout=10)
 
-    def stop(self, timeout: float = 30) -> int:
+    def terminate(self) -> None:
+        """SIGTERM (a worker's warm shutdown), without waiting: see :meth:`stopped`."""
         if self.p.poll() is None:
             self.p.send_signal(signal.SIGTERM)
-            with suppress(subprocess.TimeoutExpired):
-                self.p.wait(timeout=timeout)
+
+    def stopped(self, timeout: float = 30) -> int:
+        """Wait up to ``timeout`` s for the process to exit, then SIGKILL what is left of it."""
+        with suppress(subprocess.TimeoutExpired):
+            self.p.wait(timeout=timeout)
         with suppress(ProcessLookupError):
             os.killpg(self.p.pid, signal.SIGKILL)
         return self.p.wait(timeout=10)
+
+    def stop(self, timeout: float = 30) -> int:
+        self.terminate()
+        return self.stopped(timeout)
+
+
+def stop_all(procs: Iterable[Proc], timeout: float = 30) -> None:
+    """Stop several processes at once: SIGTERM to each, then wait for each. A worker's warm
+    shutdown takes seconds (up to two 2 s polls of the filesystem broker, then its pool), which
+    one after the other would add up."""
+    procs = list(procs)
+    for proc in procs:
+        proc.terminate()
+    for proc in procs:
+        proc.stopped(timeout)
 
 
 @contextmanager

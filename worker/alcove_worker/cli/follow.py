@@ -132,7 +132,8 @@ def queue_without_worker(step: str | None) -> str | None:
 
 class _WorkerWatch:
     """Tells once (on stderr, also without a terminal) when the campaign waits on a queue no
-    live worker serves, and again when one turns up; checked every ``every`` seconds."""
+    live worker serves, and again when one turns up; checked every ``every`` seconds
+    (``ALCOVE_WORKER_WATCH_SECONDS``)."""
 
     def __init__(self, console: Any, every: float = 5.0, grace: float = 3.0) -> None:
         self.console, self.every = console, every
@@ -165,8 +166,10 @@ def follow(
     from rich.console import Console
     from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 
+    from alcove.settings import get_settings
+
     console = Console(stderr=True)
-    watch = _WorkerWatch(console) if worker is None else None
+    watch = _WorkerWatch(console, every=get_settings().worker_watch_seconds) if worker is None else None
     detail = read_detail(campaign_id)
     total = detail.config.stopping.max_iterations
     start_k = detail.campaign.source_iteration or 0
