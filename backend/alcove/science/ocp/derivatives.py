@@ -96,10 +96,8 @@ def structured_derivatives(
     n_par: int,
     x: ca.MX,
     par: ca.MX,
-    g: ca.MX,
     node_rows: IntArray,
     path: ca.Function | None = None,
-    path_row: int = 0,
     path_hessian: str = "exact",
 ) -> tuple[ca.Function, ca.Function]:
     """``jac_g(x, p) -> (g, J)`` and ``hess_lag(x, p, lam_f, lam_g) -> triu(H)`` for nlpsol.
@@ -107,8 +105,8 @@ def structured_derivatives(
     ``mechanics`` are the interval functions without the contact (:func:`.discrete_mechanics.interval_functions`).
 
     ``node_rows`` (N+1, ndof): the row of g holding the constraint of node k (-1: none).
-    ``path`` ``(q, qd, p) -> scalar``: a path constraint at every interval midpoint, rows
-    ``path_row .. path_row + N - 1`` of g (:func:`.dmocc.nlp_expressions`); like the contact it
+    ``path`` ``(q, qd, p) -> scalar``: a path constraint at every interval midpoint, the N
+    rows of g after the node constraints (:func:`.dmocc.nlp_expressions`); like the contact it
     depends on z_k only through y = (q_k+1/2, v_k), so its gradient and its multiplier-weighted
     Hessian are taken in y and mapped back with T. ``path_hessian="convex"``: the path term's
     Hessian block in y is replaced by its positive semidefinite part (:func:`psd_part_2x2`; for a
@@ -118,7 +116,6 @@ def structured_derivatives(
     """
     n, N = chain.ndof, problem.intervals
     n_q = n * (N + 1)
-    m = int(g.shape[0])
     # ---- local SX functions --------------------------------------------------------
     z = ca.SX.sym("z", 3 * n)
     qa, qb, u = z[:n], z[n : 2 * n], z[2 * n :]
@@ -232,10 +229,12 @@ def structured_derivatives(
         (last_jac(zN), last_rows, z_cols[-1:]),
     ]
     g_local = node_constraints(chain, problem, Q, left_all, right_all)
+    path_row = int(ca.vertcat(*g_local).shape[0])  # the path rows follow the node constraints
     if path is not None:
         jac_blocks.append((local[4], path_row + np.arange(N)[:, None], z_cols))
         g_local.append(ca.vec(local[3]))
     g = ca.vertcat(*g_local)
+    m = int(g.shape[0])
     J = _scatter(m, x.shape[0], jac_blocks)
     jac_g = ca.Function("nlp_jac_g", [x, par], [g, J], ["x", "p"], ["g", "jac_g_x"])
 

@@ -232,10 +232,8 @@ class Transcription:
                     self.n_par,
                     mx.x,
                     mx.par,
-                    mx.g,
                     self._constraint_rows(),
                     self.path,
-                    int(mx.g.shape[0]) - N,
                     self.path_hessian,
                 )
                 self._derivative_options = {"jac_g": jac_g, "hess_lag": hess_lag}
