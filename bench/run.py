@@ -8,6 +8,7 @@ from __future__ import annotations
 import argparse
 import importlib
 import json
+import os
 import pkgutil
 import platform
 import sys
@@ -35,6 +36,51 @@ def _cpu_seconds() -> float:
     return own.ru_utime + own.ru_stime + children.ru_utime + children.ru_stime
 
 
+def machine() -> dict[str, Any]:
+    """What the figures were measured on: CPU model, CPUs this process may use, load average, and two
+    reference timings (best of 3), so that runs on different machines can be compared: a pure-Python loop
+    (interpreter speed: the OCP's setup, the API) and PyTorch's float64 softplus on 30,720 values, one thread
+    (the training's dominant kernel: members x hidden units x batch of the K = 5 training)."""
+    import torch
+
+    model = "unknown"
+    try:
+        for line in Path("/proc/cpuinfo").read_text().splitlines():
+            if line.startswith("model name"):
+                model = line.split(":", 1)[1].strip()
+                break
+    except OSError:
+        pass
+
+    def best_of_3(fn: Any) -> float:
+        times = []
+        for _ in range(3):
+            start = time.perf_counter()
+            fn()
+            times.append(time.perf_counter() - start)
+        return min(times)
+
+    def python_loop() -> None:
+        total = 0
+        for i in range(2_000_000):
+            total += i
+
+    x = torch.linspace(-5.0, 5.0, 30_720, dtype=torch.float64)
+    threads = torch.get_num_threads()
+    torch.set_num_threads(1)
+    try:
+        softplus = best_of_3(lambda: [torch.nn.functional.softplus(x) for _ in range(100)]) / 100
+    finally:
+        torch.set_num_threads(threads)
+    return {
+        "cpu": model,
+        "cpus": len(os.sched_getaffinity(0)),
+        "load_average": [round(v, 2) for v in os.getloadavg()],
+        "python_loop_2e6_s": round(best_of_3(python_loop), 4),
+        "softplus_30720_f64_us": round(softplus * 1e6, 1),
+    }
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__)
     ap.add_argument("--quick", action="store_true", help="fewer repetitions, skip the long figures (< 2 min)")
@@ -48,6 +94,12 @@ def main(argv: list[str] | None = None) -> int:
     t_start = time.perf_counter()
     cpu_start = _cpu_seconds()
     harness.MODE = "quick" if args.quick else "full"
+    host = machine()
+    console.print(
+        f"machine: {host['cpu']}, {host['cpus']} CPUs, load {host['load_average']}; reference: Python loop of "
+        f"2e6 additions {host['python_loop_2e6_s']:.3f} s, float64 softplus of 30,720 values "
+        f"{host['softplus_30720_f64_us']:.0f} us (compare these before comparing figures across machines)"
+    )
     # a setup shared by several figures (the same function) runs once per bench run
     setups: dict[Any, Any] = {}
     failed: list[str] = []
@@ -138,6 +190,8 @@ def main(argv: list[str] | None = None) -> int:
         "mode": "quick" if args.quick else "full",
         "python": sys.version.split()[0],
         "machine": platform.platform(),
+        "host": host,
+        "load_average_end": [round(v, 2) for v in os.getloadavg()],
         "wall_time_s": time.perf_counter() - t_start,
         "cpu_time_s": _cpu_seconds() - cpu_start,
         "figures": rows,

@@ -246,9 +246,9 @@ def model_from_dict(doc: dict[str, Any]) -> SurrogateModel:
                     "members", f"holds {1 + len(extra)} member(s), the config says ensemble_size {config.ensemble_size}"
                 )
             config = config.model_copy(update={"ensemble_size": 1 + len(extra)})  # format 1: one model
-        dtype = torch.float64 if config.dtype == "float64" else torch.float32
-        members = [_member_from_dict(doc, dtype, "")]
-        members += [_member_from_dict(m, dtype, f"members.{i}.") for i, m in enumerate(extra)]
+        # held in float64 whatever the training's precision (config.dtype): float32 weights are exact in float64
+        members = [_member_from_dict(doc, torch.float64, "")]
+        members += [_member_from_dict(m, torch.float64, f"members.{i}.") for i, m in enumerate(extra)]
         model = SurrogateModel.from_members(
             members,
             config=config,

@@ -180,7 +180,12 @@ class SurrogateConfig(BaseModel):
         description="members K of the deep ensemble [-], 1 to 64: each with its own seed and 70/30 + 80/20 split; "
         "predictions are the members' mean and standard deviation (1: the paper's single model)",
     )
-    dtype: Literal["float64", "float32"] = Field("float64", description="floating-point precision of the networks")
+    dtype: Literal["float64", "float32"] = Field(
+        "float64",
+        description="floating-point precision of the training arithmetic; the trained networks are held, stored "
+        "and evaluated in float64 (float32 weights are exact in float64), so predictions, the OCP and the exports "
+        "use the same numbers",
+    )
 
     @classmethod
     def parse(cls, data: dict[str, Any]) -> SurrogateConfig:

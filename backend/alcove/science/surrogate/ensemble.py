@@ -1,13 +1,19 @@
 """Vectorised training of the K members of an ensemble, both nets, in plain PyTorch.
 
-Every net (force, moment) of the K members is held as batched weight tensors
-``W_l (K, out, in)``, ``b_l (K, out)``; one ``torch.baddbmm`` per layer evaluates all K members
-on their own batch, autograd gives the gradient and ``torch.optim.Adam`` updates all members at
-once. The members' losses are disjoint sums and Adam is elementwise, so each member's
-trajectory is the one it would have trained alone on the same batches. Both nets take one loss
-(the sum of theirs: disjoint graphs), one backward pass and one Adam step per batch; first-layer
-inputs that are exactly zero in every training and validation row are left out of the trained tensors
-(:class:`BatchedNet`; their gradient is exactly zero, so Adam would never move those weights).
+Every net (force, moment) of the K members is held as one leaf tensor (K, P) whose views are the
+batched weights ``W_l (K, out, in)``, ``b_l (K, out)`` (:class:`BatchedNet`); one ``torch.baddbmm``
+per layer evaluates all K members on their own batch, autograd gives the gradient and one
+``torch.optim.Adam`` per net updates all members at once. The members' losses are disjoint sums
+and Adam is elementwise, so each member's trajectory is the one it would have trained alone on the
+same batches. First-layer inputs that are exactly zero in every training and validation row are
+left out of the trained tensor (:class:`BatchedNet`; their gradient is exactly zero, so Adam would
+never move those weights).
+
+The two nets share the epoch's shuffle but nothing else (own loss, backward pass, Adam and early
+stopping), so they train concurrently, each on its own thread with one intra-op thread
+(``parallel``, default: when the process may use two CPUs). PyTorch releases the GIL inside its
+kernels and runs a CPU backward pass on the calling thread; each net's arithmetic is the same on
+either thread, so the weights are bit-identical with and without ``parallel``.
 
 Batches: member k shuffles its own training rows every epoch (``torch.randperm`` with its own
 generator) and cuts the permutation into ``S = ceil(n_max / batch_size)`` batches, ``n_max`` the
@@ -36,7 +42,9 @@ data. The ``paper`` architecture's arithmetic is unchanged (no gate column, no o
 from __future__ import annotations
 
 import math
+import os
 from collections.abc import Callable
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 
 import numpy as np
@@ -90,46 +98,59 @@ def _activation(name: str) -> Callable[[torch.Tensor], torch.Tensor]:
 
 
 class BatchedNet:
-    """The same MLP architecture for K members as batched weight tensors (leaf tensors with grad).
+    """The same MLP architecture for K members as one leaf tensor ``flat`` (K, P) with grad: row k
+    holds member k's weights and biases, layer by layer; the layers' ``W_l (K, out, in)`` and
+    ``b_l (K, out)`` are views of it (:meth:`layers`). One tensor per net keeps Adam's work per step
+    to one fused update (its fixed cost per parameter tensor dominated the step of these small nets).
 
     ``columns``: the input rows the first layer is trained on (default all). Inputs that are
     exactly zero in every member's training and validation rows (the structurally constant features of planar
     motion, centred to 0) give their first-layer weights an exactly zero gradient, so Adam never
-    moves them (its moments stay 0): they are left out of the batched tensors (fewer operations
+    moves them (its moments stay 0): they are left out of the trained tensor (fewer operations
     per step) and kept aside unchanged (:meth:`full_parameters`).
     """
 
     def __init__(self, nets: list[MLP], columns: torch.Tensor | None = None):
         self.activation = _activation(nets[0].activation)
         layers = [net.linears() for net in nets]
-        full = [torch.stack([ls[i].weight.detach() for ls in layers]) for i in range(len(layers[0]))]
-        n_in = full[0].shape[2]
+        weights = [torch.stack([ls[i].weight.detach() for ls in layers]) for i in range(len(layers[0]))]
+        biases = [torch.stack([ls[i].bias.detach() for ls in layers]) for i in range(len(layers[0]))]
+        n_in = weights[0].shape[2]
         self.columns = torch.arange(n_in) if columns is None else columns
         self.reduced = self.columns.numel() < n_in
-        self.first_full = full[0].clone()  # (K, out, n_in): the left-out columns keep these values
-        full[0] = full[0][:, :, self.columns] if self.reduced else full[0]
-        self.weights = [w.clone().requires_grad_() for w in full]
-        self.biases = [
-            torch.stack([ls[i].bias.detach() for ls in layers]).requires_grad_() for i in range(len(layers[0]))
+        self.first_full = weights[0].clone()  # (K, out, n_in): the left-out columns keep these values
+        if self.reduced:
+            weights[0] = weights[0][:, :, self.columns]
+        self.shapes = [tuple(w.shape[1:]) for w in weights]
+        parts = [t.flatten(1) for pair in zip(weights, biases, strict=True) for t in pair]
+        self.sizes = [p.shape[1] for p in parts]
+        self.flat = torch.cat(parts, 1).requires_grad_()
+
+    def layers(self, flat: torch.Tensor | None = None) -> list[tuple[torch.Tensor, torch.Tensor]]:
+        """``(W_l (K, out, in), b_l (K, out))`` per layer: views of ``flat`` (default the trained tensor)."""
+        pieces = (self.flat if flat is None else flat).split_with_sizes(self.sizes, 1)
+        return [
+            (w.view(w.shape[0], *shape), b) for w, b, shape in zip(pieces[0::2], pieces[1::2], self.shapes, strict=True)
         ]
 
     def parameters(self) -> list[torch.Tensor]:
-        return [t for pair in zip(self.weights, self.biases, strict=True) for t in pair]
+        return [self.flat]
 
     def full_parameters(self) -> list[torch.Tensor]:
-        """The parameters (detached) with the first layer's left-out input columns restored."""
-        out = [p.detach() for p in self.parameters()]
+        """The parameters per layer (W_0, b_0, W_1, ..., detached) with the first layer's left-out
+        input columns restored."""
+        out = [p for pair in self.layers(self.flat.detach()) for p in pair]
         if self.reduced:
             out[0] = self.first_full.index_copy(2, self.columns, out[0])
         return out
 
-    def forward(self, z: torch.Tensor, weights: list[torch.Tensor] | None = None) -> torch.Tensor:
-        """(K, n_in, n) -> (K, n_out, n): samples as columns (the faster layout for small widths).
-        ``z`` holds the trained input rows (``columns``) unless ``weights`` (full) are given."""
-        ws = self.weights if weights is None else weights
+    def forward(self, z: torch.Tensor) -> torch.Tensor:
+        """(K, n_in, n) -> (K, n_out, n): samples as columns (the faster layout for small widths);
+        ``z`` holds the trained input rows (``columns``)."""
+        layers = self.layers()
         h = z
-        last = len(ws) - 1
-        for i, (w, b) in enumerate(zip(ws, self.biases, strict=True)):
+        last = len(layers) - 1
+        for i, (w, b) in enumerate(layers):
             h = torch.baddbmm(b.unsqueeze(2), w, h)
             if i < last:
                 h = self.activation(h)
@@ -144,12 +165,11 @@ class BatchedNet:
             b[members] = p[rows]
 
     def select(self, rows: torch.Tensor) -> list[tuple[torch.Tensor, torch.Tensor]]:
-        """Keep only the batch rows ``rows``: new leaf tensors; returns (old, new) pairs of parameters."""
-        old = self.parameters()
-        new = [p.detach()[rows].clone().requires_grad_() for p in old]
-        self.weights, self.biases = new[0::2], new[1::2]
+        """Keep only the batch rows ``rows``: a new leaf tensor; returns the (old, new) pair."""
+        old = self.flat
+        self.flat = old.detach()[rows].clone().requires_grad_()
         self.first_full = self.first_full[rows]
-        return list(zip(old, new, strict=True))
+        return [(old, self.flat)]
 
     def write(self, best: list[torch.Tensor], nets: list[MLP]) -> None:
         with torch.no_grad():
@@ -216,8 +236,11 @@ class EnsembleTrainer:
         generators: list[torch.Generator],
         gated: GatedOutputs | None = None,
         warm: dict[str, list[bool]] | None = None,
+        parallel: bool | None = None,
     ):
         self.nets, self.config, self.generators, self.gated = nets, config, generators, gated
+        # the two nets on two threads when this process may use two CPUs (module docstring)
+        self.parallel = len(os.sched_getaffinity(0)) >= 2 if parallel is None else parallel
         self.K = len(data)
         # the stopping rule and step size per net: the paper's, or the warm start's when every member
         # of the net carries its previous weights (module docstring)
@@ -229,11 +252,7 @@ class EnsembleTrainer:
         nonzero = torch.stack([(d.z_train != 0).any(0) | (d.z_val != 0).any(0) for d in data]).any(0)
         self.columns = torch.nonzero(nonzero).flatten()
         self.batched = {k: BatchedNet(nets[k], self.columns) for k in NETS}
-        self.optimizer = torch.optim.Adam(
-            [{"params": self.batched[k].parameters(), "lr": self.rule[k].learning_rate, "net": k} for k in NETS],
-            lr=config.learning_rate,
-            fused=True,
-        )
+        self.optimizers = {k: self._adam(k) for k in NETS}
         self.n_rows = [d.z_train.shape[0] for d in data]
         n_max = max(self.n_rows)
         self.B = min(config.batch_size, n_max)
@@ -287,9 +306,24 @@ class EnsembleTrainer:
     def _active_nets(self) -> list[str]:
         return [k for k in NETS if not bool(self.stopped[k].all())]
 
+    def _run(self, work: Callable[[str], None], nets: list[str]) -> None:
+        """``work(net)`` for each of ``nets``, concurrently when ``parallel`` (module docstring)."""
+        if not self.parallel or len(nets) < 2:
+            for k in nets:
+                work(k)
+            return
+
+        def one_thread(k: str) -> None:
+            torch.set_num_threads(1)  # the intra-op setting is per thread (OpenMP): the caller's one thread
+            work(k)
+
+        with ThreadPoolExecutor(max_workers=len(nets), thread_name_prefix="alcove-train") as pool:
+            for done in [pool.submit(one_thread, k) for k in nets]:
+                done.result()
+
     def epoch(self) -> None:
-        """One epoch: per batch one loss (the sum over the active nets: their graphs are disjoint,
-        so each net's gradient is its own), one backward pass and one Adam step for both nets."""
+        """One epoch: the members' shuffle (shared by both nets), then per net and batch one loss,
+        one backward pass and one Adam step; the two nets concurrently (``parallel``)."""
         idx, div = self._epoch_layout()
         C = self.table.shape[1]
         cols = self.table.gather(2, idx.unsqueeze(1).expand(self.K, C, idx.shape[1]))  # (K, C, S*B)
@@ -297,31 +331,22 @@ class EnsembleTrainer:
         y = {"force": cols[:, self.n_in : self.n_in + 3], "moment": cols[:, self.n_in + 3 : self.n_in + 6]}
         scale = (cols[:, -1] / div.to(cols.dtype) / 3.0).unsqueeze(1)
         gate = None if self.gated is None else cols[:, self.n_in + 6 : self.n_in + 7]
-        active = self._active_nets()
-        data = []
-        for k in active:
+
+        def steps(k: str) -> None:
             rows = self.active[k]
             full = rows.numel() == self.K
-            data.append(
-                (
-                    k,
-                    self.batched[k],
-                    z if full else z[rows],
-                    y[k] if full else y[k][rows],
-                    scale if full else scale[rows],
-                    None if gate is None else (gate if full else gate[rows]),
-                )
-            )
-        optimizer = self.optimizer
-        for s in range(self.S):
-            sl = slice(s * self.B, (s + 1) * self.B)
-            optimizer.zero_grad(set_to_none=True)
-            loss = sum(
-                ((self._output(k, net.forward(zk[:, :, sl]), gk, sl) - yk[:, :, sl]).square() * wk[:, :, sl]).sum()
-                for k, net, zk, yk, wk, gk in data
-            )
-            loss.backward()  # type: ignore[union-attr]
-            optimizer.step()
+            net = self.batched[k]
+            zk, yk, wk = (z, y[k], scale) if full else (z[rows], y[k][rows], scale[rows])
+            gk = None if gate is None else (gate if full else gate[rows])
+            optimizer = self.optimizers[k]
+            for s in range(self.S):
+                sl = slice(s * self.B, (s + 1) * self.B)
+                optimizer.zero_grad(set_to_none=True)
+                err = self._output(k, net.forward(zk[:, :, sl]), gk, sl) - yk[:, :, sl]
+                torch.autograd.backward((err.square() * wk[:, :, sl]).sum())
+                optimizer.step()
+
+        self._run(steps, self._active_nets())
 
     def _output(self, k: str, out: torch.Tensor, gate: torch.Tensor | None, sl: slice) -> torch.Tensor:
         """The nets' standardised outputs as trained: the paper's as they are, the ``gated``
@@ -331,74 +356,63 @@ class EnsembleTrainer:
         assert gate is not None
         return self.gated.standardised(k, out, gate[:, :, sl], self.active[k])
 
-    def _rebuild_optimizer(self, replaced: dict[torch.Tensor, tuple[torch.Tensor, torch.Tensor]]) -> None:
-        """A new Adam over the active nets' parameters, carrying every kept row's moments and step
-        (``replaced``: old parameter -> (new parameter, kept rows))."""
-        old_state = self.optimizer.state
-        active = self._active_nets()
-        params = [p for k in active for p in self.batched[k].parameters()]
-        defaults = self.optimizer.defaults
-        adam = torch.optim.Adam(
-            [{"params": self.batched[k].parameters(), "lr": self.rule[k].learning_rate, "net": k} for k in active],
-            **{k: defaults[k] for k in ("lr", "betas", "eps", "fused")},
-        )
-        new_to_old = {id(new): (old, rows) for old, (new, rows) in replaced.items()}
-        for p in params:
-            old, rows = new_to_old.get(id(p), (p, None))
+    def _adam(self, k: str) -> torch.optim.Adam:
+        return torch.optim.Adam(self.batched[k].parameters(), lr=self.rule[k].learning_rate, fused=True)
+
+    def _drop_members(self, k: str, rows: torch.Tensor) -> None:
+        """Keep only the batch rows ``rows`` of net ``k``: a new Adam carrying their moments and step."""
+        old_state = self.optimizers[k].state
+        pairs = self.batched[k].select(rows)
+        adam = self._adam(k)
+        for old, new in pairs:
             state = old_state.get(old)
             if state:
-                adam.state[p] = {
+                adam.state[new] = {
                     "step": state["step"].clone(),
-                    "exp_avg": state["exp_avg"] if rows is None else state["exp_avg"][rows].clone(),
-                    "exp_avg_sq": state["exp_avg_sq"] if rows is None else state["exp_avg_sq"][rows].clone(),
+                    "exp_avg": state["exp_avg"][rows].clone(),
+                    "exp_avg_sq": state["exp_avg_sq"][rows].clone(),
                 }
-        self.optimizer = adam
+        self.optimizers[k] = adam
 
     def validate(self, epoch: int) -> bool:
         """Validation losses, best weights, stopping; False when every member of every net has stopped.
 
         ``epoch`` 0 (before any step) makes the starting weights a candidate: a warm start keeps the
         previous model's weights of a member when no epoch improves on them within ``patience``."""
-        changed = False
-        replaced: dict[torch.Tensor, tuple[torch.Tensor, torch.Tensor]] = {}
-        with torch.no_grad():
-            for k in NETS:
-                if bool(self.stopped[k].all()):
-                    continue
-                members = self.active[k]
-                net = self.batched[k]
-                out = net.forward(self.z_val[members])
-                if self.gated is not None:
-                    assert self.g_val is not None
-                    out = self.gated.standardised(k, out, self.g_val[members], members)
-                err = (out - self.y_val[k][members]).square()
-                loss = (err.mean(1) * self.w_val[members]).sum(1) / self.w_val_sum[members]
-                full = torch.full((self.K,), math.nan, dtype=torch.float64)
-                full[members] = loss.double()
-                self.history[k].append(full.tolist())
-                improved = loss.double() < self.best_loss[k][members] * (1.0 - self.rule[k].min_improvement)
-                if bool(improved.any()):
-                    rows = torch.nonzero(improved).flatten()
-                    self.best_loss[k][members[rows]] = loss[rows].double()
-                    net.keep(self.best[k], rows, members[rows])
-                keep = []
-                for row, m in enumerate(members.tolist()):
-                    self.epochs[k][m] = epoch
-                    if improved[row]:
-                        self.best_epoch[k][m] = epoch
-                    if epoch - self.best_epoch[k][m] >= self.rule[k].patience or epoch >= self.rule[k].max_epochs:
-                        self.stopped[k][m] = True
-                        continue
-                    keep.append(row)
-                if len(keep) < members.numel():  # some stopped: they leave the batched tensors
-                    changed = True
-                    if keep:
-                        rows = torch.tensor(keep)
-                        replaced.update({old: (new, rows) for old, new in net.select(rows)})
-                        self.active[k] = members[rows]
-        if changed and self._active_nets():
-            self._rebuild_optimizer(replaced)
+        self._run(lambda k: self._validate_net(k, epoch), self._active_nets())
         return bool(self._active_nets())
+
+    def _validate_net(self, k: str, epoch: int) -> None:
+        with torch.no_grad():
+            members = self.active[k]
+            net = self.batched[k]
+            out = net.forward(self.z_val[members])
+            if self.gated is not None:
+                assert self.g_val is not None
+                out = self.gated.standardised(k, out, self.g_val[members], members)
+            err = (out - self.y_val[k][members]).square()
+            loss = (err.mean(1) * self.w_val[members]).sum(1) / self.w_val_sum[members]
+            full = torch.full((self.K,), math.nan, dtype=torch.float64)
+            full[members] = loss.double()
+            self.history[k].append(full.tolist())
+            improved = loss.double() < self.best_loss[k][members] * (1.0 - self.rule[k].min_improvement)
+            if bool(improved.any()):
+                rows = torch.nonzero(improved).flatten()
+                self.best_loss[k][members[rows]] = loss[rows].double()
+                net.keep(self.best[k], rows, members[rows])
+        keep = []
+        for row, m in enumerate(members.tolist()):
+            self.epochs[k][m] = epoch
+            if improved[row]:
+                self.best_epoch[k][m] = epoch
+            if epoch - self.best_epoch[k][m] >= self.rule[k].patience or epoch >= self.rule[k].max_epochs:
+                self.stopped[k][m] = True
+                continue
+            keep.append(row)
+        if keep and len(keep) < members.numel():  # some stopped: they leave the batched tensor
+            rows = torch.tensor(keep)
+            self._drop_members(k, rows)
+            self.active[k] = members[rows]
 
     def finish(self) -> None:
         """Write every member's best weights into its nets."""

@@ -31,6 +31,7 @@ from alcove.science.surrogate.gated import Gate, gap_from_features, gate_params,
 
 N_OUTPUTS = 3
 SOFTPLUS_THRESHOLD = 40.0
+PREDICT_CHUNK = 4096  # samples per batched forward in prediction
 
 
 class Softplus(nn.Module):
@@ -294,24 +295,30 @@ class _StackedEnsemble:
         return self.key == _weights_key(model)
 
     def predict(self, x: FloatArray) -> tuple[FloatArray, FloatArray]:
-        z = torch.as_tensor((np.asarray(x, float)[None] - self.mean) / self.divisor, dtype=self.dtype)
-        z = z.transpose(1, 2)  # (K, n_in, n): samples as columns
+        """Force and moment of every member, each (K, n, 3); ``PREDICT_CHUNK`` samples at a time
+        (a large pool's hidden activations would not stay in the cache)."""
+        z_all = torch.as_tensor((np.asarray(x, float)[None] - self.mean) / self.divisor, dtype=self.dtype)
+        z_all = z_all.transpose(1, 2)  # (K, n_in, n): samples as columns
+        n = z_all.shape[2]
+        outs = [np.empty((z_all.shape[0], n, N_OUTPUTS)) for _ in self.nets]
         threads = torch.get_num_threads()
         torch.set_num_threads(1)  # tiny products: threads only add synchronisation (and contend on a shared machine)
         try:
-            outs = []
             with torch.inference_mode():
-                for activation, weights, biases, scale, mean in self.nets:
-                    fn = _ACTIVATIONS[activation]()
-                    h = z
-                    for i, (w, b) in enumerate(zip(weights, biases, strict=True)):
-                        h = torch.baddbmm(b, w, h)
-                        if i < len(weights) - 1:
-                            h = fn(h)
-                    outs.append(h.transpose(1, 2).double().numpy() * scale + mean)
+                for start in range(0, n, PREDICT_CHUNK):
+                    z = z_all[:, :, start : start + PREDICT_CHUNK]
+                    for out, (activation, weights, biases, _, _) in zip(outs, self.nets, strict=True):
+                        fn = _ACTIVATIONS[activation]()
+                        h = z
+                        for i, (w, b) in enumerate(zip(weights, biases, strict=True)):
+                            h = torch.baddbmm(b, w, h)
+                            if i < len(weights) - 1:
+                                h = fn(h)
+                        out[:, start : start + PREDICT_CHUNK] = h.transpose(1, 2).double().numpy()
         finally:
             torch.set_num_threads(threads)
-        return outs[0], outs[1]
+        (force, (_, _, _, f_scale, f_mean)), (moment, (_, _, _, m_scale, m_mean)) = zip(outs, self.nets, strict=True)
+        return force * f_scale + f_mean, moment * m_scale + m_mean
 
 
 __all__ = ["MLP", "N_OUTPUTS", "Member", "Prediction", "Softplus", "Standardization", "SurrogateModel"]

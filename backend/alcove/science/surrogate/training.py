@@ -42,6 +42,7 @@ import hashlib
 import time
 from collections.abc import Callable
 from dataclasses import asdict, dataclass, field, replace
+from functools import cached_property
 from typing import Any
 
 import numpy as np
@@ -82,8 +83,13 @@ class PoolSplit:
     test_sets: list[str]
     sample_split: NDArray[np.object_]  # (N,) of "train" | "validation" | "test" over the stacked pool
 
+    @cached_property
+    def masks(self) -> dict[str, NDArray[np.bool_]]:
+        """Per split, its boolean mask over the stacked pool (computed once: comparing the object array is slow)."""
+        return {s: self.sample_split == s for s in SPLITS}
+
     def counts(self) -> dict[str, int]:
-        return {s: int(np.sum(self.sample_split == s)) for s in SPLITS}
+        return {s: int(np.count_nonzero(self.masks[s])) for s in SPLITS}
 
 
 @dataclass
@@ -364,10 +370,13 @@ def train_surrogate(
     preset: HeadNeckPreset = DEFAULT_PRESET,
     kinematics: KinematicsFn | None = None,
     member_seeds: list[int] | None = None,
+    parallel: bool | None = None,
 ) -> TrainingResult:
     """Train an ensemble of ``config.ensemble_size`` force/moment MLP pairs on ``pool`` (module docstring).
 
     ``member_seeds`` overrides the members' seeds (default :func:`member_seed`); its length is K.
+    ``parallel``: the force and moment nets on two threads (:mod:`.ensemble`; default when two CPUs
+    are available); the weights are the same either way.
     """
     t_start = time.perf_counter()
     seeds = member_seeds if member_seeds is not None else [member_seed(seed, k) for k in range(config.ensemble_size)]
@@ -394,7 +403,7 @@ def train_surrogate(
     generators: list[torch.Generator] = []
     warm: list[dict[str, bool | str]] = []
     for k, (s_k, split) in enumerate(zip(seeds, splits, strict=True)):
-        is_train = split.sample_split == "train"
+        is_train = split.masks["train"]
         if not np.any(w[is_train] > 0):
             raise PoolDataError(
                 "weight", "every training sample has weight 0 (check preliminary_weight and the dataset weights)"
@@ -429,7 +438,7 @@ def train_surrogate(
         yz = {n: tensor((y[n] - out_norm[n].mean) / out_norm[n].divisor) for n in NETS}
         w_all = tensor(w / w[is_train].mean())
         tr = torch.as_tensor(np.flatnonzero(is_train))
-        va = torch.as_tensor(np.flatnonzero(split.sample_split == "validation"))
+        va = torch.as_tensor(np.flatnonzero(split.masks["validation"]))
         g_all = None if gate_all is None else tensor(gate_all)
         data.append(
             MemberTensors(
@@ -464,6 +473,7 @@ def train_surrogate(
             generators,
             gated_outputs,
             warm={n: [wk.get(n) is True for wk in warm] for n in NETS},
+            parallel=parallel,
         )
         if any(flag is True for wk in warm for flag in wk.values()):
             # the previous model's weights are the first candidate of early stopping (epoch 0)
@@ -477,6 +487,9 @@ def train_surrogate(
         trainer.finish()
     finally:
         torch.set_num_threads(n_threads)
+    for m in members:  # held in float64 whatever the training's precision: float32 values are exact in float64
+        m.force_net.double()
+        m.moment_net.double()
 
     model = SurrogateModel.from_members(
         members,
@@ -515,10 +528,7 @@ def _training_metrics(
     for k, split in enumerate(splits):
         pred = {"force": forces[k], "moment": moments[k]}
         per_member.append(
-            {
-                n: {s: vector_rmse(pred[n][split.sample_split == s], y[n][split.sample_split == s]) for s in SPLITS}
-                for n in NETS
-            }
+            {n: {s: vector_rmse(pred[n][split.masks[s]], y[n][split.masks[s]]) for s in SPLITS} for n in NETS}
         )
     rmse: dict[str, dict[str, float | None]] = {n: {} for n in NETS}
     for n in NETS:
