@@ -49,7 +49,8 @@ def ghost_ensemble(preset: HeadNeckPreset) -> tuple[SurrogateModel, list[PoolDat
     """The K = 4 ghost-force ensemble and the honest pool (whose features cover the whole range)."""
     honest, ghost = ghost_pools(preset)
     net = NetworkConfig(hidden=(24, 24))
-    cfg = SurrogateConfig(max_epochs=300, ensemble_size=2, force=net, moment=net)
+    # float64 training: the case (its members' disagreement where the ghost holds the head) was built with it
+    cfg = SurrogateConfig(max_epochs=300, ensemble_size=2, force=net, moment=net, dtype="float64")
     a = train_surrogate(honest, cfg, seed=0, preset=preset).model
     b = train_surrogate(ghost, cfg, seed=1, preset=preset).model
     model = SurrogateModel.from_members(

@@ -433,7 +433,11 @@ def test_an_api_restart_mid_campaign_changes_nothing_and_the_new_api_controls_it
     from alcove.users import service as users
 
     expected = reference_pool(make_campaign, seed=13, iterations=3, url=pg_url)
-    cid, _ = quick_campaign(make_campaign, 13, 3, fault={"train": {"sleep_s": 2, "iterations": [2, 3]}}, start=False)
+    # iteration 2's train is the moment of the kill; iteration 3's OCP holds the campaign open (15 s) while the
+    # new API starts (7.4 s on a slow machine, where the rest of the campaign took less), so the pause below
+    # always meets a running campaign
+    fault = {"train": {"sleep_s": 2, "iterations": [2]}, "ocp": {"sleep_s": 15, "iterations": [3]}}
+    cid, _ = quick_campaign(make_campaign, 13, 3, fault=fault, start=False)
     token = transaction(lambda s: users.create_token(s, local_user(s), "api-restart-test", None)[1])
     port = free_port()
     base, headers = f"http://127.0.0.1:{port}/api/v1", {"Authorization": f"Bearer {token}"}

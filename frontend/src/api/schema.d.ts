@@ -3780,8 +3780,8 @@ export interface components {
             batch_size?: number;
             /**
              * Dtype
-             * @description floating-point precision of the networks
-             * @default float64
+             * @description floating-point precision of the training arithmetic (float32: PyTorch's default, about twice as fast on the CPU; float64 before 3 December 2026); the trained networks are held, stored and evaluated in float64 (float32 weights are exact in float64), so predictions, the OCP and the exports use the same numbers
+             * @default float32
              * @enum {string}
              */
             dtype?: "float64" | "float32";

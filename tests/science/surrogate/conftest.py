@@ -42,7 +42,8 @@ def trained_smooth(smooth_pool):
     """The default protocol trained once on the smooth pool (shared by several tests)."""
     from alcove.science.surrogate.training import train_surrogate
 
-    return train_surrogate(smooth_pool, SurrogateConfig(ensemble_size=1), seed=0)
+    # float64: the tests that share it compare to float64 tolerances (export parity, round trips)
+    return train_surrogate(smooth_pool, SurrogateConfig(ensemble_size=1, dtype="float64"), seed=0)
 
 
 def contact_wrench(q: np.ndarray, qd: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

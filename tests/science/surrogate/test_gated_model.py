@@ -35,7 +35,7 @@ from alcove.science.surrogate.gated import (
 )
 from alcove.science.surrogate.training import predict_ensemble, train_surrogate
 
-GATED = SurrogateConfig(architecture="gated", max_epochs=40, batch_size=256, ensemble_size=1)
+GATED = SurrogateConfig(architecture="gated", max_epochs=40, batch_size=256, ensemble_size=1, dtype="float64")
 VALUE_TOL = 1e-10  # |casadi - torch| / max(1, |torch|), float64 on both sides
 
 

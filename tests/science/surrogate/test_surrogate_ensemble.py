@@ -11,7 +11,8 @@ from alcove.science.surrogate.training import member_seed, predict_ensemble, spl
 # 20 simulations of 100 samples: every member's 70/30 split by simulation holds 14 simulations,
 # so all members have 1120 training rows and the same batches as when trained alone. Patience 2 and
 # lr 0.1 make every net of every member stop early, at different epochs (18 to 31).
-CONFIG = SurrogateConfig(max_epochs=40, batch_size=256, patience=2, learning_rate=0.1, ensemble_size=3)
+# float64: the vectorised and the single trainings are compared to float64 rounding
+CONFIG = SurrogateConfig(max_epochs=40, batch_size=256, patience=2, learning_rate=0.1, ensemble_size=3, dtype="float64")
 SEEDS = [11, 12, 13]
 
 

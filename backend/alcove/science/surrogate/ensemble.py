@@ -46,6 +46,7 @@ import os
 from collections.abc import Callable
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
+from functools import partial
 
 import numpy as np
 import torch
@@ -257,7 +258,7 @@ class EnsembleTrainer:
         n_max = max(self.n_rows)
         self.B = min(config.batch_size, n_max)
         self.S = math.ceil(n_max / self.B)
-        # training rows per member as columns (K, C, n_max + 1): the trained features, force and
+        # training rows per member (K, n_max + 1, C), columns: the trained features, force and
         # moment targets, (gated: the gate,) weight; padded with one zero column (weight 0) at index n_max
         table = [
             torch.cat(
@@ -272,7 +273,7 @@ class EnsembleTrainer:
             )
             for d in data
         ]
-        self.table = _stack_padded(table, n_max + 1).transpose(1, 2).contiguous()
+        self.table = _stack_padded(table, n_max + 1)
         self.pad_row = n_max
         self.n_in = self.columns.numel()
         self.sizes = [batch_sizes(n, self.S, self.B) for n in self.n_rows]
@@ -308,25 +309,38 @@ class EnsembleTrainer:
 
     def _run(self, work: Callable[[str], None], nets: list[str]) -> None:
         """``work(net)`` for each of ``nets``, concurrently when ``parallel`` (module docstring)."""
-        if not self.parallel or len(nets) < 2:
-            for k in nets:
-                work(k)
+        self._concurrently([partial(work, k) for k in nets])
+
+    def _concurrently(self, tasks: list[Callable[[], None]]) -> None:
+        """Run ``tasks``, each on its own thread when ``parallel`` (one intra-op thread each)."""
+        if not self.parallel or len(tasks) < 2:
+            for task in tasks:
+                task()
             return
 
-        def one_thread(k: str) -> None:
+        def one_thread(task: Callable[[], None]) -> None:
             torch.set_num_threads(1)  # the intra-op setting is per thread (OpenMP): the caller's one thread
-            work(k)
+            task()
 
-        with ThreadPoolExecutor(max_workers=len(nets), thread_name_prefix="alcove-train") as pool:
-            for done in [pool.submit(one_thread, k) for k in nets]:
+        with ThreadPoolExecutor(max_workers=len(tasks), thread_name_prefix="alcove-train") as pool:
+            for done in [pool.submit(one_thread, task) for task in tasks]:
                 done.result()
 
     def epoch(self) -> None:
         """One epoch: the members' shuffle (shared by both nets), then per net and batch one loss,
         one backward pass and one Adam step; the two nets concurrently (``parallel``)."""
         idx, div = self._epoch_layout()
-        C = self.table.shape[1]
-        cols = self.table.gather(2, idx.unsqueeze(1).expand(self.K, C, idx.shape[1]))  # (K, C, S*B)
+        # each member's rows in its epoch's order, one member at a time (a member's table stays in the cache;
+        # whole rows, not column by column: 3 times faster than a gather of the (K, C, n) table in float64)
+        shuffled = self.table.new_empty((self.K, idx.shape[1], self.table.shape[2]))
+
+        def gather(members: range) -> None:
+            for k in members:
+                torch.index_select(self.table[k], 0, idx[k], out=shuffled[k])
+
+        halves = [range((self.K + 1) // 2), range((self.K + 1) // 2, self.K)]
+        self._concurrently([partial(gather, members) for members in halves if members])
+        cols = shuffled.transpose(1, 2)  # (K, C, S*B): samples as columns (a view)
         z = cols[:, : self.n_in]
         y = {"force": cols[:, self.n_in : self.n_in + 3], "moment": cols[:, self.n_in + 3 : self.n_in + 6]}
         scale = (cols[:, -1] / div.to(cols.dtype) / 3.0).unsqueeze(1)

@@ -487,9 +487,12 @@ def train_surrogate(
         trainer.finish()
     finally:
         torch.set_num_threads(n_threads)
-    for m in members:  # held in float64 whatever the training's precision: float32 values are exact in float64
-        m.force_net.double()
-        m.moment_net.double()
+    for k, m in enumerate(members):  # held in float64 whatever the training's precision (exact for float32 values)
+        for n in NETS:
+            net = getattr(m, f"{n}_net").double()
+            if warm[k].get(n) is True and trainer.best_epoch[n][k] == 0:
+                # no epoch beat the carried weights: the previous model's, exactly (not rounded to the training's dtype)
+                net.load_state_dict(getattr(previous[k], f"{n}_net").state_dict())
 
     model = SurrogateModel.from_members(
         members,
