@@ -548,3 +548,25 @@ def test_a_gated_campaign_trains_solves_and_predicts_no_force_with_the_gap_open(
         assert m.ocp_success and m.ocp_trust is not None
         assert m.ocp_trust["open_gap_max_force"] == 0.0
         assert m.ocp_trust["min_gap"] < m.ocp_trust["thresholds"]["gap_tolerance"]  # the solution does reach contact
+
+
+def test_consecutive_failed_iterations_stop_the_campaign_and_a_success_resets_the_count(
+    sqlite_campaign_db: str, make_campaign, faults
+) -> None:
+    """``max_failed_streak`` 2: iterations 1, 3 and 4 fail (the OCP does not converge) and 2 succeeds, so
+    the streak is 1, 0, 1, 2 and the campaign stops after iteration 4 with the reason ``failed_streak``,
+    before ``max_iterations`` 6."""
+    cid, jobs = make_campaign(
+        stopping={"max_iterations": 6, "max_failed_streak": 2},
+        fault={"ocp": {"ipopt_max_iter": 1, "iterations": [1, 3, 4]}},
+    )
+    protocol.drive_inline(cid, jobs)
+    assert status(cid) == ("completed", "failed_streak")
+    with session_scope() as s:
+        assert [it.status for it in repository.list_iterations(s, cid)] == [
+            "succeeded",
+            "failed",
+            "succeeded",
+            "failed",
+            "failed",
+        ]

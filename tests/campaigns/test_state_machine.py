@@ -334,3 +334,15 @@ def test_a_batch_fans_out_and_back_in_exactly_once_whatever_the_order(
     some_data = any(rows.get(("oracle", j)) == "succeeded" for j in range(q))
     assert (N.evaluate in [r.step for r in ran]) == some_data
     assert [r.step for r in ran][-1] is N.append
+
+
+def test_a_streak_of_failed_iterations_stops_but_is_not_a_rule_on_its_own() -> None:
+    rules = StoppingRules(max_iterations=200)
+    assert rules.max_failed_streak == 10  # on by default
+    assert stop_reason(rules, 12, hist((1, 1)), 0.0, failed_streak=9) is None
+    assert stop_reason(rules, 12, hist((1, 1)), 0.0, failed_streak=10) == "failed_streak"
+    assert stop_reason(rules.model_copy(update={"max_failed_streak": None}), 12, [], 0.0, failed_streak=50) is None
+    with pytest.raises(ValueError, match="at least one stopping rule"):
+        StoppingRules(max_iterations=None, max_failed_streak=3)  # a safety net cannot end a campaign by itself
+    with pytest.raises(ValueError, match="max_failed_streak"):
+        StoppingRules(max_failed_streak=0)

@@ -80,6 +80,16 @@ class StoppingRules(_Strict):
             "1 to 1e6"
         ),
     )
+    max_failed_streak: int | None = Field(
+        10,
+        ge=1,
+        le=100_000,
+        description=(
+            "stop after this many consecutive failed iterations (the OCP did not converge, or the oracle failed or "
+            "was quarantined: no new data, so the next iteration starts from the same pool); a safety net, not a "
+            "rule that ends a campaign by itself; null: never; 1 to 1e5"
+        ),
+    )
     min_disagreement: float | None = Field(
         None,
         gt=0,

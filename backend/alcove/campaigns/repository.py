@@ -241,6 +241,22 @@ def rmse_history(s: Session, campaign_id: int) -> list[tuple[int, float | None, 
     return [(int(k), f, m) for k, f, m in s.execute(q)]
 
 
+def failed_streak(s: Session, campaign_id: int, index: int) -> int:
+    """How many iterations up to ``index`` (included, counting back) failed in a row: an iteration failed
+    when it holds an error (the current one's is set before its status, in its append's transaction)."""
+    q = (
+        sa.select(Iteration.error)
+        .where(Iteration.campaign_id == campaign_id, Iteration.index >= 1, Iteration.index <= index)
+        .order_by(Iteration.index.desc())
+    )
+    streak = 0
+    for error in s.scalars(q):
+        if error is None:
+            break
+        streak += 1
+    return streak
+
+
 def oracle_calls(s: Session, campaign_id: int) -> int:
     """The campaign's oracle runs: every attempt, also failed ones and those of failed iterations."""
     return int(s.scalar(sa.select(sa.func.count(OracleRun.id)).where(OracleRun.campaign_id == campaign_id)) or 0)

@@ -306,6 +306,7 @@ def stop_reason(
     oracle_wall_time_s: float,
     top_score: float | None = None,
     oracle_calls: int = 0,
+    failed_streak: int = 0,
 ) -> str | None:
     """The first stopping rule that fires after iteration ``iteration`` finished, or None.
 
@@ -319,6 +320,8 @@ def stop_reason(
     * ``oracle_budget``: the oracle's total wall time reached ``oracle_budget_s``;
     * ``oracle_calls``: the campaign's oracle calls ``oracle_calls`` (every oracle run, also
       failed attempts and the calls of failed iterations) reached ``max_oracle_calls``;
+    * ``failed_streak``: the last ``failed_streak`` iterations (this one included) failed, at
+      least ``max_failed_streak`` of them;
     * ``max_iterations``: iteration index ``iteration`` >= ``max_iterations``;
     * ``min_disagreement``: the iteration's highest candidate score ``top_score`` (strategy
       ensemble-disagreement) fell below ``min_disagreement`` (checked first: that iteration asked
@@ -344,6 +347,8 @@ def stop_reason(
         return "oracle_budget"
     if rules.max_oracle_calls is not None and oracle_calls >= rules.max_oracle_calls:
         return "oracle_calls"
+    if rules.max_failed_streak is not None and failed_streak >= rules.max_failed_streak:
+        return "failed_streak"
     if rules.max_iterations is not None and iteration >= rules.max_iterations:
         return "max_iterations"
     return None

@@ -369,7 +369,10 @@ def append(ctx: StepContext) -> StepOutput:
         scores = [cand.score for cand in candidate_repo.candidates(s, at.iteration_id) if cand.score is not None]
         top = max(scores) if scores else None
         calls = repo.oracle_calls(s, c.id)
-        reason = stop_reason(rules, ctx.k, history, c.oracle_wall_time_s or 0.0, top_score=top, oracle_calls=calls)
+        streak = repo.failed_streak(s, c.id, ctx.k)
+        reason = stop_reason(
+            rules, ctx.k, history, c.oracle_wall_time_s or 0.0, top_score=top, oracle_calls=calls, failed_streak=streak
+        )
         return {**result, "stop_reason": reason, **software_versions()}
 
     return StepOutput(write)

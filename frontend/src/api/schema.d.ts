@@ -3718,6 +3718,12 @@ export interface components {
          */
         StoppingRules: {
             /**
+             * Max Failed Streak
+             * @description stop after this many consecutive failed iterations (the OCP did not converge, or the oracle failed or was quarantined: no new data, so the next iteration starts from the same pool); a safety net, not a rule that ends a campaign by itself; null: never; 1 to 1e5
+             * @default 10
+             */
+            max_failed_streak?: number | null;
+            /**
              * Max Iterations
              * @description stop after iteration k = max_iterations (paper: 200)
              * @default 200
