@@ -43,6 +43,8 @@ def machine() -> dict[str, Any]:
     (the training's dominant kernel: members x hidden units x batch of the K = 5 training)."""
     import torch
 
+    from alcove.science.surrogate.ensemble import usable_cpus
+
     model = "unknown"
     try:
         for line in Path("/proc/cpuinfo").read_text().splitlines():
@@ -74,7 +76,7 @@ def machine() -> dict[str, Any]:
         torch.set_num_threads(threads)
     return {
         "cpu": model,
-        "cpus": len(os.sched_getaffinity(0)),
+        "cpus": usable_cpus(),
         "load_average": [round(v, 2) for v in os.getloadavg()],
         "python_loop_2e6_s": round(best_of_3(python_loop), 4),
         "softplus_30720_f64_us": round(softplus * 1e6, 1),
