@@ -32,8 +32,10 @@
    :class:`.ensemble.GatedOutputs`): each sample's gate comes from its signed gap, computed
    from its features and the preset's head profile.
 4. Reproducible: a member's splits come from ``numpy.random.default_rng(seed_k)``, its
-   initialisation and batch order from a local ``torch.Generator(seed_k)``; training runs on one thread, so the
-   same pool and seed give bit-identical weights. The global RNGs are not touched.
+   initialisation and batch order from a local ``torch.Generator(seed_k)``; each net trains on one intra-op
+   thread (the force and moment nets on two threads at once, :mod:`.ensemble`), so the same pool, seed and
+   ``dtype`` give bit-identical weights. The global RNGs are not touched. The model is held in float64
+   whatever the training's ``dtype`` (float32 by default).
 """
 
 from __future__ import annotations
