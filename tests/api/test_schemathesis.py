@@ -36,7 +36,7 @@ from .helpers import Account, make_account, small_task_spec
 
 MAX_EXAMPLES = 5
 #: longer or other runs: ALCOVE_TEST_SCHEMATHESIS_TIME=600 ALCOVE_TEST_SCHEMATHESIS_SEED=7
-MAX_TIME_S = float(os.environ.get("ALCOVE_TEST_SCHEMATHESIS_TIME", "30"))
+MAX_TIME_S = float(os.environ.get("ALCOVE_TEST_SCHEMATHESIS_TIME", "60"))
 SEED = int(os.environ.get("ALCOVE_TEST_SCHEMATHESIS_SEED", "20"))
 EXCLUDED = [
     "readiness",
