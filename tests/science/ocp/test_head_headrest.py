@@ -85,6 +85,16 @@ def test_resampling_for_the_oracle_and_head_pose(solution):
     json.dumps(solution.summary())
 
 
+def test_the_cost_scaling_changes_the_path_not_the_optimum(task, aux, solution):
+    """IPOPT's objective scaling (100 by default, DEFAULT_IPOPT_OPTIONS) changes the iterates, not the
+    KKT point: the unscaled solve reaches the same optimum. Thresholds: the cost to 1e-6 relative
+    (IPOPT's tol 1e-8 on residuals of order 1), the joint angles to 1e-4 rad."""
+    unscaled = solve_task(task, aux, ipopt_options={"ipopt.obj_scaling_factor": 1.0})
+    assert solution.converged and unscaled.converged
+    assert abs(unscaled.cost - solution.cost) <= 1e-6 * abs(unscaled.cost)
+    assert float(np.abs(unscaled.q - solution.q).max()) <= 1e-4
+
+
 def test_warm_start_from_a_previous_solution(task, aux, solution):
     again = solve_task(task, aux, initial_guess=solution)
     assert again.converged and again.attempts[0]["guess"] == "previous"

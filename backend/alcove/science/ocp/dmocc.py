@@ -59,6 +59,13 @@ DEFAULT_IPOPT_OPTIONS: SolverOptions = {
     # the default guess is a dynamically feasible rollout: start with a small barrier
     # parameter (19 instead of 27 iterations on the head-headrest task, measured)
     "ipopt.mu_init": 1e-4,
+    # the tasks' costs are small (1e-5 to 3e-4 on head-headrest: the approach's kinetic energy and
+    # torque integrals with the paper's weights) beside constraint residuals of 1e-3 to 1e-2, so the
+    # filter line search all but ignored the cost and backtracked (restoration phases on a float32-
+    # trained K = 5 model). IPOPT's gradient scaling only ever scales down. Scaling the cost by 100
+    # leaves the optimum as it is (the same KKT point) and cut the bench's passive-guess solves from
+    # 14-36 to 9-17 iterations (6 model pairs, docs/ocp.md); the path-constrained solve keeps 1
+    "ipopt.obj_scaling_factor": 100.0,
 }
 
 
@@ -66,7 +73,10 @@ DEFAULT_IPOPT_OPTIONS: SolverOptions = {
 #: from the optimum: a smaller barrier parameter than the default's 1e-4 (with the convexified
 #: path Hessian: 27 instead of 35 iterations on the bench's K = 5 trust region, 1e-5: 29,
 #: 1e-7: 31, 1e-8: 37; docs/ocp.md)
-PATH_IPOPT_OPTIONS: SolverOptions = {"ipopt.mu_init": 1e-6}
+PATH_IPOPT_OPTIONS: SolverOptions = {"ipopt.mu_init": 1e-6, "ipopt.obj_scaling_factor": 1.0}
+#: a warm start with a path constraint keeps the unscaled cost as well (the trust region took
+#: 27 iterations unscaled, 10x longer with the cost scaled by 10 or 100: docs/ocp.md)
+PATH_WARM_OPTIONS: SolverOptions = {"ipopt.obj_scaling_factor": 1.0}
 
 
 WARM_START_OPTIONS: SolverOptions = {
@@ -330,7 +340,14 @@ class Transcription:
     def warm_solver(self) -> ca.Function:
         """The same NLP with IPOPT set up for a warm start from a primal-dual point (built on first use)."""
         if self._warm_solver is None:
-            options = {**DEFAULT_IPOPT_OPTIONS, **WARM_START_OPTIONS, **self._derivative_options, **self.ipopt_options}
+            path_options = PATH_WARM_OPTIONS if self.path is not None else {}
+            options = {
+                **DEFAULT_IPOPT_OPTIONS,
+                **WARM_START_OPTIONS,
+                **path_options,
+                **self._derivative_options,
+                **self.ipopt_options,
+            }
             self._warm_solver = ca.nlpsol("dmocc_warm", "ipopt", self._nlp, options)
         return self._warm_solver
 
