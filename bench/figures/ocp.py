@@ -280,7 +280,8 @@ def _trust_region_setup() -> dict[str, Any]:
     group="ocp",
     notes="ensemble force variance <= bound^2 at every interval midpoint, the bound midway between the start "
     "state's std and the unbounded solution's maximum; structured derivatives, the path term's Hessian "
-    "convexified, mu_init 1e-6; first guess: holding still",
+    "convexified, mu_init 1e-6; first guess: holding still; the interval maps on one thread per usable CPU "
+    "(alcove.science.parallel.grid_map)",
 )
 def ocp_surrogate_trust_region(ctx: dict[str, Any]) -> float:
     return _solve(ctx["task"], ctx["contact"], contact_params=ctx["current"], path=ctx["path"])

@@ -95,11 +95,9 @@ def test_path_constraint_derivatives_are_structured_and_exact():
     compare(two, DiscreteProblem(phases2, None, None, None, np.array([0.1, 0.0])), seed=5, path=_path_function(2))
 
 
-def test_ensemble_contact_and_its_variance_evaluate_each_member_once_and_stay_exact():
-    """The trust region on an ensemble: the contact (the members' mean) and the path constraint
-    (their force variance) evaluate the same member networks. The structured derivatives build
-    both in one graph with the common members merged: exact against CasADi's own derivatives
-    (weights as NLP parameters), and smaller than the two graphs apart."""
+def _ensemble_problem():
+    """A K = 3 ensemble contact with random weights, its force variance as the path function, and
+    a short head-headrest problem: (chain, problem, contact, path, par, preset)."""
     import torch
 
     from alcove.science.geometry import relative_kinematics
@@ -130,6 +128,15 @@ def test_ensemble_contact_and_its_variance_evaluate_each_member_once_and_stay_ex
     lo, hi, t = np.array([P.theta_min]), np.array([P.theta_max]), np.array([30.0])
     phases = (PhaseGrid(0.3, 5, 1e-3, 1e-4, lo, hi, t), PhaseGrid(0.5, 4, 1.0, 1.0, lo, hi, t))
     problem = DiscreteProblem(phases, np.array([0.5 * (P.theta_min + P.theta_max)]), np.zeros(1), None, np.zeros(1))
+    return chain, problem, contact, path, par, P
+
+
+def test_ensemble_contact_and_its_variance_evaluate_each_member_once_and_stay_exact():
+    """The trust region on an ensemble: the contact (the members' mean) and the path constraint
+    (their force variance) evaluate the same member networks. The structured derivatives build
+    both in one graph with the common members merged: exact against CasADi's own derivatives
+    (weights as NLP parameters), and smaller than the two graphs apart."""
+    chain, problem, contact, path, par, P = _ensemble_problem()
     compare(chain, problem, contact, seed=2, path=path, par=par, q_range=(P.theta_min, P.theta_max))
 
     def local_jac_size(path):
@@ -196,3 +203,32 @@ def test_path_hessian_mode_is_checked():
     problem = DiscreteProblem((PhaseGrid(0.3, 4, 1e-3, 1e-4, lo, hi, t),), np.array([0.232]), None, None, None)
     with pytest.raises(ValueError, match="path_hessian"):
         Transcription(chain, problem, None, path=_path_function(1), path_upper=1.0, path_hessian="gauss")
+
+
+@pytest.mark.parametrize("threads", [2, 3])
+def test_grid_maps_on_threads_compute_the_serial_values_bit_for_bit(monkeypatch, threads):
+    """The interval functions mapped on several threads (the default on a multi-core machine)
+    give exactly the serial map's constraint values, Jacobian and Hessian: each interval is
+    computed by the same instructions, only on another thread."""
+    from alcove.science import parallel
+
+    chain, problem, contact, path, par, P = _ensemble_problem()
+    rng = np.random.default_rng(7)
+    n, N = chain.ndof, problem.intervals
+    x = np.concatenate([rng.uniform(P.theta_min, P.theta_max, n * (N + 1)), rng.normal(size=n * N)])
+
+    def evaluate(n_threads):
+        monkeypatch.setattr(parallel, "grid_threads", lambda: n_threads)
+        tr = Transcription(chain, problem, contact, path=path, path_upper=1.0)
+        maps = [f.class_name() for f in tr._derivative_options["hess_lag"].find_functions() if "map" in f.name()]
+        lam_g = np.random.default_rng(8).normal(size=np.size(tr.lbg))
+        g = tr.solver.get_function("nlp_g")(x, par)
+        J, H = derivatives(tr, x, 0.7, lam_g, par)
+        return maps, np.asarray(g).ravel(), J, H
+
+    serial_maps, *serial = evaluate(1)
+    threaded_maps, *threaded = evaluate(threads)
+    assert serial_maps and all(name == "Map" for name in serial_maps)
+    assert "ThreadMap" in threaded_maps
+    for a, b in zip(serial, threaded, strict=True):
+        assert np.array_equal(a, b)

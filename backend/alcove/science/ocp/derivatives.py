@@ -34,6 +34,7 @@ from alcove.science.arrays import IntArray
 from alcove.science.multibody import PlanarChain
 from alcove.science.ocp.discrete_mechanics import node_constraints
 from alcove.science.ocp.problem import DiscreteProblem
+from alcove.science.parallel import grid_map
 
 
 def _scatter(nrow: int, ncol: int, blocks: Sequence[tuple[ca.MX, IntArray, IntArray]], upper: bool = False) -> ca.MX:
@@ -219,7 +220,7 @@ def structured_derivatives(
     Pm = ca.repmat(par, 1, N)
     z0, zN = Z[:, 0], Z[:, N - 1]
 
-    local = local_jac.map(N).call([Z, H, Pm])
+    local = grid_map(local_jac, N).call([Z, H, Pm])
     left_all, right_all, J_local = local[0], local[1], local[2]
     first_rows = node_rows[:1] if problem.qd_start is not None else -np.ones((1, n), int)
     last_rows = node_rows[-1:] if problem.qd_end is not None else -np.ones((1, n), int)
@@ -245,7 +246,7 @@ def structured_derivatives(
     node_lam = padded[np.where(node_rows.ravel() >= 0, node_rows.ravel(), m).tolist()]
     LN = ca.reshape(node_lam, n, N + 1)
     lam_path = lam_g[path_row : path_row + N].T if path is not None else ca.MX.zeros(1, N)
-    H_local = local_hess.map(N)(Z, H, W_tau, W_T, Pm, LN[:, :-1], LN[:, 1:], ca.repmat(lam_f, 1, N), lam_path)
+    H_local = grid_map(local_hess, N)(Z, H, W_tau, W_T, Pm, LN[:, :-1], LN[:, 1:], ca.repmat(lam_f, 1, N), lam_path)
     hess = _scatter(
         x.shape[0],
         x.shape[0],

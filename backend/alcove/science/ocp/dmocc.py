@@ -44,6 +44,7 @@ from alcove.science.ocp.discrete_mechanics import (
 )
 from alcove.science.ocp.problem import DiscreteProblem, PhaseGrid
 from alcove.science.ocp.rollout import passive_rollout, simulate
+from alcove.science.parallel import grid_map
 from alcove.science.symbolic import Symbolic
 
 OptionValue: TypeAlias = bool | int | float | str | ca.Function
@@ -141,9 +142,9 @@ def nlp_expressions(
     Pm = ca.repmat(par, 1, N)
     if path is not None:
         # one graph for the contact and the path constraint: the ensemble's members evaluated once
-        left, right, values = with_path(dynamics, path, n, n_par).map(N).call([Q[:, :-1], Q[:, 1:], U, H, Pm])
+        left, right, values = grid_map(with_path(dynamics, path, n, n_par), N).call([Q[:, :-1], Q[:, 1:], U, H, Pm])
     else:
-        left, right = dynamics.map(N).call([Q[:, :-1], Q[:, 1:], U, H, Pm])
+        left, right = grid_map(dynamics, N).call([Q[:, :-1], Q[:, 1:], U, H, Pm])
     effort, kinetic = interval_cost.map(N).call([Q[:, :-1], Q[:, 1:], U, H])
     cost = ca.sum2(w_tau * effort) + ca.sum2(w_T * kinetic)
     g = node_constraints(chain, prob, Q, left, right)

@@ -42,7 +42,6 @@ data. The ``paper`` architecture's arithmetic is unchanged (no gate column, no o
 from __future__ import annotations
 
 import math
-import os
 from collections.abc import Callable
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
@@ -52,6 +51,7 @@ import numpy as np
 import torch
 from torch import nn
 
+from alcove.science.parallel import usable_cpus
 from alcove.science.surrogate.config import SurrogateConfig
 from alcove.science.surrogate.gated import GateParams, gated_net_output_torch
 from alcove.science.surrogate.mlp import MLP, SOFTPLUS_THRESHOLD
@@ -88,13 +88,6 @@ class GatedOutputs:
         mean, scale, div = (t[net][members].unsqueeze(2) for t in (self.mean, self.scale, self.divisor))
         out = gated_net_output_torch(net, h * scale + mean, gate, self.params, axis=1)
         return (out - mean) / div
-
-
-def usable_cpus() -> int:
-    """The CPUs this process may run on (its affinity where the OS reports one, else the machine's)."""
-    if hasattr(os, "sched_getaffinity"):
-        return len(os.sched_getaffinity(0))
-    return os.cpu_count() or 1
 
 
 def _activation(name: str) -> Callable[[torch.Tensor], torch.Tensor]:
