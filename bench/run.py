@@ -43,7 +43,7 @@ def machine() -> dict[str, Any]:
     (the training's dominant kernel: members x hidden units x batch of the K = 5 training)."""
     import torch
 
-    from alcove.science.surrogate.ensemble import usable_cpus
+    from alcove.science.parallel import usable_cpus
 
     model = "unknown"
     try:

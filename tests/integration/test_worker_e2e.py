@@ -12,6 +12,7 @@ from pathlib import Path
 
 import pytest
 
+from alcove.science.parallel import affinity_cpus
 from tests.integration.procs import (
     alcove_env,
     db_rows,
@@ -30,7 +31,7 @@ pytestmark = [pytest.mark.integration, pytest.mark.slow]
 
 
 def test_embedded_worker_round_trip(tmp_path: Path) -> None:
-    env = alcove_env(data_dir=tmp_path / "data")
+    env = alcove_env(data_dir=tmp_path / "data", cpus_per_process="1")
     assert run_cli(["db", "upgrade"], env).returncode == 0
     with running(
         ["worker", "--queues", "default,train", "--concurrency", "1", "--name", "embedded-test"],
@@ -41,6 +42,8 @@ def test_embedded_worker_round_trip(tmp_path: Path) -> None:
         for queue in ("default", "train"):
             got = smoke(env, queue=queue)
             assert got["ok"] and got["worker_name"].startswith("embedded-test@")
+            # the user's cap reaches the pool process (the OCP's interval threads, the training's threads)
+            assert got["payload"]["cpus"] == 1
         url = f"sqlite:///{tmp_path / 'data' / 'alcove.db'}"
         assert len(db_rows(url, "SELECT token FROM smoke_checks")) == 2
         wait_until(
@@ -65,7 +68,11 @@ def test_postgres_redis_worker_round_trip(tmp_path: Path, fresh_pg_url: str, red
         tmp_path / "worker.log",
     ) as w:
         wait_until(lambda: worker_ready(w), 60, "worker ready", w)
-        tokens = [smoke(env, queue=q)["token"] for q in ("ocp", "oracle", "train", "default")]
+        results = [smoke(env, queue=q) for q in ("ocp", "oracle", "train", "default")]
+        tokens = [r["token"] for r in results]
+        # without a cap every pool process may use all the worker's CPUs (docs/ocp.md: sharing them out
+        # gained nothing in the bench's batch iteration and slowed a lone job)
+        assert {r["payload"]["cpus"] for r in results} == {affinity_cpus()}
         got = db_rows(fresh_pg_url, "SELECT token, worker_name FROM smoke_checks")
         assert {t for t, _ in got} >= set(tokens)
         assert "Connected to redis://" in w.output()

@@ -12,6 +12,7 @@ import sqlalchemy as sa
 
 from alcove.db import session_scope, transaction
 from alcove.models import SmokeCheck
+from alcove.science.parallel import usable_cpus
 
 
 def run_smoke(token: str, worker_name: str, sent_at: float | None = None) -> int:
@@ -24,7 +25,14 @@ def run_smoke(token: str, worker_name: str, sent_at: float | None = None) -> int
         row = SmokeCheck(
             token=token,
             worker_name=worker_name,
-            payload={"pid": os.getpid(), "host": socket.gethostname(), "sent_at": sent_at, "ran_at": time.time()},
+            payload={
+                "pid": os.getpid(),
+                "host": socket.gethostname(),
+                # the CPUs the worker's pool process may use (its share of the machine: science.parallel)
+                "cpus": usable_cpus(),
+                "sent_at": sent_at,
+                "ran_at": time.time(),
+            },
         )
         s.add(row)
         s.flush()

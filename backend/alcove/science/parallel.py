@@ -1,5 +1,9 @@
 """The CPUs science code may use, and CasADi maps over a time grid that use them.
 
+A process may use the CPUs it may run on (its affinity), or fewer when ``ALCOVE_CPUS_PER_PROCESS``
+says so: a worker with several pool processes sets it to its CPUs divided by its processes
+(``alcove_worker.celery_app``), so that two processes on two CPUs do not each start two threads.
+
 A DMOCC NLP evaluates the same small function on every interval of its grid (the discrete
 Euler-Lagrange residuals with the contact model, their local Jacobian and Hessian blocks). The
 intervals are independent, so CasADi's ``Function.map(n, "thread", threads)`` evaluates them on
@@ -17,11 +21,38 @@ import casadi as ca
 MAX_GRID_THREADS = 8
 
 
-def usable_cpus() -> int:
+#: the environment variable that caps the CPUs one process uses (a whole number >= 1)
+CPUS_PER_PROCESS_ENV = "ALCOVE_CPUS_PER_PROCESS"
+
+
+def affinity_cpus() -> int:
     """The CPUs this process may run on (its affinity where the OS reports one, else the machine's)."""
     if hasattr(os, "sched_getaffinity"):
         return len(os.sched_getaffinity(0))
     return os.cpu_count() or 1
+
+
+def usable_cpus() -> int:
+    """The CPUs this process may use: :func:`affinity_cpus`, at most ``ALCOVE_CPUS_PER_PROCESS``
+    when that is set. A value that is not a whole number >= 1 raises ``ValueError`` naming it."""
+    cpus = affinity_cpus()
+    raw = os.environ.get(CPUS_PER_PROCESS_ENV, "").strip()
+    if not raw:
+        return cpus
+    try:
+        cap = int(raw)
+    except ValueError:
+        cap = 0
+    if cap < 1:
+        raise ValueError(f"{CPUS_PER_PROCESS_ENV}: must be a whole number >= 1, got {raw!r}")
+    return min(cpus, cap)
+
+
+def cpus_per_process(processes: int) -> int:
+    """The CPUs each of ``processes`` pool processes may use: the affinity's share, at least 1."""
+    if processes < 1:
+        raise ValueError(f"processes: must be >= 1, got {processes}")
+    return max(1, affinity_cpus() // processes)
 
 
 def grid_threads() -> int:
@@ -41,4 +72,12 @@ def grid_map(fn: ca.Function, n: int, threads: int | None = None) -> ca.Function
     return fn.map(n, "thread", threads)
 
 
-__all__ = ["MAX_GRID_THREADS", "grid_map", "grid_threads", "usable_cpus"]
+__all__ = [
+    "CPUS_PER_PROCESS_ENV",
+    "MAX_GRID_THREADS",
+    "affinity_cpus",
+    "cpus_per_process",
+    "grid_map",
+    "grid_threads",
+    "usable_cpus",
+]

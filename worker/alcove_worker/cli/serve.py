@@ -315,6 +315,7 @@ def smoke(
     else:
         typer.echo(
             f"smoke job ok: worker {got['worker_name']} committed row {got['id']} in {got['round_trip_s']:.3f} s"
+            f" (its process may use {got['payload'].get('cpus', '?')} CPU(s))"
         )
 
 
