@@ -72,6 +72,9 @@ def bad(mutate):
         (lambda d: d["model"].update(gravity=float("inf")), "model.gravity", "finite number"),
         (lambda d: d.update(endpoint_cost={"w_qd": float("nan")}), "endpoint_cost.w_qd", "finite number"),
         (lambda d: d["phases"][0].update(tau_max=[float("inf")]), "phases.0.tau_max.0", "finite number"),
+        # a model preset that is not a string (found by schemathesis: a TypeError, unhashable, before)
+        (lambda d: d["model"].update(preset={}), "model.preset", "Input should be"),
+        (lambda d: d["model"].update(preset=[None, None]), "model.preset", "Input should be"),
     ],
 )
 def test_bad_input_names_the_field(mutate, field, reason):

@@ -159,7 +159,8 @@ class ModelSpec(_Strict):
     @model_validator(mode="before")
     @classmethod
     def _fill_preset_chain(cls, data: Any) -> Any:
-        if isinstance(data, dict) and data.get("preset") in CHAIN_PRESETS:
+        # only a string names a preset (a list or an object is left to pydantic to report, unhashed)
+        if isinstance(data, dict) and isinstance(data.get("preset"), str) and data["preset"] in CHAIN_PRESETS:
             given = data.get("chain")
             chain = chain_preset(data["preset"])
             if isinstance(given, dict):
