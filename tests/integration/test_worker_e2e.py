@@ -55,6 +55,13 @@ def test_embedded_worker_round_trip(tmp_path: Path) -> None:
     ]
 
 
+def test_a_bad_cpu_cap_stops_the_worker_at_once_naming_the_variable(tmp_path: Path) -> None:
+    env = alcove_env(data_dir=tmp_path / "data", cpus_per_process="two")
+    r = run_cli(["worker", "--queues", "default", "--concurrency", "1"], env, timeout=60)
+    assert r.returncode == 2
+    assert "ALCOVE_CPUS_PER_PROCESS: must be a whole number >= 1, got 'two'" in r.stderr
+
+
 def test_postgres_redis_worker_round_trip(tmp_path: Path, fresh_pg_url: str, redis_url: str) -> None:
     env = alcove_env(
         database_url=fresh_pg_url,

@@ -61,6 +61,13 @@ def worker(
 ) -> None:
     """Start a Celery worker consuming QUEUES (on any machine pointed at the same database and broker)."""
     qs = _parse_queues(queues)
+    from alcove.science.parallel import usable_cpus
+
+    try:  # a bad ALCOVE_CPUS_PER_PROCESS stops the worker here, not every OCP and training job later
+        usable_cpus()
+    except ValueError as err:
+        typer.echo(f"error: {err}", err=True)
+        raise typer.Exit(2) from None
     _wait_for_schema(wait_for_db)
     if not name:
         name = f"{'-'.join(qs)}-{uuid.uuid4().hex[:6]}@%h"
