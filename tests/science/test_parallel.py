@@ -8,7 +8,6 @@ from alcove.science import parallel
 from alcove.science.parallel import (
     CPUS_PER_PROCESS_ENV,
     affinity_cpus,
-    cpus_per_process,
     grid_map,
     grid_threads,
     usable_cpus,
@@ -37,13 +36,6 @@ def test_a_bad_cap_is_an_error_naming_the_variable(monkeypatch, value):
     monkeypatch.setenv(CPUS_PER_PROCESS_ENV, value)
     with pytest.raises(ValueError, match=f"{CPUS_PER_PROCESS_ENV}: must be a whole number >= 1, got '{value}'"):
         usable_cpus()
-
-
-def test_pool_processes_share_the_cpus(monkeypatch):
-    monkeypatch.setattr(parallel, "affinity_cpus", lambda: 8)
-    assert [cpus_per_process(p) for p in (1, 2, 3, 8, 16)] == [8, 4, 2, 1, 1]
-    with pytest.raises(ValueError, match="processes: must be >= 1"):
-        cpus_per_process(0)
 
 
 def test_grid_map_threads(monkeypatch):

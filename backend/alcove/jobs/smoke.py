@@ -28,7 +28,7 @@ def run_smoke(token: str, worker_name: str, sent_at: float | None = None) -> int
             payload={
                 "pid": os.getpid(),
                 "host": socket.gethostname(),
-                # the CPUs the worker's pool process may use (its share of the machine: science.parallel)
+                # the CPUs the worker's pool process may use (ALCOVE_CPUS_PER_PROCESS caps them: science.parallel)
                 "cpus": usable_cpus(),
                 "sent_at": sent_at,
                 "ran_at": time.time(),

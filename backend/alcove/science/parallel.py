@@ -1,8 +1,7 @@
 """The CPUs science code may use, and CasADi maps over a time grid that use them.
 
 A process may use the CPUs it may run on (its affinity), or fewer when ``ALCOVE_CPUS_PER_PROCESS``
-says so: a worker with several pool processes sets it to its CPUs divided by its processes
-(``alcove_worker.celery_app``), so that two processes on two CPUs do not each start two threads.
+says so (set by the user; a worker does not share its CPUs out by itself: docs/ocp.md).
 
 A DMOCC NLP evaluates the same small function on every interval of its grid (the discrete
 Euler-Lagrange residuals with the contact model, their local Jacobian and Hessian blocks). The
@@ -48,16 +47,9 @@ def usable_cpus() -> int:
     return min(cpus, cap)
 
 
-def cpus_per_process(processes: int) -> int:
-    """The CPUs each of ``processes`` pool processes may use: the affinity's share, at least 1."""
-    if processes < 1:
-        raise ValueError(f"processes: must be >= 1, got {processes}")
-    return max(1, affinity_cpus() // processes)
-
-
 def grid_threads() -> int:
     """Threads for a map over a time grid: the usable CPUs, at most :data:`MAX_GRID_THREADS`."""
-    return max(1, min(usable_cpus(), MAX_GRID_THREADS))
+    return min(usable_cpus(), MAX_GRID_THREADS)
 
 
 def grid_map(fn: ca.Function, n: int, threads: int | None = None) -> ca.Function:
@@ -76,7 +68,6 @@ __all__ = [
     "CPUS_PER_PROCESS_ENV",
     "MAX_GRID_THREADS",
     "affinity_cpus",
-    "cpus_per_process",
     "grid_map",
     "grid_threads",
     "usable_cpus",

@@ -442,5 +442,4 @@ __all__ = [
     "MemberTensors",
     "StoppingRule",
     "batch_sizes",
-    "usable_cpus",
 ]
