@@ -60,3 +60,15 @@ export async function signInByToken(page, baseUrl, email, password) {
   await page.evaluate((t) => localStorage.setItem("alcove.token", t), access_token);
   return access_token;
 }
+
+/**
+ * Click a tab of the campaign page and wait for the state the click causes: the tab selected
+ * and its panel shown (the page writes the tab to the URL; the next step must not race that).
+ */
+export async function openTab(page, name) {
+  const tab = page.getByRole("tab", { name, exact: true });
+  await tab.click();
+  await page.getByRole("tab", { name, exact: true, selected: true }).waitFor();
+  const panel = await tab.getAttribute("aria-controls");
+  if (panel) await page.locator(`#${panel}`).waitFor();
+}

@@ -24,7 +24,7 @@
  */
 import { mkdirSync } from "node:fs";
 import { resolve } from "node:path";
-import { openBrowser, parseArgs, signInByToken } from "./browser.mjs";
+import { openBrowser, openTab, parseArgs, signInByToken } from "./browser.mjs";
 
 const args = parseArgs(process.argv.slice(2));
 const baseUrl = String(args["base-url"] ?? "http://127.0.0.1:8000").replace(/\/$/, "");
@@ -195,8 +195,7 @@ try {
 
   step("every tab, a plot's PNG download from its toolbar");
   for (const tab of ["Trajectory", "Jobs", "Pool & models", "Forces & moments"]) {
-    await page.getByRole("tab", { name: tab }).click();
-    await sleep(400);
+    await openTab(page, tab);
   }
   await page.getByTestId("rmse-plot").hover();
   const cloud = await page.locator("[data-testid=rmse-plot] .modebar-btn[data-attr*=cloud i], [data-testid=rmse-plot] .modebar-btn[data-title*=cloud i], [data-testid=rmse-plot] .modebar-btn[data-title*=Studio]").count();
@@ -255,7 +254,8 @@ try {
   await page.getByLabel("phase 1 q min [rad]").blur();
   await page.getByLabel(/^gravity/).fill("1e308");
   await page.getByRole("button", { name: "Create task" }).click();
-  await sleep(1500);
+  // the refused save's answer: a message at each bad field, then no check still running
+  for (const p of ["phases.0.intervals", "phases.0.q_min.1", "model.gravity"]) await page.locator(`[data-error-path='${p}']`).first().waitFor({ timeout: 15_000 });
   await page.locator("[data-testid=validation-state]:not(:has-text('checking'))").waitFor();
   const paths = await page.locator("[data-error-path]").evaluateAll((els) => els.map((e) => e.getAttribute("data-error-path")));
   const count = Number(await page.getByTestId("validation-state").getAttribute("data-count"));

@@ -17,7 +17,7 @@
  */
 import { copyFileSync, mkdirSync, statSync } from "node:fs";
 import { resolve } from "node:path";
-import { openBrowser, parseArgs } from "./browser.mjs";
+import { openBrowser, openTab, parseArgs } from "./browser.mjs";
 
 const args = parseArgs(process.argv.slice(2));
 const baseUrl = String(args["base-url"] ?? "http://127.0.0.1:8000").replace(/\/$/, "");
@@ -331,7 +331,7 @@ try {
   await page.locator(".badge").filter({ hasText: /^(queued|running|completed)$/ }).first().waitFor({ timeout: 20_000 });
 
   step("open an iteration's force plot");
-  await page.getByRole("tab", { name: "Forces & moments" }).click();
+  await openTab(page, "Forces & moments");
   const slider = page.getByLabel("Iteration", { exact: true });
   await slider.focus();
   await page.keyboard.press("Home");
@@ -366,7 +366,7 @@ try {
   if ((await page.getByTestId("iteration-player-time-value").innerText()).trim() !== `t = ${curveT[mid].toFixed(3)} s`) throw new Error("the player's time and the slider disagree");
 
   step("trajectory: the whole OCP solution, every phase shaded, the replayed part marked");
-  await page.getByRole("tab", { name: "Trajectory" }).click();
+  await openTab(page, "Trajectory");
   await waitFor(async () => (await plotPoints(page, "angle-plot")) > 0, "joint angle curve");
   await waitFor(async () => (await plotPoints(page, "torque-plot")) > 0, "joint torque curve of iteration 1");
   const phasesShown = Number(await page.getByTestId("trajectory-panel").getAttribute("data-phases"));
@@ -399,7 +399,7 @@ try {
   await screenshot(page, "campaign-trajectory.png", { fullPage: true });
 
   step("download a model");
-  await page.getByRole("tab", { name: "Pool & models" }).click();
+  await openTab(page, "Pool & models");
   await page.getByTestId("model-table").waitFor({ timeout: 30_000 });
   const [download] = await Promise.all([page.waitForEvent("download"), page.getByTestId("model-table").getByRole("button", { name: "Artifact" }).first().click()]);
   const modelPath = resolve(artifacts, download.suggestedFilename());
@@ -416,8 +416,11 @@ try {
   await page.locator("[data-testid=pick-forces][data-band=true][data-rendered=true]").nth(1).waitFor({ timeout: 30_000 });
   step(`  candidates by rank: ${whys.join(", ")}`);
   await page.screenshot({ path: resolve(artifacts, "campaign-candidates.png"), fullPage: true, animations: "disabled" });
-  await page.getByTestId("x-axis").getByLabel("oracle calls").check();
+  // click, then wait for what the click causes (the plot's axis), then the radio shows the choice
+  const oracleCalls = page.getByTestId("x-axis").getByLabel("oracle calls");
+  await oracleCalls.click();
   await page.locator("[data-testid=rmse-plot][data-xaxis=oracle]").waitFor();
+  if (!(await oracleCalls.isChecked())) throw new Error("the plot shows oracle calls, the x-axis radio does not");
 
   step("screenshots of the campaign page and the campaigns list");
   await page.goto(campaignUrl.split("?")[0] + "?tab=forces");
