@@ -112,6 +112,14 @@ def test_alcove_campaign_run_on_the_embedded_default(tmp_path: Path) -> None:
     assert out["validation_suite"]["status"] == "complete" and out["validation_suite"]["motions_done"] == 2
     assert all(m["validation_force_rmse"] > 0 and m["validation_moment_rmse"] > 0 for m in out["metrics"])
     assert out["last"]["validation_force_rmse"] == out["metrics"][-1]["validation_force_rmse"]
+    # per component, in the loop and on the suite: the vector RMSE squared is the sum of its components'
+    last = out["last"]
+    for prefix in ("", "validation_"):
+        fx, fy, fz = (last[f"{prefix}{c}_rmse"] for c in ("fx", "fy", "fz"))
+        assert fx > 0 and fz >= 0 and last[f"{prefix}my_rmse"] > 0
+        force = last[f"{prefix}force_rmse"]
+        assert abs(force**2 - (fx**2 + fy**2 + fz**2)) <= 1e-9 * force**2  # threshold: float rounding
+    assert last["fx_rmse_contact"] is not None and last["validation_fx_rmse_contact"] is not None
     url = f"sqlite:///{tmp_path / 'data' / 'alcove.db'}"
     cid = out["campaign_id"]
     assert [v for v, _, _ in pool_hashes(url, cid)] == [0, 1, 2]

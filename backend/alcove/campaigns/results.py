@@ -46,7 +46,17 @@ from alcove.users.access import can_edit
 
 
 def _metrics_read(m: Any) -> MetricsRead:
-    return MetricsRead.model_validate(m)
+    return MetricsRead.model_validate(m).model_copy(update={"components": metric_components(m.extra)})
+
+
+def metric_components(extra: dict[str, Any] | None) -> dict[str, float | None] | None:
+    """The per-component RMSEs an iteration's metrics row keeps in ``extra``: over all samples (fx .. mz)
+    and in contact (fx_contact .. mz_contact, where recorded)."""
+    overall = (extra or {}).get("rmse_components")
+    if not isinstance(overall, dict):
+        return None
+    contact = (extra or {}).get("rmse_components_contact") or {}
+    return {**overall, **{f"{c}_contact": v for c, v in contact.items()}}
 
 
 def get_detail(s: Session, campaign_id: int) -> CampaignDetail:

@@ -141,6 +141,12 @@ class MetricsRead(_Read):
         description="vector: the RMSEs above are of the error vector (docs/concepts.md); stored campaigns were "
         "converted by migration 0007",
     )
+    components: dict[str, float | None] | None = Field(
+        None,
+        description="model k on iteration k's oracle data (a batch: the picks' mean), the "
+        + DESCRIPTIONS["rmse_components"]
+        + "; null for iterations stored before the components were recorded",
+    )
     force_max_error: float | None = Field(description="largest |F_pred - F_true| over the samples [N]")
     moment_max_error: float | None = Field(description="largest |M_pred - M_true| over the samples [N m]")
     ocp_success: bool | None
@@ -169,8 +175,10 @@ class MetricsRead(_Read):
     validation_moment_rmse: float | None = Field(
         None, description="the same for the moment vector [N m]; null until evaluated"
     )
-    validation_components: dict[str, float] | None = Field(
-        None, description="RMSE of each component fx..mz on the validation suite [N, N m]"
+    validation_components: dict[str, float | None] | None = Field(
+        None,
+        description="on the held-out validation suite, the " + DESCRIPTIONS["rmse_components"] + "; null until "
+        "evaluated (suites evaluated before the in-contact figures were recorded have fx .. mz only)",
     )
     validation_calibration: float | None = Field(
         None,

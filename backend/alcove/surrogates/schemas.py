@@ -5,7 +5,7 @@ from __future__ import annotations
 from datetime import datetime
 from typing import Any
 
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import BaseModel, ConfigDict, Field, computed_field
 
 from alcove.science.surrogate.metrics import DESCRIPTIONS
 
@@ -35,6 +35,15 @@ class ModelVersionRead(_Read):
     architecture: dict[str, Any]
     training_metrics: dict[str, Any]
     created_at: datetime
+
+    @computed_field(  # type: ignore[prop-decorator]
+        description="nets, over the members, that stopped at max_epochs while their validation loss was still "
+        "improving (more epochs would likely have lowered the error); 0 for models trained before this was recorded"
+    )
+    @property
+    def stopped_improving(self) -> int:
+        value = self.training_metrics.get("stopped_improving", 0)
+        return value if isinstance(value, int) else 0
 
 
 __all__ = ["ModelVersionRead"]

@@ -161,6 +161,7 @@ def evaluate(
     }
     dataset_id = dataset_ids[0]
     per_component = {c: honest[f"rmse_{c}"] for c in FORCE_COLUMNS}
+    per_component_contact = {c: mean(f"rmse_{c}_contact") for c in FORCE_COLUMNS}
     curve_arrays = {"t": a["t"], "q": a["q"], "qd": a["qd"], "f_true": a["f"], "f_pred": first["f_pred"]}
     if first["f_std"] is not None:
         curve_arrays["f_std"] = first["f_std"]
@@ -171,6 +172,7 @@ def evaluate(
             **software_versions(),
             "model_seed": model_info["seed"],
             "rmse_components": per_component,
+            "rmse_components_contact": per_component_contact,
             "n_samples": sum(len(d[0]["t"]) for d in data),
             "n_contact_samples": honest["n_contact_samples"],
             "ensemble_size": model.ensemble_size,

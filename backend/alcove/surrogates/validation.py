@@ -33,16 +33,16 @@ log = logging.getLogger(__name__)
 def generalisation_error(pred: np.ndarray, true: np.ndarray, std: np.ndarray | None = None) -> dict[str, Any]:
     """The error of predicted wrenches ``pred`` against the oracle's ``true`` ((n, 6): fx fy fz mx my mz):
     ``force_rmse = sqrt(mean_i |F_pred,i - F_true,i|^2)``, ``moment_rmse`` likewise, the RMSE
-    of each component and, given the ensemble's ``std`` (K > 1; None for a single model, which
-    has no spread), the ``calibration`` (the fraction of oracle values inside the mean +- 2 std),
-    by the one definition in :mod:`alcove.science.surrogate.metrics`."""
-    from alcove.science.surrogate.metrics import MetricInputError, calibration, component_rmse, vector_rmse
+    of each component over all samples and over the samples in contact and, given the ensemble's
+    ``std`` (K > 1; None for a single model, which has no spread), the ``calibration`` (the fraction
+    of oracle values inside the mean +- 2 std), by the one definition in :mod:`alcove.science.surrogate.metrics`."""
+    from alcove.science.surrogate.metrics import MetricInputError, calibration, component_metrics, vector_rmse
 
     p, t = np.asarray(pred, float), np.asarray(true, float)
     if p.ndim != 2 or p.shape[1] != 6 or p.shape[0] == 0 or t.shape != p.shape:
         raise ValueError(f"prediction and oracle values must have shape (n >= 1, 6), got {p.shape} and {t.shape}")
     try:
-        components = component_rmse(p, t)
+        components = component_metrics(p, t)
         return {
             "force_rmse": vector_rmse(p[:, :3], t[:, :3]),
             "moment_rmse": vector_rmse(p[:, 3:], t[:, 3:]),

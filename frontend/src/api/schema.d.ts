@@ -2590,6 +2590,13 @@ export interface components {
              */
             campaign_id: number;
             /**
+             * Components
+             * @description model k on iteration k's oracle data (a batch: the picks' mean), the per-component RMSE sqrt(mean (pred_c - true_c)^2) for c in fx fy fz [N], mx my mz [N m], over all samples (keys fx .. mz) and over the samples in contact, oracle |F_true| > 0 (keys fx_contact .. mz_contact; null if none); null for iterations stored before the components were recorded
+             */
+            components?: {
+                [key: string]: number | null;
+            } | null;
+            /**
              * Cumulative Oracle Calls
              * @description oracle runs of iterations 1..k (a fork: its sources' up to the fork point included; the preliminary data of iteration 0 not counted): an x axis on which strategies and batch sizes compare
              */
@@ -2699,10 +2706,10 @@ export interface components {
             validation_calibration_recorded?: boolean | null;
             /**
              * Validation Components
-             * @description RMSE of each component fx..mz on the validation suite [N, N m]
+             * @description on the held-out validation suite, the per-component RMSE sqrt(mean (pred_c - true_c)^2) for c in fx fy fz [N], mx my mz [N m], over all samples (keys fx .. mz) and over the samples in contact, oracle |F_true| > 0 (keys fx_contact .. mz_contact; null if none); null until evaluated (suites evaluated before the in-contact figures were recorded have fx .. mz only)
              */
             validation_components?: {
-                [key: string]: number;
+                [key: string]: number | null;
             } | null;
             /**
              * Validation Force Rmse
@@ -2853,6 +2860,11 @@ export interface components {
             pool_version_id: number;
             /** Seed */
             seed: number;
+            /**
+             * Stopped Improving
+             * @description nets, over the members, that stopped at max_epochs while their validation loss was still improving (more epochs would likely have lowered the error); 0 for models trained before this was recorded
+             */
+            readonly stopped_improving: number;
             /** Surrogate Config Version Id */
             surrogate_config_version_id: number | null;
             /**
@@ -3786,7 +3798,7 @@ export interface components {
             batch_size?: number;
             /**
              * Dtype
-             * @description floating-point precision of the training arithmetic (float32: PyTorch's default, about twice as fast on the CPU; float64 before 3 December 2026); the trained networks are held, stored and evaluated in float64 (float32 weights are exact in float64), so predictions, the OCP and the exports use the same numbers
+             * @description floating-point precision of the training arithmetic (float32: PyTorch's default, about twice as fast on the CPU); the trained networks are held, stored and evaluated in float64 (float32 weights are exact in float64), so predictions, the OCP and the exports use the same numbers
              * @default float32
              * @enum {string}
              */
@@ -3826,10 +3838,23 @@ export interface components {
              */
             patience?: number;
             /**
+             * Patience Steps
+             * @description early stopping also waits this many Adam steps without a better validation loss [-], 0 to 1e7: a member stops after both patience epochs and patience_steps steps without improvement, so a small pool (a few batches an epoch) is not stopped after a handful of steps (0: epochs alone, the paper's rule)
+             * @default 200
+             */
+            patience_steps?: number;
+            /**
              * Preliminary Halving
              * @description halve the preliminary weight every this many oracle simulations in the pool [simulations], above 0, at most 1e6 simulations; null: never
              */
             preliminary_halving?: number | null;
+            /**
+             * Preliminary In Contact
+             * @description the preliminary samples in contact (the auxiliary law's wrench not zero) once the pool holds oracle or uploaded data: 'drop' (weight 0; the samples out of contact keep their weight) or 'keep' (weighted like the other preliminary samples). The auxiliary law is another material than the oracle's: where oracle data exist its contact forces contradict them, and where they do not, they pull the model towards the auxiliary law (docs/concepts.md)
+             * @default drop
+             * @enum {string}
+             */
+            preliminary_in_contact?: "drop" | "keep";
             /**
              * Preliminary Weight
              * @description sample weight of preliminary data [-], 0 to 1e6; oracle data weigh 1
@@ -3856,28 +3881,25 @@ export interface components {
             validation_fraction?: number;
             /**
              * Warm Learning Rate
-             * @description Adam learning rate of a warm-started net (every member carries its previous weights) [-], above 0, at most 1; smaller than learning_rate: Adam's fresh moments would otherwise kick the carried weights away
-             * @default 0.001
+             * @description Adam learning rate of a warm-started net (every member carries its previous weights) [-], above 0, at most 1; null: learning_rate, a full training that starts from the carried weights
              */
-            warm_learning_rate?: number;
+            warm_learning_rate?: number | null;
             /**
              * Warm Max Epochs
-             * @description most epochs of a warm-started net per training [-], 1 to 100000 (at most max_epochs); a campaign's model keeps training over its iterations
-             * @default 4
+             * @description most epochs of a warm-started net per training [-], 1 to 100000 (at most max_epochs); null: max_epochs
              */
-            warm_max_epochs?: number;
+            warm_max_epochs?: number | null;
             /**
              * Warm Min Improvement
-             * @description relative decrease of the best validation loss an epoch of a warm-started net must reach to count as better (the carried weights are epoch 0) [-], at least 0, below 1; 0: any decrease
-             * @default 0.01
+             * @description relative decrease of the best validation loss an epoch of a warm-started net must reach to count as better (the carried weights are epoch 0) [-], at least 0, below 1; 0: any decrease, as in a cold training
+             * @default 0
              */
             warm_min_improvement?: number;
             /**
              * Warm Patience
-             * @description early stopping of a warm-started net: epochs without a clear improvement (warm_min_improvement) on its carried weights' validation loss [-], 1 to 1000
-             * @default 2
+             * @description early stopping of a warm-started net: epochs without a better validation loss than its carried weights' and its later epochs' [-], 1 to 1000; null: patience
              */
-            warm_patience?: number;
+            warm_patience?: number | null;
             /**
              * Warm Start
              * @description start from the previous model's weights when the architecture matches

@@ -139,7 +139,19 @@ export function VersionsPanel({ campaignId }: { campaignId: number }) {
                   <td className="num">{m.parent_version !== null ? `m${m.parent_version}` : "—"}</td>
                   <td className="num">{fmtNumber(m.test_force_rmse)}</td>
                   <td className="num">{fmtNumber(m.test_moment_rmse)}</td>
-                  <td className="num">{m.epochs ?? "—"}</td>
+                  <td className="num" data-stopped-improving={m.stopped_improving}>
+                    {m.epochs ?? "—"}
+                    {m.stopped_improving > 0 && (
+                      <span
+                        className="badge warn"
+                        role="img"
+                        aria-label={`${m.stopped_improving} ${m.stopped_improving === 1 ? "net" : "nets"} stopped at max_epochs while still improving`}
+                        title={`${m.stopped_improving} ${m.stopped_improving === 1 ? "net" : "nets"} (over the ensemble's members) stopped at max_epochs while the validation loss was still improving: more epochs (max_epochs in the surrogate config) would likely lower the error`}
+                      >
+                        capped
+                      </span>
+                    )}
+                  </td>
                   <td>
                     <DownloadButton path={m.artifact_url} filename={`model-c${campaignId}-m${m.version}.zip`} label="Artifact" />
                   </td>

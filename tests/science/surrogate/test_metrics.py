@@ -8,6 +8,7 @@ import pytest
 from alcove.science.surrogate.metrics import (
     MetricInputError,
     calibration,
+    component_metrics,
     component_rmse,
     vector_rmse,
     wrench_metrics,
@@ -46,6 +47,26 @@ def test_contact_variants_use_only_samples_with_nonzero_oracle_force():
     assert m["moment_rmse_contact"] == pytest.approx(2.0, rel=1e-15)
     assert m["force_rmse"] == pytest.approx(math.sqrt((25 + 1) / 2), rel=1e-15)
     assert m["moment_rmse"] == pytest.approx(math.sqrt((4 + 1) / 2), rel=1e-15)
+
+
+def test_per_component_rmse_in_contact_against_a_hand_computed_case():
+    """Three samples: two in contact (errors fx 3 and 1, fz 4 and -2, my 0.5 and 0), one clear of the
+    headrest with a ghost force fx 2. Per component over all samples and over the two in contact."""
+    true = planar([10.0, 30.0, 0.0], [5.0, -5.0, 0.0], [1.0, 2.0, 0.0])
+    pred = planar([13.0, 31.0, 2.0], [9.0, -7.0, 0.0], [1.5, 2.0, 0.0])
+    m = wrench_metrics(pred, true)
+    assert m["rmse_fx"] == pytest.approx(math.sqrt((9 + 1 + 4) / 3), rel=1e-15)
+    assert m["rmse_fx_contact"] == pytest.approx(math.sqrt((9 + 1) / 2), rel=1e-15)
+    assert m["rmse_fz"] == pytest.approx(math.sqrt((16 + 4) / 3), rel=1e-15)
+    assert m["rmse_fz_contact"] == pytest.approx(math.sqrt((16 + 4) / 2), rel=1e-15)
+    assert m["rmse_my_contact"] == pytest.approx(math.sqrt(0.25 / 2), rel=1e-15)
+    assert m["rmse_fy_contact"] == m["rmse_mx_contact"] == m["rmse_mz_contact"] == 0.0
+    # the vector in contact from its components: |e|^2 = e_fx^2 + e_fy^2 + e_fz^2
+    assert m["force_rmse_contact"] ** 2 == pytest.approx(m["rmse_fx_contact"] ** 2 + m["rmse_fz_contact"] ** 2)
+    both = component_metrics(pred, true)
+    assert both == {k.removeprefix("rmse_"): v for k, v in m.items() if k.startswith("rmse_")}
+    clear = planar([0.0], [0.0], [0.0])
+    assert component_metrics(clear + 1.0, clear)["fx_contact"] is None  # none in contact: None, not 0
 
 
 def test_no_contact_gives_none_not_zero():

@@ -1,5 +1,7 @@
 """Training protocol: splits, a known smooth law, determinism, weights, warm start, errors."""
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 import torch
@@ -10,6 +12,7 @@ from alcove.science.surrogate.dataset import PoolDataError, PoolDataset
 from alcove.science.surrogate.training import (
     TrainingCancelled,
     predict,
+    preliminary_in_contact,
     sample_weights,
     split_pool,
     train_surrogate,
@@ -49,6 +52,7 @@ def test_learns_a_known_smooth_law(smooth_pool, trained_smooth):
     assert rmse["moment"]["test"] < 0.05 * m_std
     assert result.metrics.epochs["force"] > result.metrics.best_epoch["force"]  # stopped early, best kept
     assert result.metrics.epochs["force"] - result.metrics.best_epoch["force"] == 6  # patience
+    assert result.metrics.members[0]["stop_reason"] == {"force": "patience", "moment": "patience"}
     # new trajectory, unseen: predict() agrees with the law
     t = np.linspace(0, 1, 50)
     q, qd = 0.25 + 0.1 * np.sin(3 * t), 0.3 * np.cos(3 * t)
@@ -106,6 +110,43 @@ def test_preliminary_down_weighting():
     assert np.all(sample_weights(explicit, cfg) == 2.0)  # a dataset's own weight wins
 
 
+def test_preliminary_samples_in_contact_weigh_zero_once_measured_data_exist():
+    """The auxiliary law's samples in contact (wrench not zero) bootstrap the first model only: with the
+    default ``preliminary_in_contact: "drop"`` they weigh 0 as soon as the pool holds oracle or uploaded
+    data, while its samples out of contact (wrench exactly zero) keep the preliminary weight (and its
+    halving); ``"keep"`` weighs them all alike; a dataset's own weight wins."""
+    prelim = []
+    for ds in make_smooth_pool(4, n_samples=10, seed=1, origin="preliminary", prefix="preliminary"):
+        force, moment = ds.force.copy(), ds.moment.copy()
+        force[::2], moment[::2] = 0.0, 0.0  # every other sample clear of the headrest
+        moment[1::4] = 0.0  # in contact with a zero moment: still in contact (its force is not zero)
+        prelim.append(replace(ds, force=force, moment=moment))
+    contact = np.tile(np.arange(10) % 2 == 1, 4)
+    oracle = make_smooth_pool(2, n_samples=10, seed=2)
+    upload = [replace(ds, origin="upload") for ds in oracle]
+    cfg = SurrogateConfig(preliminary_weight=0.5, preliminary_halving=1)
+    assert cfg.preliminary_in_contact == "drop"
+    assert np.all(sample_weights(prelim, cfg) == 0.5)  # no measured data yet: the prior is all there is
+    w = sample_weights(prelim + oracle, cfg)
+    np.testing.assert_array_equal(w[:40], np.where(contact, 0.0, 0.5 * 0.5**2))
+    assert np.all(w[40:] == 1.0)
+    np.testing.assert_array_equal(sample_weights(prelim + upload, cfg)[:40], np.where(contact, 0.0, 0.5))
+    # a member whose measured data all went to its test set trains on the whole prior
+    assert np.all(sample_weights(prelim + oracle, cfg, measured=False)[:40] == 0.5 * 0.5**2)
+    keep = cfg.model_copy(update={"preliminary_in_contact": "keep"})
+    assert np.all(sample_weights(prelim + oracle, keep)[:40] == 0.5 * 0.5**2)
+    own = [replace(ds, weight=2.0) for ds in prelim]
+    assert np.all(sample_weights(own + oracle, cfg)[:40] == 2.0)
+    np.testing.assert_array_equal(preliminary_in_contact(prelim[0]), contact[:10])
+    # in a training: the one oracle simulation of this pool is the test set of some members (70/30 by
+    # simulation), and they keep the prior's contact samples; the others train without them
+    small = prelim[:2] + oracle[:1]
+    result = train_surrogate(small, SurrogateConfig(ensemble_size=6, max_epochs=2), seed=0)
+    tested = ["sim-000" in sp.test_sets for sp in result.splits]
+    assert any(tested) and not all(tested)
+    assert result.model.lineage["preliminary_in_contact"] == ["keep" if t else "drop" for t in tested]
+
+
 def test_warm_start_starts_from_the_previous_weights(smooth_pool, trained_smooth):
     first = trained_smooth
     tiny = SurrogateConfig(max_epochs=1, learning_rate=1e-12, ensemble_size=1)
@@ -138,6 +179,7 @@ def test_warm_start_keeps_the_previous_weights_when_no_epoch_improves_on_them(sm
         warm_min_improvement=0.0,
         warm_max_epochs=50,
         max_epochs=50,
+        patience_steps=0,
     )
     warm = train_surrogate(smooth_pool, wild, seed=0, warm_start=first)
     assert warm.metrics.best_epoch == {"force": 0, "moment": 0}

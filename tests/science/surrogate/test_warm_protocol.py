@@ -6,6 +6,8 @@ between train, validation and test along the chain, and the carried weights are 
 same validation samples as before (plus the new ones).
 """
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 import torch
@@ -14,6 +16,7 @@ from conftest import make_smooth_pool
 from alcove.science.surrogate.config import SurrogateConfig
 from alcove.science.surrogate.training import (
     SplitPlan,
+    predict_arrays,
     split_pool,
     stable_dataset_labels,
     stable_split,
@@ -118,20 +121,99 @@ def test_changed_shares_start_a_new_plan(grown_pool):
     assert result.model.lineage["split"]["seeds"] == result.model.lineage["member_seeds"]
 
 
+#: a fine-tuning instead of a full training from the carried weights: small steps, few epochs, a clear
+#: improvement needed, patience in epochs alone
+FINE_TUNING = {
+    "warm_learning_rate": 0.001,
+    "warm_max_epochs": 4,
+    "warm_patience": 2,
+    "warm_min_improvement": 0.01,
+    "patience_steps": 0,
+}
+
+
 def test_warm_start_from_converged_weights_on_an_unchanged_pool_stops_and_returns_equal_weights(smooth_pool):
     """Weights trained to convergence (patience 40) and carried into the next iteration on the same
-    pool: no epoch improves the validation loss by warm_min_improvement, so every net stops after
-    warm_patience epochs with its carried weights, bit for bit."""
+    pool with the fine-tuning settings: no epoch improves the validation loss by warm_min_improvement,
+    so every net stops after warm_patience epochs with its carried weights, bit for bit."""
     converged = train_surrogate(smooth_pool, SurrogateConfig(ensemble_size=2, patience=40), seed=0).model
-    cfg = SurrogateConfig(ensemble_size=2)
+    cfg = SurrogateConfig(ensemble_size=2, **FINE_TUNING)
     warm = train_surrogate(smooth_pool, cfg, seed=1, warm_start=converged)
     for m in warm.metrics.members:
         assert m["best_epoch"] == {"force": 0, "moment": 0}
         assert m["epochs"] == {"force": cfg.warm_patience, "moment": cfg.warm_patience}
+        assert m["stop_reason"] == {"force": "patience", "moment": "patience"}
     for new, old in zip(warm.model.members, converged.members, strict=True):
         for net in ("force_net", "moment_net"):
             for name, value in getattr(new, net).state_dict().items():
                 assert torch.equal(value, getattr(old, net).state_dict()[name]), (net, name)
+
+
+def _noisy(pool, seed, force_std=2.0, moment_std=0.2):
+    """The pool with Gaussian noise on its planar components fx, fz (``force_std`` [N]) and my."""
+    rng = np.random.default_rng(seed)
+    out = []
+    for ds in pool:
+        force, moment = ds.force.copy(), ds.moment.copy()
+        force[:, [0, 2]] += rng.normal(0.0, force_std, (ds.n_samples, 2))
+        moment[:, 1] += rng.normal(0.0, moment_std, ds.n_samples)
+        out.append(replace(ds, force=force, moment=moment))
+    return out
+
+
+def test_a_warm_chain_from_another_law_reaches_the_error_of_a_cold_training():
+    """A campaign's first model learns the auxiliary law (here: another law, half the normal force and
+    the friction reversed); its warm-started successors see only data of the true law, with noise of
+    known variance. Trained fully from the carried weights, the chain must forget the first law: on
+    held-out data of the true law its force and moment RMSE equal a cold training's on the same final
+    pool within 5 %, and both lie within 5 % of the noise floor sqrt(2 * 2^2) N and 0.2 N m (a perfect
+    model's RMSE). The fine-tuning settings (small steps, four epochs) stay about 20 % above it."""
+    true_pool = _noisy(make_smooth_pool(24, n_samples=80, seed=21), seed=1)
+    held = _noisy(make_smooth_pool(12, n_samples=80, seed=99, prefix="held"), seed=2)
+    other = [
+        replace(ds, force=ds.force * np.array([0.5, 1.0, -1.0]), moment=0.5 * ds.moment)
+        for ds in make_smooth_pool(12, n_samples=80, seed=5, prefix="other")
+    ]
+
+    def rmse(model):
+        pred = [predict_arrays(model, ds.q, ds.qd) for ds in held]
+        f = np.concatenate([p[0] - ds.force for p, ds in zip(pred, held, strict=True)])
+        m = np.concatenate([p[1] - ds.moment for p, ds in zip(pred, held, strict=True)])
+        return np.sqrt(np.mean(np.sum(f**2, 1))), np.sqrt(np.mean(np.sum(m**2, 1)))
+
+    def chain(cfg):
+        model = train_surrogate(other, cfg, seed=0).model
+        for n in (8, 16, 24):
+            model = train_surrogate(true_pool[:n], cfg, seed=n, warm_start=model).model
+        return rmse(model)
+
+    cfg = SurrogateConfig(ensemble_size=2, dtype="float64", batch_size=256)
+    warm, cold = chain(cfg), rmse(train_surrogate(true_pool, cfg, seed=0).model)
+    floor = (np.sqrt(2 * 2.0**2), 0.2)
+    for w, c, f in zip(warm, cold, floor, strict=True):
+        assert abs(w / c - 1) <= 0.05, (warm, cold)  # threshold: the issue's 5 %
+        assert abs(w / f - 1) <= 0.05 and abs(c / f - 1) <= 0.05, (warm, cold, floor)
+    tuned = chain(cfg.model_copy(update=FINE_TUNING))
+    assert tuned[0] > 1.1 * cold[0], (tuned, cold)  # the old protocol does not absorb the new law
+
+
+def test_early_stopping_waits_patience_steps_and_records_why_a_member_stopped(smooth_pool):
+    """A pool of few batches an epoch: with batch 512 the training rows make 2 steps an epoch, so
+    patience_steps 40 means 20 epochs without improvement (more than patience 6). A cap of 5 epochs
+    stops members that still improve: stop_reason max_epochs, counted in stopped_improving."""
+    cfg = SurrogateConfig(ensemble_size=2, batch_size=512, patience_steps=40, max_epochs=2000)
+    result = train_surrogate(smooth_pool[:12], cfg, seed=0)
+    assert result.metrics.steps_per_epoch == 2 and result.metrics.batch_size == 512
+    for m in result.metrics.members:
+        assert m["stop_reason"] == {"force": "patience", "moment": "patience"}
+        for net in ("force", "moment"):
+            assert m["epochs"][net] - m["best_epoch"][net] == 20
+    assert result.metrics.stopped_improving == 0
+    capped = train_surrogate(smooth_pool[:12], cfg.model_copy(update={"max_epochs": 5}), seed=0)
+    for m in capped.metrics.members:
+        assert m["stop_reason"] == {"force": "max_epochs", "moment": "max_epochs"}
+        assert m["still_improving"] == {"force": True, "moment": True}
+    assert capped.metrics.stopped_improving == 4
 
 
 def test_warm_training_of_an_undertrained_model_is_bounded_by_warm_max_epochs(smooth_pool):

@@ -112,7 +112,8 @@ def run(
 ) -> None:
     """Create a campaign, run it to the end through Celery, and report its metrics (in-loop and
     on the held-out validation suite: ``validation_force_rmse``, ``validation_moment_rmse``,
-    ``validation_calibration``)."""
+    ``validation_calibration``, and per component ``fx_rmse`` .. ``mz_rmse`` and ``validation_fx_rmse`` ..
+    ``validation_mz_rmse``, each also over the samples in contact, ``..._rmse_contact``)."""
 
     ensure_database()
     cfg = read_config(config)
@@ -171,6 +172,16 @@ def create(
     typer.echo(create_campaign(task, oracle, iterations, read_config(config), name, seed))
 
 
+def _components_text(components: dict[str, float | None]) -> str:
+    """The components that carry the error of a planar contact: fx, fz [N] and my [N m]."""
+    parts = [
+        f"{c} {v:.3g} {unit}"
+        for c, unit in (("fx", "N"), ("fz", "N"), ("my", "N m"))
+        if (v := components.get(c)) is not None
+    ]
+    return ", ".join(parts)
+
+
 def _print_status(campaign_id: int, as_json: bool) -> None:
     detail = following.read_detail(campaign_id)
     if as_json:
@@ -184,11 +195,13 @@ def _print_status(campaign_id: int, as_json: bool) -> None:
         + f" · iteration {c.current_iteration} {c.current_step or ''}"
         + f" · finished {detail.iterations_finished}, failed {detail.iterations_failed}"
         + (f" · last RMSE F {m.force_rmse:.4g} N, M {m.moment_rmse:.4g} N m" if m and m.force_rmse is not None else "")
+        + (f" ({_components_text(m.components)})" if m and m.components else "")
         + (
             f" · validation F {m.validation_force_rmse:.4g} N, M {m.validation_moment_rmse:.4g} N m"
             if m and m.validation_force_rmse is not None and m.validation_moment_rmse is not None
             else ""
         )
+        + (f" ({_components_text(m.validation_components)})" if m and m.validation_components else "")
         + (
             f" · validation calibration {m.validation_calibration:.3f}"
             if m and m.validation_calibration is not None

@@ -242,6 +242,21 @@ _FIRST_LAST = (
 )
 
 
+_COMPONENTS = ("fx", "fy", "fz", "mx", "my", "mz")
+
+
+def component_fields(row: dict[str, Any]) -> dict[str, Any]:
+    """One metrics row's RMSE per component as flat keys: in-loop ``fx_rmse`` .. ``mz_rmse`` (and
+    ``fx_rmse_contact`` ..), on the validation suite ``validation_fx_rmse`` .. (and ``_contact``)."""
+    out: dict[str, Any] = {}
+    for prefix, comps in (("", row.get("components")), ("validation_", row.get("validation_components"))):
+        comps = comps or {}
+        for c in _COMPONENTS:
+            out[f"{prefix}{c}_rmse"] = comps.get(c)
+            out[f"{prefix}{c}_rmse_contact"] = comps.get(f"{c}_contact")
+    return out
+
+
 def summary(detail: Any, metrics: list[dict[str, Any]], wall: float | None = None) -> dict[str, Any]:
     c = detail.campaign
     out = {
@@ -260,8 +275,8 @@ def summary(detail: Any, metrics: list[dict[str, Any]], wall: float | None = Non
     v = detail.validation
     out["validation_suite"] = v.model_dump(mode="json") if v is not None else None
     if metrics:
-        out["first"] = {k: metrics[0].get(k) for k in _FIRST_LAST}
-        out["last"] = {k: metrics[-1].get(k) for k in _FIRST_LAST}
+        out["first"] = {**{k: metrics[0].get(k) for k in _FIRST_LAST}, **component_fields(metrics[0])}
+        out["last"] = {**{k: metrics[-1].get(k) for k in _FIRST_LAST}, **component_fields(metrics[-1])}
     return out
 
 

@@ -106,29 +106,33 @@ class SurrogateConfig(BaseModel):
         le=1000,
         description="early stopping: epochs without a better validation loss [-], 1 to 1000 (paper: 6)",
     )
+    patience_steps: WholeNumber = Field(
+        200,
+        ge=0,
+        le=10_000_000,
+        description="early stopping also waits this many Adam steps without a better validation loss [-], 0 to 1e7: "
+        "a member stops after both patience epochs and patience_steps steps without improvement, so a small pool "
+        "(a few batches an epoch) is not stopped after a handful of steps (0: epochs alone, the paper's rule)",
+    )
     warm_learning_rate: Annotated[
-        float,
+        float | None,
         quantity(
             "Adam learning rate of a warm-started net (every member carries its previous weights)",
             "-",
             gt=0,
             le=1,
-            why="smaller than learning_rate: Adam's fresh moments would otherwise kick the carried weights away",
+            why="null: learning_rate, a full training that starts from the carried weights",
         ),
-    ] = 0.001
-    warm_max_epochs: WholeNumber = Field(
-        4,
-        ge=1,
-        le=100_000,
+    ] = None
+    warm_max_epochs: Annotated[int, Field(ge=1, le=100_000), BeforeValidator(as_whole_number)] | None = Field(
+        None,
         description="most epochs of a warm-started net per training [-], 1 to 100000 (at most max_epochs); "
-        "a campaign's model keeps training over its iterations",
+        "null: max_epochs",
     )
-    warm_patience: WholeNumber = Field(
-        2,
-        ge=1,
-        le=1000,
-        description="early stopping of a warm-started net: epochs without a clear improvement "
-        "(warm_min_improvement) on its carried weights' validation loss [-], 1 to 1000",
+    warm_patience: Annotated[int, Field(ge=1, le=1000), BeforeValidator(as_whole_number)] | None = Field(
+        None,
+        description="early stopping of a warm-started net: epochs without a better validation loss than its carried "
+        "weights' and its later epochs' [-], 1 to 1000; null: patience",
     )
     warm_min_improvement: Annotated[
         float,
@@ -138,9 +142,9 @@ class SurrogateConfig(BaseModel):
             "-",
             ge=0,
             lt=1,
-            why="0: any decrease",
+            why="0: any decrease, as in a cold training",
         ),
-    ] = 0.01
+    ] = 0.0
     max_epochs: WholeNumber = Field(
         1000, ge=1, le=100_000, description="most epochs per training [-], a whole number from 1 to 100000"
     )
@@ -175,6 +179,14 @@ class SurrogateConfig(BaseModel):
         description="halve the preliminary weight every this many oracle simulations in the pool [simulations], "
         f"{range_text('simulations', gt=0, le=1e6)}; null: never",
     )
+    preliminary_in_contact: Literal["drop", "keep"] = Field(
+        "drop",
+        description="the preliminary samples in contact (the auxiliary law's wrench not zero) once the pool holds "
+        "oracle or uploaded data: 'drop' (weight 0; the samples out of contact keep their weight) or 'keep' "
+        "(weighted like the other preliminary samples). The auxiliary law is another material than the oracle's: "
+        "where oracle data exist its contact forces contradict them, and where they do not, they pull the model "
+        "towards the auxiliary law (docs/concepts.md)",
+    )
     ensemble_size: WholeNumber = Field(
         5,
         ge=1,
@@ -185,7 +197,7 @@ class SurrogateConfig(BaseModel):
     dtype: Literal["float64", "float32"] = Field(
         "float32",
         description="floating-point precision of the training arithmetic (float32: PyTorch's default, about twice "
-        "as fast on the CPU; float64 before 3 December 2026); the trained networks are held, stored and evaluated "
+        "as fast on the CPU); the trained networks are held, stored and evaluated "
         "in float64 (float32 weights are exact in float64), so predictions, the OCP and the exports use the same "
         "numbers",
     )
@@ -216,6 +228,17 @@ class SurrogateConfig(BaseModel):
         if not isinstance(data, dict):
             raise SurrogateConfigError("config", "must be a JSON object")
         return cls.parse(data)
+
+    @property
+    def warm_rule(self) -> tuple[float, int, int, float]:
+        """The warm start's learning rate, most epochs, patience and least improvement, unset ones from the
+        cold training's."""
+        return (
+            self.learning_rate if self.warm_learning_rate is None else self.warm_learning_rate,
+            self.max_epochs if self.warm_max_epochs is None else min(self.warm_max_epochs, self.max_epochs),
+            self.patience if self.warm_patience is None else self.warm_patience,
+            self.warm_min_improvement,
+        )
 
     def weight_for(self, origin: str, n_oracle: int) -> float:
         """Default sample weight of a dataset of ``origin`` in a pool holding ``n_oracle`` oracle simulations."""

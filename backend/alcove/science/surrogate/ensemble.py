@@ -25,9 +25,12 @@ member is ``sum_i w_i mean_c (net(z_i) - y_i)_c^2 / n_batch``.
 
 Early stopping per net and member: the validation loss ``sum_i w_i mean_c err^2 / sum_i w_i``
 after every epoch; the weights of a member's best epoch are kept; after ``patience`` epochs
-without improvement the member is stopped (a net with carried weights, ``warm``: its carried
-weights are epoch 0, an epoch improves only when its loss is below ``(1 - warm_min_improvement)``
-times the best, and the patience is ``warm_patience``): its result is frozen at its best epoch and it leaves
+and ``patience_steps`` Adam steps without improvement (whichever is longer: a small pool makes
+few steps an epoch), or at ``max_epochs``, the member is stopped, and why is recorded
+(``stop_reason``). A net with carried weights (``warm``) trains the same way from them, with
+the ``warm_*`` settings where they are set: its carried weights are epoch 0, and an epoch
+improves only when its loss is below ``(1 - warm_min_improvement)`` times the best. A stopped
+member's result is frozen at its best epoch and it leaves
 the batched tensors (its rows of the weights and of Adam's moments are dropped, the others
 continue with the same state and step count, so their arithmetic is unchanged). A net stops
 stepping when all its members have stopped.
@@ -183,26 +186,32 @@ class BatchedNet:
 @dataclass(frozen=True)
 class StoppingRule:
     """Step size and early stopping of one net: a new best needs a validation loss below
-    ``(1 - min_improvement)`` times the best so far; a member stops after ``patience`` epochs
-    without one, or at ``max_epochs``."""
+    ``(1 - min_improvement)`` times the best so far; a member stops after ``patience`` epochs and
+    ``patience_steps`` Adam steps without one, or at ``max_epochs``."""
 
     learning_rate: float
     patience: int
     min_improvement: float
     max_epochs: int
+    patience_steps: int = 0
 
     @classmethod
     def paper(cls, config: SurrogateConfig) -> StoppingRule:
-        return cls(config.learning_rate, config.patience, 0.0, config.max_epochs)
+        return cls(config.learning_rate, config.patience, 0.0, config.max_epochs, config.patience_steps)
 
     @classmethod
     def warm(cls, config: SurrogateConfig) -> StoppingRule:
-        return cls(
-            config.warm_learning_rate,
-            config.warm_patience,
-            config.warm_min_improvement,
-            min(config.warm_max_epochs, config.max_epochs),
-        )
+        learning_rate, max_epochs, patience, min_improvement = config.warm_rule
+        return cls(learning_rate, patience, min_improvement, max_epochs, config.patience_steps)
+
+    def patience_epochs(self, steps_per_epoch: int) -> int:
+        """Epochs without improvement after which a member stops: ``patience``, or more when an epoch
+        is fewer than ``patience_steps / patience`` Adam steps."""
+        return max(self.patience, math.ceil(self.patience_steps / max(steps_per_epoch, 1)))
+
+
+#: why a member's net stopped training (``EnsembleTrainer.stop_reason``)
+STOP_PATIENCE, STOP_MAX_EPOCHS = "patience", "max_epochs"
 
 
 def _stack_padded(rows: list[torch.Tensor], length: int) -> torch.Tensor:
@@ -288,6 +297,9 @@ class EnsembleTrainer:
         self.best_loss = {k: torch.full((self.K,), math.inf, dtype=torch.float64) for k in NETS}
         self.best_epoch = {k: [0] * self.K for k in NETS}
         self.epochs = {k: [0] * self.K for k in NETS}
+        self.patience_epochs = {k: self.rule[k].patience_epochs(self.S) for k in NETS}
+        # per net and member: None while training, else STOP_PATIENCE or STOP_MAX_EPOCHS
+        self.stop_reason: dict[str, list[str | None]] = {k: [None] * self.K for k in NETS}
         self.best = {k: self.batched[k].snapshot() for k in NETS}
         self.history: dict[str, list[list[float]]] = {k: [] for k in NETS}
 
@@ -419,14 +431,25 @@ class EnsembleTrainer:
             self.epochs[k][m] = epoch
             if improved[row]:
                 self.best_epoch[k][m] = epoch
-            if epoch - self.best_epoch[k][m] >= self.rule[k].patience or epoch >= self.rule[k].max_epochs:
-                self.stopped[k][m] = True
+            if epoch - self.best_epoch[k][m] >= self.patience_epochs[k]:
+                self.stopped[k][m], self.stop_reason[k][m] = True, STOP_PATIENCE
+                continue
+            if epoch >= self.rule[k].max_epochs:
+                self.stopped[k][m], self.stop_reason[k][m] = True, STOP_MAX_EPOCHS
                 continue
             keep.append(row)
         if keep and len(keep) < members.numel():  # some stopped: they leave the batched tensor
             rows = torch.tensor(keep)
             self._drop_members(k, rows)
             self.active[k] = members[rows]
+
+    def still_improving(self, k: str, m: int) -> bool:
+        """Whether member ``m``'s net ``k`` stopped at ``max_epochs`` while it was still improving (its
+        best epoch within the last ``patience`` epochs: more epochs would likely have helped)."""
+        return (
+            self.stop_reason[k][m] == STOP_MAX_EPOCHS
+            and self.epochs[k][m] - self.best_epoch[k][m] < (self.patience_epochs[k])
+        )
 
     def finish(self) -> None:
         """Write every member's best weights into its nets."""
@@ -436,6 +459,8 @@ class EnsembleTrainer:
 
 __all__ = [
     "NETS",
+    "STOP_MAX_EPOCHS",
+    "STOP_PATIENCE",
     "BatchedNet",
     "EnsembleTrainer",
     "GatedOutputs",

@@ -6,6 +6,7 @@ Arrays are wrenches in the headrest frame, one row per sample, columns ``fx fy f
 M = (mx, my, mz):
 
 * per component c:   ``rmse_c = sqrt(mean_i (pred_ic - true_ic)^2)``                  [N or N m]
+  (and ``rmse_c_contact`` over the samples in contact, below)
 * force:             ``force_rmse = sqrt(mean_i |F_pred,i - F_true,i|^2)``              [N]
   (the root mean square of the error vector's norm; equals sqrt(rmse_fx^2 + rmse_fy^2 + rmse_fz^2),
   so a structurally zero component (fy in the planar model) does not dilute it)
@@ -61,6 +62,18 @@ def component_rmse(pred: ArrayLike, true: ArrayLike) -> dict[str, float | None]:
     return {c: _rms(sq[:, j]) for j, c in enumerate(COMPONENTS)}
 
 
+def component_metrics(pred: ArrayLike, true: ArrayLike, contact_threshold: float = 0.0) -> dict[str, float | None]:
+    """RMSE of each component over all samples (keys ``fx`` .. ``mz``) and over the samples in contact
+    (``fx_contact`` .. ``mz_contact``, :func:`contact_mask`; None when none is in contact)."""
+    p = _wrench("pred", pred)
+    t = _wrench("true", true, p.shape)
+    contact = contact_mask(t, contact_threshold)
+    return {
+        **component_rmse(p, t),
+        **{f"{c}_contact": v for c, v in component_rmse(p[contact], t[contact]).items()},
+    }
+
+
 def vector_rmse(pred: ArrayLike, true: ArrayLike) -> float | None:
     """``sqrt(mean_i |pred_i - true_i|^2)`` for rows of 3-vectors (n, 3); None for n = 0."""
     p = np.asarray(pred, dtype=np.float64)
@@ -100,6 +113,7 @@ def wrench_metrics(
     t = _wrench("true", true, p.shape)
     contact = contact_mask(t, contact_threshold)
     out: dict[str, Any] = {f"rmse_{c}": v for c, v in component_rmse(p, t).items()}
+    out.update({f"rmse_{c}_contact": v for c, v in component_rmse(p[contact], t[contact]).items()})
     out["force_rmse"] = vector_rmse(p[:, :3], t[:, :3])
     out["moment_rmse"] = vector_rmse(p[:, 3:], t[:, 3:])
     out["force_rmse_contact"] = vector_rmse(p[contact, :3], t[contact, :3])
@@ -112,6 +126,7 @@ def wrench_metrics(
 
 METRIC_KEYS = (
     *(f"rmse_{c}" for c in COMPONENTS),
+    *(f"rmse_{c}_contact" for c in COMPONENTS),
     "force_rmse",
     "moment_rmse",
     "force_rmse_contact",
@@ -129,7 +144,9 @@ DESCRIPTIONS = {
     "moment_rmse_contact": "moment RMSE [N m] over the samples in contact (oracle |F_true| > 0); null if none",
     "calibration": "fraction of oracle values inside the ensemble mean +- 2 std, over the components not zero "
     "in every sample; null for a single model (K = 1)",
-    "rmse_components": "per-component RMSE sqrt(mean (pred_c - true_c)^2) for c in fx fy fz [N], mx my mz [N m]",
+    "rmse_components": "per-component RMSE sqrt(mean (pred_c - true_c)^2) for c in fx fy fz [N], mx my mz [N m], "
+    "over all samples (keys fx .. mz) and over the samples in contact, oracle |F_true| > 0 (keys fx_contact .. "
+    "mz_contact; null if none)",
 }
 
 __all__ = [
@@ -139,6 +156,7 @@ __all__ = [
     "METRIC_KEYS",
     "MetricInputError",
     "calibration",
+    "component_metrics",
     "component_rmse",
     "contact_mask",
     "vector_rmse",

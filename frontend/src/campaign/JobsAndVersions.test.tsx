@@ -1,0 +1,45 @@
+import { describe, expect, it } from "vitest";
+import { screen, within } from "@testing-library/react";
+import { VersionsPanel } from "./JobsAndVersions";
+import { mockApi, renderPage } from "../test/utils";
+
+function model(id: number, version: number, stopped_improving: number) {
+  return {
+    id,
+    campaign_id: 3,
+    version,
+    pool_version_id: 10 + version,
+    parent_model_id: version > 1 ? id - 1 : null,
+    surrogate_config_version_id: 1,
+    seed: 0,
+    test_force_rmse: 1.5,
+    test_moment_rmse: 0.1,
+    epochs: 1000,
+    train_wall_time_s: 3.2,
+    code_version: "test",
+    library_versions: {},
+    architecture: {},
+    training_metrics: { stopped_improving },
+    created_at: "2026-12-04T20:00:00Z",
+    stopped_improving,
+  };
+}
+
+describe("model versions table", () => {
+  it("warns about a model whose members stopped at max_epochs while still improving", async () => {
+    mockApi({
+      "GET /campaigns/3/model-versions": [model(21, 1, 0), model(22, 2, 3)],
+      "GET /campaigns/3/pool-versions": [
+        { id: 11, version: 0, campaign_id: 3, parent_id: null, n_datasets: 10, n_samples: 4000, content_hash: "a", created_at: "2026-12-04T20:00:00Z" },
+        { id: 12, version: 1, campaign_id: 3, parent_id: 11, n_datasets: 11, n_samples: 4401, content_hash: "b", created_at: "2026-12-04T20:00:00Z" },
+      ],
+    });
+    renderPage(<VersionsPanel campaignId={3} />);
+    const table = await screen.findByTestId("model-table");
+    const rows = within(table).getAllByRole("row").slice(1);
+    expect(rows).toHaveLength(2);
+    // newest first: m2 capped, m1 not
+    expect(within(rows[0]).getByRole("img", { name: "3 nets stopped at max_epochs while still improving" })).toHaveTextContent("capped");
+    expect(within(rows[1]).queryByRole("img")).toBeNull();
+  });
+});
