@@ -421,6 +421,12 @@ try {
   await oracleCalls.click();
   await page.locator("[data-testid=rmse-plot][data-xaxis=oracle]").waitFor();
   if (!(await oracleCalls.isChecked())) throw new Error("the plot shows oracle calls, the x-axis radio does not");
+  // one component's RMSE: the friction force fz, in the loop, in contact and on the held-out suite
+  await page.getByTestId("rmse-quantity").selectOption("fz");
+  await page.locator("[data-testid=rmse-plot][data-quantity=fz]").waitFor();
+  await waitFor(async () => Number(await page.getByTestId("rmse-plot").getAttribute("data-traces")) >= 2, "the fz RMSE traces");
+  if ((await page.getByTestId("rmse-quantity").inputValue()) !== "fz") throw new Error("the plot shows fz, the select does not");
+  if (!new URL(page.url()).searchParams.get("rmse")) throw new Error(`the component is not in the URL: ${page.url()}`);
 
   step("screenshots of the campaign page and the campaigns list");
   await page.goto(campaignUrl.split("?")[0] + "?tab=forces");

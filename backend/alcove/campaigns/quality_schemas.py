@@ -61,7 +61,7 @@ class ValidationPoint(BaseModel):
     model_version_id: int
     force_rmse: float = Field(description="sqrt(mean_i |F_pred,i - F_true,i|^2) over all samples of all motions [N]")
     moment_rmse: float = Field(description="the same for the moment vector [N m]")
-    components: dict[str, float] = Field(description="RMSE of each component fx..mz [N, N m]")
+    components: dict[str, float | None] = Field(description="the " + DESCRIPTIONS["rmse_components"])
     calibration: float | None = Field(
         None,
         description=DESCRIPTIONS["calibration"] + "; over all samples of all motions; null also when not recorded",

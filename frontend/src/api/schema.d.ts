@@ -4520,10 +4520,10 @@ export interface components {
             calibration_recorded?: boolean;
             /**
              * Components
-             * @description RMSE of each component fx..mz [N, N m]
+             * @description the per-component RMSE sqrt(mean (pred_c - true_c)^2) for c in fx fy fz [N], mx my mz [N m], over all samples (keys fx .. mz) and over the samples in contact, oracle |F_true| > 0 (keys fx_contact .. mz_contact; null if none)
              */
             components: {
-                [key: string]: number;
+                [key: string]: number | null;
             };
             /**
              * Force Rmse

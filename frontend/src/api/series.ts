@@ -64,6 +64,8 @@ export function toPoints(metrics: SeriesRow[], iterations: IterationState[]): Me
     force_rmse_contact: m.force_rmse_contact ?? null,
     moment_rmse_contact: m.moment_rmse_contact ?? null,
     calibration: m.calibration ?? null,
+    components: m.components ?? null,
+    validation_components: m.validation_components ?? null,
     quarantined: false,
     inherited: Boolean(m.inherited),
     ocp_trusted: m.ocp_trusted ?? null,
@@ -188,7 +190,7 @@ export function withValidation(points: MetricPoint[], validation: ValidationSeri
   const byK = new Map(validation.points.map((v) => [v.iteration_index, v]));
   return points.map((p) => {
     const v = p.inherited ? undefined : byK.get(p.iteration);
-    return v ? { ...p, validation_force_rmse: v.force_rmse, validation_moment_rmse: v.moment_rmse, validation_calibration: v.calibration ?? null } : p;
+    return v ? { ...p, validation_force_rmse: v.force_rmse, validation_moment_rmse: v.moment_rmse, validation_calibration: v.calibration ?? null, validation_components: v.components } : p;
   });
 }
 

@@ -1,7 +1,7 @@
 import { useMemo } from "react";
 import type { Layout } from "plotly.js-dist-min";
 import { Plot, type Trace } from "../components/Plot";
-import { isMarked, type MetricPoint } from "../lib/metrics";
+import { componentUnit, isMarked, type MetricPoint, type RmseQuantity } from "../lib/metrics";
 import { iterationAt, xOf, xTitle, type XAxis } from "../lib/xaxis";
 
 const INHERITED = "#a3a9b6";
@@ -66,8 +66,37 @@ export function rmseTraces(points: MetricPoint[], name = "", axis: XAxis = "iter
   return traces;
 }
 
-export function RmsePlot({ points, logY, onSelect, xAxis = "iteration" }: { points: MetricPoint[]; logY: boolean; onSelect?: (k: number) => void; xAxis?: XAxis }) {
-  const traces = useMemo(() => rmseTraces(points, "", xAxis), [points, xAxis]);
+/**
+ * One wrench component's RMSE per iteration (``c`` in fx .. mz): over the new oracle data (solid), over
+ * its samples in contact (dotted) and on the held-out suite (dashed; dash-dot in contact). The
+ * normal force fx is learnable from any pool; fz (friction) depends on the motion's history, so
+ * the split shows which part of the force error a campaign can still lower.
+ */
+export function componentTraces(points: MetricPoint[], c: string, axis: XAxis = "iteration"): Trace[] {
+  const X = (p: MetricPoint) => xOf(p, axis);
+  const own = points.filter((p) => !isMarked(p) && !p.inherited && p.components != null);
+  const inherited = points.filter((p) => !isMarked(p) && p.inherited && p.components != null);
+  const unit = componentUnit(c);
+  const color = c === "fx" ? "#2f5bd3" : c === "fz" ? "#7a3fb8" : c === "my" ? "#d3662f" : "#1d7a45";
+  const value = (v: Record<string, number | null> | null | undefined, key: string) => v?.[key] ?? null;
+  const traces: Trace[] = [];
+  if (inherited.length)
+    traces.push({ x: inherited.map(X), y: inherited.map((p) => value(p.components, c)), name: `${c} RMSE [${unit}], inherited`, mode: "lines+markers", type: "scatter", line: { color: INHERITED }, marker: { color: INHERITED, symbol: "circle-open" } });
+  traces.push(
+    { x: own.map(X), y: own.map((p) => value(p.components, c)), name: `${c} RMSE [${unit}]`, mode: "lines+markers", type: "scatter", line: { color } },
+    { x: own.map(X), y: own.map((p) => value(p.components, `${c}_contact`)), name: `${c} RMSE in contact [${unit}]`, mode: "lines", type: "scatter", line: { color, dash: "dot" } },
+  );
+  const validated = points.filter((p) => !isMarked(p) && !p.inherited && p.validation_components != null);
+  if (validated.length)
+    traces.push(
+      { x: validated.map(X), y: validated.map((p) => value(p.validation_components, c)), name: `${c} RMSE, held-out suite [${unit}]`, mode: "lines+markers", type: "scatter", line: { color, dash: "dash" }, marker: { color, symbol: "diamond-open" } },
+      { x: validated.map(X), y: validated.map((p) => value(p.validation_components, `${c}_contact`)), name: `${c} RMSE in contact, held-out suite [${unit}]`, mode: "lines", type: "scatter", line: { color, dash: "dashdot" } },
+    );
+  return traces;
+}
+
+export function RmsePlot({ points, logY, onSelect, xAxis = "iteration", quantity = "vector" }: { points: MetricPoint[]; logY: boolean; onSelect?: (k: number) => void; xAxis?: XAxis; quantity?: RmseQuantity }) {
+  const traces = useMemo(() => (quantity === "vector" ? rmseTraces(points, "", xAxis) : componentTraces(points, quantity, xAxis)), [points, xAxis, quantity]);
   const few = xAxis === "iteration" && points.length > 0 && points[points.length - 1].iteration <= 12;
   const xLayout = useMemo(() => ({ xaxis: { title: { text: xTitle(xAxis) }, dtick: few ? 1 : undefined, zeroline: false } }), [few, xAxis]);
   const own = points.filter((p) => !p.inherited);
@@ -85,7 +114,7 @@ export function RmsePlot({ points, logY, onSelect, xAxis = "iteration" }: { poin
       }}
       height={300}
       extraLayout={xLayout}
-      data={{ xaxis: xAxis, iterations: own.filter((p) => p.force_rmse !== null).map((p) => p.iteration).join(","), inherited: points.filter((p) => p.inherited).map((p) => p.iteration).join(","), validation: own.filter((p) => p.validation_force_rmse != null).map((p) => p.iteration).join(",") }}
+      data={{ xaxis: xAxis, quantity, iterations: own.filter((p) => p.force_rmse !== null).map((p) => p.iteration).join(","), inherited: points.filter((p) => p.inherited).map((p) => p.iteration).join(","), validation: own.filter((p) => p.validation_force_rmse != null).map((p) => p.iteration).join(",") }}
     />
   );
 }

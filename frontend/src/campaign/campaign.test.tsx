@@ -3,7 +3,7 @@ import { render, screen, waitFor, within } from "@testing-library/react";
 import userEvent from "@testing-library/user-event";
 import Plotly from "plotly.js-basic-dist-min";
 import { wrenchTraces } from "./ForcesPanel";
-import { calibrationTraces, hasCalibration, rmseTraces } from "./RmsePlot";
+import { calibrationTraces, componentTraces, hasCalibration, rmseTraces } from "./RmsePlot";
 import { forkDefaults, DEFAULT_FURTHER } from "./ForkDialog";
 import { Controls } from "./Controls";
 import { progressText } from "../api/campaigns";
@@ -74,6 +74,31 @@ describe("an ensemble's prediction with its spread", () => {
     expect(suite.x).toEqual([1, 3]);
     expect(suite.y).toEqual([25, 62.5]);
     expect(hasCalibration([p(1, null, 0.8)])).toBe(true); // an ensemble scored only on the suite so far
+  });
+});
+
+describe("RMSE per component", () => {
+  it("draws one component's RMSE in the loop, in contact and on the suite, with its unit", () => {
+    const p = (k: number, suite: boolean) => ({
+      iteration: k,
+      status: "succeeded",
+      force_rmse: 5,
+      moment_rmse: 0.5,
+      quarantined: false,
+      components: { fx: k, fz: 10 * k, my: 0.1 * k, fx_contact: 2 * k, fz_contact: null, my_contact: 0.2 },
+      validation_components: suite ? { fx: 3 * k, fz: 20, my: 0.3, fx_contact: 4 * k, fz_contact: 21, my_contact: 0.4 } : null,
+    });
+    const points = [p(1, true), p(2, false), p(3, true)];
+    const fz = componentTraces(points, "fz");
+    expect(fz.map((t) => t.name)).toEqual(["fz RMSE [N]", "fz RMSE in contact [N]", "fz RMSE, held-out suite [N]", "fz RMSE in contact, held-out suite [N]"]);
+    expect(fz[0].y).toEqual([10, 20, 30]);
+    expect(fz[1].y).toEqual([null, null, null]); // none in contact: a gap, not 0
+    expect(fz[2].x).toEqual([1, 3]);
+    expect((fz[2].line as { dash: string }).dash).toBe("dash");
+    const my = componentTraces(points, "my");
+    expect(my[0].name).toBe("my RMSE [N m]");
+    expect(my[3].y).toEqual([0.4, 0.4]);
+    expect(componentTraces(points, "fx", "oracle")[0].x).toEqual([null, null, null]); // no oracle calls recorded
   });
 });
 

@@ -28,6 +28,9 @@ export interface MetricPoint {
   cumulative_oracle_calls?: number | null;
   /** wall time of iterations 1..k until model k was evaluated [s] */
   cumulative_wall_time_s?: number | null;
+  /** RMSE per component (fx .. mz) and in contact (fx_contact .. mz_contact), in the loop and on the suite */
+  components?: Record<string, number | null> | null;
+  validation_components?: Record<string, number | null> | null;
   /** a batch iteration's in-loop RMSE per picked trajectory (the point's RMSE is their mean) */
   picks?: { pick: number; slot: number; force_rmse?: number | null; moment_rmse?: number | null }[];
 }
@@ -54,4 +57,25 @@ export function afterCursor(known: MetricPoint[] | undefined): number | undefine
 
 export function isMarked(p: MetricPoint): boolean {
   return p.quarantined || p.status === "failed";
+}
+
+/** What the RMSE plot shows: the force and moment error vectors, or one wrench component. */
+export const RMSE_QUANTITIES = [
+  ["vector", "force & moment"],
+  ["fx", "fx"],
+  ["fz", "fz"],
+  ["my", "my"],
+  ["fy", "fy"],
+  ["mx", "mx"],
+  ["mz", "mz"],
+] as const;
+export type RmseQuantity = (typeof RMSE_QUANTITIES)[number][0];
+
+export function isRmseQuantity(v: string): v is RmseQuantity {
+  return RMSE_QUANTITIES.some(([key]) => key === v);
+}
+
+/** The unit of a component's RMSE: N for a force component, N m for a moment component. */
+export function componentUnit(c: string): string {
+  return c.startsWith("f") ? "N" : "N m";
 }

@@ -13,6 +13,7 @@ import { TrajectoryPanel } from "../campaign/TrajectoryPanel";
 import { CandidatesPanel } from "../campaign/CandidatesPanel";
 import { XAxisSwitch } from "../components/XAxisSwitch";
 import { isXAxis } from "../lib/xaxis";
+import { isRmseQuantity, RMSE_QUANTITIES } from "../lib/metrics";
 import { JobsTable, VersionsPanel } from "../campaign/JobsAndVersions";
 import { Controls } from "../campaign/Controls";
 import { fmtDate, fmtDuration, fmtNumber } from "../lib/format";
@@ -52,6 +53,8 @@ export function CampaignPage() {
   const [overlay, setOverlay] = useStringParam("overlay");
   const [tab, setTab] = useStringParam("tab", "forces");
   const [xRaw, setXAxis] = useStringParam("x", "iteration");
+  const [quantityRaw, setQuantity] = useStringParam("rmse", "vector");
+  const quantity = isRmseQuantity(quantityRaw) ? quantityRaw : "vector";
   const xAxis = isXAxis(xRaw) ? xRaw : "iteration";
   const setParams = useSetParams();
   const oracle = useOracle(c?.oracle_id ?? null);
@@ -146,6 +149,16 @@ export function CampaignPage() {
             </span>
           ) : null}
           <span className="spacer" />
+          <label className="field-inline">
+            RMSE of{" "}
+            <select data-testid="rmse-quantity" value={quantity} onChange={(e) => setQuantity(e.target.value)}>
+              {RMSE_QUANTITIES.map(([key, label]) => (
+                <option key={key} value={key}>
+                  {label}
+                </option>
+              ))}
+            </select>
+          </label>
           <XAxisSwitch value={xAxis} onChange={setXAxis} />
           <label className="field-inline">
             <input type="checkbox" checked={logY} onChange={(e) => setLogY(e.target.checked)} /> log axis
@@ -165,6 +178,7 @@ export function CampaignPage() {
               points={points}
               logY={logY}
               xAxis={xAxis}
+              quantity={quantity}
               onSelect={(it) => {
                 // one navigation for both: the clicked iteration on the forces tab
                 if (own.some((p) => p.iteration === it)) setParams({ k: String(it), tab: null });
