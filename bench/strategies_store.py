@@ -37,7 +37,7 @@ def retrain(run_file: Path, store: Path, budget: int, seed: int) -> dict[str, An
     """Diagnostic: the pool a run had after ``budget`` oracle calls, trained from scratch
     (``warm_start`` off: every member up to ``max_epochs`` with early stopping, like model
     version 1), scored on the same validation suite. Separates what the strategy collected from
-    how far the campaign's warm-started training (``warm_max_epochs`` per iteration) got."""
+    what the campaign's chain of warm-started trainings made of it."""
     run = json.loads(run_file.read_text())
     row = run["budgets"].get(str(budget))
     if row is None:

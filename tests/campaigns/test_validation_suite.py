@@ -117,7 +117,13 @@ def test_suite_is_shared_replayed_once_never_pooled_and_evaluates_every_model(
 
     with session_scope() as s:
         served = [(m.validation_calibration, m.validation_calibration_recorded) for m in metrics_series(s, a)]
-        points = validation_series(s, s.get(Campaign, a)).points
+        series_a = validation_series(s, s.get(Campaign, a))
+        points = series_a.points
+    # the auxiliary law's own error on the suite: this campaign's oracle is the auxiliary law itself
+    # (aux-penalty, the same parameters), so the reference line lies at zero (to float rounding)
+    assert series_a.aux_law is not None
+    assert series_a.aux_law.force_rmse <= 1e-9 and series_a.aux_law.moment_rmse <= 1e-9
+    assert set(series_a.aux_law.components) >= {"fx", "fz", "my", "fx_contact"}
     assert served == [(pytest.approx(4 / 6, abs=1e-15), True), (v2[1], True)]
     assert [p.calibration for p in points] == [pytest.approx(4 / 6, abs=1e-15), v2[1]]
     assert points[0].per_motion[0]["calibration"] == pytest.approx(3 / 4, abs=1e-15)

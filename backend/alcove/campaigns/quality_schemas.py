@@ -76,6 +76,20 @@ class ValidationPoint(BaseModel):
     )
 
 
+class ValidationReference(BaseModel):
+    """A reference model's error on the held-out validation suite (a line beside the campaign's models)."""
+
+    force_rmse: float = Field(description="sqrt(mean_i |F_pred,i - F_true,i|^2) over all samples of all motions [N]")
+    moment_rmse: float = Field(description="the same for the moment vector [N m]")
+    components: dict[str, float | None] = Field(description="the " + DESCRIPTIONS["rmse_components"])
+
+
 class ValidationSeries(BaseModel):
     suite: ValidationSuiteRead | None = Field(description="the campaign's held-out validation suite (null: none)")
     points: list[ValidationPoint] = Field(description="one per own model version evaluated so far, by k")
+    aux_law: ValidationReference | None = Field(
+        None,
+        description="the auxiliary penalty law's own error on the suite (the law the preliminary data come from, "
+        "with its default parameters): what a model of the preliminary data alone approaches; null until the "
+        "suite is complete",
+    )

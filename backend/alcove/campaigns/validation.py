@@ -11,7 +11,12 @@ from typing import Any
 import sqlalchemy as sa
 from sqlalchemy.orm import Session
 
-from alcove.campaigns.quality_schemas import ValidationPoint, ValidationSeries, ValidationSuiteRead
+from alcove.campaigns.quality_schemas import (
+    ValidationPoint,
+    ValidationReference,
+    ValidationSeries,
+    ValidationSuiteRead,
+)
 from alcove.campaigns.schemas import MetricsRead
 from alcove.models import Campaign, ModelVersion, MotionStatus, ValidationMetrics, ValidationMotion, ValidationSuite
 
@@ -86,8 +91,17 @@ def validation_series(s: Session, campaign: Campaign) -> ValidationSeries:
         .where(ModelVersion.campaign_id == campaign.id)
         .order_by(ModelVersion.version)
     ).all()
+    from alcove.surrogates.validation import aux_law_error
+
+    suite = s.get(ValidationSuite, campaign.validation_suite_id) if campaign.validation_suite_id is not None else None
+    aux = aux_law_error(s, suite) if suite is not None else None
     return ValidationSeries(
         suite=suite_read(s, campaign),
+        aux_law=ValidationReference(
+            force_rmse=aux["force_rmse"], moment_rmse=aux["moment_rmse"], components=aux["components"]
+        )
+        if aux is not None
+        else None,
         points=[
             ValidationPoint(
                 iteration_index=k,

@@ -19,6 +19,7 @@ from typing import Any
 
 import numpy as np
 import sqlalchemy as sa
+from cachetools import LRUCache
 from sqlalchemy.exc import IntegrityError
 from sqlalchemy.orm import Session
 
@@ -66,6 +67,43 @@ def suite_kinematics(suite: ValidationSuite) -> Any:
     from alcove.science.surrogate.training import pose_kinematics
 
     return pose_kinematics(ModelSpec.model_validate(suite.preset["chain_suite"]["model"]).pose_function())
+
+
+#: the auxiliary law's error per complete suite (a complete suite's motions never change)
+_aux_law_errors: LRUCache[int, dict[str, Any]] = LRUCache(maxsize=256)
+
+
+def aux_law_error(s: Session, suite: ValidationSuite) -> dict[str, Any] | None:
+    """The auxiliary penalty law's own error on a complete suite (:func:`generalisation_error` of its
+    wrench, with its default parameters as the preliminary data use them, against the oracle's):
+    the error a model of the preliminary data alone approaches, and the line a campaign's models must
+    get below to have learnt from the oracle. None until the suite is complete."""
+    if suite.status != SuiteStatus.complete.value:
+        return None
+    found = _aux_law_errors.get(suite.id)
+    if found is not None:
+        return found
+    from alcove.science.geometry import kinematics_from_pose, relative_kinematics
+    from alcove.science.ocp.task_spec import ModelSpec
+    from alcove.science.oracles.aux_penalty import AuxPenaltyParams, aux_penalty_wrench
+    from alcove.science.validation_suite import ChainSuiteModel, suite_model_from_dict
+
+    suite_model = suite_model_from_dict(suite.preset)
+    preds, trues = [], []
+    for a in _suite_arrays(s, suite.id):
+        if isinstance(suite_model, ChainSuiteModel):
+            model = ModelSpec.model_validate(suite_model.model)
+            preset, kin = model.oracle_preset(), kinematics_from_pose(model.pose_function()(a["q"], a["qd"]))
+        else:
+            preset, kin = suite_model, relative_kinematics(suite_model, a["q"][:, 0], a["qd"][:, 0])
+        force, moment = aux_penalty_wrench(preset, AuxPenaltyParams(), kin)
+        preds.append(np.hstack([force, moment]))
+        trues.append(a["f"])
+    if not preds:
+        return None
+    error = generalisation_error(np.concatenate(preds), np.concatenate(trues))
+    _aux_law_errors[suite.id] = error
+    return error
 
 
 def _metrics(model: Any, motions: list[dict[str, np.ndarray]], kinematics: Any = None) -> dict[str, Any]:

@@ -4550,6 +4550,29 @@ export interface components {
                 [key: string]: number | null;
             }[];
         };
+        /**
+         * ValidationReference
+         * @description A reference model's error on the held-out validation suite (a line beside the campaign's models).
+         */
+        ValidationReference: {
+            /**
+             * Components
+             * @description the per-component RMSE sqrt(mean (pred_c - true_c)^2) for c in fx fy fz [N], mx my mz [N m], over all samples (keys fx .. mz) and over the samples in contact, oracle |F_true| > 0 (keys fx_contact .. mz_contact; null if none)
+             */
+            components: {
+                [key: string]: number | null;
+            };
+            /**
+             * Force Rmse
+             * @description sqrt(mean_i |F_pred,i - F_true,i|^2) over all samples of all motions [N]
+             */
+            force_rmse: number;
+            /**
+             * Moment Rmse
+             * @description the same for the moment vector [N m]
+             */
+            moment_rmse: number;
+        };
         /** ValidationReport */
         ValidationReport: {
             /**
@@ -4569,6 +4592,8 @@ export interface components {
         };
         /** ValidationSeries */
         ValidationSeries: {
+            /** @description the auxiliary penalty law's own error on the suite (the law the preliminary data come from, with its default parameters): what a model of the preliminary data alone approaches; null until the suite is complete */
+            aux_law?: components["schemas"]["ValidationReference"] | null;
             /**
              * Points
              * @description one per own model version evaluated so far, by k

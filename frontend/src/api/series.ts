@@ -206,5 +206,6 @@ export function useMetrics(id: number, { inherited = false, latest = null, qc }:
     () => (metrics.data ? withValidation(toPoints(metrics.data, states.data ?? []), validation.data) : undefined),
     [metrics.data, states.data, validation.data],
   );
-  return { data, isPending: metrics.isPending, isError: metrics.isError, error: metrics.error, refetch: metrics.refetch };
+  const auxLaw = validation.data?.aux_law ?? null;
+  return { data, auxLaw, isPending: metrics.isPending, isError: metrics.isError, error: metrics.error, refetch: metrics.refetch };
 }

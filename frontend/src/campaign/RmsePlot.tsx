@@ -1,7 +1,7 @@
 import { useMemo } from "react";
 import type { Layout } from "plotly.js-dist-min";
 import { Plot, type Trace } from "../components/Plot";
-import { componentUnit, isMarked, type MetricPoint, type RmseQuantity } from "../lib/metrics";
+import { componentUnit, isMarked, type MetricPoint, type RmseQuantity, type SuiteReference } from "../lib/metrics";
 import { iterationAt, xOf, xTitle, type XAxis } from "../lib/xaxis";
 
 const INHERITED = "#a3a9b6";
@@ -12,6 +12,30 @@ const INHERITED = "#a3a9b6";
  * fork's inherited iterations (its source's, up to the fork point) are drawn grey, its own in colour.
  * Beside them, dashed: model k's generalisation error on the held-out validation suite.
  */
+const REFERENCE = "#6b7385";
+
+/**
+ * A horizontal line at ``value`` across the x range of ``points`` (a reference's error on the suite).
+ */
+function referenceLine(points: MetricPoint[], axis: XAxis, value: number | null | undefined, name: string): Trace[] {
+  const xs = points.map((p) => xOf(p, axis)).filter((x): x is number => x != null);
+  if (value == null || !xs.length) return [];
+  const x0 = Math.min(...xs);
+  const x1 = Math.max(...xs);
+  return [{ x: [x0, x1 > x0 ? x1 : x0 + 1], y: [value, value], name, mode: "lines", type: "scatter", line: { color: REFERENCE, dash: "longdash", width: 1.5 }, hoverinfo: "name+y" }];
+}
+
+/** The auxiliary law's error on the suite as reference lines: the force and moment vectors. */
+export function auxLawTraces(points: MetricPoint[], auxLaw: SuiteReference | null | undefined, axis: XAxis = "iteration", component?: string): Trace[] {
+  if (!auxLaw) return [];
+  const own = points.filter((p) => !isMarked(p) && !p.inherited);
+  if (component) return referenceLine(own, axis, auxLaw.components[component], `auxiliary law, held-out suite: ${component} [${componentUnit(component)}]`);
+  return [
+    ...referenceLine(own, axis, auxLaw.force_rmse, "auxiliary law, held-out suite: force [N]"),
+    ...referenceLine(own, axis, auxLaw.moment_rmse, "auxiliary law, held-out suite: moment [N m]"),
+  ];
+}
+
 export function rmseTraces(points: MetricPoint[], name = "", axis: XAxis = "iteration"): Trace[] {
   const X = (p: MetricPoint) => xOf(p, axis);
   const own = points.filter((p) => !isMarked(p) && !p.inherited);
@@ -95,8 +119,14 @@ export function componentTraces(points: MetricPoint[], c: string, axis: XAxis = 
   return traces;
 }
 
-export function RmsePlot({ points, logY, onSelect, xAxis = "iteration", quantity = "vector" }: { points: MetricPoint[]; logY: boolean; onSelect?: (k: number) => void; xAxis?: XAxis; quantity?: RmseQuantity }) {
-  const traces = useMemo(() => (quantity === "vector" ? rmseTraces(points, "", xAxis) : componentTraces(points, quantity, xAxis)), [points, xAxis, quantity]);
+export function RmsePlot({ points, logY, onSelect, xAxis = "iteration", quantity = "vector", auxLaw = null }: { points: MetricPoint[]; logY: boolean; onSelect?: (k: number) => void; xAxis?: XAxis; quantity?: RmseQuantity; auxLaw?: SuiteReference | null }) {
+  const traces = useMemo(
+    () => [
+      ...(quantity === "vector" ? rmseTraces(points, "", xAxis) : componentTraces(points, quantity, xAxis)),
+      ...auxLawTraces(points, auxLaw, xAxis, quantity === "vector" ? undefined : quantity),
+    ],
+    [points, xAxis, quantity, auxLaw],
+  );
   const few = xAxis === "iteration" && points.length > 0 && points[points.length - 1].iteration <= 12;
   const xLayout = useMemo(() => ({ xaxis: { title: { text: xTitle(xAxis) }, dtick: few ? 1 : undefined, zeroline: false } }), [few, xAxis]);
   const own = points.filter((p) => !p.inherited);
@@ -114,7 +144,7 @@ export function RmsePlot({ points, logY, onSelect, xAxis = "iteration", quantity
       }}
       height={300}
       extraLayout={xLayout}
-      data={{ xaxis: xAxis, quantity, iterations: own.filter((p) => p.force_rmse !== null).map((p) => p.iteration).join(","), inherited: points.filter((p) => p.inherited).map((p) => p.iteration).join(","), validation: own.filter((p) => p.validation_force_rmse != null).map((p) => p.iteration).join(",") }}
+      data={{ xaxis: xAxis, quantity, "aux-law": auxLaw ? "true" : "false", iterations: own.filter((p) => p.force_rmse !== null).map((p) => p.iteration).join(","), inherited: points.filter((p) => p.inherited).map((p) => p.iteration).join(","), validation: own.filter((p) => p.validation_force_rmse != null).map((p) => p.iteration).join(",") }}
     />
   );
 }

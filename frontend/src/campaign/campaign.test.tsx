@@ -3,7 +3,7 @@ import { render, screen, waitFor, within } from "@testing-library/react";
 import userEvent from "@testing-library/user-event";
 import Plotly from "plotly.js-basic-dist-min";
 import { wrenchTraces } from "./ForcesPanel";
-import { calibrationTraces, componentTraces, hasCalibration, rmseTraces } from "./RmsePlot";
+import { auxLawTraces, calibrationTraces, componentTraces, hasCalibration, rmseTraces } from "./RmsePlot";
 import { forkDefaults, DEFAULT_FURTHER } from "./ForkDialog";
 import { Controls } from "./Controls";
 import { progressText } from "../api/campaigns";
@@ -99,6 +99,22 @@ describe("RMSE per component", () => {
     expect(my[0].name).toBe("my RMSE [N m]");
     expect(my[3].y).toEqual([0.4, 0.4]);
     expect(componentTraces(points, "fx", "oracle")[0].x).toEqual([null, null, null]); // no oracle calls recorded
+  });
+});
+
+describe("the auxiliary law's error on the suite", () => {
+  it("is a horizontal reference line across the campaign's own iterations, per vector or component", () => {
+    const p = (k: number, inherited = false) => ({ iteration: k, status: "succeeded", force_rmse: 1, moment_rmse: 0.1, quarantined: false, inherited });
+    const points = [p(1, true), p(2), p(3), p(5)];
+    const aux = { force_rmse: 40.2, moment_rmse: 4.6, components: { fx: 32.3, fz: 23.9, my: 4.6, fz_contact: null } };
+    const lines = auxLawTraces(points, aux);
+    expect(lines.map((t) => t.name)).toEqual(["auxiliary law, held-out suite: force [N]", "auxiliary law, held-out suite: moment [N m]"]);
+    expect(lines[0].x).toEqual([2, 5]); // the campaign's own iterations, not the inherited one
+    expect(lines[0].y).toEqual([40.2, 40.2]);
+    expect(auxLawTraces(points, aux, "iteration", "fz")[0].y).toEqual([23.9, 23.9]);
+    expect(auxLawTraces(points, aux, "iteration", "fz_contact")).toEqual([]); // no value: no line
+    expect(auxLawTraces(points, null)).toEqual([]);
+    expect(auxLawTraces([p(4)], aux)[0].x).toEqual([4, 5]); // one iteration: a short line, still visible
   });
 });
 

@@ -79,3 +79,10 @@ export function isRmseQuantity(v: string): v is RmseQuantity {
 export function componentUnit(c: string): string {
   return c.startsWith("f") ? "N" : "N m";
 }
+
+/** A reference model's error on the held-out suite (the auxiliary law's): a horizontal line on the RMSE plot. */
+export interface SuiteReference {
+  force_rmse: number;
+  moment_rmse: number;
+  components: Record<string, number | null>;
+}

@@ -179,6 +179,7 @@ export function CampaignPage() {
               logY={logY}
               xAxis={xAxis}
               quantity={quantity}
+              auxLaw={metrics.auxLaw}
               onSelect={(it) => {
                 // one navigation for both: the clicked iteration on the forces tab
                 if (own.some((p) => p.iteration === it)) setParams({ k: String(it), tab: null });
