@@ -1,0 +1,152 @@
+"""A parameterised family of press motions with history: press, dwell, partial unload, re-load.
+
+The validation suite's motions (:mod:`.validation_suite`) press the head into the headrest and let
+it off again. The oracle's friction remembers the path (sticking, the direction of slip), so
+motions that reach the same angle along different histories load the cushion differently; this
+family adds the histories. A motion goes through the waypoints
+
+* ``start`` (at rest), the press to ``depth``,
+* a partial unload that gives back the share ``release`` of the press (``release`` 1: all the way
+  back to ``start``, the suite's simple press),
+* a re-load that goes the share ``reload`` of the way back from there towards ``depth``
+  (``reload`` 0: none), and
+* the return to ``start``,
+
+each segment a quintic blend (zero velocity and acceleration at both ends) whose largest angular
+velocity is ``speed``, with a hold of ``dwell`` at every turning point. Six numbers make a motion;
+:func:`family_motions` draws them as a seeded Latin hypercube (``scipy.stats.qmc``) from the box
+:class:`PressFamily`, so a set of motions is reproducible from the box, its size and the seed.
+With ``release`` 1 (and so no re-load) a motion is exactly the suite's :class:`PressMotion` of the
+same start, depth, speed and dwell.
+"""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass, fields
+from itertools import pairwise
+
+import numpy as np
+from scipy.stats import qmc
+
+from alcove.science.arrays import FloatArray
+from alcove.science.series import Trajectory
+from alcove.science.validation_suite import BLEND_PEAK, _blend
+
+PARAMETERS = ("start", "depth", "speed", "dwell", "release", "reload")
+
+
+@dataclass(frozen=True)
+class HistoryPress:
+    """One motion of the family (module docstring): angles [rad], speed [rad/s], dwell [s], and the
+    shares ``release`` and ``reload`` in [0, 1]."""
+
+    start: float
+    depth: float
+    speed: float
+    dwell: float
+    release: float = 1.0
+    reload: float = 0.0
+
+    def __post_init__(self) -> None:
+        values = [getattr(self, f.name) for f in fields(self)]
+        if not all(np.isfinite(values)):
+            raise ValueError(f"press motion: every parameter must be finite, got {asdict(self)}")
+        if self.depth <= self.start:
+            raise ValueError(f"press motion: depth {self.depth} rad must lie beyond start {self.start} rad")
+        if self.speed <= 0 or self.dwell < 0:
+            raise ValueError(f"press motion: speed must be > 0 and dwell >= 0, got {self.speed}, {self.dwell}")
+        for name in ("release", "reload"):
+            if not 0.0 <= getattr(self, name) <= 1.0:
+                raise ValueError(f"press motion: {name} must lie in [0, 1], got {getattr(self, name)}")
+
+    def waypoints(self) -> list[float]:
+        """The angles the motion turns at, from ``start`` back to ``start`` (no zero-length segment)."""
+        points = [self.start, self.depth]
+        if self.release < 1.0:
+            released = self.depth - self.release * (self.depth - self.start)
+            points.append(released)
+            if self.reload > 0.0:
+                points.append(released + self.reload * (self.depth - released))
+        points.append(self.start)
+        return [p for i, p in enumerate(points) if i == 0 or p != points[i - 1]]
+
+    def segment_times(self) -> list[float]:
+        """Each segment's duration [s]: the blend over angle D peaks at 15 D / (8 T) = ``speed``."""
+        w = self.waypoints()
+        return [BLEND_PEAK * abs(b - a) / self.speed for a, b in pairwise(w)]
+
+    @property
+    def duration(self) -> float:
+        times = self.segment_times()
+        return sum(times) + self.dwell * (len(times) - 1)
+
+    def trajectory(self, dt: float) -> Trajectory:
+        """The motion sampled every ``dt`` [s] and at its end (exact angle and angular velocity)."""
+        if not (np.isfinite(dt) and dt > 0):
+            raise ValueError(f"press motion: dt must be a positive number, got {dt}")
+        n = int(np.floor(self.duration / dt + 1e-9)) + 1
+        t: FloatArray = dt * np.arange(n, dtype=np.float64)
+        if t[-1] < self.duration - 1e-12:
+            t = np.append(t, self.duration)
+        w, times = self.waypoints(), self.segment_times()
+        theta = np.full_like(t, w[0])
+        theta_dot = np.zeros_like(t)
+        t0 = 0.0
+        for a, b, tp in zip(w[:-1], w[1:], times, strict=True):
+            # a blend contributes its full rise after its end, nothing before its start (the suite's form)
+            pos, vel = _blend((t - t0) / tp)
+            theta += (b - a) * pos
+            theta_dot += (b - a) * vel / tp
+            t0 += tp + self.dwell
+        return Trajectory(t, theta, theta_dot)
+
+
+@dataclass(frozen=True)
+class PressFamily:
+    """The box the family's motions are drawn from: a (low, high) range per parameter (equal ends: fixed)."""
+
+    start: tuple[float, float] = (0.15, 0.28)  # rad
+    depth: tuple[float, float] = (0.34, 0.43)  # rad
+    speed: tuple[float, float] = (0.3, 1.5)  # rad/s
+    dwell: tuple[float, float] = (0.0, 0.3)  # s
+    release: tuple[float, float] = (0.3, 1.0)  # share of the press the unload gives back
+    reload: tuple[float, float] = (0.0, 1.0)  # share of the way back to depth the re-load goes
+
+    def check(self, theta_min: float, theta_max: float) -> None:
+        """Raise ``ValueError`` naming the range that is empty, not finite, or leaves the joint range."""
+        for name in PARAMETERS:
+            lo, hi = getattr(self, name)
+            if not (np.isfinite(lo) and np.isfinite(hi)) or lo > hi:
+                raise ValueError(f"press family range {name}: need finite low <= high, got ({lo}, {hi})")
+        for name in ("start", "depth"):
+            lo, hi = getattr(self, name)
+            if lo < theta_min or hi > theta_max:
+                raise ValueError(
+                    f"press family range {name}: ({lo}, {hi}) rad leaves the joint range [{theta_min}, {theta_max}] rad"
+                )
+        if self.start[1] >= self.depth[0]:
+            raise ValueError("press family ranges: every start angle must lie below every depth")
+        if self.speed[0] <= 0 or self.dwell[0] < 0:
+            raise ValueError("press family ranges: speed must be > 0 and dwell >= 0")
+        for name in ("release", "reload"):
+            lo, hi = getattr(self, name)
+            if lo < 0 or hi > 1:
+                raise ValueError(f"press family range {name}: ({lo}, {hi}) leaves [0, 1]")
+
+
+def family_motions(family: PressFamily, n: int, seed: int, theta_range: tuple[float, float]) -> list[HistoryPress]:
+    """``n`` motions of the family: a seeded Latin hypercube over its box (every range cut into n strata,
+    one motion in each; centred-discrepancy optimised like the suite's), checked against the joint
+    range ``theta_range``."""
+    if n < 1:
+        raise ValueError(f"press family: the number of motions must be >= 1, got {n}")
+    family.check(*theta_range)
+    sampler = qmc.LatinHypercube(d=len(PARAMETERS), optimization="random-cd", rng=np.random.default_rng(seed))
+    unit = sampler.random(n)
+    lo = np.array([getattr(family, p)[0] for p in PARAMETERS])
+    hi = np.array([getattr(family, p)[1] for p in PARAMETERS])
+    points = lo + unit * (hi - lo)
+    return [HistoryPress(*(float(x) for x in p)) for p in points]
+
+
+__all__ = ["PARAMETERS", "HistoryPress", "PressFamily", "family_motions"]
