@@ -22,9 +22,9 @@
    A warm start (``warm_start``: the previous model's weights per member) makes those weights the
    first candidate (epoch 0) and trains from them as fully as a cold training (the same learning
    rate, early stopping and epoch limit unless the ``warm_*`` settings say otherwise), so a
-   campaign's model absorbs each new trajectory: on a 32-motion pool a chain of warm starts
-   reaches the test error of a cold training on the same pool (tested to 5 %). A member keeps
-   its carried weights when no epoch beats them. Prediction is the members' mean, with their
+   campaign's model absorbs each new trajectory: a chain of warm starts from a model of another
+   law reaches a cold training's error on the final pool (tested: within 5 %, at the noise floor).
+   A member keeps its carried weights when no epoch beats them. Prediction is the members' mean, with their
    standard deviation (:meth:`.mlp.SurrogateModel.predict_ensemble`).
    With ``architecture: "gated"`` the loss is taken on the gated output (:mod:`.gated`,
    :class:`.ensemble.GatedOutputs`): each sample's gate comes from its signed gap, computed
