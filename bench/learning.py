@@ -43,6 +43,19 @@ def _family(kind: str) -> Any:
     return PressFamily() if kind == "history" else PressFamily(release=(1.0, 1.0), reload=(0.0, 0.0))
 
 
+def oracle_forces(oracle: Any) -> Any:
+    """The oracle as ``trajectory -> forces`` for :func:`alcove.science.surrogate.compare.replay_suite`,
+    raising on a failed replay."""
+
+    def run(trajectory: Any) -> Any:
+        result = oracle.run(trajectory)
+        if not result.ok:
+            raise RuntimeError(f"the oracle failed on a motion: {result.failure_reason}")
+        return result.forces
+
+    return run
+
+
 def replays(kind: str, seed: int, n: int, work: Path) -> list[Any]:
     """The first ``n`` motions of the family (seed ``seed``) with the oracle's forces, cached per motion."""
     from alcove.science.geometry import DEFAULT_PRESET as P
@@ -51,14 +64,7 @@ def replays(kind: str, seed: int, n: int, work: Path) -> list[Any]:
     from alcove.science.surrogate.compare import replay_suite
 
     motions = family_motions(_family(kind), n, seed, (P.theta_min, P.theta_max))
-    oracle = build_oracle("fe-headrest-2d")
-
-    def run(trajectory: Any) -> Any:
-        result = oracle.run(trajectory)
-        if not result.ok:
-            raise RuntimeError(f"fe-headrest-2d failed on a press motion: {result.failure_reason}")
-        return result.forces
-
+    run = oracle_forces(build_oracle("fe-headrest-2d"))
     out = []
     for i, m in enumerate(motions):
         path = work / f"{kind}-{seed}-{n}-{i:03d}.pkl"
@@ -78,14 +84,7 @@ def suite(work: Path) -> list[Any]:
 
     path = work / "suite-0-8.pkl"
     if not path.exists():
-        oracle = build_oracle("fe-headrest-2d")
-
-        def run(trajectory: Any) -> Any:
-            result = oracle.run(trajectory)
-            if not result.ok:
-                raise RuntimeError(f"fe-headrest-2d failed on a suite motion: {result.failure_reason}")
-            return result.forces
-
+        run = oracle_forces(build_oracle("fe-headrest-2d"))
         path.write_bytes(pickle.dumps(replay_suite(run, suite_trajectories(SuiteSpec(), P))))
     return list(pickle.loads(path.read_bytes()))
 

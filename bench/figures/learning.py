@@ -19,15 +19,9 @@ def _fe_press_pool() -> tuple[list[Any], Any]:
     from alcove.science.surrogate.compare import replay_suite
     from alcove.science.surrogate.preliminary import preliminary_pool
     from alcove.science.validation_suite import SuiteSpec, suite_trajectories
+    from bench.learning import oracle_forces
 
-    oracle = build_oracle("fe-headrest-2d")
-
-    def run(trajectory: Any) -> Any:
-        result = oracle.run(trajectory)
-        if not result.ok:
-            raise RuntimeError(f"fe-headrest-2d failed: {result.failure_reason}")
-        return result.forces
-
+    run = oracle_forces(build_oracle("fe-headrest-2d"))
     presses = replay_suite(run, suite_trajectories(SuiteSpec(motions=32, seed=101), P), prefix="press")
     return preliminary_pool(P) + presses, itertools.count()
 

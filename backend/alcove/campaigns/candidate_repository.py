@@ -1,4 +1,4 @@
-"""The candidate rows of batch iterations (``iteration_candidates``, issue 17): queries that take
+"""The candidate rows of batch iterations (``iteration_candidates``): queries that take
 a ``Session`` and never commit."""
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""A batch iteration's candidate rows (``iteration_candidates``, issue 17): what an ocp slot
+"""A batch iteration's candidate rows (``iteration_candidates``): what an ocp slot
 records about the scenario it solved, and what an oracle slot records about its replay, each in
 the transaction that completes the step."""
 

@@ -1,4 +1,4 @@
-"""Fan-out and fan-in of an iteration's parallel slots (issue 17, batch acquisition).
+"""Fan-out and fan-in of an iteration's parallel slots (batch acquisition).
 
 An iteration of a batch strategy runs several ``ocp`` jobs (slot j solves candidate scenario j)
 and several ``oracle`` jobs (slot i replays pick i). Each job completes its own step row in its

@@ -1,4 +1,4 @@
-"""Schemas of an iteration's candidates and picks (issue 17, what the user sees): each
+"""Schemas of an iteration's candidates and picks (what the user sees): each
 candidate with its rank and why it was or was not picked, and the per-pick RMSE of the
 metrics series."""
 

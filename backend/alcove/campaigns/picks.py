@@ -1,4 +1,4 @@
-"""What a campaign shows of its acquisition (issue 17): an iteration's candidates ranked, with
+"""What a campaign shows of its acquisition: an iteration's candidates ranked, with
 why each was or was not picked (:func:`alcove.science.ocp.acquisition.explain_selection` on the
 stored scores and features with the iteration's settings), each pick's curves, and the costs
 (oracle calls, wall time) the metrics series is plotted against. Reads only."""

@@ -220,7 +220,7 @@ class Iteration(Base):
 
 class IterationCandidate(Base):
     """One scenario an iteration's OCP solved (ocp slot ``slot``) and, if it was picked, the
-    oracle slot that replayed it (``pick``), with what came out (issue 17). ``random-scenarios``
+    oracle slot that replayed it (``pick``), with what came out. ``random-scenarios``
     picks every candidate (pick = slot); ``ensemble-disagreement`` scores C candidates and picks q."""
 
     __tablename__ = "iteration_candidates"

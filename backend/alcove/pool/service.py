@@ -139,7 +139,7 @@ def _training_dataset(s: Session, d: Dataset) -> PoolDataset:
 
     a = dataset_arrays(s, d)
     origin = d.origin if d.origin in ("preliminary", "oracle", "upload") else "oracle"
-    offset = (d.meta or {}).get("headrest_offset")  # a scenario's moved headrest (issue 17)
+    offset = (d.meta or {}).get("headrest_offset")  # a scenario's moved headrest
     tilt = (d.meta or {}).get("headrest_tilt")  # and its tilt, where the scenario drew it
     return PoolDataset(
         _pool_name(d),

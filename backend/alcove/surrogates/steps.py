@@ -102,7 +102,7 @@ def evaluate(
         for dataset_id in dataset_ids:
             ds = s.get(Dataset, dataset_id)
             assert ds is not None
-            # a scenario's moved headrest (issue 17)
+            # a scenario's moved headrest
             meta = ds.meta or {}
             data.append((dataset_arrays(s, ds), (meta.get("headrest_offset"), meta.get("headrest_tilt"))))
         model = load_model(s, mv)

@@ -1,5 +1,5 @@
 /**
- * The iteration view's "Candidates & picks" tab (issue 17): every candidate scenario the
+ * The iteration view's "Candidates & picks" tab: every candidate scenario the
  * iteration's OCP solved, with its score and rank, which were picked and why (the API derives
  * the why from the acquisition rule), each candidate's OCP trajectory on demand, and the picked
  * trajectories' forces: the ensemble's mean ± 2 std band against the oracle.

@@ -1,5 +1,5 @@
 /**
- * The new-campaign form's "Exploration" section (issue 17, docs/active-learning.md): the
+ * The new-campaign form's "Exploration" section (docs/active-learning.md): the
  * acquisition strategy, batch size q, candidates C, the diversity rule's minimum distance, the
  * cap on concurrent oracle jobs and the stopping threshold on the candidates' disagreement.
  * The schema's bounds are checked with the rest of the config (configLocalErrors); the rules

@@ -86,7 +86,7 @@ export function wrenchTraces(curves: IterationCurves[], components: readonly Com
 
 export const MAX_OVERLAY = 200;
 
-/** A warning when iteration k's OCP solution relies on force outside the surrogate's data (issue 16). */
+/** A warning when iteration k's OCP solution relies on force outside the surrogate's data. */
 export function TrustBadge({ point }: { point: MetricPoint | undefined }) {
   if (!point || point.ocp_trusted !== false) return null;
   const reasons = point.trust_reasons?.length ? point.trust_reasons : ["relies on force outside the data"];

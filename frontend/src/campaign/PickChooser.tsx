@@ -1,5 +1,5 @@
 /**
- * The Forces tab's choice of pick (issue 17): a batch iteration (q > 1) replayed q picked
+ * The Forces tab's choice of pick: a batch iteration (q > 1) replayed q picked
  * trajectories; the tab shows one of them, pick 1 by default, labelled with its scenario's
  * values, and that pick's OCP solve. An iteration of a q = 1 campaign has no choice.
  */

@@ -1,5 +1,5 @@
 """`alcove campaign candidates CAMPAIGN_ID ITERATION`: an iteration's candidate scenarios, ranked,
-with which were picked and why (issue 17). Reads
+with which were picked and why. Reads
 :func:`alcove.campaigns.picks.iteration_candidates`, the function behind
 ``GET /campaigns/{id}/iterations/{k}/candidates``; ``--json`` prints that route's JSON."""
 

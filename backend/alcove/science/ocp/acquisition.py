@@ -1,4 +1,4 @@
-"""Acquisition strategies: which scenario(s) an active-learning iteration solves (issue 17).
+"""Acquisition strategies: which scenario(s) an active-learning iteration solves.
 
 A strategy maps ``(task, campaign seed, iteration k, batch size q)`` to the q scenarios the
 iteration's OCP solves with the current surrogate; the oracle then replays each solved

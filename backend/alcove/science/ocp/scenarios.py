@@ -1,4 +1,4 @@
-"""Scenarios: a task as a distribution (issue 17, first increment).
+"""Scenarios: a task as a distribution.
 
 A task may declare **ranges** for some of its numeric parameters (``TaskSpec.ranges``): each
 names the parameter by its dotted path in the task spec, gives ``low`` and ``high`` and how values

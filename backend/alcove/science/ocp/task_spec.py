@@ -49,7 +49,7 @@ ANGLE_LIMIT = math.pi / 2
 MAX_TORQUE = 200.0  # N m: an adult neck's largest extension torque is about 30-60 N m
 MAX_ANGULAR_VELOCITY = 100.0  # rad/s: head angular velocities in crashes peak at about 30-50 rad/s
 MAX_WEIGHT = 1e6  # cost weights: the paper's are 1e-4 to 1
-MAX_HEADREST_OFFSET = 0.02  # m: the scenarios of issue 17 move the headrest by +-5 mm
+MAX_HEADREST_OFFSET = 0.02  # m: the largest headrest offset a scenario range may reach (the presets use +-5 mm)
 
 Angle = Annotated[
     float, quantity("joint angle", "rad", ge=-ANGLE_LIMIT, le=ANGLE_LIMIT, why="within the model's joint range")
@@ -565,7 +565,7 @@ TASK_PRESETS["head-headrest-scenarios"] = {
     **TASK_PRESETS["head-headrest-2phase"],
     "name": "head-headrest-scenarios",
     "description": (
-        "The paper's task (head-headrest-2phase) as a distribution of scenarios (issue 17): start angle 0.15 to "
+        "The paper's task (head-headrest-2phase) as a distribution of scenarios: start angle 0.15 to "
         "0.30 rad, initial speed 0 to 0.5 rad/s toward the headrest, headrest moved +-5 mm along its normal. "
         "Its nominal scenario is the paper's task; a random-scenarios campaign solves a new draw every iteration."
     ),

@@ -1,4 +1,4 @@
-"""The contact-aware output layer of the ``gated`` architecture (issue 16, item 2).
+"""The contact-aware output layer of the ``gated`` architecture.
 
 A surrogate config with ``"architecture": "gated"`` keeps the paper's two MLPs and features
 and puts this layer after their de-standardised outputs: in training (:mod:`.ensemble`, the

@@ -299,7 +299,7 @@ def moved_headrest(preset: HeadNeckPreset) -> MovedHeadrest:
 def pool_features(pool: list[PoolDataset], kinematics: KinematicsFn, moved: MovedHeadrest | None = None) -> FloatArray:
     """The features of every sample, each dataset's relative to its own headrest: ``kinematics``
     for the task's headrest, ``moved(offset, tilt)`` for a dataset simulated with a scenario's
-    ``headrest_offset`` and/or ``headrest_tilt`` (issue 17)."""
+    ``headrest_offset`` and/or ``headrest_tilt``."""
 
     def kin(ds: PoolDataset) -> KinematicsFn:
         if ds.headrest_offset is None and ds.headrest_tilt is None:
