@@ -83,20 +83,20 @@ def aux_law_error(s: Session, suite: ValidationSuite) -> dict[str, Any] | None:
     found = _aux_law_errors.get(suite.id)
     if found is not None:
         return found
-    from alcove.science.geometry import kinematics_from_pose, relative_kinematics
     from alcove.science.ocp.task_spec import ModelSpec
     from alcove.science.oracles.aux_penalty import AuxPenaltyParams, aux_penalty_wrench
+    from alcove.science.surrogate.training import preset_kinematics
     from alcove.science.validation_suite import ChainSuiteModel, suite_model_from_dict
 
     suite_model = suite_model_from_dict(suite.preset)
+    if isinstance(suite_model, ChainSuiteModel):
+        preset = ModelSpec.model_validate(suite_model.model).oracle_preset()
+    else:
+        preset = suite_model
+    kinematics = suite_kinematics(suite) or preset_kinematics(preset)
     preds, trues = [], []
     for a in _suite_arrays(s, suite.id):
-        if isinstance(suite_model, ChainSuiteModel):
-            model = ModelSpec.model_validate(suite_model.model)
-            preset, kin = model.oracle_preset(), kinematics_from_pose(model.pose_function()(a["q"], a["qd"]))
-        else:
-            preset, kin = suite_model, relative_kinematics(suite_model, a["q"][:, 0], a["qd"][:, 0])
-        force, moment = aux_penalty_wrench(preset, AuxPenaltyParams(), kin)
+        force, moment = aux_penalty_wrench(preset, AuxPenaltyParams(), kinematics(a["q"], a["qd"]))
         preds.append(np.hstack([force, moment]))
         trues.append(a["f"])
     if not preds:
