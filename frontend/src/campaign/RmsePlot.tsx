@@ -1,7 +1,8 @@
 import { useMemo } from "react";
 import type { Layout } from "plotly.js-dist-min";
 import { Plot, type Trace } from "../components/Plot";
-import { componentUnit, isMarked, type MetricPoint, type RmseQuantity, type SuiteReference } from "../lib/metrics";
+import { componentUnit, isMarked, isRmseQuantity, RMSE_QUANTITIES, type MetricPoint, type RmseQuantity, type SuiteReference } from "../lib/metrics";
+import { useStringParam } from "../lib/urlState";
 import { iterationAt, xOf, xTitle, type XAxis } from "../lib/xaxis";
 
 const INHERITED = "#a3a9b6";
@@ -25,15 +26,17 @@ function referenceLine(points: MetricPoint[], axis: XAxis, value: number | null 
   return [{ x: [x0, x1 > x0 ? x1 : x0 + 1], y: [value, value], name, mode: "lines", type: "scatter", line: { color: REFERENCE, dash: "longdash", width: 1.5 }, hoverinfo: "name+y" }];
 }
 
-/** The auxiliary law's error on the suite as reference lines: the force and moment vectors. */
-export function auxLawTraces(points: MetricPoint[], auxLaw: SuiteReference | null | undefined, axis: XAxis = "iteration", component?: string): Trace[] {
+/**
+ * The auxiliary law's error on the suite as reference lines: the force and moment vectors, or one
+ * quantity (``force``, ``moment`` or a component, fx .. mz). ``suite`` names the suite where several
+ * are drawn (the compare page: one line per distinct suite).
+ */
+export function auxLawTraces(points: MetricPoint[], auxLaw: SuiteReference | null | undefined, axis: XAxis = "iteration", component?: string, suite = ""): Trace[] {
   if (!auxLaw) return [];
   const own = points.filter((p) => !isMarked(p) && !p.inherited);
-  if (component) return referenceLine(own, axis, auxLaw.components[component], `auxiliary law, held-out suite: ${component} [${componentUnit(component)}]`);
-  return [
-    ...referenceLine(own, axis, auxLaw.force_rmse, "auxiliary law, held-out suite: force [N]"),
-    ...referenceLine(own, axis, auxLaw.moment_rmse, "auxiliary law, held-out suite: moment [N m]"),
-  ];
+  const line = (c: string) =>
+    referenceLine(own, axis, c === "force" ? auxLaw.force_rmse : c === "moment" ? auxLaw.moment_rmse : auxLaw.components[c], `auxiliary law, held-out suite${suite ? ` of ${suite}` : ""}: ${c} [${componentUnit(c)}]`);
+  return component ? line(component) : [...line("force"), ...line("moment")];
 }
 
 export function rmseTraces(points: MetricPoint[], name = "", axis: XAxis = "iteration"): Trace[] {
@@ -90,33 +93,62 @@ export function rmseTraces(points: MetricPoint[], name = "", axis: XAxis = "iter
   return traces;
 }
 
+/** The colour of a component's curves on the campaign page. */
+function componentColor(c: string): string {
+  return c === "fx" ? "#2f5bd3" : c === "fz" ? "#7a3fb8" : c === "my" ? "#d3662f" : "#1d7a45";
+}
+
 /**
  * One wrench component's RMSE per iteration (``c`` in fx .. mz): over the new oracle data (solid), over
  * its samples in contact (dotted) and on the held-out suite (dashed; dash-dot in contact). The
  * normal force fx is learnable from any pool; fz (friction) depends on the motion's history, so
- * the split shows which part of the force error a campaign can still lower.
+ * the split shows which part of the force error a campaign can still lower. An iteration stored
+ * before the components were recorded is a gap in the line (null), not a zero.
+ * ``name`` prefixes the legend entries and ``color`` replaces the component's colour (the compare
+ * page: one colour a campaign); ``contact: false`` leaves the in-contact curves out.
  */
-export function componentTraces(points: MetricPoint[], c: string, axis: XAxis = "iteration"): Trace[] {
+export function componentTraces(points: MetricPoint[], c: string, axis: XAxis = "iteration", { name = "", color = componentColor(c), contact = true }: { name?: string; color?: string; contact?: boolean } = {}): Trace[] {
   const X = (p: MetricPoint) => xOf(p, axis);
-  const own = points.filter((p) => !isMarked(p) && !p.inherited && p.components != null);
+  const own = points.filter((p) => !isMarked(p) && !p.inherited);
   const inherited = points.filter((p) => !isMarked(p) && p.inherited && p.components != null);
   const unit = componentUnit(c);
-  const color = c === "fx" ? "#2f5bd3" : c === "fz" ? "#7a3fb8" : c === "my" ? "#d3662f" : "#1d7a45";
+  const prefix = name ? `${name}: ` : "";
   const value = (v: Record<string, number | null> | null | undefined, key: string) => v?.[key] ?? null;
   const traces: Trace[] = [];
   if (inherited.length)
-    traces.push({ x: inherited.map(X), y: inherited.map((p) => value(p.components, c)), name: `${c} RMSE [${unit}], inherited`, mode: "lines+markers", type: "scatter", line: { color: INHERITED }, marker: { color: INHERITED, symbol: "circle-open" } });
-  traces.push(
-    { x: own.map(X), y: own.map((p) => value(p.components, c)), name: `${c} RMSE [${unit}]`, mode: "lines+markers", type: "scatter", line: { color } },
-    { x: own.map(X), y: own.map((p) => value(p.components, `${c}_contact`)), name: `${c} RMSE in contact [${unit}]`, mode: "lines", type: "scatter", line: { color, dash: "dot" } },
-  );
-  const validated = points.filter((p) => !isMarked(p) && !p.inherited && p.validation_components != null);
-  if (validated.length)
-    traces.push(
-      { x: validated.map(X), y: validated.map((p) => value(p.validation_components, c)), name: `${c} RMSE, held-out suite [${unit}]`, mode: "lines+markers", type: "scatter", line: { color, dash: "dash" }, marker: { color, symbol: "diamond-open" } },
-      { x: validated.map(X), y: validated.map((p) => value(p.validation_components, `${c}_contact`)), name: `${c} RMSE in contact, held-out suite [${unit}]`, mode: "lines", type: "scatter", line: { color, dash: "dashdot" } },
-    );
+    traces.push({ x: inherited.map(X), y: inherited.map((p) => value(p.components, c)), name: `${prefix}${c} RMSE [${unit}], inherited`, mode: "lines+markers", type: "scatter", line: { color: INHERITED }, marker: { color: INHERITED, symbol: "circle-open" } });
+  traces.push({ x: own.map(X), y: own.map((p) => value(p.components, c)), name: `${prefix}${c} RMSE [${unit}]`, mode: "lines+markers", type: "scatter", line: { color } });
+  if (contact) traces.push({ x: own.map(X), y: own.map((p) => value(p.components, `${c}_contact`)), name: `${prefix}${c} RMSE in contact [${unit}]`, mode: "lines", type: "scatter", line: { color, dash: "dot" } });
+  // the iterations evaluated on the suite; one evaluated before its components were recorded is a gap
+  const validated = own.filter((p) => p.validation_components != null || p.validation_force_rmse != null);
+  if (validated.length) {
+    traces.push({ x: validated.map(X), y: validated.map((p) => value(p.validation_components, c)), name: `${prefix}${c} RMSE, held-out suite [${unit}]`, mode: "lines+markers", type: "scatter", line: { color, dash: "dash" }, marker: { color, symbol: "diamond-open" } });
+    if (contact)
+      traces.push({ x: validated.map(X), y: validated.map((p) => value(p.validation_components, `${c}_contact`)), name: `${prefix}${c} RMSE in contact, held-out suite [${unit}]`, mode: "lines", type: "scatter", line: { color, dash: "dashdot" } });
+  }
   return traces;
+}
+
+/** What the RMSE plots show, in the URL (``rmse=``; the force and moment vectors when absent or unknown). */
+export function useRmseQuantity(): [RmseQuantity, (v: string) => void] {
+  const [raw, set] = useStringParam("rmse", "vector");
+  return [isRmseQuantity(raw) ? raw : "vector", set];
+}
+
+/** The "RMSE of" select: the force and moment vectors or one wrench component. */
+export function RmseQuantitySelect({ value, onChange }: { value: RmseQuantity; onChange: (v: string) => void }) {
+  return (
+    <label className="field-inline">
+      RMSE of{" "}
+      <select data-testid="rmse-quantity" value={value} onChange={(e) => onChange(e.target.value)}>
+        {RMSE_QUANTITIES.map(([key, label]) => (
+          <option key={key} value={key}>
+            {label}
+          </option>
+        ))}
+      </select>
+    </label>
+  );
 }
 
 export function RmsePlot({ points, logY, onSelect, xAxis = "iteration", quantity = "vector", auxLaw = null }: { points: MetricPoint[]; logY: boolean; onSelect?: (k: number) => void; xAxis?: XAxis; quantity?: RmseQuantity; auxLaw?: SuiteReference | null }) {

@@ -6,14 +6,13 @@ import { useCampaignLive, type Live } from "../api/live";
 import { useOracle, useTask } from "../api/definitions";
 import { isLive } from "../api/types";
 import { Empty, ErrorBox, Loading, StatusBadge } from "../components/States";
-import { CalibrationPlot, hasCalibration, RmsePlot } from "../campaign/RmsePlot";
+import { CalibrationPlot, hasCalibration, RmsePlot, RmseQuantitySelect, useRmseQuantity } from "../campaign/RmsePlot";
 import { loadPlotly } from "../components/Plot";
 import { ForcesPanel } from "../campaign/ForcesPanel";
 import { TrajectoryPanel } from "../campaign/TrajectoryPanel";
 import { CandidatesPanel } from "../campaign/CandidatesPanel";
 import { XAxisSwitch } from "../components/XAxisSwitch";
 import { isXAxis } from "../lib/xaxis";
-import { isRmseQuantity, RMSE_QUANTITIES } from "../lib/metrics";
 import { JobsTable, VersionsPanel } from "../campaign/JobsAndVersions";
 import { Controls } from "../campaign/Controls";
 import { fmtDate, fmtDuration, fmtNumber } from "../lib/format";
@@ -53,8 +52,7 @@ export function CampaignPage() {
   const [overlay, setOverlay] = useStringParam("overlay");
   const [tab, setTab] = useStringParam("tab", "forces");
   const [xRaw, setXAxis] = useStringParam("x", "iteration");
-  const [quantityRaw, setQuantity] = useStringParam("rmse", "vector");
-  const quantity = isRmseQuantity(quantityRaw) ? quantityRaw : "vector";
+  const [quantity, setQuantity] = useRmseQuantity();
   const xAxis = isXAxis(xRaw) ? xRaw : "iteration";
   const setParams = useSetParams();
   const oracle = useOracle(c?.oracle_id ?? null);
@@ -149,16 +147,7 @@ export function CampaignPage() {
             </span>
           ) : null}
           <span className="spacer" />
-          <label className="field-inline">
-            RMSE of{" "}
-            <select data-testid="rmse-quantity" value={quantity} onChange={(e) => setQuantity(e.target.value)}>
-              {RMSE_QUANTITIES.map(([key, label]) => (
-                <option key={key} value={key}>
-                  {label}
-                </option>
-              ))}
-            </select>
-          </label>
+          <RmseQuantitySelect value={quantity} onChange={setQuantity} />
           <XAxisSwitch value={xAxis} onChange={setXAxis} />
           <label className="field-inline">
             <input type="checkbox" checked={logY} onChange={(e) => setLogY(e.target.checked)} /> log axis
