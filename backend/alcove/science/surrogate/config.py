@@ -12,7 +12,9 @@ comes from its origin: ``preliminary_weight`` for preliminary data (decaying by 
 ``preliminary_halving`` oracle simulations in the pool, if set), 1 otherwise (oracle and
 uploaded data).
 This lets a campaign fade out the preliminary data as oracle data accumulates (a remedy for
-the bias toward low forces the paper reports).
+the bias toward low forces the paper reports). With ``member_data: "bootstrap"`` each ensemble
+member also multiplies the weights of the measured simulations of its training part by how often
+a bootstrap resample over those simulations drew them (:func:`.training.bootstrap_counts`).
 
 Architecture: ``"paper"`` (default) is the paper's: the MLPs' outputs are the wrench.
 ``"gated"`` (:mod:`.gated`) puts a contact-aware output layer after them: the wrench is
@@ -193,6 +195,16 @@ class SurrogateConfig(BaseModel):
         le=64,
         description="members K of the deep ensemble [-], 1 to 64: each with its own seed and 70/30 + 80/20 split; "
         "predictions are the members' mean and standard deviation (1: the paper's single model)",
+    )
+    member_data: Literal["split", "bootstrap"] = Field(
+        "split",
+        description="what each member of the ensemble trains on: 'split' (its own 70/30 split by simulation and "
+        "80/20 pointwise split; the members see mostly the same trajectories) or 'bootstrap' (in addition, the "
+        "measured simulations of its training part resampled with replacement, as many draws as there are: a "
+        "simulation drawn c times weighs c times as much in its train and validation samples, one never drawn "
+        "weighs 0 for that member; the preliminary data keep their weights, they are independent points of one "
+        "known law, not trajectories). Members that differ in their data disagree where the data do not pin the "
+        "law down, so their spread reflects it (docs/concepts.md)",
     )
     dtype: Literal["float64", "float32"] = Field(
         "float32",

@@ -26,6 +26,15 @@
    law reaches a cold training's error on the final pool (tested: within 5 %, at the noise floor).
    A member keeps its carried weights when no epoch beats them. Prediction is the members' mean, with their
    standard deviation (:meth:`.mlp.SurrogateModel.predict_ensemble`).
+   With ``member_data: "bootstrap"`` the members differ in their data as well: member k draws as many
+   measured (non-preliminary) simulations of its training part as there are, with replacement, from its
+   own seeded generator (:func:`bootstrap_counts`), and a simulation drawn c times weighs c times as much
+   in its train and validation samples (0 if never drawn: no data are copied, and its samples still
+   enter the member's standardisation). The preliminary data keep their weights: they are independent
+   points of one known law, dealt into chunks, not trajectories with a history of their own. The test
+   split is the member's split as with ``"split"``; the model's lineage lists per member the draws
+   (``member_data``). With ``"split"`` (the default) the training is the one without the option, bit
+   for bit.
    With ``architecture: "gated"`` the loss is taken on the gated output (:mod:`.gated`,
    :class:`.ensemble.GatedOutputs`): each sample's gate comes from its signed gap, computed
    from its features and the preset's head profile.
@@ -347,6 +356,18 @@ def preliminary_in_contact(ds: PoolDataset) -> NDArray[np.bool_]:
     return np.asarray(np.any(ds.force != 0.0, axis=1) | np.any(ds.moment != 0.0, axis=1))
 
 
+def bootstrap_counts(pool: list[PoolDataset], split: PoolSplit, seed: int) -> dict[str, int]:
+    """``member_data: "bootstrap"``: how often a bootstrap resample over the measured (non-preliminary)
+    simulations of ``split``'s training part draws each of them, by name (pool order), with
+    ``numpy.random.default_rng([seed, 0xB0075])``: n draws with replacement from the n simulations, so the
+    counts are whole numbers summing to n (module docstring, step 3)."""
+    training = set(split.training_sets)
+    names = [ds.name for ds in pool if ds.name in training and ds.origin != "preliminary"]
+    rng = np.random.default_rng([int(seed), 0xB0075])
+    counts = np.bincount(rng.integers(0, len(names), size=len(names)), minlength=len(names))
+    return {name: int(c) for name, c in zip(names, counts, strict=True)}
+
+
 def member_seed(seed: int, k: int) -> int:
     """Seed of ensemble member ``k``: member 0 has the model's seed (K = 1 is the single model of the
     paper's protocol), the others a seed derived from (seed, k)."""
@@ -428,11 +449,22 @@ def train_surrogate(
     generators: list[torch.Generator] = []
     warm: list[dict[str, bool | str]] = []
     prior_contact: list[str] = []  # per member: what became of the preliminary samples in contact
+    member_data: list[str | dict[str, dict[str, int]]] = []  # per member: "split" or its bootstrap draws
     for k, (s_k, split) in enumerate(zip(seeds, splits, strict=True)):
         is_train = split.masks["train"]
         measured_k = bool(np.any(is_measured & is_train))
         w = weights[measured_k]
         prior_contact.append("drop" if measured_k and config.preliminary_in_contact == "drop" else "keep")
+        if config.member_data == "bootstrap":
+            draws = bootstrap_counts(pool, split, s_k)
+            w = w * np.repeat([float(draws.get(ds.name, 1)) for ds in pool], [ds.n_samples for ds in pool])
+            member_data.append({"bootstrap": draws})
+            if not np.any(w[split.masks["validation"]] > 0):
+                raise PoolDataError(
+                    "member_data", f"member {k}'s bootstrap draws leave every validation sample with weight 0"
+                )
+        else:
+            member_data.append("split")
         if not np.any(w[is_train] > 0):
             raise PoolDataError(
                 "weight", "every training sample has weight 0 (check preliminary_weight and the dataset weights)"
@@ -538,6 +570,7 @@ def train_surrogate(
             "warm_start": (warm[0] or False) if len(warm) == 1 else [wk or False for wk in warm],
             "split": {**plan.to_dict(), **({"note": split_note} if split_note else {})},
             "preliminary_in_contact": prior_contact,
+            "member_data": member_data,
             "training": "torch (vectorised over members)",
         },
     )
@@ -636,6 +669,7 @@ __all__ = [
     "TrainingCancelled",
     "TrainingMetrics",
     "TrainingResult",
+    "bootstrap_counts",
     "headrest_preset",
     "member_seed",
     "moved_headrest",
