@@ -252,3 +252,71 @@ def test_reconciler_resends_lost_motions_and_fails_a_suite_whose_last_attempt_di
         return d.status, s.get(ValidationSuite, d.suite_id).status, suite.status
 
     assert transaction(states) == ("failed", "replaying", "queued")  # the lost one may still succeed
+
+
+def test_the_stress_part_is_scored_apart_and_the_suite_figures_cover_the_core_motions(
+    campaign_db: str, make_campaign: Any
+) -> None:
+    """Two core motions (presses with unloads and re-loads from the task's box) and two stress
+    motions: the row's figures are the error over the core motions' samples alone, ``stress`` the
+    error over the stress motions', each recomputed here from the stored replays."""
+    from alcove.campaigns import protocol
+    from alcove.campaigns.validation import validation_series
+    from alcove.db import session_scope
+    from alcove.models import Campaign, ModelVersion, ValidationSuite
+    from alcove.oracles.validation import run_motion
+    from alcove.science.surrogate.training import predict_ensemble
+    from alcove.surrogates.service import load_model
+    from alcove.surrogates.validation import _suite_arrays, evaluate_suite
+    from tests.integration.procs import db_rows
+
+    settings = {
+        "ocp_intervals": 20,
+        "replay_dt": 0.01,
+        "validation_motions": 2,
+        "validation_seed": 7,
+        "validation_stress_motions": 2,
+        "validation_ranges": {"dwell": [0.0, 0.05]},
+    }
+    a, jobs = make_campaign(seed=3, settings=settings, stopping={"max_iterations": 1})
+    protocol.drive_inline(a, jobs)
+    ((suite_id,),) = db_rows(campaign_db, "SELECT validation_suite_id FROM campaigns WHERE id = :c", c=a)
+    rows = db_rows(campaign_db, 'SELECT id FROM validation_motions WHERE suite_id = :s ORDER BY "index"', s=suite_id)
+    assert [run_motion(m, "w") for (m,) in rows] == ["succeeded"] * 4
+    evaluate_suite(suite_id)
+    with session_scope() as s:
+        suite = s.get(ValidationSuite, suite_id)
+        assert suite is not None and suite.spec["ranges"]["dwell"] == [0.0, 0.05]  # the user's range
+        assert suite.spec["ranges"]["release"] == [0.3, 1.0]  # derived from the task: with histories
+        series = validation_series(s, s.get(Campaign, a))
+        mv = s.query(ModelVersion).filter_by(campaign_id=a, version=1).one()
+        model, arrays = load_model(s, mv), _suite_arrays(s, suite_id)
+    assert series.suite is not None and series.suite.n_motions == 4 and series.suite.n_stress_motions == 2
+    assert [x["part"] for x in arrays] == ["core", "core", "stress", "stress"]
+    (point,) = series.points
+    assert [m.get("part") for m in point.per_motion] == [None, None, "stress", "stress"]
+
+    def force_rmse(part: str) -> float:
+        err = []
+        for x in arrays:
+            if x["part"] == part:
+                err.append(predict_ensemble(model, x["q"], x["qd"]).force - x["f"][:, :3])
+        e = np.vstack(err)
+        return float(np.sqrt(np.mean(np.sum(e**2, axis=1))))
+
+    assert point.force_rmse == pytest.approx(force_rmse("core"), rel=1e-12)
+    assert point.stress is not None and point.stress.force_rmse == pytest.approx(force_rmse("stress"), rel=1e-12)
+    assert point.stress.force_rmse != pytest.approx(point.force_rmse, rel=1e-6)
+
+
+def test_a_suite_range_the_task_cannot_reach_is_refused_naming_it(campaign_db: str, make_campaign: Any) -> None:
+    from alcove.errors import InvalidInput
+
+    with pytest.raises(InvalidInput) as err:
+        make_campaign(settings={"validation_ranges": {"depth": [0.34, 0.6]}}, start=False)
+    (problem,) = err.value.detail()
+    assert problem["loc"] == ["body", "settings", "validation_ranges", "depth"]
+    assert "leaves the joint range" in problem["msg"]
+    with pytest.raises(InvalidInput) as err:
+        make_campaign(settings={"validation_stress_motions": 1, "validation_stress_ranges": {"speed": [0.0, 1.0]}})
+    assert err.value.detail()[0]["loc"] == ["body", "settings", "validation_stress_ranges", "speed"]

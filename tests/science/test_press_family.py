@@ -74,9 +74,9 @@ def test_the_family_is_a_seeded_latin_hypercube_over_its_box():
     [
         (PressFamily(depth=(0.34, 0.6)), "press family range depth: (0.34, 0.6) rad leaves the joint range"),
         (PressFamily(release=(0.5, 1.5)), "press family range release: (0.5, 1.5) leaves [0, 1]"),
-        (PressFamily(speed=(2.0, 1.0)), "press family range speed: need finite low <= high"),
-        (PressFamily(start=(0.15, 0.36)), "every start angle must lie below every depth"),
-        (PressFamily(dwell=(float("nan"), 0.3)), "press family range dwell: need finite low <= high"),
+        (PressFamily(speed=(2.0, 1.0)), "press family range speed: need finite lo <= hi"),
+        (PressFamily(start=(0.15, 0.36)), "every start angle must lie below every peak angle"),
+        (PressFamily(dwell=(float("nan"), 0.3)), "press family range dwell: need finite lo <= hi"),
     ],
 )
 def test_a_bad_box_names_its_range(family, message):

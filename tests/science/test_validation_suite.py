@@ -76,3 +76,75 @@ def test_bad_ranges_name_the_field() -> None:
     with pytest.raises(ValueError, match="motions"):
         motion_parameters(SuiteSpec(motions=0), DEFAULT_PRESET)
     assert len(suite_trajectories(SuiteSpec(motions=2), DEFAULT_PRESET)) == 2
+
+
+def test_a_suite_of_simple_presses_keeps_the_motions_and_digest_of_the_four_parameter_suite() -> None:
+    """release (1, 1) and reload (0, 0) are the simple press: the stored spec (and so the digest and
+    the shared suite) of a suite written before the family's parameters is the same suite."""
+    import hashlib
+    import json
+
+    old = {"motions": 8, "seed": 0, "dt": 0.0025}
+    old["ranges"] = {"start": [0.15, 0.28], "depth": [0.34, 0.43], "speed": [0.3, 1.5], "dwell": [0.0, 0.3]}
+    digest = hashlib.sha256(
+        json.dumps({"spec": old, "preset": DEFAULT_PRESET.to_dict()}, sort_keys=True).encode()
+    ).hexdigest()
+    assert SuiteSpec().digest(DEFAULT_PRESET) == digest
+    assert SuiteSpec.from_dict(old) == SuiteSpec()
+    assert all(type(m).__name__ == "PressMotion" for m in motion_parameters(SuiteSpec(), DEFAULT_PRESET))
+
+
+def test_the_task_derived_box_spans_contact_to_the_joint_limit_and_adds_the_histories() -> None:
+    from alcove.science.validation_suite import HISTORY_RELEASE, HISTORY_RELOAD, task_ranges
+
+    p = DEFAULT_PRESET
+    box = task_ranges(p, p.theta_contact)
+    # the paper's preset: the default box (first contact 0.31 rad + 0.03, joint limit 0.432 - 0.002)
+    assert box.depth == pytest.approx((p.theta_contact + 0.03, p.theta_max - 0.002), abs=1e-15)
+    assert box.depth == pytest.approx(SuiteRanges().depth, abs=1e-12)
+    assert (box.start, box.speed, box.dwell) == (SuiteRanges().start, SuiteRanges().speed, SuiteRanges().dwell)
+    assert (box.release, box.reload) == (HISTORY_RELEASE, HISTORY_RELOAD) and not box.simple
+    # a task that starts shallower and faster widens the box; a start past first contact - 0.03 is clipped
+    wide = task_ranges(p, p.theta_contact, start_angles=(0.05, 0.30), top_speed=2.5)
+    assert wide.start == pytest.approx((0.05, p.theta_contact - 0.03), abs=1e-15)
+    assert wide.speed == (0.3, 2.5)
+    assert task_ranges(p, p.theta_contact, start_angles=(0.0, 0.1)).start[0] == p.theta_min
+
+
+def test_a_history_suite_is_a_six_parameter_latin_hypercube_and_its_stress_part_comes_after_the_core() -> None:
+    from alcove.science.press_family import PARAMETERS
+    from alcove.science.validation_suite import stress_ranges, task_ranges
+
+    p, m = DEFAULT_PRESET, 8
+    box = task_ranges(p, p.theta_contact)
+    spec = SuiteSpec(motions=m, seed=2, ranges=box)
+    core = motion_parameters(spec, p)
+    for name in PARAMETERS:
+        lo, hi = getattr(box, name)
+        x = np.array([getattr(c, name) for c in core])
+        assert sorted(np.floor((x - lo) / (hi - lo) * m).clip(0, m - 1)) == list(range(m)), name
+    assert any(c.release < 1 for c in core)  # some motions unload part way and re-load
+    stressed = SuiteSpec(motions=m, seed=2, ranges=box, stress_motions=3, stress=stress_ranges(box))
+    both = motion_parameters(stressed, p)
+    assert both[:m] == core  # the stress part leaves the core motions as they are
+    assert [stressed.part(i) for i in range(len(both))] == ["core"] * m + ["stress"] * 3
+    assert all(box.speed[1] <= s.speed <= 2 * box.speed[1] for s in both[m:])
+    assert SuiteSpec.from_dict(stressed.to_dict()) == stressed
+    assert stressed.digest(p) != spec.digest(p)
+    for motion in both:  # rest at both ends; never beyond the peak angle or the start
+        tr = motion.trajectory(0.0025)
+        assert tr.qd[0, 0] == pytest.approx(0, abs=1e-12) and tr.qd[-1, 0] == pytest.approx(0, abs=1e-9)
+        assert motion.start - 1e-12 <= tr.q[:, 0].min() and tr.q[:, 0].max() <= motion.depth + 1e-12
+    with pytest.raises(ValueError, match="validation suite stress range speed"):
+        motion_parameters(SuiteSpec(motions=2, ranges=box, stress_motions=1, stress=SuiteRanges(speed=(-1, 1))), p)
+
+
+def test_stored_motion_parameters_give_back_the_motion() -> None:
+    from dataclasses import asdict
+
+    from alcove.science.press_family import HistoryPress
+    from alcove.science.validation_suite import PressMotion, suite_motion
+
+    press, history = PressMotion(0.2, 0.4, 1.0, 0.1), HistoryPress(0.2, 0.4, 1.0, 0.1, 0.5, 0.5)
+    assert suite_motion(asdict(press)) == press
+    assert suite_motion({**asdict(history), "part": "stress"}) == history

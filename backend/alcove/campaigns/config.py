@@ -141,6 +141,37 @@ class Policies(_Strict):
     append_max_attempts: int = Field(3, ge=1, le=20)
 
 
+#: a range [low, high] of the validation suite's motions
+SuiteRange = Annotated[list[Annotated[float, Field(allow_inf_nan=False)]], Field(min_length=2, max_length=2)]
+
+
+class ValidationRanges(_Strict):
+    """Ranges of the validation suite's motions, each [low, high] (equal ends: fixed); a range left
+    out (null) is derived from the task (docs/active-learning.md, "The validation suite")."""
+
+    start: SuiteRange | None = Field(None, description="start angle, at rest [rad]")
+    depth: SuiteRange | None = Field(None, description="peak angle of the press [rad]")
+    speed: SuiteRange | None = Field(None, description="largest angular velocity of each segment [rad/s], above 0")
+    dwell: SuiteRange | None = Field(None, description="hold at every turning point [s], at least 0")
+    release: SuiteRange | None = Field(
+        None, description="share of the press a partial unload gives back [-], in [0, 1] (1: a simple press)"
+    )
+    reload: SuiteRange | None = Field(
+        None, description="share of the way back to the peak a re-load goes [-], in [0, 1] (0: none)"
+    )
+
+    @model_validator(mode="after")
+    def _low_below_high(self) -> ValidationRanges:
+        for name, r in self:
+            if r is not None and r[0] > r[1]:
+                raise ValueError(f"{name}: the low end {r[0]} lies above the high end {r[1]}")
+        return self
+
+    def given(self) -> dict[str, tuple[float, float]]:
+        """The ranges set, by parameter."""
+        return {name: (float(r[0]), float(r[1])) for name, r in self if r is not None}
+
+
 class RunSettings(_Strict):
     """Other settings that change results."""
 
@@ -177,6 +208,27 @@ class RunSettings(_Strict):
         ),
     )
     validation_seed: int = Field(0, ge=0, le=2**31 - 1, description="seed of the validation suite's motions")
+    validation_ranges: ValidationRanges = Field(
+        default_factory=ValidationRanges,
+        description=(
+            "the validation suite's motions: presses with partial unloads and re-loads, slow and fast; ranges left "
+            "out are derived from the task (peak angles from first contact to the joint limit, start angles "
+            "covering the task's initial angles, speeds up to the task's fastest initial speed)"
+        ),
+    )
+    validation_stress_motions: int = Field(
+        0,
+        ge=0,
+        le=64,
+        description=(
+            "more validation motions beyond the task's reach (faster than its scenarios, up to twice the top "
+            "speed), reported apart from the suite's figures; 0: none"
+        ),
+    )
+    validation_stress_ranges: ValidationRanges = Field(
+        default_factory=ValidationRanges,
+        description="ranges of the stress motions; ranges left out: the suite's, with speeds above its top speed",
+    )
     strategy: Literal["paper", "random-scenarios", "ensemble-disagreement"] = Field(
         "paper",
         description=(

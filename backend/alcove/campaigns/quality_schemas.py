@@ -52,6 +52,25 @@ class ValidationSuiteRead(BaseModel):
     replay_wall_time_s: float | None = Field(None, description="first motion queued to last motion stored [s]")
     shared_by: int = Field(description="campaigns evaluated on this suite")
     error: str | None = None
+    n_stress_motions: int = Field(
+        0, description="of the n_motions, those of the stress part (beyond the task's reach; scored apart)"
+    )
+    ranges: dict[str, list[float]] = Field(
+        default_factory=dict,
+        description="the core motions' ranges: start and depth [rad], speed [rad/s], dwell [s], release and reload "
+        "[-] (release and reload absent: simple presses)",
+    )
+    stress_ranges: dict[str, list[float]] | None = Field(None, description="the stress motions' ranges (null: none)")
+
+
+class ValidationReference(BaseModel):
+    """An error on (a part of) the held-out validation suite: a reference model's (a line beside
+    the campaign's models) or a model version's on the suite's stress part."""
+
+    force_rmse: float = Field(description="sqrt(mean_i |F_pred,i - F_true,i|^2) over all samples of all motions [N]")
+    moment_rmse: float = Field(description="the same for the moment vector [N m]")
+    components: dict[str, float | None] = Field(description="the " + DESCRIPTIONS["rmse_components"])
+    calibration: float | None = Field(None, description=DESCRIPTIONS["calibration"] + "; null: not computed")
 
 
 class ValidationPoint(BaseModel):
@@ -71,17 +90,15 @@ class ValidationPoint(BaseModel):
         description="false: evaluated before migration 0019, which did not compute the calibration (its null does "
         "not mean K = 1)",
     )
-    per_motion: list[dict[str, float | None]] = Field(
-        description="force_rmse, moment_rmse, calibration (evaluations since migration 0019), n_samples of each motion"
+    per_motion: list[dict[str, float | str | None]] = Field(
+        description="force_rmse, moment_rmse, calibration (evaluations since migration 0019), n_samples of each "
+        "motion; part 'stress' on the stress part's motions"
     )
-
-
-class ValidationReference(BaseModel):
-    """A reference model's error on the held-out validation suite (a line beside the campaign's models)."""
-
-    force_rmse: float = Field(description="sqrt(mean_i |F_pred,i - F_true,i|^2) over all samples of all motions [N]")
-    moment_rmse: float = Field(description="the same for the moment vector [N m]")
-    components: dict[str, float | None] = Field(description="the " + DESCRIPTIONS["rmse_components"])
+    stress: ValidationReference | None = Field(
+        None,
+        description="the error on the suite's stress part, over all its samples (the other figures cover the core "
+        "motions); null: the suite has no stress part",
+    )
 
 
 class ValidationSeries(BaseModel):

@@ -93,6 +93,18 @@ def _check_strategy(s: Session, cfg: CampaignConfig, surrogate_config_version_id
         raise InvalidInput.one("settings.strategy", problem)
 
 
+def _check_suite(s: Session, cfg: CampaignConfig, task_version_id: int) -> None:
+    """The validation suite's ranges must make motions of the task's model (422 naming the range)."""
+    from alcove.campaigns.validation import suite_problem
+    from alcove.tasks.service import load_task
+
+    if cfg.settings.validation_motions == 0:
+        return
+    problem = suite_problem(cfg.settings, load_task(s, task_version_id))
+    if problem is not None:
+        raise InvalidInput.one(*problem)
+
+
 def _lock_definitions(s: Session, campaign: Campaign) -> None:
     now = utcnow()
     _lock_version(s, TaskVersion, campaign.task_version_id, now)
@@ -120,6 +132,7 @@ def create_campaign(
     if cfg.preliminary.dataset_ids:
         pool_repo.datasets(s, cfg.preliminary.dataset_ids)  # raises NotFound naming the id
     _check_strategy(s, cfg, data.surrogate_config_version_id)
+    _check_suite(s, cfg, data.task_version_id)
     c = Campaign(
         owner_id=owner_id,
         name=data.name,
@@ -155,6 +168,7 @@ def update_config(
     if update.surrogate_config_version_id is not None:
         _check_definitions(s, c.task_version_id, c.oracle_version_id, scv)
     _check_strategy(s, new, scv)
+    _check_suite(s, new, c.task_version_id)
     row = add_config_version(s, c, new, scv, user_id, update.note or "edited")
     if c.status != CampaignStatus.draft.value:
         _lock_definitions(s, c)

@@ -38,6 +38,7 @@ from alcove.campaigns import candidates, transitions
 from alcove.campaigns import repository as repo
 from alcove.campaigns.schemas import CampaignConfig
 from alcove.campaigns.state_machine import IterationRecord, StepRef, stop_reason
+from alcove.campaigns.validation import suite_model as validation_suite_model
 from alcove.campaigns.validation import suite_spec
 from alcove.db import session_scope
 from alcove.jobs.steps import FailedAttempt, IterationRef, StepOutput, StepRun, UnusableResult, is_cancellation
@@ -109,19 +110,6 @@ def _kinematics(task: TaskSpec) -> Any:
     return pose_kinematics(task.model.pose_function())
 
 
-def _suite_model(task: TaskSpec) -> Any:
-    """The validation suite's model: the 1-DOF preset, or a chain's joint line
-    (:func:`alcove.science.validation_suite.chain_suite_model`)."""
-    m = task.model
-    if not m.is_chain:
-        return m.to_preset()
-    from alcove.science.validation_suite import chain_suite_model
-
-    return chain_suite_model(
-        m.model_dump(mode="json"), m.pose_function(), m.oracle_preset(), m.q_initial, m.joint_min, m.joint_max
-    )
-
-
 def derive_seed(campaign_seed: int, iteration: int, salt: int = 0) -> int:
     """A reproducible per-iteration seed (independent streams for different k)."""
     state = np.random.SeedSequence([int(campaign_seed), int(iteration), salt]).generate_state(1, np.uint64)[0]
@@ -191,15 +179,16 @@ def train(ctx: StepContext) -> StepOutput:
             "kinematics": _kinematics(task),
         }
     out = surrogate_steps.train(ctx.run, **inputs)
-    spec, preset = suite_spec(ctx.config.settings), inputs["preset"]
-    suite_model = _suite_model(task) if spec.motions > 0 else preset
-    motions = oracle_validation.motions_for(spec, suite_model) if needs_suite else None
+    wants_suite = needs_suite and ctx.config.settings.validation_motions > 0
+    suite_model = validation_suite_model(task) if wants_suite else None
+    spec = suite_spec(ctx.config.settings, task, suite_model) if wants_suite else None
+    motions = oracle_validation.motions_for(spec, suite_model) if wants_suite else None
 
     def write(s: Session, at: IterationRef) -> dict[str, Any]:
         result = out.write(s, at)
         c = repo.get_campaign(s, at.campaign_id)
         if c.validation_suite_id is None:  # the first model of a campaign (or of a fork)
-            suite = oracle_validation.attach_suite(s, c, spec, suite_model, motions)
+            suite = oracle_validation.attach_suite(s, c, spec, suite_model, motions) if spec is not None else None
             result["validation_suite_id"] = suite.id if suite is not None else None
         return result
 

@@ -21,11 +21,79 @@ from alcove.campaigns.schemas import MetricsRead
 from alcove.models import Campaign, ModelVersion, MotionStatus, ValidationMetrics, ValidationMotion, ValidationSuite
 
 
-def suite_spec(settings: Any) -> Any:
-    """The suite a campaign's run settings ask for (``validation_motions``, ``validation_seed``)."""
-    from alcove.science.validation_suite import SuiteSpec
+def suite_model(task: Any) -> Any:
+    """The validation suite's model of a task (an ``alcove.science.ocp.task_spec.TaskSpec``): the
+    1-DOF preset, or a chain's joint line (:func:`alcove.science.validation_suite.chain_suite_model`)."""
+    m = task.model
+    if not m.is_chain:
+        return m.to_preset()
+    from alcove.science.validation_suite import chain_suite_model
 
-    return SuiteSpec(motions=settings.validation_motions, seed=settings.validation_seed)
+    return chain_suite_model(
+        m.model_dump(mode="json"), m.pose_function(), m.oracle_preset(), m.q_initial, m.joint_min, m.joint_max
+    )
+
+
+def _task_angles(task: Any, parameter: str, nominal: float) -> tuple[float, float]:
+    """The values a 1-DOF task's ``parameter`` takes: its range, or the nominal value."""
+    for r in task.ranges or ():
+        if r.parameter == parameter:
+            return (min(r.low, nominal), max(r.high, nominal))
+    return (nominal, nominal)
+
+
+def suite_spec(settings: Any, task: Any, model: Any) -> Any:
+    """The suite a campaign's run settings ask for on ``task`` with its suite ``model``: the
+    ``validation_motions`` core motions of the box derived from the task
+    (:func:`alcove.science.validation_suite.task_ranges`) with the ranges the user set, and the
+    ``validation_stress_motions`` beyond it."""
+    from alcove.science.validation_suite import (
+        ChainSuiteModel,
+        SuiteSpec,
+        stress_ranges,
+        task_ranges,
+        with_ranges,
+    )
+
+    if isinstance(model, ChainSuiteModel):  # the reference angle of the 1-DOF preset along the chain's line
+        core = task_ranges(model, model.theta_contact)
+    else:
+        q0 = float(task.initial.q[0]) if task.initial.q is not None else float(task.model.q_initial[0])
+        qd0 = float(task.initial.qd[0]) if task.initial.qd is not None else 0.0
+        starts = _task_angles(task, "initial.q.0", q0)
+        speeds = _task_angles(task, "initial.qd.0", qd0)
+        core = task_ranges(model, model.theta_contact, starts, max(abs(speeds[0]), abs(speeds[1])))
+    core = with_ranges(core, settings.validation_ranges.given())
+    n_stress = settings.validation_stress_motions
+    stress = with_ranges(stress_ranges(core), settings.validation_stress_ranges.given()) if n_stress > 0 else None
+    return SuiteSpec(
+        motions=settings.validation_motions,
+        seed=settings.validation_seed,
+        ranges=core,
+        stress_motions=n_stress,
+        stress=stress,
+    )
+
+
+def suite_problem(settings: Any, task: Any) -> tuple[str, str] | None:
+    """Why the suite the settings ask for on ``task`` cannot be drawn, as (field, reason), or None."""
+    from alcove.science.press_family import RangeError
+
+    if settings.validation_motions == 0:
+        return None
+    model = suite_model(task)
+    spec = suite_spec(settings, task, model)
+    for part, ranges, field in (
+        ("validation suite", spec.ranges, "settings.validation_ranges"),
+        ("validation suite stress", spec.stress, "settings.validation_stress_ranges"),
+    ):
+        if ranges is None:
+            continue
+        try:
+            ranges.check_for(model, part)
+        except RangeError as err:
+            return f"{field}.{err.parameter}", err.reason
+    return None
 
 
 def validation_by_model(s: Session, model_version_ids: Sequence[int]) -> dict[int, ValidationMetrics]:
@@ -79,6 +147,9 @@ def suite_read(s: Session, campaign: Campaign) -> ValidationSuiteRead | None:
         replay_wall_time_s=suite.replay_wall_time_s,
         shared_by=int(shared or 0),
         error=suite.error,
+        n_stress_motions=int((suite.spec or {}).get("stress_motions", 0)),
+        ranges=dict((suite.spec or {}).get("ranges") or {}),
+        stress_ranges=(suite.spec or {}).get("stress"),
     )
 
 
@@ -112,6 +183,14 @@ def validation_series(s: Session, campaign: Campaign) -> ValidationSeries:
                 calibration=v.calibration,
                 calibration_recorded=v.calibration_recorded,
                 per_motion=list(v.per_motion),
+                stress=ValidationReference(
+                    force_rmse=v.stress["force_rmse"],
+                    moment_rmse=v.stress["moment_rmse"],
+                    components=v.stress["components"],
+                    calibration=v.stress.get("calibration"),
+                )
+                if v.stress
+                else None,
             )
             for k, v in rows
         ],
@@ -165,6 +244,7 @@ def validation_files(s: Session, campaign: Campaign) -> dict[str, bytes]:
                 "calibration_recorded": v.calibration_recorded,
                 "per_motion": v.per_motion,
                 "n_samples": v.n_samples,
+                "stress": v.stress,
             }
             for version, v in models
         ],

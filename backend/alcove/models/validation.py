@@ -110,4 +110,8 @@ class ValidationMetrics(Base):
     )
     per_motion: Mapped[list[Any]] = mapped_column(comment="force and moment RMSE per motion, in suite order")
     n_samples: Mapped[int]
+    stress: Mapped[dict[str, Any] | None] = mapped_column(
+        comment="the error on the suite's stress part (force_rmse, moment_rmse, components, calibration, "
+        "n_samples); null: no stress part"
+    )
     created_at: Mapped[datetime] = mapped_column(default=utcnow, server_default=sa.func.now())

@@ -64,7 +64,7 @@ def attach_suite(
                 s.flush()
                 now = utcnow()
                 rows = [
-                    ValidationMotion(suite_id=suite.id, index=i, params=asdict(p), queued_at=now)
+                    ValidationMotion(suite_id=suite.id, index=i, params=motion_row_params(spec, i, p), queued_at=now)
                     for i, p in enumerate(params)
                 ]
                 s.add_all(rows)
@@ -84,6 +84,14 @@ def motions_for(spec: Any, preset: Any) -> list[Any] | None:
     from alcove.science.validation_suite import motion_parameters
 
     return motion_parameters(spec, preset) if spec.motions > 0 else None
+
+
+def motion_row_params(spec: Any, index: int, motion: Any) -> dict[str, Any]:
+    """What a motion row stores: the motion's parameters and, for the stress part, ``part``."""
+    params = asdict(motion)
+    if spec.part(index) != "core":
+        params["part"] = spec.part(index)
+    return params
 
 
 def _find(s: Session, oracle_version_id: int, digest: str) -> ValidationSuite | None:
@@ -134,11 +142,10 @@ def run_motion(motion_id: int, worker_name: str = "local") -> str:
     from alcove.science.ocp.task_spec import ModelSpec
     from alcove.science.validation_suite import (
         ChainSuiteModel,
-        PressMotion,
         SuiteSpec,
         chain_press_trajectory,
-        press_trajectory,
         suite_model_from_dict,
+        suite_motion,
     )
 
     token = uuid.uuid4().hex
@@ -163,9 +170,9 @@ def run_motion(motion_id: int, worker_name: str = "local") -> str:
             params = dict(row.params)
         if isinstance(suite_model, ChainSuiteModel):  # a chain's motion along its joint line
             pose = ModelSpec.model_validate(suite_model.model).pose_function()
-            traj = chain_press_trajectory(PressMotion(**params), spec.dt, suite_model, pose)
+            traj = chain_press_trajectory(suite_motion(params), spec.dt, suite_model, pose)
         else:
-            traj = press_trajectory(PressMotion(**params), spec.dt)
+            traj = suite_motion(params).trajectory(spec.dt)
         res = oracle.run(traj)
     except Exception as err:
         log.exception("validation motion %d failed (attempt %d)", motion_id, attempt)

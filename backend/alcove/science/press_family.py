@@ -29,10 +29,20 @@ import numpy as np
 from scipy.stats import qmc
 
 from alcove.science.arrays import FloatArray
+from alcove.science.errors import FieldError
 from alcove.science.series import Trajectory
-from alcove.science.validation_suite import BLEND_PEAK, _blend
 
 PARAMETERS = ("start", "depth", "speed", "dwell", "release", "reload")
+
+#: largest velocity of the quintic blend s^3 (10 - 15 s + 6 s^2) over [0, 1]
+BLEND_PEAK = 15.0 / 8.0
+
+
+def blend(s: FloatArray) -> tuple[FloatArray, FloatArray]:
+    """The quintic blend s^3 (10 - 15 s + 6 s^2) from 0 to 1 and its derivative, held at 0 before
+    s = 0 and at 1 after s = 1 (zero velocity and acceleration at both ends)."""
+    s = np.clip(s, 0.0, 1.0)
+    return s**3 * (10 - 15 * s + 6 * s**2), 30 * s**2 * (1 - s) ** 2
 
 
 @dataclass(frozen=True)
@@ -94,11 +104,22 @@ class HistoryPress:
         t0 = 0.0
         for a, b, tp in zip(w[:-1], w[1:], times, strict=True):
             # a blend contributes its full rise after its end, nothing before its start (the suite's form)
-            pos, vel = _blend((t - t0) / tp)
+            pos, vel = blend((t - t0) / tp)
             theta += (b - a) * pos
             theta_dot += (b - a) * vel / tp
             t0 += tp + self.dwell
         return Trajectory(t, theta, theta_dot)
+
+
+class RangeError(FieldError):
+    """A range of the box that cannot make motions; ``parameter`` names it (``start`` .. ``reload``)."""
+
+    def __init__(self, what: str, parameter: str, reason: str):
+        self.what, self.parameter = what, parameter
+        super().__init__(f"{what} range {parameter}", reason)
+
+    def __reduce__(self) -> tuple[type[RangeError], tuple[str, str, str]]:  # type: ignore[override]
+        return type(self), (self.what, self.parameter, self.reason)
 
 
 @dataclass(frozen=True)
@@ -112,32 +133,42 @@ class PressFamily:
     release: tuple[float, float] = (0.3, 1.0)  # share of the press the unload gives back
     reload: tuple[float, float] = (0.0, 1.0)  # share of the way back to depth the re-load goes
 
-    def check(self, theta_min: float, theta_max: float) -> None:
-        """Raise ``ValueError`` naming the range that is empty, not finite, or leaves the joint range."""
+    def check(self, theta_min: float, theta_max: float, what: str = "press family") -> None:
+        """Raise :class:`RangeError` naming the range (``what range name``) that is empty, not finite,
+        or leaves the joint range or [0, 1]."""
         for name in PARAMETERS:
             lo, hi = getattr(self, name)
             if not (np.isfinite(lo) and np.isfinite(hi)) or lo > hi:
-                raise ValueError(f"press family range {name}: need finite low <= high, got ({lo}, {hi})")
+                raise RangeError(what, name, f"need finite lo <= hi, got ({lo}, {hi})")
         for name in ("start", "depth"):
             lo, hi = getattr(self, name)
             if lo < theta_min or hi > theta_max:
-                raise ValueError(
-                    f"press family range {name}: ({lo}, {hi}) rad leaves the joint range [{theta_min}, {theta_max}] rad"
-                )
+                raise RangeError(what, name, f"({lo}, {hi}) rad leaves the joint range [{theta_min}, {theta_max}] rad")
+        if self.speed[0] <= 0:
+            raise RangeError(what, "speed", f"must be > 0, got ({self.speed[0]}, {self.speed[1]}) rad/s")
+        if self.dwell[0] < 0:
+            raise RangeError(what, "dwell", f"must be >= 0, got ({self.dwell[0]}, {self.dwell[1]}) s")
         if self.start[1] >= self.depth[0]:
-            raise ValueError("press family ranges: every start angle must lie below every depth")
-        if self.speed[0] <= 0 or self.dwell[0] < 0:
-            raise ValueError("press family ranges: speed must be > 0 and dwell >= 0")
+            raise RangeError(
+                what, "start", f"every start angle must lie below every peak angle (depth from {self.depth[0]} rad)"
+            )
         for name in ("release", "reload"):
             lo, hi = getattr(self, name)
             if lo < 0 or hi > 1:
-                raise ValueError(f"press family range {name}: ({lo}, {hi}) leaves [0, 1]")
+                raise RangeError(what, name, f"({lo}, {hi}) leaves [0, 1]")
+
+    @property
+    def has_history(self) -> bool:
+        """Whether its motions may turn back before the return (a partial unload can be drawn)."""
+        return self.release[0] < 1.0
 
 
-def family_motions(family: PressFamily, n: int, seed: int, theta_range: tuple[float, float]) -> list[HistoryPress]:
+def family_motions(
+    family: PressFamily, n: int, seed: int | list[int], theta_range: tuple[float, float]
+) -> list[HistoryPress]:
     """``n`` motions of the family: a seeded Latin hypercube over its box (every range cut into n strata,
     one motion in each; centred-discrepancy optimised like the suite's), checked against the joint
-    range ``theta_range``."""
+    range ``theta_range``; ``seed`` an integer or a list of them (NumPy's seed sequence entropy)."""
     if n < 1:
         raise ValueError(f"press family: the number of motions must be >= 1, got {n}")
     family.check(*theta_range)
@@ -149,4 +180,4 @@ def family_motions(family: PressFamily, n: int, seed: int, theta_range: tuple[fl
     return [HistoryPress(*(float(x) for x in p)) for p in points]
 
 
-__all__ = ["PARAMETERS", "HistoryPress", "PressFamily", "family_motions"]
+__all__ = ["BLEND_PEAK", "PARAMETERS", "HistoryPress", "PressFamily", "RangeError", "blend", "family_motions"]

@@ -28,7 +28,7 @@ from __future__ import annotations
 
 import hashlib
 import json
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 from typing import Any
 
 import numpy as np
@@ -36,58 +36,95 @@ from scipy.stats import qmc
 
 from alcove.science.arrays import FloatArray
 from alcove.science.geometry import HeadNeckPreset, PoseFunction, profile_gap, signed_gap
+from alcove.science.press_family import BLEND_PEAK, HistoryPress, PressFamily, blend, family_motions
 from alcove.science.series import Trajectory
-
-#: largest velocity of the quintic blend s^3 (10 - 15 s + 6 s^2) over [0, 1]
-BLEND_PEAK = 15.0 / 8.0
 
 
 @dataclass(frozen=True)
-class SuiteRanges:
-    """The box the motions are drawn from (angles in the preset's joint range)."""
+class SuiteRanges(PressFamily):
+    """The box the motions are drawn from (angles in the preset's joint range): the press family's
+    (:class:`alcove.science.press_family.PressFamily`), whose ``release`` (1, 1) and ``reload`` (0, 0)
+    by default make every motion a simple press (:class:`PressMotion`); a ``release`` below 1 adds
+    the partial unloads and re-loads of :class:`alcove.science.press_family.HistoryPress`."""
 
     start: tuple[float, float] = (0.15, 0.28)  # rad
     depth: tuple[float, float] = (0.34, 0.43)  # rad
     speed: tuple[float, float] = (0.3, 1.5)  # rad/s
     dwell: tuple[float, float] = (0.0, 0.3)  # s
+    release: tuple[float, float] = (1.0, 1.0)  # share of the press the unload gives back
+    reload: tuple[float, float] = (0.0, 0.0)  # share of the way back to the peak the re-load goes
 
-    def check(self, preset: HeadNeckPreset | ChainSuiteModel) -> None:
-        for name in ("start", "depth", "speed", "dwell"):
-            lo, hi = getattr(self, name)
-            if not (np.isfinite(lo) and np.isfinite(hi)) or lo > hi:
-                raise ValueError(f"validation suite range {name}: need finite lo <= hi, got ({lo}, {hi})")
-        for name in ("start", "depth"):
-            lo, hi = getattr(self, name)
-            if lo < preset.theta_min or hi > preset.theta_max:
-                raise ValueError(
-                    f"validation suite range {name}: ({lo}, {hi}) rad leaves the joint range "
-                    f"[{preset.theta_min}, {preset.theta_max}] rad"
-                )
-        if self.speed[0] <= 0 or self.dwell[0] < 0:
-            raise ValueError("validation suite ranges: speed must be > 0 and dwell >= 0")
-        if self.start[1] >= self.depth[0]:
-            raise ValueError("validation suite ranges: every start angle must lie below every peak angle")
+    def check_for(self, preset: HeadNeckPreset | ChainSuiteModel, what: str = "validation suite") -> None:
+        """:meth:`PressFamily.check` in the joint range of the suite's model."""
+        self.check(preset.theta_min, preset.theta_max, what)
+
+    @property
+    def simple(self) -> bool:
+        """Every motion a simple press (no unload before the return): the suite's four-parameter draw."""
+        return self.release == (1.0, 1.0) and self.reload == (0.0, 0.0)
+
+    def to_dict(self) -> dict[str, list[float]]:
+        """The ranges as lists; a simple press's ``release`` and ``reload`` are left out (so a suite of
+        simple presses has the digest it had before the family's parameters existed)."""
+        d = {k: list(v) for k, v in asdict(self).items()}
+        if self.simple:
+            del d["release"], d["reload"]
+        return d
+
+    @classmethod
+    def from_dict(cls, data: dict[str, Any]) -> SuiteRanges:
+        return cls(**{k: (float(v[0]), float(v[1])) for k, v in data.items()})
+
+
+#: the suite's parts: ``core`` (the motions the task's scenarios can reach; the suite's figures)
+#: and ``stress`` (beyond them: reported apart)
+PARTS = ("core", "stress")
 
 
 @dataclass(frozen=True)
 class SuiteSpec:
-    """What makes a suite: its size, seed, ranges and sampling step (and the model preset)."""
+    """What makes a suite: its size, seed, ranges and sampling step (and the model preset), and
+    an optional stress part of ``stress_motions`` motions from the box ``stress``."""
 
     motions: int = 8
     seed: int = 0
     dt: float = 0.0025
     ranges: SuiteRanges = field(default_factory=SuiteRanges)
+    stress_motions: int = 0
+    stress: SuiteRanges | None = None
+
+    def __post_init__(self) -> None:
+        if self.stress_motions < 0:
+            raise ValueError(f"validation suite stress motions: must be >= 0, got {self.stress_motions}")
+        if self.stress_motions > 0 and self.stress is None:
+            raise ValueError("validation suite stress: stress motions need the stress ranges")
+
+    @property
+    def total(self) -> int:
+        """The number of motions of both parts."""
+        return self.motions + self.stress_motions
+
+    def part(self, index: int) -> str:
+        """The part motion ``index`` belongs to (the core motions come first)."""
+        return PARTS[0] if index < self.motions else PARTS[1]
 
     def to_dict(self) -> dict[str, Any]:
-        d = asdict(self)
-        d["ranges"] = {k: list(v) for k, v in d["ranges"].items()}
+        d: dict[str, Any] = {"motions": self.motions, "seed": self.seed, "dt": self.dt, "ranges": self.ranges.to_dict()}
+        if self.stress_motions > 0 and self.stress is not None:  # absent: the digest of a suite without one
+            d["stress_motions"], d["stress"] = self.stress_motions, self.stress.to_dict()
         return d
 
     @classmethod
     def from_dict(cls, data: dict[str, Any]) -> SuiteSpec:
-        r = data.get("ranges") or {}
-        ranges = SuiteRanges(**{k: (float(v[0]), float(v[1])) for k, v in r.items()})
-        return cls(int(data["motions"]), int(data["seed"]), float(data["dt"]), ranges)
+        stress = data.get("stress")
+        return cls(
+            int(data["motions"]),
+            int(data["seed"]),
+            float(data["dt"]),
+            SuiteRanges.from_dict(data.get("ranges") or {}),
+            int(data.get("stress_motions", 0)),
+            SuiteRanges.from_dict(stress) if stress else None,
+        )
 
     def digest(self, preset: HeadNeckPreset | ChainSuiteModel) -> str:
         """sha256 over the spec and the preset: suites with equal digests are the same motions."""
@@ -110,25 +147,93 @@ class PressMotion:
     def duration(self) -> float:
         return 2 * self.press_time + self.dwell
 
+    def trajectory(self, dt: float) -> Trajectory:
+        return press_trajectory(self, dt)
 
-def motion_parameters(spec: SuiteSpec, preset: HeadNeckPreset | ChainSuiteModel) -> list[PressMotion]:
-    """The suite's M motions (a seeded Latin hypercube over the ranges: every range is cut
-    into M strata and each stratum holds exactly one motion)."""
-    if spec.motions < 1:
-        raise ValueError(f"validation suite motions: must be >= 1, got {spec.motions}")
-    spec.ranges.check(preset)
-    sampler = qmc.LatinHypercube(d=4, optimization="random-cd", rng=np.random.default_rng(spec.seed))
-    unit = sampler.random(spec.motions)
-    r = spec.ranges
-    lo = np.array([r.start[0], r.depth[0], r.speed[0], r.dwell[0]])
-    hi = np.array([r.start[1], r.depth[1], r.speed[1], r.dwell[1]])
+
+#: a motion of the suite: a simple press, or a press with a partial unload and re-load
+SuiteMotion = PressMotion | HistoryPress
+
+
+def suite_motion(params: dict[str, Any]) -> SuiteMotion:
+    """The motion a suite stored (its parameters; ``part`` is not a motion parameter)."""
+    values = {k: float(v) for k, v in params.items() if k != "part"}
+    return HistoryPress(**values) if "release" in values else PressMotion(**values)
+
+
+def _draw(
+    ranges: SuiteRanges, n: int, seed: int | list[int], preset: HeadNeckPreset | ChainSuiteModel, what: str
+) -> list[SuiteMotion]:
+    ranges.check_for(preset, what)
+    if not ranges.simple:
+        return list(family_motions(ranges, n, seed, (preset.theta_min, preset.theta_max)))
+    sampler = qmc.LatinHypercube(d=4, optimization="random-cd", rng=np.random.default_rng(seed))
+    unit = sampler.random(n)
+    lo = np.array([ranges.start[0], ranges.depth[0], ranges.speed[0], ranges.dwell[0]])
+    hi = np.array([ranges.start[1], ranges.depth[1], ranges.speed[1], ranges.dwell[1]])
     pts = qmc.scale(unit, lo, hi) if np.all(hi > lo) else lo + unit * (hi - lo)
     return [PressMotion(*(float(x) for x in p)) for p in pts]
 
 
-def _blend(s: FloatArray) -> tuple[FloatArray, FloatArray]:
-    s = np.clip(s, 0.0, 1.0)
-    return s**3 * (10 - 15 * s + 6 * s**2), 30 * s**2 * (1 - s) ** 2
+def motion_parameters(spec: SuiteSpec, preset: HeadNeckPreset | ChainSuiteModel) -> list[SuiteMotion]:
+    """The suite's motions: its M core motions (a seeded Latin hypercube over the ranges: every range
+    is cut into M strata and each stratum holds exactly one motion), then the stress part's motions
+    (a Latin hypercube of their own over the stress box, from a stream of the same seed)."""
+    if spec.motions < 1:
+        raise ValueError(f"validation suite motions: must be >= 1, got {spec.motions}")
+    core = _draw(spec.ranges, spec.motions, spec.seed, preset, "validation suite")
+    if spec.stress_motions == 0 or spec.stress is None:
+        return core
+    return core + _draw(spec.stress, spec.stress_motions, [spec.seed, 1], preset, "validation suite stress")
+
+
+#: rad: the shallowest peak angle lies this far beyond first contact, the deepest start angle this far before it
+CONTACT_MARGIN = 0.03
+#: rad: the deepest peak angle lies this far inside the joint limit
+LIMIT_MARGIN = 0.002
+#: the histories a task-derived suite adds: an unload that gives back 30 % to all of the press, and
+#: a re-load that goes none to all of the way back to the peak
+HISTORY_RELEASE, HISTORY_RELOAD = (0.3, 1.0), (0.0, 1.0)
+
+
+def task_ranges(
+    model: HeadNeckPreset | ChainSuiteModel,
+    theta_contact: float,
+    start_angles: tuple[float, float] | None = None,
+    top_speed: float | None = None,
+) -> SuiteRanges:
+    """The suite's box derived from a task (angles are the suite model's reference angle):
+
+    * ``depth``: from ``CONTACT_MARGIN`` beyond first contact ``theta_contact`` to ``LIMIT_MARGIN``
+      inside the joint limit: every depth the task's motions can press to;
+    * ``start``: the default start angles widened to cover the task's initial angles
+      ``start_angles`` (a ranged or fixed initial angle), at most ``CONTACT_MARGIN`` before first
+      contact (the head starts clear of the cushion) and inside the joint range;
+    * ``speed``: the default speeds, up to the task's fastest initial speed ``top_speed`` if higher;
+    * ``dwell``: the default holds; ``release`` and ``reload``: the histories (``HISTORY_RELEASE``,
+      ``HISTORY_RELOAD``).
+
+    With the paper's preset this is the default box (0.15 to 0.28 rad, 0.34 to 0.43 rad, 0.3 to
+    1.5 rad/s, 0 to 0.3 s) with the histories added."""
+    base = SuiteRanges()
+    start_lo, start_hi = base.start
+    if start_angles is not None:
+        start_lo, start_hi = min(start_lo, start_angles[0]), max(start_hi, start_angles[1])
+    last_start = theta_contact - CONTACT_MARGIN
+    start = (max(model.theta_min, min(start_lo, last_start)), min(start_hi, last_start))
+    depth = (theta_contact + CONTACT_MARGIN, model.theta_max - LIMIT_MARGIN)
+    speed = (base.speed[0], max(base.speed[1], top_speed or 0.0))
+    return SuiteRanges(start, depth, speed, base.dwell, HISTORY_RELEASE, HISTORY_RELOAD)
+
+
+def stress_ranges(core: SuiteRanges) -> SuiteRanges:
+    """The stress part's box: the core's, with speeds beyond its top speed (up to twice it)."""
+    return replace(core, speed=(core.speed[1], 2.0 * core.speed[1]))
+
+
+def with_ranges(box: SuiteRanges, given: dict[str, tuple[float, float]]) -> SuiteRanges:
+    """``box`` with the ranges a user set (by parameter name) in place of its own."""
+    return replace(box, **given)
 
 
 def press_trajectory(m: PressMotion, dt: float) -> Trajectory:
@@ -138,15 +243,15 @@ def press_trajectory(m: PressMotion, dt: float) -> Trajectory:
     if t[-1] < m.duration - 1e-12:
         t = np.append(t, m.duration)
     tp, d = m.press_time, m.depth - m.start
-    up, up_d = _blend(t / tp)
-    down, down_d = _blend((t - tp - m.dwell) / tp)
+    up, up_d = blend(t / tp)
+    down, down_d = blend((t - tp - m.dwell) / tp)
     theta = m.start + d * (up - down)
     theta_dot = d * (up_d - down_d) / tp
     return Trajectory(t, theta, theta_dot)
 
 
 def suite_trajectories(spec: SuiteSpec, preset: HeadNeckPreset) -> list[Trajectory]:
-    return [press_trajectory(m, spec.dt) for m in motion_parameters(spec, preset)]
+    return [m.trajectory(spec.dt) for m in motion_parameters(spec, preset)]
 
 
 @dataclass(frozen=True)
@@ -234,10 +339,10 @@ def chain_suite_model(
     return ChainSuiteModel(model, tuple(q_c.tolist()), tuple(e.tolist()), float(scale), theta_c, lo, hi)
 
 
-def chain_press_trajectory(m: PressMotion, dt: float, suite: ChainSuiteModel, pose: PoseFunction) -> Trajectory:
-    """A suite motion of a chain: :func:`press_trajectory`'s reference angle followed along the
-    chain's joint line, with the head's pose from ``pose``."""
-    ref = press_trajectory(m, dt)
+def chain_press_trajectory(m: SuiteMotion, dt: float, suite: ChainSuiteModel, pose: PoseFunction) -> Trajectory:
+    """A suite motion of a chain: the motion's reference angle followed along the chain's joint
+    line, with the head's pose from ``pose``."""
+    ref = m.trajectory(dt)
     q, qd = suite.joints(ref.q[:, 0], ref.qd[:, 0])
     return Trajectory(ref.t, q, qd, model=pose)
 
@@ -253,14 +358,20 @@ def suite_model_from_dict(data: dict[str, Any]) -> SuiteModel:
 
 
 __all__ = [
+    "PARTS",
     "ChainSuiteModel",
     "PressMotion",
+    "SuiteMotion",
     "SuiteRanges",
     "SuiteSpec",
     "chain_press_trajectory",
     "chain_suite_model",
     "motion_parameters",
     "press_trajectory",
+    "stress_ranges",
     "suite_model_from_dict",
+    "suite_motion",
     "suite_trajectories",
+    "task_ranges",
+    "with_ranges",
 ]

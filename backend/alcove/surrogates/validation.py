@@ -54,8 +54,14 @@ def generalisation_error(pred: np.ndarray, true: np.ndarray, std: np.ndarray | N
         raise ValueError(str(err)) from err
 
 
-def _suite_arrays(s: Session, suite_id: int) -> list[dict[str, np.ndarray]]:
-    return [dataset_arrays(s, ds) for ds in validation_datasets(s, suite_id)]
+def _suite_arrays(s: Session, suite_id: int) -> list[dict[str, Any]]:
+    """Each replayed motion's arrays (t, q, qd, f) and its ``part`` (``core`` or ``stress``)."""
+    out = []
+    for ds in validation_datasets(s, suite_id):
+        a: dict[str, Any] = dict(dataset_arrays(s, ds))
+        a["part"] = ((ds.meta or {}).get("params") or {}).get("part", "core")
+        out.append(a)
+    return out
 
 
 def suite_kinematics(suite: ValidationSuite) -> Any:
@@ -96,6 +102,8 @@ def aux_law_error(s: Session, suite: ValidationSuite) -> dict[str, Any] | None:
     kinematics = suite_kinematics(suite) or preset_kinematics(preset)
     preds, trues = [], []
     for a in _suite_arrays(s, suite.id):
+        if a["part"] != "core":
+            continue
         force, moment = aux_penalty_wrench(preset, AuxPenaltyParams(), kinematics(a["q"], a["qd"]))
         preds.append(np.hstack([force, moment]))
         trues.append(a["f"])
@@ -106,39 +114,63 @@ def aux_law_error(s: Session, suite: ValidationSuite) -> dict[str, Any] | None:
     return error
 
 
-def _metrics(model: Any, motions: list[dict[str, np.ndarray]], kinematics: Any = None) -> dict[str, Any]:
+def _metrics(model: Any, motions: list[dict[str, Any]], kinematics: Any = None) -> dict[str, Any]:
     from alcove.science.surrogate.training import predict_ensemble
 
-    preds, stds, trues = [], [], []
+    preds, stds, trues, parts = [], [], [], []
     for a in motions:
         p = predict_ensemble(model, a["q"], a["qd"], kinematics)
         preds.append(np.hstack([p.force, p.moment]))
         # a single model (K = 1) has no spread: no std, so its calibration is null (not 0)
         stds.append(np.hstack([p.force_std, p.moment_std]) if model.ensemble_size > 1 else None)
         trues.append(a["f"])
-    return metrics_from_predictions(preds, trues, stds)
+        parts.append(a.get("part", "core"))
+    return metrics_from_predictions(preds, trues, stds, parts)
+
+
+def _pooled(preds: list[np.ndarray], trues: list[np.ndarray], stds: list[np.ndarray | None]) -> dict[str, Any]:
+    std_all = None if any(s is None for s in stds) else np.vstack([s for s in stds if s is not None])
+    return {
+        **generalisation_error(np.vstack(preds), np.vstack(trues), std_all),
+        "n_samples": int(sum(map(len, preds))),
+    }
 
 
 def metrics_from_predictions(
-    preds: list[np.ndarray], trues: list[np.ndarray], stds: list[np.ndarray | None]
+    preds: list[np.ndarray],
+    trues: list[np.ndarray],
+    stds: list[np.ndarray | None],
+    parts: list[str] | None = None,
 ) -> dict[str, Any]:
     """The validation-metrics row of one model version from its predictions on each motion
-    (``stds``: the ensemble's std per motion, None for K = 1): the generalisation error over all
-    samples of all motions, per motion, and the calibration."""
+    (``stds``: the ensemble's std per motion, None for K = 1; ``parts``: each motion's part, all
+    ``core`` if None): the generalisation error over all samples of the core motions, per motion,
+    the calibration, and the same over the stress motions as ``stress`` (None without any)."""
+    parts = parts if parts is not None else ["core"] * len(preds)
     per_motion = []
-    for pred, true, std in zip(preds, trues, stds, strict=True):
+    for pred, true, std, part in zip(preds, trues, stds, parts, strict=True):
         e = generalisation_error(pred, true, std)
-        per_motion.append(
-            {
-                "force_rmse": e["force_rmse"],
-                "moment_rmse": e["moment_rmse"],
-                "calibration": e["calibration"],
-                "n_samples": len(pred),
-            }
-        )
-    std_all = None if any(s is None for s in stds) else np.vstack([s for s in stds if s is not None])
-    total = generalisation_error(np.vstack(preds), np.vstack(trues), std_all)
-    return {**total, "calibration_recorded": True, "per_motion": per_motion, "n_samples": int(sum(map(len, preds)))}
+        row = {
+            "force_rmse": e["force_rmse"],
+            "moment_rmse": e["moment_rmse"],
+            "calibration": e["calibration"],
+            "n_samples": len(pred),
+        }
+        per_motion.append(row if part == "core" else {**row, "part": part})
+
+    def of(part: str) -> tuple[list[np.ndarray], list[np.ndarray], list[np.ndarray | None]]:
+        keep = [i for i, p in enumerate(parts) if p == part]
+        return [preds[i] for i in keep], [trues[i] for i in keep], [stds[i] for i in keep]
+
+    core, stress = of("core"), of("stress")
+    if not core[0]:
+        raise ValueError("the validation suite has no core motion to score")
+    return {
+        **_pooled(*core),
+        "calibration_recorded": True,
+        "per_motion": per_motion,
+        "stress": _pooled(*stress) if stress[0] else None,
+    }
 
 
 def _store(s: Session, model_version_id: int, suite_id: int, m: dict[str, Any]) -> bool:
