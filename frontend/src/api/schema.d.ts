@@ -3824,6 +3824,13 @@ export interface components {
              * @default 1000
              */
             max_epochs?: number;
+            /**
+             * Member Data
+             * @description what each member of the ensemble trains on: 'split' (its own 70/30 split by simulation and 80/20 pointwise split; the members see mostly the same trajectories) or 'bootstrap' (in addition, the measured simulations of its training part resampled with replacement, as many draws as there are: a simulation drawn c times weighs c times as much in its train and validation samples, one never drawn weighs 0 for that member; the preliminary data keep their weights, they are independent points of one known law, not trajectories). Members that differ in their data disagree where the data do not pin the law down, so their spread reflects it (docs/concepts.md)
+             * @default split
+             * @enum {string}
+             */
+            member_data?: "split" | "bootstrap";
             moment?: components["schemas"]["NetworkConfig"];
             /**
              * Normalize Outputs
