@@ -91,3 +91,28 @@ def test_a_bad_motion_names_its_parameter():
         HistoryPress(0.2, 0.1, 1.0, 0.0)
     with pytest.raises(ValueError, match="dt must be a positive number"):
         HistoryPress(0.2, 0.4, 1.0, 0.0).trajectory(0.0)
+
+
+@pytest.mark.parametrize("m", [2, 3, 4])
+def test_every_power_of_two_prefix_of_the_sequence_holds_one_motion_per_stratum(m):
+    """The first 2^m motions of the scrambled Sobol sequence: each parameter's range cut into 2^m
+    equal strata holds exactly one of them (a (0, m, 1)-net in every coordinate)."""
+    from alcove.science.press_family import PARAMETERS, sequence_motion
+
+    family, n = PressFamily(), 2**m
+    motions = [sequence_motion(family, 11, i, THETA) for i in range(n)]
+    for name in PARAMETERS:
+        lo, hi = getattr(family, name)
+        x = np.array([getattr(mo, name) for mo in motions])
+        assert sorted(np.floor((x - lo) / (hi - lo) * n).astype(int)) == list(range(n)), name
+    # one motion at a time is the same sequence; another seed another one
+    assert sequence_motion(family, 11, n - 1, THETA) == motions[-1]
+    assert sequence_motion(family, 12, 0, THETA) != motions[0]
+
+
+def test_a_campaign_continues_the_sequence_after_the_last_motion_it_used():
+    from alcove.science.ocp.acquisition import family_motion_index
+
+    assert [family_motion_index([], j) for j in range(3)] == [0, 1, 2]
+    assert family_motion_index([0, 1, 2, 3], 0) == 4  # after a batch of 4, whatever the batch is now
+    assert family_motion_index([0, 1], 2) == 4

@@ -22,6 +22,16 @@ def has_candidates(s: Session, campaign_id: int, index: int) -> bool:
     return bool(s.scalar(q))
 
 
+def family_motion_indices(s: Session, campaign_id: int, before: int) -> list[int]:
+    """The press family's sequence indices the campaign's iterations before ``before`` used."""
+    rows = s.scalars(
+        sa.select(IterationCandidate.scenario)
+        .join(Iteration, Iteration.id == IterationCandidate.iteration_id)
+        .where(Iteration.campaign_id == campaign_id, Iteration.index < before)
+    )
+    return [int(sc["motion_index"]) for sc in rows if sc is not None and "motion_index" in sc]
+
+
 def candidate_of_slot(s: Session, iteration_id: int, slot: int) -> IterationCandidate | None:
     """The candidate row of ocp slot ``slot``, if stored."""
     return s.scalar(

@@ -14,6 +14,12 @@ from alcove.campaigns import candidate_repository as candidate_repo
 from alcove.jobs.steps import IterationRef
 from alcove.models import Campaign, Iteration, OcpSolution, utcnow
 
+#: why a non-selecting strategy's slot is replayed
+REPLAYED = {
+    "random-scenarios": "random-scenarios: every drawn scenario is replayed",
+    "press-family": "press-family: every motion of the family's sequence is replayed",
+}
+
 
 def storing_scenario(
     write: Callable[[Session, IterationRef], dict[str, Any]] | None,
@@ -39,7 +45,7 @@ def storing_scenario(
                 sol = s.get(OcpSolution, result["ocp_solution_id"])
                 assert sol is not None
                 score = float((sol.stats or {}).get("trust", {}).get("max_std_contact") or 0.0)
-            replayed = strategy == "random-scenarios" and converged
+            replayed = strategy in ("random-scenarios", "press-family") and converged
             candidate_repo.put_candidate(
                 s,
                 it.id,
@@ -50,7 +56,7 @@ def storing_scenario(
                 score=score,
                 features=features,
                 pick=at.slot if replayed else None,
-                pick_reason="random-scenarios: every drawn scenario is replayed" if replayed else None,
+                pick_reason=REPLAYED.get(strategy) if replayed else None,
             )
             if score is not None:
                 result = {**result, "score": score}

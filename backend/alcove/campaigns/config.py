@@ -142,7 +142,10 @@ class Policies(_Strict):
 
 
 #: a range [low, high] of the validation suite's motions
-SuiteRange = Annotated[list[Annotated[float, Field(allow_inf_nan=False)]], Field(min_length=2, max_length=2)]
+SuiteRange = Annotated[
+    list[Annotated[float, Field(ge=-10, le=100, allow_inf_nan=False)]],
+    Field(min_length=2, max_length=2, description="[low, high], each -10 to 100 in the parameter's unit"),
+]
 
 
 class ValidationRanges(_Strict):
@@ -229,14 +232,23 @@ class RunSettings(_Strict):
         default_factory=ValidationRanges,
         description="ranges of the stress motions; ranges left out: the suite's, with speeds above its top speed",
     )
-    strategy: Literal["paper", "random-scenarios", "ensemble-disagreement"] = Field(
+    strategy: Literal["paper", "random-scenarios", "ensemble-disagreement", "press-family"] = Field(
         "paper",
         description=(
             "acquisition strategy (docs/active-learning.md): 'paper' solves the task as written every iteration "
             "(the paper's loop); 'random-scenarios' solves q scenarios drawn from the task's ranges with the "
             "campaign seed, the iteration index and the slot; 'ensemble-disagreement' draws C candidate scenarios, "
             "solves each with the ensemble mean, scores each by the ensemble's disagreement over its contact phase "
-            "and replays the q best that are far enough apart"
+            "and replays the q best that are far enough apart; 'press-family' solves no OCP: the oracle replays q "
+            "prescribed motions of the task's press family (press, dwell, partial unload, re-load; the box "
+            "family_ranges), the next ones of a space-filling sequence seeded by the campaign seed"
+        ),
+    )
+    family_ranges: ValidationRanges = Field(
+        default_factory=ValidationRanges,
+        description=(
+            "'press-family': the box its motions are drawn from, each [low, high]; ranges left out are derived "
+            "from the task as the validation suite's are"
         ),
     )
     candidates: int = Field(

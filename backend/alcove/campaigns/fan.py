@@ -32,7 +32,7 @@ def ocp_slots(settings: RunSettings) -> int:
     """How many ocp jobs an iteration fans out into under ``settings``."""
     if settings.strategy == "ensemble-disagreement":
         return settings.candidates
-    return settings.batch if settings.strategy == "random-scenarios" else 1
+    return settings.batch if settings.strategy in ("random-scenarios", "press-family") else 1
 
 
 def selects(settings: RunSettings) -> bool:

@@ -94,11 +94,12 @@ def _check_strategy(s: Session, cfg: CampaignConfig, surrogate_config_version_id
 
 
 def _check_suite(s: Session, cfg: CampaignConfig, task_version_id: int) -> None:
-    """The validation suite's ranges must make motions of the task's model (422 naming the range)."""
+    """The validation suite's ranges and the press family's must make motions of the task's model
+    (422 naming the range)."""
     from alcove.campaigns.validation import suite_problem
     from alcove.tasks.service import load_task
 
-    if cfg.settings.validation_motions == 0:
+    if cfg.settings.validation_motions == 0 and cfg.settings.strategy != "press-family":
         return
     problem = suite_problem(cfg.settings, load_task(s, task_version_id))
     if problem is not None:

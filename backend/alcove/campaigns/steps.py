@@ -196,6 +196,10 @@ def train(ctx: StepContext) -> StepOutput:
 
 
 def ocp(ctx: StepContext) -> StepOutput:
+    if ctx.config.settings.strategy == "press-family":
+        from alcove.campaigns.family_steps import family_motion
+
+        return family_motion(ctx)
     ctx.before_compute()
     with session_scope() as s:
         c = repo.get_campaign(s, ctx.campaign_id)
@@ -251,6 +255,8 @@ def oracle(ctx: StepContext) -> StepOutput:
                 raise RuntimeError(f"iteration {ctx.k} (oracle slot {ctx.ref.slot}) has no converged OCP solution")
             # the scenario the OCP solved (stored with the iteration): its headrest is the oracle's
             task, solution_id, sha = from_json(ctx.task(s, c), stored), sol.id, sol.trajectory_sha256
+            # a prescribed motion is replayed whole (it does not follow the task's phases)
+            phases = None if sol.solver_status == solving_steps.PRESCRIBED else ctx.config.settings.replay_phases
             scenario = stored is not None
             # a drawn headrest tilt is recorded with the dataset (its features are relative to it)
             record_tilt = scenario and TILT_PARAMETER in ((stored or {}).get("values") or {})
@@ -262,7 +268,7 @@ def oracle(ctx: StepContext) -> StepOutput:
             oracle_version_id=oracle_version_id,
             solution_id=solution_id,
             trajectory_sha256=sha,
-            replay_phases=settings.replay_phases,
+            replay_phases=phases,
             replay_dt=settings.replay_dt,
             scenario=scenario,
             record_tilt=record_tilt,

@@ -42,28 +42,35 @@ def _task_angles(task: Any, parameter: str, nominal: float) -> tuple[float, floa
     return (nominal, nominal)
 
 
+def task_box(task: Any, model: Any) -> Any:
+    """The press family's box derived from ``task`` for its suite ``model``
+    (:func:`alcove.science.validation_suite.task_ranges`)."""
+    from alcove.science.validation_suite import ChainSuiteModel, task_ranges
+
+    if isinstance(model, ChainSuiteModel):  # the reference angle of the 1-DOF preset along the chain's line
+        return task_ranges(model, model.theta_contact)
+    q0 = float(task.initial.q[0]) if task.initial.q is not None else float(task.model.q_initial[0])
+    qd0 = float(task.initial.qd[0]) if task.initial.qd is not None else 0.0
+    starts = _task_angles(task, "initial.q.0", q0)
+    speeds = _task_angles(task, "initial.qd.0", qd0)
+    return task_ranges(model, model.theta_contact, starts, max(abs(speeds[0]), abs(speeds[1])))
+
+
+def family_box(settings: Any, task: Any, model: Any) -> Any:
+    """The box strategy ``press-family`` draws its motions from: the task's, with ``family_ranges``."""
+    from alcove.science.validation_suite import with_ranges
+
+    return with_ranges(task_box(task, model), settings.family_ranges.given())
+
+
 def suite_spec(settings: Any, task: Any, model: Any) -> Any:
     """The suite a campaign's run settings ask for on ``task`` with its suite ``model``: the
     ``validation_motions`` core motions of the box derived from the task
     (:func:`alcove.science.validation_suite.task_ranges`) with the ranges the user set, and the
     ``validation_stress_motions`` beyond it."""
-    from alcove.science.validation_suite import (
-        ChainSuiteModel,
-        SuiteSpec,
-        stress_ranges,
-        task_ranges,
-        with_ranges,
-    )
+    from alcove.science.validation_suite import SuiteSpec, stress_ranges, with_ranges
 
-    if isinstance(model, ChainSuiteModel):  # the reference angle of the 1-DOF preset along the chain's line
-        core = task_ranges(model, model.theta_contact)
-    else:
-        q0 = float(task.initial.q[0]) if task.initial.q is not None else float(task.model.q_initial[0])
-        qd0 = float(task.initial.qd[0]) if task.initial.qd is not None else 0.0
-        starts = _task_angles(task, "initial.q.0", q0)
-        speeds = _task_angles(task, "initial.qd.0", qd0)
-        core = task_ranges(model, model.theta_contact, starts, max(abs(speeds[0]), abs(speeds[1])))
-    core = with_ranges(core, settings.validation_ranges.given())
+    core = with_ranges(task_box(task, model), settings.validation_ranges.given())
     n_stress = settings.validation_stress_motions
     stress = with_ranges(stress_ranges(core), settings.validation_stress_ranges.given()) if n_stress > 0 else None
     return SuiteSpec(
@@ -76,16 +83,20 @@ def suite_spec(settings: Any, task: Any, model: Any) -> Any:
 
 
 def suite_problem(settings: Any, task: Any) -> tuple[str, str] | None:
-    """Why the suite the settings ask for on ``task`` cannot be drawn, as (field, reason), or None."""
+    """Why the suite or the press family the settings ask for on ``task`` cannot be drawn, as
+    (field, reason), or None."""
     from alcove.science.press_family import RangeError
 
-    if settings.validation_motions == 0:
+    suite = settings.validation_motions > 0
+    family = settings.strategy == "press-family"
+    if not (suite or family):
         return None
     model = suite_model(task)
-    spec = suite_spec(settings, task, model)
+    spec = suite_spec(settings, task, model) if suite else None
     for part, ranges, field in (
-        ("validation suite", spec.ranges, "settings.validation_ranges"),
-        ("validation suite stress", spec.stress, "settings.validation_stress_ranges"),
+        ("validation suite", spec.ranges if spec else None, "settings.validation_ranges"),
+        ("validation suite stress", spec.stress if spec else None, "settings.validation_stress_ranges"),
+        ("press family", family_box(settings, task, model) if family else None, "settings.family_ranges"),
     ):
         if ranges is None:
             continue

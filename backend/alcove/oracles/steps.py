@@ -60,12 +60,12 @@ def replay(
     oracle_version_id: int,
     solution_id: int,
     trajectory_sha256: str,
-    replay_phases: int,
+    replay_phases: int | None,
     replay_dt: float | None,
     scenario: bool = False,
     record_tilt: bool = False,
 ) -> StepOutput:
-    """Replay the first ``replay_phases`` phases of the solution in the oracle. A result
+    """Replay the first ``replay_phases`` phases of the solution in the oracle (None: all of it). A result
     that passes the quality gate becomes the iteration's dataset; one that does not is
     quarantined with its reason (:class:`UnusableResult`). ``scenario``: ``task`` is a scenario
     drawn from the campaign's task (its dataset records the scenario's headrest offset and, with

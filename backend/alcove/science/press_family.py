@@ -180,4 +180,27 @@ def family_motions(
     return [HistoryPress(*(float(x) for x in p)) for p in points]
 
 
-__all__ = ["BLEND_PEAK", "PARAMETERS", "HistoryPress", "PressFamily", "RangeError", "blend", "family_motions"]
+#: separates the family's acquisition stream from every other stream of a campaign seed
+SEQUENCE_SALT = 0x9E55
+
+
+def sequence_motion(family: PressFamily, seed: int, index: int, theta_range: tuple[float, float]) -> HistoryPress:
+    """Motion ``index`` (0, 1, 2, ...) of the family's space-filling sequence for ``seed``: point
+    ``index`` of a scrambled Sobol sequence (``scipy.stats.qmc.Sobol``, seeded by ``seed``) scaled
+    to the box. Unlike :func:`family_motions` the sequence can be extended one motion at a time and
+    every prefix is spread over the box (a prefix of 2^m points holds one point in each of 2^m
+    equal cells of the low-discrepancy nets), so an acquisition that asks for motions 0 .. n-1
+    over several iterations gets a space-filling design of n motions whatever n is."""
+    if index < 0:
+        raise ValueError(f"press family: the motion index must be >= 0, got {index}")
+    family.check(*theta_range)
+    sampler = qmc.Sobol(d=len(PARAMETERS), scramble=True, rng=np.random.default_rng([int(seed), SEQUENCE_SALT]))
+    if index:
+        sampler.fast_forward(index)
+    unit = sampler.random(1)[0]
+    lo = np.array([getattr(family, p)[0] for p in PARAMETERS])
+    hi = np.array([getattr(family, p)[1] for p in PARAMETERS])
+    return HistoryPress(*(float(x) for x in lo + unit * (hi - lo)))
+
+
+__all__ = ["BLEND_PEAK", "PARAMETERS", "HistoryPress", "PressFamily", "RangeError", "blend", "family_motions", "sequence_motion"]

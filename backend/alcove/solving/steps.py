@@ -20,6 +20,9 @@ from alcove.pool.service import load_training_pool
 from alcove.science.json_values import json_safe
 from alcove.surrogates.service import load_model
 
+#: the solver status of a prescribed motion's solution row (:func:`prescribe`)
+PRESCRIBED = "prescribed"
+
 if TYPE_CHECKING:
     from alcove.science.geometry import HeadNeckPreset
     from alcove.science.ocp.solve import OcpSolution as Solution
@@ -52,6 +55,46 @@ def stored_solution(s: Session, row: OcpSolution | None, task: TaskSpec) -> Solu
         lam_x=a["lam_x"],
         lam_g=a["lam_g"],
     )
+
+
+def prescribe(run: StepRun, *, t: Any, q: Any, qd: Any, model_version_id: int, motion: dict[str, Any]) -> StepOutput:
+    """The ocp slot of a strategy that solves no OCP: the prescribed motion (nodes ``t``, joint
+    angles ``q`` and velocities ``qd``) stored as the slot's solution, status ``prescribed``,
+    without a cost. Its torques are 0: the oracle replays the kinematics, and the torque that
+    drives the motion against the oracle's contact is not known before the replay."""
+    t0 = time.perf_counter()
+    q2, qd2 = np.atleast_2d(np.asarray(q, float).T).T, np.atleast_2d(np.asarray(qd, float).T).T
+    arrays = {
+        "t": np.asarray(t, float),
+        "q": q2,
+        "qd": qd2,
+        "tau": np.zeros_like(q2),
+        "controls": np.zeros((len(q2) - 1, q2.shape[1])),
+    }
+    compute = time.perf_counter() - t0
+
+    def write(s: Session, at: IterationRef) -> dict[str, Any]:
+        row = OcpSolution(
+            campaign_id=at.campaign_id,
+            iteration_id=at.iteration_id,
+            slot=at.slot,
+            model_version_id=model_version_id,
+            attempt=run.attempt,
+            initial_guess="prescribed",
+            success=True,
+            solver_status=PRESCRIBED,
+            n_iterations=0,
+            cost=None,
+            wall_time_s=compute,
+            message="a prescribed motion: no OCP solved",
+            stats=json_safe({"prescribed": motion}),
+            trajectory_sha256=put_arrays(s, arrays),
+        )
+        s.add(row)
+        s.flush()
+        return {"ocp_solution_id": row.id, "converged": True, "status": PRESCRIBED, "iterations": 0, "cost": None}
+
+    return StepOutput(write, compute_s=compute)
 
 
 def solve(

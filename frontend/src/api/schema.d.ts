@@ -3503,6 +3503,8 @@ export interface components {
              * @default 8
              */
             candidates?: number;
+            /** @description 'press-family': the box its motions are drawn from, each [low, high]; ranges left out are derived from the task as the validation suite's are */
+            family_ranges?: components["schemas"]["ValidationRanges"];
             /**
              * Max Concurrent Oracle Jobs
              * @description at most this many of the campaign's oracle jobs queued or running at once (1 to 64; None: no cap); the rest wait and start as running ones finish
@@ -3533,11 +3535,11 @@ export interface components {
             replay_phases?: number;
             /**
              * Strategy
-             * @description acquisition strategy (docs/active-learning.md): 'paper' solves the task as written every iteration (the paper's loop); 'random-scenarios' solves q scenarios drawn from the task's ranges with the campaign seed, the iteration index and the slot; 'ensemble-disagreement' draws C candidate scenarios, solves each with the ensemble mean, scores each by the ensemble's disagreement over its contact phase and replays the q best that are far enough apart
+             * @description acquisition strategy (docs/active-learning.md): 'paper' solves the task as written every iteration (the paper's loop); 'random-scenarios' solves q scenarios drawn from the task's ranges with the campaign seed, the iteration index and the slot; 'ensemble-disagreement' draws C candidate scenarios, solves each with the ensemble mean, scores each by the ensemble's disagreement over its contact phase and replays the q best that are far enough apart; 'press-family' solves no OCP: the oracle replays q prescribed motions of the task's press family (press, dwell, partial unload, re-load; the box family_ranges), the next ones of a space-filling sequence seeded by the campaign seed
              * @default paper
              * @enum {string}
              */
-            strategy?: "paper" | "random-scenarios" | "ensemble-disagreement";
+            strategy?: "paper" | "random-scenarios" | "ensemble-disagreement" | "press-family";
             /**
              * Trust Region Max Std
              * @description trust region: bound the ensemble's force std sqrt(sigma_fx^2 + sigma_fy^2 + sigma_fz^2) [N] at every interval midpoint of the OCP solution (above 0 N, at most 10000 N; None: unbounded; needs ensemble_size > 1)
@@ -3549,12 +3551,22 @@ export interface components {
              * @default 8
              */
             validation_motions?: number;
+            /** @description the validation suite's motions: presses with partial unloads and re-loads, slow and fast; ranges left out are derived from the task (peak angles from first contact to the joint limit, start angles covering the task's initial angles, speeds up to the task's fastest initial speed) */
+            validation_ranges?: components["schemas"]["ValidationRanges"];
             /**
              * Validation Seed
              * @description seed of the validation suite's motions
              * @default 0
              */
             validation_seed?: number;
+            /**
+             * Validation Stress Motions
+             * @description more validation motions beyond the task's reach (faster than its scenarios, up to twice the top speed), reported apart from the suite's figures; 0: none
+             * @default 0
+             */
+            validation_stress_motions?: number;
+            /** @description ranges of the stress motions; ranges left out: the suite's, with speeds above its top speed */
+            validation_stress_ranges?: components["schemas"]["ValidationRanges"];
         };
         /** SampleTrajectory */
         SampleTrajectory: {
@@ -4551,17 +4563,62 @@ export interface components {
             moment_rmse: number;
             /**
              * Per Motion
-             * @description force_rmse, moment_rmse, calibration (evaluations since migration 0019), n_samples of each motion
+             * @description force_rmse, moment_rmse, calibration (evaluations since migration 0019), n_samples of each motion; part 'stress' on the stress part's motions
              */
             per_motion: {
-                [key: string]: number | null;
+                [key: string]: number | string | null;
             }[];
+            /** @description the error on the suite's stress part, over all its samples (the other figures cover the core motions); null: the suite has no stress part */
+            stress?: components["schemas"]["ValidationReference"] | null;
+        };
+        /**
+         * ValidationRanges
+         * @description Ranges of the validation suite's motions, each [low, high] (equal ends: fixed); a range left
+         *     out (null) is derived from the task (docs/active-learning.md, "The validation suite").
+         */
+        ValidationRanges: {
+            /**
+             * Depth
+             * @description peak angle of the press [rad]
+             */
+            depth?: number[] | null;
+            /**
+             * Dwell
+             * @description hold at every turning point [s], at least 0
+             */
+            dwell?: number[] | null;
+            /**
+             * Release
+             * @description share of the press a partial unload gives back [-], in [0, 1] (1: a simple press)
+             */
+            release?: number[] | null;
+            /**
+             * Reload
+             * @description share of the way back to the peak a re-load goes [-], in [0, 1] (0: none)
+             */
+            reload?: number[] | null;
+            /**
+             * Speed
+             * @description largest angular velocity of each segment [rad/s], above 0
+             */
+            speed?: number[] | null;
+            /**
+             * Start
+             * @description start angle, at rest [rad]
+             */
+            start?: number[] | null;
         };
         /**
          * ValidationReference
-         * @description A reference model's error on the held-out validation suite (a line beside the campaign's models).
+         * @description An error on (a part of) the held-out validation suite: a reference model's (a line beside
+         *     the campaign's models) or a model version's on the suite's stress part.
          */
         ValidationReference: {
+            /**
+             * Calibration
+             * @description fraction of oracle values inside the ensemble mean +- 2 std, over the components not zero in every sample; null for a single model (K = 1); null: not computed
+             */
+            calibration?: number | null;
             /**
              * Components
              * @description the per-component RMSE sqrt(mean (pred_c - true_c)^2) for c in fx fy fz [N], mx my mz [N m], over all samples (keys fx .. mz) and over the samples in contact, oracle |F_true| > 0 (keys fx_contact .. mz_contact; null if none)
@@ -4627,6 +4684,19 @@ export interface components {
             /** N Motions */
             n_motions: number;
             /**
+             * N Stress Motions
+             * @description of the n_motions, those of the stress part (beyond the task's reach; scored apart)
+             * @default 0
+             */
+            n_stress_motions?: number;
+            /**
+             * Ranges
+             * @description the core motions' ranges: start and depth [rad], speed [rad/s], dwell [s], release and reload [-] (release and reload absent: simple presses)
+             */
+            ranges?: {
+                [key: string]: number[];
+            };
+            /**
              * Replay Wall Time S
              * @description first motion queued to last motion stored [s]
              */
@@ -4641,6 +4711,13 @@ export interface components {
              * @description replaying | complete | failed
              */
             status: string;
+            /**
+             * Stress Ranges
+             * @description the stress motions' ranges (null: none)
+             */
+            stress_ranges?: {
+                [key: string]: number[];
+            } | null;
         };
     };
     responses: never;

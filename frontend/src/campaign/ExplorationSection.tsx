@@ -15,6 +15,7 @@ export const STRATEGIES = [
   ["paper", "paper: the task as written, one trajectory per iteration"],
   ["random-scenarios", "random-scenarios: q scenarios drawn from the task's ranges"],
   ["ensemble-disagreement", "ensemble-disagreement: C candidates, the q most disputed far enough apart"],
+  ["press-family", "press-family: q prescribed press motions (unloads, re-loads) spread over the task's range, no OCP"],
 ] as const;
 
 /** The config paths this section edits (the generic sections leave them out). */

@@ -68,7 +68,8 @@ def run(
     strategy: str | None = typer.Option(
         None,
         help="acquisition strategy: paper (the task as written), random-scenarios (q scenarios drawn from the "
-        "task's ranges every iteration) or ensemble-disagreement (C candidates, the q most disputed replayed); "
+        "task's ranges every iteration), ensemble-disagreement (C candidates, the q most disputed replayed) or "
+        "press-family (q prescribed press motions of the task's range, no OCP); "
         "default: the config's, else paper",
     ),
     candidates: int | None = typer.Option(

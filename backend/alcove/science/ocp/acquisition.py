@@ -21,6 +21,12 @@ Implemented:
   them, the highest scores first, no two closer than ``min_distance`` in the scenarios' feature
   space (:func:`scenario_features`: each ranged parameter scaled to [0, 1] over its range);
   candidates with score 0 (no contact) are never picked.
+
+* ``press-family``: no OCP; the oracle replays prescribed motions of the task's press family
+  (:mod:`alcove.science.press_family`: press, dwell, partial unload, re-load, return), q per
+  iteration, the next motions of the family's space-filling sequence
+  (:func:`alcove.science.press_family.sequence_motion`, seeded by the campaign seed). The
+  scenario is the nominal task (its headrest); the motion is stored with the slot's candidate.
 """
 
 from __future__ import annotations
@@ -36,8 +42,8 @@ from alcove.science.ocp.scenarios import Scenario, draw, nominal
 if TYPE_CHECKING:
     from alcove.science.ocp.task_spec import TaskSpec
 
-StrategyName = Literal["paper", "random-scenarios", "ensemble-disagreement"]
-STRATEGIES: tuple[StrategyName, ...] = ("paper", "random-scenarios", "ensemble-disagreement")
+StrategyName = Literal["paper", "random-scenarios", "ensemble-disagreement", "press-family"]
+STRATEGIES: tuple[StrategyName, ...] = ("paper", "random-scenarios", "ensemble-disagreement", "press-family")
 
 
 class Strategy(Protocol):
@@ -95,6 +101,31 @@ class EnsembleDisagreement(RandomScenarios):
     name: StrategyName = "ensemble-disagreement"
 
 
+@dataclass(frozen=True)
+class PressFamilyMotions(RandomScenarios):
+    """The nominal task in every slot: what the oracle replays is a prescribed motion of the press
+    family, not an OCP's optimum (the campaign draws the motion, :func:`family_motion_index`)."""
+
+    name: StrategyName = "press-family"
+
+    def candidates(self, task: TaskSpec, seed: int, iteration: int, q: int) -> list[Scenario]:
+        if q < 1:
+            raise ValueError(f"batch: q must be at least 1, got {q}")
+        return [self.scenario(task, seed, iteration, slot) for slot in range(q)]
+
+    def scenario(self, task: TaskSpec, seed: int, iteration: int, slot: int) -> Scenario:
+        if slot < 0:
+            raise ValueError(f"slot: must be >= 0, got {slot}")
+        return Scenario(task=nominal(task), seed=seed, iteration=iteration, slot=slot)
+
+
+def family_motion_index(used: Sequence[int], slot: int) -> int:
+    """The press family's sequence index of a slot: the motions after the last one an earlier
+    iteration used (``used``: their indices; none: from 0), one per slot, so the campaign's motions
+    are a prefix of the sequence whatever the batch sizes were."""
+    return (max(used) + 1 if used else 0) + slot
+
+
 def strategy(name: str) -> Strategy:
     """The strategy called ``name``; ValueError naming the known ones otherwise."""
     if name == "paper":
@@ -103,6 +134,8 @@ def strategy(name: str) -> Strategy:
         return RandomScenarios()
     if name == "ensemble-disagreement":
         return EnsembleDisagreement()
+    if name == "press-family":
+        return PressFamilyMotions()
     raise ValueError(f"strategy: unknown {name!r}; known: {', '.join(STRATEGIES)}")
 
 

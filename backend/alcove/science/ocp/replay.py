@@ -15,15 +15,16 @@ from alcove.science.series import Trajectory
 
 
 def replay_trajectory(
-    arrays: Mapping[str, NDArray[np.float64]], task: Any, phases: int, dt: float | None
+    arrays: Mapping[str, NDArray[np.float64]], task: Any, phases: int | None, dt: float | None
 ) -> Trajectory:
-    """The first ``phases`` phases of the solution (``t``, ``q``, ``qd``, ``tau``); with
+    """The first ``phases`` phases of the solution (``t``, ``q``, ``qd``, ``tau``; None: all of it,
+    as for a prescribed motion, which does not follow the task's phases); with
     ``dt``, resampled on a grid of that step with cubic Hermite interpolation (q with its
     derivative qd), the torque linearly. The trajectory carries the task model's pose
     function: its pose is the contact body's, computed from the joint state (also after
     an oracle resamples it)."""
     t, q, qd, tau = arrays["t"], arrays["q"], arrays["qd"], arrays["tau"]
-    t_end = t[0] + sum(ph.duration for ph in task.phases[:phases])
+    t_end = t[-1] if phases is None else t[0] + sum(ph.duration for ph in task.phases[:phases])
     pose = task.model.pose_function()  # the oracles read the head's pose, computed from the task's model
     if dt is None:
         m = t <= t_end + 1e-9

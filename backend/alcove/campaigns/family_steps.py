@@ -1,0 +1,58 @@
+"""The ocp slot of strategy ``press-family`` (:mod:`alcove.science.ocp.acquisition`): no OCP is
+solved; the slot's solution is a prescribed motion of the task's press family, which the oracle
+slot then replays whole."""
+
+from __future__ import annotations
+
+from dataclasses import asdict
+from typing import TYPE_CHECKING
+
+from alcove.campaigns import candidate_repository as candidate_repo
+from alcove.campaigns import candidates
+from alcove.campaigns import repository as repo
+from alcove.campaigns.validation import family_box, suite_model
+from alcove.db import session_scope
+from alcove.jobs.steps import StepOutput
+from alcove.science.ocp import acquisition
+from alcove.science.ocp.scenarios import Scenario
+from alcove.solving import steps as solving_steps
+from alcove.surrogates import repository as surrogates_repo
+
+if TYPE_CHECKING:
+    from alcove.campaigns.steps import StepContext
+
+
+def family_motion(ctx: StepContext) -> StepOutput:
+    """The ocp slot of strategy ``press-family``: the next motion of the task's press family
+    (:func:`alcove.science.press_family.sequence_motion`, seeded by the campaign seed) as the slot's
+    prescribed solution, and its candidate row (the motion, its sequence index and its point in
+    the family's box scaled to [0, 1], picked at once)."""
+    from alcove.science.press_family import PARAMETERS, sequence_motion
+    from alcove.science.validation_suite import ChainSuiteModel, chain_press_trajectory
+
+    with session_scope() as s:
+        c = repo.get_campaign(s, ctx.campaign_id)
+        mv = surrogates_repo.version_of(s, c.id, ctx.k)
+        if mv is None:
+            raise RuntimeError(f"model version {ctx.k} does not exist")
+        task, seed = ctx.task(s, c), c.seed
+        used = candidate_repo.family_motion_indices(s, c.id, ctx.k)
+    settings = ctx.config.settings
+    model = suite_model(task)
+    box = family_box(settings, task, model)
+    index = acquisition.family_motion_index(used, ctx.ref.slot)
+    motion = sequence_motion(box, seed, index, (model.theta_min, model.theta_max))
+    dt = settings.replay_dt or 0.0025
+    if isinstance(model, ChainSuiteModel):
+        traj = chain_press_trajectory(motion, dt, model, task.model.pose_function())
+    else:
+        traj = motion.trajectory(dt)
+    features = []
+    for name in PARAMETERS:
+        lo, hi = getattr(box, name)
+        features.append(float((getattr(motion, name) - lo) / (hi - lo)) if hi > lo else 0.0)
+    # the nominal task's headrest (no drawn values), and the motion the oracle replays
+    nominal = Scenario(task=task, seed=seed, iteration=ctx.k, slot=ctx.ref.slot).to_json()
+    stored = {**nominal, "motion": asdict(motion), "motion_index": index}
+    out = solving_steps.prescribe(ctx.run, t=traj.t, q=traj.q, qd=traj.qd, model_version_id=mv.id, motion=stored)
+    return StepOutput(candidates.storing_scenario(out.write, stored, features, settings.strategy), out.compute_s)

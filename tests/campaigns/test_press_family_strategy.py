@@ -1,0 +1,77 @@
+"""Strategy ``press-family`` in the job protocol (in this process, each backend): no OCP; the
+oracle replays the next motions of the task's press family, a prefix of its space-filling
+sequence, whole; each becomes a pool dataset like an OCP's replay."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+import pytest
+
+pytestmark = pytest.mark.integration
+
+
+def test_the_oracle_replays_the_family_sequence_in_order_whatever_the_batch(
+    campaign_db: str, make_campaign: Any
+) -> None:
+    from alcove.campaigns import protocol
+    from alcove.campaigns.config import RunSettings
+    from alcove.campaigns.validation import family_box, suite_model
+    from alcove.db import session_scope, transaction
+    from alcove.models import Campaign, Iteration, IterationCandidate, OcpSolution
+    from alcove.pool.repository import oracle_datasets
+    from alcove.pool.service import dataset_arrays
+    from alcove.science.ocp.task_spec import task_preset
+    from alcove.science.press_family import sequence_motion
+
+    settings = {"strategy": "press-family", "batch": 2, "validation_motions": 0, "family_ranges": {"dwell": [0, 0.05]}}
+    cid, jobs = make_campaign(seed=5, settings=settings, stopping={"max_iterations": 2})
+    protocol.drive_inline(cid, jobs)
+    task = task_preset("head-headrest-2phase")
+    model = suite_model(task)
+    box = family_box(RunSettings.model_validate(settings), task, model)
+    assert box.dwell == (0, 0.05) and box.release[0] < 1  # the user's dwell, the task's histories
+    with session_scope() as s:
+        c = s.get(Campaign, cid)
+        assert c is not None and c.status == "completed", c.status
+        iterations = s.query(Iteration).filter_by(campaign_id=cid).filter(Iteration.index > 0).order_by(Iteration.index)
+        replayed, indices, statuses = [], [], []
+        for it in iterations:
+            cands = s.query(IterationCandidate).filter_by(iteration_id=it.id).order_by(IterationCandidate.slot).all()
+            indices += [cand.scenario["motion_index"] for cand in cands]
+            assert [cand.pick for cand in cands] == [0, 1]
+            statuses += [sol.solver_status for sol in s.query(OcpSolution).filter_by(iteration_id=it.id)]
+            replayed += [dataset_arrays(s, ds) for ds in oracle_datasets(s, it.id)]
+    assert indices == [0, 1, 2, 3] and statuses == ["prescribed"] * 4
+    # each replay is the whole motion of its index (not cut at the task's first phase, 1 s), on the
+    # replay grid (steps of 0.01 s; the motion's own samples add its end, less than a step later)
+    durations = []
+    for i, got in enumerate(replayed):
+        want = sequence_motion(box, 5, i, (model.theta_min, model.theta_max)).trajectory(0.01)
+        n = len(got["t"])
+        assert want.t[-1] - 0.01 < got["t"][-1] <= want.t[-1] and n >= len(want.t) - 1
+        assert np.allclose(got["t"], want.t[:n], rtol=0, atol=1e-12)
+        assert np.allclose(got["q"], want.q[:n], rtol=0, atol=1e-9)
+        assert np.allclose(got["qd"], want.qd[:n], rtol=0, atol=1e-9)
+        durations.append(want.t[-1])
+        assert np.abs(got["f"][:, 0]).max() > 0  # it presses the headrest
+    assert max(durations) > 1.0  # at least one motion outlasts the task's first phase
+    # an edit of the batch size mid-campaign continues the sequence after the last motion used
+    from alcove.campaigns.candidate_repository import family_motion_indices
+
+    assert transaction(lambda s: family_motion_indices(s, cid, 3)) == [0, 1, 2, 3]
+    assert transaction(lambda s: family_motion_indices(s, cid, 2)) == [0, 1]
+
+
+def test_a_family_range_the_task_cannot_reach_is_refused_naming_it(campaign_db: str, make_campaign: Any) -> None:
+    from alcove.errors import InvalidInput
+
+    with pytest.raises(InvalidInput) as err:
+        make_campaign(
+            settings={"strategy": "press-family", "validation_motions": 0, "family_ranges": {"depth": [0.2, 0.6]}},
+            start=False,
+        )
+    (problem,) = err.value.detail()
+    assert problem["loc"] == ["body", "settings", "family_ranges", "depth"]
+    assert "leaves the joint range" in problem["msg"]
