@@ -13,10 +13,15 @@ force vector, median and range over the seeds, for:
   default keeps only its samples out of contact once oracle data are there);
 * ``aux law``: the auxiliary penalty law's own error on the suite (what the preliminary data teach).
 
+``cal`` is the models' calibration on the suite (share of oracle values inside the ensemble's
+mean +- 2 std, :func:`alcove.science.surrogate.metrics.calibration`). ``--member-data split bootstrap``
+trains each line once per value of the surrogate's ``member_data`` (the members' own splits, or
+bootstrap resamples over the FE motions as well), labelled ``(bootstrap)``.
+
 The replays are cached in ``--work-dir`` (by family seed and index), so a second run trains and
 scores only. Usage: ``python -m bench.learning [--budgets 4 8 16 32 64] [--seeds 0 1 2]
-[--family history|simple] [--json OUT]``; ``simple`` fixes release 1 and reload 0 (the suite's own
-kind of motion).
+[--family history|simple] [--member-data split bootstrap] [--json OUT]``; ``simple`` fixes release 1
+and reload 0 (the suite's own kind of motion).
 """
 
 from __future__ import annotations
@@ -34,7 +39,7 @@ import numpy as np
 WORK_DIR = Path("/tmp/alcove-bench-learning")
 BUDGETS = (4, 8, 16, 32, 64)
 SEEDS = (0, 1, 2)
-COLUMNS = ("F", "fx", "fz", "my")
+COLUMNS = ("F", "fx", "fz", "my", "cal")
 
 
 def _family(kind: str) -> Any:
@@ -89,21 +94,27 @@ def suite(work: Path) -> list[Any]:
     return list(pickle.loads(path.read_bytes()))
 
 
-def score(pred: np.ndarray, held: list[Any]) -> dict[str, float]:
+def score(pred: np.ndarray, held: list[Any], std: np.ndarray | None = None) -> dict[str, float | None]:
     from alcove.science.surrogate.metrics import wrench_metrics
 
     true = np.concatenate([np.hstack([d.force, d.moment]) for d in held])
-    m = wrench_metrics(pred, true)
-    return {"F": m["force_rmse"], "fx": m["rmse_fx"], "fz": m["rmse_fz"], "my": m["rmse_my"]}
+    m = wrench_metrics(pred, true, std)
+    return {"F": m["force_rmse"], "fx": m["rmse_fx"], "fz": m["rmse_fz"], "my": m["rmse_my"], "cal": m["calibration"]}
 
 
-def model_score(model: Any, held: list[Any]) -> dict[str, float]:
-    from alcove.science.surrogate.training import predict_arrays
+def model_score(model: Any, held: list[Any]) -> dict[str, float | None]:
+    from alcove.science.surrogate.training import predict_ensemble
 
-    return score(np.concatenate([np.hstack(predict_arrays(model, d.q, d.qd)) for d in held]), held)
+    preds = [predict_ensemble(model, d.q, d.qd) for d in held]
+    pred = np.concatenate([np.hstack([p.force, p.moment]) for p in preds])
+    return score(pred, held, np.concatenate([np.hstack([p.force_std, p.moment_std]) for p in preds]))
 
 
-def aux_law_score(held: list[Any]) -> dict[str, float]:
+def cell(v: Any) -> str:
+    return "" if v is None else f"{v:.2f}"
+
+
+def aux_law_score(held: list[Any]) -> dict[str, float | None]:
     from alcove.science.geometry import DEFAULT_PRESET as P
     from alcove.science.geometry import relative_kinematics
     from alcove.science.oracles.aux_penalty import AuxPenaltyParams, aux_penalty_wrench
@@ -125,6 +136,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--budgets", type=int, nargs="+", default=list(BUDGETS))
     ap.add_argument("--seeds", type=int, nargs="+", default=list(SEEDS))
     ap.add_argument("--family", choices=("history", "simple"), default="history")
+    ap.add_argument("--member-data", choices=("split", "bootstrap"), nargs="+", default=["split"])
     ap.add_argument("--work-dir", type=Path, default=WORK_DIR)
     ap.add_argument("--json", type=Path, default=None, help="write the rows here")
     args = ap.parse_args(argv)
@@ -133,22 +145,24 @@ def main(argv: list[str] | None = None) -> int:
     held = suite(args.work_dir)
     prior = preliminary_pool(P)
     rows: list[dict[str, Any]] = [{"line": "aux law", "budget": None, "seed": None, **aux_law_score(held)}]
-    config = SurrogateConfig()
     for seed in args.seeds:
         data = replays(args.family, 1000 + seed, max(args.budgets), args.work_dir)
         for b in sorted(args.budgets):
-            for line, pool in (("reference", data[:b]), ("with prior", prior + data[:b])):
-                t1 = time.perf_counter()
-                model = train_surrogate(pool, config, seed=seed).model
-                row = {"line": line, "budget": b, "seed": seed, **model_score(model, held)}
-                row["train_s"] = time.perf_counter() - t1
-                rows.append(row)
-                print(
-                    f"{line:10s} B={b:3d} seed {seed}: "
-                    + " ".join(f"{c} {row[c]:.2f}" for c in COLUMNS)
-                    + f" ({row['train_s']:.1f} s)",
-                    flush=True,
-                )
+            for md in args.member_data:
+                config = SurrogateConfig(member_data=md)
+                for line, pool in (("reference", data[:b]), ("with prior", prior + data[:b])):
+                    t1 = time.perf_counter()
+                    model = train_surrogate(pool, config, seed=seed).model
+                    label = line if md == "split" else f"{line} ({md})"
+                    row = {"line": label, "budget": b, "seed": seed, **model_score(model, held)}
+                    row["train_s"] = time.perf_counter() - t1
+                    rows.append(row)
+                    print(
+                        f"{label:22s} B={b:3d} seed {seed}: "
+                        + " ".join(f"{c} {cell(row[c])}" for c in COLUMNS)
+                        + f" ({row['train_s']:.1f} s)",
+                        flush=True,
+                    )
     print(f"\nfamily {args.family}, suite: 8 motions (seed 0), {time.perf_counter() - t0:.0f} s in all")
     print("| line | budget | " + " | ".join(f"{c} median (range)" for c in COLUMNS) + " |")
     print("| --- | --- | " + " | ".join("---" for _ in COLUMNS) + " |")
@@ -158,8 +172,9 @@ def main(argv: list[str] | None = None) -> int:
     for (line, b), rs in groups.items():
         cells = []
         for c in COLUMNS:
-            v = [r[c] for r in rs]
-            cells.append(f"{statistics.median(v):.2f} ({min(v):.2f}-{max(v):.2f})" if len(v) > 1 else f"{v[0]:.2f}")
+            v = [r[c] for r in rs if r[c] is not None]
+            one = cell(v[0] if v else None)
+            cells.append(f"{statistics.median(v):.2f} ({min(v):.2f}-{max(v):.2f})" if len(v) > 1 else one)
         print(f"| {line} | {'' if b is None else b} | " + " | ".join(cells) + " |")
     if args.json is not None:
         args.json.write_text(json.dumps({"family": args.family, "rows": rows}, indent=1))
