@@ -49,9 +49,9 @@ RESULTS, PLOT = (
 WORK_DIR = Path("/tmp/alcove-bench-strategies")
 
 ORACLE = "fe-headrest-2d"
-STRATEGIES = ("paper", "random-scenarios", "ensemble-disagreement")
-BUDGETS = (8, 16, 32, 64)
-SEEDS = (0, 1, 2)
+STRATEGIES = ("paper", "random-scenarios", "ensemble-disagreement", "press-family")
+BUDGETS = (4, 8, 16, 32, 64)
+SEEDS = (0, 1, 2, 3, 4)
 BATCH = 4
 CANDIDATES = 16
 PRELIMINARY_SEED = 0
@@ -126,11 +126,27 @@ def _score(campaign_id: int, suite_id: int, version: int) -> dict[str, Any]:
         mv = s.query(ModelVersion).filter_by(campaign_id=campaign_id, version=version).one()
         row = s.query(ValidationMetrics).filter_by(model_version_id=mv.id).one_or_none()
         if row is not None:
-            return {"force_rmse": row.force_rmse, "moment_rmse": row.moment_rmse}
+            return _scored(
+                {
+                    "force_rmse": row.force_rmse,
+                    "moment_rmse": row.moment_rmse,
+                    "components": row.components,
+                    "calibration": row.calibration,
+                }
+            )
         mv_id = mv.id
     m = compute_for_model(mv_id, suite_id)
     assert m is not None, "the validation suite is not complete"
-    return {"force_rmse": m["force_rmse"], "moment_rmse": m["moment_rmse"]}
+    return _scored(m)
+
+
+def _scored(m: dict[str, Any]) -> dict[str, Any]:
+    """A budget's figures: force and moment RMSE, fx, fz, my overall and in contact, the calibration."""
+    out = {"force_rmse": m["force_rmse"], "moment_rmse": m["moment_rmse"], "calibration": m.get("calibration")}
+    components = m.get("components") or {}
+    for c in ("fx", "fz", "my", "fx_contact", "fz_contact", "my_contact"):
+        out[f"{c}_rmse"] = components.get(c)
+    return out
 
 
 def run_one(

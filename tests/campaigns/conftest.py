@@ -14,7 +14,7 @@ import pytest
 #: smallest with a standard deviation; the default of 5 is tested in the surrogate tests)
 QUICK: dict[str, Any] = {
     "preliminary": {"samples": 400, "chunks": 4},
-    "settings": {"ocp_intervals": 20, "replay_dt": 0.01, "validation_motions": 2},
+    "settings": {"ocp_intervals": 20, "replay_dt": 0.01, "validation_motions": 2, "validation_reference_motions": 0},
     "stopping": {"max_iterations": 2},
 }
 QUICK_SURROGATE = {"max_epochs": 60, "ensemble_size": 2}

@@ -320,3 +320,57 @@ def test_a_suite_range_the_task_cannot_reach_is_refused_naming_it(campaign_db: s
     with pytest.raises(InvalidInput) as err:
         make_campaign(settings={"validation_stress_motions": 1, "validation_stress_ranges": {"speed": [0.0, 1.0]}})
     assert err.value.detail()[0]["loc"] == ["body", "settings", "validation_stress_ranges", "speed"]
+
+
+def test_the_best_possible_line_learns_from_its_reference_replays_alone_and_is_computed_once(
+    campaign_db: str, make_campaign: Any
+) -> None:
+    """A suite with 8 reference motions: they are the first 8 of its box's space-filling sequence,
+    replayed with the suite but never scored; the line's models (trained on the first 4 and 8
+    replays alone) predict the suite's core motions far better than a model that predicts no
+    force (the oracle here is the auxiliary law itself: learnable from its replays)."""
+    from alcove.campaigns import protocol
+    from alcove.campaigns.validation import validation_series
+    from alcove.db import session_scope
+    from alcove.models import Campaign, ValidationSuite
+    from alcove.oracles.validation import run_motion
+    from alcove.science.press_family import sequence_motion
+    from alcove.science.validation_suite import SuiteSpec, suite_model_from_dict
+    from alcove.surrogates.reference_line import compute_reference_line
+    from alcove.surrogates.validation import _suite_arrays, evaluate_suite
+    from tests.integration.procs import db_rows
+
+    settings = {"validation_motions": 2, "validation_seed": 11, "validation_reference_motions": 8}
+    a, jobs = make_campaign(seed=4, settings=settings, stopping={"max_iterations": 1})
+    protocol.drive_inline(a, jobs)
+    ((suite_id,),) = db_rows(campaign_db, "SELECT validation_suite_id FROM campaigns WHERE id = :c", c=a)
+    rows = db_rows(
+        campaign_db, 'SELECT id, params FROM validation_motions WHERE suite_id = :s ORDER BY "index"', s=suite_id
+    )
+    assert len(rows) == 10 and [run_motion(m, "w") for m, _ in rows] == ["succeeded"] * 10
+    evaluate_suite(suite_id)
+    assert compute_reference_line(suite_id) is False  # computed once: the evaluation job wrote it
+    with session_scope() as s:
+        suite = s.get(ValidationSuite, suite_id)
+        assert suite is not None and suite.status == "complete"
+        spec, model = SuiteSpec.from_dict(suite.spec), suite_model_from_dict(suite.preset)
+        arrays = _suite_arrays(s, suite_id)
+        series = validation_series(s, s.get(Campaign, a))
+    import json
+
+    params = [json.loads(p) if isinstance(p, str) else p for _, p in rows]
+    theta = (model.theta_min, model.theta_max)
+    for i, p in enumerate(params[2:]):
+        assert p.pop("part") == "reference"
+        assert p == pytest.approx(vars(sequence_motion(spec.ranges, 11, i, theta)), abs=0)
+    (point,) = series.points
+    assert len(point.per_motion) == 2  # the reference motions are not scored
+    line = series.best_possible
+    assert line is not None and line.replays == 8 and [p.budget for p in line.points] == [4, 8]
+    core = [x for x in arrays if x["part"] == "core"]
+    f = np.vstack([x["f"][:, :3] for x in core])
+    zero_force = float(np.sqrt(np.mean(np.sum(f**2, axis=1))))  # the error of predicting no force
+    assert zero_force > 1.0
+    for p in line.points:
+        assert np.isfinite(p.force_rmse) and p.force_rmse < 0.5 * zero_force, (p.budget, p.force_rmse, zero_force)
+        assert set(p.components) >= {"fx", "fz", "my", "fx_contact"}

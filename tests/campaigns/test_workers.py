@@ -47,7 +47,7 @@ def pg_url(fresh_pg_url: str) -> str:
 
 QUICK_YAML = """
 preliminary: {samples: 400, chunks: 4}
-settings: {ocp_intervals: 20, replay_dt: 0.01, validation_motions: 2}
+settings: {ocp_intervals: 20, replay_dt: 0.01, validation_motions: 2, validation_reference_motions: 0}
 surrogate: {max_epochs: 60, ensemble_size: 2}
 """
 

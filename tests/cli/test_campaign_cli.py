@@ -17,7 +17,7 @@ from typer.testing import CliRunner
 runner = CliRunner()
 QUICK_YAML = """
 preliminary: {samples: 300, chunks: 3}
-settings: {ocp_intervals: 20, replay_dt: 0.01, validation_motions: 2}
+settings: {ocp_intervals: 20, replay_dt: 0.01, validation_motions: 2, validation_reference_motions: 0}
 surrogate: {max_epochs: 30, ensemble_size: 2}
 """
 

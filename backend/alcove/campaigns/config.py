@@ -228,6 +228,17 @@ class RunSettings(_Strict):
             "speed), reported apart from the suite's figures; 0: none"
         ),
     )
+    validation_reference_motions: int = Field(
+        32,
+        ge=0,
+        le=128,
+        description=(
+            "the best-possible line: the oracle replays this many more motions of the suite's box (a "
+            "space-filling sequence), and models trained on the first 4, 8, 16, ... of them from scratch (FE data "
+            "only) are scored on the suite, once per suite; the campaign's curves show it at those oracle budgets. "
+            "0 to 128; 0: none"
+        ),
+    )
     validation_stress_ranges: ValidationRanges = Field(
         default_factory=ValidationRanges,
         description="ranges of the stress motions; ranges left out: the suite's, with speeds above its top speed",

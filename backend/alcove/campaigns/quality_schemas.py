@@ -101,6 +101,21 @@ class ValidationPoint(BaseModel):
     )
 
 
+class BestPossiblePoint(ValidationReference):
+    """The best-possible line at one oracle budget."""
+
+    budget: int = Field(description="oracle calls: the reference replays the model was trained on")
+
+
+class BestPossibleLine(BaseModel):
+    """A suite's best-possible line (alcove.surrogates.reference_line): per oracle budget B, the suite
+    error of the default surrogate configuration trained from scratch on the first B replays of
+    motions spread over the suite's range (FE data only), computed once per suite."""
+
+    points: list[BestPossiblePoint] = Field(description="by budget")
+    replays: int = Field(description="reference replays the oracle stored (a failed one shortens the line)")
+
+
 class ValidationSeries(BaseModel):
     suite: ValidationSuiteRead | None = Field(description="the campaign's held-out validation suite (null: none)")
     points: list[ValidationPoint] = Field(description="one per own model version evaluated so far, by k")
@@ -109,4 +124,9 @@ class ValidationSeries(BaseModel):
         description="the auxiliary penalty law's own error on the suite (the law the preliminary data come from, "
         "with its default parameters): what a model of the preliminary data alone approaches; null until the "
         "suite is complete",
+    )
+    best_possible: BestPossibleLine | None = Field(
+        None,
+        description="the suite's best-possible line at oracle budgets 4, 8, 16, ...; null until computed, or when "
+        "the suite has no reference motions",
     )

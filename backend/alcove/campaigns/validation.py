@@ -12,6 +12,8 @@ import sqlalchemy as sa
 from sqlalchemy.orm import Session
 
 from alcove.campaigns.quality_schemas import (
+    BestPossibleLine,
+    BestPossiblePoint,
     ValidationPoint,
     ValidationReference,
     ValidationSeries,
@@ -79,6 +81,7 @@ def suite_spec(settings: Any, task: Any, model: Any) -> Any:
         ranges=core,
         stress_motions=n_stress,
         stress=stress,
+        reference_motions=settings.validation_reference_motions,
     )
 
 
@@ -184,6 +187,7 @@ def validation_series(s: Session, campaign: Campaign) -> ValidationSeries:
         )
         if aux is not None
         else None,
+        best_possible=_best_possible(suite.reference if suite is not None else None),
         points=[
             ValidationPoint(
                 iteration_index=k,
@@ -206,6 +210,22 @@ def validation_series(s: Session, campaign: Campaign) -> ValidationSeries:
             for k, v in rows
         ],
     )
+
+
+def _best_possible(line: dict[str, Any] | None) -> BestPossibleLine | None:
+    if not line:
+        return None
+    points = [
+        BestPossiblePoint(
+            budget=int(p["budget"]),
+            force_rmse=p["force_rmse"],
+            moment_rmse=p["moment_rmse"],
+            components=p["components"],
+            calibration=p.get("calibration"),
+        )
+        for p in line.get("points", [])
+    ]
+    return BestPossibleLine(points=points, replays=int(line.get("replays", len(points))))
 
 
 def validation_files(s: Session, campaign: Campaign) -> dict[str, bytes]:
@@ -241,6 +261,7 @@ def validation_files(s: Session, campaign: Campaign) -> dict[str, bytes]:
         "status": suite.status,
         "spec": suite.spec,
         "replay_wall_time_s": suite.replay_wall_time_s,
+        "best_possible": suite.reference,
         "motions": [
             {"index": m.index, "params": m.params, "status": m.status, "wall_time_s": m.wall_time_s, "error": m.error}
             for m in motions

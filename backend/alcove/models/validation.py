@@ -56,6 +56,10 @@ class ValidationSuite(Base):
     )
     created_at: Mapped[datetime] = mapped_column(default=utcnow, server_default=sa.func.now())
     completed_at: Mapped[datetime | None]
+    reference: Mapped[dict[str, Any] | None] = mapped_column(
+        comment="the best-possible line (alcove.surrogates.reference_line): per oracle budget, the error of a "
+        "model trained from scratch on that many reference replays; null: not computed (yet) or not asked for"
+    )
 
     motions: Mapped[list[ValidationMotion]] = relationship(
         order_by="ValidationMotion.index", cascade="all, delete-orphan", passive_deletes=True

@@ -229,19 +229,24 @@ def _record(s: Session, motion_id: int, token: str, traj: Any, res: Any, error: 
 
 
 def _settle(s: Session, suite: ValidationSuite) -> None:
-    """Mark the suite complete (and send its evaluation) or failed once no motion is pending."""
-    statuses = [m.status for m in s.scalars(sa.select(ValidationMotion).where(ValidationMotion.suite_id == suite.id))]
-    if any(st in (MotionStatus.queued.value, MotionStatus.running.value) for st in statuses):
+    """Mark the suite complete (and send its evaluation) or failed once no motion is pending: complete
+    when every scored motion (core and stress) succeeded; a failed reference motion (the best-possible
+    line's training data) only shortens the line, and the suite's error says so."""
+    motions = list(s.scalars(sa.select(ValidationMotion).where(ValidationMotion.suite_id == suite.id)))
+    if any(m.status in (MotionStatus.queued.value, MotionStatus.running.value) for m in motions):
         return
     now = utcnow()
     suite.completed_at = now
     suite.replay_wall_time_s = max((now - suite.created_at).total_seconds(), 0.0)
-    if all(st == MotionStatus.succeeded.value for st in statuses):
+    scored = [m.status for m in motions if (m.params or {}).get("part") != "reference"]
+    lost = sum(m.status != MotionStatus.succeeded.value for m in motions if (m.params or {}).get("part") == "reference")
+    if all(st == MotionStatus.succeeded.value for st in scored):
         suite.status = SuiteStatus.complete.value
+        suite.error = f"{lost} reference motion(s) failed: the best-possible line is shorter" if lost else None
         send_after_commit(s, EVALUATE_JOB, suite.id)
     else:
         suite.status = SuiteStatus.failed.value
-        suite.error = f"{statuses.count(MotionStatus.failed.value)} of {len(statuses)} motions failed"
+        suite.error = f"{scored.count(MotionStatus.failed.value)} of {len(scored)} motions failed"
 
 
 def reconcile_motions(s: Session, older_than: timedelta) -> list[int]:

@@ -36,7 +36,7 @@ from scipy.stats import qmc
 
 from alcove.science.arrays import FloatArray
 from alcove.science.geometry import HeadNeckPreset, PoseFunction, profile_gap, signed_gap
-from alcove.science.press_family import BLEND_PEAK, HistoryPress, PressFamily, blend, family_motions
+from alcove.science.press_family import BLEND_PEAK, HistoryPress, PressFamily, blend, family_motions, sequence_motion
 from alcove.science.series import Trajectory
 
 
@@ -76,9 +76,22 @@ class SuiteRanges(PressFamily):
         return cls(**{k: (float(v[0]), float(v[1])) for k, v in data.items()})
 
 
-#: the suite's parts: ``core`` (the motions the task's scenarios can reach; the suite's figures)
-#: and ``stress`` (beyond them: reported apart)
-PARTS = ("core", "stress")
+#: the suite's parts: ``core`` (the motions the task's scenarios can reach; the suite's figures),
+#: ``stress`` (beyond them: reported apart) and ``reference`` (the best-possible line's training
+#: motions: never scored)
+PARTS = ("core", "stress", "reference")
+
+#: the smallest oracle budget of the best-possible line
+FIRST_BUDGET = 4
+
+
+def reference_budgets(n: int) -> list[int]:
+    """The oracle budgets of a best-possible line of ``n`` motions: 4, 8, 16, ... below ``n``, and ``n``."""
+    out, b = [], FIRST_BUDGET
+    while b < n:
+        out.append(b)
+        b *= 2
+    return [*out, n] if n > 0 else []
 
 
 @dataclass(frozen=True)
@@ -92,26 +105,34 @@ class SuiteSpec:
     ranges: SuiteRanges = field(default_factory=SuiteRanges)
     stress_motions: int = 0
     stress: SuiteRanges | None = None
+    #: motions of the core box's space-filling sequence the best-possible line is trained on
+    reference_motions: int = 0
 
     def __post_init__(self) -> None:
         if self.stress_motions < 0:
             raise ValueError(f"validation suite stress motions: must be >= 0, got {self.stress_motions}")
+        if self.reference_motions < 0:
+            raise ValueError(f"validation suite reference motions: must be >= 0, got {self.reference_motions}")
         if self.stress_motions > 0 and self.stress is None:
             raise ValueError("validation suite stress: stress motions need the stress ranges")
 
     @property
     def total(self) -> int:
-        """The number of motions of both parts."""
-        return self.motions + self.stress_motions
+        """The number of motions of all parts."""
+        return self.motions + self.stress_motions + self.reference_motions
 
     def part(self, index: int) -> str:
-        """The part motion ``index`` belongs to (the core motions come first)."""
-        return PARTS[0] if index < self.motions else PARTS[1]
+        """The part motion ``index`` belongs to (core, then stress, then reference motions)."""
+        if index < self.motions:
+            return PARTS[0]
+        return PARTS[1] if index < self.motions + self.stress_motions else PARTS[2]
 
     def to_dict(self) -> dict[str, Any]:
         d: dict[str, Any] = {"motions": self.motions, "seed": self.seed, "dt": self.dt, "ranges": self.ranges.to_dict()}
         if self.stress_motions > 0 and self.stress is not None:  # absent: the digest of a suite without one
             d["stress_motions"], d["stress"] = self.stress_motions, self.stress.to_dict()
+        if self.reference_motions > 0:
+            d["reference_motions"] = self.reference_motions
         return d
 
     @classmethod
@@ -124,6 +145,7 @@ class SuiteSpec:
             SuiteRanges.from_dict(data.get("ranges") or {}),
             int(data.get("stress_motions", 0)),
             SuiteRanges.from_dict(stress) if stress else None,
+            int(data.get("reference_motions", 0)),
         )
 
     def digest(self, preset: HeadNeckPreset | ChainSuiteModel) -> str:
@@ -178,13 +200,16 @@ def _draw(
 def motion_parameters(spec: SuiteSpec, preset: HeadNeckPreset | ChainSuiteModel) -> list[SuiteMotion]:
     """The suite's motions: its M core motions (a seeded Latin hypercube over the ranges: every range
     is cut into M strata and each stratum holds exactly one motion), then the stress part's motions
-    (a Latin hypercube of their own over the stress box, from a stream of the same seed)."""
+    (a Latin hypercube of their own over the stress box, from a stream of the same seed), then the
+    reference motions (the first of the core box's space-filling sequence for the seed,
+    :func:`alcove.science.press_family.sequence_motion`)."""
     if spec.motions < 1:
         raise ValueError(f"validation suite motions: must be >= 1, got {spec.motions}")
-    core = _draw(spec.ranges, spec.motions, spec.seed, preset, "validation suite")
-    if spec.stress_motions == 0 or spec.stress is None:
-        return core
-    return core + _draw(spec.stress, spec.stress_motions, [spec.seed, 1], preset, "validation suite stress")
+    out = _draw(spec.ranges, spec.motions, spec.seed, preset, "validation suite")
+    if spec.stress_motions > 0 and spec.stress is not None:
+        out += _draw(spec.stress, spec.stress_motions, [spec.seed, 1], preset, "validation suite stress")
+    theta = (preset.theta_min, preset.theta_max)
+    return out + [sequence_motion(spec.ranges, spec.seed, i, theta) for i in range(spec.reference_motions)]
 
 
 #: rad: the shallowest peak angle lies this far beyond first contact, the deepest start angle this far before it
@@ -358,6 +383,7 @@ def suite_model_from_dict(data: dict[str, Any]) -> SuiteModel:
 
 
 __all__ = [
+    "FIRST_BUDGET",
     "PARTS",
     "ChainSuiteModel",
     "PressMotion",
@@ -368,6 +394,7 @@ __all__ = [
     "chain_suite_model",
     "motion_parameters",
     "press_trajectory",
+    "reference_budgets",
     "stress_ranges",
     "suite_model_from_dict",
     "suite_motion",

@@ -115,10 +115,14 @@ def aux_law_error(s: Session, suite: ValidationSuite) -> dict[str, Any] | None:
 
 
 def _metrics(model: Any, motions: list[dict[str, Any]], kinematics: Any = None) -> dict[str, Any]:
+    """A model's row on the suite's motions (its core and stress parts; the reference motions are
+    the best-possible line's training data, never scored)."""
     from alcove.science.surrogate.training import predict_ensemble
 
     preds, stds, trues, parts = [], [], [], []
     for a in motions:
+        if a.get("part") == "reference":
+            continue
         p = predict_ensemble(model, a["q"], a["qd"], kinematics)
         preds.append(np.hstack([p.force, p.moment]))
         # a single model (K = 1) has no spread: no std, so its calibration is null (not 0)
@@ -259,4 +263,7 @@ def evaluate_suite(suite_id: int) -> int:
 
         written += bool(transaction(store))
     log.info("validation suite %d: evaluated %d model version(s)", suite_id, written)
+    from alcove.surrogates.reference_line import compute_reference_line
+
+    compute_reference_line(suite_id)
     return written

@@ -1445,6 +1445,57 @@ export interface components {
              */
             z?: number;
         };
+        /**
+         * BestPossibleLine
+         * @description A suite's best-possible line (alcove.surrogates.reference_line): per oracle budget B, the suite
+         *     error of the default surrogate configuration trained from scratch on the first B replays of
+         *     motions spread over the suite's range (FE data only), computed once per suite.
+         */
+        BestPossibleLine: {
+            /**
+             * Points
+             * @description by budget
+             */
+            points: components["schemas"]["BestPossiblePoint"][];
+            /**
+             * Replays
+             * @description reference replays the oracle stored (a failed one shortens the line)
+             */
+            replays: number;
+        };
+        /**
+         * BestPossiblePoint
+         * @description The best-possible line at one oracle budget.
+         */
+        BestPossiblePoint: {
+            /**
+             * Budget
+             * @description oracle calls: the reference replays the model was trained on
+             */
+            budget: number;
+            /**
+             * Calibration
+             * @description fraction of oracle values inside the ensemble mean +- 2 std, over the components not zero in every sample; null for a single model (K = 1); null: not computed
+             */
+            calibration?: number | null;
+            /**
+             * Components
+             * @description the per-component RMSE sqrt(mean (pred_c - true_c)^2) for c in fx fy fz [N], mx my mz [N m], over all samples (keys fx .. mz) and over the samples in contact, oracle |F_true| > 0 (keys fx_contact .. mz_contact; null if none)
+             */
+            components: {
+                [key: string]: number | null;
+            };
+            /**
+             * Force Rmse
+             * @description sqrt(mean_i |F_pred,i - F_true,i|^2) over all samples of all motions [N]
+             */
+            force_rmse: number;
+            /**
+             * Moment Rmse
+             * @description the same for the moment vector [N m]
+             */
+            moment_rmse: number;
+        };
         /** Body_upload_preliminary_dataset */
         Body_upload_preliminary_dataset: {
             /**
@@ -3554,6 +3605,12 @@ export interface components {
             /** @description the validation suite's motions: presses with partial unloads and re-loads, slow and fast; ranges left out are derived from the task (peak angles from first contact to the joint limit, start angles covering the task's initial angles, speeds up to the task's fastest initial speed) */
             validation_ranges?: components["schemas"]["ValidationRanges"];
             /**
+             * Validation Reference Motions
+             * @description the best-possible line: the oracle replays this many more motions of the suite's box (a space-filling sequence), and models trained on the first 4, 8, 16, ... of them from scratch (FE data only) are scored on the suite, once per suite; the campaign's curves show it at those oracle budgets. 0 to 128; 0: none
+             * @default 32
+             */
+            validation_reference_motions?: number;
+            /**
              * Validation Seed
              * @description seed of the validation suite's motions
              * @default 0
@@ -4658,6 +4715,8 @@ export interface components {
         ValidationSeries: {
             /** @description the auxiliary penalty law's own error on the suite (the law the preliminary data come from, with its default parameters): what a model of the preliminary data alone approaches; null until the suite is complete */
             aux_law?: components["schemas"]["ValidationReference"] | null;
+            /** @description the suite's best-possible line at oracle budgets 4, 8, 16, ...; null until computed, or when the suite has no reference motions */
+            best_possible?: components["schemas"]["BestPossibleLine"] | null;
             /**
              * Points
              * @description one per own model version evaluated so far, by k

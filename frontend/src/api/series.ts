@@ -207,5 +207,6 @@ export function useMetrics(id: number, { inherited = false, latest = null, qc }:
     [metrics.data, states.data, validation.data],
   );
   const auxLaw = validation.data?.aux_law ?? null;
-  return { data, auxLaw, isPending: metrics.isPending, isError: metrics.isError, error: metrics.error, refetch: metrics.refetch };
+  const bestPossible = validation.data?.best_possible ?? null;
+  return { data, auxLaw, bestPossible, isPending: metrics.isPending, isError: metrics.isError, error: metrics.error, refetch: metrics.refetch };
 }

@@ -1,7 +1,7 @@
 import { useMemo } from "react";
 import type { Layout } from "plotly.js-dist-min";
 import { Plot, type Trace } from "../components/Plot";
-import { componentUnit, isMarked, isRmseQuantity, RMSE_QUANTITIES, type MetricPoint, type RmseQuantity, type SuiteReference } from "../lib/metrics";
+import { componentUnit, isMarked, isRmseQuantity, RMSE_QUANTITIES, type BestPossible, type MetricPoint, type RmseQuantity, type SuiteReference } from "../lib/metrics";
 import { useStringParam } from "../lib/urlState";
 import { iterationAt, xOf, xTitle, type XAxis } from "../lib/xaxis";
 
@@ -37,6 +37,41 @@ export function auxLawTraces(points: MetricPoint[], auxLaw: SuiteReference | nul
   const line = (c: string) =>
     referenceLine(own, axis, c === "force" ? auxLaw.force_rmse : c === "moment" ? auxLaw.moment_rmse : auxLaw.components[c], `auxiliary law, held-out suite${suite ? ` of ${suite}` : ""}: ${c} [${componentUnit(c)}]`);
   return component ? line(component) : [...line("force"), ...line("moment")];
+}
+
+/**
+ * Where budget ``budget`` (oracle calls) sits on ``axis``: at that many calls; on the iteration
+ * axis at the model trained on them (the iteration after the first one whose cumulative calls
+ * reach it; not drawn before the campaign got there); not on the wall-time axis.
+ */
+export function budgetX(points: MetricPoint[], axis: XAxis, budget: number): number | null {
+  if (axis === "oracle") return budget;
+  if (axis !== "iteration") return null;
+  const reached = points.find((p) => !p.inherited && (p.cumulative_oracle_calls ?? -1) >= budget);
+  return reached ? reached.iteration + 1 : null;
+}
+
+/**
+ * The suite's best-possible line (dash-dot grey, with markers): at each oracle budget, the error
+ * of a model trained from scratch on that many replays of motions spread over the suite's range.
+ * The force and moment vectors, or one quantity (as :func:`auxLawTraces`).
+ */
+export function bestPossibleTraces(points: MetricPoint[], line: BestPossible | null | undefined, axis: XAxis = "iteration", component?: string): Trace[] {
+  if (!line || !line.points.length) return [];
+  const one = (c: string): Trace[] => {
+    const xs: number[] = [];
+    const ys: number[] = [];
+    for (const p of line.points) {
+      const x = budgetX(points, axis, p.budget);
+      const y = c === "force" ? p.force_rmse : c === "moment" ? p.moment_rmse : p.components[c];
+      if (x == null || y == null) continue;
+      xs.push(x);
+      ys.push(y);
+    }
+    if (!xs.length) return [];
+    return [{ x: xs, y: ys, name: `best possible at that many oracle calls, held-out suite: ${c} [${componentUnit(c)}]`, mode: "lines+markers", type: "scatter", line: { color: REFERENCE, dash: "dashdot", width: 1.5 }, marker: { symbol: "diamond-open", size: 7, color: REFERENCE }, hoverinfo: "name+x+y" }];
+  };
+  return component ? one(component) : [...one("force"), ...one("moment")];
 }
 
 export function rmseTraces(points: MetricPoint[], name = "", axis: XAxis = "iteration"): Trace[] {
@@ -151,13 +186,14 @@ export function RmseQuantitySelect({ value, onChange }: { value: RmseQuantity; o
   );
 }
 
-export function RmsePlot({ points, logY, onSelect, xAxis = "iteration", quantity = "vector", auxLaw = null }: { points: MetricPoint[]; logY: boolean; onSelect?: (k: number) => void; xAxis?: XAxis; quantity?: RmseQuantity; auxLaw?: SuiteReference | null }) {
+export function RmsePlot({ points, logY, onSelect, xAxis = "iteration", quantity = "vector", auxLaw = null, bestPossible = null }: { points: MetricPoint[]; logY: boolean; onSelect?: (k: number) => void; xAxis?: XAxis; quantity?: RmseQuantity; auxLaw?: SuiteReference | null; bestPossible?: BestPossible | null }) {
   const traces = useMemo(
     () => [
       ...(quantity === "vector" ? rmseTraces(points, "", xAxis) : componentTraces(points, quantity, xAxis)),
       ...auxLawTraces(points, auxLaw, xAxis, quantity === "vector" ? undefined : quantity),
+      ...bestPossibleTraces(points, bestPossible, xAxis, quantity === "vector" ? undefined : quantity),
     ],
-    [points, xAxis, quantity, auxLaw],
+    [points, xAxis, quantity, auxLaw, bestPossible],
   );
   const few = xAxis === "iteration" && points.length > 0 && points[points.length - 1].iteration <= 12;
   const xLayout = useMemo(() => ({ xaxis: { title: { text: xTitle(xAxis) }, dtick: few ? 1 : undefined, zeroline: false } }), [few, xAxis]);
@@ -176,7 +212,7 @@ export function RmsePlot({ points, logY, onSelect, xAxis = "iteration", quantity
       }}
       height={300}
       extraLayout={xLayout}
-      data={{ xaxis: xAxis, quantity, "aux-law": auxLaw ? "true" : "false", iterations: own.filter((p) => p.force_rmse !== null).map((p) => p.iteration).join(","), inherited: points.filter((p) => p.inherited).map((p) => p.iteration).join(","), validation: own.filter((p) => p.validation_force_rmse != null).map((p) => p.iteration).join(",") }}
+      data={{ xaxis: xAxis, quantity, "aux-law": auxLaw ? "true" : "false", "best-possible": bestPossible?.points.map((p) => p.budget).join(",") ?? "", iterations: own.filter((p) => p.force_rmse !== null).map((p) => p.iteration).join(","), inherited: points.filter((p) => p.inherited).map((p) => p.iteration).join(","), validation: own.filter((p) => p.validation_force_rmse != null).map((p) => p.iteration).join(",") }}
     />
   );
 }

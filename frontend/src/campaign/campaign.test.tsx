@@ -3,7 +3,7 @@ import { render, screen, waitFor, within } from "@testing-library/react";
 import userEvent from "@testing-library/user-event";
 import Plotly from "plotly.js-basic-dist-min";
 import { wrenchTraces } from "./ForcesPanel";
-import { auxLawTraces, calibrationTraces, componentTraces, hasCalibration, rmseTraces } from "./RmsePlot";
+import { auxLawTraces, bestPossibleTraces, calibrationTraces, componentTraces, hasCalibration, rmseTraces } from "./RmsePlot";
 import { forkDefaults, DEFAULT_FURTHER } from "./ForkDialog";
 import { Controls } from "./Controls";
 import { progressText } from "../api/campaigns";
@@ -115,6 +115,28 @@ describe("the auxiliary law's error on the suite", () => {
     expect(auxLawTraces(points, aux, "iteration", "fz_contact")).toEqual([]); // no value: no line
     expect(auxLawTraces(points, null)).toEqual([]);
     expect(auxLawTraces([p(4)], aux)[0].x).toEqual([4, 5]); // one iteration: a short line, still visible
+  });
+});
+
+describe("best-possible line", () => {
+  it("puts each budget at that many oracle calls, or at the model trained on them, and skips budgets not reached", () => {
+    const p = (k: number, calls: number) => ({ iteration: k, status: "succeeded", force_rmse: 1, moment_rmse: 0.1, quarantined: false, cumulative_oracle_calls: calls });
+    // a batch campaign: 4 calls per iteration
+    const points = [p(1, 4), p(2, 8), p(3, 12)];
+    const pt = (budget: number, f: number) => ({ budget, force_rmse: f, moment_rmse: f / 10, components: { fx: f / 2, fz: budget === 8 ? null : f } });
+    const line = { replays: 16, points: [pt(4, 9), pt(8, 7), pt(16, 6)] };
+    const [force, moment] = bestPossibleTraces(points, line, "oracle");
+    expect(force.x).toEqual([4, 8, 16]);
+    expect(force.y).toEqual([9, 7, 6]);
+    expect(moment.y).toEqual([0.9, 0.7, 0.6]);
+    // on the iteration axis: model k + 1 is the first trained on the calls of iteration k; 16 calls not reached
+    const [onIterations] = bestPossibleTraces(points, line, "iteration");
+    expect(onIterations.x).toEqual([2, 3]);
+    expect(onIterations.y).toEqual([9, 7]);
+    // one component; a budget without the component is left out, not drawn at 0
+    expect(bestPossibleTraces(points, line, "oracle", "fz")[0].x).toEqual([4, 16]);
+    expect(bestPossibleTraces(points, line, "wall")).toEqual([]);
+    expect(bestPossibleTraces(points, null)).toEqual([]);
   });
 });
 

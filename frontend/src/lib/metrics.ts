@@ -86,3 +86,12 @@ export interface SuiteReference {
   moment_rmse: number;
   components: Record<string, number | null>;
 }
+
+/**
+ * The suite's best-possible line: per oracle budget, the suite error of a model trained from
+ * scratch on that many oracle replays of motions spread over the suite's range (FE data only).
+ */
+export interface BestPossible {
+  points: (SuiteReference & { budget: number })[];
+  replays: number;
+}

@@ -169,6 +169,7 @@ export function CampaignPage() {
               xAxis={xAxis}
               quantity={quantity}
               auxLaw={metrics.auxLaw}
+              bestPossible={metrics.bestPossible}
               onSelect={(it) => {
                 // one navigation for both: the clicked iteration on the forces tab
                 if (own.some((p) => p.iteration === it)) setParams({ k: String(it), tab: null });
