@@ -1,10 +1,10 @@
-"""Acquisition strategies at equal oracle budgets (issue 17, "the measurement that matters").
+"""Acquisition strategies at equal oracle budgets, against the best possible at each budget.
 
 ``python -m bench.strategies`` runs one campaign per (strategy, seed) on ``fe-headrest-2d`` with
 the task preset ``head-headrest-scenarios`` until it has made ``max(budgets)`` oracle calls, and
 scores the model version trained on the pool after B oracle calls, for each budget B, on the
 held-out validation suite (vector RMSE of the force [N] and of the moment [N m] over the suite's
-8 press motions). Every campaign uses the same preliminary data (LHS seed 0), the same
+8 motions with unloads and re-loads, derived from the task). Every campaign uses the same preliminary data (LHS seed 0), the same
 surrogate configuration and the same validation suite (seed 0); the campaign seed drives the
 scenario draws, the training seeds and the OCP.
 
@@ -21,7 +21,11 @@ file after every budget it scores, so a cut-off run keeps its completed rows; ``
 rebuilds the results JSON, table and plot from those files, ``--report-only`` the table and plot
 from the results JSON.
 
-Usage: ``python -m bench.strategies [--seeds 0 1 2] [--budgets 8 16 32 64] [--candidates 16]
+The pseudo-strategy ``best-possible`` runs no campaign: per seed, models trained from scratch on the
+first B replays of the press family's space-filling sequence over the suite's box
+(:mod:`bench.strategies_reference`; seed 0 is the line a campaign on this suite shows).
+
+Usage: ``python -m bench.strategies [--seeds 0 1 2 3 4] [--budgets 4 8 16 32 64] [--candidates 16]
 [--jobs 2]``, then ``--salvage`` after a cut-off run, ``--report-only``, ``--retrain S SEED B``.
 """
 
@@ -49,7 +53,8 @@ RESULTS, PLOT = (
 WORK_DIR = Path("/tmp/alcove-bench-strategies")
 
 ORACLE = "fe-headrest-2d"
-STRATEGIES = ("paper", "random-scenarios", "ensemble-disagreement", "press-family")
+#: the campaigns' strategies, and the best-possible line (bench.strategies_reference: no campaign)
+STRATEGIES = ("best-possible", "paper", "random-scenarios", "ensemble-disagreement", "press-family")
 BUDGETS = (4, 8, 16, 32, 64)
 SEEDS = (0, 1, 2, 3, 4)
 BATCH = 4
@@ -78,7 +83,13 @@ def budget_models(cumulative: list[int], budgets: list[int]) -> dict[int, int | 
 
 
 def _settings(strategy: str, batch: int, candidates: int) -> dict[str, Any]:
-    s: dict[str, Any] = {"strategy": strategy, "validation_motions": 8, "validation_seed": VALIDATION_SEED}
+    # the suite of every run; its best-possible line is the ``best-possible`` runs' (no reference motions here)
+    s: dict[str, Any] = {
+        "strategy": strategy,
+        "validation_motions": 8,
+        "validation_seed": VALIDATION_SEED,
+        "validation_reference_motions": 0,
+    }
     if strategy != "paper":
         s["batch"] = batch
     if strategy == "ensemble-disagreement":
@@ -294,6 +305,12 @@ def main(argv: list[str] | None = None) -> int:
     if args.one:
         strategy, seed = args.one[0], int(args.one[1])
         tag = f"{strategy}-{seed}"
+        if strategy == "best-possible":
+            from bench.strategies_reference import run_reference
+
+            suite = {"validation_motions": 8, "validation_seed": VALIDATION_SEED}
+            write_atomic(args.work_dir / f"run-{tag}.json", run_reference(seed, budgets, ORACLE, suite, args.work_dir))
+            return 0
         run_one(
             strategy,
             seed,

@@ -28,11 +28,17 @@ REFERENCE_SEED = 0
 
 
 def reference_line(
-    reference: list[dict[str, Any]], scored: list[dict[str, Any]], budgets: list[int], kinematics: Any, preset: Any
+    reference: list[dict[str, Any]],
+    scored: list[dict[str, Any]],
+    budgets: list[int],
+    kinematics: Any,
+    preset: Any,
+    seed: int = REFERENCE_SEED,
 ) -> dict[str, Any]:
     """The line from the reference replays (``reference``, the succeeded ones in sequence order;
     arrays t, q, qd, f) and the scored motions ``scored``: per budget, the metrics row of a model
-    trained on the first ``budget`` replays (:func:`alcove.surrogates.validation._metrics`)."""
+    trained on the first ``budget`` replays (:func:`alcove.surrogates.validation._metrics`), with
+    training seed ``seed``."""
     import numpy as np
 
     from alcove.science.surrogate.config import SurrogateConfig
@@ -55,7 +61,7 @@ def reference_line(
     points = []
     for b in budgets:
         t0 = time.perf_counter()
-        model = train_surrogate(pool[:b], config, seed=REFERENCE_SEED, preset=preset, kinematics=kinematics).model
+        model = train_surrogate(pool[:b], config, seed=seed, preset=preset, kinematics=kinematics).model
         m = _metrics(model, scored, kinematics)
         points.append(
             {
@@ -71,7 +77,7 @@ def reference_line(
         "points": points,
         "protocol": {
             "surrogate": "default configuration, trained from scratch",
-            "seed": REFERENCE_SEED,
+            "seed": seed,
             "ensemble_size": config.ensemble_size,
             "data": "the first B reference replays only (no preliminary data)",
         },
