@@ -11,7 +11,72 @@ from pathlib import Path
 from typing import Any
 
 #: strategy names as the goal checks use them
-ED, RANDOM, PAPER = "ensemble-disagreement", "random-scenarios", "paper"
+ED, RANDOM, PAPER, FAMILY, BEST = (
+    "ensemble-disagreement",
+    "random-scenarios",
+    "paper",
+    "press-family",
+    "best-possible",
+)
+#: the quantities of a budget's row summarised over seeds (median, min, max)
+QUANTITIES = ("force", "moment", "fx", "fz", "my", "calibration")
+
+
+def _key(q: str) -> str:
+    return "calibration" if q == "calibration" else f"{q}_rmse"
+
+
+def spread(vals: list[dict[str, Any]]) -> dict[str, Any]:
+    """Median, min and max over seeds of each quantity (those the rows have)."""
+    out: dict[str, Any] = {}
+    for q in QUANTITIES:
+        xs = [v[_key(q)] for v in vals if v.get(_key(q)) is not None]
+        if xs:
+            out[q] = {"median": statistics.median(xs), "min": min(xs), "max": max(xs)}
+    return out
+
+
+def targets(table: dict[str, dict[int, dict[str, Any]]]) -> dict[str, Any]:
+    """The issue's targets against the best-possible line (medians over seeds): every strategy's fx
+    within 1.3x of the line's at 32 calls and 1.5x at 16; the best strategy's force within 1.2x at
+    32; a strategy reaching the line's 32-call force error in at most 16 calls; every strategy's
+    calibration >= 0.8 at 32. Each with the measured ratios."""
+    strategies = [s for s in table if s != BEST and not s.endswith(EARLIER)]
+    out: dict[str, Any] = {}
+
+    def median(s: str, b: int, q: str) -> float | None:
+        row = table.get(s, {}).get(b, {}).get("spread", {}).get(q)
+        return None if row is None else row["median"]
+
+    for b, limit in ((32, 1.3), (16, 1.5)):
+        ref = median(BEST, b, "fx")
+        ratios = {s: (v / ref if (v := median(s, b, "fx")) is not None and ref else None) for s in strategies}
+        met = all(r is not None and r <= limit for r in ratios.values()) if ratios else None
+        out[f"fx_within_{limit}x_at_{b}"] = {"reference": ref, "ratios": ratios, "met": met}
+    ref32 = median(BEST, 32, "force")
+    ratios = {s: (v / ref32 if (v := median(s, 32, "force")) is not None and ref32 else None) for s in strategies}
+    best_ratio = min((r for r in ratios.values() if r is not None), default=None)
+    out["best_force_within_1.2x_at_32"] = {
+        "reference": ref32,
+        "ratios": ratios,
+        "met": None if best_ratio is None else best_ratio <= 1.2,
+    }
+    reach = {}
+    for s in strategies:
+        curve = [(b, v) for b in sorted(table[s]) if b > 0 and (v := median(s, b, "force")) is not None]
+        reach[s] = calls_to_reach(curve, ref32) if ref32 is not None else None
+    out["reach_reference_32_in_16"] = {
+        "target": ref32,
+        "calls_needed": reach,
+        "met": any(c is not None and c <= 16 for c in reach.values()) if reach else None,
+    }
+    cal = {s: median(s, 32, "calibration") for s in strategies}
+    out["calibration_0.8_at_32"] = {
+        "medians": cal,
+        "reference": median(BEST, 32, "calibration"),
+        "met": all(c is not None and c >= 0.8 for c in cal.values()) if cal else None,
+    }
+    return out
 
 
 def write_atomic(path: Path, data: Any) -> None:
@@ -59,7 +124,7 @@ def merge(results: dict[str, Any], earlier: dict[str, Any]) -> dict[str, Any]:
         runs.append({**r, "strategy": name})
         if name not in strategies:
             strategies.append(name)
-    order = [PAPER, RANDOM, ED]
+    order = [BEST, PAPER, RANDOM, ED, FAMILY]
     strategies.sort(key=lambda n: (order.index(n.removesuffix(EARLIER)) if n.removesuffix(EARLIER) in order else 9, n))
     return {**results, "runs": runs, "strategies": strategies, "merged_from": earlier.get("started")}
 
@@ -87,6 +152,7 @@ def summary(results: dict[str, Any]) -> dict[str, Any]:
                 "force_max": max(f),
                 "moment_mean": statistics.fmean(m),
                 "moment_sd": statistics.stdev(m) if len(m) > 1 else 0.0,
+                "spread": spread(vals),
             }
         # the validation error of every model version over the oracle calls its pool holds
         per_seed = []
@@ -136,6 +202,7 @@ def summary(results: dict[str, Any]) -> dict[str, Any]:
                 "ed_at_limit": dict(ed_curve).get(limit),
                 "ed_calls_measured": max(c for c, _ in ed_curve),  # the largest budget on every seed
             }
+    goals["targets"] = targets(table)
     return {"table": table, "curves": curves, "goals": goals, "picks": picks(results)}
 
 
@@ -184,30 +251,29 @@ def picks(results: dict[str, Any]) -> dict[str, Any]:
 
 
 def print_table(results: dict[str, Any], summ: dict[str, Any]) -> None:
+    """Per strategy and budget, the median over seeds (min - max) of the suite's force, fx, fz, my
+    RMSE and calibration, and the force and fx medians over the best-possible line's."""
     from rich.console import Console
     from rich.table import Table
 
-    console = Console() if sys.stdout.isatty() else Console(width=160)
+    console = Console() if sys.stdout.isatty() else Console(width=200)
     t = Table(title=f"validation-suite error at equal oracle budgets ({results['oracle']}, {results['task']})")
-    for c in (
-        "strategy",
-        "oracle calls",
-        "seeds",
-        "force RMSE [N] mean +- sd",
-        "min - max",
-        "moment RMSE [N m] mean +- sd",
-    ):
+    columns = ["strategy", "oracle calls", "seeds", "force [N]", "fx [N]", "fz [N]", "my [N m]", "calibration"]
+    for c in [*columns, "force / best", "fx / best"]:
         t.add_column(c, justify="left" if c == "strategy" else "right")
+    best = summ["table"].get(BEST, {})
     for strat, rows in summ["table"].items():
         for b, r in sorted(rows.items()):
-            t.add_row(
-                strat,
-                str(b),
-                str(r["n"]),
-                f"{r['force_mean']:.2f} +- {r['force_sd']:.2f}",
-                f"{r['force_min']:.2f} - {r['force_max']:.2f}",
-                f"{r['moment_mean']:.3f} +- {r['moment_sd']:.3f}",
-            )
+            sp = r["spread"]
+            cells = [
+                f"{sp[q]['median']:.2f} ({sp[q]['min']:.2f}-{sp[q]['max']:.2f})" if q in sp else ""
+                for q in ("force", "fx", "fz", "my", "calibration")
+            ]
+            ratios = []
+            for q in ("force", "fx"):
+                ref = best.get(b, {}).get("spread", {}).get(q)
+                ratios.append(f"{sp[q]['median'] / ref['median']:.2f}" if ref and q in sp else "")
+            t.add_row(strat, str(b), str(r["n"]), *cells, *ratios)
     console.print(t)
     console.print(json.dumps({"goals": summ["goals"], "picks": summ["picks"]}, indent=1))
 
@@ -218,43 +284,45 @@ def plot(results: dict[str, Any], summ: dict[str, Any], path: Path) -> None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    fig, axes = plt.subplots(1, 2, figsize=(11, 4.2))
-    colors = {"paper": "tab:gray", "random-scenarios": "tab:blue", "ensemble-disagreement": "tab:red"}
-    for ax, key, unit in ((axes[0], "force", "N"), (axes[1], "moment", "N m")):
+    fig, axes = plt.subplots(1, 4, figsize=(18, 4.2))
+    colors = {
+        PAPER: "tab:gray",
+        RANDOM: "tab:blue",
+        ED: "tab:red",
+        FAMILY: "tab:green",
+        BEST: "k",
+    }
+    panels = (("force", "force RMSE [N]"), ("fx", "fx RMSE [N]"), ("fz", "fz RMSE [N]"), ("calibration", "calibration"))
+    for ax, (key, label) in zip(axes, panels, strict=True):
         for strat, rows in summ["table"].items():
-            bs = sorted(b for b in rows if b > 0)
+            bs = sorted(b for b in rows if b > 0 and key in rows[b]["spread"])
             if not bs:
                 continue
-            mean = [rows[b][f"{key}_mean"] for b in bs]
-            sd = [rows[b][f"{key}_sd"] for b in bs]
+            med = [rows[b]["spread"][key]["median"] for b in bs]
+            lo = [m - rows[b]["spread"][key]["min"] for b, m in zip(bs, med, strict=True)]
+            hi = [rows[b]["spread"][key]["max"] - m for b, m in zip(bs, med, strict=True)]
             ax.errorbar(
                 bs,
-                mean,
-                yerr=sd,
-                marker="o",
+                med,
+                yerr=[lo, hi],
+                marker="D" if strat == BEST else "o",
                 capsize=3,
                 color=colors.get(strat.removesuffix(EARLIER)),
-                ls="--" if strat.endswith(EARLIER) else "-",
+                ls="--" if strat.endswith(EARLIER) or strat == BEST else "-",
                 alpha=0.55 if strat.endswith(EARLIER) else 1.0,
                 label=f"{strat} (n={rows[bs[0]]['n']})",
             )
-            if 0 in rows:
-                ax.axhline(rows[0][f"{key}_mean"], color="k", lw=0.6, ls=":")
-        if key == "force":
-            for strat, per_seed in summ["curves"].items():
-                if strat.endswith(EARLIER):
-                    continue
-                for cv in per_seed:
-                    xs = [c for c, _ in cv if c > 0]
-                    ys = [e for c, e in cv if c > 0]
-                    ax.plot(xs, ys, color=colors.get(strat), lw=0.6, alpha=0.35)
+            if 0 in rows and key in rows[0]["spread"]:
+                ax.axhline(rows[0]["spread"][key]["median"], color="k", lw=0.6, ls=":")
+        if key == "calibration":
+            ax.axhline(0.8, color="tab:orange", lw=0.8, ls="-.")
         ax.set_xscale("log", base=2)
         ax.set_xticks(results["budgets"], [str(b) for b in results["budgets"]])
         ax.set_xlabel("oracle calls (pool the model was trained on)")
-        ax.set_ylabel(f"validation-suite {key} RMSE [{unit}]")
+        ax.set_ylabel(f"validation suite: {label}")
         ax.grid(alpha=0.3)
-    axes[0].set_title("force (mean +- sd over seeds; thin: every model version)", fontsize=9)
-    axes[1].set_title("moment (mean +- sd over seeds); dotted: preliminary-only model", fontsize=9)
+    axes[0].set_title("median over seeds, bars min-max; dotted: preliminary-only model", fontsize=9)
+    axes[3].set_title("share of oracle values inside mean +- 2 std (target 0.8)", fontsize=9)
     axes[0].legend(fontsize=8)
     fig.tight_layout()
     path.parent.mkdir(parents=True, exist_ok=True)
