@@ -3,10 +3,11 @@
 ``python -m bench.strategies`` runs one campaign per (strategy, seed) on ``fe-headrest-2d`` with
 the task preset ``head-headrest-scenarios`` until it has made ``max(budgets)`` oracle calls, and
 scores the model version trained on the pool after B oracle calls, for each budget B, on the
-held-out validation suite (vector RMSE of the force [N] and of the moment [N m] over the suite's
-8 motions with unloads and re-loads, derived from the task). Every campaign uses the same preliminary data (LHS seed 0), the same
-surrogate configuration and the same validation suite (seed 0); the campaign seed drives the
-scenario draws, the training seeds and the OCP.
+held-out validation suite (RMSE of the force and moment vectors and of fx, fz, my, and the
+calibration, over the suite's 8 motions with unloads and re-loads, derived from the task). Every
+campaign uses the same preliminary data (LHS seed 0), the same surrogate configuration and the
+same validation suite (seed 0); the campaign seed drives the scenario draws, the training seeds
+and the OCP.
 
 Oracle calls are counted as the campaign counts them (``Iteration.oracle_calls``: every oracle
 attempt, also those of failed iterations). The model for budget B is model version j + 1,

@@ -82,7 +82,12 @@ def test_full_campaign_lifecycle_over_http(live) -> None:
         "surrogate_config_id": surrogate["id"],
         "seed": 3,
         "preliminary": {"samples": 400, "chunks": 4},
-        "settings": {"ocp_intervals": 20, "replay_dt": 0.01, "validation_motions": 2, "validation_reference_motions": 0},
+        "settings": {
+            "ocp_intervals": 20,
+            "replay_dt": 0.01,
+            "validation_motions": 2,
+            "validation_reference_motions": 0,
+        },
         "stopping": {"max_iterations": 2},
         "start": True,
     }

@@ -203,4 +203,13 @@ def sequence_motion(family: PressFamily, seed: int, index: int, theta_range: tup
     return HistoryPress(*(float(x) for x in lo + unit * (hi - lo)))
 
 
-__all__ = ["BLEND_PEAK", "PARAMETERS", "HistoryPress", "PressFamily", "RangeError", "blend", "family_motions", "sequence_motion"]
+__all__ = [
+    "BLEND_PEAK",
+    "PARAMETERS",
+    "HistoryPress",
+    "PressFamily",
+    "RangeError",
+    "blend",
+    "family_motions",
+    "sequence_motion",
+]
