@@ -38,6 +38,13 @@ function LiveBadge({ live, running }: { live: Live; running: boolean }) {
   return null;
 }
 
+/** What the suite's motions are beside its scored core: the stress part and the best-possible line's replays. */
+function suiteParts(v: { n_motions: number; n_stress_motions?: number; ranges?: Record<string, number[]> }): string {
+  const stress = v.n_stress_motions ?? 0;
+  const parts = [stress ? `${stress} beyond the task's reach, scored apart` : "", v.ranges?.release ? "with unloads and re-loads" : ""].filter(Boolean);
+  return parts.length ? ` (${parts.join("; ")})` : "";
+}
+
 export function CampaignPage() {
   void loadPlotly(); // fetch and parse plotly.js while the campaign's data loads
   const id = Number(useParams().id);
@@ -142,6 +149,7 @@ export function CampaignPage() {
           {c.validation ? (
             <span className="muted" data-testid="validation-suite" data-status={c.validation.status} title="Every model version is evaluated on these held-out motions (never in the pool); dashed lines.">
               held-out suite: {c.validation.status}, {c.validation.motions_done}/{c.validation.n_motions} motions
+              {suiteParts(c.validation)}
               {c.validation.shared_by > 1 ? `, shared by ${c.validation.shared_by} campaigns` : ""}
               {c.validation.error ? ` (${c.validation.error})` : ""}
             </span>
