@@ -137,10 +137,14 @@ def solve(
     preset = task.model.oracle_preset()
     base = pool_preset if pool_preset is not None else preset  # the pool's own headrest (a scenario's may be moved)
     contact, contact_params = surrogate_contact(model, preset, chain)
-    path = None
-    if trust_region_max_std is not None and model.ensemble_size > 1:
+    path, exploration = None, None
+    if model.ensemble_size > 1 and (trust_region_max_std is not None or task.exploration_weight > 0):
         std_fn, _ = surrogate_contact_std(model, preset, chain)
-        path = (force_variance_function(std_fn), float(trust_region_max_std) ** 2)
+        variance = force_variance_function(std_fn)
+        if trust_region_max_std is not None:
+            path = (variance, float(trust_region_max_std) ** 2)
+        if task.exploration_weight > 0:  # the task's exploration term: reward the members' disagreement
+            exploration = (variance, float(task.exploration_weight))
     max_iter = run.fault.ipopt_max_iter if run.fault is not None else None
     sol = solve_task(
         task,
@@ -151,6 +155,7 @@ def solve(
         ipopt_options={"ipopt.max_iter": int(max_iter)} if max_iter is not None else None,
         on_attempt=lambda _attempt: run.check_cancel(),  # cancel between IPOPT runs
         path=path,
+        exploration=exploration,
     )
     kinematics = None if chain is None else pose_kinematics(chain.head_pose)
     if pool is None:

@@ -4262,6 +4262,12 @@ export interface components {
              */
             description?: string;
             endpoint_cost?: components["schemas"]["EndpointCost"] | null;
+            /**
+             * Exploration Weight
+             * @description weight of the exploration term: with a surrogate ensemble, the cost rewards the members' disagreement along the motion, minus w times the integral of their force variance sigma_F^2 over the interval midpoints (docs/active-learning.md); with the aux contact or one model it is 0 [1/(N^2 s)], 0 to 1e6 1/(N^2 s); 0: the paper's loop
+             * @default 0
+             */
+            exploration_weight?: number;
             final?: components["schemas"]["FinalCondition"];
             initial?: components["schemas"]["InitialState"];
             model?: components["schemas"]["ModelSpec"];

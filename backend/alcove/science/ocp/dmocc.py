@@ -123,12 +123,15 @@ def nlp_expressions(
     interval_cost: ca.Function,
     n_par: int,
     path: ca.Function | None = None,
+    exploration: tuple[ca.Function, float] | None = None,
 ) -> NlpExpressions[Symbolic]:
     """Map the interval functions over the grid and assemble cost and constraints (see the module docstring).
 
     ``path`` ``(q, qd, p) -> scalar`` is evaluated at every interval midpoint (where the contact
     model is: ``(q_k + q_k+1) / 2``, ``(q_k+1 - q_k) / h``) and appended to g as N rows after
-    the dynamics (the caller bounds them)."""
+    the dynamics (the caller bounds them). ``exploration`` ``(fn, w)``: the cost rewards ``fn``
+    ``(q, qd, p) -> scalar`` (the ensemble's force variance) along the motion,
+    ``- w sum_k h_k fn(q_k+1/2, v_k)``."""
     n, N = chain.ndof, prob.intervals
     n_q, n_u = n * (N + 1), n * N
     x = sym.sym("x", n_q + n_u)
@@ -147,6 +150,9 @@ def nlp_expressions(
         left, right = grid_map(dynamics, N).call([Q[:, :-1], Q[:, 1:], U, H, Pm])
     effort, kinetic = interval_cost.map(N).call([Q[:, :-1], Q[:, 1:], U, H])
     cost = ca.sum2(w_tau * effort) + ca.sum2(w_T * kinetic)
+    if exploration is not None and exploration[1] > 0:
+        (reward,) = grid_map(_midpoint_function(exploration[0], n, n_par), N).call([Q[:, :-1], Q[:, 1:], H, Pm])
+        cost = cost - float(exploration[1]) * ca.sum2(H * reward)
     g = node_constraints(chain, prob, Q, left, right)
     if path is not None:
         g.append(ca.vec(values))
@@ -162,6 +168,13 @@ def nlp_expressions(
     # node momenta for the Legendre transforms: p_0 = -left_0, p_k = right_k-1
     momenta = ca.horzcat(-left[:, 0], right)
     return NlpExpressions(x, par, cost, ca.vertcat(*g), momenta)
+
+
+def _midpoint_function(fn: ca.Function, ndof: int, n_par: int) -> ca.Function:
+    """``(qa, qb, h, p) -> fn(q_k+1/2, v_k, p)``: a midpoint function of the grid (SX)."""
+    qa, qb, h, p = ca.SX.sym("qa", ndof), ca.SX.sym("qb", ndof), ca.SX.sym("h"), ca.SX.sym("p", n_par)
+    value = _prepare_path(fn, ndof, n_par)(0.5 * (qa + qb), (qb - qa) / h, p)
+    return ca.Function("midpoint_value", [qa, qb, h, p], [value], ["qa", "qb", "h", "p"], ["value"])
 
 
 def _prepare_path(path: ca.Function, ndof: int, n_par: int) -> ca.Function:
@@ -201,6 +214,9 @@ class Transcription:
     #: ``"convex"``: the path constraint's Hessian term in IPOPT's Newton model is its positive
     #: semidefinite part (1-DOF chains; :func:`.derivatives.psd_part_2x2`), ``"exact"``: as derived
     path_hessian: str = "convex"
+    #: optional exploration term ``(fn, w)``: the cost rewards ``fn`` (the ensemble's force variance)
+    #: along the motion (:func:`nlp_expressions`); its derivatives are CasADi's
+    exploration: tuple[ca.Function, float] | None = None
     #: the passive-motion initial guess (:mod:`.solve`), kept once computed for a contact
     #: without parameters: it depends on nothing but this NLP
     passive_guess: FloatArray | None = field(default=None, init=False, repr=False, compare=False)
@@ -218,8 +234,12 @@ class Transcription:
             raise ValueError(f"graph: must be 'MX' or 'SX', got {self.graph!r}")
         if self.path is not None:
             self.path = _prepare_path(self.path, n, self.n_par)
+        exploring = self.exploration is not None and self.exploration[1] > 0
         if self.derivatives == "auto":
-            self.derivatives = "structured" if self.graph == "MX" else "casadi"
+            # the structured blocks hold the running cost of the effort and the kinetic energy only
+            self.derivatives = "structured" if self.graph == "MX" and not exploring else "casadi"
+        if exploring and self.derivatives == "structured":
+            raise ValueError("derivatives: an exploration term needs 'casadi' (the structured blocks do not hold it)")
         if self.path_hessian not in ("exact", "convex"):
             raise ValueError(f"path_hessian: must be 'exact' or 'convex', got {self.path_hessian!r}")
         if self.derivatives not in ("structured", "casadi"):
@@ -229,7 +249,7 @@ class Transcription:
         self._derivative_options: SolverOptions = {}
         self._nlp: dict[str, ca.MX] | dict[str, ca.SX]
         if self.graph == "MX":
-            mx = nlp_expressions(ca.MX, chain, prob, dynamics, interval_cost, self.n_par, self.path)
+            mx = nlp_expressions(ca.MX, chain, prob, dynamics, interval_cost, self.n_par, self.path, self.exploration)
             self._nlp = {"x": mx.x, "p": mx.par, "f": mx.cost, "g": mx.g}
             self._momenta = ca.Function("momenta", [mx.x, mx.par], [mx.momenta])
             n_constraints = mx.g.shape[0]
@@ -249,7 +269,7 @@ class Transcription:
                 )
                 self._derivative_options = {"jac_g": jac_g, "hess_lag": hess_lag}
         else:
-            sx = nlp_expressions(ca.SX, chain, prob, dynamics, interval_cost, self.n_par, self.path)
+            sx = nlp_expressions(ca.SX, chain, prob, dynamics, interval_cost, self.n_par, self.path, self.exploration)
             self._nlp = {"x": sx.x, "p": sx.par, "f": sx.cost, "g": sx.g}
             self._momenta = ca.Function("momenta", [sx.x, sx.par], [sx.momenta])
             n_constraints = sx.g.shape[0]

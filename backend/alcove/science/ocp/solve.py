@@ -212,13 +212,17 @@ def get_transcription(
     ipopt_options: Mapping[str, OptionValue] | None = None,
     graph: str = "MX",
     path: PathConstraint | None = None,
+    exploration: PathConstraint | None = None,
 ) -> Transcription:
-    """The cached transcription for (task, contact structure, options, graph, path constraint); built on first use.
+    """The cached transcription for (task, contact structure, options, graph, path constraint,
+    exploration term); built on first use.
 
     The cache holds the last ``CACHE_SIZE`` transcriptions of the calling thread.
     """
     cache = _cache()
     path_key = "none" if path is None else f"{_contact_key(path[0])}<={float(path[1])!r}"
+    if exploration is not None and exploration[1] > 0:
+        path_key += f";explore {_contact_key(exploration[0])}*{float(exploration[1])!r}"
     key = (task.model_dump_json(), _contact_key(contact), repr(sorted((ipopt_options or {}).items())), graph, path_key)
     if key in cache:
         cache.move_to_end(key)
@@ -231,6 +235,7 @@ def get_transcription(
         graph,
         path=None if path is None else path[0],
         path_upper=np.inf if path is None else float(path[1]),
+        exploration=None if exploration is None or exploration[1] <= 0 else (exploration[0], float(exploration[1])),
     )
     cache[key] = tr
     while len(cache) > CACHE_SIZE:
@@ -372,6 +377,7 @@ def solve_task(
     graph: str = "MX",
     on_attempt: Callable[[AttemptRecord], None] | None = None,
     path: PathConstraint | None = None,
+    exploration: PathConstraint | None = None,
 ) -> OcpSolution:
     """Solve ``task`` with the contact model ``contact`` (``None``: no contact).
 
@@ -385,12 +391,14 @@ def solve_task(
     iterations; worth it when one task and contact are solved many times).
     ``ipopt_options`` are merged into the nlpsol options. ``on_attempt`` receives the
     record of every IPOPT run. ``path``: an optional path constraint ``(fn, upper)``,
-    ``fn(q, qd[, p]) <= upper`` at every interval midpoint (the trust region).
+    ``fn(q, qd[, p]) <= upper`` at every interval midpoint (the trust region). ``exploration``:
+    an optional ``(fn, w)``, the cost minus ``w sum_k h_k fn(q_k+1/2, v_k[, p])`` (with the
+    ensemble's force variance: a reward for motions where the members disagree; w = 0: none).
     """
     if max_attempts < 1:
         raise ValueError("max_attempts: must be >= 1")
     t_start = time.perf_counter()
-    tr = get_transcription(task, contact, ipopt_options, graph, path)
+    tr = get_transcription(task, contact, ipopt_options, graph, path, exploration)
     if tr.n_par and contact_params is None:
         raise ValueError("contact_params: the contact function takes parameters; pass their values")
     if contact_params is not None:

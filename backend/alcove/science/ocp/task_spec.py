@@ -372,6 +372,19 @@ class TaskSpec(_Strict):
         "truncated normal or triangular; alcove.science.ocp.scenarios); null or empty: the task has one "
         "scenario, itself",
     )
+    exploration_weight: Annotated[
+        float,
+        quantity(
+            "weight of the exploration term: with a surrogate ensemble, the cost rewards the members' "
+            "disagreement along the motion, minus w times the integral of their force variance "
+            "sigma_F^2 over the interval midpoints (docs/active-learning.md); with the aux contact or one "
+            "model it is 0",
+            "1/(N^2 s)",
+            ge=0,
+            le=MAX_WEIGHT,
+            why="0: the paper's loop",
+        ),
+    ] = 0.0
 
     @model_validator(mode="after")
     def _consistent(self) -> TaskSpec:
