@@ -75,3 +75,43 @@ def test_a_family_range_the_task_cannot_reach_is_refused_naming_it(campaign_db: 
     (problem,) = err.value.detail()
     assert problem["loc"] == ["body", "settings", "family_ranges", "depth"]
     assert "leaves the joint range" in problem["msg"]
+
+
+def test_pool_version_0_can_start_from_oracle_replays_of_the_family_counted_as_oracle_calls(
+    campaign_db: str, make_campaign: Any
+) -> None:
+    """preliminary.family_motions 3: pool version 0 holds the auxiliary law's samples and the
+    oracle's replays of the family's first 3 motions (origin oracle, 3 oracle runs of iteration 0);
+    a press-family campaign's iterations then continue the sequence after them; model 1's members
+    drop the auxiliary law's contact samples (their training splits hold oracle data)."""
+    from alcove.campaigns import protocol
+    from alcove.campaigns.candidate_repository import family_motion_indices
+    from alcove.db import session_scope, transaction
+    from alcove.models import Dataset, Iteration, ModelVersion, OracleRun, PoolVersion
+    from tests.integration.procs import db_rows
+
+    cid, jobs = make_campaign(
+        seed=6,
+        preliminary={"family_motions": 3},
+        settings={"strategy": "press-family", "batch": 1, "validation_motions": 0},
+        stopping={"max_iterations": 1},
+    )
+    protocol.drive_inline(cid, jobs)
+    with session_scope() as s:
+        it0 = s.query(Iteration).filter_by(campaign_id=cid, index=0).one()
+        runs = s.query(OracleRun).filter_by(iteration_id=it0.id).order_by(OracleRun.slot).all()
+        assert [(r.slot, r.status, r.ocp_solution_id) for r in runs] == [
+            (0, "ok", None),
+            (1, "ok", None),
+            (2, "ok", None),
+        ]
+        pv0 = s.query(PoolVersion).filter_by(campaign_id=cid, version=0).one()
+        origins = [d.origin for d in s.query(Dataset).filter(Dataset.iteration_id == it0.id)]
+        assert origins.count("oracle") == 3 and origins.count("preliminary") == 4  # the quick config's 4 chunks
+        assert pv0.n_datasets == 7
+        from alcove.surrogates.service import load_model
+
+        lineage = load_model(s, s.query(ModelVersion).filter_by(campaign_id=cid, version=1).one()).lineage
+    assert transaction(lambda s: family_motion_indices(s, cid, 2)) == [3]  # iteration 1 replayed motion 3
+    assert db_rows(campaign_db, "SELECT count(*) FROM oracle_runs WHERE campaign_id = :c", c=cid) == [(4,)]
+    assert "drop" in str(lineage.get("preliminary_in_contact"))

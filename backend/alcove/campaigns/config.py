@@ -35,6 +35,17 @@ class PreliminaryConfig(_Strict):
     dataset_ids: list[Annotated[int, Field(ge=1, le=2**31 - 1)]] | None = Field(
         None, description="uploaded datasets to use instead of LHS samples"
     )
+    family_motions: int = Field(
+        0,
+        ge=0,
+        le=256,
+        description=(
+            "oracle replays in pool version 0 beside the auxiliary law's samples: the first of the task's press "
+            "family (the space-filling sequence strategy press-family draws from, seeded by the campaign seed; "
+            "settings.family_ranges), counted as oracle calls; with them the first model learns contact from the "
+            "oracle, not the auxiliary law (preliminary_in_contact). 0 to 256; 0: none"
+        ),
+    )
 
 
 class StoppingRules(_Strict):

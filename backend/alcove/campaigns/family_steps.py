@@ -5,7 +5,7 @@ slot then replays whole."""
 from __future__ import annotations
 
 from dataclasses import asdict
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 from alcove.campaigns import candidate_repository as candidate_repo
 from alcove.campaigns import candidates
@@ -36,7 +36,8 @@ def family_motion(ctx: StepContext) -> StepOutput:
         if mv is None:
             raise RuntimeError(f"model version {ctx.k} does not exist")
         task, seed = ctx.task(s, c), c.seed
-        used = candidate_repo.family_motion_indices(s, c.id, ctx.k)
+        # the preliminary replays are the sequence's first motions; the iterations' follow them
+        used = [*range(ctx.config.preliminary.family_motions), *candidate_repo.family_motion_indices(s, c.id, ctx.k)]
     settings = ctx.config.settings
     model = suite_model(task)
     box = family_box(settings, task, model)
@@ -56,3 +57,31 @@ def family_motion(ctx: StepContext) -> StepOutput:
     stored = {**nominal, "motion": asdict(motion), "motion_index": index}
     out = solving_steps.prescribe(ctx.run, t=traj.t, q=traj.q, qd=traj.qd, model_version_id=mv.id, motion=stored)
     return StepOutput(candidates.storing_scenario(out.write, stored, features, settings.strategy), out.compute_s)
+
+
+def preliminary_replays(ctx: StepContext, task: Any, seed: int, oracle_version_id: int) -> Any:
+    """The write of pool version 0's press-family replays: the first ``preliminary.family_motions``
+    motions of the family's sequence replayed by the oracle (:func:`alcove.oracles.steps.replay_motions`)."""
+    from alcove.oracles import steps as oracle_steps
+    from alcove.science.press_family import sequence_motion
+    from alcove.science.validation_suite import ChainSuiteModel, chain_press_trajectory
+
+    settings = ctx.config.settings
+    model = suite_model(task)
+    box = family_box(settings, task, model)
+    dt = settings.replay_dt or 0.0025
+    theta = (model.theta_min, model.theta_max)
+    trajectories = []
+    for i in range(ctx.config.preliminary.family_motions):
+        motion = sequence_motion(box, seed, i, theta)
+        if isinstance(model, ChainSuiteModel):
+            trajectories.append(chain_press_trajectory(motion, dt, model, task.model.pose_function()))
+        else:
+            trajectories.append(motion.trajectory(dt))
+    return oracle_steps.replay_motions(
+        ctx.run,
+        oracle_version_id=oracle_version_id,
+        preset=task.model.oracle_preset(),
+        trajectories=trajectories,
+        label="press-family",
+    )

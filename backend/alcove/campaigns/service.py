@@ -99,9 +99,10 @@ def _check_suite(s: Session, cfg: CampaignConfig, task_version_id: int) -> None:
     from alcove.campaigns.validation import suite_problem
     from alcove.tasks.service import load_task
 
-    if cfg.settings.validation_motions == 0 and cfg.settings.strategy != "press-family":
+    family = cfg.settings.strategy == "press-family" or cfg.preliminary.family_motions > 0
+    if cfg.settings.validation_motions == 0 and not family:
         return
-    problem = suite_problem(cfg.settings, load_task(s, task_version_id))
+    problem = suite_problem(cfg.settings, load_task(s, task_version_id), family)
     if problem is not None:
         raise InvalidInput.one(*problem)
 

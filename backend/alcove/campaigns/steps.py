@@ -129,7 +129,13 @@ def preliminary(ctx: StepContext) -> StepOutput:
     pre = ctx.config.preliminary
     with session_scope() as s:
         c = repo.get_campaign(s, ctx.campaign_id)
-        model, seed = ctx.task(s, c).model, c.seed
+        task, seed, oracle_version_id = ctx.task(s, c), c.seed, c.oracle_version_id
+    model = task.model
+    measured = None
+    if pre.family_motions > 0:  # oracle replays of the task's press family beside the auxiliary law
+        from alcove.campaigns.family_steps import preliminary_replays
+
+        measured = preliminary_replays(ctx, task, seed, oracle_version_id)
     spec = pool_steps.PreliminarySpec(
         samples=pre.samples,
         velocity_bound=pre.velocity_bound,
@@ -139,8 +145,8 @@ def preliminary(ctx: StepContext) -> StepOutput:
         meta={"lhs": pre.model_dump(mode="json")},
     )
     if model.is_chain:  # samples over the chain's joint box, the wrench from its head's pose
-        return pool_steps.build_preliminary(ctx.run, spec, model.oracle_preset(), model)
-    return pool_steps.build_preliminary(ctx.run, spec, model.to_preset())
+        return pool_steps.build_preliminary(ctx.run, spec, model.oracle_preset(), model, measured)
+    return pool_steps.build_preliminary(ctx.run, spec, model.to_preset(), measured=measured)
 
 
 class _TrainInputs(TypedDict):

@@ -85,13 +85,14 @@ def suite_spec(settings: Any, task: Any, model: Any) -> Any:
     )
 
 
-def suite_problem(settings: Any, task: Any) -> tuple[str, str] | None:
+def suite_problem(settings: Any, task: Any, family: bool | None = None) -> tuple[str, str] | None:
     """Why the suite or the press family the settings ask for on ``task`` cannot be drawn, as
-    (field, reason), or None."""
+    (field, reason), or None (``family``: whether the campaign draws family motions; default:
+    when its strategy is ``press-family``)."""
     from alcove.science.press_family import RangeError
 
     suite = settings.validation_motions > 0
-    family = settings.strategy == "press-family"
+    family = settings.strategy == "press-family" if family is None else family
     if not (suite or family):
         return None
     model = suite_model(task)

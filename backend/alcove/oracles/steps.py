@@ -8,6 +8,7 @@ from __future__ import annotations
 import json
 import threading
 import time
+from collections.abc import Callable
 from datetime import datetime
 from typing import TYPE_CHECKING, Any
 
@@ -150,6 +151,78 @@ def replay(
     if not ok:
         raise UnusableResult(f"oracle result quarantined: {reason}", write=write)
     return StepOutput(write, compute_s=compute)
+
+
+def replay_motions(
+    run: StepRun, *, oracle_version_id: int, preset: HeadNeckPreset, trajectories: list[Any], label: str
+) -> Callable[[Session, IterationRef], list[Any]]:
+    """Replay prescribed motions (no OCP) in the oracle, one after the other, outside any
+    transaction; the write records one oracle run per motion in the iteration (slots 0, 1, ...;
+    they count as the campaign's oracle calls) and returns the datasets (origin ``oracle``) of
+    those that passed the quality gate; a refused one is quarantined with its reason."""
+    with session_scope() as s:
+        oracle = load_oracle(s, oracle_version_id, preset)
+    results = []
+    for traj in trajectories:
+        run.check_cancel()
+        started = utcnow()
+        results.append((traj, started, oracle.run(traj, cancel=run.cancelled), utcnow()))
+
+    def write(s: Session, at: IterationRef) -> list[Any]:
+        stored = []
+        for i, (traj, started, res, finished) in enumerate(results):
+            f = res.forces
+            row = OracleRun(
+                campaign_id=at.campaign_id,
+                iteration_id=at.iteration_id,
+                slot=i,
+                oracle_version_id=oracle_version_id,
+                ocp_solution_id=None,
+                attempt=run.attempt,
+                status="ok" if res.ok else "quarantined",
+                worker_name=run.worker,
+                started_at=started,
+                finished_at=finished,
+                wall_time_s=float(res.wall_time),
+                failure_reason=None if res.ok else res.failure_reason,
+                diagnostics=json_safe(res.diagnostics),
+                input_sha256=put_arrays(s, {"t": traj.t, "q": traj.q, "qd": traj.qd}),
+                output_sha256=put_arrays(s, {"t": f.t, "f": np.hstack([f.force, f.moment])}) if f is not None else None,
+            )
+            s.add(row)
+            s.flush()
+            if not res.ok or f is None:
+                s.add(
+                    QuarantinedResult(
+                        oracle_run_id=row.id,
+                        campaign_id=at.campaign_id,
+                        iteration_id=at.iteration_id,
+                        reason=res.failure_reason or "quality gate failed",
+                        gate=json_safe(res.diagnostics),
+                        output_sha256=row.output_sha256,
+                    )
+                )
+                continue
+            same_grid = len(f.t) == len(traj.t) and np.allclose(f.t, traj.t, rtol=0, atol=1e-12)
+            on_grid = traj if same_grid else traj.resample(f.t)
+            stored.append(
+                store_dataset(
+                    s,
+                    t=f.t,
+                    q=on_grid.q,
+                    qd=on_grid.qd,
+                    f=np.hstack([f.force, f.moment]),
+                    origin="oracle",
+                    name=f"{label}-{i:03d}",
+                    campaign_id=at.campaign_id,
+                    iteration_id=at.iteration_id,
+                    oracle_run_id=row.id,
+                    meta={"oracle_version_id": oracle_version_id},
+                )
+            )
+        return stored
+
+    return write
 
 
 def failed_run(run: StepRun, oracle_version_id: int, started: datetime, message: str) -> WriteRows:

@@ -4,6 +4,7 @@ protocol; see :mod:`alcove.jobs.steps`."""
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
@@ -29,9 +30,17 @@ class PreliminarySpec:
     meta: dict[str, Any]
 
 
-def build_preliminary(run: StepRun, spec: PreliminarySpec, preset: Any, model: Any = None) -> StepOutput:
+def build_preliminary(
+    run: StepRun,
+    spec: PreliminarySpec,
+    preset: Any,
+    model: Any = None,
+    measured: Callable[[Session, IterationRef], list[Any]] | None = None,
+) -> StepOutput:
     """Pool version 0 of a campaign. ``model``: the task's ``ModelSpec`` when it is a chain
-    (samples over its joint box, the wrench from its head's pose); None: the 1-DOF ``preset``."""
+    (samples over its joint box, the wrench from its head's pose); None: the 1-DOF ``preset``.
+    ``measured``: a write that stores more datasets for version 0 (the oracle's replays of a
+    press family) and returns them."""
     pool = None
     if not spec.dataset_ids:
         from alcove.science.surrogate.preliminary import chain_box, chain_preliminary_pool, preliminary_pool
@@ -71,6 +80,8 @@ def build_preliminary(run: StepRun, spec: PreliminarySpec, preset: Any, model: A
             ]
         else:
             new = repo.datasets(s, list(spec.dataset_ids or []))
+        if measured is not None:
+            new = [*new, *measured(s, at)]
         pv = create_version(
             s, campaign_id=at.campaign_id, iteration_id=at.iteration_id, version=0, parent=None, new_datasets=new
         )

@@ -3417,6 +3417,12 @@ export interface components {
              */
             dataset_ids?: number[] | null;
             /**
+             * Family Motions
+             * @description oracle replays in pool version 0 beside the auxiliary law's samples: the first of the task's press family (the space-filling sequence strategy press-family draws from, seeded by the campaign seed; settings.family_ranges), counted as oracle calls; with them the first model learns contact from the oracle, not the auxiliary law (preliminary_in_contact). 0 to 256; 0: none
+             * @default 0
+             */
+            family_motions?: number;
+            /**
              * Samples
              * @description LHS sample count K
              * @default 4000
