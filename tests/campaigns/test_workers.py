@@ -18,6 +18,7 @@ from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 import pytest
 import sqlalchemy as sa
 
@@ -76,7 +77,8 @@ def pool_hashes(url: str, cid: int) -> list[tuple[int, str, int]]:
 
 def test_alcove_campaign_run_on_the_embedded_default(tmp_path: Path) -> None:
     cfg = tmp_path / "quick.yaml"
-    cfg.write_text(QUICK_YAML)
+    # the suite's best-possible line from 4 reference replays, computed by the spawned worker
+    cfg.write_text(QUICK_YAML.replace("validation_reference_motions: 0", "validation_reference_motions: 4"))
     env = env_for(data_dir=tmp_path / "data")
     r = subprocess.run(
         [
@@ -109,7 +111,11 @@ def test_alcove_campaign_run_on_the_embedded_default(tmp_path: Path) -> None:
     # the paper's strategy (the default) solves the task as written: no scenario per iteration
     assert [m["scenario"] for m in out["metrics"]] == [None, None]
     # the held-out validation suite was replayed by the spawned worker and every model version evaluated on it
-    assert out["validation_suite"]["status"] == "complete" and out["validation_suite"]["motions_done"] == 2
+    assert out["validation_suite"]["status"] == "complete" and out["validation_suite"]["motions_done"] == 2 + 4
+    assert out["validation_suite"]["n_reference_motions"] == 4 and out["validation_suite"]["best_possible_computed"]
+    ((line,),) = [out["best_possible"]]
+    assert line["oracle_calls"] == 4 and np.isfinite(line["force_rmse"]) and line["force_rmse"] > 0
+    assert line["force_rmse"] ** 2 == pytest.approx(line["fx_rmse"] ** 2 + line["fz_rmse"] ** 2, rel=1e-9)
     assert all(m["validation_force_rmse"] > 0 and m["validation_moment_rmse"] > 0 for m in out["metrics"])
     assert out["last"]["validation_force_rmse"] == out["metrics"][-1]["validation_force_rmse"]
     # per component, in the loop and on the suite: the vector RMSE squared is the sum of its components'
@@ -139,7 +145,9 @@ def test_alcove_campaign_run_on_the_embedded_default(tmp_path: Path) -> None:
     )
     assert json.loads(st.stdout)["campaign"]["status"] == "completed"
     st = subprocess.run([*CLI, "campaign", "status", str(cid)], env=env, capture_output=True, text=True, timeout=60)
-    assert " · validation F " in st.stdout and "validation suite" in st.stdout and "2/2 motions replayed" in st.stdout
+    assert " · validation F " in st.stdout and "validation suite" in st.stdout
+    assert "6/6 motions replayed (4 for the best-possible line)" in st.stdout
+    assert f"spread over the suite's range): 4 calls {line['force_rmse']:.3g} N" in st.stdout
     ex = subprocess.run(
         [*CLI, "campaign", "export", str(cid), "--out", str(tmp_path / "export"), "--format", "csv", "--no-models"],
         env=env,

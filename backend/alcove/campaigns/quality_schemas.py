@@ -61,6 +61,12 @@ class ValidationSuiteRead(BaseModel):
         "[-] (release and reload absent: simple presses)",
     )
     stress_ranges: dict[str, list[float]] | None = Field(None, description="the stress motions' ranges (null: none)")
+    n_reference_motions: int = Field(
+        0, description="of the n_motions, the best-possible line's training replays (never scored; 0: no line)"
+    )
+    best_possible_computed: bool = Field(
+        False, description="the suite's best-possible line is computed (GET .../validation: best_possible)"
+    )
 
 
 class ValidationReference(BaseModel):

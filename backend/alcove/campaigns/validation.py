@@ -165,6 +165,8 @@ def suite_read(s: Session, campaign: Campaign) -> ValidationSuiteRead | None:
         n_stress_motions=int((suite.spec or {}).get("stress_motions", 0)),
         ranges=dict((suite.spec or {}).get("ranges") or {}),
         stress_ranges=(suite.spec or {}).get("stress"),
+        n_reference_motions=int((suite.spec or {}).get("reference_motions", 0)),
+        best_possible_computed=suite.reference is not None,
     )
 
 

@@ -4743,6 +4743,12 @@ export interface components {
          *     oracle version and suite spec).
          */
         ValidationSuiteRead: {
+            /**
+             * Best Possible Computed
+             * @description the suite's best-possible line is computed (GET .../validation: best_possible)
+             * @default false
+             */
+            best_possible_computed?: boolean;
             /** Error */
             error?: string | null;
             /** Id */
@@ -4754,6 +4760,12 @@ export interface components {
             motions_done: number;
             /** N Motions */
             n_motions: number;
+            /**
+             * N Reference Motions
+             * @description of the n_motions, the best-possible line's training replays (never scored; 0: no line)
+             * @default 0
+             */
+            n_reference_motions?: number;
             /**
              * N Stress Motions
              * @description of the n_motions, those of the stress part (beyond the task's reach; scored apart)

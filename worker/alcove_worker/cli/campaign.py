@@ -215,10 +215,20 @@ def _print_status(campaign_id: int, as_json: bool) -> None:
     v = detail.validation
     if v is not None:
         typer.echo(
-            f"validation suite {v.id}: {v.status}, {v.motions_done}/{v.n_motions} motions replayed, "
-            f"shared by {v.shared_by} campaign(s)"
+            f"validation suite {v.id}: {v.status}, {v.motions_done}/{v.n_motions} motions replayed"
+            + (f" ({v.n_stress_motions} stress)" if v.n_stress_motions else "")
+            + (f" ({v.n_reference_motions} for the best-possible line)" if v.n_reference_motions else "")
+            + f", shared by {v.shared_by} campaign(s)"
             + (f", replayed in {v.replay_wall_time_s:.1f} s" if v.replay_wall_time_s is not None else "")
             + (f" ({v.error})" if v.error else "")
+        )
+    if v is not None and v.best_possible_computed:
+        from alcove_worker.cli.follow import best_possible_points
+
+        points = best_possible_points(c.id) or []
+        typer.echo(
+            "best possible (models from scratch on that many oracle replays spread over the suite's range): "
+            + ", ".join(f"{p['oracle_calls']} calls {p['force_rmse']:.3g} N (fx {p['fx_rmse']:.3g} N)" for p in points)
         )
     if c.error:
         typer.echo(f"error: {c.error}")

@@ -211,16 +211,20 @@ def follow(
 def wait_validation(
     campaign_id: int, *, timeout: float = 600.0, poll: float = 0.25, worker: subprocess.Popen[bytes] | None = None
 ) -> Any:
-    """After the campaign: wait until its validation suite is replayed and every model version is
-    evaluated on it (the suite's motions may still be running on the oracle workers), or failed."""
+    """After the campaign: wait until its validation suite is replayed, every model version is
+    evaluated on it (the suite's motions may still be running on the oracle workers) and its
+    best-possible line is computed (if it asks for one), or the suite failed."""
     end = time.monotonic() + timeout
     while True:
         detail = read_detail(campaign_id)
         v = detail.validation
         if v is None or v.status == "failed":
             return detail
-        if v.status == "complete" and all(
-            m["validation_force_rmse"] is not None for m in read_metrics(campaign_id) if m["model_version_id"]
+        line_done = v.n_reference_motions == 0 or v.best_possible_computed
+        if (
+            v.status == "complete"
+            and line_done
+            and all(m["validation_force_rmse"] is not None for m in read_metrics(campaign_id) if m["model_version_id"])
         ):
             return detail
         if time.monotonic() > end or (worker is not None and worker.poll() is not None):
@@ -274,10 +278,34 @@ def summary(detail: Any, metrics: list[dict[str, Any]], wall: float | None = Non
     out["step_median_s"] = _step_medians(c.id)
     v = detail.validation
     out["validation_suite"] = v.model_dump(mode="json") if v is not None else None
+    out["best_possible"] = best_possible_points(c.id) if v is not None and v.best_possible_computed else None
     if metrics:
         out["first"] = {**{k: metrics[0].get(k) for k in _FIRST_LAST}, **component_fields(metrics[0])}
         out["last"] = {**{k: metrics[-1].get(k) for k in _FIRST_LAST}, **component_fields(metrics[-1])}
     return out
+
+
+def best_possible_points(campaign_id: int) -> list[dict[str, Any]] | None:
+    """The suite's best-possible line: per oracle budget, force, fx, fz and my RMSE and the calibration."""
+    from alcove.campaigns.validation import validation_series
+    from alcove.db import session_scope
+    from alcove.models import Campaign
+
+    with session_scope() as s:
+        c = s.get(Campaign, campaign_id)
+        line = validation_series(s, c).best_possible if c is not None else None
+    if line is None:
+        return None
+    return [
+        {
+            "oracle_calls": p.budget,
+            "force_rmse": p.force_rmse,
+            "moment_rmse": p.moment_rmse,
+            **{f"{k}_rmse": p.components.get(k) for k in ("fx", "fz", "my")},
+            "calibration": p.calibration,
+        }
+        for p in line.points
+    ]
 
 
 def _step_medians(campaign_id: int) -> dict[str, dict[str, float]]:
