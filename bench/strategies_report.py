@@ -231,9 +231,11 @@ def picks(results: dict[str, Any]) -> dict[str, Any]:
         row: dict[str, Any] = {
             "replayed": len(chosen),
             "in_loop_force_rmse_mean": statistics.fmean(err) if err else None,
+            # where the replayed scenarios land (none drawn: press-family replays motions of the nominal task)
             "scaled_mean": {
                 k: statistics.fmean((c["values"][k] - lo) / (hi - lo) for c in chosen if c["values"])
                 for k, (lo, hi) in RANGES.items()
+                if any(c["values"] for c in chosen)
             },
         }
         scored = [c["score"] for c in chosen if c["score"] is not None]
@@ -250,17 +252,25 @@ def picks(results: dict[str, Any]) -> dict[str, Any]:
     return out
 
 
-def print_table(results: dict[str, Any], summ: dict[str, Any]) -> None:
-    """Per strategy and budget, the median over seeds (min - max) of the suite's force, fx, fz, my
-    RMSE and calibration, and the force and fx medians over the best-possible line's."""
-    from rich.console import Console
-    from rich.table import Table
+COLUMNS = (
+    "strategy",
+    "oracle calls",
+    "seeds",
+    "force [N]",
+    "fx [N]",
+    "fz [N]",
+    "my [N m]",
+    "calibration",
+    "force / best",
+    "fx / best",
+)
 
-    console = Console() if sys.stdout.isatty() else Console(width=200)
-    t = Table(title=f"validation-suite error at equal oracle budgets ({results['oracle']}, {results['task']})")
-    columns = ["strategy", "oracle calls", "seeds", "force [N]", "fx [N]", "fz [N]", "my [N m]", "calibration"]
-    for c in [*columns, "force / best", "fx / best"]:
-        t.add_column(c, justify="left" if c == "strategy" else "right")
+
+def table_rows(summ: dict[str, Any]) -> list[list[str]]:
+    """Per strategy and budget, the cells of :data:`COLUMNS`: the median over seeds (min - max) of
+    the suite's force, fx, fz, my RMSE and calibration, and the force and fx medians over the
+    best-possible line's."""
+    out = []
     best = summ["table"].get(BEST, {})
     for strat, rows in summ["table"].items():
         for b, r in sorted(rows.items()):
@@ -273,9 +283,29 @@ def print_table(results: dict[str, Any], summ: dict[str, Any]) -> None:
             for q in ("force", "fx"):
                 ref = best.get(b, {}).get("spread", {}).get(q)
                 ratios.append(f"{sp[q]['median'] / ref['median']:.2f}" if ref and q in sp else "")
-            t.add_row(strat, str(b), str(r["n"]), *cells, *ratios)
+            out.append([strat, str(b), str(r["n"]), *cells, *ratios])
+    return out
+
+
+def print_table(results: dict[str, Any], summ: dict[str, Any]) -> None:
+    from rich.console import Console
+    from rich.table import Table
+
+    console = Console() if sys.stdout.isatty() else Console(width=200)
+    t = Table(title=f"validation-suite error at equal oracle budgets ({results['oracle']}, {results['task']})")
+    for c in COLUMNS:
+        t.add_column(c, justify="left" if c == "strategy" else "right")
+    for row in table_rows(summ):
+        t.add_row(*row)
     console.print(t)
     console.print(json.dumps({"goals": summ["goals"], "picks": summ["picks"]}, indent=1))
+
+
+def markdown(summ: dict[str, Any]) -> str:
+    """The table of :func:`print_table` in Markdown (for docs/active-learning.md)."""
+    lines = ["| " + " | ".join(COLUMNS) + " |", "| " + " | ".join(["---"] * len(COLUMNS)) + " |"]
+    lines += ["| " + " | ".join(row) + " |" for row in table_rows(summ)]
+    return "\n".join(lines) + "\n"
 
 
 def plot(results: dict[str, Any], summ: dict[str, Any], path: Path) -> None:
@@ -340,6 +370,7 @@ def report(results: dict[str, Any], out: Path, plot_path: Path) -> dict[str, Any
     out.parent.mkdir(parents=True, exist_ok=True)
     write_atomic(out, results)
     plot(results, summ, plot_path)
+    out.with_suffix(".md").write_text(markdown(summ))
     print_table(results, summ)
     print(f"wrote {out} and {plot_path}")
     return summ
