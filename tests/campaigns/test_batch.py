@@ -207,6 +207,10 @@ def test_the_cost_axes_add_up_oracle_calls_and_iteration_wall_time_until_each_ev
         picks.Cost(3, 0, at[6], None, None),
     ]
     assert picks.cumulative_costs(costs) == {1: (1, 1, 8.0), 2: (3, 4, 20.0), 3: (0, 4, 25.0)}
+    # iteration 0 with 2 oracle calls (pool version 0's press-family replays), 100 s of preliminary
+    # work: its calls count for every later iteration, its wall time does not
+    zero = picks.Cost(0, 2, t0 - timedelta(seconds=100), t0, None)
+    assert picks.cumulative_costs([zero, *costs]) == {0: (2, 2, 0.0), 1: (1, 3, 8.0), 2: (3, 6, 20.0), 3: (0, 6, 25.0)}
 
 
 def test_retrying_a_batch_slot_that_failed_the_campaign_runs_the_slots_it_cancelled_too(

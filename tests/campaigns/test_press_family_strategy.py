@@ -114,4 +114,9 @@ def test_pool_version_0_can_start_from_oracle_replays_of_the_family_counted_as_o
         lineage = load_model(s, s.query(ModelVersion).filter_by(campaign_id=cid, version=1).one()).lineage
     assert transaction(lambda s: family_motion_indices(s, cid, 2)) == [3]  # iteration 1 replayed motion 3
     assert db_rows(campaign_db, "SELECT count(*) FROM oracle_runs WHERE campaign_id = :c", c=cid) == [(4,)]
+    from alcove.campaigns.results import metrics_series
+
+    with session_scope() as s:
+        (row,) = metrics_series(s, cid)
+    assert (row.oracle_calls, row.cumulative_oracle_calls) == (1, 4)  # iteration 0's 3 replays count
     assert "drop" in str(lineage.get("preliminary_in_contact"))

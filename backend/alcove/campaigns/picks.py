@@ -163,9 +163,10 @@ def _seconds(a: datetime | None, b: datetime | None) -> float:
 
 
 def _costs(s: Session, c: Campaign) -> list[Cost]:
-    """Iterations 1.. of the campaign's lineage: its sources' up to the fork point, then its own."""
+    """Iterations 0.. of the campaign's lineage: its sources' up to the fork point, then its own
+    (iteration 0's oracle calls are pool version 0's press-family replays, if any)."""
     out: list[Cost] = []
-    first = 1
+    first = 0
     if c.source_campaign_id is not None and c.source_iteration is not None:
         src = s.get(Campaign, c.source_campaign_id)
         if src is not None:
@@ -186,14 +187,16 @@ def _costs(s: Session, c: Campaign) -> list[Cost]:
 def cumulative_costs(costs: list[Cost]) -> dict[int, tuple[int, int, float]]:
     """Per iteration index: (its oracle calls, the oracle calls of it and every iteration before,
     the wall time of every iteration before from start to end plus its own from its start until
-    its evaluation, or its end if it has no metrics row) over ``costs`` in lineage order."""
+    its evaluation, or its end if it has no metrics row) over ``costs`` in lineage order. Iteration
+    0 (the preliminary data) counts its oracle calls (press-family replays), not its wall time."""
     at: dict[int, tuple[int, int, float]] = {}
     calls = 0
     wall = 0.0
     for r in costs:
-        at[r.index] = (r.calls, calls + r.calls, wall + _seconds(r.started, r.evaluated or r.finished))
+        own_wall = _seconds(r.started, r.evaluated or r.finished) if r.index > 0 else 0.0
+        at[r.index] = (r.calls, calls + r.calls, wall + own_wall)
         calls += r.calls
-        wall += _seconds(r.started, r.finished)
+        wall += _seconds(r.started, r.finished) if r.index > 0 else 0.0
     return at
 
 
