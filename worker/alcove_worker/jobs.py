@@ -99,9 +99,13 @@ def validation_motion(self: Any, motion_id: int) -> str:
 
 @app.task(name=EVALUATE_JOB, bind=True, acks_late=True)
 def validation_evaluate(self: Any, suite_id: int) -> int:
+    """The waiting model versions' errors on the complete suite, then its best-possible line (once)."""
+    from alcove.surrogates.reference_line import compute_reference_line
     from alcove.surrogates.validation import evaluate_suite
 
-    return evaluate_suite(int(suite_id))
+    written = evaluate_suite(int(suite_id))
+    compute_reference_line(int(suite_id))
+    return written
 
 
 # ----------------------------------------------------------------------------- editor previews

@@ -19,7 +19,7 @@ from alcove.solving import steps as solving_steps
 from alcove.surrogates import repository as surrogates_repo
 
 if TYPE_CHECKING:
-    from alcove.campaigns.steps import StepContext
+    from alcove.campaigns.step_context import StepContext
 
 
 def family_motion(ctx: StepContext) -> StepOutput:

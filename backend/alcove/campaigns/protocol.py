@@ -36,7 +36,8 @@ from alcove.campaigns import repository as repo
 from alcove.campaigns import transitions
 from alcove.campaigns.schemas import CampaignConfig, StepJob
 from alcove.campaigns.state_machine import Outcome, StepRef
-from alcove.campaigns.steps import STEPS, StepContext
+from alcove.campaigns.step_context import StepContext
+from alcove.campaigns.steps import STEPS
 from alcove.db import transaction
 from alcove.jobs.campaign import send_committed, stage
 from alcove.jobs.faults import fault_for

@@ -27,7 +27,6 @@ solution stored in the database, so a step re-run by another worker gives the sa
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, TypedDict
 
 import numpy as np
@@ -36,12 +35,12 @@ from sqlalchemy.orm import Session
 from alcove.campaigns import candidate_repository as candidate_repo
 from alcove.campaigns import candidates, transitions
 from alcove.campaigns import repository as repo
-from alcove.campaigns.schemas import CampaignConfig
-from alcove.campaigns.state_machine import IterationRecord, StepRef, stop_reason
+from alcove.campaigns.state_machine import IterationRecord, stop_reason
+from alcove.campaigns.step_context import StepContext
 from alcove.campaigns.validation import suite_model as validation_suite_model
 from alcove.campaigns.validation import suite_spec
 from alcove.db import session_scope
-from alcove.jobs.steps import FailedAttempt, IterationRef, StepOutput, StepRun, UnusableResult, is_cancellation
+from alcove.jobs.steps import FailedAttempt, IterationRef, StepOutput, UnusableResult, is_cancellation
 from alcove.models import (
     Campaign,
     CampaignConfigVersion,
@@ -58,46 +57,17 @@ from alcove.pool import repository as pool_repo
 from alcove.pool import steps as pool_steps
 from alcove.science.ocp import acquisition
 from alcove.science.ocp.scenario_ranges import TILT_PARAMETER
-from alcove.science.ocp.scenarios import Scenario, from_json
+from alcove.science.ocp.scenarios import from_json
 from alcove.solving import repository as solving_repo
 from alcove.solving import steps as solving_steps
 from alcove.surrogates import repository as surrogates_repo
 from alcove.surrogates import steps as surrogate_steps
 from alcove.surrogates import validation as surrogate_validation
 from alcove.surrogates.service import software_versions
-from alcove.tasks.service import load_task
 
 if TYPE_CHECKING:
     from alcove.science.geometry import HeadNeckPreset
     from alcove.science.ocp.task_spec import TaskSpec
-
-
-@dataclass
-class StepContext:
-    campaign_id: int
-    ref: StepRef
-    config: CampaignConfig
-    run: StepRun
-
-    @property
-    def k(self) -> int:
-        return self.ref.iteration
-
-    def before_compute(self) -> None:
-        """Test processes only: the fault a test injected (a sleep, an error)."""
-        self.run.before_compute(self.ref.step.value)
-
-    def task(self, s: Session, c: Campaign) -> TaskSpec:
-        """The task as written (its ranges, if any, left aside by the steps that use its preset:
-        preliminary data, training and the validation suite are the nominal task's)."""
-        return load_task(s, c.task_version_id, self.config.settings.ocp_intervals)
-
-    def scenario(self, s: Session, c: Campaign) -> Scenario:
-        """The scenario ocp slot ``ref.slot`` of iteration k solves under the campaign's strategy
-        (seeded by the campaign seed, k and the slot: a re-run or re-delivered step draws the same one)."""
-        return acquisition.strategy(self.config.settings.strategy).scenario(
-            self.task(s, c), c.seed, self.k, self.ref.slot
-        )
 
 
 def _kinematics(task: TaskSpec) -> Any:

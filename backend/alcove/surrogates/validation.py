@@ -263,7 +263,4 @@ def evaluate_suite(suite_id: int) -> int:
 
         written += bool(transaction(store))
     log.info("validation suite %d: evaluated %d model version(s)", suite_id, written)
-    from alcove.surrogates.reference_line import compute_reference_line
-
-    compute_reference_line(suite_id)
     return written
