@@ -9,8 +9,9 @@ alone (FE data only: no preliminary data) and scored on the suite's core motions
 version. A campaign's curves show the line at those oracle budgets: the error its models could
 reach with the same number of oracle calls spent on motions spread over the suite's range.
 
-The line is computed once per suite (shared like the suite), in the suite's evaluation job
-(:func:`alcove.surrogates.validation.evaluate_suite`), and stored as ``validation_suites.reference``.
+The line is computed once per suite (shared like the suite) by the suite's evaluation job
+(``alcove.default.validation_evaluate``: :func:`alcove.surrogates.validation.evaluate_suite`, then
+:func:`compute_reference_line`), and stored as ``validation_suites.reference``.
 """
 
 from __future__ import annotations
