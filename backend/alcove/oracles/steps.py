@@ -90,67 +90,107 @@ def replay(
     gate_fail = run.fault is not None and run.fault.gate_fail
     ok = bool(res.ok) and not gate_fail
     reason = res.failure_reason if not res.ok else ("fault injection: quality gate failed" if gate_fail else None)
-    diagnostics = json_safe(res.diagnostics)
 
     def write(s: Session, at: IterationRef) -> dict[str, Any]:
-        in_sha = put_arrays(s, {"t": traj.t, "q": traj.q, "qd": traj.qd, "tau": tau})
-        f = res.forces
-        out_sha = put_arrays(s, {"t": f.t, "f": np.hstack([f.force, f.moment])}) if f is not None else None
-        row = OracleRun(
-            campaign_id=at.campaign_id,
-            iteration_id=at.iteration_id,
+        row, ds = _record_replay(
+            s,
+            at,
+            run,
             slot=at.slot,
+            traj=traj,
+            res=res,
+            inputs={"t": traj.t, "q": traj.q, "qd": traj.qd, "tau": tau},
+            started=started,
+            finished=utcnow(),
             oracle_version_id=oracle_version_id,
             ocp_solution_id=solution_id,
-            attempt=run.attempt,
-            status="ok" if ok else "quarantined",
-            worker_name=run.worker,
-            started_at=started,
-            finished_at=utcnow(),
-            wall_time_s=float(res.wall_time),
-            failure_reason=reason,
-            diagnostics=diagnostics,
-            input_sha256=in_sha,
-            output_sha256=out_sha,
+            refused=None if ok else reason or "quality gate failed",
+            name=f"iteration-{at.index:04d}" + (f"-pick-{at.slot}" if at.slot else ""),
+            meta={"oracle_version_id": oracle_version_id, **headrest},
         )
-        s.add(row)
-        s.flush()
         out: dict[str, Any] = {"oracle_run_id": row.id, "ok": ok, "wall_time_s": float(res.wall_time)}
-        if ok:
-            assert f is not None  # an oracle's result that passed its quality gate carries the forces
-            same_grid = len(f.t) == len(traj.t) and np.allclose(f.t, traj.t, rtol=0, atol=1e-12)
-            on_grid = traj if same_grid else traj.resample(f.t)
-            ds = store_dataset(
-                s,
-                t=f.t,
-                q=on_grid.q,
-                qd=on_grid.qd,
-                f=np.hstack([f.force, f.moment]),
-                origin="oracle",
-                name=f"iteration-{at.index:04d}" + (f"-pick-{at.slot}" if at.slot else ""),
-                campaign_id=at.campaign_id,
-                iteration_id=at.iteration_id,
-                oracle_run_id=row.id,
-                meta={"oracle_version_id": oracle_version_id, **headrest},
-            )
+        if ds is not None:
             out["dataset_id"] = ds.id
         else:
-            s.add(
-                QuarantinedResult(
-                    oracle_run_id=row.id,
-                    campaign_id=at.campaign_id,
-                    iteration_id=at.iteration_id,
-                    reason=reason or "quality gate failed",
-                    gate=diagnostics,
-                    output_sha256=out_sha,
-                )
-            )
             out["quarantined"] = reason
         return out
 
     if not ok:
         raise UnusableResult(f"oracle result quarantined: {reason}", write=write)
     return StepOutput(write, compute_s=compute)
+
+
+def _record_replay(
+    s: Session,
+    at: IterationRef,
+    run: StepRun,
+    *,
+    slot: int,
+    traj: Any,
+    res: Any,
+    inputs: dict[str, Any],
+    started: datetime,
+    finished: datetime,
+    oracle_version_id: int,
+    ocp_solution_id: int | None,
+    refused: str | None,
+    name: str,
+    meta: dict[str, Any],
+) -> tuple[OracleRun, Any]:
+    """One replay's rows: its oracle run (inputs and outputs as arrays) and either its dataset of
+    origin ``oracle`` (the trajectory on the oracle's time grid) or, ``refused`` naming why, its
+    quarantined result. Returns the run row and the dataset (None when quarantined)."""
+    f = res.forces
+    diagnostics = json_safe(res.diagnostics)
+    out_sha = put_arrays(s, {"t": f.t, "f": np.hstack([f.force, f.moment])}) if f is not None else None
+    row = OracleRun(
+        campaign_id=at.campaign_id,
+        iteration_id=at.iteration_id,
+        slot=slot,
+        oracle_version_id=oracle_version_id,
+        ocp_solution_id=ocp_solution_id,
+        attempt=run.attempt,
+        status="ok" if refused is None else "quarantined",
+        worker_name=run.worker,
+        started_at=started,
+        finished_at=finished,
+        wall_time_s=float(res.wall_time),
+        failure_reason=refused,
+        diagnostics=diagnostics,
+        input_sha256=put_arrays(s, inputs),
+        output_sha256=out_sha,
+    )
+    s.add(row)
+    s.flush()
+    if refused is not None:
+        s.add(
+            QuarantinedResult(
+                oracle_run_id=row.id,
+                campaign_id=at.campaign_id,
+                iteration_id=at.iteration_id,
+                reason=refused,
+                gate=diagnostics,
+                output_sha256=out_sha,
+            )
+        )
+        return row, None
+    assert f is not None  # an oracle's result that passed its quality gate carries the forces
+    same_grid = len(f.t) == len(traj.t) and np.allclose(f.t, traj.t, rtol=0, atol=1e-12)
+    on_grid = traj if same_grid else traj.resample(f.t)
+    ds = store_dataset(
+        s,
+        t=f.t,
+        q=on_grid.q,
+        qd=on_grid.qd,
+        f=np.hstack([f.force, f.moment]),
+        origin="oracle",
+        name=name,
+        campaign_id=at.campaign_id,
+        iteration_id=at.iteration_id,
+        oracle_run_id=row.id,
+        meta=meta,
+    )
+    return row, ds
 
 
 def replay_motions(
@@ -171,55 +211,24 @@ def replay_motions(
     def write(s: Session, at: IterationRef) -> list[Any]:
         stored = []
         for i, (traj, started, res, finished) in enumerate(results):
-            f = res.forces
-            row = OracleRun(
-                campaign_id=at.campaign_id,
-                iteration_id=at.iteration_id,
+            _, ds = _record_replay(
+                s,
+                at,
+                run,
                 slot=i,
+                traj=traj,
+                res=res,
+                inputs={"t": traj.t, "q": traj.q, "qd": traj.qd},
+                started=started,
+                finished=finished,
                 oracle_version_id=oracle_version_id,
                 ocp_solution_id=None,
-                attempt=run.attempt,
-                status="ok" if res.ok else "quarantined",
-                worker_name=run.worker,
-                started_at=started,
-                finished_at=finished,
-                wall_time_s=float(res.wall_time),
-                failure_reason=None if res.ok else res.failure_reason,
-                diagnostics=json_safe(res.diagnostics),
-                input_sha256=put_arrays(s, {"t": traj.t, "q": traj.q, "qd": traj.qd}),
-                output_sha256=put_arrays(s, {"t": f.t, "f": np.hstack([f.force, f.moment])}) if f is not None else None,
+                refused=None if res.ok and res.forces is not None else res.failure_reason or "quality gate failed",
+                name=f"{label}-{i:03d}",
+                meta={"oracle_version_id": oracle_version_id},
             )
-            s.add(row)
-            s.flush()
-            if not res.ok or f is None:
-                s.add(
-                    QuarantinedResult(
-                        oracle_run_id=row.id,
-                        campaign_id=at.campaign_id,
-                        iteration_id=at.iteration_id,
-                        reason=res.failure_reason or "quality gate failed",
-                        gate=json_safe(res.diagnostics),
-                        output_sha256=row.output_sha256,
-                    )
-                )
-                continue
-            same_grid = len(f.t) == len(traj.t) and np.allclose(f.t, traj.t, rtol=0, atol=1e-12)
-            on_grid = traj if same_grid else traj.resample(f.t)
-            stored.append(
-                store_dataset(
-                    s,
-                    t=f.t,
-                    q=on_grid.q,
-                    qd=on_grid.qd,
-                    f=np.hstack([f.force, f.moment]),
-                    origin="oracle",
-                    name=f"{label}-{i:03d}",
-                    campaign_id=at.campaign_id,
-                    iteration_id=at.iteration_id,
-                    oracle_run_id=row.id,
-                    meta={"oracle_version_id": oracle_version_id},
-                )
-            )
+            if ds is not None:
+                stored.append(ds)
         return stored
 
     return write
