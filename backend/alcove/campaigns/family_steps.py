@@ -22,13 +22,31 @@ if TYPE_CHECKING:
     from alcove.campaigns.step_context import StepContext
 
 
+def _family_motions(settings: Any, task: Any, seed: int, indices: list[int]) -> tuple[Any, list[tuple[Any, Any]]]:
+    """The family's box for ``task`` and, per sequence index, the motion and its trajectory
+    sampled at the replay step (a chain's along its suite's joint line)."""
+    from alcove.science.press_family import sequence_motion
+    from alcove.science.validation_suite import ChainSuiteModel, chain_press_trajectory
+
+    model = suite_model(task)
+    box = family_box(settings, task, model)
+    dt = settings.replay_dt or 0.0025
+    out = []
+    for i in indices:
+        motion = sequence_motion(box, seed, i, (model.theta_min, model.theta_max))
+        if isinstance(model, ChainSuiteModel):
+            out.append((motion, chain_press_trajectory(motion, dt, model, task.model.pose_function())))
+        else:
+            out.append((motion, motion.trajectory(dt)))
+    return box, out
+
+
 def family_motion(ctx: StepContext) -> StepOutput:
     """The ocp slot of strategy ``press-family``: the next motion of the task's press family
     (:func:`alcove.science.press_family.sequence_motion`, seeded by the campaign seed) as the slot's
     prescribed solution, and its candidate row (the motion, its sequence index and its point in
     the family's box scaled to [0, 1], picked at once)."""
-    from alcove.science.press_family import PARAMETERS, sequence_motion
-    from alcove.science.validation_suite import ChainSuiteModel, chain_press_trajectory
+    from alcove.science.press_family import PARAMETERS
 
     with session_scope() as s:
         c = repo.get_campaign(s, ctx.campaign_id)
@@ -39,15 +57,8 @@ def family_motion(ctx: StepContext) -> StepOutput:
         # the preliminary replays are the sequence's first motions; the iterations' follow them
         used = [*range(ctx.config.preliminary.family_motions), *candidate_repo.family_motion_indices(s, c.id, ctx.k)]
     settings = ctx.config.settings
-    model = suite_model(task)
-    box = family_box(settings, task, model)
     index = acquisition.family_motion_index(used, ctx.ref.slot)
-    motion = sequence_motion(box, seed, index, (model.theta_min, model.theta_max))
-    dt = settings.replay_dt or 0.0025
-    if isinstance(model, ChainSuiteModel):
-        traj = chain_press_trajectory(motion, dt, model, task.model.pose_function())
-    else:
-        traj = motion.trajectory(dt)
+    box, ((motion, traj),) = _family_motions(settings, task, seed, [index])
     features = []
     for name in PARAMETERS:
         lo, hi = getattr(box, name)
@@ -63,25 +74,12 @@ def preliminary_replays(ctx: StepContext, task: Any, seed: int, oracle_version_i
     """The write of pool version 0's press-family replays: the first ``preliminary.family_motions``
     motions of the family's sequence replayed by the oracle (:func:`alcove.oracles.steps.replay_motions`)."""
     from alcove.oracles import steps as oracle_steps
-    from alcove.science.press_family import sequence_motion
-    from alcove.science.validation_suite import ChainSuiteModel, chain_press_trajectory
 
-    settings = ctx.config.settings
-    model = suite_model(task)
-    box = family_box(settings, task, model)
-    dt = settings.replay_dt or 0.0025
-    theta = (model.theta_min, model.theta_max)
-    trajectories = []
-    for i in range(ctx.config.preliminary.family_motions):
-        motion = sequence_motion(box, seed, i, theta)
-        if isinstance(model, ChainSuiteModel):
-            trajectories.append(chain_press_trajectory(motion, dt, model, task.model.pose_function()))
-        else:
-            trajectories.append(motion.trajectory(dt))
+    _, motions = _family_motions(ctx.config.settings, task, seed, list(range(ctx.config.preliminary.family_motions)))
     return oracle_steps.replay_motions(
         ctx.run,
         oracle_version_id=oracle_version_id,
         preset=task.model.oracle_preset(),
-        trajectories=trajectories,
+        trajectories=[traj for _, traj in motions],
         label="press-family",
     )

@@ -157,11 +157,6 @@ class PressFamily:
             if lo < 0 or hi > 1:
                 raise RangeError(what, name, f"({lo}, {hi}) leaves [0, 1]")
 
-    @property
-    def has_history(self) -> bool:
-        """Whether its motions may turn back before the return (a partial unload can be drawn)."""
-        return self.release[0] < 1.0
-
 
 def family_motions(
     family: PressFamily, n: int, seed: int | list[int], theta_range: tuple[float, float]

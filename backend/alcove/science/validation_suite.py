@@ -116,11 +116,6 @@ class SuiteSpec:
         if self.stress_motions > 0 and self.stress is None:
             raise ValueError("validation suite stress: stress motions need the stress ranges")
 
-    @property
-    def total(self) -> int:
-        """The number of motions of all parts."""
-        return self.motions + self.stress_motions + self.reference_motions
-
     def part(self, index: int) -> str:
         """The part motion ``index`` belongs to (core, then stress, then reference motions)."""
         if index < self.motions:
