@@ -131,6 +131,7 @@ SERIAL_FIXTURES = frozenset({"fresh_pg_url", "redis_url", "alcove_server"})
 SERIAL_PATHS = {
     "tests/campaigns/test_workers.py": "starts and kills worker processes on the embedded default",
     "tests/integration/test_worker_e2e.py": "starts worker and `alcove up` processes on the embedded default",
+    "tests/integration/test_serve_restart.py": "starts and SIGKILLs `alcove serve` on the embedded default",
 }
 
 #: serial tests that run in the third phase, with nothing beside them, and why

@@ -342,7 +342,14 @@ def _redact(url: str) -> str:
 
 
 def _check_port_free(host: str, port: int) -> None:
+    """Exit 2 when another server listens on ``host:port``.
+
+    The probe binds with ``SO_REUSEADDR``, as uvicorn does: then only a listening socket makes
+    the bind fail, not the connections a killed server left in the kernel (FIN_WAIT_2 while a
+    keep-alive or event-stream client keeps its end open, TIME_WAIT after), which would
+    otherwise refuse a restart for tens of seconds."""
     with socket.socket(socket.AF_INET6 if ":" in host else socket.AF_INET, socket.SOCK_STREAM) as sock:
+        sock.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
         try:
             sock.bind((host, port))
         except OSError as err:
