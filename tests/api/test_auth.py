@@ -143,3 +143,72 @@ def test_cached_principals_are_private_detached_copies(client) -> None:
         merged = s.merge(user)  # a route changes a user by merging its copy
         assert merged.display_name == "changed here only"
         s.rollback()
+
+
+def _session_headers(client, email: str, password: str) -> dict[str, str]:
+    r = client.post("/api/v1/auth/login", json={"email": email, "password": password})
+    assert r.status_code == 200, r.text
+    return {"Authorization": f"Bearer {r.json()['access_token']}"}
+
+
+def _personal_headers(client, headers: dict[str, str]) -> dict[str, str]:
+    r = client.post("/api/v1/me/tokens", json={"name": "script"}, headers=headers)
+    assert r.status_code == 201, r.text
+    return {"Authorization": f"Bearer {r.json()['token']}"}
+
+
+def _works(client, headers: dict[str, str]) -> bool:
+    r = client.get("/api/v1/me", headers=headers)
+    assert r.status_code in (200, 401), r.text
+    return r.status_code == 200
+
+
+def test_a_password_change_ends_every_session_and_personal_token_of_that_user(client) -> None:
+    me, bystander = make_account("member", "pw-change"), make_account("member", "bystander")
+    sessions = [_session_headers(client, me.email, me.password) for _ in range(2)]
+    personal = [me.headers, _personal_headers(client, me.headers)]
+    for headers in [*sessions, *personal, bystander.headers]:
+        for _ in range(2):  # used, and so also in the API's verified-token cache
+            assert _works(client, headers)
+    body = {"new_password": "a brand new password", "current_password": me.password}
+    assert client.patch("/api/v1/me", json=body, headers=sessions[0]).status_code == 200
+    assert [_works(client, h) for h in [*sessions, *personal]] == [False] * 4
+    assert _works(client, bystander.headers)
+    fresh = _session_headers(client, me.email, "a brand new password")
+    listed = client.get("/api/v1/me/tokens", params={"include_sessions": True}, headers=fresh).json()
+    assert [t["revoked"] for t in listed].count(False) == 1  # the new login's only
+
+
+def test_a_password_change_keeps_personal_tokens_only_when_asked(client) -> None:
+    me = make_account("member", "pw-keep")
+    session = _session_headers(client, me.email, me.password)
+    personal = [me.headers, _personal_headers(client, me.headers)]
+    body = {"new_password": "a brand new password", "current_password": me.password, "keep_personal_tokens": True}
+    assert client.patch("/api/v1/me", json=body, headers=session).status_code == 200
+    assert not _works(client, session)
+    assert [_works(client, h) for h in personal] == [True, True]
+
+
+def test_keep_personal_tokens_goes_with_a_new_password_only(client) -> None:
+    me = make_account("member", "pw-keep-alone")
+    r = client.patch("/api/v1/me", json={"display_name": "x", "keep_personal_tokens": True}, headers=me.headers)
+    assert r.status_code == 422 and r.json()["detail"][0]["field"] == "keep_personal_tokens", r.text
+    assert _works(client, me.headers)
+
+
+def test_an_admin_password_reset_ends_every_token_of_that_user(client, admin: Account) -> None:
+    user = make_account("member", "pw-reset")
+    session = _session_headers(client, user.email, user.password)
+    personal = [user.headers, _personal_headers(client, user.headers)]
+    for headers in [session, *personal]:
+        assert _works(client, headers) and _works(client, headers)
+    r = client.patch(f"/api/v1/users/{user.id}", json={"password": "reset by the admin"}, headers=admin.headers)
+    assert r.status_code == 200, r.text
+    assert [_works(client, h) for h in [session, *personal]] == [False] * 3
+    assert _works(client, admin.headers)
+    assert _works(client, _session_headers(client, user.email, "reset by the admin"))
+    # a change that is not a password leaves the tokens alone
+    again = _session_headers(client, user.email, "reset by the admin")
+    renamed = client.patch(f"/api/v1/users/{user.id}", json={"display_name": "Sam"}, headers=admin.headers)
+    assert renamed.status_code == 200
+    assert _works(client, again)

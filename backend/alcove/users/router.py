@@ -90,8 +90,12 @@ async def get_me(user: CurrentUser) -> UserOut:
 
 @router.patch("/me", response_model=UserOut, tags=["me"], operation_id="update_me")
 def update_me(body: MeUpdate, user: CurrentUser, session: SessionDep) -> UserOut:
+    """Change your display name or password. A new password ends every session of yours (this
+    one too: log in again) and every personal token, unless `keep_personal_tokens` is true."""
     user = session.merge(user)
-    service.update_me(session, user, body.display_name, body.new_password, body.current_password)
+    service.update_me(
+        session, user, body.display_name, body.new_password, body.current_password, body.keep_personal_tokens
+    )
     session.commit()
     return UserOut.model_validate(user)
 
@@ -151,7 +155,8 @@ def get_user(user_id: ObjectId, admin: AdminUser, session: SessionDep) -> UserOu
 def update_user(
     user_id: ObjectId, body: UserUpdate, admin: AdminUser, session: SessionDep, request: Request
 ) -> UserOut:
-    """Change a user; a new password also clears the login delays of that e-mail on every address."""
+    """Change a user. A new password ends every session and personal token of that user and
+    clears the login delays of that e-mail on every address."""
     user = service.update_user(session, admin, user_id, body)
     session.commit()
     if body.password is not None:

@@ -62,7 +62,8 @@ class UserUpdate(_In):
         None,
         min_length=8,
         max_length=1024,
-        description="set a new password (and clear the login delays of this e-mail)",
+        description="set a new password: ends every session and personal token of the user"
+        " and clears the login delays of this e-mail",
     )
 
 
@@ -70,6 +71,13 @@ class MeUpdate(_In):
     display_name: str | None = Field(None, max_length=200)
     new_password: str | None = Field(None, min_length=8, max_length=1024)
     current_password: str | None = Field(None, max_length=1024, description="required with new_password")
+    keep_personal_tokens: bool = Field(
+        False,
+        description=(
+            "with new_password: keep your personal API tokens working (every session token ends"
+            " anyway); by default a new password ends them all"
+        ),
+    )
 
 
 class TokenCreate(_In):

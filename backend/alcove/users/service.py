@@ -217,22 +217,46 @@ def update_user(session: Session, admin: User, user_id: int, body: UserUpdate) -
         user.is_active = body.is_active
     if body.password is not None:
         user.set_password(body.password)
+        end_tokens(session, user, keep_personal=False)  # a reset shuts out whoever knew the old one
     session.flush()
     TOKENS.drop(user_id=user.id)
     return user
 
 
 def update_me(
-    session: Session, user: User, display_name: str | None, new_password: str | None, current_password: str | None
+    session: Session,
+    user: User,
+    display_name: str | None,
+    new_password: str | None,
+    current_password: str | None,
+    keep_personal_tokens: bool = False,
 ) -> User:
+    """Change the display name and the password. A new password ends every token of the user
+    (the sessions, this request's too, and the personal tokens unless ``keep_personal_tokens``)."""
+    if keep_personal_tokens and new_password is None:
+        raise InvalidInput.one("keep_personal_tokens", "applies to a password change only: send it with new_password")
     if display_name is not None:
         user.display_name = display_name
     if new_password is not None:
         if not current_password or not user.check_password(current_password):
             raise InvalidInput.one("current_password", "does not match your current password")
         user.set_password(new_password)
+        end_tokens(session, user, keep_personal=keep_personal_tokens)
     session.flush()
+    TOKENS.drop(user_id=user.id)
     return user
+
+
+def end_tokens(session: Session, user: User, *, keep_personal: bool) -> None:
+    """Revoke every valid token of ``user`` (only the session tokens when ``keep_personal``)."""
+    now = utcnow()
+    which = [ApiToken.user_id == user.id, ApiToken.revoked_at.is_(None)]
+    if keep_personal:
+        which.append(ApiToken.kind == TokenKind.session.value)
+    session.execute(
+        sa.update(ApiToken).where(*which).values(revoked_at=now), execution_options={"synchronize_session": False}
+    )
+    TOKENS.drop(user_id=user.id)
 
 
 # ----------------------------------------------------------------------------- sharing

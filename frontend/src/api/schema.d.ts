@@ -708,7 +708,11 @@ export interface paths {
         delete?: never;
         options?: never;
         head?: never;
-        /** Update Me */
+        /**
+         * Update Me
+         * @description Change your display name or password. A new password ends every session of yours (this
+         *     one too: log in again) and every personal token, unless `keep_personal_tokens` is true.
+         */
         patch: operations["update_me"];
         trace?: never;
     };
@@ -1412,7 +1416,8 @@ export interface paths {
         head?: never;
         /**
          * Update User
-         * @description Change a user; a new password also clears the login delays of that e-mail on every address.
+         * @description Change a user. A new password ends every session and personal token of that user and
+         *     clears the login delays of that e-mail on every address.
          */
         patch: operations["update_user"];
         trace?: never;
@@ -2625,6 +2630,12 @@ export interface components {
             current_password?: string | null;
             /** Display Name */
             display_name?: string | null;
+            /**
+             * Keep Personal Tokens
+             * @description with new_password: keep your personal API tokens working (every session token ends anyway); by default a new password ends them all
+             * @default false
+             */
+            keep_personal_tokens?: boolean;
             /** New Password */
             new_password?: string | null;
         };
@@ -4579,7 +4590,7 @@ export interface components {
             is_active?: boolean | null;
             /**
              * Password
-             * @description set a new password (and clear the login delays of this e-mail)
+             * @description set a new password: ends every session and personal token of the user and clears the login delays of this e-mail
              */
             password?: string | null;
             /** Role */
