@@ -255,3 +255,32 @@ def test_many_viewers_of_one_campaign_cost_one_query_per_poll(app, owner: Accoun
     assert all(kinds == ["step_started", "status"] for kinds in results), results
     # one read per poll interval for all 20 viewers (20 viewers each polling would be 20x)
     assert polls <= elapsed / live.POLL_S + 2, (polls, elapsed)
+
+
+@pytest.mark.parametrize(
+    "value", [b"\xb2", b"\xb9", b"1\xb2", b"-3", b"", b"99999999999999999999999", b"0x10", b" 1 2"]
+)
+def test_a_malformed_last_event_id_is_ignored_on_both_streams(
+    app, owner: Account, running: Callable[[], int], value: bytes
+) -> None:
+    """Superscript digits (latin-1 0xB2, 0xB9) pass ``str.isdigit`` but not ``int``: any
+    value that is not a plain event id is ignored (a first connection: ``complete: false``).
+    The raw bytes reach the app through httpx's ASGI transport (the TestClient re-encodes
+    header values as UTF-8)."""
+    import asyncio
+
+    import httpx
+
+    cid = running()
+
+    async def get(path: str) -> httpx.Response:
+        transport = httpx.ASGITransport(app=app)
+        async with httpx.AsyncClient(transport=transport, base_url="http://test") as c:
+            headers = [*owner.headers.items(), ("Last-Event-ID", value)]
+            return await c.get(path, params={"timeout": 0}, headers=headers)
+
+    for path in (f"{API}/campaigns/{cid}/events/stream", f"{API}/campaigns/events/stream"):
+        r = asyncio.run(get(path))
+        assert r.status_code == 200, (path, value, r.text)
+        got = list(frames(iter(r.text.splitlines())))
+        assert got[-1]["event"] == "ready" and got[-1]["data"]["complete"] is False, (path, value, got)

@@ -18,6 +18,7 @@ from __future__ import annotations
 import asyncio
 import json
 import logging
+import re
 import time
 import weakref
 from collections.abc import AsyncIterator, Awaitable, Callable
@@ -172,9 +173,15 @@ Timeout = Annotated[float, Query(ge=0, le=3600, description="close the stream af
 BACKLOG_LIMIT = 1000
 
 
+#: A ``Last-Event-ID`` this stream sent: ASCII digits only (``str.isdigit`` also accepts "²").
+_EVENT_ID = re.compile(r"[0-9]{1,19}")
+
+
 def _resume_from(request: Request, after: int | None) -> int | None:
+    """``after``, or the ``Last-Event-ID`` header if it is later; a header that is not an event
+    id (not ASCII digits, or above the largest id) is ignored, as a browser's first connection."""
     last = request.headers.get("last-event-id")
-    if last and last.isdigit() and int(last) <= MAX_ID:
+    if last and _EVENT_ID.fullmatch(last) and int(last) <= MAX_ID:
         return max(after or 0, int(last))
     return after
 
