@@ -171,6 +171,8 @@ def run_one(
     batch: int,
     candidates: int,
     surrogate: dict[str, Any],
+    preliminary: dict[str, Any] | None = None,
+    exploration_weight: float = 0.0,
 ) -> dict[str, Any]:
     """One campaign until max(budgets) oracle calls; writes ``out`` after every scored budget."""
     t0, cpu0 = time.perf_counter(), cpu_seconds()
@@ -183,15 +185,20 @@ def run_one(
     settings = _settings(strategy, batch, candidates)
 
     def create(s: Any) -> int:
+        from alcove.science.ocp.task_spec import task_preset
+
         user = presets.local_user(s)
+        spec = None
+        if exploration_weight:
+            spec = task_preset(TASK).model_dump(mode="json") | {"exploration_weight": exploration_weight}
         data = CampaignCreate(
             name=f"bench {strategy} seed {seed}",
             description="python -m bench.strategies",
             seed=seed,
-            task_version_id=presets.task_version_from_preset(s, user.id, TASK),
+            task_version_id=presets.task_version_from_preset(s, user.id, TASK, spec),
             oracle_version_id=presets.oracle_version_for(s, user.id, ORACLE, {}),
             surrogate_config_version_id=presets.surrogate_config_version_for(s, user.id, surrogate),
-            preliminary={"seed": PRELIMINARY_SEED},
+            preliminary={**(preliminary or {}), "seed": PRELIMINARY_SEED},
             # a guard, not a budget: ensemble-disagreement picks at most q per iteration and none
             # when no candidate touches the headrest, so iterations can run without oracle calls
             stopping={"max_iterations": 4 * max(budgets)},
@@ -206,6 +213,8 @@ def run_one(
         "seed": seed,
         "settings": settings,
         "surrogate": surrogate,
+        "preliminary": preliminary or {},
+        "exploration_weight": exploration_weight,
         "budgets": {},
         "complete": False,
     }
@@ -278,6 +287,14 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--batch", type=int, default=BATCH, help="q of random-scenarios and ensemble-disagreement")
     ap.add_argument("--candidates", type=int, default=CANDIDATES, help="C of ensemble-disagreement")
     ap.add_argument("--surrogate", default="{}", help="surrogate config JSON (default: alcove's, an ensemble of 5)")
+    ap.add_argument(
+        "--preliminary",
+        default="{}",
+        help="the campaigns' preliminary settings JSON beside the seed, e.g. '{\"family_motions\": 4}'",
+    )
+    ap.add_argument(
+        "--exploration-weight", type=float, default=0.0, help="the task's exploration_weight (0: the paper's cost)"
+    )
     ap.add_argument("--jobs", type=int, default=1, help="campaigns run at once (child processes)")
     ap.add_argument("--work-dir", type=Path, default=WORK_DIR, help="stores and per-run result files")
     ap.add_argument("--out", type=Path, default=RESULTS)
@@ -302,6 +319,7 @@ def main(argv: list[str] | None = None) -> int:
     if any(b < 1 for b in budgets):
         ap.error("--budgets: oracle call budgets must be at least 1")
     surrogate = json.loads(args.surrogate)
+    preliminary = json.loads(args.preliminary)
 
     if args.one:
         strategy, seed = args.one[0], int(args.one[1])
@@ -321,6 +339,8 @@ def main(argv: list[str] | None = None) -> int:
             batch=args.batch,
             candidates=args.candidates,
             surrogate=surrogate,
+            preliminary=preliminary,
+            exploration_weight=args.exploration_weight,
         )
         return 0
 
@@ -353,6 +373,8 @@ def main(argv: list[str] | None = None) -> int:
         "batch": args.batch,
         "candidates": args.candidates,
         "surrogate": surrogate,
+        "preliminary": preliminary,
+        "exploration_weight": args.exploration_weight,
         "preliminary_seed": PRELIMINARY_SEED,
         "validation_seed": VALIDATION_SEED,
         "jobs": args.jobs,
@@ -375,7 +397,8 @@ def main(argv: list[str] | None = None) -> int:
             log = open(args.work_dir / f"log-{st}-{sd}.txt", "ab")  # noqa: SIM115 (closed with the process)
             argv = [sys.executable, "-m", "bench.strategies", "--one", st, str(sd), "--work-dir", str(args.work_dir)]
             argv += ["--budgets", *map(str, budgets), "--batch", str(args.batch), "--candidates", str(args.candidates)]
-            argv += ["--surrogate", args.surrogate]
+            argv += ["--surrogate", args.surrogate, "--preliminary", args.preliminary]
+            argv += ["--exploration-weight", str(args.exploration_weight)]
             running.append(
                 (subprocess.Popen(argv, stdout=log, stderr=subprocess.STDOUT, env=env, cwd=ROOT), f"{st}-{sd}")
             )
