@@ -42,7 +42,8 @@ export function configLabel(doc: OpenApiDocument | undefined, path: string): str
   const [key, ...rest] = path.split(".");
   const section = SECTIONS.find(([k]) => k === key);
   const schema = section ? componentSchema(doc, section[1]) : null;
-  return schema ? `${section![2]} › ${schemaLabel(schema, rest.join("."))}` : path;
+  if (!schema) return path;
+  return rest.length ? `${section![2]} › ${schemaLabel(schema, rest.join("."))}` : section![2];
 }
 
 export function ConfigSections({

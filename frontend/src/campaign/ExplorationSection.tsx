@@ -7,7 +7,8 @@
  */
 import { useId } from "react";
 import type { FieldError } from "../api/errors";
-import { FieldMessages, parseNumber } from "../components/SchemaForm";
+import { FieldMessages } from "../components/SchemaForm";
+import { NumberInput, type NumberText } from "../components/NumberInput";
 import type { ErrorView } from "../lib/formErrors";
 import type { ConfigDraft } from "./ConfigSections";
 
@@ -44,22 +45,18 @@ export function explorationErrors(config: ConfigDraft): FieldError[] {
   return out;
 }
 
-function NumberField({ path, label, hint, value, onChange, errors, integer, nullable }: { path: string; label: string; hint: string; value: unknown; onChange: (v: number | null | undefined) => void; errors: ErrorView; integer?: boolean; nullable?: boolean }) {
+function NumberField({ path, label, hint, value, onChange, errors, integer, nullable }: { path: string; label: string; hint: string; value: unknown; onChange: (v: NumberText | null) => void; errors: ErrorView; integer?: boolean; nullable?: boolean }) {
   const id = useId();
   const problems = errors.at(path);
   return (
     <div className="field">
       <label htmlFor={id}>{label}</label>
-      <input
+      <NumberInput
         id={id}
-        type="number"
-        step={integer ? 1 : "any"}
-        value={value === undefined || value === null ? "" : String(value)}
+        inputMode={integer ? "numeric" : undefined}
+        value={value}
         placeholder={nullable ? "none" : undefined}
-        onChange={(e) => {
-          const v = parseNumber(e.target.value);
-          onChange(v === undefined && nullable ? null : v);
-        }}
+        onChange={(v) => onChange(v === undefined && nullable ? null : v)}
         aria-describedby={`${id}-hint${problems.length ? ` ${id}-err` : ""}`}
         aria-invalid={problems.length > 0}
         data-path={path}

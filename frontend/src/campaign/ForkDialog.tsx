@@ -6,7 +6,8 @@ import { ConfigSections, configFieldPaths, configLabel, configLocalErrors, type 
 import { FormErrors, serverProblems } from "../components/FormErrors";
 import { FieldMessages } from "../components/SchemaForm";
 import { useOpenApi } from "../api/definitions";
-import { errorView } from "../lib/formErrors";
+import { cleanName, errorView, nameProblems } from "../lib/formErrors";
+import { NumberInput, type NumberText } from "../components/NumberInput";
 import type { FieldError } from "../api/errors";
 
 const ONLY = ["stopping", "settings", "policies"] as const;
@@ -30,8 +31,8 @@ export function ForkDialog({ campaign, lastIteration, close }: { campaign: Campa
   const fork = useForkCampaign(campaign.id);
   const navigate = useNavigate();
   const defaults = forkDefaults(campaign, lastIteration);
-  const [k, setK] = useState(defaults.k);
-  const [further, setFurther] = useState(defaults.further);
+  const [k, setK] = useState<NumberText>(defaults.k);
+  const [further, setFurther] = useState<NumberText>(defaults.further);
   const [name, setName] = useState(`${campaign.campaign.name} (fork at ${defaults.k})`);
   const [start, setStart] = useState(true);
   const [config, setConfig] = useState<ConfigDraft>(() => {
@@ -40,22 +41,25 @@ export function ForkDialog({ campaign, lastIteration, close }: { campaign: Campa
     return c;
   });
   const openapi = useOpenApi();
-  const [submitted, setSubmitted] = useState(false);
+  // the form as the last fork request sent it: the server's problems apply while the form still shows it
+  const draftKey = JSON.stringify([k, further, name, start, config]);
+  const [sentKey, setSentKey] = useState<string | null>(null);
   const local: FieldError[] = [...configLocalErrors(openapi.data, config, ONLY)];
-  if (!Number.isInteger(k) || k < 0 || k > lastIteration) local.push({ field: "iteration", message: `must be a whole number from 0 to ${lastIteration}` });
-  if (!Number.isInteger(further) || further < 1) local.push({ field: "further", message: "must be a whole number of at least 1" });
+  local.push(...nameProblems(name));
+  if (typeof k !== "number" || !Number.isInteger(k) || k < 0 || k > lastIteration) local.push({ field: "iteration", message: `must be a whole number from 0 to ${lastIteration}` });
+  if (typeof further !== "number" || !Number.isInteger(further) || further < 1) local.push({ field: "further", message: "must be a whole number of at least 1" });
   const own: Record<string, string> = { iteration: "Fork after iteration k", further: "Further iterations", name: "Name" };
-  const errors = errorView([submitted ? local : [], serverProblems(fork.error)], [...Object.keys(own), ...configFieldPaths(openapi.data, ONLY)], (p) => own[p] ?? configLabel(openapi.data, p));
+  const errors = errorView([local, sentKey === draftKey ? serverProblems(fork.error) : []], [...Object.keys(own), ...configFieldPaths(openapi.data, ONLY)], (p) => own[p] ?? configLabel(openapi.data, p));
   const limit = Number(config.stopping?.max_iterations ?? NaN);
 
   const setLimit = (newK: number, n: number) => setConfig((c) => ({ ...c, stopping: { ...c.stopping, max_iterations: newK + n } }));
 
   function submit(e: FormEvent) {
     e.preventDefault();
-    setSubmitted(true);
-    if (local.length) return;
+    if (local.length || typeof k !== "number") return;
+    setSentKey(draftKey);
     const { stopping, settings, policies } = config;
-    fork.mutate({ iteration: k, name, start, stopping, settings, policies } as Parameters<typeof fork.mutate>[0], {
+    fork.mutate({ iteration: k, name: cleanName(name), start, stopping, settings, policies } as Parameters<typeof fork.mutate>[0], {
       onSuccess: (created) => {
         close();
         navigate(`/campaigns/${created.id}`);
@@ -73,45 +77,40 @@ export function ForkDialog({ campaign, lastIteration, close }: { campaign: Campa
       <div className="row">
         <div className="field">
           <label htmlFor="fork-k">Fork after iteration k</label>
-          <input
+          <NumberInput
             id="fork-k"
-            type="number"
-            min={0}
-            max={lastIteration}
-            step={1}
+            inputMode="numeric"
             value={k}
-            onChange={(e) => {
-              const v = Number(e.target.value);
+            onChange={(v) => {
               setK(v);
-              if (Number.isInteger(v)) setLimit(v, further);
+              if (typeof v === "number" && Number.isInteger(v) && typeof further === "number") setLimit(v, further);
             }}
             required
+            aria-invalid={errors.at("iteration").length > 0}
           />
           <small className="hint">0 to {lastIteration} (the latest finished iteration)</small>
           <FieldMessages problems={errors.at("iteration")} />
         </div>
         <div className="field">
           <label htmlFor="fork-further">Further iterations</label>
-          <input
+          <NumberInput
             id="fork-further"
-            type="number"
-            min={1}
-            step={1}
+            inputMode="numeric"
             value={further}
-            onChange={(e) => {
-              const v = Number(e.target.value);
+            onChange={(v) => {
               setFurther(v);
-              if (Number.isInteger(v)) setLimit(k, v);
+              if (typeof v === "number" && Number.isInteger(v) && typeof k === "number") setLimit(k, v);
             }}
+            aria-invalid={errors.at("further").length > 0}
           />
           <small className="hint" data-testid="fork-limit">
-            {Number.isFinite(limit) ? `the fork runs iterations ${k + 1} to ${limit} (stopping rule max_iterations = ${limit})` : "no iteration limit"}
+            {Number.isFinite(limit) && typeof k === "number" ? `the fork runs iterations ${k + 1} to ${limit} (stopping rule max_iterations = ${limit})` : "no iteration limit"}
           </small>
           <FieldMessages problems={errors.at("further")} />
         </div>
         <div className="field grow">
           <label htmlFor="fork-name">Name</label>
-          <input id="fork-name" value={name} onChange={(e) => setName(e.target.value)} required />
+          <input id="fork-name" value={name} onChange={(e) => setName(e.target.value)} required aria-invalid={errors.at("name").length > 0} />
           <FieldMessages problems={errors.at("name")} />
         </div>
       </div>

@@ -219,13 +219,13 @@ describe("fork", () => {
     await userEvent.click(screen.getByRole("button", { name: "Fork…" }));
     const dialog = screen.getByRole("dialog", { hidden: true });
     expect(within(dialog).getByTestId("fork-explanation")).toHaveTextContent("continues the loop from iteration k + 1");
-    expect(within(dialog).getByLabelText("Fork after iteration k")).toHaveValue(8);
-    expect(within(dialog).getByLabelText("Further iterations")).toHaveValue(10);
+    expect(within(dialog).getByLabelText("Fork after iteration k")).toHaveValue("8");
+    expect(within(dialog).getByLabelText("Further iterations")).toHaveValue("10");
     expect(within(dialog).getByTestId("fork-limit")).toHaveTextContent("the fork runs iterations 9 to 18 (stopping rule max_iterations = 18)");
-    await waitFor(() => expect(within(dialog).getByLabelText(/^max_iterations/)).toHaveValue(18));
+    await waitFor(() => expect(within(dialog).getByLabelText(/^max_iterations/)).toHaveValue("18"));
     await userEvent.clear(within(dialog).getByLabelText("Further iterations"));
     await userEvent.type(within(dialog).getByLabelText("Further iterations"), "4");
-    expect(within(dialog).getByLabelText(/^max_iterations/)).toHaveValue(12);
+    expect(within(dialog).getByLabelText(/^max_iterations/)).toHaveValue("12");
     await userEvent.click(within(dialog).getByRole("button", { name: "Fork" }));
     await waitFor(() => expect(calls.some((c) => c.path === "/campaigns/7/fork")).toBe(true));
     const body = calls.find((c) => c.path === "/campaigns/7/fork")!.body as { iteration: number; stopping: { max_iterations: number }; start: boolean };

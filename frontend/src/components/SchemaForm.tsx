@@ -7,6 +7,7 @@ import { useId } from "react";
 import type { FieldError } from "../api/errors";
 import { atFieldText, noErrors, type ErrorView, type Problem } from "../lib/formErrors";
 import { resolveRef, unwrapNullable, type JsonSchema } from "../lib/jsonSchema";
+import { NumberInput } from "./NumberInput";
 
 export { resolveRef, unwrapNullable, type JsonSchema };
 
@@ -180,15 +181,10 @@ function Field({ name, path, schema, root, value, onChange, errors, required }: 
     );
   } else if (type === "number" || type === "integer") {
     input = (
-      <input
+      <NumberInput
         id={id}
-        type="number"
-        step={type === "integer" ? 1 : "any"}
-        value={value === undefined || value === null ? "" : String(value)}
-        onChange={(e) => {
-          const v = parseNumber(e.target.value);
-          onChange(v === undefined ? (nullable ? null : undefined) : v);
-        }}
+        value={value}
+        onChange={(v) => onChange(v === undefined ? (nullable ? null : undefined) : v)}
         required={required && !nullable}
         aria-describedby={describedBy}
         aria-invalid={Boolean(error)}

@@ -104,3 +104,16 @@ export function atFieldText(p: Problem, item = "item"): string {
 export function under(errors: FieldError[], prefix: string): FieldError[] {
   return errors.filter((e) => e.field.startsWith(`${prefix}.`)).map((e) => ({ ...e, field: e.field.slice(prefix.length + 1) }));
 }
+
+/** A name as it is saved: without leading and trailing spaces (the API trims it too). */
+export function cleanName(name: string): string {
+  return name.trim();
+}
+
+/** The form's check of a name field: a name made only of spaces is no name. */
+export function nameProblems(name: string, field = "name", max = 200): FieldError[] {
+  const n = cleanName(name);
+  if (!n) return [{ field, message: "must not be empty (spaces alone are no name)" }];
+  if (n.length > max) return [{ field, message: `must have at most ${max} characters` }];
+  return [];
+}

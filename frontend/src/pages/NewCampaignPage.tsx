@@ -3,9 +3,10 @@ import { Link, useNavigate } from "react-router-dom";
 import { useCreateCampaign } from "../api/campaigns";
 import { useOpenApi, useOracles, useSurrogateConfigs, useTasks } from "../api/definitions";
 import { ErrorBox, Loading } from "../components/States";
-import { FieldMessages } from "../components/SchemaForm";
+import { FieldMessages, numberProblem } from "../components/SchemaForm";
+import { NumberInput, type NumberText } from "../components/NumberInput";
 import { ErrorCount, FormErrors, serverProblems } from "../components/FormErrors";
-import { errorView } from "../lib/formErrors";
+import { cleanName, errorView, nameProblems } from "../lib/formErrors";
 import { ConfigSections, configFieldPaths, configLabel, configLocalErrors, useConfigDefaults, type ConfigDraft } from "../campaign/ConfigSections";
 import { EXPLORATION_PATHS, ExplorationSection, explorationErrors } from "../campaign/ExplorationSection";
 
@@ -21,7 +22,7 @@ export function NewCampaignPage() {
   const [chosenTask, setTaskId] = useState<number | "">("");
   const [chosenOracle, setOracleId] = useState<number | "">("");
   const [surrogateId, setSurrogateId] = useState<number | "">("");
-  const [seed, setSeed] = useState(0);
+  const [seed, setSeed] = useState<NumberText>(0);
   const [edited, setConfig] = useState<ConfigDraft | null>(null);
   const [startNow, setStartNow] = useState(true);
   const taskId = chosenTask === "" ? (tasks.data?.[0]?.id ?? "") : chosenTask;
@@ -29,19 +30,27 @@ export function NewCampaignPage() {
   const config = edited ?? defaults;
 
   const openapi = useOpenApi();
+  // the name is checked once the user has typed one or tried to create the campaign
   const [submitted, setSubmitted] = useState(false);
-  const own = ["name", "seed", "task_id", "oracle_id", "surrogate_config_id"];
-  const local = config ? [...configLocalErrors(openapi.data, config), ...explorationErrors(config)] : [];
-  const view = errorView([submitted ? local : [], serverProblems(create.error)], [...own, ...configFieldPaths(openapi.data)], (p) =>
-    own.includes(p) ? p : configLabel(openapi.data, p),
-  );
+  const own: Record<string, string> = { name: "Name", seed: "Seed", task_id: "Task", oracle_id: "Oracle", surrogate_config_id: "Surrogate configuration" };
+  const seedProblem = numberProblem(seed, { minimum: 0 }, true) ?? (seed === undefined ? "a whole number is needed" : null);
+  const local = [
+    ...(submitted || name !== "" ? nameProblems(name) : []),
+    ...(seedProblem ? [{ field: "seed", message: seedProblem }] : []),
+    ...(config ? [...configLocalErrors(openapi.data, config), ...explorationErrors(config)] : []),
+  ];
+  // the form as the last request sent it: the server's problems apply while the form still shows it
+  const draftKey = JSON.stringify([name, taskId, oracleId, surrogateId, seed, startNow, config]);
+  const [sentKey, setSentKey] = useState<string | null>(null);
+  const view = errorView([local, sentKey === draftKey ? serverProblems(create.error) : []], [...Object.keys(own), ...configFieldPaths(openapi.data)], (p) => own[p] ?? configLabel(openapi.data, p));
 
   function submit(e: FormEvent) {
     e.preventDefault();
     setSubmitted(true);
-    if (taskId === "" || oracleId === "" || !config || local.length) return;
+    if (taskId === "" || oracleId === "" || !config || nameProblems(name).length || local.length || typeof seed !== "number") return;
+    setSentKey(draftKey);
     create.mutate(
-      { name, task_id: taskId, oracle_id: oracleId, surrogate_config_id: surrogateId === "" ? null : surrogateId, seed, start: startNow, ...config },
+      { name: cleanName(name), task_id: taskId, oracle_id: oracleId, surrogate_config_id: surrogateId === "" ? null : surrogateId, seed, start: startNow, ...config },
       { onSuccess: (created) => navigate(`/campaigns/${created.id}`) },
     );
   }
@@ -78,12 +87,12 @@ export function NewCampaignPage() {
         <div className="row">
           <div className="field grow">
             <label htmlFor="campaign-name">Name</label>
-            <input id="campaign-name" value={name} onChange={(e) => setName(e.target.value)} required maxLength={200} />
+            <input id="campaign-name" value={name} onChange={(e) => setName(e.target.value)} required maxLength={200} aria-invalid={view.at("name").length > 0} />
             {err("name")}
           </div>
           <div className="field">
             <label htmlFor="campaign-seed">Seed</label>
-            <input id="campaign-seed" type="number" min={0} step={1} value={seed} onChange={(e) => setSeed(Number(e.target.value))} />
+            <NumberInput id="campaign-seed" inputMode="numeric" value={seed} onChange={setSeed} aria-invalid={view.at("seed").length > 0} />
             {err("seed")}
           </div>
         </div>

@@ -10,7 +10,7 @@ import { Plot, type Trace } from "../components/Plot";
 import { PreviewPanel } from "../components/PreviewPanel";
 import { DefinitionEditor } from "../components/DefinitionEditor";
 import { generalFailure, serverProblems } from "../components/FormErrors";
-import { errorView, schemaLabel } from "../lib/formErrors";
+import { cleanName, errorView, nameProblems, schemaLabel } from "../lib/formErrors";
 
 const typeSchema = (t: OracleType | undefined) => (t?.params_schema ?? {}) as JsonSchema;
 
@@ -78,6 +78,8 @@ function OracleEditor({ existing, types }: { existing: Oracle | undefined; types
   const [type, setType] = useState(existing?.type ?? first?.name ?? "");
   const [params, setParams] = useState<Record<string, unknown>>(() => existing?.params ?? (first ? schemaDefaults(typeSchema(first)) : {}));
   const [validated, setValidated] = useState<{ key: string; errors: FieldError[] } | null>(null);
+  // the draft the last save sent: its refused problems apply while the form still shows that draft
+  const [sentKey, setSentKey] = useState<string | null>(null);
   const typeInfo = types.find((t) => t.name === type);
   const schema = typeSchema(typeInfo);
 
@@ -100,11 +102,14 @@ function OracleEditor({ existing, types }: { existing: Oracle | undefined; types
   const view = useMemo(() => {
     const known = ["name", "description", "type", ...schemaFieldPaths(schema, schema, "params")];
     const label = (p: string) => (p.startsWith("params.") ? schemaLabel(schema, p.slice(7)) : p[0]?.toUpperCase() + p.slice(1));
-    return errorView([schemaLocalErrors(schema, params, schema, "params"), validated?.errors ?? [], serverProblems(save.error), serverProblems(test.error)], known, label);
-  }, [schema, params, validated, save.error, test.error]);
+    const local = [...nameProblems(name), ...schemaLocalErrors(schema, params, schema, "params")];
+    const sent = sentKey === JSON.stringify([name, description, type, params]) ? serverProblems(save.error) : [];
+    return errorView([local, validated?.errors ?? [], sent, serverProblems(test.error)], known, label);
+  }, [name, description, type, schema, params, validated, sentKey, save.error, test.error]);
 
   function onSave() {
-    save.mutate({ name, description, type, params }, { onSuccess: (saved) => navigate(`/oracles/${saved.id}`) });
+    setSentKey(JSON.stringify([name, description, type, params]));
+    save.mutate({ name: cleanName(name), description, type, params }, { onSuccess: (saved) => navigate(`/oracles/${saved.id}`) });
   }
 
   return (

@@ -6,7 +6,7 @@ import { columns, type ModelPreset, type Task, type TaskPreset, type TaskPreview
 import { errorMessage, type FieldError } from "../api/errors";
 import { FieldMessages, parseNumberList, SchemaForm, schemaFieldPaths, schemaLocalErrors, type JsonSchema } from "../components/SchemaForm";
 import { PhasesTable, phaseFieldPaths, phaseLocalErrors, type PhaseRow } from "../task/PhasesTable";
-import { ScenarioRanges, rangeFieldPaths, type RangeRow } from "../task/ScenarioRanges";
+import { ScenarioRanges, rangeFieldPaths, rangeLocalErrors, type RangeRow } from "../task/ScenarioRanges";
 import { ErrorBox, Loading } from "../components/States";
 import { Plot, type Trace } from "../components/Plot";
 import { ChainDrawing } from "../components/ChainDrawing";
@@ -17,7 +17,7 @@ import { phaseShapes } from "../campaign/TrajectoryPanel";
 import { PreviewPanel } from "../components/PreviewPanel";
 import { DefinitionEditor } from "../components/DefinitionEditor";
 import { generalFailure, serverProblems } from "../components/FormErrors";
-import { errorView, schemaLabel, type ErrorView } from "../lib/formErrors";
+import { cleanName, errorView, nameProblems, schemaLabel, type ErrorView } from "../lib/formErrors";
 
 /** Paths of the body (`spec.phases.0.duration`) as the form's (`phases.0.duration`); name and description stay. */
 function specPaths(errors: FieldError[]): FieldError[] {
@@ -137,13 +137,15 @@ function TaskEditor({ existing, presets }: { existing: Task | undefined; presets
   const [description, setDescription] = useState(existing?.description ?? "");
   const [spec, setSpec] = useState<TaskSpecDraft>(() => structuredClone((existing?.spec ?? presets[0].spec) as TaskSpecDraft));
   const [validated, setValidated] = useState<{ key: string; errors: FieldError[] } | null>(null);
+  // the draft the last save sent: its refused problems apply while the form still shows that draft
+  const [sentKey, setSentKey] = useState<string | null>(null);
 
   // Inline validation: ask the API (which knows the science rules) 400 ms after the last edit.
   const draftKey = JSON.stringify([name, description, spec]);
   useEffect(() => {
     let current = true;
     const timer = setTimeout(() => {
-      validateTask({ name: name || "untitled", description, spec })
+      validateTask({ name: cleanName(name) || "untitled", description, spec })
         .then((errors) => current && setValidated({ key: draftKey, errors }))
         .catch((err) => current && setValidated({ key: draftKey, errors: [{ field: "", message: errorMessage(err) }] }));
     }, 400);
@@ -166,19 +168,21 @@ function TaskEditor({ existing, presets }: { existing: Task | undefined; presets
   const ranges = useMemo(() => (spec.ranges ?? []) as RangeRow[], [spec.ranges]);
   const view: ErrorView = useMemo(() => {
     const local = [
+      ...nameProblems(name),
       ...(modelSchema && root ? schemaLocalErrors(modelSchema, spec.model, root, "model") : []),
       ...chainLocalErrors(chainSpec, root),
       ...phaseLocalErrors(phases, phaseSchema, root),
       ...listProblems(spec),
+      ...rangeLocalErrors(ranges),
     ];
     const known = ["name", "description", "phases", ...(modelSchema && root ? schemaFieldPaths(modelSchema, root, "model") : []), ...(chainSpec ? chainFieldPaths(chainSpec, root) : []), ...phaseFieldPaths(phases), ...BOUNDARY_FIELDS, ...rangeFieldPaths(ranges)];
     const label = (p: string) => (p === "name" ? "Name" : p === "description" ? "Description" : root ? schemaLabel(root, p) : p);
     return errorView(
-      [local, specPaths(validated?.errors ?? []), specPaths(serverProblems(save.error)), specPaths(serverProblems(solve.error)), specPaths(serverProblems(sample.error))],
+      [local, specPaths(validated?.errors ?? []), specPaths(sentKey === draftKey ? serverProblems(save.error) : []), specPaths(serverProblems(solve.error)), specPaths(serverProblems(sample.error))],
       known,
       label,
     );
-  }, [modelSchema, chainSpec, phaseSchema, root, spec, phases, ranges, validated, save.error, solve.error, sample.error]);
+  }, [name, modelSchema, chainSpec, phaseSchema, root, spec, phases, ranges, validated, sentKey, draftKey, save.error, solve.error, sample.error]);
 
   const drawn = useMemo(() => resolveModel(spec.model), [spec.model]);
   const initialQ = (spec.initial as { q?: unknown } | undefined)?.q;
@@ -217,7 +221,8 @@ function TaskEditor({ existing, presets }: { existing: Task | undefined; presets
   }
 
   function onSave() {
-    save.mutate({ name, description, spec }, { onSuccess: (saved) => navigate(`/tasks/${saved.id}`) });
+    setSentKey(draftKey);
+    save.mutate({ name: cleanName(name), description, spec }, { onSuccess: (saved) => navigate(`/tasks/${saved.id}`) });
   }
 
   return (

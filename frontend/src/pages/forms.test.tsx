@@ -61,6 +61,8 @@ describe("task editor form errors", () => {
       },
     });
     renderPage(<TaskEditorPage />, { route: "/tasks/new" });
+    // a new task needs a name (a blank one is a problem the form names)
+    fireEvent.change(await screen.findByLabelText("Name"), { target: { value: "a task" } });
     await screen.findByLabelText("phase 1 duration [s]");
     await userEvent.type(screen.getByLabelText("Name"), "bad task");
     await waitFor(() => expect(screen.getByTestId("validation-state")).toHaveTextContent("valid"), { timeout: 3000 });
@@ -102,6 +104,8 @@ describe("task editor form errors", () => {
       },
     });
     renderPage(<TaskEditorPage />, { route: "/tasks/new" });
+    // a new task needs a name (a blank one is a problem the form names)
+    fireEvent.change(await screen.findByLabelText("Name"), { target: { value: "a task" } });
     const intervals = await screen.findByLabelText("phase 1 intervals");
     fireEvent.change(intervals, { target: { value: "2.5" } });
     expect(await screen.findByText("must be a whole number")).toBeInTheDocument();

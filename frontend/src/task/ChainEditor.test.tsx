@@ -60,6 +60,8 @@ describe("task editor: the model as a chain", () => {
   it("a chain preset: links and joints with units and ranges, a drawing that follows the values, the API's errors at their cell", async () => {
     api();
     renderPage(<TaskEditorPage />, { route: "/tasks/new" });
+    // a new task needs a name (a blank one is a problem the form names)
+    fireEvent.change(await screen.findByLabelText("Name"), { target: { value: "a task" } });
     await screen.findByLabelText(/^theta0/);
     // the 1-DOF preset: its own parameters, no chain group, each field once
     expect(screen.queryByTestId("chain-editor")).toBeNull();
@@ -106,11 +108,13 @@ describe("task editor: the model as a chain", () => {
   it("the 1-DOF model as a user-defined chain keeps its picture", async () => {
     api();
     renderPage(<TaskEditorPage />, { route: "/tasks/new" });
+    // a new task needs a name (a blank one is a problem the form names)
+    fireEvent.change(await screen.findByLabelText("Name"), { target: { value: "a task" } });
     await screen.findByLabelText(/^theta0/);
     const before = drawing().getAttribute("data-head");
     fireEvent.change(screen.getByLabelText(/^preset/), { target: { value: "chain" } });
     await screen.findByTestId("chain-links");
-    expect(screen.getByLabelText("link 1 mass [kg]")).toHaveValue(5);
+    expect(screen.getByLabelText("link 1 mass [kg]")).toHaveValue("5");
     expect(drawing()).toHaveAttribute("data-head", before);
     await waitFor(() => expect(screen.getByTestId("validation-state")).toHaveTextContent("valid"), { timeout: 10_000 });
   }, SLOW);

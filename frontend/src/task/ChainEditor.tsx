@@ -6,8 +6,9 @@
  * paths (`model.chain.joints.1.q0`).
  */
 import type { FieldError } from "../api/errors";
-import { FieldMessages, numberProblem, parseNumber, resolveRef, SchemaForm, schemaFieldPaths, schemaLocalErrors, type JsonSchema } from "../components/SchemaForm";
+import { FieldMessages, numberProblem, resolveRef, SchemaForm, schemaFieldPaths, schemaLocalErrors, type JsonSchema } from "../components/SchemaForm";
 import type { ErrorView } from "../lib/formErrors";
+import { NumberInput } from "../components/NumberInput";
 
 type Json = Record<string, unknown>;
 export const MAX_LINKS = 6;
@@ -154,13 +155,11 @@ function Cell({ path, value, schema, unit, label, errors, onChange }: { path: st
   const problems = errors.at(path);
   return (
     <td>
-      <input
+      <NumberInput
         aria-label={`${label} [${unit}]`}
-        type="number"
-        step="any"
         style={{ width: 78 }}
-        value={value === undefined || value === null ? "" : String(value)}
-        onChange={(e) => onChange(parseNumber(e.target.value))}
+        value={value}
+        onChange={onChange}
         aria-invalid={problems.length > 0}
         title={schema.description}
       />

@@ -1,5 +1,6 @@
 /** The phases of a task as an editable table: duration, intervals, weights, bounds, target pose. */
-import { FieldMessages, numberProblem, parseNumber, parseNumberList, resolveRef, type JsonSchema } from "../components/SchemaForm";
+import { FieldMessages, numberProblem, parseNumberList, resolveRef, type JsonSchema } from "../components/SchemaForm";
+import { NumberInput } from "../components/NumberInput";
 import type { FieldError } from "../api/errors";
 import type { ErrorView } from "../lib/formErrors";
 
@@ -87,13 +88,11 @@ export function PhasesTable({ phases, onChange, errors }: { phases: PhaseRow[]; 
               </td>
               {NUMBER_FIELDS.map((f) => (
                 <td key={f}>
-                  <input
+                  <NumberInput
                     aria-label={`phase ${m + 1} ${HEADERS[f]}`}
-                    type="number"
-                    step={f === "intervals" ? 1 : "any"}
                     style={{ width: 90 }}
-                    value={p[f] === undefined || p[f] === null ? "" : String(p[f])}
-                    onChange={(e) => set(m, f, parseNumber(e.target.value))}
+                    value={p[f]}
+                    onChange={(v) => set(m, f, v)}
                     aria-invalid={cellError(m, f).length > 0}
                   />
                   <FieldMessages problems={cellError(m, f)} />

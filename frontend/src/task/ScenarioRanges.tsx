@@ -1,5 +1,7 @@
 /** The task's scenario ranges (ranges of some parameters, each with how its values are drawn) and a preview of sampled scenarios. */
-import { FieldMessages, parseNumber } from "../components/SchemaForm";
+import type { FieldError } from "../api/errors";
+import { FieldMessages, numberProblem } from "../components/SchemaForm";
+import { NumberInput } from "../components/NumberInput";
 import type { ScenarioPreview } from "../api/types";
 import type { ErrorView } from "../lib/formErrors";
 
@@ -22,8 +24,10 @@ const SHAPE_FIELDS: Record<Distribution, ("mean" | "std" | "mode")[]> = { unifor
 /** A row with another distribution: the new shape's fields start at the range's middle (and a sixth of its width as std); the old shape's are dropped. */
 export function withDistribution(r: RangeRow, distribution: Distribution): RangeRow {
   const { mean: _m, std: _s, mode: _o, distribution: _d, ...base } = r;
-  const mid = (r.low + r.high) / 2;
-  if (distribution === "normal") return { ...base, distribution, mean: mid, std: (r.high - r.low) / 6 || 1e-3 };
+  // a range still being typed (no numbers yet) leaves the shape's fields empty for the user to fill
+  const known = typeof r.low === "number" && typeof r.high === "number" && Number.isFinite(r.low) && Number.isFinite(r.high);
+  const mid = known ? (r.low + r.high) / 2 : undefined;
+  if (distribution === "normal") return { ...base, distribution, mean: mid, std: known ? (r.high - r.low) / 6 || 1e-3 : undefined };
   if (distribution === "triangular") return { ...base, distribution, mode: mid };
   return base;
 }
@@ -48,6 +52,20 @@ export const RANGE_PARAMETERS = [
 /** The paths of the section's fields, for placing errors. */
 export function rangeFieldPaths(ranges: RangeRow[]): string[] {
   return ["ranges", ...ranges.flatMap((_, i) => ["parameter", "low", "high", "distribution", "mean", "std", "mode"].map((f) => `ranges.${i}.${f}`))];
+}
+
+/** The section's own checks, made while typing: every value a number, and low <= high (the API's rule, at the same field). */
+export function rangeLocalErrors(ranges: RangeRow[]): FieldError[] {
+  const out: FieldError[] = [];
+  ranges.forEach((r, i) => {
+    for (const f of ["low", "high", ...SHAPE_FIELDS[r.distribution ?? "uniform"]] as const) {
+      const m = numberProblem(r[f], {}, false) ?? (r[f] === undefined || r[f] === null ? "a number is needed" : null);
+      if (m) out.push({ field: `ranges.${i}.${f}`, message: m });
+    }
+    if (typeof r.low === "number" && typeof r.high === "number" && Number.isFinite(r.low) && Number.isFinite(r.high) && r.low > r.high)
+      out.push({ field: `ranges.${i}.high`, message: `must be at least low (${r.high} < ${r.low})` });
+  });
+  return out;
 }
 
 function fmt(v: number): string {
@@ -106,16 +124,21 @@ export function ScenarioRanges({
           </thead>
           <tbody>
             {ranges.map((r, i) => (
-              <tr key={`${i}:${r.parameter}:${r.low}:${r.high}:${r.distribution ?? "uniform"}:${r.mean}:${r.std}:${r.mode}`}>
-                {(["parameter", "low", "high"] as const).map((f) => (
+              <tr key={i}>
+                <td>
+                  <input
+                    aria-label={`range ${i + 1} parameter`}
+                    list="range-parameters"
+                    value={r.parameter}
+                    onChange={(e) => set(i, "parameter", e.target.value)}
+                    onBlur={(e) => e.target.value !== e.target.value.trim() && set(i, "parameter", e.target.value.trim())}
+                    aria-invalid={errors.at(`ranges.${i}.parameter`).length > 0}
+                  />
+                  <FieldMessages problems={errors.at(`ranges.${i}.parameter`)} />
+                </td>
+                {(["low", "high"] as const).map((f) => (
                   <td key={f}>
-                    <input
-                      aria-label={`range ${i + 1} ${f}`}
-                      list={f === "parameter" ? "range-parameters" : undefined}
-                      defaultValue={f === "parameter" ? r.parameter : Number.isFinite(r[f]) ? String(r[f]) : ""}
-                      onBlur={(e) => set(i, f, f === "parameter" ? e.target.value.trim() : parseNumber(e.target.value))}
-                      aria-invalid={errors.at(`ranges.${i}.${f}`).length > 0}
-                    />
+                    <NumberInput aria-label={`range ${i + 1} ${f}`} value={r[f]} onChange={(v) => set(i, f, v)} aria-invalid={errors.at(`ranges.${i}.${f}`).length > 0} />
                     <FieldMessages problems={errors.at(`ranges.${i}.${f}`)} />
                   </td>
                 ))}
@@ -138,13 +161,7 @@ export function ScenarioRanges({
                   {SHAPE_FIELDS[r.distribution ?? "uniform"].map((f) => (
                     <label key={f} className="inline">
                       {f}{" "}
-                      <input
-                        aria-label={`range ${i + 1} ${f}`}
-                        size={7}
-                        defaultValue={Number.isFinite(r[f]) ? String(r[f]) : ""}
-                        onBlur={(e) => set(i, f, parseNumber(e.target.value))}
-                        aria-invalid={errors.at(`ranges.${i}.${f}`).length > 0}
-                      />
+                      <NumberInput aria-label={`range ${i + 1} ${f}`} size={7} value={r[f]} onChange={(v) => set(i, f, v)} aria-invalid={errors.at(`ranges.${i}.${f}`).length > 0} />
                       <FieldMessages problems={errors.at(`ranges.${i}.${f}`)} />
                     </label>
                   ))}
