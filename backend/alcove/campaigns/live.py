@@ -23,18 +23,20 @@ import time
 import weakref
 from collections.abc import AsyncIterator, Awaitable, Callable
 from dataclasses import dataclass, field
+from functools import partial
 from typing import Annotated, Any
 
 from fastapi import APIRouter, Query, Request
 from fastapi.responses import StreamingResponse
 
 from alcove.api.params import MAX_ID, ObjectId
+from alcove.campaigns import live_access
 from alcove.campaigns import repository as repo
 from alcove.campaigns.schemas import EventRead
 from alcove.db import get_sessionmaker
-from alcove.models import Campaign, CampaignStatus, User
+from alcove.models import Campaign, CampaignStatus
 from alcove.users.access import get_for
-from alcove.users.auth import CurrentUser
+from alcove.users.auth import CurrentToken, CurrentUser
 
 log = logging.getLogger(__name__)
 
@@ -44,8 +46,6 @@ POLL_S = 1.0
 KEEPALIVE_S = 15.0
 #: How long an id below the cursor that was not seen yet is looked for again.
 GAP_RETENTION_S = 60.0
-#: How long a stream of all campaigns trusts "not visible to this user" (a share may change it).
-HIDDEN_RECHECK_S = 30.0
 #: Holes wider than this (a sequence jump, a bulk rollback) are not watched.
 MAX_GAP = 200
 TERMINAL = {CampaignStatus.completed.value, CampaignStatus.failed.value, CampaignStatus.cancelled.value}
@@ -200,22 +200,35 @@ async def _stream(
     timeout: float,
     accept: Callable[[Frame], Awaitable[tuple[bool, bool]]],
     sent: set[int],
+    recheck: Callable[[], Awaitable[str | None]],
 ) -> AsyncIterator[str]:
     """Send ``first`` (backlog and ``ready``), then what the hub delivers except the ids
     already ``sent`` (backlog and hub overlap around the moment of subscribing); ``accept``
-    says whether a frame goes out and whether the stream ends after it."""
+    says whether a frame goes out and whether the stream ends after it. Every
+    ``live_access.RECHECK_S`` seconds, and before sending once that much time has passed,
+    ``recheck`` says whether the stream may go on (None) or why it ends (then an ``end`` frame
+    with the reason is the last one)."""
     loop = asyncio.get_running_loop()
     deadline = loop.time() + timeout
+    written = next_check = loop.time()
     try:
         yield "".join(first)
         while (left := deadline - loop.time()) > 0:
+            now = loop.time()
+            wait = min(KEEPALIVE_S - (now - written), left, max(next_check - now, 0.05))
             try:
-                frames = await asyncio.wait_for(sub.queue.get(), timeout=min(KEEPALIVE_S, left))
+                frames = await asyncio.wait_for(sub.queue.get(), timeout=max(wait, 0.0))
             except TimeoutError:
-                yield ": keep-alive\n\n"
-                continue
+                frames = []
+            if loop.time() >= next_check:
+                gone = await recheck()
+                if gone is not None:
+                    yield live_access.ended(gone)
+                    return
+                next_check = loop.time() + live_access.RECHECK_S
             # what one poll delivered goes out as one write (one wake-up of the viewer), not one per event
             out: list[str] = []
+            last = False
             for f in frames:
                 if f.id in sent:
                     continue
@@ -224,42 +237,19 @@ async def _stream(
                     out.append(f.text)
                 if last:
                     break
-            else:
-                last = False
+            if not out and loop.time() - written >= KEEPALIVE_S:
+                out.append(": keep-alive\n\n")
             if out:
                 yield "".join(out)
+                written = loop.time()
             if last:
                 return
     finally:
         hub.unsubscribe(sub)
 
 
-class _Visible:
-    """Which campaigns a user may see: known ones at once, unknown ones checked in a thread
-    (a "not visible" answer is trusted for :data:`HIDDEN_RECHECK_S`: a share may change it)."""
-
-    def __init__(self, user: User) -> None:
-        self.user = user
-        self.visible: set[int] = set()
-        self.hidden: dict[int, float] = {}
-
-    async def __call__(self, f: Frame) -> tuple[bool, bool]:
-        cid = f.campaign_id
-        if cid in self.visible:
-            return True, False
-        checked = self.hidden.get(cid)
-        if checked is not None and time.monotonic() - checked < HIDDEN_RECHECK_S:
-            return False, False
-        if await asyncio.to_thread(self._may_see, cid):
-            self.visible.add(cid)
-            self.hidden.pop(cid, None)
-            return True, False
-        self.hidden[cid] = time.monotonic()
-        return False, False
-
-    def _may_see(self, campaign_id: int) -> bool:
-        with get_sessionmaker()() as s:
-            return bool(repo.visible_campaign_ids(s, self.user, [campaign_id]))
+async def _visible_only(visible: live_access.Visible, f: Frame) -> tuple[bool, bool]:
+    return await visible(f.campaign_id), False
 
 
 async def _ends_when_terminal(f: Frame) -> tuple[bool, bool]:
@@ -273,17 +263,20 @@ async def _ends_when_terminal(f: Frame) -> tuple[bool, bool]:
     responses=SSE_RESPONSES,
 )
 async def stream_all_campaign_events(
-    user: CurrentUser, request: Request, after: After = None, timeout: Timeout = 300
+    user: CurrentUser, token: CurrentToken, request: Request, after: After = None, timeout: Timeout = 300
 ) -> StreamingResponse:
     """Events of every campaign you may see, as Server-Sent Events (``id`` = event id,
     ``event`` = kind, ``data`` = the event with its ``campaign_id``): the campaign list's
     live channel. Resuming with ``after`` (or ``Last-Event-ID``) first sends the events you
     missed; then a ``ready`` event; then every new event as it is committed. The stream ends
-    after ``timeout`` seconds: reconnect with the last id."""
+    after ``timeout`` seconds: reconnect with the last id. Every few seconds the stream re-checks
+    your token and which campaigns you may see: it stops sending a campaign's events once you
+    may no longer see it, and ends (an ``end`` event says why) once the token is revoked or
+    expired."""
     resume = _resume_from(request, after)
     hub = current_hub()
     sub = await hub.subscribe(None)
-    visible = _Visible(user)
+    visible = live_access.Visible(user, token.id)
     cursor = hub.cursor or 0
 
     def backlog() -> list[Frame]:
@@ -302,7 +295,8 @@ async def stream_all_campaign_events(
     complete = resume is not None and len(frames) <= BACKLOG_LIMIT
     frames = frames[:BACKLOG_LIMIT]
     first = [f.text for f in frames] + [_ready(cursor, complete)]
-    return _sse(_stream(hub, sub, first, timeout, visible, {f.id for f in frames}))
+    sent = {f.id for f in frames}
+    return _sse(_stream(hub, sub, first, timeout, partial(_visible_only, visible), sent, visible.recheck))
 
 
 @router.get(
@@ -312,13 +306,20 @@ async def stream_all_campaign_events(
     responses=SSE_RESPONSES,
 )
 async def stream_campaign_events(
-    campaign_id: ObjectId, user: CurrentUser, request: Request, after: After = None, timeout: Timeout = 300
+    campaign_id: ObjectId,
+    user: CurrentUser,
+    token: CurrentToken,
+    request: Request,
+    after: After = None,
+    timeout: Timeout = 300,
 ) -> StreamingResponse:
     """The campaign's events as Server-Sent Events (``id`` = event id, ``event`` = kind,
     ``data`` = the event): the campaign page's live channel. Resuming with ``after`` (or
     ``Last-Event-ID``) first sends the events you missed; then a ``ready`` event; then every
     new event as it is committed. The stream ends after the event that makes the campaign
-    terminal (at once if it already is) or after ``timeout`` seconds: reconnect with the last id."""
+    terminal (at once if it already is) or after ``timeout`` seconds: reconnect with the last id.
+    Every few seconds the stream re-checks your token and your access to the campaign, and ends
+    (an ``end`` event says why) once either is gone (a revoked token, a removed share)."""
     resume = _resume_from(request, after)
     hub = current_hub()
     sub = await hub.subscribe(campaign_id)
@@ -346,7 +347,8 @@ async def stream_campaign_events(
                 yield text
 
         return _sse(once())
-    return _sse(_stream(hub, sub, first, timeout, _ends_when_terminal, {f.id for f in frames}))
+    access = live_access.CampaignAccess(token.id, campaign_id)
+    return _sse(_stream(hub, sub, first, timeout, _ends_when_terminal, {f.id for f in frames}, access))
 
 
 def _sse(frames: AsyncIterator[str]) -> StreamingResponse:

@@ -154,6 +154,16 @@ def _detached_copy(obj: T) -> T:
     return copy
 
 
+def holder_of(session: Session, token_id: int) -> User | None:
+    """The active user whose token ``token_id`` is still valid, read from the database (not the
+    verified-token cache): for what outlives a request, such as an open event stream."""
+    token = session.get(ApiToken, token_id)
+    if token is None or not token.is_valid():
+        return None
+    user = session.get(User, token.user_id)
+    return user if user is not None and user.is_active else None
+
+
 def needs_touch(token: ApiToken) -> bool:
     return token.last_used_at is None or utcnow() - token.last_used_at > LAST_USED_RESOLUTION
 

@@ -125,7 +125,10 @@ export interface paths {
          *     ``event`` = kind, ``data`` = the event with its ``campaign_id``): the campaign list's
          *     live channel. Resuming with ``after`` (or ``Last-Event-ID``) first sends the events you
          *     missed; then a ``ready`` event; then every new event as it is committed. The stream ends
-         *     after ``timeout`` seconds: reconnect with the last id.
+         *     after ``timeout`` seconds: reconnect with the last id. Every few seconds the stream re-checks
+         *     your token and which campaigns you may see: it stops sending a campaign's events once you
+         *     may no longer see it, and ends (an ``end`` event says why) once the token is revoked or
+         *     expired.
          */
         get: operations["stream_all_campaign_events"];
         put?: never;
@@ -228,6 +231,8 @@ export interface paths {
          *     ``Last-Event-ID``) first sends the events you missed; then a ``ready`` event; then every
          *     new event as it is committed. The stream ends after the event that makes the campaign
          *     terminal (at once if it already is) or after ``timeout`` seconds: reconnect with the last id.
+         *     Every few seconds the stream re-checks your token and your access to the campaign, and ends
+         *     (an ``end`` event says why) once either is gone (a revoked token, a removed share).
          */
         get: operations["stream_campaign_events"];
         put?: never;
