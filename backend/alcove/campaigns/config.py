@@ -8,6 +8,8 @@ from typing import TYPE_CHECKING, Annotated, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, ValidationInfo, field_validator, model_validator
 
+from alcove.names import Name
+
 if TYPE_CHECKING:
     from alcove.models import CampaignConfigVersion
 
@@ -348,7 +350,7 @@ class CampaignConfig(_Strict):
 
 
 class CampaignCreate(CampaignConfig):
-    name: str = Field(min_length=1, max_length=200)
+    name: Name
     description: str = ""
     task_version_id: int
     oracle_version_id: int
@@ -372,7 +374,7 @@ class ForkRequest(_Strict):
     model at that iteration), with changed settings."""
 
     iteration: int = Field(ge=0)
-    name: str | None = None
+    name: Name | None = None
     surrogate_config_version_id: int | None = None
     oracle_version_id: int | None = None
     task_version_id: int | None = None

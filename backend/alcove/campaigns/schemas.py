@@ -35,6 +35,7 @@ from alcove.campaigns.trajectory_schemas import (
     TrajectoryPhase,
 )
 from alcove.models.base import CampaignStatus, IterationStatus, StepName, StepStatus
+from alcove.names import Name
 from alcove.science.surrogate.metrics import DESCRIPTIONS
 
 
@@ -244,7 +245,7 @@ class CampaignCreateIn(_In):
     """A campaign of one of your (or shared) tasks and oracles. Versions default to the latest;
     the surrogate config defaults to the paper's."""
 
-    name: str = Field(min_length=1, max_length=200)
+    name: Name
     description: str = Field("", max_length=20_000)
     task_id: int = Field(ge=1, le=MAX_ID)
     task_version: int | None = Field(None, ge=1, le=MAX_ID)

@@ -7,6 +7,7 @@ from typing import Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field
 
+from alcove.names import Name
 from alcove.versioning.schemas import DefinitionMeta, VersionMeta
 
 
@@ -25,7 +26,7 @@ TypeName = Field(
 
 
 class OracleIn(_In):
-    name: str = Field(min_length=1, max_length=200)
+    name: Name
     description: str = Field("", max_length=20_000)
     type: str = TypeName
     params: dict[str, Any] = Field(
@@ -35,7 +36,7 @@ class OracleIn(_In):
 
 
 class OracleUpdate(_In):
-    name: str | None = Field(None, min_length=1, max_length=200)
+    name: Name | None = None
     description: str | None = Field(None, max_length=20_000)
     type: str | None = Field(None, min_length=1, max_length=100)
     params: dict[str, Any] | None = None

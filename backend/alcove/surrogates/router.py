@@ -15,6 +15,7 @@ from alcove.api.downloads import binary, download
 from alcove.api.params import Limit, ObjectId, Offset, VersionNumber
 from alcove.errors import field_errors_from_pydantic
 from alcove.models import Campaign, SurrogateConfig, User
+from alcove.names import Name
 from alcove.science.surrogate.config import SurrogateConfig as SurrogateSpec
 from alcove.surrogates import service
 from alcove.surrogates.artifact_export import artifact_zip_paths
@@ -35,7 +36,7 @@ class _In(BaseModel):
 
 
 class SurrogateConfigIn(_In):
-    name: str = Field(min_length=1, max_length=200)
+    name: Name
     description: str = Field("", max_length=20_000)
     spec: SurrogateSpec = Field(
         default_factory=SurrogateSpec, description="defaults: the paper's networks and training protocol"
@@ -44,7 +45,7 @@ class SurrogateConfigIn(_In):
 
 
 class SurrogateConfigUpdate(_In):
-    name: str | None = Field(None, min_length=1, max_length=200)
+    name: Name | None = None
     description: str | None = Field(None, max_length=20_000)
     spec: SurrogateSpec | None = None
     note: str = Field("", max_length=2000)

@@ -6,6 +6,7 @@ from typing import Any
 
 from pydantic import BaseModel, ConfigDict, Field
 
+from alcove.names import Name
 from alcove.science.ocp.task_spec import TaskSpec
 from alcove.versioning.schemas import DefinitionMeta, VersionMeta
 
@@ -16,14 +17,14 @@ class _In(BaseModel):
 
 
 class TaskIn(_In):
-    name: str = Field(min_length=1, max_length=200)
+    name: Name
     description: str = Field("", max_length=20_000)
     spec: TaskSpec
     note: str = Field("", max_length=2000, description="change note stored with the version")
 
 
 class TaskUpdate(_In):
-    name: str | None = Field(None, min_length=1, max_length=200)
+    name: Name | None = None
     description: str | None = Field(None, max_length=20_000)
     spec: TaskSpec | None = None
     note: str = Field("", max_length=2000)

@@ -8,6 +8,7 @@ from typing import Literal
 from pydantic import BaseModel, ConfigDict, Field, field_validator
 
 from alcove.ids import MAX_ID
+from alcove.names import Name
 
 EMAIL_PATTERN = r"^[^@\s]+@[^@\s]+$"
 
@@ -81,7 +82,7 @@ class MeUpdate(_In):
 
 
 class TokenCreate(_In):
-    name: str = Field(min_length=1, max_length=200, description="what the token is for, e.g. 'notebook'")
+    name: Name = Field(description="what the token is for, e.g. 'notebook'")
     expires_in_days: int | None = Field(None, ge=1, le=3650, description="null = does not expire")
 
 

@@ -9,6 +9,7 @@ from typing import Any
 from pydantic import BaseModel, ConfigDict, Field
 
 from alcove.errors import FieldError
+from alcove.names import Name
 
 
 class _In(BaseModel):
@@ -63,4 +64,4 @@ class ValidationReport(BaseModel):
 
 
 class CopyPreset(_In):
-    name: str | None = Field(None, min_length=1, max_length=200, description="name of the copy (default: the preset's)")
+    name: Name | None = Field(None, description="name of the copy (default: the preset's)")
