@@ -23,6 +23,7 @@ from alcove.api.static import SPAStaticFiles
 from alcove.api.text_input import reject_nul_characters
 from alcove.db.retry import is_retryable_db_error
 from alcove.settings import Settings, get_settings
+from alcove.users import revocation
 from alcove.users.ratelimit import make_login_throttle
 from alcove.users.service import dummy_password_hash
 
@@ -114,6 +115,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     app.state.trusted_proxies = settings.trusted_proxy_networks
     app.state.forwarded_header = settings.forwarded_header
     app.state.login_throttle = make_login_throttle(settings.broker_url, settings.broker_key_prefix)
+    revocation.configure(settings.broker_url, settings.broker_key_prefix)
     dummy_password_hash()  # an unknown e-mail's first login costs what any other does
     _warn_about_retired_settings()
 

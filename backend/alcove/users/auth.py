@@ -37,8 +37,8 @@ async def current_token(
     if credentials is None or credentials.scheme.lower() != "bearer" or not credentials.credentials:
         raise _unauthorized("not authenticated: send Authorization: Bearer <token>")
     secret = credentials.credentials
-    # a recently verified token needs no database (no thread hop); otherwise look it up
-    found = service.cached_authentication(session, secret) or await run_in_threadpool(_lookup, session, secret)
+    # in a thread: the revocation generation is read from Redis, the token from the cache or the database
+    found = await run_in_threadpool(_lookup, session, secret)
     if found is None:
         raise _unauthorized("invalid, expired or revoked token")
     token, user = found

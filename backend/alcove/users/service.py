@@ -19,6 +19,7 @@ from sqlalchemy.orm.attributes import manager_of_class
 from alcove.errors import AuthenticationFailed, Conflict, InvalidInput, NotFound, PermissionDenied
 from alcove.models import ApiToken, Role, Share, TokenKind, User, hash_password, hash_token, utcnow
 from alcove.users import repository as repo
+from alcove.users import revocation
 from alcove.users.access import LABEL, OBJECT_TYPES, SHARE_COLUMN, get_for
 from alcove.users.schemas import ShareCreate, ShareOut, UserCreate, UserUpdate
 
@@ -72,25 +73,26 @@ def login(session: Session, email: str, password: str) -> tuple[ApiToken, str]:
 class _TokenCache:
     """Recently verified tokens (by hash) for ``ttl_s`` seconds (a ``cachetools.TLRUCache``:
     the time to live is read when an entry is put, least recently used entries go first when
-    full), so a polling dashboard does not pay a token lookup per request. Revoking a token or
-    changing a user through this process drops the entries at once; another API process
-    notices within ``TOKEN_CACHE_SECONDS``."""
+    full), so a polling dashboard does not pay a token lookup per request. Each entry keeps the
+    revocation generation (:mod:`alcove.users.revocation`) read before the token was verified,
+    and is trusted only while the generation is unchanged: a revocation through any API
+    process ends it at once."""
 
     def __init__(self, ttl_s: float, max_entries: int = 4096) -> None:
         self.ttl_s = ttl_s
         self.max_entries = max_entries
-        self._data: TLRUCache[str, tuple[ApiToken, User]] = TLRUCache(
+        self._data: TLRUCache[str, tuple[ApiToken, User, int]] = TLRUCache(
             maxsize=max_entries, ttu=lambda _key, _value, now: now + self.ttl_s, timer=time.monotonic
         )
         self._lock = threading.Lock()
 
-    def get(self, key: str) -> tuple[ApiToken, User] | None:
+    def get(self, key: str) -> tuple[ApiToken, User, int] | None:
         with self._lock:
             return self._data.get(key)
 
-    def put(self, key: str, token: ApiToken, user: User) -> None:
+    def put(self, key: str, token: ApiToken, user: User, generation: int = 0) -> None:
         with self._lock:
-            self._data[key] = (token, user)
+            self._data[key] = (token, user, generation)
 
     def drop(self, *, token_id: int | None = None, user_id: int | None = None) -> None:
         with self._lock:
@@ -104,25 +106,34 @@ class _TokenCache:
             self._data.clear()
 
 
-#: Seconds a verified token is trusted without a database lookup (per API process).
+#: Seconds a verified token is trusted without a database lookup (per API process), while the
+#: revocation generation is unchanged (the limit if a raise of the generation got lost).
 TOKEN_CACHE_SECONDS = 5.0
 TOKENS = _TokenCache(TOKEN_CACHE_SECONDS)
 
 
-def cached_authentication(session: Session, secret: str) -> tuple[ApiToken, User] | None:
-    """The token and user from the short-lived cache (no I/O), as fresh detached instances
-    private to this request (``session.merge`` them to change them); None when not cached."""
+def cached_authentication(session: Session, secret: str, generation: int | None = None) -> tuple[ApiToken, User] | None:
+    """The token and user from the short-lived cache, as fresh detached instances private to
+    this request (``session.merge`` them to change them); None when not cached or cached under
+    another revocation generation than ``generation`` (read now when not given; None, no
+    shared generation: nothing is trusted)."""
+    if generation is None:
+        generation = revocation.generation().current()
+        if generation is None:
+            return None
     hit = TOKENS.get(hash_token(secret))
-    if hit is not None and hit[0].is_valid():
+    if hit is not None and hit[2] == generation and hit[0].is_valid():
         return _detached_copy(hit[0]), _detached_copy(hit[1])
     return None
 
 
 def authenticate(session: Session, secret: str) -> tuple[ApiToken, User] | None:
     """The valid token and its active user, or None (from the cache or the database)."""
-    cached = cached_authentication(session, secret)
-    if cached is not None:
-        return cached
+    generation = revocation.generation().current()  # before the lookup: a later revocation raises it
+    if generation is not None:
+        cached = cached_authentication(session, secret, generation)
+        if cached is not None:
+            return cached
     key = hash_token(secret)
     found = repo.token_with_user(session, secret)
     if found is None:
@@ -130,8 +141,8 @@ def authenticate(session: Session, secret: str) -> tuple[ApiToken, User] | None:
     token, user = found
     if not token.is_valid() or not user.is_active:
         return None
-    if not needs_touch(token):
-        TOKENS.put(key, _detached_copy(token), _detached_copy(user))
+    if generation is not None and not needs_touch(token):
+        TOKENS.put(key, _detached_copy(token), _detached_copy(user), generation)
     return token, user
 
 
@@ -184,6 +195,7 @@ def revoke_token(session: Session, user: User, token_id: int) -> ApiToken:
         token.revoked_at = utcnow()
         session.flush()
     TOKENS.drop(token_id=token.id)
+    revocation.bump_after_commit(session)
     return token
 
 
@@ -192,6 +204,7 @@ def revoke(session: Session, token: ApiToken) -> None:
     token.revoked_at = utcnow()
     session.flush()
     TOKENS.drop(token_id=token.id)
+    revocation.bump_after_commit(session)
 
 
 # ----------------------------------------------------------------------------- users
@@ -230,6 +243,7 @@ def update_user(session: Session, admin: User, user_id: int, body: UserUpdate) -
         end_tokens(session, user, keep_personal=False)  # a reset shuts out whoever knew the old one
     session.flush()
     TOKENS.drop(user_id=user.id)
+    revocation.bump_after_commit(session)  # a role or an activity change too
     return user
 
 
@@ -267,6 +281,7 @@ def end_tokens(session: Session, user: User, *, keep_personal: bool) -> None:
         sa.update(ApiToken).where(*which).values(revoked_at=now), execution_options={"synchronize_session": False}
     )
     TOKENS.drop(user_id=user.id)
+    revocation.bump_after_commit(session)
 
 
 # ----------------------------------------------------------------------------- sharing
