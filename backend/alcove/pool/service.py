@@ -254,6 +254,10 @@ def state_range_of_task(spec: dict[str, Any]) -> StateRange:
     return StateRange(model.theta_min, model.theta_max, MAX_ANGULAR_VELOCITY, what)
 
 
+#: Distinct ``simulation`` labels (data sets) one upload may make: as many as ``chunks`` may.
+MAX_UPLOAD_SIMULATIONS = 1000
+
+
 def upload_preliminary_dataset(
     s: Session,
     owner_id: int,
@@ -268,7 +272,9 @@ def upload_preliminary_dataset(
     from alcove.science.surrogate.dataset import check_plausible, load_preliminary_csv
 
     text = source if isinstance(source, io.TextIOBase) else io.StringIO(source)
-    pool = load_preliminary_csv(text, origin="upload", chunks=chunks, prefix=name)
+    pool = load_preliminary_csv(
+        text, origin="upload", chunks=chunks, prefix=name, max_simulations=MAX_UPLOAD_SIMULATIONS
+    )
     check_plausible(pool, state)
     out = []
     for ds in pool:

@@ -44,6 +44,7 @@ import hashlib
 import io
 import json
 import re
+from collections import Counter
 from collections.abc import Sequence
 from dataclasses import dataclass
 from functools import cached_property
@@ -245,9 +246,15 @@ def check_pool(pool: list[PoolDataset]) -> None:
 
 
 def load_preliminary_csv(
-    source: str | Path | io.TextIOBase, origin: str = "upload", chunks: int = 10, prefix: str | None = None
+    source: str | Path | io.TextIOBase,
+    origin: str = "upload",
+    chunks: int = 10,
+    prefix: str | None = None,
+    max_simulations: int | None = None,
 ) -> list[PoolDataset]:
-    """Read a preliminary upload CSV (format in the module docstring) into pool datasets."""
+    """Read a preliminary upload CSV (format in the module docstring) into pool datasets, in
+    time linear in its size; at most ``max_simulations`` distinct ``simulation`` labels (one
+    dataset each) when given."""
     if isinstance(source, (str, Path)):
         try:
             text = Path(source).read_text()
@@ -264,7 +271,8 @@ def load_preliminary_csv(
     body = rows[1:]
     if not body:
         raise PoolDataError("rows", "the file has a header but no data rows (the data set is empty)")
-    dup = [c for c in header if header.count(c) > 1]
+    counts = Counter(header)
+    dup = [c for c in header if counts[c] > 1]
     if dup:
         raise PoolDataError(dup[0], "duplicate column")
     n_q = sum(1 for c in header if re.fullmatch(r"q_\d+", c))
@@ -272,7 +280,7 @@ def load_preliminary_csv(
         raise PoolDataError("q_0", "missing: expected columns q_0..q_{n-1} and qd_0..qd_{n-1}")
     required = [f"q_{i}" for i in range(n_q)] + [f"qd_{i}" for i in range(n_q)] + list(FORCE_COLUMNS)
     for c in required:
-        if c not in header:
+        if c not in counts:
             raise PoolDataError(c, "missing column")
     known = set(required) | {"simulation", "t"}
     for c in header:
@@ -294,8 +302,15 @@ def load_preliminary_csv(
             data[i, j] = v
     num = {c: data[:, j] for j, c in enumerate(numeric)}
     if "simulation" in col:
-        labels = [r[col["simulation"]].strip() for r in body]
-        groups = {lab: [i for i, x in enumerate(labels) if x == lab] for lab in dict.fromkeys(labels)}
+        groups: dict[str, list[int]] = {}
+        for i, r in enumerate(body):
+            groups.setdefault(r[col["simulation"]].strip(), []).append(i)
+        if max_simulations is not None and len(groups) > max_simulations:
+            raise PoolDataError(
+                "simulation",
+                f"has {len(groups)} distinct labels, at most {max_simulations} are allowed per upload"
+                " (one data set each): split the file into several uploads",
+            )
         named = {(f"{prefix}-{lab}" if prefix else lab): idx for lab, idx in groups.items()}
     else:
         k = max(1, min(chunks, len(body)))
