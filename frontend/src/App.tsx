@@ -6,6 +6,7 @@ import { Loading } from "./components/States";
 import { SignInPage } from "./pages/SignInPage";
 import { CampaignsPage } from "./pages/CampaignsPage";
 import { CampaignPage } from "./pages/CampaignPage";
+import { useTitle } from "./lib/title";
 
 const TasksPage = lazy(() => import("./pages/TasksPage").then((m) => ({ default: m.TasksPage })));
 const TaskEditorPage = lazy(() => import("./pages/TaskEditorPage").then((m) => ({ default: m.TaskEditorPage })));
@@ -51,6 +52,15 @@ function UserMenu() {
   );
 }
 
+function NotFound() {
+  useTitle("Page not found");
+  return (
+    <p>
+      Page not found. <Link to="/campaigns">Back to campaigns</Link>
+    </p>
+  );
+}
+
 function Shell() {
   return (
     <>
@@ -82,7 +92,7 @@ function Shell() {
             <Route path="/oracles/new" element={<OracleEditorPage />} />
             <Route path="/oracles/:id" element={<OracleEditorPage />} />
             <Route path="/tokens" element={<TokensPage />} />
-            <Route path="*" element={<p>Page not found. <Link to="/campaigns">Back to campaigns</Link></p>} />
+            <Route path="*" element={<NotFound />} />
           </Routes>
         </Suspense>
       </main>

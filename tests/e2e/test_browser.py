@@ -63,3 +63,12 @@ def test_live_updates_forms_forks_and_no_foreign_requests_in_the_browser(alcove_
     form submit shows each problem once at its field without page errors; no request leaves
     the server's origin."""
     run_browser_script(alcove_server, "live.mjs", "--endings", "5")
+
+
+def test_forms_keep_typed_numbers_in_the_browser(alcove_server: Server) -> None:
+    """0.0005, 0.3001, 0.0025, 1e-4, 1e308 and -0.005 typed key by key into a field of each form
+    and table kind (task model form, phases table, chain links and joints tables, oracle form,
+    new-campaign form, fork dialog): the field shows exactly the keys typed after each one, and
+    the value is either named at the field or stored by the server exactly; text that is no
+    number is named at its field (see frontend/e2e/forms.mjs)."""
+    run_browser_script(alcove_server, "forms.mjs")

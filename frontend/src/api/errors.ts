@@ -37,14 +37,21 @@ export function fieldErrors(body: unknown): FieldError[] {
   });
 }
 
+/** A bound as people read it: ±π/2 is 1.5708, not 1.5707963267948966 (6 significant digits; whole and short numbers stay as they are). */
+export function boundText(x: number | string): string {
+  const n = typeof x === "number" ? x : Number(x);
+  if (!Number.isFinite(n)) return String(x);
+  return String(Number(n.toPrecision(6)));
+}
+
 const PYDANTIC: [RegExp, string | ((m: RegExpExecArray) => string)][] = [
   [/^Input should be a valid integer, got a number with a fractional part$/i, "must be a whole number"],
   [/^Input should be a valid integer.*$/i, "must be a whole number"],
   [/^Input should be a valid number.*$/i, "must be a number"],
   [/^Input should be a finite number$/i, "must be a finite number"],
   [/^Field required$/i, "required"],
-  [/^Input should be (greater|less) than or equal to (.+)$/i, (m) => `must be at ${m[1].toLowerCase() === "greater" ? "least" : "most"} ${m[2]}`],
-  [/^Input should be (greater|less) than (.+)$/i, (m) => `must be ${m[1].toLowerCase()} than ${m[2]}`],
+  [/^Input should be (greater|less) than or equal to (.+)$/i, (m) => `must be at ${m[1].toLowerCase() === "greater" ? "least" : "most"} ${boundText(m[2])}`],
+  [/^Input should be (greater|less) than (.+)$/i, (m) => `must be ${m[1].toLowerCase()} than ${boundText(m[2])}`],
   [/^String should have at least 1 characters?$/i, "must not be empty"],
   [/^String should have at least (\d+) characters?$/i, (m) => `must have at least ${m[1]} characters`],
   [/^String should have at most (\d+) characters?$/i, (m) => `must have at most ${m[1]} characters`],

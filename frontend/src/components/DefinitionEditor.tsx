@@ -10,6 +10,7 @@ import { fmtDate } from "../lib/format";
 import type { ErrorView } from "../lib/formErrors";
 import { ErrorCount, FormErrors } from "./FormErrors";
 import { FieldMessages } from "./SchemaForm";
+import { useTitle } from "../lib/title";
 
 export interface Saved {
   id: number;
@@ -51,6 +52,8 @@ export function DefinitionEditor({
   actions?: ReactNode;
   children: ReactNode;
 }) {
+  const heading = existing ? `${noun[0].toUpperCase()}${noun.slice(1)}: ${name}` : `New ${noun}`;
+  useTitle(heading);
   const submit = (e: FormEvent) => {
     e.preventDefault();
     onSave();
@@ -59,7 +62,7 @@ export function DefinitionEditor({
   return (
     <form onSubmit={submit} noValidate>
       <div className="toolbar">
-        <h1 style={{ margin: 0 }}>{existing ? `${noun[0].toUpperCase()}${noun.slice(1)}: ${name}` : `New ${noun}`}</h1>
+        <h1 style={{ margin: 0 }}>{heading}</h1>
         {existing && <span className="badge">version {existing.version}</span>}
         <ErrorCount view={errors} checking={checking} />
         <span className="spacer" />

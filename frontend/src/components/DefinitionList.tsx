@@ -4,6 +4,7 @@ import { Link } from "react-router-dom";
 import type { UseQueryResult } from "@tanstack/react-query";
 import { Empty, ErrorBox, Loading } from "./States";
 import { fmtDate } from "../lib/format";
+import { useTitle } from "../lib/title";
 
 export interface Column<T> {
   header: string;
@@ -20,6 +21,7 @@ interface Row {
 }
 
 export function DefinitionListPage<T extends Row>({ title, path, noun, query, columns, empty }: { title: string; path: string; noun: string; query: UseQueryResult<T[]>; columns: Column<T>[]; empty: ReactNode }) {
+  useTitle(title);
   return (
     <>
       <div className="toolbar">

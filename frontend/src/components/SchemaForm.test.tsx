@@ -1,7 +1,8 @@
 import { describe, expect, it, vi } from "vitest";
 import { fireEvent, render, screen } from "@testing-library/react";
 import { errorView, schemaLabel } from "../lib/formErrors";
-import { schemaFieldPaths, SchemaForm, schemaDefaults, type JsonSchema } from "./SchemaForm";
+import { schemaFieldPaths, SchemaForm, schemaDefaults, schemaLocalErrors, type JsonSchema } from "./SchemaForm";
+import { humanMessage } from "../api/errors";
 
 // The aux-penalty parameters as pydantic emits them (see `alcove oracle schema aux-penalty`).
 const AUX: JsonSchema = {
@@ -39,6 +40,17 @@ describe("SchemaForm", () => {
     expect(onChange).toHaveBeenLastCalledWith({ k: 1, d0: 3.5 });
     fireEvent.blur(screen.getByLabelText("r_sp"), { target: { value: "0.1, 0, -0.02" } });
     expect(onChange).toHaveBeenLastCalledWith({ k: 1, d0: 2, r_sp: [0.1, 0, -0.02] });
+  });
+
+  it("rounds long bounds for display, in hints, in its own checks and in the API's messages", () => {
+    const tilt: JsonSchema = { type: "object", properties: { tilt: { type: "number", minimum: -1.5707963267948966, maximum: 1.5707963267948966, description: "headrest inclination [rad]" } } };
+    const own = schemaLocalErrors(tilt, { tilt: 2 });
+    const errors = errorView([own], schemaFieldPaths(tilt), (p) => schemaLabel(tilt, p));
+    render(<SchemaForm schema={tilt} value={{ tilt: 2 }} onChange={() => {}} errors={errors} />);
+    expect(screen.getByText("headrest inclination [rad] · ≥ -1.5708, ≤ 1.5708")).toBeInTheDocument();
+    expect(screen.getByText("must be at most 1.5708")).toBeInTheDocument();
+    expect(humanMessage("Input should be less than or equal to 1.5707963267948966")).toBe("must be at most 1.5708");
+    expect(document.body.textContent).not.toContain("1.5707963267948966");
   });
 
   it("shows the API's field errors next to the field, in words, and marks it invalid", () => {

@@ -8,6 +8,7 @@ import type { FieldError } from "../api/errors";
 import { atFieldText, noErrors, type ErrorView, type Problem } from "../lib/formErrors";
 import { resolveRef, unwrapNullable, type JsonSchema } from "../lib/jsonSchema";
 import { NumberInput } from "./NumberInput";
+import { boundText } from "../api/errors";
 
 export { resolveRef, unwrapNullable, type JsonSchema };
 
@@ -37,10 +38,10 @@ export function primaryType(s: JsonSchema): string {
 
 function bounds(s: JsonSchema): string {
   const parts: string[] = [];
-  if (s.minimum !== undefined) parts.push(`≥ ${s.minimum}`);
-  if (s.exclusiveMinimum !== undefined) parts.push(`> ${s.exclusiveMinimum}`);
-  if (s.maximum !== undefined) parts.push(`≤ ${s.maximum}`);
-  if (s.exclusiveMaximum !== undefined) parts.push(`< ${s.exclusiveMaximum}`);
+  if (s.minimum !== undefined) parts.push(`≥ ${boundText(s.minimum)}`);
+  if (s.exclusiveMinimum !== undefined) parts.push(`> ${boundText(s.exclusiveMinimum)}`);
+  if (s.maximum !== undefined) parts.push(`≤ ${boundText(s.maximum)}`);
+  if (s.exclusiveMaximum !== undefined) parts.push(`< ${boundText(s.exclusiveMaximum)}`);
   return parts.join(", ");
 }
 
@@ -63,10 +64,10 @@ export function numberProblem(v: unknown, s: JsonSchema, integer: boolean): stri
   if (typeof v !== "number" || Number.isNaN(v)) return "must be a number";
   if (!Number.isFinite(v)) return "must be a finite number";
   if (integer && !Number.isInteger(v)) return "must be a whole number";
-  if (s.minimum !== undefined && v < s.minimum) return `must be at least ${s.minimum}`;
-  if (s.exclusiveMinimum !== undefined && v <= s.exclusiveMinimum) return `must be greater than ${s.exclusiveMinimum}`;
-  if (s.maximum !== undefined && v > s.maximum) return `must be at most ${s.maximum}`;
-  if (s.exclusiveMaximum !== undefined && v >= s.exclusiveMaximum) return `must be less than ${s.exclusiveMaximum}`;
+  if (s.minimum !== undefined && v < s.minimum) return `must be at least ${boundText(s.minimum)}`;
+  if (s.exclusiveMinimum !== undefined && v <= s.exclusiveMinimum) return `must be greater than ${boundText(s.exclusiveMinimum)}`;
+  if (s.maximum !== undefined && v > s.maximum) return `must be at most ${boundText(s.maximum)}`;
+  if (s.exclusiveMaximum !== undefined && v >= s.exclusiveMaximum) return `must be less than ${boundText(s.exclusiveMaximum)}`;
   return null;
 }
 

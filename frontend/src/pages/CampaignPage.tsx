@@ -17,6 +17,7 @@ import { JobsTable, VersionsPanel } from "../campaign/JobsAndVersions";
 import { Controls } from "../campaign/Controls";
 import { fmtDate, fmtDuration, fmtNumber } from "../lib/format";
 import { useBoolParam, useIntListParam, useSetParams, useStringParam } from "../lib/urlState";
+import { useTitle } from "../lib/title";
 
 const TABS = [
   ["forces", "Forces & moments"],
@@ -53,6 +54,7 @@ export function CampaignPage() {
   const live = useCampaignLive(id, statusGuess);
   const campaign = useCampaign(id);
   const c = campaign.data;
+  useTitle(c ? `Campaign ${c.campaign.name}` : `Campaign ${Number.isInteger(id) ? id : ""}`);
   const metrics = useMetrics(id, { inherited: c?.campaign.source_campaign_id != null, latest: c?.latest_metrics?.iteration_index ?? null, qc });
   const [logY, setLogY] = useBoolParam("log", true);
   const [selected, setSelected] = useIntListParam("k");

@@ -10,6 +10,7 @@ import { Empty, ErrorBox, Loading, StatusBadge } from "../components/States";
 import { Sparkline } from "../components/Sparkline";
 import { fmtDate, fmtDuration, fmtNumber } from "../lib/format";
 import { useStringParam } from "../lib/urlState";
+import { useTitle } from "../lib/title";
 
 const STATUSES = ["", "draft", "queued", "running", "pausing", "paused", "cancelling", "cancelled", "completed", "failed"];
 
@@ -30,6 +31,7 @@ export function sortCampaigns(rows: CampaignSummary[], key: SortKey, descending:
 }
 
 export function CampaignsPage() {
+  useTitle("Campaigns");
   const navigate = useNavigate();
   const [status, setStatus] = useStringParam("status");
   const [search, setSearch] = useStringParam("q");

@@ -10,6 +10,7 @@ import { componentUnit, isMarked, type MetricPoint, type RmseQuantity, type Suit
 import { useBoolParam, useIntListParam, useStringParam } from "../lib/urlState";
 import { isXAxis, xOf, xTitle, type XAxis } from "../lib/xaxis";
 import { XAxisSwitch } from "../components/XAxisSwitch";
+import { useTitle } from "../lib/title";
 
 const COLORS = ["#2f5bd3", "#d3662f", "#1d7a45", "#8a3ffc"];
 
@@ -32,6 +33,7 @@ function plotTitle(q: Plotted): string {
 }
 
 export function ComparePage() {
+  useTitle("Compare campaigns");
   const [ids, setIds] = useIntListParam("ids");
   const [logY, setLogY] = useBoolParam("log", true);
   const [xRaw, setXAxis] = useStringParam("x", "iteration");

@@ -9,8 +9,10 @@ import { ErrorCount, FormErrors, serverProblems } from "../components/FormErrors
 import { cleanName, errorView, nameProblems } from "../lib/formErrors";
 import { ConfigSections, configFieldPaths, configLabel, configLocalErrors, useConfigDefaults, type ConfigDraft } from "../campaign/ConfigSections";
 import { EXPLORATION_PATHS, ExplorationSection, explorationErrors } from "../campaign/ExplorationSection";
+import { useTitle } from "../lib/title";
 
 export function NewCampaignPage() {
+  useTitle("New campaign");
   const navigate = useNavigate();
   const tasks = useTasks();
   const oracles = useOracles();

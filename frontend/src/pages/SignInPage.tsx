@@ -3,8 +3,10 @@ import { useNavigate, useSearchParams } from "react-router-dom";
 import { useAuth } from "../api/auth";
 import { login } from "../api/users";
 import { errorMessage } from "../api/errors";
+import { useTitle } from "../lib/title";
 
 export function SignInPage() {
+  useTitle("Sign in");
   const { signIn } = useAuth();
   const navigate = useNavigate();
   const [params] = useSearchParams();

@@ -2,22 +2,38 @@ import { useState, type FormEvent } from "react";
 import { useCreateToken, useRevokeToken, useTokens } from "../api/users";
 import { Empty, ErrorBox, Loading } from "../components/States";
 import { fmtDate } from "../lib/format";
-import { errorMessage } from "../api/errors";
+import { FieldMessages } from "../components/SchemaForm";
+import { generalFailure, serverProblems } from "../components/FormErrors";
+import { cleanName, errorView, nameProblems } from "../lib/formErrors";
+import { useTitle } from "../lib/title";
 
 export function TokensPage() {
+  useTitle("API tokens");
   const tokens = useTokens();
   const create = useCreateToken();
   const revoke = useRevokeToken();
   const [name, setName] = useState("");
   const [secret, setSecret] = useState<string | null>(null);
   const [copied, setCopied] = useState(false);
+  const [submitted, setSubmitted] = useState(false);
+  // the form's own check once it was submitted, then the server's answer (a refused name is named at the field)
+  const view = errorView([submitted ? nameProblems(name) : [], serverProblems(create.error)], ["name"], () => "Name");
 
-  async function submit(e: FormEvent) {
+  function submit(e: FormEvent) {
     e.preventDefault();
-    const created = await create.mutateAsync({ name });
-    setSecret(created.token);
-    setCopied(false);
-    setName("");
+    setSubmitted(true);
+    if (nameProblems(name).length) return;
+    create.mutate(
+      { name: cleanName(name) },
+      {
+        onSuccess: (created) => {
+          setSecret(created.token);
+          setCopied(false);
+          setName("");
+          setSubmitted(false);
+        },
+      },
+    );
   }
 
   return (
@@ -26,11 +42,24 @@ export function TokensPage() {
       <p className="muted">Personal tokens let scripts and notebooks call the API as you. A token is shown once, when it is created.</p>
       <form className="panel toolbar" onSubmit={submit}>
         <label htmlFor="token-name">Name</label>
-        <input id="token-name" value={name} onChange={(e) => setName(e.target.value)} placeholder="e.g. notebook" required maxLength={100} />
+        <input
+          id="token-name"
+          value={name}
+          onChange={(e) => {
+            setName(e.target.value);
+            if (create.isError) create.reset();
+          }}
+          placeholder="e.g. notebook"
+          required
+          maxLength={200}
+          aria-invalid={view.at("name").length > 0}
+          aria-describedby={view.at("name").length ? "token-name-err" : undefined}
+        />
         <button className="primary" type="submit" disabled={create.isPending}>
           Create token
         </button>
-        {create.isError && <span className="error-text">{errorMessage(create.error)}</span>}
+        <FieldMessages problems={view.problems} id="token-name-err" />
+        {generalFailure(create.error) && <span className="error-text">{generalFailure(create.error)}</span>}
       </form>
       {secret && (
         <div className="panel" role="status">

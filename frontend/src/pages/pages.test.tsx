@@ -144,12 +144,40 @@ describe("tokens and sign-in", () => {
     });
     renderPage(<TokensPage />, { route: "/tokens" });
     expect(await screen.findByRole("row", { name: /old/ })).toHaveTextContent("Revoke");
+    expect(document.title).toBe("API tokens · alcove");
     await userEvent.type(screen.getByLabelText("Name"), "notebook");
     await userEvent.click(screen.getByRole("button", { name: "Create token" }));
     expect(await screen.findByTestId("new-token")).toHaveTextContent("alc_secret_value_shown_once_1234567890");
     await userEvent.click(screen.getByRole("button", { name: "Done" }));
     expect(screen.queryByTestId("new-token")).toBeNull();
     expect(await screen.findByRole("row", { name: /notebook/ })).toBeInTheDocument();
+  });
+
+  it("a refused token name is named at the field with no uncaught error; a name of spaces is refused before sending", async () => {
+    const { calls } = mockApi({
+      "GET /me/tokens": () => [],
+      "POST /me/tokens": () =>
+        jsonResponse({ detail: [{ loc: ["body", "name"], field: "name", msg: "contains a NUL character (U+0000), which cannot be stored: remove it", type: "string_nul" }] }, 422),
+    });
+    const unhandled: unknown[] = [];
+    const onUnhandled = (reason: unknown) => unhandled.push(reason);
+    process.on("unhandledRejection", onUnhandled);
+    try {
+      renderPage(<TokensPage />, { route: "/tokens" });
+      const name = await screen.findByLabelText("Name");
+      await userEvent.type(name, "   ");
+      await userEvent.click(screen.getByRole("button", { name: "Create token" }));
+      expect(await screen.findByText(/must not be empty/)).toBeInTheDocument();
+      expect(calls.filter((c) => c.method === "POST")).toHaveLength(0);
+      fireEvent.change(name, { target: { value: "bad\u0000name" } });
+      await userEvent.click(screen.getByRole("button", { name: "Create token" }));
+      expect(await screen.findByText(/contains a NUL character/)).toBeInTheDocument();
+      expect(name).toHaveAttribute("aria-invalid", "true");
+      await new Promise((r) => setTimeout(r, 0));
+      expect(unhandled).toEqual([]);
+    } finally {
+      process.off("unhandledRejection", onUnhandled);
+    }
   });
 
   it("signs in with e-mail and password and keeps the token; shows the API's refusal", async () => {
