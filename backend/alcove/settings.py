@@ -94,6 +94,13 @@ class Settings(BaseSettings):
             "believed; empty: none (the client address is the connection's peer)"
         ),
     )
+    health_details_networks: str = Field(
+        default="",
+        description=(
+            "Comma-separated IP addresses or networks (CIDR) of clients that see the details of GET /health/ready "
+            "(schema revision, workers, error text) without an admin token; empty: admins only"
+        ),
+    )
     forwarded_header: Literal["x-forwarded-for", "forwarded"] = Field(
         default="x-forwarded-for",
         description=(
@@ -132,7 +139,7 @@ class Settings(BaseSettings):
             )
         return self
 
-    @field_validator("trusted_proxies")
+    @field_validator("trusted_proxies", "health_details_networks")
     @classmethod
     def _valid_networks(cls, value: str) -> str:
         for item in _split(value):
@@ -166,6 +173,11 @@ class Settings(BaseSettings):
     def trusted_proxy_networks(self) -> tuple[IPNetwork, ...]:
         """``trusted_proxies`` parsed (an address is a network of one)."""
         return tuple(ipaddress.ip_network(item, strict=False) for item in _split(self.trusted_proxies))
+
+    @property
+    def health_details_network_list(self) -> tuple[IPNetwork, ...]:
+        """``health_details_networks`` parsed (an address is a network of one)."""
+        return tuple(ipaddress.ip_network(item, strict=False) for item in _split(self.health_details_networks))
 
     @property
     def is_redis_broker(self) -> bool:

@@ -13,11 +13,15 @@ from fastapi.testclient import TestClient
 
 from alcove.settings import Settings
 
+#: a client in ALCOVE_HEALTH_DETAILS_NETWORKS (readiness details)
+LOCAL = ("127.0.0.1", 50000)
+
 
 @pytest.fixture
 def settings(tmp_path: Path, sqlite_url: str, monkeypatch: pytest.MonkeyPatch) -> Settings:
     monkeypatch.setenv("ALCOVE_DATA_DIR", str(tmp_path))
     monkeypatch.setenv("ALCOVE_DATABASE_URL", sqlite_url)
+    monkeypatch.setenv("ALCOVE_HEALTH_DETAILS_NETWORKS", "127.0.0.1")  # the readiness details for LOCAL
     from alcove.settings import get_settings
 
     get_settings.cache_clear()
@@ -35,7 +39,7 @@ def test_health_needs_nothing(settings: Settings) -> None:
 def test_readiness_without_workers_is_503_with_reasons(settings: Settings) -> None:
     from alcove.app import create_app
 
-    r = TestClient(create_app(settings)).get("/api/v1/health/ready")
+    r = TestClient(create_app(settings), client=LOCAL).get("/api/v1/health/ready")
     assert r.status_code == 503
     body = r.json()
     assert body["database"]["ok"] and body["broker"]["ok"]
@@ -48,7 +52,7 @@ def test_readiness_sees_a_fresh_heartbeat(settings: Settings) -> None:
 
     beat("api-test@host", queues=["default", "ocp"], concurrency=1, starting=True)
     try:
-        r = TestClient(create_app(settings)).get("/api/v1/health/ready")
+        r = TestClient(create_app(settings), client=LOCAL).get("/api/v1/health/ready")
         assert r.status_code == 200, r.json()
         assert r.json()["queues_served"] == ["default", "ocp"]
     finally:
@@ -58,12 +62,13 @@ def test_readiness_sees_a_fresh_heartbeat(settings: Settings) -> None:
 def test_readiness_reports_an_unmigrated_database(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.setenv("ALCOVE_DATA_DIR", str(tmp_path))
     monkeypatch.setenv("ALCOVE_DATABASE_URL", f"sqlite:///{tmp_path / 'empty.db'}")
+    monkeypatch.setenv("ALCOVE_HEALTH_DETAILS_NETWORKS", "127.0.0.1")
     from alcove.app import create_app
     from alcove.settings import get_settings
 
     get_settings.cache_clear()
     try:
-        r = TestClient(create_app()).get("/api/v1/health/ready")
+        r = TestClient(create_app(), client=LOCAL).get("/api/v1/health/ready")
         assert r.status_code == 503 and "alcove db upgrade" in r.json()["database"]["detail"]
     finally:
         get_settings.cache_clear()

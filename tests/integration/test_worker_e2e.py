@@ -121,7 +121,11 @@ def test_duplicate_delivery_of_the_smoke_job_is_a_no_op(tmp_path: Path, fresh_pg
 def test_alcove_up_embedded(tmp_path: Path) -> None:
     port = free_port()
     env = alcove_env(
-        data_dir=tmp_path / "data", api_port=str(port), admin_email="root@example.org", worker_concurrency="1"
+        data_dir=tmp_path / "data",
+        api_port=str(port),
+        admin_email="root@example.org",
+        worker_concurrency="1",
+        health_details_networks="127.0.0.1",  # the readiness details for this test
     )
     with running(["up", "--access-log"], env, tmp_path / "up.log") as up:
         base = f"http://127.0.0.1:{port}"

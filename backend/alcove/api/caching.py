@@ -60,7 +60,7 @@ async def cached_json(request: Request, key: tuple[Any, ...], build: Callable[[]
     """The cached body for ``key`` (built in the thread pool on a miss) with a weak ETag
     derived from the key; 304 without a body when the client already has it."""
     etag = 'W/"' + hashlib.blake2b(repr(key).encode(), digest_size=12).hexdigest() + '"'
-    headers = {"ETag": etag, "Cache-Control": "private, no-cache"}
+    headers = {"ETag": etag, "Cache-Control": "no-store"}  # an account's data: kept by no cache
     if etag in request.headers.get("if-none-match", ""):
         return Response(status_code=304, headers=headers)
     body = RESPONSES.get(key)

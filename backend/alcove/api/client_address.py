@@ -43,6 +43,11 @@ def _trusted(ip: IPAddress | None, proxies: Sequence[IPNetwork]) -> bool:
     return ip is not None and any(ip.version == net.version and ip in net for net in proxies)
 
 
+def in_networks(address: str, networks: Sequence[IPNetwork]) -> bool:
+    """``address`` (a client address as :func:`client_address` gives it) lies in one of ``networks``."""
+    return _trusted(parse_ip(address), networks)
+
+
 def _forwarded_for(element: str) -> str:
     """The ``for=`` node of one element of a ``Forwarded`` header (RFC 7239), without quotes
     and port: ``for="[2001:db8::1]:4711"`` is ``[2001:db8::1]``; "" when there is none."""

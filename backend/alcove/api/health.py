@@ -1,4 +1,8 @@
-"""Health (liveness, no dependencies) and readiness (database, broker, workers seen)."""
+"""Health (liveness, no dependencies) and readiness (database, broker, workers seen).
+
+Readiness answers everyone whether the service is ready (200 or 503, ``{"ready": ...}``);
+its details (schema revision, workers and their queues, error text: what helps an attacker
+too) go only to an admin's bearer token or to a client in ``ALCOVE_HEALTH_DETAILS_NETWORKS``."""
 
 from __future__ import annotations
 
@@ -6,10 +10,11 @@ import time
 from typing import Any
 
 import sqlalchemy as sa
-from fastapi import APIRouter, Response, status
+from fastapi import APIRouter, Request, Response, status
 from pydantic import BaseModel
 
 import alcove
+from alcove.api.client_address import client_address, in_networks
 from alcove.settings import Settings, get_settings
 
 router = APIRouter(prefix="/health", tags=["health"])
@@ -26,8 +31,15 @@ class Check(BaseModel):
     latency_ms: float | None = None
 
 
-class Readiness(BaseModel):
+class ReadinessStatus(BaseModel):
+    """What everyone sees."""
+
     ready: bool
+
+
+class Readiness(ReadinessStatus):
+    """What an admin or a client of ALCOVE_HEALTH_DETAILS_NETWORKS sees."""
+
     database: Check
     broker: Check
     workers: Check
@@ -84,14 +96,42 @@ def check_broker(settings: Settings) -> str:
     return "redis" if settings.broker_url.startswith("redis") else "connected"
 
 
+def _admin_token(request: Request) -> bool:
+    """The request carries a valid bearer token of an active admin (read from the database)."""
+    scheme, _, secret = request.headers.get("authorization", "").partition(" ")
+    if scheme.lower() != "bearer" or not secret.strip():
+        return False
+    from alcove.db import get_sessionmaker
+    from alcove.models import ApiToken, User, hash_token
+
+    try:
+        with get_sessionmaker()() as s:
+            row = s.execute(
+                sa.select(ApiToken, User)
+                .join(User, User.id == ApiToken.user_id)
+                .where(ApiToken.token_hash == hash_token(secret.strip()))
+            ).first()
+    except Exception:  # the database is down: the bare answer (it says not ready)
+        return False
+    return row is not None and row[0].is_valid() and row[1].is_active and row[1].is_admin
+
+
+def may_see_details(request: Request, settings: Settings) -> bool:
+    client = client_address(request, request.app.state.trusted_proxies, request.app.state.forwarded_header)
+    return in_networks(client, settings.health_details_network_list) or _admin_token(request)
+
+
 @router.get(
     "/ready",
-    response_model=Readiness,
+    response_model=Readiness | ReadinessStatus,
     summary="Readiness: database migrated, broker reachable, at least one worker seen",
     operation_id="readiness",
-    responses={503: {"model": Readiness}},
+    responses={503: {"model": Readiness | ReadinessStatus}},
 )
-def readiness(response: Response) -> Readiness:
+def readiness(request: Request, response: Response) -> Readiness | ReadinessStatus:
+    """200 when ready, else 503. The details (each check, the workers seen and the queues they
+    serve) only for an admin's bearer token or a client in ALCOVE_HEALTH_DETAILS_NETWORKS;
+    anyone else gets `{"ready": ...}` alone."""
     settings = get_settings()
     db = _timed(check_database)
     broker = _timed(lambda: check_broker(settings))
@@ -110,4 +150,6 @@ def readiness(response: Response) -> Readiness:
     ready = db.ok and broker.ok and wk.ok
     if not ready:
         response.status_code = status.HTTP_503_SERVICE_UNAVAILABLE
+    if not may_see_details(request, settings):
+        return ReadinessStatus(ready=ready)
     return Readiness(ready=ready, database=db, broker=broker, workers=wk, workers_seen=len(seen), queues_served=queues)

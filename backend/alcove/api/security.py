@@ -17,6 +17,9 @@ plus ``X-Content-Type-Options: nosniff``, ``Referrer-Policy: no-referrer``,
 ``X-Frame-Options: DENY`` (for browsers without ``frame-ancestors``) and
 ``Cross-Origin-Opener-Policy: same-origin``.
 
+Every JSON answer (the login's token, an account's data, errors) carries
+``Cache-Control: no-store`` unless it sets its own: no browser or proxy keeps a copy.
+
 FastAPI's docs page loads Swagger UI from a CDN and starts it with an inline script; here
 the page is served under the same policy as everything else: Swagger UI's files come from
 the ``fastapi-offline`` package (served at ``/api/v1/docs/assets/``) and the start script
@@ -60,7 +63,8 @@ SECURITY_HEADERS: tuple[tuple[str, str], ...] = (
 
 class SecurityHeaders:
     """Pure ASGI middleware: adds :data:`SECURITY_HEADERS` to every HTTP response that does
-    not set them itself (no per-request work beyond the header list)."""
+    not set them itself, and ``Cache-Control: no-store`` to a JSON one (no per-request work
+    beyond the header list)."""
 
     def __init__(self, app: ASGIApp) -> None:
         self.app = app
@@ -76,6 +80,8 @@ class SecurityHeaders:
                 for name, value in SECURITY_HEADERS:
                     if name not in headers:
                         headers.append(name, value)
+                if "cache-control" not in headers and headers.get("content-type", "").startswith("application/json"):
+                    headers.append("cache-control", "no-store")
             await send(message)
 
         await self.app(scope, receive, send_with_headers)

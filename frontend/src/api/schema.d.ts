@@ -689,7 +689,12 @@ export interface paths {
             path?: never;
             cookie?: never;
         };
-        /** Readiness: database migrated, broker reachable, at least one worker seen */
+        /**
+         * Readiness: database migrated, broker reachable, at least one worker seen
+         * @description 200 when ready, else 503. The details (each check, the workers seen and the queues they
+         *     serve) only for an admin's bearer token or a client in ALCOVE_HEALTH_DETAILS_NETWORKS;
+         *     anyone else gets `{"ready": ...}` alone.
+         */
         get: operations["readiness"];
         put?: never;
         post?: never;
@@ -3541,7 +3546,10 @@ export interface components {
              */
             cz?: number;
         };
-        /** Readiness */
+        /**
+         * Readiness
+         * @description What an admin or a client of ALCOVE_HEALTH_DETAILS_NETWORKS sees.
+         */
         Readiness: {
             broker: components["schemas"]["Check"];
             database: components["schemas"]["Check"];
@@ -3552,6 +3560,14 @@ export interface components {
             workers: components["schemas"]["Check"];
             /** Workers Seen */
             workers_seen: number;
+        };
+        /**
+         * ReadinessStatus
+         * @description What everyone sees.
+         */
+        ReadinessStatus: {
+            /** Ready */
+            ready: boolean;
         };
         /** RetryIn */
         RetryIn: {
@@ -7976,7 +7992,7 @@ export interface operations {
                     [name: string]: unknown;
                 };
                 content: {
-                    "application/json": components["schemas"]["Readiness"];
+                    "application/json": components["schemas"]["Readiness"] | components["schemas"]["ReadinessStatus"];
                 };
             };
             /** @description Service Unavailable */
@@ -7985,7 +8001,7 @@ export interface operations {
                     [name: string]: unknown;
                 };
                 content: {
-                    "application/json": components["schemas"]["Readiness"];
+                    "application/json": components["schemas"]["Readiness"] | components["schemas"]["ReadinessStatus"];
                 };
             };
         };
