@@ -1,5 +1,6 @@
 import { useRef, useState } from "react";
-import { downloadFile, useCampaignAction, type Action } from "../api/campaigns";
+import { useCampaignAction, type Action } from "../api/campaigns";
+import { DownloadButton } from "../components/DownloadButton";
 import type { CampaignOut } from "../api/types";
 import { errorMessage } from "../api/errors";
 import { ForkDialog } from "./ForkDialog";
@@ -29,7 +30,6 @@ export function Controls({ campaign, lastIteration }: { campaign: CampaignOut; l
   const action = useCampaignAction(campaign.id);
   const dialog = useRef<HTMLDialogElement>(null);
   const [forkOpen, setForkOpen] = useState(false);
-  const [exportError, setExportError] = useState<string | null>(null);
   const allowed = allowedActions(campaign.campaign.status);
 
   return (
@@ -58,23 +58,10 @@ export function Controls({ campaign, lastIteration }: { campaign: CampaignOut; l
       >
         Fork…
       </button>
-      <button
-        type="button"
-        onClick={() => {
-          setExportError(null);
-          downloadFile(`/api/v1/campaigns/${campaign.id}/export`, `campaign-${campaign.id}.zip`).catch((err) => setExportError(errorMessage(err)));
-        }}
-      >
-        Export
-      </button>
+      <DownloadButton path={`/api/v1/campaigns/${campaign.id}/export`} filename={`campaign-${campaign.id}.zip`} label="Export" className="" />
       {action.isError && (
         <span className="error-text" role="alert">
           {errorMessage(action.error)}
-        </span>
-      )}
-      {exportError && (
-        <span className="error-text" role="alert">
-          Export: {exportError}
         </span>
       )}
       <dialog ref={dialog} aria-labelledby="fork-title" style={{ width: 900, maxWidth: "95vw" }} onClose={() => setForkOpen(false)}>

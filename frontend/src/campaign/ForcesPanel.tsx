@@ -165,8 +165,11 @@ export function ForcesPanel({
   // iterations with oracle data (failed ones have no curves); a fork's inherited ones are its source's
   const available = useMemo(() => points.filter((p) => p.iteration > 0 && p.force_rmse !== null && !p.inherited).map((p) => p.iteration), [points]);
   const k = iteration !== null && available.includes(iteration) ? iteration : (available[available.length - 1] ?? null);
+  const inherited = useMemo(() => points.filter((p) => p.inherited && p.iteration > 0).map((p) => p.iteration), [points]);
   const [draft, setDraft] = useState<string | null>(null);
-  const selection = useMemo(() => parseSelection(overlay, available), [overlay, available]);
+  // the parts of the last typed overlay that were left out, each with its reason (the overlay keeps the rest)
+  const [dropped, setDropped] = useState<string[]>([]);
+  const selection = useMemo(() => parseSelection(overlay, available, inherited), [overlay, available, inherited]);
   const shown = useMemo(() => {
     if (k === null) return [];
     const extra = selection.iterations.filter((x) => x !== k);
@@ -197,10 +200,16 @@ export function ForcesPanel({
 
   if (available.length === 0) return <Empty title="No iteration has oracle data yet">Forces appear when the first iteration's oracle step is done.</Empty>;
   const error = results.find((r) => r.isError)?.error;
-  const choose = (ks: number[]) => {
+  const choose = (ks: number[], leftOut: string[] = []) => {
     setDraft(null);
+    setDropped(leftOut);
     setOverlay(formatSelection(ks, available));
   };
+  const chooseTyped = (typed: string) => {
+    const s = parseSelection(typed, available, inherited);
+    choose(s.iterations, s.errors);
+  };
+  const overlayProblems = [...new Set([...selection.errors, ...dropped])];
   const text = draft ?? overlay;
   // about 10 iterations of the whole campaign
   const every = Math.ceil(available.length / 10);
@@ -241,7 +250,7 @@ export function ForcesPanel({
         className="toolbar"
         onSubmit={(e) => {
           e.preventDefault();
-          choose(parseSelection(text, available).iterations);
+          chooseTyped(text);
         }}
       >
         <label htmlFor="overlay-input">Overlay iterations</label>
@@ -251,9 +260,9 @@ export function ForcesPanel({
           placeholder="e.g. 1-5, 8, 12-20"
           size={22}
           onChange={(e) => setDraft(e.target.value)}
-          onBlur={() => draft !== null && choose(parseSelection(draft, available).iterations)}
-          aria-describedby="overlay-hint"
-          aria-invalid={selection.errors.length > 0}
+          onBlur={() => draft !== null && chooseTyped(draft)}
+          aria-describedby={overlayProblems.length ? "overlay-hint overlay-problems" : "overlay-hint"}
+          aria-invalid={overlayProblems.length > 0}
         />
         <button type="submit">Show</button>
         <span role="group" aria-label="Quick choices" className="toolbar">
@@ -281,11 +290,15 @@ export function ForcesPanel({
           {overlaid ? `${shown.length} iterations shown, coloured by k (${shown[0]}–${shown[shown.length - 1]})` : "ranges and lists, e.g. 1-5, 8, 12-20"}
         </small>
       </form>
-      {selection.errors.map((m) => (
-        <p key={m} className="field-error" role="alert">
-          Overlay: {m}
-        </p>
-      ))}
+      {overlayProblems.length > 0 && (
+        <div id="overlay-problems" className="field-error" role="alert" data-testid="overlay-problems">
+          {overlayProblems.map((m) => (
+            <p key={m} style={{ margin: 0 }}>
+              Overlay: left out {m}
+            </p>
+          ))}
+        </div>
+      )}
       {error ? <ErrorBox error={error} /> : null}
       {results.some((r) => r.isPending) && curves.length === 0 ? (
         <Loading label="Loading iteration curves…" />

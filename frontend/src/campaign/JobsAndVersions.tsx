@@ -1,30 +1,7 @@
-import { useState } from "react";
-import { downloadFile, useJobs, useModelVersions, usePoolVersions } from "../api/campaigns";
+import { useJobs, useModelVersions, usePoolVersions } from "../api/campaigns";
+import { DownloadButton } from "../components/DownloadButton";
 import { Empty, ErrorBox, Loading, StatusBadge } from "../components/States";
 import { fmtDate, fmtDuration, fmtNumber } from "../lib/format";
-import { errorMessage } from "../api/errors";
-
-function DownloadButton({ path, filename, label }: { path: string; filename: string; label: string }) {
-  const [state, setState] = useState<"idle" | "busy" | string>("idle");
-  return (
-    <>
-      <button
-        type="button"
-        className="link"
-        disabled={state === "busy"}
-        onClick={() => {
-          setState("busy");
-          downloadFile(path, filename)
-            .then(() => setState("idle"))
-            .catch((e) => setState(errorMessage(e)));
-        }}
-      >
-        {label}
-      </button>
-      {state !== "idle" && state !== "busy" && <span className="error-text">{state}</span>}
-    </>
-  );
-}
 
 export function JobsTable({ campaignId }: { campaignId: number }) {
   const jobs = useJobs(campaignId);

@@ -1,3 +1,4 @@
+import { useState } from "react";
 import { describe, expect, it } from "vitest";
 import { screen, waitFor, within } from "@testing-library/react";
 import userEvent from "@testing-library/user-event";
@@ -89,6 +90,27 @@ describe("the forces tab of a batch iteration", () => {
 
     await userEvent.selectOptions(select, "0");
     await waitFor(() => expect(force()).toHaveAttribute("data-points", String(3 * 8)));
+  });
+
+  it("the overlay box says which typed parts it left out and why, and keeps the rest", async () => {
+    mockApi({ "GET /campaigns/5/iterations/{k}/curves": (url: URL) => ({ ...curves(3, 1, false), iteration: Number(url.pathname.split("/").at(-2)) }) });
+    const set: string[] = [];
+    const inheritedPoint = { ...point(1), inherited: true };
+    function Harness() {
+      const [overlay, setOverlay] = useState("");
+      return <ForcesPanel campaignId={5} points={[inheritedPoint, point(2), point(3)]} iteration={3} setIteration={noop} overlay={overlay} setOverlay={(o) => (set.push(o), setOverlay(o))} />;
+    }
+    renderPage(<Harness />);
+    await userEvent.type(await screen.findByLabelText("Overlay iterations"), "abc, 99, 1, 2, 7-9{Enter}");
+    const problems = await screen.findByTestId("overlay-problems");
+    expect(problems).toHaveTextContent('left out "abc": not an iteration number or range');
+    expect(problems).toHaveTextContent("left out 99: no such iteration with oracle data");
+    expect(problems).toHaveTextContent("left out 1: inherited from the source campaign");
+    expect(problems).toHaveTextContent("left out 7-9: no iteration with oracle data in this range");
+    expect(set.at(-1)).toBe("2");
+    expect(screen.getByLabelText("Overlay iterations")).toHaveAttribute("aria-invalid", "true");
+    await userEvent.click(screen.getByRole("button", { name: /^last 5/ }));
+    expect(screen.queryByTestId("overlay-problems")).toBeNull();
   });
 
   it("a q = 1 iteration: no pick to choose, the iteration's curves as before", async () => {

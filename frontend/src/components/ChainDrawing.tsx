@@ -42,6 +42,10 @@ function cushion(chain: Chain, zc: number): Vec2[] {
   });
 }
 
+/** The largest coordinate drawn [m]: a body and its headrest lie within metres of the base. */
+const MAX_DRAWN_M = 1e4;
+const inDrawing = (v: number) => Number.isFinite(v) && Math.abs(v) <= MAX_DRAWN_M;
+
 const pts = (ps: Vec2[]) => ps.map(([x, z]) => `${x.toFixed(5)},${(-z).toFixed(5)}`).join(" ");
 
 export function ChainDrawing({ chain, q, frames, force, forceScale, height = 320, testId = "chain-drawing", label = "The model at this pose" }: ChainDrawingProps) {
@@ -78,6 +82,16 @@ export function ChainDrawing({ chain, q, frames, force, forceScale, height = 320
     arrow = { from, to: [from[0] + k * d[0], from[1] + k * d[1]] };
   }
   const markerId = `${testId}-arrowhead`;
+  // an SVG holds single-precision numbers: a model whose points are not finite or lie far beyond any body (a 1e308 m link) is described, not drawn
+  const drawable = [[x0, z0], [x1, z1], ...p.joints, ...p.coms, ...outline, p.head.origin].every(([x, z]) => inDrawing(x) && inDrawing(z)) && inDrawing(gap);
+  if (!drawable)
+    return (
+      <figure className="chain-drawing" style={{ margin: 0 }}>
+        <p className="muted" data-testid={testId} data-drawable="false" data-links={chain.links.length} role="img" aria-label={`${label}: not drawn`}>
+          The model cannot be drawn with these values: its points lie beyond {MAX_DRAWN_M} m (or are not numbers). Check the lengths, positions and offsets.
+        </p>
+      </figure>
+    );
   return (
     <figure className="chain-drawing" style={{ margin: 0 }}>
       <svg

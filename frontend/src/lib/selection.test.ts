@@ -17,6 +17,16 @@ describe("iteration selection", () => {
     expect(s.iterations).toEqual([2]);
     expect(s.errors).toEqual(["3: no such iteration with oracle data", '"abc": not an iteration number or range (e.g. 1-5, 8, 12-20)']);
   });
+  it("names every part it leaves out: a fork's inherited iteration, a range without any, a reversed range is read", () => {
+    const s = parseSelection("2, 7-9, 5-3, abc, 99", [4, 5, 6], [1, 2, 3]);
+    expect(s.iterations).toEqual([4, 5]);
+    expect(s.errors).toEqual([
+      "2: inherited from the source campaign (its curves are on the source's page)",
+      "7-9: no iteration with oracle data in this range",
+      '"abc": not an iteration number or range (e.g. 1-5, 8, 12-20)',
+      "99: no such iteration with oracle data",
+    ]);
+  });
   it("selects all 200 iterations of a paper-scale campaign with one range and writes it back compactly", () => {
     const s = parseSelection("1-200", K200);
     expect(s.iterations).toHaveLength(200);

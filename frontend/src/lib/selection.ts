@@ -10,9 +10,13 @@ export interface Selection {
   errors: string[];
 }
 
-/** Parse "1-5, 8, 12-20" against the iterations that exist (others are left out). */
-export function parseSelection(text: string, available: readonly number[]): Selection {
+/**
+ * Parse "1-5, 8, 12-20" against the iterations that exist (others are left out, each with the
+ * reason: no such iteration, a fork's inherited one, a range without any, text that is no range).
+ */
+export function parseSelection(text: string, available: readonly number[], inherited: readonly number[] = []): Selection {
   const exists = new Set(available);
+  const fromSource = new Set(inherited);
   const chosen = new Set<number>();
   const errors: string[] = [];
   for (const raw of text.split(/[,;\s]+/)) {
@@ -22,12 +26,15 @@ export function parseSelection(text: string, available: readonly number[]): Sele
     if (range) {
       let [a, b] = [Number(range[1]), Number(range[2])];
       if (a > b) [a, b] = [b, a];
-      for (const k of available) if (k >= a && k <= b) chosen.add(k);
+      const inRange = available.filter((k) => k >= a && k <= b);
+      for (const k of inRange) chosen.add(k);
+      if (!inRange.length) errors.push(inherited.some((k) => k >= a && k <= b) ? `${part}: inherited from the source campaign (its curves are on the source's page)` : `${part}: no iteration with oracle data in this range`);
       continue;
     }
     if (/^\d+$/.test(part)) {
       const k = Number(part);
       if (exists.has(k)) chosen.add(k);
+      else if (fromSource.has(k)) errors.push(`${k}: inherited from the source campaign (its curves are on the source's page)`);
       else errors.push(`${k}: no such iteration with oracle data`);
       continue;
     }

@@ -10,6 +10,7 @@ import { cleanName, errorView, nameProblems } from "../lib/formErrors";
 import { ConfigSections, configFieldPaths, configLabel, configLocalErrors, useConfigDefaults, type ConfigDraft } from "../campaign/ConfigSections";
 import { EXPLORATION_PATHS, ExplorationSection, explorationErrors } from "../campaign/ExplorationSection";
 import { useTitle } from "../lib/title";
+import { useUnsavedWarning } from "../lib/unsaved";
 
 export function NewCampaignPage() {
   useTitle("New campaign");
@@ -30,6 +31,8 @@ export function NewCampaignPage() {
   const taskId = chosenTask === "" ? (tasks.data?.[0]?.id ?? "") : chosenTask;
   const oracleId = chosenOracle === "" ? (oracles.data?.[0]?.id ?? "") : chosenOracle;
   const config = edited ?? defaults;
+  // a form with anything typed or changed asks before a link leaves it (creating it navigates without asking)
+  useUnsavedWarning(name !== "" || edited !== null || seed !== 0 || chosenTask !== "" || chosenOracle !== "" || surrogateId !== "");
 
   const openapi = useOpenApi();
   // the name is checked once the user has typed one or tried to create the campaign

@@ -11,6 +11,7 @@ import { PreviewPanel } from "../components/PreviewPanel";
 import { DefinitionEditor } from "../components/DefinitionEditor";
 import { generalFailure, serverProblems } from "../components/FormErrors";
 import { cleanName, errorView, nameProblems, schemaLabel } from "../lib/formErrors";
+import { useUnsavedWarning } from "../lib/unsaved";
 
 const typeSchema = (t: OracleType | undefined) => (t?.params_schema ?? {}) as JsonSchema;
 
@@ -85,6 +86,10 @@ function OracleEditor({ existing, types }: { existing: Oracle | undefined; types
 
   // Inline validation by the API, 400 ms after the last edit.
   const draftKey = JSON.stringify([type, params]);
+  // the form as loaded or last saved: anything else is an unsaved edit, and leaving the page asks first
+  const formKey = JSON.stringify([name, description, type, params]);
+  const [baseline, setBaseline] = useState(formKey);
+  useUnsavedWarning(formKey !== baseline);
   useEffect(() => {
     if (!type) return;
     let current = true;
@@ -108,8 +113,17 @@ function OracleEditor({ existing, types }: { existing: Oracle | undefined; types
   }, [name, description, type, schema, params, validated, sentKey, save.error, test.error]);
 
   function onSave() {
-    setSentKey(JSON.stringify([name, description, type, params]));
-    save.mutate({ name: cleanName(name), description, type, params }, { onSuccess: (saved) => navigate(`/oracles/${saved.id}`) });
+    setSentKey(formKey);
+    const sent = formKey;
+    save.mutate(
+      { name: cleanName(name), description, type, params },
+      {
+        onSuccess: (saved) => {
+          setBaseline(sent);
+          navigate(`/oracles/${saved.id}`);
+        },
+      },
+    );
   }
 
   return (

@@ -15,6 +15,7 @@ import { ChainEditor, chainFieldPaths, chainLocalErrors } from "../task/ChainEdi
 import { initialPose, isChainModel, oneDofAsChain, resolveModel } from "../lib/kinematics";
 import { phaseShapes } from "../campaign/TrajectoryPanel";
 import { PreviewPanel } from "../components/PreviewPanel";
+import { useUnsavedWarning } from "../lib/unsaved";
 import { DefinitionEditor } from "../components/DefinitionEditor";
 import { generalFailure, serverProblems } from "../components/FormErrors";
 import { cleanName, errorView, nameProblems, schemaLabel, type ErrorView } from "../lib/formErrors";
@@ -142,6 +143,9 @@ function TaskEditor({ existing, presets }: { existing: Task | undefined; presets
 
   // Inline validation: ask the API (which knows the science rules) 400 ms after the last edit.
   const draftKey = JSON.stringify([name, description, spec]);
+  // the draft as loaded or last saved: anything else is an unsaved edit, and leaving the page asks first
+  const [baseline, setBaseline] = useState(draftKey);
+  useUnsavedWarning(draftKey !== baseline);
   useEffect(() => {
     let current = true;
     const timer = setTimeout(() => {
@@ -222,7 +226,16 @@ function TaskEditor({ existing, presets }: { existing: Task | undefined; presets
 
   function onSave() {
     setSentKey(draftKey);
-    save.mutate({ name: cleanName(name), description, spec }, { onSuccess: (saved) => navigate(`/tasks/${saved.id}`) });
+    const sent = draftKey;
+    save.mutate(
+      { name: cleanName(name), description, spec },
+      {
+        onSuccess: (saved) => {
+          setBaseline(sent);
+          navigate(`/tasks/${saved.id}`);
+        },
+      },
+    );
   }
 
   return (

@@ -5,6 +5,8 @@ import userEvent from "@testing-library/user-event";
 import { useState } from "react";
 import { TaskEditorPage } from "./TaskEditorPage";
 import { jsonResponse, mockApi, renderPage } from "../test/utils";
+import { Link } from "react-router-dom";
+import { LEAVE_QUESTION } from "../lib/unsaved";
 import { SchemaForm, schemaFieldPaths, schemaLocalErrors, type JsonSchema } from "../components/SchemaForm";
 import { errorView, humanMessage, schemaLabel } from "../lib/formErrors";
 
@@ -158,5 +160,51 @@ describe("schema forms", () => {
     expect(humanMessage("Input should be greater than 0")).toBe("must be greater than 0");
     expect(humanMessage("Field required")).toBe("required");
     expect(humanMessage("Value error, phases must not overlap")).toBe("phases must not overlap");
+  });
+});
+
+describe("unsaved edits", () => {
+  it("a link away from a task editor nobody edited leaves without a question", async () => {
+    mockApi({ "GET /tasks/presets": [PRESET], "GET /tasks/schema": TASK_SCHEMA, "POST /tasks/validate": { valid: true, errors: [] } });
+    const confirm = vi.spyOn(window, "confirm").mockReturnValue(false);
+    try {
+      renderPage(
+        <>
+          <Link to="/campaigns">Campaigns</Link>
+          <TaskEditorPage />
+        </>,
+        { route: "/tasks/new", path: "/tasks/new" },
+      );
+      await screen.findByLabelText("Name");
+      await userEvent.click(screen.getByRole("link", { name: "Campaigns" }));
+      expect(confirm).not.toHaveBeenCalled(); // nothing edited: no question
+      expect(await screen.findByTestId("elsewhere")).toBeInTheDocument();
+    } finally {
+      confirm.mockRestore();
+    }
+  });
+
+  it("an edited task: cancel keeps the page, confirm leaves", async () => {
+    mockApi({ "GET /tasks/presets": [PRESET], "GET /tasks/schema": TASK_SCHEMA, "POST /tasks/validate": { valid: true, errors: [] } });
+    const confirm = vi.spyOn(window, "confirm").mockReturnValue(false);
+    try {
+      renderPage(
+        <>
+          <Link to="/campaigns">Campaigns</Link>
+          <TaskEditorPage />
+        </>,
+        { route: "/tasks/new", path: "/tasks/new" },
+      );
+      await userEvent.type(await screen.findByLabelText("Name"), "my task");
+      await userEvent.click(screen.getByRole("link", { name: "Campaigns" }));
+      expect(confirm).toHaveBeenCalledWith(LEAVE_QUESTION);
+      expect(screen.queryByTestId("elsewhere")).toBeNull();
+      expect(screen.getByLabelText("Name")).toHaveValue("my task");
+      confirm.mockReturnValue(true);
+      await userEvent.click(screen.getByRole("link", { name: "Campaigns" }));
+      expect(await screen.findByTestId("elsewhere")).toBeInTheDocument();
+    } finally {
+      confirm.mockRestore();
+    }
   });
 });

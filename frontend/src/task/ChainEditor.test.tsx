@@ -6,7 +6,8 @@ import { ChainPlayer, sampleAt } from "../components/ChainPlayer";
 import { Plot } from "../components/Plot";
 import { addLink, removeLink } from "./ChainEditor";
 import { mockApi, renderPage } from "../test/utils";
-import { resolveModel } from "../lib/kinematics";
+import { initialPose, resolveModel } from "../lib/kinematics";
+import { ChainDrawing } from "../components/ChainDrawing";
 import openapi from "../../openapi.json";
 import fixture from "../lib/kinematics.fixture.json";
 
@@ -132,6 +133,23 @@ describe("adding and removing links", () => {
     expect((removed.headrest as { touch_q: number[] }).touch_q).toEqual([-0.04, 0, 0]);
     expect((removed.contact_body as { link: number }).link).toBe(2);
     expect((removeLink(removed, 2).contact_body as { link: number | null }).link).toBeNull(); // the head's link removed: the last link carries it
+  });
+});
+
+describe("the drawing of any value the form holds", () => {
+  const chain = (fixture.cases.find((c) => c.name === "head-neck-2dof")!.model as { chain: { links: Record<string, unknown>[] } }).chain;
+  it.each([1e308, 1e6])("a link %s m long is described, not drawn as a broken picture", (length) => {
+    const huge = { preset: "chain", chain: { ...chain, links: chain.links.map((l, i) => (i === 0 ? { ...l, length } : l)) } };
+    const resolved = resolveModel(huge)!;
+    const { container } = render(<ChainDrawing chain={resolved} q={initialPose(resolved, null)} testId="model-drawing" />);
+    expect(screen.getByTestId("model-drawing")).toHaveAttribute("data-drawable", "false");
+    expect(container.querySelector("svg")).toBeNull();
+    expect(container.textContent).not.toMatch(/Infinity|NaN/);
+  });
+  it("a model of ordinary size is drawn", () => {
+    const resolved = resolveModel({ preset: "chain", chain })!;
+    const { container } = render(<ChainDrawing chain={resolved} q={initialPose(resolved, null)} testId="model-drawing" />);
+    expect(container.querySelector("svg[data-testid=model-drawing]")).not.toBeNull();
   });
 });
 
