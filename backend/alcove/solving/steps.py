@@ -117,6 +117,7 @@ def solve(
     task's) are stored in the solution's ``stats["trust"]``."""
     from alcove.science.ocp.solve import solve_task
     from alcove.science.surrogate.export import surrogate_contact, surrogate_contact_std
+    from alcove.science.surrogate.history import history_inputs
     from alcove.science.surrogate.training import moved_headrest, pool_features, pose_kinematics, preset_kinematics
     from alcove.science.surrogate.trust import assess_solution, force_variance_function
 
@@ -158,12 +159,13 @@ def solve(
         exploration=exploration,
     )
     kinematics = None if chain is None else pose_kinematics(chain.head_pose)
+    inputs = history_inputs(model.config.feature_set, model.config.history, preset)
     if pool is None:
         pool_x = None
     elif kinematics is not None:
-        pool_x = pool_features(pool, kinematics)
+        pool_x = pool_features(pool, kinematics, inputs=inputs)
     else:
-        pool_x = pool_features(pool, preset_kinematics(base), moved_headrest(base))
+        pool_x = pool_features(pool, preset_kinematics(base), moved_headrest(base), inputs)
     trust = assess_solution(model, preset, sol.t, sol.q, pool_x, kinematics=kinematics).to_dict()
     trust["trust_region_max_std"] = trust_region_max_std if path is not None else None
     compute = time.perf_counter() - t0

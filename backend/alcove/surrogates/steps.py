@@ -112,7 +112,7 @@ def evaluate(
     picks: list[dict[str, Any]] = []
     for a, (offset, tilt) in data:
         pred = predict_ensemble(
-            model, a["q"], a["qd"], headrest_offset=offset, headrest_tilt=tilt, kinematics=kinematics
+            model, a["q"], a["qd"], headrest_offset=offset, headrest_tilt=tilt, kinematics=kinematics, t=a["t"]
         )
         f_pred = np.hstack([pred.force, pred.moment])
         f_std = np.hstack([pred.force_std, pred.moment_std]) if model.ensemble_size > 1 else None

@@ -123,7 +123,7 @@ def _metrics(model: Any, motions: list[dict[str, Any]], kinematics: Any = None) 
     for a in motions:
         if a.get("part") == "reference":
             continue
-        p = predict_ensemble(model, a["q"], a["qd"], kinematics)
+        p = predict_ensemble(model, a["q"], a["qd"], kinematics, t=a["t"])
         preds.append(np.hstack([p.force, p.moment]))
         # a single model (K = 1) has no spread: no std, so its calibration is null (not 0)
         stds.append(np.hstack([p.force_std, p.moment_std]) if model.ensemble_size > 1 else None)

@@ -315,7 +315,7 @@ def predict(
         pose = traj.pose
         kinematics = lambda _q, _qd: kinematics_from_pose(pose)  # noqa: E731
     try:
-        p = predict_ensemble(surrogate, traj.q, traj.qd, kinematics=kinematics)
+        p = predict_ensemble(surrogate, traj.q, traj.qd, kinematics=kinematics, t=traj.t)
     except PoolDataError as exc:
         _bad_input(f"trajectory: {exc.field}", exc.reason)
     forces = ForceSeries(np.asarray(traj.t, float), p.force, p.moment)

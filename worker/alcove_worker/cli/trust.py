@@ -42,6 +42,7 @@ class TrustInputs:
         from alcove.science.surrogate.artifact import load_artifact
         from alcove.science.surrogate.dataset import PoolDataError, load_pool_dir
         from alcove.science.surrogate.export import casadi_contact_std_function, chain_kinematics
+        from alcove.science.surrogate.history import history_inputs
         from alcove.science.surrogate.training import pool_features, pose_kinematics, preset_kinematics
         from alcove.science.surrogate.trust import force_variance_function
 
@@ -65,7 +66,8 @@ class TrustInputs:
                 raise TrustInputError("pool", f"{pool} is not a folder")
             try:
                 kin = preset_kinematics(preset) if chain is None else pose_kinematics(chain.head_pose)
-                features = pool_features(load_pool_dir(pool), kin)
+                inputs = history_inputs(model.config.feature_set, model.config.history, preset)
+                features = pool_features(load_pool_dir(pool), kin, inputs=inputs)
             except PoolDataError as exc:
                 raise TrustInputError(f"pool.{exc.field}", exc.reason) from exc
         return cls(model, preset, path, features, chain)

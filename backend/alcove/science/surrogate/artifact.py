@@ -38,7 +38,6 @@ import alcove
 from alcove.science.errors import FieldError
 from alcove.science.geometry import HeadNeckPreset
 from alcove.science.surrogate.config import SurrogateConfig
-from alcove.science.surrogate.features import FEATURE_NAMES
 from alcove.science.surrogate.gated import R_X, T_00, T_20, Gate
 from alcove.science.surrogate.mlp import MLP, Member, Standardization, SurrogateModel
 
@@ -144,9 +143,9 @@ def _net_to_dict(net: MLP) -> dict[str, Any]:
     }
 
 
-def _net_from_dict(d: dict[str, Any], dtype: torch.dtype, field: str) -> MLP:
+def _net_from_dict(d: dict[str, Any], dtype: torch.dtype, field: str, n_in: int) -> MLP:
     try:
-        net = MLP(d["hidden"], d["activation"], dtype=dtype)
+        net = MLP(d["hidden"], d["activation"], n_in=n_in, dtype=dtype)
         linears = net.linears()
         if len(linears) != len(d["layers"]):
             raise ArtifactError(
@@ -181,12 +180,15 @@ def _member_dict(m: Member) -> dict[str, Any]:
     }
 
 
-def _member_from_dict(d: dict[str, Any], dtype: torch.dtype, field: str) -> Member:
+def _member_from_dict(d: dict[str, Any], dtype: torch.dtype, field: str, n_in: int) -> Member:
     norm = d["normalization"]
+    input_norm = Standardization.from_dict(norm["input"])
+    if input_norm.mean.shape != (n_in,):
+        raise ArtifactError(f"{field}normalization.input", f"has {input_norm.mean.size} entries, the inputs are {n_in}")
     return Member(
-        force_net=_net_from_dict(d["networks"]["force"], dtype, f"{field}networks.force"),
-        moment_net=_net_from_dict(d["networks"]["moment"], dtype, f"{field}networks.moment"),
-        input_norm=Standardization.from_dict(norm["input"]),
+        force_net=_net_from_dict(d["networks"]["force"], dtype, f"{field}networks.force", n_in),
+        moment_net=_net_from_dict(d["networks"]["moment"], dtype, f"{field}networks.moment", n_in),
+        input_norm=input_norm,
         force_norm=Standardization.from_dict(norm["force"]),
         moment_norm=Standardization.from_dict(norm["moment"]),
     )
@@ -209,7 +211,7 @@ def artifact_dict(model: SurrogateModel, lineage: dict[str, Any] | None = None) 
     return {
         "format": FORMAT,
         "format_version": FORMAT_VERSION,
-        "feature_names": list(FEATURE_NAMES),
+        "feature_names": list(model.config.input_names),
         "outputs": {"force": ["fx", "fy", "fz"], "moment": ["mx", "my", "mz"]},
         "frame": "headrest; moment about the head frame origin; SI units",
         "ndof": model.ndof,
@@ -232,11 +234,15 @@ def model_from_dict(doc: dict[str, Any]) -> SurrogateModel:
             "format_version",
             f"unsupported version {doc.get('format_version')!r} (this alcove reads 1 and {FORMAT_VERSION})",
         )
-    if list(doc.get("feature_names", [])) != list(FEATURE_NAMES):
-        raise ArtifactError("feature_names", "do not match the 19 features of this alcove version")
     try:
         raw = doc["config"]
         config = SurrogateConfig.parse(raw)
+        if list(doc.get("feature_names", [])) != list(config.input_names):
+            raise ArtifactError(
+                "feature_names",
+                f"do not match the {len(config.input_names)} inputs of the feature set {config.feature_set!r} "
+                "of this alcove version",
+            )
         extra = doc.get("members", [])
         if not isinstance(extra, list):
             raise ArtifactError("members", "must be a list")
@@ -247,8 +253,9 @@ def model_from_dict(doc: dict[str, Any]) -> SurrogateModel:
                 )
             config = config.model_copy(update={"ensemble_size": 1 + len(extra)})  # format 1: one model
         # held in float64 whatever the training's precision (config.dtype): float32 weights are exact in float64
-        members = [_member_from_dict(doc, torch.float64, "")]
-        members += [_member_from_dict(m, torch.float64, f"members.{i}.") for i, m in enumerate(extra)]
+        n_in = len(config.input_names)
+        members = [_member_from_dict(doc, torch.float64, "", n_in)]
+        members += [_member_from_dict(m, torch.float64, f"members.{i}.", n_in) for i, m in enumerate(extra)]
         model = SurrogateModel.from_members(
             members,
             config=config,

@@ -90,7 +90,7 @@ def _ghost_grid(model: SurrogateModel, preset: HeadNeckPreset, gap_tolerance: fl
     open_ = signed_gap(preset, q) >= gap_tolerance
     if not open_.any():
         return 0.0
-    p = predict_ensemble(model, q[open_], qd[open_])
+    p = predict_ensemble(model, q[open_], qd[open_], steady=True)
     return float(np.linalg.norm(p.force, axis=1).max())
 
 
@@ -105,7 +105,7 @@ def score_on_suite(
         raise ValueError("suite: no held-out motions to score on")
     preds, trues, gaps = [], [], []
     for ds in suite:
-        p = predict_ensemble(model, ds.q, ds.qd)
+        p = predict_ensemble(model, ds.q, ds.qd, t=ds.t)
         preds.append(np.hstack([p.force, p.moment]))
         trues.append(np.hstack([ds.force, ds.moment]))
         gaps.append(signed_gap(preset, ds.q[:, 0]))

@@ -16,6 +16,12 @@ the bias toward low forces the paper reports). With ``member_data: "bootstrap"``
 member also multiplies the weights of the measured simulations of its training part by how often
 a bootstrap resample over those simulations drew them (:func:`.training.bootstrap_counts`).
 
+Inputs: ``feature_set: "paper"`` (default) is the paper's 19 features of the state (q, qd);
+``"history"`` adds the history states of :mod:`.history` (the largest indentation so far and the
+low-pass filtered slip velocity of the contact point), which let the networks learn friction that
+depends on the path. Such a model predicts along motions (it needs their times), not at single
+states.
+
 Architecture: ``"paper"`` (default) is the paper's: the MLPs' outputs are the wrench.
 ``"gated"`` (:mod:`.gated`) puts a contact-aware output layer after them: the wrench is
 exactly zero where the signed gap between head profile and headrest surface is clearly open
@@ -31,10 +37,13 @@ from typing import Annotated, Any, Literal
 from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, ValidationError
 
 from alcove.science.errors import FieldError
+from alcove.science.surrogate.features import FEATURE_NAMES
+from alcove.science.surrogate.history import HISTORY_NAMES, HistoryConfig
 from alcove.science.validation import WholeNumber, as_whole_number, error_location, quantity, range_text
 
 Activation = Literal["softplus", "tanh", "sigmoid"]
 Architecture = Literal["paper", "gated"]
+FeatureSet = Literal["paper", "history"]
 LayerWidth = Annotated[int, Field(ge=1, le=4096), BeforeValidator(as_whole_number)]
 
 
@@ -93,6 +102,15 @@ class SurrogateConfig(BaseModel):
     )
     gate: GateConfig = Field(
         default_factory=GateConfig, description="the gated architecture's output layer (unused by 'paper')"
+    )
+    feature_set: FeatureSet = Field(
+        "paper",
+        description="inputs of the networks: 'paper' (the paper's 19 features of the state q, qd) or 'history' "
+        "(those and the history states: the largest indentation of the contact point so far and its slip "
+        "velocity along the headrest, low-pass filtered; the friction force depends on the path, docs/concepts.md)",
+    )
+    history: HistoryConfig = Field(
+        default_factory=HistoryConfig, description="the history states' parameters (unused by the 'paper' feature set)"
     )
     force: NetworkConfig = Field(default_factory=lambda: NetworkConfig(hidden=(6, 6, 4)))
     moment: NetworkConfig = Field(default_factory=lambda: NetworkConfig(hidden=(6, 6, 6, 4)))
@@ -242,6 +260,11 @@ class SurrogateConfig(BaseModel):
         return cls.parse(data)
 
     @property
+    def input_names(self) -> tuple[str, ...]:
+        """The networks' inputs, in order: the 19 features, then the history states if any."""
+        return FEATURE_NAMES + (HISTORY_NAMES if self.feature_set == "history" else ())
+
+    @property
     def warm_rule(self) -> tuple[float, int, int, float]:
         """The warm start's learning rate, most epochs, patience and least improvement, unset ones from the
         cold training's."""
@@ -262,4 +285,12 @@ class SurrogateConfig(BaseModel):
         return w
 
 
-__all__ = ["Activation", "Architecture", "GateConfig", "NetworkConfig", "SurrogateConfig", "SurrogateConfigError"]
+__all__ = [
+    "Activation",
+    "Architecture",
+    "FeatureSet",
+    "GateConfig",
+    "NetworkConfig",
+    "SurrogateConfig",
+    "SurrogateConfigError",
+]

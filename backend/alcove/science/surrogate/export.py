@@ -313,6 +313,12 @@ def surrogate_contact_std(
 
 
 def _check_parametric(model: SurrogateModel) -> None:
+    if model.config.feature_set != "paper":
+        raise ValueError(
+            f"model: feature set {model.config.feature_set!r}: the OCP's contact function and the CasADi export "
+            "take surrogates of the state alone (feature set 'paper'); a model with history states predicts "
+            "along motions (surrogate predict, the validation suite, the press-family strategy)"
+        )
     for m in model.members:
         if (
             len(m.force_norm.mean) != m.force_net.linears()[-1].out_features

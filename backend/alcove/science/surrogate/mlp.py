@@ -67,8 +67,8 @@ class MLP(nn.Module):
         self.layers = nn.Sequential(*layers)
 
     @classmethod
-    def from_config(cls, cfg: NetworkConfig, dtype: torch.dtype = torch.float64) -> MLP:
-        return cls(cfg.hidden, cfg.activation, dtype=dtype)
+    def from_config(cls, cfg: NetworkConfig, dtype: torch.dtype = torch.float64, n_in: int = N_FEATURES) -> MLP:
+        return cls(cfg.hidden, cfg.activation, n_in=n_in, dtype=dtype)
 
     def forward(self, x: torch.Tensor) -> torch.Tensor:
         out: torch.Tensor = self.layers(x)

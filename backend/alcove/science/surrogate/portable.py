@@ -8,9 +8,16 @@ Written next to ``surrogate.json`` by :func:`write_exports`; none needs alcove t
     the 19 features included (the same expression the OCP uses, :mod:`.export`).
 ``force_std.casadi``, ``moment_std.casadi`` (K > 1)
     The same inputs, outputs ``std`` and ``var`` (3 x 1): the members' standard deviation and variance.
+``history_step.casadi`` (feature set ``history``)
+    The history states' update (:mod:`.history`): inputs ``z`` (3 x 1, the states at the previous
+    sample), ``q``, ``qd`` (the next sample's state; ``features`` (19 x 1) for a chain) and ``dt``
+    [s], output ``z_next``; a model of this feature set takes ``z`` as a third input (after ``q``
+    and ``qd``; for a chain its inputs are the 22 ``features`` of ``feature_names``). The first
+    sample's states are the steady ones: ``(ramp(p_0), v_y0, v_z0)``, the ramp of its indentation
+    and its slip velocity (:func:`.history.steady_history`).
 ``force.onnx``, ``moment.onnx``
-    ONNX (opset 18, float64): input ``features`` (n x 19, raw, in the order of
-    ``surrogate.json``'s ``feature_names``), outputs ``mean`` (n x 3) and, for K > 1, ``std``
+    ONNX (opset 18, float64): input ``features`` (n x 19, or n x 22 with history states; raw, in
+    the order of ``surrogate.json``'s ``feature_names``), outputs ``mean`` (n x 3) and, for K > 1, ``std``
     (n x 3). Built node by node from the weights (MatMul, Add, softplus as
     ``Relu(x) + Log(1 + Exp(-|x|))``) and checked with onnxruntime against PyTorch when written.
 
@@ -28,9 +35,11 @@ import casadi as ca
 import numpy as np
 
 from alcove.science.arrays import FloatArray
+from alcove.science.geometry import relative_kinematics_symbolic
 from alcove.science.surrogate.export import _mean_var, _state_features, member_wrenches_symbolic
 from alcove.science.surrogate.features import N_FEATURES
 from alcove.science.surrogate.gated import R_X, T_00, T_20, Gate
+from alcove.science.surrogate.history import N_HISTORY, contact_point_motion_symbolic, history_step_symbolic
 from alcove.science.surrogate.mlp import Member, SurrogateModel
 
 NETS = {"force": slice(0, 3), "moment": slice(3, 6)}
@@ -49,20 +58,42 @@ class ExportError(RuntimeError):
 def casadi_net_functions(model: SurrogateModel) -> dict[str, ca.Function]:
     """File stem -> Function: ``force``, ``moment`` (mean) and, for K > 1, ``force_std``, ``moment_std``;
     of ``(q, qd)`` for the 1-DOF preset, of the 19 ``features`` (:mod:`.features`) for a chain model."""
-    if model.ndof == 1:  # the 1-DOF preset: functions of the joint state (q, qd)
+    history = model.config.feature_set == "history"
+    if model.ndof == 1:  # the 1-DOF preset: functions of the joint state (q, qd) and the history states
         q, qd, feats = _state_features(model, model.preset, None)
         inputs, names = [q, qd], ["q", "qd"]
-    else:  # a chain: functions of the 19 features of the head's pose (the chain's kinematics are the task's)
-        feats = ca.SX.sym("features", N_FEATURES)
+        if history:
+            z = ca.SX.sym("z", N_HISTORY)
+            inputs, names, feats = [q, qd, z], ["q", "qd", "z"], ca.vertcat(feats, z)
+    else:  # a chain: functions of the features of the head's pose (the chain's kinematics are the task's)
+        feats = ca.SX.sym("features", len(model.config.input_names))
         inputs, names = [feats], ["features"]
     mean, var = _mean_var(member_wrenches_symbolic(model, feats))
-    out: dict[str, ca.Function] = {}
+    out: dict[str, ca.Function] = {"history_step": history_step_function(model)} if history else {}
     for net, rows in NETS.items():
         out[net] = ca.Function(net, inputs, [mean[rows]], names, [net])
         if model.ensemble_size > 1:
             v = var[rows]
             out[f"{net}_std"] = ca.Function(f"{net}_std", inputs, [ca.sqrt(v), v], names, ["std", "var"])
     return out
+
+
+def history_step_function(model: SurrogateModel) -> ca.Function:
+    """``(z, q, qd, dt) -> z_next`` (``(z, features, dt)`` for a chain): the history states' update
+    of :func:`.history.history_step_symbolic` at the next sample's state."""
+    z, dt = ca.SX.sym("z", N_HISTORY), ca.SX.sym("dt")
+    if model.ndof == 1:
+        q, qd = ca.SX.sym("q"), ca.SX.sym("qd")
+        kin = relative_kinematics_symbolic(model.preset, q, qd)
+        state, names = [q, qd], ["q", "qd"]
+    else:  # the head's kinematics from its 19 features: r, v, the first two columns of T, omega
+        f = ca.SX.sym("features", N_FEATURES)
+        c0, c1 = f[6:9], f[9:12]
+        kin = (f[0:3], f[3:6], ca.horzcat(c0, c1, ca.cross(c0, c1)), f[12:15])
+        state, names = [f], ["features"]
+    p, v = contact_point_motion_symbolic(model.preset, *kin)
+    z_next = history_step_symbolic(z, p, v, dt, model.config.history)
+    return ca.Function("history_step", [z, *state, dt], [z_next], ["z", *names, "dt"], ["z_next"])
 
 
 def _onnx_gate(g: _Graph, gate: Gate) -> str:
@@ -179,7 +210,7 @@ def onnx_model(model: SurrogateModel, net: str) -> bytes:
     graph = helper.make_graph(
         g.nodes,  # type: ignore[arg-type]
         f"alcove_{net}",
-        [helper.make_tensor_value_info("features", TensorProto.DOUBLE, ["n", N_FEATURES])],
+        [helper.make_tensor_value_info("features", TensorProto.DOUBLE, ["n", len(model.config.input_names)])],
         outputs,
         initializer=g.inits,  # type: ignore[arg-type]
     )
@@ -231,6 +262,7 @@ __all__ = [
     "ExportError",
     "casadi_net_functions",
     "check_onnx",
+    "history_step_function",
     "onnx_model",
     "write_exports",
 ]

@@ -73,6 +73,7 @@ from alcove.science.surrogate.dataset import PoolDataError, PoolDataset, check_p
 from alcove.science.surrogate.ensemble import NETS, EnsembleTrainer, GatedOutputs, MemberTensors
 from alcove.science.surrogate.features import features
 from alcove.science.surrogate.gated import gap_from_features, gate_params, gate_value
+from alcove.science.surrogate.history import HistoryError, HistoryInputs, history_inputs
 from alcove.science.surrogate.metrics import vector_rmse
 from alcove.science.surrogate.mlp import MLP, Member, Prediction, Standardization, SurrogateModel
 
@@ -305,10 +306,17 @@ def moved_headrest(preset: HeadNeckPreset) -> MovedHeadrest:
     return moved
 
 
-def pool_features(pool: list[PoolDataset], kinematics: KinematicsFn, moved: MovedHeadrest | None = None) -> FloatArray:
-    """The features of every sample, each dataset's relative to its own headrest: ``kinematics``
-    for the task's headrest, ``moved(offset, tilt)`` for a dataset simulated with a scenario's
-    ``headrest_offset`` and/or ``headrest_tilt``."""
+def pool_features(
+    pool: list[PoolDataset],
+    kinematics: KinematicsFn,
+    moved: MovedHeadrest | None = None,
+    inputs: HistoryInputs | None = None,
+) -> FloatArray:
+    """The networks' inputs for every sample, each dataset's relative to its own headrest:
+    ``kinematics`` for the task's headrest, ``moved(offset, tilt)`` for a dataset simulated with a
+    scenario's ``headrest_offset`` and/or ``headrest_tilt``. With ``inputs`` of the ``history``
+    feature set the history states follow: along each motion of the pool (its times ``t``), and
+    the steady states for the preliminary data's independent samples."""
 
     def kin(ds: PoolDataset) -> KinematicsFn:
         if ds.headrest_offset is None and ds.headrest_tilt is None:
@@ -325,9 +333,16 @@ def pool_features(pool: list[PoolDataset], kinematics: KinematicsFn, moved: Move
     out: list[FloatArray] = [np.empty(0)] * len(pool)
     for members in groups.values():
         fn = kin(pool[members[0]])
-        x = features(fn(np.concatenate([pool[i].q for i in members]), np.concatenate([pool[i].qd for i in members])))
-        for i, part in zip(members, np.split(x, np.cumsum([pool[i].n_samples for i in members])[:-1]), strict=True):
-            out[i] = part
+        k_all = fn(np.concatenate([pool[i].q for i in members]), np.concatenate([pool[i].qd for i in members]))
+        bounds = np.cumsum([0] + [pool[i].n_samples for i in members])
+        for j, i in enumerate(members):
+            lo, hi = bounds[j], bounds[j + 1]
+            k_i = RelativeKinematics(k_all.r_rel[lo:hi], k_all.v_rel[lo:hi], k_all.T_rel[lo:hi], k_all.omega_rel[lo:hi])
+            ds = pool[i]
+            try:
+                out[i] = features(k_i) if inputs is None else inputs(k_i, ds.t, steady=ds.origin == "preliminary")
+            except HistoryError as exc:
+                raise PoolDataError(f"{ds.name}.{exc.field}", exc.reason) from None
     return np.concatenate(out)
 
 
@@ -425,7 +440,8 @@ def train_surrogate(
     seeds = member_seeds if member_seeds is not None else [member_seed(seed, k) for k in range(config.ensemble_size)]
     plan, splits, split_note = _member_splits(pool, config, seeds, warm_start)
     kin = kinematics or preset_kinematics(preset)
-    x = pool_features(pool, kin, moved_headrest(preset) if kinematics is None else None)
+    inputs = history_inputs(config.feature_set, config.history, preset)
+    x = pool_features(pool, kin, moved_headrest(preset) if kinematics is None else None, inputs)
     y = {"force": np.concatenate([ds.force for ds in pool]), "moment": np.concatenate([ds.moment for ds in pool])}
     # a member whose training split holds measured data trains without the auxiliary law's contact samples
     # (preliminary_in_contact); one whose measured data all went to its test set still has them
@@ -477,7 +493,7 @@ def train_surrogate(
             for n in NETS
         }
         generator = torch.Generator().manual_seed(int(s_k))
-        nets = {n: MLP.from_config(getattr(config, n), dtype=dtype) for n in NETS}
+        nets = {n: MLP.from_config(getattr(config, n), dtype=dtype, n_in=len(config.input_names)) for n in NETS}
         warm_k: dict[str, bool | str] = {}
         for n in NETS:
             nets[n].reset_parameters(generator)
@@ -630,10 +646,15 @@ def predict_ensemble(
     kinematics: KinematicsFn | None = None,
     headrest_offset: float | None = None,
     headrest_tilt: float | None = None,
+    t: FloatArray | None = None,
+    *,
+    steady: bool = False,
 ) -> Prediction:
     """Ensemble mean and standard deviation of force and moment (each (n, 3)) at states q, qd
     (with the model's headrest moved to ``headrest_offset`` [m] and inclined at ``headrest_tilt``
-    [rad] unless ``kinematics`` is given)."""
+    [rad] unless ``kinematics`` is given). A model of the ``history`` feature set predicts along
+    one motion: ``t`` (n,) are its times, strictly increasing; or, with ``steady``, at independent
+    states, each with the history of a motion arriving there steadily."""
     q = np.asarray(q, float)
     qd = np.asarray(qd, float)
     q = q[:, None] if q.ndim == 1 else q
@@ -644,14 +665,28 @@ def predict_ensemble(
         raise PoolDataError("q", f"has {q.shape[1]} degrees of freedom, the model was trained on {model.ndof}")
     if kinematics is None:
         kinematics = preset_kinematics(headrest_preset(model.preset, headrest_offset, headrest_tilt))
-    return model.predict_ensemble(features(kinematics(q, qd)))
+    kin = kinematics(q, qd)
+    inputs = history_inputs(model.config.feature_set, model.config.history, model.preset)
+    if inputs is None:
+        return model.predict_ensemble(features(kin))
+    if t is None and not steady:
+        raise PoolDataError("t", "the model's feature set 'history' predicts along a motion: give its times")
+    try:
+        return model.predict_ensemble(inputs(kin, t, steady=steady))
+    except HistoryError as exc:
+        raise PoolDataError(exc.field, exc.reason) from None
 
 
 def predict_arrays(
-    model: SurrogateModel, q: FloatArray, qd: FloatArray, kinematics: KinematicsFn | None = None
+    model: SurrogateModel,
+    q: FloatArray,
+    qd: FloatArray,
+    kinematics: KinematicsFn | None = None,
+    t: FloatArray | None = None,
 ) -> tuple[FloatArray, FloatArray]:
-    """Predicted force (n, 3) and moment (n, 3), the ensemble mean, at states q, qd ((n,) or (n, ndof))."""
-    p = predict_ensemble(model, q, qd, kinematics)
+    """Predicted force (n, 3) and moment (n, 3), the ensemble mean, at states q, qd ((n,) or (n, ndof));
+    ``t``: the motion's times (needed by a model of the ``history`` feature set)."""
+    p = predict_ensemble(model, q, qd, kinematics, t=t)
     return p.force, p.moment
 
 
@@ -659,7 +694,7 @@ def predict(
     model: SurrogateModel, t: FloatArray, q: FloatArray, qd: FloatArray, kinematics: KinematicsFn | None = None
 ) -> ForceSeries:
     """Predicted contact force and moment (headrest frame) along a trajectory."""
-    force, moment = predict_arrays(model, q, qd, kinematics)
+    force, moment = predict_arrays(model, q, qd, kinematics, t)
     return ForceSeries(np.asarray(t, float), force, moment)
 
 

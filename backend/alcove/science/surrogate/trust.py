@@ -47,6 +47,7 @@ from alcove.science.geometry import (
     signed_gap,
 )
 from alcove.science.surrogate.features import features
+from alcove.science.surrogate.history import history_inputs
 from alcove.science.surrogate.mlp import SurrogateModel
 
 
@@ -132,13 +133,15 @@ def trust_curves(
     tm, qm, v = midpoints(t, q)
     if kinematics is not None:
         kin = kinematics(qm, v)
-        x = features(kin)
         gap = profile_gap(preset.profile, pose_from_kinematics(kin))
     else:
         if model.ndof != 1:
             raise ValueError(f"model: the model has {model.ndof} DOF; pass the chain's kinematics")
-        x = features(relative_kinematics(preset, qm[:, 0], v[:, 0]))
+        kin = relative_kinematics(preset, qm[:, 0], v[:, 0])
         gap = signed_gap(preset, qm[:, 0])
+    # a model with history states sees them along the midpoints, as the OCP carries them
+    inputs = history_inputs(model.config.feature_set, model.config.history, preset)
+    x = features(kin) if inputs is None else inputs(kin, tm)
     pred = model.predict_ensemble(x)
     distance: FloatArray | None = None
     if pool_features is not None:
