@@ -44,7 +44,16 @@ from pathlib import Path
 from typing import Any
 
 from bench.strategies_report import collect, merge, report, write_atomic
-from bench.strategies_store import TASK, cpu_seconds, fresh_store, iterations, retrain
+from bench.strategies_store import (
+    TASK,
+    cpu_seconds,
+    cumulative_calls,
+    fresh_store,
+    iterations,
+    retrain,
+    run_suite,
+    score,
+)
 
 ROOT = Path(__file__).resolve().parent.parent
 RESULTS, PLOT = (
@@ -96,69 +105,6 @@ def _settings(strategy: str, batch: int, candidates: int) -> dict[str, Any]:
     if strategy == "ensemble-disagreement":
         s["candidates"] = candidates
     return s
-
-
-def _cumulative(s: Any, campaign_id: int, upto: int) -> list[int]:
-    """Cumulative oracle calls after iterations 0 .. upto (every attempt, also of failed iterations)."""
-    from alcove.models import Iteration
-
-    calls = {it.index: it.oracle_calls for it in s.query(Iteration).filter(Iteration.campaign_id == campaign_id)}
-    out, total = [], 0
-    for k in range(upto + 1):
-        total += calls.get(k, 0)
-        out.append(total)
-    return out
-
-
-def _run_suite(campaign_id: int) -> int | None:
-    """Replay the campaign's validation motions still queued (in this process); the suite id once complete."""
-    from alcove.db import session_scope
-    from alcove.models import Campaign, SuiteStatus, ValidationMotion, ValidationSuite
-    from alcove.oracles.validation import run_motion
-
-    with session_scope() as s:
-        c = s.get(Campaign, campaign_id)
-        sid = c.validation_suite_id if c is not None else None
-        if sid is None:
-            return None
-        ids = [m.id for m in s.query(ValidationMotion).filter_by(suite_id=sid, status="queued")]
-    for i in ids:
-        run_motion(i, "bench")
-    with session_scope() as s:
-        suite = s.get(ValidationSuite, sid)
-        return sid if suite is not None and suite.status == SuiteStatus.complete.value else None
-
-
-def _score(campaign_id: int, suite_id: int, version: int) -> dict[str, Any]:
-    from alcove.db import session_scope
-    from alcove.models import ModelVersion, ValidationMetrics
-    from alcove.surrogates.validation import compute_for_model
-
-    with session_scope() as s:
-        mv = s.query(ModelVersion).filter_by(campaign_id=campaign_id, version=version).one()
-        row = s.query(ValidationMetrics).filter_by(model_version_id=mv.id).one_or_none()
-        if row is not None:
-            return _scored(
-                {
-                    "force_rmse": row.force_rmse,
-                    "moment_rmse": row.moment_rmse,
-                    "components": row.components,
-                    "calibration": row.calibration,
-                }
-            )
-        mv_id = mv.id
-    m = compute_for_model(mv_id, suite_id)
-    assert m is not None, "the validation suite is not complete"
-    return _scored(m)
-
-
-def _scored(m: dict[str, Any]) -> dict[str, Any]:
-    """A budget's figures: force and moment RMSE, fx, fz, my overall and in contact, the calibration."""
-    out = {"force_rmse": m["force_rmse"], "moment_rmse": m["moment_rmse"], "calibration": m.get("calibration")}
-    components = m.get("components") or {}
-    for c in ("fx", "fz", "my", "fx_contact", "fz_contact", "my_contact"):
-        out[f"{c}_rmse"] = components.get(c)
-    return out
 
 
 def run_one(
@@ -225,7 +171,7 @@ def run_one(
         last = False
         if j.step.value == "train" and j.iteration > 1:
             with session_scope() as s:
-                last = _cumulative(s, cid, j.iteration - 1)[-1] >= top
+                last = cumulative_calls(s, cid, j.iteration - 1)[-1] >= top
         run_step(
             j.campaign_id, j.iteration, j.step.value, j.attempt, worker_name="bench", send=queue.extend, slot=j.slot
         )
@@ -233,20 +179,20 @@ def run_one(
         if j.step.value != "train":
             continue
         if suite_id is None:
-            suite_id = _run_suite(cid)
+            suite_id = run_suite(cid)
         with session_scope() as s:
-            cum = _cumulative(s, cid, j.iteration - 1)
+            cum = cumulative_calls(s, cid, j.iteration - 1)
         for b, pv in budget_models(cum, budgets).items():
             if pv is None or str(b) in result["budgets"] or suite_id is None:
                 continue
             result["budgets"][str(b)] = {"oracle_calls": cum[pv], "pool_version": pv, "model_version": pv + 1}
-            result["budgets"][str(b)].update(_score(cid, suite_id, pv + 1))
+            result["budgets"][str(b)].update(score(cid, suite_id, pv + 1))
         if j.iteration == 1 and suite_id is not None:
             result["budgets"]["0"] = {
                 "oracle_calls": 0,
                 "pool_version": 0,
                 "model_version": 1,
-                **_score(cid, suite_id, 1),
+                **score(cid, suite_id, 1),
             }
         result.update(
             wall_s=time.perf_counter() - t0, cpu_s=cpu_seconds() - cpu0, iterations_run=j.iteration, steps=steps

@@ -114,3 +114,67 @@ def iterations(campaign_id: int) -> list[dict[str, Any]]:
                 }
             )
     return rows
+
+
+def cumulative_calls(s: Any, campaign_id: int, upto: int) -> list[int]:
+    """Cumulative oracle calls after iterations 0 .. upto (every attempt, also of failed iterations)."""
+    from alcove.models import Iteration
+
+    calls = {it.index: it.oracle_calls for it in s.query(Iteration).filter(Iteration.campaign_id == campaign_id)}
+    out, total = [], 0
+    for k in range(upto + 1):
+        total += calls.get(k, 0)
+        out.append(total)
+    return out
+
+
+def run_suite(campaign_id: int) -> int | None:
+    """Replay the campaign's validation motions still queued (in this process); the suite id once complete."""
+    from alcove.db import session_scope
+    from alcove.models import Campaign, SuiteStatus, ValidationMotion, ValidationSuite
+    from alcove.oracles.validation import run_motion
+
+    with session_scope() as s:
+        c = s.get(Campaign, campaign_id)
+        sid = c.validation_suite_id if c is not None else None
+        if sid is None:
+            return None
+        ids = [m.id for m in s.query(ValidationMotion).filter_by(suite_id=sid, status="queued")]
+    for i in ids:
+        run_motion(i, "bench")
+    with session_scope() as s:
+        suite = s.get(ValidationSuite, sid)
+        return sid if suite is not None and suite.status == SuiteStatus.complete.value else None
+
+
+def score(campaign_id: int, suite_id: int, version: int) -> dict[str, Any]:
+    """Model version ``version``'s suite figures (its stored row, else computed now)."""
+    from alcove.db import session_scope
+    from alcove.models import ModelVersion, ValidationMetrics
+    from alcove.surrogates.validation import compute_for_model
+
+    with session_scope() as s:
+        mv = s.query(ModelVersion).filter_by(campaign_id=campaign_id, version=version).one()
+        row = s.query(ValidationMetrics).filter_by(model_version_id=mv.id).one_or_none()
+        if row is not None:
+            return scored(
+                {
+                    "force_rmse": row.force_rmse,
+                    "moment_rmse": row.moment_rmse,
+                    "components": row.components,
+                    "calibration": row.calibration,
+                }
+            )
+        mv_id = mv.id
+    m = compute_for_model(mv_id, suite_id)
+    assert m is not None, "the validation suite is not complete"
+    return scored(m)
+
+
+def scored(m: dict[str, Any]) -> dict[str, Any]:
+    """A budget's figures: force and moment RMSE, fx, fz, my overall and in contact, the calibration."""
+    out = {"force_rmse": m["force_rmse"], "moment_rmse": m["moment_rmse"], "calibration": m.get("calibration")}
+    components = m.get("components") or {}
+    for c in ("fx", "fz", "my", "fx_contact", "fz_contact", "my_contact"):
+        out[f"{c}_rmse"] = components.get(c)
+    return out

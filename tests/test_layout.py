@@ -18,6 +18,7 @@ FLOORS: dict[str, int] = {
     "settings": 0,
     "errors": 0,
     "ids": 0,
+    "names": 0,
     "models": 1,
     "science": 1,
     "db": 2,
