@@ -2258,6 +2258,24 @@ export interface components {
             version: string;
         };
         /**
+         * HistoryConfig
+         * @description Parameters of the history states (the ``history`` feature set).
+         */
+        HistoryConfig: {
+            /**
+             * Indentation Ramp
+             * @description width of the C1 ramp of the largest indentation (it lags a deepening press by half of it) [m], above 1e-7, at most 0.01 m; 0.1 mm, small against indentations of millimetres
+             * @default 0.0001
+             */
+            indentation_ramp?: number;
+            /**
+             * Slip Time Constant
+             * @description time constant of the low-pass filter of the contact point's tangential velocity [s], above 0.0001, at most 10 s; 50 ms: the friction's memory of the slip direction over a press
+             * @default 0.05
+             */
+            slip_time_constant?: number;
+        };
+        /**
          * InitialState
          * @description Initial state; ``q`` defaults to the model's theta0 and ``qd`` to rest.
          */
@@ -3916,9 +3934,18 @@ export interface components {
              * @default 5
              */
             ensemble_size?: number;
+            /**
+             * Feature Set
+             * @description inputs of the networks: 'paper' (the paper's 19 features of the state q, qd) or 'history' (those and the history states: the largest indentation of the contact point so far and its slip velocity along the headrest, low-pass filtered; the friction force depends on the path, docs/concepts.md)
+             * @default paper
+             * @enum {string}
+             */
+            feature_set?: "paper" | "history";
             force?: components["schemas"]["NetworkConfig"];
             /** @description the gated architecture's output layer (unused by 'paper') */
             gate?: components["schemas"]["GateConfig"];
+            /** @description the history states' parameters (unused by the 'paper' feature set) */
+            history?: components["schemas"]["HistoryConfig"];
             /**
              * Learning Rate
              * @description Adam learning rate (step size on standardised data) [-], above 0, at most 1; paper: 0.01
