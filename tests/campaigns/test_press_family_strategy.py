@@ -120,3 +120,60 @@ def test_pool_version_0_can_start_from_oracle_replays_of_the_family_counted_as_o
         (row,) = metrics_series(s, cid)
     assert (row.oracle_calls, row.cumulative_oracle_calls) == (1, 4)  # iteration 0's 3 replays count
     assert "drop" in str(lineage.get("preliminary_in_contact"))
+
+
+def test_a_press_family_campaign_trains_and_scores_a_surrogate_with_history_states(
+    campaign_db: str, make_campaign: Any
+) -> None:
+    """The surrogate config's feature set 'history': every model version takes the 19 features
+    and the 3 history states; the in-loop error and the validation suite are predicted along each
+    replayed motion (its times), with the same figures as the science's own prediction; a campaign
+    whose strategy solves OCPs refuses that config by name."""
+    from alcove.campaigns import protocol
+    from alcove.db import session_scope
+    from alcove.errors import InvalidInput
+    from alcove.models import Campaign, Iteration, IterationMetrics, ModelVersion, ValidationSuite
+    from alcove.oracles.validation import run_motion
+    from alcove.pool.repository import oracle_datasets
+    from alcove.pool.service import dataset_arrays
+    from alcove.science.surrogate.history import HISTORY_NAMES
+    from alcove.science.surrogate.metrics import wrench_metrics
+    from alcove.science.surrogate.training import predict_ensemble
+    from alcove.surrogates.service import load_model
+    from alcove.surrogates.validation import _suite_arrays, compute_for_model
+
+    history = {"feature_set": "history"}
+    with pytest.raises(InvalidInput) as err:
+        make_campaign(surrogate=history, settings={"strategy": "random-scenarios", "batch": 1}, start=False)
+    (problem,) = err.value.detail()
+    assert problem["loc"] == ["body", "settings", "strategy"] and "'history'" in problem["msg"]
+
+    settings = {"strategy": "press-family", "batch": 1, "validation_motions": 2, "validation_reference_motions": 0}
+    cid, jobs = make_campaign(seed=8, surrogate=history, settings=settings, stopping={"max_iterations": 2})
+    protocol.drive_inline(cid, jobs)
+    with session_scope() as s:
+        versions = s.query(ModelVersion).filter_by(campaign_id=cid).order_by(ModelVersion.version).all()
+        assert len(versions) == 2
+        model = load_model(s, versions[1])
+        assert model.config.feature_set == "history"
+        assert model.members[0].input_norm.mean.shape == (19 + len(HISTORY_NAMES),)
+        it = s.query(Iteration).filter_by(campaign_id=cid, index=2).one()
+        (ds,) = oracle_datasets(s, it.id)
+        a = dataset_arrays(s, ds)
+        metric_rmse = s.query(IterationMetrics).filter_by(iteration_id=it.id).one().force_rmse
+        suite = s.get(ValidationSuite, s.get(Campaign, cid).validation_suite_id)
+        suite_id, motion_ids = suite.id, [m.id for m in suite.motions]
+        mv_id = versions[1].id
+    p = predict_ensemble(model, a["q"], a["qd"], t=a["t"])
+    assert metric_rmse == pytest.approx(wrench_metrics(np.hstack([p.force, p.moment]), a["f"])["force_rmse"], rel=1e-9)
+    # the suite: replayed by the oracle, then model 2 scored along each motion
+    assert [run_motion(i) for i in motion_ids] == ["succeeded", "succeeded"]
+    got = compute_for_model(mv_id, suite_id)
+    assert got is not None
+    with session_scope() as s:
+        motions = [a for a in _suite_arrays(s, suite_id) if a.get("part") != "reference"]
+    preds = [predict_ensemble(model, m["q"], m["qd"], t=m["t"]) for m in motions]
+    want = wrench_metrics(
+        np.vstack([np.hstack([q.force, q.moment]) for q in preds]), np.vstack([m["f"] for m in motions])
+    )
+    assert got["force_rmse"] == pytest.approx(want["force_rmse"], rel=1e-9)
