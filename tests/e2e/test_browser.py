@@ -72,3 +72,11 @@ def test_forms_keep_typed_numbers_in_the_browser(alcove_server: Server) -> None:
     the value is either named at the field or stored by the server exactly; text that is no
     number is named at its field (see frontend/e2e/forms.mjs)."""
     run_browser_script(alcove_server, "forms.mjs")
+
+
+def test_accessibility_titles_and_phone_width_in_the_browser(alcove_server: Server) -> None:
+    """axe-core finds no violation on the campaigns list, a finished campaign's page, the task,
+    oracle and new-campaign editors, the compare and tokens pages; every page has a title of its
+    own; at 390 px the campaigns list and every tab of a campaign's page fit the screen with the
+    navigation reachable (see frontend/e2e/a11y.mjs)."""
+    run_browser_script(alcove_server, "a11y.mjs")

@@ -169,7 +169,8 @@ export function Plot({
       data-cursor={cursorX === null || cursorX === undefined ? "" : String(cursorX)}
       data-log-y={logY ? "true" : "false"}
       {...Object.fromEntries(Object.entries(data ?? {}).map(([k, v]) => [`data-${k}`, v]))}
-      role="img"
+      // a group, not an image: the plot holds Plotly's toolbar buttons, and an image may not contain controls
+      role="group"
       aria-label={title ?? yTitle ?? "plot"}
     />
   );
