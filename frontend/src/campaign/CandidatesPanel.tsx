@@ -160,7 +160,7 @@ export function CandidatesTable({ data, shown, toggle }: { data: IterationCandid
             <td>{c.slot}</td>
             <td>{c.score != null ? fmtNumber(c.score) : "–"}</td>
             <td>{c.pick != null ? c.pick + 1 : "–"}</td>
-            <td title={c.why.text}>
+            <td>
               <span className="why-code" data-picked={isPicked(c)}>
                 {WHY_LABEL[c.why.code] ?? c.why.code}
               </span>{" "}
@@ -201,7 +201,7 @@ function IterationPicker({ iteration, last, setIteration }: { iteration: number 
   if (!setIteration || last < 1) return null;
   return (
     <label className="field-inline">
-      iteration
+      iteration{" "}
       <input
         type="number"
         min={1}
@@ -215,6 +215,7 @@ function IterationPicker({ iteration, last, setIteration }: { iteration: number 
         }}
         aria-label="iteration of the candidates"
       />
+      {" "}
       <span className="muted">of {last}</span>
     </label>
   );

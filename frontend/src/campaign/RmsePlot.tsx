@@ -203,7 +203,7 @@ export function RmsePlot({ points, logY, onSelect, xAxis = "iteration", quantity
       testId="rmse-plot"
       traces={traces}
       xTitle={xTitle(xAxis)}
-      yTitle="RMSE: new oracle data (solid), held-out suite (dashed)"
+      yTitle="RMSE"
       logY={logY}
       exportName="rmse"
       onPointClick={(x) => {
@@ -263,7 +263,7 @@ export function CalibrationPlot({ points, xAxis = "iteration" }: { points: Metri
       traces={traces}
       shapes={shapes}
       xTitle={xTitle(xAxis)}
-      yTitle="oracle values inside mean ± 2σ [%]: new oracle data (solid), held-out suite (dashed)"
+      yTitle="oracle values inside mean ± 2σ [%]"
       exportName="calibration"
       height={300}
       extraLayout={layout}

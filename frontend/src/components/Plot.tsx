@@ -107,9 +107,9 @@ export function Plot({
     const el = ref.current;
     if (!el) return;
     const layout: Partial<Layout> = {
-      title: title ? { text: title, font: { size: 14 } } : undefined,
+      // the title is a heading above the plot (not Plotly's): a legend of several rows above the plot area never runs into it
       height,
-      margin: { l: 64, r: 16, t: title ? 56 : 32, b: 44 },
+      margin: { l: 64, r: 16, t: 32, b: 44 },
       xaxis: { title: { text: xTitle ?? "" }, zeroline: false },
       yaxis: { title: { text: yTitle ?? "" }, type: logY ? "log" : "linear", exponentformat: "power", ...(logY ? logAxisTicks(traces) : {}) },
       legend: { orientation: "h", x: 0, y: 1.02, xanchor: "left", yanchor: "bottom" },
@@ -158,7 +158,7 @@ export function Plot({
     };
   }, []);
 
-  return (
+  const plot = (
     <div
       ref={ref}
       className="plot"
@@ -173,5 +173,12 @@ export function Plot({
       role="group"
       aria-label={title ?? yTitle ?? "plot"}
     />
+  );
+  if (!title) return plot;
+  return (
+    <div className="plot-with-title">
+      <p className="plot-title">{title}</p>
+      {plot}
+    </div>
   );
 }

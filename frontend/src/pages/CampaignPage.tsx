@@ -188,6 +188,11 @@ export function CampaignPage() {
             {hasCalibration(points) && <CalibrationPlot points={points} xAxis={xAxis} />}
           </div>
         )}
+        {points.length > 0 && (
+          <small className="hint" data-testid="rmse-plot-key">
+            Solid: the new oracle data of each iteration; dashed: the held-out suite{hasCalibration(points) ? "; calibration: the share of oracle values inside the ensemble's mean ± 2σ" : ""}.
+          </small>
+        )}
       </section>
       <section className="panel">
         <div

@@ -157,7 +157,7 @@ function Cell({ path, value, schema, unit, label, errors, onChange }: { path: st
     <td>
       <NumberInput
         aria-label={`${label} [${unit}]`}
-        style={{ width: 78 }}
+        className="num-cell"
         value={value}
         onChange={onChange}
         aria-invalid={problems.length > 0}

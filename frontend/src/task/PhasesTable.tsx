@@ -90,7 +90,7 @@ export function PhasesTable({ phases, onChange, errors }: { phases: PhaseRow[]; 
                 <td key={f}>
                   <NumberInput
                     aria-label={`phase ${m + 1} ${HEADERS[f]}`}
-                    style={{ width: 90 }}
+                    className="num-cell"
                     value={p[f]}
                     onChange={(v) => set(m, f, v)}
                     aria-invalid={cellError(m, f).length > 0}
