@@ -163,6 +163,29 @@ describe("schema forms", () => {
   });
 });
 
+describe("a refused save", () => {
+  it("its problem goes once the value is changed (the next inline validation answers for the new draft)", async () => {
+    mockApi({
+      "GET /tasks/presets": [PRESET],
+      "GET /tasks/schema": TASK_SCHEMA,
+      "POST /tasks/validate": { valid: true, errors: [] },
+      "POST /tasks": () => jsonResponse({ detail: [{ ...loc("spec", "phases", 0, "w_T"), msg: "Value error, the phase's weights do not fit the model" }] }, 422),
+    });
+    renderPage(<TaskEditorPage />, { route: "/tasks/new" });
+    fireEvent.change(await screen.findByLabelText("Name"), { target: { value: "a task" } });
+    await waitFor(() => expect(screen.getByTestId("validation-state")).toHaveTextContent("valid"), { timeout: 3000 });
+    await userEvent.click(screen.getByRole("button", { name: "Create task" }));
+    expect(await screen.findByText("the phase's weights do not fit the model")).toBeInTheDocument();
+    expect(screen.getByTestId("validation-state")).toHaveTextContent("1 problem");
+    const wT = screen.getByLabelText("phase 1 w_T");
+    await userEvent.clear(wT);
+    await userEvent.type(wT, "0.5");
+    expect(screen.queryByText("the phase's weights do not fit the model")).toBeNull();
+    expect(wT).toHaveAttribute("aria-invalid", "false");
+    await waitFor(() => expect(screen.getByTestId("validation-state")).toHaveTextContent("valid"), { timeout: 3000 });
+  });
+});
+
 describe("unsaved edits", () => {
   it("a link away from a task editor nobody edited leaves without a question", async () => {
     mockApi({ "GET /tasks/presets": [PRESET], "GET /tasks/schema": TASK_SCHEMA, "POST /tasks/validate": { valid: true, errors: [] } });
