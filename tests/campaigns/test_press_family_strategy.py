@@ -127,11 +127,9 @@ def test_a_press_family_campaign_trains_and_scores_a_surrogate_with_history_stat
 ) -> None:
     """The surrogate config's feature set 'history': every model version takes the 19 features
     and the 3 history states; the in-loop error and the validation suite are predicted along each
-    replayed motion (its times), with the same figures as the science's own prediction; a campaign
-    whose strategy solves OCPs refuses that config by name."""
+    replayed motion (its times), with the same figures as the science's own prediction."""
     from alcove.campaigns import protocol
     from alcove.db import session_scope
-    from alcove.errors import InvalidInput
     from alcove.models import Campaign, Iteration, IterationMetrics, ModelVersion, ValidationSuite
     from alcove.oracles.validation import run_motion
     from alcove.pool.repository import oracle_datasets
@@ -143,11 +141,6 @@ def test_a_press_family_campaign_trains_and_scores_a_surrogate_with_history_stat
     from alcove.surrogates.validation import _suite_arrays, compute_for_model
 
     history = {"feature_set": "history"}
-    with pytest.raises(InvalidInput) as err:
-        make_campaign(surrogate=history, settings={"strategy": "random-scenarios", "batch": 1}, start=False)
-    (problem,) = err.value.detail()
-    assert problem["loc"] == ["body", "settings", "strategy"] and "'history'" in problem["msg"]
-
     settings = {"strategy": "press-family", "batch": 1, "validation_motions": 2, "validation_reference_motions": 0}
     cid, jobs = make_campaign(seed=8, surrogate=history, settings=settings, stopping={"max_iterations": 2})
     protocol.drive_inline(cid, jobs)
@@ -177,3 +170,23 @@ def test_a_press_family_campaign_trains_and_scores_a_surrogate_with_history_stat
         np.vstack([np.hstack([q.force, q.moment]) for q in preds]), np.vstack([m["f"] for m in motions])
     )
     assert got["force_rmse"] == pytest.approx(want["force_rmse"], rel=1e-9)
+
+
+def test_the_paper_loop_solves_its_ocps_with_a_surrogate_with_history_states(
+    campaign_db: str, make_campaign: Any
+) -> None:
+    """The paper's loop with the feature set 'history': each iteration's OCP carries the model's
+    history states (converged, trusted or not by the same diagnostics along its midpoints)."""
+    from alcove.campaigns import protocol
+    from alcove.db import session_scope
+    from alcove.models import Campaign, OcpSolution
+
+    cid, jobs = make_campaign(
+        seed=9, surrogate={"feature_set": "history"}, settings={"validation_motions": 0}, stopping={"max_iterations": 2}
+    )
+    protocol.drive_inline(cid, jobs)
+    with session_scope() as s:
+        assert s.get(Campaign, cid).status == "completed"
+        sols = s.query(OcpSolution).filter_by(campaign_id=cid).all()
+        assert len(sols) == 2 and all(sol.success for sol in sols), [sol.solver_status for sol in sols]
+        assert all(sol.stats["trust"]["max_pool_distance"] is not None for sol in sols)

@@ -85,15 +85,7 @@ def _check_strategy(s: Session, cfg: CampaignConfig, surrogate_config_version_id
     from alcove.science.surrogate.config import SurrogateConfig
 
     scv = s.get(SurrogateConfigVersion, surrogate_config_version_id)
-    if scv is None:
-        return
-    if (scv.spec or {}).get("feature_set", "paper") != "paper" and cfg.settings.strategy != "press-family":
-        raise InvalidInput.one(
-            "settings.strategy",
-            f"{cfg.settings.strategy!r} solves OCPs, whose contact function takes a surrogate of the state alone; "
-            "the surrogate config's feature set 'history' (history states) works with the press-family strategy",
-        )
-    if cfg.settings.strategy == "paper":
+    if scv is None or cfg.settings.strategy == "paper":
         return
     size = (scv.spec or {}).get("ensemble_size", SurrogateConfig.model_fields["ensemble_size"].default)
     problem = strategy_problem(cfg.settings, int(size))

@@ -116,7 +116,7 @@ def solve(
     pool the model was trained on, its samples relative to ``pool_preset``'s headrest, default the
     task's) are stored in the solution's ``stats["trust"]``."""
     from alcove.science.ocp.solve import solve_task
-    from alcove.science.surrogate.export import surrogate_contact, surrogate_contact_std
+    from alcove.science.surrogate.export import surrogate_contact, surrogate_contact_std, surrogate_history
     from alcove.science.surrogate.history import history_inputs
     from alcove.science.surrogate.training import moved_headrest, pool_features, pose_kinematics, preset_kinematics
     from alcove.science.surrogate.trust import assess_solution, force_variance_function
@@ -138,6 +138,7 @@ def solve(
     preset = task.model.oracle_preset()
     base = pool_preset if pool_preset is not None else preset  # the pool's own headrest (a scenario's may be moved)
     contact, contact_params = surrogate_contact(model, preset, chain)
+    history = surrogate_history(model, preset, chain)  # a model with memory: the NLP carries its states
     path, exploration = None, None
     if model.ensemble_size > 1 and (trust_region_max_std is not None or task.exploration_weight > 0):
         std_fn, _ = surrogate_contact_std(model, preset, chain)
@@ -157,6 +158,7 @@ def solve(
         on_attempt=lambda _attempt: run.check_cancel(),  # cancel between IPOPT runs
         path=path,
         exploration=exploration,
+        history=history,
     )
     kinematics = None if chain is None else pose_kinematics(chain.head_pose)
     inputs = history_inputs(model.config.feature_set, model.config.history, preset)

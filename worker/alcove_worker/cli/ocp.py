@@ -80,7 +80,7 @@ def solve(
     pool: Path | None = typer.Option(None, help="with model:FILE, the pool folder: distance to the nearest sample"),
 ) -> None:
     """Solve a task and write the optimal trajectory."""
-    from alcove.science.ocp.contact import ContactModelError, contact_from_spec
+    from alcove.science.ocp.contact import ContactModelError, contact_from_spec, contact_history_from_spec
     from alcove.science.ocp.solve import solve_task
     from alcove.science.series import SeriesFormatError
 
@@ -91,7 +91,9 @@ def solve(
     spec = _load_task(task if task_file is None else None, task_file, intervals)
     try:
         # a chain model (n-DOF preset or user-defined): the aux contact fed by its head's pose
-        contact_fn = contact_from_spec(contact, spec.chain() if spec.model.is_chain else spec.preset())
+        body = spec.chain() if spec.model.is_chain else spec.preset()
+        contact_fn = contact_from_spec(contact, body)
+        history = contact_history_from_spec(contact, body)  # a model with memory: the NLP carries its states
     except ContactModelError as exc:
         _bad_input(exc.field, exc.reason)
     except ImportError as exc:
@@ -104,6 +106,7 @@ def solve(
         contact_fn,
         ipopt_options=None if max_iter is None else {"ipopt.max_iter": max_iter},
         path=None if trust is None else trust.path,
+        history=history,
     )
     try:
         solution.trajectory.to_csv(out)

@@ -19,10 +19,16 @@ Models:
   :func:`alcove.science.oracles.aux_penalty.aux_penalty_wrench`).
 * ``model:FILE``: a trained surrogate, built by
   ``alcove.science.surrogate.artifact.casadi_contact_from_artifact(path, preset)``.
+
+A contact model with memory (a surrogate of the ``history`` feature set) takes the history
+states ``z`` as an input named ``z`` after ``qd`` (``(q, qd, z[, p])``) and comes with a
+:class:`ContactHistory`: the causal step of those states and their steady values, which the
+transcription carries as extra discrete states (:mod:`.dmocc`).
 """
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from pathlib import Path
 
 import casadi as ca
@@ -111,20 +117,41 @@ def _aux(chain: PlanarChain, r_sp: FloatArray, params: AuxPenaltyParams, smoothi
     return ca.Function("contact_aux", [q, qd], [ca.vertcat(force, moment)], ["q", "qd"], ["wrench"])
 
 
+@dataclass(frozen=True)
+class ContactHistory:
+    """The history states of a contact model with memory: ``step`` ``(z, q, qd, dt) -> z_next``
+    (the states at the next sample, from the state there and the time since the last sample)
+    and ``steady`` ``(q, qd) -> z`` (the states of the first sample)."""
+
+    step: ca.Function
+    steady: ca.Function
+
+    @property
+    def size(self) -> int:
+        return int(self.steady.size1_out(0))
+
+
+def history_input_size(fn: ca.Function | None) -> int:
+    """Rows of a contact function's history-state input ``z`` (0: it has none)."""
+    return int(fn.size1_in(fn.index_in("z"))) if fn is not None and "z" in fn.name_in() else 0
+
+
 def check_contact_function(fn: ca.Function, ndof: int) -> None:
     """Raise :class:`ContactModelError` unless ``fn`` fits the contact-model slot."""
     if not isinstance(fn, ca.Function):
         raise ContactModelError("contact", f"expected a casadi.Function, got {type(fn).__name__}")
-    if fn.n_in() not in (2, 3) or fn.n_out() != 1:
+    n_history = 1 if "z" in fn.name_in() else 0
+    if fn.n_in() - n_history not in (2, 3) or fn.n_out() != 1 or (n_history and fn.name_in(2) != "z"):
         raise ContactModelError(
-            "contact", f"expected inputs (q, qd[, p]) and one output, got {fn.n_in()} inputs and {fn.n_out()} outputs"
+            "contact",
+            f"expected inputs (q, qd[, z][, p]) and one output, got {fn.n_in()} inputs and {fn.n_out()} outputs",
         )
     for i, name in enumerate(("q", "qd")):
         if fn.size_in(i) != (ndof, 1):
             raise ContactModelError(
                 f"contact.{name}", f"input {i} must be {ndof}x1, got {fn.size_in(i)[0]}x{fn.size_in(i)[1]}"
             )
-    if fn.n_in() == 3 and fn.size2_in(2) != 1:
+    if fn.n_in() == 3 + n_history and fn.size2_in(fn.n_in() - 1) != 1:
         raise ContactModelError("contact.p", "the parameter input must be a column")
     if fn.size_out(0) != (WRENCH_SIZE, 1):
         raise ContactModelError("contact.wrench", f"output must be 6x1, got {fn.size_out(0)[0]}x{fn.size_out(0)[1]}")
@@ -158,13 +185,30 @@ def contact_from_spec(spec: str, preset: HeadNeckPreset | PlanarChain) -> ca.Fun
     raise ContactModelError("contact", f"unknown contact model {spec!r}; use aux, none or model:FILE")
 
 
+def contact_history_from_spec(spec: str, preset: HeadNeckPreset | PlanarChain) -> ContactHistory | None:
+    """The history states of ``model:FILE`` when the model has memory (feature set 'history'),
+    for :func:`contact_from_spec`'s function; None for every other contact model."""
+    if not spec.startswith("model:"):
+        return None
+    from alcove.science.surrogate.artifact import load_artifact
+    from alcove.science.surrogate.export import surrogate_history
+
+    model = load_artifact(Path(spec.removeprefix("model:")))
+    if isinstance(preset, PlanarChain):
+        return surrogate_history(model, model.preset, preset)
+    return surrogate_history(model, preset)
+
+
 __all__ = [
     "AuxSmoothing",
+    "ContactHistory",
     "ContactModelError",
     "aux_contact",
     "chain_aux_contact",
     "check_contact_function",
     "contact_from_spec",
+    "contact_history_from_spec",
+    "history_input_size",
     "no_contact",
     "smooth_ramp",
     "softplus",

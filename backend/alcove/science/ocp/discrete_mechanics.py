@@ -18,24 +18,29 @@ from __future__ import annotations
 import casadi as ca
 
 from alcove.science.multibody import PlanarChain
-from alcove.science.ocp.contact import ContactModelError, check_contact_function
+from alcove.science.ocp.contact import ContactModelError, check_contact_function, history_input_size
 from alcove.science.ocp.problem import DiscreteProblem
 from alcove.science.symbolic import Symbolic
 
 
 def contact_parameter_count(contact: ca.Function | None) -> int:
-    """Length of the parameter input ``p`` of a contact function (0: none)."""
-    return int(contact.size1_in(2)) if contact is not None and contact.n_in() == 3 else 0
+    """Length of the parameter input ``p`` of a contact function (0: none): its last input after
+    ``q``, ``qd`` and the history states ``z`` if it has them."""
+    if contact is None or contact.n_in() != 3 + (history_input_size(contact) > 0):
+        return 0
+    return int(contact.size1_in(contact.n_in() - 1))
 
 
 def interval_functions(chain: PlanarChain, contact: ca.Function | None) -> tuple[ca.Function, ca.Function]:
     """SX functions of one interval: dynamics (qa, qb, u, h, p) -> (-p_k^-, p_k+1^+) and
-    cost terms (qa, qb, u, h) -> (h u^T u, h T(q_k+1/2, v_k))."""
+    cost terms (qa, qb, u, h) -> (h u^T u, h T(q_k+1/2, v_k)). A contact model with history
+    states takes them at the interval: dynamics (qa, qb, u, h, z, p)."""
     n = chain.ndof
     qa, qb, u = ca.SX.sym("qa", n), ca.SX.sym("qb", n), ca.SX.sym("u", n)
     h = ca.SX.sym("h")
     n_par = contact_parameter_count(contact)
     par = ca.SX.sym("p", n_par)
+    z = ca.SX.sym("z", history_input_size(contact))
     qm, v = 0.5 * (qa + qb), (qb - qa) / h
     Ld = h * chain.lagrangian(qm, v)
     force = u
@@ -43,13 +48,16 @@ def interval_functions(chain: PlanarChain, contact: ca.Function | None) -> tuple
     if damping is not None:
         force = force + damping
     if contact is not None:
-        wrench = contact(qm, v, par) if n_par else contact(qm, v)
+        state = [qm, v, z] if z.numel() else [qm, v]
+        wrench = contact(*state, par) if n_par else contact(*state)
         force = force + chain.generalized_contact_force_expr(qm, wrench)
     fd = 0.5 * h * force
     left = ca.gradient(Ld, qa) + fd  # D1 L_d + f^-  = -p_k^-
     right = ca.gradient(Ld, qb) + fd  # D2 L_d + f^+ = p_k+1^+
     kinetic = 0.5 * ca.dot(v, ca.mtimes(chain.mass_matrix(qm), v))
     args, names = [qa, qb, u, h, par], ["qa", "qb", "u", "h", "p"]
+    if z.numel():
+        args, names = [qa, qb, u, h, z, par], ["qa", "qb", "u", "h", "z", "p"]
     dynamics = ca.Function("interval_dynamics", args, [left, right], names, ["left", "right"])
     cost = ca.Function("interval_cost", args[:4], [h * ca.dot(u, u), h * kinetic], names[:4], ["effort", "kinetic"])
     return dynamics, cost
@@ -99,11 +107,12 @@ def prepare_contact(contact: ca.Function | None, ndof: int) -> ca.Function | Non
             contact = contact.expand()
         except RuntimeError as exc:
             raise ContactModelError("contact", f"must be expandable to SX (scalar operations only): {exc}") from exc
-    q, qd = ca.SX.sym("q", ndof), ca.SX.sym("qd", ndof)
-    parameters = [ca.SX.sym("p", contact_parameter_count(contact))] if contact.n_in() == 3 else []
-    wrench = contact(q, qd, *parameters)
+    q, qd, z = ca.SX.sym("q", ndof), ca.SX.sym("qd", ndof), ca.SX.sym("z", history_input_size(contact))
+    history = [z] if z.numel() else []
+    parameters = [ca.SX.sym("p", contact_parameter_count(contact))] if contact.n_in() == 3 + len(history) else []
+    wrench = contact(q, qd, *history, *parameters)
     try:
-        ca.hessian(ca.sum1(wrench), ca.vertcat(q, qd))
+        ca.hessian(ca.sum1(wrench), ca.vertcat(q, qd, z))
     except RuntimeError as exc:
         raise ContactModelError("contact", f"must be twice differentiable by CasADi (exact Hessians): {exc}") from exc
     return contact

@@ -17,6 +17,15 @@ At a phase junction the DEL equation mixes the steps of both phases: that is mom
 matching. Cost: sum_k h (w_tau u_k^T u_k + w_T T(q_k+1/2, v_k)) + endpoint cost.
 Discrete momenta (discrete Legendre transforms) give the node velocities qd_k = M(q_k)^-1 p_k.
 
+A contact model with memory (:class:`.contact.ContactHistory`) adds its history states z_k at the
+interval midpoints as unknowns, with the recursion as equality constraints after the DEL rows::
+
+    z_0 = steady(q_1/2, v_0),   z_k = step(z_k-1, q_k+1/2, v_k, (h_k-1 + h_k) / 2),   k = 1..N-1
+
+continuous across phase junctions (one recursion over the whole grid), and the wrench of interval
+k is w(q_k+1/2, v_k, z_k). These are the same states a prediction along the solution's midpoints
+computes (:mod:`alcove.science.surrogate.history`).
+
 The interval terms (:mod:`.discrete_mechanics`; the contact function is expanded to SX) are
 mapped over the grid; IPOPT gets the exact Jacobian and Hessian, assembled from local
 interval blocks (:mod:`.derivatives`). The resolved problem is :mod:`.problem`; forward
@@ -34,6 +43,7 @@ import numpy as np
 
 from alcove.science.arrays import FloatArray, IntArray
 from alcove.science.multibody import PlanarChain
+from alcove.science.ocp.contact import ContactHistory, history_input_size
 from alcove.science.ocp.derivatives import structured_derivatives
 from alcove.science.ocp.discrete_mechanics import (
     contact_parameter_count,
@@ -124,6 +134,7 @@ def nlp_expressions(
     n_par: int,
     path: ca.Function | None = None,
     exploration: tuple[ca.Function, float] | None = None,
+    history: ContactHistory | None = None,
 ) -> NlpExpressions[Symbolic]:
     """Map the interval functions over the grid and assemble cost and constraints (see the module docstring).
 
@@ -131,7 +142,11 @@ def nlp_expressions(
     model is: ``(q_k + q_k+1) / 2``, ``(q_k+1 - q_k) / h``) and appended to g as N rows after
     the dynamics (the caller bounds them). ``exploration`` ``(fn, w)``: the cost rewards ``fn``
     ``(q, qd, p) -> scalar`` (the ensemble's force variance) along the motion,
-    ``- w sum_k h_k fn(q_k+1/2, v_k)``."""
+    ``- w sum_k h_k fn(q_k+1/2, v_k)``. ``history``: the contact's history states, unknowns after
+    the torques, their recursion as constraint rows after the dynamics (module docstring); ``path``
+    and ``exploration`` then take them as well, ``fn(q, qd, z, p)``."""
+    if history is not None:
+        return _history_expressions(sym, chain, prob, dynamics, interval_cost, n_par, path, exploration, history)
     n, N = chain.ndof, prob.intervals
     n_q, n_u = n * (N + 1), n * N
     x = sym.sym("x", n_q + n_u)
@@ -157,17 +172,93 @@ def nlp_expressions(
     if path is not None:
         g.append(ca.vec(values))
 
-    # endpoint cost
-    qN = Q[:, N]
+    return _assembled(chain, prob, x, par, cost, g, Q, left, right)
+
+
+def _assembled(
+    chain: PlanarChain,
+    prob: DiscreteProblem,
+    x: Symbolic,
+    par: Symbolic,
+    cost: Symbolic,
+    g: list[Symbolic],
+    Q: Symbolic,
+    left: Symbolic,
+    right: Symbolic,
+) -> NlpExpressions[Symbolic]:
+    """The NLP with the endpoint cost added and the node momenta for the Legendre transforms."""
+    qN = Q[:, prob.intervals]
     if prob.endpoint_w_q > 0 and prob.endpoint_q_ref is not None:
         cost = cost + prob.endpoint_w_q * ca.sumsqr(qN - ca.DM(prob.endpoint_q_ref))
     if prob.endpoint_w_qd > 0:
-        vN = right[:, N - 1]  # momentum at the end node
+        vN = right[:, prob.intervals - 1]  # momentum at the end node
         qdN = ca.solve(chain.mass_matrix(qN), vN)
         cost = cost + prob.endpoint_w_qd * ca.sumsqr(qdN)
     # node momenta for the Legendre transforms: p_0 = -left_0, p_k = right_k-1
     momenta = ca.horzcat(-left[:, 0], right)
     return NlpExpressions(x, par, cost, ca.vertcat(*g), momenta)
+
+
+def _history_expressions(
+    sym: type[Symbolic],
+    chain: PlanarChain,
+    prob: DiscreteProblem,
+    dynamics: ca.Function,
+    interval_cost: ca.Function,
+    n_par: int,
+    path: ca.Function | None,
+    exploration: tuple[ca.Function, float] | None,
+    history: ContactHistory,
+) -> NlpExpressions[Symbolic]:
+    """:func:`nlp_expressions` with the contact's history states Z (n_z x N) as unknowns."""
+    n, N, n_z = chain.ndof, prob.intervals, history.size
+    n_q, n_u = n * (N + 1), n * N
+    x = sym.sym("x", n_q + n_u + n_z * N)
+    par = sym.sym("p", n_par)
+    Q = ca.reshape(x[:n_q], n, N + 1)
+    U = ca.reshape(x[n_q : n_q + n_u], n, N)
+    Z = ca.reshape(x[n_q + n_u :], n_z, N)
+    steps = prob.steps()
+    H = ca.DM(steps).T
+    phase = prob.phase_of_interval()
+    w_tau = ca.DM([prob.phases[m].w_tau for m in phase]).T
+    w_T = ca.DM([prob.phases[m].w_T for m in phase]).T
+    Pm = ca.repmat(par, 1, N)
+    left, right = grid_map(dynamics, N).call([Q[:, :-1], Q[:, 1:], U, H, Z, Pm])
+    effort, kinetic = interval_cost.map(N).call([Q[:, :-1], Q[:, 1:], U, H])
+    cost = ca.sum2(w_tau * effort) + ca.sum2(w_T * kinetic)
+    if exploration is not None and exploration[1] > 0:
+        (reward,) = grid_map(_midpoint_history_function(exploration[0], n, n_z, n_par), N).call(
+            [Q[:, :-1], Q[:, 1:], H, Z, Pm]
+        )
+        cost = cost - float(exploration[1]) * ca.sum2(H * reward)
+    g = node_constraints(chain, prob, Q, left, right)
+    # the recursion: z_0 from the first midpoint, z_k from z_k-1 and the midpoint of interval k
+    qa, qb, h = ca.SX.sym("qa", n), ca.SX.sym("qb", n), ca.SX.sym("h")
+    z0 = ca.SX.sym("z0", n_z)
+    first = ca.Function("history_start", [qa, qb, h, z0], [z0 - history.steady(0.5 * (qa + qb), (qb - qa) / h)])
+    g.append(first(Q[:, 0], Q[:, 1], float(steps[0]), Z[:, 0]))
+    if N > 1:
+        z_prev, z_next, h_prev = ca.SX.sym("z_prev", n_z), ca.SX.sym("z", n_z), ca.SX.sym("h_prev")
+        update = history.step(z_prev, 0.5 * (qa + qb), (qb - qa) / h, 0.5 * (h_prev + h))
+        residual = ca.Function("history_residual", [qa, qb, h, h_prev, z_prev, z_next], [z_next - update])
+        (rows,) = grid_map(residual, N - 1).call([Q[:, 1:-1], Q[:, 2:], H[:, 1:], H[:, :-1], Z[:, :-1], Z[:, 1:]])
+        g.append(ca.vec(rows))
+    if path is not None:
+        (values,) = grid_map(_midpoint_history_function(path, n, n_z, n_par), N).call([Q[:, :-1], Q[:, 1:], H, Z, Pm])
+        g.append(ca.vec(values))
+    return _assembled(chain, prob, x, par, cost, g, Q, left, right)
+
+
+def _midpoint_history_function(fn: ca.Function, ndof: int, n_z: int, n_par: int) -> ca.Function:
+    """``(qa, qb, h, z, p) -> fn(q_k+1/2, v_k, z, p)`` for a path or exploration function of a
+    contact with history states (inputs ``(q, qd, z[, p])``)."""
+    if fn.n_out() != 1 or fn.size_out(0) != (1, 1) or history_input_size(fn) != n_z:
+        raise ValueError(f"path: expected a function (q, qd, z[, p]) -> scalar with z of {n_z} rows")
+    qa, qb, h = ca.SX.sym("qa", ndof), ca.SX.sym("qb", ndof), ca.SX.sym("h")
+    z, p = ca.SX.sym("z", n_z), ca.SX.sym("p", n_par)
+    args = [0.5 * (qa + qb), (qb - qa) / h, z] + ([p] if fn.n_in() == 4 else [])
+    return ca.Function("midpoint_history_value", [qa, qb, h, z, p], [fn(*args)], ["qa", "qb", "h", "z", "p"], ["value"])
 
 
 def _midpoint_function(fn: ca.Function, ndof: int, n_par: int) -> ca.Function:
@@ -217,6 +308,9 @@ class Transcription:
     #: optional exploration term ``(fn, w)``: the cost rewards ``fn`` (the ensemble's force variance)
     #: along the motion (:func:`nlp_expressions`); its derivatives are CasADi's
     exploration: tuple[ca.Function, float] | None = None
+    #: the history states of a contact model with memory (its input ``z``): unknowns at the
+    #: interval midpoints with their recursion as constraints (module docstring)
+    history: ContactHistory | None = None
     #: the passive-motion initial guess (:mod:`.solve`), kept once computed for a contact
     #: without parameters: it depends on nothing but this NLP
     passive_guess: FloatArray | None = field(default=None, init=False, repr=False, compare=False)
@@ -228,18 +322,26 @@ class Transcription:
             raise ValueError("phases: the problem has no intervals")
         self.contact = prepare_contact(self.contact, n)
         self.n_par = contact_parameter_count(self.contact)
+        n_z = history_input_size(self.contact)
+        if n_z and (self.history is None or self.history.size != n_z):
+            raise ValueError(f"history: the contact function takes {n_z} history states z; pass their step and steady")
+        if not n_z:
+            self.history = None
         dynamics, interval_cost = interval_functions(chain, self.contact)
-        self.n_q, self.n_u = n * (N + 1), n * N
+        self.n_q, self.n_u, self.n_z = n * (N + 1), n * N, n_z * N
         if self.graph not in ("MX", "SX"):
             raise ValueError(f"graph: must be 'MX' or 'SX', got {self.graph!r}")
-        if self.path is not None:
+        if self.path is not None and self.history is None:
             self.path = _prepare_path(self.path, n, self.n_par)
         exploring = self.exploration is not None and self.exploration[1] > 0
         if self.derivatives == "auto":
-            # the structured blocks hold the running cost of the effort and the kinetic energy only
-            self.derivatives = "structured" if self.graph == "MX" and not exploring else "casadi"
+            # the structured blocks hold the running cost of the effort and the kinetic energy only, and
+            # no history states
+            self.derivatives = "structured" if self.graph == "MX" and not exploring and not n_z else "casadi"
         if exploring and self.derivatives == "structured":
             raise ValueError("derivatives: an exploration term needs 'casadi' (the structured blocks do not hold it)")
+        if n_z and self.derivatives == "structured":
+            raise ValueError("derivatives: history states need 'casadi' (the structured blocks do not hold them)")
         if self.path_hessian not in ("exact", "convex"):
             raise ValueError(f"path_hessian: must be 'exact' or 'convex', got {self.path_hessian!r}")
         if self.derivatives not in ("structured", "casadi"):
@@ -249,7 +351,9 @@ class Transcription:
         self._derivative_options: SolverOptions = {}
         self._nlp: dict[str, ca.MX] | dict[str, ca.SX]
         if self.graph == "MX":
-            mx = nlp_expressions(ca.MX, chain, prob, dynamics, interval_cost, self.n_par, self.path, self.exploration)
+            mx = nlp_expressions(
+                ca.MX, chain, prob, dynamics, interval_cost, self.n_par, self.path, self.exploration, self.history
+            )
             self._nlp = {"x": mx.x, "p": mx.par, "f": mx.cost, "g": mx.g}
             self._momenta = ca.Function("momenta", [mx.x, mx.par], [mx.momenta])
             n_constraints = mx.g.shape[0]
@@ -269,7 +373,9 @@ class Transcription:
                 )
                 self._derivative_options = {"jac_g": jac_g, "hess_lag": hess_lag}
         else:
-            sx = nlp_expressions(ca.SX, chain, prob, dynamics, interval_cost, self.n_par, self.path, self.exploration)
+            sx = nlp_expressions(
+                ca.SX, chain, prob, dynamics, interval_cost, self.n_par, self.path, self.exploration, self.history
+            )
             self._nlp = {"x": sx.x, "p": sx.par, "f": sx.cost, "g": sx.g}
             self._momenta = ca.Function("momenta", [sx.x, sx.par], [sx.momenta])
             n_constraints = sx.g.shape[0]
@@ -311,8 +417,8 @@ class Transcription:
             q_lo[0] = q_hi[0] = prob.q_start
         if prob.q_end is not None:
             q_lo[N] = q_hi[N] = prob.q_end
-        lbx = np.concatenate([q_lo.ravel(), -u_hi.ravel()])
-        ubx = np.concatenate([q_hi.ravel(), u_hi.ravel()])
+        lbx = np.concatenate([q_lo.ravel(), -u_hi.ravel(), np.full(self.n_z, -np.inf)])
+        ubx = np.concatenate([q_hi.ravel(), u_hi.ravel(), np.full(self.n_z, np.inf)])
         return lbx, ubx
 
     @property
@@ -321,13 +427,28 @@ class Transcription:
 
     # ---- packing ------------------------------------------------------------------
     def pack(self, q: FloatArray, u: FloatArray) -> FloatArray:
-        """NLP vector from nodes q (N+1, ndof) and torques u (N, ndof)."""
-        return np.concatenate([np.asarray(q, float).ravel(), np.asarray(u, float).ravel()])
+        """NLP vector from nodes q (N+1, ndof) and torques u (N, ndof); the history states (if any)
+        follow from q by their recursion."""
+        q = np.asarray(q, float)
+        parts = [q.ravel(), np.asarray(u, float).ravel()]
+        if self.history is not None:
+            parts.append(self.history_states(q).ravel())
+        return np.concatenate(parts)
+
+    def history_states(self, q: FloatArray) -> FloatArray:
+        """The history states (N, n_z) of nodes q (N+1, ndof) by their recursion over the midpoints."""
+        assert self.history is not None
+        h = self.problem.steps()
+        qm, v = 0.5 * (q[:-1] + q[1:]), (q[1:] - q[:-1]) / h[:, None]
+        z = [np.asarray(self.history.steady(qm[0], v[0]), float).ravel()]
+        for k in range(1, len(h)):
+            z.append(np.asarray(self.history.step(z[-1], qm[k], v[k], 0.5 * (h[k - 1] + h[k])), float).ravel())
+        return np.array(z)
 
     def unpack(self, x: FloatArray) -> tuple[FloatArray, FloatArray]:
         n, N = self.chain.ndof, self.problem.intervals
         x = np.asarray(x, float).ravel()
-        return x[: self.n_q].reshape(N + 1, n), x[self.n_q :].reshape(N, n)
+        return x[: self.n_q].reshape(N + 1, n), x[self.n_q : self.n_q + self.n_u].reshape(N, n)
 
     def node_velocities(self, x: FloatArray, par: FloatArray | None = None) -> FloatArray:
         """qd_k = M(q_k)^-1 p_k from the discrete Legendre transforms, (N+1, ndof)."""

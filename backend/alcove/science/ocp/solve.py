@@ -24,6 +24,7 @@ from scipy.interpolate import CubicHermiteSpline
 from alcove.science.arrays import FloatArray
 from alcove.science.geometry import RelativeKinematics
 from alcove.science.multibody import PlanarChain
+from alcove.science.ocp.contact import ContactHistory
 from alcove.science.ocp.dmocc import IpoptResult, OptionValue, Transcription
 from alcove.science.ocp.rollout import passive_rollout
 from alcove.science.ocp.task_spec import TaskSpec
@@ -213,9 +214,10 @@ def get_transcription(
     graph: str = "MX",
     path: PathConstraint | None = None,
     exploration: PathConstraint | None = None,
+    history: ContactHistory | None = None,
 ) -> Transcription:
     """The cached transcription for (task, contact structure, options, graph, path constraint,
-    exploration term); built on first use.
+    exploration term, history states); built on first use.
 
     The cache holds the last ``CACHE_SIZE`` transcriptions of the calling thread.
     """
@@ -223,6 +225,8 @@ def get_transcription(
     path_key = "none" if path is None else f"{_contact_key(path[0])}<={float(path[1])!r}"
     if exploration is not None and exploration[1] > 0:
         path_key += f";explore {_contact_key(exploration[0])}*{float(exploration[1])!r}"
+    if history is not None:
+        path_key += f";history {_contact_key(history.step)} {_contact_key(history.steady)}"
     key = (task.model_dump_json(), _contact_key(contact), repr(sorted((ipopt_options or {}).items())), graph, path_key)
     if key in cache:
         cache.move_to_end(key)
@@ -236,6 +240,7 @@ def get_transcription(
         path=None if path is None else path[0],
         path_upper=np.inf if path is None else float(path[1]),
         exploration=None if exploration is None or exploration[1] <= 0 else (exploration[0], float(exploration[1])),
+        history=history,
     )
     cache[key] = tr
     while len(cache) > CACHE_SIZE:
@@ -282,11 +287,18 @@ def _guess_passive(tr: Transcription, contact_params: FloatArray | None = None) 
     damping = np.diag(np.asarray(chain.mass_matrix(q0))) / PASSIVE_TIME_CONSTANT
     tau_hi = tr.unpack(tr.ubx)[1][0]
     contact = tr.contact
-    if contact is not None and tr.n_par:  # freeze the parameters of a parametric contact model
-        if contact_params is None:
+    if contact is not None and (tr.n_par or tr.history is not None):
+        # freeze the parameters of a parametric contact model; a model with memory sees the
+        # steady history states of each state (the guess only: the NLP carries the recursion)
+        if tr.n_par and contact_params is None:
             raise ValueError("contact_params: the contact function takes parameters; pass their values")
         qs, qds = ca.SX.sym("q", chain.ndof), ca.SX.sym("qd", chain.ndof)
-        contact = ca.Function("contact_frozen", [qs, qds], [contact(qs, qds, ca.DM(contact_params))])
+        args: list[ca.SX | ca.DM] = [qs, qds]
+        if tr.history is not None:
+            args.append(tr.history.steady(qs, qds))
+        if contact_params is not None and tr.n_par:
+            args.append(ca.DM(contact_params))
+        contact = ca.Function("contact_frozen", [qs, qds], [contact(*args)])
     q, u = passive_rollout(chain, q0, qd0, prob.steps(), damping, tau_hi, contact)
     if not np.all(np.isfinite(q)):
         return _guess_static(tr)
@@ -378,6 +390,7 @@ def solve_task(
     on_attempt: Callable[[AttemptRecord], None] | None = None,
     path: PathConstraint | None = None,
     exploration: PathConstraint | None = None,
+    history: ContactHistory | None = None,
 ) -> OcpSolution:
     """Solve ``task`` with the contact model ``contact`` (``None``: no contact).
 
@@ -394,11 +407,13 @@ def solve_task(
     ``fn(q, qd[, p]) <= upper`` at every interval midpoint (the trust region). ``exploration``:
     an optional ``(fn, w)``, the cost minus ``w sum_k h_k fn(q_k+1/2, v_k[, p])`` (with the
     ensemble's force variance: a reward for motions where the members disagree; w = 0: none).
+    ``history``: the history states of a contact model with memory (its input ``z``; ``path`` and
+    ``exploration`` then take ``z`` too), carried by the NLP (:mod:`.dmocc`).
     """
     if max_attempts < 1:
         raise ValueError("max_attempts: must be >= 1")
     t_start = time.perf_counter()
-    tr = get_transcription(task, contact, ipopt_options, graph, path, exploration)
+    tr = get_transcription(task, contact, ipopt_options, graph, path, exploration, history)
     if tr.n_par and contact_params is None:
         raise ValueError("contact_params: the contact function takes parameters; pass their values")
     if contact_params is not None:

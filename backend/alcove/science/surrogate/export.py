@@ -36,8 +36,10 @@ import numpy as np
 
 from alcove.science.arrays import FloatArray
 from alcove.science.geometry import HeadNeckPreset, HeadProfile, relative_kinematics_symbolic
+from alcove.science.ocp.contact import ContactHistory
 from alcove.science.surrogate.features import N_FEATURES, features_symbolic
 from alcove.science.surrogate.gated import GateParams, gap_from_features_symbolic, gated_net_output_symbolic
+from alcove.science.surrogate.history import N_HISTORY, contact_point_motion_symbolic, history_step_symbolic
 from alcove.science.surrogate.mlp import MLP, Standardization, SurrogateModel
 
 if TYPE_CHECKING:
@@ -138,8 +140,18 @@ def casadi_contact_function(
     :func:`alcove.science.geometry.relative_kinematics_symbolic`.
     """
     q, qd, feats = _state_features(model, preset, kinematics)
+    inputs, names, feats = _with_history(model, [q, qd], feats)
     wrench = wrench_symbolic(model, feats, preset.profile)
-    return ca.Function("contact_surrogate", [q, qd], [wrench], ["q", "qd"], ["wrench"])
+    return ca.Function("contact_surrogate", inputs, [wrench], names, ["wrench"])
+
+
+def _with_history(model: SurrogateModel, state: list[ca.SX], feats: ca.SX) -> tuple[list[ca.SX], list[str], ca.SX]:
+    """The inputs (q, qd) and the features, with the history states z as a third input and the
+    last inputs of the networks for a model of the ``history`` feature set."""
+    if model.config.feature_set != "history":
+        return state, ["q", "qd"], feats
+    z = ca.SX.sym("z", N_HISTORY)
+    return [*state, z], ["q", "qd", "z"], ca.vertcat(feats, z)
 
 
 def _state_features(
@@ -175,8 +187,9 @@ def casadi_contact_std_function(
 ) -> ca.Function:
     """``(q, qd) -> (std, var)`` (6 x 1 each): the ensemble's standard deviation and variance per output."""
     q, qd, feats = _state_features(model, preset, kinematics)
+    inputs, names, feats = _with_history(model, [q, qd], feats)
     _, var = _mean_var(member_wrenches_symbolic(model, feats, preset.profile))
-    return ca.Function("contact_surrogate_std", [q, qd], [ca.sqrt(var), var], ["q", "qd"], ["std", "var"])
+    return ca.Function("contact_surrogate_std", inputs, [ca.sqrt(var), var], names, ["std", "var"])
 
 
 # ---- parametric form: the weights as an input -------------------------------------------
@@ -269,7 +282,7 @@ def _parametric_contact(
 def _build_parametric_contact(
     architecture: Architecture, preset: HeadNeckPreset, std: bool, chain: PlanarChain | None = None
 ) -> ca.Function:
-    ndof, _, force_arch, n_force, moment_arch, n_moment, n_members, gate = architecture
+    ndof, n_inputs, force_arch, n_force, moment_arch, n_moment, n_members, gate = architecture
     if ndof != (1 if chain is None else chain.ndof):
         raise ValueError(
             f"kinematics: the model has {ndof} degrees of freedom, the "
@@ -288,6 +301,10 @@ def _build_parametric_contact(
     feats = features_symbolic(*kin)
     params = None if gate is None else GateParams(*gate)
     gap = None if gate is None else gap_from_features_symbolic(feats, preset.profile)
+    # a model with history states takes them as the input z, after the 19 features
+    z = ca.SX.sym("z", n_inputs - N_FEATURES)
+    inputs, names = ([q, qd, z, p], ["q", "qd", "z", "p"]) if n_inputs > N_FEATURES else ([q, qd, p], ["q", "qd", "p"])
+    feats = ca.vertcat(feats, z) if n_inputs > N_FEATURES else feats
     wrenches = []
     for _ in range(n_members):
         # structurally zero features (planar motion) drop out of the first layer
@@ -299,8 +316,38 @@ def _build_parametric_contact(
     assert read.at == n_par
     mean, var = _mean_var(wrenches)
     if std:
-        return ca.Function("contact_surrogate_std_p", [q, qd, p], [ca.sqrt(var), var], ["q", "qd", "p"], ["std", "var"])
-    return ca.Function("contact_surrogate_p", [q, qd, p], [mean], ["q", "qd", "p"], ["wrench"])
+        return ca.Function("contact_surrogate_std_p", inputs, [ca.sqrt(var), var], names, ["std", "var"])
+    return ca.Function("contact_surrogate_p", inputs, [mean], names, ["wrench"])
+
+
+def surrogate_history(
+    model: SurrogateModel, preset: HeadNeckPreset, chain: PlanarChain | None = None
+) -> ContactHistory | None:
+    """The OCP's history states of a model of the ``history`` feature set (None for 'paper'):
+    the step ``(z, q, qd, dt) -> z_next`` and the steady states ``(q, qd) -> z`` of
+    :mod:`.history` at the state of the 1-DOF ``preset`` or of the ``chain``'s contact body."""
+    if model.config.feature_set != "history":
+        return None
+    ndof = 1 if chain is None else chain.ndof
+    z, q, qd, dt = ca.SX.sym("z", N_HISTORY), ca.SX.sym("q", ndof), ca.SX.sym("qd", ndof), ca.SX.sym("dt")
+    kin = (
+        relative_kinematics_symbolic(preset, q[0], qd[0])
+        if chain is None
+        else chain.relative_kinematics_function(q, qd)
+    )
+    pen, slip = contact_point_motion_symbolic(preset, *kin)
+    cfg = model.config.history
+    step = ca.Function(
+        "history_step",
+        [z, q, qd, dt],
+        [history_step_symbolic(z, pen, slip, dt, cfg)],
+        ["z", "q", "qd", "dt"],
+        ["z_next"],
+    )
+    # the steady states: the step from no indentation and the current slip velocity, with dt 0
+    steady_z = history_step_symbolic(ca.vertcat(0, slip), pen, slip, 0.0, cfg)
+    steady = ca.Function("history_steady", [q, qd], [steady_z], ["q", "qd"], ["z"])
+    return ContactHistory(step, steady)
 
 
 def surrogate_contact_std(
@@ -313,20 +360,15 @@ def surrogate_contact_std(
 
 
 def _check_parametric(model: SurrogateModel) -> None:
-    if model.config.feature_set != "paper":
-        raise ValueError(
-            f"model: feature set {model.config.feature_set!r}: the OCP's contact function and the CasADi export "
-            "take surrogates of the state alone (feature set 'paper'); a model with history states predicts "
-            "along motions (surrogate predict, the validation suite, the press-family strategy)"
-        )
+    n_inputs = len(model.config.input_names)
     for m in model.members:
         if (
             len(m.force_norm.mean) != m.force_net.linears()[-1].out_features
             or len(m.moment_norm.mean) != m.moment_net.linears()[-1].out_features
         ):
             raise ValueError("model: the output normalisation does not match the networks' outputs")
-        if m.force_net.linears()[0].in_features != N_FEATURES or m.moment_net.linears()[0].in_features != N_FEATURES:
-            raise ValueError(f"model: the networks must take the {N_FEATURES} contact features")
+        if m.force_net.linears()[0].in_features != n_inputs or m.moment_net.linears()[0].in_features != n_inputs:
+            raise ValueError(f"model: the networks must take the {n_inputs} inputs of {model.config.input_names}")
 
 
 def surrogate_contact(
@@ -355,6 +397,7 @@ __all__ = [
     "surrogate_architecture",
     "surrogate_contact",
     "surrogate_contact_std",
+    "surrogate_history",
     "surrogate_parameters",
     "wrench_symbolic",
     "wrench_var_symbolic",
