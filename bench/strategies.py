@@ -274,7 +274,9 @@ def main(argv: list[str] | None = None) -> int:
             from bench.strategies_reference import run_reference
 
             suite = {"validation_motions": 8, "validation_seed": VALIDATION_SEED}
-            write_atomic(args.work_dir / f"run-{tag}.json", run_reference(seed, budgets, ORACLE, suite, args.work_dir))
+            write_atomic(
+                args.work_dir / f"run-{tag}.json", run_reference(seed, budgets, ORACLE, suite, args.work_dir, surrogate)
+            )
             return 0
         run_one(
             strategy,

@@ -30,13 +30,22 @@ def _replayed(oracle: Any, trajectory: Any, path: Path, part: str) -> dict[str, 
     return {**pickle.loads(path.read_bytes()), "part": part}
 
 
-def run_reference(seed: int, budgets: list[int], oracle_name: str, suite_settings: dict[str, Any], work: Path) -> dict:
-    """The line for ``seed`` as a result row of ``bench.strategies`` (strategy ``best-possible``)."""
+def run_reference(
+    seed: int,
+    budgets: list[int],
+    oracle_name: str,
+    suite_settings: dict[str, Any],
+    work: Path,
+    surrogate: dict[str, Any] | None = None,
+) -> dict:
+    """The line for ``seed`` as a result row of ``bench.strategies`` (strategy ``best-possible``),
+    with the surrogate configuration ``surrogate`` (default: alcove's)."""
     from alcove.campaigns.config import RunSettings
     from alcove.campaigns.validation import suite_model, suite_spec
     from alcove.science.ocp.task_spec import task_preset
     from alcove.science.oracles.registry import build_oracle
     from alcove.science.press_family import sequence_motion
+    from alcove.science.surrogate.config import SurrogateConfig
     from alcove.science.validation_suite import motion_parameters
     from alcove.surrogates.reference_line import reference_line
 
@@ -61,7 +70,8 @@ def run_reference(seed: int, budgets: list[int], oracle_name: str, suite_setting
         )
         for i in range(max(budgets))
     ]
-    line = reference_line(reference, scored, sorted(budgets), None, model, seed=seed)
+    config = SurrogateConfig.parse(surrogate or {})
+    line = reference_line(reference, scored, sorted(budgets), None, model, seed=seed, config=config)
     rows = {}
     for p in line["points"]:
         c = p["components"]
@@ -77,6 +87,7 @@ def run_reference(seed: int, budgets: list[int], oracle_name: str, suite_setting
         "strategy": "best-possible",
         "seed": seed,
         "settings": {"motions": "press family sequence", "suite": spec.to_dict()},
+        "surrogate": surrogate or {},
         "budgets": rows,
         "complete": True,
         "wall_s": time.perf_counter() - t0,

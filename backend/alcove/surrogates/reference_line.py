@@ -35,11 +35,12 @@ def reference_line(
     kinematics: Any,
     preset: Any,
     seed: int = REFERENCE_SEED,
+    config: Any = None,
 ) -> dict[str, Any]:
     """The line from the reference replays (``reference``, the succeeded ones in sequence order;
     arrays t, q, qd, f) and the scored motions ``scored``: per budget, the metrics row of a model
     trained on the first ``budget`` replays (:func:`alcove.surrogates.validation._metrics`), with
-    training seed ``seed``."""
+    training seed ``seed``; ``config``: the surrogate configuration (default: alcove's)."""
     import numpy as np
 
     from alcove.science.surrogate.config import SurrogateConfig
@@ -47,7 +48,7 @@ def reference_line(
     from alcove.science.surrogate.training import train_surrogate
     from alcove.surrogates.validation import _metrics
 
-    config = SurrogateConfig()
+    config = SurrogateConfig() if config is None else config
     pool = [
         PoolDataset(
             name=f"reference-{i}",
