@@ -140,7 +140,7 @@ def test_a_press_family_campaign_trains_and_scores_a_surrogate_with_history_stat
     from alcove.surrogates.service import load_model
     from alcove.surrogates.validation import _suite_arrays, compute_for_model
 
-    history = {"feature_set": "history"}
+    history = {"features": "history"}
     settings = {"strategy": "press-family", "batch": 1, "validation_motions": 2, "validation_reference_motions": 0}
     cid, jobs = make_campaign(seed=8, surrogate=history, settings=settings, stopping={"max_iterations": 2})
     protocol.drive_inline(cid, jobs)
@@ -148,7 +148,7 @@ def test_a_press_family_campaign_trains_and_scores_a_surrogate_with_history_stat
         versions = s.query(ModelVersion).filter_by(campaign_id=cid).order_by(ModelVersion.version).all()
         assert len(versions) == 2
         model = load_model(s, versions[1])
-        assert model.config.feature_set == "history"
+        assert model.config.features == "history"
         assert model.members[0].input_norm.mean.shape == (19 + len(HISTORY_NAMES),)
         it = s.query(Iteration).filter_by(campaign_id=cid, index=2).one()
         (ds,) = oracle_datasets(s, it.id)
@@ -182,7 +182,7 @@ def test_the_paper_loop_solves_its_ocps_with_a_surrogate_with_history_states(
     from alcove.models import Campaign, OcpSolution
 
     cid, jobs = make_campaign(
-        seed=9, surrogate={"feature_set": "history"}, settings={"validation_motions": 0}, stopping={"max_iterations": 2}
+        seed=9, surrogate={"features": "history"}, settings={"validation_motions": 0}, stopping={"max_iterations": 2}
     )
     protocol.drive_inline(cid, jobs)
     with session_scope() as s:

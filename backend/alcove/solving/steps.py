@@ -161,7 +161,7 @@ def solve(
         history=history,
     )
     kinematics = None if chain is None else pose_kinematics(chain.head_pose)
-    inputs = history_inputs(model.config.feature_set, model.config.history, preset)
+    inputs = history_inputs(model.config.features, model.config.history, preset)
     if pool is None:
         pool_x = None
     elif kinematics is not None:

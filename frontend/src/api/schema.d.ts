@@ -3935,12 +3935,12 @@ export interface components {
              */
             ensemble_size?: number;
             /**
-             * Feature Set
+             * Features
              * @description inputs of the networks: 'paper' (the paper's 19 features of the state q, qd) or 'history' (those and the history states: the largest indentation of the contact point so far and its slip velocity along the headrest, low-pass filtered; the friction force depends on the path, docs/concepts.md)
              * @default paper
              * @enum {string}
              */
-            feature_set?: "paper" | "history";
+            features?: "paper" | "history";
             force?: components["schemas"]["NetworkConfig"];
             /** @description the gated architecture's output layer (unused by 'paper') */
             gate?: components["schemas"]["GateConfig"];

@@ -43,7 +43,7 @@ def _pool() -> list[PoolDataset]:
 
 @pytest.fixture(scope="module")
 def history_model():
-    config = {"feature_set": "history", "ensemble_size": 2, "max_epochs": 200, "batch_size": 256}
+    config = {"features": "history", "ensemble_size": 2, "max_epochs": 200, "batch_size": 256}
     return train_surrogate(_pool(), SurrogateConfig.parse(config), 5, preset=P).model
 
 
@@ -95,7 +95,7 @@ def test_a_paper_model_keeps_the_nlp_without_history_states():
     tr = get_transcription(task, fn)
     assert tr.n_z == 0 and tr.history is None and tr.derivatives == "structured"
     assert tr.lbx.size == tr.n_q + tr.n_u
-    history_config = SurrogateConfig.parse({"feature_set": "history", "ensemble_size": 1, "max_epochs": 5})
+    history_config = SurrogateConfig.parse({"features": "history", "ensemble_size": 1, "max_epochs": 5})
     history_fn, history_params = surrogate_contact(train_surrogate(pool, history_config, 1, preset=P).model, P)
     with pytest.raises(ValueError, match="history: the contact function takes 3 history states"):
         solve_task(task, history_fn, contact_params=history_params)  # without the states' step and steady

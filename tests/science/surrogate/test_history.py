@@ -147,13 +147,13 @@ def test_times_must_increase_and_match_the_samples():
 
 
 def test_config_fields_are_checked_by_name():
-    assert SurrogateConfig.parse({}).feature_set == "paper"
+    assert SurrogateConfig.parse({}).features == "paper"
     assert SurrogateConfig.parse({}).input_names == SurrogateConfig.parse({}).input_names[:N_FEATURES]
     with pytest.raises(SurrogateConfigError) as exc:
-        SurrogateConfig.parse({"feature_set": "memory"})
-    assert exc.value.field == "feature_set"
+        SurrogateConfig.parse({"features": "memory"})
+    assert exc.value.field == "features"
     with pytest.raises(SurrogateConfigError) as exc:
-        SurrogateConfig.parse({"feature_set": "history", "history": {"slip_time_constant": 0}})
+        SurrogateConfig.parse({"features": "history", "history": {"slip_time_constant": 0}})
     assert exc.value.field == "history.slip_time_constant"
 
 
@@ -181,7 +181,7 @@ def friction_models() -> tuple[dict[str, object], list[PoolDataset]]:
     pool, held = _friction_pool(list(range(16)), "train"), _friction_pool(list(range(100, 106)), "held")
     base = {"ensemble_size": 1, "max_epochs": 400, "batch_size": 256, "test_fraction": 0.0}
     models = {
-        fs: train_surrogate(pool, SurrogateConfig.parse({**base, "feature_set": fs}), 3, preset=P).model
+        fs: train_surrogate(pool, SurrogateConfig.parse({**base, "features": fs}), 3, preset=P).model
         for fs in ("paper", "history")
     }
     return models, held

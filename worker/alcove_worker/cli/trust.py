@@ -66,7 +66,7 @@ class TrustInputs:
                 raise TrustInputError("pool", f"{pool} is not a folder")
             try:
                 kin = preset_kinematics(preset) if chain is None else pose_kinematics(chain.head_pose)
-                inputs = history_inputs(model.config.feature_set, model.config.history, preset)
+                inputs = history_inputs(model.config.features, model.config.history, preset)
                 features = pool_features(load_pool_dir(pool), kin, inputs=inputs)
             except PoolDataError as exc:
                 raise TrustInputError(f"pool.{exc.field}", exc.reason) from exc

@@ -240,7 +240,7 @@ def model_from_dict(doc: dict[str, Any]) -> SurrogateModel:
         if list(doc.get("feature_names", [])) != list(config.input_names):
             raise ArtifactError(
                 "feature_names",
-                f"do not match the {len(config.input_names)} inputs of the feature set {config.feature_set!r} "
+                f"do not match the {len(config.input_names)} inputs of the feature set {config.features!r} "
                 "of this alcove version",
             )
         extra = doc.get("members", [])

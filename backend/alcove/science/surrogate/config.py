@@ -16,7 +16,7 @@ the bias toward low forces the paper reports). With ``member_data: "bootstrap"``
 member also multiplies the weights of the measured simulations of its training part by how often
 a bootstrap resample over those simulations drew them (:func:`.training.bootstrap_counts`).
 
-Inputs: ``feature_set: "paper"`` (default) is the paper's 19 features of the state (q, qd);
+Inputs: ``features: "paper"`` (default) is the paper's 19 features of the state (q, qd);
 ``"history"`` adds the history states of :mod:`.history` (the largest indentation so far and the
 low-pass filtered slip velocity of the contact point), which let the networks learn friction that
 depends on the path. Such a model predicts along motions (it needs their times), not at single
@@ -103,7 +103,7 @@ class SurrogateConfig(BaseModel):
     gate: GateConfig = Field(
         default_factory=GateConfig, description="the gated architecture's output layer (unused by 'paper')"
     )
-    feature_set: FeatureSet = Field(
+    features: FeatureSet = Field(
         "paper",
         description="inputs of the networks: 'paper' (the paper's 19 features of the state q, qd) or 'history' "
         "(those and the history states: the largest indentation of the contact point so far and its slip "
@@ -262,7 +262,7 @@ class SurrogateConfig(BaseModel):
     @property
     def input_names(self) -> tuple[str, ...]:
         """The networks' inputs, in order: the 19 features, then the history states if any."""
-        return FEATURE_NAMES + (HISTORY_NAMES if self.feature_set == "history" else ())
+        return FEATURE_NAMES + (HISTORY_NAMES if self.features == "history" else ())
 
     @property
     def warm_rule(self) -> tuple[float, int, int, float]:

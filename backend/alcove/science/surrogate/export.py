@@ -148,7 +148,7 @@ def casadi_contact_function(
 def _with_history(model: SurrogateModel, state: list[ca.SX], feats: ca.SX) -> tuple[list[ca.SX], list[str], ca.SX]:
     """The inputs (q, qd) and the features, with the history states z as a third input and the
     last inputs of the networks for a model of the ``history`` feature set."""
-    if model.config.feature_set != "history":
+    if model.config.features != "history":
         return state, ["q", "qd"], feats
     z = ca.SX.sym("z", N_HISTORY)
     return [*state, z], ["q", "qd", "z"], ca.vertcat(feats, z)
@@ -326,7 +326,7 @@ def surrogate_history(
     """The OCP's history states of a model of the ``history`` feature set (None for 'paper'):
     the step ``(z, q, qd, dt) -> z_next`` and the steady states ``(q, qd) -> z`` of
     :mod:`.history` at the state of the 1-DOF ``preset`` or of the ``chain``'s contact body."""
-    if model.config.feature_set != "history":
+    if model.config.features != "history":
         return None
     ndof = 1 if chain is None else chain.ndof
     z, q, qd, dt = ca.SX.sym("z", N_HISTORY), ca.SX.sym("q", ndof), ca.SX.sym("qd", ndof), ca.SX.sym("dt")

@@ -58,7 +58,7 @@ class ExportError(RuntimeError):
 def casadi_net_functions(model: SurrogateModel) -> dict[str, ca.Function]:
     """File stem -> Function: ``force``, ``moment`` (mean) and, for K > 1, ``force_std``, ``moment_std``;
     of ``(q, qd)`` for the 1-DOF preset, of the 19 ``features`` (:mod:`.features`) for a chain model."""
-    history = model.config.feature_set == "history"
+    history = model.config.features == "history"
     if model.ndof == 1:  # the 1-DOF preset: functions of the joint state (q, qd) and the history states
         q, qd, feats = _state_features(model, model.preset, None)
         inputs, names = [q, qd], ["q", "qd"]

@@ -440,7 +440,7 @@ def train_surrogate(
     seeds = member_seeds if member_seeds is not None else [member_seed(seed, k) for k in range(config.ensemble_size)]
     plan, splits, split_note = _member_splits(pool, config, seeds, warm_start)
     kin = kinematics or preset_kinematics(preset)
-    inputs = history_inputs(config.feature_set, config.history, preset)
+    inputs = history_inputs(config.features, config.history, preset)
     x = pool_features(pool, kin, moved_headrest(preset) if kinematics is None else None, inputs)
     y = {"force": np.concatenate([ds.force for ds in pool]), "moment": np.concatenate([ds.moment for ds in pool])}
     # a member whose training split holds measured data trains without the auxiliary law's contact samples
@@ -666,7 +666,7 @@ def predict_ensemble(
     if kinematics is None:
         kinematics = preset_kinematics(headrest_preset(model.preset, headrest_offset, headrest_tilt))
     kin = kinematics(q, qd)
-    inputs = history_inputs(model.config.feature_set, model.config.history, model.preset)
+    inputs = history_inputs(model.config.features, model.config.history, model.preset)
     if inputs is None:
         return model.predict_ensemble(features(kin))
     if t is None and not steady:

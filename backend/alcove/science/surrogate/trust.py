@@ -140,7 +140,7 @@ def trust_curves(
         kin = relative_kinematics(preset, qm[:, 0], v[:, 0])
         gap = signed_gap(preset, qm[:, 0])
     # a model with history states sees them along the midpoints, as the OCP carries them
-    inputs = history_inputs(model.config.feature_set, model.config.history, preset)
+    inputs = history_inputs(model.config.features, model.config.history, preset)
     x = features(kin) if inputs is None else inputs(kin, tm)
     pred = model.predict_ensemble(x)
     distance: FloatArray | None = None
