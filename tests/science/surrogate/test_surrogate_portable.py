@@ -107,3 +107,74 @@ def test_a_wrong_onnx_graph_is_refused(exported):
     x = model.input_norm.mean + np.zeros((4, 19))
     with pytest.raises(ExportError, match=r"^force.onnx: differs from PyTorch"):
         check_onnx(model, "force", onnx_model(other, "force"), x)
+
+
+# runs in a fresh interpreter: the history model's files along one motion, casadi, onnxruntime and numpy only
+_HISTORY_CONSUMER = r"""
+import json, sys
+import numpy as np
+import casadi
+import onnxruntime
+root, data = sys.argv[1], json.load(open(sys.argv[2]))
+q, qd, t, x = (np.array(data[k]) for k in ("q", "qd", "t", "features"))
+step = casadi.Function.load(f"{root}/history_step.casadi")
+force = casadi.Function.load(f"{root}/force.casadi")
+z = [np.array(data["z0"])]
+for k in range(1, len(t)):
+    z.append(np.array(step(z[-1], q[k], qd[k], t[k] - t[k - 1])).ravel())
+out = {"z": np.array(z).tolist(), "force": [np.array(force(q[k], qd[k], z[k])).ravel().tolist() for k in range(len(t))]}
+ostep = onnxruntime.InferenceSession(f"{root}/history_step.onnx", providers=["CPUExecutionProvider"])
+zo = [np.array(data["z0"])[None, :]]
+for k in range(1, len(t)):
+    zo.append(ostep.run(None, {"z": zo[-1], "features": x[k : k + 1], "dt": np.array([[t[k] - t[k - 1]]])})[0])
+zo = np.vstack(zo)
+onet = onnxruntime.InferenceSession(f"{root}/force.onnx", providers=["CPUExecutionProvider"])
+out["z_onnx"] = zo.tolist()
+out["force_onnx"] = onet.run(None, {"features": np.hstack([x, zo])})[0].tolist()
+assert not any(m == "alcove" or m.startswith("alcove.") for m in sys.modules), "alcove was imported"
+print(json.dumps(out))
+"""
+
+
+def test_a_history_models_exports_carry_its_state_update_without_alcove(tmp_path):
+    """The history states' update and the networks with the states as inputs, loaded in a process
+    that never imports alcove, reproduce alcove's prediction along a press with a release:
+    CasADi to 1e-10, ONNX to 1e-6 (relative to max(1, |value|))."""
+    from alcove.science.press_family import PressFamily, family_motions
+    from alcove.science.surrogate.dataset import PoolDataset
+    from alcove.science.surrogate.history import history_states, steady_history
+    from alcove.science.surrogate.training import predict_ensemble
+
+    motions = [m.trajectory(0.005) for m in family_motions(PressFamily(), 6, 4, (P.theta_min, P.theta_max))]
+    pool = []
+    for i, tr in enumerate(motions[:5]):
+        kin = relative_kinematics(P, tr.q[:, 0], tr.qd[:, 0])
+        z = history_states(P, kin, tr.t, SurrogateConfig().history)
+        force = np.column_stack([1e4 * z[:, 0], np.zeros(len(tr.t)), 20 * np.tanh(z[:, 2] / 5e-3)])
+        pool.append(PoolDataset(f"m{i}", tr.t, tr.q, tr.qd, force, 0.01 * force))
+    cfg = SurrogateConfig(max_epochs=5, batch_size=128, ensemble_size=2, features="history")
+    model = train_surrogate(pool, cfg, seed=2, preset=P).model
+    root = tmp_path / "model"
+    save_artifact(model, root, exports=True)
+    assert {"history_step.casadi", "history_step.onnx"} <= {p.name for p in root.iterdir()}
+    tr = motions[5]
+    kin = relative_kinematics(P, tr.q[:, 0], tr.qd[:, 0])
+    want_z = history_states(P, kin, tr.t, model.config.history)
+    data = tmp_path / "motion.json"
+    payload = {"q": tr.q[:, 0], "qd": tr.qd[:, 0], "t": tr.t, "features": features(kin)}
+    payload["z0"] = steady_history(P, kin, model.config.history)[0]
+    data.write_text(json.dumps({k: np.asarray(v).tolist() for k, v in payload.items()}))
+    run = subprocess.run(
+        [sys.executable, "-c", _HISTORY_CONSUMER, str(root), str(data)], capture_output=True, text=True, timeout=120
+    )
+    assert run.returncode == 0, run.stderr
+    got = json.loads(run.stdout)
+    want_force = predict_ensemble(model, tr.q, tr.qd, t=tr.t).force
+    assert want_z[:, 0].max() > 1e-3 and np.ptp(want_z[:, 2]) > 0  # it presses and slips
+    for key, want, tol in (
+        ("z", want_z, CASADI_TOL),
+        ("force", want_force, CASADI_TOL),
+        ("z_onnx", want_z, ONNX_RTOL),
+        ("force_onnx", want_force, ONNX_RTOL),
+    ):
+        assert np.max(np.abs(np.array(got[key]) - want) / np.maximum(1.0, np.abs(want))) <= tol, key

@@ -15,6 +15,10 @@ Written next to ``surrogate.json`` by :func:`write_exports`; none needs alcove t
     and ``qd``; for a chain its inputs are the 22 ``features`` of ``feature_names``). The first
     sample's states are the steady ones: ``(ramp(p_0), v_y0, v_z0)``, the ramp of its indentation
     and its slip velocity (:func:`.history.steady_history`).
+``history_step.onnx`` (feature set ``history``)
+    The same update as ONNX: inputs ``z`` (n x 3), ``features`` (n x 19, the next sample's) and
+    ``dt`` (n x 1), output ``z_next`` (n x 3); the contact point's indentation and slip velocity
+    are computed from the features (r, v, the first two columns of T, omega).
 ``force.onnx``, ``moment.onnx``
     ONNX (opset 18, float64): input ``features`` (n x 19, or n x 22 with history states; raw, in
     the order of ``surrogate.json``'s ``feature_names``), outputs ``mean`` (n x 3) and, for K > 1, ``std``
@@ -221,6 +225,102 @@ def onnx_model(model: SurrogateModel, net: str) -> bytes:
     return data
 
 
+def onnx_history_step(model: SurrogateModel) -> bytes:
+    """The serialised ONNX graph of the history states' update (module docstring)."""
+    import onnx
+    from onnx import TensorProto, helper
+
+    g = _Graph()
+    bx, bz = model.preset.profile.back_point()
+    cfg = model.config.history
+
+    def col(source: str, i: int) -> str:
+        return g.op("Gather", source, g.const([i], np.int64), axis=1)
+
+    def mul(a: str, b: str) -> str:
+        return g.op("Mul", a, b)
+
+    def sub(a: str, b: str) -> str:
+        return g.op("Sub", a, b)
+
+    def add(a: str, b: str) -> str:
+        return g.op("Add", a, b)
+
+    r_x = col("features", 0)
+    v = [col("features", i) for i in range(3, 6)]
+    c0 = [col("features", i) for i in range(6, 9)]
+    c1 = [col("features", i) for i in range(9, 12)]
+    w = [col("features", i) for i in range(12, 15)]
+    c2 = [  # the third column of T: c0 x c1
+        sub(mul(c0[1], c1[2]), mul(c0[2], c1[1])),
+        sub(mul(c0[2], c1[0]), mul(c0[0], c1[2])),
+        sub(mul(c0[0], c1[1]), mul(c0[1], c1[0])),
+    ]
+    arm = [add(mul(c0[i], g.const(bx)), mul(c2[i], g.const(bz))) for i in range(3)]
+    indentation = g.op("Neg", add(r_x, arm[0]))
+    slip_y = add(v[1], sub(mul(w[2], arm[0]), mul(w[0], arm[2])))
+    slip_z = add(v[2], sub(mul(w[0], arm[1]), mul(w[1], arm[0])))
+    width = cfg.indentation_ramp
+    x = sub(indentation, col("z", 0))
+    zero = g.const(0.0)
+    ramped = g.op(
+        "Where",
+        g.op("LessOrEqual", x, zero),
+        zero,
+        g.op(
+            "Where",
+            g.op("Less", x, g.const(width)),
+            g.op("Div", mul(x, x), g.const(2.0 * width)),
+            sub(x, g.const(width / 2.0)),
+        ),
+    )
+    a = g.op("Div", "dt", g.const(cfg.slip_time_constant))
+    one_plus_a = add(a, g.const(1.0))
+    filtered = [g.op("Div", add(col("z", i), mul(a, slip)), one_plus_a) for i, slip in ((1, slip_y), (2, slip_z))]
+    g.op("Concat", add(col("z", 0), ramped), *filtered, axis=1, out="z_next")
+    double = TensorProto.DOUBLE
+    graph = helper.make_graph(
+        g.nodes,  # type: ignore[arg-type]
+        "alcove_history_step",
+        [
+            helper.make_tensor_value_info("z", double, ["n", N_HISTORY]),
+            helper.make_tensor_value_info("features", double, ["n", N_FEATURES]),
+            helper.make_tensor_value_info("dt", double, ["n", 1]),
+        ],
+        [helper.make_tensor_value_info("z_next", double, ["n", N_HISTORY])],
+        initializer=g.inits,  # type: ignore[arg-type]
+    )
+    proto = helper.make_model(graph, opset_imports=[helper.make_opsetid("", ONNX_OPSET)], producer_name="alcove")
+    onnx.checker.check_model(proto)
+    data: bytes = proto.SerializeToString()
+    return data
+
+
+def check_onnx_history_step(model: SurrogateModel, data: bytes) -> float:
+    """Largest ``|onnx - alcove| / max(1, |alcove|)`` of the update along a reproducible press
+    (every branch of the ramp, slip both ways); raises :class:`ExportError` above :data:`ONNX_RTOL`."""
+    import onnxruntime as ort
+
+    from alcove.science.geometry import relative_kinematics
+    from alcove.science.surrogate.features import features
+    from alcove.science.surrogate.history import history_states
+
+    preset = model.preset
+    t = np.linspace(0.0, 1.0, 201)
+    q = preset.theta_min + (preset.theta_max - preset.theta_min) * (0.5 - 0.5 * np.cos(3 * np.pi * t))
+    qd = (preset.theta_max - preset.theta_min) * 1.5 * np.pi * np.sin(3 * np.pi * t)
+    kin = relative_kinematics(preset, q, qd)
+    want = history_states(preset, kin, t, model.config.history)
+    session = ort.InferenceSession(data, providers=["CPUExecutionProvider"])
+    (got,) = session.run(
+        None, {"z": want[:-1], "features": features(kin)[1:], "dt": np.diff(t)[:, None].astype(np.float64)}
+    )
+    err = float(np.max(np.abs(got - want[1:]) / np.maximum(1.0, np.abs(want[1:]))))
+    if not err <= ONNX_RTOL:
+        raise ExportError("history_step.onnx", f"differs from alcove by {err:.3g} (relative), above {ONNX_RTOL:g}")
+    return err
+
+
 def check_onnx(model: SurrogateModel, net: str, data: bytes, x: FloatArray) -> float:
     """Largest ``|onnx - torch| / max(1, |torch|)`` of the mean and std at raw features ``x``; raises
     :class:`ExportError` above :data:`ONNX_RTOL`."""
@@ -253,6 +353,11 @@ def write_exports(model: SurrogateModel, root: Path, check_features: FloatArray 
         check_onnx(model, net, data, check_features)
         (root / f"{net}.onnx").write_bytes(data)
         written.append(f"{net}.onnx")
+    if model.config.features == "history":
+        data = onnx_history_step(model)
+        check_onnx_history_step(model, data)
+        (root / "history_step.onnx").write_bytes(data)
+        written.append("history_step.onnx")
     return written
 
 
@@ -262,7 +367,9 @@ __all__ = [
     "ExportError",
     "casadi_net_functions",
     "check_onnx",
+    "check_onnx_history_step",
     "history_step_function",
+    "onnx_history_step",
     "onnx_model",
     "write_exports",
 ]
