@@ -249,3 +249,28 @@ def test_the_casadi_export_carries_the_state_update_and_the_surrogate(friction_m
         np.testing.assert_allclose(
             np.asarray(force(d.q[k, 0], d.qd[k, 0], want[k])).ravel(), pred[k], rtol=1e-9, atol=1e-9
         )
+
+
+def test_the_auxiliary_laws_samples_teach_that_it_has_no_memory():
+    """Trained on the preliminary data alone (a law without memory, each sample given a random
+    history), a history model predicts the same wrench at a state whatever the history fed to it:
+    at states in contact, a deepest indentation 2 mm deeper and a slip velocity of the other sign
+    change the force by under 10 % of its size (the law's own change is 0)."""
+    from alcove.science.surrogate.features import features
+    from alcove.science.surrogate.preliminary import preliminary_pool
+
+    pool = preliminary_pool(P, samples=1500, seed=1)
+    cfg = SurrogateConfig.parse({"features": "history", "ensemble_size": 1, "max_epochs": 150, "batch_size": 128})
+    model = train_surrogate(pool, cfg, 4, preset=P).model
+    q = np.linspace(0.36, P.theta_max, 30)
+    qd = np.linspace(-0.5, 0.5, 30)
+    kin = relative_kinematics(P, q, qd)
+    z = steady_history(P, kin, CFG)
+    assert np.all(z[:, 0] > 0), "the states press into the headrest"
+    other = np.column_stack([z[:, 0] + 2e-3, -z[:, 1:] - 0.05])
+    x = features(kin)
+    steady = model.predict_ensemble(np.hstack([x, z])).force
+    moved = model.predict_ensemble(np.hstack([x, other])).force
+    size = np.linalg.norm(steady, axis=1).mean()
+    assert size > 20.0
+    assert np.linalg.norm(moved - steady, axis=1).mean() < 0.1 * size

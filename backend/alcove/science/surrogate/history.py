@@ -24,9 +24,15 @@ frame H:
     and, as dt -> 0, the solution of ``tau z' = v - z``. ``z_init = v_0`` (the filter at rest
     with the first sample's velocity).
 
-Samples that are not a motion (the preliminary data: independent Latin-hypercube points) take the
-states of a motion arriving at that state steadily (:func:`steady_history`): ``ramp(p)`` (the
-recursion's first sample) and the slip velocity itself.
+A prediction at independent states (not along a motion) takes the states of a motion arriving at
+each state steadily (:func:`steady_history`): ``ramp(p)`` (the recursion's first sample) and the
+slip velocity itself. The preliminary data are independent samples of the auxiliary law, which has
+no memory: its wrench is the same whatever the path, so each of its samples is given a history
+drawn at random (:func:`memoryless_history`: a deepest indentation between the sample's and the
+deepest of its data set, a filtered slip velocity within the data set's range of slip velocities,
+seeded by the data set). Given only steady histories, the networks would tie the history inputs
+to the state (they are functions of it there) and read an unloading head, whose deepest
+indentation exceeds its indentation, as a deeper press.
 
 The same step serves every user: training (the pool's motions), prediction along a trajectory,
 the validation suite, the trust diagnostics, and the OCP (:func:`history_step_symbolic`, the
@@ -133,6 +139,19 @@ def steady_history(preset: HeadNeckPreset, kin: RelativeKinematics, config: Hist
     return np.column_stack([ramp(p, config.indentation_ramp), v])
 
 
+def memoryless_history(preset: HeadNeckPreset, kin: RelativeKinematics, config: HistoryConfig, seed: int) -> FloatArray:
+    """History states (n, 3) drawn at random for samples of a law without memory (module
+    docstring): the deepest indentation uniform between ``ramp(p)`` and the largest ``ramp(p)`` of
+    the samples, each filtered slip velocity uniform within +- the largest |slip velocity|."""
+    steady = steady_history(preset, kin, config)
+    rng = np.random.default_rng(seed)
+    n = steady.shape[0]
+    deepest = steady[:, 0] + rng.uniform(0.0, 1.0, n) * (steady[:, 0].max() - steady[:, 0])
+    bound = np.abs(steady[:, 1:]).max(axis=0)
+    slip = rng.uniform(-1.0, 1.0, (n, 2)) * bound
+    return np.column_stack([deepest, slip])
+
+
 @dataclass(frozen=True)
 class HistoryInputs:
     """The networks' inputs of the ``history`` feature set: the paper's 19 features of each
@@ -141,9 +160,14 @@ class HistoryInputs:
     preset: HeadNeckPreset
     config: HistoryConfig
 
-    def __call__(self, kin: RelativeKinematics, t: FloatArray | None, *, steady: bool = False) -> FloatArray:
-        """Along one motion at times ``t``, or (``steady``) at independent samples."""
-        if steady:
+    def __call__(
+        self, kin: RelativeKinematics, t: FloatArray | None, *, steady: bool = False, memoryless: int | None = None
+    ) -> FloatArray:
+        """Along one motion at times ``t``; or (``steady``) at independent states; or, given
+        ``memoryless`` (a seed), at samples of a law without memory (:func:`memoryless_history`)."""
+        if memoryless is not None:
+            z = memoryless_history(self.preset, kin, self.config, memoryless)
+        elif steady:
             z = steady_history(self.preset, kin, self.config)
         elif t is None:
             raise HistoryError("t", "history states follow a motion: give its times")
@@ -196,6 +220,7 @@ __all__ = [
     "history_states",
     "history_step",
     "history_step_symbolic",
+    "memoryless_history",
     "ramp",
     "steady_history",
 ]

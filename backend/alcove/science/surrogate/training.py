@@ -316,7 +316,8 @@ def pool_features(
     ``kinematics`` for the task's headrest, ``moved(offset, tilt)`` for a dataset simulated with a
     scenario's ``headrest_offset`` and/or ``headrest_tilt``. With ``inputs`` of the ``history``
     feature set the history states follow: along each motion of the pool (its times ``t``), and
-    the steady states for the preliminary data's independent samples."""
+    histories drawn at random for the preliminary data's independent samples of a law without
+    memory (:func:`.history.memoryless_history`, seeded by the data set's name)."""
 
     def kin(ds: PoolDataset) -> KinematicsFn:
         if ds.headrest_offset is None and ds.headrest_tilt is None:
@@ -340,10 +341,20 @@ def pool_features(
             k_i = RelativeKinematics(k_all.r_rel[lo:hi], k_all.v_rel[lo:hi], k_all.T_rel[lo:hi], k_all.omega_rel[lo:hi])
             ds = pool[i]
             try:
-                out[i] = features(k_i) if inputs is None else inputs(k_i, ds.t, steady=ds.origin == "preliminary")
+                if inputs is None:
+                    out[i] = features(k_i)
+                elif ds.origin == "preliminary":  # the auxiliary law has no memory: any history holds
+                    out[i] = inputs(k_i, None, memoryless=_name_seed(ds.name))
+                else:
+                    out[i] = inputs(k_i, ds.t)
             except HistoryError as exc:
                 raise PoolDataError(f"{ds.name}.{exc.field}", exc.reason) from None
     return np.concatenate(out)
+
+
+def _name_seed(name: str) -> int:
+    """A stable seed from a data set's name (the same draws in every process and run)."""
+    return int.from_bytes(hashlib.sha256(name.encode()).digest()[:8], "little")
 
 
 def sample_weights(pool: list[PoolDataset], config: SurrogateConfig, measured: bool | None = None) -> FloatArray:
