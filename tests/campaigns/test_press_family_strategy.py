@@ -129,6 +129,7 @@ def test_a_press_family_campaign_trains_and_scores_a_surrogate_with_history_stat
     and the 3 history states; the in-loop error and the validation suite are predicted along each
     replayed motion (its times), with the same figures as the science's own prediction."""
     from alcove.campaigns import protocol
+    from alcove.campaigns.results import iteration_curves
     from alcove.db import session_scope
     from alcove.models import Campaign, Iteration, IterationMetrics, ModelVersion, ValidationSuite
     from alcove.oracles.validation import run_motion
@@ -136,7 +137,7 @@ def test_a_press_family_campaign_trains_and_scores_a_surrogate_with_history_stat
     from alcove.pool.service import dataset_arrays
     from alcove.science.surrogate.history import HISTORY_NAMES
     from alcove.science.surrogate.metrics import wrench_metrics
-    from alcove.science.surrogate.training import predict_ensemble
+    from alcove.science.surrogate.training import history_along, predict_ensemble
     from alcove.surrogates.service import load_model
     from alcove.surrogates.validation import _suite_arrays, compute_for_model
 
@@ -157,6 +158,11 @@ def test_a_press_family_campaign_trains_and_scores_a_surrogate_with_history_stat
         suite = s.get(ValidationSuite, s.get(Campaign, cid).validation_suite_id)
         suite_id, motion_ids = suite.id, [m.id for m in suite.motions]
         mv_id = versions[1].id
+        curves = iteration_curves(s, cid, 2)  # the iteration view's arrays: the states the model saw
+        assert versions[1].architecture["features"] == "history"
+    assert curves.history is not None
+    np.testing.assert_allclose(np.array(curves.history), history_along(model, a["q"], a["qd"], a["t"]), rtol=1e-12)
+    assert np.array(curves.history)[:, 0].max() > 0  # the motion pressed into the headrest
     p = predict_ensemble(model, a["q"], a["qd"], t=a["t"])
     assert metric_rmse == pytest.approx(wrench_metrics(np.hstack([p.force, p.moment]), a["f"])["force_rmse"], rel=1e-9)
     # the suite: replayed by the oracle, then model 2 scored along each motion

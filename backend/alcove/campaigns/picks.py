@@ -144,6 +144,7 @@ def pick_curves(s: Session, campaign_id: int, k: int, pick: int) -> IterationCur
         f_true=a["f_true"].tolist(),
         f_pred=a["f_pred"].tolist(),
         f_std=a["f_std"].tolist() if "f_std" in a else None,
+        history=a["history"].tolist() if "history" in a else None,
         pick=pick,
         slot=cand.slot if cand is not None else 0,
     )

@@ -145,6 +145,7 @@ def iteration_curves(s: Session, campaign_id: int, iteration: int) -> IterationC
         f_true=a["f_true"].tolist(),
         f_pred=a["f_pred"].tolist(),
         f_std=a["f_std"].tolist() if "f_std" in a else None,
+        history=a["history"].tolist() if "history" in a else None,
     )
 
 

@@ -28,6 +28,11 @@ class IterationCurves(BaseModel):
     f_std: list[list[float]] | None = Field(
         None, description="(n, 6): the ensemble's standard deviation per output; null for a single model (K = 1)"
     )
+    history: list[list[float]] | None = Field(
+        None,
+        description="(n, 3): the model's history states along the motion, max_indentation [m], slip_velocity_y "
+        "and slip_velocity_z [m/s] (docs/concepts.md); null for a model of the state alone (features 'paper')",
+    )
     pick: int | None = Field(None, description="the picked trajectory these are of (batch iterations; 0: first)")
     slot: int | None = Field(None, description="that pick's candidate (ocp slot)")
 

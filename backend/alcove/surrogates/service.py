@@ -121,6 +121,8 @@ def store_model(
             "dtype": model.config.dtype,
             "ensemble_size": model.ensemble_size,
             "output": model.config.architecture,
+            "features": model.config.features,
+            "inputs": list(model.config.input_names),
         },
         normalisation=doc["normalization"]["input"],
         training_config=model.config.model_dump(mode="json"),

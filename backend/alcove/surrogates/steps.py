@@ -91,7 +91,7 @@ def evaluate(
     pick's curves. With one dataset: that dataset's figures."""
     from alcove.models import Dataset
     from alcove.science.surrogate.metrics import wrench_metrics
-    from alcove.science.surrogate.training import predict_ensemble
+    from alcove.science.surrogate.training import history_along, predict_ensemble
 
     if not dataset_ids:
         raise ValueError("dataset_ids: the iteration has no oracle dataset to evaluate on")
@@ -114,6 +114,7 @@ def evaluate(
         pred = predict_ensemble(
             model, a["q"], a["qd"], headrest_offset=offset, headrest_tilt=tilt, kinematics=kinematics, t=a["t"]
         )
+        states = history_along(model, a["q"], a["qd"], a["t"], kinematics, offset, tilt)
         f_pred = np.hstack([pred.force, pred.moment])
         f_std = np.hstack([pred.force_std, pred.moment_std]) if model.ensemble_size > 1 else None
         err = f_pred - a["f"]
@@ -125,6 +126,7 @@ def evaluate(
                 "moment_max_error": float(np.linalg.norm(err[:, 3:], axis=1).max()),
                 "f_pred": f_pred,
                 "f_std": f_std,
+                "history": states,
             }
         )
 
@@ -152,6 +154,8 @@ def evaluate(
         pc = {"t": arrays["t"], "q": arrays["q"], "qd": arrays["qd"], "f_true": arrays["f"], "f_pred": p["f_pred"]}
         if p["f_std"] is not None:
             pc["f_std"] = p["f_std"]
+        if p["history"] is not None:
+            pc["history"] = p["history"]
         pick_curves.append(pc)
     a, first = data[0][0], picks[0]
     honest = {
@@ -165,6 +169,8 @@ def evaluate(
     curve_arrays = {"t": a["t"], "q": a["q"], "qd": a["qd"], "f_true": a["f"], "f_pred": first["f_pred"]}
     if first["f_std"] is not None:
         curve_arrays["f_std"] = first["f_std"]
+    if first["history"] is not None:
+        curve_arrays["history"] = first["history"]
 
     def write(s: Session, at: IterationRef) -> dict[str, Any]:
         curves = put_arrays(s, curve_arrays)

@@ -62,7 +62,7 @@ export function iterationQuery(id: number, k: number) {
     queryKey: keys.curves(id, k),
     queryFn: async (): Promise<IterationCurves> => {
       const c = unwrap(await client.GET("/api/v1/campaigns/{campaign_id}/iterations/{iteration}/curves", { params: { path: { campaign_id: id, iteration: k } } }));
-      return { iteration: c.iteration_index, t: c.t, q: c.q, truth: wrench(c.f_true), predicted: wrench(c.f_pred), std: c.f_std ? wrench(c.f_std) : null };
+      return { iteration: c.iteration_index, t: c.t, q: c.q, truth: wrench(c.f_true), predicted: wrench(c.f_pred), std: c.f_std ? wrench(c.f_std) : null, history: c.history ?? null };
     },
     staleTime: Infinity,
   });
@@ -96,7 +96,7 @@ export function pickCurvesQuery(id: number, k: number, pick: number) {
     queryKey: keys.pickCurves(id, k, pick),
     queryFn: async (): Promise<IterationCurves> => {
       const c = unwrap(await client.GET("/api/v1/campaigns/{campaign_id}/iterations/{iteration}/picks/{pick}/curves", { params: { path: { campaign_id: id, iteration: k, pick } } }));
-      return { iteration: c.iteration_index, t: c.t, q: c.q, truth: wrench(c.f_true), predicted: wrench(c.f_pred), std: c.f_std ? wrench(c.f_std) : null };
+      return { iteration: c.iteration_index, t: c.t, q: c.q, truth: wrench(c.f_true), predicted: wrench(c.f_pred), std: c.f_std ? wrench(c.f_std) : null, history: c.history ?? null };
     },
     staleTime: Infinity,
   });

@@ -2361,6 +2361,11 @@ export interface components {
              * @description (n, 6): fx fy fz mx my mz
              */
             f_true: number[][];
+            /**
+             * History
+             * @description (n, 3): the model's history states along the motion, max_indentation [m], slip_velocity_y and slip_velocity_z [m/s] (docs/concepts.md); null for a model of the state alone (features 'paper')
+             */
+            history?: number[][] | null;
             /** Iteration Index */
             iteration_index: number;
             /**

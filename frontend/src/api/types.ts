@@ -56,6 +56,9 @@ export interface IterationCurves {
   predicted: Wrench;
   /** the ensemble's standard deviation per output; null for a single model (K = 1) */
   std: Wrench | null;
+  /** the model's history states along the motion (n, 3): max_indentation [m], slip_velocity_y and
+   * slip_velocity_z [m/s]; null for a model of the state alone */
+  history?: number[][] | null;
 }
 
 /** GET .../iterations/{k}/trajectory with q, qd, tau as one array per joint (rows are time samples on the wire). */

@@ -87,6 +87,17 @@ export function wrenchTraces(curves: IterationCurves[], components: readonly Com
 export const MAX_OVERLAY = 200;
 
 /** A warning when iteration k's OCP solution relies on force outside the surrogate's data. */
+/** The history states of a model with memory along one motion, in mm and mm/s (one axis). */
+export function historyTraces(curves: IterationCurves): Trace[] {
+  const h = curves.history;
+  if (!h) return [];
+  const col = (j: number, scale: number) => h.map((row) => (row[j] ?? 0) * scale);
+  return [
+    { x: curves.t, y: col(0, 1e3), type: "scatter", mode: "lines", name: "largest indentation so far [mm]", line: { color: "#2f5bd3" } },
+    { x: curves.t, y: col(2, 1e3), type: "scatter", mode: "lines", name: "slip velocity z, low-pass [mm/s]", line: { color: "#d3662f", dash: "longdash" } },
+  ];
+}
+
 export function TrustBadge({ point }: { point: MetricPoint | undefined }) {
   if (!point || point.ocp_trusted !== false) return null;
   const reasons = point.trust_reasons?.length ? point.trust_reasons : ["relies on force outside the data"];
@@ -316,6 +327,15 @@ export function ForcesPanel({
             </div>
             <Plot testId="moment-plot" traces={momentTraces} xTitle="t [s]" yTitle="moment [N m]" exportName={`moments-k${k}${picks.length ? `-pick${pick + 1}` : ""}`} height={300} data={{ band: hasBand ? "2std" : "" }} cursorX={cursor} />
           </div>
+        </div>
+      )}
+      {single?.history && (
+        <div>
+          <h4>History states of model {single.iteration}</h4>
+          <Plot testId="history-plot" traces={historyTraces(single)} xTitle="t [s]" yTitle="mm, mm/s" exportName={`history-k${k}${picks.length ? `-pick${pick + 1}` : ""}`} height={240} cursorX={cursor} />
+          <p className="hint">
+            What the model remembers of the motion so far (its inputs beside the state): the deepest the head has pressed into the headrest, and the slip of the contact point along it, filtered over the last tens of milliseconds. The friction force depends on them.
+          </p>
         </div>
       )}
       {single && <IterationPlayback key={pick} campaignId={campaignId} curves={single} task={task} slot={pickSlot} index={index} setIndex={(i) => setPlayed({ k: single.iteration, index: i })} />}

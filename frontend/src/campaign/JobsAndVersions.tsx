@@ -102,6 +102,9 @@ export function VersionsPanel({ campaignId }: { campaignId: number }) {
                 <th className="num">Version</th>
                 <th className="num">Pool</th>
                 <th className="num">Warm start</th>
+                <th title="the networks' inputs: the paper's 19 features of the state, or those and the history states (a contact model with memory)">
+                  Inputs
+                </th>
                 <th className="num">Test RMSE F</th>
                 <th className="num">Test RMSE M</th>
                 <th className="num">Epochs</th>
@@ -114,6 +117,7 @@ export function VersionsPanel({ campaignId }: { campaignId: number }) {
                   <td className="num">m{m.version}</td>
                   <td className="num">{m.pool_version !== null ? `v${m.pool_version}` : "—"}</td>
                   <td className="num">{m.parent_version !== null ? `m${m.parent_version}` : "—"}</td>
+                  <td data-testid="model-features">{modelFeatures(m.architecture)}</td>
                   <td className="num">{fmtNumber(m.test_force_rmse)}</td>
                   <td className="num">{fmtNumber(m.test_moment_rmse)}</td>
                   <td className="num" data-stopped-improving={m.stopped_improving}>
@@ -140,4 +144,9 @@ export function VersionsPanel({ campaignId }: { campaignId: number }) {
       </section>
     </div>
   );
+}
+
+/** The model's feature set as the table shows it (models recorded before feature sets: the paper's). */
+function modelFeatures(architecture: Record<string, unknown>): string {
+  return architecture.features === "history" ? "paper + history" : "paper";
 }

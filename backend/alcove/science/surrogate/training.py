@@ -71,7 +71,7 @@ from alcove.science.series import ForceSeries
 from alcove.science.surrogate.config import SurrogateConfig
 from alcove.science.surrogate.dataset import PoolDataError, PoolDataset, check_pool
 from alcove.science.surrogate.ensemble import NETS, EnsembleTrainer, GatedOutputs, MemberTensors
-from alcove.science.surrogate.features import features
+from alcove.science.surrogate.features import N_FEATURES, features
 from alcove.science.surrogate.gated import gap_from_features, gate_params, gate_value
 from alcove.science.surrogate.history import HistoryError, HistoryInputs, history_inputs
 from alcove.science.surrogate.metrics import vector_rmse
@@ -674,9 +674,7 @@ def predict_ensemble(
         raise PoolDataError("qd", f"has shape {qd.shape} but q has {q.shape}")
     if q.shape[1] != model.ndof:
         raise PoolDataError("q", f"has {q.shape[1]} degrees of freedom, the model was trained on {model.ndof}")
-    if kinematics is None:
-        kinematics = preset_kinematics(headrest_preset(model.preset, headrest_offset, headrest_tilt))
-    kin = kinematics(q, qd)
+    kin = _model_kinematics(model, kinematics, headrest_offset, headrest_tilt)(q, qd)
     inputs = history_inputs(model.config.features, model.config.history, model.preset)
     if inputs is None:
         return model.predict_ensemble(features(kin))
@@ -684,6 +682,34 @@ def predict_ensemble(
         raise PoolDataError("t", "the model's feature set 'history' predicts along a motion: give its times")
     try:
         return model.predict_ensemble(inputs(kin, t, steady=steady))
+    except HistoryError as exc:
+        raise PoolDataError(exc.field, exc.reason) from None
+
+
+def _model_kinematics(
+    model: SurrogateModel, kinematics: KinematicsFn | None, offset: float | None, tilt: float | None
+) -> KinematicsFn:
+    return kinematics or preset_kinematics(headrest_preset(model.preset, offset, tilt))
+
+
+def history_along(
+    model: SurrogateModel,
+    q: FloatArray,
+    qd: FloatArray,
+    t: FloatArray,
+    kinematics: KinematicsFn | None = None,
+    headrest_offset: float | None = None,
+    headrest_tilt: float | None = None,
+) -> FloatArray | None:
+    """The model's history states (n, 3) along the motion (q, qd at times t), as its prediction
+    sees them (:func:`predict_ensemble`); None for a model of the state alone."""
+    inputs = history_inputs(model.config.features, model.config.history, model.preset)
+    if inputs is None:
+        return None
+    q2, qd2 = (np.asarray(a, float).reshape(len(t), -1) for a in (q, qd))
+    kin = _model_kinematics(model, kinematics, headrest_offset, headrest_tilt)(q2, qd2)
+    try:
+        return inputs(kin, t)[:, N_FEATURES:]
     except HistoryError as exc:
         raise PoolDataError(exc.field, exc.reason) from None
 
@@ -717,6 +743,7 @@ __all__ = [
     "TrainingResult",
     "bootstrap_counts",
     "headrest_preset",
+    "history_along",
     "member_seed",
     "moved_headrest",
     "pose_kinematics",
