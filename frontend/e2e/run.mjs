@@ -218,9 +218,16 @@ try {
   await page.getByTestId("scenario-ranges").screenshot({ path: resolve(artifacts, "scenario-ranges.png") });
   checkpoint("task");
 
-  step("create an aux-penalty oracle");
+  step("create an aux-penalty oracle (leaving the task's unsaved range asks first)");
+  // the question blocks the page until answered: the handler answers it while the click is still running
+  let asked = null;
+  page.once("dialog", (d) => {
+    asked = `${d.type()}: ${d.message()}`;
+    void d.accept();
+  });
   await page.getByRole("link", { name: "Oracles" }).click();
   await page.getByRole("link", { name: "New oracle" }).click();
+  if (!asked || !/^confirm: .*unsaved edits/.test(asked)) throw new Error(`leaving the edited task asked: ${asked}`);
   await page.getByLabel("Name", { exact: true }).fill(`e2e oracle ${stamp}`);
   await page.getByLabel("Type").selectOption("aux-penalty");
   await page.getByRole("button", { name: "Create oracle" }).click();
