@@ -62,6 +62,9 @@ def test_the_carried_states_are_the_recursion_of_the_optimal_motion(history_mode
     z_motion = history_states(P, relative_kinematics(P, qm[:, 0], v[:, 0]), tm, history_model.config.history)
     np.testing.assert_allclose(z_nlp, z_motion, rtol=0, atol=1e-7 * max(1.0, np.abs(z_motion).max()))
     assert z_motion[:, 0].max() > 1e-3, "the head presses into the headrest: the largest indentation grows"
+    # the OCP's recursion (its CasADi step and steady states) is training's on the same trajectory
+    z_ocp = tr.history_states(sol.q)
+    assert np.max(np.abs(z_ocp - z_motion) / np.maximum(1.0, np.abs(z_motion))) <= 1e-10
     # the wrench the NLP used at each midpoint is the model's prediction along the motion
     used = np.array([np.asarray(fn(qm[k], v[k], z_nlp[k], params)).ravel() for k in range(N)])
     pred = predict_ensemble(history_model, qm, v, t=tm)
