@@ -113,6 +113,7 @@ function OracleEditor({ existing, types }: { existing: Oracle | undefined; types
   }, [name, description, type, schema, params, validated, sentKey, save.error, test.error]);
 
   function onSave() {
+    if (nameProblems(name).length) return; // named at the field; the API would refuse it too
     setSentKey(formKey);
     const sent = formKey;
     save.mutate(

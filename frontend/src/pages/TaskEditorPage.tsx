@@ -225,6 +225,7 @@ function TaskEditor({ existing, presets }: { existing: Task | undefined; presets
   }
 
   function onSave() {
+    if (nameProblems(name).length) return; // named at the field; the API would refuse it too
     setSentKey(draftKey);
     const sent = draftKey;
     save.mutate(

@@ -163,6 +163,30 @@ describe("schema forms", () => {
   });
 });
 
+describe("names", () => {
+  it("a blank new task is not valid: the name is named at its field; a name of spaces is refused before sending; a name is sent trimmed", async () => {
+    const saves: { name: string }[] = [];
+    mockApi({
+      "GET /tasks/presets": [PRESET],
+      "GET /tasks/schema": TASK_SCHEMA,
+      "POST /tasks/validate": { valid: true, errors: [] },
+      "POST /tasks": (_url: URL, body: { name: string }) => (saves.push(body), jsonResponse({ detail: "stop here" }, 409)),
+    });
+    renderPage(<TaskEditorPage />, { route: "/tasks/new" });
+    const name = await screen.findByLabelText("Name");
+    await waitFor(() => expect(screen.getByTestId("validation-state")).toHaveTextContent("1 problem"), { timeout: 3000 });
+    expect(name).toHaveAttribute("aria-invalid", "true");
+    expect(document.querySelector('[data-error-path="name"]')).toHaveTextContent("must not be empty");
+    await userEvent.type(name, "   ");
+    await userEvent.click(screen.getByRole("button", { name: "Create task" }));
+    expect(document.querySelector('[data-error-path="name"]')).toHaveTextContent("must not be empty");
+    await userEvent.type(name, "my task  ");
+    await waitFor(() => expect(screen.getByTestId("validation-state")).toHaveTextContent("valid"), { timeout: 3000 });
+    await userEvent.click(screen.getByRole("button", { name: "Create task" }));
+    await waitFor(() => expect(saves.map((b) => b.name)).toEqual(["my task"]));
+  });
+});
+
 describe("a refused save", () => {
   it("its problem goes once the value is changed (the next inline validation answers for the new draft)", async () => {
     mockApi({
