@@ -384,7 +384,8 @@ def test_compare_trains_both_architectures_and_scores_them_on_the_suite(tmp_path
         "--config", "cfg.json", "--suite-out", "suite",
     )  # fmt: skip
     assert result.exit_code == 0, result.output
-    assert "ghost |F| max, gap open [N]" in result.output and "gated" in result.output
+    assert "ghost |F| max, gap open [N]" in result.output and "gated" in result.output and "history" in result.output
+    assert "fz RMSE [N]" in result.output
     assert len(list(Path("suite").glob("*.forces.csv"))) == 2
     result = invoke(
         "surrogate", "compare", "--pool", "pool", "--suite", "suite", "--config", "cfg.json", "--json",
@@ -392,11 +393,21 @@ def test_compare_trains_both_architectures_and_scores_them_on_the_suite(tmp_path
     )  # fmt: skip
     assert result.exit_code == 0, result.output
     out = json.loads(result.output)
-    paper, gated = out["scores"]
-    assert (paper["architecture"], gated["architecture"], out["suite_motions"]) == ("paper", "gated", 2)
+    paper, gated, history = out["scores"]
+    assert (paper["variant"], gated["variant"], history["variant"], out["suite_motions"]) == (
+        "paper",
+        "gated",
+        "history",
+        2,
+    )
+    assert history["features"] == "history" and history["fz_rmse"] is not None
     assert gated["ghost_force_max"] == 0.0 and gated["grid_ghost_force_max"] == 0.0
     assert paper["oracle_force_open_max"] == 0.0 and paper["n_open_samples"] > 0
     assert json.loads(Path("models/gated/surrogate.json").read_text())["architecture"]["name"] == "gated"
+    assert json.loads(Path("models/history/surrogate.json").read_text())["config"]["features"] == "history"
+    assert Path("models/history/history_step.casadi").exists()
+    result = runner.invoke(app, ["surrogate", "compare", "--pool", "pool", "--suite", "suite", "--variants", "paper,x"])
+    assert result.exit_code == 2 and "error: variants:" in result.output and "'x' is not one" in result.output
     result = runner.invoke(app, ["surrogate", "compare", "--pool", "pool", "--suite", "pool"])
     assert result.exit_code == 2 and "error: suite: is the pool itself" in result.output
 

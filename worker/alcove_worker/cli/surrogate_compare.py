@@ -1,5 +1,6 @@
-"""`alcove surrogate compare`: the ``paper`` and ``gated`` architectures trained on one pool and
-scored side by side on the held-out validation suite (:mod:`alcove.science.surrogate.compare`).
+"""`alcove surrogate compare`: surrogate variants (the paper's model, the gated architecture, the
+history feature set) trained on one pool and scored side by side on the held-out validation suite
+(:mod:`alcove.science.surrogate.compare`).
 
 Registered on the ``surrogate`` group by :mod:`alcove_worker.cli.main`; bad input prints one line
 ``error: <field>: <reason>`` and exits with code 2, a failed oracle replay exits with code 1.
@@ -33,6 +34,9 @@ def _print_comparison(scores: list[dict[str, Any]], title: str) -> None:
         ("moment RMSE [N m]", "moment_rmse"),
         ("force RMSE in contact [N]", "force_rmse_contact"),
         ("moment RMSE in contact [N m]", "moment_rmse_contact"),
+        ("fx RMSE [N]", "fx_rmse"),
+        ("fz RMSE [N]", "fz_rmse"),
+        ("my RMSE [N m]", "my_rmse"),
         ("ghost |F| max, gap open [N]", "ghost_force_max"),
         ("ghost |F| RMS, gap open [N]", "ghost_force_rms"),
         ("ghost |M| max, gap open [N m]", "ghost_moment_max"),
@@ -44,7 +48,7 @@ def _print_comparison(scores: list[dict[str, Any]], title: str) -> None:
     table = Table(title=title)
     table.add_column("metric")
     for sc in scores:
-        table.add_column(sc["architecture"], justify="right")
+        table.add_column(sc["variant"], justify="right")
     for label, key in rows:
         table.add_row(escape(label), *(fmt(sc[key]) for sc in scores))
     table.add_row("epochs force / moment", *(f"{sc['epochs']['force']} / {sc['epochs']['moment']}" for sc in scores))
@@ -80,15 +84,31 @@ def compare(
         None, "--task", help="task preset of the pool's geometry (default: head-neck-1dof)"
     ),
     task_file: Path | None = typer.Option(None, "--task-file", help="task definition as JSON (instead of --task)"),
-    models_out: Path | None = typer.Option(None, "--models-out", help="write both models to DIR/paper and DIR/gated"),
+    variants: str = typer.Option(
+        "paper,gated,history",
+        "--variants",
+        help="comma-separated variants: paper (the paper's model), gated (its contact-aware output layer), history "
+        "(the paper's features and the history states)",
+    ),
+    models_out: Path | None = typer.Option(
+        None, "--models-out", help="write each variant's model to DIR/<variant> (with its exports)"
+    ),
     json_output: bool = typer.Option(False, "--json", help="print the scores as JSON"),
     database_url: str | None = typer.Option(None, "--database-url", envvar="ALCOVE_DATABASE_URL", hidden=True),
 ) -> None:
-    """Train the paper and the gated architecture on one pool and score both on the validation suite."""
+    """Train surrogate variants (paper, gated, history) on one pool and score each on the validation suite."""
     from alcove.science.surrogate.artifact import save_artifact
-    from alcove.science.surrogate.compare import compare_architectures, replay_suite
+    from alcove.science.surrogate.compare import VARIANTS, compare_variants, replay_suite
     from alcove.science.surrogate.dataset import PoolDataError, load_pool_dir, save_pool_dir
 
+    chosen = [v.strip() for v in variants.split(",") if v.strip()]
+    unknown = [v for v in chosen if v not in VARIANTS]
+    if not chosen or unknown or len(set(chosen)) != len(chosen):
+        _bad_input(
+            "variants",
+            f"give distinct variants among {', '.join(VARIANTS)}, comma-separated"
+            + (f" ({', '.join(map(repr, unknown))} is not one)" if unknown else ""),
+        )
     inputs = load_training_inputs(pool_dir, campaign, config_file, task, task_file, database_url)
     if inputs.kinematics is not None:
         _bad_input("task", "surrogate compare takes the head-neck-1dof model only so far, not a chain")
@@ -106,17 +126,18 @@ def compare(
         _bad_input("suite", "is the pool itself: the suite must be held out")
     run_seed = seed if seed is not None else (default_seed if default_seed is not None else config.seed)
     try:
-        scores, models = compare_architectures(pool, suite, config, run_seed, preset)
+        scores, models = compare_variants(pool, suite, config, run_seed, preset, chosen)
     except PoolDataError as exc:
         _bad_input(f"pool: {exc.field}", exc.reason)
     if models_out is not None:
-        for arch, model in models.items():
-            save_artifact(model, models_out / arch, exports=True)
+        for variant, model in models.items():
+            save_artifact(model, models_out / variant, exports=True)
     rows = [sc.to_dict() for sc in scores]
     if json_output:
         typer.echo(json.dumps({"seed": run_seed, "datasets": len(pool), "suite_motions": len(suite), "scores": rows}))
     else:
-        _print_comparison(rows, f"paper vs gated: {len(pool)} datasets, {len(suite)} held-out motions, seed {run_seed}")
+        title = f"{' vs '.join(chosen)}: {len(pool)} datasets, {len(suite)} held-out motions, seed {run_seed}"
+        _print_comparison(rows, title)
 
 
 def _replay_suite(

@@ -1,11 +1,13 @@
-"""The ``paper`` and ``gated`` architectures side by side: trained on the same pool with the same
-protocol and seed, scored on the same held-out motions (the validation suite,
+"""Surrogate variants side by side: the ``paper`` model, the ``gated`` architecture and the
+``history`` feature set (:data:`VARIANTS`), trained on the same pool with the same protocol and
+seed, scored on the same held-out motions (the validation suite,
 :mod:`alcove.science.validation_suite`, replayed by an oracle; never in the pool).
 
-Per architecture (:class:`SuiteScore`), over all samples of all suite motions:
+Per variant (:class:`SuiteScore`), over all samples of all suite motions:
 
 * ``force_rmse``, ``moment_rmse``: the vector RMSE of :mod:`.metrics`, ``sqrt(mean_i |F_pred,i - F_true,i|^2)``
-  (the moment likewise), and the same over the samples in contact (``|F_true| > 0``);
+  (the moment likewise), and the same over the samples in contact (``|F_true| > 0``); the RMSE of
+  the components fx, fz and my;
 * the *ghost force* where the geometry says the gap is open (signed gap of
   :func:`alcove.science.geometry.signed_gap` >= ``gap_tolerance``, default 2 mm, the trust
   diagnostics' "clearly open"): the largest and the RMS predicted ``|F|`` [N] and the largest
@@ -17,7 +19,8 @@ Per architecture (:class:`SuiteScore`), over all samples of all suite motions:
   (the most over members) and the training wall time (the first training of a process also pays
   one-off start-up costs: not a speed comparison).
 
-Both models see the same pool, the same config except ``architecture``, and the same seed.
+Every variant sees the same pool, the same config except its ``architecture`` and ``features``,
+and the same seed. A ``history`` model predicts along each suite motion (its times).
 """
 
 from __future__ import annotations
@@ -38,7 +41,12 @@ from alcove.science.surrogate.metrics import wrench_metrics
 from alcove.science.surrogate.mlp import SurrogateModel
 from alcove.science.surrogate.training import predict_ensemble, train_surrogate
 
-ARCHITECTURES = ("paper", "gated")
+#: the variants: what each changes in the configuration
+VARIANTS: dict[str, dict[str, str]] = {
+    "paper": {"architecture": "paper", "features": "paper"},
+    "gated": {"architecture": "gated", "features": "paper"},
+    "history": {"architecture": "paper", "features": "history"},
+}
 GAP_TOLERANCE = 0.002  # m, as alcove.science.surrogate.trust.TrustThresholds.gap_tolerance
 GRID = (81, 21)  # angles over the joint range x velocities over [-GRID_SPEED, GRID_SPEED]
 GRID_SPEED = 2.0  # rad/s
@@ -46,13 +54,18 @@ GRID_SPEED = 2.0  # rad/s
 
 @dataclass
 class SuiteScore:
-    """One architecture's figures (module docstring); JSON-ready via :meth:`to_dict`."""
+    """One variant's figures (module docstring); JSON-ready via :meth:`to_dict`."""
 
+    variant: str
     architecture: str
+    features: str
     force_rmse: float | None
     moment_rmse: float | None
     force_rmse_contact: float | None
     moment_rmse_contact: float | None
+    fx_rmse: float | None
+    fz_rmse: float | None
+    my_rmse: float | None
     ghost_force_max: float  # N, max |F_pred| over suite samples with the gap open
     ghost_force_rms: float  # N
     ghost_moment_max: float  # N m
@@ -122,6 +135,9 @@ def score_on_suite(
         "moment_rmse": m["moment_rmse"],
         "force_rmse_contact": m["force_rmse_contact"],
         "moment_rmse_contact": m["moment_rmse_contact"],
+        "fx_rmse": m["rmse_fx"],
+        "fz_rmse": m["rmse_fz"],
+        "my_rmse": m["rmse_my"],
         "ghost_force_max": largest(f_open),
         "ghost_force_rms": float(np.sqrt(np.mean(f_open**2))) if f_open.size else 0.0,
         "ghost_moment_max": largest(np.linalg.norm(pred[open_, 3:], axis=1)),
@@ -133,26 +149,31 @@ def score_on_suite(
     }
 
 
-def compare_architectures(
+def compare_variants(
     pool: list[PoolDataset],
     suite: Sequence[PoolDataset],
     config: SurrogateConfig,
     seed: int,
     preset: HeadNeckPreset,
-    architectures: Sequence[str] = ARCHITECTURES,
+    variants: Sequence[str] = tuple(VARIANTS),
     gap_tolerance: float = GAP_TOLERANCE,
 ) -> tuple[list[SuiteScore], dict[str, SurrogateModel]]:
-    """Train ``config`` with each architecture on ``pool`` (same seed) and score each on ``suite``."""
+    """Train ``config`` as each variant of :data:`VARIANTS` on ``pool`` (same seed) and score each on ``suite``."""
+    unknown = [v for v in variants if v not in VARIANTS]
+    if unknown:
+        raise ValueError(f"variants: {', '.join(map(repr, unknown))} not one of {', '.join(VARIANTS)}")
     scores, models = [], {}
-    for arch in architectures:
-        cfg = config.model_copy(update={"architecture": arch})
+    for variant in variants:
+        cfg = config.model_copy(update=VARIANTS[variant])
         t0 = time.perf_counter()
         result = train_surrogate(pool, cfg, seed, preset=preset)
         wall = time.perf_counter() - t0
         rmse = result.metrics.rmse
         scores.append(
             SuiteScore(
-                architecture=arch,
+                variant=variant,
+                architecture=cfg.architecture,
+                features=cfg.features,
                 **score_on_suite(result.model, suite, preset, gap_tolerance),
                 test_force_rmse=rmse["force"]["test"],
                 test_moment_rmse=rmse["moment"]["test"],
@@ -160,8 +181,8 @@ def compare_architectures(
                 train_wall_time_s=wall,
             )
         )
-        models[arch] = result.model
+        models[variant] = result.model
     return scores, models
 
 
-__all__ = ["ARCHITECTURES", "GAP_TOLERANCE", "SuiteScore", "compare_architectures", "replay_suite", "score_on_suite"]
+__all__ = ["GAP_TOLERANCE", "VARIANTS", "SuiteScore", "compare_variants", "replay_suite", "score_on_suite"]
