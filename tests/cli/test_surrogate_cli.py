@@ -495,3 +495,38 @@ def test_train_and_predict_on_a_chain_pool(tmp_path):
         app, ["surrogate", "preliminary", "--out", str(tmp_path / "pre"), "--task", "head-headrest-2dof"]
     )
     assert refused.exit_code == 2 and "task:" in refused.output
+
+
+def test_a_history_model_from_oracle_replays_alone_predicts_and_solves(tmp_path, monkeypatch):
+    """The CLI contract of the history feature set: `surrogate train` with {"features": "history"}
+    on a pool folder of oracle replays only (no preliminary data), `surrogate predict` computes the
+    history states from the trajectory itself (as alcove's prediction along it), and `ocp solve
+    --contact model:DIR` carries them in the OCP."""
+    from alcove.science.oracles.aux_penalty import AuxPenaltyOracle
+    from alcove.science.press_family import PressFamily, family_motions
+    from alcove.science.surrogate.artifact import load_artifact
+    from alcove.science.surrogate.training import predict_ensemble
+
+    monkeypatch.chdir(tmp_path)
+    Path("pool").mkdir()
+    motions = family_motions(PressFamily(), 7, 11, (DEFAULT_PRESET.theta_min, DEFAULT_PRESET.theta_max))
+    oracle = AuxPenaltyOracle()
+    for i, m in enumerate(motions[:6]):
+        tr = m.trajectory(0.005)
+        tr.to_csv(Path(f"pool/press{i}.traj.csv"))
+        oracle.run(tr).forces.to_csv(Path(f"pool/press{i}.forces.csv"))
+    Path("cfg.json").write_text(json.dumps({"features": "history", "max_epochs": 20, "ensemble_size": 2}))
+    result = invoke("surrogate", "train", "--pool", "pool", "--config", "cfg.json", "--seed", "3", "--out", "model")
+    assert result.exit_code == 0, result.output
+    model = load_artifact(Path("model"))
+    assert model.config.features == "history"
+    held = motions[6].trajectory(0.005)
+    held.to_csv(Path("held.traj.csv"))
+    result = invoke("surrogate", "predict", "--model", "model", "--trajectory", "held.traj.csv", "--out", "pred.csv")
+    assert result.exit_code == 0, result.output
+    got = np.loadtxt("pred.csv", delimiter=",", skiprows=1)
+    want = predict_ensemble(model, held.q, held.qd, t=held.t)
+    np.testing.assert_allclose(got[:, 1:4], want.force, rtol=1e-9, atol=1e-9)
+    result = invoke("ocp", "solve", "--contact", "model:model", "--intervals", "40", "--out", "sol.traj.csv", "--json")
+    assert result.exit_code == 0, result.output
+    assert json.loads(result.output[result.output.index("{") :])["status"] == "Solve_Succeeded"
