@@ -9,7 +9,7 @@ import { describe, expect, it } from "vitest";
 import { render, screen, within } from "@testing-library/react";
 import userEvent from "@testing-library/user-event";
 import { readNumber, NumberInput, type NumberText } from "./NumberInput";
-import { SchemaForm, schemaFieldPaths, schemaLocalErrors, type JsonSchema } from "./SchemaForm";
+import { parseNumberList, SchemaForm, schemaFieldPaths, schemaLocalErrors, type JsonSchema } from "./SchemaForm";
 import { errorView, schemaLabel } from "../lib/formErrors";
 import { PhasesTable, phaseFieldPaths, phaseLocalErrors, type PhaseRow } from "../task/PhasesTable";
 import { ChainEditor, chainFieldPaths, chainLocalErrors } from "../task/ChainEditor";
@@ -48,6 +48,11 @@ describe("readNumber", () => {
     expect(readNumber("abc")).toBe("abc");
     expect(readNumber("0x10")).toBe("0x10");
     expect(readNumber("Infinity")).toBe("Infinity");
+  });
+
+  it("reads a list field's items the same way: no hex or other silent rewrite", () => {
+    expect(parseNumberList("0.1, 0x10, abc, 1e-4")).toEqual([0.1, "0x10", "abc", 0.0001]);
+    expect(parseNumberList(" , ")).toBeNull();
   });
 
   it("shows a value set from outside, and keeps the typed text while it reads as the value", async () => {

@@ -7,7 +7,7 @@ import { useId } from "react";
 import type { FieldError } from "../api/errors";
 import { atFieldText, noErrors, type ErrorView, type Problem } from "../lib/formErrors";
 import { resolveRef, unwrapNullable, type JsonSchema } from "../lib/jsonSchema";
-import { NumberInput } from "./NumberInput";
+import { NumberInput, readNumber } from "./NumberInput";
 import { boundText } from "../api/errors";
 
 export { resolveRef, unwrapNullable, type JsonSchema };
@@ -96,15 +96,10 @@ export function schemaLocalErrors(schema: JsonSchema, value: Values | undefined,
   return out;
 }
 
-/** A number as typed: "" -> empty, "2.5" stays 2.5 in a whole-number field (the form says so; nothing is rounded). */
-export function parseNumber(raw: string): number | undefined {
-  return raw.trim() === "" ? undefined : Number(raw);
-}
-
-/** A comma-separated list of numbers as typed ("" -> null: the default). Unreadable items stay NaN, and the form says so. */
-export function parseNumberList(text: string): number[] | null {
+/** A comma-separated list of numbers as typed ("" -> null: the default). An item that is no number ("abc", "0x10") stays as its text, and the form names it. */
+export function parseNumberList(text: string): (number | string)[] | null {
   const parts = text.split(",").map((x) => x.trim()).filter(Boolean);
-  return parts.length ? parts.map(Number) : null;
+  return parts.length ? parts.map((x) => readNumber(x) ?? x) : null;
 }
 
 interface FieldProps {
