@@ -48,7 +48,7 @@ def history_model():
 
 
 def test_the_carried_states_are_the_recursion_of_the_optimal_motion(history_model):
-    task = task_preset("head-headrest-2phase").with_intervals(60)
+    task = task_preset("head-headrest-2phase").with_intervals(30)
     fn, params = surrogate_contact(history_model, P)
     history = surrogate_history(history_model, P)
     sol = solve_task(task, fn, contact_params=params, history=history)
@@ -73,7 +73,7 @@ def test_the_carried_states_are_the_recursion_of_the_optimal_motion(history_mode
 
 
 def test_a_trust_region_bounds_the_ensemble_std_with_the_states(history_model):
-    task = task_preset("head-headrest-2phase").with_intervals(40)
+    task = task_preset("head-headrest-2phase").with_intervals(24)
     fn, params = surrogate_contact(history_model, P)
     std_fn, _ = surrogate_contact_std(history_model, P)
     history = surrogate_history(history_model, P)
