@@ -274,3 +274,30 @@ def test_the_auxiliary_laws_samples_teach_that_it_has_no_memory():
     size = np.linalg.norm(steady, axis=1).mean()
     assert size > 20.0
     assert np.linalg.norm(moved - steady, axis=1).mean() < 0.1 * size
+
+
+def test_the_paper_feature_set_is_the_papers_model_unchanged(smooth_pool):
+    """The default takes the 19 features alone, with no history anywhere: its inputs are
+    features(kinematics) exactly, in training and in prediction (times given or not), and saying
+    'paper' explicitly trains the same weights bit for bit."""
+    from alcove.science.surrogate.features import FEATURE_NAMES, features
+    from alcove.science.surrogate.training import pool_features, preset_kinematics
+
+    default = SurrogateConfig.parse({"max_epochs": 3, "ensemble_size": 2})
+    assert default.features == "paper" and default.input_names == FEATURE_NAMES
+    kin = preset_kinematics(P)
+    x = pool_features(smooth_pool, kin)
+    want = np.concatenate([features(kin(ds.q, ds.qd)) for ds in smooth_pool])
+    np.testing.assert_array_equal(x, want)
+    a = train_surrogate(smooth_pool, default, 5, preset=P).model
+    b = train_surrogate(
+        smooth_pool, SurrogateConfig.parse({**default.model_dump(), "features": "paper"}), 5, preset=P
+    ).model
+    ds = smooth_pool[0]
+    for m in (a, b):
+        direct = m.predict_ensemble(features(kin(ds.q, ds.qd)))
+        np.testing.assert_array_equal(predict_ensemble(m, ds.q, ds.qd).force, direct.force)
+        np.testing.assert_array_equal(predict_ensemble(m, ds.q, ds.qd, t=ds.t).force, direct.force)
+    for ma, mb in zip(a.members, b.members, strict=True):
+        for pa, pb in zip(ma.force_net.parameters(), mb.force_net.parameters(), strict=True):
+            assert bool((pa == pb).all())
