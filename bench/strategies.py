@@ -251,7 +251,8 @@ def main(argv: list[str] | None = None) -> int:
         "--retrain",
         nargs=3,
         metavar=("STRATEGY", "SEED", "BUDGET"),
-        help="diagnostic: that run's pool after BUDGET calls trained from scratch (appended to retrain.jsonl)",
+        help="diagnostic: that run's pool after BUDGET calls trained from scratch, with --surrogate if given "
+        "(appended to retrain.jsonl)",
     )
     ap.add_argument(
         "--merge",
@@ -294,7 +295,8 @@ def main(argv: list[str] | None = None) -> int:
 
     if args.retrain:
         st, sd, b = args.retrain[0], int(args.retrain[1]), int(args.retrain[2])
-        row = retrain(args.work_dir / f"run-{st}-{sd}.json", args.work_dir / f"store-{st}-{sd}", b, sd)
+        override = surrogate if args.surrogate != "{}" else None  # --surrogate: train that config on the pool
+        row = retrain(args.work_dir / f"run-{st}-{sd}.json", args.work_dir / f"store-{st}-{sd}", b, sd, override)
         print(json.dumps(row))
         if row is not None:
             with (args.work_dir / "retrain.jsonl").open("a") as f:

@@ -33,11 +33,14 @@ def fresh_store(data_dir: Path) -> None:
     migrate.upgrade()
 
 
-def retrain(run_file: Path, store: Path, budget: int, seed: int) -> dict[str, Any] | None:
+def retrain(
+    run_file: Path, store: Path, budget: int, seed: int, surrogate: dict[str, Any] | None = None
+) -> dict[str, Any] | None:
     """Diagnostic: the pool a run had after ``budget`` oracle calls, trained from scratch
     (``warm_start`` off: every member up to ``max_epochs`` with early stopping, like model
     version 1), scored on the same validation suite. Separates what the strategy collected from
-    what the campaign's chain of warm-started trainings made of it."""
+    what the campaign's chain of warm-started trainings made of it. ``surrogate``: another
+    configuration to train on that pool (e.g. the other feature set; default: the run's)."""
     run = json.loads(run_file.read_text())
     row = run["budgets"].get(str(budget))
     if row is None:
@@ -57,7 +60,8 @@ def retrain(run_file: Path, store: Path, budget: int, seed: int) -> dict[str, An
         pv = s.query(PoolVersion).filter_by(campaign_id=c.id, version=row["pool_version"]).one()
         pool = load_training_pool(s, pv)
         motions = _suite_arrays(s, c.validation_suite_id)
-    config = SurrogateConfig.parse({**run.get("surrogate", {}), "warm_start": False})
+    chosen = run.get("surrogate", {}) if surrogate is None else surrogate
+    config = SurrogateConfig.parse({**chosen, "warm_start": False})
     preset = task_preset(TASK).model.oracle_preset()
     result = train_surrogate(pool, config, 1000 + seed, preset=preset)
     m = _metrics(result.model, motions)
@@ -67,8 +71,11 @@ def retrain(run_file: Path, store: Path, budget: int, seed: int) -> dict[str, An
         "budget": budget,
         "oracle_calls": row["oracle_calls"],
         "campaign_force_rmse": row["force_rmse"],
+        "features": config.features,
         "retrained_force_rmse": m["force_rmse"],
         "retrained_moment_rmse": m["moment_rmse"],
+        "retrained_components": m["components"],
+        "retrained_calibration": m["calibration"],
         "epochs": result.metrics.epochs,
         "wall_s": time.perf_counter() - t0,
         "cpu_s": cpu_seconds() - cpu0,
