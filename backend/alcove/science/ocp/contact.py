@@ -28,7 +28,6 @@ transcription carries as extra discrete states (:mod:`.dmocc`).
 
 from __future__ import annotations
 
-from dataclasses import dataclass
 from pathlib import Path
 
 import casadi as ca
@@ -39,6 +38,7 @@ from alcove.science.arrays import FloatArray
 from alcove.science.errors import FieldError
 from alcove.science.geometry import HeadNeckPreset
 from alcove.science.multibody import PlanarChain
+from alcove.science.ocp.contact_history import ContactHistory
 from alcove.science.oracles.aux_penalty import AuxPenaltyParams, contact_point
 from alcove.science.symbolic import Symbolic
 
@@ -115,20 +115,6 @@ def _aux(chain: PlanarChain, r_sp: FloatArray, params: AuxPenaltyParams, smoothi
     force = ca.vertcat(smooth_ramp(f, smoothing.force_width), 0, 0)
     moment = ca.cross(arm, force)
     return ca.Function("contact_aux", [q, qd], [ca.vertcat(force, moment)], ["q", "qd"], ["wrench"])
-
-
-@dataclass(frozen=True)
-class ContactHistory:
-    """The history states of a contact model with memory: ``step`` ``(z, q, qd, dt) -> z_next``
-    (the states at the next sample, from the state there and the time since the last sample)
-    and ``steady`` ``(q, qd) -> z`` (the states of the first sample)."""
-
-    step: ca.Function
-    steady: ca.Function
-
-    @property
-    def size(self) -> int:
-        return int(self.steady.size1_out(0))
 
 
 def history_input_size(fn: ca.Function | None) -> int:
