@@ -356,6 +356,42 @@ def test_the_reconciler_requeues_a_step_whose_worker_died_and_ignores_the_dead_j
         assert len(surrogates_repo.own_versions(s, cid)) == 1
 
 
+def test_a_worker_started_again_under_the_same_name_does_not_hide_its_dead_predecessor(
+    sqlite_campaign_db: str, make_campaign
+) -> None:
+    """A worker claims a step and is killed; a new worker process starts under the same name
+    within the dead-worker threshold and beats: the step is taken back on the next pass, not after
+    its lease, because the process that claimed it is gone. A step claimed around the new
+    process's own first beat (within a heartbeat interval) stays its own."""
+    from alcove.jobs.heartbeat import beat
+
+    cid, jobs = make_campaign(stopping={"max_iterations": 1})
+    protocol.run_step(cid, 0, "preliminary", 1, send=list(jobs).extend)
+    beat("w1@host", starting=True)
+    with session_scope() as s:
+        step = repository.get_step(s, cid, 1, "train")
+        assert repository.claim_step(s, step.id, 1, "old-token", "w1@host", lease_seconds=600)
+    with session_scope() as s:  # the claiming worker beats: its step is its own
+        assert mine(reconcile(s, stale_queued_s=600, dead_worker_s=10), cid) == []
+    beat("w1@host")  # a later beat of the same process changes nothing
+    with session_scope() as s:
+        assert mine(reconcile(s, stale_queued_s=600, dead_worker_s=10), cid) == []
+    beat("w1@host", starting=True)  # a first beat just after this process claimed the step
+    with session_scope() as s:
+        assert mine(reconcile(s, stale_queued_s=600, dead_worker_s=10), cid) == []
+    beat("w1@host", starting=True)  # a new process under the same name, seconds after the claim
+    with session_scope() as s:
+        s.execute(
+            sa.update(IterationStep)
+            .where(IterationStep.id == step.id)
+            .values(started_at=utcnow() - timedelta(seconds=5))
+        )
+    with session_scope() as s:
+        (job,) = mine(reconcile(s, stale_queued_s=600, dead_worker_s=10), cid)
+        assert "stopped beating (dead)" in (repository.get_step(s, cid, 1, "train").error or "")
+    assert (job.iteration, job.step.value, job.attempt) == (1, "train", 2)
+
+
 def test_the_reconciler_resends_a_queued_step_whose_message_was_lost(sqlite_campaign_db: str, make_campaign) -> None:
     cid, jobs = make_campaign(stopping={"max_iterations": 1})
     with session_scope() as s:

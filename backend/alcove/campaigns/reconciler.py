@@ -30,6 +30,7 @@ from alcove.campaigns import transitions
 from alcove.campaigns.schemas import StepJob
 from alcove.campaigns.state_machine import Outcome, StepRef
 from alcove.models import Campaign, StepName, StepStatus, utcnow
+from alcove.settings import get_settings
 
 log = logging.getLogger(__name__)
 
@@ -41,7 +42,9 @@ def reconcile(s: Session, *, stale_queued_s: float, dead_worker_s: float | None 
     now = utcnow()
     jobs: list[StepJob] = []
     dead_before = None if dead_worker_s is None else now - timedelta(seconds=dead_worker_s)
-    for k, row, why in repo.abandoned_running_steps(s, now, dead_before):
+    # a worker's first beat follows its start by less than a heartbeat interval
+    margin = float(get_settings().worker_heartbeat_seconds)
+    for k, row, why in repo.abandoned_running_steps(s, now, dead_before, restart_margin_s=margin):
         c = repo.get_campaign(s, row.campaign_id, lock=True)
         ref = StepRef(k, StepName(row.step), row.slot)
         if c.is_terminal:

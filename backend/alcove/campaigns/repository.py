@@ -194,21 +194,44 @@ def _skip_locked(s: Session, q: sa.Select[*Ts]) -> sa.Select[*Ts]:
 
 
 def abandoned_running_steps(
-    s: Session, now: datetime, dead_before: datetime | None = None
+    s: Session, now: datetime, dead_before: datetime | None = None, restart_margin_s: float = 2.0
 ) -> list[tuple[int, IterationStep, str]]:
     """Running steps nobody works on any more, with why: the lease expired (``lease``), or
     (with ``dead_before``) the worker that claimed them stopped beating before
-    ``dead_before`` or shut down (``dead``). A worker that is alive keeps beating from its
-    main process however long its step computes, so its steps are never taken from it."""
+    ``dead_before``, shut down, or was started again under the same name after it claimed
+    them (``dead``): its heartbeat's ``started_at``, set by the new process's first beat, is
+    more than ``restart_margin_s`` (a heartbeat interval: the first beat follows the worker's
+    start by less) after the step's, so the process that ran the step is gone. A worker that is
+    alive keeps beating from its main process however long its step computes, so its steps are
+    never taken from it."""
     hb = WorkerHeartbeat
-    dead = sa.false() if dead_before is None else sa.or_(hb.last_seen_at < dead_before, hb.stopped_at.is_not(None))
+    gone = sa.false() if dead_before is None else sa.or_(hb.last_seen_at < dead_before, hb.stopped_at.is_not(None))
+    restarted = sa.false() if dead_before is None else IterationStep.started_at < hb.started_at
     q = (
-        sa.select(Iteration.index, IterationStep, sa.case((dead, "dead"), else_="lease"))
+        sa.select(
+            Iteration.index,
+            IterationStep,
+            sa.case((gone, "dead"), (restarted, "restarted"), else_="lease"),
+            hb.started_at,
+        )
         .join(Iteration, Iteration.id == IterationStep.iteration_id)
         .outerjoin(hb, hb.name == IterationStep.worker_name)
-        .where(IterationStep.status == StepStatus.running.value, sa.or_(IterationStep.lease_until < now, dead))
+        .where(
+            IterationStep.status == StepStatus.running.value, sa.or_(IterationStep.lease_until < now, gone, restarted)
+        )
     )
-    return [(i, st, why) for i, st, why in s.execute(_skip_locked(s, q))]
+    out = []
+    margin = timedelta(seconds=restart_margin_s)
+    for i, st, why, worker_started in s.execute(_skip_locked(s, q)):
+        if why == "restarted":
+            if st.lease_until is not None and st.lease_until < now:
+                why = "lease"
+            elif st.started_at is None or worker_started is None or st.started_at > worker_started - margin:
+                continue  # claimed around the worker's own start: its first beat came after the claim
+            else:
+                why = "dead"
+        out.append((i, st, why))
+    return out
 
 
 def stale_queued_steps(s: Session, before: datetime) -> list[tuple[int, IterationStep]]:
