@@ -14,7 +14,7 @@
 import { mkdirSync, readFileSync } from "node:fs";
 import { createRequire } from "node:module";
 import { resolve } from "node:path";
-import { openBrowser, openTab, parseArgs, signInByToken } from "./browser.mjs";
+import { apiClient, openBrowser, openTab, parseArgs, signInByToken, waitFor } from "./browser.mjs";
 
 const require = createRequire(import.meta.url);
 const AXE_SOURCE = readFileSync(require.resolve("axe-core/axe.min.js"), "utf8");
@@ -26,22 +26,6 @@ const artifacts = resolve(String(args.artifacts ?? "test-artifacts"));
 mkdirSync(artifacts, { recursive: true });
 const t0 = Date.now();
 const step = (name) => console.log(`[a11y ${((Date.now() - t0) / 1000).toFixed(1)} s] ${name}`);
-const sleep = (ms) => new Promise((r) => setTimeout(r, ms));
-
-async function waitFor(fn, what, timeout = 30_000, interval = 250) {
-  const deadline = Date.now() + timeout;
-  let last;
-  while (Date.now() < deadline) {
-    try {
-      last = await fn();
-      if (last) return last;
-    } catch (err) {
-      last = err;
-    }
-    await sleep(interval);
-  }
-  throw new Error(`timed out waiting for ${what} (last: ${last})`);
-}
 
 const { context, close } = await openBrowser();
 const page = context.pages()[0] ?? (await context.newPage());
@@ -49,11 +33,7 @@ const pageErrors = [];
 page.on("pageerror", (e) => pageErrors.push(String(e)));
 
 let token;
-async function api(method, path, body) {
-  const r = await page.request.fetch(`${baseUrl}/api/v1${path}`, { method, data: body, headers: { Authorization: `Bearer ${token}` } });
-  if (!r.ok()) throw new Error(`${method} ${path}: ${r.status()} ${await r.text()}`);
-  return r.status() === 204 ? null : r.json();
-}
+const api = apiClient(page, baseUrl, () => token);
 
 /** axe-core's violations of the page as it is now, one line each (rule, impact, the first nodes). */
 async function violations() {

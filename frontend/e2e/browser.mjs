@@ -72,3 +72,30 @@ export async function openTab(page, name) {
   const panel = await tab.getAttribute("aria-controls");
   if (panel) await page.locator(`#${panel}`).waitFor();
 }
+
+export const sleep = (ms) => new Promise((r) => setTimeout(r, ms));
+
+/** Poll ``fn`` until it returns something truthy; an error it throws counts as not yet. */
+export async function waitFor(fn, what, timeout = 30_000, interval = 250) {
+  const deadline = Date.now() + timeout;
+  let last;
+  while (Date.now() < deadline) {
+    try {
+      last = await fn();
+      if (last) return last;
+    } catch (err) {
+      last = err;
+    }
+    await sleep(interval);
+  }
+  throw new Error(`timed out waiting for ${what} (last: ${last})`);
+}
+
+/** ``api(method, path, body)`` on ``baseUrl``/api/v1 with the bearer token ``token()`` returns at the call. */
+export function apiClient(page, baseUrl, token) {
+  return async (method, path, body) => {
+    const r = await page.request.fetch(`${baseUrl}/api/v1${path}`, { method, data: body, headers: { Authorization: `Bearer ${token()}` } });
+    if (!r.ok()) throw new Error(`${method} ${path}: ${r.status()} ${await r.text()}`);
+    return r.status() === 204 ? null : r.json();
+  };
+}

@@ -13,7 +13,7 @@
  */
 import { mkdirSync } from "node:fs";
 import { resolve } from "node:path";
-import { openBrowser, parseArgs, signInByToken } from "./browser.mjs";
+import { apiClient, openBrowser, parseArgs, signInByToken, waitFor } from "./browser.mjs";
 
 const args = parseArgs(process.argv.slice(2));
 const baseUrl = String(args["base-url"] ?? "http://127.0.0.1:8000").replace(/\/$/, "");
@@ -23,23 +23,7 @@ const artifacts = resolve(String(args.artifacts ?? "test-artifacts"));
 mkdirSync(artifacts, { recursive: true });
 const t0 = Date.now();
 const step = (name) => console.log(`[forms ${((Date.now() - t0) / 1000).toFixed(1)} s] ${name}`);
-const sleep = (ms) => new Promise((r) => setTimeout(r, ms));
 const TYPED = ["0.0005", "0.3001", "0.0025", "1e-4", "1e308", "-0.005"];
-
-async function waitFor(fn, what, timeout = 30_000, interval = 200) {
-  const deadline = Date.now() + timeout;
-  let last;
-  while (Date.now() < deadline) {
-    try {
-      last = await fn();
-      if (last) return last;
-    } catch (err) {
-      last = err;
-    }
-    await sleep(interval);
-  }
-  throw new Error(`timed out waiting for ${what} (last: ${last})`);
-}
 
 const { context, close } = await openBrowser();
 const page = context.pages()[0] ?? (await context.newPage());
@@ -47,11 +31,7 @@ const pageErrors = [];
 page.on("pageerror", (e) => pageErrors.push(String(e)));
 
 let token;
-async function api(method, path, body) {
-  const r = await page.request.fetch(`${baseUrl}/api/v1${path}`, { method, data: body, headers: { Authorization: `Bearer ${token}` } });
-  if (!r.ok()) throw new Error(`${method} ${path}: ${r.status()} ${await r.text()}`);
-  return r.status() === 204 ? null : r.json();
-}
+const api = apiClient(page, baseUrl, () => token);
 
 /** Empty the field, then type `text` one key at a time: after each key the field holds exactly the keys typed so far. */
 async function typeKeyByKey(field, text, where) {

@@ -24,7 +24,7 @@
  */
 import { mkdirSync } from "node:fs";
 import { resolve } from "node:path";
-import { openBrowser, openTab, parseArgs, signInByToken } from "./browser.mjs";
+import { apiClient, openBrowser, openTab, parseArgs, signInByToken, sleep, waitFor } from "./browser.mjs";
 
 const args = parseArgs(process.argv.slice(2));
 const baseUrl = String(args["base-url"] ?? "http://127.0.0.1:8000").replace(/\/$/, "");
@@ -36,23 +36,7 @@ const endings = Number(args.endings ?? 5);
 mkdirSync(artifacts, { recursive: true });
 const t0 = Date.now();
 const step = (name) => console.log(`[live ${((Date.now() - t0) / 1000).toFixed(1)} s] ${name}`);
-const sleep = (ms) => new Promise((r) => setTimeout(r, ms));
 const TERMINAL = ["completed", "failed", "cancelled"];
-
-async function waitFor(fn, what, timeout = 30_000, interval = 250) {
-  const deadline = Date.now() + timeout;
-  let last;
-  while (Date.now() < deadline) {
-    try {
-      last = await fn();
-      if (last) return last;
-    } catch (err) {
-      last = err;
-    }
-    await sleep(interval);
-  }
-  throw new Error(`timed out waiting for ${what} (last: ${last})`);
-}
 
 const { context, close } = await openBrowser();
 const page = context.pages()[0] ?? (await context.newPage());
@@ -73,11 +57,7 @@ const requests = [];
 page.on("request", (r) => requests.push({ t: Date.now(), method: r.method(), url: new URL(r.url()) }));
 
 let token;
-async function api(method, path, body) {
-  const r = await page.request.fetch(`${baseUrl}/api/v1${path}`, { method, data: body, headers: { Authorization: `Bearer ${token}` } });
-  if (!r.ok()) throw new Error(`${method} ${path}: ${r.status()} ${await r.text()}`);
-  return r.status() === 204 ? null : r.json();
-}
+const api = apiClient(page, baseUrl, () => token);
 const serverIterations = async (id) => (await api("GET", `/campaigns/${id}/metrics`)).map((m) => m.iteration_index).join(",");
 
 try {

@@ -17,7 +17,7 @@
  */
 import { copyFileSync, mkdirSync, statSync } from "node:fs";
 import { resolve } from "node:path";
-import { openBrowser, openTab, parseArgs } from "./browser.mjs";
+import { openBrowser, openTab, parseArgs, waitFor } from "./browser.mjs";
 
 const args = parseArgs(process.argv.slice(2));
 const baseUrl = String(args["base-url"] ?? "http://127.0.0.1:8000").replace(/\/$/, "");
@@ -49,21 +49,6 @@ function step(name) {
 
 async function plotPoints(page, testId) {
   return Number((await page.getByTestId(testId).getAttribute("data-points")) ?? 0);
-}
-
-async function waitFor(fn, what, timeout = 30_000, interval = 500) {
-  const deadline = Date.now() + timeout;
-  let last;
-  while (Date.now() < deadline) {
-    try {
-      last = await fn();
-      if (last) return last;
-    } catch (err) {
-      last = err;
-    }
-    await new Promise((r) => setTimeout(r, interval));
-  }
-  throw new Error(`timed out waiting for ${what} (last: ${last})`);
 }
 
 /** Set a slider (input type=range) as a user's drag does: the value, then an input event. */
