@@ -1,6 +1,7 @@
 /** Campaigns: the list, one campaign, its iterations' data, jobs, pool and model versions, and the lifecycle. */
 import { keepPreviousData, queryOptions, useMutation, useQuery, useQueryClient } from "@tanstack/react-query";
 import { client, unwrap } from "./client";
+import { refetchAfterWrite } from "./refresh";
 import { keys } from "./series";
 import { columns, type CampaignOut, type CampaignStatus, type CampaignSummary, type ForkRequest, type IterationCurves, type Job, type ModelVersion, type PoolVersion, type Schemas, type WholeTrajectory, type Wrench } from "./types";
 
@@ -176,9 +177,10 @@ export function useCampaignAction(id: number) {
     mutationFn: (action: Action) => campaignAction(id, action),
     onSuccess: (detail) => qc.setQueryData(keys.campaign(id), detail),
     onSettled: () => {
+      // the detail was just set from the answer: a cancel would revert it to the state before
       void qc.invalidateQueries({ queryKey: keys.campaign(id) });
       void qc.invalidateQueries({ queryKey: keys.jobs(id) });
-      void qc.invalidateQueries({ queryKey: keys.campaigns });
+      void refetchAfterWrite(qc, keys.campaigns);
     },
   });
 }
@@ -187,7 +189,7 @@ export function useForkCampaign(id: number) {
   const qc = useQueryClient();
   return useMutation({
     mutationFn: async (body: ForkRequest): Promise<CampaignOut> => unwrap(await client.POST("/api/v1/campaigns/{campaign_id}/fork", { params: { path: { campaign_id: id } }, body })),
-    onSuccess: () => qc.invalidateQueries({ queryKey: keys.campaigns }),
+    onSuccess: () => refetchAfterWrite(qc, keys.campaigns),
   });
 }
 
@@ -195,6 +197,6 @@ export function useCreateCampaign() {
   const qc = useQueryClient();
   return useMutation({
     mutationFn: async (body: Schemas["CampaignCreateIn"]): Promise<CampaignOut> => unwrap(await client.POST("/api/v1/campaigns", { body })),
-    onSuccess: () => qc.invalidateQueries({ queryKey: keys.campaigns }),
+    onSuccess: () => refetchAfterWrite(qc, keys.campaigns),
   });
 }

@@ -4,6 +4,7 @@
  */
 import { useMutation, useQuery, useQueryClient } from "@tanstack/react-query";
 import { client, unwrap } from "./client";
+import { refetchAfterWrite } from "./refresh";
 import { ApiError, fieldErrors, type FieldError } from "./errors";
 import type { JsonSchema } from "../components/SchemaForm";
 import type { ModelPreset, Oracle, OracleType, ScenarioPreview, Schemas, Share, SurrogateConfig, Task, TaskPreset, TaskSpecDraft } from "./types";
@@ -100,7 +101,7 @@ export function useShares(kind: DefinitionKind, id: number | null) {
 }
 export function useShare(kind: DefinitionKind, id: number | null) {
   const qc = useQueryClient();
-  const refresh = () => qc.invalidateQueries({ queryKey: [kind, id, "shares"] });
+  const refresh = () => refetchAfterWrite(qc, [kind, id, "shares"]);
   const add = useMutation({
     mutationFn: async (body: { email: string; permission: "view" | "edit" }) =>
       unwrap(await client.POST("/api/v1/shares", { body: { ...body, object_type: kind, object_id: id ?? 0 } })),
@@ -156,7 +157,7 @@ export function useSaveTask(id: number | null) {
         ? unwrap(await client.POST("/api/v1/tasks", { body: b }))
         : unwrap(await client.PUT("/api/v1/tasks/{task_id}", { params: { path: { task_id: id } }, body: b }));
     },
-    onSuccess: () => qc.invalidateQueries({ queryKey: ["task"] }).then(() => qc.invalidateQueries({ queryKey: ["tasks"] })),
+    onSuccess: () => refetchAfterWrite(qc, ["task"]).then(() => refetchAfterWrite(qc, ["tasks"])),
   });
 }
 
@@ -175,6 +176,6 @@ export function useSaveOracle(id: number | null) {
       id === null
         ? unwrap(await client.POST("/api/v1/oracles", { body }))
         : unwrap(await client.PUT("/api/v1/oracles/{oracle_id}", { params: { path: { oracle_id: id } }, body })),
-    onSuccess: () => qc.invalidateQueries({ queryKey: ["oracle"] }).then(() => qc.invalidateQueries({ queryKey: ["oracles"] })),
+    onSuccess: () => refetchAfterWrite(qc, ["oracle"]).then(() => refetchAfterWrite(qc, ["oracles"])),
   });
 }

@@ -9,6 +9,7 @@ import { useQueryClient, type QueryClient } from "@tanstack/react-query";
 import { storedToken } from "./auth";
 import { ApiError } from "./errors";
 import { ensureIteration, hasSeries, keys } from "./series";
+import { refetchAfterWrite } from "./refresh";
 import { isTerminal, type CampaignEvent } from "./types";
 
 export interface SseFrame {
@@ -213,8 +214,9 @@ export function invalidationsFor(e: CampaignEvent): (readonly unknown[])[] {
 export function applyEvents(qc: QueryClient, events: CampaignEvent[]): void {
   const todo = new Map<string, readonly unknown[]>();
   for (const e of events) for (const key of invalidationsFor(e)) todo.set(JSON.stringify(key), key);
-  // prefixes: ["campaign", 7] is that campaign's detail only; the list's key carries its filters
-  for (const key of todo.values()) void qc.invalidateQueries({ queryKey: key });
+  // prefixes: ["campaign", 7] is that campaign's detail only; the list's key carries its filters;
+  // a first fetch still on its way may have read before the event's change: fetched again
+  for (const key of todo.values()) void refetchAfterWrite(qc, key);
   const evaluated = new Map<number, number>();
   for (const e of events)
     if (e.kind === "step_succeeded" && e.step === "evaluate" && e.iteration_index !== null) evaluated.set(e.campaign_id, Math.max(evaluated.get(e.campaign_id) ?? -1, e.iteration_index));

@@ -1,6 +1,7 @@
 /** Sign-in, the signed-in user and their API tokens. */
 import { useMutation, useQuery, useQueryClient } from "@tanstack/react-query";
 import { client, unwrap } from "./client";
+import { refetchAfterWrite } from "./refresh";
 import type { Me, Token } from "./types";
 
 /** Thrown for 429: too many failed sign-ins from this address (``retryAfterS``: seconds to wait). */
@@ -35,7 +36,7 @@ export function useCreateToken() {
   const qc = useQueryClient();
   return useMutation({
     mutationFn: async (body: { name: string }) => unwrap(await client.POST("/api/v1/me/tokens", { body })),
-    onSuccess: () => qc.invalidateQueries({ queryKey: ["tokens"] }),
+    onSuccess: () => refetchAfterWrite(qc, ["tokens"]),
   });
 }
 
@@ -46,6 +47,6 @@ export function useRevokeToken() {
       const r = await client.DELETE("/api/v1/me/tokens/{token_id}", { params: { path: { token_id: id } } });
       if (!r.response.ok) unwrap(r);
     },
-    onSuccess: () => qc.invalidateQueries({ queryKey: ["tokens"] }),
+    onSuccess: () => refetchAfterWrite(qc, ["tokens"]),
   });
 }

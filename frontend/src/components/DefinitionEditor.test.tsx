@@ -46,4 +46,50 @@ describe("definition editor shell (tasks and oracles)", () => {
     expect(screen.getByRole("status")).toHaveTextContent("Shared with bo@lab. If no account uses this address yet, the account made with it will get it.");
     expect(calls.find((c) => c.method === "POST" && c.path === "/shares")?.body).toEqual({ email: "bo@lab", permission: "view", object_type: "oracle", object_id: 3 });
   });
+
+  it("lists a share made while the list's first request was still on its way", async () => {
+    // the first GET read the empty list before the share committed and answers after it: the
+    // list must be fetched again, not joined onto that answer
+    let shares: { id: number; email: string; permission: string }[] = [];
+    let answerFirstList: () => void = () => {};
+    const firstListRead = new Promise<void>((resolve) => (answerFirstList = resolve));
+    let lists = 0;
+    mockApi({
+      "GET /oracles/3/versions": [],
+      "GET /shares": () => {
+        lists += 1;
+        if (lists > 1) return shares;
+        const snapshot = [...shares];
+        return firstListRead.then(() => snapshot);
+      },
+      "POST /shares": (_u: URL, body: { email: string; permission: string }) => {
+        shares = [{ id: 1, email: body.email, permission: body.permission }];
+        return jsonResponse({ ...shares[0], object_type: "oracle", object_id: 3, created_at: "" }, 201);
+      },
+    });
+    renderPage(
+      <DefinitionEditor
+        kind="oracle"
+        noun="oracle"
+        existing={{ id: 3, version: 1, version_locked: false, can_edit: true }}
+        name="aux"
+        setName={() => {}}
+        description=""
+        setDescription={() => {}}
+        errors={noErrors}
+        saving={false}
+        onSave={() => {}}
+      >
+        <p>parameters</p>
+      </DefinitionEditor>,
+    );
+    await waitFor(() => expect(lists).toBe(1));
+    await userEvent.type(screen.getByLabelText("Share with"), "bo@lab");
+    const share = userEvent.click(screen.getByRole("button", { name: "Share" }));
+    await waitFor(() => expect(shares).toHaveLength(1)); // stored; the first list answer is still to come
+    answerFirstList();
+    await share;
+    await waitFor(() => expect(screen.getByText("bo@lab (view)")).toBeInTheDocument());
+    expect(lists).toBe(2);
+  });
 });

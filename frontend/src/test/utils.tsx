@@ -21,7 +21,7 @@ export function mockApi(routes: Record<string, Handler | unknown>) {
     const key = `${method} ${path}`;
     const match = Object.entries(routes).find(([pattern]) => new RegExp(`^${pattern.replace(/\{[^}]+\}/g, "[^/]+")}$`).test(key));
     if (!match) return new Response(JSON.stringify({ detail: `no mock for ${key}` }), { status: 404 });
-    const value = typeof match[1] === "function" ? (match[1] as Handler)(url, body) : match[1];
+    const value = await (typeof match[1] === "function" ? (match[1] as Handler)(url, body) : match[1]);
     if (value instanceof Response) return value;
     return new Response(JSON.stringify(value), { status: 200, headers: { "Content-Type": "application/json" } });
   });
