@@ -1,11 +1,13 @@
 """The layout contributors rely on (docs/architecture.md): a domain never imports one above
-it, the web plumbing imports no domain, and no module outside the science package grows
-past 400 lines. Read from the code's own imports (every import, also those inside functions
-and under TYPE_CHECKING)."""
+it, the web plumbing imports no domain, the science package is layered the same way inside,
+the architecture page's import tables are the measured ones, and no module outside the
+science package grows past 400 lines. Read from the code's own imports (every import, also
+those inside functions and under TYPE_CHECKING)."""
 
 from __future__ import annotations
 
 import ast
+import re
 from collections import defaultdict
 from pathlib import Path
 
@@ -39,10 +41,32 @@ FLOORS: dict[str, int] = {
 SIDEWAYS: set[tuple[str, str]] = {("settings", "errors"), ("models", "errors")}
 MAX_LINES = 400
 
+#: The units of ``alcove.science`` (a subpackage or module) and their floors, read the same way:
+#: the tools every part uses at the bottom, the OCP (which takes any contact model: the
+#: auxiliary law or a surrogate) at the top.
+SCIENCE_FLOORS: dict[str, int] = {
+    "arrays": 0,
+    "errors": 0,
+    "json_values": 0,
+    "parallel": 0,
+    "symbolic": 0,
+    "validation": 0,
+    "geometry": 1,
+    "series": 2,
+    "multibody": 2,
+    "press_family": 3,
+    "oracles": 3,
+    "surrogate": 4,
+    "validation_suite": 4,
+    "ocp": 5,
+}
+ARCHITECTURE = REPO / "docs" / "architecture.md"
 
-def unit_of(module: str) -> str | None:
+
+def unit_of(module: str, package: tuple[str, ...] = ("alcove",)) -> str | None:
     parts = module.split(".")
-    return parts[1] if parts[0] == "alcove" and len(parts) > 1 else None
+    n = len(package)
+    return parts[n] if tuple(parts[:n]) == package and len(parts) > n else None
 
 
 def imported_modules(path: Path, module: str) -> list[str]:
@@ -64,19 +88,50 @@ def imported_modules(path: Path, module: str) -> list[str]:
     return out
 
 
-def unit_imports() -> dict[tuple[str, str], list[str]]:
+def unit_imports(package: tuple[str, ...] = ("alcove",)) -> dict[tuple[str, str], list[str]]:
+    """(importing unit, imported unit) -> the files with such an import, for the units of
+    ``package`` (``("alcove",)``, or ``("alcove", "science")`` for the science's own)."""
     edges: dict[tuple[str, str], list[str]] = defaultdict(list)
-    for path in PACKAGE.rglob("*.py"):
+    for path in PACKAGE.parent.joinpath(*package).rglob("*.py"):
         rel = path.relative_to(PACKAGE.parent).with_suffix("")
         module = ".".join(rel.parts[:-1] if rel.name == "__init__" else rel.parts)
-        src = unit_of(module)
+        src = unit_of(module, package)
         if src is None:
             continue
         for target in imported_modules(path, module):
-            dst = unit_of(target)
+            dst = unit_of(target, package)
             if dst is not None and dst != src:
                 edges[(src, dst)].append(str(path.relative_to(REPO)))
     return edges
+
+
+def documented_imports(heading: str) -> dict[str, set[str]]:
+    """The first table after the paragraph starting ``heading`` in docs/architecture.md: unit ->
+    the units it imports (``| `unit` | `a`, `b` |``; a dash for none)."""
+    text = ARCHITECTURE.read_text()
+    assert heading in text, f"docs/architecture.md has no paragraph {heading!r}"
+    table: dict[str, set[str]] = {}
+    lines = text.split(heading, 1)[1].splitlines()
+    start = next(i for i, line in enumerate(lines) if line.startswith("|"))  # the table after the paragraph
+    for line in lines[start:]:
+        if not line.startswith("|"):
+            break
+        cells = [c.strip() for c in line.strip().strip("|").split("|")]
+        units = re.findall(r"`([a-z_]+)`", cells[0])
+        if len(cells) != 2 or not units:
+            continue  # the header and its rule
+        for unit in units:
+            table[unit] = set(re.findall(r"`([a-z_]+)`", cells[1]))
+    return table
+
+
+def measured_imports(package: tuple[str, ...], floors: dict[str, int], below: int) -> dict[str, set[str]]:
+    """unit -> the units above floor ``below`` it imports, for every unit of ``floors`` above it."""
+    table: dict[str, set[str]] = {u: set() for u, floor in floors.items() if floor > below}
+    for src, dst in unit_imports(package):
+        if src in table and floors[dst] > below:
+            table[src].add(dst)
+    return table
 
 
 def test_every_unit_has_a_floor() -> None:
@@ -92,6 +147,47 @@ def test_no_unit_imports_one_above_it() -> None:
         if FLOORS[dst] > FLOORS[src] or (FLOORS[dst] == FLOORS[src] and (src, dst) not in SIDEWAYS)
     ]
     assert not upward, "imports that run up (or sideways) the layers:\n" + "\n".join(upward)
+
+
+def test_science_units_import_only_lower_ones() -> None:
+    units = {
+        p.stem if p.is_file() else p.name for p in (PACKAGE / "science").iterdir() if p.suffix == ".py" or p.is_dir()
+    }
+    units -= {"__init__", "__pycache__"}
+    assert units <= set(SCIENCE_FLOORS), (
+        f"give these a floor in SCIENCE_FLOORS (and docs/architecture.md): {units - set(SCIENCE_FLOORS)}"
+    )
+    upward = [
+        f"{src} -> {dst} ({', '.join(sorted(set(files)))})"
+        for (src, dst), files in sorted(unit_imports(("alcove", "science")).items())
+        if SCIENCE_FLOORS[dst] >= SCIENCE_FLOORS[src]
+    ]
+    assert not upward, "science imports that run up (or sideways) its layers:\n" + "\n".join(upward)
+
+
+def test_the_documented_import_tables_are_the_measured_ones() -> None:
+    for heading, package, floors, below in [
+        ("Which units import which", ("alcove",), FLOORS, 2),
+        ("Inside `science/`", ("alcove", "science"), SCIENCE_FLOORS, 0),
+    ]:
+        documented, measured = documented_imports(heading), measured_imports(package, floors, below)
+        wrong = [
+            f"{unit}: documented {sorted(documented.get(unit, set()))}, measured {sorted(imports)}"
+            for unit, imports in sorted(measured.items())
+            if documented.get(unit) != imports
+        ]
+        wrong += [f"{unit}: documented, not a unit" for unit in sorted(set(documented) - set(measured))]
+        assert not wrong, f"docs/architecture.md, {heading!r}, disagrees with the code:\n" + "\n".join(wrong)
+
+
+def test_every_campaign_module_is_on_the_architecture_page() -> None:
+    text = ARCHITECTURE.read_text()
+    missing = [
+        p.name
+        for p in sorted((PACKAGE / "campaigns").glob("*.py"))
+        if p.name != "__init__.py" and f"`{p.name}`" not in text
+    ]
+    assert not missing, f"say what these do in docs/architecture.md's campaign table: {missing}"
 
 
 def test_the_lower_domains_never_import_campaigns() -> None:

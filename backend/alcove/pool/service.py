@@ -242,7 +242,8 @@ def pool_version_table(s: Session, pool_version: PoolVersion, fmt: str = "csv") 
 
 def state_range_of_task(spec: dict[str, Any]) -> StateRange:
     """The plausible joint angles and velocities of data for a task's model."""
-    from alcove.science.ocp.task_spec import MAX_ANGULAR_VELOCITY, parse_task
+    from alcove.science.geometry import MAX_ANGULAR_VELOCITY
+    from alcove.science.ocp.task_spec import parse_task
     from alcove.science.surrogate.dataset import StateRange
 
     model = parse_task(spec).model

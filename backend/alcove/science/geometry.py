@@ -47,6 +47,10 @@ if TYPE_CHECKING:  # CasADi is imported only by the symbolic kinematics, when th
     from alcove.science.symbolic import Symbolic
 
 GRAVITY = 9.81
+#: rad: every body model's joints, and the headrest, tilt less than 90 degrees either way from the vertical
+ANGLE_LIMIT = math.pi / 2
+#: rad/s: the fastest joint rotation a model takes (head angular velocities in crashes peak at about 30-50 rad/s)
+MAX_ANGULAR_VELOCITY = 100.0
 
 
 def rot2(phi: float | FloatArray) -> FloatArray:

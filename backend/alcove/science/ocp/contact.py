@@ -38,8 +38,8 @@ from alcove.science.arrays import FloatArray
 from alcove.science.errors import FieldError
 from alcove.science.geometry import HeadNeckPreset
 from alcove.science.multibody import PlanarChain
-from alcove.science.ocp.contact_history import ContactHistory
 from alcove.science.oracles.aux_penalty import AuxPenaltyParams, contact_point
+from alcove.science.surrogate.history import ContactHistory
 from alcove.science.symbolic import Symbolic
 
 WRENCH_SIZE = 6

@@ -13,7 +13,6 @@ Errors name the field with its path, e.g. ``phases.1.duration: ...``; use
 from __future__ import annotations
 
 import json
-import math
 from collections.abc import Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Annotated, Any, Literal
@@ -32,7 +31,13 @@ from pydantic import (
 
 from alcove.science.arrays import FloatArray
 from alcove.science.errors import FieldError
-from alcove.science.geometry import HeadNeckPreset, PoseFunction, preset_pose_function
+from alcove.science.geometry import (
+    ANGLE_LIMIT,
+    MAX_ANGULAR_VELOCITY,
+    HeadNeckPreset,
+    PoseFunction,
+    preset_pose_function,
+)
 from alcove.science.ocp.chain_model import CHAIN_PRESETS, ChainSpec, chain_preset
 from alcove.science.ocp.problem import DiscreteProblem, PhaseGrid
 from alcove.science.ocp.scenario_ranges import ParameterRange, check_ranges
@@ -44,10 +49,7 @@ if TYPE_CHECKING:  # CasADi is imported only when a chain is built,
 
 _DEFAULT = HeadNeckPreset()
 
-#: rad: the head-neck joint and the headrest tilt less than 90 degrees either way from the vertical
-ANGLE_LIMIT = math.pi / 2
 MAX_TORQUE = 200.0  # N m: an adult neck's largest extension torque is about 30-60 N m
-MAX_ANGULAR_VELOCITY = 100.0  # rad/s: head angular velocities in crashes peak at about 30-50 rad/s
 MAX_WEIGHT = 1e6  # cost weights: the paper's are 1e-4 to 1
 MAX_HEADREST_OFFSET = 0.02  # m: the largest headrest offset a scenario range may reach (the presets use +-5 mm)
 

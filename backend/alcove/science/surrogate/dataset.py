@@ -352,8 +352,8 @@ class StateRange:
 
 
 def default_state_range() -> StateRange:
-    """Without a task: the bounds every task's model keeps to (see :mod:`alcove.science.ocp.task_spec`)."""
-    from alcove.science.ocp.task_spec import ANGLE_LIMIT, MAX_ANGULAR_VELOCITY
+    """Without a task: the bounds every task's model keeps to."""
+    from alcove.science.geometry import ANGLE_LIMIT, MAX_ANGULAR_VELOCITY
 
     return StateRange(-ANGLE_LIMIT, ANGLE_LIMIT, MAX_ANGULAR_VELOCITY, "the joint range any model allows")
 

@@ -36,10 +36,14 @@ import numpy as np
 
 from alcove.science.arrays import FloatArray
 from alcove.science.geometry import HeadNeckPreset, HeadProfile, relative_kinematics_symbolic
-from alcove.science.ocp.contact_history import ContactHistory
 from alcove.science.surrogate.features import N_FEATURES, features_symbolic
 from alcove.science.surrogate.gated import GateParams, gap_from_features_symbolic, gated_net_output_symbolic
-from alcove.science.surrogate.history import N_HISTORY, contact_point_motion_symbolic, history_step_symbolic
+from alcove.science.surrogate.history import (
+    N_HISTORY,
+    ContactHistory,
+    contact_point_motion_symbolic,
+    history_step_symbolic,
+)
 from alcove.science.surrogate.mlp import MLP, Standardization, SurrogateModel
 
 if TYPE_CHECKING:

@@ -55,6 +55,8 @@ from alcove.science.surrogate.features import features
 from alcove.science.validation import quantity
 
 if TYPE_CHECKING:
+    import casadi as ca
+
     from alcove.science.symbolic import Symbolic
 
 HISTORY_NAMES: tuple[str, ...] = ("max_indentation", "slip_velocity_y", "slip_velocity_z")
@@ -208,9 +210,26 @@ def contact_point_motion_symbolic(
     return -point[0], velocity[1:3]
 
 
+@dataclass(frozen=True)
+class ContactHistory:
+    """The history states as an optimal control problem takes them (built by
+    :func:`alcove.science.surrogate.export.surrogate_history`): ``step`` ``(z, q, qd, dt) ->
+    z_next`` (the states at the next sample, from the state there and the time since the last
+    sample) and ``steady`` ``(q, qd) -> z`` (the states of the first sample). The transcription
+    (:mod:`alcove.science.ocp.dmocc`) carries the states as discrete unknowns with this recursion."""
+
+    step: ca.Function
+    steady: ca.Function
+
+    @property
+    def size(self) -> int:
+        return int(self.steady.size1_out(0))
+
+
 __all__ = [
     "HISTORY_NAMES",
     "N_HISTORY",
+    "ContactHistory",
     "HistoryConfig",
     "HistoryError",
     "HistoryInputs",
