@@ -142,7 +142,7 @@ def _record_replay(
     quarantined result. Returns the run row and the dataset (None when quarantined)."""
     f = res.forces
     diagnostics = json_safe(res.diagnostics)
-    out_sha = put_arrays(s, {"t": f.t, "f": np.hstack([f.force, f.moment])}) if f is not None else None
+    out_sha = put_arrays(s, {"t": f.t, "f": f.wrench}) if f is not None else None
     row = OracleRun(
         campaign_id=at.campaign_id,
         iteration_id=at.iteration_id,
@@ -182,7 +182,7 @@ def _record_replay(
         t=f.t,
         q=on_grid.q,
         qd=on_grid.qd,
-        f=np.hstack([f.force, f.moment]),
+        f=f.wrench,
         origin="oracle",
         name=name,
         campaign_id=at.campaign_id,

@@ -207,7 +207,7 @@ def _record(s: Session, motion_id: int, token: str, traj: Any, res: Any, error: 
             t=f.t,
             q=on_grid.q,
             qd=on_grid.qd,
-            f=np.hstack([f.force, f.moment]),
+            f=f.wrench,
             origin="validation",
             name=f"validation-{suite.id}-{row.index}",
             meta={

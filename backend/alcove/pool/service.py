@@ -21,6 +21,7 @@ from alcove.errors import InvalidInput, NotFound
 from alcove.models import Dataset, PoolVersion
 from alcove.pool import repository as repo
 from alcove.pool.schemas import PoolVersionRead
+from alcove.science.series import split_wrench, stack_wrench
 
 if TYPE_CHECKING:
     from alcove.science.surrogate.dataset import PoolDataset, StateRange
@@ -146,8 +147,7 @@ def _training_dataset(s: Session, d: Dataset) -> PoolDataset:
         a["t"],
         a["q"],
         a["qd"],
-        a["f"][:, :3],
-        a["f"][:, 3:],
+        *split_wrench(a["f"]),
         origin,
         headrest_offset=None if offset is None else float(offset),
         headrest_tilt=None if tilt is None else float(tilt),
@@ -285,7 +285,7 @@ def upload_preliminary_dataset(
                 t=ds.t,
                 q=ds.q,
                 qd=ds.qd,
-                f=np.hstack([ds.force, ds.moment]),
+                f=stack_wrench(ds.force, ds.moment),
                 origin="upload",
                 name=ds.name,
                 owner_id=owner_id,

@@ -8,13 +8,13 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
-import numpy as np
 from sqlalchemy.orm import Session
 
 from alcove.jobs.steps import IterationRef, StepOutput, StepRun
 from alcove.models import PoolVersion
 from alcove.pool import repository as repo
 from alcove.pool.service import create_version, store_dataset
+from alcove.science.series import stack_wrench
 
 
 @dataclass(frozen=True)
@@ -69,7 +69,7 @@ def build_preliminary(
                     t=d.t,
                     q=d.q,
                     qd=d.qd,
-                    f=np.hstack([d.force, d.moment]),
+                    f=stack_wrench(d.force, d.moment),
                     origin="preliminary",
                     name=d.name,
                     campaign_id=at.campaign_id,

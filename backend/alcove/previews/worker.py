@@ -165,7 +165,6 @@ def test_oracle(type_name: str, params: dict[str, Any], dt: float, catalogue: An
     """Replay the FE reference head motion (1 s: clear of the headrest, into the cushion and
     back) sampled every ``dt`` through the oracle: t, the motion (q, qd), the force and moment
     on the head (fx..mz, headrest frame) and the oracle's diagnostics."""
-    import numpy as np
 
     from alcove.science.geometry import DEFAULT_PRESET
     from alcove.science.json_values import json_safe
@@ -191,7 +190,7 @@ def test_oracle(type_name: str, params: dict[str, Any], dt: float, catalogue: An
         "peak_force_n": None,
     }
     if res.forces is not None:
-        f = np.hstack([res.forces.force, res.forces.moment])
+        f = res.forces.wrench
         out.update(
             t=_finite(res.forces.t),
             peak_force_n=_scalar(res.forces.peak_force),

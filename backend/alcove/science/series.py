@@ -33,6 +33,20 @@ from alcove.science.geometry import POSE_COLUMNS, PoseFunction
 FORCE_COLUMNS = ("fx", "fy", "fz", "mx", "my", "mz")
 
 
+def stack_wrench(force: FloatArray, moment: FloatArray) -> FloatArray:
+    """The wrench rows ``[fx fy fz mx my mz]`` (n, 6) of force (n, 3) and moment (n, 3): the
+    layout of the stored oracle arrays, the forces CSV (after ``t``) and the metrics."""
+    return np.hstack([np.asarray(force, float).reshape(-1, 3), np.asarray(moment, float).reshape(-1, 3)])
+
+
+def split_wrench(wrench: FloatArray) -> tuple[FloatArray, FloatArray]:
+    """Force (n, 3) and moment (n, 3) of wrench rows (n, 6) (:func:`stack_wrench`'s inverse)."""
+    w = np.asarray(wrench, float)
+    if w.ndim != 2 or w.shape[1] != 6:
+        raise ValueError(f"wrench rows have 6 columns (fx fy fz mx my mz), got shape {w.shape}")
+    return w[:, :3], w[:, 3:]
+
+
 class SeriesFormatError(FieldError):
     """A trajectory or forces table is malformed. ``field`` names the offending column."""
 
@@ -227,8 +241,17 @@ class ForceSeries:
     def __len__(self) -> int:
         return int(self.t.shape[0])
 
+    @classmethod
+    def from_wrench(cls, t: FloatArray, wrench: FloatArray) -> ForceSeries:
+        return cls(t, *split_wrench(wrench))
+
+    @property
+    def wrench(self) -> FloatArray:
+        """(n, 6) rows ``[fx fy fz mx my mz]``."""
+        return stack_wrench(self.force, self.moment)
+
     def to_array(self) -> FloatArray:
-        return np.hstack([self.t[:, None], self.force, self.moment])
+        return np.hstack([self.t[:, None], self.wrench])
 
     def to_csv(self, path: str | Path | None = None) -> str:
         text = _write_csv(["t", *FORCE_COLUMNS], self.to_array())

@@ -21,6 +21,7 @@ import time
 from typing import Any
 
 from alcove.models import SuiteStatus, ValidationSuite
+from alcove.science.series import split_wrench
 
 log = logging.getLogger(__name__)
 
@@ -55,8 +56,8 @@ def reference_line(
             t=np.asarray(a["t"]),
             q=np.asarray(a["q"]),
             qd=np.asarray(a["qd"]),
-            force=np.asarray(a["f"])[:, :3],
-            moment=np.asarray(a["f"])[:, 3:],
+            force=split_wrench(a["f"])[0],
+            moment=split_wrench(a["f"])[1],
         )
         for i, a in enumerate(reference)
     ]

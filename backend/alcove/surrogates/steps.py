@@ -15,6 +15,7 @@ from alcove.db.arrays import put_arrays
 from alcove.jobs.steps import IterationRef, StepCancelled, StepOutput, StepRun
 from alcove.models import IterationMetrics, ModelVersion, PoolVersion
 from alcove.pool.service import FORCE_COLUMNS, dataset_arrays, load_training_pool
+from alcove.science.series import split_wrench, stack_wrench
 from alcove.surrogates.service import load_model, software_versions, store_model
 
 
@@ -115,15 +116,15 @@ def evaluate(
             model, a["q"], a["qd"], headrest_offset=offset, headrest_tilt=tilt, kinematics=kinematics, t=a["t"]
         )
         states = history_along(model, a["q"], a["qd"], a["t"], kinematics, offset, tilt)
-        f_pred = np.hstack([pred.force, pred.moment])
-        f_std = np.hstack([pred.force_std, pred.moment_std]) if model.ensemble_size > 1 else None
+        f_pred = stack_wrench(pred.force, pred.moment)
+        f_std = stack_wrench(pred.force_std, pred.moment_std) if model.ensemble_size > 1 else None
         err = f_pred - a["f"]
         honest = wrench_metrics(f_pred, a["f"], f_std)
         picks.append(
             {
                 "honest": honest,
-                "force_max_error": float(np.linalg.norm(err[:, :3], axis=1).max()),
-                "moment_max_error": float(np.linalg.norm(err[:, 3:], axis=1).max()),
+                "force_max_error": float(np.linalg.norm(split_wrench(err)[0], axis=1).max()),
+                "moment_max_error": float(np.linalg.norm(split_wrench(err)[1], axis=1).max()),
                 "f_pred": f_pred,
                 "f_std": f_std,
                 "history": states,

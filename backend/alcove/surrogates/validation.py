@@ -26,6 +26,7 @@ from sqlalchemy.orm import Session
 from alcove.models import Campaign, CampaignEvent, ModelVersion, SuiteStatus, ValidationMetrics, ValidationSuite
 from alcove.pool.repository import validation_datasets
 from alcove.pool.service import dataset_arrays
+from alcove.science.series import split_wrench, stack_wrench
 from alcove.surrogates.service import load_model
 
 log = logging.getLogger(__name__)
@@ -45,8 +46,8 @@ def generalisation_error(pred: np.ndarray, true: np.ndarray, std: np.ndarray | N
     try:
         components = component_metrics(p, t)
         return {
-            "force_rmse": vector_rmse(p[:, :3], t[:, :3]),
-            "moment_rmse": vector_rmse(p[:, 3:], t[:, 3:]),
+            "force_rmse": vector_rmse(split_wrench(p)[0], split_wrench(t)[0]),
+            "moment_rmse": vector_rmse(split_wrench(p)[1], split_wrench(t)[1]),
             "components": components,
             "calibration": None if std is None else calibration(p, t, std),
         }
@@ -105,7 +106,7 @@ def aux_law_error(s: Session, suite: ValidationSuite) -> dict[str, Any] | None:
         if a["part"] != "core":
             continue
         force, moment = aux_penalty_wrench(preset, AuxPenaltyParams(), kinematics(a["q"], a["qd"]))
-        preds.append(np.hstack([force, moment]))
+        preds.append(stack_wrench(force, moment))
         trues.append(a["f"])
     if not preds:
         return None
@@ -124,9 +125,9 @@ def _metrics(model: Any, motions: list[dict[str, Any]], kinematics: Any = None) 
         if a.get("part") == "reference":
             continue
         p = predict_ensemble(model, a["q"], a["qd"], kinematics, t=a["t"])
-        preds.append(np.hstack([p.force, p.moment]))
+        preds.append(stack_wrench(p.force, p.moment))
         # a single model (K = 1) has no spread: no std, so its calibration is null (not 0)
-        stds.append(np.hstack([p.force_std, p.moment_std]) if model.ensemble_size > 1 else None)
+        stds.append(stack_wrench(p.force_std, p.moment_std) if model.ensemble_size > 1 else None)
         trues.append(a["f"])
         parts.append(a.get("part", "core"))
     return metrics_from_predictions(preds, trues, stds, parts)

@@ -34,7 +34,7 @@ import numpy as np
 
 from alcove.science.arrays import FloatArray
 from alcove.science.geometry import HeadNeckPreset, signed_gap
-from alcove.science.series import ForceSeries, Trajectory
+from alcove.science.series import ForceSeries, Trajectory, stack_wrench
 from alcove.science.surrogate.config import SurrogateConfig
 from alcove.science.surrogate.dataset import PoolDataset
 from alcove.science.surrogate.metrics import wrench_metrics
@@ -119,8 +119,8 @@ def score_on_suite(
     preds, trues, gaps = [], [], []
     for ds in suite:
         p = predict_ensemble(model, ds.q, ds.qd, t=ds.t)
-        preds.append(np.hstack([p.force, p.moment]))
-        trues.append(np.hstack([ds.force, ds.moment]))
+        preds.append(stack_wrench(p.force, p.moment))
+        trues.append(stack_wrench(ds.force, ds.moment))
         gaps.append(signed_gap(preset, ds.q[:, 0]))
     pred, true, gap = np.vstack(preds), np.vstack(trues), np.concatenate(gaps)
     m = wrench_metrics(pred, true)

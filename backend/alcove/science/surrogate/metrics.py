@@ -30,6 +30,7 @@ from numpy.typing import ArrayLike
 
 from alcove.science.arrays import BoolArray, FloatArray
 from alcove.science.errors import FieldError
+from alcove.science.series import split_wrench
 
 COMPONENTS = ("fx", "fy", "fz", "mx", "my", "mz")
 CALIBRATION_K = 2.0  # half-width of the calibration band in standard deviations
@@ -88,7 +89,7 @@ def vector_rmse(pred: ArrayLike, true: ArrayLike) -> float | None:
 def contact_mask(true: ArrayLike, contact_threshold: float = 0.0) -> BoolArray:
     """Samples in contact: the oracle's force norm above ``contact_threshold`` [N]."""
     t = _wrench("true", true)
-    return np.asarray(np.linalg.norm(t[:, :3], axis=1) > contact_threshold)
+    return np.asarray(np.linalg.norm(split_wrench(t)[0], axis=1) > contact_threshold)
 
 
 def calibration(pred: ArrayLike, true: ArrayLike, std: ArrayLike, k: float = CALIBRATION_K) -> float | None:
@@ -114,10 +115,11 @@ def wrench_metrics(
     contact = contact_mask(t, contact_threshold)
     out: dict[str, Any] = {f"rmse_{c}": v for c, v in component_rmse(p, t).items()}
     out.update({f"rmse_{c}_contact": v for c, v in component_rmse(p[contact], t[contact]).items()})
-    out["force_rmse"] = vector_rmse(p[:, :3], t[:, :3])
-    out["moment_rmse"] = vector_rmse(p[:, 3:], t[:, 3:])
-    out["force_rmse_contact"] = vector_rmse(p[contact, :3], t[contact, :3])
-    out["moment_rmse_contact"] = vector_rmse(p[contact, 3:], t[contact, 3:])
+    (p_force, p_moment), (t_force, t_moment) = split_wrench(p), split_wrench(t)
+    out["force_rmse"] = vector_rmse(p_force, t_force)
+    out["moment_rmse"] = vector_rmse(p_moment, t_moment)
+    out["force_rmse_contact"] = vector_rmse(p_force[contact], t_force[contact])
+    out["moment_rmse_contact"] = vector_rmse(p_moment[contact], t_moment[contact])
     out["calibration"] = calibration(p, t, std) if std is not None else None
     out["n_samples"] = int(p.shape[0])
     out["n_contact_samples"] = int(contact.sum())

@@ -42,6 +42,7 @@ from alcove.science.oracles.fe_headrest_3d.results import (
     read_sta,
     solver_errors,
 )
+from alcove.science.series import split_wrench, stack_wrench
 
 FIRST_CONTACT_FRACTION = 1e-9  # of the peak force: above round-off, far below any touch (docs/fe-oracle.md)
 
@@ -84,7 +85,7 @@ def wrench_from_dat(dat: dict[tuple[str, str], NodeSeries], job: dict[str, Any])
     lever = xyz[None, :, :] - cog[:, None, :]
     back_force = rf.sum(1)
     back_moment = np.cross(lever, rf).sum(1)
-    return np.hstack([force, moment]), np.hstack([back_force, back_moment])
+    return stack_wrench(force, moment), stack_wrench(back_force, back_moment)
 
 
 def run(workdir: Path) -> dict[str, Any]:
@@ -134,10 +135,11 @@ def run(workdir: Path) -> dict[str, Any]:
             raise DriverFailure(f"{exc}" + (f"; ccx: {reason}" if reason else "")) from None
         first = int(job["first_simulated"])
         wrench[first:] = head
-        peak = float(np.max(np.linalg.norm(head[:, :3], axis=1)))
-        mismatch = float(np.max(np.linalg.norm(head[:, :3] - back[:, :3], axis=1)))
-        mismatch_moment = float(np.max(np.linalg.norm(head[:, 3:] - back[:, 3:], axis=1)))
-        peak_moment = float(np.max(np.linalg.norm(head[:, 3:], axis=1)))
+        (head_force, head_moment), (back_force, back_moment) = split_wrench(head), split_wrench(back)
+        peak = float(np.max(np.linalg.norm(head_force, axis=1)))
+        mismatch = float(np.max(np.linalg.norm(head_force - back_force, axis=1)))
+        mismatch_moment = float(np.max(np.linalg.norm(head_moment - back_moment, axis=1)))
+        peak_moment = float(np.max(np.linalg.norm(head_moment, axis=1)))
         diagnostics.update(
             back_reaction_mismatch_n=mismatch,
             back_moment_mismatch_nm=mismatch_moment,
@@ -147,7 +149,7 @@ def run(workdir: Path) -> dict[str, Any]:
             raise DriverFailure(f"head force and back-face reaction differ by {mismatch:.3g} N (peak {peak:.3g} N)")
         if mismatch_moment > tol * max(peak_moment, 0.1 * max(peak, 1.0)):
             raise DriverFailure(f"head moment and back-face reaction moment differ by {mismatch_moment:.3g} N m")
-    force = np.linalg.norm(wrench[:, :3], axis=1)
+    force = np.linalg.norm(split_wrench(wrench)[0], axis=1)
     # first contact: the first output with a force above ccx's round-off (~1e-20 N while the head
     # is clear); a first touch is a single foam node, whose force grows from 0 like Hertz's d^1.5
     contact = (
