@@ -14,6 +14,7 @@ iteration can append at most once.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from datetime import datetime
 from typing import TYPE_CHECKING, Any
 
@@ -24,6 +25,28 @@ from alcove.models.base import Base, DatasetOrigin, OracleRunStatus, enum_check,
 
 if TYPE_CHECKING:
     from alcove.models.campaigns import Iteration
+
+
+@dataclass(frozen=True)
+class HeadrestPlacement:
+    """Where a scenario put the headrest for a dataset's samples, relative to the task's own:
+    ``offset`` [m] along its normal and ``tilt`` [rad], the scenario's drawn inclination (None:
+    the task's own, not drawn). The samples' features are computed against this headrest, so it
+    is part of the training data. Stored in the dataset's ``meta`` under these two keys."""
+
+    offset: float | None = None
+    tilt: float | None = None
+
+    @classmethod
+    def from_meta(cls, meta: dict[str, Any] | None) -> HeadrestPlacement:
+        meta = meta or {}
+        offset, tilt = meta.get("headrest_offset"), meta.get("headrest_tilt")
+        return cls(None if offset is None else float(offset), None if tilt is None else float(tilt))
+
+    def as_meta(self) -> dict[str, float]:
+        """The ``meta`` entries of this placement (none for the task's own headrest)."""
+        out = {} if self.offset is None else {"headrest_offset": self.offset}
+        return out if self.tilt is None else out | {"headrest_tilt": self.tilt}
 
 
 class Blob(Base):
@@ -77,6 +100,11 @@ class Dataset(Base):
     created_at: Mapped[datetime] = mapped_column(default=utcnow, server_default=sa.func.now())
 
     content: Mapped[Blob] = relationship()
+
+    @property
+    def headrest(self) -> HeadrestPlacement:
+        """Where the scenario of these samples put the headrest (both None: the task's own)."""
+        return HeadrestPlacement.from_meta(self.meta)
 
 
 class PoolVersion(Base):

@@ -20,6 +20,7 @@ from alcove.db import session_scope
 from alcove.db.arrays import get_arrays, put_arrays
 from alcove.jobs.steps import IterationRef, StepOutput, StepRun, UnusableResult, WriteRows
 from alcove.models import OracleRun, OracleVersion, QuarantinedResult, utcnow
+from alcove.models.data import HeadrestPlacement
 from alcove.oracles.service import command_catalogue
 from alcove.pool.service import store_dataset
 from alcove.science.json_values import json_safe
@@ -78,9 +79,10 @@ def replay(
         arrays = get_arrays(s, trajectory_sha256)
     traj = replay_trajectory(arrays, task, replay_phases, replay_dt)
     # a scenario's headrest: the features of these samples are relative to it (None: the task's own)
-    headrest: dict[str, float] = {"headrest_offset": task.model.headrest_offset} if scenario else {}
-    if scenario and record_tilt:
-        headrest["headrest_tilt"] = task.model.tilt
+    headrest = HeadrestPlacement(
+        offset=task.model.headrest_offset if scenario else None,
+        tilt=task.model.tilt if scenario and record_tilt else None,
+    )
     tau = traj.tau
     assert tau is not None  # replay_trajectory always carries the solution's torques
     started = utcnow()
@@ -106,7 +108,7 @@ def replay(
             ocp_solution_id=solution_id,
             refused=None if ok else reason or "quality gate failed",
             name=f"iteration-{at.index:04d}" + (f"-pick-{at.slot}" if at.slot else ""),
-            meta={"oracle_version_id": oracle_version_id, **headrest},
+            meta={"oracle_version_id": oracle_version_id, **headrest.as_meta()},
         )
         out: dict[str, Any] = {"oracle_run_id": row.id, "ok": ok, "wall_time_s": float(res.wall_time)}
         if ds is not None:

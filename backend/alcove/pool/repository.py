@@ -10,6 +10,7 @@ from sqlalchemy.orm import Session
 from alcove.errors import NotFound
 from alcove.lineage import holder
 from alcove.models import Dataset, OracleRun, PoolVersion, PoolVersionMember
+from alcove.models.data import HeadrestPlacement
 
 
 def get_pool_version(s: Session, pool_version_id: int) -> PoolVersion | None:
@@ -52,11 +53,11 @@ def content_key(sha256: str, meta: dict[str, Any] | None) -> str:
     them, so equal arrays with different headrests are different training data). Datasets without
     an offset or tilt keep the bare array hash, so the hashes of pools stored before offsets
     existed do not change."""
-    offset = (meta or {}).get("headrest_offset")
-    tilt = (meta or {}).get("headrest_tilt")
-    key = sha256 if offset is None or float(offset) == 0.0 else f"{sha256}@headrest_offset={float(offset)!r}"
+    headrest = HeadrestPlacement.from_meta(meta)
+    offset, tilt = headrest.offset, headrest.tilt
+    key = sha256 if offset is None or offset == 0.0 else f"{sha256}@headrest_offset={offset!r}"
     # a recorded tilt (a scenario that drew model.tilt) always counts: there is no tilt that means "as before"
-    return key if tilt is None else f"{key}@headrest_tilt={float(tilt)!r}"
+    return key if tilt is None else f"{key}@headrest_tilt={tilt!r}"
 
 
 def added_members(s: Session, pool_version_id: int) -> list[Dataset]:

@@ -140,8 +140,7 @@ def _training_dataset(s: Session, d: Dataset) -> PoolDataset:
 
     a = dataset_arrays(s, d)
     origin = d.origin if d.origin in ("preliminary", "oracle", "upload") else "oracle"
-    offset = (d.meta or {}).get("headrest_offset")  # a scenario's moved headrest
-    tilt = (d.meta or {}).get("headrest_tilt")  # and its tilt, where the scenario drew it
+    headrest = d.headrest  # a scenario's moved headrest, and its tilt where the scenario drew it
     return PoolDataset(
         _pool_name(d),
         a["t"],
@@ -149,8 +148,8 @@ def _training_dataset(s: Session, d: Dataset) -> PoolDataset:
         a["qd"],
         *split_wrench(a["f"]),
         origin,
-        headrest_offset=None if offset is None else float(offset),
-        headrest_tilt=None if tilt is None else float(tilt),
+        headrest_offset=headrest.offset,
+        headrest_tilt=headrest.tilt,
     )
 
 

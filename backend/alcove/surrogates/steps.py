@@ -103,9 +103,7 @@ def evaluate(
         for dataset_id in dataset_ids:
             ds = s.get(Dataset, dataset_id)
             assert ds is not None
-            # a scenario's moved headrest
-            meta = ds.meta or {}
-            data.append((dataset_arrays(s, ds), (meta.get("headrest_offset"), meta.get("headrest_tilt"))))
+            data.append((dataset_arrays(s, ds), (ds.headrest.offset, ds.headrest.tilt)))  # a scenario's headrest
         model = load_model(s, mv)
         model_info = {"seed": mv.seed, "force": mv.test_force_rmse, "moment": mv.test_moment_rmse}
         train_wall_time_s = mv.train_wall_time_s
