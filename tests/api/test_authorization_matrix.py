@@ -233,6 +233,11 @@ SPECS: dict[str, Spec] = {
         lambda o, a: Call(json={"name": "c", "task_id": o.task(), "oracle_id": o.oracle()}),
         CREATED,
     ),
+    "validate_campaign": (
+        "any",
+        lambda o, a: Call(json={"name": "c", "task_id": o.task(), "oracle_id": o.oracle()}),
+        OK,
+    ),
     "get_campaign": ("owned", lambda o, a: Call(path=o.finished()), OK),
     "update_campaign_config": (
         "owned",

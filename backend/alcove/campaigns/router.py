@@ -14,6 +14,7 @@ from starlette.concurrency import run_in_threadpool
 from alcove.api.caching import NOT_MODIFIED, cached_json, read
 from alcove.api.deps import SessionDep
 from alcove.api.params import MAX_ID, Limit, ObjectId, Offset
+from alcove.campaigns import draft
 from alcove.campaigns import read_repository as reads
 from alcove.campaigns import references as refs
 from alcove.campaigns import service as campaigns
@@ -34,7 +35,7 @@ from alcove.jobs.campaign import send_committed, stage
 from alcove.models import Campaign, CampaignStatus
 from alcove.users.access import get_for
 from alcove.users.auth import CurrentUser
-from alcove.versioning import ORACLES, SURROGATE_CONFIGS, TASKS
+from alcove.versioning.schemas import FieldErrorOut, ValidationReport
 
 router = APIRouter(prefix="/campaigns", tags=["campaigns"])
 
@@ -99,22 +100,30 @@ def _eta(
     return mean, max(max_iterations - (last_done if last_done is not None else (c.source_iteration or 0)), 0) * mean
 
 
+@router.post("/validate", response_model=ValidationReport, operation_id="validate_campaign")
+def validate_campaign(
+    body: Annotated[dict[str, Any], Body(description="a new campaign's request, as POST /campaigns takes it")],
+    user: CurrentUser,
+    session: SessionDep,
+) -> ValidationReport:
+    """Check a new campaign's request without creating it: every problem at once (the schema's,
+    the definitions it names, the rules across them), each at its field (paths like
+    ``settings.batch``)."""
+    parsed, errors = draft.check_request(session, user, body)
+    return ValidationReport(
+        valid=parsed is not None and not errors,
+        errors=[FieldErrorOut.of(e) for e in errors],
+        normalized=parsed.model_dump(mode="json") if parsed is not None and not errors else None,
+    )
+
+
 @router.post("", response_model=CampaignOut, status_code=status.HTTP_201_CREATED, operation_id="create_campaign")
 def create_campaign(body: CampaignCreateIn, user: CurrentUser, session: SessionDep) -> CampaignOut:
-    task_version_id = refs.version_id(session, user, TASKS, body.task_id, body.task_version, "task_id")
-    oracle_version_id = refs.version_id(session, user, ORACLES, body.oracle_id, body.oracle_version, "oracle_id")
-    if body.surrogate_config_id is not None:
-        scv_id = refs.version_id(
-            session,
-            user,
-            SURROGATE_CONFIGS,
-            body.surrogate_config_id,
-            body.surrogate_config_version,
-            "surrogate_config_id",
-        )
-    else:
-        scv_id = surrogate_config_version_for(session, user.id, None)
-    refs.check_datasets(session, user, body.preliminary.dataset_ids, task_version_id)
+    """Create a campaign; a request the schema accepts is refused with every problem of the
+    definitions it names and of the rules across them at once."""
+    versions = draft.versions_of(session, user, body)
+    task_version_id, oracle_version_id = versions.task_version_id, versions.oracle_version_id
+    scv_id = versions.surrogate_config_version_id or surrogate_config_version_for(session, user.id, None)
     data = CampaignCreate(
         name=body.name,
         description=body.description,

@@ -18,7 +18,7 @@ from sqlalchemy.orm import Session
 
 from alcove.campaigns import fan
 from alcove.campaigns import repository as repo
-from alcove.campaigns.config import strategy_problem
+from alcove.campaigns.draft import strategy_error, suite_error
 from alcove.campaigns.schemas import CampaignConfig, CampaignConfigUpdate, CampaignCreate, ForkRequest, StepJob
 from alcove.campaigns.state_machine import (
     Cancel,
@@ -82,29 +82,17 @@ def _check_definitions(
 
 def _check_strategy(s: Session, cfg: CampaignConfig, surrogate_config_version_id: int) -> None:
     """The acquisition strategy must suit the surrogate (422 naming ``settings.strategy``)."""
-    from alcove.science.surrogate.config import SurrogateConfig
-
-    scv = s.get(SurrogateConfigVersion, surrogate_config_version_id)
-    if scv is None or cfg.settings.strategy == "paper":
-        return
-    size = (scv.spec or {}).get("ensemble_size", SurrogateConfig.model_fields["ensemble_size"].default)
-    problem = strategy_problem(cfg.settings, int(size))
+    problem = strategy_error(s, cfg.settings, surrogate_config_version_id)
     if problem is not None:
-        raise InvalidInput.one("settings.strategy", problem)
+        raise InvalidInput([problem])
 
 
 def _check_suite(s: Session, cfg: CampaignConfig, task_version_id: int) -> None:
     """The validation suite's ranges and the press family's must make motions of the task's model
     (422 naming the range)."""
-    from alcove.campaigns.validation import suite_problem
-    from alcove.tasks.service import load_task
-
-    family = cfg.settings.strategy == "press-family" or cfg.preliminary.family_motions > 0
-    if cfg.settings.validation_motions == 0 and not family:
-        return
-    problem = suite_problem(cfg.settings, load_task(s, task_version_id), family)
+    problem = suite_error(s, cfg.settings, cfg.preliminary, task_version_id)
     if problem is not None:
-        raise InvalidInput.one(*problem)
+        raise InvalidInput([problem])
 
 
 def _lock_definitions(s: Session, campaign: Campaign) -> None:

@@ -1,6 +1,7 @@
 /** Campaigns: the list, one campaign, its iterations' data, jobs, pool and model versions, and the lifecycle. */
 import { keepPreviousData, queryOptions, useMutation, useQuery, useQueryClient } from "@tanstack/react-query";
 import { client, unwrap } from "./client";
+import { fieldProblems, type FieldError } from "./errors";
 import { refetchAfterWrite } from "./refresh";
 import { keys } from "./series";
 import { columns, type CampaignOut, type CampaignStatus, type CampaignSummary, type ForkRequest, type IterationCurves, type Job, type ModelVersion, type PoolVersion, type Schemas, type WholeTrajectory, type Wrench } from "./types";
@@ -191,6 +192,11 @@ export function useForkCampaign(id: number) {
     mutationFn: async (body: ForkRequest): Promise<CampaignOut> => unwrap(await client.POST("/api/v1/campaigns/{campaign_id}/fork", { params: { path: { campaign_id: id } }, body })),
     onSuccess: () => refetchAfterWrite(qc, keys.campaigns),
   });
+}
+
+/** Every problem of a new campaign's request, each at its field, without creating it (empty list: valid). */
+export function validateCampaign(body: Record<string, unknown>): Promise<FieldError[]> {
+  return fieldProblems(async () => unwrap(await client.POST("/api/v1/campaigns/validate", { body })));
 }
 
 export function useCreateCampaign() {

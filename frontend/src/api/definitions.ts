@@ -5,7 +5,7 @@
 import { useMutation, useQuery, useQueryClient } from "@tanstack/react-query";
 import { client, unwrap } from "./client";
 import { refetchAfterWrite } from "./refresh";
-import { ApiError, fieldErrors, type FieldError } from "./errors";
+import { ApiError, fieldProblems, type FieldError } from "./errors";
 import type { JsonSchema } from "../components/SchemaForm";
 import type { ModelPreset, Oracle, OracleType, ScenarioPreview, Schemas, Share, SurrogateConfig, Task, TaskPreset, TaskSpecDraft } from "./types";
 
@@ -127,15 +127,6 @@ export function useModelPresets() {
 }
 export function useTaskSchema() {
   return useQuery({ queryKey: ["task-schema"], queryFn: async () => unwrap(await client.GET("/api/v1/tasks/schema")) as JsonSchema, staleTime: Infinity });
-}
-/** 422 answers of a validate route are its result (the field errors), not a failure. */
-async function fieldProblems(call: () => Promise<unknown>): Promise<FieldError[]> {
-  try {
-    return fieldErrors(await call());
-  } catch (err) {
-    if (err instanceof ApiError && err.status === 422) return err.fieldErrors;
-    throw err;
-  }
 }
 /** Field-level problems of a draft, without saving (empty list: valid). */
 export function validateTask(body: { name: string; description: string; spec: TaskSpecDraft }): Promise<FieldError[]> {

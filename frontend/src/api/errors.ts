@@ -37,6 +37,16 @@ export function fieldErrors(body: unknown): FieldError[] {
   });
 }
 
+/** The field problems a validate route answers with (a 422 answer is its result too, not a failure). */
+export async function fieldProblems(call: () => Promise<unknown>): Promise<FieldError[]> {
+  try {
+    return fieldErrors(await call());
+  } catch (err) {
+    if (err instanceof ApiError && err.status === 422) return err.fieldErrors;
+    throw err;
+  }
+}
+
 /** A bound as people read it: ±π/2 is 1.5708, not 1.5707963267948966 (6 significant digits; whole and short numbers stay as they are). */
 export function boundText(x: number | string): string {
   const n = typeof x === "number" ? x : Number(x);

@@ -2,7 +2,7 @@
 import { componentSchema, useOpenApi, type OpenApiDocument } from "../api/definitions";
 import type { FieldError } from "../api/errors";
 import { ErrorBox, Loading } from "../components/States";
-import { SchemaForm, schemaDefaults, schemaFieldPaths, schemaLocalErrors } from "../components/SchemaForm";
+import { FieldMessages, SchemaForm, schemaDefaults, schemaFieldPaths, schemaLocalErrors } from "../components/SchemaForm";
 import { noErrors, schemaLabel, type ErrorView } from "../lib/formErrors";
 
 /** Editable campaign settings, each a form generated from the API's own schema. */
@@ -21,11 +21,11 @@ function sections(only?: readonly string[]) {
   return SECTIONS.filter(([key]) => !only || only.includes(key));
 }
 
-/** The field paths the config sections show ("stopping.max_iterations", ...), for placing errors. */
+/** The field paths the config sections show ("stopping.max_iterations", ...), and each section's own ("stopping": a rule across its fields), for placing errors. */
 export function configFieldPaths(doc: OpenApiDocument | undefined, only?: readonly string[]): string[] {
   return sections(only).flatMap(([key, name]) => {
     const schema = componentSchema(doc, name);
-    return schema ? schemaFieldPaths(schema, schema, key) : [];
+    return schema ? [key, ...schemaFieldPaths(schema, schema, key)] : [];
   });
 }
 
@@ -69,9 +69,14 @@ export function ConfigSections({
         const schema = componentSchema(openapi.data, schemaName);
         if (!schema) return null;
         const hidden = omit.filter((p) => p.startsWith(`${key}.`)).map((p) => p.slice(key.length + 1));
-        const body = <SchemaForm schema={schema} value={value[key] ?? {}} onChange={(v) => onChange({ ...value, [key]: v })} errors={errors} prefix={key} omit={hidden} />;
+        const body = (
+          <>
+            <FieldMessages problems={errors.at(key)} />
+            <SchemaForm schema={schema} value={value[key] ?? {}} onChange={(v) => onChange({ ...value, [key]: v })} errors={errors} prefix={key} omit={hidden} />
+          </>
+        );
         return key === "policies" ? (
-          <details key={key} className="panel" open={errors.problems.some((p) => p.field?.startsWith("policies."))}>
+          <details key={key} className="panel" open={errors.problems.some((p) => p.field === key || p.field?.startsWith(`${key}.`))}>
             <summary>{title}</summary>
             {body}
           </details>

@@ -157,6 +157,7 @@ describe("the new-campaign form's Exploration section", () => {
       "GET /tasks": [{ id: 1, name: "t", version: 1 }],
       "GET /oracles": [{ id: 2, name: "o", type: "aux-penalty", version: 1 }],
       "GET /surrogate-configs": [],
+      "POST /campaigns/validate": { valid: true, errors: [] },
     });
     renderPage(<NewCampaignPage />, { route: "/campaigns/new" });
     const section = await screen.findByTestId("exploration");
@@ -174,15 +175,15 @@ describe("the new-campaign form's Exploration section", () => {
     for (const label of ["Batch q", "Min distance", "Concurrency cap", "Stopping threshold [N]"])
       await waitFor(() => expect(field(label)).toHaveAttribute("aria-invalid", "true"));
     expect(within(section).getByText(/needs at least as many candidates/)).toBeInTheDocument();
-    expect(calls.some((c) => c.method === "POST")).toBe(false);
+    expect(calls.some((c) => c.method === "POST" && c.path === "/campaigns")).toBe(false);
     // fixed: sent with the exploration settings
     fireEvent.change(field("Batch q"), { target: { value: "2" } });
     fireEvent.change(field("Min distance"), { target: { value: "0.2" } });
     fireEvent.change(field("Concurrency cap"), { target: { value: "" } });
     fireEvent.change(field("Stopping threshold [N]"), { target: { value: "0.5" } });
     await userEvent.click(screen.getByRole("button", { name: "Create campaign" }));
-    await waitFor(() => expect(calls.some((c) => c.method === "POST")).toBe(true));
-    const body = calls.find((c) => c.method === "POST")!.body as { settings: Record<string, unknown>; stopping: Record<string, unknown> };
+    await waitFor(() => expect(calls.some((c) => c.method === "POST" && c.path === "/campaigns")).toBe(true));
+    const body = calls.find((c) => c.method === "POST" && c.path === "/campaigns")!.body as { settings: Record<string, unknown>; stopping: Record<string, unknown> };
     expect(body.settings).toMatchObject({ strategy: "ensemble-disagreement", batch: 2, candidates: 4, min_distance: 0.2, max_concurrent_oracle_jobs: null });
     expect(body.stopping.min_disagreement).toBe(0.5);
   });

@@ -1,6 +1,7 @@
-import { useState, type FormEvent } from "react";
+import { useEffect, useState, type FormEvent } from "react";
 import { Link, useNavigate } from "react-router-dom";
-import { useCreateCampaign } from "../api/campaigns";
+import { useCreateCampaign, validateCampaign } from "../api/campaigns";
+import { errorMessage, type FieldError } from "../api/errors";
 import { useOpenApi, useOracles, useSurrogateConfigs, useTasks } from "../api/definitions";
 import { ErrorBox, Loading } from "../components/States";
 import { FieldMessages, numberProblem } from "../components/SchemaForm";
@@ -11,6 +12,23 @@ import { ConfigSections, configFieldPaths, configLabel, configLocalErrors, useCo
 import { EXPLORATION_PATHS, ExplorationSection, explorationErrors } from "../campaign/ExplorationSection";
 import { useTitle } from "../lib/title";
 import { useUnsavedWarning } from "../lib/unsaved";
+
+/** A copy of a request without the values at the given dotted paths (an item of a list takes its whole list). */
+export function withoutFields(body: Record<string, unknown>, paths: string[]): Record<string, unknown> {
+  const out = structuredClone(body);
+  for (const path of paths) {
+    const parts = path.split(".");
+    let parent: unknown = out;
+    let i = 0;
+    for (; i < parts.length - 1; i++) {
+      const next: unknown = (parent as Record<string, unknown>)[parts[i]];
+      if (Array.isArray(next) || next === null || typeof next !== "object") break;
+      parent = next;
+    }
+    if (parent && typeof parent === "object") delete (parent as Record<string, unknown>)[parts[i]];
+  }
+  return out;
+}
 
 export function NewCampaignPage() {
   useTitle("New campaign");
@@ -35,24 +53,41 @@ export function NewCampaignPage() {
   useUnsavedWarning(name !== "" || edited !== null || seed !== 0 || chosenTask !== "" || chosenOracle !== "" || surrogateId !== "");
 
   const openapi = useOpenApi();
-  // the name is checked once the user has typed one or tried to create the campaign
-  const [submitted, setSubmitted] = useState(false);
   const own: Record<string, string> = { name: "Name", seed: "Seed", task_id: "Task", oracle_id: "Oracle", surrogate_config_id: "Surrogate configuration" };
   const seedProblem = numberProblem(seed, { minimum: 0 }, true) ?? (seed === undefined ? "a whole number is needed" : null);
   const local = [
-    ...(submitted || name !== "" ? nameProblems(name) : []),
+    ...nameProblems(name),
     ...(seedProblem ? [{ field: "seed", message: seedProblem }] : []),
     ...(config ? [...configLocalErrors(openapi.data, config), ...explorationErrors(config)] : []),
   ];
-  // the form as the last request sent it: the server's problems apply while the form still shows it
-  const draftKey = JSON.stringify([name, taskId, oracleId, surrogateId, seed, startNow, config]);
+  // the request as it would be sent, without the values the form already names: the API checks all the rest (its rules across a section's fields need the section valid)
+  const body = { name: cleanName(name), ...(taskId === "" ? {} : { task_id: taskId }), ...(oracleId === "" ? {} : { oracle_id: oracleId }), surrogate_config_id: surrogateId === "" ? null : surrogateId, seed, start: startNow, ...config };
+  const draftKey = JSON.stringify(withoutFields(body, local.map((e) => e.field)));
+  // Checked while typing: the API (which knows the definitions and the rules across settings) answers 400 ms after the last edit, with every problem at once.
+  const [validated, setValidated] = useState<{ key: string; errors: FieldError[] } | null>(null);
+  const ready = config !== null && !tasks.isPending && !oracles.isPending;
+  useEffect(() => {
+    if (!ready) return;
+    let current = true;
+    const timer = setTimeout(() => {
+      validateCampaign(JSON.parse(draftKey) as Record<string, unknown>)
+        .then((errors) => current && setValidated({ key: draftKey, errors }))
+        .catch((err) => current && setValidated({ key: draftKey, errors: [{ field: "", message: errorMessage(err) }] }));
+    }, 400);
+    return () => {
+      current = false;
+      clearTimeout(timer);
+    };
+  }, [draftKey, ready]);
+  const checking = ready && validated?.key !== draftKey;
+  // the request as the last create sent it: the server's refusal applies while the form still shows it
   const [sentKey, setSentKey] = useState<string | null>(null);
-  const view = errorView([local, sentKey === draftKey ? serverProblems(create.error) : []], [...Object.keys(own), ...configFieldPaths(openapi.data)], (p) => own[p] ?? configLabel(openapi.data, p));
+  const known = [...Object.keys(own), ...configFieldPaths(openapi.data)];
+  const view = errorView([local, validated?.errors ?? [], sentKey === draftKey ? serverProblems(create.error) : []], known, (p) => own[p] ?? configLabel(openapi.data, p));
 
   function submit(e: FormEvent) {
     e.preventDefault();
-    setSubmitted(true);
-    if (taskId === "" || oracleId === "" || !config || nameProblems(name).length || local.length || typeof seed !== "number") return;
+    if (taskId === "" || oracleId === "" || !config || local.length || typeof seed !== "number") return;
     setSentKey(draftKey);
     create.mutate(
       { name: cleanName(name), task_id: taskId, oracle_id: oracleId, surrogate_config_id: surrogateId === "" ? null : surrogateId, seed, start: startNow, ...config },
@@ -72,7 +107,7 @@ export function NewCampaignPage() {
     <form onSubmit={submit} style={{ maxWidth: 1100 }} noValidate>
       <div className="toolbar">
         <h1 style={{ margin: 0 }}>New campaign</h1>
-        {view.problems.length > 0 && <ErrorCount view={view} />}
+        {config && <ErrorCount view={view} checking={checking} />}
         <span className="spacer" />
         <label className="field-inline">
           <input type="checkbox" checked={startNow} onChange={(e) => setStartNow(e.target.checked)} /> Start right away
