@@ -100,10 +100,21 @@ def test_preliminary_upload_csv():
     assert pool[0].name == "preliminary-00" and np.array_equal(pool[0].t, [0.0, 1.0, 2.0])
 
 
+def test_preliminary_upload_csv_with_carriage_returns():
+    """Lines may end in \\r (old Mac), \\r\\n or \\n, mixed; a stray \\r ends a line as the csv module reads it."""
+    lines = ["q_0,qd_0,fx,fy,fz,mx,my,mz"] + [f"{0.1 + 0.001 * k},0,{k},0,0,0,0,0" for k in range(4)]
+    for end in ("\r", "\r\n"):
+        pool = load_preliminary_csv(io.StringIO(end.join(lines) + end), chunks=2)
+        assert sum(ds.n_samples for ds in pool) == 4
+    with pytest.raises(PoolDataError, match=r"^q_0: missing"):
+        load_preliminary_csv(io.StringIO("\u00ceqc\r\u00c5%\n"))
+
+
 @pytest.mark.parametrize(
     "text, match",
     [
         ("", "^header: the file is empty"),
+        ("q_0,qd_0\n" + "x" * 200_000 + "\n", "^file: not a CSV file the reader can parse: field larger"),
         ("q_0,qd_0,fx,fy,fz,mx,my,mz\n", "^rows: .* no data rows"),
         ("qd_0,fx,fy,fz,mx,my,mz\n0,1,2,3,4,5,6\n", "^q_0: missing"),
         ("q_0,fx,fy,fz,mx,my,mz\n0,1,2,3,4,5,6\n", "^qd_0: missing column"),

@@ -264,7 +264,11 @@ def load_preliminary_csv(
             raise PoolDataError("file", f"{source} is not a UTF-8 text file") from None
     else:
         text = source.read()
-    rows = [r for r in csv.reader(io.StringIO(text)) if r and any(c.strip() for c in r)]
+    try:
+        # newline="": a line may end in \r, \n or \r\n, as the csv module reads it
+        rows = [r for r in csv.reader(io.StringIO(text, newline="")) if r and any(c.strip() for c in r)]
+    except csv.Error as err:
+        raise PoolDataError("file", f"not a CSV file the reader can parse: {err}") from None
     if not rows:
         raise PoolDataError("header", "the file is empty")
     header = [c.strip() for c in rows[0]]
