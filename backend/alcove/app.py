@@ -19,7 +19,7 @@ import alcove
 from alcove.api import health
 from alcove.api.errors import COMMON_RESPONSES, BodySizeLimit, install_error_handlers
 from alcove.api.security import SecurityHeaders, install_docs
-from alcove.api.static import SPAStaticFiles
+from alcove.api.static import FrontendMount, SPAStaticFiles
 from alcove.api.text_input import reject_nul_characters
 from alcove.db.retry import is_retryable_db_error
 from alcove.settings import Settings, get_settings
@@ -153,7 +153,8 @@ def _mount_frontend(app: FastAPI, static_dir: Path) -> None:
     """Serve the built frontend at ``/`` (after the API routes, so they take precedence)."""
     index = static_dir / "index.html"
     if index.is_file():
-        app.mount("/", SPAStaticFiles(directory=static_dir, api_prefix=API_PREFIX), name="frontend")
+        spa = SPAStaticFiles(directory=static_dir, api_prefix=API_PREFIX)
+        app.router.routes.append(FrontendMount("/", spa, api_prefix=API_PREFIX, name="frontend"))
         return
 
     @app.get("/", include_in_schema=False)

@@ -5,6 +5,9 @@
 - Precompressed files: the build writes ``name.br`` and ``name.gz`` next to every large
   text asset; when the client accepts the encoding, that file is sent with
   ``Content-Encoding`` (no compression work per request).
+- Never under the API: a path below the API prefix that no API route serves is the API's own
+  404 (no such path) or 405 with ``Allow`` (a path served with other methods), not the web
+  UI's (:class:`FrontendMount`).
 - Caching: the files in ``assets/`` have a content hash in their name, so they are cached
   for a year as immutable; everything else (``index.html``, which names the current hashes)
   is revalidated on every load (``no-cache``; the ETag makes that a 304).
@@ -20,6 +23,7 @@ from pathlib import Path
 from starlette.datastructures import Headers
 from starlette.exceptions import HTTPException as StarletteHTTPException
 from starlette.responses import FileResponse, Response
+from starlette.routing import Match, Mount
 from starlette.staticfiles import NotModifiedResponse, PathLike, StaticFiles
 from starlette.types import Scope
 
@@ -111,3 +115,20 @@ class SPAStaticFiles(StaticFiles):
         if self.is_not_modified(response.headers, request_headers):
             return NotModifiedResponse(response.headers)
         return response
+
+
+class FrontendMount(Mount):
+    """The web UI at ``/``, except below the API prefix: there it matches nothing, so a path no
+    API route serves gets the router's 404, and a path an API route serves with other methods
+    its 405 (a catch-all mount would answer every such request itself: 405 for a method other
+    than GET, 404 for a GET)."""
+
+    def __init__(self, path: str, app: StaticFiles, *, api_prefix: str, name: str | None = None) -> None:
+        super().__init__(path, app=app, name=name)
+        self.api_prefix = api_prefix.rstrip("/")
+
+    def matches(self, scope: Scope) -> tuple[Match, Scope]:
+        path = scope.get("path", "")
+        if path == self.api_prefix or path.startswith(self.api_prefix + "/"):
+            return Match.NONE, {}
+        return super().matches(scope)
