@@ -1,7 +1,8 @@
 """Domain errors raised by services (no web imports). The API maps them to HTTP:
 :class:`NotFound` 404, :class:`PermissionDenied` 403, :class:`Conflict` 409,
 :class:`InvalidInput` 422 (with field paths), :class:`TooLarge` 413, :class:`LoginLocked` 429,
-:class:`AuthenticationFailed` 401."""
+:class:`AuthenticationFailed` 401, :class:`StorageUnavailable` 507 (folder full) or 503 (folder
+not writable)."""
 
 from __future__ import annotations
 
@@ -49,6 +50,15 @@ class TooManyRequests(DomainError):
     def __init__(self, message: str, retry_after_s: int) -> None:
         super().__init__(message)
         self.retry_after_s = retry_after_s
+
+
+class StorageUnavailable(DomainError):
+    """A folder the request must write to cannot take a write: full (``full``: 507) or
+    read-only, not writable or missing (503). The message names the folder and the cause."""
+
+    def __init__(self, message: str, *, full: bool) -> None:
+        super().__init__(message)
+        self.full = full
 
 
 class LoginLocked(TooManyRequests):

@@ -65,6 +65,14 @@ class Settings(BaseSettings):
     reconcile_seconds: float = Field(
         default=2.0, gt=0, description="How often each worker looks for steps of dead workers and lost messages"
     )
+    artifact_builds: int = Field(
+        default=2,
+        ge=1,
+        description=(
+            "Artifact builds (model zips for downloads, a child process with torch each) running at once across "
+            "all workers; more wait for a free slot"
+        ),
+    )
     outbox_relay_seconds: float = Field(
         default=1.0,
         gt=0,

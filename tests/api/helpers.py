@@ -67,3 +67,23 @@ def small_task_spec(intervals: int = 8) -> dict:
 
 def repo_root() -> Path:
     return Path(__file__).resolve().parents[2]
+
+
+def download_when_built(client, url: str, headers: dict[str, str], *, params=None, timeout_s: float = 240.0):
+    """A download that may answer 202 with an artifact build: poll the build until it is ready,
+    then download again (what the web UI and the CLI do)."""
+    import time
+
+    r = client.get(url, params=params, headers=headers)
+    deadline = time.monotonic() + timeout_s
+    while r.status_code == 202:
+        location = r.headers["Location"]
+        while True:
+            build = client.get(location, headers=headers).json()
+            assert build["status"] != "failed", build
+            if build["status"] == "ready":
+                break
+            assert time.monotonic() < deadline, f"build not ready in {timeout_s:g} s: {build}"
+            time.sleep(0.3)
+        r = client.get(url, params=params, headers=headers)
+    return r

@@ -98,6 +98,18 @@ class Objects:
                 (cache_dir() / f"{mv.artifact_sha256}.v{ZIP_LAYOUT}.zip").write_bytes(model_artifact_bytes(s, mv))
         return self._finished
 
+    def artifact_build(self) -> int:
+        """A finished build of the finished campaign's model zip (made in the database)."""
+        from alcove.db import session_scope
+        from alcove.models import ArtifactBuild
+
+        cid = self.finished()["campaign_id"]
+        with session_scope() as s:
+            row = ArtifactBuild(campaign_id=cid, model_version_ids=[], download_path="/x", status="ready")
+            s.add(row)
+            s.flush()
+            return row.id
+
     def preview(self) -> int:
         """A finished preview of the owner's (made in the database: the API limits pending previews)."""
         from alcove.db import session_scope
@@ -272,6 +284,7 @@ SPECS: dict[str, Spec] = {
     "get_model_artifact": ("owned", lambda o, a: Call(path={**o.finished(), "version": 1}), OK),
     "download_model_artifact": ("owned", lambda o, a: Call(path={**o.finished(), "version": 1}), OK),
     "export_campaign": ("owned", lambda o, a: Call(path=o.finished(), params={"pool_format": "csv"}), OK),
+    "get_artifact_build": ("owned", lambda o, a: Call(path={**o.finished(), "build_id": o.artifact_build()}), OK),
     # ---- editor previews (run by workers; here they stay pending)
     "create_task_preview": ("owned", lambda o, a: Call(path={"task_id": o.task()}, json={"intervals": 4}), {202}),
     "create_oracle_preview": ("owned", lambda o, a: Call(path={"oracle_id": o.oracle()}), {202}),

@@ -1,7 +1,8 @@
 """The whole product over HTTP against real PostgreSQL + Redis with a real worker process:
 create a task, an oracle (aux-penalty, fast) and a surrogate config, create and start a
 campaign with few OCP intervals, watch iterations appear through incremental polling,
-then download the pool (Parquet + CSV), the model (JSON artifact and zip with TorchScript)
+then download the pool (Parquet + CSV), the model (JSON artifact and zip with TorchScript,
+built by the worker on queue artifacts: 202 with the build, polled until ready, then the zip)
 and the export zip, and load them."""
 
 from __future__ import annotations
@@ -16,7 +17,7 @@ import numpy as np
 import pytest
 from fastapi.testclient import TestClient
 
-from .helpers import make_account
+from .helpers import download_when_built, make_account
 
 pytestmark = [pytest.mark.integration, pytest.mark.slow]
 
@@ -44,7 +45,15 @@ def live(tmp_path: Path, fresh_pg_url: str, redis_url: str, api_settings: None, 
     reset_sender()
     env = alcove_env(**settings)
     with running(
-        ["worker", "--queues", "ocp,oracle,train,default", "--concurrency", "2", "--name", unique("api-life")],
+        [
+            "worker",
+            "--queues",
+            "ocp,oracle,train,default,artifacts",
+            "--concurrency",
+            "2",
+            "--name",
+            unique("api-life"),
+        ],
         env,
         tmp_path / "worker.log",
     ) as worker:
@@ -184,7 +193,10 @@ def test_full_campaign_lifecycle_over_http(live) -> None:
     assert [m["version"] for m in models] == [1, 2] and models[1]["parent_model_id"] in (None, models[0]["id"])
     assert models[1]["pool_version_id"] == pools[1]["id"]
     doc = ok(client.get(f"{API}/campaigns/{cid}/model-versions/2/artifact", headers=h))
-    zipped = client.get(f"{API}/campaigns/{cid}/model-versions/2/artifact.zip", headers=h)
+    # the zip is built by the worker (queue artifacts): 202 with the build, then the zip
+    first = client.get(f"{API}/campaigns/{cid}/model-versions/2/artifact.zip", headers=h)
+    assert first.status_code == 202 and first.json()["models_total"] == 1, first.text
+    zipped = download_when_built(client, f"{API}/campaigns/{cid}/model-versions/2/artifact.zip", h)
     assert zipped.status_code == 200, zipped.text[:2000]
     import torch
 
@@ -200,7 +212,8 @@ def test_full_campaign_lifecycle_over_http(live) -> None:
     scripted = torch.jit.load(str(folder / "force.pt"))
     assert scripted(torch.as_tensor(x, dtype=torch.float64)).shape == (7, 3)
 
-    export = client.get(f"{API}/campaigns/{cid}/export", params={"pool_format": "csv"}, headers=h)
+    export = download_when_built(client, f"{API}/campaigns/{cid}/export", h, params={"pool_format": "csv"})
+    assert export.status_code == 200, export.text[:2000]
     names = zipfile.ZipFile(io.BytesIO(export.content)).namelist()
     assert (
         f"campaign-{cid}/metrics.csv" in names

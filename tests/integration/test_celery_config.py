@@ -19,7 +19,7 @@ def test_long_job_settings_on_redis() -> None:
     assert cfg["task_serializer"] == "json" and cfg["accept_content"] == ["json"]
     assert cfg["task_ignore_result"] is True and cfg["result_backend"] is None
     assert cfg["broker_transport_options"] == {"visibility_timeout": 43200, "global_keyprefix": "p:"}
-    assert {q.name for q in cfg["task_queues"]} == set(QUEUES) == {"default", "ocp", "oracle", "train"}
+    assert {q.name for q in cfg["task_queues"]} == set(QUEUES) == {"default", "ocp", "oracle", "train", "artifacts"}
 
 
 def test_visibility_timeout_exceeds_the_job_lease_and_an_hour() -> None:

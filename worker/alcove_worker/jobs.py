@@ -130,6 +130,24 @@ def oracle_preview(self: Any, preview_id: int) -> str:
     return run_preview(int(preview_id), worker_name=self.request.hostname or "unknown")
 
 
+# ----------------------------------------------------------------------------- artifact builds
+# The message is the build id; the job claims the build with a free build slot first (a
+# duplicate is a no-op). With every slot taken (ALCOVE_ARTIFACT_BUILDS) it runs again shortly.
+
+from alcove.surrogates.artifact_builds import ARTIFACT_BUILD_JOB  # noqa: E402
+
+
+@app.task(name=ARTIFACT_BUILD_JOB, bind=True, acks_late=True, max_retries=None)
+def artifact_build(self: Any, build_id: int) -> str:
+    """Build the model artifact zips a download waits for (queue artifacts)."""
+    from alcove.surrogates.artifact_build_worker import BUSY, BUSY_RETRY_S, run_build
+
+    outcome = run_build(int(build_id), worker_name=self.request.hostname or "unknown")
+    if outcome == BUSY:
+        raise self.retry(countdown=BUSY_RETRY_S)
+    return outcome
+
+
 @app.task(name=RECONCILE_JOB, bind=True)
 def reconcile(self: Any) -> int:
     """One reconciliation pass (also runs periodically inside every worker)."""

@@ -5,7 +5,9 @@ Every client mistake gets a 4xx with a readable body, never a 500:
 * 422 ``{"detail": [{"loc": [...], "field": "spec.phases.1.duration", "msg": ..., "type": ...}]}``
   for request validation (FastAPI) and for the services' :class:`~alcove.errors.InvalidInput`;
 * 404 / 403 / 409 / 413 / 429 / 401 ``{"detail": "..."}`` for the other domain errors;
-* 409 for integrity violations (e.g. a duplicate name) and for edits of immutable rows.
+* 409 for integrity violations (e.g. a duplicate name) and for edits of immutable rows;
+* 507 (folder full) or 503 (read-only or not writable) ``{"detail": "..."}`` naming the folder
+  when a download must store a file it cannot (:class:`~alcove.errors.StorageUnavailable`).
 """
 
 from __future__ import annotations
@@ -32,6 +34,7 @@ from alcove.errors import (
     InvalidInput,
     NotFound,
     PermissionDenied,
+    StorageUnavailable,
     TooLarge,
     TooManyRequests,
     field_errors_from_pydantic,
@@ -169,6 +172,11 @@ def install_error_handlers(app: FastAPI) -> None:
     app.add_exception_handler(ImmutableRowError, simple(409))
     app.add_exception_handler(TooLarge, simple(413))
     app.add_exception_handler(AuthenticationFailed, simple(401, {"WWW-Authenticate": "Bearer"}))
+
+    @app.exception_handler(StorageUnavailable)
+    async def _storage(request: Request, err: StorageUnavailable) -> JSONResponse:
+        log.warning("storage unavailable: %s", err.message)
+        return JSONResponse({"detail": err.message}, status_code=507 if err.full else 503)
 
     @app.exception_handler(TooManyRequests)
     async def _too_many(request: Request, err: TooManyRequests) -> JSONResponse:

@@ -1,8 +1,9 @@
-"""Health (liveness, no dependencies) and readiness (database, broker, workers seen).
+"""Health (liveness, no dependencies) and readiness (database, broker, workers seen; the
+artifacts folder reported beside them).
 
 Readiness answers everyone whether the service is ready (200 or 503, ``{"ready": ...}``);
-its details (schema revision, workers and their queues, error text: what helps an attacker
-too) go only to an admin's bearer token or to a client in ``ALCOVE_HEALTH_DETAILS_NETWORKS``."""
+its details (schema revision, workers and their queues, the artifacts folder, error text: what
+helps an attacker too) go only to an admin's bearer token or to a client in ``ALCOVE_HEALTH_DETAILS_NETWORKS``."""
 
 from __future__ import annotations
 
@@ -11,7 +12,7 @@ from typing import Any
 
 import sqlalchemy as sa
 from fastapi import APIRouter, Request, Response, status
-from pydantic import BaseModel
+from pydantic import BaseModel, Field
 
 import alcove
 from alcove.api.client_address import client_address, in_networks
@@ -45,6 +46,10 @@ class Readiness(ReadinessStatus):
     workers: Check
     workers_seen: int
     queues_served: list[str]
+    artifacts: Check = Field(
+        description="the artifacts folder (the model zips downloads serve) takes a write, and its free space; "
+        "reported only: a full or read-only folder fails the downloads that must build, not readiness"
+    )
 
 
 @router.get("", response_model=Health, summary="Liveness", operation_id="health")
@@ -130,7 +135,7 @@ def may_see_details(request: Request, settings: Settings) -> bool:
 )
 def readiness(request: Request, response: Response) -> Readiness | ReadinessStatus:
     """200 when ready, else 503. The details (each check, the workers seen and the queues they
-    serve) only for an admin's bearer token or a client in ALCOVE_HEALTH_DETAILS_NETWORKS;
+    serve, the artifacts folder) only for an admin's bearer token or a client in ALCOVE_HEALTH_DETAILS_NETWORKS;
     anyone else gets `{"ready": ...}` alone."""
     settings = get_settings()
     db = _timed(check_database)
@@ -152,4 +157,14 @@ def readiness(request: Request, response: Response) -> Readiness | ReadinessStat
         response.status_code = status.HTTP_503_SERVICE_UNAVAILABLE
     if not may_see_details(request, settings):
         return ReadinessStatus(ready=ready)
-    return Readiness(ready=ready, database=db, broker=broker, workers=wk, workers_seen=len(seen), queues_served=queues)
+    from alcove.api.artifacts_folder import describe
+
+    return Readiness(
+        ready=ready,
+        database=db,
+        broker=broker,
+        workers=wk,
+        workers_seen=len(seen),
+        queues_served=queues,
+        artifacts=_timed(describe),
+    )

@@ -15,10 +15,12 @@ from alcove.campaigns.results import get_detail, list_iterations, metrics_series
 from alcove.campaigns.transitions import config_from_version
 from alcove.campaigns.validation import validation_files
 from alcove.db.arrays import get_bytes
+from alcove.models import ModelVersion
 from alcove.pool import repository as pool_repo
 from alcove.pool import service as pool_service
 from alcove.surrogates import repository as surrogates_repo
 from alcove.surrogates import service as surrogates_service
+from alcove.surrogates.artifact_export import stored_zip_paths
 
 #: The columns of ``metrics.csv``.
 METRICS_COLUMNS = [
@@ -112,17 +114,20 @@ def export_campaign(
     return root
 
 
-def export_zip(s: Session, campaign_id: int, *, pool_format: str = "parquet", models: bool = True) -> bytes:
-    """:func:`export_campaign` as zip bytes, the models as their full artifact zips (with
-    the TorchScript files, built once by a child process and cached)."""
-    from alcove.surrogates.artifact_export import artifact_zip_paths
+def exported_model_versions(s: Session, campaign_id: int) -> list[ModelVersion]:
+    """The campaign's own model versions with an artifact: the ``models/`` of its export."""
+    return [mv for mv in surrogates_repo.own_versions(s, campaign_id) if mv.artifact_sha256]
 
+
+def export_zip(s: Session, campaign_id: int, *, pool_format: str = "parquet", models: bool = True) -> bytes:
+    """:func:`export_campaign` as zip bytes, the models as their full artifact zips (with the
+    TorchScript files), which must be built and stored already (the route builds them first)."""
     data = export_campaign(s, campaign_id, pool_format=pool_format, models=False)
     assert isinstance(data, bytes)
-    versions = [mv for mv in surrogates_repo.own_versions(s, campaign_id) if mv.artifact_sha256] if models else []
+    versions = exported_model_versions(s, campaign_id) if models else []
     if not versions:
         return data
-    paths = artifact_zip_paths(versions)
+    paths = stored_zip_paths(versions)
     buf = io.BytesIO(data)
     with zipfile.ZipFile(buf, "a", zipfile.ZIP_DEFLATED) as zf:
         for mv in versions:

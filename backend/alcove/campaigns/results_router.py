@@ -30,7 +30,9 @@ from alcove.campaigns.schemas import (
 from alcove.campaigns.validation import validation_series
 from alcove.db import get_sessionmaker
 from alcove.errors import NotFound
-from alcove.models import Campaign, StepStatus
+from alcove.models import ArtifactBuild, Campaign, StepStatus
+from alcove.surrogates import artifact_builds
+from alcove.surrogates.router import BUILD_RESPONSES, build_accepted
 from alcove.users.access import get_for
 from alcove.users.auth import CurrentUser
 
@@ -294,7 +296,7 @@ def list_campaign_events(
     "/{campaign_id:integer}/export",
     operation_id="export_campaign",
     response_class=Response,
-    responses={200: binary("application/zip")},
+    responses={200: binary("application/zip"), **BUILD_RESPONSES},
 )
 def export_campaign(
     campaign_id: ObjectId,
@@ -304,7 +306,15 @@ def export_campaign(
     models: bool = True,
 ) -> Response:
     """Everything the campaign produced as one zip: settings and config versions, metrics
-    (CSV + JSON), iterations, pool versions, model artifacts, curves."""
+    (CSV + JSON), iterations, pool versions, model artifacts, curves. With models, the model
+    zips a worker has not built yet are built first (queue ``artifacts``): the answer is then
+    202 with the build to poll, and this download answers 200 once it is ready."""
     get_for(session, Campaign, campaign_id, user)
+    if models:
+        versions = export.exported_model_versions(session, campaign_id)
+        path = f"/api/v1/campaigns/{campaign_id}/export?pool_format={pool_format}&models=true"
+        got = artifact_builds.stored_or_build(session, user, campaign_id, versions, path)
+        if isinstance(got, ArtifactBuild):
+            return build_accepted(session, got)
     data = export.export_zip(session, campaign_id, pool_format=pool_format, models=models)
     return download(data, f"campaign-{campaign_id}.zip", "application/zip")

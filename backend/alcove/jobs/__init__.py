@@ -2,7 +2,8 @@
 workers (which register and run them). Importing this package never imports torch,
 casadi or the science code.
 
-Queues: ``ocp``, ``oracle``, ``train`` for the heavy steps and ``default`` for
+Queues: ``ocp``, ``oracle``, ``train`` for the heavy steps, ``artifacts`` for the model
+artifact zips a download needs (a child process with torch each) and ``default`` for
 orchestration (evaluate, append, reconcile, smoke). Routing is by job name: a job named
 ``alcove.<queue>.<what>`` goes to ``<queue>`` (e.g. ``alcove.train.step``); any other name
 goes to ``default``. ``send_job(..., queue=...)`` overrides the route.
@@ -33,7 +34,7 @@ from alcove.settings import Settings, get_settings
 if TYPE_CHECKING:
     from celery import Celery
 
-QUEUES: tuple[str, ...] = ("default", "ocp", "oracle", "train")
+QUEUES: tuple[str, ...] = ("default", "ocp", "oracle", "train", "artifacts")
 DEFAULT_QUEUE = "default"
 
 #: Job names defined by this package.

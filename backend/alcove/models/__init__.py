@@ -5,6 +5,7 @@ Alembic migrations in ``migrations/`` are the only way the schema changes.
 """
 
 from alcove.models import guards as _guards  # noqa: F401  (registers the immutability guard)
+from alcove.models.artifact_builds import ArtifactBuild, ArtifactBuildStatus
 from alcove.models.base import (
     ITERATION_STEPS,
     NAMING_CONVENTION,
@@ -61,6 +62,8 @@ __all__ = [
     "ITERATION_STEPS",
     "NAMING_CONVENTION",
     "ApiToken",
+    "ArtifactBuild",
+    "ArtifactBuildStatus",
     "Base",
     "Blob",
     "Campaign",

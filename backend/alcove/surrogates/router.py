@@ -7,19 +7,21 @@ from __future__ import annotations
 from typing import Any
 
 from fastapi import APIRouter, Response, status
+from fastapi.responses import JSONResponse
 from pydantic import BaseModel, ConfigDict, Field, ValidationError
+from sqlalchemy.orm import Session
 
 from alcove import versioning
 from alcove.api.deps import SessionDep
 from alcove.api.downloads import binary, download
+from alcove.api.errors import ErrorOut
 from alcove.api.params import Limit, ObjectId, Offset, VersionNumber
 from alcove.errors import field_errors_from_pydantic
-from alcove.models import Campaign, SurrogateConfig, User
+from alcove.models import ArtifactBuild, Campaign, SurrogateConfig, User
 from alcove.names import Name
 from alcove.science.surrogate.config import SurrogateConfig as SurrogateSpec
-from alcove.surrogates import service
-from alcove.surrogates.artifact_export import artifact_zip_paths
-from alcove.surrogates.schemas import ModelVersionRead
+from alcove.surrogates import artifact_builds, service
+from alcove.surrogates.schemas import ArtifactBuildRead, ModelVersionRead
 from alcove.surrogates.service import artifact_document
 from alcove.users.access import get_for
 from alcove.users.auth import CurrentUser
@@ -194,18 +196,59 @@ def get_model_artifact(
     return artifact_document(session, service.campaign_version(session, campaign_id, version))
 
 
+#: The answers of a download that may need an artifact build.
+BUILD_RESPONSES: dict[int | str, dict[str, Any]] = {
+    202: {
+        "model": ArtifactBuildRead,
+        "description": "the model zips are being built: poll the build (the Location header) until it is ready, "
+        "then repeat this download",
+    },
+    503: {
+        "model": ErrorOut,
+        "description": "the artifacts folder is read-only or not writable (named), or the database is busy",
+    },
+    507: {"model": ErrorOut, "description": "the artifacts folder is full (named)"},
+}
+
+
+def build_accepted(session: Session, row: ArtifactBuild) -> JSONResponse:
+    """202 with the build (committed: its job is sent now, or by the outbox relay)."""
+    artifact_builds.send(row.id)
+    return JSONResponse(
+        artifact_builds.read(session, row).model_dump(mode="json"),
+        status_code=status.HTTP_202_ACCEPTED,
+        headers={"Location": f"/api/v1/campaigns/{row.campaign_id}/artifact-builds/{row.id}", "Retry-After": "1"},
+    )
+
+
 @model_versions.get(
     "/{campaign_id:integer}/model-versions/{version:integer}/artifact.zip",
     operation_id="download_model_artifact",
     response_class=Response,
-    responses={200: binary("application/zip")},
+    responses={200: binary("application/zip"), **BUILD_RESPONSES},
 )
 def download_model_artifact(
     campaign_id: ObjectId, version: VersionNumber, user: CurrentUser, session: SessionDep
 ) -> Response:
-    """The artifact as a zip: ``surrogate.json`` + TorchScript ``force.pt`` / ``moment.pt``
-    (built once by a child process, then cached)."""
+    """The artifact as a zip: ``surrogate.json`` + TorchScript ``force.pt`` / ``moment.pt`` + the
+    CasADi and ONNX exports. Built once by a worker (queue ``artifacts``), then stored: until it
+    is, the answer is 202 with the build to poll."""
     get_for(session, Campaign, campaign_id, user)
     mv = service.campaign_version(session, campaign_id, version)
-    path = artifact_zip_paths([mv])[mv.id]
-    return download(path.read_bytes(), f"campaign-{campaign_id}-model-{version:04d}.zip", "application/zip")
+    path = f"/api/v1/campaigns/{campaign_id}/model-versions/{version}/artifact.zip"
+    got = artifact_builds.stored_or_build(session, user, campaign_id, [mv], path)
+    if isinstance(got, ArtifactBuild):
+        return build_accepted(session, got)
+    return download(got[mv.id].read_bytes(), f"campaign-{campaign_id}-model-{version:04d}.zip", "application/zip")
+
+
+@model_versions.get(
+    "/{campaign_id:integer}/artifact-builds/{build_id:integer}",
+    response_model=ArtifactBuildRead,
+    operation_id="get_artifact_build",
+)
+def get_artifact_build(
+    campaign_id: ObjectId, build_id: ObjectId, user: CurrentUser, session: SessionDep
+) -> ArtifactBuildRead:
+    """A build of model artifact zips a download waits for: its status and progress."""
+    return artifact_builds.read(session, artifact_builds.get(session, user, campaign_id, build_id))

@@ -47,3 +47,21 @@ class ModelVersionRead(_Read):
 
 
 __all__ = ["ModelVersionRead"]
+
+
+class ArtifactBuildRead(_Read):
+    """A build of the model artifact zips a download needs. Poll it (``GET
+    /artifact-builds/{id}``) until ``status`` is ``ready``, then repeat the download
+    (``download_url``); ``failed`` says why in ``error``."""
+
+    id: int
+    campaign_id: int
+    status: str = Field(description="queued, running, ready or failed")
+    models_total: int = Field(description="model zips this build makes")
+    models_done: int = Field(description="of which stored so far")
+    detail: str = Field(description="what it is doing or waiting for, in words")
+    error: str | None
+    download_url: str = Field(description="the download to repeat once the build is ready")
+    created_at: datetime
+    started_at: datetime | None
+    finished_at: datetime | None

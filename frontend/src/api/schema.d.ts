@@ -186,6 +186,26 @@ export interface paths {
         patch?: never;
         trace?: never;
     };
+    "/api/v1/campaigns/{campaign_id}/artifact-builds/{build_id}": {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        /**
+         * Get Artifact Build
+         * @description A build of model artifact zips a download waits for: its status and progress.
+         */
+        get: operations["get_artifact_build"];
+        put?: never;
+        post?: never;
+        delete?: never;
+        options?: never;
+        head?: never;
+        patch?: never;
+        trace?: never;
+    };
     "/api/v1/campaigns/{campaign_id}/cancel": {
         parameters: {
             query?: never;
@@ -279,7 +299,9 @@ export interface paths {
         /**
          * Export Campaign
          * @description Everything the campaign produced as one zip: settings and config versions, metrics
-         *     (CSV + JSON), iterations, pool versions, model artifacts, curves.
+         *     (CSV + JSON), iterations, pool versions, model artifacts, curves. With models, the model
+         *     zips a worker has not built yet are built first (queue ``artifacts``): the answer is then
+         *     202 with the build to poll, and this download answers 200 once it is ready.
          */
         get: operations["export_campaign"];
         put?: never;
@@ -537,8 +559,9 @@ export interface paths {
         };
         /**
          * Download Model Artifact
-         * @description The artifact as a zip: ``surrogate.json`` + TorchScript ``force.pt`` / ``moment.pt``
-         *     (built once by a child process, then cached).
+         * @description The artifact as a zip: ``surrogate.json`` + TorchScript ``force.pt`` / ``moment.pt`` + the
+         *     CasADi and ONNX exports. Built once by a worker (queue ``artifacts``), then stored: until it
+         *     is, the answer is 202 with the build to poll.
          */
         get: operations["download_model_artifact"];
         put?: never;
@@ -718,7 +741,7 @@ export interface paths {
         /**
          * Readiness: database migrated, broker reachable, at least one worker seen
          * @description 200 when ready, else 503. The details (each check, the workers seen and the queues they
-         *     serve) only for an admin's bearer token or a client in ALCOVE_HEALTH_DETAILS_NETWORKS;
+         *     serve, the artifacts folder) only for an admin's bearer token or a client in ALCOVE_HEALTH_DETAILS_NETWORKS;
          *     anyone else gets `{"ready": ...}` alone.
          */
         get: operations["readiness"];
@@ -1462,6 +1485,54 @@ export interface paths {
 export type webhooks = Record<string, never>;
 export interface components {
     schemas: {
+        /**
+         * ArtifactBuildRead
+         * @description A build of the model artifact zips a download needs. Poll it (``GET
+         *     /artifact-builds/{id}``) until ``status`` is ``ready``, then repeat the download
+         *     (``download_url``); ``failed`` says why in ``error``.
+         */
+        ArtifactBuildRead: {
+            /** Campaign Id */
+            campaign_id: number;
+            /**
+             * Created At
+             * Format: date-time
+             */
+            created_at: string;
+            /**
+             * Detail
+             * @description what it is doing or waiting for, in words
+             */
+            detail: string;
+            /**
+             * Download Url
+             * @description the download to repeat once the build is ready
+             */
+            download_url: string;
+            /** Error */
+            error: string | null;
+            /** Finished At */
+            finished_at: string | null;
+            /** Id */
+            id: number;
+            /**
+             * Models Done
+             * @description of which stored so far
+             */
+            models_done: number;
+            /**
+             * Models Total
+             * @description model zips this build makes
+             */
+            models_total: number;
+            /** Started At */
+            started_at: string | null;
+            /**
+             * Status
+             * @description queued, running, ready or failed
+             */
+            status: string;
+        };
         /**
          * BaseSpec
          * @description Pose of the base frame (the first joint) in the world.
@@ -3600,6 +3671,8 @@ export interface components {
          * @description What an admin or a client of ALCOVE_HEALTH_DETAILS_NETWORKS sees.
          */
         Readiness: {
+            /** @description the artifacts folder (the model zips downloads serve) takes a write, and its free space; reported only: a full or read-only folder fails the downloads that must build, not readiness */
+            artifacts: components["schemas"]["Check"];
             broker: components["schemas"]["Check"];
             database: components["schemas"]["Check"];
             /** Queues Served */
@@ -5956,6 +6029,94 @@ export interface operations {
             };
         };
     };
+    get_artifact_build: {
+        parameters: {
+            query?: never;
+            header?: never;
+            path: {
+                /** @description object id */
+                campaign_id: number;
+                /** @description object id */
+                build_id: number;
+            };
+            cookie?: never;
+        };
+        requestBody?: never;
+        responses: {
+            /** @description Successful Response */
+            200: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ArtifactBuildRead"];
+                };
+            };
+            /** @description not authenticated (missing, invalid, expired or revoked token) */
+            401: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorOut"];
+                };
+            };
+            /** @description not allowed (admin-only route, or an object shared with you for viewing only) */
+            403: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorOut"];
+                };
+            };
+            /** @description no such object, or not visible to you */
+            404: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorOut"];
+                };
+            };
+            /** @description conflicts with the current state (e.g. a campaign transition, a duplicate) */
+            409: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorOut"];
+                };
+            };
+            /** @description request body too large */
+            413: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorOut"];
+                };
+            };
+            /** @description invalid input: field paths and reasons */
+            422: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ValidationErrorOut"];
+                };
+            };
+            /** @description database busy or unavailable: retry */
+            503: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorOut"];
+                };
+            };
+        };
+    };
     cancel_campaign: {
         parameters: {
             query?: never;
@@ -6336,6 +6497,15 @@ export interface operations {
                     "application/zip": string;
                 };
             };
+            /** @description the model zips are being built: poll the build (the Location header) until it is ready, then repeat this download */
+            202: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ArtifactBuildRead"];
+                };
+            };
             /** @description not authenticated (missing, invalid, expired or revoked token) */
             401: {
                 headers: {
@@ -6390,8 +6560,17 @@ export interface operations {
                     "application/json": components["schemas"]["ValidationErrorOut"];
                 };
             };
-            /** @description database busy or unavailable: retry */
+            /** @description the artifacts folder is read-only or not writable (named), or the database is busy */
             503: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorOut"];
+                };
+            };
+            /** @description the artifacts folder is full (named) */
+            507: {
                 headers: {
                     [name: string]: unknown;
                 };
@@ -7428,6 +7607,15 @@ export interface operations {
                     "application/zip": string;
                 };
             };
+            /** @description the model zips are being built: poll the build (the Location header) until it is ready, then repeat this download */
+            202: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ArtifactBuildRead"];
+                };
+            };
             /** @description not authenticated (missing, invalid, expired or revoked token) */
             401: {
                 headers: {
@@ -7482,8 +7670,17 @@ export interface operations {
                     "application/json": components["schemas"]["ValidationErrorOut"];
                 };
             };
-            /** @description database busy or unavailable: retry */
+            /** @description the artifacts folder is read-only or not writable (named), or the database is busy */
             503: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorOut"];
+                };
+            };
+            /** @description the artifacts folder is full (named) */
+            507: {
                 headers: {
                     [name: string]: unknown;
                 };
