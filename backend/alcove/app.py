@@ -18,6 +18,7 @@ from sqlalchemy import exc as sa_exc
 import alcove
 from alcove.api import health
 from alcove.api.errors import COMMON_RESPONSES, BodySizeLimit, install_error_handlers
+from alcove.api.json_numbers import WholeNumbers
 from alcove.api.security import SecurityHeaders, install_docs
 from alcove.api.static import FrontendMount, SPAStaticFiles
 from alcove.api.text_input import reject_nul_characters
@@ -109,6 +110,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
         )
     install_docs(app, f"{API_PREFIX}/docs", f"{API_PREFIX}/openapi.json")
     install_error_handlers(app)
+    app.add_middleware(WholeNumbers)  # inside the size limit: it reads only bodies the limit let through
     app.add_middleware(BodySizeLimit)
     app.add_middleware(SecurityHeaders)  # outermost of ours: also on errors and the web UI's files
 
