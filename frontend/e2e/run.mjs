@@ -3,7 +3,7 @@
  * End-to-end check of the web UI against a running `alcove up` (API + real worker):
  * sign in, API token, create a task and an oracle, create and start a campaign, watch the
  * RMSE plot gain points from >= 2 iterations, open an iteration's force plot, pause and
- * resume, download a model; the editors' previews ("solve once", "test on a sample
+ * resume, download a model (built by the worker first); the editors' previews ("solve once", "test on a sample
  * trajectory") run by the worker. Polling is checked on the network: every metrics poll after the
  * first asks `?after=k` and gets only iterations after k. Screenshots (the campaign page and
  * the tour of docs/quickstart.md and docs/ui.md) go into the artifacts folder and, with
@@ -393,7 +393,8 @@ try {
   step("download a model");
   await openTab(page, "Pool & models");
   await page.getByTestId("model-table").waitFor({ timeout: 30_000 });
-  const [download] = await Promise.all([page.waitForEvent("download"), page.getByTestId("model-table").getByRole("button", { name: "Artifact" }).first().click()]);
+  // the zip is built by the worker first (202, the button follows the build): it may wait for a free worker process
+  const [download] = await Promise.all([page.waitForEvent("download", { timeout: 120_000 }), page.getByTestId("model-table").getByRole("button", { name: "Artifact" }).first().click()]);
   const modelPath = resolve(artifacts, download.suggestedFilename());
   await download.saveAs(modelPath);
   const size = statSync(modelPath).size;
