@@ -27,7 +27,8 @@ def load_command_catalogue(path: str | Path) -> dict[str, CommandOracleSpec]:
             timeout_s: 1800
 
     ``{catalogue_dir}`` (the catalogue's folder) and ``{python}`` (the Python running alcove)
-    are replaced in ``argv`` and ``env`` values; relative template paths are resolved from
+    are replaced in ``argv`` and ``env`` values (also the launcher's ``env`` and ``job_root``);
+    relative template paths are resolved from
     the catalogue's folder. Raises :class:`CatalogueError` naming the entry and key.
     """
     path = Path(path)
@@ -57,6 +58,14 @@ def load_command_catalogue(path: str | Path) -> dict[str, CommandOracleSpec]:
             entry["argv"] = [substitute(a) if isinstance(a, str) else a for a in entry["argv"]]
         if isinstance(entry.get("env"), dict):
             entry["env"] = {k: substitute(v) if isinstance(v, str) else v for k, v in entry["env"].items()}
+        launcher = entry.get("launcher")
+        if isinstance(launcher, dict):
+            launcher = dict(launcher)
+            if isinstance(launcher.get("env"), dict):
+                launcher["env"] = {k: substitute(v) if isinstance(v, str) else v for k, v in launcher["env"].items()}
+            if isinstance(launcher.get("job_root"), str):
+                launcher["job_root"] = substitute(launcher["job_root"])
+            entry["launcher"] = launcher
         if isinstance(entry.get("template"), str):
             entry["template"] = base / substitute(entry["template"])
         try:

@@ -34,7 +34,10 @@ DIAGNOSTICS_FILE = "diagnostics.json"
 STDOUT_FILE = "stdout.log"
 STDERR_FILE = "stderr.log"
 DEFAULT_OUTPUT_FILE = "forces.csv"
-RESERVED_FILES = frozenset({TRAJECTORY_FILE, PARAMS_FILE, DIAGNOSTICS_FILE, STDOUT_FILE, STDERR_FILE})
+JOB_FILES = ("alcove-job.sh", "alcove-job-times.txt", "batch-stdout.log", "batch-stderr.log")
+RESERVED_FILES = frozenset({TRAJECTORY_FILE, PARAMS_FILE, DIAGNOSTICS_FILE, STDOUT_FILE, STDERR_FILE, *JOB_FILES})
+#: the environment variables of the file contract (:func:`run_environment`)
+CONTRACT_VARIABLES = ("ALCOVE_WORKDIR", "ALCOVE_TRAJECTORY", "ALCOVE_INPUT", "ALCOVE_OUTPUT", "ALCOVE_PARAMS")
 
 #: Placeholders every template may use (besides the entry's declared parameters).
 TEMPLATE_PLACEHOLDERS: dict[str, str] = {

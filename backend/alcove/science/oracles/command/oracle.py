@@ -25,7 +25,9 @@ from alcove.science.oracles.base import (
     OracleResult,
     posed_trajectory,
 )
+from alcove.science.oracles.command.batch import BatchJobBook, MemoryBook, job_root, run_batch_job
 from alcove.science.oracles.command.contract import (
+    CONTRACT_VARIABLES,
     STDERR_FILE,
     STDOUT_FILE,
     OutputError,
@@ -35,7 +37,7 @@ from alcove.science.oracles.command.contract import (
     write_inputs,
 )
 from alcove.science.oracles.command.gate import forces_within_trajectory
-from alcove.science.oracles.command.process import run_process, tail
+from alcove.science.oracles.command.process import ProcessOutcome, run_process, tail
 from alcove.science.oracles.command.spec import CommandOracleSpec, params_model
 from alcove.science.oracles.command.template import render_template, template_values
 from alcove.science.series import Trajectory
@@ -61,18 +63,32 @@ class CommandOracle:
                 "params.template", f"the command oracle '{spec.name}' does not accept user templates"
             )
 
-    def run(self, trajectory: Trajectory, cancel: CancelCheck | None = None) -> OracleResult:
+    def run(
+        self, trajectory: Trajectory, cancel: CancelCheck | None = None, batch_book: BatchJobBook | None = None
+    ) -> OracleResult:
+        """Run the entry on ``trajectory``. With a batch launcher the call is one batch job,
+        kept in ``batch_book``: a job an earlier attempt submitted that the book still holds
+        is attached to, not submitted again."""
         start = time.perf_counter()
         trajectory = posed_trajectory(trajectory, self.preset)
         deck = self._rendered_deck(trajectory)
         extra = self._extra_inputs(trajectory)
         if cancel is not None and cancel():
             raise OracleCancelled(f"command oracle '{self.spec.name}' cancelled before it started")
-        workdir = self._make_workdir()
-        parameters = {"dt_out": self.params.dt_out, **{key: getattr(self.params, key) for key in self.spec.parameters}}
-        write_inputs(workdir, trajectory, parameters, deck, self.spec.rendered_file_name)
-        for name, text in extra.items():
-            (workdir / name).write_text(text)
+        book = batch_book if batch_book is not None else MemoryBook()
+        earlier = book.earlier() if self.spec.launcher.is_batch else None
+        if earlier is not None and Path(earlier.workdir).is_dir():
+            workdir = Path(earlier.workdir)  # staged by the attempt that submitted the job
+        else:
+            earlier = None
+            workdir = self._make_workdir()
+            parameters = {
+                "dt_out": self.params.dt_out,
+                **{key: getattr(self.params, key) for key in self.spec.parameters},
+            }
+            write_inputs(workdir, trajectory, parameters, deck, self.spec.rendered_file_name)
+            for name, text in extra.items():
+                (workdir / name).write_text(text)
         diagnostics: dict[str, Any] = {"command": self.spec.name, **dict.fromkeys(SUMMARY_DIAGNOSTICS)}
 
         def failed(reason: str) -> OracleResult:
@@ -87,16 +103,20 @@ class CommandOracle:
                 f"command oracle '{self.spec.name}': {reason}",
             )
 
-        outcome = run_process(
-            self.spec.argv,
-            workdir,
-            run_environment(workdir, self.spec.rendered_file_name, self.spec.output_file, self.spec.env),
-            self.spec.timeout_s,
-            workdir / STDOUT_FILE,
-            workdir / STDERR_FILE,
-            cancel,
-            cancelled_message=f"command oracle '{self.spec.name}' cancelled (working directory {workdir})",
-        )
+        cancelled_message = f"command oracle '{self.spec.name}' cancelled (working directory {workdir})"
+        if self.spec.launcher.is_batch:
+            outcome = self._run_batch(workdir, book, earlier, cancel, cancelled_message, diagnostics)
+        else:
+            outcome = run_process(
+                self.spec.argv,
+                workdir,
+                run_environment(workdir, self.spec.rendered_file_name, self.spec.output_file, self.spec.env),
+                self.spec.timeout_s,
+                workdir / STDOUT_FILE,
+                workdir / STDERR_FILE,
+                cancel,
+                cancelled_message=cancelled_message,
+            )
         diagnostics["exit_code"] = outcome.exit_code
         if outcome.failure is not None:
             return failed(outcome.failure)
@@ -119,6 +139,37 @@ class CommandOracle:
             shutil.rmtree(workdir, ignore_errors=True)
         return OracleResult(True, forces, kinematics, diagnostics, time.perf_counter() - start)
 
+    def _run_batch(
+        self,
+        workdir: Path,
+        book: BatchJobBook,
+        earlier: Any,
+        cancel: CancelCheck | None,
+        cancelled_message: str,
+        diagnostics: dict[str, Any],
+    ) -> ProcessOutcome:
+        """The program as one batch job (submitted, or the earlier attempt's attached to)."""
+        launcher = self.spec.launcher
+        contract_env = run_environment(workdir, self.spec.rendered_file_name, self.spec.output_file, {})
+        env = {k: v for k, v in contract_env.items() if k in CONTRACT_VARIABLES}
+        env.update(self.spec.env)
+        env.update(launcher.env)
+        outcome, job = run_batch_job(
+            launcher=launcher,
+            workdir=workdir,
+            argv=self.spec.argv,
+            env=env,
+            time_limit_s=launcher.time_limit_s or self.spec.timeout_s,
+            name=f"alcove-{self.spec.name}",
+            script_dir=job_root(launcher, self.spec.workdir_root) / ".alcove-psij",
+            book=book,
+            attach_to=earlier,
+            cancel=cancel,
+            cancelled_message=cancelled_message,
+        )
+        diagnostics["batch_job"] = job.as_dict()
+        return outcome
+
     def _rendered_deck(self, trajectory: Trajectory) -> str | None:
         text = self.params.template
         if text is None and self.spec.template is not None:
@@ -132,7 +183,11 @@ class CommandOracle:
         return {}
 
     def _make_workdir(self) -> Path:
-        root = self.spec.workdir_root
+        root = (
+            job_root(self.spec.launcher, self.spec.workdir_root)
+            if self.spec.launcher.is_batch
+            else self.spec.workdir_root
+        )
         if root is not None:
             root.mkdir(parents=True, exist_ok=True)
         return Path(tempfile.mkdtemp(prefix=f"alcove-{self.spec.name}-", dir=root))

@@ -17,6 +17,7 @@ from pydantic import BaseModel, ConfigDict, Field, create_model, field_validator
 from alcove.science.errors import FieldError
 from alcove.science.oracles.base import OracleParams
 from alcove.science.oracles.command.contract import DEFAULT_OUTPUT_FILE, RESERVED_FILES, TEMPLATE_PLACEHOLDERS
+from alcove.science.oracles.command.launcher import LauncherSpec
 
 PLAIN_FILE_NAME = re.compile(r"^[A-Za-z0-9_][A-Za-z0-9_.-]*$")
 ENTRY_NAME = re.compile(r"^[a-z0-9][a-z0-9_.-]*$")
@@ -99,6 +100,10 @@ class CommandOracleSpec(BaseModel):
     )
     workdir_root: Path | None = Field(
         None, description="where working directories are created (default: the system temp dir)"
+    )
+    launcher: LauncherSpec = Field(
+        default_factory=LauncherSpec,
+        description="where the program runs: on the oracle worker (local) or as one batch job per call",
     )
 
     @field_validator("name")

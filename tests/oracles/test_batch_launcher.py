@@ -1,0 +1,128 @@
+"""The batch launcher of command oracles: the catalogue's launcher fields (errors at the field),
+the job script, and oracle calls as real Slurm jobs (``.ci/slurm-up``; skipped without Slurm,
+a failure under CI): a call's result, and a call that attaches to the job an interrupted
+earlier call left running instead of submitting again."""
+
+from __future__ import annotations
+
+import shlex
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from alcove.science.oracles.command import CatalogueError, CommandOracleSpec, load_command_catalogue
+from alcove.science.oracles.command.batch import JOB_TIMES, MemoryBook, job_times, write_job_script
+from alcove.science.oracles.command.launcher import LauncherSpec
+from alcove.science.oracles.command.oracle import CommandOracle
+from alcove.science.series import Trajectory
+from tests.oracles.slurm import SOLVER, slurm_is_up
+
+
+def trajectory(n: int = 41) -> Trajectory:
+    t = np.linspace(0.0, 0.4, n)
+    q = 0.2 * np.sin(np.pi * t / 0.4)
+    return Trajectory(t=t, q=q[:, None], qd=np.gradient(q, t)[:, None])
+
+
+@pytest.mark.parametrize(
+    ("launcher", "field", "reason"),
+    [
+        ('{scheduler: slurm, partition: "a b"}', "launcher.partition", "no blanks or quotes"),
+        ("{scheduler: slurm, cpus_per_task: 0}", "launcher.cpus_per_task", "greater than or equal to 1"),
+        ("{scheduler: slurm, time_limit_s: -5}", "launcher.time_limit_s", "greater than 0"),
+        ("{scheduler: local, partition: debug}", "launcher.partition", "only for a batch scheduler"),
+        ("{scheduler: sge}", "launcher.scheduler", "'local', 'slurm', 'pbs' or 'lsf'"),
+        ('{scheduler: slurm, directives: {qos: "a;b c"}}', "launcher.directives", "no blanks or quotes"),
+        ('{scheduler: slurm, modules: ["x y"]}', "launcher.modules", "module 'x y'"),
+        ('{scheduler: slurm, env: {"1X": v}}', "launcher.env", "environment variable name '1X'"),
+        ("{scheduler: slurm, memory: 3}", "launcher.memory", "Extra inputs are not permitted"),
+    ],
+)
+def test_launcher_fields_are_checked_with_the_field_named(tmp_path: Path, launcher: str, field: str, reason: str):
+    path = tmp_path / "catalogue.yaml"
+    path.write_text(f"command_oracles:\n  solver:\n    argv: [x]\n    launcher: {launcher}\n")
+    with pytest.raises(CatalogueError) as err:
+        load_command_catalogue(path)
+    assert str(err.value).startswith(f"command_oracles.solver.{field}: "), str(err.value)
+    assert reason in str(err.value)
+
+
+def test_an_entry_without_launcher_runs_locally_and_a_slurm_entry_keeps_its_resources(tmp_path: Path):
+    path = tmp_path / "catalogue.yaml"
+    path.write_text(
+        "command_oracles:\n"
+        "  here: {argv: [x]}\n"
+        "  there:\n"
+        "    argv: [x]\n"
+        "    launcher: {scheduler: slurm, partition: short, cpus_per_task: 4, memory_mb: 2000,\n"
+        "               env: {SCRATCH: '{catalogue_dir}/scratch'}, directives: {qos: normal}}\n"
+    )
+    catalogue = load_command_catalogue(path)
+    assert not catalogue["here"].launcher.is_batch
+    there = catalogue["there"].launcher
+    assert (there.scheduler, there.partition, there.cpus_per_task, there.memory_mb) == ("slurm", "short", 4, 2000)
+    assert there.env == {"SCRATCH": f"{tmp_path.resolve()}/scratch"}
+
+
+def test_the_job_script_quotes_every_value_and_records_start_end_and_exit_code(tmp_path: Path):
+    launcher = LauncherSpec(scheduler="slurm", cpus_per_task=3, env={"NOTE": "a b; $(rm -rf /)"})
+    argv = [sys.executable, "-c", "import os; print(os.environ['NOTE'], os.environ['ALCOVE_JOB_CPUS']); exit(4)"]
+    script = write_job_script(tmp_path, argv, {"NOTE": "a b; $(rm -rf /)"}, launcher)
+    assert f"export NOTE={shlex.quote('a b; $(rm -rf /)')}" in script.read_text()
+    done = subprocess.run(["/bin/bash", str(script)], capture_output=True)
+    assert done.returncode == 4
+    assert (tmp_path / "stdout.log").read_text() == "a b; $(rm -rf /) 3\n"
+    started, ended, code = job_times(tmp_path)
+    assert started is not None and ended is not None and started <= ended and code == 4
+    assert (tmp_path / JOB_TIMES).exists()
+
+
+@pytest.fixture
+def slurm_spec(tmp_path: Path) -> CommandOracleSpec:
+    why = slurm_is_up()
+    if why is not None:
+        pytest.skip(why)
+    return CommandOracleSpec(
+        name="sleepy",
+        argv=[sys.executable, str(SOLVER), "1"],
+        timeout_s=60,
+        workdir_root=tmp_path / "jobs",
+        launcher=LauncherSpec(scheduler="slurm", poll_s=0.2, env={"SLEEPY_RUN_LOG": str(tmp_path / "runs.log")}),
+    )
+
+
+def test_an_oracle_call_runs_as_a_slurm_job(slurm_spec: CommandOracleSpec, tmp_path: Path):
+    book = MemoryBook()
+    result = CommandOracle(slurm_spec).run(trajectory(), batch_book=book)
+    assert result.ok, result.failure_reason
+    assert result.forces is not None and np.all(result.forces.wrench == 0.0)
+    job = result.diagnostics["batch_job"]
+    assert (job["scheduler"], job["state"], job["exit_code"]) == ("slurm", "completed", 0)
+    assert job["submitted_at"] <= job["started_at"] <= job["ended_at"]
+    assert [j.job_id for j in book.jobs] == [job["job_id"]]
+    assert (tmp_path / "runs.log").read_text().split()[0] == job["job_id"]  # SLURM_JOB_ID of the program
+
+
+class WorkerGone(BaseException):
+    """Stands for a worker that stops while its job runs (the job runs on in Slurm)."""
+
+
+def test_a_call_attaches_to_the_job_an_interrupted_call_left_running(slurm_spec: CommandOracleSpec, tmp_path: Path):
+    book = MemoryBook()
+    oracle = CommandOracle(slurm_spec)
+
+    def gone_once_running() -> bool:
+        if book.jobs and book.jobs[-1].state == "running":
+            raise WorkerGone
+        return False
+
+    with pytest.raises(WorkerGone):
+        oracle.run(trajectory(), cancel=gone_once_running, batch_book=book)
+    assert [j.state for j in book.jobs] == ["running"]
+    result = oracle.run(trajectory(), batch_book=book)
+    assert result.ok, result.failure_reason
+    assert [(j.job_id, j.state) for j in book.jobs] == [(result.diagnostics["batch_job"]["job_id"], "completed")]
+    assert len((tmp_path / "runs.log").read_text().splitlines()) == 1  # the program ran once
