@@ -186,6 +186,10 @@ def detail(session: Session, row: ArtifactBuild) -> str:
     if row.worker_name:  # a worker took its job and found every build slot taken
         limit = get_settings().artifact_builds
         return f"waiting for a free build slot (at most {limit} builds run at once)"
+    from alcove.jobs.heartbeat import live_workers
+
+    if not any(QUEUE in (w.queues or []) for w in live_workers(get_settings().worker_stale_seconds, session)):
+        return f"waiting for a worker on queue '{QUEUE}': none is running (start one: alcove worker --queues {QUEUE})"
     return f"waiting for a worker on queue '{QUEUE}'"
 
 
