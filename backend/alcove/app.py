@@ -54,6 +54,7 @@ def api_routers() -> list[APIRouter]:
     from alcove.surrogates.router import model_versions as model_versions_router
     from alcove.surrogates.router import router as surrogate_configs_router
     from alcove.tasks.router import router as tasks_router
+    from alcove.users.limits_router import router as job_limits_router
     from alcove.users.router import router as users_router
 
     return [
@@ -64,6 +65,7 @@ def api_routers() -> list[APIRouter]:
         model_versions_router,
         uploads_router,
         users_router,
+        job_limits_router,
         tasks_router,
         oracles_router,
         surrogate_configs_router,

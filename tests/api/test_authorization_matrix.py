@@ -170,6 +170,12 @@ SPECS: dict[str, Spec] = {
     ),
     "get_user": ("admin", lambda o, a: Call(path={"user_id": o.third.id}), OK),
     "update_user": ("admin", lambda o, a: Call(path={"user_id": o.third.id}, json={"display_name": "third"}), OK),
+    "get_my_job_limits": ("any", lambda o, a: Call(), OK),
+    "get_default_job_limits": ("admin", lambda o, a: Call(), OK),
+    "update_default_job_limits": ("admin", lambda o, a: Call(json={}), OK),
+    "get_user_job_limits": ("admin", lambda o, a: Call(path={"user_id": o.third.id}), OK),
+    "update_user_job_limits": ("admin", lambda o, a: Call(path={"user_id": o.third.id}, json={"max_epochs": 5000}), OK),
+    "reset_user_job_limits": ("admin", lambda o, a: Call(path={"user_id": o.third.id}), OK),
     "create_share": (
         "owned",
         lambda o, a: Call(json={"object_type": "task", "object_id": o.task(), "email": o.third.email}),

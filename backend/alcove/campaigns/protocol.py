@@ -32,8 +32,8 @@ from typing import Any, TypeVar
 
 from sqlalchemy.orm import Session
 
+from alcove.campaigns import admission, transitions
 from alcove.campaigns import repository as repo
-from alcove.campaigns import transitions
 from alcove.campaigns.schemas import CampaignConfig, StepJob
 from alcove.campaigns.state_machine import Outcome, StepRef
 from alcove.campaigns.step_context import StepContext
@@ -181,6 +181,8 @@ def run_step(
     if next_jobs is None:
         return {"status": "lost", "step": str(ref), "attempt": attempt}
     _dispatch(next_jobs, send)
+    # a campaign that ended frees a place of its owner's running-campaigns limit
+    _dispatch(transaction(_staging(lambda s: admission.admit_owner_of(s, campaign_id), durable)), send)
     ended = "done" if failure is None else ("cancelled" if failure.outcome is Outcome.cancelled else "failed")
     return {
         "status": ended,

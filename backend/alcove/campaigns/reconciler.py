@@ -12,6 +12,8 @@
   restart, or taken from the filesystem broker by a worker that then died) is sent again
   with the same attempt number: if the first message still exists, whichever arrives
   second is a no-op.
+* A campaign waiting for a place of its owner's running-campaigns limit is sent when one has
+  come free (:mod:`alcove.campaigns.admission`).
 
 Runs at worker start, periodically in every worker (:class:`ReconcilerThread`) and at API
 start (call :func:`reconcile_and_enqueue`).
@@ -25,8 +27,8 @@ from datetime import timedelta
 
 from sqlalchemy.orm import Session
 
+from alcove.campaigns import admission, transitions
 from alcove.campaigns import repository as repo
-from alcove.campaigns import transitions
 from alcove.campaigns.schemas import StepJob
 from alcove.campaigns.state_machine import Outcome, StepRef
 from alcove.models import Campaign, StepName, StepStatus, utcnow
@@ -95,6 +97,8 @@ def reconcile(s: Session, *, stale_queued_s: float, dead_worker_s: float | None 
         jobs.append(
             StepJob(campaign_id=c.id, iteration=k, step=StepName(row.step), attempt=row.attempts + 1, slot=row.slot)
         )
+    # campaigns waiting for a place of their owner's running-campaigns limit that has come free
+    jobs += admission.admit_all(s)
     return jobs
 
 

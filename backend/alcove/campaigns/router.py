@@ -62,6 +62,7 @@ def list_campaigns(
                 id=c.id,
                 name=c.name,
                 status=c.status,
+                wait_reason=c.wait_reason,
                 owner_id=c.owner_id,
                 owner=email,
                 task_id=tv.definition_id,

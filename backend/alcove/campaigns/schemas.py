@@ -63,6 +63,11 @@ class CampaignRead(_Read):
     status: CampaignStatus
     stop_reason: str | None
     error: str | None
+    wait_reason: str | None = Field(
+        None,
+        description="why a queued campaign has not started yet: its owner runs as many campaigns as their "
+        "max_running_campaigns limit allows; it starts when one of them ends (null: it does not wait)",
+    )
     task_version_id: int
     oracle_version_id: int
     surrogate_config_version_id: int
@@ -270,6 +275,9 @@ class CampaignSummary(BaseModel):
     id: int
     name: str
     status: CampaignStatus
+    wait_reason: str | None = Field(
+        None, description="why a queued campaign has not started yet (null: it does not wait)"
+    )
     owner_id: int
     owner: str
     task_id: int

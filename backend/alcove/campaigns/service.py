@@ -20,6 +20,7 @@ from alcove.campaigns import fan
 from alcove.campaigns import repository as repo
 from alcove.campaigns.draft import strategy_error, suite_error
 from alcove.campaigns.schemas import CampaignConfig, CampaignConfigUpdate, CampaignCreate, ForkRequest, StepJob
+from alcove.campaigns.sizes import check_campaign_sizes
 from alcove.campaigns.state_machine import (
     Cancel,
     Decision,
@@ -123,6 +124,7 @@ def create_campaign(
         pool_repo.datasets(s, cfg.preliminary.dataset_ids)  # raises NotFound naming the id
     _check_strategy(s, cfg, data.surrogate_config_version_id)
     _check_suite(s, cfg, data.task_version_id)
+    check_campaign_sizes(s, owner_id, cfg, data.task_version_id, data.surrogate_config_version_id)
     c = Campaign(
         owner_id=owner_id,
         name=data.name,
@@ -159,6 +161,7 @@ def update_config(
         _check_definitions(s, c.task_version_id, c.oracle_version_id, scv)
     _check_strategy(s, new, scv)
     _check_suite(s, new, c.task_version_id)
+    check_campaign_sizes(s, c.owner_id, new, c.task_version_id, scv)
     row = add_config_version(s, c, new, scv, user_id, update.note or "edited")
     if c.status != CampaignStatus.draft.value:
         _lock_definitions(s, c)
@@ -185,6 +188,8 @@ def first_step(c: Campaign) -> StepRef:
 def start(s: Session, campaign_id: int) -> tuple[Campaign, list[StepJob]]:
     c = repo.get_campaign(s, campaign_id, lock=True)
     d = transition(state_of(c), Start(first_step(c)))
+    # the owner's limits may have changed since the campaign was created
+    check_campaign_sizes(s, c.owner_id, current_config(s, c), c.task_version_id, c.surrogate_config_version_id)
     _lock_definitions(s, c)
     c.started_at = c.started_at or utcnow()
     return c, apply_decision(s, c, d, note="started")

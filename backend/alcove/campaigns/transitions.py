@@ -12,6 +12,7 @@ from typing import Any
 
 from sqlalchemy.orm import Session
 
+from alcove.campaigns import admission
 from alcove.campaigns import repository as repo
 from alcove.campaigns.config import config_from_version
 from alcove.campaigns.fan import fan_state
@@ -90,7 +91,7 @@ def _ensure_iteration(s: Session, c: Campaign, index: int) -> Iteration:
     return it
 
 
-def _ensure_step(s: Session, c: Campaign, ref: StepRef, status: StepStatus) -> IterationStep:
+def ensure_step(s: Session, c: Campaign, ref: StepRef, status: StepStatus) -> IterationStep:
     it = _ensure_iteration(s, c, ref.iteration)
     row = repo.get_step(s, c.id, ref.iteration, ref.step.value, ref.slot)
     if row is None:
@@ -122,7 +123,7 @@ def _ensure_step(s: Session, c: Campaign, ref: StepRef, status: StepStatus) -> I
     return row
 
 
-def _job(c: Campaign, ref: StepRef, row: IterationStep) -> StepJob:
+def step_job(c: Campaign, ref: StepRef, row: IterationStep) -> StepJob:
     return StepJob(campaign_id=c.id, iteration=ref.iteration, step=ref.step, attempt=row.attempts + 1, slot=ref.slot)
 
 
@@ -138,14 +139,19 @@ def apply_decision(s: Session, c: Campaign, d: Decision, *, note: str = "") -> l
     if d.error is not None:
         c.error = d.error
     for ref in d.skip:
-        row = _ensure_step(s, c, ref, StepStatus.skipped)
+        row = ensure_step(s, c, ref, StepStatus.skipped)
         row.finished_at = utcnow()
     jobs = []
     for ref in (d.pending, *d.wait) if d.pending is not None else d.wait:
-        _ensure_step(s, c, ref, StepStatus.pending)
+        ensure_step(s, c, ref, StepStatus.pending)
     for ref in d.enqueue:
-        row = _ensure_step(s, c, ref, StepStatus.queued)
-        jobs.append(_job(c, ref, row))
+        row = ensure_step(s, c, ref, StepStatus.queued)
+        jobs.append(step_job(c, ref, row))
+    if c.status not in admission.ACTIVE:
+        c.wait_reason = None
+    elif jobs and (old not in admission.ACTIVE or c.wait_reason is not None):
+        # the campaign starts to run (again): its owner's running-campaigns limit may make it wait
+        jobs = admission.hold_over_limit(s, c, jobs)
     if d.status is CampaignStatus.running and c.started_at is None:
         c.started_at = utcnow()
     if d.is_terminal:

@@ -53,12 +53,14 @@ from alcove.models.definitions import (
     spec_hash,
 )
 from alcove.models.guards import ImmutableRowError
+from alcove.models.limits import DEFAULT_JOB_LIMITS, JobLimits
 from alcove.models.ops import JobOutbox, SmokeCheck, WorkerHeartbeat
 from alcove.models.previews import Preview, PreviewKind, PreviewStatus
 from alcove.models.users import ApiToken, Share, User, hash_password, hash_token, new_token_secret, verify_password
 from alcove.models.validation import MotionStatus, SuiteStatus, ValidationMetrics, ValidationMotion, ValidationSuite
 
 __all__ = [
+    "DEFAULT_JOB_LIMITS",
     "ITERATION_STEPS",
     "NAMING_CONVENTION",
     "ApiToken",
@@ -79,6 +81,7 @@ __all__ = [
     "IterationMetrics",
     "IterationStatus",
     "IterationStep",
+    "JobLimits",
     "JobOutbox",
     "ModelVersion",
     "MotionStatus",

@@ -97,6 +97,11 @@ class Campaign(TimestampMixin, Base):
         sa.String(64), comment="max_iterations | target_rmse | plateau | oracle_budget | cancelled | error | ..."
     )
     error: Mapped[str | None] = mapped_column(sa.Text)
+    wait_reason: Mapped[str | None] = mapped_column(
+        sa.Text,
+        comment="why a queued campaign waits before its first job is sent (its owner's running-campaigns limit); "
+        "NULL: it does not wait",
+    )
     pause_requested: Mapped[bool] = mapped_column(default=False, server_default=sa.false())
     cancel_requested: Mapped[bool] = mapped_column(default=False, server_default=sa.false())
     current_iteration: Mapped[int] = mapped_column(default=0, server_default="0")

@@ -32,6 +32,7 @@ from alcove.models import (
 )
 from alcove.settings import get_settings
 from alcove.users.access import get_for
+from alcove.users.limits import check_sizes
 from alcove.versioning import ORACLES, TASKS, D, Kind, V
 
 log = logging.getLogger(__name__)
@@ -131,6 +132,7 @@ def create_task_preview(
     intervals) or ``intervals`` per phase, at most :data:`MAX_PREVIEW_INTERVALS` per phase."""
     from alcove.tasks.service import check_spec
 
+    check_sizes(session, user.id, [("intervals", intervals, "max_ocp_intervals")])
     definition = get_for(session, TaskDefinition, task_id, user)
     tv = _version(session, TASKS, definition, version)
     if spec is not None:

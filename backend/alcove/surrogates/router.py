@@ -25,6 +25,7 @@ from alcove.surrogates.schemas import ArtifactBuildRead, ModelVersionRead
 from alcove.surrogates.service import artifact_document
 from alcove.users.access import get_for
 from alcove.users.auth import CurrentUser
+from alcove.users.limits import check_sizes, surrogate_sizes
 from alcove.versioning.schemas import DefinitionMeta, FieldErrorOut, ValidationReport, VersionMeta
 
 router = APIRouter(prefix="/surrogate-configs", tags=["surrogate-configs"])
@@ -93,6 +94,8 @@ def list_surrogate_configs(
     "", response_model=SurrogateConfigOut, status_code=status.HTTP_201_CREATED, operation_id="create_surrogate_config"
 )
 def create_surrogate_config(body: SurrogateConfigIn, user: CurrentUser, session: SessionDep) -> SurrogateConfigOut:
+    """Create a surrogate config; one above your job limits (ensemble size, layers, widths, epochs) is refused."""
+    check_sizes(session, user.id, surrogate_sizes(body.spec.model_dump(mode="json")))
     definition, version = versioning.create(
         session,
         KIND,
@@ -133,6 +136,8 @@ def update_surrogate_config(
 ) -> SurrogateConfigOut:
     definition = get_for(session, SurrogateConfig, config_id, user, need="edit")
     spec = None if body.spec is None else body.spec.model_dump(mode="json")
+    if spec is not None:
+        check_sizes(session, user.id, surrogate_sizes(spec))
     version, _ = versioning.update(
         session, KIND, definition, user, name=body.name, description=body.description, spec=spec, note=body.note
     )

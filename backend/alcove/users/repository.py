@@ -7,7 +7,7 @@ from collections.abc import Sequence
 import sqlalchemy as sa
 from sqlalchemy.orm import InstrumentedAttribute, Session
 
-from alcove.models import ApiToken, Role, Share, User, hash_token
+from alcove.models import ApiToken, JobLimits, Role, Share, User, hash_token
 
 
 def user_by_email(session: Session, email: str) -> User | None:
@@ -54,3 +54,18 @@ def first_admin(session: Session) -> User | None:
     """The administrator with the smallest id."""
     q = sa.select(User).where(User.role == Role.admin.value).order_by(User.id).limit(1)
     return session.scalar(q)
+
+
+def default_job_limits(session: Session) -> JobLimits | None:
+    """The members' default limits (the row without a user)."""
+    return session.scalar(sa.select(JobLimits).where(JobLimits.user_id.is_(None)).order_by(JobLimits.id).limit(1))
+
+
+def own_job_limits(session: Session, user_id: int) -> JobLimits | None:
+    return session.scalar(sa.select(JobLimits).where(JobLimits.user_id == user_id))
+
+
+def lock_user(session: Session, user_id: int) -> None:
+    """Hold the user's row until the transaction ends: decisions about their running work
+    (start one more campaign or let it wait) are taken one at a time."""
+    session.execute(sa.select(User.id).where(User.id == user_id).with_for_update())

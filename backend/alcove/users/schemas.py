@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from datetime import datetime
-from typing import Literal
+from typing import Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, field_validator
 
@@ -128,3 +128,43 @@ class ShareOut(BaseModel):
     email: str = Field(description="the grantee's e-mail (whether or not an account has it yet)")
     permission: Literal["view", "edit"]
     created_at: datetime
+
+
+#: the largest value a job limit takes (a NULL limit is no limit)
+MAX_JOB_LIMIT = 1_000_000_000
+
+
+def _limit(what: str) -> Any:
+    return Field(None, ge=1, le=MAX_JOB_LIMIT, description=f"{what}; null: no limit")
+
+
+class JobLimitsValues(BaseModel):
+    """How much work one user may ask of the shared workers."""
+
+    max_running_campaigns: int | None = _limit(
+        "campaigns of the user running at once; a campaign started (or resumed, or retried) beyond it waits "
+        "in status 'queued' with a wait_reason and starts when one of the user's running campaigns ends"
+    )
+    max_preliminary_samples: int | None = _limit("largest preliminary.samples of a campaign")
+    max_ocp_intervals: int | None = _limit(
+        "most DMOCC intervals per phase: a campaign's settings.ocp_intervals (or its task's, when it sets none) "
+        "and a task preview's intervals"
+    )
+    max_ensemble_size: int | None = _limit("largest ensemble_size of a surrogate config")
+    max_hidden_layers: int | None = _limit("most hidden layers of a surrogate's net")
+    max_layer_width: int | None = _limit("most units in one hidden layer of a surrogate's net")
+    max_epochs: int | None = _limit("largest max_epochs (and warm_max_epochs) of a surrogate config")
+
+
+class JobLimitsUpdate(JobLimitsValues):
+    """The limits to change: a field left out keeps its value, null lifts the limit."""
+
+    # strict: "1" is not a number, as the schema says
+    model_config = ConfigDict(extra="forbid", strict=True)
+
+
+class JobLimitsOut(JobLimitsValues):
+    source: Literal["defaults", "own", "none"] = Field(
+        description="where the limits come from: 'defaults' (the members' defaults), 'own' (set for this user by an "
+        "administrator), 'none' (an administrator without limits of their own: no limit)"
+    )

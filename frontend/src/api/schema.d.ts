@@ -44,6 +44,32 @@ export interface paths {
         patch?: never;
         trace?: never;
     };
+    "/api/v1/admin/job-limits": {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        /**
+         * Get Default Job Limits
+         * @description The members' default job limits (a member without limits of their own has these).
+         */
+        get: operations["get_default_job_limits"];
+        put?: never;
+        post?: never;
+        delete?: never;
+        options?: never;
+        head?: never;
+        /**
+         * Update Default Job Limits
+         * @description Change the members' defaults: a field left out keeps its value, null lifts the limit.
+         *     Size limits apply to the next create, edit or start; work already running goes on. A raised
+         *     running-campaigns limit starts waiting campaigns at a worker's next reconciler pass (2 s).
+         */
+        patch: operations["update_default_job_limits"];
+        trace?: never;
+    };
     "/api/v1/auth/login": {
         parameters: {
             query?: never;
@@ -775,6 +801,27 @@ export interface paths {
         patch: operations["update_me"];
         trace?: never;
     };
+    "/api/v1/me/job-limits": {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        /**
+         * Get My Job Limits
+         * @description The job limits that bind you: campaigns running at once and the size of a campaign,
+         *     surrogate config or preview.
+         */
+        get: operations["get_my_job_limits"];
+        put?: never;
+        post?: never;
+        delete?: never;
+        options?: never;
+        head?: never;
+        patch?: never;
+        trace?: never;
+    };
     "/api/v1/me/tokens": {
         parameters: {
             query?: never;
@@ -1122,7 +1169,10 @@ export interface paths {
         /** List Surrogate Configs */
         get: operations["list_surrogate_configs"];
         put?: never;
-        /** Create Surrogate Config */
+        /**
+         * Create Surrogate Config
+         * @description Create a surrogate config; one above your job limits (ensemble size, layers, widths, epochs) is refused.
+         */
         post: operations["create_surrogate_config"];
         delete?: never;
         options?: never;
@@ -1481,6 +1531,37 @@ export interface paths {
         patch: operations["update_user"];
         trace?: never;
     };
+    "/api/v1/users/{user_id}/job-limits": {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        /**
+         * Get User Job Limits
+         * @description The job limits that bind a user, and where they come from.
+         */
+        get: operations["get_user_job_limits"];
+        put?: never;
+        post?: never;
+        /**
+         * Reset User Job Limits
+         * @description Drop a user's own limits: the members' defaults bind them again (an administrator: no
+         *     limit). Returns the limits that bind them now.
+         */
+        delete: operations["reset_user_job_limits"];
+        options?: never;
+        head?: never;
+        /**
+         * Update User Job Limits
+         * @description Give a user limits of their own: the limits that bound them until now, with the fields
+         *     given changed (null lifts a limit). The defaults no longer apply to them. A raised
+         *     running-campaigns limit starts waiting campaigns at a worker's next reconciler pass (2 s).
+         */
+        patch: operations["update_user_job_limits"];
+        trace?: never;
+    };
 }
 export type webhooks = Record<string, never>;
 export interface components {
@@ -1784,6 +1865,11 @@ export interface components {
             surrogate_config_version_id: number;
             /** Task Version Id */
             task_version_id: number;
+            /**
+             * Wait Reason
+             * @description why a queued campaign has not started yet: its owner runs as many campaigns as their max_running_campaigns limit allows; it starts when one of them ends (null: it does not wait)
+             */
+            wait_reason?: string | null;
         };
         /**
          * CampaignStatus
@@ -1859,6 +1945,11 @@ export interface components {
             task_id: number;
             /** Task Version */
             task_version: number;
+            /**
+             * Wait Reason
+             * @description why a queued campaign has not started yet (null: it does not wait)
+             */
+            wait_reason?: string | null;
         };
         /** CandidateDetail */
         CandidateDetail: {
@@ -2596,6 +2687,91 @@ export interface components {
              * @description (n, ndof) joint torque at the nodes [N m] (mean of the adjacent intervals')
              */
             tau: number[][];
+        };
+        /** JobLimitsOut */
+        JobLimitsOut: {
+            /**
+             * Max Ensemble Size
+             * @description largest ensemble_size of a surrogate config; null: no limit
+             */
+            max_ensemble_size?: number | null;
+            /**
+             * Max Epochs
+             * @description largest max_epochs (and warm_max_epochs) of a surrogate config; null: no limit
+             */
+            max_epochs?: number | null;
+            /**
+             * Max Hidden Layers
+             * @description most hidden layers of a surrogate's net; null: no limit
+             */
+            max_hidden_layers?: number | null;
+            /**
+             * Max Layer Width
+             * @description most units in one hidden layer of a surrogate's net; null: no limit
+             */
+            max_layer_width?: number | null;
+            /**
+             * Max Ocp Intervals
+             * @description most DMOCC intervals per phase: a campaign's settings.ocp_intervals (or its task's, when it sets none) and a task preview's intervals; null: no limit
+             */
+            max_ocp_intervals?: number | null;
+            /**
+             * Max Preliminary Samples
+             * @description largest preliminary.samples of a campaign; null: no limit
+             */
+            max_preliminary_samples?: number | null;
+            /**
+             * Max Running Campaigns
+             * @description campaigns of the user running at once; a campaign started (or resumed, or retried) beyond it waits in status 'queued' with a wait_reason and starts when one of the user's running campaigns ends; null: no limit
+             */
+            max_running_campaigns?: number | null;
+            /**
+             * Source
+             * @description where the limits come from: 'defaults' (the members' defaults), 'own' (set for this user by an administrator), 'none' (an administrator without limits of their own: no limit)
+             * @enum {string}
+             */
+            source: "defaults" | "own" | "none";
+        };
+        /**
+         * JobLimitsUpdate
+         * @description The limits to change: a field left out keeps its value, null lifts the limit.
+         */
+        JobLimitsUpdate: {
+            /**
+             * Max Ensemble Size
+             * @description largest ensemble_size of a surrogate config; null: no limit
+             */
+            max_ensemble_size?: number | null;
+            /**
+             * Max Epochs
+             * @description largest max_epochs (and warm_max_epochs) of a surrogate config; null: no limit
+             */
+            max_epochs?: number | null;
+            /**
+             * Max Hidden Layers
+             * @description most hidden layers of a surrogate's net; null: no limit
+             */
+            max_hidden_layers?: number | null;
+            /**
+             * Max Layer Width
+             * @description most units in one hidden layer of a surrogate's net; null: no limit
+             */
+            max_layer_width?: number | null;
+            /**
+             * Max Ocp Intervals
+             * @description most DMOCC intervals per phase: a campaign's settings.ocp_intervals (or its task's, when it sets none) and a task preview's intervals; null: no limit
+             */
+            max_ocp_intervals?: number | null;
+            /**
+             * Max Preliminary Samples
+             * @description largest preliminary.samples of a campaign; null: no limit
+             */
+            max_preliminary_samples?: number | null;
+            /**
+             * Max Running Campaigns
+             * @description campaigns of the user running at once; a campaign started (or resumed, or retried) beyond it waits in status 'queued' with a wait_reason and starts when one of the user's running campaigns ends; null: no limit
+             */
+            max_running_campaigns?: number | null;
         };
         /** JobOut */
         JobOut: {
@@ -5338,6 +5514,176 @@ export interface operations {
                     [name: string]: unknown;
                 };
                 content?: never;
+            };
+            /** @description not authenticated (missing, invalid, expired or revoked token) */
+            401: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorOut"];
+                };
+            };
+            /** @description not allowed (admin-only route, or an object shared with you for viewing only) */
+            403: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorOut"];
+                };
+            };
+            /** @description no such object, or not visible to you */
+            404: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorOut"];
+                };
+            };
+            /** @description conflicts with the current state (e.g. a campaign transition, a duplicate) */
+            409: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorOut"];
+                };
+            };
+            /** @description request body too large */
+            413: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorOut"];
+                };
+            };
+            /** @description invalid input: field paths and reasons */
+            422: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ValidationErrorOut"];
+                };
+            };
+            /** @description database busy or unavailable: retry */
+            503: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorOut"];
+                };
+            };
+        };
+    };
+    get_default_job_limits: {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        requestBody?: never;
+        responses: {
+            /** @description Successful Response */
+            200: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["JobLimitsOut"];
+                };
+            };
+            /** @description not authenticated (missing, invalid, expired or revoked token) */
+            401: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorOut"];
+                };
+            };
+            /** @description not allowed (admin-only route, or an object shared with you for viewing only) */
+            403: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorOut"];
+                };
+            };
+            /** @description no such object, or not visible to you */
+            404: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorOut"];
+                };
+            };
+            /** @description conflicts with the current state (e.g. a campaign transition, a duplicate) */
+            409: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorOut"];
+                };
+            };
+            /** @description request body too large */
+            413: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorOut"];
+                };
+            };
+            /** @description invalid input: field paths and reasons */
+            422: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ValidationErrorOut"];
+                };
+            };
+            /** @description database busy or unavailable: retry */
+            503: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorOut"];
+                };
+            };
+        };
+    };
+    update_default_job_limits: {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        requestBody: {
+            content: {
+                "application/json": components["schemas"]["JobLimitsUpdate"];
+            };
+        };
+        responses: {
+            /** @description Successful Response */
+            200: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["JobLimitsOut"];
+                };
             };
             /** @description not authenticated (missing, invalid, expired or revoked token) */
             401: {
@@ -8453,6 +8799,89 @@ export interface operations {
                 };
                 content: {
                     "application/json": components["schemas"]["UserOut"];
+                };
+            };
+            /** @description not authenticated (missing, invalid, expired or revoked token) */
+            401: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorOut"];
+                };
+            };
+            /** @description not allowed (admin-only route, or an object shared with you for viewing only) */
+            403: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorOut"];
+                };
+            };
+            /** @description no such object, or not visible to you */
+            404: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorOut"];
+                };
+            };
+            /** @description conflicts with the current state (e.g. a campaign transition, a duplicate) */
+            409: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorOut"];
+                };
+            };
+            /** @description request body too large */
+            413: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorOut"];
+                };
+            };
+            /** @description invalid input: field paths and reasons */
+            422: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ValidationErrorOut"];
+                };
+            };
+            /** @description database busy or unavailable: retry */
+            503: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorOut"];
+                };
+            };
+        };
+    };
+    get_my_job_limits: {
+        parameters: {
+            query?: never;
+            header?: never;
+            path?: never;
+            cookie?: never;
+        };
+        requestBody?: never;
+        responses: {
+            /** @description Successful Response */
+            200: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["JobLimitsOut"];
                 };
             };
             /** @description not authenticated (missing, invalid, expired or revoked token) */
@@ -12808,6 +13237,268 @@ export interface operations {
                 };
                 content: {
                     "application/json": components["schemas"]["UserOut"];
+                };
+            };
+            /** @description not authenticated (missing, invalid, expired or revoked token) */
+            401: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorOut"];
+                };
+            };
+            /** @description not allowed (admin-only route, or an object shared with you for viewing only) */
+            403: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorOut"];
+                };
+            };
+            /** @description no such object, or not visible to you */
+            404: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorOut"];
+                };
+            };
+            /** @description conflicts with the current state (e.g. a campaign transition, a duplicate) */
+            409: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorOut"];
+                };
+            };
+            /** @description request body too large */
+            413: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorOut"];
+                };
+            };
+            /** @description invalid input: field paths and reasons */
+            422: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ValidationErrorOut"];
+                };
+            };
+            /** @description database busy or unavailable: retry */
+            503: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorOut"];
+                };
+            };
+        };
+    };
+    get_user_job_limits: {
+        parameters: {
+            query?: never;
+            header?: never;
+            path: {
+                /** @description object id */
+                user_id: number;
+            };
+            cookie?: never;
+        };
+        requestBody?: never;
+        responses: {
+            /** @description Successful Response */
+            200: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["JobLimitsOut"];
+                };
+            };
+            /** @description not authenticated (missing, invalid, expired or revoked token) */
+            401: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorOut"];
+                };
+            };
+            /** @description not allowed (admin-only route, or an object shared with you for viewing only) */
+            403: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorOut"];
+                };
+            };
+            /** @description no such object, or not visible to you */
+            404: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorOut"];
+                };
+            };
+            /** @description conflicts with the current state (e.g. a campaign transition, a duplicate) */
+            409: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorOut"];
+                };
+            };
+            /** @description request body too large */
+            413: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorOut"];
+                };
+            };
+            /** @description invalid input: field paths and reasons */
+            422: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ValidationErrorOut"];
+                };
+            };
+            /** @description database busy or unavailable: retry */
+            503: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorOut"];
+                };
+            };
+        };
+    };
+    reset_user_job_limits: {
+        parameters: {
+            query?: never;
+            header?: never;
+            path: {
+                /** @description object id */
+                user_id: number;
+            };
+            cookie?: never;
+        };
+        requestBody?: never;
+        responses: {
+            /** @description Successful Response */
+            200: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["JobLimitsOut"];
+                };
+            };
+            /** @description not authenticated (missing, invalid, expired or revoked token) */
+            401: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorOut"];
+                };
+            };
+            /** @description not allowed (admin-only route, or an object shared with you for viewing only) */
+            403: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorOut"];
+                };
+            };
+            /** @description no such object, or not visible to you */
+            404: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorOut"];
+                };
+            };
+            /** @description conflicts with the current state (e.g. a campaign transition, a duplicate) */
+            409: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorOut"];
+                };
+            };
+            /** @description request body too large */
+            413: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorOut"];
+                };
+            };
+            /** @description invalid input: field paths and reasons */
+            422: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ValidationErrorOut"];
+                };
+            };
+            /** @description database busy or unavailable: retry */
+            503: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["ErrorOut"];
+                };
+            };
+        };
+    };
+    update_user_job_limits: {
+        parameters: {
+            query?: never;
+            header?: never;
+            path: {
+                /** @description object id */
+                user_id: number;
+            };
+            cookie?: never;
+        };
+        requestBody: {
+            content: {
+                "application/json": components["schemas"]["JobLimitsUpdate"];
+            };
+        };
+        responses: {
+            /** @description Successful Response */
+            200: {
+                headers: {
+                    [name: string]: unknown;
+                };
+                content: {
+                    "application/json": components["schemas"]["JobLimitsOut"];
                 };
             };
             /** @description not authenticated (missing, invalid, expired or revoked token) */

@@ -48,7 +48,11 @@ const STATUS_CLASS: Record<string, string> = {
   pending: "muted",
 };
 
-export function StatusBadge({ status }: { status: string | null | undefined }) {
+export function StatusBadge({ status, title }: { status: string | null | undefined; title?: string }) {
   const s = status ?? "unknown";
-  return <span className={`badge ${STATUS_CLASS[s] ?? "muted"}`}>{s}</span>;
+  return (
+    <span className={`badge ${STATUS_CLASS[s] ?? "muted"}`} title={title}>
+      {s}
+    </span>
+  );
 }

@@ -83,7 +83,12 @@ export function CampaignPage() {
     <>
       <div className="toolbar">
         <h1 style={{ margin: 0 }}>{r.name}</h1>
-        <StatusBadge status={r.status} />
+        <StatusBadge status={r.status} title={r.wait_reason ?? undefined} />
+        {r.wait_reason && (
+          <span className="muted" data-testid="wait-reason">
+            {r.wait_reason}
+          </span>
+        )}
         <LiveBadge live={live} running={running} />
         <span className="spacer" />
         <Controls campaign={c} lastIteration={last} />

@@ -139,7 +139,8 @@ export function CampaignsPage() {
                     <Link to={`/campaigns/${c.id}`}>{c.name}</Link>
                   </td>
                   <td>
-                    <StatusBadge status={c.status} />
+                    <StatusBadge status={c.status} title={c.wait_reason ?? undefined} />
+                    {c.wait_reason && <span className="muted"> waiting for a free place</span>}
                   </td>
                   <td>{c.owner}</td>
                   <td>

@@ -212,6 +212,8 @@ def _print_status(campaign_id: int, as_json: bool) -> None:
         )
         + (f" · ETA {detail.eta_s:.0f} s" if detail.eta_s is not None else "")
     )
+    if c.wait_reason:
+        typer.echo(f"  {c.wait_reason}")
     v = detail.validation
     if v is not None:
         typer.echo(
@@ -340,7 +342,8 @@ def list_(as_json: bool = typer.Option(False, "--json")) -> None:
         typer.echo(json.dumps([r.model_dump(mode="json") for r in rows]))
         return
     for r in rows:
-        typer.echo(f"{r.id:5d}  {r.status.value:10s}  k={r.current_iteration:<4d} {r.name}")
+        waits = "  (waiting for a free place)" if r.wait_reason else ""
+        typer.echo(f"{r.id:5d}  {r.status.value:10s}  k={r.current_iteration:<4d} {r.name}{waits}")
 
 
 @app.command()

@@ -1,10 +1,10 @@
-"""`alcove user create|list` and `alcove token create`: accounts and API tokens from the
-command line (for the first users, scripts and CI), against the configured database."""
+"""`alcove user create|list|limits` and `alcove token create`: accounts, their job limits and API
+tokens from the command line (for the first users, scripts and CI), against the configured database."""
 
 from __future__ import annotations
 
 import json
-from typing import NoReturn, TypedDict
+from typing import Any, NoReturn, TypedDict
 
 import typer
 
@@ -110,3 +110,74 @@ def create_token(
             _fail("email", f"no active user {email}")
         _, secret = service.create_token(s, user, name, expires_in_days)
     typer.echo(secret)
+
+
+def _limit_value(name: str, text: str) -> int | None:
+    if text.strip().lower() in ("none", "null", "unlimited"):
+        return None
+    try:
+        value = int(text)
+    except ValueError:
+        _fail(name, f"{text!r} is neither a whole number nor 'none'")
+    if value < 1:
+        _fail(name, f"{value} is below 1 (use 'none' to lift the limit)")
+    return value
+
+
+def _limit_option(what: str) -> Any:
+    return typer.Option(None, help=f"{what}: a whole number >= 1, or 'none' for no limit")
+
+
+@user_app.command("limits")
+def job_limits(
+    email: str | None = typer.Argument(None, help="the user (default: the members' defaults)"),
+    max_running_campaigns: str | None = _limit_option("campaigns running at once (more wait, queued)"),
+    max_preliminary_samples: str | None = _limit_option("largest preliminary.samples"),
+    max_ocp_intervals: str | None = _limit_option("most OCP intervals per phase (campaign settings, task, preview)"),
+    max_ensemble_size: str | None = _limit_option("largest surrogate ensemble_size"),
+    max_hidden_layers: str | None = _limit_option("most hidden layers of a net"),
+    max_layer_width: str | None = _limit_option("most units in one hidden layer"),
+    max_epochs: str | None = _limit_option("largest max_epochs / warm_max_epochs"),
+    reset: bool = typer.Option(False, "--reset", help="drop the user's own limits (the defaults bind them again)"),
+    as_json: bool = typer.Option(False, "--json", help="print JSON"),
+) -> None:
+    """Show or set job limits: the members' defaults, or a user's own (a member without limits of
+    their own has the defaults; an admin without them has no limit). Options given change those
+    limits; the others keep their values."""
+    from alcove.db import session_scope
+    from alcove.users import limits
+    from alcove.users import repository as users_repo
+    from alcove.users.schemas import JobLimitsUpdate
+
+    given = {
+        name: text
+        for name, text in {
+            "max_running_campaigns": max_running_campaigns,
+            "max_preliminary_samples": max_preliminary_samples,
+            "max_ocp_intervals": max_ocp_intervals,
+            "max_ensemble_size": max_ensemble_size,
+            "max_hidden_layers": max_hidden_layers,
+            "max_layer_width": max_layer_width,
+            "max_epochs": max_epochs,
+        }.items()
+        if text is not None
+    }
+    update = JobLimitsUpdate(**{name: _limit_value(name, text) for name, text in given.items()})
+    with session_scope() as s:
+        if email is None:
+            if reset:
+                _fail("--reset", "needs a user's e-mail (the defaults have nothing to reset to)")
+            out = limits.set_defaults(s, update) if given else limits.defaults(s)
+        else:
+            user = users_repo.user_by_email(s, email)
+            if user is None:
+                _fail("email", f"no user {email}")
+            if reset:
+                limits.reset_own(s, user)
+            out = limits.set_own(s, user, update) if given else limits.limits_of(s, user)
+    if as_json:
+        typer.echo(out.model_dump_json())
+        return
+    typer.echo(f"job limits of {email or 'every member (defaults)'} ({out.source}):")
+    for name, value in out.model_dump(exclude={"source"}).items():
+        typer.echo(f"  {name:26s} {'no limit' if value is None else value}")
