@@ -7,7 +7,11 @@
  * key by key. After every key the field shows exactly the keys typed so far; then either the
  * form names the value's problem at that field (out of the field's range), or it is saved and
  * the server stores exactly that number (read back through the API). Text that is no number
- * is named at its field too.
+ * is named at its field too. The new-campaign form is checked while typing: a blank name, text
+ * in a number field, a value below its bound, a strategy the chosen surrogate's ensemble cannot
+ * run and no stopping rule at all are named together before anything is created (the last two
+ * by the API's POST /campaigns/validate), each once at its field or section; each fix takes its
+ * problem away, and the fixed form creates the campaign.
  *
  *   node e2e/forms.mjs --base-url http://127.0.0.1:8765 --email admin@alcove.local --password secret --artifacts ../test-artifacts
  */
@@ -209,6 +213,88 @@ try {
     if (await page.getByTestId("form-errors").count()) throw new Error(`"${text}": a problem is listed above the form: ${await page.getByTestId("form-errors").innerText()}`);
     if (!/\/campaigns\/new$/.test(new URL(page.url()).pathname)) throw new Error(`"${text}" in replay_dt was sent: ${page.url()}`);
   });
+
+  // ---------------------------------------------------------------- new campaign: checked while typing
+  step("new-campaign form: problems of every kind named while typing (no create), all at once, each at its field");
+  const single = await api("POST", "/surrogate-configs", { name: `forms single ${stamp}`, spec: { ensemble_size: 1, max_epochs: 60 } });
+  const campaignPosts = { validate: 0, create: 0 };
+  const countPosts = (r) => {
+    const path = new URL(r.url()).pathname;
+    if (r.method() === "POST" && path === "/api/v1/campaigns/validate") campaignPosts.validate += 1;
+    if (r.method() === "POST" && path === "/api/v1/campaigns") campaignPosts.create += 1;
+  };
+  page.on("request", countPosts);
+  try {
+    await page.goto(`${baseUrl}/campaigns/new`);
+    const region = (name) => page.getByRole("region", { name });
+    const badge = page.getByTestId("validation-state");
+    const settled = async () => {
+      await page.locator("[data-testid=validation-state]:not(:has-text('checking'))").waitFor();
+      return Number(await badge.getAttribute("data-count"));
+    };
+    const fields = {
+      name: page.getByLabel("Name", { exact: true }),
+      strategy: page.getByTestId("exploration").getByLabel("Strategy"),
+      replayDt: region("Run settings").getByLabel(/^replay_dt/),
+      samples: region(/^Preliminary data/).getByLabel(/^samples/),
+      maxIterations: region("Stopping rules").getByLabel(/^max_iterations/),
+    };
+    await fields.replayDt.waitFor();
+    if ((await settled()) < 1 || (await fields.name.getAttribute("aria-invalid")) !== "true") throw new Error(`a blank new campaign is shown as ${await badge.innerText()}`);
+    await page.getByLabel("Task", { exact: true }).selectOption(String(task.id));
+    await page.getByLabel("Oracle", { exact: true }).selectOption(String(oracle.id));
+    await page.getByLabel("Surrogate configuration", { exact: true }).selectOption(String(single.id));
+    await page.getByLabel("Start right away").uncheck();
+    await fields.strategy.selectOption("ensemble-disagreement");
+    await typeKeyByKey(fields.maxIterations, "", "max_iterations");
+    await typeKeyByKey(fields.replayDt, "abc", "replay_dt");
+    await typeKeyByKey(fields.samples, "1", "samples");
+    // the form's own checks (name, replay_dt, samples) and the API's (the strategy against the surrogate's ensemble, no stopping rule), at once
+    const expected = [
+      { path: "name", at: fields.name, words: "must not be empty" },
+      { path: "settings.replay_dt", at: fields.replayDt, words: "must be a number" },
+      { path: "preliminary.samples", at: fields.samples, words: "must be at least 2" },
+      { path: "settings.strategy", at: fields.strategy, words: "needs a surrogate ensemble of at least 2 members" },
+      { path: "stopping", at: region("Stopping rules"), words: "at least one stopping rule is needed" },
+    ];
+    const count = await settled();
+    const shown = await page.locator("[data-error-path]").evaluateAll((els) => els.map((e) => [e.getAttribute("data-error-path"), e.textContent, e.getAttribute("title")]));
+    const where = shown.map(([path, text]) => `${path}: ${text}`).join(" | ");
+    if (count !== expected.length || shown.length !== expected.length) throw new Error(`${count} problems counted, ${shown.length} shown (${where}); expected ${expected.length}`);
+    for (const { path, at, words } of expected) {
+      const container = path === "stopping" ? at : cellOf(at);
+      const message = container.locator(`[data-error-path="${path}"]`);
+      if ((await message.count()) !== 1) throw new Error(`the problem at ${path} is not shown at its field: ${where}`);
+      if (!(await message.innerText()).includes(words)) throw new Error(`${path} says "${await message.innerText()}", not "${words}"`);
+      if (path !== "stopping" && (await at.getAttribute("aria-invalid")) !== "true") throw new Error(`${path} is not marked invalid`);
+    }
+    const broken = shown.filter(([, , title]) => /› :|^: /.test(title ?? ""));
+    if (broken.length) throw new Error(`broken labels: ${broken.map(([, , t]) => t).join(" | ")}`);
+    if (await page.getByTestId("form-errors").count()) throw new Error(`problems listed above the form: ${await page.getByTestId("form-errors").innerText()}`);
+    if (!campaignPosts.validate || campaignPosts.create) throw new Error(`while typing: ${campaignPosts.validate} validate requests, ${campaignPosts.create} creates`);
+    step(`  ${count} problems while typing, each at its field: ${where}`);
+    // each fix takes exactly its problem away
+    const fixes = [
+      { path: "name", fix: () => fields.name.fill(`forms live ${stamp}`) },
+      { path: "settings.replay_dt", fix: () => typeKeyByKey(fields.replayDt, "0.0025", "replay_dt") },
+      { path: "preliminary.samples", fix: () => typeKeyByKey(fields.samples, "300", "samples") },
+      { path: "stopping", fix: () => typeKeyByKey(fields.maxIterations, "1", "max_iterations") },
+      { path: "settings.strategy", fix: () => fields.strategy.selectOption("random-scenarios") },
+    ];
+    for (const [i, { path, fix }] of fixes.entries()) {
+      await fix();
+      const left = await settled();
+      if (left !== expected.length - i - 1 || (await page.locator(`[data-error-path="${path}"]`).count())) throw new Error(`after fixing ${path}: ${left} problems: ${(await page.locator("[data-error-path]").allTextContents()).join(" | ")}`);
+    }
+    if ((await badge.innerText()) !== "valid") throw new Error(`the fixed form says ${await badge.innerText()}`);
+    await page.getByRole("button", { name: "Create campaign" }).click();
+    await page.waitForURL((u) => /\/campaigns\/\d+$/.test(u.pathname));
+    const created = await api("GET", `/campaigns/${/\/campaigns\/(\d+)/.exec(page.url())[1]}`);
+    if (created.config.settings.strategy !== "random-scenarios" || created.config.preliminary.samples !== 300) throw new Error(`created with ${JSON.stringify(created.config.settings.strategy)}, ${created.config.preliminary.samples} samples`);
+    step(`  fixed one by one (5, 4, 3, 2, 1, valid) and created; ${campaignPosts.validate} validate requests, 1 create`);
+  } finally {
+    page.off("request", countPosts);
+  }
 
   // ---------------------------------------------------------------- fork dialog
   step("fork dialog (stopping rules: target_force_rmse): waiting for the source campaign's iteration");

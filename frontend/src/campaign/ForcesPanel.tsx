@@ -178,7 +178,7 @@ export function ForcesPanel({
   const k = iteration !== null && available.includes(iteration) ? iteration : (available[available.length - 1] ?? null);
   const inherited = useMemo(() => points.filter((p) => p.inherited && p.iteration > 0).map((p) => p.iteration), [points]);
   const [draft, setDraft] = useState<string | null>(null);
-  // the parts of the last typed overlay that were left out, each with its reason (the overlay keeps the rest)
+  // what the last typed overlay left out, each with its reason, and what it read otherwise than written (the overlay keeps the rest)
   const [dropped, setDropped] = useState<string[]>([]);
   const selection = useMemo(() => parseSelection(overlay, available, inherited), [overlay, available, inherited]);
   const shown = useMemo(() => {
@@ -218,9 +218,9 @@ export function ForcesPanel({
   };
   const chooseTyped = (typed: string) => {
     const s = parseSelection(typed, available, inherited);
-    choose(s.iterations, s.errors);
+    choose(s.iterations, [...s.errors.map((m) => `left out ${m}`), ...s.notes]);
   };
-  const overlayProblems = [...new Set([...selection.errors, ...dropped])];
+  const overlayProblems = [...new Set([...selection.errors.map((m) => `left out ${m}`), ...dropped])];
   const text = draft ?? overlay;
   // about 10 iterations of the whole campaign
   const every = Math.ceil(available.length / 10);
@@ -305,7 +305,7 @@ export function ForcesPanel({
         <div id="overlay-problems" className="field-error" role="alert" data-testid="overlay-problems">
           {overlayProblems.map((m) => (
             <p key={m} style={{ margin: 0 }}>
-              Overlay: left out {m}
+              Overlay: {m}
             </p>
           ))}
         </div>

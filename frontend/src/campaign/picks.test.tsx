@@ -101,13 +101,14 @@ describe("the forces tab of a batch iteration", () => {
       return <ForcesPanel campaignId={5} points={[inheritedPoint, point(2), point(3)]} iteration={3} setIteration={noop} overlay={overlay} setOverlay={(o) => (set.push(o), setOverlay(o))} />;
     }
     renderPage(<Harness />);
-    await userEvent.type(await screen.findByLabelText("Overlay iterations"), "abc, 99, 1, 2, 7-9{Enter}");
+    await userEvent.type(await screen.findByLabelText("Overlay iterations"), "abc, 99, 1, 3-2, 7-9{Enter}");
     const problems = await screen.findByTestId("overlay-problems");
     expect(problems).toHaveTextContent('left out "abc": not an iteration number or range');
     expect(problems).toHaveTextContent("left out 99: no such iteration with oracle data");
     expect(problems).toHaveTextContent("left out 1: inherited from the source campaign");
     expect(problems).toHaveTextContent("left out 7-9: no iteration with oracle data in this range");
-    expect(set.at(-1)).toBe("2");
+    expect(problems).toHaveTextContent("Overlay: 3-2: read as 2-3 (a range runs from low to high)");
+    expect(set.at(-1)).toBe("2, 3");
     expect(screen.getByLabelText("Overlay iterations")).toHaveAttribute("aria-invalid", "true");
     await userEvent.click(screen.getByRole("button", { name: /^last 5/ }));
     expect(screen.queryByTestId("overlay-problems")).toBeNull();

@@ -8,7 +8,7 @@ describe("iteration selection", () => {
   it("reads ranges and lists", () => {
     expect(parseSelection("1-5, 8, 12-14", K200).iterations).toEqual([1, 2, 3, 4, 5, 8, 12, 13, 14]);
     expect(parseSelection(" 20-18 ;7 7", K200).iterations).toEqual([7, 18, 19, 20]);
-    expect(parseSelection("", K200)).toEqual({ iterations: [], errors: [] });
+    expect(parseSelection("", K200)).toEqual({ iterations: [], errors: [], notes: [] });
   });
   it("leaves out iterations without data and says which parts it could not read", () => {
     const avail = [1, 2, 4, 5];
@@ -17,7 +17,7 @@ describe("iteration selection", () => {
     expect(s.iterations).toEqual([2]);
     expect(s.errors).toEqual(["3: no such iteration with oracle data", '"abc": not an iteration number or range (e.g. 1-5, 8, 12-20)']);
   });
-  it("names every part it leaves out: a fork's inherited iteration, a range without any, a reversed range is read", () => {
+  it("names every part it leaves out: a fork's inherited iteration, a range without any; a reversed range is read, and said so", () => {
     const s = parseSelection("2, 7-9, 5-3, abc, 99", [4, 5, 6], [1, 2, 3]);
     expect(s.iterations).toEqual([4, 5]);
     expect(s.errors).toEqual([
@@ -26,6 +26,7 @@ describe("iteration selection", () => {
       '"abc": not an iteration number or range (e.g. 1-5, 8, 12-20)',
       "99: no such iteration with oracle data",
     ]);
+    expect(s.notes).toEqual(["5-3: read as 3-5 (a range runs from low to high)"]);
   });
   it("selects all 200 iterations of a paper-scale campaign with one range and writes it back compactly", () => {
     const s = parseSelection("1-200", K200);

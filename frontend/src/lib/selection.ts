@@ -8,24 +8,31 @@ export interface Selection {
   iterations: number[];
   /** one message per part that could not be read, e.g. `"x": not a number or range` */
   errors: string[];
+  /** one message per part read otherwise than written, e.g. `5-1: read as 1-5` */
+  notes: string[];
 }
 
 /**
  * Parse "1-5, 8, 12-20" against the iterations that exist (others are left out, each with the
- * reason: no such iteration, a fork's inherited one, a range without any, text that is no range).
+ * reason: no such iteration, a fork's inherited one, a range without any, text that is no range;
+ * a range written high-low is read low-high, and that is said too).
  */
 export function parseSelection(text: string, available: readonly number[], inherited: readonly number[] = []): Selection {
   const exists = new Set(available);
   const fromSource = new Set(inherited);
   const chosen = new Set<number>();
   const errors: string[] = [];
+  const notes: string[] = [];
   for (const raw of text.split(/[,;\s]+/)) {
     const part = raw.trim();
     if (!part) continue;
     const range = /^(\d+)\s*(?:-|–|\.\.)\s*(\d+)$/.exec(part);
     if (range) {
       let [a, b] = [Number(range[1]), Number(range[2])];
-      if (a > b) [a, b] = [b, a];
+      if (a > b) {
+        [a, b] = [b, a];
+        notes.push(`${part}: read as ${a}-${b} (a range runs from low to high)`);
+      }
       const inRange = available.filter((k) => k >= a && k <= b);
       for (const k of inRange) chosen.add(k);
       if (!inRange.length) errors.push(inherited.some((k) => k >= a && k <= b) ? `${part}: inherited from the source campaign (its curves are on the source's page)` : `${part}: no iteration with oracle data in this range`);
@@ -40,7 +47,7 @@ export function parseSelection(text: string, available: readonly number[], inher
     }
     errors.push(`"${part}": not an iteration number or range (e.g. 1-5, 8, 12-20)`);
   }
-  return { iterations: [...chosen].sort((x, y) => x - y), errors };
+  return { iterations: [...chosen].sort((x, y) => x - y), errors, notes };
 }
 
 /** The compact form of a set of iterations: consecutive runs of `available` become ranges. */
