@@ -136,6 +136,8 @@ def _net_to_dict(net: MLP) -> dict[str, Any]:
     return {
         "hidden": list(net.hidden),
         "activation": net.activation,
+        **({"blocks": [list(b) for b in net.blocks]} if net.blocks else {}),
+        **({"block_inputs": [None if i is None else list(i) for i in net.block_inputs]} if net.block_inputs else {}),
         "layers": [
             {"weight": lin.weight.detach().double().tolist(), "bias": lin.bias.detach().double().tolist()}
             for lin in net.linears()
@@ -145,7 +147,14 @@ def _net_to_dict(net: MLP) -> dict[str, Any]:
 
 def _net_from_dict(d: dict[str, Any], dtype: torch.dtype, field: str, n_in: int) -> MLP:
     try:
-        net = MLP(d["hidden"], d["activation"], n_in=n_in, dtype=dtype)
+        net = MLP(
+            d["hidden"],
+            d["activation"],
+            n_in=n_in,
+            dtype=dtype,
+            blocks=d.get("blocks", ()),
+            block_inputs=d.get("block_inputs", ()),
+        )
         linears = net.linears()
         if len(linears) != len(d["layers"]):
             raise ArtifactError(
@@ -162,6 +171,9 @@ def _net_from_dict(d: dict[str, Any], dtype: torch.dtype, field: str, n_in: int)
                     )
                 lin.weight.copy_(w)
                 lin.bias.copy_(b)
+            for i, (lin, mask) in enumerate(zip(linears, net.masks() or [], strict=False)):
+                if bool((lin.weight[mask == 0] != 0).any()):
+                    raise ArtifactError(f"{field}.layers.{i}", f"weights between the blocks {net.blocks} must be zero")
     except (KeyError, TypeError, ValueError) as exc:
         if isinstance(exc, ArtifactError):
             raise

@@ -44,6 +44,9 @@ from alcove.science.validation import WholeNumber, as_whole_number, error_locati
 Activation = Literal["softplus", "tanh", "sigmoid"]
 Architecture = Literal["paper", "gated"]
 FeatureSet = Literal["paper", "history"]
+NormalForce = Literal["shared", "own"]
+#: the force net's output blocks with ``normal_force: "own"``: fx apart from (fy, fz)
+NORMAL_FORCE_BLOCKS: tuple[tuple[int, ...], ...] = ((0,), (1, 2))
 LayerWidth = Annotated[int, Field(ge=1, le=4096), BeforeValidator(as_whole_number)]
 
 
@@ -113,6 +116,13 @@ class SurrogateConfig(BaseModel):
         default_factory=HistoryConfig, description="the history states' parameters (unused by the 'paper' feature set)"
     )
     force: NetworkConfig = Field(default_factory=lambda: NetworkConfig(hidden=(6, 6, 4)))
+    normal_force: NormalForce = Field(
+        "shared",
+        description="the force net's hidden layers: 'shared' by the normal force fx and the tangential force (fy, fz), "
+        "the paper's; or 'own': fx gets hidden layers of its own (the widths of 'force'), apart from those of fy and "
+        "fz, so that the friction force, which depends on the path, cannot pull the normal force, which depends on "
+        "the state; with the history features fx's layers take the state's features only (docs/concepts.md)",
+    )
     moment: NetworkConfig = Field(default_factory=lambda: NetworkConfig(hidden=(6, 6, 6, 4)))
     learning_rate: Annotated[
         float, quantity("Adam learning rate (step size on standardised data)", "-", gt=0, le=1, why="paper: 0.01")
@@ -259,6 +269,20 @@ class SurrogateConfig(BaseModel):
             raise SurrogateConfigError("config", "must be a JSON object")
         return cls.parse(data)
 
+    def output_blocks(self, net: str) -> tuple[tuple[int, ...], ...]:
+        """The output blocks of net ``net`` (``force`` or ``moment``): groups of outputs with hidden
+        layers of their own (:class:`alcove.science.surrogate.mlp.MLP`); none: one net for all."""
+        return NORMAL_FORCE_BLOCKS if net == "force" and self.normal_force == "own" else ()
+
+    def block_inputs(self, net: str) -> tuple[tuple[int, ...] | None, ...]:
+        """The inputs of each output block of net ``net``: the normal force's block takes the state's
+        features only (it depends on the state, not on the path: the history states would only let it
+        extrapolate), the tangential block every input."""
+        if not self.output_blocks(net):
+            return ()
+        state_only = None if self.features == "paper" else tuple(range(len(FEATURE_NAMES)))
+        return (state_only, None)
+
     @property
     def input_names(self) -> tuple[str, ...]:
         """The networks' inputs, in order: the 19 features, then the history states if any."""
@@ -286,11 +310,13 @@ class SurrogateConfig(BaseModel):
 
 
 __all__ = [
+    "NORMAL_FORCE_BLOCKS",
     "Activation",
     "Architecture",
     "FeatureSet",
     "GateConfig",
     "NetworkConfig",
+    "NormalForce",
     "SurrogateConfig",
     "SurrogateConfigError",
 ]

@@ -129,6 +129,16 @@ class BatchedNet:
         parts = [t.flatten(1) for pair in zip(weights, biases, strict=True) for t in pair]
         self.sizes = [p.shape[1] for p in parts]
         self.flat = torch.cat(parts, 1).requires_grad_()
+        # a net of blocks (MLP.masks): the gradient of the weights between blocks is set to zero
+        # before every step, so Adam never moves them from their zeros (its moments stay 0)
+        masks = nets[0].masks()
+        self.grad_mask: torch.Tensor | None = None
+        if masks is not None:
+            if self.reduced:
+                masks[0] = masks[0][:, self.columns]
+            ones = [torch.ones(b.shape[1], dtype=self.flat.dtype) for b in biases]
+            pieces = [t.to(self.flat.dtype).flatten() for pair in zip(masks, ones, strict=True) for t in pair]
+            self.grad_mask = torch.cat(pieces)
 
     def layers(self, flat: torch.Tensor | None = None) -> list[tuple[torch.Tensor, torch.Tensor]]:
         """``(W_l (K, out, in), b_l (K, out))`` per layer: views of ``flat`` (default the trained tensor)."""
@@ -370,6 +380,9 @@ class EnsembleTrainer:
                 optimizer.zero_grad(set_to_none=True)
                 err = self._output(k, net.forward(zk[:, :, sl]), gk, sl) - yk[:, :, sl]
                 torch.autograd.backward((err.square() * wk[:, :, sl]).sum())
+                if net.grad_mask is not None:
+                    assert net.flat.grad is not None
+                    net.flat.grad.mul_(net.grad_mask)
                 optimizer.step()
 
         self._run(steps, self._active_nets())

@@ -43,7 +43,14 @@ _ACTIVATIONS: dict[str, type[nn.Module]] = {"softplus": Softplus, "tanh": nn.Tan
 
 
 class MLP(nn.Module):
-    """``n_in -> hidden[0] -> ... -> hidden[-1] -> n_out`` with ``activation`` on hidden layers."""
+    """``n_in -> hidden[0] -> ... -> hidden[-1] -> n_out`` with ``activation`` on hidden layers.
+
+    ``blocks``: groups of outputs (indices) that get hidden layers of their own, e.g. ``((0,), (1, 2))``:
+    each block is an MLP of the widths ``hidden`` from its inputs to its outputs, and the net is their
+    union: one MLP of widths ``len(blocks) * hidden`` whose weights between blocks are exactly zero
+    (:meth:`masks`). ``block_inputs``: per block, the inputs (indices) it takes (None: all). The exports
+    and the OCP's derivatives see an ordinary MLP; training keeps the zeros (the gradient is masked, so
+    Adam never moves them). Empty: one dense MLP, the paper's."""
 
     def __init__(
         self,
@@ -52,13 +59,25 @@ class MLP(nn.Module):
         n_in: int = N_FEATURES,
         n_out: int = N_OUTPUTS,
         dtype: torch.dtype = torch.float64,
+        blocks: tuple[tuple[int, ...], ...] | list[list[int]] = (),
+        block_inputs: tuple[tuple[int, ...] | None, ...] | list[list[int] | None] = (),
     ):
         super().__init__()
         if activation not in _ACTIVATIONS:
             raise ValueError(f"activation: unknown {activation!r}, expected one of {sorted(_ACTIVATIONS)}")
         self.hidden = tuple(int(h) for h in hidden)
         self.activation = activation
-        widths = (n_in, *self.hidden, n_out)
+        self.blocks = tuple(tuple(int(j) for j in b) for b in blocks)
+        if self.blocks and sorted(j for b in self.blocks for j in b) != list(range(n_out)):
+            raise ValueError(f"blocks: {self.blocks} must split the outputs 0..{n_out - 1}, each once")
+        self.block_inputs = tuple(None if i is None else tuple(int(j) for j in i) for i in block_inputs)
+        if self.block_inputs and len(self.block_inputs) != len(self.blocks):
+            raise ValueError(f"block_inputs: one entry per block ({len(self.blocks)}), got {len(self.block_inputs)}")
+        for inputs in self.block_inputs:
+            if inputs is not None and (not inputs or not all(0 <= j < n_in for j in inputs)):
+                raise ValueError(f"block_inputs: {inputs} must be inputs among 0..{n_in - 1}")
+        n_blocks = max(1, len(self.blocks))
+        widths = (n_in, *(h * n_blocks for h in self.hidden), n_out)
         layers: list[nn.Module] = []
         for i, (a, b) in enumerate(itertools.pairwise(widths)):
             layers.append(nn.Linear(a, b, dtype=dtype))
@@ -67,8 +86,15 @@ class MLP(nn.Module):
         self.layers = nn.Sequential(*layers)
 
     @classmethod
-    def from_config(cls, cfg: NetworkConfig, dtype: torch.dtype = torch.float64, n_in: int = N_FEATURES) -> MLP:
-        return cls(cfg.hidden, cfg.activation, n_in=n_in, dtype=dtype)
+    def from_config(
+        cls,
+        cfg: NetworkConfig,
+        dtype: torch.dtype = torch.float64,
+        n_in: int = N_FEATURES,
+        blocks: tuple[tuple[int, ...], ...] = (),
+        block_inputs: tuple[tuple[int, ...] | None, ...] = (),
+    ) -> MLP:
+        return cls(cfg.hidden, cfg.activation, n_in=n_in, dtype=dtype, blocks=blocks, block_inputs=block_inputs)
 
     def forward(self, x: torch.Tensor) -> torch.Tensor:
         out: torch.Tensor = self.layers(x)
@@ -77,17 +103,57 @@ class MLP(nn.Module):
     def linears(self) -> list[nn.Linear]:
         return [m for m in self.layers if isinstance(m, nn.Linear)]
 
+    def masks(self) -> list[torch.Tensor] | None:
+        """Per layer, the weights that may be non-zero (1) and those between blocks (0), shaped like
+        the layer's weight; None without blocks. The first layer takes a block's inputs (``block_inputs``)."""
+        if not self.blocks:
+            return None
+        nb = len(self.blocks)
+        linears = self.linears()
+        out: list[torch.Tensor] = []
+        for i, lin in enumerate(linears):
+            mask = torch.zeros_like(lin.weight)
+            if i == 0:
+                h_out = lin.out_features // nb
+                for b in range(nb):
+                    inputs = self.block_inputs[b] if self.block_inputs else None
+                    mask[b * h_out : (b + 1) * h_out, slice(None) if inputs is None else list(inputs)] = 1.0
+            elif i < len(linears) - 1:
+                h_out, h_in = lin.out_features // nb, lin.in_features // nb
+                for b in range(nb):
+                    mask[b * h_out : (b + 1) * h_out, b * h_in : (b + 1) * h_in] = 1.0
+            else:
+                h_in = lin.in_features // nb
+                for b, outputs in enumerate(self.blocks):
+                    mask[list(outputs), b * h_in : (b + 1) * h_in] = 1.0
+            out.append(mask)
+        return out
+
     def reset_parameters(self, generator: torch.Generator) -> None:
         """PyTorch's default Linear initialisation, U(-1/sqrt(fan_in), 1/sqrt(fan_in)),
-        drawn from ``generator`` so that the global RNG is never touched."""
+        drawn from ``generator`` so that the global RNG is never touched. With blocks, fan_in is a
+        unit's inputs within its block (each block starts as the MLP it stands for), and the
+        weights between blocks are zero."""
+        masks = self.masks()
         with torch.no_grad():
-            for lin in self.linears():
-                bound = 1.0 / np.sqrt(lin.in_features)
+            for i, lin in enumerate(self.linears()):
+                # a unit's inputs: the first layer's row of the mask (all inputs without blocks)
+                fan_in = lin.in_features if masks is None else int(masks[i][0].sum())
+                bound = 1.0 / np.sqrt(fan_in)
                 nn.init.uniform_(lin.weight, -bound, bound, generator=generator)
                 nn.init.uniform_(lin.bias, -bound, bound, generator=generator)
+                if masks is not None:
+                    # each unit's bound from its own fan-in within its block
+                    rows = masks[i].sum(1, keepdim=True).clamp(min=1.0)
+                    lin.weight.mul_(masks[i] * torch.sqrt(fan_in / rows))
 
     def same_architecture(self, other: MLP) -> bool:
-        return self.hidden == other.hidden and self.activation == other.activation
+        return (
+            self.hidden == other.hidden
+            and self.activation == other.activation
+            and self.blocks == getattr(other, "blocks", ())
+            and self.block_inputs == getattr(other, "block_inputs", ())
+        )
 
 
 @dataclass

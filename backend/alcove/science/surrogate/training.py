@@ -135,6 +135,11 @@ class TrainingResult:
     splits: list[PoolSplit] = field(default_factory=list)  # every member's
 
 
+def _architecture_text(net: MLP) -> str:
+    blocks = f"/blocks {[list(b) for b in net.blocks]} {list(net.block_inputs)}" if net.blocks else ""
+    return f"{net.hidden}/{net.activation}{blocks}"
+
+
 def preset_kinematics(preset: HeadNeckPreset) -> KinematicsFn:
     """NumPy kinematics of the 1-DOF head-neck preset as a function of q, qd (n, 1), through
     the head's pose (:func:`alcove.science.geometry.preset_pose`; the same numbers, bit for bit,
@@ -504,7 +509,16 @@ def train_surrogate(
             for n in NETS
         }
         generator = torch.Generator().manual_seed(int(s_k))
-        nets = {n: MLP.from_config(getattr(config, n), dtype=dtype, n_in=len(config.input_names)) for n in NETS}
+        nets = {
+            n: MLP.from_config(
+                getattr(config, n),
+                dtype=dtype,
+                n_in=len(config.input_names),
+                blocks=config.output_blocks(n),
+                block_inputs=config.block_inputs(n),
+            )
+            for n in NETS
+        }
         warm_k: dict[str, bool | str] = {}
         for n in NETS:
             nets[n].reset_parameters(generator)
@@ -514,7 +528,7 @@ def train_surrogate(
                     nets[n].load_state_dict({name: p.to(dtype) for name, p in before.state_dict().items()})
                     warm_k[n] = True
                 else:  # the campaign changed the architecture: this net starts afresh
-                    old, now = f"{before.hidden}/{before.activation}", f"{nets[n].hidden}/{nets[n].activation}"
+                    old, now = _architecture_text(before), _architecture_text(nets[n])
                     warm_k[n] = f"cold: architecture {old} -> {now}"
             elif previous:
                 warm_k[n] = "cold: the previous model has fewer members"
