@@ -7,7 +7,7 @@ cause), while the zips already stored are still served unchanged; readiness repo
 build to poll (the same build for the same download), the build holds one of
 ``ALCOVE_ARTIFACT_BUILDS`` slots (a slot of a dead worker's build is taken back), and the
 download answers 200 once it is ready. The job runs in this process here; through a real worker
-process it runs in tests/api/test_lifecycle.py."""
+process (two builds at once with one slot) it runs in tests/api/test_lifecycle.py."""
 
 from __future__ import annotations
 

@@ -38,6 +38,7 @@ def live(tmp_path: Path, fresh_pg_url: str, redis_url: str, api_settings: None, 
         "broker_url": redis_url,
         "broker_key_prefix": prefix,
         "data_dir": str(tmp_path / "data"),
+        "artifact_builds": "1",  # one build at a time: the model zip and the export below queue for it
     }
     for k, v in settings.items():
         monkeypatch.setenv(f"ALCOVE_{k.upper()}", v)
@@ -64,6 +65,9 @@ def live(tmp_path: Path, fresh_pg_url: str, redis_url: str, api_settings: None, 
 
 
 def test_full_campaign_lifecycle_over_http(live) -> None:
+    from alcove.settings import get_settings
+    from tests.integration.procs import db_rows
+
     client, worker = live
     me = make_account("member", "life")
     h = me.headers
@@ -193,9 +197,22 @@ def test_full_campaign_lifecycle_over_http(live) -> None:
     assert [m["version"] for m in models] == [1, 2] and models[1]["parent_model_id"] in (None, models[0]["id"])
     assert models[1]["pool_version_id"] == pools[1]["id"]
     doc = ok(client.get(f"{API}/campaigns/{cid}/model-versions/2/artifact", headers=h))
-    # the zip is built by the worker (queue artifacts): 202 with the build, then the zip
+    # the zips are built by the worker (queue artifacts): the model's and the export's downloads,
+    # asked at once, are two builds (202) run one after the other in the one build slot (the second
+    # job finds the slot taken and runs again, then builds what the first did not store)
     first = client.get(f"{API}/campaigns/{cid}/model-versions/2/artifact.zip", headers=h)
     assert first.status_code == 202 and first.json()["models_total"] == 1, first.text
+    export_first = client.get(f"{API}/campaigns/{cid}/export", params={"pool_format": "csv"}, headers=h)
+    assert export_first.status_code == 202 and export_first.json()["models_total"] == 2, export_first.text
+    most_running, deadline = 0, time.monotonic() + 240
+    while time.monotonic() < deadline:
+        statuses = [r[0] for r in db_rows(get_settings().database_url, "SELECT status FROM artifact_builds")]
+        most_running = max(most_running, statuses.count("running"))
+        if all(st in ("ready", "failed") for st in statuses):
+            break
+        time.sleep(0.05)
+    assert statuses == ["ready", "ready"] and most_running == 1, (statuses, most_running, worker.output()[-4000:])
+    assert "retry" in worker.output().lower()  # the second job found the slot taken
     zipped = download_when_built(client, f"{API}/campaigns/{cid}/model-versions/2/artifact.zip", h)
     assert zipped.status_code == 200, zipped.text[:2000]
     import torch
