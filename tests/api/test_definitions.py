@@ -257,3 +257,29 @@ def test_oversized_and_malformed_bodies_are_4xx_not_500(client, owner: Account) 
     assert r.status_code == 422
     assert client.get(f"{API}/tasks/99999999999", headers=owner.headers).status_code == 422
     assert client.get(f"{API}/tasks/2147483647", headers=owner.headers).status_code == 404
+
+
+def test_a_command_oracles_launcher_is_checked_at_the_field_and_kept(client, admin: Account) -> None:
+    """The admin's launcher fields: a bad one is a 422 naming it; a Slurm launcher is stored with
+    the values set and shown back; none (or scheduler local) is stored as NULL (on the worker)."""
+    name = unique("slurm-solver")
+    entry = {"name": name, "argv": ["/bin/true"], "timeout_s": 60}
+    for launcher, field in (
+        ({"scheduler": "slurm", "partition": "a b"}, "launcher.partition"),
+        ({"scheduler": "slurm", "cpus_per_task": 0}, "launcher.cpus_per_task"),
+        ({"scheduler": "slurm", "directives": {"qos": "x;y z"}}, "launcher.directives"),
+        ({"scheduler": "sge"}, "launcher.scheduler"),
+    ):
+        r = client.post(f"{API}/admin/command-oracles", json={**entry, "launcher": launcher}, headers=admin.headers)
+        assert r.status_code == 422, r.text
+        assert [e["field"] for e in r.json()["detail"]] == [field], r.json()
+    launcher = {"scheduler": "slurm", "partition": "short", "cpus_per_task": 4, "time_limit_s": 600}
+    r = client.post(f"{API}/admin/command-oracles", json={**entry, "launcher": launcher}, headers=admin.headers)
+    assert r.status_code == 201, r.text
+    assert r.json()["launcher"] == launcher
+    local = client.put(
+        f"{API}/admin/command-oracles/{r.json()['id']}",
+        json={**entry, "launcher": {"scheduler": "local"}},
+        headers=admin.headers,
+    )
+    assert local.status_code == 200 and local.json()["launcher"] is None

@@ -1,7 +1,8 @@
 #!/usr/bin/env python3
 """A tiny command-oracle program for the batch-launcher tests: sleeps ``SECONDS`` (first
-argument, default 0), then writes zero forces on the trajectory's time grid, as the file
-contract asks. Each run appends one line (its job id, folder and CPU count) to the file named
+argument, default 0; with ``burn`` as second argument it computes that long instead, as a
+solver holding one CPU would), then writes zero forces on the trajectory's time grid, as the
+file contract asks. Each run appends one line (its job id, folder and CPU count) to the file named
 by ``SLEEPY_RUN_LOG``, if set, so a test can count how often a call really ran."""
 
 import os
@@ -16,7 +17,12 @@ def main() -> int:
         with open(log, "a") as fh:
             job = os.environ.get("SLURM_JOB_ID") or os.environ.get("PBS_JOBID") or "-"
             fh.write(f"{job} {os.getcwd()} {os.environ.get('ALCOVE_JOB_CPUS', '-')}\n")
-    time.sleep(seconds)
+    if sys.argv[2:3] == ["burn"]:
+        end = time.process_time() + seconds
+        while time.process_time() < end:
+            sum(i * i for i in range(1000))
+    else:
+        time.sleep(seconds)
     with open(os.environ.get("ALCOVE_TRAJECTORY", "trajectory.csv")) as fh:
         next(fh)
         times = [line.split(",")[0] for line in fh if line.strip()]

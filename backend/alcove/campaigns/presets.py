@@ -60,9 +60,12 @@ def task_version_from_preset(s: Session, owner_id: int, preset: str, spec: dict[
 
 
 def oracle_version_for(s: Session, owner_id: int, oracle_type: str, params: dict[str, Any] | None = None) -> int:
-    from alcove.science.oracles.registry import build_oracle
+    from alcove.oracles.service import command_catalogue
+    from alcove.science.oracles.registry import BUILTIN_TYPE_NAMES, build_oracle
 
-    oracle = build_oracle(oracle_type, params or {})  # validates; raises OracleInputError naming the field
+    catalogue = None if oracle_type in BUILTIN_TYPE_NAMES else command_catalogue(s)
+    # validates; raises OracleInputError naming the field
+    oracle = build_oracle(oracle_type, params or {}, catalogue=catalogue)
     body = oracle.params.model_dump(mode="json")
     return _find_or_create(s, owner_id, ORACLES, oracle_type, oracle_type, body, oracle_type=oracle_type)
 

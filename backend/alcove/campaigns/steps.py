@@ -53,6 +53,7 @@ from alcove.models import (
 from alcove.oracles import repository as oracles_repo
 from alcove.oracles import steps as oracle_steps
 from alcove.oracles import validation as oracle_validation
+from alcove.oracles.batch_jobs import StepBatchJobs
 from alcove.pool import repository as pool_repo
 from alcove.pool import steps as pool_steps
 from alcove.science.ocp import acquisition
@@ -236,6 +237,12 @@ def oracle(ctx: StepContext) -> StepOutput:
             scenario = stored is not None
             # a drawn headrest tilt is recorded with the dataset (its features are relative to it)
             record_tilt = scenario and TILT_PARAMETER in ((stored or {}).get("values") or {})
+            step_row = repo.get_step(s, ctx.campaign_id, ctx.ref.iteration, ctx.ref.step.value, ctx.ref.slot)
+            batch_jobs = (
+                None
+                if step_row is None
+                else StepBatchJobs(step_row.id, ctx.campaign_id, ctx.run.attempt, ctx.run.worker)
+            )
         ctx.before_compute()
         settings = ctx.config.settings
         out = oracle_steps.replay(
@@ -248,6 +255,7 @@ def oracle(ctx: StepContext) -> StepOutput:
             replay_dt=settings.replay_dt,
             scenario=scenario,
             record_tilt=record_tilt,
+            batch_jobs=batch_jobs,
         )
     except UnusableResult as err:
         raise UnusableResult(err.reason, candidates.recording_replay(err.write)) from None

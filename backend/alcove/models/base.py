@@ -170,6 +170,18 @@ class DatasetOrigin(str, enum.Enum):
     validation = "validation"  # a held-out validation motion replayed by an oracle (never in a pool)
 
 
+class BatchJobState(str, enum.Enum):
+    """A batch job of an oracle call: waiting in the scheduler's queue, running, ended with its
+    result not yet stored, its result stored with the step, or ended without one."""
+
+    queued = "queued"
+    running = "running"
+    completed = "completed"
+    collected = "collected"
+    failed = "failed"
+    cancelled = "cancelled"
+
+
 class OracleRunStatus(str, enum.Enum):
     running = "running"
     ok = "ok"

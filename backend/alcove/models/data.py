@@ -21,7 +21,7 @@ from typing import TYPE_CHECKING, Any
 import sqlalchemy as sa
 from sqlalchemy.orm import Mapped, deferred, mapped_column, relationship
 
-from alcove.models.base import Base, DatasetOrigin, OracleRunStatus, enum_check, utcnow
+from alcove.models.base import Base, BatchJobState, DatasetOrigin, OracleRunStatus, enum_check, utcnow
 
 if TYPE_CHECKING:
     from alcove.models.campaigns import Iteration
@@ -347,3 +347,29 @@ class IterationMetrics(Base):
     created_at: Mapped[datetime] = mapped_column(default=utcnow, server_default=sa.func.now())
 
     iteration: Mapped[Iteration] = relationship()
+
+
+class OracleBatchJob(Base):
+    """A batch-scheduler job that runs one oracle call (a command oracle whose launcher is a
+    batch scheduler), kept with its oracle step: a later attempt of the step attaches to a job
+    still queued, running or completed instead of submitting the call again."""
+
+    __tablename__ = "oracle_batch_jobs"
+    __table_args__ = (enum_check("state", BatchJobState), sa.Index("ix_oracle_batch_jobs_step_id", "step_id"))
+
+    id: Mapped[int] = mapped_column(primary_key=True)
+    step_id: Mapped[int] = mapped_column(sa.ForeignKey("iteration_steps.id", ondelete="CASCADE"))
+    campaign_id: Mapped[int] = mapped_column(sa.ForeignKey("campaigns.id", ondelete="CASCADE"), index=True)
+    attempt: Mapped[int] = mapped_column(comment="the step's attempt that submitted the job")
+    scheduler: Mapped[str] = mapped_column(sa.String(16), comment="slurm | pbs | lsf")
+    job_id: Mapped[str] = mapped_column(sa.String(64), comment="the scheduler's id of the job")
+    state: Mapped[str] = mapped_column(sa.String(16))
+    reason: Mapped[str | None] = mapped_column(sa.Text, comment="why the job failed or was cancelled")
+    workdir: Mapped[str] = mapped_column(sa.Text, comment="the job folder (inputs, outputs, logs)")
+    worker_name: Mapped[str | None] = mapped_column(sa.String(200), comment="the worker waiting for it")
+    exit_code: Mapped[int | None]
+    submitted_at: Mapped[datetime | None]
+    started_at: Mapped[datetime | None]
+    ended_at: Mapped[datetime | None]
+    collected_at: Mapped[datetime | None] = mapped_column(comment="when its result was stored with the step")
+    updated_at: Mapped[datetime] = mapped_column(default=utcnow, onupdate=utcnow, server_default=sa.func.now())

@@ -181,5 +181,8 @@ class CommandOracle(TimestampMixin, Base):
     working_dir: Mapped[str | None] = mapped_column(sa.String(1000))
     env: Mapped[dict[str, Any]] = mapped_column(default=dict, comment="extra environment variables")
     timeout_s: Mapped[float] = mapped_column(sa.Float, default=3600.0, server_default="3600")
+    launcher: Mapped[dict[str, Any] | None] = mapped_column(
+        comment="where the program runs: NULL on the oracle worker, else the batch scheduler and the job's resources"
+    )
     enabled: Mapped[bool] = mapped_column(default=True, server_default=sa.true())
     created_by_id: Mapped[int | None] = mapped_column(sa.ForeignKey("users.id", ondelete="SET NULL"))

@@ -8,6 +8,7 @@ from typing import Any, Literal
 from pydantic import BaseModel, ConfigDict, Field
 
 from alcove.names import Name
+from alcove.science.oracles.command.launcher import LauncherSpec
 from alcove.versioning.schemas import DefinitionMeta, VersionMeta
 
 
@@ -86,6 +87,11 @@ class CommandOracleIn(_In):
     env: dict[str, str] = Field(default_factory=dict)
     timeout_s: float = Field(3600.0, gt=0, le=7 * 24 * 3600)
     working_dir: str | None = Field(None, max_length=1000, description="where working directories are created")
+    launcher: LauncherSpec | None = Field(
+        None,
+        description="where the program runs: on the oracle worker (none, or scheduler local) or as one batch job "
+        "per oracle call (scheduler slurm, pbs or lsf, with the job's resources)",
+    )
     enabled: bool = True
 
 
@@ -99,6 +105,7 @@ class CommandOracleOut(BaseModel):
     env: dict[str, str]
     timeout_s: float
     working_dir: str | None
+    launcher: dict[str, Any] | None
     enabled: bool
     created_at: datetime
     updated_at: datetime

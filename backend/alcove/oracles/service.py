@@ -62,6 +62,7 @@ def _spec_from_row(row: CommandOracle) -> Any:
         env=dict(row.env or {}),
         timeout_s=row.timeout_s,
         workdir_root=row.working_dir,
+        launcher=row.launcher or {},
     )
 
 
@@ -103,6 +104,7 @@ def check_command_entry(body: CommandOracleIn) -> None:
             env=body.env,
             timeout_s=body.timeout_s,
             workdir_root=body.working_dir,
+            launcher=body.launcher or {},
         )
     except ValidationError as err:
         raise InvalidInput(field_errors_from_pydantic(err)) from None
@@ -112,7 +114,17 @@ def create_command(session: Session, admin: User, body: CommandOracleIn) -> Comm
     check_command_entry(body)
     if repo.command_exists(session, body.name):
         raise Conflict(f"name: a command oracle named {body.name!r} exists")
-    return repo.add_command(session, CommandOracle(**body.model_dump(), created_by_id=admin.id))
+    return repo.add_command(session, CommandOracle(**_row_values(body), created_by_id=admin.id))
+
+
+def _row_values(body: CommandOracleIn) -> dict[str, Any]:
+    """The entry's columns; a launcher is stored with the values set (NULL: on the oracle worker)."""
+    values = body.model_dump(mode="json", exclude={"launcher"})
+    launcher = body.launcher
+    values["launcher"] = (
+        launcher.model_dump(mode="json", exclude_defaults=True) if launcher and launcher.is_batch else None
+    )
+    return values
 
 
 def list_commands(session: Session) -> list[CommandOracle]:
@@ -131,7 +143,7 @@ def update_command(session: Session, entry_id: int, body: CommandOracleIn) -> Co
     if body.name != row.name:
         raise InvalidInput.one("name", "cannot be changed (oracles refer to the entry by name); create a new entry")
     check_command_entry(body)
-    for key, value in body.model_dump().items():
+    for key, value in _row_values(body).items():
         setattr(row, key, value)
     session.flush()
     return row

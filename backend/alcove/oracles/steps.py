@@ -21,10 +21,12 @@ from alcove.db.arrays import get_arrays, put_arrays
 from alcove.jobs.steps import IterationRef, StepOutput, StepRun, UnusableResult, WriteRows
 from alcove.models import OracleRun, OracleVersion, QuarantinedResult, utcnow
 from alcove.models.data import HeadrestPlacement
+from alcove.oracles.batch_jobs import StepBatchJobs
 from alcove.oracles.service import command_catalogue
 from alcove.pool.service import store_dataset
 from alcove.science.json_values import json_safe
 from alcove.science.oracles.builtin import BUILTIN_TYPE_NAMES
+from alcove.science.oracles.command import CommandOracle
 
 if TYPE_CHECKING:
     from alcove.science.geometry import HeadNeckPreset
@@ -66,12 +68,14 @@ def replay(
     replay_dt: float | None,
     scenario: bool = False,
     record_tilt: bool = False,
+    batch_jobs: StepBatchJobs | None = None,
 ) -> StepOutput:
     """Replay the first ``replay_phases`` phases of the solution in the oracle (None: all of it). A result
     that passes the quality gate becomes the iteration's dataset; one that does not is
     quarantined with its reason (:class:`UnusableResult`). ``scenario``: ``task`` is a scenario
     drawn from the campaign's task (its dataset records the scenario's headrest offset and, with
-    ``record_tilt`` (the scenario drew ``model.tilt``), its headrest tilt)."""
+    ``record_tilt`` (the scenario drew ``model.tilt``), its headrest tilt). ``batch_jobs``: where
+    a command oracle with a batch launcher keeps its job (a later attempt attaches to it)."""
     from alcove.science.ocp.replay import replay_trajectory
 
     with session_scope() as s:
@@ -87,7 +91,11 @@ def replay(
     assert tau is not None  # replay_trajectory always carries the solution's torques
     started = utcnow()
     t0 = time.perf_counter()
-    res = oracle.run(traj, cancel=run.cancelled)
+    if batch_jobs is not None and isinstance(oracle, CommandOracle) and oracle.spec.launcher.is_batch:
+        res = oracle.run(traj, cancel=run.cancelled, batch_book=batch_jobs)
+    else:
+        batch_jobs = None
+        res = oracle.run(traj, cancel=run.cancelled)
     compute = time.perf_counter() - t0
     gate_fail = run.fault is not None and run.fault.gate_fail
     ok = bool(res.ok) and not gate_fail
@@ -110,6 +118,8 @@ def replay(
             name=f"iteration-{at.index:04d}" + (f"-pick-{at.slot}" if at.slot else ""),
             meta={"oracle_version_id": oracle_version_id, **headrest.as_meta()},
         )
+        if batch_jobs is not None:
+            batch_jobs.mark_collected(s)
         out: dict[str, Any] = {"oracle_run_id": row.id, "ok": ok, "wall_time_s": float(res.wall_time)}
         if ds is not None:
             out["dataset_id"] = ds.id

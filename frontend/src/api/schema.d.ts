@@ -2161,6 +2161,8 @@ export interface components {
             env?: {
                 [key: string]: string;
             };
+            /** @description where the program runs: on the oracle worker (none, or scheduler local) or as one batch job per oracle call (scheduler slurm, pbs or lsf, with the job's resources) */
+            launcher?: components["schemas"]["LauncherSpec"] | null;
             /** Name */
             name: string;
             /**
@@ -2193,6 +2195,10 @@ export interface components {
             };
             /** Id */
             id: number;
+            /** Launcher */
+            launcher: {
+                [key: string]: unknown;
+            } | null;
             /** Name */
             name: string;
             /** Timeout S */
@@ -2862,6 +2868,87 @@ export interface components {
              * @description joint torque limit [N m], above 0, at most 200 N m; an adult neck's largest is 30-60 N m
              */
             torque_limit: number;
+        };
+        /**
+         * LauncherSpec
+         * @description How an entry's program is started: ``local`` or one batch job per oracle call.
+         */
+        LauncherSpec: {
+            /**
+             * Account
+             * @description account (project) the jobs are charged to
+             */
+            account?: string | null;
+            /**
+             * Cpus Per Task
+             * @description CPU cores per process (threads of a threaded solver)
+             * @default 1
+             */
+            cpus_per_task?: number;
+            /**
+             * Directives
+             * @description further scheduler options, name -> value (Slurm: qos: normal gives --qos=normal)
+             */
+            directives?: {
+                [key: string]: string;
+            };
+            /**
+             * Env
+             * @description environment variables of the job
+             */
+            env?: {
+                [key: string]: string;
+            };
+            /**
+             * Job Root
+             * @description folder shared by the worker and the compute nodes where job folders are made (default: the entry's workdir_root)
+             */
+            job_root?: string | null;
+            /**
+             * Memory Mb
+             * @description memory per job [MB]
+             */
+            memory_mb?: number | null;
+            /**
+             * Modules
+             * @description environment modules loaded before the program
+             */
+            modules?: string[];
+            /**
+             * Nodes
+             * @description nodes per job
+             * @default 1
+             */
+            nodes?: number;
+            /**
+             * Partition
+             * @description partition (Slurm) or queue (PBS, LSF) the jobs go to
+             */
+            partition?: string | null;
+            /**
+             * Poll S
+             * @description how often the worker asks the scheduler for its jobs' states [s]
+             * @default 5
+             */
+            poll_s?: number;
+            /**
+             * Scheduler
+             * @description local: on the oracle worker; slurm, pbs, lsf: one batch job per oracle call
+             * @default local
+             * @enum {string}
+             */
+            scheduler?: "local" | "slurm" | "pbs" | "lsf";
+            /**
+             * Tasks
+             * @description processes (MPI ranks) per job
+             * @default 1
+             */
+            tasks?: number;
+            /**
+             * Time Limit S
+             * @description the job's wall-time limit [s] (default: the entry's timeout_s); Slurm rounds it up to minutes
+             */
+            time_limit_s?: number | null;
         };
         /**
          * LinkSpec

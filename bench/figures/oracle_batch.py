@@ -1,0 +1,160 @@
+"""Command oracles as Slurm jobs on the local test cluster (``.ci/slurm-up``: one node, 2 CPUs).
+
+Four oracle calls of a batch iteration, each a program computing for 3 s of CPU
+(``tests/oracles/sleepy_solver.py 3 burn``), run as four 1-CPU Slurm jobs at once (four
+threads waiting, as four oracle-worker processes would), against one worker running the same
+four calls one after the other with the local launcher. And the scheduler's overhead per call:
+from the submission to the program's start, and from the program's end to the forces read
+back by the oracle call (PSI/J polling squeue every 0.25 s).
+"""
+
+from __future__ import annotations
+
+import heapq
+import statistics
+import sys
+import tempfile
+import time
+from concurrent.futures import ThreadPoolExecutor
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from bench.harness import figure, timed
+
+ROOT = Path(__file__).resolve().parents[2]
+SOLVER = ROOT / "tests" / "oracles" / "sleepy_solver.py"
+CALLS = 4
+CPU_SECONDS = 3.0
+_last: dict[str, list[float]] = {}
+
+
+def _requires() -> str | None:
+    sys.path.insert(0, str(ROOT))
+    from tests.oracles.slurm import slurm_is_up
+
+    return slurm_is_up()
+
+
+def _trajectory() -> Any:
+    from alcove.science.series import Trajectory
+
+    t = np.linspace(0.0, 0.4, 41)
+    q = 0.2 * np.sin(np.pi * t / 0.4)
+    return Trajectory(t=t, q=q[:, None], qd=np.gradient(q, t)[:, None])
+
+
+def _oracle(scheduler: str) -> Any:
+    import psij  # noqa: F401  (in the main thread: PSI/J wants its signal handlers there)
+
+    from alcove.science.oracles.command import CommandOracleSpec
+    from alcove.science.oracles.command.oracle import CommandOracle
+
+    launcher: dict[str, Any] = {"scheduler": scheduler}
+    if scheduler != "local":
+        launcher.update(cpus_per_task=1, poll_s=0.25)
+    spec = CommandOracleSpec(
+        name=f"burn-{scheduler}",
+        argv=[sys.executable, str(SOLVER), str(CPU_SECONDS), "burn"],
+        timeout_s=120,
+        workdir_root=Path(tempfile.mkdtemp(prefix="alcove-bench-batch-")),
+        launcher=launcher,
+    )
+    return CommandOracle(spec), _trajectory()
+
+
+def waits_for_start(jobs: list[dict[str, Any]], cpus: int) -> list[float]:
+    """Each job's wait from the moment it could have started (submitted, and a CPU free: the end
+    of the job before it on that CPU) to its start: the scheduler's own latency, not the queue."""
+    free = [0.0] * cpus
+    heapq.heapify(free)
+    waits = []
+    for job in sorted(jobs, key=lambda j: j["started_at"]):
+        could = max(job["submitted_at"], heapq.heappop(free))
+        waits.append(job["started_at"] - could)
+        heapq.heappush(free, job["ended_at"])
+    return waits
+
+
+def _run_ok(oracle: Any, trajectory: Any) -> Any:
+    result = oracle.run(trajectory)
+    assert result.ok, result.failure_reason
+    return result
+
+
+@figure(
+    "batch oracle: 4 calls in sequence on one worker (local launcher, 3 s CPU each)",
+    "s",
+    setup=lambda: _oracle("local"),
+    reps=2,
+    quick_reps=1,
+    group="oracles",
+    requires=_requires,
+    quick=False,
+)
+def sequential_four(ctx: Any) -> float:
+    oracle, trajectory = ctx
+    return timed(lambda: [_run_ok(oracle, trajectory) for _ in range(CALLS)])
+
+
+@figure(
+    "batch oracle: 4 calls as 1-CPU Slurm jobs at once (2-CPU node), wall",
+    "s",
+    setup=lambda: _oracle("slurm"),
+    reps=2,
+    quick_reps=1,
+    group="oracles",
+    requires=_requires,
+    quick=False,
+    baseline="batch oracle: 4 calls in sequence on one worker (local launcher, 3 s CPU each)",
+    notes="target: <= 0.6x the sequential baseline (ratio column)",
+)
+def slurm_four(ctx: Any) -> float:
+    oracle, trajectory = ctx
+    returned: list[float] = []
+
+    def one(_: int) -> Any:
+        result = _run_ok(oracle, trajectory)
+        returned.append(time.time())
+        return result
+
+    t0 = time.perf_counter()
+    with ThreadPoolExecutor(CALLS) as pool:
+        results = list(pool.map(one, range(CALLS)))
+    wall = time.perf_counter() - t0
+    jobs = [r.diagnostics["batch_job"] for r in results]
+    _last["to_start"] = waits_for_start(jobs, cpus=2)
+    ends = sorted(j["ended_at"] for j in jobs)
+    _last["to_result"] = [max(0.0, back - end) for back, end in zip(sorted(returned), ends, strict=True)]
+    return wall
+
+
+@figure(
+    "batch oracle: Slurm overhead per call, submission (or a CPU free) to start (mean of 4)",
+    "s",
+    target=2.0,
+    reps=1,
+    quick_reps=1,
+    group="oracles",
+    requires=_requires,
+    quick=False,
+    notes="the last run of the 4 jobs: from its submission, or the end of the job before it on its CPU",
+)
+def overhead_to_start(_: Any) -> float:
+    return statistics.mean(_last["to_start"]) if _last else float("nan")
+
+
+@figure(
+    "batch oracle: Slurm overhead per call, end to result read back (mean of 4)",
+    "s",
+    target=2.0,
+    reps=1,
+    quick_reps=1,
+    group="oracles",
+    requires=_requires,
+    quick=False,
+    notes="squeue polled every 0.25 s, then the forces file read and checked",
+)
+def overhead_to_result(_: Any) -> float:
+    return statistics.mean(_last["to_result"]) if _last else float("nan")
