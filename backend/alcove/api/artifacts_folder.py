@@ -9,6 +9,7 @@ from __future__ import annotations
 import errno
 import os
 import shutil
+import uuid
 from pathlib import Path
 
 from alcove.errors import StorageUnavailable
@@ -46,7 +47,7 @@ def storage_error(folder: Path, err: OSError, what: str = "") -> StorageUnavaila
 def require_writable(folder: Path, what: str = "") -> None:
     """Raise :class:`StorageUnavailable` unless ``folder`` (created if missing) takes a small
     file and has :data:`MIN_FREE_BYTES` free. ``what`` says what could not be done."""
-    probe = folder / f".write-probe.{os.getpid()}"
+    probe = folder / f".write-probe.{uuid.uuid4().hex}"  # its own name: probes of concurrent requests do not meet
     try:
         folder.mkdir(parents=True, exist_ok=True)
         fd = os.open(probe, os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o600)
