@@ -86,7 +86,7 @@ def _builds(campaign_id: int) -> list:
 
 
 def test_a_read_only_artifacts_folder_answers_at_once_naming_it_and_keeps_what_is_stored(
-    client, admin, campaign
+    client, admin, campaign, capsys
 ) -> None:
     from alcove.db import session_scope
     from alcove.settings import get_settings
@@ -131,6 +131,14 @@ def test_a_read_only_artifacts_folder_answers_at_once_naming_it_and_keeps_what_i
         with session_scope() as s:
             row = s.get(ArtifactBuild, queued_id)
             assert row.slot is None and str(zips) in row.error and "model artifact zips" in row.error, row.error
+
+        # the build's child process, had the folder turned read-only while it built: exit status 3 and
+        # the cause named, no temporary file left
+        from alcove.surrogates.artifact_export import EXIT_STORAGE, main
+
+        assert main([str(zips), str(campaign["model_version_id"])]) == EXIT_STORAGE
+        said = capsys.readouterr().err
+        assert "cannot store model version" in said and "read-only" in said and str(zips) in said, said
 
         ready = client.get(f"{API}/health/ready", headers=admin.headers).json()
         assert not ready["artifacts"]["ok"] and str(folder) in ready["artifacts"]["detail"], ready

@@ -11,6 +11,7 @@ place, so a full or read-only folder leaves the stored zips as they were.
 
 from __future__ import annotations
 
+import contextlib
 import os
 import subprocess
 import sys
@@ -108,7 +109,8 @@ def main(argv: list[str]) -> int:
                 tmp.write_bytes(data)
                 tmp.replace(out_dir / f"{mv.artifact_sha256}.v{ZIP_LAYOUT}.zip")
             except OSError as err:
-                tmp.unlink(missing_ok=True)
+                with contextlib.suppress(OSError):  # a read-only folder refuses even this
+                    tmp.unlink(missing_ok=True)
                 print(storage_error(out_dir, err, f"cannot store model version {ident}'s zip").message, file=sys.stderr)
                 return EXIT_STORAGE
             print(f"{BUILT} {ident}", flush=True)
