@@ -166,6 +166,11 @@ def test_a_download_waits_for_its_build_within_the_slot_limit_then_answers_the_z
     location = first.headers["Location"]
     assert location == f"{API}/campaigns/{cid}/artifact-builds/{build['id']}"
     assert client.get(url, headers=me.headers).json()["id"] == build["id"]  # the same download: the same build
+    with session_scope() as s:  # a build under way that also makes zips stored since still covers the download
+        s.get(ArtifactBuild, build["id"]).model_version_ids = [campaign["model_version_id"], 10**6]
+    assert client.get(url, headers=me.headers).json()["id"] == build["id"]
+    with session_scope() as s:
+        s.get(ArtifactBuild, build["id"]).model_version_ids = [campaign["model_version_id"]]
     assert client.get(location, headers=other.headers).status_code == 404
 
     # every slot held by a running build of a live worker: the job leaves it queued ("busy")

@@ -71,7 +71,8 @@ def _find_or_record(s: Session, user_id: int, campaign_id: int, ids: list[int], 
         )
         .order_by(ArtifactBuild.id.desc())
     ).first()
-    if under_way is not None and sorted(under_way.model_version_ids) == ids and stale_reason(s, under_way) is None:
+    # the build under way covers what is missing now (while it runs, the zips it stored are not)
+    if under_way is not None and set(ids) <= set(under_way.model_version_ids) and stale_reason(s, under_way) is None:
         return under_way.id
     s.execute(
         sa.delete(ArtifactBuild).where(
