@@ -190,6 +190,24 @@ def _step_process_lost(sender: Any = None, exception: BaseException | None = Non
         log.exception("could not release the step of a lost pool process")
 
 
+@signals.task_failure.connect
+def _artifact_build_process_lost(
+    sender: Any = None, exception: BaseException | None = None, args: Any = None, **_: Any
+) -> None:
+    """In the worker's main process: the pool process running an artifact build died. The build
+    fails with the reason and frees its slot now (else only once it is quiet for the build timeout)."""
+    from billiard.exceptions import WorkerLostError
+
+    if not isinstance(exception, WorkerLostError) or sender is None or sender.name != ARTIFACT_BUILD_JOB:
+        return
+    from alcove.surrogates.artifact_build_worker import release_lost_build
+
+    try:
+        release_lost_build(int(args[0]), sender.request.hostname or "")
+    except Exception:  # the build's quiet time still fails it
+        log.exception("could not release the artifact build of a lost pool process")
+
+
 @signals.worker_shutdown.connect
 def _stop_reconciler(**_: Any) -> None:
     if _reconciler is not None:

@@ -115,3 +115,25 @@ def run_build(build_id: int, worker_name: str) -> str:
         )
     )
     return status
+
+
+def release_lost_build(build_id: int, worker_name: str) -> bool:
+    """In the worker's main process: the pool process running build ``build_id`` died (SIGKILL,
+    out of memory). The main process still beats, so the build is failed here with the reason,
+    freeing its slot at once; True if it was still running there."""
+    from alcove.db import transaction
+
+    reason = f"the worker process building it ({worker_name}) died. Download again to build anew."
+
+    def release(s: Session) -> int:
+        result = s.execute(
+            sa.update(ArtifactBuild)
+            .where(
+                ArtifactBuild.id == build_id, ArtifactBuild.status == RUNNING, ArtifactBuild.worker_name == worker_name
+            )
+            .values(status=ArtifactBuildStatus.failed.value, error=reason, slot=None, finished_at=utcnow())
+        )
+        assert isinstance(result, sa.CursorResult)
+        return result.rowcount
+
+    return bool(transaction(release))
