@@ -22,7 +22,7 @@ from typing import Any
 import pytest
 import yaml
 
-from tests.integration.procs import db_rows, start_worker, stop_all, unique
+from tests.integration.procs import db_rows, run_cli, start_worker, stop_all, unique
 from tests.integration.procs import wait_until as wait_for
 from tests.oracles.slurm import SOLVER, slurm_is_up
 
@@ -142,6 +142,18 @@ def test_a_batch_iterations_oracle_calls_run_as_slurm_jobs_at_once(
     assert db_rows(pg_url, "SELECT count(*) FROM datasets WHERE campaign_id = :c AND origin = 'oracle'", c=cid) == [
         (4,)
     ]
+    # shown: each oracle step's job in the API's job list and in `alcove campaign status`
+    from alcove.campaigns import results
+    from alcove.db import session_scope
+
+    with session_scope() as s:
+        listed = [j for j in results.list_jobs(s, cid) if j["step"] == "oracle"]
+    assert sorted((j["slot"], j["batch_jobs"][0]["state"]) for j in listed) == [(k, "collected") for k in range(4)]
+    assert {j["batch_jobs"][0]["job_id"] for j in listed} == {j[0] for j in jobs}
+    status = run_cli(["campaign", "status", str(cid)], env)
+    assert status.returncode == 0, status.stderr
+    for job_id, *_ in jobs:
+        assert f"slurm job {job_id} collected" in status.stdout, status.stdout
 
 
 def test_a_time_limit_fails_its_call_and_a_cancelled_campaign_cancels_its_jobs(

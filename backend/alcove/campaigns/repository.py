@@ -66,7 +66,7 @@ def get_iteration(s: Session, campaign_id: int, index: int) -> Iteration | None:
 def get_iteration_with_steps(s: Session, campaign_id: int, index: int) -> Iteration | None:
     return s.scalar(
         sa.select(Iteration)
-        .options(selectinload(Iteration.steps))
+        .options(selectinload(Iteration.steps).selectinload(IterationStep.batch_jobs))
         .where(Iteration.campaign_id == campaign_id, Iteration.index == index)
     )
 
@@ -74,7 +74,7 @@ def get_iteration_with_steps(s: Session, campaign_id: int, index: int) -> Iterat
 def list_iterations(s: Session, campaign_id: int, after: int | None = None) -> list[Iteration]:
     q = (
         sa.select(Iteration)
-        .options(selectinload(Iteration.steps))
+        .options(selectinload(Iteration.steps).selectinload(IterationStep.batch_jobs))
         .where(Iteration.campaign_id == campaign_id)
         .order_by(Iteration.index)
     )

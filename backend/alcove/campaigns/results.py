@@ -40,6 +40,7 @@ from alcove.models import (
     User,
 )
 from alcove.oracles import repository as oracles_repo
+from alcove.oracles.batch_jobs import with_batch_jobs
 from alcove.science.ocp.scenarios import apply_to_spec
 from alcove.solving import repository as solving_repo
 from alcove.users.access import can_edit
@@ -237,10 +238,9 @@ def _replayed_tau(s: Session, iteration_id: int, t: np.ndarray) -> np.ndarray | 
 def list_jobs(s: Session, campaign_id: int, statuses: list[str] | None = None) -> list[dict[str, Any]]:
     """Every step row (the unit of Celery work) with its iteration index."""
     repo.get_campaign(s, campaign_id)
-    return [
-        {"iteration": k, **StepRead.model_validate(r).model_dump()}
-        for k, r in repo.steps_of_campaign(s, campaign_id, statuses)
-    ]
+    rows = repo.steps_of_campaign(s, campaign_id, statuses)
+    with_batch_jobs(s, [r for _, r in rows])
+    return [{"iteration": k, **StepRead.model_validate(r).model_dump()} for k, r in rows]
 
 
 def running_since(row: IterationStep) -> datetime | None:

@@ -85,6 +85,25 @@ class CampaignRead(_Read):
     finished_at: datetime | None
 
 
+class BatchJobRead(_Read):
+    """A batch-scheduler job of an oracle call (a command oracle submitted to Slurm, PBS or LSF)."""
+
+    scheduler: str = Field(description="slurm, pbs or lsf")
+    job_id: str = Field(description="the scheduler's id of the job (squeue -j, qstat, bjobs)")
+    state: str = Field(
+        description="queued, running, completed (result not yet stored), collected (result stored), failed, cancelled"
+    )
+    reason: str | None = Field(None, description="why it failed or was cancelled")
+    attempt: int = Field(description="the step's attempt that submitted it")
+    worker_name: str | None = Field(None, description="the oracle worker waiting for it")
+    workdir: str = Field(description="the job folder")
+    exit_code: int | None = None
+    submitted_at: datetime | None = None
+    started_at: datetime | None = None
+    ended_at: datetime | None = None
+    collected_at: datetime | None = None
+
+
 class StepRead(_Read):
     id: int
     step: StepName
@@ -104,6 +123,10 @@ class StepRead(_Read):
     wall_time_s: float | None
     error: str | None
     result: dict[str, Any]
+    batch_jobs: list[BatchJobRead] = Field(
+        default_factory=list,
+        description="an oracle step's batch-scheduler jobs, oldest first (empty unless its oracle runs as batch jobs)",
+    )
 
 
 class IterationRead(_Read):
@@ -325,6 +348,7 @@ class JobOut(StepRead):
 
 
 __all__ = [
+    "BatchJobRead",
     "CampaignConfig",
     "CampaignConfigUpdate",
     "CampaignCreate",

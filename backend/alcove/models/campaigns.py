@@ -34,7 +34,7 @@ from alcove.models.base import (
 )
 
 if TYPE_CHECKING:
-    from alcove.models.data import OracleRun
+    from alcove.models.data import OracleBatchJob, OracleRun
     from alcove.models.definitions import OracleVersion, SurrogateConfigVersion, TaskVersion
     from alcove.models.users import User
 
@@ -305,6 +305,7 @@ class IterationStep(Base):
     updated_at: Mapped[datetime] = mapped_column(default=utcnow, onupdate=utcnow, server_default=sa.func.now())
 
     iteration: Mapped[Iteration] = relationship(back_populates="steps")
+    batch_jobs: Mapped[list[OracleBatchJob]] = relationship(order_by="OracleBatchJob.id", viewonly=True)
 
 
 class CampaignEvent(Base):

@@ -10,14 +10,16 @@ the job's end and that commit leaves it ``completed``, and the next attempt coll
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from datetime import UTC, datetime
 from typing import Any
 
 import sqlalchemy as sa
 from sqlalchemy.orm import Session
+from sqlalchemy.orm.attributes import set_committed_value
 
 from alcove.db import transaction
-from alcove.models import utcnow
+from alcove.models import IterationStep, utcnow
 from alcove.models.base import BatchJobState
 from alcove.models.data import OracleBatchJob
 from alcove.science.oracles.command.batch import BatchJob
@@ -106,6 +108,19 @@ class StepBatchJobs:
             )
 
 
+def with_batch_jobs(s: Session, steps: Sequence[IterationStep]) -> None:
+    """Load the batch jobs of ``steps`` (their oracle calls' scheduler jobs) in one query."""
+    by_step: dict[int, list[OracleBatchJob]] = {st.id: [] for st in steps}
+    if by_step:
+        rows = s.scalars(
+            sa.select(OracleBatchJob).where(OracleBatchJob.step_id.in_(list(by_step))).order_by(OracleBatchJob.id)
+        )
+        for job in rows:
+            by_step[job.step_id].append(job)
+    for st in steps:
+        set_committed_value(st, "batch_jobs", by_step[st.id])
+
+
 def jobs_of_campaign(s: Session, campaign_id: int) -> list[OracleBatchJob]:
     """Every batch job of a campaign's oracle calls, oldest first."""
     return list(
@@ -115,4 +130,4 @@ def jobs_of_campaign(s: Session, campaign_id: int) -> list[OracleBatchJob]:
     )
 
 
-__all__ = ["ATTACHABLE", "StepBatchJobs", "as_batch_job", "jobs_of_campaign"]
+__all__ = ["ATTACHABLE", "StepBatchJobs", "as_batch_job", "jobs_of_campaign", "with_batch_jobs"]

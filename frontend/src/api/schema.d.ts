@@ -1639,6 +1639,57 @@ export interface components {
             z?: number;
         };
         /**
+         * BatchJobRead
+         * @description A batch-scheduler job of an oracle call (a command oracle submitted to Slurm, PBS or LSF).
+         */
+        BatchJobRead: {
+            /**
+             * Attempt
+             * @description the step's attempt that submitted it
+             */
+            attempt: number;
+            /** Collected At */
+            collected_at?: string | null;
+            /** Ended At */
+            ended_at?: string | null;
+            /** Exit Code */
+            exit_code?: number | null;
+            /**
+             * Job Id
+             * @description the scheduler's id of the job (squeue -j, qstat, bjobs)
+             */
+            job_id: string;
+            /**
+             * Reason
+             * @description why it failed or was cancelled
+             */
+            reason?: string | null;
+            /**
+             * Scheduler
+             * @description slurm, pbs or lsf
+             */
+            scheduler: string;
+            /** Started At */
+            started_at?: string | null;
+            /**
+             * State
+             * @description queued, running, completed (result not yet stored), collected (result stored), failed, cancelled
+             */
+            state: string;
+            /** Submitted At */
+            submitted_at?: string | null;
+            /**
+             * Workdir
+             * @description the job folder
+             */
+            workdir: string;
+            /**
+             * Worker Name
+             * @description the oracle worker waiting for it
+             */
+            worker_name?: string | null;
+        };
+        /**
          * BestPossibleLine
          * @description A suite's best-possible line (alcove.surrogates.reference_line): per oracle budget B, the suite
          *     error of the default surrogate configuration trained from scratch on the first B replays of
@@ -2783,6 +2834,11 @@ export interface components {
         JobOut: {
             /** Attempts */
             attempts: number;
+            /**
+             * Batch Jobs
+             * @description an oracle step's batch-scheduler jobs, oldest first (empty unless its oracle runs as batch jobs)
+             */
+            batch_jobs?: components["schemas"]["BatchJobRead"][];
             /** Error */
             error: string | null;
             /** Finished At */
@@ -4176,6 +4232,11 @@ export interface components {
         StepRead: {
             /** Attempts */
             attempts: number;
+            /**
+             * Batch Jobs
+             * @description an oracle step's batch-scheduler jobs, oldest first (empty unless its oracle runs as batch jobs)
+             */
+            batch_jobs?: components["schemas"]["BatchJobRead"][];
             /** Error */
             error: string | null;
             /** Finished At */

@@ -21,6 +21,8 @@ export type MetricsRow = Schemas["MetricsRead"];
 export type ValidationSeries = Schemas["ValidationSeries"];
 export type IterationRow = Schemas["IterationRead"];
 export type Job = Schemas["JobOut"];
+/** A scheduler job of an oracle call that runs as a batch job (Slurm, PBS, LSF). */
+export type BatchJob = Schemas["BatchJobRead"];
 export type PoolVersion = Schemas["PoolVersionRead"];
 export type ModelVersion = Schemas["ModelVersionRead"];
 export type Task = Schemas["TaskOut"];

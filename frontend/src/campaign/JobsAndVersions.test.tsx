@@ -1,6 +1,6 @@
 import { describe, expect, it } from "vitest";
 import { screen, within } from "@testing-library/react";
-import { VersionsPanel } from "./JobsAndVersions";
+import { JobsTable, VersionsPanel } from "./JobsAndVersions";
 import { mockApi, renderPage } from "../test/utils";
 
 function model(id: number, version: number, stopped_improving: number) {
@@ -41,5 +41,30 @@ describe("model versions table", () => {
     // newest first: m2 capped, m1 not
     expect(within(rows[0]).getByRole("img", { name: "3 nets stopped at max_epochs while still improving" })).toHaveTextContent("capped");
     expect(within(rows[1]).queryByRole("img")).toBeNull();
+  });
+});
+
+function job(id: number, step: string, slot: number, batch_jobs: object[]) {
+  return {
+    id, iteration: 1, step, slot, status: "succeeded", queue: step, attempts: 1, max_attempts: 3,
+    worker_name: "w@host", queued_at: null, started_at: "2026-12-04T20:00:00Z", finished_at: null,
+    lease_until: null, heartbeat_at: null, wall_time_s: 3.0, error: null, result: {}, batch_jobs,
+  };
+}
+
+describe("jobs table", () => {
+  it("shows an oracle call's scheduler job, its state and how long it ran", async () => {
+    const slurm = {
+      scheduler: "slurm", job_id: "4711", state: "collected", reason: null, attempt: 1, worker_name: "o@login1",
+      workdir: "/scratch/jobs/a", exit_code: 0, submitted_at: "2026-12-04T20:00:00Z",
+      started_at: "2026-12-04T20:00:01Z", ended_at: "2026-12-04T20:00:07Z", collected_at: "2026-12-04T20:00:07Z",
+    };
+    mockApi({ "GET /campaigns/3/jobs": [job(1, "train", 0, []), job(2, "oracle", 0, [slurm])] });
+    renderPage(<JobsTable campaignId={3} />);
+    const table = await screen.findByTestId("jobs-table");
+    const cells = within(table).getAllByTestId("batch-job");
+    expect(cells).toHaveLength(1);
+    expect(cells[0]).toHaveTextContent("slurm 4711 · collected · 6");
+    expect(cells[0].getAttribute("title")).toContain("queued 1");
   });
 });

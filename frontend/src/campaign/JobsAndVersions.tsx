@@ -1,4 +1,5 @@
 import { useJobs, useModelVersions, usePoolVersions } from "../api/campaigns";
+import type { BatchJob } from "../api/types";
 import { DownloadButton } from "../components/DownloadButton";
 import { Empty, ErrorBox, Loading, StatusBadge } from "../components/States";
 import { fmtDate, fmtDuration, fmtNumber } from "../lib/format";
@@ -19,6 +20,7 @@ export function JobsTable({ campaignId }: { campaignId: number }) {
           <th className="num">Attempts</th>
           <th>Started</th>
           <th className="num">Duration</th>
+          <th title="an oracle call that runs as a batch-scheduler job: the scheduler, its job id and state">Scheduler job</th>
           <th>Error</th>
         </tr>
       </thead>
@@ -34,6 +36,7 @@ export function JobsTable({ campaignId }: { campaignId: number }) {
             <td className="num">{j.attempts}</td>
             <td>{fmtDate(j.started_at)}</td>
             <td className="num">{fmtDuration(j.wall_time_s)}</td>
+            <BatchJobCell jobs={j.batch_jobs ?? []} />
             <td className="error-text" title={j.error ?? undefined}>
               {j.error ? j.error.slice(0, 120) : ""}
             </td>
@@ -41,6 +44,33 @@ export function JobsTable({ campaignId }: { campaignId: number }) {
         ))}
       </tbody>
     </table>
+  );
+}
+
+/** The latest scheduler job of a step (earlier attempts' jobs in its tooltip), with its times. */
+function BatchJobCell({ jobs }: { jobs: BatchJob[] }) {
+  if (jobs.length === 0) return <td>—</td>;
+  const job = jobs[jobs.length - 1];
+  const seconds = (a: string | null | undefined, b: string | null | undefined) =>
+    a && b ? (new Date(b).getTime() - new Date(a).getTime()) / 1000 : null;
+  const waited = seconds(job.submitted_at, job.started_at);
+  const ran = seconds(job.started_at, job.ended_at);
+  const title = [
+    `submitted ${fmtDate(job.submitted_at)}`,
+    waited !== null ? `queued ${fmtDuration(waited)}` : null,
+    ran !== null ? `ran ${fmtDuration(ran)}` : null,
+    job.worker_name ? `waited for by ${job.worker_name}` : null,
+    `folder ${job.workdir}`,
+    job.reason,
+    jobs.length > 1 ? `earlier: ${jobs.slice(0, -1).map((j) => `${j.job_id} ${j.state}`).join(", ")}` : null,
+  ]
+    .filter(Boolean)
+    .join("\n");
+  return (
+    <td className="mono" title={title} data-testid="batch-job">
+      {job.scheduler} {job.job_id} · {job.state}
+      {ran !== null ? ` · ${fmtDuration(ran)}` : ""}
+    </td>
   );
 }
 

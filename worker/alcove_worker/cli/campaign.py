@@ -183,6 +183,27 @@ def _components_text(components: dict[str, float | None]) -> str:
     return ", ".join(parts)
 
 
+def batch_job_lines(iteration: Any) -> list[str]:
+    """The current iteration's oracle calls that run as batch jobs: scheduler job id, state, times."""
+    lines = []
+    for st in iteration.steps or [] if iteration is not None else []:
+        for job in st.batch_jobs:
+            times = [f"submitted {job.submitted_at:%H:%M:%S}" if job.submitted_at else "not submitted"]
+            if job.started_at and job.submitted_at:
+                times.append(f"started +{(job.started_at - job.submitted_at).total_seconds():.1f} s")
+            if job.ended_at and job.started_at:
+                times.append(f"ran {(job.ended_at - job.started_at).total_seconds():.1f} s")
+            lines.append(
+                f"  oracle call {st.slot} (attempt {job.attempt}): {job.scheduler} job {job.job_id} {job.state}"
+                + f" · {', '.join(times)}"
+                + (f" · {job.worker_name}" if job.worker_name else "")
+                + (f" · {job.reason}" if job.reason else "")
+            )
+    if lines:
+        lines.insert(0, f"batch jobs of iteration {iteration.index}:")
+    return lines
+
+
 def _print_status(campaign_id: int, as_json: bool) -> None:
     detail = following.read_detail(campaign_id)
     if as_json:
@@ -214,6 +235,8 @@ def _print_status(campaign_id: int, as_json: bool) -> None:
     )
     if c.wait_reason:
         typer.echo(f"  {c.wait_reason}")
+    for line in batch_job_lines(detail.current):
+        typer.echo(line)
     v = detail.validation
     if v is not None:
         typer.echo(
