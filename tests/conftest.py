@@ -212,7 +212,6 @@ LONG_FIRST: tuple[str, ...] = (
     f"{_CCX}test_planar_motion_gives_a_symmetric_wrench_and_runs_from_the_cli",  # ~40 s
     "tests/cli/test_surrogate_cli.py",  # ~45 s in all
     "tests/test_reproduce_quick.py",  # the quick reproduction, ~27 s
-    "tests/api/test_schemathesis.py",  # a time budget of 30 s
     "ghost_case",  # the ghost-force ensemble, ~25 s to train, and the tests on it
     "tests/campaigns/test_validation_suite.py",
     "tests/campaigns/test_flows.py",
@@ -220,6 +219,7 @@ LONG_FIRST: tuple[str, ...] = (
     "tests/science/surrogate/test_warm_protocol.py",
     # the serial phase's
     "alcove_server",  # `alcove up` and three browser runs, ~65 s
+    "tests/api/test_schemathesis.py",  # a live `alcove serve` and a time budget of 40 s, ~55 s
     f"{_WORKERS}test_campaign_run_without_a_worker_names_the_queue_it_waits_on",  # ~27 s
     f"{_WORKERS}test_killing_the_controlling_process_leaves_a_campaign_that_a_new_worker_finishes",
     f"{_WORKERS}test_alcove_campaign_run_on_the_embedded_default",

@@ -21,7 +21,7 @@ from alcove.api.errors import COMMON_RESPONSES, BodySizeLimit, install_error_han
 from alcove.api.json_numbers import WholeNumbers
 from alcove.api.security import SecurityHeaders, install_docs
 from alcove.api.static import FrontendMount, SPAStaticFiles
-from alcove.api.text_input import reject_nul_characters
+from alcove.api.text_input import install_nul_rule, reject_nul_characters
 from alcove.db.retry import is_retryable_db_error
 from alcove.settings import Settings, get_settings
 from alcove.users import revocation
@@ -111,6 +111,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
             router, prefix=API_PREFIX, responses=COMMON_RESPONSES, dependencies=[Depends(reject_nul_characters)]
         )
     install_docs(app, f"{API_PREFIX}/docs", f"{API_PREFIX}/openapi.json")
+    install_nul_rule(app)
     install_error_handlers(app)
     app.add_middleware(WholeNumbers)  # inside the size limit: it reads only bodies the limit let through
     app.add_middleware(BodySizeLimit)

@@ -143,3 +143,30 @@ def test_a_surrogate_config_takes_the_paper_or_the_gated_architecture(client, ow
     assert r.json()["spec"]["architecture"] == "gated"
     r = client.post(f"{API}/surrogate-configs", json={"name": "default", "spec": {}}, headers=h)
     assert r.status_code == 201 and r.json()["spec"]["architecture"] == "paper"
+
+
+def test_the_schema_states_the_nul_rule(client) -> None:
+    """Every text a request may carry says it holds no NUL: a string's value, beside a pattern of
+    its own, and the names of free-form keys; binary uploads and enumerations are left alone."""
+    from alcove.api.text_input import NUL_FREE
+
+    doc = client.get(f"{API}/openapi.json").json()
+    schemas = doc["components"]["schemas"]
+    assert schemas["TokenCreate"]["properties"]["name"]["allOf"] == [{"pattern": NUL_FREE}]  # beside \S
+    assert schemas["LoginIn"]["properties"]["password"]["pattern"] == NUL_FREE
+    env = schemas["CommandOracleIn"]["properties"]["env"]
+    assert env["propertyNames"] == {"pattern": NUL_FREE} and env["additionalProperties"]["pattern"] == NUL_FREE
+    assert schemas["OracleIn"]["properties"]["params"]["propertyNames"] == {"pattern": NUL_FREE}
+    assert "pattern" not in schemas["CampaignStatus"]
+    upload = doc["paths"][f"{API}/preliminary-datasets"]["post"]["requestBody"]["content"]["multipart/form-data"]
+    form = schemas[upload["schema"]["$ref"].rsplit("/", 1)[1]]
+    assert "pattern" not in form["properties"]["file"]
+
+
+def test_a_nul_refusal_names_the_place_without_holding_a_nul(client, owner) -> None:
+    body = {"spec": {"a\u0000": {"b": "x\u0000", "c\u0000": 1}}}
+    r = client.post(f"{API}/tasks/validate", json=body, headers=owner.headers)
+    assert r.status_code == 422, r.text
+    assert "\u0000" not in r.text.encode().decode("unicode_escape")
+    fields = sorted(e["field"] for e in r.json()["detail"])
+    assert fields == ["spec.a\\u0000", "spec.a\\u0000.b", "spec.a\\u0000.c\\u0000"]

@@ -1,5 +1,6 @@
 """Names are trimmed and a name made only of spaces is refused at the field ``name``: such a
-name listed as an empty, unclickable row and showed as ``"    (v1)"`` in menus."""
+name listed as an empty, unclickable row and showed as ``"    (v1)"`` in menus. The schema says
+so: at most 200 characters as sent, one of them not whitespace."""
 
 from __future__ import annotations
 
@@ -54,3 +55,18 @@ def test_names_are_stored_trimmed(client, owner, task_and_oracle) -> None:
     assert client.get(f"{API}/campaigns/{r.json()['id']}", headers=h).json()["campaign"]["name"] == "padded campaign"
     r = client.post(f"{API}/me/tokens", json={"name": " notebook "}, headers=h)
     assert r.status_code == 201 and r.json()["name"] == "notebook", r.text
+
+
+def test_the_schema_states_the_rule_and_the_length_counts_as_sent(client, owner) -> None:
+    schema = client.get(f"{API}/openapi.json").json()["components"]["schemas"]["TaskIn"]["properties"]["name"]
+    assert {k: schema[k] for k in ("type", "maxLength", "pattern")} == {
+        "type": "string",
+        "maxLength": 200,
+        "pattern": r"\S",
+    }
+    h = owner.headers
+    # 200 characters and padding: longer than the schema allows, refused as it says
+    r = client.post(f"{API}/surrogate-configs", json={"name": " " + "n" * 200}, headers=h)
+    refused_at_name(r)
+    r = client.post(f"{API}/surrogate-configs", json={"name": " " + "n" * 199}, headers=h)
+    assert r.status_code == 201 and r.json()["name"] == "n" * 199, r.text

@@ -95,6 +95,8 @@ def _validation_detail(errors: list[Any]) -> list[dict[str, Any]]:
                 "msg": f"the request body is not valid JSON: {reason} (character {e['loc'][1]})",
             }
         loc, msg = merge_message_path(list(e.get("loc", ())), str(e.get("msg", "invalid")))
+        # a key holding a NUL is named with the NUL written out: the answer states no NUL either
+        loc = [p.replace("\x00", "\\u0000") if isinstance(p, str) else p for p in loc]
         item = {
             "loc": loc,
             "field": ".".join(str(p) for p in loc if p not in ("body", "query", "path", "header")),
