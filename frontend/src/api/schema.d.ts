@@ -1756,7 +1756,7 @@ export interface components {
              * Name
              * @description stem of the datasets' names (letters, digits, _ . + -); left out: 'upload'
              */
-            name?: string | null;
+            name?: (string & unknown) | null;
             /**
              * Task Id
              * @description check the values against this task's model (default: any model's range)
@@ -1802,7 +1802,7 @@ export interface components {
              */
             description?: string;
             /** Name */
-            name: string;
+            name: string & unknown;
             /** Oracle Id */
             oracle_id: number;
             /** Oracle Version */
@@ -2215,7 +2215,7 @@ export interface components {
             /** @description where the program runs: on the oracle worker (none, or scheduler local) or as one batch job per oracle call (scheduler slurm, pbs or lsf, with the job's resources) */
             launcher?: components["schemas"]["LauncherSpec"] | null;
             /** Name */
-            name: string;
+            name: string & unknown;
             /**
              * Timeout S
              * @default 3600
@@ -2294,7 +2294,7 @@ export interface components {
              * Name
              * @description name of the copy (default: the preset's)
              */
-            name?: string | null;
+            name?: (string & unknown) | null;
         };
         /** DatasetOut */
         DatasetOut: {
@@ -2421,7 +2421,7 @@ export interface components {
             /** Iteration */
             iteration: number;
             /** Name */
-            name?: string | null;
+            name?: (string & unknown) | null;
             /** Oracle Version Id */
             oracle_version_id?: number | null;
             policies?: components["schemas"]["Policies"] | null;
@@ -3466,7 +3466,7 @@ export interface components {
              */
             description?: string;
             /** Name */
-            name: string;
+            name: string & unknown;
             /**
              * Note
              * @default
@@ -3631,7 +3631,7 @@ export interface components {
             /** Description */
             description?: string | null;
             /** Name */
-            name?: string | null;
+            name?: (string & unknown) | null;
             /**
              * Note
              * @default
@@ -4180,7 +4180,7 @@ export interface components {
              * Email
              * @description who to share with: an account's e-mail, or an address that will get it when its account is made
              */
-            email: string;
+            email: string & unknown;
             /** Object Id */
             object_id: number;
             /**
@@ -4395,6 +4395,13 @@ export interface components {
             member_data?: "split" | "bootstrap";
             moment?: components["schemas"]["NetworkConfig"];
             /**
+             * Normal Force
+             * @description the force net's hidden layers: 'shared' by the normal force fx and the tangential force (fy, fz), the paper's; or 'own': fx gets hidden layers of its own (the widths of 'force'), apart from those of fy and fz, so that the friction force, which depends on the path, cannot pull the normal force, which depends on the state; with the history features fx's layers take the state's features only (docs/concepts.md)
+             * @default shared
+             * @enum {string}
+             */
+            normal_force?: "shared" | "own";
+            /**
              * Normalize Outputs
              * @description train on standardised targets (exported transparently)
              * @default true
@@ -4491,7 +4498,7 @@ export interface components {
              */
             description?: string;
             /** Name */
-            name: string;
+            name: string & unknown;
             /**
              * Note
              * @default
@@ -4551,7 +4558,7 @@ export interface components {
             /** Description */
             description?: string | null;
             /** Name */
-            name?: string | null;
+            name?: (string & unknown) | null;
             /**
              * Note
              * @default
@@ -4601,7 +4608,7 @@ export interface components {
              */
             description?: string;
             /** Name */
-            name: string;
+            name: string & unknown;
             /**
              * Note
              * @description change note stored with the version
@@ -4782,7 +4789,7 @@ export interface components {
             /** Description */
             description?: string | null;
             /** Name */
-            name?: string | null;
+            name?: (string & unknown) | null;
             /**
              * Note
              * @default
@@ -4821,7 +4828,7 @@ export interface components {
              * Name
              * @description what the token is for, e.g. 'notebook'
              */
-            name: string;
+            name: string & unknown;
         };
         /** TokenCreated */
         TokenCreated: {
@@ -5025,7 +5032,7 @@ export interface components {
              */
             display_name?: string;
             /** Email */
-            email: string;
+            email: string & unknown;
             /** Password */
             password: string;
             /**
