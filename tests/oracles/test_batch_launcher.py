@@ -126,3 +126,42 @@ def test_a_call_attaches_to_the_job_an_interrupted_call_left_running(slurm_spec:
     assert result.ok, result.failure_reason
     assert [(j.job_id, j.state) for j in book.jobs] == [(result.diagnostics["batch_job"]["job_id"], "completed")]
     assert len((tmp_path / "runs.log").read_text().splitlines()) == 1  # the program ran once
+
+
+def test_the_3d_ccx_oracle_runs_as_a_slurm_job_with_the_jobs_cpus_as_threads(tmp_path: Path):
+    """fe-headrest-3d-ccx with a Slurm launcher (the catalogue's ``launchers`` section): alcove's
+    driver runs as the job and takes its thread count from the job's CPUs. A motion that never
+    reaches the cushion needs no ccx (zero force), so this runs where ccx is not installed."""
+    why = slurm_is_up()
+    if why is not None:
+        pytest.skip(why)
+    from alcove.science.oracles.command.catalogue import load_builtin_launchers
+    from alcove.science.oracles.fe_headrest_3d import CcxHeadrestOracle, CcxHeadrestParams
+    from tests.science.oracles.test_ccx_oracle import COARSE, short_motion
+
+    path = tmp_path / "catalogue.yaml"
+    path.write_text(
+        "command_oracles: {}\n"
+        "launchers:\n"
+        f"  fe-headrest-3d-ccx: {{scheduler: slurm, cpus_per_task: 2, poll_s: 0.2, job_root: '{tmp_path}'}}\n"
+    )
+    launcher = load_builtin_launchers(path)["fe-headrest-3d-ccx"]
+    oracle = CcxHeadrestOracle(CcxHeadrestParams(**COARSE), launcher=launcher)
+    book = MemoryBook()
+    result = oracle.run(short_motion(0.10, 0.20), batch_book=book)
+    assert result.ok, result.failure_reason
+    assert result.forces is not None and np.all(result.forces.wrench == 0.0)
+    assert result.diagnostics["batch_job"]["state"] == "completed" and len(book.jobs) == 1
+    assert result.diagnostics["solver"]["threads"] == 2
+
+
+def test_a_launcher_for_a_type_that_runs_no_program_is_refused(tmp_path: Path):
+    from alcove.science.oracles.command.catalogue import load_builtin_launchers
+
+    path = tmp_path / "catalogue.yaml"
+    path.write_text("command_oracles: {}\nlaunchers:\n  aux-penalty: {scheduler: slurm}\n")
+    with pytest.raises(CatalogueError, match=r"^launchers.aux-penalty: not a built-in type that runs a program"):
+        load_builtin_launchers(path)
+    path.write_text("command_oracles: {}\nlaunchers:\n  fe-headrest-3d-ccx: {scheduler: slurm, nodes: 0}\n")
+    with pytest.raises(CatalogueError, match=r"^launchers.fe-headrest-3d-ccx.nodes: "):
+        load_builtin_launchers(path)

@@ -66,6 +66,22 @@ def _spec_from_row(row: CommandOracle) -> Any:
     )
 
 
+def builtin_launchers() -> dict[str, Any]:
+    """Where built-in types that run a program (fe-headrest-3d-ccx) run: the catalogue file's
+    ``launchers`` section (type name -> ``LauncherSpec``); none: on the oracle worker."""
+    path = get_settings().command_oracles_file
+    if path is None:
+        return {}
+    from alcove.science.oracles.command import CatalogueError
+    from alcove.science.oracles.command.catalogue import load_builtin_launchers
+
+    try:
+        return load_builtin_launchers(path)
+    except CatalogueError as err:
+        log.error("command catalogue %s is invalid: %s", path, err)
+        return {}
+
+
 def file_catalogue() -> dict[str, Any]:
     path = get_settings().command_oracles_file
     if path is None:

@@ -22,11 +22,10 @@ from alcove.jobs.steps import IterationRef, StepOutput, StepRun, UnusableResult,
 from alcove.models import OracleRun, OracleVersion, QuarantinedResult, utcnow
 from alcove.models.data import HeadrestPlacement
 from alcove.oracles.batch_jobs import StepBatchJobs
-from alcove.oracles.service import command_catalogue
+from alcove.oracles.service import builtin_launchers, command_catalogue
 from alcove.pool.service import store_dataset
 from alcove.science.json_values import json_safe
 from alcove.science.oracles.builtin import BUILTIN_TYPE_NAMES
-from alcove.science.oracles.command import CommandOracle
 
 if TYPE_CHECKING:
     from alcove.science.geometry import HeadNeckPreset
@@ -34,7 +33,7 @@ if TYPE_CHECKING:
     from alcove.science.oracles.base import Oracle
 
 #: Oracles built per worker process (an FE oracle builds its mesh once), by type, spec and preset.
-_oracles: LRUCache[tuple[str, str, str], Oracle] = LRUCache(maxsize=4)
+_oracles: LRUCache[tuple[str, str, str, str], Oracle] = LRUCache(maxsize=4)
 _oracles_lock = threading.Lock()
 BUILTIN = BUILTIN_TYPE_NAMES
 
@@ -46,12 +45,15 @@ def load_oracle(s: Session, oracle_version_id: int, preset: HeadNeckPreset) -> O
     ov = s.get(OracleVersion, oracle_version_id)
     if ov is None:
         raise RuntimeError(f"oracle version id {oracle_version_id} does not exist")
-    key = (ov.oracle_type, ov.spec_hash, json.dumps(preset.to_dict(), sort_keys=True))
+    launcher = builtin_launchers().get(ov.oracle_type) if ov.oracle_type in BUILTIN else None
+    key = (ov.oracle_type, ov.spec_hash, json.dumps(preset.to_dict(), sort_keys=True), repr(launcher))
     with _oracles_lock:
         oracle = _oracles.get(key)
     if oracle is None:
         catalogue = None if ov.oracle_type in BUILTIN else command_catalogue(s)
         oracle = build_oracle(ov.oracle_type, ov.spec, preset, catalogue=catalogue)
+        if launcher is not None and hasattr(oracle, "launcher"):
+            oracle.launcher = launcher  # a built-in type that runs a program, dispatched as batch jobs
         with _oracles_lock:
             _oracles[key] = oracle
     return oracle
@@ -91,8 +93,8 @@ def replay(
     assert tau is not None  # replay_trajectory always carries the solution's torques
     started = utcnow()
     t0 = time.perf_counter()
-    if batch_jobs is not None and isinstance(oracle, CommandOracle) and oracle.spec.launcher.is_batch:
-        res = oracle.run(traj, cancel=run.cancelled, batch_book=batch_jobs)
+    if batch_jobs is not None and getattr(oracle, "runs_as_batch_jobs", False):
+        res = oracle.run(traj, cancel=run.cancelled, batch_book=batch_jobs)  # type: ignore[call-arg]
     else:
         batch_jobs = None
         res = oracle.run(traj, cancel=run.cancelled)

@@ -10,8 +10,12 @@ import yaml
 from pydantic import ValidationError
 
 from alcove.science.oracles.builtin import BUILTIN_TYPE_NAMES
+from alcove.science.oracles.command.launcher import LauncherSpec
 from alcove.science.oracles.command.spec import CatalogueError, CommandOracleSpec
 from alcove.science.validation import error_location
+
+#: built-in oracle types that run an external program, which a catalogue's ``launchers`` may dispatch
+EXTERNAL_BUILTIN_TYPES = ("fe-headrest-3d-ccx",)
 
 
 def load_command_catalogue(path: str | Path) -> dict[str, CommandOracleSpec]:
@@ -78,6 +82,29 @@ def load_command_catalogue(path: str | Path) -> dict[str, CommandOracleSpec]:
     return catalogue
 
 
+def load_builtin_launchers(path: str | Path) -> dict[str, LauncherSpec]:
+    """The catalogue's optional ``launchers`` section: where built-in types that run an external
+    program (``fe-headrest-3d-ccx``) run, by type name, e.g. ``launchers: {fe-headrest-3d-ccx:
+    {scheduler: slurm, cpus_per_task: 4}}``. Raises :class:`CatalogueError` naming the key."""
+    raw = _read_yaml(Path(path))
+    section = raw.get("launchers") if isinstance(raw, dict) else None
+    if section is None:
+        return {}
+    if not isinstance(section, dict):
+        raise CatalogueError("launchers", "must be a mapping {built-in type: launcher}")
+    launchers: dict[str, LauncherSpec] = {}
+    for name, entry in section.items():
+        if name not in EXTERNAL_BUILTIN_TYPES:
+            raise CatalogueError(
+                f"launchers.{name}", f"not a built-in type that runs a program ({', '.join(EXTERNAL_BUILTIN_TYPES)})"
+            )
+        try:
+            launchers[str(name)] = LauncherSpec.model_validate(entry)
+        except ValidationError as exc:
+            raise CatalogueError(*error_location(exc.errors()[0], prefix=("launchers", str(name)))) from None
+    return launchers
+
+
 def _read_yaml(path: Path) -> Any:
     """The parsed YAML document (any YAML value: the caller checks its shape)."""
     try:
@@ -92,4 +119,4 @@ def _read_yaml(path: Path) -> Any:
         raise CatalogueError("catalogue", f"{path} is not valid YAML{where}: {getattr(exc, 'problem', exc)}") from None
 
 
-__all__ = ["load_command_catalogue"]
+__all__ = ["EXTERNAL_BUILTIN_TYPES", "load_builtin_launchers", "load_command_catalogue"]

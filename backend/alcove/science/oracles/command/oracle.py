@@ -139,6 +139,10 @@ class CommandOracle:
             shutil.rmtree(workdir, ignore_errors=True)
         return OracleResult(True, forces, kinematics, diagnostics, time.perf_counter() - start)
 
+    @property
+    def runs_as_batch_jobs(self) -> bool:
+        return self.spec.launcher.is_batch
+
     def _run_batch(
         self,
         workdir: Path,

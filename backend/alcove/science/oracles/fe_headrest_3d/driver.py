@@ -93,9 +93,11 @@ def run(workdir: Path) -> dict[str, Any]:
     job = json.loads((workdir / JOB_FILE).read_text())
     t = np.asarray(job["t"], float)
     wrench = np.zeros((len(t), 6))
-    diagnostics: dict[str, Any] = {"mesh": job.get("counts", {}), "ccx_run": False}
+    # in a batch job: as many threads as the job has CPUs (its launcher's cpus_per_task)
+    threads = int(os.environ.get("ALCOVE_JOB_CPUS") or job["threads"])
+    diagnostics: dict[str, Any] = {"mesh": job.get("counts", {}), "ccx_run": False, "threads": threads}
     if job["tau"]:
-        env = {**os.environ, "OMP_NUM_THREADS": str(job["threads"]), "CCX_NPROC_EQUATION_SOLVER": str(job["threads"])}
+        env = {**os.environ, "OMP_NUM_THREADS": str(threads), "CCX_NPROC_EQUATION_SOLVER": str(threads)}
         start = time.perf_counter()
         cpu_start = resource.getrusage(resource.RUSAGE_CHILDREN)
         with open(workdir / LOG_FILE, "wb") as log:

@@ -31,6 +31,8 @@ from alcove.science.oracles.base import (
     posed_trajectory,
     validated_head_trajectory,
 )
+from alcove.science.oracles.command.batch import BatchJobBook
+from alcove.science.oracles.command.launcher import LOCAL, LauncherSpec
 from alcove.science.oracles.command.oracle import CommandOracle
 from alcove.science.oracles.command.spec import CommandOracleParams, CommandOracleSpec
 from alcove.science.oracles.fe_headrest_3d.deck import (
@@ -96,9 +98,17 @@ class CcxHeadrestOracle:
 
     type_name: ClassVar[str] = TYPE_NAME
 
-    def __init__(self, params: CcxHeadrestParams | None = None, preset: HeadNeckPreset = DEFAULT_PRESET) -> None:
+    def __init__(
+        self,
+        params: CcxHeadrestParams | None = None,
+        preset: HeadNeckPreset = DEFAULT_PRESET,
+        launcher: LauncherSpec = LOCAL,
+    ) -> None:
         self.params = params if params is not None else CcxHeadrestParams()
         self.preset = preset
+        #: where ccx runs: on the oracle worker, or one batch job per call (the administrator's
+        #: ``launchers`` section of the command catalogue); a job's CPUs are ccx's threads
+        self.launcher = launcher
         p = self.params
         pr = preset.profile
         self.semi_axes_xz = p.head_semi_axes_xz or (pr.ax, pr.az)
@@ -230,13 +240,21 @@ class CcxHeadrestOracle:
             allow_user_template=False,
             output_file=OUTPUT_FILE,
             timeout_s=self.params.timeout_s,
+            launcher=self.launcher,
         )
 
+    @property
+    def runs_as_batch_jobs(self) -> bool:
+        return self.launcher.is_batch
+
     # ---- run -----------------------------------------------------------------------------
-    def run(self, trajectory: Trajectory, cancel: CancelCheck | None = None) -> OracleResult:
+    def run(
+        self, trajectory: Trajectory, cancel: CancelCheck | None = None, batch_book: BatchJobBook | None = None
+    ) -> OracleResult:
+        """Replay ``trajectory``; with a batch launcher the call is one batch job kept in ``batch_book``."""
         start = time.perf_counter()
         traj = self._validated(trajectory)
-        missing = ccx_available()
+        missing = None if self.launcher.is_batch else ccx_available()  # a batch job finds ccx on its node
         if missing is not None:
             return OracleResult(False, None, None, dict.fromkeys(SUMMARY_DIAGNOSTICS), 0.0, f"{TYPE_NAME}: {missing}")
         files, job = self.job_files(traj)
@@ -246,7 +264,7 @@ class CcxHeadrestOracle:
             self.preset,
             files,
         )
-        result = command.run(traj, cancel)
+        result = command.run(traj, cancel, batch_book)
         result.diagnostics["mesh_foam_elements"] = job.get("counts", {}).get("foam_elements")
         result.wall_time = time.perf_counter() - start
         if result.failure_reason is not None:
