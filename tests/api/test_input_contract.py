@@ -170,3 +170,28 @@ def test_a_nul_refusal_names_the_place_without_holding_a_nul(client, owner) -> N
     assert "\u0000" not in r.text.encode().decode("unicode_escape")
     fields = sorted(e["field"] for e in r.json()["detail"])
     assert fields == ["spec.a\\u0000", "spec.a\\u0000.b", "spec.a\\u0000.c\\u0000"]
+
+
+def test_the_retry_schema_says_iteration_and_step_go_together(client, owner) -> None:
+    """What the API refuses (one of the two without the other), the schema refuses too."""
+    import jsonschema_rs  # Schemathesis's validator
+
+    rule = {"allOf": client.get(f"{API}/openapi.json").json()["components"]["schemas"]["RetryIn"]["allOf"]}
+    validator = jsonschema_rs.Draft202012Validator(rule)
+    h = owner.headers
+    task = client.post(f"{API}/tasks", json={"name": "retry-rule", "spec": small_task_spec()}, headers=h).json()
+    oracle = client.post(f"{API}/oracles/presets/aux-penalty/copy", headers=h).json()
+    body = {"name": "retry-rule", "task_id": task["id"], "oracle_id": oracle["id"]}
+    cid = client.post(f"{API}/campaigns", json=body, headers=h).json()["id"]
+    for body, valid in [
+        ({}, True),
+        ({"iteration": None, "step": None}, True),
+        ({"iteration": 2, "step": "oracle"}, True),
+        ({"iteration": 2}, False),
+        ({"iteration": 2, "step": None}, False),
+        ({"step": "oracle"}, False),
+    ]:
+        assert validator.is_valid(body) is valid, body
+        if not valid:
+            r = client.post(f"{API}/campaigns/{cid}/retry", json=body, headers=h)
+            assert r.status_code == 422, (body, r.text)

@@ -51,7 +51,6 @@ RULES_BEYOND_THE_SCHEMA = {
     "create_campaign": "the definitions and datasets named must be yours; ranges low <= high; job limits",
     "update_campaign_config": "the surrogate config version named must be yours; ranges low <= high; job limits",
     "fork_campaign": "the versions named must be yours; ranges low <= high; job limits",
-    "retry_campaign_step": "iteration and step are given together",
     "create_task": "the spec's rules across fields (one value per joint, q_min < q_max, ranged parameters)",
     "update_task": "the spec's rules across fields",
     "create_task_preview": "the version named must exist; the spec's rules across fields; job limits",

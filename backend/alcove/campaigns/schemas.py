@@ -7,6 +7,7 @@ from datetime import datetime
 from typing import Any
 
 from pydantic import BaseModel, ConfigDict, Field
+from pydantic.config import JsonDict
 
 from alcove.api.params import MAX_ID
 from alcove.campaigns.config import (
@@ -289,7 +290,26 @@ class CampaignCreateIn(_In):
     start: bool = Field(False, description="start right away")
 
 
+#: a JSON value that is given and not null
+_GIVEN: JsonDict = {"not": {"type": "null"}}
+
+
 class RetryIn(_In):
+    """The failed step to run again: ``iteration`` and ``step`` together, or neither (the step
+    that failed the campaign). The schema states it: either one given needs the other."""
+
+    model_config = ConfigDict(
+        json_schema_extra={
+            "allOf": [
+                {
+                    "if": {"required": [a], "properties": {a: _GIVEN}},
+                    "then": {"required": [b], "properties": {b: _GIVEN}},
+                }
+                for a, b in (("iteration", "step"), ("step", "iteration"))
+            ]
+        }
+    )
+
     iteration: int | None = Field(None, ge=0, le=MAX_ID)
     step: StepName | None = Field(None, strict=False)  # an enum from a JSON string
 

@@ -4010,12 +4010,16 @@ export interface components {
             /** Ready */
             ready: boolean;
         };
-        /** RetryIn */
+        /**
+         * RetryIn
+         * @description The failed step to run again: ``iteration`` and ``step`` together, or neither (the step
+         *     that failed the campaign). The schema states it: either one given needs the other.
+         */
         RetryIn: {
             /** Iteration */
             iteration?: number | null;
             step?: components["schemas"]["StepName"] | null;
-        };
+        } & (unknown & unknown);
         /**
          * RunSettings
          * @description Other settings that change results.
