@@ -290,13 +290,11 @@ class CampaignCreateIn(_In):
     start: bool = Field(False, description="start right away")
 
 
-#: a JSON value that is given and not null
-_GIVEN: JsonDict = {"not": {"type": "null"}}
+_GIVEN: JsonDict = {"not": {"type": "null"}}  # a JSON value that is given and not null
 
 
 class RetryIn(_In):
-    """The failed step to run again: ``iteration`` and ``step`` together, or neither (the step
-    that failed the campaign). The schema states it: either one given needs the other."""
+    """The failed step to run again: ``iteration`` and ``step`` together (as the schema states), or neither."""
 
     model_config = ConfigDict(
         json_schema_extra={
