@@ -227,6 +227,21 @@ describe("campaign page", () => {
     expect(calls.some((c) => c.path.endsWith("/events/stream"))).toBe(false);
   });
 
+  it("a campaign waiting for a free place says why beside its status", async () => {
+    const reason = "waiting for a free place: 2 of your campaigns are running and your limit is 2 (max_running_campaigns); it starts when one of them ends";
+    const waiting = campaign("queued", 0);
+    mockApi({
+      "GET /campaigns/7": () => ({ ...waiting, campaign: { ...waiting.campaign, wait_reason: reason } }),
+      "GET /campaigns/7/metrics": () => [],
+      "GET /campaigns/7/iterations": () => [],
+      "GET /tasks/1/versions/1": TASK_VERSION,
+      [CURVES_ROUTE]: curvesHandler,
+    });
+    renderPage(<CampaignPage />, { route: "/campaigns/7", path: "/campaigns/:id" });
+    expect(await screen.findByTestId("wait-reason")).toHaveTextContent(reason);
+    expect(screen.getByText("queued")).toHaveAttribute("title", reason);
+  });
+
   it("clicking a point on the RMSE plot opens that iteration on the forces tab (k in the URL)", async () => {
     mockApi({
       "GET /campaigns/7": () => campaign("completed", 3),
