@@ -2,8 +2,9 @@
 PostgreSQL, Redis and real worker processes:
 
 * a batch iteration's q oracle calls run as q Slurm jobs at once (as many as the CPUs allow);
-* a job the scheduler kills at its time limit fails its oracle call with that reason, and
-  cancelling the campaign cancels its other job, still running;
+* a job the scheduler kills at its time limit fails its oracle call with that reason; pausing
+  the campaign cancels its other job, still running (the call runs again after the resume),
+  and cancelling the campaign cancels the job it is waiting for;
 * an oracle worker SIGKILLed while its job runs, then started again: the next attempt attaches
   to the same job (never submitted twice), the program runs once and its result lands once.
 
@@ -156,16 +157,18 @@ def test_a_batch_iterations_oracle_calls_run_as_slurm_jobs_at_once(
         assert f"slurm job {job_id} collected" in status.stdout, status.stdout
 
 
-def test_a_time_limit_fails_its_call_and_a_cancelled_campaign_cancels_its_jobs(
+def test_a_time_limit_fails_its_call_and_pausing_or_cancelling_the_campaign_cancels_its_jobs(
     env: dict[str, str], pg_url: str, tmp_path: Path, make_campaign: Any
 ) -> None:
     """Two picks whose program would run 300 s. Slot 0's job is brought to its time limit (its end
     moved to now: Slurm counts limits in minutes); Slurm kills it, and its oracle call fails
-    naming the time limit (one attempt allowed). Then the campaign is cancelled: slot 1's job,
-    still running, is cancelled in Slurm."""
+    naming the time limit (one attempt allowed). Then the campaign is paused: slot 1's running
+    job is cancelled in Slurm and its step waits, pending; the resume submits the call again as
+    a new job; cancelling the campaign cancels that one."""
     from alcove.campaigns import service
     from alcove.db import transaction
 
+    slot_step = "SELECT status, error FROM iteration_steps WHERE campaign_id = :c AND step = 'oracle' AND slot = :k"
     cid = start(make_campaign, "slurm-long", 2, oracle_max_attempts=1)
     worker = start_worker(env, tmp_path / "w.log", unique("w"), concurrency=2)
     try:
@@ -177,43 +180,42 @@ def test_a_time_limit_fails_its_call_and_a_cancelled_campaign_cancels_its_jobs(
         )
         by_slot = {j[4]: j for j in jobs}
         subprocess.run(["scontrol", "update", f"JobId={by_slot[0][0]}", "EndTime=now"], check=True)
-        failed = wait_for(
-            lambda: [j for j in db_rows(pg_url, JOBS, c=cid) if j[4] == 0 and j[1] == "failed"],
+        step = wait_for(
+            lambda: (r := db_rows(pg_url, slot_step, c=cid, k=0)) and r[0][0] == "failed" and r[0],
             90,
-            "the time limit to end slot 0's job",
+            "the time limit to end slot 0's job and fail its step",
             worker,
         )
-        assert "time limit" in failed[0][2]
-        step = db_rows(
-            pg_url,
-            "SELECT status, error FROM iteration_steps WHERE campaign_id = :c AND step = 'oracle' AND slot = 0",
-            c=cid,
-        )
-        wait_for(
-            lambda: db_rows(
-                pg_url,
-                "SELECT status FROM iteration_steps WHERE campaign_id = :c AND step = 'oracle' AND slot = 0 "
-                "AND status = 'failed'",
-                c=cid,
-            ),
-            30,
-            "slot 0's step to fail",
-            worker,
-        )
-        step = db_rows(
-            pg_url, "SELECT error FROM iteration_steps WHERE campaign_id = :c AND step = 'oracle' AND slot = 0", c=cid
-        )
-        assert "the scheduler killed the job at its time limit" in step[0][0]
+        assert "the scheduler killed the job at its time limit" in step[1]
+        assert [j[1] for j in db_rows(pg_url, JOBS, c=cid) if j[4] == 0] == ["failed"]
         assert scheduler_state(by_slot[0][0]) == "TO"
 
+        transaction(lambda s: service.pause(s, cid))
+        wait_for(
+            lambda: db_rows(pg_url, "SELECT 1 FROM campaigns WHERE id = :c AND status = 'paused'", c=cid),
+            60,
+            "the campaign to pause",
+            worker,
+        )
+        assert db_rows(pg_url, slot_step, c=cid, k=1)[0][0] == "pending"
+        assert [j[1] for j in db_rows(pg_url, JOBS, c=cid) if j[4] == 1] == ["cancelled"]
+        wait_for(lambda: scheduler_state(by_slot[1][0]) == "CA", 10, "Slurm to show the paused call's job cancelled")
+
+        transaction(lambda s: service.resume(s, cid))
+        again = wait_for(
+            lambda: [j for j in db_rows(pg_url, JOBS, c=cid) if j[4] == 1 and j[1] == "running"],
+            60,
+            "the resumed call's new job to run",
+            worker,
+        )
+        assert again[0][0] != by_slot[1][0]
         transaction(lambda s: service.cancel(s, cid))
         wait_for(lambda: db_rows(pg_url, ENDED, c=cid), 60, "the campaign to be cancelled", worker)
     finally:
         stop_all([worker])
     assert db_rows(pg_url, ENDED, c=cid)[0][0] == "cancelled"
-    slot1 = [j for j in db_rows(pg_url, JOBS, c=cid) if j[4] == 1]
-    assert [j[1] for j in slot1] == ["cancelled"]
-    wait_for(lambda: scheduler_state(slot1[0][0]) == "CA", 10, "Slurm to show the job cancelled")
+    assert [j[1] for j in db_rows(pg_url, JOBS, c=cid) if j[4] == 1] == ["cancelled", "cancelled"]
+    wait_for(lambda: scheduler_state(again[0][0]) == "CA", 10, "Slurm to show the job cancelled")
 
 
 def test_a_worker_killed_while_its_job_runs_reattaches_and_the_job_runs_once(

@@ -45,13 +45,23 @@ from alcove.jobs.steps import (
     FailedAttempt,
     IterationRef,
     StepOutput,
+    StepPaused,
     StepRun,
     UnusableResult,
     WriteRows,
     is_bad_input,
     is_cancellation,
 )
-from alcove.models import CampaignConfigVersion, CampaignStatus, Iteration, IterationStep, StepName, StepStatus, utcnow
+from alcove.models import (
+    Campaign,
+    CampaignConfigVersion,
+    CampaignStatus,
+    Iteration,
+    IterationStep,
+    StepName,
+    StepStatus,
+    utcnow,
+)
 
 log = logging.getLogger(__name__)
 
@@ -63,14 +73,21 @@ class LeaseKeeper(threading.Thread):
         super().__init__(name=f"alcove-lease-{step_id}", daemon=True)
         self.step_id, self.token, self.lease_seconds, self.interval = step_id, token, lease_seconds, interval
         self.cancel_requested = False
+        self.pause_requested = False
         self.lost = False
         self._stop_event = threading.Event()
 
     def run(self) -> None:
         while not self._stop_event.wait(self.interval):
             try:
-                ours, cancel = transaction(lambda s: repo.extend_lease(s, self.step_id, self.token, self.lease_seconds))
+                (ours, cancel), pause = transaction(
+                    lambda s: (
+                        repo.extend_lease(s, self.step_id, self.token, self.lease_seconds),
+                        repo.pause_requested_of(s, self.step_id),
+                    )
+                )
                 self.cancel_requested = self.cancel_requested or cancel
+                self.pause_requested = pause
                 if not ours:
                     self.lost = True
                     self.cancel_requested = True  # someone else owns the step now: stop working on it
@@ -97,6 +114,7 @@ class Failure:
     message: str
     write: WriteRows | None = None
     bad_input: bool = False
+    paused: bool = False  # the step gave its work back to the pausing campaign (StepPaused)
 
 
 def run_step(
@@ -135,6 +153,7 @@ def run_step(
         worker_name,
         lambda: keeper.cancel_requested,
         fault_for(campaign_id, ref.step.value, ref.iteration, ref.slot),
+        pause_flag=lambda: keeper.pause_requested,
     )
     try:
         output, failure = _compute(StepContext(campaign_id, ref, config, run))
@@ -170,6 +189,8 @@ def run_step(
         assert failure is not None
         if failure.write is not None:
             failure.write(s, at)
+        if failure.paused:
+            return _give_back(s, c, ref, row, failure.message)
         outcome = failure.outcome
         if outcome is None:  # an exception: retry while attempts remain (unless bad input)
             if row.attempts < row.max_attempts and not failure.bad_input:
@@ -236,6 +257,8 @@ def _compute(ctx: StepContext) -> tuple[StepOutput | None, Failure | None]:
         output = STEPS[ctx.ref.step](ctx)
     except UnusableResult as err:
         return None, Failure(policy_outcome(ctx.config, ctx.ref), err.reason, err.write)
+    except StepPaused as err:
+        return None, Failure(None, str(err), paused=True)
     except FailedAttempt as err:
         if is_cancellation(err.cause):
             return None, Failure(Outcome.cancelled, str(err.cause))
@@ -292,6 +315,20 @@ def _claim(
         data={"attempt": attempt, **({"slot": ref.slot} if ref.slot else {})},
     )
     return "claimed", row.id, config, []
+
+
+def _give_back(s: Session, c: Campaign, ref: StepRef, row: IterationStep, message: str) -> list[StepJob]:
+    """A step that gave its work back to its pausing campaign: pending again (the resume sends
+    it), and the campaign paused once no other step of it is queued or running."""
+    row.status = StepStatus.pending.value
+    row.error = message
+    row.claim_token = None
+    row.lease_until = None
+    repo.add_event(s, c.id, "step_paused", message, iteration=ref.iteration, step=ref.step.value)
+    s.flush()
+    if not repo.steps_of_campaign(s, c.id, [StepStatus.running.value, StepStatus.queued.value]):
+        transitions.apply_decision(s, c, transitions.Decision(CampaignStatus.paused), note="paused: " + message)
+    return []
 
 
 def _requeue(s: Session, campaign_id: int, ref: StepRef, row: IterationStep, message: str) -> list[StepJob]:

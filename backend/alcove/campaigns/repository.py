@@ -175,6 +175,12 @@ def extend_lease(s: Session, step_id: int, token: str, lease_seconds: float) -> 
     return res.rowcount == 1, bool(cancel)
 
 
+def pause_requested_of(s: Session, step_id: int) -> bool:
+    """Whether the campaign of a step is pausing."""
+    q = sa.select(Campaign.pause_requested).join(IterationStep, IterationStep.campaign_id == Campaign.id)
+    return bool(s.scalar(q.where(IterationStep.id == step_id)))
+
+
 def owned_running_step(s: Session, step_id: int, token: str) -> IterationStep | None:
     """The step row if this job still holds it (a reconciler may have taken it over)."""
     return s.scalar(

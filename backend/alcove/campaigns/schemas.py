@@ -37,6 +37,7 @@ from alcove.campaigns.trajectory_schemas import (
 )
 from alcove.models.base import CampaignStatus, IterationStatus, StepName, StepStatus
 from alcove.names import Name
+from alcove.oracles.schemas import BatchJobRead
 from alcove.science.surrogate.metrics import DESCRIPTIONS
 
 
@@ -84,25 +85,6 @@ class CampaignRead(_Read):
     created_at: datetime
     started_at: datetime | None
     finished_at: datetime | None
-
-
-class BatchJobRead(_Read):
-    """A batch-scheduler job of an oracle call (a command oracle submitted to Slurm, PBS or LSF)."""
-
-    scheduler: str = Field(description="slurm, pbs or lsf")
-    job_id: str = Field(description="the scheduler's id of the job (squeue -j, qstat, bjobs)")
-    state: str = Field(
-        description="queued, running, completed (result not yet stored), collected (result stored), failed, cancelled"
-    )
-    reason: str | None = Field(None, description="why it failed or was cancelled")
-    attempt: int = Field(description="the step's attempt that submitted it")
-    worker_name: str | None = Field(None, description="the oracle worker waiting for it")
-    workdir: str = Field(description="the job folder")
-    exit_code: int | None = None
-    submitted_at: datetime | None = None
-    started_at: datetime | None = None
-    ended_at: datetime | None = None
-    collected_at: datetime | None = None
 
 
 class StepRead(_Read):

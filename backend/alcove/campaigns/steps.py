@@ -40,7 +40,7 @@ from alcove.campaigns.step_context import StepContext
 from alcove.campaigns.validation import suite_model as validation_suite_model
 from alcove.campaigns.validation import suite_spec
 from alcove.db import session_scope
-from alcove.jobs.steps import FailedAttempt, IterationRef, StepOutput, UnusableResult, is_cancellation
+from alcove.jobs.steps import FailedAttempt, IterationRef, StepOutput, StepPaused, UnusableResult, is_cancellation
 from alcove.models import (
     Campaign,
     CampaignConfigVersion,
@@ -260,7 +260,7 @@ def oracle(ctx: StepContext) -> StepOutput:
     except UnusableResult as err:
         raise UnusableResult(err.reason, candidates.recording_replay(err.write)) from None
     except Exception as err:
-        if is_cancellation(err) or oracle_version_id is None:
+        if is_cancellation(err) or isinstance(err, StepPaused) or oracle_version_id is None:
             raise
         message = f"{type(err).__name__}: {err}"
         failed = oracle_steps.failed_run(ctx.run, oracle_version_id, started, message)

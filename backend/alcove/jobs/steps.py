@@ -44,6 +44,12 @@ class StepCancelled(RuntimeError):
     """The campaign's cancel flag was seen during the step."""
 
 
+class StepPaused(RuntimeError):
+    """The campaign is pausing and the step gave its work back (an oracle call's batch job,
+    cancelled rather than left queued or running for the whole pause): the step waits, pending,
+    for the resume, which runs it again."""
+
+
 class UnusableResult(RuntimeError):
     """The step ran but its result cannot be used (an OCP that did not converge, an oracle
     result the quality gate quarantined): not retried; the campaign's on-failure policy
@@ -68,16 +74,21 @@ class FailedAttempt(RuntimeError):
 @dataclass
 class StepRun:
     """What a step function gets besides its inputs: which attempt this is, on which worker,
-    the cooperative cancel flag (check it between epochs, Newton steps, ...) and, in a test
-    process only, the fault a test injected (:mod:`alcove.jobs.faults`)."""
+    the cooperative cancel flag (check it between epochs, Newton steps, ...), in a test
+    process only the fault a test injected (:mod:`alcove.jobs.faults`), and whether the campaign
+    is pausing (work that would wait through the pause, a queued batch job, gives itself back)."""
 
     attempt: int = 1
     worker: str = "local"
     cancel_flag: Callable[[], bool] = field(default=lambda: False)
     fault: StepFault | None = None
+    pause_flag: Callable[[], bool] = field(default=lambda: False)
 
     def cancelled(self) -> bool:
         return self.cancel_flag()
+
+    def pausing(self) -> bool:
+        return self.pause_flag()
 
     def check_cancel(self) -> None:
         if self.cancel_flag():

@@ -109,3 +109,24 @@ class CommandOracleOut(BaseModel):
     enabled: bool
     created_at: datetime
     updated_at: datetime
+
+
+class BatchJobRead(BaseModel):
+    """A batch-scheduler job of an oracle call (a command oracle submitted to Slurm, PBS or LSF)."""
+
+    model_config = ConfigDict(from_attributes=True)
+
+    scheduler: str = Field(description="slurm, pbs or lsf")
+    job_id: str = Field(description="the scheduler's id of the job (squeue -j, qstat, bjobs)")
+    state: str = Field(
+        description="queued, running, completed (result not yet stored), collected (result stored), failed, cancelled"
+    )
+    reason: str | None = Field(None, description="why it failed or was cancelled")
+    attempt: int = Field(description="the step's attempt that submitted it")
+    worker_name: str | None = Field(None, description="the oracle worker waiting for it")
+    workdir: str = Field(description="the job folder")
+    exit_code: int | None = None
+    submitted_at: datetime | None = None
+    started_at: datetime | None = None
+    ended_at: datetime | None = None
+    collected_at: datetime | None = None

@@ -18,13 +18,14 @@ from sqlalchemy.orm import Session
 
 from alcove.db import session_scope
 from alcove.db.arrays import get_arrays, put_arrays
-from alcove.jobs.steps import IterationRef, StepOutput, StepRun, UnusableResult, WriteRows
+from alcove.jobs.steps import IterationRef, StepOutput, StepPaused, StepRun, UnusableResult, WriteRows
 from alcove.models import OracleRun, OracleVersion, QuarantinedResult, utcnow
 from alcove.models.data import HeadrestPlacement
 from alcove.oracles.batch_jobs import StepBatchJobs
 from alcove.oracles.service import builtin_launchers, command_catalogue
 from alcove.pool.service import store_dataset
 from alcove.science.json_values import json_safe
+from alcove.science.oracles.base import OracleCancelled
 from alcove.science.oracles.builtin import BUILTIN_TYPE_NAMES
 
 if TYPE_CHECKING:
@@ -94,7 +95,16 @@ def replay(
     started = utcnow()
     t0 = time.perf_counter()
     if batch_jobs is not None and getattr(oracle, "runs_as_batch_jobs", False):
-        res = oracle.run(traj, cancel=run.cancelled, batch_book=batch_jobs)  # type: ignore[call-arg]
+        # a batch job is cancelled when the campaign pauses too (not left queued through the
+        # pause): the step then waits, pending, and the resume submits the call again
+        try:
+            res = oracle.run(  # type: ignore[call-arg]
+                traj, cancel=lambda: run.cancelled() or run.pausing(), batch_book=batch_jobs
+            )
+        except OracleCancelled:
+            if run.cancelled() or not run.pausing():
+                raise
+            raise StepPaused("the campaign is pausing: its oracle call's batch job was cancelled") from None
     else:
         batch_jobs = None
         res = oracle.run(traj, cancel=run.cancelled)
