@@ -143,6 +143,16 @@ def test_a_batch_iterations_oracle_calls_run_as_slurm_jobs_at_once(
     assert db_rows(pg_url, "SELECT count(*) FROM datasets WHERE campaign_id = :c AND origin = 'oracle'", c=cid) == [
         (4,)
     ]
+    stored = db_rows(
+        pg_url,
+        "SELECT submitted_at, started_at, ended_at, collected_at FROM oracle_batch_jobs WHERE campaign_id = :c",
+        c=cid,
+    )
+    print(  # the scheduler's overhead per call, from the rows (docs/scale.md; no timing asserts here)
+        "\nBATCH end to result stored: mean "
+        f"{sum((c - e).total_seconds() for _, _, e, c in stored) / len(stored):.2f} s; "
+        f"submission to start (two wait for a CPU): {sorted(round((b - a).total_seconds(), 2) for a, b, *_ in stored)}"
+    )
     # shown: each oracle step's job in the API's job list and in `alcove campaign status`
     from alcove.campaigns import results
     from alcove.db import session_scope

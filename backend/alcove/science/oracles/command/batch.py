@@ -38,7 +38,7 @@ JOB_TIMES = "alcove-job-times.txt"
 #: consecutive failed polls of the scheduler (squeue, qstat, bjobs) after which the call fails
 #: (its job is kept in the book: the next attempt attaches to it again)
 POLL_ERROR_LIMIT = 30
-WAIT_SECONDS = 0.05
+WAIT_SECONDS = 0.25  # how often a waiting call looks at its cancel flag (a status change wakes it at once)
 
 
 @dataclass
