@@ -122,6 +122,7 @@ def store_model(
             "ensemble_size": model.ensemble_size,
             "output": model.config.architecture,
             "features": model.config.features,
+            "normal_force": model.config.normal_force,
             "inputs": list(model.config.input_names),
         },
         normalisation=doc["normalization"]["input"],

@@ -42,6 +42,20 @@ describe("model versions table", () => {
     expect(within(rows[0]).getByRole("img", { name: "3 nets stopped at max_epochs while still improving" })).toHaveTextContent("capped");
     expect(within(rows[1]).queryByRole("img")).toBeNull();
   });
+
+  it("names each model's inputs and whether the normal force has layers of its own", async () => {
+    mockApi({
+      "GET /campaigns/3/model-versions": [
+        { ...model(22, 2, 0), architecture: { features: "history", normal_force: "own" } },
+        { ...model(21, 1, 0), architecture: { features: "paper", normal_force: "shared" } },
+        { ...model(20, 0, 0), architecture: {} },
+      ],
+      "GET /campaigns/3/pool-versions": [],
+    });
+    renderPage(<VersionsPanel campaignId={3} />);
+    const cells = await screen.findAllByTestId("model-features");
+    expect(cells.map((c) => c.textContent).sort()).toEqual(["paper", "paper", "paper + history; fx own layers"]);
+  });
 });
 
 function job(id: number, step: string, slot: number, batch_jobs: object[]) {

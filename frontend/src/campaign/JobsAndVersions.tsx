@@ -132,7 +132,7 @@ export function VersionsPanel({ campaignId }: { campaignId: number }) {
                 <th className="num">Version</th>
                 <th className="num">Pool</th>
                 <th className="num">Warm start</th>
-                <th title="the networks' inputs: the paper's 19 features of the state, or those and the history states (a contact model with memory)">
+                <th title="the networks' inputs: the paper's 19 features of the state, or those and the history states (a contact model with memory); 'fx own layers': the normal force has hidden layers of its own">
                   Inputs
                 </th>
                 <th className="num">Test RMSE F</th>
@@ -176,7 +176,9 @@ export function VersionsPanel({ campaignId }: { campaignId: number }) {
   );
 }
 
-/** The model's feature set as the table shows it (models recorded before feature sets: the paper's). */
+/** The model's feature set as the table shows it (models recorded before feature sets: the paper's),
+ * and whether the normal force has hidden layers of its own. */
 function modelFeatures(architecture: Record<string, unknown>): string {
-  return architecture.features === "history" ? "paper + history" : "paper";
+  const features = architecture.features === "history" ? "paper + history" : "paper";
+  return architecture.normal_force === "own" ? `${features}; fx own layers` : features;
 }
