@@ -78,6 +78,15 @@ def test_an_over_size_campaign_surrogate_config_or_preview_is_refused_naming_fie
     }
     r = client.post(f"{API}/campaigns", json=body, headers=h)
     assert "1000 is above your limit of 500 (max_preliminary_samples)" in _problem(r, "preliminary.samples")
+    # every problem at once, and the form's check says the same before anything is created
+    over = {**body, "settings": {"ocp_intervals": 50}}
+    r = client.post(f"{API}/campaigns", json=over, headers=h)
+    assert sorted(p["field"] for p in r.json()["detail"]) == ["preliminary.samples", "settings.ocp_intervals"]
+    report = client.post(f"{API}/campaigns/validate", json=over, headers=h).json()
+    assert report["valid"] is False
+    assert {e["field"]: e["msg"] for e in report["errors"]}["settings.ocp_intervals"].startswith(
+        "50 is above your limit of 40 (max_ocp_intervals)"
+    )
     r = client.post(f"{API}/campaigns", json={**body, "preliminary": {"samples": 400}}, headers=h)
     assert r.status_code == 201, r.text
     cid = r.json()["id"]

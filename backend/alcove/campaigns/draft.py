@@ -20,6 +20,7 @@ from sqlalchemy.orm import Session
 from alcove.campaigns import references as refs
 from alcove.campaigns.config import PreliminaryConfig, RunSettings, strategy_problem
 from alcove.campaigns.schemas import CampaignCreateIn
+from alcove.campaigns.sizes import campaign_size_problems
 from alcove.errors import FieldError, InvalidInput, field_errors_from_pydantic
 from alcove.models import SurrogateConfigVersion, User
 from alcove.versioning import ORACLES, SURROGATE_CONFIGS, TASKS
@@ -127,6 +128,7 @@ def reference_errors(s: Session, user: User, fields: dict[str, Any]) -> tuple[Ve
     if settings is not None and preliminary is not None and task is not None:
         found = suite_error(s, settings, preliminary, task)
         errors.extend([found] if found else [])
+    errors.extend(campaign_size_problems(s, user, preliminary, settings, task, surrogate))
     if errors or task is None or oracle is None or not surrogate_known:
         return None, errors
     return Versions(task, oracle, surrogate), errors

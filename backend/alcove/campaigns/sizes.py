@@ -6,35 +6,56 @@ from __future__ import annotations
 
 from sqlalchemy.orm import Session
 
+from alcove.campaigns.config import PreliminaryConfig, RunSettings
 from alcove.campaigns.schemas import CampaignConfig
-from alcove.models import SurrogateConfigVersion, TaskVersion
-from alcove.users.limits import check_sizes, surrogate_sizes
+from alcove.errors import FieldError
+from alcove.models import SurrogateConfigVersion, TaskVersion, User
+from alcove.users.limits import check_sizes, limits_of, size_problems, surrogate_sizes
 
 
 def campaign_sizes(
-    s: Session, cfg: CampaignConfig, task_version_id: int, surrogate_config_version_id: int
+    s: Session,
+    preliminary: PreliminaryConfig | None,
+    settings: RunSettings | None,
+    task_version_id: int | None,
+    surrogate_config_version_id: int | None,
 ) -> list[tuple[str, int | None, str]]:
-    """``(field, value, limit name)`` of everything a campaign with ``cfg`` asks of the workers."""
+    """``(field, value, limit name)`` of everything a campaign asks of the workers (a part left
+    out, None, is not sized)."""
     sizes: list[tuple[str, int | None, str]] = []
-    if not cfg.preliminary.dataset_ids:
-        sizes.append(("preliminary.samples", cfg.preliminary.samples, "max_preliminary_samples"))
-    if cfg.settings.ocp_intervals is not None:
-        sizes.append(("settings.ocp_intervals", cfg.settings.ocp_intervals, "max_ocp_intervals"))
-    else:
+    if preliminary is not None and not preliminary.dataset_ids:
+        sizes.append(("preliminary.samples", preliminary.samples, "max_preliminary_samples"))
+    if settings is not None and settings.ocp_intervals is not None:
+        sizes.append(("settings.ocp_intervals", settings.ocp_intervals, "max_ocp_intervals"))
+    elif settings is not None and task_version_id is not None:
         task = s.get(TaskVersion, task_version_id)
         phases = (task.spec.get("phases") or []) if task is not None else []
         per_phase = [int(ph.get("intervals") or 0) for ph in phases if isinstance(ph, dict)]
         if per_phase:
             # the task's intervals apply: the field to set is settings.ocp_intervals
             sizes.append(("settings.ocp_intervals", max(per_phase), "max_ocp_intervals"))
-    scv = s.get(SurrogateConfigVersion, surrogate_config_version_id)
+    scv = s.get(SurrogateConfigVersion, surrogate_config_version_id) if surrogate_config_version_id else None
     if scv is not None:
         sizes += surrogate_sizes(scv.spec, prefix="surrogate_config")
     return sizes
+
+
+def campaign_size_problems(
+    s: Session,
+    user: User,
+    preliminary: PreliminaryConfig | None,
+    settings: RunSettings | None,
+    task_version_id: int | None,
+    surrogate_config_version_id: int | None,
+) -> list[FieldError]:
+    """What of a new campaign is above the limits of ``user`` (its owner)."""
+    sizes = campaign_sizes(s, preliminary, settings, task_version_id, surrogate_config_version_id)
+    return size_problems(limits_of(s, user), sizes)
 
 
 def check_campaign_sizes(
     s: Session, owner_id: int, cfg: CampaignConfig, task_version_id: int, surrogate_config_version_id: int
 ) -> None:
     """Refuse (422) a campaign above its owner's size limits."""
-    check_sizes(s, owner_id, campaign_sizes(s, cfg, task_version_id, surrogate_config_version_id))
+    sizes = campaign_sizes(s, cfg.preliminary, cfg.settings, task_version_id, surrogate_config_version_id)
+    check_sizes(s, owner_id, sizes)
