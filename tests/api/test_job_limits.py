@@ -97,6 +97,15 @@ def test_an_over_size_campaign_surrogate_config_or_preview_is_refused_naming_fie
     assert "30 is above your limit of 20 (max_ocp_intervals)" in _problem(r, "settings.ocp_intervals")
     assert client.get(f"{API}/campaigns/{cid}", headers=h).json()["campaign"]["status"] == "draft"
 
+    # the task's own intervals, when the campaign sets none
+    fine = client.post(f"{API}/tasks", json={"name": "fine grid", "spec": small_task_spec(30)}, headers=h).json()
+    r = client.post(
+        f"{API}/campaigns",
+        json={**body, "task_id": fine["id"], "preliminary": {"samples": 400}, "settings": {}},
+        headers=h,
+    )
+    assert _problem(r, "settings.ocp_intervals").startswith("30 (the task's, per phase) is above your limit of 20")
+
     # previews
     r = client.post(f"{API}/tasks/{task['id']}/previews", json={"intervals": 30}, headers=h)
     assert "30 is above your limit of 20 (max_ocp_intervals)" in _problem(r, "intervals")

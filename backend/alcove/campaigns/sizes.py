@@ -10,7 +10,7 @@ from alcove.campaigns.config import PreliminaryConfig, RunSettings
 from alcove.campaigns.schemas import CampaignConfig
 from alcove.errors import FieldError
 from alcove.models import SurrogateConfigVersion, TaskVersion, User
-from alcove.users.limits import check_sizes, limits_of, size_problems, surrogate_sizes
+from alcove.users.limits import Size, check_sizes, limits_of, size_problems, surrogate_sizes
 
 
 def campaign_sizes(
@@ -19,10 +19,10 @@ def campaign_sizes(
     settings: RunSettings | None,
     task_version_id: int | None,
     surrogate_config_version_id: int | None,
-) -> list[tuple[str, int | None, str]]:
+) -> list[Size]:
     """``(field, value, limit name)`` of everything a campaign asks of the workers (a part left
     out, None, is not sized)."""
-    sizes: list[tuple[str, int | None, str]] = []
+    sizes: list[Size] = []
     if preliminary is not None and not preliminary.dataset_ids:
         sizes.append(("preliminary.samples", preliminary.samples, "max_preliminary_samples"))
     if settings is not None and settings.ocp_intervals is not None:
@@ -33,7 +33,7 @@ def campaign_sizes(
         per_phase = [int(ph.get("intervals") or 0) for ph in phases if isinstance(ph, dict)]
         if per_phase:
             # the task's intervals apply: the field to set is settings.ocp_intervals
-            sizes.append(("settings.ocp_intervals", max(per_phase), "max_ocp_intervals"))
+            sizes.append(("settings.ocp_intervals", max(per_phase), "max_ocp_intervals", "the task's, per phase"))
     scv = s.get(SurrogateConfigVersion, surrogate_config_version_id) if surrogate_config_version_id else None
     if scv is not None:
         sizes += surrogate_sizes(scv.spec, prefix="surrogate_config")

@@ -83,32 +83,37 @@ def _apply(row: JobLimits, update: JobLimitsUpdate) -> None:
     row.updated_at = utcnow()
 
 
-def size_problems(limits: JobLimitsOut, sizes: Iterable[tuple[str, int | None, str]]) -> list[FieldError]:
-    """A problem for every ``(field, value, limit name)`` whose value is above its limit."""
+#: ``(field, value, limit name)``, or with a fourth item saying where the value comes from
+Size = tuple[str, int | None, str] | tuple[str, int | None, str, str]
+
+
+def size_problems(limits: JobLimitsOut, sizes: Iterable[Size]) -> list[FieldError]:
+    """A problem for every size whose value is above its limit."""
     problems = []
-    for field, value, name in sizes:
+    for field, value, name, *source in sizes:
         bound = getattr(limits, name)
         if value is not None and bound is not None and value > bound:
+            origin = f" ({source[0]})" if source else ""
             problems.append(
                 FieldError(
                     tuple(int(p) if p.isdigit() else p for p in field.split(".")),
-                    f"{value} is above your limit of {bound} ({name}); ask an administrator to raise it",
+                    f"{value}{origin} is above your limit of {bound} ({name}); ask an administrator to raise it",
                     "job_limit",
                 )
             )
     return problems
 
 
-def check_sizes(session: Session, user_id: int, sizes: Iterable[tuple[str, int | None, str]]) -> None:
+def check_sizes(session: Session, user_id: int, sizes: Iterable[Size]) -> None:
     """Refuse (422) a request whose sizes are above the limits of user ``user_id``."""
     problems = size_problems(limits_of_id(session, user_id), sizes)
     if problems:
         raise InvalidInput(problems)
 
 
-def surrogate_sizes(spec: dict[str, object], prefix: str = "spec") -> list[tuple[str, int | None, str]]:
+def surrogate_sizes(spec: dict[str, object], prefix: str = "spec") -> list[Size]:
     """The sized fields of a surrogate config's spec (a dict as stored)."""
-    sizes: list[tuple[str, int | None, str]] = []
+    sizes: list[Size] = []
 
     def whole(value: object) -> int | None:
         return int(value) if isinstance(value, (int, float)) and not isinstance(value, bool) else None
