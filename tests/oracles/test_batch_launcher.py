@@ -165,3 +165,14 @@ def test_a_launcher_for_a_type_that_runs_no_program_is_refused(tmp_path: Path):
     path.write_text("command_oracles: {}\nlaunchers:\n  fe-headrest-3d-ccx: {scheduler: slurm, nodes: 0}\n")
     with pytest.raises(CatalogueError, match=r"^launchers.fe-headrest-3d-ccx.nodes: "):
         load_builtin_launchers(path)
+
+
+def test_a_submission_answer_without_a_job_id_is_a_failure_naming_it(slurm_spec: CommandOracleSpec, monkeypatch):
+    """The scheduler's output is checked: an sbatch that answers without a job id fails the call
+    with that answer named, instead of following a job that does not exist."""
+    from alcove.science.oracles.command import batch
+
+    executor = batch.executor_for(slurm_spec.launcher, slurm_spec.workdir_root / ".alcove-psij")  # type: ignore[operator]
+    monkeypatch.setattr(executor, "job_id_from_submit_output", lambda out: "sbatch: error: try again later")
+    with pytest.raises(batch.SchedulerFailure, match=r"holds no job id: 'sbatch: error: try again later'"):
+        CommandOracle(slurm_spec).run(trajectory(), batch_book=MemoryBook())

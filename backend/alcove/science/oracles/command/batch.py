@@ -18,6 +18,8 @@ reason, which a campaign retries per its oracle policy.
 
 from __future__ import annotations
 
+import contextlib
+import re
 import shlex
 import tempfile
 import threading
@@ -38,6 +40,9 @@ JOB_TIMES = "alcove-job-times.txt"
 #: consecutive failed polls of the scheduler (squeue, qstat, bjobs) after which the call fails
 #: (its job is kept in the book: the next attempt attaches to it again)
 POLL_ERROR_LIMIT = 30
+#: a scheduler's job id as the submission command prints it (Slurm 4711 or 4711_3, PBS 4711.server)
+JOB_ID = re.compile(r"^[A-Za-z0-9_.\-\[\]@]{1,64}$")
+SLURM_JOB_ID = re.compile(r"^\d+(_\d+)?$")
 WAIT_SECONDS = 0.25  # how often a waiting call looks at its cancel flag (a status change wakes it at once)
 
 
@@ -145,7 +150,10 @@ def _slurm_executor_class() -> Any:
             return statuses
 
         def get_status_command(self, native_ids: Collection[str]) -> list[str]:
-            return ["squeue", "-O", "JobArrayID,StateCompact,Reason", "-t", "all", "-j", ",".join(native_ids)]
+            ids = [i for i in native_ids if SLURM_JOB_ID.match(i)]  # one bad id would fail the query for all
+            return ["squeue", "-O", "JobArrayID,StateCompact,Reason", "-t", "all"] + (
+                ["-j", ",".join(ids)] if ids else ["--me"]
+            )
 
     return SlurmExecutor
 
@@ -293,6 +301,12 @@ def run_batch_job(
             executor.submit(job)
         except SubmitException as exc:
             raise SchedulerFailure(f"the {launcher.scheduler} scheduler refused the job: {_one_line(exc)}") from None
+        if not JOB_ID.match(str(job.native_id or "")):
+            with contextlib.suppress(Exception):  # whatever was submitted, if anything, could not be followed
+                executor.cancel(job)
+            raise SchedulerFailure(
+                f"the {launcher.scheduler} scheduler's answer to the submission holds no job id: {job.native_id!r}"
+            )
         record = BatchJob(launcher.scheduler, str(job.native_id), str(workdir), "queued", submitted_at=time.time())
         book.record(record)
     while True:
