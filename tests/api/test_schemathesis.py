@@ -13,15 +13,18 @@ broker's folders keep what the fuzzed starts and previews send). Left out: the r
 would end the run's own authentication (logout, revoking tokens, a password change) and the
 SSE streams (long-lived).
 
-One check meets rules OpenAPI 3.1 cannot state: ``positive_data_acceptance`` wants every
+One check meets rules the schema does not state: ``positive_data_acceptance`` wants every
 schema-valid request accepted, but the operations in :data:`RULES_BEYOND_THE_SCHEMA` refuse
-some with a 422 naming the field and the rule: rules across fields (a range's low end below its
-high end, one value per joint of the task's model), ids that must name an object of yours, an
-uploaded file's CSV content, and the user's job limits (docs/api.md). A 422 of the check on
-those operations is reported, not failed; any other status, any other check and any other
-operation fails the test. ``use_after_free`` meets the archive: deleting a task, oracle or
-surrogate config a campaign uses archives it, so its reads still answer (``archived: true``,
-docs/api.md); a 200 of those reads after a DELETE is reported too (:data:`ARCHIVED_ON_DELETE`).
+some with a 422 naming the field and the rule. OpenAPI 3.1 cannot state most of them: rules
+across fields (a range's low end below its high end, one value per joint of the task's model),
+ids that must name an object of yours, an uploaded file's CSV content, the user's job limits
+(docs/api.md). The NUL rule holds at any depth of a free-form JSON body, and the schema states it
+for the body's top-level keys only (a recursive schema, which would state it whole, Schemathesis
+cuts off at depth, generating NULs below). A 422 of the check on those operations is reported,
+not failed; any other status, any other check and any other operation fails the test.
+``use_after_free`` meets the archive: deleting a task, oracle or surrogate config a campaign uses
+archives it, so its reads still answer (``archived: true``, docs/api.md); a 200 of those reads
+after a DELETE is reported too (:data:`ARCHIVED_ON_DELETE`).
 """
 
 from __future__ import annotations
@@ -62,6 +65,11 @@ RULES_BEYOND_THE_SCHEMA = {
     "update_surrogate_config": "the spec's rules across fields; job limits",
     "upload_preliminary_dataset": "the file is a CSV of the documented columns",
     "create_share": "the object named must be yours, the e-mail not yours",
+    # free-form JSON of any depth: the schema states the NUL rule for its top-level keys only
+    "validate_task": "a NUL in a key or text below the spec's top level",
+    "validate_oracle": "a NUL in a key or text below the params' top level",
+    "validate_surrogate_config": "a NUL in a key or text below the spec's top level",
+    "validate_campaign": "a NUL in a key or text below the request's top level",
 }
 #: reads of the definitions whose DELETE archives a used one instead of removing it
 ARCHIVED_ON_DELETE = {
