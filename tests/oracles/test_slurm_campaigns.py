@@ -231,24 +231,26 @@ def test_a_time_limit_fails_its_call_and_pausing_or_cancelling_the_campaign_canc
 def test_a_worker_killed_while_its_job_runs_reattaches_and_the_job_runs_once(
     env: dict[str, str], pg_url: str, tmp_path: Path, make_campaign: Any
 ) -> None:
-    """Two oracle workers; the one waiting for the step's Slurm job (6 s) is SIGKILLed while the
+    """Two workers; the one waiting for the oracle step's Slurm job (6 s) is SIGKILLed while the
     job runs. The other takes the step as its next attempt (once the dead worker's heartbeat is
     stale) and attaches to the same job: one job, one run of the program, one result."""
     cid = start(make_campaign, "slurm-mid", 1)
-    main = start_worker(env, tmp_path / "main.log", unique("m"), queues="default,train,ocp")
-    oracle_workers = {name: start_worker(env, tmp_path / f"{name}.log", name, queues="oracle") for name in ("o1", "o2")}
+    workers = {name: start_worker(env, tmp_path / f"{name}.log", name) for name in (unique("a"), unique("b"))}
+
+    def alive() -> Any:
+        return next(p for p in workers.values() if p.alive())
+
     try:
         job = wait_for(
             lambda: (j := db_rows(pg_url, JOBS, c=cid)) and j[0][1] == "running" and j[0],
             180,
             "the Slurm job to run",
-            main,
+            alive(),
         )
-        killed = job[7].split("@")[0]
-        oracle_workers[killed].kill()
-        wait_for(lambda: db_rows(pg_url, ENDED, c=cid), 120, "the campaign to end", main)
+        workers[job[7].split("@")[0]].kill()
+        wait_for(lambda: db_rows(pg_url, ENDED, c=cid), 120, "the campaign to end", alive())
     finally:
-        stop_all([main, *oracle_workers.values()])
+        stop_all(workers.values())
     assert db_rows(pg_url, ENDED, c=cid) == [("completed", "max_iterations")]
     jobs = db_rows(pg_url, JOBS, c=cid)
     assert [(j[0], j[1], j[3]) for j in jobs] == [(job[0], "collected", 1)]
