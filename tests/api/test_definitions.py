@@ -274,9 +274,15 @@ def test_a_command_oracles_launcher_is_checked_at_the_field_and_kept(client, adm
         assert r.status_code == 422, r.text
         assert [e["field"] for e in r.json()["detail"]] == [field], r.json()
     launcher = {"scheduler": "slurm", "partition": "short", "cpus_per_task": 4, "time_limit_s": 600}
-    r = client.post(f"{API}/admin/command-oracles", json={**entry, "launcher": launcher}, headers=admin.headers)
+    on_the_cluster = {**entry, "argv": ["/cluster/only/solver"], "launcher": launcher}
+    r = client.post(f"{API}/admin/command-oracles", json=on_the_cluster, headers=admin.headers)
     assert r.status_code == 201, r.text
     assert r.json()["launcher"] == launcher
+    # users see where it runs; its program is on the compute nodes, not looked for on the API host
+    listed = {t["name"]: t for t in client.get(f"{API}/oracles/types", headers=admin.headers).json()}[name]
+    assert listed["available"] and listed["launcher"] == (
+        "one Slurm job per oracle call (partition short, 1 task x 4 CPU, time limit 600 s)"
+    )
     local = client.put(
         f"{API}/admin/command-oracles/{r.json()['id']}",
         json={**entry, "launcher": {"scheduler": "local"}},

@@ -65,6 +65,9 @@ class OracleTypeOut(BaseModel):
     description: str
     available: bool
     unavailable_reason: str | None = None
+    launcher: str | None = Field(
+        None, description="how its calls run when not on the oracle worker: one batch job per call, with the resources"
+    )
     params_schema: dict[str, Any] = Field(description="JSON Schema of the parameters")
 
 

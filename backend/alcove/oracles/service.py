@@ -208,8 +208,12 @@ def require_valid(session: Session, type_name: str, params: Any) -> dict[str, An
 
 def types(session: Session) -> list[dict[str, Any]]:
     catalogue = command_catalogue(session)
+    launchers = builtin_launchers()
     out = []
     for row in list_oracle_types(catalogue):
+        launcher = launchers.get(row["name"])
+        if launcher is not None and launcher.is_batch:  # its program is on the compute nodes, not here
+            row = {**row, "available": True, "unavailable_reason": None, "launcher": launcher.summary()}
         try:
             schema = _params_model(row["name"], catalogue).model_json_schema()
         except (InvalidInput, OracleInputError):

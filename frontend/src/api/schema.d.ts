@@ -3614,6 +3614,11 @@ export interface components {
              * @enum {string}
              */
             kind: "builtin" | "command";
+            /**
+             * Launcher
+             * @description how its calls run when not on the oracle worker: one batch job per call, with the resources
+             */
+            launcher?: string | null;
             /** Name */
             name: string;
             /**

@@ -181,6 +181,11 @@ function OracleEditor({ existing, types }: { existing: Oracle | undefined; types
           <FieldMessages problems={view.at("type")} />
         </div>
         {typeInfo && <p className="muted">{typeInfo.available ? typeInfo.description : `${typeInfo.description} (${typeInfo.unavailable_reason ?? "unavailable"})`}</p>}
+        {typeInfo?.launcher && (
+          <p className="muted" data-testid="oracle-launcher">
+            Runs as {typeInfo.launcher} (set by the administrator).
+          </p>
+        )}
         <h2 id="params-title">Parameters</h2>
         {typeInfo ? <SchemaForm schema={schema} value={params} onChange={setParams} errors={view} prefix="params" /> : <p className="muted">Choose a type.</p>}
       </section>

@@ -101,7 +101,9 @@ def list_oracle_types(catalogue: Mapping[str, CommandOracleSpec] | None = None) 
             }
         )
     for name, spec in (catalogue or {}).items():
-        found = shutil.which(spec.argv[0]) is not None  # on this machine; workers may differ from the API host
+        # on this machine; workers may differ from the API host. A batch entry's program is on
+        # the compute nodes: nothing to look for here.
+        found = spec.launcher.is_batch or shutil.which(spec.argv[0]) is not None
         reason = None if found else f"{spec.argv[0]} is not an executable program on this machine"
         rows.append(
             {
@@ -110,6 +112,7 @@ def list_oracle_types(catalogue: Mapping[str, CommandOracleSpec] | None = None) 
                 "description": spec.description,
                 "available": found,
                 "unavailable_reason": reason,
+                "launcher": spec.launcher.summary() if spec.launcher.is_batch else None,
             }
         )
     return rows

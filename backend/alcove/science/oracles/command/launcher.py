@@ -114,6 +114,22 @@ class LauncherSpec(BaseModel):
     def is_batch(self) -> bool:
         return self.scheduler != "local"
 
+    def summary(self) -> str:
+        """What a user is told about where the oracle runs, e.g. "one Slurm job per oracle call
+        (partition short, 1 task x 8 CPUs, 16000 MB, time limit 3600 s)"."""
+        if not self.is_batch:
+            return "on the oracle worker"
+        parts = [f"partition {self.partition}"] if self.partition else []
+        if self.nodes > 1:
+            parts.append(f"{self.nodes} nodes")
+        parts.append(f"{self.tasks} task{'s' if self.tasks > 1 else ''} x {self.cpus_per_task} CPU")
+        if self.memory_mb:
+            parts.append(f"{self.memory_mb} MB")
+        if self.time_limit_s:
+            parts.append(f"time limit {self.time_limit_s:g} s")
+        name = {"slurm": "Slurm", "pbs": "PBS", "lsf": "LSF"}[self.scheduler]
+        return f"one {name} job per oracle call ({', '.join(parts)})"
+
 
 LOCAL = LauncherSpec()
 
