@@ -4017,8 +4017,7 @@ export interface components {
         };
         /**
          * RetryIn
-         * @description The failed step to run again: ``iteration`` and ``step`` together, or neither (the step
-         *     that failed the campaign). The schema states it: either one given needs the other.
+         * @description The failed step to run again: ``iteration`` and ``step`` together (as the schema states), or neither.
          */
         RetryIn: {
             /** Iteration */
