@@ -176,3 +176,21 @@ def test_a_submission_answer_without_a_job_id_is_a_failure_naming_it(slurm_spec:
     monkeypatch.setattr(executor, "job_id_from_submit_output", lambda out: "sbatch: error: try again later")
     with pytest.raises(batch.SchedulerFailure, match=r"holds no job id: 'sbatch: error: try again later'"):
         CommandOracle(slurm_spec).run(trajectory(), batch_book=MemoryBook())
+
+
+def test_a_job_killed_over_its_memory_limit_fails_its_call_naming_the_limit(slurm_spec: CommandOracleSpec):
+    """The program holds 300 MB in a job that asked for 50 MB: Slurm kills it (OverMemoryKill,
+    .ci/slurm-up) and the call fails naming the memory limit, not as a missing output."""
+    from alcove.science.oracles.command.batch import SchedulerFailure
+
+    spec = slurm_spec.model_copy(
+        update={
+            "argv": [*slurm_spec.argv[:2], "20", "hog:300"],
+            "launcher": slurm_spec.launcher.model_copy(update={"memory_mb": 50}),
+        }
+    )
+    book = MemoryBook()
+    with pytest.raises(SchedulerFailure, match=r"^slurm job \d+: the scheduler ended the job before the program"):
+        CommandOracle(spec).run(trajectory(), batch_book=book)
+    assert [j.state for j in book.jobs] == ["failed"]
+    assert "over its memory limit of 50 MB" in str(book.jobs[0].reason)

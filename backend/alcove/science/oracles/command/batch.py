@@ -337,13 +337,20 @@ def _ended(
     record.ended_at = ended or time.time()
     record.exit_code = code if code is not None else status.exit_code
     native = (status.metadata or {}).get("native_state")
-    ended_by_scheduler = native in SLURM_ENDED_BY_SCHEDULER or (
-        native is None and status.state in (JobState.FAILED, JobState.CANCELED) and record.exit_code is None
-    )
+    native_reason = (status.metadata or {}).get("native_reason")
+    # the job script records the program's end: a failed job without it was ended from outside
+    killed = status.state in (JobState.FAILED, JobState.CANCELED) and ended is None and code is None
+    ended_by_scheduler = native in SLURM_ENDED_BY_SCHEDULER or (killed and record.exit_code is None)
     if ended_by_scheduler:
         message = status.message or f"the job ended as {status.state}"
         if native == "TO":
             message += f" ({_limit_text(job)})"
+        elif native is not None and native not in SLURM_ENDED_BY_SCHEDULER:
+            memory = f"over its memory limit of {launcher.memory_mb} MB, " if launcher.memory_mb else ""
+            message = (
+                f"the scheduler ended the job before the program finished (state {native}, {native_reason}): "
+                f"{memory}or it could not be started; see the scheduler's log of job {record.job_id}"
+            )
         polling_failed = native is None and "poll" in message.lower()
         if not polling_failed:  # a job the worker could not ask about may still run: attach to it again
             record.state, record.reason = ("cancelled" if native == "CA" else "failed"), message
