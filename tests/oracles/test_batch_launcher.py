@@ -190,7 +190,7 @@ def test_a_job_killed_over_its_memory_limit_fails_its_call_naming_the_limit(slur
         }
     )
     book = MemoryBook()
-    with pytest.raises(SchedulerFailure, match=r"^slurm job \d+: the scheduler ended the job before the program"):
+    with pytest.raises(SchedulerFailure, match=r"^slurm job \d+: the scheduler ended the job: "):
         CommandOracle(spec).run(trajectory(), batch_book=book)
     assert [j.state for j in book.jobs] == ["failed"]
     assert "over its memory limit of 50 MB" in str(book.jobs[0].reason)

@@ -338,17 +338,21 @@ def _ended(
     record.exit_code = code if code is not None else status.exit_code
     native = (status.metadata or {}).get("native_state")
     native_reason = (status.metadata or {}).get("native_reason")
-    # the job script records the program's end: a failed job without it was ended from outside
-    killed = status.state in (JobState.FAILED, JobState.CANCELED) and ended is None and code is None
-    ended_by_scheduler = native in SLURM_ENDED_BY_SCHEDULER or (killed and record.exit_code is None)
-    if ended_by_scheduler:
+    # the job script records the program's end: a failed job without it, or whose program was
+    # SIGKILLed (what a scheduler's memory enforcement sends), was ended from outside
+    sigkilled = record.exit_code == 128 + 9
+    killed = status.state in (JobState.FAILED, JobState.CANCELED) and (
+        (ended is None and record.exit_code is None) or sigkilled
+    )
+    if native in SLURM_ENDED_BY_SCHEDULER or killed:
         message = status.message or f"the job ended as {status.state}"
         if native == "TO":
             message += f" ({_limit_text(job)})"
         elif native is not None and native not in SLURM_ENDED_BY_SCHEDULER:
             memory = f"over its memory limit of {launcher.memory_mb} MB, " if launcher.memory_mb else ""
+            how = "its program was killed (SIGKILL)" if sigkilled else "it ended before its program finished"
             message = (
-                f"the scheduler ended the job before the program finished (state {native}, {native_reason}): "
+                f"the scheduler ended the job: {how} (state {native}, {native_reason}): "
                 f"{memory}or it could not be started; see the scheduler's log of job {record.job_id}"
             )
         polling_failed = native is None and "poll" in message.lower()
