@@ -18,6 +18,7 @@ from sqlalchemy import exc as sa_exc
 import alcove
 from alcove.api import health
 from alcove.api.errors import COMMON_RESPONSES, BodySizeLimit, install_error_handlers
+from alcove.api.input_rules import install_input_rules
 from alcove.api.json_numbers import WholeNumbers
 from alcove.api.security import SecurityHeaders, install_docs
 from alcove.api.static import FrontendMount, SPAStaticFiles
@@ -112,6 +113,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
         )
     install_docs(app, f"{API_PREFIX}/docs", f"{API_PREFIX}/openapi.json")
     install_nul_rule(app)
+    install_input_rules(app)
     install_error_handlers(app)
     app.add_middleware(WholeNumbers)  # inside the size limit: it reads only bodies the limit let through
     app.add_middleware(BodySizeLimit)

@@ -14,8 +14,9 @@ would end the run's own authentication (logout, revoking tokens, a password chan
 SSE streams (long-lived).
 
 One check meets rules the schema does not state: ``positive_data_acceptance`` wants every
-schema-valid request accepted, but the operations in :data:`RULES_BEYOND_THE_SCHEMA` refuse
-some with a 422 naming the field and the rule. OpenAPI 3.1 cannot state most of them: rules
+schema-valid request accepted, but the operations in ``alcove.api.input_rules``'s
+``RULES_BEYOND_THE_SCHEMA`` refuse some with a 422 naming the field and the rule, and their 422
+answers in the schema name those rules. OpenAPI 3.1 cannot state most of them: rules
 across fields (a range's low end below its high end, one value per joint of the task's model),
 ids that must name an object of yours, an uploaded file's CSV content, the user's job limits
 (docs/api.md). The NUL rule holds at any depth of a free-form JSON body, and the schema states it
@@ -38,6 +39,7 @@ from pathlib import Path
 import httpx
 import pytest
 
+from alcove.api.input_rules import RULES_BEYOND_THE_SCHEMA
 from tests.integration.procs import Proc, alcove_env, free_port, http_ok, wait_until
 
 from .helpers import small_task_spec
@@ -49,28 +51,6 @@ SEED = int(os.environ.get("ALCOVE_TEST_SCHEMATHESIS_SEED", "20"))
 #: routes that end the run's own authentication, and the long-lived event streams
 EXCLUDED = ["logout", "revoke_token", "update_me", "stream_campaign_events", "stream_all_campaign_events"]
 ADMIN_EMAIL, ADMIN_PASSWORD = "admin@schemathesis.test", "schemathesis admin password"
-#: operations that refuse some schema-valid requests with a 422, and the rules OpenAPI cannot state
-RULES_BEYOND_THE_SCHEMA = {
-    "create_campaign": "the definitions and datasets named must be yours; ranges low <= high; job limits",
-    "update_campaign_config": "the surrogate config version named must be yours; ranges low <= high; job limits",
-    "fork_campaign": "the versions named must be yours; ranges low <= high; job limits",
-    "create_task": "the spec's rules across fields (one value per joint, q_min < q_max, ranged parameters)",
-    "update_task": "the spec's rules across fields",
-    "create_task_preview": "the version named must exist; the spec's rules across fields; job limits",
-    "preview_task_scenarios": "the spec's rules across fields",
-    "create_oracle": "the type names a built-in type or a catalogue entry; its parameters are that type's",
-    "update_oracle": "the type names a built-in type or a catalogue entry; its parameters are that type's",
-    "create_oracle_preview": "the version named must exist; the parameters are the oracle type's",
-    "create_surrogate_config": "the spec's rules across fields; job limits",
-    "update_surrogate_config": "the spec's rules across fields; job limits",
-    "upload_preliminary_dataset": "the file is a CSV of the documented columns",
-    "create_share": "the object named must be yours, the e-mail not yours",
-    # free-form JSON of any depth: the schema states the NUL rule for its top-level keys only
-    "validate_task": "a NUL in a key or text below the spec's top level",
-    "validate_oracle": "a NUL in a key or text below the params' top level",
-    "validate_surrogate_config": "a NUL in a key or text below the spec's top level",
-    "validate_campaign": "a NUL in a key or text below the request's top level",
-}
 #: reads of the definitions whose DELETE archives a used one instead of removing it
 ARCHIVED_ON_DELETE = {
     "get_task",

@@ -6248,7 +6248,7 @@ export interface operations {
                     "application/json": components["schemas"]["ErrorOut"];
                 };
             };
-            /** @description invalid input: field paths and reasons */
+            /** @description invalid input: field paths and reasons; also refused, beyond this schema: the definitions and datasets named must be yours; ranges low <= high; job limits */
             422: {
                 headers: {
                     [name: string]: unknown;
@@ -6425,7 +6425,7 @@ export interface operations {
                     "application/json": components["schemas"]["ErrorOut"];
                 };
             };
-            /** @description invalid input: field paths and reasons */
+            /** @description invalid input: field paths and reasons; also refused, beyond this schema: a NUL in a key or text below the request's top level */
             422: {
                 headers: {
                     [name: string]: unknown;
@@ -6782,7 +6782,7 @@ export interface operations {
                     "application/json": components["schemas"]["ErrorOut"];
                 };
             };
-            /** @description invalid input: field paths and reasons */
+            /** @description invalid input: field paths and reasons; also refused, beyond this schema: the surrogate config version named must be yours; ranges low <= high; job limits */
             422: {
                 headers: {
                     [name: string]: unknown;
@@ -7159,7 +7159,7 @@ export interface operations {
                     "application/json": components["schemas"]["ErrorOut"];
                 };
             };
-            /** @description invalid input: field paths and reasons */
+            /** @description invalid input: field paths and reasons; also refused, beyond this schema: the versions named must be yours; ranges low <= high; job limits */
             422: {
                 headers: {
                     [name: string]: unknown;
@@ -9524,7 +9524,7 @@ export interface operations {
                     "application/json": components["schemas"]["ErrorOut"];
                 };
             };
-            /** @description invalid input: field paths and reasons */
+            /** @description invalid input: field paths and reasons; also refused, beyond this schema: the type names a built-in type or a catalogue entry; its parameters are that type's */
             422: {
                 headers: {
                     [name: string]: unknown;
@@ -9953,7 +9953,7 @@ export interface operations {
                     "application/json": components["schemas"]["ErrorOut"];
                 };
             };
-            /** @description invalid input: field paths and reasons */
+            /** @description invalid input: field paths and reasons; also refused, beyond this schema: a NUL in a key or text below the params' top level */
             422: {
                 headers: {
                     [name: string]: unknown;
@@ -10129,7 +10129,7 @@ export interface operations {
                     "application/json": components["schemas"]["ErrorOut"];
                 };
             };
-            /** @description invalid input: field paths and reasons */
+            /** @description invalid input: field paths and reasons; also refused, beyond this schema: the type names a built-in type or a catalogue entry; its parameters are that type's */
             422: {
                 headers: {
                     [name: string]: unknown;
@@ -10303,7 +10303,7 @@ export interface operations {
                     "application/json": components["schemas"]["ErrorOut"];
                 };
             };
-            /** @description invalid input: field paths and reasons */
+            /** @description invalid input: field paths and reasons; also refused, beyond this schema: the version named must exist; the parameters are the oracle type's */
             422: {
                 headers: {
                     [name: string]: unknown;
@@ -10663,7 +10663,7 @@ export interface operations {
                     "application/json": components["schemas"]["ErrorOut"];
                 };
             };
-            /** @description invalid input: field paths and reasons */
+            /** @description invalid input: field paths and reasons; also refused, beyond this schema: the file is a CSV of the documented columns */
             422: {
                 headers: {
                     [name: string]: unknown;
@@ -11007,7 +11007,7 @@ export interface operations {
                     "application/json": components["schemas"]["ErrorOut"];
                 };
             };
-            /** @description invalid input: field paths and reasons */
+            /** @description invalid input: field paths and reasons; also refused, beyond this schema: the object named must be yours, the e-mail not yours */
             422: {
                 headers: {
                     [name: string]: unknown;
@@ -11267,7 +11267,7 @@ export interface operations {
                     "application/json": components["schemas"]["ErrorOut"];
                 };
             };
-            /** @description invalid input: field paths and reasons */
+            /** @description invalid input: field paths and reasons; also refused, beyond this schema: the spec's rules across fields; job limits */
             422: {
                 headers: {
                     [name: string]: unknown;
@@ -11439,7 +11439,7 @@ export interface operations {
                     "application/json": components["schemas"]["ErrorOut"];
                 };
             };
-            /** @description invalid input: field paths and reasons */
+            /** @description invalid input: field paths and reasons; also refused, beyond this schema: a NUL in a key or text below the spec's top level */
             422: {
                 headers: {
                     [name: string]: unknown;
@@ -11615,7 +11615,7 @@ export interface operations {
                     "application/json": components["schemas"]["ErrorOut"];
                 };
             };
-            /** @description invalid input: field paths and reasons */
+            /** @description invalid input: field paths and reasons; also refused, beyond this schema: the spec's rules across fields; job limits */
             422: {
                 headers: {
                     [name: string]: unknown;
@@ -12049,7 +12049,7 @@ export interface operations {
                     "application/json": components["schemas"]["ErrorOut"];
                 };
             };
-            /** @description invalid input: field paths and reasons */
+            /** @description invalid input: field paths and reasons; also refused, beyond this schema: the spec's rules across fields (one value per joint, q_min < q_max, ranged parameters) */
             422: {
                 headers: {
                     [name: string]: unknown;
@@ -12476,7 +12476,7 @@ export interface operations {
                     "application/json": components["schemas"]["ErrorOut"];
                 };
             };
-            /** @description invalid input: field paths and reasons */
+            /** @description invalid input: field paths and reasons; also refused, beyond this schema: a NUL in a key or text below the spec's top level */
             422: {
                 headers: {
                     [name: string]: unknown;
@@ -12652,7 +12652,7 @@ export interface operations {
                     "application/json": components["schemas"]["ErrorOut"];
                 };
             };
-            /** @description invalid input: field paths and reasons */
+            /** @description invalid input: field paths and reasons; also refused, beyond this schema: the spec's rules across fields */
             422: {
                 headers: {
                     [name: string]: unknown;
@@ -12826,7 +12826,7 @@ export interface operations {
                     "application/json": components["schemas"]["ErrorOut"];
                 };
             };
-            /** @description invalid input: field paths and reasons */
+            /** @description invalid input: field paths and reasons; also refused, beyond this schema: the version named must exist; the spec's rules across fields; job limits */
             422: {
                 headers: {
                     [name: string]: unknown;
@@ -12927,7 +12927,7 @@ export interface operations {
                     "application/json": components["schemas"]["ErrorOut"];
                 };
             };
-            /** @description invalid input: field paths and reasons */
+            /** @description invalid input: field paths and reasons; also refused, beyond this schema: the spec's rules across fields */
             422: {
                 headers: {
                     [name: string]: unknown;
