@@ -72,9 +72,18 @@ def frames(lines: Iterator[str]) -> Iterator[dict]:
             frame[key] = json.loads(value) if key == "data" else value
 
 
-def later(delay: float, *work: Callable[[], object]) -> threading.Thread:
+def once_listening(*work: Callable[[], object]) -> threading.Thread:
+    """Run ``work`` on a thread as soon as the next stream of this process has subscribed: a
+    first connection gets the events committed after it subscribed, so adding them earlier would
+    race the request."""
+    from alcove.campaigns import live
+
+    before = live.subscriptions()
+
     def run() -> None:
-        time.sleep(delay)
+        deadline = time.monotonic() + 30
+        while live.subscriptions() <= before and time.monotonic() < deadline:
+            time.sleep(0.01)
         for w in work:
             w()
 
@@ -87,8 +96,7 @@ def test_a_campaign_stream_sends_new_events_as_they_are_committed_and_ends_when_
     client, owner: Account, running: Callable[[], int]
 ) -> None:
     cid = running()
-    t = later(
-        0.5,
+    t = once_listening(
         lambda: add_event(cid, "step_started"),
         lambda: add_event(cid, "step_succeeded"),
         lambda: add_event(cid, "status", to="completed"),
@@ -162,7 +170,7 @@ def test_the_list_stream_sends_events_of_visible_campaigns_only(
     def new_campaign() -> None:
         made.append(running())
 
-    t = later(0.5, lambda: add_event(theirs), lambda: add_event(shared), new_campaign)
+    t = once_listening(lambda: add_event(theirs), lambda: add_event(shared), new_campaign)
     seen: list[tuple[str, int]] = []
     with client.stream("GET", f"{API}/campaigns/events/stream", params={"timeout": 4}, headers=other.headers) as r:
         for f in frames(r.iter_lines()):
@@ -172,7 +180,7 @@ def test_the_list_stream_sends_events_of_visible_campaigns_only(
     assert ("step_succeeded", shared) in seen
     assert not [c for _, c in seen if c in (theirs, mine_before, *made)]
     # the owner's list stream sees the campaign created while it is open
-    t = later(0.5, new_campaign)
+    t = once_listening(new_campaign)
     with client.stream("GET", f"{API}/campaigns/events/stream", params={"timeout": 3}, headers=owner.headers) as r:
         ids = {f["data"]["campaign_id"] for f in frames(r.iter_lines()) if f["event"] != "ready"}
     t.join()
@@ -204,7 +212,7 @@ def test_an_event_committed_late_with_a_smaller_id_is_still_delivered(
         slow_tx.commit()
         add_event(cid, "status", to="completed")
 
-    t = later(0.5, fast_then_slow)
+    t = once_listening(fast_then_slow)
     with client.stream(
         "GET", f"{API}/campaigns/{cid}/events/stream", params={"timeout": 30}, headers=owner.headers
     ) as r:
@@ -242,8 +250,13 @@ def test_many_viewers_of_one_campaign_cost_one_query_per_poll(app, owner: Accoun
                 return kinds
 
             tasks = [asyncio.create_task(viewer()) for _ in range(20)]
-            await asyncio.sleep(1.0)
+            # a first connection gets the events committed after it subscribed: add them only once
+            # all 20 have (the ASGI transport hands over a stream's lines only when it ends)
             hub = live.current_hub()
+            deadline = time.monotonic() + 30
+            while hub.listeners < 20 and time.monotonic() < deadline:
+                await asyncio.sleep(0.02)
+            assert hub.listeners == 20, hub.listeners
             polls_before, t0 = hub.polls, time.monotonic()
             await asyncio.to_thread(add_event, cid, "step_started")
             await asyncio.sleep(2.0)

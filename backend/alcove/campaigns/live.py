@@ -85,6 +85,7 @@ class EventHub:
         self._gaps: dict[int, float] = {}  # missing id -> monotonic time it was first missed
         self._lock = asyncio.Lock()
         self.polls = 0  # for tests and the bench
+        self.subscriptions = 0  # every subscription so far (for tests)
 
     async def subscribe(self, campaign_id: int | None) -> Subscription:
         """A new subscription. Every event committed after this returns is delivered (the
@@ -94,6 +95,7 @@ class EventHub:
                 self._cursor = await asyncio.to_thread(self._last_id)
             sub = Subscription(campaign_id)
             self._subs.add(sub)
+            self.subscriptions += 1
             if self._task is None or self._task.done():
                 self._task = asyncio.get_running_loop().create_task(self._run(), name="alcove-event-hub")
             return sub
@@ -146,8 +148,18 @@ class EventHub:
         """The id of the last event read (None while nobody listens)."""
         return self._cursor
 
+    @property
+    def listeners(self) -> int:
+        """Open subscriptions (streams) of this process."""
+        return len(self._subs)
+
 
 _HUBS: weakref.WeakKeyDictionary[asyncio.AbstractEventLoop, EventHub] = weakref.WeakKeyDictionary()
+
+
+def subscriptions() -> int:
+    """Streams subscribed so far in this process, over its event loops' hubs."""
+    return sum(hub.subscriptions for hub in list(_HUBS.values()))
 
 
 def current_hub() -> EventHub:
