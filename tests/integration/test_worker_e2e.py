@@ -134,7 +134,7 @@ def test_alcove_up_embedded(tmp_path: Path) -> None:
         wait_until(lambda: '"GET /api/v1/health HTTP/1.1" 200' in up.output(), 10, "the access log line", up)
         ready = wait_until(lambda: http_ok(f"{base}/api/v1/health/ready"), 60, "readiness", up).json()
         assert ready["database"]["ok"] and ready["broker"]["ok"] and ready["workers_seen"] == 1
-        assert set(ready["queues_served"]) == {"default", "ocp", "oracle", "train"}
+        assert set(ready["queues_served"]) == {"default", "ocp", "oracle", "train", "artifacts"}
         got = smoke(env)
         assert got["ok"]
         url = f"sqlite:///{tmp_path / 'data' / 'alcove.db'}"
