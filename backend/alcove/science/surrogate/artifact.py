@@ -8,7 +8,9 @@
     iteration, pool version, parent model version, ...).
     Format 2: ``networks`` and ``normalization`` are ensemble member 0; ``members`` lists
     members 1 .. K-1 with their own ``networks`` and ``normalization`` (format 1, one model,
-    is still read, as an ensemble of 1).
+    is still read, as an ensemble of 1). A net of blocks (``normal_force: "own"``,
+    :class:`.mlp.MLP`) also lists its ``blocks`` (output indices) and ``block_inputs``; its
+    layers are ordinary dense layers whose weights between blocks are zero (checked on loading).
     ``architecture``: ``paper`` or ``gated`` (the config's), and for ``gated`` the ``gate``
     parameters and the head profile the gap is measured from (:mod:`.gated`; informative: the
     gate is rebuilt from the config and the preset on loading, and a mismatch is an error).
