@@ -315,8 +315,7 @@ def test_a_worker_killed_in_one_of_three_oracle_jobs_costs_that_job_only(
     SIGKILLed: the other worker replays pick 1 again (attempt 2) once the dead worker's heartbeat is
     stale, picks 0 and 2 keep their first and only run, and the fan-in appends the three datasets
     as one pool version. Duplicate messages of every finished step then change nothing."""
-    from alcove.campaigns.schemas import StepJob
-    from alcove.jobs.campaign import enqueue
+    from alcove.jobs.campaign import StepJob, enqueue
 
     cid = start(make_campaign, 31, {"oracle": {"sleep_s": 4, "sleep_attempts": 1, "slots": [1]}})
     # a dead worker is noticed after 4 s (production: 10 s): still the heartbeat, never the 120 s lease

@@ -20,8 +20,8 @@ from sqlalchemy.orm import Session
 
 from alcove.campaigns import fan
 from alcove.campaigns import repository as repo
-from alcove.campaigns.schemas import StepJob
 from alcove.campaigns.state_machine import StepRef
+from alcove.jobs.campaign import StepJob
 from alcove.models import Campaign, CampaignStatus, StepName, StepStatus
 from alcove.users import repository as users_repo
 from alcove.users.limits import limits_of_id

@@ -34,12 +34,12 @@ from sqlalchemy.orm import Session
 
 from alcove.campaigns import admission, transitions
 from alcove.campaigns import repository as repo
-from alcove.campaigns.schemas import CampaignConfig, StepJob
+from alcove.campaigns.schemas import CampaignConfig
 from alcove.campaigns.state_machine import Outcome, StepRef
 from alcove.campaigns.step_context import StepContext
 from alcove.campaigns.steps import STEPS
 from alcove.db import transaction
-from alcove.jobs.campaign import send_committed, stage
+from alcove.jobs.campaign import StepJob, send_committed, stage
 from alcove.jobs.faults import fault_for
 from alcove.jobs.steps import (
     FailedAttempt,

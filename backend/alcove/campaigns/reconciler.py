@@ -29,8 +29,8 @@ from sqlalchemy.orm import Session
 
 from alcove.campaigns import admission, transitions
 from alcove.campaigns import repository as repo
-from alcove.campaigns.schemas import StepJob
 from alcove.campaigns.state_machine import Outcome, StepRef
+from alcove.jobs.campaign import StepJob
 from alcove.models import Campaign, StepName, StepStatus, utcnow
 from alcove.settings import get_settings
 

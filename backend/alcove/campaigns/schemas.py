@@ -45,18 +45,6 @@ class _Read(BaseModel):
     model_config = ConfigDict(from_attributes=True)
 
 
-class StepJob(BaseModel):
-    """A Celery message to send after commit: run ``step`` of ``iteration`` (attempt n)."""
-
-    model_config = ConfigDict(frozen=True)
-
-    campaign_id: int
-    iteration: int
-    step: StepName
-    attempt: int
-    slot: int = 0
-
-
 class CampaignRead(_Read):
     id: int
     owner_id: int
@@ -374,7 +362,6 @@ __all__ = [
     "PreliminaryConfig",
     "RetryIn",
     "RunSettings",
-    "StepJob",
     "StepRead",
     "StoppingRules",
     "TrajectoryPhase",

@@ -19,7 +19,7 @@ from sqlalchemy.orm import Session
 from alcove.campaigns import fan
 from alcove.campaigns import repository as repo
 from alcove.campaigns.draft import strategy_error, suite_error
-from alcove.campaigns.schemas import CampaignConfig, CampaignConfigUpdate, CampaignCreate, ForkRequest, StepJob
+from alcove.campaigns.schemas import CampaignConfig, CampaignConfigUpdate, CampaignCreate, ForkRequest
 from alcove.campaigns.sizes import check_campaign_sizes
 from alcove.campaigns.state_machine import (
     Cancel,
@@ -40,6 +40,7 @@ from alcove.campaigns.transitions import (
     state_of,
 )
 from alcove.errors import Conflict, InvalidInput, NotFound
+from alcove.jobs.campaign import StepJob
 from alcove.models import (
     Campaign,
     CampaignConfigVersion,

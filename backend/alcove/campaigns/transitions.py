@@ -16,9 +16,9 @@ from alcove.campaigns import admission
 from alcove.campaigns import repository as repo
 from alcove.campaigns.config import config_from_version
 from alcove.campaigns.fan import fan_state
-from alcove.campaigns.schemas import CampaignConfig, StepJob
+from alcove.campaigns.schemas import CampaignConfig
 from alcove.campaigns.state_machine import Decision, Outcome, State, StepFinished, StepRef, transition
-from alcove.jobs.campaign import step_queue
+from alcove.jobs.campaign import StepJob, step_queue
 from alcove.models import (
     Campaign,
     CampaignConfigVersion,

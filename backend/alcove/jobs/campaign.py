@@ -12,7 +12,10 @@ import logging
 from collections.abc import Iterable
 from typing import TYPE_CHECKING, Any
 
+from pydantic import BaseModel, ConfigDict
+
 from alcove.jobs import queue_for, send_job
+from alcove.models import StepName
 
 if TYPE_CHECKING:
     from celery import Celery
@@ -31,6 +34,18 @@ STEP_JOBS: dict[str, str] = {
 RECONCILE_JOB = "alcove.default.reconcile"
 
 
+class StepJob(BaseModel):
+    """A step message to send after commit: run ``step`` of ``iteration`` (attempt n, slot j)."""
+
+    model_config = ConfigDict(frozen=True)
+
+    campaign_id: int
+    iteration: int
+    step: StepName
+    attempt: int
+    slot: int = 0
+
+
 def step_queue(step: str) -> str:
     return queue_for(STEP_JOBS[step])
 
@@ -40,45 +55,42 @@ def step_message_id(campaign_id: int, iteration: int, step: str, attempt: int, s
     return f"c{campaign_id}-k{iteration}-{step}" + (f"-s{slot}" if slot else "") + f"-a{attempt}"
 
 
-def _args(j: Any, step: str) -> tuple[Any, ...]:
+def _args(j: StepJob) -> tuple[Any, ...]:
     """The message: (campaign id, iteration, step, attempt[, slot]) (slot only when not 0)."""
-    slot = int(getattr(j, "slot", 0))
-    return (j.campaign_id, j.iteration, step, j.attempt, *((slot,) if slot else ()))
+    return (j.campaign_id, j.iteration, j.step.value, j.attempt, *((j.slot,) if j.slot else ()))
 
 
-def enqueue(jobs: Iterable[Any], app: Celery | None = None) -> list[str]:
-    """Send step jobs (objects with campaign_id, iteration, step, attempt) directly, without
-    the outbox (tests: an extra or duplicate message). The application records its jobs
-    with :func:`stage` and sends them with :func:`send_committed`."""
+def enqueue(jobs: Iterable[StepJob], app: Celery | None = None) -> list[str]:
+    """Send step jobs directly, without the outbox (tests: an extra or duplicate message). The
+    application records its jobs with :func:`stage` and sends them with :func:`send_committed`."""
     ids = []
     for j in jobs:
-        step = getattr(j.step, "value", j.step)
+        step = j.step.value
         ids.append(
             send_job(
                 STEP_JOBS[step],
-                *_args(j, step),
-                task_id=f"{step_message_id(*_args(j, step))}-{_nonce()}",
+                *_args(j),
+                task_id=f"{step_message_id(*_args(j))}-{_nonce()}",
                 app=app,
             )
         )
     return ids
 
 
-def stage(session: Session, jobs: Iterable[Any]) -> list[int]:
+def stage(session: Session, jobs: Iterable[StepJob]) -> list[int]:
     """Record step jobs in the outbox, in the caller's transaction (the one that made them
     necessary); returns the outbox ids for :func:`send_committed` after the commit."""
     from alcove.jobs import outbox
 
     ids = []
     for j in jobs:
-        step = getattr(j.step, "value", j.step)
-        key = step_message_id(*_args(j, step))
-        slot = int(getattr(j, "slot", 0))
+        step = j.step.value
+        key = step_message_id(*_args(j))
         row = outbox.record(
             session,
             STEP_JOBS[step],
-            _args(j, step),
-            subject=f"campaign/{j.campaign_id}/k{j.iteration}/{step}" + (f"/{slot}" if slot else ""),
+            _args(j),
+            subject=f"campaign/{j.campaign_id}/k{j.iteration}/{step}" + (f"/{j.slot}" if j.slot else ""),
             message_id=f"{key}-{_nonce()}",
         )
         ids.append(row.id)
