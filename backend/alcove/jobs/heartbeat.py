@@ -11,7 +11,7 @@ import logging
 import os
 import socket
 import threading
-from datetime import timedelta
+from datetime import UTC, timedelta
 from typing import Any
 
 import sqlalchemy as sa
@@ -103,3 +103,24 @@ class HeartbeatThread(threading.Thread):
             mark_stopped(self.worker_name)
         except Exception:
             log.exception("could not mark %s stopped", self.worker_name)
+
+
+def dead_worker_reason(session: sa.orm.Session, name: str | None) -> str | None:
+    """Why the worker ``name`` is dead (it shut down, or its heartbeat is older than
+    ``ALCOVE_WORKER_DEAD_SECONDS``), or None while it beats or has no heartbeat row (a worker
+    that never beat). A slow worker keeps beating from its main process however long its job
+    computes, so a long job is never called dead here."""
+    from alcove.settings import get_settings
+
+    hb = session.scalar(sa.select(WorkerHeartbeat).where(WorkerHeartbeat.name == name)) if name else None
+    if hb is None:
+        return None
+    if hb.stopped_at is not None:
+        return "shut down before finishing it"
+    dead_s = get_settings().worker_dead_seconds
+    seen = (
+        hb.last_seen_at if hb.last_seen_at.tzinfo is not None else hb.last_seen_at.replace(tzinfo=UTC)
+    )  # SQLite: naive UTC
+    if seen < utcnow() - timedelta(seconds=dead_s):
+        return f"stopped beating (no heartbeat for more than {dead_s:g} s)"
+    return None

@@ -20,6 +20,7 @@ from sqlalchemy.orm import Session
 
 from alcove.errors import InvalidInput, NotFound, TooManyRequests
 from alcove.jobs import outbox
+from alcove.jobs.heartbeat import dead_worker_reason
 from alcove.models import (
     OracleDefinition,
     Preview,
@@ -27,10 +28,8 @@ from alcove.models import (
     PreviewStatus,
     TaskDefinition,
     User,
-    WorkerHeartbeat,
     utcnow,
 )
-from alcove.settings import get_settings
 from alcove.users.access import get_for
 from alcove.users.limits import check_sizes
 from alcove.versioning import ORACLES, TASKS, D, Kind, V
@@ -235,24 +234,6 @@ def list_for(session: Session, user: User, limit: int) -> list[Preview]:
     return rows
 
 
-def _dead_worker(session: Session, name: str | None) -> str | None:
-    """Why the worker ``name`` is dead (it shut down, or its heartbeat is older than
-    ``ALCOVE_WORKER_DEAD_SECONDS``), or None while it beats or has no heartbeat row (a worker
-    that never beat: only :data:`STALE_AFTER` applies). A slow worker keeps beating from its
-    main process however long a preview computes, so its preview is never failed here."""
-    if not name:
-        return None
-    hb = session.scalar(sa.select(WorkerHeartbeat).where(WorkerHeartbeat.name == name))
-    if hb is None:
-        return None
-    if hb.stopped_at is not None:
-        return "shut down before finishing it"
-    dead_s = get_settings().worker_dead_seconds
-    if _aware(hb.last_seen_at) < utcnow() - timedelta(seconds=dead_s):
-        return f"stopped beating (no heartbeat for more than {dead_s:g} s)"
-    return None
-
-
 def _fail_if_stale(session: Session, row: Preview) -> None:
     """A preview no worker took (or whose worker died) within :data:`STALE_AFTER` is marked
     failed when it is read, with the reason, instead of staying "pending" for ever. The
@@ -262,7 +243,7 @@ def _fail_if_stale(session: Session, row: Preview) -> None:
     if row.status not in active:
         return
     running = row.status == PreviewStatus.running.value
-    dead = _dead_worker(session, row.worker_name) if running else None
+    dead = dead_worker_reason(session, row.worker_name) if running else None
     if dead is not None:
         error = f"the worker running it ({row.worker_name}) {dead}. Ask for a new preview."
     else:

@@ -19,7 +19,8 @@ from sqlalchemy.orm import Session
 from alcove.api.artifacts_folder import require_writable
 from alcove.errors import NotFound
 from alcove.jobs import outbox
-from alcove.models import ArtifactBuild, ArtifactBuildStatus, Campaign, ModelVersion, User, WorkerHeartbeat, utcnow
+from alcove.jobs.heartbeat import dead_worker_reason
+from alcove.models import ArtifactBuild, ArtifactBuildStatus, Campaign, ModelVersion, User, utcnow
 from alcove.settings import get_settings
 from alcove.surrogates.artifact_export import BUILD_TIMEOUT_S, missing_zips, zip_path, zips_dir
 from alcove.surrogates.schemas import ArtifactBuildRead
@@ -120,19 +121,6 @@ def get(session: Session, user: User, campaign_id: int, build_id: int) -> Artifa
 def _aware(moment: Any) -> Any:
     """SQLite hands back naive datetimes (stored in UTC)."""
     return moment if moment.tzinfo is not None else moment.replace(tzinfo=UTC)
-
-
-def dead_worker_reason(session: Session, name: str | None) -> str | None:
-    """Why the worker ``name`` is gone (shut down, or no heartbeat for ``ALCOVE_WORKER_DEAD_SECONDS``)."""
-    hb = session.scalar(sa.select(WorkerHeartbeat).where(WorkerHeartbeat.name == name)) if name else None
-    if hb is None:
-        return None
-    if hb.stopped_at is not None:
-        return "shut down before finishing it"
-    dead_s = get_settings().worker_dead_seconds
-    if _aware(hb.last_seen_at) < utcnow() - timedelta(seconds=dead_s):
-        return f"stopped beating (no heartbeat for more than {dead_s:g} s)"
-    return None
 
 
 def stale_reason(session: Session, row: ArtifactBuild) -> str | None:
