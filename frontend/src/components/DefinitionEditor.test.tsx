@@ -5,6 +5,26 @@ import { DefinitionEditor } from "./DefinitionEditor";
 import { noErrors } from "../lib/formErrors";
 import { jsonResponse, mockApi, renderPage } from "../test/utils";
 
+/** The editor shell of oracle 3 as the oracle page renders it (name "aux", no field errors). */
+function renderOracleEditor(existing: { id: number; version: number; version_locked: boolean; can_edit: boolean }) {
+  renderPage(
+    <DefinitionEditor
+      kind="oracle"
+      noun="oracle"
+      existing={existing}
+      name="aux"
+      setName={() => {}}
+      description=""
+      setDescription={() => {}}
+      errors={noErrors}
+      saving={false}
+      onSave={() => {}}
+    >
+      <p>parameters</p>
+    </DefinitionEditor>,
+  );
+}
+
 describe("definition editor shell (tasks and oracles)", () => {
   it("saves a used version as a new one, lists the versions and shares", async () => {
     let shares: { id: number; email: string; permission: string }[] = [];
@@ -19,22 +39,7 @@ describe("definition editor shell (tasks and oracles)", () => {
         return jsonResponse({ ...shares[0], object_type: "oracle", object_id: 3, created_at: "" }, 201);
       },
     });
-    renderPage(
-      <DefinitionEditor
-        kind="oracle"
-        noun="oracle"
-        existing={{ id: 3, version: 2, version_locked: true, can_edit: true }}
-        name="aux"
-        setName={() => {}}
-        description=""
-        setDescription={() => {}}
-        errors={noErrors}
-        saving={false}
-        onSave={() => {}}
-      >
-        <p>parameters</p>
-      </DefinitionEditor>,
-    );
+    renderOracleEditor({ id: 3, version: 2, version_locked: true, can_edit: true });
     expect(screen.getByRole("button", { name: "Save as version 3" })).toBeEnabled();
     const history = await screen.findByTestId("version-history");
     expect(history).toHaveTextContent("stiffer");
@@ -67,22 +72,7 @@ describe("definition editor shell (tasks and oracles)", () => {
         return jsonResponse({ ...shares[0], object_type: "oracle", object_id: 3, created_at: "" }, 201);
       },
     });
-    renderPage(
-      <DefinitionEditor
-        kind="oracle"
-        noun="oracle"
-        existing={{ id: 3, version: 1, version_locked: false, can_edit: true }}
-        name="aux"
-        setName={() => {}}
-        description=""
-        setDescription={() => {}}
-        errors={noErrors}
-        saving={false}
-        onSave={() => {}}
-      >
-        <p>parameters</p>
-      </DefinitionEditor>,
-    );
+    renderOracleEditor({ id: 3, version: 1, version_locked: false, can_edit: true });
     await waitFor(() => expect(lists).toBe(1));
     await userEvent.type(screen.getByLabelText("Share with"), "bo@lab");
     const share = userEvent.click(screen.getByRole("button", { name: "Share" }));

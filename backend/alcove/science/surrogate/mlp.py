@@ -151,8 +151,8 @@ class MLP(nn.Module):
         return (
             self.hidden == other.hidden
             and self.activation == other.activation
-            and self.blocks == getattr(other, "blocks", ())
-            and self.block_inputs == getattr(other, "block_inputs", ())
+            and self.blocks == other.blocks
+            and self.block_inputs == other.block_inputs
         )
 
 
