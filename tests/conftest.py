@@ -373,6 +373,32 @@ def sqlite_url(tmp_path_factory: pytest.TempPathFactory) -> str:
     return url
 
 
+@pytest.fixture(scope="session")
+def _migrated_sqlite_template(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """A migrated SQLite file that no test writes to; ``private_sqlite_url`` copies it."""
+    from alcove.db import migrate
+
+    path = tmp_path_factory.mktemp("sqlite-template") / "alcove.db"
+    migrate.upgrade(f"sqlite:///{path}")
+    return path
+
+
+@pytest.fixture
+def private_sqlite_url(_migrated_sqlite_template: Path, tmp_path: Path) -> str:
+    """URL of a migrated SQLite file private to this test, for what must hold of a database that
+    other tests never touched (no worker heartbeat, no campaign): the session's ``sqlite_url`` is
+    shared by every test of one test process, which leave rows behind."""
+    import sqlite3
+
+    path = tmp_path / "private.db"
+    with (
+        contextlib.closing(sqlite3.connect(_migrated_sqlite_template)) as src,
+        contextlib.closing(sqlite3.connect(path)) as dst,
+    ):
+        src.backup(dst)
+    return f"sqlite:///{path}"
+
+
 def _rollback_session(url: str) -> Iterator[Session]:
     from alcove.db import make_engine
 

@@ -18,9 +18,10 @@ LOCAL = ("127.0.0.1", 50000)
 
 
 @pytest.fixture
-def settings(tmp_path: Path, sqlite_url: str, monkeypatch: pytest.MonkeyPatch) -> Settings:
+def settings(tmp_path: Path, private_sqlite_url: str, monkeypatch: pytest.MonkeyPatch) -> Settings:
+    """A database of this test alone: readiness counts the heartbeat rows other tests leave."""
     monkeypatch.setenv("ALCOVE_DATA_DIR", str(tmp_path))
-    monkeypatch.setenv("ALCOVE_DATABASE_URL", sqlite_url)
+    monkeypatch.setenv("ALCOVE_DATABASE_URL", private_sqlite_url)
     monkeypatch.setenv("ALCOVE_HEALTH_DETAILS_NETWORKS", "127.0.0.1")  # the readiness details for LOCAL
     from alcove.settings import get_settings
 
