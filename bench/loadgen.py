@@ -12,6 +12,7 @@ import asyncio
 import json
 import os
 import re
+import shutil
 import statistics
 import subprocess
 import tempfile
@@ -60,33 +61,60 @@ def wrk(url: str, headers: dict[str, str], *, clients: int, seconds: float) -> d
 
 
 async def httpx_load(
-    root: str, headers: dict[str, str], path: str, *, clients: int, requests_per_client: int
+    root: str,
+    headers: dict[str, str],
+    path: str,
+    *,
+    clients: int,
+    requests_per_client: int | None = None,
+    seconds: float | None = None,
 ) -> dict[str, Any]:
-    """``clients`` concurrent httpx clients, each sending ``requests_per_client`` GETs one after the other."""
+    """``clients`` concurrent httpx clients, each sending GETs one after the other: ``requests_per_client``
+    each, or as many as fit in ``seconds``."""
     import httpx
 
+    if (requests_per_client is None) == (seconds is None):
+        raise ValueError("give requests_per_client or seconds")
     limits = httpx.Limits(max_connections=clients, max_keepalive_connections=clients)
     async with httpx.AsyncClient(base_url=root, headers=headers, limits=limits, timeout=30) as client:
         latencies: list[float] = []
+        t0 = time.perf_counter()
+        deadline = t0 + seconds if seconds is not None else None
 
         async def one_client() -> None:
-            for _ in range(requests_per_client):
-                t0 = time.perf_counter()
+            sent = 0
+            while (deadline is None and sent < (requests_per_client or 0)) or (
+                deadline is not None and time.perf_counter() < deadline
+            ):
+                start = time.perf_counter()
                 resp = await client.get(path)
-                latencies.append((time.perf_counter() - t0) * 1e3)
+                latencies.append((time.perf_counter() - start) * 1e3)
+                sent += 1
                 if resp.status_code >= 400:
                     resp.raise_for_status()
 
-        t0 = time.perf_counter()
         await asyncio.gather(*(one_client() for _ in range(clients)))
-        seconds = time.perf_counter() - t0
+        elapsed = time.perf_counter() - t0
     return {
         "p50": _quantile(latencies, 50),
         "p95": _quantile(latencies, 95),
         "p99": _quantile(latencies, 99),
         "requests": len(latencies),
-        "seconds": seconds,
+        "seconds": elapsed,
     }
+
+
+def closed_loop(root: str, headers: dict[str, str], path: str, *, clients: int, seconds: float) -> dict[str, Any]:
+    """``seconds`` of closed-loop GETs of ``root + path`` from ``clients`` connections: by ``wrk`` where it
+    is installed, else by :func:`httpx_load` for as long (in Python on the same cores: pessimistic)."""
+    if load_tool() == "wrk":
+        return wrk(root + path, headers, clients=clients, seconds=seconds)
+    return asyncio.run(httpx_load(root, headers, path, clients=clients, seconds=seconds))
+
+
+def load_tool() -> str:
+    """``"wrk"`` where it is installed, else ``"httpx"``."""
+    return "wrk" if shutil.which("wrk") else "httpx"
 
 
 def _quantile(values: list[float], q: float) -> float:

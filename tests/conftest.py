@@ -468,7 +468,7 @@ def redis_url() -> str:
 
 @pytest.fixture(scope="session")
 def ghost_case() -> tuple[Any, list[Any]]:
-    """The ghost-force ensemble of issue 16 and its honest pool (tests/ghost_case.py; ~25 s to train)."""
+    """The ghost-force ensemble and its honest pool (tests/ghost_case.py; ~25 s to train)."""
     from alcove.science.geometry import DEFAULT_PRESET
     from tests.ghost_case import ghost_ensemble
 

@@ -1,4 +1,4 @@
-"""The ghost-force case of issue 16, built reproducibly.
+"""The ghost-force case (an ensemble whose members disagree about a force out of contact), built reproducibly.
 
 An ensemble of K = 4: two members trained on the auxiliary penalty model's preliminary data
 (honest: zero force while the head is clear of the cushion), two trained on the same states

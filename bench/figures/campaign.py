@@ -285,7 +285,7 @@ def short_campaign_wall(_: Any) -> float:
     quick_reps=1,
     quick=False,
     group="campaign",
-    notes="issue 16: <= 20 min with the default ensemble of 5 (6.8 min with K = 1 before ensembles); the paper's "
+    notes="target <= 20 min with the default ensemble of 5 (6.8 min with K = 1); the paper's "
     "final RMSE: force 3.32 N, moment 0.265 N m (its FE runs alone took about 10 h)",
 )
 def paper_campaign(_: Any) -> float:
@@ -300,7 +300,7 @@ def paper_campaign(_: Any) -> float:
     return float(run["wall_time_s"]) / 60.0
 
 
-# ----------------------------------------------------------------------------- batches (issue 17)
+# ----------------------------------------------------------------------------- batches
 
 BATCH_Q = 4
 

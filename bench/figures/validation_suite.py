@@ -35,7 +35,7 @@ def _setup() -> tuple[Any, Any]:
     quick_reps=1,
     quick=False,
     group="oracle",
-    notes="default suite spec (8 motions, seed 0) and oracle mesh; no target (issue 16 sets none)",
+    notes="default suite spec (8 motions, seed 0) and oracle mesh; no target",
 )
 def validation_suite_replay(ctx: Any) -> float:
     oracle, motions = ctx

@@ -181,7 +181,7 @@ def part_campaign(rep: Report, iterations: int, oracle: str) -> CampaignRun:
     rep.add(
         s,
         "campaign wall time",
-        "about 10 h of FE runs alone (alcove issue 6 target: <= 30 min for 200 iterations)",
+        "about 10 h of FE runs alone (alcove's target: <= 30 min for 200 iterations)",
         run.wall / 60.0,
         "min",
         f"{iterations} iterations and the preliminary step; {rep.timings_note}",
@@ -200,7 +200,7 @@ def part_campaign(rep: Report, iterations: int, oracle: str) -> CampaignRun:
         rep.add(
             s,
             "orchestration share of the iteration wall time (median over the iterations after the first)",
-            "n/a (alcove issue 6 target: <= 5 %)",
+            "n/a (alcove's target: <= 5 %)",
             b["share"],
             "%",
             "queue latency + job wall - bare compute, summed over an iteration's steps; "

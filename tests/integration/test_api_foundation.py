@@ -135,7 +135,7 @@ def test_api_process_does_not_import_torch_or_casadi() -> None:
         "from alcove.db import get_engine\n"
         "import alcove.models\n"
         "create_app(); celery_config()\n"
-        # the API validates with the science package's pydantic schemas (issue 7), but never
+        # the API validates with the science package's pydantic schemas, but never
         # imports the heavy libraries or the worker
         "bad = sorted(m for m in ('torch', 'casadi', 'skfem', 'alcove_worker') if m in sys.modules)\n"
         "assert not bad, bad\n"
