@@ -41,7 +41,7 @@ def run_reference(
     """The line for ``seed`` as a result row of ``bench.strategies`` (strategy ``best-possible``),
     with the surrogate configuration ``surrogate`` (default: alcove's)."""
     from alcove.campaigns.config import RunSettings
-    from alcove.campaigns.validation import suite_model, suite_spec
+    from alcove.campaigns.suite import suite_model, suite_spec
     from alcove.science.ocp.task_spec import task_preset
     from alcove.science.oracles.registry import build_oracle
     from alcove.science.press_family import sequence_motion

@@ -83,8 +83,8 @@ def imported_modules(path: Path, module: str) -> list[str]:
             else:
                 target = node.module or ""
             out.append(target)
-            if target == "alcove":  # from alcove import versioning
-                out += [f"alcove.{a.name}" for a in node.names]
+            # from alcove import versioning; from alcove.campaigns import service
+            out += [f"{target}.{a.name}" for a in node.names]
     return out
 
 
@@ -180,14 +180,47 @@ def test_the_documented_import_tables_are_the_measured_ones() -> None:
         assert not wrong, f"docs/architecture.md, {heading!r}, disagrees with the code:\n" + "\n".join(wrong)
 
 
+def campaign_modules() -> list[str]:
+    """The campaign domain's modules as paths inside ``campaigns/`` (``service.py``, ``run/steps.py``)."""
+    root = PACKAGE / "campaigns"
+    return [p.relative_to(root).as_posix() for p in sorted(root.rglob("*.py")) if p.name != "__init__.py"]
+
+
 def test_every_campaign_module_is_on_the_architecture_page() -> None:
     text = ARCHITECTURE.read_text()
-    missing = [
-        p.name
-        for p in sorted((PACKAGE / "campaigns").glob("*.py"))
-        if p.name != "__init__.py" and f"`{p.name}`" not in text
-    ]
+    missing = [name for name in campaign_modules() if f"`{name}`" not in text]
     assert not missing, f"say what these do in docs/architecture.md's campaign table: {missing}"
+
+
+#: The campaign domain's wings (``campaigns/<wing>/``) and what each may import of the domain
+#: besides itself: the modules at its root that every wing reads (BASE) and the wings listed here.
+#: ``run`` (in a worker) and ``views`` (what the API reads) never import each other, nor does a
+#: wing import the lifecycle at the root (service, router, schemas, draft, ...).
+CAMPAIGN_BASE = {"config", "repository", "candidate_queries", "suite"}
+CAMPAIGN_WINGS: dict[str, set[str]] = {"machine": set(), "run": {"machine"}, "views": {"machine"}}
+
+
+def test_campaign_wings_import_only_the_base_and_the_wings_below() -> None:
+    root = PACKAGE / "campaigns"
+    wrong = []
+    for path in sorted(root.rglob("*.py")):
+        rel = path.relative_to(root).with_suffix("")
+        part = rel.parts[0] if len(rel.parts) > 1 else None  # the wing, or None at the root
+        module = "alcove.campaigns." + ".".join(rel.parts[:-1] if rel.name == "__init__" else rel.parts)
+        if part is None and rel.name not in CAMPAIGN_BASE:
+            continue  # the lifecycle may import anything of its domain
+        allowed = CAMPAIGN_BASE | ({part} | CAMPAIGN_WINGS[part] if part else set())
+        for target in imported_modules(path, module):
+            inside = unit_of(target, ("alcove", "campaigns"))
+            if inside is not None and inside not in allowed:
+                wrong.append(f"{path.relative_to(REPO)} imports {target}")
+    assert not wrong, "the campaign wings import only the base and the wings below them:\n" + "\n".join(wrong)
+
+
+def test_run_and_views_never_import_each_other() -> None:
+    edges = unit_imports(("alcove", "campaigns"))
+    assert ("run", "views") not in edges, edges.get(("run", "views"))
+    assert ("views", "run") not in edges, edges.get(("views", "run"))
 
 
 def test_the_lower_domains_never_import_campaigns() -> None:

@@ -77,8 +77,7 @@ def test_0004_drops_fault_injection_from_stored_run_settings(tmp_path) -> None:
     from sqlalchemy.orm import Session
 
     from alcove.campaigns import presets, service
-    from alcove.campaigns.schemas import RunSettings
-    from alcove.campaigns.transitions import config_from_version
+    from alcove.campaigns.config import RunSettings, config_from_version
     from alcove.models import CampaignConfigVersion
 
     url = f"sqlite:///{tmp_path / 'm.db'}"
@@ -119,7 +118,7 @@ def test_0007_converts_stored_rmse_to_the_error_vector_definition(tmp_path) -> N
     from sqlalchemy.orm import Session
 
     from alcove.campaigns import presets, service
-    from alcove.campaigns.schemas import StoppingRules
+    from alcove.campaigns.config import StoppingRules
     from alcove.db.arrays import put_arrays
     from alcove.models import CampaignConfigVersion, Iteration, IterationMetrics
 

@@ -44,9 +44,9 @@ def api_routers() -> list[APIRouter]:
     """All ``/api/v1`` routers, each included into the app directly with the prefix (a
     flat route table: FastAPI matches nested routers noticeably slower). The most polled
     routers come first. Add new routers here."""
-    from alcove.campaigns.live import router as live_router
-    from alcove.campaigns.results_router import router as campaign_results_router
     from alcove.campaigns.router import router as campaigns_router
+    from alcove.campaigns.views.live import router as live_router
+    from alcove.campaigns.views.router import router as campaign_views_router
     from alcove.oracles.router import admin_router as command_oracles_router
     from alcove.oracles.router import router as oracles_router
     from alcove.pool.router import router as pool_versions_router
@@ -59,7 +59,7 @@ def api_routers() -> list[APIRouter]:
     from alcove.users.router import router as users_router
 
     return [
-        campaign_results_router,
+        campaign_views_router,
         campaigns_router,
         live_router,
         pool_versions_router,

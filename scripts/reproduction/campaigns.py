@@ -54,7 +54,7 @@ class Progress:
         self.last = 0.0
 
     def __call__(self, force: bool = False) -> str:
-        from alcove.campaigns import results
+        from alcove.campaigns.views import detail
         from alcove.db import session_scope
 
         now = time.perf_counter()
@@ -62,7 +62,7 @@ class Progress:
             return ""
         self.last = now
         with session_scope() as s:
-            d = results.get_detail(s, self.campaign_id)
+            d = detail.get_detail(s, self.campaign_id)
         c, m = d.campaign, d.latest_metrics
         total = d.config.stopping.max_iterations
         rmse = (
@@ -80,12 +80,12 @@ class Progress:
 
 
 def _wait_for_workers(campaign_id: int, progress: Progress, poll: float = 0.5) -> None:
-    from alcove.campaigns import results
+    from alcove.campaigns.views import detail
     from alcove.db import session_scope
 
     while True:
         with session_scope() as s:
-            status = results.get_campaign(s, campaign_id).status.value
+            status = detail.get_campaign(s, campaign_id).status.value
         if status in ("completed", "cancelled", "failed"):
             return
         proc = WORKER["process"]
@@ -109,8 +109,8 @@ def _wait_for_workers(campaign_id: int, progress: Progress, poll: float = 0.5) -
 
 def _drive(campaign_id: int, jobs: list[Any], label: str, t0: float) -> CampaignRun:
     """Run the campaign's steps to its end: by the spawned Celery worker (default) or in this process."""
-    from alcove.campaigns import results
-    from alcove.campaigns.protocol import run_step
+    from alcove.campaigns.run.protocol import run_step
+    from alcove.campaigns.views import detail
     from alcove.db import session_scope
 
     progress = Progress(campaign_id, label, t0)
@@ -129,19 +129,19 @@ def _drive(campaign_id: int, jobs: list[Any], label: str, t0: float) -> Campaign
     progress(force=True)
     _finish_validation(campaign_id)
     with session_scope() as s:
-        c = results.get_campaign(s, campaign_id)
-        failed = results.get_detail(s, campaign_id).iterations_failed
-        metrics = results.metrics_series(s, campaign_id)
+        c = detail.get_campaign(s, campaign_id)
+        failed = detail.get_detail(s, campaign_id).iterations_failed
+        metrics = detail.metrics_series(s, campaign_id)
         done = [m for m in metrics if m.force_rmse is not None]
-        curves = results.iteration_curves(s, campaign_id, done[-1].iteration_index) if done else None
-        steps = [j for j in results.list_jobs(s, campaign_id, ["succeeded"]) if j["iteration"] > 0]
+        curves = detail.iteration_curves(s, campaign_id, done[-1].iteration_index) if done else None
+        steps = [j for j in detail.list_jobs(s, campaign_id, ["succeeded"]) if j["iteration"] > 0]
     return CampaignRun(campaign_id, label, c.status.value, c.stop_reason, c.error, wall, metrics, curves, failed, steps)
 
 
 def _finish_validation(campaign_id: int) -> None:
     """The held-out validation suite's replays and the evaluation of every model version on it
     (not part of the campaign's wall time): by the worker, or in this process with --inline."""
-    from alcove.campaigns import results
+    from alcove.campaigns.views import detail
     from alcove.db import session_scope
 
     if WORKER:
@@ -154,7 +154,7 @@ def _finish_validation(campaign_id: int) -> None:
     from alcove.surrogates.validation import evaluate_suite
 
     with session_scope() as s:
-        suite = results.get_detail(s, campaign_id).validation
+        suite = detail.get_detail(s, campaign_id).validation
         ids = (
             []
             if suite is None
@@ -250,7 +250,8 @@ def fork_campaign(
 ) -> CampaignRun:
     """Continue from ``iteration`` of ``source`` (its pool version and model), optionally on another task."""
     from alcove.campaigns import presets, service
-    from alcove.campaigns.schemas import ForkRequest, StoppingRules
+    from alcove.campaigns.config import StoppingRules
+    from alcove.campaigns.schemas import ForkRequest
     from alcove.db import transaction
 
     def fork(s: Any) -> tuple[Any, list[Any]]:

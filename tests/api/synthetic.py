@@ -10,8 +10,9 @@ import numpy as np
 from sqlalchemy.orm import Session
 
 from alcove.campaigns import service as campaigns
+from alcove.campaigns.config import StoppingRules
 from alcove.campaigns.presets import oracle_version_for, surrogate_config_version_for, task_version_from_preset
-from alcove.campaigns.schemas import CampaignCreate, StoppingRules
+from alcove.campaigns.schemas import CampaignCreate
 from alcove.db.arrays import put_arrays
 from alcove.models import Campaign, Iteration, IterationMetrics, IterationStep, OcpSolution, utcnow
 from alcove.pool import service as pool_service

@@ -49,7 +49,7 @@ def add_iteration(cid: int, k: int) -> None:
                 curves_sha256=put_arrays(s, curve_arrays(k, 11, np.random.default_rng(k))),
             )
         )
-    from alcove.campaigns.results_router import REVISION_TTL_S
+    from alcove.campaigns.views.router import REVISION_TTL_S
 
     time.sleep(REVISION_TTL_S + 0.05)
 
@@ -201,7 +201,8 @@ def test_list_items_carry_the_eta_of_the_detail(client, owner: Account) -> None:
     """A running campaign with 3 finished iterations of 9 s each and max_iterations 10:
     7 to go x 9 s = 63 s, in the list row and in the detail alike."""
     from alcove.campaigns import service as campaigns
-    from alcove.campaigns.schemas import CampaignConfigUpdate, StoppingRules
+    from alcove.campaigns.config import StoppingRules
+    from alcove.campaigns.schemas import CampaignConfigUpdate
     from alcove.db import session_scope
     from alcove.models import Campaign
 
@@ -334,10 +335,10 @@ def test_polls_with_the_etag_get_a_bodiless_304_until_something_changes(client, 
 def test_the_polled_detail_is_a_304_until_anything_it_shows_changes(client, owner: Account, other: Account) -> None:
     from alcove.campaigns import repository as repo
     from alcove.campaigns import service as campaigns
-    from alcove.campaigns import transitions
+    from alcove.campaigns.machine.apply import complete_step
+    from alcove.campaigns.machine.state_machine import Outcome, StepRef
     from alcove.campaigns.presets import oracle_version_for, surrogate_config_version_for, task_version_from_preset
     from alcove.campaigns.schemas import CampaignCreate
-    from alcove.campaigns.state_machine import Outcome, StepRef
     from alcove.db import session_scope
     from alcove.models import StepName
 
@@ -380,7 +381,7 @@ def test_the_polled_detail_is_a_304_until_anything_it_shows_changes(client, owne
         assert repo.extend_lease(s, step_id, "token", 60.0) == (True, False)
     assert changed()["current"]["steps"][0]["heartbeat_at"] > claimed["heartbeat_at"]
     with session_scope() as s:  # the step completes: iteration 1's training is queued
-        transitions.complete_step(
+        complete_step(
             s,
             repo.get_campaign(s, cid),
             StepRef(0, StepName.preliminary),

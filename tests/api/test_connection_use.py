@@ -65,7 +65,7 @@ def counter(app) -> Iterator[CheckoutCounter]:
 def cold() -> None:
     """Forget every per-process cache a request could be answered from."""
     from alcove.api.caching import RESPONSES
-    from alcove.campaigns.results_router import REVISIONS
+    from alcove.campaigns.views.router import REVISIONS
     from alcove.users.service import TOKENS
 
     with TOKENS._lock:

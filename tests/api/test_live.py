@@ -76,7 +76,7 @@ def once_listening(*work: Callable[[], object]) -> threading.Thread:
     """Run ``work`` on a thread as soon as the next stream of this process has subscribed: a
     first connection gets the events committed after it subscribed, so adding them earlier would
     race the request."""
-    from alcove.campaigns import live
+    from alcove.campaigns.views import live
 
     before = live.subscriptions()
 
@@ -137,7 +137,7 @@ def test_resuming_sends_what_was_missed_then_ready(client, owner: Account, runni
 def test_a_resume_with_more_missed_events_than_the_backlog_holds_says_so(
     client, owner: Account, running: Callable[[], int], monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    from alcove.campaigns import live
+    from alcove.campaigns.views import live
 
     monkeypatch.setattr(live, "BACKLOG_LIMIT", 2)
     cid = running()
@@ -231,7 +231,7 @@ def test_many_viewers_of_one_campaign_cost_one_query_per_poll(app, owner: Accoun
 
     import httpx
 
-    from alcove.campaigns import live
+    from alcove.campaigns.views import live
 
     cid = running()
 

@@ -88,7 +88,7 @@ def test_the_list_stream_drops_an_unshared_campaign_and_ends_when_the_token_is_g
 ) -> None:
     """Re-checking before every send (interval 0) makes the order exact: an event committed
     after the unshare is never sent, one committed after the revocation neither."""
-    from alcove.campaigns import live_access
+    from alcove.campaigns.views import live_access
 
     monkeypatch.setattr(live_access, "RECHECK_S", 0.0, raising=False)
     grantee = make_account("member", "grantee")

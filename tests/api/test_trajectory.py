@@ -124,7 +124,7 @@ def test_a_new_attempt_changes_the_answer_and_a_failed_solve_is_shown_as_such(
                 trajectory_sha256=put_arrays(s, a),
             )
         )
-    from alcove.campaigns.results_router import REVISION_TTL_S
+    from alcove.campaigns.views.router import REVISION_TTL_S
 
     time.sleep(REVISION_TTL_S + 0.05)  # a process reuses the solution it found for this long
     again = client.get(url, headers={**owner.headers, "If-None-Match": first.headers["ETag"]})

@@ -59,7 +59,7 @@ def _state(cid: int) -> tuple[str, str | None, list[str]]:
 
 
 def _reconcile() -> list:
-    from alcove.campaigns.reconciler import reconcile
+    from alcove.campaigns.run.reconciler import reconcile
 
     return transaction(lambda s: reconcile(s, stale_queued_s=3600))
 

@@ -20,7 +20,9 @@ import numpy as np
 import pytest
 import sqlalchemy as sa
 
-from alcove.campaigns import candidate_repository, picks, protocol, repository, results
+from alcove.campaigns import candidate_queries, repository
+from alcove.campaigns.run import protocol
+from alcove.campaigns.views import detail, picks
 from alcove.db import session_scope
 from alcove.db.arrays import get_arrays
 from alcove.models import Dataset, OcpSolution
@@ -56,7 +58,7 @@ def test_a_batch_iteration_solves_q_seeded_scenarios_and_appends_them_as_one_poo
             [("train", 0), ("evaluate", 0), ("append", 0)] + [(step, j) for step in ("ocp", "oracle") for j in range(Q)]
         )
         assert all(st.status == "succeeded" and st.attempts == 1 for st in steps.values())
-        cands = candidate_repository.candidates(s, it.id)
+        cands = candidate_queries.candidates(s, it.id)
         assert [c.slot for c in cands] == [c.pick for c in cands] == list(range(Q))
         for c in cands:
             # slot j solved the draw (campaign seed, k, j): its trajectory starts at the drawn state
@@ -79,7 +81,7 @@ def test_a_batch_iteration_solves_q_seeded_scenarios_and_appends_them_as_one_poo
         assert m.force_rmse == pytest.approx(float(np.mean(rmse)), rel=1e-12)
         assert m.moment_rmse == pytest.approx(float(np.mean([c.moment_rmse for c in cands])), rel=1e-12)
         # the API's iteration list shows the oracle calls and the picks
-        listed = {i.index: i for i in results.list_iterations(s, cid)}
+        listed = {i.index: i for i in detail.list_iterations(s, cid)}
         assert listed[1].oracle_calls == Q and [c.pick for c in listed[1].candidates] == list(range(Q))
         n_datasets = s.scalar(count_datasets)
     # duplicate deliveries of finished slots (and of the fan-in's evaluate and append) are no-ops
@@ -102,7 +104,7 @@ def test_ensemble_disagreement_replays_the_most_disputed_candidates_and_stops_wh
     with session_scope() as s:
         assert repository.get_campaign(s, cid).status == "completed"
         it = repository.get_iteration(s, cid, 1)
-        cands = candidate_repository.candidates(s, it.id)
+        cands = candidate_queries.candidates(s, it.id)
         assert [c.slot for c in cands] == [0, 1, 2, 3] and all(c.converged for c in cands)
         for c in cands:
             sol = s.get(OcpSolution, c.ocp_solution_id)
@@ -133,7 +135,7 @@ def test_ensemble_disagreement_replays_the_most_disputed_candidates_and_stops_wh
         c = repository.get_campaign(s, cid)
         assert (c.status, c.stop_reason) == ("completed", "min_disagreement")
         it = repository.get_iteration(s, cid, 1)
-        assert it.oracle_calls == 0 and all(c.pick is None for c in candidate_repository.candidates(s, it.id))
+        assert it.oracle_calls == 0 and all(c.pick is None for c in candidate_queries.candidates(s, it.id))
         assert {st.step: st.status for st in it.steps if st.step in ("evaluate", "append")} == {
             "evaluate": "skipped",
             "append": "succeeded",

@@ -5,7 +5,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from alcove.campaigns import protocol, repository
+from alcove.campaigns import repository
+from alcove.campaigns.run import protocol
 from alcove.db import session_scope
 from alcove.db.arrays import get_arrays
 from alcove.models import ValidationSuite

@@ -74,7 +74,7 @@ def _member_campaigns(n: int) -> tuple[int, list[int], list[int]]:
 def test_a_members_second_campaign_waits_for_the_first_and_then_runs_once(
     pg_redis: dict[str, str], pg_url: str, tmp_path: Path
 ) -> None:
-    from alcove.campaigns.results import campaign_out
+    from alcove.campaigns.views.detail import campaign_out
     from alcove.db import session_scope
     from alcove.models import Campaign, User
 

@@ -12,9 +12,12 @@ import numpy as np
 import pytest
 import sqlalchemy as sa
 
-from alcove.campaigns import export, protocol, repository, results, service
-from alcove.campaigns.reconciler import reconcile
-from alcove.campaigns.schemas import CampaignConfigUpdate, ForkRequest, StoppingRules
+from alcove.campaigns import repository, service
+from alcove.campaigns.config import StoppingRules
+from alcove.campaigns.run import protocol
+from alcove.campaigns.run.reconciler import reconcile
+from alcove.campaigns.schemas import CampaignConfigUpdate, ForkRequest
+from alcove.campaigns.views import detail, export
 from alcove.db import session_scope, transaction
 from alcove.db.arrays import get_arrays
 from alcove.errors import Conflict, NotFound
@@ -138,11 +141,11 @@ def test_a_short_campaign_leaves_a_complete_versioned_record(campaign_db: str, m
             )
             assert m.ocp_trust == {**again.to_dict(), "trust_region_max_std": None} == sol.stats["trust"]
             assert m.ocp_trusted is again.trusted and m.ocp_trust["max_pool_distance"] is not None
-        steps = results.list_jobs(s, cid)
+        steps = detail.list_jobs(s, cid)
         assert len(steps) == 1 + 5 * 2 and all(j["status"] == "succeeded" and j["attempts"] == 1 for j in steps)
-        detail = results.get_detail(s, cid)
-        assert detail.iterations_finished == 2 and detail.eta_s is None
-        curves = results.iteration_curves(s, cid, 2)
+        shown = detail.get_detail(s, cid)
+        assert shown.iterations_finished == 2 and shown.eta_s is None
+        curves = detail.iteration_curves(s, cid, 2)
         assert len(curves.t) == len(curves.f_true) == len(curves.f_pred)
 
 

@@ -15,9 +15,9 @@ pytestmark = pytest.mark.integration
 def test_the_oracle_replays_the_family_sequence_in_order_whatever_the_batch(
     campaign_db: str, make_campaign: Any
 ) -> None:
-    from alcove.campaigns import protocol
     from alcove.campaigns.config import RunSettings
-    from alcove.campaigns.validation import family_box, suite_model
+    from alcove.campaigns.run import protocol
+    from alcove.campaigns.suite import family_box, suite_model
     from alcove.db import session_scope, transaction
     from alcove.models import Campaign, Iteration, IterationCandidate, OcpSolution
     from alcove.pool.repository import oracle_datasets
@@ -58,7 +58,7 @@ def test_the_oracle_replays_the_family_sequence_in_order_whatever_the_batch(
         assert np.abs(got["f"][:, 0]).max() > 0  # it presses the headrest
     assert max(durations) > 1.0  # at least one motion outlasts the task's first phase
     # an edit of the batch size mid-campaign continues the sequence after the last motion used
-    from alcove.campaigns.candidate_repository import family_motion_indices
+    from alcove.campaigns.candidate_queries import family_motion_indices
 
     assert transaction(lambda s: family_motion_indices(s, cid, 3)) == [0, 1, 2, 3]
     assert transaction(lambda s: family_motion_indices(s, cid, 2)) == [0, 1]
@@ -84,8 +84,8 @@ def test_pool_version_0_can_start_from_oracle_replays_of_the_family_counted_as_o
     oracle's replays of the family's first 3 motions (origin oracle, 3 oracle runs of iteration 0);
     a press-family campaign's iterations then continue the sequence after them; model 1's members
     drop the auxiliary law's contact samples (their training splits hold oracle data)."""
-    from alcove.campaigns import protocol
-    from alcove.campaigns.candidate_repository import family_motion_indices
+    from alcove.campaigns.candidate_queries import family_motion_indices
+    from alcove.campaigns.run import protocol
     from alcove.db import session_scope, transaction
     from alcove.models import Dataset, Iteration, ModelVersion, OracleRun, PoolVersion
     from tests.integration.procs import db_rows
@@ -114,7 +114,7 @@ def test_pool_version_0_can_start_from_oracle_replays_of_the_family_counted_as_o
         lineage = load_model(s, s.query(ModelVersion).filter_by(campaign_id=cid, version=1).one()).lineage
     assert transaction(lambda s: family_motion_indices(s, cid, 2)) == [3]  # iteration 1 replayed motion 3
     assert db_rows(campaign_db, "SELECT count(*) FROM oracle_runs WHERE campaign_id = :c", c=cid) == [(4,)]
-    from alcove.campaigns.results import metrics_series
+    from alcove.campaigns.views.detail import metrics_series
 
     with session_scope() as s:
         (row,) = metrics_series(s, cid)
@@ -128,8 +128,8 @@ def test_a_press_family_campaign_trains_and_scores_a_surrogate_with_history_stat
     """The surrogate config's feature set 'history': every model version takes the 19 features
     and the 3 history states; the in-loop error and the validation suite are predicted along each
     replayed motion (its times), with the same figures as the science's own prediction."""
-    from alcove.campaigns import protocol
-    from alcove.campaigns.results import iteration_curves
+    from alcove.campaigns.run import protocol
+    from alcove.campaigns.views.detail import iteration_curves
     from alcove.db import session_scope
     from alcove.models import Campaign, Iteration, IterationMetrics, ModelVersion, ValidationSuite
     from alcove.oracles.validation import run_motion
@@ -183,7 +183,7 @@ def test_the_paper_loop_solves_its_ocps_with_a_surrogate_with_history_states(
 ) -> None:
     """The paper's loop with the feature set 'history': each iteration's OCP carries the model's
     history states (converged, trusted or not by the same diagnostics along its midpoints)."""
-    from alcove.campaigns import protocol
+    from alcove.campaigns.run import protocol
     from alcove.db import session_scope
     from alcove.models import Campaign, OcpSolution
 

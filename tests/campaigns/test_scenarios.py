@@ -15,8 +15,10 @@ import numpy as np
 import pytest
 import sqlalchemy as sa
 
-from alcove.campaigns import protocol, repository, results
-from alcove.campaigns.reconciler import reconcile
+from alcove.campaigns import repository
+from alcove.campaigns.run import protocol
+from alcove.campaigns.run.reconciler import reconcile
+from alcove.campaigns.views import detail
 from alcove.db import session_scope
 from alcove.db.arrays import get_arrays
 from alcove.models import IterationStep, utcnow
@@ -91,7 +93,7 @@ def test_random_scenarios_solve_one_seeded_draw_per_iteration_and_a_rerun_draws_
         # one scenario per iteration, another for each
         assert stored[1]["values"] != stored[2]["values"]
         # the API's iteration list shows it
-        assert {i.index: i.scenario for i in results.list_iterations(s, cid)}[2] == stored[2]
+        assert {i.index: i.scenario for i in detail.list_iterations(s, cid)}[2] == stored[2]
     # a duplicate delivery of the finished OCP step is a no-op: the stored scenario stays
     assert protocol.run_step(cid, 1, "ocp", 2)["status"] == "duplicate"
     with session_scope() as s:

@@ -8,9 +8,8 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from alcove.campaigns.config import RunSettings, strategy_problem
-from alcove.campaigns.schemas import StoppingRules
-from alcove.campaigns.state_machine import (
+from alcove.campaigns.config import RunSettings, StoppingRules, strategy_problem
+from alcove.campaigns.machine.state_machine import (
     Cancel,
     Decision,
     Fan,
@@ -256,7 +255,7 @@ def test_a_batch_fans_out_and_back_in_exactly_once_whatever_the_order(
     ocp and oracle job runs once (nothing is redone), never more than ``cap`` oracle jobs are
     queued or running, ``evaluate`` runs iff some pick produced data and after every pick ended,
     and the iteration reaches exactly one ``append``."""
-    from alcove.campaigns.fan import fan_of
+    from alcove.campaigns.machine.slots import fan_of
 
     rows: dict[tuple[str, int], str] = {}
     queue: list[StepRef] = []

@@ -78,7 +78,7 @@ def _suite_rows(url: str, suite_id: int) -> Any:
 def test_suite_is_shared_replayed_once_never_pooled_and_evaluates_every_model(
     campaign_db: str, make_campaign: Any
 ) -> None:
-    from alcove.campaigns import protocol
+    from alcove.campaigns.run import protocol
     from alcove.models import Campaign
     from alcove.oracles.validation import run_motion
     from alcove.surrogates.validation import evaluate_suite
@@ -111,8 +111,8 @@ def test_suite_is_shared_replayed_once_never_pooled_and_evaluates_every_model(
     (v1, v2) = db_rows(campaign_db, cal, c=a)
     assert v1 == (1, pytest.approx(4 / 6, abs=1e-15), True)
     assert v2[0] == 2 and 0.0 <= v2[1] <= 1.0 and v2[2]
-    from alcove.campaigns.results import metrics_series
-    from alcove.campaigns.validation import validation_series
+    from alcove.campaigns.views.detail import metrics_series
+    from alcove.campaigns.views.validation import validation_series
     from alcove.db import session_scope
 
     with session_scope() as s:
@@ -165,7 +165,7 @@ def test_suite_is_shared_replayed_once_never_pooled_and_evaluates_every_model(
     assert all(f is not None and 0 < f < 1e4 and 0 < m < 1e3 and n > 0 for *_, f, m, n in got)
 
     # served next to the in-loop RMSE
-    from alcove.campaigns.results import get_detail, metrics_series
+    from alcove.campaigns.views.detail import get_detail, metrics_series
     from alcove.db import session_scope
 
     with session_scope() as s:
@@ -181,7 +181,7 @@ def test_suite_is_shared_replayed_once_never_pooled_and_evaluates_every_model(
     import json
     import zipfile
 
-    from alcove.campaigns.export import export_zip
+    from alcove.campaigns.views.export import export_zip
 
     with session_scope() as s:
         z = zipfile.ZipFile(io.BytesIO(export_zip(s, b, models=False)))
@@ -201,7 +201,7 @@ def test_suite_is_shared_replayed_once_never_pooled_and_evaluates_every_model(
 
 
 def test_no_suite_when_the_campaign_asks_for_none(campaign_db: str, make_campaign: Any) -> None:
-    from alcove.campaigns import protocol
+    from alcove.campaigns.run import protocol
     from tests.integration.procs import db_rows
 
     c, jobs = make_campaign(seed=3, settings={"ocp_intervals": 20, "replay_dt": 0.01, "validation_motions": 0})
@@ -218,7 +218,7 @@ def test_reconciler_resends_lost_motions_and_fails_a_suite_whose_last_attempt_di
 
     import sqlalchemy as sa
 
-    from alcove.campaigns import protocol
+    from alcove.campaigns.run import protocol
     from alcove.db import transaction
     from alcove.models import ValidationMotion, ValidationSuite, utcnow
     from alcove.oracles.validation import reconcile_motions
@@ -260,8 +260,8 @@ def test_the_stress_part_is_scored_apart_and_the_suite_figures_cover_the_core_mo
     """Two core motions (presses with unloads and re-loads from the task's box) and two stress
     motions: the row's figures are the error over the core motions' samples alone, ``stress`` the
     error over the stress motions', each recomputed here from the stored replays."""
-    from alcove.campaigns import protocol
-    from alcove.campaigns.validation import validation_series
+    from alcove.campaigns.run import protocol
+    from alcove.campaigns.views.validation import validation_series
     from alcove.db import session_scope
     from alcove.models import Campaign, ModelVersion, ValidationSuite
     from alcove.oracles.validation import run_motion
@@ -329,8 +329,8 @@ def test_the_best_possible_line_learns_from_its_reference_replays_alone_and_is_c
     replayed with the suite but never scored; the line's models (trained on the first 4 and 8
     replays alone) predict the suite's core motions far better than a model that predicts no
     force (the oracle here is the auxiliary law itself: learnable from its replays)."""
-    from alcove.campaigns import protocol
-    from alcove.campaigns.validation import validation_series
+    from alcove.campaigns.run import protocol
+    from alcove.campaigns.views.validation import validation_series
     from alcove.db import session_scope
     from alcove.models import Campaign, ValidationSuite
     from alcove.oracles.validation import run_motion

@@ -223,7 +223,7 @@ def quick_campaign(
 
 
 def reference_pool(make_campaign: Any, seed: int, iterations: int, url: str) -> list[tuple[int, str, int]]:
-    from alcove.campaigns import protocol
+    from alcove.campaigns.run import protocol
 
     cid, jobs = quick_campaign(make_campaign, seed, iterations)
     protocol.drive_inline(cid, jobs)

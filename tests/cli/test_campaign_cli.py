@@ -60,7 +60,7 @@ def status(cid: int) -> dict[str, Any]:
 
 def run_queued_steps(cid: int) -> None:
     """What a worker would do with the messages `start`/`resume` sent: run the queued step to the end."""
-    from alcove.campaigns.protocol import drive_inline
+    from alcove.campaigns.run.protocol import drive_inline
     from alcove.db import session_scope
     from alcove.jobs.campaign import StepJob
     from alcove.models import Iteration, IterationStep, StepName

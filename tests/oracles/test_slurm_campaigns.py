@@ -154,11 +154,11 @@ def test_a_batch_iterations_oracle_calls_run_as_slurm_jobs_at_once(
         f"submission to start (two wait for a CPU): {sorted(round((b - a).total_seconds(), 2) for a, b, *_ in stored)}"
     )
     # shown: each oracle step's job in the API's job list and in `alcove campaign status`
-    from alcove.campaigns import results
+    from alcove.campaigns.views import detail
     from alcove.db import session_scope
 
     with session_scope() as s:
-        listed = [j for j in results.list_jobs(s, cid) if j["step"] == "oracle"]
+        listed = [j for j in detail.list_jobs(s, cid) if j["step"] == "oracle"]
     assert sorted((j["slot"], j["batch_jobs"][0]["state"]) for j in listed) == [(k, "collected") for k in range(4)]
     assert {j["batch_jobs"][0]["job_id"] for j in listed} == {j[0] for j in jobs}
     status = run_cli(["campaign", "status", str(cid)], env)

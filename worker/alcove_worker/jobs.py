@@ -13,7 +13,7 @@ from alcove.jobs import SMOKE_JOB
 from alcove_worker.celery_app import app
 
 if TYPE_CHECKING:
-    from alcove.campaigns.reconciler import ReconcilerThread
+    from alcove.campaigns.run.reconciler import ReconcilerThread
 
 log = logging.getLogger(__name__)
 
@@ -28,7 +28,7 @@ def smoke(self: Any, token: str, sent_at: float | None = None) -> int:
 
 # ----------------------------------------------------------------------------- campaign steps
 # One job per step type; the message is (campaign_id, iteration, step, attempt[, slot]). The job
-# claims its step row first, so a duplicate delivery is a no-op (see alcove.campaigns.protocol).
+# claims its step row first, so a duplicate delivery is a no-op (see alcove.campaigns.run.protocol).
 
 from celery import signals  # noqa: E402
 
@@ -36,7 +36,7 @@ from alcove.jobs.campaign import RECONCILE_JOB, STEP_JOBS  # noqa: E402
 
 
 def _run_step(job: Any, campaign_id: int, iteration: int, step: str, attempt: int, slot: int) -> dict[str, Any]:
-    from alcove.campaigns.protocol import run_step
+    from alcove.campaigns.run.protocol import run_step
 
     return run_step(
         int(campaign_id),
@@ -151,7 +151,7 @@ def artifact_build(self: Any, build_id: int) -> str:
 @app.task(name=RECONCILE_JOB, bind=True)
 def reconcile(self: Any) -> int:
     """One reconciliation pass (also runs periodically inside every worker)."""
-    from alcove.campaigns.reconciler import reconcile_and_enqueue
+    from alcove.campaigns.run.reconciler import reconcile_and_enqueue
 
     return len(reconcile_and_enqueue())
 
@@ -164,7 +164,7 @@ def _start_reconciler(sender: Any = None, **_: Any) -> None:
     """Reconcile at worker start (steps of a worker that died), then every
     ``ALCOVE_RECONCILE_SECONDS`` (2 s: a dead worker's step runs again within seconds)."""
     global _reconciler
-    from alcove.campaigns.reconciler import ReconcilerThread
+    from alcove.campaigns.run.reconciler import ReconcilerThread
     from alcove.settings import get_settings
 
     _reconciler = ReconcilerThread(interval=get_settings().reconcile_seconds)
@@ -179,7 +179,7 @@ def _step_process_lost(sender: Any = None, exception: BaseException | None = Non
 
     if not isinstance(exception, WorkerLostError) or sender is None or sender.name not in STEP_JOBS.values():
         return
-    from alcove.campaigns.reconciler import release_lost_step
+    from alcove.campaigns.run.reconciler import release_lost_step
 
     try:
         campaign_id, iteration, step, attempt, *slot = args

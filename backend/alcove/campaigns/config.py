@@ -1,6 +1,6 @@
 """A campaign's settings: the validated JSON stored on the campaign and its config versions
-(preliminary data, stopping rules, failure policies, run settings), and the requests that
-create, edit or fork a campaign with them."""
+(preliminary data, stopping rules, failure policies, run settings), and the settings a stored
+config version holds."""
 
 from __future__ import annotations
 
@@ -8,10 +8,12 @@ from typing import TYPE_CHECKING, Annotated, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, ValidationInfo, field_validator, model_validator
 
-from alcove.names import Name
+from alcove.campaigns import repository as repo
 
 if TYPE_CHECKING:
-    from alcove.models import CampaignConfigVersion
+    from sqlalchemy.orm import Session
+
+    from alcove.models import Campaign, CampaignConfigVersion
 
 
 class _Strict(BaseModel):
@@ -346,45 +348,6 @@ class CampaignConfig(_Strict):
     settings: RunSettings = Field(default_factory=RunSettings)
 
 
-# ----------------------------------------------------------------------------- requests
-
-
-class CampaignCreate(CampaignConfig):
-    name: Name
-    description: str = ""
-    task_version_id: int
-    oracle_version_id: int
-    surrogate_config_version_id: int
-    seed: int = Field(0, ge=0, lt=2**62)
-
-
-class CampaignConfigUpdate(_Strict):
-    """Edit of a campaign's settings: each given part replaces the current one and a new
-    config version is recorded; iterations created afterwards use it."""
-
-    surrogate_config_version_id: int | None = None
-    stopping: StoppingRules | None = None
-    policies: Policies | None = None
-    settings: RunSettings | None = None
-    note: str = ""
-
-
-class ForkRequest(_Strict):
-    """A new campaign continuing from ``iteration`` of the source (its pool version and
-    model at that iteration), with changed settings."""
-
-    iteration: int = Field(ge=0)
-    name: Name | None = None
-    surrogate_config_version_id: int | None = None
-    oracle_version_id: int | None = None
-    task_version_id: int | None = None
-    seed: int | None = Field(None, ge=0, lt=2**62)
-    stopping: StoppingRules | None = None
-    policies: Policies | None = None
-    settings: RunSettings | None = None
-    start: bool = False
-
-
 # ----------------------------------------------------------------------------- reads
 
 
@@ -398,3 +361,8 @@ def config_from_version(row: CampaignConfigVersion) -> CampaignConfig:
             "settings": row.settings,
         }
     )
+
+
+def current_config(s: Session, campaign: Campaign) -> CampaignConfig:
+    """The settings of the campaign's current config version."""
+    return config_from_version(repo.config_version(s, campaign))

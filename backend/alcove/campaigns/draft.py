@@ -60,7 +60,7 @@ def suite_error(
 ) -> FieldError | None:
     """The validation suite's ranges and the press family's must make motions of the task's
     model (a problem at the range)."""
-    from alcove.campaigns.validation import suite_problem
+    from alcove.campaigns.suite import suite_problem
     from alcove.tasks.service import load_task
 
     family = settings.strategy == "press-family" or preliminary.family_motions > 0

@@ -1,8 +1,8 @@
 """Routes ``/campaigns``: the list, creating a campaign, its detail, and its lifecycle (edit,
 start, pause, resume, cancel, retry, fork). The route opens the transaction, calls the
 service (:mod:`alcove.campaigns.service`), commits, then sends the jobs the commit made
-necessary. What a campaign produced is served by :mod:`alcove.campaigns.results_router`,
-its live events by :mod:`alcove.campaigns.live`."""
+necessary. What a campaign produced is served by :mod:`alcove.campaigns.views.router`,
+its live events by :mod:`alcove.campaigns.views.live`."""
 
 from __future__ import annotations
 
@@ -15,20 +15,13 @@ from alcove.api.caching import NOT_MODIFIED, cached_json, read
 from alcove.api.deps import SessionDep
 from alcove.api.params import MAX_ID, Limit, ObjectId, Offset
 from alcove.campaigns import draft
-from alcove.campaigns import read_repository as reads
 from alcove.campaigns import references as refs
 from alcove.campaigns import service as campaigns
 from alcove.campaigns.presets import surrogate_config_version_for
-from alcove.campaigns.results import campaign_out
-from alcove.campaigns.schemas import (
-    CampaignConfigUpdate,
-    CampaignCreate,
-    CampaignCreateIn,
-    CampaignOut,
-    CampaignSummary,
-    ForkRequest,
-    RetryIn,
-)
+from alcove.campaigns.schemas import CampaignConfigUpdate, CampaignCreate, CampaignCreateIn, ForkRequest, RetryIn
+from alcove.campaigns.views import queries
+from alcove.campaigns.views.detail import campaign_out
+from alcove.campaigns.views.schemas import CampaignOut, CampaignSummary
 from alcove.db import get_sessionmaker
 from alcove.errors import InvalidInput, NotFound
 from alcove.jobs.campaign import send_committed, stage
@@ -51,8 +44,8 @@ def list_campaigns(
     offset: Offset = 0,
 ) -> list[CampaignSummary]:
     """Campaigns you own or that are shared with you, newest first, with their latest RMSE."""
-    rows = reads.summaries(session, user, status=status_, owner=owner, task_id=task_id, limit=limit, offset=offset)
-    timing = reads.iteration_timing(session, [r[0].id for r in rows])
+    rows = queries.summaries(session, user, status=status_, owner=owner, task_id=task_id, limit=limit, offset=offset)
+    timing = queries.iteration_timing(session, [r[0].id for r in rows])
     out = []
     for c, email, tv, tname, ov, oname, k_latest, frmse, mrmse in rows:
         max_iterations = (c.stopping_rules or {}).get("max_iterations")
@@ -152,7 +145,7 @@ async def get_campaign(campaign_id: ObjectId, user: CurrentUser, request: Reques
     """Status, current iteration and step, latest metrics, ETA. Polled: answers carry an
     ``ETag``; send it back as ``If-None-Match`` and an unchanged campaign is a bodiless 304."""
     # read on every request (no reuse window): a pause or a finished step shows at once
-    revision = await run_in_threadpool(read, reads.detail_revision, campaign_id, user.id)
+    revision = await run_in_threadpool(read, queries.detail_revision, campaign_id, user.id)
     if revision is None:
         raise NotFound("campaign", campaign_id)
     key = ("detail", campaign_id, *revision)

@@ -1,243 +1,57 @@
-"""Pydantic schemas of the campaign domain: what the API accepts and returns (the settings
-themselves are in :mod:`alcove.campaigns.config`, re-exported here)."""
+"""What the lifecycle's API takes: a new campaign (as the API and as the service take it), an
+edit of its settings, a fork, a step to retry. The settings themselves are
+:mod:`alcove.campaigns.config`."""
 
 from __future__ import annotations
-
-from datetime import datetime
-from typing import Any
 
 from pydantic import BaseModel, ConfigDict, Field
 from pydantic.config import JsonDict
 
 from alcove.api.params import MAX_ID
-from alcove.campaigns.config import (
-    CampaignConfig,
-    CampaignConfigUpdate,
-    CampaignCreate,
-    ForkRequest,
-    OnFailure,
-    Policies,
-    PreliminaryConfig,
-    RunSettings,
-    StoppingRules,
-)
-from alcove.campaigns.pick_schemas import (
-    CandidateDetail,
-    CandidateRead,
-    CandidateWhy,
-    IterationCandidates,
-    PickRmse,
-)
-from alcove.campaigns.quality_schemas import TrustRead, ValidationSuiteRead
-from alcove.campaigns.trajectory_schemas import (
-    IterationCurves,
-    IterationTrajectory,
-    OcpSolverSummary,
-    TrajectoryPhase,
-)
-from alcove.models.base import CampaignStatus, IterationStatus, StepName, StepStatus
+from alcove.campaigns.config import CampaignConfig, Policies, PreliminaryConfig, RunSettings, StoppingRules
+from alcove.models.base import StepName
 from alcove.names import Name
-from alcove.oracles.schemas import BatchJobRead
-from alcove.science.surrogate.metrics import DESCRIPTIONS
-
-
-class _Read(BaseModel):
-    model_config = ConfigDict(from_attributes=True)
-
-
-class CampaignRead(_Read):
-    id: int
-    owner_id: int
-    name: str
-    description: str
-    status: CampaignStatus
-    stop_reason: str | None
-    error: str | None
-    wait_reason: str | None = Field(
-        None,
-        description="why a queued campaign has not started yet: its owner runs as many campaigns as their "
-        "max_running_campaigns limit allows; it starts when one of them ends (null: it does not wait)",
-    )
-    task_version_id: int
-    oracle_version_id: int
-    surrogate_config_version_id: int
-    seed: int
-    config_version: int
-    source_campaign_id: int | None
-    source_iteration: int | None
-    current_iteration: int
-    current_step: str | None
-    pause_requested: bool
-    cancel_requested: bool
-    oracle_wall_time_s: float
-    created_at: datetime
-    started_at: datetime | None
-    finished_at: datetime | None
-
-
-class StepRead(_Read):
-    id: int
-    step: StepName
-    slot: int = Field(
-        0, description="which of the iteration's parallel jobs of this step (ocp: candidate, oracle: pick)"
-    )
-    status: StepStatus
-    queue: str
-    attempts: int
-    max_attempts: int
-    worker_name: str | None
-    queued_at: datetime | None
-    started_at: datetime | None
-    finished_at: datetime | None
-    lease_until: datetime | None
-    heartbeat_at: datetime | None
-    wall_time_s: float | None
-    error: str | None
-    result: dict[str, Any]
-    batch_jobs: list[BatchJobRead] = Field(
-        default_factory=list,
-        description="an oracle step's batch-scheduler jobs, oldest first (empty unless its oracle runs as batch jobs)",
-    )
-
-
-class IterationRead(_Read):
-    id: int
-    index: int
-    status: IterationStatus
-    current_step: str | None
-    config_version_id: int
-    error: str | None
-    started_at: datetime | None
-    finished_at: datetime | None
-    scenario: dict[str, Any] | None = Field(
-        None,
-        description="the scenario the iteration's OCP solved (strategy random-scenarios): seed, iteration, slot "
-        "and values (parameter path -> drawn value); null: the task as written (strategy paper)",
-    )
-    steps: list[StepRead] | None = Field(
-        None, description="the iteration's steps (null in the compact list: ask with ?steps=true)"
-    )
-    oracle_calls: int = Field(0, description="oracle runs the iteration made (every attempt that reached the oracle)")
-    candidates: list[CandidateRead] = Field(
-        default_factory=list,
-        description="a batch iteration's candidate scenarios (ocp slots) and which were picked; empty: one trajectory "
-        "(the iteration's scenario)",
-    )
-
-
-class MetricsRead(_Read):
-    campaign_id: int = Field(description="the campaign the iteration ran in (a fork's source for inherited rows)")
-    inherited: bool = Field(False, description="an iteration of a fork's source, up to the fork point")
-    iteration_index: int
-    force_rmse: float | None = Field(description=DESCRIPTIONS["force_rmse"] + ", model k on iteration k's oracle data")
-    moment_rmse: float | None = Field(
-        description=DESCRIPTIONS["moment_rmse"] + ", model k on iteration k's oracle data"
-    )
-    force_rmse_contact: float | None = Field(None, description=DESCRIPTIONS["force_rmse_contact"])
-    moment_rmse_contact: float | None = Field(None, description=DESCRIPTIONS["moment_rmse_contact"])
-    calibration: float | None = Field(None, description=DESCRIPTIONS["calibration"])
-    metrics_definition: str = Field(
-        "vector",
-        description="vector: the RMSEs above are of the error vector (docs/concepts.md); stored campaigns were "
-        "converted by migration 0007",
-    )
-    components: dict[str, float | None] | None = Field(
-        None,
-        description="model k on iteration k's oracle data (a batch: the picks' mean), the "
-        + DESCRIPTIONS["rmse_components"]
-        + "; null for iterations stored before the components were recorded",
-    )
-    force_max_error: float | None = Field(description="largest |F_pred - F_true| over the samples [N]")
-    moment_max_error: float | None = Field(description="largest |M_pred - M_true| over the samples [N m]")
-    ocp_success: bool | None
-    ocp_status: str | None
-    ocp_iterations: int | None
-    ocp_cost: float | None
-    ocp_wall_time_s: float | None
-    ocp_trusted: bool | None = Field(
-        None,
-        description="false: the OCP solution relies on force outside the data (a ghost force with the gap open, "
-        "or ensemble disagreement in contact); null: not assessed (iterations stored before the assessment)",
-    )
-    ocp_trust: TrustRead | None = Field(None, description="the OCP solution's trust diagnostics")
-    oracle_wall_time_s: float | None
-    train_wall_time_s: float | None
-    n_pool_samples: int | None
-    model_version_id: int | None
-    dataset_id: int | None
-    validation_force_rmse: float | None = Field(
-        None,
-        description=(
-            "generalisation error of model k on the held-out validation suite: "
-            "sqrt(mean_i |F_pred,i - F_true,i|^2) over all samples of all motions [N]; null until evaluated"
-        ),
-    )
-    validation_moment_rmse: float | None = Field(
-        None, description="the same for the moment vector [N m]; null until evaluated"
-    )
-    validation_components: dict[str, float | None] | None = Field(
-        None,
-        description="on the held-out validation suite, the " + DESCRIPTIONS["rmse_components"] + "; null until "
-        "evaluated (suites evaluated before the in-contact figures were recorded have fx .. mz only)",
-    )
-    validation_calibration: float | None = Field(
-        None,
-        description=DESCRIPTIONS["calibration"]
-        + "; of model k on all samples of all motions of the held-out validation "
-        "suite; null until evaluated or when not recorded (validation_calibration_recorded)",
-    )
-    validation_calibration_recorded: bool | None = Field(
-        None,
-        description="false: the validation suite evaluation predates migration 0019 and did not compute the "
-        "calibration (its null does not mean K = 1); null until evaluated",
-    )
-    oracle_calls: int | None = Field(None, description="oracle runs iteration k made")
-    cumulative_oracle_calls: int | None = Field(
-        None,
-        description="oracle runs of iterations 1..k (a fork: its sources' up to the fork point included; the "
-        "preliminary data of iteration 0 not counted): an x axis on which strategies and batch sizes compare",
-    )
-    cumulative_wall_time_s: float | None = Field(
-        None,
-        description="wall time of iterations 1..k until model k was evaluated [s]: finished iterations from start "
-        "to end, iteration k from its start to its metrics row (pauses between iterations not counted; a fork "
-        "includes its sources' up to the fork point)",
-    )
-    picks: list[PickRmse] = Field(
-        default_factory=list,
-        description="a batch iteration's in-loop RMSE per picked trajectory (the row's RMSEs are their mean)",
-    )
-    extra: dict[str, Any] | None = Field(
-        None, description="software versions, per-component RMSE, step timings (only with ?extra=true on the series)"
-    )
-
-
-class CampaignDetail(BaseModel):
-    campaign: CampaignRead
-    config: CampaignConfig
-    current: IterationRead | None
-    latest_metrics: MetricsRead | None
-    validation: ValidationSuiteRead | None = Field(None, description="the held-out validation suite, if any")
-    iterations_finished: int
-    iterations_failed: int
-    mean_iteration_s: float | None
-    eta_s: float | None = Field(None, description="remaining iterations (max_iterations rule) x mean iteration time")
-
-
-class EventRead(_Read):
-    id: int
-    campaign_id: int
-    iteration_index: int | None
-    step: str | None
-    kind: str
-    message: str
-    data: dict[str, Any]
-    created_at: datetime
 
 
 class _In(BaseModel):
     # strict: "1" is not a number and 1 or "true" not a boolean, as the schema says (JSON numbers still fill floats)
     model_config = ConfigDict(extra="forbid", strict=True)
+
+
+class CampaignCreate(CampaignConfig):
+    name: Name
+    description: str = ""
+    task_version_id: int
+    oracle_version_id: int
+    surrogate_config_version_id: int
+    seed: int = Field(0, ge=0, lt=2**62)
+
+
+class CampaignConfigUpdate(_In):
+    """Edit of a campaign's settings: each given part replaces the current one and a new
+    config version is recorded; iterations created afterwards use it."""
+
+    surrogate_config_version_id: int | None = None
+    stopping: StoppingRules | None = None
+    policies: Policies | None = None
+    settings: RunSettings | None = None
+    note: str = ""
+
+
+class ForkRequest(_In):
+    """A new campaign continuing from ``iteration`` of the source (its pool version and
+    model at that iteration), with changed settings."""
+
+    iteration: int = Field(ge=0)
+    name: Name | None = None
+    surrogate_config_version_id: int | None = None
+    oracle_version_id: int | None = None
+    task_version_id: int | None = None
+    seed: int | None = Field(None, ge=0, lt=2**62)
+    stopping: StoppingRules | None = None
+    policies: Policies | None = None
+    settings: RunSettings | None = None
+    start: bool = False
 
 
 class CampaignCreateIn(_In):
@@ -280,90 +94,3 @@ class RetryIn(_In):
 
     iteration: int | None = Field(None, ge=0, le=MAX_ID)
     step: StepName | None = Field(None, strict=False)  # an enum from a JSON string
-
-
-class CampaignSummary(BaseModel):
-    id: int
-    name: str
-    status: CampaignStatus
-    wait_reason: str | None = Field(
-        None, description="why a queued campaign has not started yet (null: it does not wait)"
-    )
-    owner_id: int
-    owner: str
-    task_id: int
-    task: str
-    task_version: int
-    oracle_id: int
-    oracle: str
-    oracle_type: str
-    oracle_version: int
-    current_iteration: int
-    current_step: str | None
-    max_iterations: int | None
-    latest_iteration: int | None = Field(None, description="index of the latest iteration with metrics")
-    force_rmse: float | None = Field(description="latest iteration's " + DESCRIPTIONS["force_rmse"])
-    moment_rmse: float | None = Field(description="latest iteration's " + DESCRIPTIONS["moment_rmse"])
-    mean_iteration_s: float | None = Field(None, description="mean wall time of the last 20 finished iterations [s]")
-    eta_s: float | None = Field(
-        None,
-        description=(
-            "remaining iterations (max_iterations rule) x mean iteration time [s]; null when finished or unknown"
-        ),
-    )
-    source_campaign_id: int | None
-    source_iteration: int | None
-    created_at: datetime
-    started_at: datetime | None
-    finished_at: datetime | None
-
-
-class CampaignOut(CampaignDetail):
-    id: int = Field(description="the campaign's id (= campaign.id)")
-    owner: str
-    can_edit: bool
-    task_id: int
-    task_version: int
-    oracle_id: int
-    oracle_version: int
-
-
-class JobOut(StepRead):
-    iteration: int
-
-
-# ----------------------------------------------------------------------------- helpers
-
-
-__all__ = [
-    "BatchJobRead",
-    "CampaignConfig",
-    "CampaignConfigUpdate",
-    "CampaignCreate",
-    "CampaignCreateIn",
-    "CampaignDetail",
-    "CampaignOut",
-    "CampaignRead",
-    "CampaignSummary",
-    "CandidateDetail",
-    "CandidateWhy",
-    "EventRead",
-    "ForkRequest",
-    "IterationCandidates",
-    "IterationCurves",
-    "IterationRead",
-    "IterationTrajectory",
-    "JobOut",
-    "MetricsRead",
-    "OcpSolverSummary",
-    "OnFailure",
-    "PickRmse",
-    "Policies",
-    "PreliminaryConfig",
-    "RetryIn",
-    "RunSettings",
-    "StepRead",
-    "StoppingRules",
-    "TrajectoryPhase",
-    "TrustRead",
-]

@@ -16,12 +16,12 @@ from datetime import datetime
 
 from sqlalchemy.orm import Session
 
-from alcove.campaigns import fan
 from alcove.campaigns import repository as repo
+from alcove.campaigns.config import CampaignConfig, current_config
 from alcove.campaigns.draft import strategy_error, suite_error
-from alcove.campaigns.schemas import CampaignConfig, CampaignConfigUpdate, CampaignCreate, ForkRequest
-from alcove.campaigns.sizes import check_campaign_sizes
-from alcove.campaigns.state_machine import (
+from alcove.campaigns.machine import slots
+from alcove.campaigns.machine.apply import apply_decision, state_of
+from alcove.campaigns.machine.state_machine import (
     Cancel,
     Decision,
     InvalidTransition,
@@ -32,13 +32,9 @@ from alcove.campaigns.state_machine import (
     StepRef,
     transition,
 )
-from alcove.campaigns.transitions import (
-    ATTEMPTS_FIELD,
-    add_config_version,
-    apply_decision,
-    current_config,
-    state_of,
-)
+from alcove.campaigns.machine.step_rows import ATTEMPTS_FIELD
+from alcove.campaigns.schemas import CampaignConfigUpdate, CampaignCreate, ForkRequest
+from alcove.campaigns.sizes import check_campaign_sizes
 from alcove.errors import Conflict, InvalidInput, NotFound
 from alcove.jobs.campaign import StepJob
 from alcove.models import (
@@ -108,6 +104,36 @@ def _lock_version(s: Session, model: type[V], ident: int, now: datetime) -> None
     row = s.get(model, ident)
     if row is not None and row.locked_at is None:
         row.locked_at = now
+
+
+def add_config_version(
+    s: Session,
+    campaign: Campaign,
+    cfg: CampaignConfig,
+    surrogate_config_version_id: int,
+    user_id: int | None,
+    note: str,
+) -> CampaignConfigVersion:
+    version = repo.last_config_version(s, campaign.id) + 1
+    row = CampaignConfigVersion(
+        campaign_id=campaign.id,
+        version=version,
+        surrogate_config_version_id=surrogate_config_version_id,
+        preliminary_config=cfg.preliminary.model_dump(mode="json"),
+        stopping_rules=cfg.stopping.model_dump(mode="json"),
+        policies=cfg.policies.model_dump(mode="json"),
+        settings=cfg.settings.model_dump(mode="json"),
+        note=note,
+        created_by_id=user_id,
+    )
+    s.add(row)
+    campaign.config_version = version
+    campaign.surrogate_config_version_id = surrogate_config_version_id
+    campaign.preliminary_config = row.preliminary_config
+    campaign.stopping_rules = row.stopping_rules
+    campaign.policies = row.policies
+    s.flush()
+    return row
 
 
 def create_campaign(
@@ -218,7 +244,7 @@ def _waiting_steps(s: Session, c: Campaign) -> tuple[StepRef, ...]:
     oracles = [r for r in refs if r.step is StepName.oracle]
     it = repo.get_iteration(s, c.id, k)
     assert it is not None
-    room = fan.start_now(s, c, fan.iteration_settings(s, it))
+    room = slots.start_now(s, c, slots.iteration_settings(s, it))
     if room is not None and len(oracles) > room:  # the rest stay pending until running ones end
         refs = [r for r in refs if r.step is not StepName.oracle] + oracles[:room]
     return tuple(refs)

@@ -6,8 +6,7 @@ from __future__ import annotations
 
 from sqlalchemy.orm import Session
 
-from alcove.campaigns.config import PreliminaryConfig, RunSettings
-from alcove.campaigns.schemas import CampaignConfig
+from alcove.campaigns.config import CampaignConfig, PreliminaryConfig, RunSettings
 from alcove.errors import FieldError
 from alcove.models import SurrogateConfigVersion, TaskVersion, User
 from alcove.users.limits import Size, check_sizes, limits_of, size_problems, surrogate_sizes

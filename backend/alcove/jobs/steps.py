@@ -4,7 +4,7 @@ A campaign step (train, ocp, oracle, ...) is computed by its domain (``surrogate
 ``solving``, ``oracles``, ``pool``) in one entry point that takes a :class:`StepRun` and
 plain inputs, computes outside any transaction, and returns a :class:`StepOutput` whose
 ``write`` stores the domain's rows in the transaction that completes the step. The
-protocol (``alcove.campaigns.protocol``) claims, calls, completes and enqueues the next step;
+protocol (``alcove.campaigns.run.protocol``) claims, calls, completes and enqueues the next step;
 a domain never imports it.
 """
 

@@ -3,7 +3,7 @@
 A member has the members' defaults unless an administrator gave them limits of their own; an
 administrator has no limit unless given limits of their own. Size limits refuse a request with a
 422 naming the field, its value and the limit; the running-campaigns limit makes a campaign wait
-(:mod:`alcove.campaigns.admission`).
+(:mod:`alcove.campaigns.machine.admission`).
 """
 
 from __future__ import annotations

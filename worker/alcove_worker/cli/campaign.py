@@ -314,7 +314,8 @@ def fork(
 ) -> None:
     """Create a new campaign continuing from iteration K of this one; prints its id."""
     from alcove.campaigns import presets
-    from alcove.campaigns.schemas import ForkRequest, StoppingRules
+    from alcove.campaigns.config import StoppingRules
+    from alcove.campaigns.schemas import ForkRequest
     from alcove.db import transaction
 
     cfg = read_config(config)
@@ -356,11 +357,11 @@ app.command(name="candidates")(candidates)
 @app.command(name="list")
 def list_(as_json: bool = typer.Option(False, "--json")) -> None:
     """All campaigns."""
-    from alcove.campaigns import results
+    from alcove.campaigns.views import detail
     from alcove.db import session_scope
 
     with session_scope() as s:
-        rows = results.list_campaigns(s)
+        rows = detail.list_campaigns(s)
     if as_json:
         typer.echo(json.dumps([r.model_dump(mode="json") for r in rows]))
         return
@@ -377,7 +378,7 @@ def export(
     models: bool = typer.Option(True, "--models/--no-models", help="include the model artifacts"),
 ) -> None:
     """Write pool versions (Parquet/CSV), models, metrics and curves to a folder."""
-    from alcove.campaigns.export import export_campaign
+    from alcove.campaigns.views.export import export_campaign
     from alcove.db import session_scope
     from alcove.errors import NotFound
 

@@ -1,6 +1,6 @@
 """`alcove campaign candidates CAMPAIGN_ID ITERATION`: an iteration's candidate scenarios, ranked,
 with which were picked and why. Reads
-:func:`alcove.campaigns.picks.iteration_candidates`, the function behind
+:func:`alcove.campaigns.views.picks.iteration_candidates`, the function behind
 ``GET /campaigns/{id}/iterations/{k}/candidates``; ``--json`` prints that route's JSON."""
 
 from __future__ import annotations
@@ -16,7 +16,7 @@ from alcove_worker.cli.follow import fail
 def read_candidates(campaign_id: int, iteration: int) -> Any:
     """The API's :class:`IterationCandidates` of iteration ``iteration``; a campaign or an
     iteration that does not exist exits 2 naming the argument."""
-    from alcove.campaigns import picks
+    from alcove.campaigns.views import picks
     from alcove.db import session_scope
     from alcove.errors import NotFound
 

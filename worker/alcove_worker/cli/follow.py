@@ -25,26 +25,26 @@ def fail(field: str, reason: str, code: int = 2) -> NoReturn:
 
 
 def read_detail(campaign_id: int) -> Any:
-    from alcove.campaigns import results
+    from alcove.campaigns.views import detail
     from alcove.db import session_scope
     from alcove.errors import NotFound
 
     try:
         with session_scope() as s:
-            return results.get_detail(s, campaign_id)
+            return detail.get_detail(s, campaign_id)
     except NotFound as exc:
         fail("campaign", exc.message)
 
 
 def read_metrics(campaign_id: int) -> list[dict[str, Any]]:
-    from alcove.campaigns import results
+    from alcove.campaigns.views import detail
     from alcove.db import session_scope
 
     with session_scope() as s:
-        rows = [m.model_dump(mode="json") for m in results.metrics_series(s, campaign_id)]
+        rows = [m.model_dump(mode="json") for m in detail.metrics_series(s, campaign_id)]
         # the scenario each iteration's OCP solved (null: the task as written), its oracle calls and,
         # for a batch, the picked scenarios with each one's in-loop RMSE
-        its = {it.index: it for it in results.list_iterations(s, campaign_id)}
+        its = {it.index: it for it in detail.list_iterations(s, campaign_id)}
     return [{**row, **_iteration_fields(its.get(row["iteration_index"]))} for row in rows]
 
 
@@ -287,7 +287,7 @@ def summary(detail: Any, metrics: list[dict[str, Any]], wall: float | None = Non
 
 def best_possible_points(campaign_id: int) -> list[dict[str, Any]] | None:
     """The suite's best-possible line: per oracle budget, force, fx, fz and my RMSE and the calibration."""
-    from alcove.campaigns.validation import validation_series
+    from alcove.campaigns.views.validation import validation_series
     from alcove.db import session_scope
     from alcove.models import Campaign
 
@@ -312,13 +312,13 @@ def _step_medians(campaign_id: int) -> dict[str, dict[str, float]]:
     """Median wall time and bare compute of each step type (the per-step breakdown)."""
     import statistics
 
-    from alcove.campaigns import results
+    from alcove.campaigns.views import detail
     from alcove.db import session_scope
 
     with session_scope() as s:
         jobs = [
             j
-            for j in results.list_jobs(s, campaign_id, ["succeeded"])
+            for j in detail.list_jobs(s, campaign_id, ["succeeded"])
             if j["iteration"] > 0 and j["wall_time_s"] is not None
         ]
     out: dict[str, dict[str, float]] = {}

@@ -280,7 +280,7 @@ def up(
 
 def _reconcile_at_start() -> None:
     """Re-enqueue steps whose worker died while no API or worker was running."""
-    from alcove.campaigns.reconciler import reconcile_and_enqueue
+    from alcove.campaigns.run.reconciler import reconcile_and_enqueue
 
     try:
         jobs = reconcile_and_enqueue()

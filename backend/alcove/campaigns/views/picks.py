@@ -12,12 +12,12 @@ from datetime import datetime
 import sqlalchemy as sa
 from sqlalchemy.orm import Session
 
-from alcove.campaigns import candidate_repository as candidate_repo
+from alcove.campaigns import candidate_queries
 from alcove.campaigns import repository as repo
 from alcove.campaigns.config import config_from_version
-from alcove.campaigns.fan import OPEN, ocp_slots
-from alcove.campaigns.pick_schemas import CandidateDetail, CandidateWhy, IterationCandidates, PickRmse
-from alcove.campaigns.schemas import IterationCurves, MetricsRead
+from alcove.campaigns.machine.slots import OPEN, ocp_slots
+from alcove.campaigns.views.pick_schemas import CandidateDetail, CandidateWhy, IterationCandidates, PickRmse
+from alcove.campaigns.views.schemas import IterationCurves, MetricsRead
 from alcove.db.arrays import get_arrays
 from alcove.errors import NotFound
 from alcove.lineage import holder
@@ -88,7 +88,7 @@ def iteration_candidates(s: Session, campaign_id: int, k: int) -> IterationCandi
     assert cv is not None
     cfg = config_from_version(cv)
     st = cfg.settings
-    cands = candidate_repo.candidates(s, it.id)
+    cands = candidate_queries.candidates(s, it.id)
     ocp_rows = repo.slot_steps(s, it.id, ["ocp"])
     solved = len(cands) >= ocp_slots(st) and not any(r.status in OPEN for r in ocp_rows)
     solved = solved or any(c.pick is not None for c in cands)
@@ -128,7 +128,7 @@ def pick_curves(s: Session, campaign_id: int, k: int, pick: int) -> IterationCur
     of iteration k. The first pick's are the metrics row's curves (also for iterations stored
     before every pick's were kept)."""
     it = _iteration(s, campaign_id, k)
-    cand = candidate_repo.picked_candidate(s, it.id, pick)
+    cand = candidate_queries.picked_candidate(s, it.id, pick)
     sha = cand.curves_sha256 if cand is not None else None
     if sha is None and pick == 0:
         m = s.scalar(sa.select(IterationMetrics).where(IterationMetrics.iteration_id == it.id))

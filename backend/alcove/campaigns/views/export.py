@@ -11,9 +11,9 @@ from pathlib import Path
 from sqlalchemy.orm import Session
 
 from alcove.campaigns import repository as repo
-from alcove.campaigns.results import get_detail, list_iterations, metrics_series
-from alcove.campaigns.transitions import config_from_version
-from alcove.campaigns.validation import validation_files
+from alcove.campaigns.config import config_from_version
+from alcove.campaigns.views.detail import get_detail, list_iterations, metrics_series
+from alcove.campaigns.views.validation import validation_files
 from alcove.db.arrays import get_bytes
 from alcove.models import ModelVersion
 from alcove.pool import repository as pool_repo

@@ -1,7 +1,8 @@
-"""How the campaign's rows follow the state machine: the config versions, the iteration
-and step rows a decision creates or closes, the events, and the completion of a step.
+"""A decision written to the campaign's rows: its status and flags, the step rows the decision
+creates (queued, pending or skipped) or closes, its events; and the completion of a step, which
+asks the state machine what follows.
 
-The state machine (:mod:`alcove.campaigns.state_machine`) decides; :func:`apply_decision`
+The state machine (:mod:`alcove.campaigns.machine.state_machine`) decides; :func:`apply_decision`
 writes the decision to the rows (campaign, iterations, steps, events) and returns the
 :class:`StepJob` list to send after the caller commits. Never commits.
 """
@@ -12,119 +13,17 @@ from typing import Any
 
 from sqlalchemy.orm import Session
 
-from alcove.campaigns import admission
 from alcove.campaigns import repository as repo
-from alcove.campaigns.config import config_from_version
-from alcove.campaigns.fan import fan_state
-from alcove.campaigns.schemas import CampaignConfig
-from alcove.campaigns.state_machine import Decision, Outcome, State, StepFinished, StepRef, transition
-from alcove.jobs.campaign import StepJob, step_queue
-from alcove.models import (
-    Campaign,
-    CampaignConfigVersion,
-    CampaignStatus,
-    Iteration,
-    IterationStatus,
-    IterationStep,
-    StepName,
-    StepStatus,
-    utcnow,
-)
-
-__all__ = ["Decision", "apply_decision", "complete_step", "config_from_version", "current_config"]
-
-ATTEMPTS_FIELD = {
-    StepName.preliminary: "append_max_attempts",
-    StepName.train: "train_max_attempts",
-    StepName.ocp: "ocp_max_attempts",
-    StepName.oracle: "oracle_max_attempts",
-    StepName.evaluate: "evaluate_max_attempts",
-    StepName.append: "append_max_attempts",
-}
-
-
-def current_config(s: Session, campaign: Campaign) -> CampaignConfig:
-    return config_from_version(repo.config_version(s, campaign))
-
-
-def add_config_version(
-    s: Session,
-    campaign: Campaign,
-    cfg: CampaignConfig,
-    surrogate_config_version_id: int,
-    user_id: int | None,
-    note: str,
-) -> CampaignConfigVersion:
-    version = repo.last_config_version(s, campaign.id) + 1
-    row = CampaignConfigVersion(
-        campaign_id=campaign.id,
-        version=version,
-        surrogate_config_version_id=surrogate_config_version_id,
-        preliminary_config=cfg.preliminary.model_dump(mode="json"),
-        stopping_rules=cfg.stopping.model_dump(mode="json"),
-        policies=cfg.policies.model_dump(mode="json"),
-        settings=cfg.settings.model_dump(mode="json"),
-        note=note,
-        created_by_id=user_id,
-    )
-    s.add(row)
-    campaign.config_version = version
-    campaign.surrogate_config_version_id = surrogate_config_version_id
-    campaign.preliminary_config = row.preliminary_config
-    campaign.stopping_rules = row.stopping_rules
-    campaign.policies = row.policies
-    s.flush()
-    return row
+from alcove.campaigns.machine import admission
+from alcove.campaigns.machine.slots import fan_state
+from alcove.campaigns.machine.state_machine import Decision, Outcome, State, StepFinished, StepRef, transition
+from alcove.campaigns.machine.step_rows import ensure_step, step_job
+from alcove.jobs.campaign import StepJob
+from alcove.models import Campaign, CampaignStatus, IterationStatus, IterationStep, StepName, StepStatus, utcnow
 
 
 def state_of(c: Campaign) -> State:
     return State(CampaignStatus(c.status), pause_requested=c.pause_requested, cancel_requested=c.cancel_requested)
-
-
-def _ensure_iteration(s: Session, c: Campaign, index: int) -> Iteration:
-    it = repo.get_iteration(s, c.id, index)
-    if it is None:
-        cv = repo.config_version(s, c)
-        it = Iteration(campaign_id=c.id, index=index, config_version_id=cv.id, status=IterationStatus.pending.value)
-        s.add(it)
-        s.flush()
-    return it
-
-
-def ensure_step(s: Session, c: Campaign, ref: StepRef, status: StepStatus) -> IterationStep:
-    it = _ensure_iteration(s, c, ref.iteration)
-    row = repo.get_step(s, c.id, ref.iteration, ref.step.value, ref.slot)
-    if row is None:
-        policies = current_config(s, c).policies
-        row = IterationStep(
-            campaign_id=c.id,
-            iteration_id=it.id,
-            step=ref.step.value,
-            slot=ref.slot,
-            queue=step_queue(ref.step.value),
-            config_version_id=it.config_version_id,
-            max_attempts=getattr(policies, ATTEMPTS_FIELD[ref.step]),
-            status=status.value,
-            result={},
-        )
-        s.add(row)
-    row.status = status.value
-    if status is StepStatus.queued:
-        row.queued_at = utcnow()
-        row.claim_token = None
-        row.lease_until = None
-        if it.status == IterationStatus.pending.value:
-            it.status = IterationStatus.running.value
-            it.started_at = utcnow()
-    it.current_step = ref.step.value
-    c.current_iteration = ref.iteration
-    c.current_step = ref.step.value
-    s.flush()
-    return row
-
-
-def step_job(c: Campaign, ref: StepRef, row: IterationStep) -> StepJob:
-    return StepJob(campaign_id=c.id, iteration=ref.iteration, step=ref.step, attempt=row.attempts + 1, slot=ref.slot)
 
 
 def apply_decision(s: Session, c: Campaign, d: Decision, *, note: str = "") -> list[StepJob]:

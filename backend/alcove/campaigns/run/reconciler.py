@@ -13,7 +13,7 @@
   with the same attempt number: if the first message still exists, whichever arrives
   second is a no-op.
 * A campaign waiting for a place of its owner's running-campaigns limit is sent when one has
-  come free (:mod:`alcove.campaigns.admission`).
+  come free (:mod:`alcove.campaigns.machine.admission`).
 
 Runs at worker start, periodically in every worker (:class:`ReconcilerThread`) and at API
 start (call :func:`reconcile_and_enqueue`).
@@ -27,9 +27,11 @@ from datetime import timedelta
 
 from sqlalchemy.orm import Session
 
-from alcove.campaigns import admission, transitions
 from alcove.campaigns import repository as repo
-from alcove.campaigns.state_machine import Outcome, StepRef
+from alcove.campaigns.config import current_config
+from alcove.campaigns.machine import admission
+from alcove.campaigns.machine.apply import complete_step
+from alcove.campaigns.machine.state_machine import Outcome, StepRef
 from alcove.jobs.campaign import StepJob
 from alcove.models import Campaign, StepName, StepStatus, utcnow
 from alcove.settings import get_settings
@@ -60,7 +62,7 @@ def reconcile(s: Session, *, stale_queued_s: float, dead_worker_s: float | None 
         if row.attempts >= row.max_attempts:
             row.claim_token = None
             outcome = Outcome.cancelled if c.cancel_requested else _policy(s, c, ref)
-            jobs += transitions.complete_step(s, c, ref, row, outcome, error=message)
+            jobs += complete_step(s, c, ref, row, outcome, error=message)
             continue
         row.status, row.claim_token, row.lease_until, row.queued_at, row.error = (
             StepStatus.queued.value,
@@ -103,9 +105,9 @@ def reconcile(s: Session, *, stale_queued_s: float, dead_worker_s: float | None 
 
 
 def _policy(s: Session, c: Campaign, ref: StepRef) -> Outcome:
-    from alcove.campaigns.protocol import policy_outcome
+    from alcove.campaigns.run.protocol import policy_outcome
 
-    return policy_outcome(transitions.current_config(s, c), ref)
+    return policy_outcome(current_config(s, c), ref)
 
 
 def reconcile_and_enqueue(stale_queued_s: float | None = None) -> list[StepJob]:

@@ -2,7 +2,7 @@
 
 An iteration of a batch strategy runs several ``ocp`` jobs (slot j solves candidate scenario j)
 and several ``oracle`` jobs (slot i replays pick i). Each job completes its own step row in its
-own transaction, which holds the campaign's row lock (:func:`alcove.campaigns.protocol.run_step`),
+own transaction, which holds the campaign's row lock (:func:`alcove.campaigns.run.protocol.run_step`),
 so completions are serialised: :func:`fan_state` reads the sibling rows in that transaction and
 exactly one completion sees no sibling open, the fan-in, which alone creates the next step
 (``evaluate`` or ``append``; the step rows are unique per (iteration, step, slot), so a second
@@ -19,10 +19,10 @@ from typing import Protocol
 
 from sqlalchemy.orm import Session
 
-from alcove.campaigns import candidate_repository as candidate_repo
+from alcove.campaigns import candidate_queries
 from alcove.campaigns import repository as repo
 from alcove.campaigns.config import RunSettings, config_from_version
-from alcove.campaigns.state_machine import Fan, Outcome, StepRef
+from alcove.campaigns.machine.state_machine import Fan, Outcome, StepRef
 from alcove.models import Campaign, CampaignConfigVersion, Iteration, StepName, StepStatus
 
 OPEN = (StepStatus.pending.value, StepStatus.queued.value, StepStatus.running.value)
@@ -47,7 +47,7 @@ def select_picks(s: Session, c: Campaign, it: Iteration, settings: RunSettings) 
     in the transaction of the last candidate's completion."""
     from alcove.science.ocp.acquisition import select_batch
 
-    cands = candidate_repo.candidates(s, it.id)
+    cands = candidate_queries.candidates(s, it.id)
     cv = s.get(CampaignConfigVersion, it.config_version_id)
     assert cv is not None
     threshold = config_from_version(cv).stopping.min_disagreement

@@ -10,7 +10,7 @@ from typing import Any
 
 from sqlalchemy.orm import Session
 
-from alcove.campaigns import candidate_repository as candidate_repo
+from alcove.campaigns import candidate_queries
 from alcove.jobs.steps import IterationRef
 from alcove.models import Campaign, Iteration, OcpSolution, utcnow
 
@@ -46,7 +46,7 @@ def storing_scenario(
                 assert sol is not None
                 score = float((sol.stats or {}).get("trust", {}).get("max_std_contact") or 0.0)
             replayed = strategy in ("random-scenarios", "press-family") and converged
-            candidate_repo.put_candidate(
+            candidate_queries.put_candidate(
                 s,
                 it.id,
                 at.slot,
@@ -78,7 +78,7 @@ def recording_replay(
         assert c is not None
         spent = result.get("wall_time_s", 0.0) if raised_since is None else (utcnow() - raised_since).total_seconds()
         c.oracle_wall_time_s = (c.oracle_wall_time_s or 0.0) + max(float(spent), 0.0)
-        cand = candidate_repo.picked_candidate(s, at.iteration_id, at.slot)
+        cand = candidate_queries.picked_candidate(s, at.iteration_id, at.slot)
         if cand is not None and raised_since is None:
             cand.oracle_run_id, cand.dataset_id = result.get("oracle_run_id"), result.get("dataset_id")
         return result

@@ -7,10 +7,10 @@ from __future__ import annotations
 from dataclasses import asdict
 from typing import TYPE_CHECKING, Any
 
-from alcove.campaigns import candidate_repository as candidate_repo
-from alcove.campaigns import candidates
+from alcove.campaigns import candidate_queries
 from alcove.campaigns import repository as repo
-from alcove.campaigns.validation import family_box, suite_model
+from alcove.campaigns.run import candidate_writes
+from alcove.campaigns.suite import family_box, suite_model
 from alcove.db import session_scope
 from alcove.jobs.steps import StepOutput
 from alcove.science.ocp import acquisition
@@ -19,7 +19,7 @@ from alcove.solving import steps as solving_steps
 from alcove.surrogates import repository as surrogates_repo
 
 if TYPE_CHECKING:
-    from alcove.campaigns.step_context import StepContext
+    from alcove.campaigns.run.step_context import StepContext
 
 
 def _family_motions(settings: Any, task: Any, seed: int, indices: list[int]) -> tuple[Any, list[tuple[Any, Any]]]:
@@ -55,7 +55,7 @@ def family_motion(ctx: StepContext) -> StepOutput:
             raise RuntimeError(f"model version {ctx.k} does not exist")
         task, seed = ctx.task(s, c), c.seed
         # the preliminary replays are the sequence's first motions; the iterations' follow them
-        used = [*range(ctx.config.preliminary.family_motions), *candidate_repo.family_motion_indices(s, c.id, ctx.k)]
+        used = [*range(ctx.config.preliminary.family_motions), *candidate_queries.family_motion_indices(s, c.id, ctx.k)]
     settings = ctx.config.settings
     index = acquisition.family_motion_index(used, ctx.ref.slot)
     box, ((motion, traj),) = _family_motions(settings, task, seed, [index])
@@ -67,7 +67,7 @@ def family_motion(ctx: StepContext) -> StepOutput:
     nominal = Scenario(task=task, seed=seed, iteration=ctx.k, slot=ctx.ref.slot).to_json()
     stored = {**nominal, "motion": asdict(motion), "motion_index": index}
     out = solving_steps.prescribe(ctx.run, t=traj.t, q=traj.q, qd=traj.qd, model_version_id=mv.id, motion=stored)
-    return StepOutput(candidates.storing_scenario(out.write, stored, features, settings.strategy), out.compute_s)
+    return StepOutput(candidate_writes.storing_scenario(out.write, stored, features, settings.strategy), out.compute_s)
 
 
 def preliminary_replays(ctx: StepContext, task: Any, seed: int, oracle_version_id: int) -> Any:

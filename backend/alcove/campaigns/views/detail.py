@@ -9,9 +9,10 @@ from typing import Any
 import numpy as np
 from sqlalchemy.orm import Session
 
-from alcove.campaigns import candidate_repository as candidate_repo
+from alcove.campaigns import candidate_queries
 from alcove.campaigns import repository as repo
-from alcove.campaigns.schemas import (
+from alcove.campaigns.config import config_from_version, current_config
+from alcove.campaigns.views.schemas import (
     CampaignDetail,
     CampaignOut,
     CampaignRead,
@@ -24,8 +25,7 @@ from alcove.campaigns.schemas import (
     StepRead,
     TrajectoryPhase,
 )
-from alcove.campaigns.transitions import config_from_version, current_config
-from alcove.campaigns.validation import suite_read, with_validation
+from alcove.campaigns.views.validation import suite_read, with_validation
 from alcove.db.arrays import get_arrays
 from alcove.errors import NotFound
 from alcove.lineage import holder
@@ -104,7 +104,7 @@ def metrics_series(
     """Per-iteration metrics; ``after=k`` returns only iterations > k (cheap polling). With
     ``inherited``, a fork's series starts with its sources' iterations up to the fork point
     (flagged ``inherited``), as its pool and model lineage does."""
-    from alcove.campaigns.picks import with_costs
+    from alcove.campaigns.views.picks import with_costs
 
     c = repo.get_campaign(s, campaign_id)
     orm = repo.metrics_series(s, campaign_id, after)
@@ -171,7 +171,7 @@ def iteration_trajectory(s: Session, campaign_id: int, iteration: int, slot: int
         raise NotFound("iteration", message=what if slot is None else f"{what[:-1]}; or has no candidate {slot})")
     scenario = it.scenario
     if slot is not None:
-        cand = candidate_repo.candidate_of_slot(s, it.id, slot)
+        cand = candidate_queries.candidate_of_slot(s, it.id, slot)
         scenario = cand.scenario if cand is not None else scenario
     owner = c if cid == c.id else s.get(Campaign, cid)
     assert owner is not None  # holder() found campaign cid

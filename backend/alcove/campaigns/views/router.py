@@ -15,19 +15,18 @@ from alcove.api.caching import NOT_MODIFIED, TtlCache, cached_json, read
 from alcove.api.deps import SessionDep
 from alcove.api.downloads import binary, download
 from alcove.api.params import MAX_ID, IterationIndex, ObjectId
-from alcove.campaigns import export, picks, results
-from alcove.campaigns import read_repository as reads
-from alcove.campaigns.quality_schemas import ValidationSeries
-from alcove.campaigns.schemas import (
+from alcove.campaigns.views import detail, export, picks, queries
+from alcove.campaigns.views.pick_schemas import IterationCandidates
+from alcove.campaigns.views.quality_schemas import ValidationSeries
+from alcove.campaigns.views.schemas import (
     EventRead,
-    IterationCandidates,
     IterationCurves,
     IterationRead,
     IterationTrajectory,
     JobOut,
     MetricsRead,
 )
-from alcove.campaigns.validation import validation_series
+from alcove.campaigns.views.validation import validation_series
 from alcove.db import get_sessionmaker
 from alcove.errors import NotFound
 from alcove.models import ArtifactBuild, Campaign, StepStatus
@@ -91,7 +90,7 @@ async def list_campaign_metrics(
     as ``If-None-Match`` and an unchanged series is a bodiless 304."""
     revision = REVISIONS.get(("metrics", campaign_id, user.id))
     if revision is None:
-        revision = await run_in_threadpool(read, reads.metrics_revision, campaign_id, user.id)
+        revision = await run_in_threadpool(read, queries.metrics_revision, campaign_id, user.id)
         if revision is not None:
             REVISIONS.put(("metrics", campaign_id, user.id), revision, REVISION_TTL_S)
     if revision is None:
@@ -100,7 +99,7 @@ async def list_campaign_metrics(
 
     def build() -> bytes:
         with get_sessionmaker()() as session:
-            rows = results.metrics_series(session, campaign_id, after, inherited=inherited)
+            rows = detail.metrics_series(session, campaign_id, after, inherited=inherited)
         if not extra:
             rows = [m.model_copy(update={"extra": None}) for m in rows]
         return METRICS_LIST.dump_json(rows)
@@ -126,9 +125,9 @@ def list_campaign_iterations(
     get_for(session, Campaign, campaign_id, user)
     # not cached: an iteration's status can change without the campaign row changing
     if steps:
-        rows = results.list_iterations(session, campaign_id, after)
+        rows = detail.list_iterations(session, campaign_id, after)
     else:
-        compact = reads.compact_iterations(session, campaign_id, after)
+        compact = queries.compact_iterations(session, campaign_id, after)
         rows = [IterationRead.model_validate({**r, "steps": None}) for r in compact]
     return Response(ITERATION_LIST.dump_json(rows), media_type="application/json")
 
@@ -147,7 +146,7 @@ async def get_iteration_curves(
     mx my mz in the headrest frame). Immutable once there: cached, with an ``ETag``."""
     sha = REVISIONS.get(("curves", campaign_id, iteration, user.id))
     if sha is None:
-        sha = await run_in_threadpool(read, reads.curves_sha, campaign_id, iteration, user.id)
+        sha = await run_in_threadpool(read, queries.curves_sha, campaign_id, iteration, user.id)
         if sha is not None:
             REVISIONS.put(("curves", campaign_id, iteration, user.id), sha, CURVES_ACCESS_TTL_S)
     if sha is None:
@@ -162,7 +161,7 @@ async def get_iteration_curves(
 
     def build() -> bytes:
         with get_sessionmaker()() as session:
-            return results.iteration_curves(session, campaign_id, iteration).model_dump_json().encode()
+            return detail.iteration_curves(session, campaign_id, iteration).model_dump_json().encode()
 
     return await cached_json(request, key, build)
 
@@ -183,7 +182,7 @@ async def get_iteration_trajectory(
     Not part of the polled routes (the curves route stays lean); cached with an ``ETag``."""
     sid = REVISIONS.get(("trajectory", campaign_id, iteration, user.id))
     if sid is None:
-        sid = await run_in_threadpool(read, reads.trajectory_solution, campaign_id, iteration, user.id)
+        sid = await run_in_threadpool(read, queries.trajectory_solution, campaign_id, iteration, user.id)
         if sid is not None:  # only found solutions are remembered: a running iteration's 404 is not
             REVISIONS.put(("trajectory", campaign_id, iteration, user.id), sid, REVISION_TTL_S)
     if sid is None:
@@ -191,7 +190,7 @@ async def get_iteration_trajectory(
         def why() -> None:  # the slow path only for the 404's message
             with get_sessionmaker()() as session:
                 get_for(session, Campaign, campaign_id, user)
-            raise NotFound("iteration", message=results.no_solution_message(campaign_id, iteration))
+            raise NotFound("iteration", message=detail.no_solution_message(campaign_id, iteration))
 
         await run_in_threadpool(why)
     key = (
@@ -203,7 +202,7 @@ async def get_iteration_trajectory(
 
     def build() -> bytes:
         with get_sessionmaker()() as session:
-            return results.iteration_trajectory(session, campaign_id, iteration).model_dump_json().encode()
+            return detail.iteration_trajectory(session, campaign_id, iteration).model_dump_json().encode()
 
     return await cached_json(request, key, build)
 
@@ -240,7 +239,7 @@ def get_candidate_trajectory(
     """Candidate ``slot``'s whole OCP solution (its latest attempt) over the scenario it solved,
     as ``.../trajectory`` gives the first slot's."""
     get_for(session, Campaign, campaign_id, user)
-    return results.iteration_trajectory(session, campaign_id, iteration, slot=slot)
+    return detail.iteration_trajectory(session, campaign_id, iteration, slot=slot)
 
 
 @router.get(
@@ -268,7 +267,7 @@ def list_campaign_jobs(
     """Every step (the unit of worker work): status, worker, attempts, timings, error."""
     get_for(session, Campaign, campaign_id, user)
     statuses = [s.value for s in status_] if status_ is not None else None
-    return [JobOut(**row) for row in results.list_jobs(session, campaign_id, statuses)]
+    return [JobOut(**row) for row in detail.list_jobs(session, campaign_id, statuses)]
 
 
 @router.get(
@@ -289,7 +288,7 @@ def list_campaign_events(
     after: Annotated[int, Query(ge=0, le=MAX_ID, description="only events with id > after")] = 0,
 ) -> list[EventRead]:
     get_for(session, Campaign, campaign_id, user)
-    return results.list_events(session, campaign_id, after)
+    return detail.list_events(session, campaign_id, after)
 
 
 @router.get(

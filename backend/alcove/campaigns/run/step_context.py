@@ -1,4 +1,4 @@
-"""What a campaign step's compute gets (:mod:`alcove.campaigns.steps`): the campaign, the step's
+"""What a campaign step's compute gets (:mod:`alcove.campaigns.run.steps`): the campaign, the step's
 reference, the config version it runs under, and its run (cancellation, faults, worker)."""
 
 from __future__ import annotations
@@ -7,8 +7,8 @@ from dataclasses import dataclass
 
 from sqlalchemy.orm import Session
 
-from alcove.campaigns.schemas import CampaignConfig
-from alcove.campaigns.state_machine import StepRef
+from alcove.campaigns.config import CampaignConfig
+from alcove.campaigns.machine.state_machine import StepRef
 from alcove.jobs.steps import StepRun
 from alcove.models import Campaign
 from alcove.science.ocp import acquisition

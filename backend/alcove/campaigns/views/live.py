@@ -30,9 +30,9 @@ from fastapi import APIRouter, Query, Request
 from fastapi.responses import StreamingResponse
 
 from alcove.api.params import MAX_ID, ObjectId
-from alcove.campaigns import live_access
 from alcove.campaigns import repository as repo
-from alcove.campaigns.schemas import EventRead
+from alcove.campaigns.views import live_access
+from alcove.campaigns.views.schemas import EventRead
 from alcove.db import get_sessionmaker
 from alcove.models import Campaign, CampaignStatus
 from alcove.users.access import get_for

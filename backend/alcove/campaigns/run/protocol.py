@@ -7,7 +7,7 @@ Every job runs :func:`run_step`, the same protocol for all steps:
    duplicate or stale message matches no row and the job returns ``duplicate``. A
    campaign that is pausing or cancelling does not start the step.
 2. **compute** outside any transaction: the step's domain computes it
-   (:mod:`alcove.campaigns.steps` says which), while a :class:`LeaseKeeper` thread extends
+   (:mod:`alcove.campaigns.run.steps` says which), while a :class:`LeaseKeeper` thread extends
    the lease and reads the cancel flag, which the computation checks cooperatively.
 3. **complete** (one transaction, conditional on still holding the claim token): the
    domain writes its rows, the step is marked, the state machine decides, the next step
@@ -32,12 +32,13 @@ from typing import Any, TypeVar
 
 from sqlalchemy.orm import Session
 
-from alcove.campaigns import admission, transitions
 from alcove.campaigns import repository as repo
-from alcove.campaigns.schemas import CampaignConfig
-from alcove.campaigns.state_machine import Outcome, StepRef
-from alcove.campaigns.step_context import StepContext
-from alcove.campaigns.steps import STEPS
+from alcove.campaigns.config import CampaignConfig, config_from_version, current_config
+from alcove.campaigns.machine import admission
+from alcove.campaigns.machine.apply import apply_decision, complete_step
+from alcove.campaigns.machine.state_machine import Decision, Outcome, StepRef
+from alcove.campaigns.run.step_context import StepContext
+from alcove.campaigns.run.steps import STEPS
 from alcove.db import transaction
 from alcove.jobs.campaign import StepJob, send_committed, stage
 from alcove.jobs.faults import fault_for
@@ -176,7 +177,7 @@ def run_step(
         if output is not None:
             result = output.write(s, at)
             base["write_s"] = time.perf_counter() - t_done
-            return transitions.complete_step(
+            return complete_step(
                 s,
                 c,
                 ref,
@@ -196,7 +197,7 @@ def run_step(
             if row.attempts < row.max_attempts and not failure.bad_input:
                 return _requeue(s, c.id, ref, row, failure.message)
             outcome = policy_outcome(config, ref)
-        return transitions.complete_step(s, c, ref, row, outcome, result=base, error=failure.message, wall_time_s=wall)
+        return complete_step(s, c, ref, row, outcome, result=base, error=failure.message, wall_time_s=wall)
 
     next_jobs = transaction(_staging(complete, durable))
     if next_jobs is None:
@@ -286,25 +287,23 @@ def _claim(
         row.status, row.finished_at = StepStatus.cancelled.value, utcnow()
         return "cancelled", None, None, []
     if c.cancel_requested:
-        jobs = transitions.complete_step(s, c, ref, row, Outcome.cancelled, error="cancelled before it started")
+        jobs = complete_step(s, c, ref, row, Outcome.cancelled, error="cancelled before it started")
         return "cancelled", None, None, jobs
     if c.pause_requested or c.status in (CampaignStatus.pausing.value, CampaignStatus.paused.value):
         row.status = StepStatus.pending.value
         s.flush()
         if repo.steps_of_campaign(s, c.id, [StepStatus.running.value, StepStatus.queued.value]):
             return "paused", None, None, []  # parallel slots still busy: the last one pauses the campaign
-        transitions.apply_decision(
-            s, c, transitions.Decision(CampaignStatus.paused), note="paused before the next step"
-        )
+        apply_decision(s, c, Decision(CampaignStatus.paused), note="paused before the next step")
         return "paused", None, None, []
     if not repo.claim_step(s, row.id, attempt, token, worker, lease):
         return "duplicate", None, None, []
     if c.status == CampaignStatus.queued.value:
-        transitions.apply_decision(s, c, transitions.Decision(CampaignStatus.running), note="first step claimed")
+        apply_decision(s, c, Decision(CampaignStatus.running), note="first step claimed")
     it = s.get(Iteration, row.iteration_id)
     assert it is not None
     cv = s.get(CampaignConfigVersion, row.config_version_id or it.config_version_id)
-    config = transitions.config_from_version(cv) if cv is not None else transitions.current_config(s, c)
+    config = config_from_version(cv) if cv is not None else current_config(s, c)
     repo.add_event(
         s,
         campaign_id,
@@ -327,7 +326,7 @@ def _give_back(s: Session, c: Campaign, ref: StepRef, row: IterationStep, messag
     repo.add_event(s, c.id, "step_paused", message, iteration=ref.iteration, step=ref.step.value)
     s.flush()
     if not repo.steps_of_campaign(s, c.id, [StepStatus.running.value, StepStatus.queued.value]):
-        transitions.apply_decision(s, c, transitions.Decision(CampaignStatus.paused), note="paused: " + message)
+        apply_decision(s, c, Decision(CampaignStatus.paused), note="paused: " + message)
     return []
 
 

@@ -18,9 +18,9 @@ import logging
 import sqlalchemy as sa
 from sqlalchemy.orm import Session
 
-from alcove.campaigns import fan
 from alcove.campaigns import repository as repo
-from alcove.campaigns.state_machine import StepRef
+from alcove.campaigns.machine import slots
+from alcove.campaigns.machine.state_machine import StepRef
 from alcove.jobs.campaign import StepJob
 from alcove.models import Campaign, CampaignStatus, StepName, StepStatus
 from alcove.users import repository as users_repo
@@ -84,7 +84,7 @@ def _held_steps(s: Session, c: Campaign) -> list[StepRef]:
     refs = [StepRef(i, StepName(row.step), row.slot) for i, row in rows if i == k]
     it = repo.get_iteration(s, c.id, k)
     assert it is not None
-    room = fan.start_now(s, c, fan.iteration_settings(s, it))
+    room = slots.start_now(s, c, slots.iteration_settings(s, it))
     oracles = [r for r in refs if r.step is StepName.oracle]
     if room is not None and len(oracles) > room:
         refs = [r for r in refs if r.step is not StepName.oracle] + oracles[:room]
@@ -116,7 +116,7 @@ def _waiting(s: Session, owner_id: int, n: int) -> list[Campaign]:
 
 def admit_waiting(s: Session, owner_id: int) -> list[StepJob]:
     """Admit the owner's waiting campaigns their limit has room for; the jobs to send after commit."""
-    from alcove.campaigns.transitions import ensure_step, step_job
+    from alcove.campaigns.machine.step_rows import ensure_step, step_job
 
     if not s.scalar(sa.select(sa.exists().where(Campaign.owner_id == owner_id, Campaign.wait_reason.is_not(None)))):
         return []

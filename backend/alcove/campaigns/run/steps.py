@@ -1,6 +1,6 @@
 """Which domain computes each step of a campaign iteration, and with what.
 
-The protocol (:mod:`alcove.campaigns.protocol`) calls ``STEPS[step](context)``. Each entry
+The protocol (:mod:`alcove.campaigns.run.protocol`) calls ``STEPS[step](context)``. Each entry
 resolves the campaign's references for iteration k (task version, pool version k-1, model
 version k, the OCP solution to replay, ...; a fork's early versions are its source's) and
 calls its domain's one entry point, which computes and returns the rows to write:
@@ -32,13 +32,14 @@ from typing import TYPE_CHECKING, Any, TypedDict
 import numpy as np
 from sqlalchemy.orm import Session
 
-from alcove.campaigns import candidate_repository as candidate_repo
-from alcove.campaigns import candidates, transitions
+from alcove.campaigns import candidate_queries
 from alcove.campaigns import repository as repo
-from alcove.campaigns.state_machine import IterationRecord, stop_reason
-from alcove.campaigns.step_context import StepContext
-from alcove.campaigns.validation import suite_model as validation_suite_model
-from alcove.campaigns.validation import suite_spec
+from alcove.campaigns.config import current_config
+from alcove.campaigns.machine.state_machine import IterationRecord, stop_reason
+from alcove.campaigns.run import candidate_writes
+from alcove.campaigns.run.step_context import StepContext
+from alcove.campaigns.suite import suite_model as validation_suite_model
+from alcove.campaigns.suite import suite_spec
 from alcove.db import session_scope
 from alcove.jobs.steps import FailedAttempt, IterationRef, StepOutput, StepPaused, UnusableResult, is_cancellation
 from alcove.models import (
@@ -104,7 +105,7 @@ def preliminary(ctx: StepContext) -> StepOutput:
     model = task.model
     measured = None
     if pre.family_motions > 0:  # oracle replays of the task's press family beside the auxiliary law
-        from alcove.campaigns.family_steps import preliminary_replays
+        from alcove.campaigns.run.family_steps import preliminary_replays
 
         measured = preliminary_replays(ctx, task, seed, oracle_version_id)
     spec = pool_steps.PreliminarySpec(
@@ -174,7 +175,7 @@ def train(ctx: StepContext) -> StepOutput:
 
 def ocp(ctx: StepContext) -> StepOutput:
     if ctx.config.settings.strategy == "press-family":
-        from alcove.campaigns.family_steps import family_motion
+        from alcove.campaigns.run.family_steps import family_motion
 
         return family_motion(ctx)
     ctx.before_compute()
@@ -189,7 +190,7 @@ def ocp(ctx: StepContext) -> StepOutput:
         batch = (
             settings.batch > 1
             or settings.strategy == "ensemble-disagreement"
-            or candidate_repo.has_candidates(s, c.id, ctx.k)
+            or candidate_queries.has_candidates(s, c.id, ctx.k)
         )
         features = acquisition.scenario_features(ctx.task(s, c), scenario.values) if batch else None
         nominal_preset = ctx.task(s, c).model.oracle_preset()
@@ -207,9 +208,9 @@ def ocp(ctx: StepContext) -> StepOutput:
         )
     except UnusableResult as err:  # no converged solution: the iteration still shows its scenario
         raise UnusableResult(
-            err.reason, candidates.storing_scenario(err.write, stored, features, settings.strategy)
+            err.reason, candidate_writes.storing_scenario(err.write, stored, features, settings.strategy)
         ) from None
-    return StepOutput(candidates.storing_scenario(out.write, stored, features, settings.strategy), out.compute_s)
+    return StepOutput(candidate_writes.storing_scenario(out.write, stored, features, settings.strategy), out.compute_s)
 
 
 def oracle(ctx: StepContext) -> StepOutput:
@@ -222,7 +223,7 @@ def oracle(ctx: StepContext) -> StepOutput:
             c, it = _iteration(s, ctx)
             oracle_version_id = c.oracle_version_id
             # oracle slot i replays the candidate picked as i (no candidate rows: the one solution)
-            cand = candidate_repo.picked_candidate(s, it.id, ctx.ref.slot)
+            cand = candidate_queries.picked_candidate(s, it.id, ctx.ref.slot)
             if cand is not None:
                 sol = s.get(OcpSolution, cand.ocp_solution_id) if cand.ocp_solution_id is not None else None
                 stored = cand.scenario
@@ -258,14 +259,14 @@ def oracle(ctx: StepContext) -> StepOutput:
             batch_jobs=batch_jobs,
         )
     except UnusableResult as err:
-        raise UnusableResult(err.reason, candidates.recording_replay(err.write)) from None
+        raise UnusableResult(err.reason, candidate_writes.recording_replay(err.write)) from None
     except Exception as err:
         if is_cancellation(err) or isinstance(err, StepPaused) or oracle_version_id is None:
             raise
         message = f"{type(err).__name__}: {err}"
         failed = oracle_steps.failed_run(ctx.run, oracle_version_id, started, message)
-        raise FailedAttempt(err, candidates.recording_replay(failed, started)) from err
-    return StepOutput(candidates.recording_replay(out.write), out.compute_s)
+        raise FailedAttempt(err, candidate_writes.recording_replay(failed, started)) from err
+    return StepOutput(candidate_writes.recording_replay(out.write), out.compute_s)
 
 
 def evaluate(ctx: StepContext) -> StepOutput:
@@ -313,7 +314,7 @@ def evaluate(ctx: StepContext) -> StepOutput:
     def per_pick(s: Session, at: IterationRef) -> dict[str, Any]:
         result = evaluated.write(s, at)
         for p in result.get("picks", []):  # a batch: the in-loop RMSE and curves of each picked trajectory
-            candidate_repo.set_candidate_rmse(
+            candidate_queries.set_candidate_rmse(
                 s, at.iteration_id, p["dataset_id"], p["force_rmse"], p["moment_rmse"], p.get("curves_sha256")
             )
         return result
@@ -344,8 +345,8 @@ def append(ctx: StepContext) -> StepOutput:
         result = out.write(s, at)
         c = repo.get_campaign(s, at.campaign_id)
         history = [IterationRecord(*row) for row in repo.rmse_history(s, c.id)]
-        rules = transitions.current_config(s, c).stopping
-        scores = [cand.score for cand in candidate_repo.candidates(s, at.iteration_id) if cand.score is not None]
+        rules = current_config(s, c).stopping
+        scores = [cand.score for cand in candidate_queries.candidates(s, at.iteration_id) if cand.score is not None]
         top = max(scores) if scores else None
         calls = repo.oracle_calls(s, c.id)
         streak = repo.failed_streak(s, c.id, ctx.k)
