@@ -10,7 +10,8 @@ describe("SSE parser", () => {
     expect(p.push(": keep-alive\n\nid: 4\nevent: sta")).toEqual([]);
     expect(p.push('tus\r\ndata: {"a":1}\r')).toEqual([]);
     expect(p.push("\n\r\n")).toEqual([{ id: "4", event: "status", data: '{"a":1}' }]);
-    expect(p.push("data: line 1\ndata: line 2\n\n")).toEqual([{ id: "4", event: "message", data: "line 1\nline 2" }]);
+    // a frame carries the id it was sent with (readStream keeps the last id seen across frames)
+    expect(p.push("data: line 1\ndata: line 2\n\n")).toEqual([{ id: null, event: "message", data: "line 1\nline 2" }]);
     expect(p.push("id: 5\nevent: step_started\ndata:{}\n\nid: 6\nevent: forked\ndata: {}\n\n").map((f) => f.id)).toEqual(["5", "6"]);
   });
 });

@@ -5,6 +5,7 @@
  * with ?after=<last event id>.
  */
 import { useEffect, useRef, useState } from "react";
+import { createParser, type EventSourceMessage } from "eventsource-parser";
 import { useQueryClient, type QueryClient } from "@tanstack/react-query";
 import { storedToken } from "./auth";
 import { ApiError } from "./errors";
@@ -18,39 +19,22 @@ export interface SseFrame {
   data: string;
 }
 
-/** Incremental parser of a text/event-stream: feed it chunks, get the complete frames. */
+/**
+ * Incremental parser of a text/event-stream (eventsource-parser, the spec's algorithm): feed it
+ * chunks, get the complete frames. A frame without an `event` field is a "message", as in the
+ * browser's EventSource.
+ */
 export class SseParser {
-  private buffer = "";
-  private id: string | null = null;
-  private event = "";
-  private data: string[] = [];
+  private frames: SseFrame[] = [];
+  private parser = createParser({
+    onEvent: (m: EventSourceMessage) => this.frames.push({ id: m.id ?? null, event: m.event ?? "message", data: m.data }),
+  });
 
   push(chunk: string): SseFrame[] {
-    this.buffer += chunk;
-    const frames: SseFrame[] = [];
-    let nl: number;
-    while ((nl = this.buffer.search(/\r\n|\r|\n/)) >= 0) {
-      const line = this.buffer.slice(0, nl);
-      const width = this.buffer.startsWith("\r\n", nl) ? 2 : 1;
-      // a lone \r at the end may be the first half of \r\n: wait for more
-      if (width === 1 && this.buffer[nl] === "\r" && nl === this.buffer.length - 1) break;
-      this.buffer = this.buffer.slice(nl + width);
-      if (line === "") {
-        if (this.data.length || this.event) frames.push({ id: this.id, event: this.event || "message", data: this.data.join("\n") });
-        this.event = "";
-        this.data = [];
-        continue;
-      }
-      if (line.startsWith(":")) continue; // comment (keep-alive)
-      const colon = line.indexOf(":");
-      const field = colon < 0 ? line : line.slice(0, colon);
-      let value = colon < 0 ? "" : line.slice(colon + 1);
-      if (value.startsWith(" ")) value = value.slice(1);
-      if (field === "id") this.id = value;
-      else if (field === "event") this.event = value;
-      else if (field === "data") this.data.push(value);
-    }
-    return frames;
+    this.parser.feed(chunk);
+    const done = this.frames;
+    this.frames = [];
+    return done;
   }
 }
 
