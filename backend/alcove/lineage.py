@@ -11,7 +11,7 @@ from alcove.errors import NotFound
 from alcove.models import Campaign
 
 
-def holder(s: Session, campaign_id: int, index: int) -> tuple[int, int]:
+def resolve_iteration(s: Session, campaign_id: int, index: int) -> tuple[int, int]:
     """(campaign id, index) holding iteration ``index`` of campaign ``campaign_id``: the
     campaign itself, or for an index up to a fork's ``source_iteration`` its source's."""
     cid = campaign_id

@@ -12,13 +12,13 @@ from alcove.campaigns.config import RunSettings, StoppingRules, strategy_problem
 from alcove.campaigns.machine.state_machine import (
     Cancel,
     Decision,
-    Fan,
     InvalidTransition,
     IterationRecord,
     Outcome,
     Pause,
     Resume,
     RetryStep,
+    Slots,
     Start,
     State,
     StepFinished,
@@ -251,11 +251,11 @@ def test_a_batch_fans_out_and_back_in_exactly_once_whatever_the_order(
     """Iteration 1 of a random-scenarios campaign with q slots and an oracle cap: its jobs end in
     any order, some fail, the campaign is paused and resumed in between (a claimed job of a
     pausing campaign parks its step, as the protocol does). The rows play the database and
-    :func:`fan_of` reads them as the completing transaction does. Whatever happens: each slot's
+    :func:`slots_of_rows` reads them as the completing transaction does. Whatever happens: each slot's
     ocp and oracle job runs once (nothing is redone), never more than ``cap`` oracle jobs are
     queued or running, ``evaluate`` runs iff some pick produced data and after every pick ended,
     and the iteration reaches exactly one ``append``."""
-    from alcove.campaigns.machine.slots import fan_of
+    from alcove.campaigns.machine.slots import slots_of_rows
 
     rows: dict[tuple[str, int], str] = {}
     queue: list[StepRef] = []
@@ -301,15 +301,15 @@ def test_a_batch_fans_out_and_back_in_exactly_once_whatever_the_order(
         rows[(ref.step.value, ref.slot)] = "succeeded" if outcome is Outcome.succeeded else "failed"
         if ref.step is N.append:
             return
-        fan = Fan()
+        slots = Slots()
         if ref.step in (N.ocp, N.oracle):
             slot_rows = [_Row(s, j, v) for (s, j), v in rows.items() if s in ("ocp", "oracle")]
-            fan = fan_of(slot_rows, ref, q, room())
+            slots = slots_of_rows(slot_rows, ref, q, room())
         if ref.step is N.evaluate:  # the pick rows all ended before it was sent
             assert all(v not in ("pending", "queued", "running") for (s, _), v in rows.items() if s != "evaluate")
-        apply(transition(state, StepFinished(ref, outcome, fan=fan)))
+        apply(transition(state, StepFinished(ref, outcome, slots=slots)))
 
-    apply(transition(state, StepFinished(StepRef(1, N.train), Outcome.succeeded, fan=Fan(ocp_slots=q))))
+    apply(transition(state, StepFinished(StepRef(1, N.train), Outcome.succeeded, slots=Slots(ocp_slots=q))))
     for action, i in script:
         if action == "pause" and state.status is S.running:
             apply(transition(state, Pause()))

@@ -233,26 +233,9 @@ def pause(s: Session, campaign_id: int) -> tuple[Campaign, list[StepJob]]:
     return c, apply_decision(s, c, d, note="pause requested")
 
 
-def _waiting_steps(s: Session, c: Campaign) -> tuple[StepRef, ...]:
-    """The steps waiting to run: the last pending one, or all pending parallel slots of its
-    iteration (oracle slots: as many as the campaign's concurrency cap allows)."""
-    rows = repo.steps_of_campaign(s, c.id, [StepStatus.pending.value])
-    if not rows:
-        return ()
-    k = rows[-1][0]
-    refs = [StepRef(i, StepName(row.step), row.slot) for i, row in rows if i == k]
-    oracles = [r for r in refs if r.step is StepName.oracle]
-    it = repo.get_iteration(s, c.id, k)
-    assert it is not None
-    room = slots.start_now(s, c, slots.iteration_settings(s, it))
-    if room is not None and len(oracles) > room:  # the rest stay pending until running ones end
-        refs = [r for r in refs if r.step is not StepName.oracle] + oracles[:room]
-    return tuple(refs)
-
-
 def resume(s: Session, campaign_id: int) -> tuple[Campaign, list[StepJob]]:
     c = repo.get_campaign(s, campaign_id, lock=True)
-    waiting = _waiting_steps(s, c)
+    waiting = tuple(slots.waiting_steps(s, c))
     if c.status == CampaignStatus.paused.value and not waiting:
         raise InvalidTransition(c.status, "resume", "no step is waiting")
     return c, apply_decision(s, c, transition(state_of(c), Resume(waiting)), note="resumed")

@@ -8,7 +8,7 @@ import sqlalchemy as sa
 from sqlalchemy.orm import Session
 
 from alcove.errors import NotFound
-from alcove.lineage import holder
+from alcove.lineage import resolve_iteration
 from alcove.models import Dataset, OracleRun, PoolVersion, PoolVersionMember
 from alcove.models.data import HeadrestPlacement
 
@@ -85,7 +85,7 @@ def uploaded_datasets(s: Session, owner_id: int, limit: int, offset: int) -> lis
 
 def version_of(s: Session, campaign_id: int, version: int) -> PoolVersion | None:
     """Pool version ``version`` of a campaign (a fork's early versions are its source's)."""
-    cid, v = holder(s, campaign_id, version)
+    cid, v = resolve_iteration(s, campaign_id, version)
     return s.scalar(sa.select(PoolVersion).where(PoolVersion.campaign_id == cid, PoolVersion.version == v))
 
 

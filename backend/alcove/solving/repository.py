@@ -5,7 +5,7 @@ from __future__ import annotations
 import sqlalchemy as sa
 from sqlalchemy.orm import Session
 
-from alcove.lineage import holder
+from alcove.lineage import resolve_iteration
 from alcove.models import Iteration, OcpSolution
 
 #: How far back a campaign looks for a converged solution to start from.
@@ -22,7 +22,7 @@ def previous_converged(s: Session, campaign_id: int, index: int) -> OcpSolution 
     """The latest converged solution of an iteration before ``index`` (of this campaign or,
     before a fork point, its source's), looking back at most :data:`LOOKBACK` iterations."""
     for j in range(index - 1, max(index - 1 - LOOKBACK, 0), -1):
-        cid, jj = holder(s, campaign_id, j)
+        cid, jj = resolve_iteration(s, campaign_id, j)
         row = s.scalar(
             sa.select(OcpSolution)
             .join(Iteration, Iteration.id == OcpSolution.iteration_id)

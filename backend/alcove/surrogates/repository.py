@@ -5,7 +5,7 @@ from __future__ import annotations
 import sqlalchemy as sa
 from sqlalchemy.orm import Session
 
-from alcove.lineage import holder
+from alcove.lineage import resolve_iteration
 from alcove.models import ModelVersion
 
 
@@ -21,5 +21,5 @@ def own_versions(s: Session, campaign_id: int) -> list[ModelVersion]:
 
 def version_of(s: Session, campaign_id: int, version: int) -> ModelVersion | None:
     """Model version ``version`` of a campaign (a fork's early versions are its source's)."""
-    cid, v = holder(s, campaign_id, version)
+    cid, v = resolve_iteration(s, campaign_id, version)
     return s.scalar(sa.select(ModelVersion).where(ModelVersion.campaign_id == cid, ModelVersion.version == v))

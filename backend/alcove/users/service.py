@@ -165,7 +165,7 @@ def _detached_copy(obj: T) -> T:
     return copy
 
 
-def holder_of(session: Session, token_id: int) -> User | None:
+def user_of_token(session: Session, token_id: int) -> User | None:
     """The active user whose token ``token_id`` is still valid, read from the database (not the
     verified-token cache): for what outlives a request, such as an open event stream."""
     token = session.get(ApiToken, token_id)

@@ -20,9 +20,8 @@ from sqlalchemy.orm import Session
 
 from alcove.campaigns import repository as repo
 from alcove.campaigns.machine import slots
-from alcove.campaigns.machine.state_machine import StepRef
 from alcove.jobs.campaign import StepJob
-from alcove.models import Campaign, CampaignStatus, StepName, StepStatus
+from alcove.models import Campaign, CampaignStatus, StepStatus
 from alcove.users import repository as users_repo
 from alcove.users.limits import limits_of_id
 
@@ -74,23 +73,6 @@ def hold_over_limit(s: Session, c: Campaign, jobs: list[StepJob]) -> list[StepJo
     return []
 
 
-def _held_steps(s: Session, c: Campaign) -> list[StepRef]:
-    """A waiting campaign's steps to send: the pending rows of its last iteration that has any
-    (oracle slots: as many as the campaign's own concurrency cap allows)."""
-    rows = repo.steps_of_campaign(s, c.id, [StepStatus.pending.value])
-    if not rows:
-        return []
-    k = rows[-1][0]
-    refs = [StepRef(i, StepName(row.step), row.slot) for i, row in rows if i == k]
-    it = repo.get_iteration(s, c.id, k)
-    assert it is not None
-    room = slots.start_now(s, c, slots.iteration_settings(s, it))
-    oracles = [r for r in refs if r.step is StepName.oracle]
-    if room is not None and len(oracles) > room:
-        refs = [r for r in refs if r.step is not StepName.oracle] + oracles[:room]
-    return refs
-
-
 def waiting_owners(s: Session) -> list[int]:
     q = sa.select(Campaign.owner_id).where(Campaign.wait_reason.is_not(None)).distinct().order_by(Campaign.owner_id)
     return list(s.scalars(q))
@@ -127,7 +109,7 @@ def admit_waiting(s: Session, owner_id: int) -> list[StepJob]:
     jobs: list[StepJob] = []
     for c in waiting:
         c.wait_reason = None
-        refs = _held_steps(s, c)
+        refs = slots.waiting_steps(s, c)
         for ref in refs:
             jobs.append(step_job(c, ref, ensure_step(s, c, ref, StepStatus.queued)))
         repo.add_event(s, c.id, "admitted", "a place is free: its jobs are sent", data={"limit": limit})

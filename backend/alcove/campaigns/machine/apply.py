@@ -15,7 +15,7 @@ from sqlalchemy.orm import Session
 
 from alcove.campaigns import repository as repo
 from alcove.campaigns.machine import admission
-from alcove.campaigns.machine.slots import fan_state
+from alcove.campaigns.machine.slots import slots_after
 from alcove.campaigns.machine.state_machine import Decision, Outcome, State, StepFinished, StepRef, transition
 from alcove.campaigns.machine.step_rows import ensure_step, step_job
 from alcove.jobs.campaign import StepJob
@@ -115,8 +115,8 @@ def complete_step(
         row.result = {**(row.result or {}), **result}
     it = repo.get_iteration(s, c.id, ref.iteration)
     assert it is not None
-    fan = fan_state(s, c, it, ref, outcome)
-    no_data = fan.open == 0 and fan.oracle_ok == 0 and not fan.picks
+    slots = slots_after(s, c, it, ref, outcome)
+    no_data = slots.open == 0 and slots.oracle_ok == 0 and not slots.picks
     if outcome is Outcome.iteration_failed and (no_data or ref.step not in (StepName.ocp, StepName.oracle)):
         # the iteration has no data (a batch with some picks replayed still succeeds; the
         # failed picks say why on their steps)
@@ -139,5 +139,5 @@ def complete_step(
             **({"stop_reason": stop_reason} if stop_reason else {}),
         },
     )
-    d = transition(state_of(c), StepFinished(ref, outcome, stop_reason, error, fan))
+    d = transition(state_of(c), StepFinished(ref, outcome, stop_reason, error, slots))
     return apply_decision(s, c, d)

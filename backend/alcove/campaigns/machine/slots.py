@@ -1,9 +1,10 @@
-"""Fan-out and fan-in of an iteration's parallel slots (batch acquisition).
+"""A batch iteration's parallel slots: their fan-out, their fan-in, and the oracle jobs the
+campaign's concurrency cap lets start.
 
 An iteration of a batch strategy runs several ``ocp`` jobs (slot j solves candidate scenario j)
 and several ``oracle`` jobs (slot i replays pick i). Each job completes its own step row in its
 own transaction, which holds the campaign's row lock (:func:`alcove.campaigns.run.protocol.run_step`),
-so completions are serialised: :func:`fan_state` reads the sibling rows in that transaction and
+so completions are serialised: :func:`slots_after` reads the sibling rows in that transaction and
 exactly one completion sees no sibling open, the fan-in, which alone creates the next step
 (``evaluate`` or ``append``; the step rows are unique per (iteration, step, slot), so a second
 creation could not happen anyway). Duplicate deliveries claim nothing
@@ -22,7 +23,7 @@ from sqlalchemy.orm import Session
 from alcove.campaigns import candidate_queries
 from alcove.campaigns import repository as repo
 from alcove.campaigns.config import RunSettings, config_from_version
-from alcove.campaigns.machine.state_machine import Fan, Outcome, StepRef
+from alcove.campaigns.machine.state_machine import Outcome, Slots, StepRef
 from alcove.models import Campaign, CampaignConfigVersion, Iteration, StepName, StepStatus
 
 OPEN = (StepStatus.pending.value, StepStatus.queued.value, StepStatus.running.value)
@@ -69,22 +70,40 @@ def iteration_settings(s: Session, it: Iteration) -> RunSettings:
     return RunSettings.model_validate(cv.settings)
 
 
-def start_now(s: Session, c: Campaign, settings: RunSettings) -> int | None:
+def oracle_room(s: Session, c: Campaign, settings: RunSettings) -> int | None:
     """Oracle jobs the campaign may send now under its concurrency cap (None: no cap)."""
     cap = settings.max_concurrent_oracle_jobs
     return None if cap is None else max(0, cap - repo.active_oracle_steps(s, c.id))
 
 
+def waiting_steps(s: Session, c: Campaign) -> list[StepRef]:
+    """The steps of ``c`` to send when it runs again (a resume, an admission): the pending rows of
+    its last iteration that has any (oracle slots: as many as the concurrency cap allows; the rest
+    stay pending until running ones end)."""
+    rows = repo.steps_of_campaign(s, c.id, [StepStatus.pending.value])
+    if not rows:
+        return []
+    k = rows[-1][0]
+    refs = [StepRef(i, StepName(row.step), row.slot) for i, row in rows if i == k]
+    it = repo.get_iteration(s, c.id, k)
+    assert it is not None
+    room = oracle_room(s, c, iteration_settings(s, it))
+    oracles = [r for r in refs if r.step is StepName.oracle]
+    if room is not None and len(oracles) > room:
+        refs = [r for r in refs if r.step is not StepName.oracle] + oracles[:room]
+    return refs
+
+
 class SlotRow(Protocol):
-    """What :func:`fan_of` reads of a step row (an ``IterationStep``, or a test's stand-in)."""
+    """What :func:`slots_of_rows` reads of a step row (an ``IterationStep``, or a test's stand-in)."""
 
     step: str
     slot: int
     status: str
 
 
-def fan_of(rows: Sequence[SlotRow], ref: StepRef, ocp_slots: int, room: int | None) -> Fan:
-    """The :class:`Fan` of ocp/oracle step ``ref`` that just ended, from the iteration's ocp and
+def slots_of_rows(rows: Sequence[SlotRow], ref: StepRef, ocp_slots: int, room: int | None) -> Slots:
+    """The :class:`Slots` of ocp/oracle step ``ref`` that just ended, from the iteration's ocp and
     oracle rows (``ref``'s own row already carries its final status) and ``room``, the oracle
     jobs the concurrency cap allows to start now (None: no cap). Pure: the state-machine tests
     drive it with rows of their own."""
@@ -93,27 +112,27 @@ def fan_of(rows: Sequence[SlotRow], ref: StepRef, ocp_slots: int, room: int | No
     release: tuple[int, ...] = ()
     if ref.step is StepName.oracle:  # oracle slots parked by the cap (or a pause that was lifted)
         release = tuple(sorted(r.slot for r in others if r.step == "oracle" and r.status == "pending"))
-    return Fan(
+    return Slots(
         ocp_slots=ocp_slots,
         open=sum(r.status in OPEN for r in others),
         busy=sum(r.status in (StepStatus.queued.value, StepStatus.running.value) for r in others),
         oracle_ok=sum(r.step == "oracle" and r.status == StepStatus.succeeded.value for r in others),
-        start_now=room,
+        oracle_room=room,
         release=release,
     )
 
 
-def fan_state(s: Session, c: Campaign, it: Iteration, ref: StepRef, outcome: Outcome) -> Fan:
-    """The :class:`Fan` of the step ``ref`` that just ended with ``outcome`` (its row already
+def slots_after(s: Session, c: Campaign, it: Iteration, ref: StepRef, outcome: Outcome) -> Slots:
+    """The :class:`Slots` of the step ``ref`` that just ended with ``outcome`` (its row already
     carries its final status), read in the completing transaction."""
     settings = iteration_settings(s, it)
     if ref.step is StepName.train:
-        return Fan(ocp_slots=ocp_slots(settings))
+        return Slots(ocp_slots=ocp_slots(settings))
     if ref.step not in (StepName.ocp, StepName.oracle):
-        return Fan()
+        return Slots()
     rows = repo.slot_steps(s, it.id, [StepName.ocp.value, StepName.oracle.value])
-    fan = fan_of(rows, ref, ocp_slots(settings), start_now(s, c, settings))
+    slots = slots_of_rows(rows, ref, ocp_slots(settings), oracle_room(s, c, settings))
     if ref.step is StepName.ocp and selects(settings):
-        picks = select_picks(s, c, it, settings) if fan.open == 0 else ()
-        fan = replace(fan, selects=True, picks=picks)
-    return fan
+        picks = select_picks(s, c, it, settings) if slots.open == 0 else ()
+        slots = replace(slots, selects=True, picks=picks)
+    return slots

@@ -110,7 +110,7 @@ class Cancel:
 
 
 @dataclass(frozen=True)
-class Fan:
+class Slots:
     """What the database says about the iteration's parallel slots when one of them finished
     (the completing transaction holds the campaign's lock, so completions are serialised and
     exactly one of them sees ``open == 0``: the fan-in).
@@ -121,7 +121,7 @@ class Fan:
     excluded); ``picks``: at the fan-in of a selecting strategy, the candidates' ocp slots picked
     (oracle slot i replays ``picks[i]``); ``oracle_ok``: the other oracle slots that produced a
     dataset;
-    ``start_now``: how many of the oracle jobs this completion makes necessary may be sent now
+    ``oracle_room``: how many of the oracle jobs this completion makes necessary may be sent now
     (the campaign's concurrency cap, None: all; the rest wait ``pending``); ``release``: after an
     oracle slot ended, the waiting oracle slots the freed capacity starts; ``busy``: sibling slots
     queued or running (a pause waits for them)."""
@@ -131,7 +131,7 @@ class Fan:
     open: int = 0
     picks: tuple[int, ...] = ()
     oracle_ok: int = 0
-    start_now: int | None = None
+    oracle_room: int | None = None
     release: tuple[int, ...] = ()
     busy: int = 0
 
@@ -142,7 +142,7 @@ class StepFinished:
     outcome: Outcome
     stop_reason: str | None = None  # set by the append step when a stopping rule fired
     error: str | None = None
-    fan: Fan = field(default_factory=Fan)
+    slots: Slots = field(default_factory=Slots)
 
 
 @dataclass(frozen=True)
@@ -219,13 +219,13 @@ def transition(state: State, event: Event) -> Decision:
             if st is not S.failed:
                 raise InvalidTransition(st, "retry a step of", "only a failed campaign has a step to retry")
             return Decision(S.running, enqueue=(ref,))
-        case StepFinished(ref, outcome, reason, error, fan):
-            return _step_finished(state, ref, outcome, reason, error, fan)
+        case StepFinished(ref, outcome, reason, error, slots):
+            return _step_finished(state, ref, outcome, reason, error, slots)
     raise TypeError(f"unknown event {event!r}")
 
 
 def _step_finished(
-    state: State, ref: StepRef, outcome: Outcome, reason: str | None, error: str | None, fan: Fan
+    state: State, ref: StepRef, outcome: Outcome, reason: str | None, error: str | None, slots: Slots
 ) -> Decision:
     st = state.status
     if st in CampaignStatus.terminal():
@@ -240,34 +240,34 @@ def _step_finished(
         return Decision(S.completed, stop_reason=reason)
     k = ref.iteration
     if ref.step is StepName.oracle and outcome is Outcome.succeeded:
-        fan = replace(fan, oracle_ok=fan.oracle_ok + 1)  # this one's dataset
+        slots = replace(slots, oracle_ok=slots.oracle_ok + 1)  # this one's dataset
     nxt: tuple[StepRef, ...] = ()
     oracles: tuple[StepRef, ...] = ()  # oracle jobs to start, as many as the concurrency cap allows
     skip: tuple[StepRef, ...] = ()
     if ref.step is StepName.train:  # fan-out: one ocp job per candidate
-        nxt = tuple(StepRef(k, StepName.ocp, j) for j in range(max(fan.ocp_slots, 1)))
-    elif ref.step is StepName.ocp and not fan.selects:  # ocp slot j feeds oracle slot j
+        nxt = tuple(StepRef(k, StepName.ocp, j) for j in range(max(slots.ocp_slots, 1)))
+    elif ref.step is StepName.ocp and not slots.selects:  # ocp slot j feeds oracle slot j
         if outcome is Outcome.succeeded:
             oracles = (StepRef(k, StepName.oracle, ref.slot),)
         else:
             skip = (StepRef(k, StepName.oracle, ref.slot),)
-            nxt, skip = _fan_in(k, fan), skip + _skipped_evaluate(k, fan)
+            nxt, skip = _fan_in(k, slots), skip + _skipped_evaluate(k, slots)
     elif ref.step is StepName.ocp:  # a selecting strategy: wait for every candidate, then pick
-        if fan.open:
+        if slots.open:
             pass
-        elif fan.picks:
-            oracles = tuple(StepRef(k, StepName.oracle, i) for i in range(len(fan.picks)))
+        elif slots.picks:
+            oracles = tuple(StepRef(k, StepName.oracle, i) for i in range(len(slots.picks)))
         else:  # nothing worth asking the oracle: no data this iteration
             nxt, skip = (StepRef(k, StepName.append),), (StepRef(k, StepName.evaluate),)
     elif ref.step is StepName.oracle:
-        oracles = tuple(StepRef(k, StepName.oracle, j) for j in fan.release)
-        nxt, skip = _fan_in(k, fan), _skipped_evaluate(k, fan)
+        oracles = tuple(StepRef(k, StepName.oracle, j) for j in slots.release)
+        nxt, skip = _fan_in(k, slots), _skipped_evaluate(k, slots)
     else:
         nxt = (ref.following(),)
-    n = len(oracles) if fan.start_now is None else max(0, min(fan.start_now, len(oracles)))
+    n = len(oracles) if slots.oracle_room is None else max(0, min(slots.oracle_room, len(oracles)))
     start, wait = nxt + oracles[:n], oracles[n:]
     if state.pause_requested or st in (S.pausing, S.paused):
-        if fan.busy:  # siblings still running: the campaign pauses when the last of them ends
+        if slots.busy:  # siblings still running: the campaign pauses when the last of them ends
             return Decision(S.pausing, wait=start + wait, skip=skip, pause_requested=True)
         return Decision(
             S.paused, pending=start[0] if start else None, wait=start[1:] + wait, skip=skip, pause_requested=False
@@ -275,16 +275,16 @@ def _step_finished(
     return Decision(S.running, enqueue=start, wait=wait, skip=skip)
 
 
-def _fan_in(k: int, fan: Fan) -> tuple[StepRef, ...]:
+def _fan_in(k: int, slots: Slots) -> tuple[StepRef, ...]:
     """After an ocp (non-selecting) or oracle slot ended: nothing while others are open; then
     ``evaluate`` if some pick produced a dataset, else straight to ``append`` (no new data)."""
-    if fan.open:
+    if slots.open:
         return ()
-    return (StepRef(k, StepName.evaluate),) if fan.oracle_ok else (StepRef(k, StepName.append),)
+    return (StepRef(k, StepName.evaluate),) if slots.oracle_ok else (StepRef(k, StepName.append),)
 
 
-def _skipped_evaluate(k: int, fan: Fan) -> tuple[StepRef, ...]:
-    return (StepRef(k, StepName.evaluate),) if not fan.open and not fan.oracle_ok else ()
+def _skipped_evaluate(k: int, slots: Slots) -> tuple[StepRef, ...]:
+    return (StepRef(k, StepName.evaluate),) if not slots.open and not slots.oracle_ok else ()
 
 
 # ----------------------------------------------------------------------------- stopping rules
@@ -358,13 +358,13 @@ __all__ = [
     "Cancel",
     "Decision",
     "Event",
-    "Fan",
     "InvalidTransition",
     "IterationRecord",
     "Outcome",
     "Pause",
     "Resume",
     "RetryStep",
+    "Slots",
     "Start",
     "State",
     "StepFinished",

@@ -28,7 +28,7 @@ from alcove.campaigns.views.schemas import (
 from alcove.campaigns.views.validation import suite_read, with_validation
 from alcove.db.arrays import get_arrays
 from alcove.errors import NotFound
-from alcove.lineage import holder
+from alcove.lineage import resolve_iteration
 from alcove.models import (
     Campaign,
     CampaignConfigVersion,
@@ -163,7 +163,7 @@ def iteration_trajectory(s: Session, campaign_id: int, iteration: int, slot: int
     solver summary. An iteration up to a fork's source iteration reads the source's. With
     ``slot``: the solution of that candidate (ocp slot) of a batch iteration, and its scenario."""
     c = repo.get_campaign(s, campaign_id)
-    cid, k = holder(s, c.id, iteration)
+    cid, k = resolve_iteration(s, c.id, iteration)
     it = repo.get_iteration(s, cid, k)
     sol = solving_repo.latest_of_iteration(s, it.id, slot or 0) if it is not None else None
     if it is None or sol is None or sol.trajectory_sha256 is None:
@@ -174,7 +174,7 @@ def iteration_trajectory(s: Session, campaign_id: int, iteration: int, slot: int
         cand = candidate_queries.candidate_of_slot(s, it.id, slot)
         scenario = cand.scenario if cand is not None else scenario
     owner = c if cid == c.id else s.get(Campaign, cid)
-    assert owner is not None  # holder() found campaign cid
+    assert owner is not None  # resolve_iteration() found campaign cid
     task_version = s.get(TaskVersion, owner.task_version_id)
     assert task_version is not None  # a campaign's task version cannot be deleted (foreign key, RESTRICT)
     spec = task_version.spec

@@ -43,7 +43,7 @@ class CampaignAccess:
 
     def _check(self) -> str | None:
         with get_sessionmaker()() as s:
-            user = users.holder_of(s, self.token_id)
+            user = users.user_of_token(s, self.token_id)
             if user is None:
                 return TOKEN_GONE
             try:
@@ -88,7 +88,7 @@ class Visible:
 
     def _recheck(self) -> str | None:
         with get_sessionmaker()() as s:
-            user = users.holder_of(s, self.token_id)
+            user = users.user_of_token(s, self.token_id)
             if user is None:
                 return TOKEN_GONE
             still = repo.visible_campaign_ids(s, user, sorted(self.visible)) if self.visible else set()

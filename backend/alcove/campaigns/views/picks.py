@@ -20,7 +20,7 @@ from alcove.campaigns.views.pick_schemas import CandidateDetail, CandidateWhy, I
 from alcove.campaigns.views.schemas import IterationCurves, MetricsRead
 from alcove.db.arrays import get_arrays
 from alcove.errors import NotFound
-from alcove.lineage import holder
+from alcove.lineage import resolve_iteration
 from alcove.models import (
     Campaign,
     CampaignConfigVersion,
@@ -34,7 +34,7 @@ from alcove.science.ocp.acquisition import explain_selection
 
 def _iteration(s: Session, campaign_id: int, k: int) -> Iteration:
     repo.get_campaign(s, campaign_id)
-    cid, kk = holder(s, campaign_id, k)
+    cid, kk = resolve_iteration(s, campaign_id, k)
     it = repo.get_iteration(s, cid, kk)
     if it is None:
         raise NotFound("iteration", message=f"campaign {campaign_id} has no iteration {k}")
