@@ -6,9 +6,11 @@ its live events by :mod:`alcove.campaigns.views.live`."""
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from typing import Annotated, Any, Literal
 
 from fastapi import APIRouter, Body, Query, Request, Response, status
+from sqlalchemy.orm import Session
 from starlette.concurrency import run_in_threadpool
 
 from alcove.api.caching import NOT_MODIFIED, cached_json, read
@@ -24,7 +26,7 @@ from alcove.campaigns.views.detail import campaign_out
 from alcove.campaigns.views.schemas import CampaignOut, CampaignSummary
 from alcove.db import get_sessionmaker
 from alcove.errors import InvalidInput, NotFound
-from alcove.jobs.campaign import send_committed, stage
+from alcove.jobs.campaign import StepJob, send_committed, stage
 from alcove.models import Campaign, CampaignStatus
 from alcove.users.access import get_for
 from alcove.users.auth import CurrentUser
@@ -169,33 +171,63 @@ def update_campaign_config(
     return campaign_out(session, campaign, user)
 
 
-def _action(name: str, summary: str) -> None:
-    fn = getattr(campaigns, name)
-
-    def route(campaign_id: ObjectId, user: CurrentUser, session: SessionDep) -> CampaignOut:
-        campaign = get_for(session, Campaign, campaign_id, user, need="edit")
-        campaign, jobs = fn(session, campaign.id)
-        staged = stage(session, jobs)
-        session.commit()
-        send_committed(staged)
-        return campaign_out(session, campaign, user)
-
-    route.__name__ = f"{name}_campaign"
-    route.__doc__ = summary
-    router.add_api_route(
-        f"/{{campaign_id:integer}}/{name}",
-        route,
-        methods=["POST"],
-        response_model=CampaignOut,
-        operation_id=f"{name}_campaign",
-        summary=summary.split(".")[0],
-    )
+def _run_transition(
+    session: SessionDep,
+    user: CurrentUser,
+    campaign_id: int,
+    change: Callable[[Session, int], tuple[Campaign, list[StepJob]]],
+) -> CampaignOut:
+    """A lifecycle change of a campaign the user may edit: the change, the commit, then its jobs."""
+    campaign = get_for(session, Campaign, campaign_id, user, need="edit")
+    campaign, jobs = change(session, campaign.id)
+    staged = stage(session, jobs)
+    session.commit()
+    send_committed(staged)
+    return campaign_out(session, campaign, user)
 
 
-_action("start", "Start a draft campaign: the preliminary step (or, for a fork, the first training) is queued.")
-_action("pause", "Pause after the running step finishes.")
-_action("resume", "Resume a paused campaign.")
-_action("cancel", "Cancel: queued steps are dropped, a running job stops at its next check.")
+@router.post(
+    "/{campaign_id:integer}/start",
+    response_model=CampaignOut,
+    operation_id="start_campaign",
+    summary="Start a draft campaign: the preliminary step (or, for a fork, the first training) is queued",
+)
+def start_campaign(campaign_id: ObjectId, user: CurrentUser, session: SessionDep) -> CampaignOut:
+    """Start a draft campaign: the preliminary step (or, for a fork, the first training) is queued."""
+    return _run_transition(session, user, campaign_id, campaigns.start)
+
+
+@router.post(
+    "/{campaign_id:integer}/pause",
+    response_model=CampaignOut,
+    operation_id="pause_campaign",
+    summary="Pause after the running step finishes",
+)
+def pause_campaign(campaign_id: ObjectId, user: CurrentUser, session: SessionDep) -> CampaignOut:
+    """Pause after the running step finishes."""
+    return _run_transition(session, user, campaign_id, campaigns.pause)
+
+
+@router.post(
+    "/{campaign_id:integer}/resume",
+    response_model=CampaignOut,
+    operation_id="resume_campaign",
+    summary="Resume a paused campaign",
+)
+def resume_campaign(campaign_id: ObjectId, user: CurrentUser, session: SessionDep) -> CampaignOut:
+    """Resume a paused campaign."""
+    return _run_transition(session, user, campaign_id, campaigns.resume)
+
+
+@router.post(
+    "/{campaign_id:integer}/cancel",
+    response_model=CampaignOut,
+    operation_id="cancel_campaign",
+    summary="Cancel: queued steps are dropped, a running job stops at its next check",
+)
+def cancel_campaign(campaign_id: ObjectId, user: CurrentUser, session: SessionDep) -> CampaignOut:
+    """Cancel: queued steps are dropped, a running job stops at its next check."""
+    return _run_transition(session, user, campaign_id, campaigns.cancel)
 
 
 @router.post("/{campaign_id:integer}/retry", response_model=CampaignOut, operation_id="retry_campaign_step")
