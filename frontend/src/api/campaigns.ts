@@ -3,7 +3,7 @@ import { keepPreviousData, queryOptions, useMutation, useQuery, useQueryClient }
 import { client, unwrap } from "./client";
 import { fieldProblems, type FieldError } from "./errors";
 import { refetchAfterWrite } from "./refresh";
-import { keys } from "./series";
+import { keys } from "./keys";
 import { columns, type CampaignOut, type CampaignStatus, type CampaignSummary, type ForkRequest, type IterationCurves, type Job, type ModelVersion, type PoolVersion, type Schemas, type WholeTrajectory, type Wrench } from "./types";
 
 export { downloadFile } from "./client";
@@ -11,7 +11,7 @@ export const API = "/api/v1";
 
 export function useCampaigns(filters: { status?: string }) {
   return useQuery({
-    queryKey: [...keys.campaigns, filters],
+    queryKey: keys.campaignList(filters),
     queryFn: async ({ signal }): Promise<CampaignSummary[]> => {
       const status = (filters.status || undefined) as CampaignStatus | undefined;
       return unwrap(await client.GET("/api/v1/campaigns", { params: { query: { status, limit: 500 } }, signal }));
@@ -83,7 +83,7 @@ export function candidatesQuery(id: number, k: number) {
 /** Candidate `slot`'s whole OCP solution of iteration k (over the scenario it solved). */
 export function candidateTrajectoryQuery(id: number, k: number, slot: number) {
   return queryOptions({
-    queryKey: [...keys.trajectory(id, k), "slot", slot] as const,
+    queryKey: keys.slotTrajectory(id, k, slot),
     queryFn: async (): Promise<WholeTrajectory> => {
       const r = unwrap(await client.GET("/api/v1/campaigns/{campaign_id}/iterations/{iteration}/candidates/{slot}/trajectory", { params: { path: { campaign_id: id, iteration: k, slot } } }));
       return { ...r, q: columns(r.q), qd: columns(r.qd), tau: columns(r.tau) };

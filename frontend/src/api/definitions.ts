@@ -5,11 +5,12 @@
 import { useMutation, useQuery, useQueryClient } from "@tanstack/react-query";
 import { client, unwrap } from "./client";
 import { refetchAfterWrite } from "./refresh";
+import { keys, type DefinitionKind } from "./keys";
 import { ApiError, fieldProblems, type FieldError } from "./errors";
 import type { JsonSchema } from "../components/SchemaForm";
 import type { ModelPreset, Oracle, OracleType, ScenarioPreview, Schemas, Share, SurrogateConfig, Task, TaskPreset, TaskSpecDraft } from "./types";
 
-export type DefinitionKind = "task" | "oracle";
+export type { DefinitionKind };
 
 // ------------------------------------------------------------------ the API's own schema
 export interface OpenApiDocument {
@@ -18,7 +19,7 @@ export interface OpenApiDocument {
 /** The API's own OpenAPI document: forms for settings are generated from its component schemas. */
 export function useOpenApi() {
   return useQuery({
-    queryKey: ["openapi"],
+    queryKey: keys.openapi,
     queryFn: async (): Promise<OpenApiDocument> => {
       const r = await fetch(new URL("/api/v1/openapi.json", window.location.origin), { headers: { Accept: "application/json" } });
       if (!r.ok) throw new ApiError(r.status, null);
@@ -35,21 +36,21 @@ export function componentSchema(doc: OpenApiDocument | undefined, name: string):
 
 // ------------------------------------------------------------------ lists and single definitions
 export function useTasks() {
-  return useQuery({ queryKey: ["tasks"], queryFn: async (): Promise<Task[]> => unwrap(await client.GET("/api/v1/tasks", { params: { query: { limit: 500 } } })) });
+  return useQuery({ queryKey: keys.tasks, queryFn: async (): Promise<Task[]> => unwrap(await client.GET("/api/v1/tasks", { params: { query: { limit: 500 } } })) });
 }
 export function useTask(id: number | null) {
   return useQuery({
-    queryKey: ["task", id],
+    queryKey: keys.definition("task", id),
     queryFn: async (): Promise<Task> => unwrap(await client.GET("/api/v1/tasks/{task_id}", { params: { path: { task_id: id ?? 0 } } })),
     enabled: id !== null,
   });
 }
 export function useOracles() {
-  return useQuery({ queryKey: ["oracles"], queryFn: async (): Promise<Oracle[]> => unwrap(await client.GET("/api/v1/oracles", { params: { query: { limit: 500 } } })) });
+  return useQuery({ queryKey: keys.oracles, queryFn: async (): Promise<Oracle[]> => unwrap(await client.GET("/api/v1/oracles", { params: { query: { limit: 500 } } })) });
 }
 export function useOracle(id: number | null) {
   return useQuery({
-    queryKey: ["oracle", id],
+    queryKey: keys.definition("oracle", id),
     queryFn: async (): Promise<Oracle> => unwrap(await client.GET("/api/v1/oracles/{oracle_id}", { params: { path: { oracle_id: id ?? 0 } } })),
     enabled: id !== null,
   });
@@ -57,7 +58,7 @@ export function useOracle(id: number | null) {
 /** Surrogate configurations you can use (campaigns default to the paper's). */
 export function useSurrogateConfigs(enabled = true) {
   return useQuery({
-    queryKey: ["surrogate-configs"],
+    queryKey: keys.surrogateConfigs,
     queryFn: async (): Promise<SurrogateConfig[]> => unwrap(await client.GET("/api/v1/surrogate-configs", { params: { query: { limit: 500 } } })),
     enabled,
   });
@@ -72,7 +73,7 @@ export interface VersionEntry {
 }
 export function useVersions(kind: DefinitionKind, id: number | null) {
   return useQuery({
-    queryKey: [kind, id, "versions"],
+    queryKey: keys.versions(kind, id),
     queryFn: async (): Promise<VersionEntry[]> => {
       const rows =
         kind === "task"
@@ -86,7 +87,7 @@ export function useVersions(kind: DefinitionKind, id: number | null) {
 /** One version of a task (the exact spec a campaign runs). */
 export function useTaskVersion(id: number | null | undefined, version: number | null | undefined) {
   return useQuery({
-    queryKey: ["task", id, "version", version],
+    queryKey: keys.taskVersion(id, version),
     queryFn: async () => unwrap(await client.GET("/api/v1/tasks/{task_id}/versions/{version}", { params: { path: { task_id: id ?? 0, version: version ?? 1 } } })),
     enabled: Boolean(id && version),
     staleTime: Infinity,
@@ -94,14 +95,14 @@ export function useTaskVersion(id: number | null | undefined, version: number | 
 }
 export function useShares(kind: DefinitionKind, id: number | null) {
   return useQuery({
-    queryKey: [kind, id, "shares"],
+    queryKey: keys.shares(kind, id),
     queryFn: async (): Promise<Share[]> => unwrap(await client.GET("/api/v1/shares", { params: { query: { object_type: kind, object_id: id ?? 0 } } })),
     enabled: id !== null,
   });
 }
 export function useShare(kind: DefinitionKind, id: number | null) {
   const qc = useQueryClient();
-  const refresh = () => refetchAfterWrite(qc, [kind, id, "shares"]);
+  const refresh = () => refetchAfterWrite(qc, keys.shares(kind, id));
   const add = useMutation({
     mutationFn: async (body: { email: string; permission: "view" | "edit" }) =>
       unwrap(await client.POST("/api/v1/shares", { body: { ...body, object_type: kind, object_id: id ?? 0 } })),
@@ -119,14 +120,14 @@ export function useShare(kind: DefinitionKind, id: number | null) {
 
 // ------------------------------------------------------------------ tasks
 export function useTaskPresets() {
-  return useQuery({ queryKey: ["task-presets"], queryFn: async (): Promise<TaskPreset[]> => unwrap(await client.GET("/api/v1/tasks/presets")), staleTime: Infinity });
+  return useQuery({ queryKey: keys.taskPresets, queryFn: async (): Promise<TaskPreset[]> => unwrap(await client.GET("/api/v1/tasks/presets")), staleTime: Infinity });
 }
 /** The model presets (model.preset) with every parameter: what the editor loads when one is chosen. */
 export function useModelPresets() {
-  return useQuery({ queryKey: ["model-presets"], queryFn: async (): Promise<ModelPreset[]> => unwrap(await client.GET("/api/v1/tasks/model-presets")), staleTime: Infinity });
+  return useQuery({ queryKey: keys.modelPresets, queryFn: async (): Promise<ModelPreset[]> => unwrap(await client.GET("/api/v1/tasks/model-presets")), staleTime: Infinity });
 }
 export function useTaskSchema() {
-  return useQuery({ queryKey: ["task-schema"], queryFn: async () => unwrap(await client.GET("/api/v1/tasks/schema")) as JsonSchema, staleTime: Infinity });
+  return useQuery({ queryKey: keys.taskSchema, queryFn: async () => unwrap(await client.GET("/api/v1/tasks/schema")) as JsonSchema, staleTime: Infinity });
 }
 /** Field-level problems of a draft, without saving (empty list: valid). */
 export function validateTask(body: { name: string; description: string; spec: TaskSpecDraft }): Promise<FieldError[]> {
@@ -148,13 +149,13 @@ export function useSaveTask(id: number | null) {
         ? unwrap(await client.POST("/api/v1/tasks", { body: b }))
         : unwrap(await client.PUT("/api/v1/tasks/{task_id}", { params: { path: { task_id: id } }, body: b }));
     },
-    onSuccess: () => refetchAfterWrite(qc, ["task"]).then(() => refetchAfterWrite(qc, ["tasks"])),
+    onSuccess: () => refetchAfterWrite(qc, keys.definition("task")).then(() => refetchAfterWrite(qc, keys.tasks)),
   });
 }
 
 // ------------------------------------------------------------------ oracles
 export function useOracleTypes() {
-  return useQuery({ queryKey: ["oracle-types"], queryFn: async (): Promise<OracleType[]> => unwrap(await client.GET("/api/v1/oracles/types")), staleTime: 60_000 });
+  return useQuery({ queryKey: keys.oracleTypes, queryFn: async (): Promise<OracleType[]> => unwrap(await client.GET("/api/v1/oracles/types")), staleTime: 60_000 });
 }
 /** Field-level problems of an oracle's type and parameters, without saving. */
 export function validateOracle(body: { type: string; params: Record<string, unknown> }): Promise<FieldError[]> {
@@ -167,6 +168,6 @@ export function useSaveOracle(id: number | null) {
       id === null
         ? unwrap(await client.POST("/api/v1/oracles", { body }))
         : unwrap(await client.PUT("/api/v1/oracles/{oracle_id}", { params: { path: { oracle_id: id } }, body })),
-    onSuccess: () => refetchAfterWrite(qc, ["oracle"]).then(() => refetchAfterWrite(qc, ["oracles"])),
+    onSuccess: () => refetchAfterWrite(qc, keys.definition("oracle")).then(() => refetchAfterWrite(qc, keys.oracles)),
   });
 }

@@ -9,7 +9,8 @@ import { createParser, type EventSourceMessage } from "eventsource-parser";
 import { useQueryClient, type QueryClient } from "@tanstack/react-query";
 import { storedToken } from "./auth";
 import { ApiError } from "./errors";
-import { ensureIteration, hasSeries, keys } from "./series";
+import { ensureIteration, hasSeries } from "./series";
+import { keys } from "./keys";
 import { refetchAfterWrite } from "./refresh";
 import { isTerminal, type CampaignEvent } from "./types";
 

@@ -4,6 +4,7 @@
  */
 import { useMutation, useQuery, useQueryClient } from "@tanstack/react-query";
 import { client, unwrap } from "./client";
+import { keys } from "./keys";
 import type { Preview, Schemas, TaskSpecDraft } from "./types";
 
 export const PREVIEW_POLL_MS = 1000;
@@ -13,7 +14,7 @@ export function isPreviewFinal(p: Preview | undefined): boolean {
 }
 export function usePreview(id: number | null) {
   return useQuery({
-    queryKey: ["preview", id],
+    queryKey: keys.preview(id),
     queryFn: async () => unwrap(await client.GET("/api/v1/previews/{preview_id}", { params: { path: { preview_id: id as number } } })),
     enabled: id !== null,
     refetchInterval: (q) => (isPreviewFinal(q.state.data) ? false : PREVIEW_POLL_MS),
@@ -26,7 +27,7 @@ export function useCreateTaskPreview(taskId: number | null) {
   return useMutation({
     mutationFn: async (body: { spec?: TaskSpecDraft; intervals?: number }) =>
       unwrap(await client.POST("/api/v1/tasks/{task_id}/previews", { params: { path: { task_id: taskId as number } }, body: body as Schemas["TaskPreviewIn"] })),
-    onSuccess: (p) => qc.setQueryData(["preview", p.id], p),
+    onSuccess: (p) => qc.setQueryData(keys.preview(p.id), p),
   });
 }
 /** "Test on a sample trajectory": the FE reference head motion replayed through the oracle (or its unsaved `params`). */
@@ -35,6 +36,6 @@ export function useCreateOraclePreview(oracleId: number | null) {
   return useMutation({
     mutationFn: async (body: { params?: Record<string, unknown> }) =>
       unwrap(await client.POST("/api/v1/oracles/{oracle_id}/previews", { params: { path: { oracle_id: oracleId as number } }, body })),
-    onSuccess: (p) => qc.setQueryData(["preview", p.id], p),
+    onSuccess: (p) => qc.setQueryData(keys.preview(p.id), p),
   });
 }

@@ -9,21 +9,8 @@ import { queryOptions, useQuery, type QueryClient } from "@tanstack/react-query"
 import { client, unwrap } from "./client";
 import { mergeMetrics, type MetricPoint } from "../lib/metrics";
 import type { MetricsRow, ValidationSeries } from "./types";
+import { keys } from "./keys";
 
-export const keys = {
-  campaigns: ["campaigns"] as const,
-  campaign: (id: number) => ["campaign", id] as const,
-  metrics: (id: number) => ["metrics", id] as const,
-  validation: (id: number) => ["validation", id] as const,
-  iterationStates: (id: number) => ["iteration-states", id] as const,
-  jobs: (id: number) => ["jobs", id] as const,
-  pools: (id: number) => ["pools", id] as const,
-  models: (id: number) => ["models", id] as const,
-  curves: (id: number, k: number) => ["iteration", id, k] as const,
-  trajectory: (id: number, k: number) => ["trajectory", id, k] as const,
-  candidates: (id: number, k: number) => ["candidates", id, k] as const,
-  pickCurves: (id: number, k: number, pick: number) => ["pick-curves", id, k, pick] as const,
-};
 
 /** A metrics row as the series keeps it: `inherited` rows belong to a fork's source campaigns. */
 export type SeriesRow = MetricsRow & { campaign_id?: number; inherited?: boolean };

@@ -2,6 +2,7 @@
 import { useMutation, useQuery, useQueryClient } from "@tanstack/react-query";
 import { client, unwrap } from "./client";
 import { refetchAfterWrite } from "./refresh";
+import { keys } from "./keys";
 import type { Me, Token } from "./types";
 
 /** Thrown for 429: too many failed sign-ins from this address (``retryAfterS``: seconds to wait). */
@@ -20,7 +21,7 @@ export async function login(email: string, password: string): Promise<string> {
 }
 
 export function useMe() {
-  return useQuery({ queryKey: ["me"], queryFn: async (): Promise<Me> => unwrap(await client.GET("/api/v1/me")), staleTime: 60_000 });
+  return useQuery({ queryKey: keys.me, queryFn: async (): Promise<Me> => unwrap(await client.GET("/api/v1/me")), staleTime: 60_000 });
 }
 
 /** How the UI names a user: the display name, else the e-mail. */
@@ -29,14 +30,14 @@ export function userLabel(u: Pick<Me, "display_name" | "email">): string {
 }
 
 export function useTokens() {
-  return useQuery({ queryKey: ["tokens"], queryFn: async (): Promise<Token[]> => unwrap(await client.GET("/api/v1/me/tokens")) });
+  return useQuery({ queryKey: keys.tokens, queryFn: async (): Promise<Token[]> => unwrap(await client.GET("/api/v1/me/tokens")) });
 }
 
 export function useCreateToken() {
   const qc = useQueryClient();
   return useMutation({
     mutationFn: async (body: { name: string }) => unwrap(await client.POST("/api/v1/me/tokens", { body })),
-    onSuccess: () => refetchAfterWrite(qc, ["tokens"]),
+    onSuccess: () => refetchAfterWrite(qc, keys.tokens),
   });
 }
 
@@ -47,6 +48,6 @@ export function useRevokeToken() {
       const r = await client.DELETE("/api/v1/me/tokens/{token_id}", { params: { path: { token_id: id } } });
       if (!r.response.ok) unwrap(r);
     },
-    onSuccess: () => refetchAfterWrite(qc, ["tokens"]),
+    onSuccess: () => refetchAfterWrite(qc, keys.tokens),
   });
 }
