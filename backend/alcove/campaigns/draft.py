@@ -40,11 +40,8 @@ def ensemble_size(s: Session, surrogate_config_version_id: int | None) -> int:
     """The ensemble size of a surrogate configuration version (None: the paper's default)."""
     from alcove.science.surrogate.config import SurrogateConfig
 
-    default = int(SurrogateConfig.model_fields["ensemble_size"].default)
-    if surrogate_config_version_id is None:
-        return default
-    row = s.get(SurrogateConfigVersion, surrogate_config_version_id)
-    return int((row.spec or {}).get("ensemble_size", default)) if row is not None else default
+    row = s.get(SurrogateConfigVersion, surrogate_config_version_id) if surrogate_config_version_id else None
+    return SurrogateConfig.parse(row.spec if row is not None else {}).ensemble_size
 
 
 def strategy_error(s: Session, settings: RunSettings, surrogate_config_version_id: int | None) -> FieldError | None:

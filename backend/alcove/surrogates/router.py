@@ -96,14 +96,8 @@ def list_surrogate_configs(
 def create_surrogate_config(body: SurrogateConfigIn, user: CurrentUser, session: SessionDep) -> SurrogateConfigOut:
     """Create a surrogate config; one above your job limits (ensemble size, layers, widths, epochs) is refused."""
     check_sizes(session, user.id, surrogate_sizes(body.spec.model_dump(mode="json")))
-    definition, version = versioning.create(
-        session,
-        KIND,
-        user,
-        name=body.name,
-        description=body.description,
-        spec=body.spec.model_dump(mode="json"),
-        note=body.note,
+    definition, version = service.create_config(
+        session, user, name=body.name, description=body.description, spec=body.spec, note=body.note
     )
     session.commit()
     return config_out(session, definition, version, user, user.email)

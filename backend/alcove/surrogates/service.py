@@ -1,4 +1,5 @@
-"""Store and load trained surrogates.
+"""Surrogate configurations and trained surrogates: create a configuration; store and load
+trained surrogates.
 
 A model version keeps two blobs: ``weights_sha256`` (``.npz`` of every parameter, for
 diffing and numerical use) and ``artifact_sha256`` (the artifact JSON of
@@ -24,13 +25,15 @@ from cachetools import LRUCache
 from sqlalchemy.orm import Session
 
 import alcove
+from alcove import versioning
 from alcove.db.arrays import get_bytes, put_arrays, put_bytes
 from alcove.errors import NotFound
-from alcove.models import ModelVersion
+from alcove.models import ModelVersion, SurrogateConfig, SurrogateConfigVersion, User
 from alcove.surrogates import repository as repo
 from alcove.surrogates.schemas import ModelVersionRead
 
 if TYPE_CHECKING:
+    from alcove.science.surrogate.config import SurrogateConfig as SurrogateSpec
     from alcove.science.surrogate.mlp import SurrogateModel
     from alcove.science.surrogate.training import TrainingResult
 
@@ -39,6 +42,30 @@ ARTIFACT_MEDIA_TYPE = "application/vnd.alcove.surrogate+json"
 _lock = threading.Lock()
 #: Trained models by artifact hash (artifacts are immutable).
 _models: LRUCache[str, SurrogateModel] = LRUCache(maxsize=16)
+
+
+def create_config(
+    session: Session,
+    owner: User,
+    *,
+    name: str,
+    description: str,
+    spec: SurrogateSpec,
+    note: str = "",
+    preset_key: str | None = None,
+) -> tuple[SurrogateConfig, SurrogateConfigVersion]:
+    """A surrogate configuration of ``owner`` with its version 1 (the validated ``spec``, stored
+    normalised). Never commits."""
+    return versioning.create(
+        session,
+        versioning.SURROGATE_CONFIGS,
+        owner,
+        name=name,
+        description=description,
+        spec=spec.model_dump(mode="json"),
+        preset_key=preset_key,
+        note=note,
+    )
 
 
 @lru_cache
