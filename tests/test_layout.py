@@ -1,7 +1,8 @@
 """The layout contributors rely on (docs/architecture.md): a domain never imports one above
 it, the web plumbing imports no domain, the science package is layered the same way inside,
-the architecture page's import tables are the measured ones, and no module outside the
-science package grows past 400 lines. Read from the code's own imports (every import, also
+the campaign domain's wings import only what every wing reads and the wings below them (``run``
+and ``views`` never each other), the architecture page's import tables are the measured ones,
+and no module outside the science package grows past 400 lines. Read from the code's own imports (every import, also
 those inside functions and under TYPE_CHECKING)."""
 
 from __future__ import annotations
