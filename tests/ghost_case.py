@@ -49,9 +49,17 @@ def ghost_ensemble(preset: HeadNeckPreset) -> tuple[SurrogateModel, list[PoolDat
     """The K = 4 ghost-force ensemble and the honest pool (whose features cover the whole range)."""
     honest, ghost = ghost_pools(preset)
     net = NetworkConfig(hidden=(24, 24))
-    # float64 training and the paper's early stopping (patience in epochs alone): the case (its members'
-    # disagreement where the ghost holds the head) was built with them
-    cfg = SurrogateConfig(max_epochs=300, ensemble_size=2, force=net, moment=net, dtype="float64", patience_steps=0)
+    # float64 training, the paper's early stopping (patience in epochs alone) and the paper's shared force
+    # net: the case (its members' disagreement where the ghost holds the head) was built with them
+    cfg = SurrogateConfig(
+        max_epochs=300,
+        ensemble_size=2,
+        force=net,
+        moment=net,
+        dtype="float64",
+        patience_steps=0,
+        normal_force="shared",
+    )
     a = train_surrogate(honest, cfg, seed=0, preset=preset).model
     b = train_surrogate(ghost, cfg, seed=1, preset=preset).model
     model = SurrogateModel.from_members(

@@ -252,3 +252,35 @@ def test_0019_marks_earlier_validation_rows_as_calibration_not_recorded(tmp_path
         ).all()
     eng.dispose()
     assert [tuple(r) for r in got] == [(mv_ids[0], False), (mv_ids[1], True)]
+
+
+def test_0025_names_the_shared_normal_force_in_stored_surrogate_specs(tmp_path) -> None:
+    """A surrogate spec stored without ``normal_force`` meant the shared net; the default is now
+    "own", so the upgrade writes "shared" into it (and its spec_hash follows the spec); a spec
+    that names its normal force is left as it is."""
+    from sqlalchemy.orm import Session
+
+    from alcove.campaigns import presets
+    from alcove.models import SurrogateConfigVersion
+    from alcove.models.definitions import spec_hash
+
+    url = f"sqlite:///{tmp_path / 'm.db'}"
+    migrate.upgrade(url, "head")
+    eng = make_engine(url)
+    with Session(eng) as s:
+        u = presets.local_user(s)
+        unnamed = presets.surrogate_config_version_for(s, u.id, {"ensemble_size": 2})
+        named = presets.surrogate_config_version_for(s, u.id, {"ensemble_size": 3, "normal_force": "own"})
+        s.commit()
+    migrate.downgrade(url, "0024")
+    scv = sa.table("surrogate_config_versions", sa.column("id", sa.Integer), sa.column("spec", sa.JSON))
+    with eng.begin() as c:
+        (spec,) = c.execute(sa.select(scv.c.spec).where(scv.c.id == unnamed)).one()
+        old = {k: v for k, v in spec.items() if k != "normal_force"}
+        c.execute(sa.update(scv).where(scv.c.id == unnamed).values(spec=old))
+    migrate.upgrade(url, "head")
+    with Session(eng) as s:
+        first, second = s.get(SurrogateConfigVersion, unnamed), s.get(SurrogateConfigVersion, named)
+        assert first.spec == {**old, "normal_force": "shared"} and first.spec_hash == spec_hash(first.spec)
+        assert second.spec["normal_force"] == "own" and second.spec_hash == spec_hash(second.spec)
+    eng.dispose()

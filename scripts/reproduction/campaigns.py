@@ -272,11 +272,14 @@ def fork_campaign(
 
 
 #: the training protocol docs/reproduction.md was recorded with: one model pair per iteration (the paper's
-#: single model; alcove's default is an ensemble of 5) in float64, early stopping on epochs alone, every
-#: preliminary sample kept, and a warm start that fine-tunes (alcove's defaults train fully from the carried
-#: weights and drop the auxiliary law's samples in contact once oracle data exist; docs/concepts.md)
+#: single model; alcove's default is an ensemble of 5) with the paper's force net (hidden layers shared by
+#: the normal and the tangential force; alcove's default gives the normal force its own) in float64, early
+#: stopping on epochs alone, every preliminary sample kept, and a warm start that fine-tunes (alcove's
+#: defaults train fully from the carried weights and drop the auxiliary law's samples in contact once
+#: oracle data exist; docs/concepts.md)
 PAPER_PROTOCOL: dict[str, Any] = {
     "ensemble_size": 1,
+    "normal_force": "shared",
     "dtype": "float64",
     "patience_steps": 0,
     "preliminary_in_contact": "keep",

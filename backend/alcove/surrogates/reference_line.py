@@ -82,6 +82,7 @@ def reference_line(
             "surrogate": "default configuration, trained from scratch",
             "seed": seed,
             "ensemble_size": config.ensemble_size,
+            "normal_force": config.normal_force,  # a stored line without it was trained with the shared net
             "data": "the first B reference replays only (no preliminary data)",
         },
     }

@@ -4404,8 +4404,8 @@ export interface components {
             moment?: components["schemas"]["NetworkConfig"];
             /**
              * Normal Force
-             * @description the force net's hidden layers: 'shared' by the normal force fx and the tangential force (fy, fz), the paper's; or 'own': fx gets hidden layers of its own (the widths of 'force'), apart from those of fy and fz, so that the friction force, which depends on the path, cannot pull the normal force, which depends on the state; with the history features fx's layers take the state's features only (docs/concepts.md)
-             * @default shared
+             * @description the force net's hidden layers: 'own' (the default): the normal force fx gets hidden layers of its own (the widths of 'force'), apart from those of fy and fz, so that the friction force, which depends on the path, cannot pull the normal force, which depends on the state; with the history features fx's layers take the state's features only; or 'shared' by fx and (fy, fz), the paper's (docs/concepts.md)
+             * @default own
              * @enum {string}
              */
             normal_force?: "shared" | "own";

@@ -72,7 +72,7 @@ def fx_rmse(model, pool) -> float:
 def test_a_contradictory_tangential_force_does_not_pull_the_normal_force(conflicting_pool) -> None:
     held_out = make_smooth_pool(8, 100, seed=7)
     config = {"ensemble_size": 2, "max_epochs": 400}
-    shared = train_surrogate(conflicting_pool, SurrogateConfig(**config), seed=0).model
+    shared = train_surrogate(conflicting_pool, SurrogateConfig(**config, normal_force="shared"), seed=0).model
     own = train_surrogate(conflicting_pool, SurrogateConfig(**config, normal_force="own"), seed=0).model
     e_shared, e_own = fx_rmse(shared, held_out), fx_rmse(own, held_out)
     # fx of the smooth law spans about 80 N; measured: shared 0.9-1.1 N, own 0.06-0.15 N (two seeds)
@@ -105,6 +105,22 @@ def test_exports_and_artifacts_carry_the_blocks(conflicting_pool) -> None:
         model_from_dict(doc)
 
 
+def test_an_artifact_whose_config_does_not_name_the_normal_force_holds_a_shared_net(conflicting_pool) -> None:
+    """The default is "own"; an artifact config without the key (written before the option) is a
+    net without blocks, and reads back as "shared" with its predictions unchanged."""
+    assert SurrogateConfig().normal_force == "own"
+    config = SurrogateConfig(ensemble_size=1, max_epochs=5, normal_force="shared")
+    model = train_surrogate(conflicting_pool, config, seed=0).model
+    doc = artifact_dict(model)
+    del doc["config"]["normal_force"]
+    again = model_from_dict(doc)
+    assert again.config.normal_force == "shared" and again.force_net.blocks == ()
+    q, qd = np.linspace(P.theta_min, P.theta_max, 10), np.zeros(10)
+    np.testing.assert_array_equal(
+        predict(again, np.arange(10, dtype=float), q, qd).force, predict(model, np.arange(10, dtype=float), q, qd).force
+    )
+
+
 def test_with_the_history_features_the_normal_force_reads_the_state_only(conflicting_pool) -> None:
     config = SurrogateConfig(ensemble_size=1, max_epochs=20, normal_force="own", features="history")
     assert config.block_inputs("force") == (tuple(range(19)), None) and config.block_inputs("moment") == ()
@@ -126,7 +142,9 @@ def test_the_setting_is_validated_and_a_warm_start_across_it_starts_afresh(confl
     with pytest.raises(SurrogateConfigError) as err:
         SurrogateConfig.parse({"normal_force": "separate"})
     assert err.value.field == "normal_force"
-    shared = train_surrogate(conflicting_pool, SurrogateConfig(ensemble_size=1, max_epochs=5), seed=0)
+    shared = train_surrogate(
+        conflicting_pool, SurrogateConfig(ensemble_size=1, max_epochs=5, normal_force="shared"), seed=0
+    )
     own = train_surrogate(
         conflicting_pool, SurrogateConfig(ensemble_size=1, max_epochs=5, normal_force="own"), 0, shared.model
     )

@@ -160,8 +160,9 @@ def test_warm_start_starts_from_the_previous_weights(smooth_pool, trained_smooth
         smooth_pool, tiny.model_copy(update={"force": NetworkConfig(hidden=(8,))}), seed=1, warm_start=first.model
     )
     assert changed.model.lineage["warm_start"]["moment"] is True
-    assert changed.model.lineage["warm_start"]["force"].startswith(
-        "cold: architecture (6, 6, 4)/softplus -> (8,)/softplus"
+    # the default force net: fx in a block of its own, (fy, fz) in the other
+    assert changed.model.lineage["warm_start"]["force"] == (
+        "cold: architecture (6, 6, 4)/softplus/blocks [0] [1, 2] -> (8,)/softplus/blocks [0] [1, 2]"
     )
     assert changed.metrics.rmse["moment"]["train"] == pytest.approx(warm.metrics.rmse["moment"]["train"], rel=1e-6)
 

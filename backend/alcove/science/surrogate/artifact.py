@@ -11,6 +11,7 @@
     is still read, as an ensemble of 1). A net of blocks (``normal_force: "own"``,
     :class:`.mlp.MLP`) also lists its ``blocks`` (output indices) and ``block_inputs``; its
     layers are ordinary dense layers whose weights between blocks are zero (checked on loading).
+    A ``config`` without ``normal_force`` holds a shared net (read as ``"shared"``).
     ``architecture``: ``paper`` or ``gated`` (the config's), and for ``gated`` the ``gate``
     parameters and the head profile the gap is measured from (:mod:`.gated`; informative: the
     gate is rebuilt from the config and the preset on loading, and a mismatch is an error).
@@ -250,6 +251,8 @@ def model_from_dict(doc: dict[str, Any]) -> SurrogateModel:
         )
     try:
         raw = doc["config"]
+        if isinstance(raw, dict) and "normal_force" not in raw:
+            raw = {**raw, "normal_force": "shared"}  # a config without the key holds a shared net
         config = SurrogateConfig.parse(raw)
         if list(doc.get("feature_names", [])) != list(config.input_names):
             raise ArtifactError(

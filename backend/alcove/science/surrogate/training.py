@@ -136,8 +136,13 @@ class TrainingResult:
 
 
 def _architecture_text(net: MLP) -> str:
-    blocks = f"/blocks {[list(b) for b in net.blocks]} {list(net.block_inputs)}" if net.blocks else ""
-    return f"{net.hidden}/{net.activation}{blocks}"
+    """``(6, 6, 4)/softplus``; a net of blocks adds its output blocks (and their inputs where one reads
+    fewer than all): ``(6, 6, 4)/softplus/blocks [0] [1, 2]``."""
+    if not net.blocks:
+        return f"{net.hidden}/{net.activation}"
+    blocks = " ".join(str(list(b)) for b in net.blocks)
+    inputs = "" if all(i is None for i in net.block_inputs) else f" inputs {list(net.block_inputs)}"
+    return f"{net.hidden}/{net.activation}/blocks {blocks}{inputs}"
 
 
 def preset_kinematics(preset: HeadNeckPreset) -> KinematicsFn:
