@@ -46,6 +46,8 @@ def _replay(oracle: Any, trajectory: Any) -> Any:
         f"  ccx {solver.get('ccx_wall_time_s', 0):.1f} s wall / {solver.get('ccx_cpu_time_s', 0):.1f} s CPU, "
         f"{solver.get('increments')} increments "
         f"({solver.get('increment_attempts')} attempts), {d['newton_iterations']} Newton iterations, "
+        f"{solver.get('computed_outputs', '-')} computed + "
+        f"{solver.get('interpolated_outputs', 0)} interpolated outputs, "
         f"mesh {solver.get('mesh')}, peak force {solver.get('peak_force_n', 0):.1f} N, "
         f"peak moment {solver.get('peak_moment_nm', 0):.2f} N m, first contact {solver.get('first_contact_time_s')} s"
     )
@@ -134,3 +136,93 @@ def ccx_mesh_convergence(trajectory: Any) -> float:
     (f8, m8), (f6, m6) = peaks[0.008], peaks[0.006]
     print(f"  peak |my| {m8:.3f} vs {m6:.3f} N m ({100 * abs(m8 - m6) / m6:.1f} %)")
     return 100.0 * abs(f8 - f6) / f6
+
+
+# ---- before / after: fewer, cheaper increments, the same forces ----------------------------------
+
+#: the deeper press of the comparison, a deterministic construction (a press of the validation
+#: suite's kind, deeper and longer than the suite's: 0.25 -> 0.43 rad at 0.5 rad/s, held 0.25 s;
+#: 1.6 s, 641 outputs, 419 of them with the undeformed head in the cushion)
+DEEP_PRESS = {"start": 0.25, "depth": 0.43, "speed": 0.5, "dwell": 0.25}
+
+#: the settings before: ccx computes every output (an increment ends at each), full integration
+BEFORE: dict[str, Any] = {"solve_interval": 1}
+
+COMPARISON_MOTIONS = ("example", "deep press")
+
+
+def comparison_trajectory(name: str) -> Any:
+    """The paper's example motion or the deeper press (``DEEP_PRESS`` at 0.0025 s)."""
+    if name == "example":
+        from alcove.science.oracles.fe_headrest import reference_motion
+
+        return reference_motion()
+    from alcove.science.validation_suite import PressMotion, press_trajectory
+
+    return press_trajectory(PressMotion(**DEEP_PRESS), 0.0025)
+
+
+def compare_forces(before: Any, after: Any) -> dict[str, float]:
+    """Peak |F| difference [%], force RMS difference [% of the peak], first-contact shift [outputs]."""
+    import numpy as np
+
+    f0, f1 = before.forces.force, after.forces.force
+    n0, n1 = np.linalg.norm(f0, axis=1), np.linalg.norm(f1, axis=1)
+    peak = float(n0.max())
+    rms = float(np.sqrt(np.mean(np.sum((f1 - f0) ** 2, axis=1))))
+    c0, c1 = before.diagnostics["solver"]["first_contact_time_s"], after.diagnostics["solver"]["first_contact_time_s"]
+    dt = float(before.forces.t[1] - before.forces.t[0])
+    return {
+        "peak_diff_percent": 100.0 * (float(n1.max()) - peak) / peak,
+        "rms_diff_percent_of_peak": 100.0 * rms / peak,
+        "first_contact_shift_outputs": (c1 - c0) / dt,
+    }
+
+
+def _before_after(name: str) -> float:
+    from alcove.science.oracles.fe_headrest_3d import CcxHeadrestOracle, CcxHeadrestParams
+
+    trajectory = comparison_trajectory(name)
+    runs = {}
+    for label, params in (("before", CcxHeadrestParams(**BEFORE)), ("after", CcxHeadrestParams())):
+        print(f"  {name}, {label}:")
+        runs[label] = _replay(CcxHeadrestOracle(params), trajectory)
+    c = compare_forces(runs["before"], runs["after"])
+    print(
+        f"  after vs before: peak |F| {c['peak_diff_percent']:+.2f} % (target within 2 %), force RMS difference "
+        f"{c['rms_diff_percent_of_peak']:.2f} % of the peak (target <= 1 %), first contact shifted by "
+        f"{c['first_contact_shift_outputs']:+.0f} outputs (target within 1)"
+    )
+    cpu: float = runs["after"].diagnostics["solver"]["ccx_cpu_time_s"]
+    return cpu
+
+
+@figure(
+    "ccx before/after: paper example motion, ccx CPU time with the defaults (before: every output computed)",
+    "s",
+    target=60.0,
+    reps=1,
+    quick_reps=1,
+    quick=False,
+    requires=_requires,
+    group="oracle",
+    notes="ccx's own CPU time (one core); prints before and after: CPU, increments, Newton iterations, peak, "
+    "RMS difference, first contact",
+)
+def ccx_before_after_example(ctx: Any) -> float:
+    return _before_after("example")
+
+
+@figure(
+    "ccx before/after: deeper press (0.25 -> 0.43 rad, held 0.25 s), ccx CPU time with the defaults",
+    "s",
+    target=120.0,
+    reps=1,
+    quick_reps=1,
+    quick=False,
+    requires=_requires,
+    group="oracle",
+    notes="DEEP_PRESS in bench/figures/ccx.py; ccx's own CPU time (one core); prints before and after",
+)
+def ccx_before_after_deep_press(ctx: Any) -> float:
+    return _before_after("deep press")

@@ -91,6 +91,7 @@ class StepControl:
     minimum: float
     max_increments: int = 100000
     residual_floor: float = FORCE_SCALE * 1e-8  # N; ccx's default R_l = 1e-8
+    solver: str = "SPOOLES"  # ccx's SOLVER= of *STATIC (Debian's build: SPOOLES, ITERATIVE SCALING/CHOLESKY)
 
 
 @dataclass
@@ -137,6 +138,7 @@ def write_deck(
     contact: Contact,
     motion: HeadMotion,
     control: StepControl,
+    foam_element: str = "C3D8",
 ) -> Deck:
     """The deck of the model; ``head`` is placed in H already, ``head_reference`` is its COG in H."""
     out = StringIO()
@@ -153,7 +155,7 @@ def write_deck(
     _write_nodes(out, head.nodes, head_first)
     out.write(f"*NODE, NSET={REF_NODE_SET}\n{ref_node}, " + ", ".join(_number(c) for c in head_reference) + "\n")
     out.write(f"*NODE, NSET={ROT_NODE_SET}\n{rot_node}, " + ", ".join(_number(c) for c in head_reference) + "\n")
-    out.write("*ELEMENT, TYPE=C3D8, ELSET=FOAM\n")
+    out.write(f"*ELEMENT, TYPE={foam_element}, ELSET=FOAM\n")
     _write_elements(out, block.mesh.elements, 1, 1)
     out.write("*ELEMENT, TYPE=C3D8, ELSET=HEAD\n")
     _write_elements(out, head.elements, m_foam + 1, head_first)
@@ -193,7 +195,7 @@ def write_deck(
     out.write("*BOUNDARY\n")
     out.write(f"{BACK_NODE_SET}, 1, 3, 0\n")
     out.write(f"{ref_node}, 2, 2, 0\n{rot_node}, 1, 1, 0\n{rot_node}, 3, 3, 0\n")
-    out.write(f"*STEP, NLGEOM, INC={control.max_increments}\n*STATIC\n")
+    out.write(f"*STEP, NLGEOM, INC={control.max_increments}\n*STATIC, SOLVER={control.solver}\n")
     out.write(
         f"{_number(control.initial)}, {_number(motion.tau[-1])}, {_number(control.minimum)}, "
         f"{_number(control.maximum)}\n"

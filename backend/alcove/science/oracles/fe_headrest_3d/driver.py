@@ -42,6 +42,7 @@ from alcove.science.oracles.fe_headrest_3d.results import (
     read_sta,
     solver_errors,
 )
+from alcove.science.oracles.fe_headrest_3d.sampling import interpolate
 from alcove.science.series import split_wrench, stack_wrench
 
 FIRST_CONTACT_FRACTION = 1e-9  # of the peak force: above round-off, far below any touch (docs/fe-oracle.md)
@@ -136,7 +137,18 @@ def run(workdir: Path) -> dict[str, Any]:
             reason = errors[-1] if errors else f"ccx exited with code {code}" if code else ""
             raise DriverFailure(f"{exc}" + (f"; ccx: {reason}" if reason else "")) from None
         first = int(job["first_simulated"])
-        wrench[first:] = head
+        tau_all = np.asarray(job.get("tau_all", job["tau"]), float)
+        last = first + len(tau_all)  # the outputs after the step are 0 (the head is clear)
+        if len(tau_all) == len(head):
+            wrench[first:last] = head
+        else:  # the outputs between the computed ones (sampling.py)
+            tau = np.asarray(job["tau"], float)
+            computed = np.searchsorted(tau_all, tau)
+            filled = interpolate(tau, head, tau_all)
+            filled[np.asarray(job["clear"], bool)] = 0.0
+            filled[computed] = head
+            wrench[first:last] = filled
+        diagnostics.update(computed_outputs=len(head), interpolated_outputs=len(tau_all) - len(head))
         (head_force, head_moment), (back_force, back_moment) = split_wrench(head), split_wrench(back)
         peak = float(np.max(np.linalg.norm(head_force, axis=1)))
         mismatch = float(np.max(np.linalg.norm(head_force - back_force, axis=1)))

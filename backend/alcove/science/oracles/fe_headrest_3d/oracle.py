@@ -49,6 +49,7 @@ from alcove.science.oracles.fe_headrest_3d.deck import (
 )
 from alcove.science.oracles.fe_headrest_3d.mesh import HexMesh, block_axes, ellipsoid_cap, foam_block
 from alcove.science.oracles.fe_headrest_3d.params import CcxHeadrestParams
+from alcove.science.oracles.fe_headrest_3d.sampling import computed_outputs
 from alcove.science.series import Trajectory
 
 TYPE_NAME = "fe-headrest-3d-ccx"
@@ -203,7 +204,15 @@ class CcxHeadrestOracle:
         if lead > 0:
             tau_path = np.concatenate([[0.0], tau_path])
             ux, uz, rot = (np.concatenate([[0.0], v]) for v in (ux, uz, rot))
-        motion = HeadMotion(tau_path, ux, uz, rot, lead + (t_out[first_out:] - t_out[start]))
+        # the step ends one output after the head last comes within the clearance: after that the
+        # cushion is unloaded (elastic foam) and the force is 0, as before the start
+        end = min(n_out, int(near[-1]) + 2)
+        tau_path, ux, uz, rot = (v[: len(v) - (n_out - end)] for v in (tau_path, ux, uz, rot))
+        out_tau = lead + (t_out[first_out:end] - t_out[start])
+        computed = computed_outputs(
+            out_tau, -gap[first_out:end], pose[first_out:end], p.solve_interval, p.interpolation_tolerance
+        )
+        motion = HeadMotion(tau_path, ux, uz, rot, out_tau[computed])
         head = HexMesh(place(self.head.nodes, (float(r0[0]), float(r0[1])), a0), self.head.elements)
         dt = p.output_dt
         deck = write_deck(
@@ -215,14 +224,20 @@ class CcxHeadrestOracle:
             motion,
             StepControl(
                 dt * p.max_increment_fraction,
-                dt * p.max_increment_fraction,
+                dt * p.solve_interval * p.max_increment_fraction,
                 dt * p.min_increment_fraction,
                 residual_floor=p.residual_floor,
+                solver=p.solver.upper().replace("-", " "),
             ),
+            p.foam_element,
         )
-        cog = np.stack([r[first_out:, 0], np.zeros(n_out - first_out), r[first_out:, 1]], -1)
+        cog = np.stack([r[first_out:end, 0], np.zeros(end - first_out), r[first_out:end, 1]], -1)[computed]
         job.update(
             tau=motion.output_tau.tolist(),
+            # the outputs between the computed ones are interpolated; those where the undeformed
+            # head is clear of the cushion are 0 (sampling.py)
+            tau_all=out_tau.tolist(),
+            clear=(gap[first_out:end] >= 0.0).tolist(),
             first_simulated=first_out,
             cog=cog.tolist(),
             back_nodes=deck.back_nodes.tolist(),

@@ -63,6 +63,12 @@ class CcxHeadrestParams(CushionParams):
         float, quantity("element size of the head's contact surface", "m", ge=0.002, le=0.03)
     ] = 0.008
 
+    foam_element: Literal["C3D8", "C3D8R", "C3D8I"] = Field(
+        "C3D8",
+        description="ccx's element of the foam: C3D8 (8 Gauss points), C3D8R (1 Gauss point, hourglass "
+        "control) or C3D8I (incompatible modes)",
+    )
+
     # ---- contact -------------------------------------------------------------------------------
     # penalty, friction: the shared cushion's
     contact_formulation: Literal["node-to-surface", "surface-to-surface"] = Field(
@@ -79,8 +85,27 @@ class CcxHeadrestParams(CushionParams):
         float,
         quantity("output interval", "s", ge=1e-4, le=0.05, why="0.0025 s gives 401 samples per second"),
     ] = 0.0025
+    solve_interval: WholeNumber = Field(
+        16,
+        ge=1,
+        le=32,
+        description="largest spacing of the outputs ccx computes, in output intervals (1 to 32); the outputs "
+        "between are interpolated, and every output is computed around a first touch, a separation, a stop or "
+        "a reversal of the head and wherever the error estimate asks for it (1: ccx computes every output)",
+    )
+    interpolation_tolerance: Annotated[
+        float,
+        quantity(
+            "refinement criterion of the computed outputs: largest interpolation error of the force proxy "
+            "(undeformed indentation^1.5), relative to its peak",
+            "-",
+            ge=1e-6,
+            le=0.05,
+        ),
+    ] = 1e-3
     max_increment_fraction: Annotated[
-        float, quantity("largest increment as a fraction of output_dt", "-", gt=0.0, le=1.0)
+        float,
+        quantity("largest increment as a fraction of solve_interval x output_dt", "-", gt=0.0, le=1.0),
     ] = 1.0
     min_increment_fraction: Annotated[
         float, quantity("smallest increment (after cutbacks) as a fraction of output_dt", "-", ge=1e-8, le=0.5)
@@ -121,6 +146,11 @@ class CcxHeadrestParams(CushionParams):
             le=0.2,
         ),
     ] = 0.01
+
+    solver: Literal["spooles", "iterative-cholesky", "iterative-scaling"] = Field(
+        "spooles",
+        description="ccx's equation solver (those of Debian's calculix-ccx): SPOOLES (direct) or an iterative one",
+    )
 
     # ---- run ---------------------------------------------------------------------------------------
     threads: WholeNumber = Field(1, ge=1, le=64, description="threads of ccx's equation solver [-], 1 to 64")
