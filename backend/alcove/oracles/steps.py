@@ -13,7 +13,7 @@ from datetime import datetime
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
-from cachetools import LRUCache
+from cachetools import LRUCache, cached
 from sqlalchemy.orm import Session
 
 from alcove.db import session_scope
@@ -33,31 +33,37 @@ if TYPE_CHECKING:
     from alcove.science.ocp.task_spec import TaskSpec
     from alcove.science.oracles.base import Oracle
 
-#: Oracles built per worker process (an FE oracle builds its mesh once), by type, spec and preset.
-_oracles: LRUCache[tuple[str, str, str, str], Oracle] = LRUCache(maxsize=4)
-_oracles_lock = threading.Lock()
 BUILTIN = BUILTIN_TYPE_NAMES
 
 
-def load_oracle(s: Session, oracle_version_id: int, preset: HeadNeckPreset) -> Oracle:
-    """The oracle of a version for a model preset, built once per process."""
+@cached(
+    LRUCache(maxsize=4),
+    key=lambda s, ov, preset, launcher: (
+        ov.oracle_type,
+        ov.spec_hash,
+        json.dumps(preset.to_dict(), sort_keys=True),
+        repr(launcher),
+    ),
+    lock=threading.Lock(),
+)
+def _built_oracle(s: Session, ov: OracleVersion, preset: HeadNeckPreset, launcher: Any) -> Oracle:
     from alcove.science.oracles.registry import build_oracle
 
+    catalogue = None if ov.oracle_type in BUILTIN else command_catalogue(s)
+    oracle = build_oracle(ov.oracle_type, ov.spec, preset, catalogue=catalogue)
+    if launcher is not None and hasattr(oracle, "launcher"):
+        oracle.launcher = launcher  # a built-in type that runs a program, dispatched as batch jobs
+    return oracle
+
+
+def load_oracle(s: Session, oracle_version_id: int, preset: HeadNeckPreset) -> Oracle:
+    """The oracle of a version for a model preset, built once per process (an FE oracle builds its
+    mesh once), by type, spec, preset and launcher."""
     ov = s.get(OracleVersion, oracle_version_id)
     if ov is None:
         raise RuntimeError(f"oracle version id {oracle_version_id} does not exist")
     launcher = builtin_launchers().get(ov.oracle_type) if ov.oracle_type in BUILTIN else None
-    key = (ov.oracle_type, ov.spec_hash, json.dumps(preset.to_dict(), sort_keys=True), repr(launcher))
-    with _oracles_lock:
-        oracle = _oracles.get(key)
-    if oracle is None:
-        catalogue = None if ov.oracle_type in BUILTIN else command_catalogue(s)
-        oracle = build_oracle(ov.oracle_type, ov.spec, preset, catalogue=catalogue)
-        if launcher is not None and hasattr(oracle, "launcher"):
-            oracle.launcher = launcher  # a built-in type that runs a program, dispatched as batch jobs
-        with _oracles_lock:
-            _oracles[key] = oracle
-    return oracle
+    return _built_oracle(s, ov, preset, launcher)
 
 
 def replay(

@@ -13,7 +13,7 @@ import threading
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
-from cachetools import LRUCache
+from cachetools import LRUCache, cached
 from sqlalchemy.orm import Session
 
 from alcove.db.arrays import get_arrays, put_arrays
@@ -28,22 +28,11 @@ if TYPE_CHECKING:
 
 FORCE_COLUMNS = ("fx", "fy", "fz", "mx", "my", "mz")
 
-_cache_lock = threading.Lock()
-_ARRAY_CACHE_SIZE = 2048
-_array_cache: LRUCache[str, dict[str, np.ndarray]] = LRUCache(maxsize=_ARRAY_CACHE_SIZE)
 
-
+@cached(LRUCache(maxsize=2048), key=lambda s, dataset: dataset.content_sha256, lock=threading.Lock())
 def dataset_arrays(s: Session, dataset: Dataset) -> dict[str, np.ndarray]:
-    """The arrays of a dataset (cached per process: blobs are immutable)."""
-    key = dataset.content_sha256
-    with _cache_lock:
-        got = _array_cache.get(key)
-    if got is not None:
-        return got
-    arrays = get_arrays(s, key)
-    with _cache_lock:
-        _array_cache[key] = arrays
-    return arrays
+    """The arrays of a dataset (cached per process by content hash: blobs are immutable)."""
+    return get_arrays(s, dataset.content_sha256)
 
 
 def store_dataset(
@@ -133,6 +122,8 @@ def _pool_name(d: Dataset) -> str:
 #: different database that reuses the id (tests)
 _POOL_CACHE_SIZE = 4
 _pool_cache: LRUCache[tuple[str, int], tuple[str, list[PoolDataset]]] = LRUCache(maxsize=_POOL_CACHE_SIZE)
+#: guards _pool_cache, which load_training_pool fills from its parent version's entry (more than a memo)
+_pool_cache_lock = threading.Lock()
 
 
 def _training_dataset(s: Session, d: Dataset) -> PoolDataset:
@@ -154,7 +145,7 @@ def _training_dataset(s: Session, d: Dataset) -> PoolDataset:
 
 
 def _cached_pool(url: str, pool_version_id: int, content_hash: str) -> list[PoolDataset] | None:
-    with _cache_lock:
+    with _pool_cache_lock:
         got = _pool_cache.get((url, pool_version_id))
     return got[1] if got is not None and got[0] == content_hash else None
 
@@ -178,7 +169,7 @@ def load_training_pool(s: Session, pool_version: PoolVersion) -> list[PoolDatase
             out = None
     if out is None:
         out = [_training_dataset(s, d) for _, d in repo.members(s, pool_version.id)]
-    with _cache_lock:
+    with _pool_cache_lock:
         _pool_cache[(url, pool_version.id)] = (pool_version.content_hash, out)
     return list(out)
 

@@ -6,7 +6,7 @@ import json
 import threading
 from typing import Any
 
-from cachetools import LRUCache
+from cachetools import LRUCache, cached
 from pydantic import ValidationError
 from sqlalchemy.orm import Session
 
@@ -138,28 +138,25 @@ def require_valid(spec: Any) -> TaskSpec:
 #: Parsed tasks by (the spec's canonical JSON, interval override): keyed by content, not by the
 #: version id, so a process that sees several databases (or an id reused after a rollback on
 #: SQLite) never gets another database's task.
-_tasks: LRUCache[tuple[str, int | None], TaskSpec] = LRUCache(maxsize=64)
-_tasks_lock = threading.Lock()
+@cached(
+    LRUCache(maxsize=64),
+    key=lambda spec, intervals: (json.dumps(spec, sort_keys=True), intervals),
+    lock=threading.Lock(),
+)
+def _parsed_task(spec: dict[str, Any], intervals: int | None) -> TaskSpec:
+    from alcove.science.ocp.task_spec import parse_task
+
+    task = parse_task(spec)
+    return task.with_intervals(intervals) if intervals else task
 
 
 def load_task(s: Session, task_version_id: int, intervals: int | None = None) -> TaskSpec:
     """The task of a version as the OCP code uses it (optionally with another number of
     intervals per phase); each spec parsed once per process."""
-    from alcove.science.ocp.task_spec import parse_task
-
     tv = s.get(TaskVersion, task_version_id)
     if tv is None:
         raise NotFound("task version", task_version_id)
-    key = (json.dumps(tv.spec, sort_keys=True), intervals)
-    with _tasks_lock:
-        task = _tasks.get(key)
-    if task is None:
-        task = parse_task(tv.spec)
-        if intervals:
-            task = task.with_intervals(intervals)
-        with _tasks_lock:
-            _tasks[key] = task
-    return task
+    return _parsed_task(tv.spec, intervals)
 
 
 def preview_scenarios(spec: TaskSpec, n: int, seed: int) -> list[dict[str, Any]]:
