@@ -6,7 +6,7 @@
  */
 import { useMemo, useState } from "react";
 import { useQueries, useQuery } from "@tanstack/react-query";
-import { candidatesQuery, candidateTrajectoryQuery, pickCurvesQuery } from "../api/campaigns";
+import { candidatesQuery, candidateTrajectoryQuery, pickCurvesQuery } from "./queries";
 import type { CandidateDetail, IterationCandidates, IterationCurves } from "../api/types";
 import { Plot, type Trace } from "../components/Plot";
 import { Empty, ErrorBox, Loading } from "../components/States";

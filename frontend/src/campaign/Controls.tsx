@@ -1,5 +1,5 @@
 import { useRef, useState } from "react";
-import { useCampaignAction, type Action } from "../api/campaigns";
+import { useCampaignAction, type Action } from "./queries";
 import { DownloadButton } from "../components/DownloadButton";
 import type { CampaignOut } from "../api/types";
 import { errorMessage } from "../api/errors";

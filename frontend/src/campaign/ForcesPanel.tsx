@@ -2,7 +2,7 @@ import { useMemo, useState } from "react";
 import { useQueries, useQuery } from "@tanstack/react-query";
 import type { Dash } from "plotly.js-dist-min";
 import { Plot, type Trace } from "../components/Plot";
-import { candidateTrajectoryQuery, iterationQuery, pickCurvesQuery, trajectoryQuery } from "../api/campaigns";
+import { candidateTrajectoryQuery, iterationQuery, pickCurvesQuery, trajectoryQuery } from "./queries";
 import { useTaskVersion } from "../api/definitions";
 import { ChainPlayer } from "../components/ChainPlayer";
 import { resolveModel } from "../lib/kinematics";

@@ -1,6 +1,6 @@
 import { useState, type FormEvent } from "react";
 import { useNavigate } from "react-router-dom";
-import { maxIterations, useForkCampaign } from "../api/campaigns";
+import { maxIterations, useForkCampaign } from "./queries";
 import type { CampaignOut } from "../api/types";
 import { ConfigSections, configFieldPaths, configLabel, configLocalErrors, type ConfigDraft } from "./ConfigSections";
 import { FormErrors, serverProblems } from "../components/FormErrors";

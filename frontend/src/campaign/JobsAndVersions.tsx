@@ -1,4 +1,4 @@
-import { useJobs, useModelVersions, usePoolVersions } from "../api/campaigns";
+import { useJobs, useModelVersions, usePoolVersions } from "./queries";
 import type { BatchJob } from "../api/types";
 import { DownloadButton } from "../components/DownloadButton";
 import { Empty, ErrorBox, Loading, StatusBadge } from "../components/States";

@@ -4,7 +4,7 @@
  * values, and that pick's OCP solve. An iteration of a q = 1 campaign has no choice.
  */
 import { useQuery } from "@tanstack/react-query";
-import { candidatesQuery, candidateTrajectoryQuery } from "../api/campaigns";
+import { candidatesQuery, candidateTrajectoryQuery } from "./queries";
 import type { CandidateDetail } from "../api/types";
 import type { MetricPoint } from "../lib/metrics";
 import { fmtNumber } from "../lib/format";

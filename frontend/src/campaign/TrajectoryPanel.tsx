@@ -2,7 +2,7 @@ import { useMemo, useState } from "react";
 import { useQuery } from "@tanstack/react-query";
 import type { Annotation, Layout, Shape } from "plotly.js-dist-min";
 import { Plot, type Trace } from "../components/Plot";
-import { iterationQuery, trajectoryQuery } from "../api/campaigns";
+import { iterationQuery, trajectoryQuery } from "./queries";
 import { useTaskVersion } from "../api/definitions";
 import { ChainPlayer, sampleAt } from "../components/ChainPlayer";
 import { resolveModel } from "../lib/kinematics";

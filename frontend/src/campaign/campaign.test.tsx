@@ -6,7 +6,7 @@ import { wrenchTraces } from "./ForcesPanel";
 import { auxLawTraces, bestPossibleTraces, calibrationTraces, componentTraces, hasCalibration, rmseTraces } from "./RmsePlot";
 import { forkDefaults, DEFAULT_FURTHER } from "./ForkDialog";
 import { Controls } from "./Controls";
-import { progressText } from "../api/campaigns";
+import { progressText } from "./queries";
 import { Plot } from "../components/Plot";
 import type { CampaignOut, IterationCurves } from "../api/types";
 import { jsonResponse, mockApi, renderPage } from "../test/utils";

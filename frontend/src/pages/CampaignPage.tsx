@@ -1,6 +1,6 @@
 import { Link, useParams } from "react-router-dom";
 import { useQueryClient } from "@tanstack/react-query";
-import { maxIterations, progressText, useCampaign } from "../api/campaigns";
+import { maxIterations, progressText, useCampaign } from "../campaign/queries";
 import { useMetrics } from "../api/series";
 import { useCampaignLive, type Live } from "../api/live";
 import { useOracle, useTask } from "../api/definitions";

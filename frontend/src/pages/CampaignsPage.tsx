@@ -1,7 +1,7 @@
 import { useMemo, useState } from "react";
 import { Link, useNavigate } from "react-router-dom";
 import { useQueries } from "@tanstack/react-query";
-import { progressText, useCampaigns } from "../api/campaigns";
+import { progressText, useCampaigns } from "../campaign/queries";
 import { metricsQuery } from "../api/series";
 import { useCampaignListLive } from "../api/live";
 import type { CampaignSummary } from "../api/types";

@@ -1,7 +1,7 @@
 import { useMemo } from "react";
 import { useQueries } from "@tanstack/react-query";
 import { Link } from "react-router-dom";
-import { useCampaigns } from "../api/campaigns";
+import { useCampaigns } from "../campaign/queries";
 import { metricsQuery, validationQuery, withValidation } from "../api/series";
 import { auxLawTraces, componentTraces, RmseQuantitySelect, useRmseQuantity } from "../campaign/RmsePlot";
 import { Plot, type Trace } from "../components/Plot";

@@ -1,6 +1,6 @@
 import { useEffect, useState, type FormEvent } from "react";
 import { Link, useNavigate } from "react-router-dom";
-import { useCreateCampaign, validateCampaign } from "../api/campaigns";
+import { useCreateCampaign, validateCampaign } from "../campaign/queries";
 import { errorMessage, type FieldError } from "../api/errors";
 import { useOpenApi, useOracles, useSurrogateConfigs, useTasks } from "../api/definitions";
 import { ErrorBox, Loading } from "../components/States";

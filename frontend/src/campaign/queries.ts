@@ -1,12 +1,12 @@
 /** Campaigns: the list, one campaign, its iterations' data, jobs, pool and model versions, and the lifecycle. */
 import { keepPreviousData, queryOptions, useMutation, useQuery, useQueryClient } from "@tanstack/react-query";
-import { client, unwrap } from "./client";
-import { fieldProblems, type FieldError } from "./errors";
-import { refetchAfterWrite } from "./refresh";
-import { keys } from "./keys";
-import { columns, type CampaignOut, type CampaignStatus, type CampaignSummary, type ForkRequest, type IterationCurves, type Job, type ModelVersion, type PoolVersion, type Schemas, type WholeTrajectory, type Wrench } from "./types";
+import { client, unwrap } from "../api/client";
+import { fieldProblems, type FieldError } from "../api/errors";
+import { refetchAfterWrite } from "../api/refresh";
+import { keys } from "../api/keys";
+import { columns, type CampaignOut, type CampaignStatus, type CampaignSummary, type ForkRequest, type IterationCurves, type Job, type ModelVersion, type PoolVersion, type Schemas, type WholeTrajectory, type Wrench } from "../api/types";
 
-export { downloadFile } from "./client";
+export { downloadFile } from "../api/client";
 export const API = "/api/v1";
 
 export function useCampaigns(filters: { status?: string }) {
