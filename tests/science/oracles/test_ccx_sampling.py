@@ -74,13 +74,14 @@ def test_interpolation_is_exact_at_the_knots_and_second_order_on_smooth_data():
 
 def test_the_deck_computes_a_subset_and_the_job_fills_in_the_rest():
     """The deck's *TIME POINTS are the computed outputs, the job lists every output; with
-    solve_interval = 1 every output is a time point (ccx computes them all)."""
+    solve_spacing = 0 every output is a time point (ccx computes them all)."""
     from alcove.science.oracles.fe_headrest import reference_motion
 
     coarse = {"element_size_contact": 0.012, "head_element_size": 0.012, "element_size_far": 0.04}
     counts = {}
     for stride in (1, 8):
-        oracle = CcxHeadrestOracle(CcxHeadrestParams(**coarse, solve_interval=stride))
+        oracle = CcxHeadrestOracle(CcxHeadrestParams(**coarse, solve_spacing=0.0 if stride == 1 else 0.02))
+        assert oracle.params.solve_stride == stride
         files, job = oracle.job_files(oracle._validated(reference_motion()))
         assert set(job["tau"]) <= set(job["tau_all"]) and job["tau"][-1] == job["tau_all"][-1]
         assert len(job["cog"]) == len(job["tau"]) and len(job["clear"]) == len(job["tau_all"])
@@ -92,9 +93,16 @@ def test_the_deck_computes_a_subset_and_the_job_fills_in_the_rest():
     assert counts[8][0] < counts[8][1] / 3 and counts[8][1] == counts[1][1]
 
 
-@pytest.mark.parametrize("stride", [0, 33])
-def test_solve_interval_is_validated(stride):
+@pytest.mark.parametrize("spacing", [-0.01, 0.2])
+def test_solve_spacing_is_validated(spacing):
     from pydantic import ValidationError
 
-    with pytest.raises(ValidationError, match="solve_interval"):
-        CcxHeadrestParams(solve_interval=stride)
+    with pytest.raises(ValidationError, match="solve_spacing"):
+        CcxHeadrestParams(solve_spacing=spacing)
+
+
+def test_the_spacing_in_outputs_follows_the_output_interval():
+    """0.04 s is 16 outputs of 2.5 ms, 4 of 10 ms; below two output intervals every output is computed."""
+    assert CcxHeadrestParams().solve_stride == 16
+    assert CcxHeadrestParams(output_dt=0.01).solve_stride == 4
+    assert CcxHeadrestParams(output_dt=0.025).solve_stride == 1

@@ -210,7 +210,7 @@ class CcxHeadrestOracle:
         tau_path, ux, uz, rot = (v[: len(v) - (n_out - end)] for v in (tau_path, ux, uz, rot))
         out_tau = lead + (t_out[first_out:end] - t_out[start])
         computed = computed_outputs(
-            out_tau, -gap[first_out:end], pose[first_out:end], p.solve_interval, p.interpolation_tolerance
+            out_tau, -gap[first_out:end], pose[first_out:end], p.solve_stride, p.interpolation_tolerance
         )
         motion = HeadMotion(tau_path, ux, uz, rot, out_tau[computed])
         head = HexMesh(place(self.head.nodes, (float(r0[0]), float(r0[1])), a0), self.head.elements)
@@ -224,10 +224,9 @@ class CcxHeadrestOracle:
             motion,
             StepControl(
                 dt * p.max_increment_fraction,
-                dt * p.solve_interval * p.max_increment_fraction,
+                dt * p.solve_stride * p.max_increment_fraction,
                 dt * p.min_increment_fraction,
                 residual_floor=p.residual_floor,
-                solver=p.solver.upper().replace("-", " "),
             ),
             p.foam_element,
         )

@@ -7,6 +7,7 @@ the two models differ only in what a 3D model adds (docs/fe-oracle.md, "The 3D m
 
 from __future__ import annotations
 
+import math
 from typing import Annotated, Literal
 
 from pydantic import Field, model_validator
@@ -85,14 +86,18 @@ class CcxHeadrestParams(CushionParams):
         float,
         quantity("output interval", "s", ge=1e-4, le=0.05, why="0.0025 s gives 401 samples per second"),
     ] = 0.0025
-    solve_interval: WholeNumber = Field(
-        16,
-        ge=1,
-        le=32,
-        description="largest spacing of the outputs ccx computes, in output intervals (1 to 32); the outputs "
-        "between are interpolated, and every output is computed around a first touch, a separation, a stop or "
-        "a reversal of the head and wherever the error estimate asks for it (1: ccx computes every output)",
-    )
+    solve_spacing: Annotated[
+        float,
+        quantity(
+            "largest spacing of the outputs ccx computes; the outputs between are interpolated, and every "
+            "output is computed around a first touch, a separation, a stop or a reversal of the head and "
+            "wherever the error estimate asks for it",
+            "s",
+            ge=0.0,
+            le=0.1,
+            why="below 2 x output_dt ccx computes every output (0: always)",
+        ),
+    ] = 0.04
     interpolation_tolerance: Annotated[
         float,
         quantity(
@@ -105,7 +110,7 @@ class CcxHeadrestParams(CushionParams):
     ] = 1e-3
     max_increment_fraction: Annotated[
         float,
-        quantity("largest increment as a fraction of solve_interval x output_dt", "-", gt=0.0, le=1.0),
+        quantity("largest increment as a fraction of the computed outputs' largest spacing", "-", gt=0.0, le=1.0),
     ] = 1.0
     min_increment_fraction: Annotated[
         float, quantity("smallest increment (after cutbacks) as a fraction of output_dt", "-", ge=1e-8, le=0.5)
@@ -147,15 +152,15 @@ class CcxHeadrestParams(CushionParams):
         ),
     ] = 0.01
 
-    solver: Literal["spooles", "iterative-cholesky", "iterative-scaling"] = Field(
-        "spooles",
-        description="ccx's equation solver (those of Debian's calculix-ccx): SPOOLES (direct) or an iterative one",
-    )
-
     # ---- run ---------------------------------------------------------------------------------------
     threads: WholeNumber = Field(1, ge=1, le=64, description="threads of ccx's equation solver [-], 1 to 64")
     timeout_s: Annotated[float, quantity("wall-time limit of one ccx run", "s", gt=0.0, le=86400.0)] = 1800.0
     keep_workdir: bool = Field(False, description="keep the working directory after a successful run")
+
+    @property
+    def solve_stride(self) -> int:
+        """The largest spacing of the computed outputs in output intervals (1: every output computed)."""
+        return max(1, math.floor(self.solve_spacing / self.output_dt + 1e-9))
 
     @model_validator(mode="after")
     def _check_consistency(self) -> CcxHeadrestParams:
