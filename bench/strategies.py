@@ -124,7 +124,7 @@ def run_one(
     t0, cpu0 = time.perf_counter(), cpu_seconds()
     fresh_store(data_dir)
     from alcove.campaigns import presets, service
-    from alcove.campaigns.protocol import run_step
+    from alcove.campaigns.run.protocol import run_step
     from alcove.campaigns.schemas import CampaignCreate
     from alcove.db import session_scope, transaction
 

@@ -303,7 +303,7 @@ def campaign_settings(quick: bool, oracle: str) -> dict[str, Any]:
         "oracle": oracle,
         "oracle_params": {},
         "surrogate": dict(PAPER_PROTOCOL),
-        "preliminary": {},
+        "preliminary": {"family_motions": 0},  # the paper's pool version 0: the auxiliary law alone
     }
 
 

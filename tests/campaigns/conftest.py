@@ -11,9 +11,10 @@ import pytest
 
 #: a campaign small enough for tests: few LHS samples, coarse OCP grid, short training, two
 #: held-out validation motions (the suite's own tests ask for more), an ensemble of two (the
-#: smallest with a standard deviation; the default of 5 is tested in the surrogate tests)
+#: smallest with a standard deviation; the default of 5 is tested in the surrogate tests), pool version
+#: 0 from the auxiliary law alone whatever the oracle (the press-family start has its own tests)
 QUICK: dict[str, Any] = {
-    "preliminary": {"samples": 400, "chunks": 4},
+    "preliminary": {"samples": 400, "chunks": 4, "family_motions": 0},
     "settings": {"ocp_intervals": 20, "replay_dt": 0.01, "validation_motions": 2, "validation_reference_motions": 0},
     "stopping": {"max_iterations": 2},
 }

@@ -77,6 +77,25 @@ def test_a_family_range_the_task_cannot_reach_is_refused_naming_it(campaign_db: 
     assert "leaves the joint range" in problem["msg"]
 
 
+def test_left_open_the_family_start_is_decided_at_creation_by_the_oracle(campaign_db: str, make_campaign: Any) -> None:
+    """family_motions null (the default) is decided when the campaign is created, and stored:
+    DEFAULT_FAMILY_MOTIONS replays for an FE oracle, none for the auxiliary law itself (its replays
+    teach nothing its samples do not); a number given is kept, also 0."""
+    from alcove.campaigns.config import DEFAULT_FAMILY_MOTIONS, current_config
+    from alcove.db import transaction
+    from alcove.models import Campaign
+
+    def stored(cid: int) -> Any:
+        return transaction(lambda s: current_config(s, s.get(Campaign, cid)).preliminary.family_motions)
+
+    open_fe, _ = make_campaign(oracle="fe-headrest-2d", preliminary={"family_motions": None}, start=False)
+    open_aux, _ = make_campaign(oracle="aux-penalty", preliminary={"family_motions": None}, start=False)
+    none_fe, _ = make_campaign(oracle="fe-headrest-2d", preliminary={"family_motions": 0}, start=False)
+    two_aux, _ = make_campaign(oracle="aux-penalty", preliminary={"family_motions": 2}, start=False)
+    assert DEFAULT_FAMILY_MOTIONS == 4
+    assert [stored(c) for c in (open_fe, open_aux, none_fe, two_aux)] == [4, 0, 0, 2]
+
+
 def test_pool_version_0_can_start_from_oracle_replays_of_the_family_counted_as_oracle_calls(
     campaign_db: str, make_campaign: Any
 ) -> None:

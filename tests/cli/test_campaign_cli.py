@@ -210,12 +210,13 @@ def test_the_json_report_gives_each_iterations_oracle_calls_and_picked_scenarios
     cfg = store / "batch.yaml"
     # seed 3, C = 4 (as tests/campaigns/test_batch.py): candidates that reach the headrest (those
     # without contact are never picked)
-    # float64 training: the scenario (two of the four candidates reach the headrest) was set up with it
+    # float64 training and the paper's shared force net: the scenario (two of the four candidates reach
+    # the headrest) was set up with them
     cfg.write_text(
         QUICK_YAML.replace(
             "validation_motions: 2",
             "validation_motions: 0, strategy: ensemble-disagreement, batch: 2, candidates: 4, min_distance: 0",
-        ).replace("ensemble_size: 2}", "ensemble_size: 2, dtype: float64}")
+        ).replace("ensemble_size: 2}", "ensemble_size: 2, dtype: float64, normal_force: shared}")
     )
     out = ok(
         "create",

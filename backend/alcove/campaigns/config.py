@@ -24,6 +24,11 @@ class _Strict(BaseModel):
 # ----------------------------------------------------------------------------- settings
 
 
+#: press-family replays in pool version 0 when the request leaves ``family_motions`` null: with them
+#: every strategy's normal force reaches the best-possible line's (docs/active-learning.md)
+DEFAULT_FAMILY_MOTIONS = 4
+
+
 class PreliminaryConfig(_Strict):
     """Where pool version 0 comes from: Latin-hypercube samples evaluated with the auxiliary
     penalty model (the paper), or uploaded datasets (``dataset_ids``)."""
@@ -39,17 +44,26 @@ class PreliminaryConfig(_Strict):
     dataset_ids: list[Annotated[int, Field(ge=1, le=2**31 - 1)]] | None = Field(
         None, description="uploaded datasets to use instead of LHS samples"
     )
-    family_motions: int = Field(
-        0,
+    family_motions: int | None = Field(
+        None,
         ge=0,
         le=256,
         description=(
             "oracle replays in pool version 0 beside the auxiliary law's samples: the first of the task's press "
             "family (the space-filling sequence strategy press-family draws from, seeded by the campaign seed; "
             "settings.family_ranges), counted as oracle calls; with them the first model learns contact from the "
-            "oracle, not the auxiliary law (preliminary_in_contact). 0 to 256; 0: none"
+            "oracle, not the auxiliary law (preliminary_in_contact), over the depths and histories the OCP optima "
+            "do not reach. 0 to 256; 0: none; null (the default): "
+            f"{DEFAULT_FAMILY_MOTIONS} where the oracle is not the auxiliary law itself, the task's press family can "
+            "be drawn and pool version 0 is not uploaded datasets, else 0 (the campaign stores the number it runs "
+            "with; docs/active-learning.md)"
         ),
     )
+
+    @property
+    def family_replays(self) -> int:
+        """The press-family replays of pool version 0 (a stored campaign's number is always decided)."""
+        return self.family_motions or 0
 
 
 class StoppingRules(_Strict):

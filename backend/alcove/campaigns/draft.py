@@ -18,11 +18,12 @@ from pydantic import BaseModel, ValidationError, create_model
 from sqlalchemy.orm import Session
 
 from alcove.campaigns import references as refs
-from alcove.campaigns.config import PreliminaryConfig, RunSettings, strategy_problem
+from alcove.campaigns.config import DEFAULT_FAMILY_MOTIONS, PreliminaryConfig, RunSettings, strategy_problem
 from alcove.campaigns.schemas import CampaignCreateIn
 from alcove.campaigns.sizes import campaign_size_problems
 from alcove.errors import FieldError, InvalidInput, field_errors_from_pydantic
-from alcove.models import SurrogateConfigVersion, User
+from alcove.models import OracleVersion, SurrogateConfigVersion, User
+from alcove.science.oracles.builtin import AUXILIARY_LAW
 from alcove.versioning import ORACLES, SURROGATE_CONFIGS, TASKS
 
 
@@ -52,6 +53,29 @@ def strategy_error(s: Session, settings: RunSettings, surrogate_config_version_i
     return FieldError(("settings", "strategy"), problem) if problem is not None else None
 
 
+def decided_preliminary(
+    s: Session, settings: RunSettings, preliminary: PreliminaryConfig, task_version_id: int, oracle_version_id: int
+) -> PreliminaryConfig:
+    """``preliminary`` with ``family_motions`` decided: the request's number, or for null
+    :data:`DEFAULT_FAMILY_MOTIONS` where the oracle is not the auxiliary law itself (its replays
+    teach nothing its samples do not), pool version 0 is not uploaded datasets and the task's
+    press family can be drawn; else 0."""
+    from alcove.campaigns.suite import suite_problem
+    from alcove.tasks.service import load_task
+
+    if preliminary.family_motions is not None:
+        return preliminary
+    oracle = s.get(OracleVersion, oracle_version_id)
+    drawn = (
+        oracle is not None
+        and oracle.oracle_type != AUXILIARY_LAW
+        and not preliminary.dataset_ids
+        and suite_problem(settings.model_copy(update={"validation_motions": 0}), load_task(s, task_version_id), True)
+        is None
+    )
+    return preliminary.model_copy(update={"family_motions": DEFAULT_FAMILY_MOTIONS if drawn else 0})
+
+
 def suite_error(
     s: Session, settings: RunSettings, preliminary: PreliminaryConfig, task_version_id: int
 ) -> FieldError | None:
@@ -60,7 +84,7 @@ def suite_error(
     from alcove.campaigns.suite import suite_problem
     from alcove.tasks.service import load_task
 
-    family = settings.strategy == "press-family" or preliminary.family_motions > 0
+    family = settings.strategy == "press-family" or preliminary.family_replays > 0
     if settings.validation_motions == 0 and not family:
         return None
     problem = suite_problem(settings, load_task(s, task_version_id), family)

@@ -18,7 +18,7 @@ from sqlalchemy.orm import Session
 
 from alcove.campaigns import repository as repo
 from alcove.campaigns.config import CampaignConfig, current_config
-from alcove.campaigns.draft import strategy_error, suite_error
+from alcove.campaigns.draft import decided_preliminary, strategy_error, suite_error
 from alcove.campaigns.machine import slots
 from alcove.campaigns.machine.apply import apply_decision, state_of
 from alcove.campaigns.machine.state_machine import (
@@ -85,6 +85,12 @@ def _check_strategy(s: Session, cfg: CampaignConfig, surrogate_config_version_id
         raise InvalidInput([problem])
 
 
+def _decided(s: Session, cfg: CampaignConfig, task_version_id: int, oracle_version_id: int) -> CampaignConfig:
+    """The config as the campaign stores it: the preliminary's press-family replays decided."""
+    preliminary = decided_preliminary(s, cfg.settings, cfg.preliminary, task_version_id, oracle_version_id)
+    return cfg.model_copy(update={"preliminary": preliminary})
+
+
 def _check_suite(s: Session, cfg: CampaignConfig, task_version_id: int) -> None:
     """The validation suite's ranges and the press family's must make motions of the task's model
     (422 naming the range)."""
@@ -147,6 +153,7 @@ def create_campaign(
     """A draft campaign with config version 1."""
     _check_definitions(s, data.task_version_id, data.oracle_version_id, data.surrogate_config_version_id)
     cfg = CampaignConfig.model_validate(data.model_dump(include={"preliminary", "stopping", "policies", "settings"}))
+    cfg = _decided(s, cfg, data.task_version_id, data.oracle_version_id)
     if cfg.preliminary.dataset_ids:
         pool_repo.datasets(s, cfg.preliminary.dataset_ids)  # raises NotFound naming the id
     _check_strategy(s, cfg, data.surrogate_config_version_id)
@@ -182,7 +189,9 @@ def update_config(
         raise InvalidTransition(c.status, "edit", "fork it instead")
     cfg = current_config(s, c)
     changes = update.model_dump(exclude_none=True, exclude={"note", "surrogate_config_version_id"})
-    new = cfg.model_copy(update={k: getattr(update, k) for k in changes})
+    edited = cfg.model_copy(update={k: getattr(update, k) for k in changes})
+    # an edit of the preliminary decides its press-family replays as a new campaign does
+    new = _decided(s, edited, c.task_version_id, c.oracle_version_id) if "preliminary" in changes else edited
     scv = update.surrogate_config_version_id or c.surrogate_config_version_id
     if update.surrogate_config_version_id is not None:
         _check_definitions(s, c.task_version_id, c.oracle_version_id, scv)

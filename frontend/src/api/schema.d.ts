@@ -3883,10 +3883,9 @@ export interface components {
             dataset_ids?: number[] | null;
             /**
              * Family Motions
-             * @description oracle replays in pool version 0 beside the auxiliary law's samples: the first of the task's press family (the space-filling sequence strategy press-family draws from, seeded by the campaign seed; settings.family_ranges), counted as oracle calls; with them the first model learns contact from the oracle, not the auxiliary law (preliminary_in_contact). 0 to 256; 0: none
-             * @default 0
+             * @description oracle replays in pool version 0 beside the auxiliary law's samples: the first of the task's press family (the space-filling sequence strategy press-family draws from, seeded by the campaign seed; settings.family_ranges), counted as oracle calls; with them the first model learns contact from the oracle, not the auxiliary law (preliminary_in_contact), over the depths and histories the OCP optima do not reach. 0 to 256; 0: none; null (the default): 4 where the oracle is not the auxiliary law itself, the task's press family can be drawn and pool version 0 is not uploaded datasets, else 0 (the campaign stores the number it runs with; docs/active-learning.md)
              */
-            family_motions?: number;
+            family_motions?: number | null;
             /**
              * Samples
              * @description LHS sample count K

@@ -55,7 +55,7 @@ def family_motion(ctx: StepContext) -> StepOutput:
             raise RuntimeError(f"model version {ctx.k} does not exist")
         task, seed = ctx.task(s, c), c.seed
         # the preliminary replays are the sequence's first motions; the iterations' follow them
-        used = [*range(ctx.config.preliminary.family_motions), *candidate_queries.family_motion_indices(s, c.id, ctx.k)]
+        used = [*range(ctx.config.preliminary.family_replays), *candidate_queries.family_motion_indices(s, c.id, ctx.k)]
     settings = ctx.config.settings
     index = acquisition.family_motion_index(used, ctx.ref.slot)
     box, ((motion, traj),) = _family_motions(settings, task, seed, [index])
@@ -75,7 +75,7 @@ def preliminary_replays(ctx: StepContext, task: Any, seed: int, oracle_version_i
     motions of the family's sequence replayed by the oracle (:func:`alcove.oracles.steps.replay_motions`)."""
     from alcove.oracles import steps as oracle_steps
 
-    _, motions = _family_motions(ctx.config.settings, task, seed, list(range(ctx.config.preliminary.family_motions)))
+    _, motions = _family_motions(ctx.config.settings, task, seed, list(range(ctx.config.preliminary.family_replays)))
     return oracle_steps.replay_motions(
         ctx.run,
         oracle_version_id=oracle_version_id,

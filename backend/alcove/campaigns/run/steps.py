@@ -104,7 +104,7 @@ def preliminary(ctx: StepContext) -> StepOutput:
         task, seed, oracle_version_id = ctx.task(s, c), c.seed, c.oracle_version_id
     model = task.model
     measured = None
-    if pre.family_motions > 0:  # oracle replays of the task's press family beside the auxiliary law
+    if pre.family_replays > 0:  # oracle replays of the task's press family beside the auxiliary law
         from alcove.campaigns.run.family_steps import preliminary_replays
 
         measured = preliminary_replays(ctx, task, seed, oracle_version_id)

@@ -64,6 +64,9 @@ class BuiltinType:
         return OracleType(params_cls, factory)
 
 
+#: the type of the paper's auxiliary law (the preliminary data's own law)
+AUXILIARY_LAW = "aux-penalty"
+
 BUILTIN_TYPES: dict[str, BuiltinType] = {
     "fe-headrest-2d": BuiltinType(
         "alcove.science.oracles.fe_headrest",
@@ -71,7 +74,7 @@ BUILTIN_TYPES: dict[str, BuiltinType] = {
         "FEHeadrestParams",
         "Plane-strain finite-element headrest (hyperfoam cushion, rigid head, penalty contact with friction)",
     ),
-    "aux-penalty": BuiltinType(
+    AUXILIARY_LAW: BuiltinType(
         "alcove.science.oracles.aux_penalty",
         "AuxPenaltyOracle",
         "AuxPenaltyParams",
