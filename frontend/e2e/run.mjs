@@ -252,8 +252,12 @@ try {
   };
   const scenarioPreset = (await api("GET", "/tasks/presets")).find((p) => p.key === "head-headrest-scenarios");
   const batchTask = await api("POST", "/tasks", { name: `e2e scenarios ${stamp}`, description: "", spec: scenarioPreset.spec });
-  // float64 training: the scenario (two of three candidates reach the headrest and are picked) was set up with it
-  const batchSurrogate = await api("POST", "/surrogate-configs", { name: `e2e ensemble ${stamp}`, spec: { max_epochs: 40, ensemble_size: 2, dtype: "float64" } });
+  // float64 training and the paper's shared force net: the scenario (two of three candidates reach the headrest
+  // and are picked) was set up with them
+  const batchSurrogate = await api("POST", "/surrogate-configs", {
+    name: `e2e ensemble ${stamp}`,
+    spec: { max_epochs: 40, ensemble_size: 2, dtype: "float64", normal_force: "shared" },
+  });
   const batchCampaign = await api("POST", "/campaigns", {
     name: `e2e batch ${stamp}`,
     task_id: batchTask.id,
