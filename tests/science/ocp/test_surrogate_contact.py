@@ -56,6 +56,24 @@ def test_parametric_export_has_the_values_and_derivatives_of_the_constant_one(ta
             np.testing.assert_allclose(jb, ja, rtol=1e-9, atol=1e-9 * np.abs(ja).max())
 
 
+def test_a_net_of_blocks_passes_only_its_blocks_weights_to_the_nlp(task, models):
+    """The default force net gives the normal force layers of its own: the weights between its
+    blocks are zero and are not parameters of the NLP (nor products in its graph)."""
+    model = models[0]
+    assert model.force_net.blocks == ((0,), (1, 2))
+    in_blocks = sum(int(m.sum()) for m in model.force_net.masks())
+    dense = sum(lin.weight.numel() for lin in model.force_net.linears())
+    assert in_blocks < dense
+    per_member = (
+        in_blocks
+        + sum(lin.out_features for lin in model.force_net.linears())
+        + sum(lin.weight.numel() + lin.out_features for lin in model.moment_net.linears())
+        + 2 * (3 + 3)  # output scale and mean of both nets
+    )
+    fn, p = surrogate_contact(model, task.preset())
+    assert p.size == fn.size1_in(2) == model.ensemble_size * per_member
+
+
 def test_one_function_per_architecture_and_parameters_per_model(task, models):
     preset = task.preset()
     (fn1, p1), (fn2, p2) = (surrogate_contact(m, preset) for m in models)

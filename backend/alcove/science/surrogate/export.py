@@ -52,7 +52,9 @@ if TYPE_CHECKING:
 #: (q, qd) -> (r_rel, v_rel, T_rel, omega_rel) of the contact body in the headrest frame, as SX
 SymbolicKinematics = Callable[[ca.SX, ca.SX], tuple[ca.SX, ca.SX, ca.SX, ca.SX]]
 #: a network's activation and the (rows, columns) of its layers' weights
-NetArchitecture = tuple[str, tuple[tuple[int, int], ...]]
+#: activation, per layer (rows, cols), and per layer the column-major positions of the weights that may be
+#: non-zero (a net of blocks: the weights between blocks are not parameters) or None (dense)
+NetArchitecture = tuple[str, tuple[tuple[int, int], ...], tuple[tuple[int, ...] | None, ...]]
 #: ndof, number of inputs, force net, force outputs, moment net, moment outputs, ensemble members,
 #: the gate parameters (open_gap, blend, force_width) of the gated architecture or None
 Architecture = tuple[int, int, NetArchitecture, int, NetArchitecture, int, int, tuple[float, float, float] | None]
@@ -197,8 +199,20 @@ def casadi_contact_std_function(
 
 
 # ---- parametric form: the weights as an input -------------------------------------------
+def _weight_positions(net: MLP) -> tuple[tuple[int, ...] | None, ...]:
+    """Per layer, the column-major positions of the weights that may be non-zero; None for a dense layer."""
+    masks = net.masks()
+    if masks is None:
+        return tuple(None for _ in net.linears())
+    return tuple(tuple(np.flatnonzero(m.numpy().ravel(order="F")).tolist()) for m in masks)
+
+
 def _net_architecture(net: MLP) -> NetArchitecture:
-    return net.activation, tuple((lin.out_features, lin.in_features) for lin in net.linears())
+    return (
+        net.activation,
+        tuple((lin.out_features, lin.in_features) for lin in net.linears()),
+        _weight_positions(net),
+    )
 
 
 def surrogate_architecture(model: SurrogateModel) -> Architecture:
@@ -219,12 +233,13 @@ def _net_parameters(net: MLP, input_norm: Standardization) -> list[FloatArray]:
     """Layers as (weights column-major, biases); the input standardisation folded into the
     first layer: W (x - mean) / divisor + b = (W / divisor) x + (b - (W / divisor) mean)."""
     out = []
-    for i, lin in enumerate(net.linears()):
+    for i, (lin, positions) in enumerate(zip(net.linears(), _weight_positions(net), strict=True)):
         W, b = lin.weight.detach().double().numpy(), lin.bias.detach().double().numpy()
         if i == 0:
             W = W / np.asarray(input_norm.divisor, float)[None, :]
             b = b - W @ np.asarray(input_norm.mean, float)
-        out += [W.ravel(order="F"), b.ravel()]
+        weights = W.ravel(order="F")
+        out += [weights if positions is None else weights[list(positions)], b.ravel()]
     return out
 
 
@@ -252,9 +267,14 @@ class _Reader:
 
 
 def _mlp_parametric(arch: NetArchitecture, x: ca.SX, read: _Reader) -> ca.SX:
-    activation, shapes = arch
-    for i, (rows, cols) in enumerate(shapes):
-        W, b = read.take(rows, cols), read.take(rows)
+    activation, shapes, positions = arch
+    for i, ((rows, cols), where) in enumerate(zip(shapes, positions, strict=True)):
+        if where is None:
+            W = read.take(rows, cols)
+        else:  # only the weights within blocks: the products across blocks are not in the graph
+            pattern = ca.Sparsity.triplet(rows, cols, [k % rows for k in where], [k // rows for k in where])
+            W = ca.SX(pattern, read.take(len(where)))
+        b = read.take(rows)
         x = ca.mtimes(W, x) + b
         if i < len(shapes) - 1:
             x = _activation(activation, x)
@@ -292,7 +312,11 @@ def _build_parametric_contact(
             f"kinematics: the model has {ndof} degrees of freedom, the "
             + ("1-DOF preset 1" if chain is None else f"chain {chain.ndof}")
         )
-    n_member = 2 * (n_force + n_moment) + sum(r * c + r for arch in (force_arch, moment_arch) for r, c in arch[1])
+    n_member = 2 * (n_force + n_moment) + sum(
+        (r * c if where is None else len(where)) + r
+        for arch in (force_arch, moment_arch)
+        for (r, c), where in zip(arch[1], arch[2], strict=True)
+    )
     n_par = n_members * n_member
     q, qd, p = ca.SX.sym("q", ndof), ca.SX.sym("qd", ndof), ca.SX.sym("p", n_par)
     read = _Reader(p)
