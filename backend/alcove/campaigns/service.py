@@ -189,9 +189,7 @@ def update_config(
         raise InvalidTransition(c.status, "edit", "fork it instead")
     cfg = current_config(s, c)
     changes = update.model_dump(exclude_none=True, exclude={"note", "surrogate_config_version_id"})
-    edited = cfg.model_copy(update={k: getattr(update, k) for k in changes})
-    # an edit of the preliminary decides its press-family replays as a new campaign does
-    new = _decided(s, edited, c.task_version_id, c.oracle_version_id) if "preliminary" in changes else edited
+    new = cfg.model_copy(update={k: getattr(update, k) for k in changes})
     scv = update.surrogate_config_version_id or c.surrogate_config_version_id
     if update.surrogate_config_version_id is not None:
         _check_definitions(s, c.task_version_id, c.oracle_version_id, scv)
