@@ -85,7 +85,7 @@ def test_an_injected_sleep_can_be_limited_to_the_first_attempts(monkeypatch) -> 
     import time
 
     from alcove.jobs.faults import StepFault
-    from alcove.jobs.steps import StepRun
+    from alcove.jobs.step_contract import StepRun
 
     naps: list[float] = []
     monkeypatch.setattr(time, "sleep", naps.append)  # returns at once: the sleep loop spins until sleep_s passed

@@ -282,7 +282,7 @@ def test_train_on_a_campaign_pool(tmp_path, sqlite_url):
             spec_hash=m.spec_hash({}),
         )
         sv = m.SurrogateConfigVersion(
-            config=m.SurrogateConfig(owner=user, name="s", latest_version=1),
+            config=m.SurrogateConfigDefinition(owner=user, name="s", latest_version=1),
             version=1,
             spec=config_spec,
             spec_hash=m.spec_hash(config_spec),

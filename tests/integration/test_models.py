@@ -20,7 +20,7 @@ def make_campaign(s: Session, *, email: str = "a@x.org") -> m.Campaign:
     tv = m.TaskVersion(definition=task, version=1, spec={"phases": [1, 2]}, spec_hash=m.spec_hash({"phases": [1, 2]}))
     orc = m.OracleDefinition(owner=user, name="o", latest_version=1)
     ov = m.OracleVersion(definition=orc, version=1, oracle_type="aux-penalty", spec={}, spec_hash=m.spec_hash({}))
-    sc = m.SurrogateConfig(owner=user, name="s", latest_version=1)
+    sc = m.SurrogateConfigDefinition(owner=user, name="s", latest_version=1)
     sv = m.SurrogateConfigVersion(config=sc, version=1, spec={}, spec_hash=m.spec_hash({}))
     c = m.Campaign(
         owner=user,

@@ -140,7 +140,7 @@ class OracleVersion(_VersionMixin, Base):
 # ----------------------------------------------------------------------------- surrogate configs
 
 
-class SurrogateConfig(_DefinitionMixin, Base):
+class SurrogateConfigDefinition(_DefinitionMixin, Base):
     """Surrogate settings: features, MLP architectures (force / moment), training protocol
     (splits, optimiser, batch size, early stopping), warm start, sample weighting."""
 
@@ -159,7 +159,7 @@ class SurrogateConfigVersion(_VersionMixin, Base):
     )
 
     config_id: Mapped[int] = mapped_column(sa.ForeignKey("surrogate_configs.id", ondelete="CASCADE"), index=True)
-    config: Mapped[SurrogateConfig] = relationship(back_populates="versions")
+    config: Mapped[SurrogateConfigDefinition] = relationship(back_populates="versions")
 
 
 # ----------------------------------------------------------------------------- command oracle catalogue

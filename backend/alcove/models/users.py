@@ -16,7 +16,7 @@ if TYPE_CHECKING:
     from pwdlib import PasswordHash
 
     from alcove.models.campaigns import Campaign
-    from alcove.models.definitions import OracleDefinition, SurrogateConfig, TaskDefinition
+    from alcove.models.definitions import OracleDefinition, SurrogateConfigDefinition, TaskDefinition
 
 _password_hasher: PasswordHash | None = None
 
@@ -187,5 +187,5 @@ class Share(Base):
     user: Mapped[User | None] = relationship(foreign_keys=[user_id])
     task_definition: Mapped[TaskDefinition | None] = relationship()
     oracle_definition: Mapped[OracleDefinition | None] = relationship()
-    surrogate_config: Mapped[SurrogateConfig | None] = relationship()
+    surrogate_config: Mapped[SurrogateConfigDefinition | None] = relationship()
     campaign: Mapped[Campaign | None] = relationship()

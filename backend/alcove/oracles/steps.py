@@ -1,7 +1,7 @@
 """The oracle step of a campaign iteration: replay the OCP solution's motion in the
 campaign's oracle and store the result, or quarantine it when the oracle's quality gate
 refuses it (never appended to the pool). Called by the campaign's job protocol; see
-:mod:`alcove.jobs.steps`."""
+:mod:`alcove.jobs.step_contract`."""
 
 from __future__ import annotations
 
@@ -18,7 +18,7 @@ from sqlalchemy.orm import Session
 
 from alcove.db import session_scope
 from alcove.db.arrays import get_arrays, put_arrays
-from alcove.jobs.steps import IterationRef, StepOutput, StepPaused, StepRun, UnusableResult, WriteRows
+from alcove.jobs.step_contract import IterationRef, StepOutput, StepPaused, StepRun, UnusableResult, WriteRows
 from alcove.models import OracleRun, OracleVersion, QuarantinedResult, utcnow
 from alcove.models.data import HeadrestPlacement
 from alcove.oracles.batch_jobs import StepBatchJobs

@@ -1,6 +1,6 @@
 """The pool's campaign steps: the preliminary data (pool version 0) and the append of an
 iteration's oracle data (pool version k = k-1 + that data). Called by the campaign's job
-protocol; see :mod:`alcove.jobs.steps`."""
+protocol; see :mod:`alcove.jobs.step_contract`."""
 
 from __future__ import annotations
 
@@ -10,7 +10,7 @@ from typing import Any
 
 from sqlalchemy.orm import Session
 
-from alcove.jobs.steps import IterationRef, StepOutput, StepRun
+from alcove.jobs.step_contract import IterationRef, StepOutput, StepRun
 from alcove.models import PoolVersion
 from alcove.pool import repository as repo
 from alcove.pool.service import create_version, store_dataset

@@ -1,7 +1,7 @@
 """The OCP step of a campaign iteration: the task solved with model version k as the
 contact model, warm-started from the previous converged solution (primal and dual), so a
 step re-run by another worker gives the same rows. Called by the campaign's job protocol;
-see :mod:`alcove.jobs.steps`."""
+see :mod:`alcove.jobs.step_contract`."""
 
 from __future__ import annotations
 
@@ -14,7 +14,7 @@ from sqlalchemy.orm import Session
 
 from alcove.db import session_scope
 from alcove.db.arrays import get_arrays, put_arrays
-from alcove.jobs.steps import IterationRef, StepOutput, StepRun, UnusableResult
+from alcove.jobs.step_contract import IterationRef, StepOutput, StepRun, UnusableResult
 from alcove.models import ModelVersion, OcpSolution, PoolVersion
 from alcove.pool.service import load_training_pool
 from alcove.science.json_values import json_safe

@@ -17,9 +17,9 @@ from alcove.api.downloads import binary, download
 from alcove.api.errors import ErrorOut
 from alcove.api.params import Limit, ObjectId, Offset, VersionNumber
 from alcove.errors import field_errors_from_pydantic
-from alcove.models import ArtifactBuild, Campaign, SurrogateConfig, User
+from alcove.models import ArtifactBuild, Campaign, SurrogateConfigDefinition, User
 from alcove.names import Name
-from alcove.science.surrogate.config import SurrogateConfig as SurrogateSpec
+from alcove.science.surrogate.config import SurrogateConfig
 from alcove.surrogates import artifact_builds, service
 from alcove.surrogates.schemas import ArtifactBuildRead, ModelVersionRead
 from alcove.surrogates.service import artifact_document
@@ -41,8 +41,8 @@ class _In(BaseModel):
 class SurrogateConfigIn(_In):
     name: Name
     description: str = Field("", max_length=20_000)
-    spec: SurrogateSpec = Field(
-        default_factory=SurrogateSpec, description="defaults: the paper's networks and training protocol"
+    spec: SurrogateConfig = Field(
+        default_factory=SurrogateConfig, description="defaults: the paper's networks and training protocol"
     )
     note: str = Field("", max_length=2000)
 
@@ -50,7 +50,7 @@ class SurrogateConfigIn(_In):
 class SurrogateConfigUpdate(_In):
     name: Name | None = None
     description: str | None = Field(None, max_length=20_000)
-    spec: SurrogateSpec | None = None
+    spec: SurrogateConfig | None = None
     note: str = Field("", max_length=2000)
 
 
@@ -67,7 +67,7 @@ class SurrogateConfigVersionOut(VersionMeta):
 
 
 def config_out(
-    session: SessionDep, definition: SurrogateConfig, version: Any, user: User, owner_email: str | None = None
+    session: SessionDep, definition: SurrogateConfigDefinition, version: Any, user: User, owner_email: str | None = None
 ) -> SurrogateConfigOut:
     return SurrogateConfigOut(
         **versioning.definition_meta(session, KIND, definition, version, user, owner_email),
@@ -105,13 +105,13 @@ def create_surrogate_config(body: SurrogateConfigIn, user: CurrentUser, session:
 
 @router.get("/schema", response_model=dict[str, Any], operation_id="get_surrogate_config_schema")
 def get_surrogate_config_schema(user: CurrentUser) -> dict[str, Any]:
-    return SurrogateSpec.model_json_schema()
+    return SurrogateConfig.model_json_schema()
 
 
 @router.post("/validate", response_model=ValidationReport, operation_id="validate_surrogate_config")
 def validate_surrogate_config(body: SurrogateConfigDraft, user: CurrentUser) -> ValidationReport:
     try:
-        spec = SurrogateSpec.model_validate(body.spec)
+        spec = SurrogateConfig.model_validate(body.spec)
     except ValidationError as err:
         errors = field_errors_from_pydantic(err, base=("spec",))
         return ValidationReport(valid=False, errors=[FieldErrorOut.of(e) for e in errors])
@@ -120,7 +120,7 @@ def validate_surrogate_config(body: SurrogateConfigDraft, user: CurrentUser) -> 
 
 @router.get("/{config_id:integer}", response_model=SurrogateConfigOut, operation_id="get_surrogate_config")
 def get_surrogate_config(config_id: ObjectId, user: CurrentUser, session: SessionDep) -> SurrogateConfigOut:
-    definition = get_for(session, SurrogateConfig, config_id, user)
+    definition = get_for(session, SurrogateConfigDefinition, config_id, user)
     return config_out(session, definition, versioning.latest(session, KIND, definition), user)
 
 
@@ -128,7 +128,7 @@ def get_surrogate_config(config_id: ObjectId, user: CurrentUser, session: Sessio
 def update_surrogate_config(
     config_id: ObjectId, body: SurrogateConfigUpdate, user: CurrentUser, session: SessionDep
 ) -> SurrogateConfigOut:
-    definition = get_for(session, SurrogateConfig, config_id, user, need="edit")
+    definition = get_for(session, SurrogateConfigDefinition, config_id, user, need="edit")
     spec = None if body.spec is None else body.spec.model_dump(mode="json")
     if spec is not None:
         check_sizes(session, user.id, surrogate_sizes(spec))
@@ -141,7 +141,7 @@ def update_surrogate_config(
 
 @router.delete("/{config_id:integer}", status_code=status.HTTP_204_NO_CONTENT, operation_id="delete_surrogate_config")
 def delete_surrogate_config(config_id: ObjectId, user: CurrentUser, session: SessionDep) -> Response:
-    versioning.delete(session, KIND, get_for(session, SurrogateConfig, config_id, user, need="owner"))
+    versioning.delete(session, KIND, get_for(session, SurrogateConfigDefinition, config_id, user, need="owner"))
     session.commit()
     return Response(status_code=status.HTTP_204_NO_CONTENT)
 
@@ -154,7 +154,7 @@ def delete_surrogate_config(config_id: ObjectId, user: CurrentUser, session: Ses
 def list_surrogate_config_versions(
     config_id: ObjectId, user: CurrentUser, session: SessionDep
 ) -> list[SurrogateConfigVersionOut]:
-    definition = get_for(session, SurrogateConfig, config_id, user)
+    definition = get_for(session, SurrogateConfigDefinition, config_id, user)
     return [version_out(session, v) for v in versioning.versions(session, KIND, definition)]
 
 
@@ -166,7 +166,7 @@ def list_surrogate_config_versions(
 def get_surrogate_config_version(
     config_id: ObjectId, version: VersionNumber, user: CurrentUser, session: SessionDep
 ) -> SurrogateConfigVersionOut:
-    definition = get_for(session, SurrogateConfig, config_id, user)
+    definition = get_for(session, SurrogateConfigDefinition, config_id, user)
     return version_out(session, versioning.get_version(session, KIND, definition, version))
 
 

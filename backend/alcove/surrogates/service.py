@@ -28,12 +28,12 @@ import alcove
 from alcove import versioning
 from alcove.db.arrays import get_bytes, put_arrays, put_bytes
 from alcove.errors import NotFound
-from alcove.models import ModelVersion, SurrogateConfig, SurrogateConfigVersion, User
+from alcove.models import ModelVersion, SurrogateConfigDefinition, SurrogateConfigVersion, User
 from alcove.surrogates import repository as repo
 from alcove.surrogates.schemas import ModelVersionRead
 
 if TYPE_CHECKING:
-    from alcove.science.surrogate.config import SurrogateConfig as SurrogateSpec
+    from alcove.science.surrogate.config import SurrogateConfig
     from alcove.science.surrogate.mlp import SurrogateModel
     from alcove.science.surrogate.training import TrainingResult
 
@@ -50,10 +50,10 @@ def create_config(
     *,
     name: str,
     description: str,
-    spec: SurrogateSpec,
+    spec: SurrogateConfig,
     note: str = "",
     preset_key: str | None = None,
-) -> tuple[SurrogateConfig, SurrogateConfigVersion]:
+) -> tuple[SurrogateConfigDefinition, SurrogateConfigVersion]:
     """A surrogate configuration of ``owner`` with its version 1 (the validated ``spec``, stored
     normalised). Never commits."""
     return versioning.create(

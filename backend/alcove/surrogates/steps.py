@@ -1,6 +1,6 @@
 """The surrogate's campaign steps: training model version k on pool version k-1, and
 evaluating it on iteration k's oracle data (the paper's error on an unseen trajectory).
-Called by the campaign's job protocol; see :mod:`alcove.jobs.steps`."""
+Called by the campaign's job protocol; see :mod:`alcove.jobs.step_contract`."""
 
 from __future__ import annotations
 
@@ -12,7 +12,7 @@ from sqlalchemy.orm import Session
 
 from alcove.db import session_scope
 from alcove.db.arrays import put_arrays
-from alcove.jobs.steps import IterationRef, StepCancelled, StepOutput, StepRun
+from alcove.jobs.step_contract import IterationRef, StepCancelled, StepOutput, StepRun
 from alcove.models import IterationMetrics, ModelVersion, PoolVersion
 from alcove.pool.service import FORCE_COLUMNS, dataset_arrays, load_training_pool
 from alcove.science.series import split_wrench, stack_wrench

@@ -20,13 +20,13 @@ from alcove.models import (
     OracleDefinition,
     Share,
     SharePermission,
-    SurrogateConfig,
+    SurrogateConfigDefinition,
     TaskDefinition,
     User,
 )
 
 #: the objects that can be owned and shared
-Shareable = TaskDefinition | OracleDefinition | SurrogateConfig | Campaign
+Shareable = TaskDefinition | OracleDefinition | SurrogateConfigDefinition | Campaign
 T = TypeVar("T", bound=Shareable)
 
 Need = Literal["view", "edit", "owner"]
@@ -35,19 +35,19 @@ Need = Literal["view", "edit", "owner"]
 SHARE_COLUMN: dict[type[Base], InstrumentedAttribute[int | None]] = {
     TaskDefinition: Share.task_definition_id,
     OracleDefinition: Share.oracle_definition_id,
-    SurrogateConfig: Share.surrogate_config_id,
+    SurrogateConfigDefinition: Share.surrogate_config_id,
     Campaign: Share.campaign_id,
 }
 OBJECT_TYPES: dict[str, type[Shareable]] = {
     "task": TaskDefinition,
     "oracle": OracleDefinition,
-    "surrogate_config": SurrogateConfig,
+    "surrogate_config": SurrogateConfigDefinition,
     "campaign": Campaign,
 }
 LABEL: dict[type[Base], str] = {
     TaskDefinition: "task",
     OracleDefinition: "oracle",
-    SurrogateConfig: "surrogate config",
+    SurrogateConfigDefinition: "surrogate config",
     Campaign: "campaign",
 }
 

@@ -23,7 +23,7 @@ from alcove.models import (
     Campaign,
     OracleDefinition,
     OracleVersion,
-    SurrogateConfig,
+    SurrogateConfigDefinition,
     SurrogateConfigVersion,
     TaskDefinition,
     TaskVersion,
@@ -34,7 +34,7 @@ from alcove.models import (
 from alcove.users.access import can_edit, visible_clause
 
 #: the versioned definitions and their version rows
-DefinitionRow = TaskDefinition | OracleDefinition | SurrogateConfig
+DefinitionRow = TaskDefinition | OracleDefinition | SurrogateConfigDefinition
 VersionRow = TaskVersion | OracleVersion | SurrogateConfigVersion
 D = TypeVar("D", bound=DefinitionRow)
 V = TypeVar("V", bound=VersionRow)
@@ -60,7 +60,7 @@ TASKS = Kind("task", TaskDefinition, TaskVersion, TaskVersion.definition_id, Cam
 ORACLES = Kind("oracle", OracleDefinition, OracleVersion, OracleVersion.definition_id, Campaign.oracle_version_id)
 SURROGATE_CONFIGS = Kind(
     "surrogate config",
-    SurrogateConfig,
+    SurrogateConfigDefinition,
     SurrogateConfigVersion,
     SurrogateConfigVersion.config_id,
     Campaign.surrogate_config_version_id,

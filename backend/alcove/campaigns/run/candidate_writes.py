@@ -11,7 +11,7 @@ from typing import Any
 from sqlalchemy.orm import Session
 
 from alcove.campaigns import candidate_queries
-from alcove.jobs.steps import IterationRef
+from alcove.jobs.step_contract import IterationRef
 from alcove.models import Campaign, Iteration, OcpSolution, utcnow
 
 #: why a non-selecting strategy's slot is replayed

@@ -12,7 +12,7 @@ from alcove.campaigns import repository as repo
 from alcove.campaigns.run import candidate_writes
 from alcove.campaigns.suite import family_box, suite_model
 from alcove.db import session_scope
-from alcove.jobs.steps import StepOutput
+from alcove.jobs.step_contract import StepOutput
 from alcove.science.ocp import acquisition
 from alcove.science.ocp.scenarios import Scenario
 from alcove.solving import steps as solving_steps

@@ -42,7 +42,7 @@ from alcove.campaigns.run.steps import STEPS
 from alcove.db import transaction
 from alcove.jobs.campaign import StepJob, send_committed, stage
 from alcove.jobs.faults import fault_for
-from alcove.jobs.steps import (
+from alcove.jobs.step_contract import (
     FailedAttempt,
     IterationRef,
     StepOutput,

@@ -9,7 +9,7 @@ from sqlalchemy.orm import Session
 
 from alcove.campaigns.config import CampaignConfig
 from alcove.campaigns.machine.state_machine import StepRef
-from alcove.jobs.steps import StepRun
+from alcove.jobs.step_contract import StepRun
 from alcove.models import Campaign
 from alcove.science.ocp import acquisition
 from alcove.science.ocp.scenarios import Scenario

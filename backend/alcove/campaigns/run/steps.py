@@ -41,7 +41,14 @@ from alcove.campaigns.run.step_context import StepContext
 from alcove.campaigns.suite import suite_model as validation_suite_model
 from alcove.campaigns.suite import suite_spec
 from alcove.db import session_scope
-from alcove.jobs.steps import FailedAttempt, IterationRef, StepOutput, StepPaused, UnusableResult, is_cancellation
+from alcove.jobs.step_contract import (
+    FailedAttempt,
+    IterationRef,
+    StepOutput,
+    StepPaused,
+    UnusableResult,
+    is_cancellation,
+)
 from alcove.models import (
     Campaign,
     CampaignConfigVersion,
