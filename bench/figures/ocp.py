@@ -97,8 +97,8 @@ def _surrogate_setup() -> dict[str, Any]:
     from alcove.science.ocp.solve import solve_task
     from alcove.science.ocp.task_spec import task_preset
     from alcove.science.surrogate.artifact import save_artifact
+    from alcove.science.surrogate.casadi_contact import surrogate_contact
     from alcove.science.surrogate.config import SurrogateConfig
-    from alcove.science.surrogate.export import surrogate_contact
     from alcove.science.surrogate.preliminary import preliminary_pool
     from alcove.science.surrogate.training import train_surrogate
 
@@ -143,7 +143,7 @@ def _first_solve(artifact: str) -> dict[str, Any]:
     from alcove.science.ocp.solve import solve_task
     from alcove.science.ocp.task_spec import task_preset
     from alcove.science.surrogate.artifact import load_artifact
-    from alcove.science.surrogate.export import surrogate_contact
+    from alcove.science.surrogate.casadi_contact import surrogate_contact
 
     task = task_preset(TASK)
     model = load_artifact(artifact)
@@ -252,7 +252,7 @@ def _trust_region_setup() -> dict[str, Any]:
     import numpy as np
 
     from alcove.science.surrogate.artifact import load_artifact
-    from alcove.science.surrogate.export import surrogate_contact_std
+    from alcove.science.surrogate.casadi_contact import surrogate_contact_std
     from alcove.science.surrogate.trust import force_variance_function, trust_curves
 
     ctx = dict(_surrogate_setup())

@@ -66,8 +66,8 @@ def _chain_surrogate_setup(preset: str) -> dict[str, Any]:
     pose; 2000 samples, as the 1-DOF figures), its contact on the chain, the NLP built once."""
     from alcove.science.ocp.solve import solve_task
     from alcove.science.ocp.task_spec import parse_task, task_preset
+    from alcove.science.surrogate.casadi_contact import surrogate_contact
     from alcove.science.surrogate.config import SurrogateConfig
-    from alcove.science.surrogate.export import surrogate_contact
     from alcove.science.surrogate.preliminary import chain_box, chain_preliminary_pool
     from alcove.science.surrogate.training import pose_kinematics, train_surrogate
 

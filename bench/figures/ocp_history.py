@@ -29,9 +29,9 @@ def _setup() -> dict[str, Any]:
     from alcove.science.ocp.task_spec import task_preset
     from alcove.science.oracles.aux_penalty import AuxPenaltyParams, aux_penalty_wrench
     from alcove.science.press_family import PressFamily, family_motions
+    from alcove.science.surrogate.casadi_contact import surrogate_contact, surrogate_history
     from alcove.science.surrogate.config import SurrogateConfig
     from alcove.science.surrogate.dataset import PoolDataset
-    from alcove.science.surrogate.export import surrogate_contact, surrogate_history
     from alcove.science.surrogate.history import HistoryConfig, history_states
     from alcove.science.surrogate.preliminary import preliminary_pool
     from alcove.science.surrogate.training import train_surrogate

@@ -352,6 +352,6 @@ def surrogate_predict(ctx: Any) -> float:
 )
 def surrogate_casadi_build(model: Any) -> float:
     from alcove.science.geometry import DEFAULT_PRESET
-    from alcove.science.surrogate.export import casadi_contact_function
+    from alcove.science.surrogate.casadi_contact import casadi_contact_function
 
     return timed(lambda: casadi_contact_function(model, DEFAULT_PRESET))

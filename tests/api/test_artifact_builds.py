@@ -58,7 +58,7 @@ def campaign(api_settings: None) -> dict[str, Any]:
     from alcove.db import session_scope
     from alcove.db.arrays import put_bytes
     from alcove.models import Iteration, ModelVersion
-    from alcove.surrogates.artifact_export import ZIP_LAYOUT, cache_dir
+    from alcove.surrogates.artifact_zips import ZIP_LAYOUT, cache_dir
 
     from .synthetic import synthesize_campaign
 
@@ -134,7 +134,7 @@ def test_a_read_only_artifacts_folder_answers_at_once_naming_it_and_keeps_what_i
 
         # the build's child process, had the folder turned read-only while it built: exit status 3 and
         # the cause named, no temporary file left
-        from alcove.surrogates.artifact_export import EXIT_STORAGE, main
+        from alcove.surrogates.artifact_zips import EXIT_STORAGE, main
 
         assert main([str(zips), str(campaign["model_version_id"])]) == EXIT_STORAGE
         said = capsys.readouterr().err

@@ -84,7 +84,7 @@ class Objects:
         if self._finished is None:
             from alcove.db import session_scope
             from alcove.models import ModelVersion
-            from alcove.surrogates.artifact_export import ZIP_LAYOUT, cache_dir
+            from alcove.surrogates.artifact_zips import ZIP_LAYOUT, cache_dir
             from alcove.surrogates.service import model_artifact_bytes
 
             from .synthetic import synthesize_campaign

@@ -6,5 +6,5 @@ domain packages' routers (``alcove.<domain>.router``).
 The API process stays light: it imports neither torch nor casadi (it validates with the
 science package's pydantic schemas only), and sends jobs to the workers by name
 (:func:`alcove.jobs.send_job`). Model artifacts with TorchScript are built by a worker in a
-child process (:mod:`alcove.surrogates.artifact_export`).
+child process (:mod:`alcove.surrogates.artifact_zips`).
 """

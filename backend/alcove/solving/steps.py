@@ -116,7 +116,7 @@ def solve(
     pool the model was trained on, its samples relative to ``pool_preset``'s headrest, default the
     task's) are stored in the solution's ``stats["trust"]``."""
     from alcove.science.ocp.solve import solve_task
-    from alcove.science.surrogate.export import surrogate_contact, surrogate_contact_std, surrogate_history
+    from alcove.science.surrogate.casadi_contact import surrogate_contact, surrogate_contact_std, surrogate_history
     from alcove.science.surrogate.history import history_inputs
     from alcove.science.surrogate.training import moved_headrest, pool_features, pose_kinematics, preset_kinematics
     from alcove.science.surrogate.trust import assess_solution, force_variance_function

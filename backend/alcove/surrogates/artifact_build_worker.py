@@ -16,7 +16,7 @@ from alcove.errors import StorageUnavailable
 from alcove.models import ArtifactBuild, ArtifactBuildStatus, ModelVersion, utcnow
 from alcove.settings import get_settings
 from alcove.surrogates.artifact_builds import stale_reason
-from alcove.surrogates.artifact_export import BuildFailed, build_zips, missing_zips
+from alcove.surrogates.artifact_zips import BuildFailed, build_zips, missing_zips
 
 log = logging.getLogger(__name__)
 

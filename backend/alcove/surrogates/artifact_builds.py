@@ -22,7 +22,7 @@ from alcove.jobs import outbox
 from alcove.jobs.heartbeat import dead_worker_reason
 from alcove.models import ArtifactBuild, ArtifactBuildStatus, Campaign, ModelVersion, User, utcnow
 from alcove.settings import get_settings
-from alcove.surrogates.artifact_export import BUILD_TIMEOUT_S, missing_zips, zip_path, zips_dir
+from alcove.surrogates.artifact_zips import BUILD_TIMEOUT_S, missing_zips, zip_path, zips_dir
 from alcove.surrogates.schemas import ArtifactBuildRead
 from alcove.users.access import get_for
 

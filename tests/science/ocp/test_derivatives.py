@@ -101,8 +101,8 @@ def _ensemble_problem():
     import torch
 
     from alcove.science.geometry import relative_kinematics
+    from alcove.science.surrogate.casadi_contact import surrogate_contact, surrogate_contact_std
     from alcove.science.surrogate.config import SurrogateConfig
-    from alcove.science.surrogate.export import surrogate_contact, surrogate_contact_std
     from alcove.science.surrogate.features import features
     from alcove.science.surrogate.mlp import MLP, Member, Standardization, SurrogateModel
     from alcove.science.surrogate.trust import force_variance_function

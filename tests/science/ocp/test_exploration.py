@@ -14,7 +14,7 @@ import pytest
 from alcove.science.geometry import DEFAULT_PRESET as P
 from alcove.science.ocp.solve import solve_task
 from alcove.science.ocp.task_spec import TASK_PRESETS, parse_task
-from alcove.science.surrogate.export import surrogate_contact, surrogate_contact_std
+from alcove.science.surrogate.casadi_contact import surrogate_contact, surrogate_contact_std
 from alcove.science.surrogate.trust import force_variance_function
 
 pytestmark = pytest.mark.slow

@@ -18,9 +18,9 @@ from alcove.science.ocp.solve import get_transcription, solve_task
 from alcove.science.ocp.task_spec import task_preset
 from alcove.science.oracles.aux_penalty import AuxPenaltyParams, aux_penalty_wrench
 from alcove.science.press_family import PressFamily, family_motions
+from alcove.science.surrogate.casadi_contact import surrogate_contact, surrogate_contact_std, surrogate_history
 from alcove.science.surrogate.config import SurrogateConfig
 from alcove.science.surrogate.dataset import PoolDataset
-from alcove.science.surrogate.export import surrogate_contact, surrogate_contact_std, surrogate_history
 from alcove.science.surrogate.history import HistoryConfig, history_states
 from alcove.science.surrogate.training import predict_ensemble, train_surrogate
 from alcove.science.surrogate.trust import force_variance_function, midpoints

@@ -13,8 +13,8 @@ import pytest
 
 from alcove.science.ocp.solve import get_transcription, solve_task
 from alcove.science.ocp.task_spec import task_preset
+from alcove.science.surrogate.casadi_contact import casadi_contact_function, surrogate_contact, surrogate_parameters
 from alcove.science.surrogate.config import SurrogateConfig
-from alcove.science.surrogate.export import casadi_contact_function, surrogate_contact, surrogate_parameters
 from alcove.science.surrogate.preliminary import preliminary_pool
 from alcove.science.surrogate.training import train_surrogate
 

@@ -14,9 +14,9 @@ from alcove.science.geometry import DEFAULT_PRESET, kinematics_from_pose, profil
 from alcove.science.multibody import Headrest, Link, PlanarChain
 from alcove.science.ocp.task_spec import task_preset
 from alcove.science.oracles.aux_penalty import AuxPenaltyParams, aux_penalty_wrench
+from alcove.science.surrogate.casadi_contact import casadi_contact_function, surrogate_contact
 from alcove.science.surrogate.config import SurrogateConfig
 from alcove.science.surrogate.dataset import PoolDataError, PoolDataset
-from alcove.science.surrogate.export import casadi_contact_function, surrogate_contact
 from alcove.science.surrogate.preliminary import chain_box, chain_preliminary_pool
 from alcove.science.surrogate.training import pose_kinematics, predict_ensemble, train_surrogate
 from alcove.science.surrogate.trust import trust_curves

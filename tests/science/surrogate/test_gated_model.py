@@ -18,14 +18,14 @@ from scipy.optimize import brentq
 from alcove.science.geometry import DEFAULT_PRESET as P
 from alcove.science.geometry import relative_kinematics, signed_gap
 from alcove.science.surrogate.artifact import ArtifactError, load_artifact, save_artifact
-from alcove.science.surrogate.config import SurrogateConfig, SurrogateConfigError
-from alcove.science.surrogate.export import (
+from alcove.science.surrogate.casadi_contact import (
     casadi_contact_function,
     casadi_contact_std_function,
     casadi_network_function,
     surrogate_contact,
     surrogate_contact_std,
 )
+from alcove.science.surrogate.config import SurrogateConfig, SurrogateConfigError
 from alcove.science.surrogate.features import N_FEATURES, features
 from alcove.science.surrogate.gated import (
     DEFAULT_GATE,

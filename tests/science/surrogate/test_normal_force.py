@@ -19,8 +19,8 @@ from conftest import make_smooth_pool
 
 from alcove.science.geometry import DEFAULT_PRESET as P
 from alcove.science.surrogate.artifact import ArtifactError, artifact_dict, model_from_dict
+from alcove.science.surrogate.casadi_contact import casadi_contact_function
 from alcove.science.surrogate.config import SurrogateConfig, SurrogateConfigError
-from alcove.science.surrogate.export import casadi_contact_function
 from alcove.science.surrogate.mlp import MLP
 from alcove.science.surrogate.training import predict, predict_ensemble, train_surrogate
 

@@ -18,7 +18,7 @@ from alcove.science.geometry import DEFAULT_PRESET as P
 from alcove.science.geometry import head_pose_in_headrest, rot2, signed_gap, signed_gap_symbolic
 from alcove.science.ocp.solve import solve_task
 from alcove.science.ocp.task_spec import TASK_PRESETS, parse_task
-from alcove.science.surrogate.export import surrogate_contact, surrogate_contact_std
+from alcove.science.surrogate.casadi_contact import surrogate_contact, surrogate_contact_std
 from alcove.science.surrogate.training import pool_features, preset_kinematics
 from alcove.science.surrogate.trust import (
     TrustCurves,

@@ -40,8 +40,8 @@ class TrustInputs:
     ) -> TrustInputs:
         """``chain``: a chain task's model (the features from its head's pose); None: the 1-DOF ``preset``."""
         from alcove.science.surrogate.artifact import load_artifact
+        from alcove.science.surrogate.casadi_contact import casadi_contact_std_function, chain_kinematics
         from alcove.science.surrogate.dataset import PoolDataError, load_pool_dir
-        from alcove.science.surrogate.export import casadi_contact_std_function, chain_kinematics
         from alcove.science.surrogate.history import history_inputs
         from alcove.science.surrogate.training import pool_features, pose_kinematics, preset_kinematics
         from alcove.science.surrogate.trust import force_variance_function

@@ -20,7 +20,7 @@ from alcove.pool import repository as pool_repo
 from alcove.pool import service as pool_service
 from alcove.surrogates import repository as surrogates_repo
 from alcove.surrogates import service as surrogates_service
-from alcove.surrogates.artifact_export import stored_zip_paths
+from alcove.surrogates.artifact_zips import stored_zip_paths
 
 #: The columns of ``metrics.csv``.
 METRICS_COLUMNS = [

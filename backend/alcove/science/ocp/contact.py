@@ -157,7 +157,7 @@ def contact_from_spec(spec: str, preset: HeadNeckPreset | PlanarChain) -> ca.Fun
             raise ContactModelError("contact", f"model file {str(path)!r} does not exist")
         if isinstance(preset, PlanarChain):  # the features of the chain's contact body's pose
             from alcove.science.surrogate.artifact import load_artifact
-            from alcove.science.surrogate.export import casadi_contact_function, chain_kinematics
+            from alcove.science.surrogate.casadi_contact import casadi_contact_function, chain_kinematics
 
             model = load_artifact(path)
             if model.ndof != preset.ndof:
@@ -177,7 +177,7 @@ def contact_history_from_spec(spec: str, preset: HeadNeckPreset | PlanarChain) -
     if not spec.startswith("model:"):
         return None
     from alcove.science.surrogate.artifact import load_artifact
-    from alcove.science.surrogate.export import surrogate_history
+    from alcove.science.surrogate.casadi_contact import surrogate_history
 
     model = load_artifact(Path(spec.removeprefix("model:")))
     if isinstance(preset, PlanarChain):

@@ -1,7 +1,7 @@
-"""Data-driven contact surrogate: the paper's features, two MLPs, training, export.
+"""Data-driven contact surrogate: the paper's features, two MLPs, training, the CasADi contact model, portable exports.
 
 Import from the submodules (``features``, ``mlp``, ``config``, ``dataset``, ``training``,
-``artifact``, ``export``, ``preliminary``); the most used names are re-exported here.
+``artifact``, ``casadi_contact``, ``portable``, ``preliminary``); the most used names are re-exported here.
 """
 
 from importlib import import_module

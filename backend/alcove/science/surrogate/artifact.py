@@ -322,7 +322,7 @@ def save_artifact(
 def casadi_contact_from_artifact(path: str | Path, preset: HeadNeckPreset) -> ca.Function:
     """Load a model artifact (directory or its ``surrogate.json``) and export it as the OCP's
     contact function (:func:`.export.casadi_contact_function`)."""
-    from alcove.science.surrogate.export import casadi_contact_function
+    from alcove.science.surrogate.casadi_contact import casadi_contact_function
 
     return casadi_contact_function(load_artifact(path), preset)
 

@@ -3,7 +3,7 @@
 A surrogate config with ``"architecture": "gated"`` keeps the paper's two MLPs and features
 and puts this layer after their de-standardised outputs: in training (:mod:`.ensemble`, the
 loss is taken on the gated output), prediction (:class:`.mlp.SurrogateModel`), the OCP's
-CasADi function (:mod:`.export`), TorchScript (:mod:`.artifact`) and the portable CasADi and
+CasADi function (:mod:`.casadi_contact`), TorchScript (:mod:`.artifact`) and the portable CasADi and
 ONNX exports (:mod:`.portable`). The gate parameters are the config's ``gate`` (:func:`gate_params`;
 default :data:`DEFAULT_GATE`, recorded in ``surrogate.json``); the head profile is the model's
 preset's (the OCP's function takes the task's preset).

@@ -213,7 +213,7 @@ def contact_point_motion_symbolic(
 @dataclass(frozen=True)
 class ContactHistory:
     """The history states as an optimal control problem takes them (built by
-    :func:`alcove.science.surrogate.export.surrogate_history`): ``step`` ``(z, q, qd, dt) ->
+    :func:`alcove.science.surrogate.casadi_contact.surrogate_history`): ``step`` ``(z, q, qd, dt) ->
     z_next`` (the states at the next sample, from the state there and the time since the last
     sample) and ``steady`` ``(q, qd) -> z`` (the states of the first sample). The transcription
     (:mod:`alcove.science.ocp.dmocc`) carries the states as discrete unknowns with this recursion."""

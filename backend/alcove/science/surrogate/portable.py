@@ -5,7 +5,7 @@ Written next to ``surrogate.json`` by :func:`write_exports`; none needs alcove t
 ``force.casadi``, ``moment.casadi``
     ``casadi.Function.load``: inputs ``q``, ``qd`` (ndof x 1), output ``force`` / ``moment``
     (3 x 1, headrest frame, SI units), the ensemble mean; float64 weights, the kinematics and
-    the 19 features included (the same expression the OCP uses, :mod:`.export`).
+    the 19 features included (the same expression the OCP uses, :mod:`.casadi_contact`).
 ``force_std.casadi``, ``moment_std.casadi`` (K > 1)
     The same inputs, outputs ``std`` and ``var`` (3 x 1): the members' standard deviation and variance.
 ``history_step.casadi`` (feature set ``history``)
@@ -26,7 +26,7 @@ Written next to ``surrogate.json`` by :func:`write_exports`; none needs alcove t
     ``Relu(x) + Log(1 + Exp(-|x|))``) and checked with onnxruntime against PyTorch when written.
 
 The ``gated`` architecture's output layer (:mod:`.gated`) is in every file: the CasADi files
-take it from :mod:`.export`; the ONNX graph computes the signed gap from the features
+take it from :mod:`.casadi_contact`; the ONNX graph computes the signed gap from the features
 ``r_x``, ``T_00``, ``T_20`` and the head profile of ``surrogate.json``'s preset, the gate
 (``Min(Max(.., 0), 1)`` and the quintic smoothstep) and the softplus of fx, per member.
 """
@@ -40,7 +40,7 @@ import numpy as np
 
 from alcove.science.arrays import FloatArray
 from alcove.science.geometry import relative_kinematics_symbolic
-from alcove.science.surrogate.export import _mean_var, _state_features, member_wrenches_symbolic
+from alcove.science.surrogate.casadi_contact import _mean_var, _state_features, member_wrenches_symbolic
 from alcove.science.surrogate.features import N_FEATURES
 from alcove.science.surrogate.gated import R_X, T_00, T_20, Gate
 from alcove.science.surrogate.history import N_HISTORY, contact_point_motion_symbolic, history_step_symbolic

@@ -217,7 +217,7 @@ def assess_solution(
 
 def force_variance_function(std_function: ca.Function) -> ca.Function:
     """``(q, qd[, p]) -> sigma_F^2`` (scalar) from an ensemble std function with outputs ``(std, var)``
-    (:func:`alcove.science.surrogate.export.casadi_contact_std_function` or ``surrogate_contact_std``)."""
+    (:func:`alcove.science.surrogate.casadi_contact.casadi_contact_std_function` or ``surrogate_contact_std``)."""
     ins = [ca.SX.sym(std_function.name_in(i), std_function.sparsity_in(i)) for i in range(std_function.n_in())]
     var = std_function(*ins)[1]
     return ca.Function("force_variance", ins, [ca.sum1(var[:3])], std_function.name_in(), ["force_var"])

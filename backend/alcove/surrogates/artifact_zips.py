@@ -1,7 +1,7 @@
 """Model artifact zips (surrogate JSON + TorchScript + CasADi + ONNX), built in a child process.
 
 Neither the API process nor a worker's job process imports torch for them: :func:`build_zips`
-runs ``python -m alcove.surrogates.artifact_export OUT_DIR ID...`` once for the model versions
+runs ``python -m alcove.surrogates.artifact_zips OUT_DIR ID...`` once for the model versions
 whose zip is not stored yet (a worker's artifact build, :mod:`alcove.surrogates.artifact_build_worker`,
 or the CLI). Artifacts are immutable, so a zip is stored by the SHA-256 of the artifact JSON and
 the zip layout (``ZIP_LAYOUT``: 2 added the CASADI and ONNX exports) under
@@ -74,7 +74,7 @@ def build_zips(ids: Sequence[int], on_built: Callable[[int], None] = lambda _: N
     out_dir = zips_dir()
     require_writable(out_dir, "cannot build the model artifact zips")
     env = {**os.environ, "ALCOVE_DATABASE_URL": get_settings().database_url}
-    cmd = [sys.executable, "-m", "alcove.surrogates.artifact_export", str(out_dir), *map(str, ids)]
+    cmd = [sys.executable, "-m", "alcove.surrogates.artifact_zips", str(out_dir), *map(str, ids)]
     with subprocess.Popen(cmd, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True) as proc:
         try:
             assert proc.stdout is not None and proc.stderr is not None

@@ -7,11 +7,11 @@ import torch
 
 from alcove.science.geometry import DEFAULT_PRESET, relative_kinematics, relative_kinematics_symbolic
 from alcove.science.surrogate.artifact import casadi_contact_from_artifact
-from alcove.science.surrogate.config import SurrogateConfig
-from alcove.science.surrogate.export import (
+from alcove.science.surrogate.casadi_contact import (
     casadi_contact_function,
     casadi_network_function,
 )
+from alcove.science.surrogate.config import SurrogateConfig
 from alcove.science.surrogate.features import features
 from alcove.science.surrogate.mlp import MLP, Standardization, SurrogateModel
 from alcove.science.surrogate.training import predict, predict_arrays
