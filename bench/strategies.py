@@ -126,7 +126,7 @@ def run_one(
     from alcove.campaigns import presets, service
     from alcove.campaigns.run.protocol import run_step
     from alcove.campaigns.schemas import CampaignCreate
-    from alcove.db import session_scope, transaction
+    from alcove.db import open_transaction, run_transaction
 
     settings = _settings(strategy, batch, candidates)
 
@@ -152,8 +152,8 @@ def run_one(
         )
         return service.create_campaign(s, user.id, data).id
 
-    cid = transaction(create)
-    _, jobs = transaction(lambda s: service.start(s, cid))
+    cid = run_transaction(create)
+    _, jobs = run_transaction(lambda s: service.start(s, cid))
     result: dict[str, Any] = {
         "strategy": strategy,
         "seed": seed,
@@ -170,7 +170,7 @@ def run_one(
         j = queue.pop(0)
         last = False
         if j.step.value == "train" and j.iteration > 1:
-            with session_scope() as s:
+            with open_transaction() as s:
                 last = cumulative_calls(s, cid, j.iteration - 1)[-1] >= top
         run_step(
             j.campaign_id, j.iteration, j.step.value, j.attempt, worker_name="bench", send=queue.extend, slot=j.slot
@@ -180,7 +180,7 @@ def run_one(
             continue
         if suite_id is None:
             suite_id = run_suite(cid)
-        with session_scope() as s:
+        with open_transaction() as s:
             cum = cumulative_calls(s, cid, j.iteration - 1)
         for b, pv in budget_models(cum, budgets).items():
             if pv is None or str(b) in result["budgets"] or suite_id is None:

@@ -46,7 +46,7 @@ def retrain(
     if row is None:
         return None
     fresh_store(store)
-    from alcove.db import session_scope
+    from alcove.db import open_transaction
     from alcove.models import Campaign, PoolVersion
     from alcove.pool.service import load_training_pool
     from alcove.science.ocp import task_preset
@@ -55,7 +55,7 @@ def retrain(
     from alcove.surrogates.validation import _metrics, _suite_arrays
 
     t0, cpu0 = time.perf_counter(), cpu_seconds()
-    with session_scope() as s:
+    with open_transaction() as s:
         c = s.query(Campaign).order_by(Campaign.id).first()  # the run's campaign: the first in its store
         pv = s.query(PoolVersion).filter_by(campaign_id=c.id, version=row["pool_version"]).one()
         pool = load_training_pool(s, pv)
@@ -83,10 +83,10 @@ def retrain(
 
 
 def iterations(campaign_id: int) -> list[dict[str, Any]]:
-    from alcove.db import session_scope
+    from alcove.db import open_transaction
     from alcove.models import Iteration, IterationMetrics, ModelVersion, ValidationMetrics
 
-    with session_scope() as s:
+    with open_transaction() as s:
         val = {
             mv.version: (vm.force_rmse, vm.moment_rmse)
             for mv, vm in s.query(ModelVersion, ValidationMetrics)
@@ -137,11 +137,11 @@ def cumulative_calls(s: Any, campaign_id: int, upto: int) -> list[int]:
 
 def run_suite(campaign_id: int) -> int | None:
     """Replay the campaign's validation motions still queued (in this process); the suite id once complete."""
-    from alcove.db import session_scope
+    from alcove.db import open_transaction
     from alcove.models import Campaign, SuiteStatus, ValidationMotion, ValidationSuite
     from alcove.oracles.validation import run_motion
 
-    with session_scope() as s:
+    with open_transaction() as s:
         c = s.get(Campaign, campaign_id)
         sid = c.validation_suite_id if c is not None else None
         if sid is None:
@@ -149,18 +149,18 @@ def run_suite(campaign_id: int) -> int | None:
         ids = [m.id for m in s.query(ValidationMotion).filter_by(suite_id=sid, status="queued")]
     for i in ids:
         run_motion(i, "bench")
-    with session_scope() as s:
+    with open_transaction() as s:
         suite = s.get(ValidationSuite, sid)
         return sid if suite is not None and suite.status == SuiteStatus.complete.value else None
 
 
 def score(campaign_id: int, suite_id: int, version: int) -> dict[str, Any]:
     """Model version ``version``'s suite figures (its stored row, else computed now)."""
-    from alcove.db import session_scope
+    from alcove.db import open_transaction
     from alcove.models import ModelVersion, ValidationMetrics
     from alcove.surrogates.validation import compute_for_model
 
-    with session_scope() as s:
+    with open_transaction() as s:
         mv = s.query(ModelVersion).filter_by(campaign_id=campaign_id, version=version).one()
         row = s.query(ValidationMetrics).filter_by(model_version_id=mv.id).one_or_none()
         if row is not None:

@@ -90,7 +90,7 @@ def server() -> dict[str, Any]:
     schema = PgSchema("alcove_bench_api")
     url = schema.url
     os.environ["ALCOVE_DATABASE_URL"] = url
-    from alcove.db import migrate, session_scope
+    from alcove.db import migrate, open_transaction
     from alcove.models import ApiToken, TokenKind, User
     from alcove.settings import get_settings
 
@@ -99,7 +99,7 @@ def server() -> dict[str, Any]:
     sys.path.insert(0, str(REPO))
     from tests.api.synthetic import synthesize_campaign
 
-    with session_scope(url) as s:
+    with open_transaction(url) as s:
         user = User(email="bench@example.org", role="member")
         s.add(user)
         s.flush()

@@ -85,11 +85,11 @@ def _make_campaign(url: str) -> tuple[int, str]:
     """A started campaign of the local user and a token of that user (who may watch it)."""
     from alcove.campaigns import presets, service
     from alcove.campaigns.schemas import CampaignCreate
-    from alcove.db import session_scope
+    from alcove.db import open_transaction
     from alcove.jobs.campaign import send_committed, stage
     from alcove.users import service as users
 
-    with session_scope(url) as s:
+    with open_transaction(url) as s:
         u = presets.local_user(s)
         data = CampaignCreate(
             name="bench-live",

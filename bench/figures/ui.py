@@ -24,7 +24,7 @@ from bench.harness import figure
 ITERATIONS = 200
 SEED_SCRIPT = """
 import sys
-from alcove.db import transaction
+from alcove.db import run_transaction
 from alcove.models import User
 import sqlalchemy as sa
 from tests.api.synthetic import synthesize_campaign
@@ -36,7 +36,7 @@ def work(s):
     )
     return campaign.id
 
-print(transaction(work))
+print(run_transaction(work))
 """
 
 

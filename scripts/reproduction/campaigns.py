@@ -55,13 +55,13 @@ class Progress:
 
     def __call__(self, force: bool = False) -> str:
         from alcove.campaigns.views import detail
-        from alcove.db import session_scope
+        from alcove.db import open_transaction
 
         now = time.perf_counter()
         if not force and now - self.last < self.every:
             return ""
         self.last = now
-        with session_scope() as s:
+        with open_transaction() as s:
             d = detail.get_detail(s, self.campaign_id)
         c, m = d.campaign, d.latest_metrics
         total = d.config.stopping.max_iterations
@@ -81,10 +81,10 @@ class Progress:
 
 def _wait_for_workers(campaign_id: int, progress: Progress, poll: float = 0.5) -> None:
     from alcove.campaigns.views import detail
-    from alcove.db import session_scope
+    from alcove.db import open_transaction
 
     while True:
-        with session_scope() as s:
+        with open_transaction() as s:
             status = detail.get_campaign(s, campaign_id).status.value
         if status in ("completed", "cancelled", "failed"):
             return
@@ -111,7 +111,7 @@ def _drive(campaign_id: int, jobs: list[Any], label: str, t0: float) -> Campaign
     """Run the campaign's steps to its end: by the spawned Celery worker (default) or in this process."""
     from alcove.campaigns.run.protocol import run_step
     from alcove.campaigns.views import detail
-    from alcove.db import session_scope
+    from alcove.db import open_transaction
 
     progress = Progress(campaign_id, label, t0)
     if WORKER:
@@ -128,7 +128,7 @@ def _drive(campaign_id: int, jobs: list[Any], label: str, t0: float) -> Campaign
     wall = time.perf_counter() - t0
     progress(force=True)
     _finish_validation(campaign_id)
-    with session_scope() as s:
+    with open_transaction() as s:
         c = detail.get_campaign(s, campaign_id)
         failed = detail.get_detail(s, campaign_id).iterations_failed
         metrics = detail.metrics_series(s, campaign_id)
@@ -142,7 +142,7 @@ def _finish_validation(campaign_id: int) -> None:
     """The held-out validation suite's replays and the evaluation of every model version on it
     (not part of the campaign's wall time): by the worker, or in this process with --inline."""
     from alcove.campaigns.views import detail
-    from alcove.db import session_scope
+    from alcove.db import open_transaction
 
     if WORKER:
         from alcove_worker.cli.follow import wait_validation
@@ -153,7 +153,7 @@ def _finish_validation(campaign_id: int) -> None:
     from alcove.oracles.validation import run_motion
     from alcove.surrogates.validation import evaluate_suite
 
-    with session_scope() as s:
+    with open_transaction() as s:
         suite = detail.get_detail(s, campaign_id).validation
         ids = (
             []
@@ -223,7 +223,7 @@ def run_campaign(
     """Create and run a campaign to its end in this process (same step protocol and rows as Celery)."""
     from alcove.campaigns import presets, service
     from alcove.campaigns.schemas import CampaignCreate
-    from alcove.db import transaction
+    from alcove.db import run_transaction
 
     def create(s: Any) -> int:
         user = presets.local_user(s)
@@ -239,9 +239,9 @@ def run_campaign(
         )
         return service.create_campaign(s, user.id, data).id
 
-    cid = transaction(create)
+    cid = run_transaction(create)
     t0 = time.perf_counter()
-    _, jobs = transaction(lambda s: service.start(s, cid))
+    _, jobs = run_transaction(lambda s: service.start(s, cid))
     return _drive(cid, jobs, label, t0)
 
 
@@ -252,7 +252,7 @@ def fork_campaign(
     from alcove.campaigns import presets, service
     from alcove.campaigns.config import StoppingRules
     from alcove.campaigns.schemas import ForkRequest
-    from alcove.db import transaction
+    from alcove.db import run_transaction
 
     def fork(s: Any) -> tuple[Any, list[Any]]:
         user = presets.local_user(s)
@@ -267,7 +267,7 @@ def fork_campaign(
         return service.fork(s, source.campaign_id, req, user.id)
 
     t0 = time.perf_counter()
-    c, jobs = transaction(fork)
+    c, jobs = run_transaction(fork)
     return _drive(c.id, jobs, label, t0)
 
 

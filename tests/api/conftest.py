@@ -48,12 +48,12 @@ def _without_a_running_campaigns_limit(account: Account) -> Account:
     """The session's members start campaigns in many tests, and no worker runs them (they stay
     queued): the running-campaigns limit would make later tests' campaigns wait depending on the
     order the tests run in. The limits' own tests use fresh accounts."""
-    from alcove.db import session_scope
+    from alcove.db import open_transaction
     from alcove.models import User
     from alcove.users.limits import set_own
     from alcove.users.schemas import JobLimitsUpdate
 
-    with session_scope() as s:
+    with open_transaction() as s:
         user = s.get(User, account.id)
         assert user is not None
         set_own(s, user, JobLimitsUpdate(max_running_campaigns=None))

@@ -33,12 +33,12 @@ def _password_hash(password: str) -> str:
 
 
 def make_account(role: str = "member", prefix: str = "user") -> Account:
-    from alcove.db import session_scope
+    from alcove.db import open_transaction
     from alcove.models import ApiToken, TokenKind, User
 
     email = f"{prefix}-{uuid.uuid4().hex[:8]}@example.org"
     password = "correct horse battery"
-    with session_scope() as s:
+    with open_transaction() as s:
         user = User(email=email, display_name=prefix, role=role, password_hash=_password_hash(password))
         s.add(user)
         token, secret = ApiToken.issue(user, kind=TokenKind.personal, name="tests")

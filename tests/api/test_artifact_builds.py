@@ -55,7 +55,7 @@ def read_only(folder: Path) -> Iterator[None]:
 def campaign(api_settings: None) -> dict[str, Any]:
     """A finished campaign of a member's: model version 1 a real model (its zip not built),
     version 2 a copy under another artifact hash whose zip is stored (:data:`STORED`)."""
-    from alcove.db import session_scope
+    from alcove.db import open_transaction
     from alcove.db.arrays import put_bytes
     from alcove.models import Iteration, ModelVersion
     from alcove.surrogates.artifact_zips import ZIP_LAYOUT, cache_dir
@@ -63,7 +63,7 @@ def campaign(api_settings: None) -> dict[str, Any]:
     from .synthetic import synthesize_campaign
 
     me = make_account("member", "builds")
-    with session_scope() as s:
+    with open_transaction() as s:
         c = synthesize_campaign(s, me.id, iterations=2, model=True, name="builds")
         first = s.query(ModelVersion).filter_by(campaign_id=c.id).one()
         second = s.query(Iteration).filter_by(campaign_id=c.id, index=2).one()
@@ -78,17 +78,17 @@ def campaign(api_settings: None) -> dict[str, Any]:
 
 
 def _builds(campaign_id: int) -> list:
-    from alcove.db import session_scope
+    from alcove.db import open_transaction
     from alcove.models import ArtifactBuild
 
-    with session_scope() as s:
+    with open_transaction() as s:
         return [(b.id, b.status) for b in s.query(ArtifactBuild).filter_by(campaign_id=campaign_id)]
 
 
 def test_a_read_only_artifacts_folder_answers_at_once_naming_it_and_keeps_what_is_stored(
     client, admin, campaign, capsys
 ) -> None:
-    from alcove.db import session_scope
+    from alcove.db import open_transaction
     from alcove.settings import get_settings
 
     cid, me = campaign["campaign_id"], campaign["account"]
@@ -118,7 +118,7 @@ def test_a_read_only_artifacts_folder_answers_at_once_naming_it_and_keeps_what_i
         from alcove.models import ArtifactBuild
         from alcove.surrogates.artifact_build_worker import run_build
 
-        with session_scope() as s:
+        with open_transaction() as s:
             queued = ArtifactBuild(
                 campaign_id=cid, model_version_ids=[campaign["model_version_id"]], download_path="/x", models_total=1
             )
@@ -128,7 +128,7 @@ def test_a_read_only_artifacts_folder_answers_at_once_naming_it_and_keeps_what_i
         t0 = time.perf_counter()
         assert run_build(queued_id, "test@host") == "failed"
         assert time.perf_counter() - t0 < 2.0
-        with session_scope() as s:
+        with open_transaction() as s:
             row = s.get(ArtifactBuild, queued_id)
             assert row.slot is None and str(zips) in row.error and "model artifact zips" in row.error, row.error
 
@@ -149,7 +149,7 @@ def test_a_read_only_artifacts_folder_answers_at_once_naming_it_and_keeps_what_i
 
 
 def test_a_download_waits_for_its_build_within_the_slot_limit_then_answers_the_zip(client, other, campaign) -> None:
-    from alcove.db import session_scope
+    from alcove.db import open_transaction
     from alcove.models import ArtifactBuild, WorkerHeartbeat, utcnow
     from alcove.settings import get_settings
     from alcove.surrogates.artifact_build_worker import run_build
@@ -166,17 +166,17 @@ def test_a_download_waits_for_its_build_within_the_slot_limit_then_answers_the_z
     location = first.headers["Location"]
     assert location == f"{API}/campaigns/{cid}/artifact-builds/{build['id']}"
     assert client.get(url, headers=me.headers).json()["id"] == build["id"]  # the same download: the same build
-    with session_scope() as s:  # a build under way that also makes zips stored since still covers the download
+    with open_transaction() as s:  # a build under way that also makes zips stored since still covers the download
         s.get(ArtifactBuild, build["id"]).model_version_ids = [campaign["model_version_id"], 10**6]
     assert client.get(url, headers=me.headers).json()["id"] == build["id"]
-    with session_scope() as s:
+    with open_transaction() as s:
         s.get(ArtifactBuild, build["id"]).model_version_ids = [campaign["model_version_id"]]
     assert client.get(location, headers=other.headers).status_code == 404
 
     # every slot held by a running build of a live worker: the job leaves it queued ("busy")
     limit = get_settings().artifact_builds
     names = [f"busy-{i}@host" for i in range(limit)]
-    with session_scope() as s:
+    with open_transaction() as s:
         for i, name in enumerate(names):
             s.add(WorkerHeartbeat(name=name, queues=["artifacts"]))
             s.add(
@@ -197,23 +197,23 @@ def test_a_download_waits_for_its_build_within_the_slot_limit_then_answers_the_z
     assert waiting["status"] == "queued" and waiting["detail"].startswith("waiting for a free build slot"), waiting
 
     # one holder's worker died: its slot is taken back, the build runs and the download answers the zip
-    with session_scope() as s:
+    with open_transaction() as s:
         hb = s.query(WorkerHeartbeat).filter_by(name=names[0]).one()
         hb.last_seen_at = utcnow() - timedelta(seconds=get_settings().worker_dead_seconds + 5)
     assert run_build(build["id"], "test@host") == "ready"
     assert run_build(build["id"], "test@host") == "skipped"  # a redelivered message does nothing
     done = client.get(location, headers=me.headers).json()
     assert done["status"] == "ready" and done["models_done"] == 1 and done["error"] is None, done
-    with session_scope() as s:
+    with open_transaction() as s:
         dead = s.query(ArtifactBuild).filter_by(worker_name=names[0]).one()
         assert dead.status == "failed" and dead.slot is None and names[0] in dead.error
     # the other holder's pool process died (its worker's main process still beats): released at once
     from alcove.surrogates.artifact_build_worker import release_lost_build
 
-    with session_scope() as s:
+    with open_transaction() as s:
         lost = s.query(ArtifactBuild).filter_by(worker_name=names[1]).one().id
     assert release_lost_build(lost, names[1]) and not release_lost_build(lost, names[1])
-    with session_scope() as s:
+    with open_transaction() as s:
         row = s.get(ArtifactBuild, lost)
         assert row.status == "failed" and row.slot is None and f"({names[1]}) died" in row.error
         s.query(ArtifactBuild).filter(ArtifactBuild.worker_name.in_(names)).delete()  # free any other slots

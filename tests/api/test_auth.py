@@ -33,7 +33,7 @@ def test_missing_or_bad_tokens_are_401_with_www_authenticate(client) -> None:
 
 
 def test_personal_tokens_are_shown_once_stored_hashed_and_revocable(client, owner: Account) -> None:
-    from alcove.db import session_scope
+    from alcove.db import open_transaction
     from alcove.models import ApiToken
 
     r = client.post("/api/v1/me/tokens", json={"name": "notebook", "expires_in_days": 30}, headers=owner.headers)
@@ -44,7 +44,7 @@ def test_personal_tokens_are_shown_once_stored_hashed_and_revocable(client, owne
     listed = client.get("/api/v1/me/tokens", headers=owner.headers).json()
     row = next(t for t in listed if t["id"] == created["id"])
     assert "token" not in row and not row["revoked"]
-    with session_scope() as s:
+    with open_transaction() as s:
         stored = s.scalar(sa.select(ApiToken).where(ApiToken.id == created["id"]))
         assert secret not in (stored.token_hash, stored.token_prefix, stored.name)
     headers = {"Authorization": f"Bearer {secret}"}
@@ -101,7 +101,7 @@ def test_without_redis_a_token_revoked_by_another_process_is_refused_at_once(cli
     """No shared revocation generation (the broker is not Redis): nothing is cached, every
     request reads its token from the database, so a revocation written by another process
     (here: straight to the database) is refused at the next request."""
-    from alcove.db import session_scope
+    from alcove.db import open_transaction
     from alcove.models import ApiToken, utcnow
 
     from .helpers import make_account
@@ -109,7 +109,7 @@ def test_without_redis_a_token_revoked_by_another_process_is_refused_at_once(cli
     me = make_account("member", "revoked")
     for _ in range(3):
         assert client.get("/api/v1/me", headers=me.headers).status_code == 200
-    with session_scope() as s:
+    with open_transaction() as s:
         s.query(ApiToken).filter_by(user_id=me.id).update({"revoked_at": utcnow()})
     r = client.get("/api/v1/me", headers=me.headers)
     assert r.status_code == 401 and r.headers["WWW-Authenticate"] == "Bearer"
@@ -140,14 +140,14 @@ def shared_generation(monkeypatch: pytest.MonkeyPatch) -> _Generation:
 def test_a_cached_token_is_trusted_only_under_the_generation_it_was_verified_in(
     client, shared_generation: _Generation
 ) -> None:
-    from alcove.db import session_scope
+    from alcove.db import open_transaction
     from alcove.models import ApiToken, utcnow
     from alcove.users import service
 
     me = make_account("member", "generation")
     for _ in range(2):  # the first use records last_used_at, the next one is cached
         assert client.get("/api/v1/me", headers=me.headers).status_code == 200
-    with session_scope() as s:
+    with open_transaction() as s:
         assert service.cached_authentication(s, me.token) is not None
         s.query(ApiToken).filter_by(user_id=me.id).update({"revoked_at": utcnow()})  # as another process
     assert client.get("/api/v1/me", headers=me.headers).status_code == 200  # the cache, same generation
@@ -158,14 +158,14 @@ def test_a_cached_token_is_trusted_only_under_the_generation_it_was_verified_in(
 def test_cached_principals_are_private_detached_copies(client, shared_generation: _Generation) -> None:
     from sqlalchemy import inspect
 
-    from alcove.db import session_scope
+    from alcove.db import open_transaction
     from alcove.models import User
     from alcove.users import service
 
     me = make_account("member", "copies")
     for _ in range(2):  # the first use records last_used_at, the next one is cached
         assert client.get("/api/v1/me", headers=me.headers).status_code == 200
-    with session_scope() as s:
+    with open_transaction() as s:
         token, user = service.cached_authentication(s, me.token)
         again, _ = service.cached_authentication(s, me.token)
         fresh = s.get(User, me.id)

@@ -68,11 +68,11 @@ class Objects:
         return cid
 
     def failed_campaign(self) -> int:
-        from alcove.db import session_scope
+        from alcove.db import open_transaction
         from alcove.models import Campaign, IterationStep
 
         cid = self.campaign(start=True)
-        with session_scope() as s:
+        with open_transaction() as s:
             c = s.get(Campaign, cid)
             step = s.query(IterationStep).filter_by(campaign_id=cid).one()
             step.status, step.error, step.attempts = "failed", "injected", step.max_attempts
@@ -82,14 +82,14 @@ class Objects:
     def finished(self) -> dict[str, Any]:
         """A completed campaign with metrics, curves, pool versions and one model version."""
         if self._finished is None:
-            from alcove.db import session_scope
+            from alcove.db import open_transaction
             from alcove.models import ModelVersion
             from alcove.surrogates.artifact_zips import ZIP_LAYOUT, cache_dir
             from alcove.surrogates.service import model_artifact_bytes
 
             from .synthetic import synthesize_campaign
 
-            with session_scope() as s:
+            with open_transaction() as s:
                 c = synthesize_campaign(s, self.owner.id, iterations=2, model=True, name="matrix")
                 self._finished = {"campaign_id": c.id}
                 # this process has torch already: pre-build the artifact zip the API caches
@@ -100,11 +100,11 @@ class Objects:
 
     def artifact_build(self) -> int:
         """A finished build of the finished campaign's model zip (made in the database)."""
-        from alcove.db import session_scope
+        from alcove.db import open_transaction
         from alcove.models import ArtifactBuild
 
         cid = self.finished()["campaign_id"]
-        with session_scope() as s:
+        with open_transaction() as s:
             row = ArtifactBuild(campaign_id=cid, model_version_ids=[], download_path="/x", status="ready")
             s.add(row)
             s.flush()
@@ -112,10 +112,10 @@ class Objects:
 
     def preview(self) -> int:
         """A finished preview of the owner's (made in the database: the API limits pending previews)."""
-        from alcove.db import session_scope
+        from alcove.db import open_transaction
         from alcove.models import Preview
 
-        with session_scope() as s:
+        with open_transaction() as s:
             row = Preview(
                 owner_id=self.owner.id,
                 kind="task",
@@ -336,10 +336,10 @@ def _headers(who: Account, call: Call) -> dict[str, str]:
 
 
 def make_account_token(who: Account) -> dict[str, str]:
-    from alcove.db import session_scope
+    from alcove.db import open_transaction
     from alcove.models import ApiToken, TokenKind, User
 
-    with session_scope() as s:
+    with open_transaction() as s:
         token, secret = ApiToken.issue(s.get(User, who.id), kind=TokenKind.personal, name="fresh")
         s.add(token)
     return {"Authorization": f"Bearer {secret}"}

@@ -17,24 +17,24 @@ API = "/api/v1"
 
 @pytest.fixture(scope="module")
 def finished(owner: Account) -> int:
-    from alcove.db import session_scope
+    from alcove.db import open_transaction
 
     from .synthetic import synthesize_campaign
 
-    with session_scope() as s:
+    with open_transaction() as s:
         return synthesize_campaign(s, owner.id, iterations=3, name="api-campaigns").id
 
 
 def add_iteration(cid: int, k: int) -> None:
     """What the engine's evaluate step writes for a new iteration (visible to polls once the
     API's short revision reuse has passed)."""
-    from alcove.db import session_scope
+    from alcove.db import open_transaction
     from alcove.db.arrays import put_arrays
     from alcove.models import Campaign, Iteration, IterationMetrics
 
     from .synthetic import curve_arrays
 
-    with session_scope() as s:
+    with open_transaction() as s:
         c = s.get(Campaign, cid)
         it = Iteration(campaign_id=cid, index=k, config_version_id=c.config_versions[-1].id, status="succeeded")
         s.add(it)
@@ -203,12 +203,12 @@ def test_list_items_carry_the_eta_of_the_detail(client, owner: Account) -> None:
     from alcove.campaigns import service as campaigns
     from alcove.campaigns.config import StoppingRules
     from alcove.campaigns.schemas import CampaignConfigUpdate
-    from alcove.db import session_scope
+    from alcove.db import open_transaction
     from alcove.models import Campaign
 
     from .synthetic import synthesize_campaign
 
-    with session_scope() as s:
+    with open_transaction() as s:
         cid = synthesize_campaign(s, owner.id, iterations=3, name="api-eta").id
         c = s.get(Campaign, cid)
         c.status, c.finished_at, c.stop_reason = "running", None, None
@@ -257,13 +257,13 @@ def test_series_and_iterations_are_compact_unless_asked(client, owner: Account, 
 def test_curves_carry_the_replayed_torque(client, owner: Account) -> None:
     """tau on the curves' grid is the replayed motion's torque interpolated linearly: a torque
     linear in time must come back exactly on any grid."""
-    from alcove.db import session_scope
+    from alcove.db import open_transaction
     from alcove.db.arrays import put_arrays
     from alcove.models import IterationMetrics, OracleRun
 
     from .synthetic import synthesize_campaign
 
-    with session_scope() as s:
+    with open_transaction() as s:
         cid = synthesize_campaign(s, owner.id, iterations=1, name="api-tau", curve_samples=21).id
         m = s.query(IterationMetrics).filter_by(campaign_id=cid, iteration_index=1).one()
         t = np.linspace(0.0, 1.0, 7)
@@ -292,11 +292,11 @@ def _oracle_version(s, cid: int) -> int:
 
 
 def test_polls_with_the_etag_get_a_bodiless_304_until_something_changes(client, owner: Account, other: Account) -> None:
-    from alcove.db import session_scope
+    from alcove.db import open_transaction
 
     from .synthetic import synthesize_campaign
 
-    with session_scope() as s:
+    with open_transaction() as s:
         cid = synthesize_campaign(s, owner.id, iterations=2, name="api-etag", curve_samples=11).id
     url = f"{API}/campaigns/{cid}/metrics"
     first = client.get(url, headers=owner.headers)
@@ -339,10 +339,10 @@ def test_the_polled_detail_is_a_304_until_anything_it_shows_changes(client, owne
     from alcove.campaigns.machine.state_machine import Outcome, StepRef
     from alcove.campaigns.presets import oracle_version_for, surrogate_config_version_for, task_version_from_preset
     from alcove.campaigns.schemas import CampaignCreate
-    from alcove.db import session_scope
+    from alcove.db import open_transaction
     from alcove.models import StepName
 
-    with session_scope() as s:
+    with open_transaction() as s:
         data = CampaignCreate(
             name="api-detail-etag",
             task_version_id=task_version_from_preset(s, owner.id, "head-headrest-2phase"),
@@ -372,15 +372,15 @@ def test_the_polled_detail_is_a_304_until_anything_it_shows_changes(client, owne
         assert r.status_code == 404 and r.json() == refused.json()
     assert client.get(url, headers={"If-None-Match": seen[-1]}).status_code == 401
 
-    with session_scope() as s:  # a worker claims the step, then heartbeats
+    with open_transaction() as s:  # a worker claims the step, then heartbeats
         step_id = repo.get_step(s, cid, 0, "preliminary").id
         assert repo.claim_step(s, step_id, 1, "token", "worker@host", 60.0)
     claimed = changed()["current"]["steps"][0]
     assert claimed["status"] == "running"
-    with session_scope() as s:
+    with open_transaction() as s:
         assert repo.extend_lease(s, step_id, "token", 60.0) == (True, False)
     assert changed()["current"]["steps"][0]["heartbeat_at"] > claimed["heartbeat_at"]
-    with session_scope() as s:  # the step completes: iteration 1's training is queued
+    with open_transaction() as s:  # the step completes: iteration 1's training is queued
         complete_step(
             s,
             repo.get_campaign(s, cid),

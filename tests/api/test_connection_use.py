@@ -23,11 +23,11 @@ API = "/api/v1"
 
 @pytest.fixture(scope="module")
 def campaign(owner: Account) -> int:
-    from alcove.db import session_scope
+    from alcove.db import open_transaction
 
     from .synthetic import synthesize_campaign
 
-    with session_scope() as s:
+    with open_transaction() as s:
         return synthesize_campaign(
             s, owner.id, iterations=2, name="api-connection-use", curve_samples=11, pool_samples=10, ocp_intervals=10
         ).id
@@ -120,7 +120,7 @@ def test_reading_a_stale_preview_holds_one_connection_at_a_time(
     read transaction has ended before it."""
     from datetime import timedelta
 
-    from alcove.db import transaction
+    from alcove.db import run_transaction
     from alcove.models import JobOutbox, Preview, utcnow
     from alcove.previews.service import STALE_AFTER
 
@@ -129,8 +129,8 @@ def test_reading_a_stale_preview_holds_one_connection_at_a_time(
     ).json()
     preview = client.post(f"{API}/tasks/{task['id']}/previews", headers=owner.headers).json()["id"]
     old = utcnow() - STALE_AFTER - timedelta(seconds=5)
-    transaction(lambda s: s.execute(sa.update(Preview).where(Preview.id == preview).values(created_at=old)))
-    transaction(  # its job reached the job queue that long ago and no worker took it
+    run_transaction(lambda s: s.execute(sa.update(Preview).where(Preview.id == preview).values(created_at=old)))
+    run_transaction(  # its job reached the job queue that long ago and no worker took it
         lambda s: s.execute(sa.update(JobOutbox).where(JobOutbox.subject == f"preview/{preview}").values(sent_at=old))
     )
     cold()

@@ -19,10 +19,10 @@ def create_task(client, who: Account, **over) -> dict:
 
 def lock_latest_version(task_id: int) -> None:
     """What the campaign engine does when a campaign starts using a version."""
-    from alcove.db import session_scope
+    from alcove.db import open_transaction
     from alcove.models import TaskDefinition, TaskVersion, utcnow
 
-    with session_scope() as s:
+    with open_transaction() as s:
         d = s.get(TaskDefinition, task_id)
         v = s.scalar(
             sa.select(TaskVersion).where(TaskVersion.definition_id == task_id, TaskVersion.version == d.latest_version)

@@ -15,10 +15,10 @@ SCRIPT = textwrap.dedent(
     import json, sys, uuid
     from fastapi.testclient import TestClient
     from alcove.app import create_app
-    from alcove.db import session_scope
+    from alcove.db import open_transaction
     from alcove.models import ApiToken, TokenKind, User
 
-    with session_scope() as s:
+    with open_transaction() as s:
         user = User(email=f"light-{uuid.uuid4().hex[:8]}@example.org", role="member")
         s.add(user)
         token, secret = ApiToken.issue(user, kind=TokenKind.personal)

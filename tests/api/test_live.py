@@ -21,13 +21,13 @@ API = "/api/v1"
 @pytest.fixture(scope="module")
 def running(owner: Account) -> Callable[[], int]:
     """Makes a synthetic campaign of ``owner`` that is still running."""
-    from alcove.db import session_scope
+    from alcove.db import open_transaction
     from alcove.models import Campaign
 
     from .synthetic import synthesize_campaign
 
     def make() -> int:
-        with session_scope() as s:
+        with open_transaction() as s:
             cid = synthesize_campaign(s, owner.id, iterations=1, name="live").id
             c = s.get(Campaign, cid)
             c.status, c.finished_at, c.stop_reason = "running", None, None
@@ -38,10 +38,10 @@ def running(owner: Account) -> Callable[[], int]:
 
 def add_event(campaign_id: int, kind: str = "step_succeeded", **data: object) -> int:
     from alcove.campaigns import repository as repo
-    from alcove.db import session_scope
+    from alcove.db import open_transaction
     from alcove.models import CampaignEvent
 
-    with session_scope() as s:
+    with open_transaction() as s:
         repo.add_event(s, campaign_id, kind, "test", iteration=1, step="evaluate", data=dict(data))
         s.flush()
         return s.scalar(sa.select(sa.func.max(CampaignEvent.id)).where(CampaignEvent.campaign_id == campaign_id))
@@ -49,10 +49,10 @@ def add_event(campaign_id: int, kind: str = "step_succeeded", **data: object) ->
 
 def finish(campaign_id: int, status: str) -> int:
     """The campaign ends: its row and the status event, in one transaction (as the service does)."""
-    from alcove.db import session_scope
+    from alcove.db import open_transaction
     from alcove.models import Campaign
 
-    with session_scope() as s:
+    with open_transaction() as s:
         s.get(Campaign, campaign_id).status = status
     return add_event(campaign_id, "status", to=status)
 
@@ -157,13 +157,13 @@ def test_the_list_stream_sends_events_of_visible_campaigns_only(
 ) -> None:
     """Events of the user's own campaigns (also one created after connecting) and of those
     shared with them arrive; another member's campaign's do not."""
-    from alcove.db import session_scope
+    from alcove.db import open_transaction
     from alcove.models import Share
 
     mine_before = running()
     theirs = running()  # owned by `owner`, not shared with `other`
     shared = running()
-    with session_scope() as s:
+    with open_transaction() as s:
         s.add(Share(user_id=other.id, campaign_id=shared, permission="view"))
     made: list[int] = []
 

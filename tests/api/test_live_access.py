@@ -21,13 +21,13 @@ API = "/api/v1"
 @pytest.fixture
 def running(owner: Account) -> Callable[[], int]:
     """Makes a synthetic campaign of ``owner`` that is still running."""
-    from alcove.db import session_scope
+    from alcove.db import open_transaction
     from alcove.models import Campaign
 
     from .synthetic import synthesize_campaign
 
     def make() -> int:
-        with session_scope() as s:
+        with open_transaction() as s:
             cid = synthesize_campaign(s, owner.id, iterations=1, name="live-access").id
             c = s.get(Campaign, cid)
             c.status, c.finished_at, c.stop_reason = "running", None, None
@@ -37,26 +37,26 @@ def running(owner: Account) -> Callable[[], int]:
 
 
 def share(campaign_id: int, user: Account) -> None:
-    from alcove.db import session_scope
+    from alcove.db import open_transaction
     from alcove.models import Share
 
-    with session_scope() as s:
+    with open_transaction() as s:
         s.add(Share(user_id=user.id, campaign_id=campaign_id, permission="view"))
 
 
 def unshare(campaign_id: int, user: Account) -> None:
-    from alcove.db import session_scope
+    from alcove.db import open_transaction
     from alcove.models import Share
 
-    with session_scope() as s:
+    with open_transaction() as s:
         s.execute(sa.delete(Share).where(Share.user_id == user.id, Share.campaign_id == campaign_id))
 
 
 def revoke_all(user: Account) -> None:
-    from alcove.db import session_scope
+    from alcove.db import open_transaction
     from alcove.models import ApiToken, utcnow
 
-    with session_scope() as s:
+    with open_transaction() as s:
         s.execute(sa.update(ApiToken).where(ApiToken.user_id == user.id).values(revoked_at=utcnow()))
 
 
@@ -94,11 +94,11 @@ def test_the_list_stream_drops_an_unshared_campaign_and_ends_when_the_token_is_g
     grantee = make_account("member", "grantee")
     shared = running()
     share(shared, grantee)
-    from alcove.db import session_scope
+    from alcove.db import open_transaction
 
     from .synthetic import synthesize_campaign
 
-    with session_scope() as s:  # the grantee's own campaign: its events keep coming
+    with open_transaction() as s:  # the grantee's own campaign: its events keep coming
         mine = synthesize_campaign(s, grantee.id, iterations=1, name="own").id
     before = add_event(shared, "step_started")
     marks: dict[str, int] = {}

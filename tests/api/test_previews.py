@@ -74,7 +74,7 @@ def test_previews_are_accepted_private_validated_and_limited(client) -> None:
 
 
 def test_the_jobs_compute_the_science_and_ignore_duplicates(client) -> None:
-    from alcove.db import session_scope
+    from alcove.db import open_transaction
     from alcove.models import Preview
     from alcove.previews.worker import run_preview
 
@@ -109,7 +109,7 @@ def test_the_jobs_compute_the_science_and_ignore_duplicates(client) -> None:
         and force.max() == pytest.approx(oracle["peak_force_n"])
         and force.max() > 0
     )
-    with session_scope() as s:
+    with open_transaction() as s:
         assert s.get(Preview, tp).attempts == 1
 
 
@@ -161,7 +161,7 @@ def test_a_preview_no_worker_takes_fails_with_the_reason_and_frees_its_slot(clie
 
     import sqlalchemy as sa
 
-    from alcove.db import transaction
+    from alcove.db import run_transaction
     from alcove.models import JobOutbox, Preview, utcnow
     from alcove.previews.service import STALE_AFTER
     from alcove.previews.worker import run_preview
@@ -173,11 +173,11 @@ def test_a_preview_no_worker_takes_fails_with_the_reason_and_frees_its_slot(clie
     assert client.post(f"{API}/tasks/{task_id}/previews", headers=me.headers).status_code == 429
     old = utcnow() - STALE_AFTER - timedelta(seconds=5)
     # the first waited too long in the queue; the oracle one was taken by a worker that died
-    transaction(lambda s: s.execute(sa.update(Preview).where(Preview.id == ids[0]).values(created_at=old)))
-    transaction(  # its job reached the job queue that long ago (sent, never taken)
+    run_transaction(lambda s: s.execute(sa.update(Preview).where(Preview.id == ids[0]).values(created_at=old)))
+    run_transaction(  # its job reached the job queue that long ago (sent, never taken)
         lambda s: s.execute(sa.update(JobOutbox).where(JobOutbox.subject == f"preview/{ids[0]}").values(sent_at=old))
     )
-    transaction(
+    run_transaction(
         lambda s: s.execute(
             sa.update(Preview).where(Preview.id == ids[2]).values(status="running", started_at=old, attempts=1)
         )
@@ -210,7 +210,7 @@ def test_a_running_preview_whose_worker_died_fails_within_seconds_and_a_slow_one
 
     import sqlalchemy as sa
 
-    from alcove.db import transaction
+    from alcove.db import run_transaction
     from alcove.jobs.heartbeat import beat, mark_stopped
     from alcove.models import Preview, WorkerHeartbeat, utcnow
     from alcove.settings import get_settings
@@ -224,7 +224,7 @@ def test_a_running_preview_whose_worker_died_fails_within_seconds_and_a_slow_one
         beat(n, starting=True)
     long_ago = utcnow() - timedelta(minutes=3)  # much less than STALE_AFTER
     for pid, n in zip(ids, names, strict=True):
-        transaction(
+        run_transaction(
             lambda s, pid=pid, n=n: s.execute(
                 sa.update(Preview)
                 .where(Preview.id == pid)
@@ -232,7 +232,7 @@ def test_a_running_preview_whose_worker_died_fails_within_seconds_and_a_slow_one
             )
         )
     silent = utcnow() - timedelta(seconds=get_settings().worker_dead_seconds + 5)
-    transaction(
+    run_transaction(
         lambda s: s.execute(
             sa.update(WorkerHeartbeat).where(WorkerHeartbeat.name == names[0]).values(last_seen_at=silent)
         )

@@ -25,11 +25,11 @@ def test_the_login_answer_and_authenticated_json_are_not_stored(client, owner: A
 
 
 def test_the_answers_of_the_response_cache_are_not_stored_either(client, owner: Account) -> None:
-    from alcove.db import session_scope
+    from alcove.db import open_transaction
 
     from .synthetic import synthesize_campaign
 
-    with session_scope() as s:
+    with open_transaction() as s:
         cid = synthesize_campaign(s, owner.id, iterations=1, name="no-store").id
     r = client.get(f"{API}/campaigns/{cid}/metrics", headers=owner.headers)
     assert r.status_code == 200 and "ETag" in r.headers and r.headers["cache-control"] == "no-store"

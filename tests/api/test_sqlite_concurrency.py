@@ -36,10 +36,10 @@ def sqlite_app(tmp_path: Path, monkeypatch: pytest.MonkeyPatch):
 
 
 def _account(url: str) -> tuple[int, str]:
-    from alcove.db import session_scope
+    from alcove.db import open_transaction
     from alcove.models import ApiToken, TokenKind, User
 
-    with session_scope(url) as s:
+    with open_transaction(url) as s:
         user = User(email=f"sq-{uuid.uuid4().hex[:8]}@example.org", role="member")
         s.add(user)
         token, secret = ApiToken.issue(user, kind=TokenKind.personal, name="t")
@@ -49,7 +49,7 @@ def _account(url: str) -> tuple[int, str]:
 
 
 def test_api_writes_survive_a_concurrent_worker_writer(sqlite_app) -> None:
-    from alcove.db import transaction
+    from alcove.db import run_transaction
     from alcove.models import WorkerHeartbeat, utcnow
 
     url, app = sqlite_app
@@ -60,7 +60,7 @@ def test_api_writes_survive_a_concurrent_worker_writer(sqlite_app) -> None:
 
     def worker_writes() -> None:  # what a worker does all the time: short write transactions
         name = f"w-{uuid.uuid4().hex[:6]}"
-        transaction(lambda s: s.add(WorkerHeartbeat(name=name)), url=url)
+        run_transaction(lambda s: s.add(WorkerHeartbeat(name=name)), url=url)
         while not stop.is_set():
 
             def beat(s) -> None:
@@ -68,7 +68,7 @@ def test_api_writes_survive_a_concurrent_worker_writer(sqlite_app) -> None:
                 row.last_seen_at = utcnow()
                 time.sleep(0.002)  # hold the write lock a little, like a real step commit
 
-            transaction(beat, url=url)
+            run_transaction(beat, url=url)
             writes[0] += 1
 
     def user_session(account: tuple[int, str]) -> list[int]:
@@ -106,10 +106,10 @@ def test_api_writes_survive_a_concurrent_worker_writer(sqlite_app) -> None:
     bad = [c for c in codes if c >= 500]
     assert not bad, f"{len(bad)} of {len(codes)} requests failed: {sorted(set(bad))}"
     assert set(codes) <= {200, 201}
-    from alcove.db import session_scope
+    from alcove.db import open_transaction
     from alcove.models import ApiToken
 
-    with session_scope(url) as s:  # the read-only first uses were recorded
+    with open_transaction(url) as s:  # the read-only first uses were recorded
         assert s.query(ApiToken).filter(
             ApiToken.name.like("n%"), ApiToken.last_used_at.is_not(None)
         ).count() == 6 * len(accounts)

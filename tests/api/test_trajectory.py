@@ -16,11 +16,11 @@ API = "/api/v1"
 
 @pytest.fixture(scope="module")
 def campaign(owner: Account) -> int:
-    from alcove.db import session_scope
+    from alcove.db import open_transaction
 
     from .synthetic import synthesize_campaign
 
-    with session_scope() as s:
+    with open_transaction() as s:
         return synthesize_campaign(
             s, owner.id, iterations=2, name="api-trajectory", curve_samples=11, pool_samples=10, ocp_intervals=10
         ).id
@@ -28,11 +28,11 @@ def campaign(owner: Account) -> int:
 
 def stored(cid: int, k: int):
     from alcove.campaigns import repository as repo
-    from alcove.db import session_scope
+    from alcove.db import open_transaction
     from alcove.db.arrays import get_arrays
     from alcove.solving.repository import latest_of_iteration
 
-    with session_scope() as s:
+    with open_transaction() as s:
         sol = latest_of_iteration(s, repo.get_iteration(s, cid, k).id)
         return (
             sol.solver_status,
@@ -97,7 +97,7 @@ def test_a_new_attempt_changes_the_answer_and_a_failed_solve_is_shown_as_such(
     client, owner: Account, campaign: int
 ) -> None:
     from alcove.campaigns import repository as repo
-    from alcove.db import session_scope
+    from alcove.db import open_transaction
     from alcove.db.arrays import put_arrays
     from alcove.models import OcpSolution
 
@@ -106,7 +106,7 @@ def test_a_new_attempt_changes_the_answer_and_a_failed_solve_is_shown_as_such(
     url = f"{API}/campaigns/{campaign}/iterations/1/trajectory"
     first = client.get(url, headers=owner.headers)
     assert client.get(url, headers={**owner.headers, "If-None-Match": first.headers["ETag"]}).status_code == 304
-    with session_scope() as s:
+    with open_transaction() as s:
         it = repo.get_iteration(s, campaign, 1)
         a = ocp_arrays(7, 10)
         s.add(
@@ -205,13 +205,13 @@ def test_the_trajectory_is_a_304_with_its_etag_and_others_are_refused(
 
 
 def test_a_running_iteration_is_a_404_until_its_ocp_solution_is_written(client, owner: Account, campaign: int) -> None:
-    from alcove.db import session_scope
+    from alcove.db import open_transaction
     from alcove.db.arrays import put_arrays
     from alcove.models import Campaign, Iteration, OcpSolution
 
     from .synthetic import ocp_arrays
 
-    with session_scope() as s:
+    with open_transaction() as s:
         c = s.get(Campaign, campaign)
         it = Iteration(campaign_id=campaign, index=3, config_version_id=c.config_versions[-1].id, status="running")
         s.add(it)
@@ -221,7 +221,7 @@ def test_a_running_iteration_is_a_404_until_its_ocp_solution_is_written(client, 
     for _ in range(2):
         r = client.get(url, headers=owner.headers)
         assert r.status_code == 404 and "no OCP solution for iteration 3" in r.json()["detail"]
-    with session_scope() as s:  # the OCP step writes its solution: served at once, not after a remembered 404
+    with open_transaction() as s:  # the OCP step writes its solution: served at once, not after a remembered 404
         a = ocp_arrays(3, 10)
         s.add(
             OcpSolution(

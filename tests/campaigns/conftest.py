@@ -72,7 +72,7 @@ def new_campaign(
     the task as a spec (stored under the name ``task``) instead of the preset."""
     from alcove.campaigns import presets, service
     from alcove.campaigns.schemas import CampaignCreate
-    from alcove.db import transaction
+    from alcove.db import run_transaction
 
     cfg = {k: dict(v) for k, v in QUICK.items()}
     for key, value in overrides.items():
@@ -101,7 +101,7 @@ def new_campaign(
             return c.id, []
         return c.id, service.start(s, c.id)[1]
 
-    return transaction(work)
+    return run_transaction(work)
 
 
 @pytest.fixture

@@ -7,7 +7,7 @@ from __future__ import annotations
 import uuid
 from typing import Any
 
-from alcove.db import transaction
+from alcove.db import run_transaction
 
 
 def _member(limit: int | None) -> int:
@@ -22,7 +22,7 @@ def _member(limit: int | None) -> int:
         limits.set_own(s, user, JobLimitsUpdate(max_running_campaigns=limit))
         return user.id
 
-    return transaction(work)
+    return run_transaction(work)
 
 
 def _started(uid: int, n: int) -> list[tuple[int, list]]:
@@ -43,7 +43,7 @@ def _started(uid: int, n: int) -> list[tuple[int, list]]:
             c = service.create_campaign(s, uid, data)
             return c.id, service.start(s, c.id)[1]
 
-        out.append(transaction(work))
+        out.append(run_transaction(work))
     return out
 
 
@@ -55,13 +55,13 @@ def _state(cid: int) -> tuple[str, str | None, list[str]]:
         c = s.get(Campaign, cid)
         return c.status, c.wait_reason, [row.status for _, row in repo.steps_of_campaign(s, cid)]
 
-    return transaction(work)
+    return run_transaction(work)
 
 
 def _reconcile() -> list:
     from alcove.campaigns.run.reconciler import reconcile
 
-    return transaction(lambda s: reconcile(s, stale_queued_s=3600))
+    return run_transaction(lambda s: reconcile(s, stale_queued_s=3600))
 
 
 def test_a_raised_limit_admits_the_waiting_campaign_once(campaign_db: str) -> None:
@@ -80,7 +80,7 @@ def test_a_raised_limit_admits_the_waiting_campaign_once(campaign_db: str) -> No
 
         limits.set_own(s, s.get(User, uid), JobLimitsUpdate(max_running_campaigns=2))
 
-    transaction(raise_limit)
+    run_transaction(raise_limit)
     admitted = _reconcile()
     assert [(j.campaign_id, j.step.value, j.attempt) for j in admitted] == [(second, "preliminary", 1)]
     assert _state(second) == ("queued", None, ["queued"])
@@ -92,7 +92,7 @@ def test_an_ended_campaign_frees_its_place(campaign_db: str) -> None:
 
     uid = _member(1)
     (first, _), (second, _), (third, _) = _started(uid, 3)
-    transaction(lambda s: service.cancel(s, first))
+    run_transaction(lambda s: service.cancel(s, first))
     assert _state(first)[0] == "cancelled"
     assert [j.campaign_id for j in _reconcile()] == [second]  # the longest waiting, and only it
     status, reason, _ = _state(third)
@@ -104,12 +104,12 @@ def test_a_waiting_campaign_paused_or_cancelled_stops_waiting(campaign_db: str) 
 
     uid = _member(1)
     _, (second, _), (third, _) = _started(uid, 3)
-    transaction(lambda s: service.pause(s, second))
+    run_transaction(lambda s: service.pause(s, second))
     assert _state(second)[:2] == ("paused", None)
-    transaction(lambda s: service.resume(s, second))  # still no room: it waits again
+    run_transaction(lambda s: service.resume(s, second))  # still no room: it waits again
     status, reason, steps = _state(second)
     assert status == "queued" and reason is not None and steps == ["pending"]
-    transaction(lambda s: service.cancel(s, third))
+    run_transaction(lambda s: service.cancel(s, third))
     assert _state(third) == ("cancelled", None, ["cancelled"])
 
 

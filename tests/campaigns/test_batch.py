@@ -23,7 +23,7 @@ import sqlalchemy as sa
 from alcove.campaigns import candidate_queries, repository
 from alcove.campaigns.run import protocol
 from alcove.campaigns.views import detail, picks
-from alcove.db import session_scope
+from alcove.db import open_transaction
 from alcove.db.arrays import get_arrays
 from alcove.models import Dataset, OcpSolution
 from alcove.pool import repository as pool_repo
@@ -47,7 +47,7 @@ def test_a_batch_iteration_solves_q_seeded_scenarios_and_appends_them_as_one_poo
     count_datasets = sa.select(sa.func.count()).select_from(Dataset).where(Dataset.campaign_id == cid)
     protocol.drive_inline(cid, jobs)
     task = task_preset(TASK)
-    with session_scope() as s:
+    with open_transaction() as s:
         assert repository.get_campaign(s, cid).status == "completed"
         k = 1
         it = repository.get_iteration(s, cid, k)
@@ -87,7 +87,7 @@ def test_a_batch_iteration_solves_q_seeded_scenarios_and_appends_them_as_one_poo
     # duplicate deliveries of finished slots (and of the fan-in's evaluate and append) are no-ops
     for step, slot in (("ocp", 1), ("oracle", 2), ("oracle", 0), ("evaluate", 0), ("append", 0)):
         assert protocol.run_step(cid, 1, step, 1, slot=slot)["status"] == "duplicate"
-    with session_scope() as s:
+    with open_transaction() as s:
         assert s.scalar(count_datasets) == n_datasets
 
 
@@ -101,7 +101,7 @@ def test_ensemble_disagreement_replays_the_most_disputed_candidates_and_stops_wh
     settings = {"strategy": "ensemble-disagreement", "batch": 2, "candidates": 4, "min_distance": 0.0}
     cid, jobs = make_campaign(task=TASK, seed=3, settings={**BATCH, **settings}, stopping={"max_iterations": 1})
     protocol.drive_inline(cid, jobs)
-    with session_scope() as s:
+    with open_transaction() as s:
         assert repository.get_campaign(s, cid).status == "completed"
         it = repository.get_iteration(s, cid, 1)
         cands = candidate_queries.candidates(s, it.id)
@@ -131,7 +131,7 @@ def test_ensemble_disagreement_replays_the_most_disputed_candidates_and_stops_wh
         task=TASK, seed=3, settings={**BATCH, **stop}, stopping={"max_iterations": 3, "min_disagreement": top * 2 + 1}
     )
     protocol.drive_inline(cid, jobs)
-    with session_scope() as s:
+    with open_transaction() as s:
         c = repository.get_campaign(s, cid)
         assert (c.status, c.stop_reason) == ("completed", "min_disagreement")
         it = repository.get_iteration(s, cid, 1)
@@ -156,7 +156,7 @@ def _what_the_user_sees(cid: int, ranked: list[Any], forces: dict[int, np.ndarra
     from alcove.models import ApiToken, Campaign, TokenKind, User
     from alcove.settings import get_settings
 
-    with session_scope() as s:  # a token of the campaign's owner
+    with open_transaction() as s:  # a token of the campaign's owner
         token, secret = ApiToken.issue(s.get(User, s.get(Campaign, cid).owner_id), kind=TokenKind.personal, name="t")
         s.add(token)
     headers = {"Authorization": f"Bearer {secret}"}
@@ -233,7 +233,7 @@ def test_retrying_a_batch_slot_that_failed_the_campaign_runs_the_slots_it_cancel
         **LIGHT,
     )
     protocol.drive_inline(cid, jobs)
-    with session_scope() as s:
+    with open_transaction() as s:
         c = repository.get_campaign(s, cid)
         assert c.status == "failed"
         it = repository.get_iteration(s, cid, 1)
@@ -245,7 +245,7 @@ def test_retrying_a_batch_slot_that_failed_the_campaign_runs_the_slots_it_cancel
         c, jobs = service.retry_step(s, cid)
         assert sorted((j.step.value, j.slot, j.attempt) for j in jobs) == [("ocp", 0, 2), ("ocp", 1, 1)]
     protocol.drive_inline(cid, jobs)
-    with session_scope() as s:
+    with open_transaction() as s:
         assert repository.get_campaign(s, cid).status == "completed"
         it = repository.get_iteration(s, cid, 1)
         assert all(st.status == "succeeded" for st in it.steps)
@@ -275,7 +275,7 @@ def slots(url: str, cid: int, k: int = 1) -> dict[tuple[str, int], tuple[Any, ..
 def start(make_campaign: Any, seed: int, fault: dict[str, Any] | None = None, **settings: Any) -> int:
     """A one-iteration batch campaign started the way the API does (the first job through the outbox)."""
     from alcove.campaigns import service
-    from alcove.db import transaction
+    from alcove.db import run_transaction
     from alcove.jobs.campaign import send_committed, stage
 
     cid, _ = make_campaign(
@@ -287,7 +287,7 @@ def start(make_campaign: Any, seed: int, fault: dict[str, Any] | None = None, **
         start=False,
         **LIGHT,  # what these tests check needs no accurate model
     )
-    send_committed(transaction(lambda s: stage(s, service.start(s, cid)[1])))
+    send_committed(run_transaction(lambda s: stage(s, service.start(s, cid)[1])))
     return cid
 
 

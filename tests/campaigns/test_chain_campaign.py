@@ -7,7 +7,7 @@ import numpy as np
 
 from alcove.campaigns import repository
 from alcove.campaigns.run import protocol
-from alcove.db import session_scope
+from alcove.db import open_transaction
 from alcove.db.arrays import get_arrays
 from alcove.models import ValidationSuite
 from alcove.pool import repository as pool_repo
@@ -27,7 +27,7 @@ def test_a_campaign_on_the_2dof_preset_runs_from_the_heads_pose(sqlite_campaign_
     protocol.drive_inline(cid, jobs)
     model_spec = task_preset("head-headrest-2dof").model
     pose_fn, head = model_spec.pose_function(), model_spec.oracle_preset()
-    with session_scope() as s:
+    with open_transaction() as s:
         c = repository.get_campaign(s, cid)
         assert (c.status, c.stop_reason) == ("completed", "max_iterations")
         pools = pool_repo.own_versions(s, cid)
@@ -62,5 +62,5 @@ def test_a_campaign_on_the_2dof_preset_runs_from_the_heads_pose(sqlite_campaign_
     assert len(motion_ids) == 2
     # the suite's motions are replayed along the chain's joint line (the jobs a worker runs)
     assert [run_motion(i) for i in motion_ids] == ["succeeded", "succeeded"]
-    with session_scope() as s:
+    with open_transaction() as s:
         assert s.get(ValidationSuite, suite_id).status == "complete"

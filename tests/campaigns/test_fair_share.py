@@ -32,7 +32,7 @@ def _member_campaigns(n: int) -> tuple[int, list[int], list[int]]:
     returns the member's id, the campaign ids and the outbox ids sent."""
     from alcove.campaigns import presets, service
     from alcove.campaigns.schemas import CampaignCreate
-    from alcove.db import transaction
+    from alcove.db import run_transaction
     from alcove.jobs.campaign import send_committed, stage
     from alcove.models import Role, User
     from alcove.users import limits
@@ -45,7 +45,7 @@ def _member_campaigns(n: int) -> tuple[int, list[int], list[int]]:
         limits.set_own(s, user, JobLimitsUpdate(max_running_campaigns=1))
         return user.id
 
-    uid = transaction(member)
+    uid = run_transaction(member)
     ids, sent = [], []
     for i in range(n):
 
@@ -64,7 +64,7 @@ def _member_campaigns(n: int) -> tuple[int, list[int], list[int]]:
             _, jobs = service.start(s, c.id)
             return c.id, stage(s, jobs)
 
-        cid, staged = transaction(create_and_start)
+        cid, staged = run_transaction(create_and_start)
         send_committed(staged)
         ids.append(cid)
         sent += staged
@@ -75,12 +75,12 @@ def test_a_members_second_campaign_waits_for_the_first_and_then_runs_once(
     pg_redis: dict[str, str], pg_url: str, tmp_path: Path
 ) -> None:
     from alcove.campaigns.views.detail import campaign_out
-    from alcove.db import session_scope
+    from alcove.db import open_transaction
     from alcove.models import Campaign, User
 
     _, (first, second), sent = _member_campaigns(2)
     assert len(sent) == 1, "only the first campaign's first job is sent"
-    with session_scope() as s:
+    with open_transaction() as s:
         c = s.get(Campaign, second)
         assert c is not None
         shown = campaign_out(s, c, s.get(User, c.owner_id))  # what GET /campaigns/{id} answers

@@ -18,7 +18,7 @@ from alcove.campaigns.run import protocol
 from alcove.campaigns.run.reconciler import reconcile
 from alcove.campaigns.schemas import CampaignConfigUpdate, ForkRequest
 from alcove.campaigns.views import detail, export
-from alcove.db import session_scope, transaction
+from alcove.db import open_transaction, run_transaction
 from alcove.db.arrays import get_arrays
 from alcove.errors import Conflict, NotFound
 from alcove.jobs.faults import inject
@@ -55,7 +55,7 @@ def mine(jobs: list, cid: int) -> list:
 
 
 def status(cid: int) -> tuple[str, str | None]:
-    with session_scope() as s:
+    with open_transaction() as s:
         c = repository.get_campaign(s, cid)
         return c.status, c.stop_reason
 
@@ -71,7 +71,7 @@ def test_a_short_campaign_leaves_a_complete_versioned_record(campaign_db: str, m
     protocol.drive_inline(cid, jobs)
     assert status(cid) == ("completed", "max_iterations")
     preset = task_preset("head-headrest-2phase").preset()
-    with session_scope() as s:
+    with open_transaction() as s:
         pools = pool_repo.own_versions(s, cid)
         models = surrogates_repo.own_versions(s, cid)
         metrics = repository.metrics_series(s, cid)
@@ -154,7 +154,7 @@ def test_the_same_seed_gives_the_same_pool_and_another_seed_another(sqlite_campa
     for name, seed in (("a", 3), ("b", 3), ("c", 4)):
         cid, jobs = make_campaign(seed=seed, stopping={"max_iterations": 1})
         protocol.drive_inline(cid, jobs)
-        with session_scope() as s:
+        with open_transaction() as s:
             runs[name] = [p.content_hash for p in pool_repo.own_versions(s, cid)]
     assert runs["a"] == runs["b"]
     assert runs["a"][0] != runs["c"][0]
@@ -168,7 +168,7 @@ def test_a_duplicate_or_stale_delivery_of_a_step_is_a_no_op(sqlite_campaign_db: 
     again = protocol.run_step(cid, 0, "preliminary", 1, send=sent.extend)
     assert first["status"] == "done" and again["status"] == "duplicate"
     assert len(sent) == 1 and sent[0].step.value == "train"
-    with session_scope() as s:
+    with open_transaction() as s:
         assert len(pool_repo.own_versions(s, cid)) == 1
         assert s.scalar(sa.select(sa.func.count()).select_from(Dataset).where(Dataset.campaign_id == cid)) == 4
     # a message for an attempt that is not the next one is ignored too
@@ -182,12 +182,12 @@ def test_pause_parks_the_next_step_and_resume_continues_where_it_stopped(
     cid, jobs = make_campaign(stopping={"max_iterations": 1})
     queue: list = list(jobs)
     protocol.run_step(cid, 0, "preliminary", 1, send=queue.extend)
-    with session_scope() as s:
+    with open_transaction() as s:
         c, more = service.pause(s, cid)
         assert c.status == "pausing" and more == []
     train = queue[-1]
     assert protocol.run_step(cid, 1, "train", train.attempt)["status"] == "paused"
-    with session_scope() as s:
+    with open_transaction() as s:
         assert repository.get_campaign(s, cid).status == "paused"
         assert repository.get_step(s, cid, 1, "train").status == "pending"
         c, jobs = service.resume(s, cid)
@@ -208,11 +208,11 @@ def test_cancel_reaches_a_running_step_through_its_lease_heartbeat(
     worker.start()
     time.sleep(0.5)
     # a write next to a running job: BEGIN IMMEDIATE and retry on a busy SQLite (what the API and CLI do)
-    c, _ = transaction(lambda s: service.cancel(s, cid))
+    c, _ = run_transaction(lambda s: service.cancel(s, cid))
     assert c.status == "cancelling"
     worker.join(timeout=20)
     assert result["status"] == "cancelled" and time.monotonic() - t0 < 10
-    with session_scope() as s:
+    with open_transaction() as s:
         assert repository.get_campaign(s, cid).status == "cancelled"
         assert repository.get_step(s, cid, 1, "train").status == "cancelled"
         assert repository.get_iteration(s, cid, 1).status == "cancelled"
@@ -225,7 +225,7 @@ def test_a_failed_ocp_under_policy_continue_fails_only_its_iteration(
     cid, jobs = make_campaign(fault={"ocp": {"ipopt_max_iter": 1, "iterations": [1]}})
     protocol.drive_inline(cid, jobs)
     assert status(cid) == ("completed", "max_iterations")
-    with session_scope() as s:
+    with open_transaction() as s:
         it1 = repository.get_iteration_with_steps(s, cid, 1)
         assert it1.status == "failed" and "did not converge" in it1.error
         assert {st.step: st.status for st in it1.steps} == {
@@ -251,7 +251,7 @@ def test_a_failed_ocp_under_policy_stop_fails_the_campaign_and_retry_runs_it_aga
         fault={"ocp": {"ipopt_max_iter": 1, "iterations": [1]}},
     )
     protocol.drive_inline(cid, jobs)
-    with session_scope() as s:
+    with open_transaction() as s:
         c = repository.get_campaign(s, cid)
         assert (c.status, c.stop_reason) == ("failed", "error") and "did not converge" in c.error
         # the fault goes away and the failed step is retried with a new config version
@@ -261,7 +261,7 @@ def test_a_failed_ocp_under_policy_stop_fails_the_campaign_and_retry_runs_it_aga
         assert c.status == "running" and (jobs[0].iteration, jobs[0].step.value, jobs[0].attempt) == (1, "ocp", 2)
     protocol.drive_inline(cid, jobs)
     assert status(cid) == ("completed", "max_iterations")
-    with session_scope() as s:
+    with open_transaction() as s:
         step = repository.get_step(s, cid, 1, "ocp")
         assert step.status == "succeeded" and step.config_version_id == row.id
         assert [
@@ -284,7 +284,7 @@ def test_an_oracle_that_keeps_raising_is_retried_then_its_iteration_fails(
     )
     protocol.drive_inline(cid, jobs)
     assert status(cid) == ("completed", "max_iterations")
-    with session_scope() as s:
+    with open_transaction() as s:
         step = repository.get_step(s, cid, 1, "oracle")
         assert (step.status, step.attempts) == ("failed", 2) and "fault injection" in step.error
         kinds = [e.kind for e in repository.events(s, cid)]
@@ -307,7 +307,7 @@ def test_max_oracle_calls_counts_the_calls_of_failed_iterations(sqlite_campaign_
     )
     protocol.drive_inline(cid, jobs)
     assert status(cid) == ("completed", "oracle_calls")
-    with session_scope() as s:
+    with open_transaction() as s:
         its = [repository.get_iteration(s, cid, k) for k in (1, 2)]
         assert [(it.status, it.oracle_calls) for it in its] == [("failed", 2), ("failed", 2)]
         assert repository.get_iteration(s, cid, 3) is None
@@ -320,7 +320,7 @@ def test_an_oracle_result_failing_the_quality_gate_is_quarantined_never_appended
 ) -> None:
     cid, jobs = make_campaign(stopping={"max_iterations": 1}, fault={"oracle": {"gate_fail": True}})
     protocol.drive_inline(cid, jobs)
-    with session_scope() as s:
+    with open_transaction() as s:
         it = repository.get_iteration(s, cid, 1)
         (run,) = oracles_repo.runs_of_iteration(s, it.id)
         q = s.scalar(sa.select(QuarantinedResult).where(QuarantinedResult.oracle_run_id == run.id))
@@ -337,24 +337,24 @@ def test_the_reconciler_requeues_a_step_whose_worker_died_and_ignores_the_dead_j
     queue: list = list(jobs)
     protocol.run_step(cid, 0, "preliminary", 1, send=queue.extend)
     # a worker claims train and dies: its lease runs out
-    with session_scope() as s:
+    with open_transaction() as s:
         step = repository.get_step(s, cid, 1, "train")
         assert repository.claim_step(s, step.id, 1, "dead-token", "dead@host", lease_seconds=60)
-    with session_scope() as s:
+    with open_transaction() as s:
         assert mine(reconcile(s, stale_queued_s=60), cid) == []  # lease still valid: nothing to do
         s.execute(
             sa.update(IterationStep)
             .where(IterationStep.id == step.id)
             .values(lease_until=utcnow() - timedelta(seconds=1))
         )
-    with session_scope() as s:
+    with open_transaction() as s:
         (job,) = mine(reconcile(s, stale_queued_s=60), cid)
     assert (job.iteration, job.step.value, job.attempt) == (1, "train", 2)
     # the dead job's old message is stale; the new one runs, and the campaign completes
     assert protocol.run_step(cid, 1, "train", 1)["status"] == "duplicate"
     protocol.drive_inline(cid, [job])
     assert status(cid) == ("completed", "max_iterations")
-    with session_scope() as s:
+    with open_transaction() as s:
         assert repository.get_step(s, cid, 1, "train").attempts == 2
         assert len(surrogates_repo.own_versions(s, cid)) == 1
 
@@ -371,25 +371,25 @@ def test_a_worker_started_again_under_the_same_name_does_not_hide_its_dead_prede
     cid, jobs = make_campaign(stopping={"max_iterations": 1})
     protocol.run_step(cid, 0, "preliminary", 1, send=list(jobs).extend)
     beat("w1@host", starting=True)
-    with session_scope() as s:
+    with open_transaction() as s:
         step = repository.get_step(s, cid, 1, "train")
         assert repository.claim_step(s, step.id, 1, "old-token", "w1@host", lease_seconds=600)
-    with session_scope() as s:  # the claiming worker beats: its step is its own
+    with open_transaction() as s:  # the claiming worker beats: its step is its own
         assert mine(reconcile(s, stale_queued_s=600, dead_worker_s=10), cid) == []
     beat("w1@host")  # a later beat of the same process changes nothing
-    with session_scope() as s:
+    with open_transaction() as s:
         assert mine(reconcile(s, stale_queued_s=600, dead_worker_s=10), cid) == []
     beat("w1@host", starting=True)  # a first beat just after this process claimed the step
-    with session_scope() as s:
+    with open_transaction() as s:
         assert mine(reconcile(s, stale_queued_s=600, dead_worker_s=10), cid) == []
     beat("w1@host", starting=True)  # a new process under the same name, seconds after the claim
-    with session_scope() as s:
+    with open_transaction() as s:
         s.execute(
             sa.update(IterationStep)
             .where(IterationStep.id == step.id)
             .values(started_at=utcnow() - timedelta(seconds=5))
         )
-    with session_scope() as s:
+    with open_transaction() as s:
         (job,) = mine(reconcile(s, stale_queued_s=600, dead_worker_s=10), cid)
         assert "stopped beating (dead)" in (repository.get_step(s, cid, 1, "train").error or "")
     assert (job.iteration, job.step.value, job.attempt) == (1, "train", 2)
@@ -397,7 +397,7 @@ def test_a_worker_started_again_under_the_same_name_does_not_hide_its_dead_prede
 
 def test_the_reconciler_resends_a_queued_step_whose_message_was_lost(sqlite_campaign_db: str, make_campaign) -> None:
     cid, jobs = make_campaign(stopping={"max_iterations": 1})
-    with session_scope() as s:
+    with open_transaction() as s:
         assert mine(reconcile(s, stale_queued_s=60), cid) == []
         (job,) = mine(reconcile(s, stale_queued_s=0), cid)
     assert (job.iteration, job.step.value, job.attempt) == (0, "preliminary", 1)
@@ -408,7 +408,7 @@ def test_the_reconciler_resends_a_queued_step_whose_message_was_lost(sqlite_camp
 def test_a_fork_continues_from_the_source_pool_and_model_with_its_own_settings(campaign_db: str, make_campaign) -> None:
     src, jobs = make_campaign(stopping={"max_iterations": 1})
     protocol.drive_inline(src, jobs)
-    with session_scope() as s:
+    with open_transaction() as s:
         fork, jobs = service.fork(
             s,
             src,
@@ -419,7 +419,7 @@ def test_a_fork_continues_from_the_source_pool_and_model_with_its_own_settings(c
     assert [(j.iteration, j.step.value) for j in jobs] == [(2, "train")]
     protocol.drive_inline(fid, jobs)
     assert status(fid) == ("completed", "max_iterations")
-    with session_scope() as s:
+    with open_transaction() as s:
         src_pool1 = pool_repo.version_of(s, src, 1)
         src_model1 = surrogates_repo.own_versions(s, src)[0]
         (pv2,) = pool_repo.own_versions(s, fid)
@@ -437,13 +437,13 @@ def test_a_config_edit_creates_a_version_used_by_the_iterations_after_it(
     for _ in range(3):  # preliminary, train 1, ocp 1
         j = queue.pop(0)
         protocol.run_step(cid, j.iteration, j.step.value, j.attempt, send=queue.extend)
-    with session_scope() as s:
+    with open_transaction() as s:
         row = service.update_config(
             s, cid, CampaignConfigUpdate(stopping=StoppingRules(max_iterations=2, target_force_rmse=1e5), note="looser")
         )
         assert row.version == 2
     protocol.drive_inline(cid, queue)
-    with session_scope() as s:
+    with open_transaction() as s:
         c = repository.get_campaign(s, cid)
         assert (c.status, c.stop_reason, c.config_version) == (
             "completed",
@@ -469,7 +469,7 @@ def test_export_and_tables_hold_every_pool_version_model_and_metric(
 
     cid, jobs = make_campaign(stopping={"max_iterations": 1})
     protocol.drive_inline(cid, jobs)
-    with session_scope() as s:
+    with open_transaction() as s:
         root = export.export_campaign(s, cid, tmp_path / "out")
         table = pool_service.campaign_version_table(s, cid, 1, "csv")
         pv1 = pool_repo.version_of(s, cid, 1)
@@ -501,10 +501,10 @@ def test_export_and_tables_hold_every_pool_version_model_and_metric(
 
 
 def test_bad_requests_name_the_field(sqlite_campaign_db: str, make_campaign) -> None:
-    with session_scope() as s, pytest.raises(NotFound, match="campaign 1000000000 not found"):
+    with open_transaction() as s, pytest.raises(NotFound, match="campaign 1000000000 not found"):
         service.start(s, 10**9)
     cid, _ = make_campaign(start=False)
-    with session_scope() as s:
+    with open_transaction() as s:
         with pytest.raises(service.InvalidTransition, match="resume"):
             service.resume(s, cid)
         with pytest.raises(NotFound, match="no pool version 3 to fork from"):
@@ -528,7 +528,7 @@ def test_an_uploaded_preliminary_dataset_becomes_pool_version_zero(sqlite_campai
     lines = ["q_0,qd_0,fx,fy,fz,mx,my,mz"] + [
         ",".join(repr(float(v)) for v in (q[i], qd[i], *force[i], *moment[i])) for i in range(300)
     ]
-    with session_scope() as s:
+    with open_transaction() as s:
         owner = presets.local_user(s).id
         with pytest.raises(PoolDataError, match="fx"):
             pool_service.upload_preliminary_dataset(s, owner, "q_0,qd_0\n0.1,0.2\n", name="bad")
@@ -540,7 +540,7 @@ def test_an_uploaded_preliminary_dataset_becomes_pool_version_zero(sqlite_campai
     cid, jobs = make_campaign(preliminary={"dataset_ids": ids}, stopping={"max_iterations": 1})
     protocol.drive_inline(cid, jobs)
     assert status(cid) == ("completed", "max_iterations")
-    with session_scope() as s:
+    with open_transaction() as s:
         pv0 = pool_repo.version_of(s, cid, 0)
         assert members(s, pv0) == ids and pv0.n_samples == 300
         assert {d.origin for d in s.scalars(sa.select(Dataset).where(Dataset.id.in_(ids)))} == {"upload"}
@@ -558,7 +558,7 @@ def test_the_trust_region_setting_bounds_the_ensemble_std_of_the_ocp_solution(
         # set up with it; float32 training gives another model 1, for which that bound need not be feasible
         cid, jobs = make_campaign(stopping={"max_iterations": 1}, settings=settings, surrogate={"dtype": "float64"})
         protocol.drive_inline(cid, jobs)
-        with session_scope() as s:
+        with open_transaction() as s:
             (m,) = repository.metrics_series(s, cid)
             assert m.ocp_success and m.ocp_trust is not None
             return m.ocp_trust
@@ -581,7 +581,7 @@ def test_a_gated_campaign_trains_solves_and_predicts_no_force_with_the_gap_open(
 
     cid, jobs = make_campaign(surrogate={"architecture": "gated"}, stopping={"max_iterations": 1})
     protocol.drive_inline(cid, jobs)
-    with session_scope() as s:
+    with open_transaction() as s:
         (mv,) = surrogates_repo.own_versions(s, cid)
         assert mv.architecture["output"] == "gated" and mv.training_config["architecture"] == "gated"
         assert load_model(s, mv).gate is not None
@@ -603,7 +603,7 @@ def test_consecutive_failed_iterations_stop_the_campaign_and_a_success_resets_th
     )
     protocol.drive_inline(cid, jobs)
     assert status(cid) == ("completed", "failed_streak")
-    with session_scope() as s:
+    with open_transaction() as s:
         assert [it.status for it in repository.list_iterations(s, cid)] == [
             "succeeded",
             "failed",

@@ -11,7 +11,7 @@ def test_training_pool_from_cached_parent_equals_a_fresh_read(sqlite_campaign_db
     """Version k built from the cached version k-1 plus k's new rows is the same pool, in the
     same order, as reading version k whole; a version is never served for another one."""
     from alcove.campaigns.presets import local_user
-    from alcove.db import transaction
+    from alcove.db import run_transaction
     from alcove.db.migrate import upgrade
     from alcove.models import PoolVersion
     from alcove.pool import repository as pool_repo
@@ -24,7 +24,7 @@ def test_training_pool_from_cached_parent_equals_a_fresh_read(sqlite_campaign_db
         c = synthesize_campaign(s, local_user(s).id, iterations=4, pool_samples=20)
         return [pv.id for pv in s.query(PoolVersion).filter_by(campaign_id=c.id).order_by(PoolVersion.version)]
 
-    ids = transaction(build)
+    ids = run_transaction(build)
 
     def load_all(s: Any) -> list[list[Any]]:
         return [pool_service.load_training_pool(s, s.get(PoolVersion, i)) for i in ids]
@@ -33,12 +33,12 @@ def test_training_pool_from_cached_parent_equals_a_fresh_read(sqlite_campaign_db
     read_whole = pool_repo.members
     monkeypatch.setattr(pool_repo, "members", lambda s, i: whole_reads.append(i) or read_whole(s, i))
     pool_service._pool_cache.clear()
-    chained = transaction(load_all)  # each version after the first comes from its cached parent
+    chained = run_transaction(load_all)  # each version after the first comes from its cached parent
     assert whole_reads == ids[:1]
     fresh = []
     for i in ids:
         pool_service._pool_cache.clear()
-        fresh.append(transaction(lambda s, i=i: pool_service.load_training_pool(s, s.get(PoolVersion, i))))
+        fresh.append(run_transaction(lambda s, i=i: pool_service.load_training_pool(s, s.get(PoolVersion, i))))
     for k, (a, b) in enumerate(zip(chained, fresh, strict=False)):
         assert [d.name for d in a] == [d.name for d in b]
         assert len(a) == k + 1
@@ -50,12 +50,12 @@ def test_training_pool_from_cached_parent_equals_a_fresh_read(sqlite_campaign_db
     def members(s: Any) -> list[list[tuple[int, bool]]]:
         return [[(m.position, m.added_in_this_version) for m, _ in pool_repo.members(s, i)] for i in ids]
 
-    for k, rows in enumerate(transaction(members)):
+    for k, rows in enumerate(run_transaction(members)):
         assert rows == [(j, j == k) for j in range(k + 1)]
     # a cached entry whose content hash does not match the row is not used
     key = next(iter(pool_service._pool_cache))
     pool_service._pool_cache[key] = ("not-the-hash", [])
-    again = transaction(lambda s: pool_service.load_training_pool(s, s.get(PoolVersion, key[1])))
+    again = run_transaction(lambda s: pool_service.load_training_pool(s, s.get(PoolVersion, key[1])))
     assert len(again) > 0
 
 
@@ -67,7 +67,7 @@ def test_equal_arrays_with_a_moved_headrest_are_different_pool_content(sqlite_ca
     import hashlib
 
     from alcove.campaigns.presets import local_user
-    from alcove.db import transaction
+    from alcove.db import run_transaction
     from alcove.db.migrate import upgrade
     from alcove.models import Iteration
     from alcove.pool import service as pool_service
@@ -104,7 +104,7 @@ def test_equal_arrays_with_a_moved_headrest_are_different_pool_content(sqlite_ca
             hashes["sha"] = ds.content_sha256
         return hashes
 
-    h = transaction(versions)
+    h = run_transaction(versions)
     bare = hashlib.sha256(h["sha"].encode()).hexdigest()
     assert h["none"] == h["zero"] == bare
     assert len({h["none"], h["+3mm"], h["-3mm"]}) == 3

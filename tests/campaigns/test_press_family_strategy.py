@@ -18,7 +18,7 @@ def test_the_oracle_replays_the_family_sequence_in_order_whatever_the_batch(
     from alcove.campaigns.config import RunSettings
     from alcove.campaigns.run import protocol
     from alcove.campaigns.suite import family_box, suite_model
-    from alcove.db import session_scope, transaction
+    from alcove.db import open_transaction, run_transaction
     from alcove.models import Campaign, Iteration, IterationCandidate, OcpSolution
     from alcove.pool.repository import oracle_datasets
     from alcove.pool.service import dataset_arrays
@@ -32,7 +32,7 @@ def test_the_oracle_replays_the_family_sequence_in_order_whatever_the_batch(
     model = suite_model(task)
     box = family_box(RunSettings.model_validate(settings), task, model)
     assert box.dwell == (0, 0.05) and box.release[0] < 1  # the user's dwell, the task's histories
-    with session_scope() as s:
+    with open_transaction() as s:
         c = s.get(Campaign, cid)
         assert c is not None and c.status == "completed", c.status
         iterations = s.query(Iteration).filter_by(campaign_id=cid).filter(Iteration.index > 0).order_by(Iteration.index)
@@ -60,8 +60,8 @@ def test_the_oracle_replays_the_family_sequence_in_order_whatever_the_batch(
     # an edit of the batch size mid-campaign continues the sequence after the last motion used
     from alcove.campaigns.candidate_queries import family_motion_indices
 
-    assert transaction(lambda s: family_motion_indices(s, cid, 3)) == [0, 1, 2, 3]
-    assert transaction(lambda s: family_motion_indices(s, cid, 2)) == [0, 1]
+    assert run_transaction(lambda s: family_motion_indices(s, cid, 3)) == [0, 1, 2, 3]
+    assert run_transaction(lambda s: family_motion_indices(s, cid, 2)) == [0, 1]
 
 
 def test_a_family_range_the_task_cannot_reach_is_refused_naming_it(campaign_db: str, make_campaign: Any) -> None:
@@ -82,11 +82,11 @@ def test_left_open_the_family_start_is_decided_at_creation_by_the_oracle(campaig
     DEFAULT_FAMILY_MOTIONS replays for an FE oracle, none for the auxiliary law itself (its replays
     teach nothing its samples do not); a number given is kept, also 0."""
     from alcove.campaigns.config import DEFAULT_FAMILY_MOTIONS, current_config
-    from alcove.db import transaction
+    from alcove.db import run_transaction
     from alcove.models import Campaign
 
     def stored(cid: int) -> Any:
-        return transaction(lambda s: current_config(s, s.get(Campaign, cid)).preliminary.family_motions)
+        return run_transaction(lambda s: current_config(s, s.get(Campaign, cid)).preliminary.family_motions)
 
     open_fe, _ = make_campaign(oracle="fe-headrest-2d", preliminary={"family_motions": None}, start=False)
     open_aux, _ = make_campaign(oracle="aux-penalty", preliminary={"family_motions": None}, start=False)
@@ -105,7 +105,7 @@ def test_pool_version_0_can_start_from_oracle_replays_of_the_family_counted_as_o
     drop the auxiliary law's contact samples (their training splits hold oracle data)."""
     from alcove.campaigns.candidate_queries import family_motion_indices
     from alcove.campaigns.run import protocol
-    from alcove.db import session_scope, transaction
+    from alcove.db import open_transaction, run_transaction
     from alcove.models import Dataset, Iteration, ModelVersion, OracleRun, PoolVersion
     from tests.integration.procs import db_rows
 
@@ -116,7 +116,7 @@ def test_pool_version_0_can_start_from_oracle_replays_of_the_family_counted_as_o
         stopping={"max_iterations": 1},
     )
     protocol.drive_inline(cid, jobs)
-    with session_scope() as s:
+    with open_transaction() as s:
         it0 = s.query(Iteration).filter_by(campaign_id=cid, index=0).one()
         runs = s.query(OracleRun).filter_by(iteration_id=it0.id).order_by(OracleRun.slot).all()
         assert [(r.slot, r.status, r.ocp_solution_id) for r in runs] == [
@@ -131,11 +131,11 @@ def test_pool_version_0_can_start_from_oracle_replays_of_the_family_counted_as_o
         from alcove.surrogates.service import load_model
 
         lineage = load_model(s, s.query(ModelVersion).filter_by(campaign_id=cid, version=1).one()).lineage
-    assert transaction(lambda s: family_motion_indices(s, cid, 2)) == [3]  # iteration 1 replayed motion 3
+    assert run_transaction(lambda s: family_motion_indices(s, cid, 2)) == [3]  # iteration 1 replayed motion 3
     assert db_rows(campaign_db, "SELECT count(*) FROM oracle_runs WHERE campaign_id = :c", c=cid) == [(4,)]
     from alcove.campaigns.views.detail import metrics_series
 
-    with session_scope() as s:
+    with open_transaction() as s:
         (row,) = metrics_series(s, cid)
     assert (row.oracle_calls, row.cumulative_oracle_calls) == (1, 4)  # iteration 0's 3 replays count
     assert "drop" in str(lineage.get("preliminary_in_contact"))
@@ -149,7 +149,7 @@ def test_a_press_family_campaign_trains_and_scores_a_surrogate_with_history_stat
     replayed motion (its times), with the same figures as the science's own prediction."""
     from alcove.campaigns.run import protocol
     from alcove.campaigns.views.detail import iteration_curves
-    from alcove.db import session_scope
+    from alcove.db import open_transaction
     from alcove.models import Campaign, Iteration, IterationMetrics, ModelVersion, ValidationSuite
     from alcove.oracles.validation import run_motion
     from alcove.pool.repository import oracle_datasets
@@ -164,7 +164,7 @@ def test_a_press_family_campaign_trains_and_scores_a_surrogate_with_history_stat
     settings = {"strategy": "press-family", "batch": 1, "validation_motions": 2, "validation_reference_motions": 0}
     cid, jobs = make_campaign(seed=8, surrogate=history, settings=settings, stopping={"max_iterations": 2})
     protocol.drive_inline(cid, jobs)
-    with session_scope() as s:
+    with open_transaction() as s:
         versions = s.query(ModelVersion).filter_by(campaign_id=cid).order_by(ModelVersion.version).all()
         assert len(versions) == 2
         model = load_model(s, versions[1])
@@ -188,7 +188,7 @@ def test_a_press_family_campaign_trains_and_scores_a_surrogate_with_history_stat
     assert [run_motion(i) for i in motion_ids] == ["succeeded", "succeeded"]
     got = compute_for_model(mv_id, suite_id)
     assert got is not None
-    with session_scope() as s:
+    with open_transaction() as s:
         motions = [a for a in _suite_arrays(s, suite_id) if a.get("part") != "reference"]
     preds = [predict_ensemble(model, m["q"], m["qd"], t=m["t"]) for m in motions]
     want = wrench_metrics(
@@ -203,14 +203,14 @@ def test_the_paper_loop_solves_its_ocps_with_a_surrogate_with_history_states(
     """The paper's loop with the feature set 'history': each iteration's OCP carries the model's
     history states (converged, trusted or not by the same diagnostics along its midpoints)."""
     from alcove.campaigns.run import protocol
-    from alcove.db import session_scope
+    from alcove.db import open_transaction
     from alcove.models import Campaign, OcpSolution
 
     cid, jobs = make_campaign(
         seed=9, surrogate={"features": "history"}, settings={"validation_motions": 0}, stopping={"max_iterations": 2}
     )
     protocol.drive_inline(cid, jobs)
-    with session_scope() as s:
+    with open_transaction() as s:
         assert s.get(Campaign, cid).status == "completed"
         sols = s.query(OcpSolution).filter_by(campaign_id=cid).all()
         assert len(sols) == 2 and all(sol.success for sol in sols), [sol.solver_status for sol in sols]

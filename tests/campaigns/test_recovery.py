@@ -65,11 +65,11 @@ def start_through_the_outbox(make_campaign: Any, seed: int, fault: dict[str, Any
     """Create and start a one-iteration campaign the way the API does: the first job is
     recorded in the outbox with the change and sent after the commit."""
     from alcove.campaigns import service
-    from alcove.db import transaction
+    from alcove.db import run_transaction
     from alcove.jobs.campaign import send_committed, stage
 
     cid, _ = make_campaign(seed=seed, stopping={"max_iterations": 1}, fault=fault, start=False)
-    send_committed(transaction(lambda s: stage(s, service.start(s, cid)[1])))
+    send_committed(run_transaction(lambda s: stage(s, service.start(s, cid)[1])))
     return cid
 
 
@@ -234,7 +234,7 @@ def test_a_job_whose_sender_died_after_the_commit_is_sent_by_a_workers_relay(
     """An API killed between its commit and the send (the job is only in the outbox): the
     relay of a running worker sends it; the step runs once, on its first attempt."""
     from alcove.campaigns import service
-    from alcove.db import transaction
+    from alcove.db import run_transaction
     from alcove.jobs.campaign import stage
 
     env = pg_redis_default_lease
@@ -242,7 +242,7 @@ def test_a_job_whose_sender_died_after_the_commit_is_sent_by_a_workers_relay(
     try:
         wait_for(lambda: " ready." in w.output(), 90, "the worker", w)
         cid, _ = make_campaign(seed=24, stopping={"max_iterations": 1}, start=False)
-        transaction(lambda s: stage(s, service.start(s, cid)[1]))  # committed, never sent by "the API"
+        run_transaction(lambda s: stage(s, service.start(s, cid)[1]))  # committed, never sent by "the API"
         committed = datetime.now(UTC)
         claimed = wait_for(
             lambda: (r := step_row(pg_url, cid, 0, "preliminary")) and r[3] is not None and r, 60, "the claim", w

@@ -19,7 +19,7 @@ from alcove.campaigns import repository
 from alcove.campaigns.run import protocol
 from alcove.campaigns.run.reconciler import reconcile
 from alcove.campaigns.views import detail
-from alcove.db import session_scope
+from alcove.db import open_transaction
 from alcove.db.arrays import get_arrays
 from alcove.models import IterationStep, utcnow
 from alcove.pool import repository as pool_repo
@@ -45,7 +45,7 @@ def test_random_scenarios_solve_one_seeded_draw_per_iteration_and_a_rerun_draws_
     protocol.run_step(cid, 0, "preliminary", 1, send=queue.extend)
     protocol.run_step(cid, 1, "train", 1, send=queue.extend)
     # a worker claims iteration 1's OCP and dies: the reconciler sends attempt 2
-    with session_scope() as s:
+    with open_transaction() as s:
         step = repository.get_step(s, cid, 1, "ocp")
         assert repository.claim_step(s, step.id, 1, "dead-token", "dead@host", lease_seconds=60)
         s.execute(
@@ -53,13 +53,13 @@ def test_random_scenarios_solve_one_seeded_draw_per_iteration_and_a_rerun_draws_
             .where(IterationStep.id == step.id)
             .values(lease_until=utcnow() - timedelta(seconds=1))
         )
-    with session_scope() as s:
+    with open_transaction() as s:
         (job,) = [j for j in reconcile(s, stale_queued_s=60) if j.campaign_id == cid]
     assert (job.iteration, job.step.value, job.attempt) == (1, "ocp", 2)
     protocol.drive_inline(cid, [job])
 
     task = task_preset(TASK)
-    with session_scope() as s:
+    with open_transaction() as s:
         assert repository.get_campaign(s, cid).status == "completed"
         assert repository.get_step(s, cid, 1, "ocp").attempts == 2
         stored = {}
@@ -96,7 +96,7 @@ def test_random_scenarios_solve_one_seeded_draw_per_iteration_and_a_rerun_draws_
         assert {i.index: i.scenario for i in detail.list_iterations(s, cid)}[2] == stored[2]
     # a duplicate delivery of the finished OCP step is a no-op: the stored scenario stays
     assert protocol.run_step(cid, 1, "ocp", 2)["status"] == "duplicate"
-    with session_scope() as s:
+    with open_transaction() as s:
         assert repository.get_iteration(s, cid, 1).scenario == stored[1]
 
 
@@ -128,7 +128,7 @@ def test_a_tilted_headrest_scenario_is_simulated_recorded_trained_and_scored_aga
         task=TASK, task_spec=spec, seed=2, settings={"strategy": "random-scenarios"}, stopping={"max_iterations": 1}
     )
     protocol.drive_inline(cid, jobs)
-    with session_scope() as s:
+    with open_transaction() as s:
         assert repository.get_campaign(s, cid).status == "completed"
         it = repository.get_iteration(s, cid, 1)
         tilt = it.scenario["values"]["model.tilt"]

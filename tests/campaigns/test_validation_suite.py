@@ -98,12 +98,12 @@ def test_suite_is_shared_replayed_once_never_pooled_and_evaluates_every_model(
     assert [run_motion(m, "w") for m in motions] == ["duplicate"] * 3  # a duplicate delivery does nothing
     assert db_rows(campaign_db, "SELECT status FROM validation_suites WHERE id = :s", s=suite_id) == [("complete",)]
     # model version 1 of a: a hand-computed ensemble evaluation (calibration 4/6) through the storage path
-    from alcove.db import transaction
+    from alcove.db import run_transaction
     from alcove.surrogates.validation import metrics_from_predictions, store_for_model
 
     ((mv1,),) = db_rows(campaign_db, "SELECT id FROM model_versions WHERE campaign_id = :c AND version = 1", c=a)
     hand = metrics_from_predictions(*_hand_calibration_case())
-    assert transaction(lambda s: store_for_model(s, mv1, suite_id, hand)) is True
+    assert run_transaction(lambda s: store_for_model(s, mv1, suite_id, hand)) is True
     assert evaluate_suite(suite_id) == 1  # model version 2 (the campaign's own K = 2 ensemble)
     assert evaluate_suite(suite_id) == 0  # idempotent
     cal = "SELECT mv.version, v.calibration, v.calibration_recorded FROM validation_metrics v "
@@ -113,9 +113,9 @@ def test_suite_is_shared_replayed_once_never_pooled_and_evaluates_every_model(
     assert v2[0] == 2 and 0.0 <= v2[1] <= 1.0 and v2[2]
     from alcove.campaigns.views.detail import metrics_series
     from alcove.campaigns.views.validation import validation_series
-    from alcove.db import session_scope
+    from alcove.db import open_transaction
 
-    with session_scope() as s:
+    with open_transaction() as s:
         served = [(m.validation_calibration, m.validation_calibration_recorded) for m in metrics_series(s, a)]
         series_a = validation_series(s, s.get(Campaign, a))
         points = series_a.points
@@ -166,9 +166,9 @@ def test_suite_is_shared_replayed_once_never_pooled_and_evaluates_every_model(
 
     # served next to the in-loop RMSE
     from alcove.campaigns.views.detail import get_detail, metrics_series
-    from alcove.db import session_scope
+    from alcove.db import open_transaction
 
-    with session_scope() as s:
+    with open_transaction() as s:
         series = metrics_series(s, b)
         detail = get_detail(s, b)
     assert [m.validation_force_rmse is not None and m.force_rmse is not None for m in series] == [True, True]
@@ -183,7 +183,7 @@ def test_suite_is_shared_replayed_once_never_pooled_and_evaluates_every_model(
 
     from alcove.campaigns.views.export import export_zip
 
-    with session_scope() as s:
+    with open_transaction() as s:
         z = zipfile.ZipFile(io.BytesIO(export_zip(s, b, models=False)))
     names = z.namelist()
     assert [n for n in names if "/validation/" in n] == [
@@ -219,7 +219,7 @@ def test_reconciler_resends_lost_motions_and_fails_a_suite_whose_last_attempt_di
     import sqlalchemy as sa
 
     from alcove.campaigns.run import protocol
-    from alcove.db import transaction
+    from alcove.db import run_transaction
     from alcove.models import ValidationMotion, ValidationSuite, utcnow
     from alcove.oracles.validation import reconcile_motions
 
@@ -239,10 +239,10 @@ def test_reconciler_resends_lost_motions_and_fails_a_suite_whose_last_attempt_di
         motions[1].status, motions[1].attempts, motions[1].lease_until = "running", 3, past  # its last worker died
         return [m.id for m in motions]
 
-    lost, dead = transaction(age)
+    lost, dead = run_transaction(age)
 
     def resent() -> list[int]:  # (other tests' suites share the database: only this suite's motions count)
-        return [m for m in transaction(lambda s: reconcile_motions(s, timedelta(seconds=60))) if m in (lost, dead)]
+        return [m for m in run_transaction(lambda s: reconcile_motions(s, timedelta(seconds=60))) if m in (lost, dead)]
 
     assert resent() == [lost]
     assert resent() == []  # re-sent once, not again at once
@@ -251,7 +251,7 @@ def test_reconciler_resends_lost_motions_and_fails_a_suite_whose_last_attempt_di
         d, suite = s.get(ValidationMotion, dead), s.get(ValidationMotion, lost)
         return d.status, s.get(ValidationSuite, d.suite_id).status, suite.status
 
-    assert transaction(states) == ("failed", "replaying", "queued")  # the lost one may still succeed
+    assert run_transaction(states) == ("failed", "replaying", "queued")  # the lost one may still succeed
 
 
 def test_the_stress_part_is_scored_apart_and_the_suite_figures_cover_the_core_motions(
@@ -262,7 +262,7 @@ def test_the_stress_part_is_scored_apart_and_the_suite_figures_cover_the_core_mo
     error over the stress motions', each recomputed here from the stored replays."""
     from alcove.campaigns.run import protocol
     from alcove.campaigns.views.validation import validation_series
-    from alcove.db import session_scope
+    from alcove.db import open_transaction
     from alcove.models import Campaign, ModelVersion, ValidationSuite
     from alcove.oracles.validation import run_motion
     from alcove.science.surrogate.training import predict_ensemble
@@ -284,7 +284,7 @@ def test_the_stress_part_is_scored_apart_and_the_suite_figures_cover_the_core_mo
     rows = db_rows(campaign_db, 'SELECT id FROM validation_motions WHERE suite_id = :s ORDER BY "index"', s=suite_id)
     assert [run_motion(m, "w") for (m,) in rows] == ["succeeded"] * 4
     evaluate_suite(suite_id)
-    with session_scope() as s:
+    with open_transaction() as s:
         suite = s.get(ValidationSuite, suite_id)
         assert suite is not None and suite.spec["ranges"]["dwell"] == [0.0, 0.05]  # the user's range
         assert suite.spec["ranges"]["release"] == [0.3, 1.0]  # derived from the task: with histories
@@ -331,7 +331,7 @@ def test_the_best_possible_line_learns_from_its_reference_replays_alone_and_is_c
     force (the oracle here is the auxiliary law itself: learnable from its replays)."""
     from alcove.campaigns.run import protocol
     from alcove.campaigns.views.validation import validation_series
-    from alcove.db import session_scope
+    from alcove.db import open_transaction
     from alcove.models import Campaign, ValidationSuite
     from alcove.oracles.validation import run_motion
     from alcove.science.press_family import sequence_motion
@@ -351,7 +351,7 @@ def test_the_best_possible_line_learns_from_its_reference_replays_alone_and_is_c
     evaluate_suite(suite_id)  # the evaluation job: the model versions, then the line, once
     assert compute_reference_line(suite_id) is True
     assert compute_reference_line(suite_id) is False
-    with session_scope() as s:
+    with open_transaction() as s:
         suite = s.get(ValidationSuite, suite_id)
         assert suite is not None and suite.status == "complete"
         spec, model = SuiteSpec.from_dict(suite.spec), suite_model_from_dict(suite.preset)

@@ -445,7 +445,7 @@ def test_an_api_restart_mid_campaign_changes_nothing_and_the_new_api_controls_it
     import httpx
 
     from alcove.campaigns.presets import local_user
-    from alcove.db import transaction
+    from alcove.db import run_transaction
     from alcove.users import service as users
 
     expected = reference_pool(make_campaign, seed=13, iterations=3, url=pg_url)
@@ -454,7 +454,7 @@ def test_an_api_restart_mid_campaign_changes_nothing_and_the_new_api_controls_it
     # always meets a running campaign
     fault = {"train": {"sleep_s": 2, "iterations": [2]}, "ocp": {"sleep_s": 15, "iterations": [3]}}
     cid, _ = quick_campaign(make_campaign, 13, 3, fault=fault, start=False)
-    token = transaction(lambda s: users.create_token(s, local_user(s), "api-restart-test", None)[1])
+    token = run_transaction(lambda s: users.create_token(s, local_user(s), "api-restart-test", None)[1])
     port = free_port()
     base, headers = f"http://127.0.0.1:{port}/api/v1", {"Authorization": f"Bearer {token}"}
     env = {**pg_redis, "ALCOVE_API_HOST": "127.0.0.1", "ALCOVE_API_PORT": str(port)}

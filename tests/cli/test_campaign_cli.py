@@ -61,11 +61,11 @@ def status(cid: int) -> dict[str, Any]:
 def run_queued_steps(cid: int) -> None:
     """What a worker would do with the messages `start`/`resume` sent: run the queued step to the end."""
     from alcove.campaigns.run.protocol import drive_inline
-    from alcove.db import session_scope
+    from alcove.db import open_transaction
     from alcove.jobs.campaign import StepJob
     from alcove.models import Iteration, IterationStep, StepName
 
-    with session_scope() as s:
+    with open_transaction() as s:
         queued = (
             s.query(Iteration.index, IterationStep)
             .join(IterationStep, IterationStep.iteration_id == Iteration.id)

@@ -259,14 +259,14 @@ def test_predict_rejects_a_trajectory_of_another_chain(tmp_path, quick_config):
 def test_train_on_a_campaign_pool(tmp_path, sqlite_url):
     """--campaign reads the latest pool version, the campaign's surrogate config, task geometry and seed."""
     from alcove import models as m
-    from alcove.db.session import session_scope
+    from alcove.db.session import open_transaction
     from alcove.pool.service import create_version, store_dataset
     from alcove.science.ocp.task_spec import task_preset
     from alcove.science.surrogate.preliminary import preliminary_pool
 
     task_spec = task_preset("head-headrest-2phase").model_dump(mode="json")
     config_spec = {"max_epochs": 7, "batch_size": 128}
-    with session_scope(sqlite_url) as s:
+    with open_transaction(sqlite_url) as s:
         user = m.User(email="cli-surrogate@x.org", role=m.Role.member.value)
         tv = m.TaskVersion(
             definition=m.TaskDefinition(owner=user, name="t", latest_version=1),

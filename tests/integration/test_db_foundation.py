@@ -18,7 +18,7 @@ from alcove.db import (
     make_engine,
     normalize_url,
     retry_on_locked,
-    run_in_transaction,
+    run_transaction_on,
 )
 from alcove.db.bootstrap import ensure_first_admin
 
@@ -85,7 +85,7 @@ def test_non_retryable_errors_are_raised_at_once(tmp_path: Path) -> None:
 
 
 def test_concurrent_writers_on_sqlite_all_commit(tmp_path: Path) -> None:
-    """Several threads incrementing one counter through run_in_transaction: none lost."""
+    """Several threads incrementing one counter through run_transaction_on: none lost."""
     url = f"sqlite:///{tmp_path / 'c.db'}"
     with make_engine(url).begin() as c:
         c.exec_driver_sql("CREATE TABLE counter (n INTEGER)")
@@ -94,7 +94,7 @@ def test_concurrent_writers_on_sqlite_all_commit(tmp_path: Path) -> None:
 
     def bump() -> None:
         for _ in range(20):
-            run_in_transaction(factory, lambda s: s.execute(sa.text("UPDATE counter SET n = n + 1")))
+            run_transaction_on(factory, lambda s: s.execute(sa.text("UPDATE counter SET n = n + 1")))
 
     threads = [threading.Thread(target=bump) for _ in range(4)]
     for t in threads:

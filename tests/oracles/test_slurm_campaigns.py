@@ -93,7 +93,7 @@ def env(pg_redis: dict[str, str], slurm: Path, monkeypatch: pytest.MonkeyPatch) 
 def start(make_campaign: Any, oracle: str, q: int, **policies: Any) -> int:
     """A one-iteration batch campaign of ``q`` picks on a Slurm entry, started through the outbox."""
     from alcove.campaigns import service
-    from alcove.db import transaction
+    from alcove.db import run_transaction
     from alcove.jobs.campaign import send_committed, stage
 
     cid, _ = make_campaign(
@@ -106,7 +106,7 @@ def start(make_campaign: Any, oracle: str, q: int, **policies: Any) -> int:
         start=False,
         **LIGHT,
     )
-    send_committed(transaction(lambda s: stage(s, service.start(s, cid)[1])))
+    send_committed(run_transaction(lambda s: stage(s, service.start(s, cid)[1])))
     return cid
 
 
@@ -155,9 +155,9 @@ def test_a_batch_iterations_oracle_calls_run_as_slurm_jobs_at_once(
     )
     # shown: each oracle step's job in the API's job list and in `alcove campaign status`
     from alcove.campaigns.views import detail
-    from alcove.db import session_scope
+    from alcove.db import open_transaction
 
-    with session_scope() as s:
+    with open_transaction() as s:
         listed = [j for j in detail.list_jobs(s, cid) if j["step"] == "oracle"]
     assert sorted((j["slot"], j["batch_jobs"][0]["state"]) for j in listed) == [(k, "collected") for k in range(4)]
     assert {j["batch_jobs"][0]["job_id"] for j in listed} == {j[0] for j in jobs}
@@ -176,7 +176,7 @@ def test_a_time_limit_fails_its_call_and_pausing_or_cancelling_the_campaign_canc
     job is cancelled in Slurm and its step waits, pending; the resume submits the call again as
     a new job; cancelling the campaign cancels that one."""
     from alcove.campaigns import service
-    from alcove.db import transaction
+    from alcove.db import run_transaction
 
     slot_step = "SELECT status, error FROM iteration_steps WHERE campaign_id = :c AND step = 'oracle' AND slot = :k"
     cid = start(make_campaign, "slurm-long", 2, oracle_max_attempts=1)
@@ -200,7 +200,7 @@ def test_a_time_limit_fails_its_call_and_pausing_or_cancelling_the_campaign_canc
         assert [j[1] for j in db_rows(pg_url, JOBS, c=cid) if j[4] == 0] == ["failed"]
         assert scheduler_state(by_slot[0][0]) == "TO"
 
-        transaction(lambda s: service.pause(s, cid))
+        run_transaction(lambda s: service.pause(s, cid))
         wait_for(
             lambda: db_rows(pg_url, "SELECT 1 FROM campaigns WHERE id = :c AND status = 'paused'", c=cid),
             60,
@@ -211,7 +211,7 @@ def test_a_time_limit_fails_its_call_and_pausing_or_cancelling_the_campaign_canc
         assert [j[1] for j in db_rows(pg_url, JOBS, c=cid) if j[4] == 1] == ["cancelled"]
         wait_for(lambda: scheduler_state(by_slot[1][0]) == "CA", 10, "Slurm to show the paused call's job cancelled")
 
-        transaction(lambda s: service.resume(s, cid))
+        run_transaction(lambda s: service.resume(s, cid))
         again = wait_for(
             lambda: [j for j in db_rows(pg_url, JOBS, c=cid) if j[4] == 1 and j[1] == "running"],
             60,
@@ -219,7 +219,7 @@ def test_a_time_limit_fails_its_call_and_pausing_or_cancelling_the_campaign_canc
             worker,
         )
         assert again[0][0] != by_slot[1][0]
-        transaction(lambda s: service.cancel(s, cid))
+        run_transaction(lambda s: service.cancel(s, cid))
         wait_for(lambda: db_rows(pg_url, ENDED, c=cid), 60, "the campaign to be cancelled", worker)
     finally:
         stop_all([worker])

@@ -3,7 +3,7 @@ fork. Every function takes a ``Session``, never commits, and returns domain obje
 where the change makes work necessary, the :class:`StepJob` list that the caller records
 in the job outbox in the same transaction and sends AFTER committing::
 
-    with session_scope() as s:
+    with open_transaction() as s:
         campaign, jobs = service.start(s, campaign_id)
         staged = stage(s, jobs)  # alcove.jobs.campaign
     send_committed(staged)

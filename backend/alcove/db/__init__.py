@@ -2,14 +2,14 @@
 
 from alcove.db.arrays import decode_arrays, encode_arrays, get_arrays, get_bytes, put_arrays, put_bytes
 from alcove.db.engine import is_sqlite, make_engine, normalize_url
-from alcove.db.retry import is_retryable_db_error, retry_on_locked, run_in_transaction
+from alcove.db.retry import is_retryable_db_error, retry_on_locked, run_transaction_on
 from alcove.db.session import (
     dispose_engines,
     get_engine,
     get_sessionmaker,
     get_write_sessionmaker,
-    session_scope,
-    transaction,
+    open_transaction,
+    run_transaction,
 )
 
 __all__ = [
@@ -25,10 +25,10 @@ __all__ = [
     "is_sqlite",
     "make_engine",
     "normalize_url",
+    "open_transaction",
     "put_arrays",
     "put_bytes",
     "retry_on_locked",
-    "run_in_transaction",
-    "session_scope",
-    "transaction",
+    "run_transaction",
+    "run_transaction_on",
 ]

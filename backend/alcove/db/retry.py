@@ -78,7 +78,7 @@ def retry_on_locked(
     return wrap(fn) if fn is not None else wrap
 
 
-def run_in_transaction(factory: sessionmaker[Session], work: Callable[[Session], T], *, attempts: int = 8) -> T:
+def run_transaction_on(factory: sessionmaker[Session], work: Callable[[Session], T], *, attempts: int = 8) -> T:
     """Run ``work(session)`` in a fresh session and commit; on a retryable error roll back
     and run it again. ``work`` must not commit and must be safe to repeat."""
 

@@ -4,10 +4,11 @@
   SQLite) for requests and reads.
 * :func:`get_write_sessionmaker`: on SQLite its transactions start with ``BEGIN
   IMMEDIATE`` (jobs that read then write); on PostgreSQL it is the normal factory.
-* :func:`session_scope`: ``with session_scope() as s:`` commits on success, rolls back on
-  error.
-* :func:`transaction`: run a function in a committed transaction, retried on
-  "database is locked" / serialization failures.
+* :func:`open_transaction`: ``with open_transaction() as s:`` one transaction, committed when
+  the block ends, rolled back on error, tried once (reads, and writes that must not repeat).
+* :func:`run_transaction`: ``run_transaction(work)`` runs a function in a committed write
+  transaction, run again on "database is locked" / serialization failures (so ``work`` must be
+  safe to repeat); :func:`alcove.db.retry.run_transaction_on` is the same on a given session factory.
 
 Workers forked by Celery must call :func:`dispose_engines` in the child
 (``worker_process_init``) so they do not share pooled connections with the parent.
@@ -24,7 +25,7 @@ from sqlalchemy import Engine
 from sqlalchemy.orm import Session, sessionmaker
 
 from alcove.db.engine import is_sqlite, make_engine
-from alcove.db.retry import run_in_transaction
+from alcove.db.retry import run_transaction_on
 
 T = TypeVar("T")
 
@@ -66,17 +67,17 @@ def get_write_sessionmaker(url: str | None = None) -> sessionmaker[Session]:
 
 
 @contextmanager
-def session_scope(url: str | None = None, *, immediate: bool = False) -> Iterator[Session]:
+def open_transaction(url: str | None = None, *, immediate: bool = False) -> Iterator[Session]:
     """A session in a transaction: commit on success, roll back on error."""
     factory = get_sessionmaker(url, immediate=immediate)
     with factory() as session, session.begin():
         yield session
 
 
-def transaction(work: Callable[[Session], T], *, url: str | None = None, attempts: int = 8) -> T:
+def run_transaction(work: Callable[[Session], T], *, url: str | None = None, attempts: int = 8) -> T:
     """Run ``work(session)`` in one committed write transaction, retried when the database
     is busy. ``work`` must not commit and must be safe to run again."""
-    return run_in_transaction(get_write_sessionmaker(url), work, attempts=attempts)
+    return run_transaction_on(get_write_sessionmaker(url), work, attempts=attempts)
 
 
 def dispose_engines(close: bool = False) -> None:

@@ -17,7 +17,7 @@ from typing import Any
 import sqlalchemy as sa
 
 import alcove
-from alcove.db import session_scope, transaction
+from alcove.db import open_transaction, run_transaction
 from alcove.models import WorkerHeartbeat, utcnow
 
 log = logging.getLogger(__name__)
@@ -53,14 +53,14 @@ def beat(
         if meta is not None:
             row.meta = meta
 
-    transaction(work)
+    run_transaction(work)
 
 
 def mark_stopped(name: str) -> None:
     def work(s: sa.orm.Session) -> None:
         s.execute(sa.update(WorkerHeartbeat).where(WorkerHeartbeat.name == name).values(stopped_at=utcnow()))
 
-    transaction(work)
+    run_transaction(work)
 
 
 def live_workers(stale_seconds: float, session: sa.orm.Session | None = None) -> list[WorkerHeartbeat]:
@@ -73,7 +73,7 @@ def live_workers(stale_seconds: float, session: sa.orm.Session | None = None) ->
     )
     if session is not None:
         return list(session.scalars(q))
-    with session_scope() as s:
+    with open_transaction() as s:
         return list(s.scalars(q))
 
 

@@ -42,7 +42,7 @@ from typing import Any
 import sqlalchemy as sa
 from sqlalchemy.orm import Session
 
-from alcove.db import get_sessionmaker, transaction
+from alcove.db import get_sessionmaker, run_transaction
 from alcove.jobs import queue_for, send_job
 from alcove.models import JobOutbox, utcnow
 from alcove.settings import get_settings
@@ -170,7 +170,7 @@ def relay_pass(ids: Iterable[int] | None = None) -> int:
             sent += 1
         return sent
 
-    return transaction(work)
+    return run_transaction(work)
 
 
 def send_now(ids: Iterable[int]) -> None:
@@ -192,7 +192,7 @@ def mark_delivered(message_id: str) -> None:
             .values(delivered_at=utcnow())
         )
 
-    transaction(work)
+    run_transaction(work)
 
 
 def waiting(session: Session, subjects: Sequence[str]) -> set[str]:
@@ -223,7 +223,7 @@ def prune() -> int:
         res = s.execute(sa.delete(JobOutbox).where(JobOutbox.delivered_at < utcnow() - KEEP_DELIVERED))
         return int(getattr(res, "rowcount", 0) or 0)
 
-    return transaction(work)
+    return run_transaction(work)
 
 
 class RelayThread(threading.Thread):

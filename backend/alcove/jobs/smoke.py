@@ -10,7 +10,7 @@ from typing import Any
 
 import sqlalchemy as sa
 
-from alcove.db import session_scope, transaction
+from alcove.db import open_transaction, run_transaction
 from alcove.models import SmokeCheck
 from alcove.science.parallel import usable_cpus
 
@@ -38,11 +38,11 @@ def run_smoke(token: str, worker_name: str, sent_at: float | None = None) -> int
         s.flush()
         return row.id
 
-    return transaction(work)
+    return run_transaction(work)
 
 
 def smoke_result(token: str) -> dict[str, Any] | None:
-    with session_scope() as s:
+    with open_transaction() as s:
         row = s.scalar(sa.select(SmokeCheck).where(SmokeCheck.token == token))
         if row is None:
             return None

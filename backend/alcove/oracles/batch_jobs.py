@@ -18,7 +18,7 @@ import sqlalchemy as sa
 from sqlalchemy.orm import Session
 from sqlalchemy.orm.attributes import set_committed_value
 
-from alcove.db import transaction
+from alcove.db import run_transaction
 from alcove.models import IterationStep, utcnow
 from alcove.models.base import BatchJobState
 from alcove.models.data import OracleBatchJob
@@ -71,7 +71,7 @@ class StepBatchJobs:
             self.row_id = row.id
             return as_batch_job(row)
 
-        return transaction(find)
+        return run_transaction(find)
 
     def record(self, job: BatchJob) -> None:
         values: dict[str, Any] = {
@@ -96,7 +96,7 @@ class StepBatchJobs:
             s.execute(sa.update(OracleBatchJob).where(OracleBatchJob.id == self.row_id).values(**values))
             return self.row_id
 
-        self.row_id = transaction(write)
+        self.row_id = run_transaction(write)
 
     def mark_collected(self, s: Session) -> None:
         """In the transaction that stores the call's result: its job has given it."""

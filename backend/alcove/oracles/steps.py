@@ -16,7 +16,7 @@ import numpy as np
 from cachetools import LRUCache, cached
 from sqlalchemy.orm import Session
 
-from alcove.db import session_scope
+from alcove.db import open_transaction
 from alcove.db.arrays import get_arrays, put_arrays
 from alcove.jobs.step_contract import IterationRef, StepOutput, StepPaused, StepRun, UnusableResult, WriteRows
 from alcove.models import OracleRun, OracleVersion, QuarantinedResult, utcnow
@@ -87,7 +87,7 @@ def replay(
     a command oracle with a batch launcher keeps its job (a later attempt attaches to it)."""
     from alcove.science.ocp.replay import replay_trajectory
 
-    with session_scope() as s:
+    with open_transaction() as s:
         oracle = load_oracle(s, oracle_version_id, task.model.oracle_preset())
         arrays = get_arrays(s, trajectory_sha256)
     traj = replay_trajectory(arrays, task, replay_phases, replay_dt)
@@ -230,7 +230,7 @@ def replay_motions(
     transaction; the write records one oracle run per motion in the iteration (slots 0, 1, ...;
     they count as the campaign's oracle calls) and returns the datasets (origin ``oracle``) of
     those that passed the quality gate; a refused one is quarantined with its reason."""
-    with session_scope() as s:
+    with open_transaction() as s:
         oracle = load_oracle(s, oracle_version_id, preset)
     results = []
     for traj in trajectories:

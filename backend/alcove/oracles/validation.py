@@ -137,7 +137,7 @@ def claim(s: Session, motion_id: int, token: str, worker_name: str) -> int | Non
 
 def run_motion(motion_id: int, worker_name: str = "local") -> str:
     """The job of one motion: claim, replay, record. Returns the motion's status (or ``duplicate``)."""
-    from alcove.db import session_scope, transaction
+    from alcove.db import open_transaction, run_transaction
     from alcove.oracles.steps import load_oracle
     from alcove.science.ocp.task_spec import ModelSpec
     from alcove.science.validation_suite import (
@@ -149,13 +149,13 @@ def run_motion(motion_id: int, worker_name: str = "local") -> str:
     )
 
     token = uuid.uuid4().hex
-    attempt = transaction(lambda s: claim(s, motion_id, token, worker_name))
+    attempt = run_transaction(lambda s: claim(s, motion_id, token, worker_name))
     if attempt is None:
         return "duplicate"
     res, traj, error = None, None, None
     t0 = time.perf_counter()
     try:
-        with session_scope() as s:
+        with open_transaction() as s:
             row = s.get(ValidationMotion, motion_id)
             assert row is not None
             suite = s.get(ValidationSuite, row.suite_id)
@@ -178,7 +178,7 @@ def run_motion(motion_id: int, worker_name: str = "local") -> str:
         log.exception("validation motion %d failed (attempt %d)", motion_id, attempt)
         error = f"{type(err).__name__}: {err}"
     wall = time.perf_counter() - t0
-    return str(transaction(lambda s: _record(s, motion_id, token, traj, res, error, wall)))
+    return str(run_transaction(lambda s: _record(s, motion_id, token, traj, res, error, wall)))
 
 
 def _record(s: Session, motion_id: int, token: str, traj: Any, res: Any, error: str | None, wall: float) -> str:

@@ -257,7 +257,7 @@ def _fail_if_stale(session: Session, row: Preview) -> None:
         error = (
             f"{what} within {minutes} minutes: is a worker listening on queue '{_queue(row)}'? Ask for a new preview."
         )
-    from alcove.db import transaction
+    from alcove.db import run_transaction
 
     now = utcnow()
     stmt = (
@@ -278,7 +278,7 @@ def _fail_if_stale(session: Session, row: Preview) -> None:
         )  # an UPDATE's result is a CursorResult (Session.execute is typed Result)
         return result.rowcount
 
-    if transaction(fail):
+    if run_transaction(fail):
         session.expunge(row)  # answer with the new state without writing through this session
         row.status, row.error, row.finished_at = PreviewStatus.failed.value, error, now
 
@@ -293,8 +293,8 @@ def send(row_id: int) -> None:
     """After the commit: send the preview's job now. A failed send loses nothing: the job
     waits in the outbox (the preview says "waiting for the job queue") and the outbox relay
     sends it when the broker is back."""
-    from alcove.db import session_scope
+    from alcove.db import open_transaction
 
-    with session_scope() as s:
+    with open_transaction() as s:
         ids = outbox.unsent_ids(s, subject(row_id))
     outbox.send_now(ids)

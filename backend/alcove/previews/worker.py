@@ -43,12 +43,12 @@ def claim(session: Session, preview_id: int, worker_name: str) -> int | None:
 
 def run_preview(preview_id: int, worker_name: str) -> str:
     """The worker's job: claim, compute, record. Returns the final status (or ``skipped``)."""
-    from alcove.db import transaction
+    from alcove.db import run_transaction
 
-    attempt = transaction(lambda s: claim(s, preview_id, worker_name))
+    attempt = run_transaction(lambda s: claim(s, preview_id, worker_name))
     if attempt is None:
         return "skipped"  # a duplicate delivery, or already done
-    row = transaction(lambda s: _snapshot(s, preview_id))
+    row = run_transaction(lambda s: _snapshot(s, preview_id))
     try:
         result = compute(row["kind"], row["spec"], row["options"], row["catalogue"])
         status, error = PreviewStatus.succeeded.value, None
@@ -63,7 +63,7 @@ def run_preview(preview_id: int, worker_name: str) -> str:
             .values(status=status, result=result, error=error, finished_at=utcnow())
         )
 
-    transaction(record)
+    run_transaction(record)
     return status
 
 

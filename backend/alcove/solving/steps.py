@@ -12,7 +12,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from sqlalchemy.orm import Session
 
-from alcove.db import session_scope
+from alcove.db import open_transaction
 from alcove.db.arrays import get_arrays, put_arrays
 from alcove.jobs.step_contract import IterationRef, StepOutput, StepRun, UnusableResult
 from alcove.models import ModelVersion, OcpSolution, PoolVersion
@@ -121,7 +121,7 @@ def solve(
     from alcove.science.surrogate.training import moved_headrest, pool_features, pose_kinematics, preset_kinematics
     from alcove.science.surrogate.trust import assess_solution, force_variance_function
 
-    with session_scope() as s:
+    with open_transaction() as s:
         mv = s.get(ModelVersion, model_version_id)
         if mv is None:
             raise RuntimeError(f"model version id {model_version_id} does not exist")

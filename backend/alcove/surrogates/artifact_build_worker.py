@@ -72,9 +72,9 @@ def claim(s: Session, build_id: int, worker_name: str) -> int | str | None:
 def run_build(build_id: int, worker_name: str) -> str:
     """The worker's job: claim, build, record. Returns the final status, ``skipped`` (not
     queued: a duplicate delivery) or :data:`BUSY` (every build slot taken: send it again)."""
-    from alcove.db import session_scope, transaction
+    from alcove.db import open_transaction, run_transaction
 
-    claimed = transaction(lambda s: claim(s, build_id, worker_name))
+    claimed = run_transaction(lambda s: claim(s, build_id, worker_name))
     if claimed is None:
         return "skipped"
     if claimed == BUSY:
@@ -83,7 +83,7 @@ def run_build(build_id: int, worker_name: str) -> str:
     mine = (ArtifactBuild.id == build_id, ArtifactBuild.status == RUNNING, ArtifactBuild.attempts == attempt)
 
     def progress(_: int) -> None:
-        transaction(
+        run_transaction(
             lambda s: s.execute(
                 sa.update(ArtifactBuild)
                 .where(*mine)
@@ -93,7 +93,7 @@ def run_build(build_id: int, worker_name: str) -> str:
 
     error = None
     try:
-        with session_scope() as s:
+        with open_transaction() as s:
             ids = list(s.get_one(ArtifactBuild, build_id).model_version_ids)
             versions = list(s.scalars(sa.select(ModelVersion).where(ModelVersion.id.in_(ids))))
             todo = [mv.id for mv in missing_zips(versions)]  # another build may have stored some meanwhile
@@ -107,7 +107,7 @@ def run_build(build_id: int, worker_name: str) -> str:
         log.exception("artifact build %d failed", build_id)
         error = f"{type(err).__name__}: {err}"[:2000]
     status = ArtifactBuildStatus.failed.value if error else ArtifactBuildStatus.ready.value
-    transaction(
+    run_transaction(
         lambda s: s.execute(
             sa.update(ArtifactBuild)
             .where(*mine)
@@ -121,7 +121,7 @@ def release_lost_build(build_id: int, worker_name: str) -> bool:
     """In the worker's main process: the pool process running build ``build_id`` died (SIGKILL,
     out of memory). The main process still beats, so the build is failed here with the reason,
     freeing its slot at once; True if it was still running there."""
-    from alcove.db import transaction
+    from alcove.db import run_transaction
 
     reason = f"the worker process building it ({worker_name}) died. Download again to build anew."
 
@@ -136,4 +136,4 @@ def release_lost_build(build_id: int, worker_name: str) -> bool:
         assert isinstance(result, sa.CursorResult)
         return result.rowcount
 
-    return bool(transaction(release))
+    return bool(run_transaction(release))

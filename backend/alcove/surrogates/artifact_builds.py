@@ -56,9 +56,9 @@ def stored_or_build(
     # end the read transaction first: the request never holds two connections of the pool at once
     if session.in_transaction() and not session.new and not session.dirty and not session.deleted:
         session.commit()
-    from alcove.db import transaction
+    from alcove.db import run_transaction
 
-    build_id = transaction(lambda s: _find_or_record(s, user.id, campaign_id, ids, download_path))
+    build_id = run_transaction(lambda s: _find_or_record(s, user.id, campaign_id, ids, download_path))
     return get(session, user, campaign_id, build_id)
 
 
@@ -98,9 +98,9 @@ def _find_or_record(s: Session, user_id: int, campaign_id: int, ids: list[int], 
 def send(build_id: int) -> None:
     """After the commit: send the build's job now. A failed send loses nothing: the job waits
     in the outbox and the relay sends it when the broker is back."""
-    from alcove.db import session_scope
+    from alcove.db import open_transaction
 
-    with session_scope() as s:
+    with open_transaction() as s:
         ids = outbox.unsent_ids(s, subject(build_id))
     outbox.send_now(ids)
 
@@ -143,7 +143,7 @@ def stale_reason(session: Session, row: ArtifactBuild) -> str | None:
 
 
 def _fail(session: Session, row: ArtifactBuild, reason: str) -> None:
-    from alcove.db import transaction
+    from alcove.db import run_transaction
 
     stmt = (
         sa.update(ArtifactBuild)
@@ -158,7 +158,7 @@ def _fail(session: Session, row: ArtifactBuild, reason: str) -> None:
         assert isinstance(result, sa.CursorResult)
         return result.rowcount
 
-    if transaction(fail):
+    if run_transaction(fail):
         session.refresh(row)
 
 

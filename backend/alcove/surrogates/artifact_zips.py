@@ -95,11 +95,11 @@ def build_zips(ids: Sequence[int], on_built: Callable[[int], None] = lambda _: N
 
 
 def main(argv: list[str]) -> int:
-    from alcove.db import session_scope
+    from alcove.db import open_transaction
     from alcove.surrogates.service import model_artifact_bytes
 
     out_dir = Path(argv[0])
-    with session_scope() as s:
+    with open_transaction() as s:
         for ident in map(int, argv[1:]):
             mv = s.get(ModelVersion, ident)
             assert mv is not None and mv.artifact_sha256, f"model version {ident} has no artifact"

@@ -91,12 +91,12 @@ def reference_line(
 def compute_reference_line(suite_id: int) -> bool:
     """Compute and store a complete suite's line if it asks for one and has none yet; whether it
     wrote one (a concurrent job that wrote first wins; both compute the same line)."""
-    from alcove.db import session_scope, transaction
+    from alcove.db import open_transaction, run_transaction
     from alcove.science.ocp.task_spec import ModelSpec
     from alcove.science.validation_suite import ChainSuiteModel, SuiteSpec, reference_budgets, suite_model_from_dict
     from alcove.surrogates.validation import _suite_arrays, suite_kinematics
 
-    with session_scope() as s:
+    with open_transaction() as s:
         suite = s.get(ValidationSuite, suite_id)
         if suite is None or suite.status != SuiteStatus.complete.value or suite.reference is not None:
             return False
@@ -123,6 +123,6 @@ def compute_reference_line(suite_id: int) -> bool:
         row.reference = line
         return True
 
-    wrote = bool(transaction(store))
+    wrote = bool(run_transaction(store))
     log.info("validation suite %d: best-possible line %s", suite_id, "stored" if wrote else "already stored")
     return wrote

@@ -10,7 +10,7 @@ from typing import Any
 import numpy as np
 from sqlalchemy.orm import Session
 
-from alcove.db import session_scope
+from alcove.db import open_transaction
 from alcove.db.arrays import put_arrays
 from alcove.jobs.step_contract import IterationRef, StepCancelled, StepOutput, StepRun
 from alcove.models import IterationMetrics, ModelVersion, PoolVersion
@@ -38,7 +38,7 @@ def train(
     from alcove.science.surrogate.training import TrainingCancelled, train_surrogate
 
     config = SurrogateConfig.parse(spec)
-    with session_scope() as s:
+    with open_transaction() as s:
         pv = s.get(PoolVersion, pool_version_id)
         assert pv is not None
         pool = load_training_pool(s, pv)
@@ -96,7 +96,7 @@ def evaluate(
 
     if not dataset_ids:
         raise ValueError("dataset_ids: the iteration has no oracle dataset to evaluate on")
-    with session_scope() as s:
+    with open_transaction() as s:
         mv = s.get(ModelVersion, model_version_id)
         assert mv is not None
         data = []

@@ -194,9 +194,9 @@ def _store(s: Session, model_version_id: int, suite_id: int, m: dict[str, Any]) 
 
 def compute_for_model(model_version_id: int, suite_id: int) -> dict[str, Any] | None:
     """Model version's generalisation error on a complete suite (None if the suite is not complete)."""
-    from alcove.db import session_scope
+    from alcove.db import open_transaction
 
-    with session_scope() as s:
+    with open_transaction() as s:
         suite = s.get(ValidationSuite, suite_id)
         if suite is None or suite.status != SuiteStatus.complete.value:
             return None
@@ -227,9 +227,9 @@ def pending_models(s: Session, suite_id: int) -> list[int]:
 
 def evaluate_suite(suite_id: int) -> int:
     """Evaluate every waiting model version on a complete suite; returns how many rows it wrote."""
-    from alcove.db import session_scope, transaction
+    from alcove.db import open_transaction, run_transaction
 
-    with session_scope() as s:
+    with open_transaction() as s:
         suite = s.get(ValidationSuite, suite_id)
         if suite is None or suite.status != SuiteStatus.complete.value:
             return 0
@@ -238,7 +238,7 @@ def evaluate_suite(suite_id: int) -> int:
         kinematics = suite_kinematics(suite)
     written = 0
     for mv_id in ids:
-        with session_scope() as s:
+        with open_transaction() as s:
             mv = s.get(ModelVersion, mv_id)
             if mv is None:
                 continue
@@ -262,6 +262,6 @@ def evaluate_suite(suite_id: int) -> int:
             )
             return True
 
-        written += bool(transaction(store))
+        written += bool(run_transaction(store))
     log.info("validation suite %d: evaluated %d model version(s)", suite_id, written)
     return written

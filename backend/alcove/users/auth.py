@@ -77,11 +77,11 @@ def _touch(token_id: int) -> datetime:
     """Best effort: ``last_used_at`` is informational, a busy database must not fail the request."""
     from sqlalchemy import exc, update
 
-    from alcove.db import transaction
+    from alcove.db import run_transaction
 
     now = utcnow()
     try:
-        transaction(
+        run_transaction(
             lambda s: s.execute(update(ApiToken).where(ApiToken.id == token_id).values(last_used_at=now)), attempts=3
         )
     except exc.OperationalError:

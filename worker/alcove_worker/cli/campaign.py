@@ -35,7 +35,7 @@ app = typer.Typer(
 
 def _control(action: str, campaign_id: int, **kwargs: Any) -> Any:
     from alcove.campaigns import service
-    from alcove.db import transaction
+    from alcove.db import run_transaction
     from alcove.errors import DomainError
     from alcove.jobs.campaign import send_committed, stage
 
@@ -46,7 +46,7 @@ def _control(action: str, campaign_id: int, **kwargs: Any) -> Any:
         return obj, stage(s, jobs)  # recorded with the change, sent after its commit
 
     try:
-        obj, staged = transaction(work)
+        obj, staged = run_transaction(work)
     except DomainError as exc:
         fail("campaign", str(exc))
     send_committed(staged)
@@ -316,7 +316,7 @@ def fork(
     from alcove.campaigns import presets
     from alcove.campaigns.config import StoppingRules
     from alcove.campaigns.schemas import ForkRequest
-    from alcove.db import transaction
+    from alcove.db import run_transaction
 
     cfg = read_config(config)
     detail = following.read_detail(campaign_id)
@@ -338,7 +338,7 @@ def fork(
         stopping=StoppingRules(**stopping),
         policies=cfg.get("policies"),
         settings=cfg.get("settings"),
-        surrogate_config_version_id=transaction(scv),
+        surrogate_config_version_id=run_transaction(scv),
         start=start_it,
     )
     new = _control("fork", campaign_id, req=req, owner_id=detail.campaign.owner_id)
@@ -358,9 +358,9 @@ app.command(name="candidates")(candidates)
 def list_(as_json: bool = typer.Option(False, "--json")) -> None:
     """All campaigns."""
     from alcove.campaigns.views import detail
-    from alcove.db import session_scope
+    from alcove.db import open_transaction
 
-    with session_scope() as s:
+    with open_transaction() as s:
         rows = detail.list_campaigns(s)
     if as_json:
         typer.echo(json.dumps([r.model_dump(mode="json") for r in rows]))
@@ -379,12 +379,12 @@ def export(
 ) -> None:
     """Write pool versions (Parquet/CSV), models, metrics and curves to a folder."""
     from alcove.campaigns.views.export import export_campaign
-    from alcove.db import session_scope
+    from alcove.db import open_transaction
     from alcove.errors import NotFound
 
     if fmt not in ("parquet", "csv"):
         fail("--format", f"expected parquet or csv, got {fmt!r}")
-    with session_scope() as s:
+    with open_transaction() as s:
         try:
             root = export_campaign(s, campaign_id, out, pool_format=fmt, models=models)
         except NotFound as exc:

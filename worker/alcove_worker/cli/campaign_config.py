@@ -66,7 +66,7 @@ def create_campaign(
 
     from alcove.campaigns import presets, service
     from alcove.campaigns.schemas import CampaignCreate
-    from alcove.db import transaction
+    from alcove.db import run_transaction
     from alcove.errors import InvalidInput
     from alcove.science.errors import FieldError
 
@@ -106,7 +106,7 @@ def create_campaign(
         return service.create_campaign(s, user.id, data).id
 
     try:
-        return transaction(work)
+        return run_transaction(work)
     except ValidationError as exc:
         err = exc.errors()[0]
         fail(".".join(str(p) for p in err["loc"]) or "config", err["msg"])

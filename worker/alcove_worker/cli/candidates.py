@@ -17,11 +17,11 @@ def read_candidates(campaign_id: int, iteration: int) -> Any:
     """The API's :class:`IterationCandidates` of iteration ``iteration``; a campaign or an
     iteration that does not exist exits 2 naming the argument."""
     from alcove.campaigns.views import picks
-    from alcove.db import session_scope
+    from alcove.db import open_transaction
     from alcove.errors import NotFound
 
     try:
-        with session_scope() as s:
+        with open_transaction() as s:
             return picks.iteration_candidates(s, campaign_id, iteration)
     except NotFound as exc:
         fail("iteration" if exc.what == "iteration" else "campaign_id", exc.message)

@@ -26,11 +26,11 @@ def fail(field: str, reason: str, code: int = 2) -> NoReturn:
 
 def read_detail(campaign_id: int) -> Any:
     from alcove.campaigns.views import detail
-    from alcove.db import session_scope
+    from alcove.db import open_transaction
     from alcove.errors import NotFound
 
     try:
-        with session_scope() as s:
+        with open_transaction() as s:
             return detail.get_detail(s, campaign_id)
     except NotFound as exc:
         fail("campaign", exc.message)
@@ -38,9 +38,9 @@ def read_detail(campaign_id: int) -> Any:
 
 def read_metrics(campaign_id: int) -> list[dict[str, Any]]:
     from alcove.campaigns.views import detail
-    from alcove.db import session_scope
+    from alcove.db import open_transaction
 
-    with session_scope() as s:
+    with open_transaction() as s:
         rows = [m.model_dump(mode="json") for m in detail.metrics_series(s, campaign_id)]
         # the scenario each iteration's OCP solved (null: the task as written), its oracle calls and,
         # for a batch, the picked scenarios with each one's in-loop RMSE
@@ -288,10 +288,10 @@ def summary(detail: Any, metrics: list[dict[str, Any]], wall: float | None = Non
 def best_possible_points(campaign_id: int) -> list[dict[str, Any]] | None:
     """The suite's best-possible line: per oracle budget, force, fx, fz and my RMSE and the calibration."""
     from alcove.campaigns.views.validation import validation_series
-    from alcove.db import session_scope
+    from alcove.db import open_transaction
     from alcove.models import Campaign
 
-    with session_scope() as s:
+    with open_transaction() as s:
         c = s.get(Campaign, campaign_id)
         line = validation_series(s, c).best_possible if c is not None else None
     if line is None:
@@ -313,9 +313,9 @@ def _step_medians(campaign_id: int) -> dict[str, dict[str, float]]:
     import statistics
 
     from alcove.campaigns.views import detail
-    from alcove.db import session_scope
+    from alcove.db import open_transaction
 
-    with session_scope() as s:
+    with open_transaction() as s:
         jobs = [
             j
             for j in detail.list_jobs(s, campaign_id, ["succeeded"])

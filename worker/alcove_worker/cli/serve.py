@@ -97,12 +97,12 @@ def worker(
 
 
 def _ensure_admin() -> None:
-    from alcove.db import transaction
+    from alcove.db import run_transaction
     from alcove.db.bootstrap import ensure_first_admin
     from alcove.settings import get_settings
 
     s = get_settings()
-    created = transaction(
+    created = run_transaction(
         lambda session: ensure_first_admin(session, s.admin_email, s.admin_password.get_secret_value()) is not None
     )
     if created:

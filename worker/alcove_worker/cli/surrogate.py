@@ -90,7 +90,7 @@ def _campaign_inputs(
     try:
         import sqlalchemy as sa
 
-        from alcove.db.session import session_scope
+        from alcove.db.session import open_transaction
         from alcove.models import Campaign, PoolVersion
         from alcove.pool.service import load_training_pool
         from alcove.science.ocp.task_spec import TaskSpecError, parse_task
@@ -103,7 +103,7 @@ def _campaign_inputs(
     if database_url.startswith("sqlite:///") and not Path(database_url[len("sqlite:///") :]).exists():
         _bad_input("campaign", f"no database at {database_url} (set ALCOVE_DATABASE_URL)")
     try:
-        with session_scope(database_url) as s:
+        with open_transaction(database_url) as s:
             campaign = s.get(Campaign, campaign_id)
             if campaign is None:
                 _bad_input("campaign", f"no campaign with id {campaign_id}")

@@ -44,7 +44,7 @@ def create_user(
     """Create a user."""
     from pydantic import ValidationError
 
-    from alcove.db import session_scope
+    from alcove.db import open_transaction
     from alcove.errors import Conflict
     from alcove.users import service
     from alcove.users.schemas import UserCreate
@@ -55,7 +55,7 @@ def create_user(
         e = err.errors()[0]
         _fail(".".join(map(str, e["loc"])) or "user", e["msg"])
     try:
-        with session_scope() as s:
+        with open_transaction() as s:
             user = service.create_user(s, body)
             uid, role = user.id, user.role
     except Conflict as err:
@@ -69,10 +69,10 @@ def list_users(as_json: bool = typer.Option(False, "--json", help="print JSON"))
     from rich.console import Console
     from rich.table import Table
 
-    from alcove.db import session_scope
+    from alcove.db import open_transaction
     from alcove.users import repository
 
-    with session_scope() as s:
+    with open_transaction() as s:
         rows: list[_UserRow] = [
             {
                 "id": u.id,
@@ -101,10 +101,10 @@ def create_token(
     ),
 ) -> None:
     """Create a personal API token and print it (only now: just its hash is stored)."""
-    from alcove.db import session_scope
+    from alcove.db import open_transaction
     from alcove.users import repository, service
 
-    with session_scope() as s:
+    with open_transaction() as s:
         user = repository.user_by_email(s, email)
         if user is None or not user.is_active:
             _fail("email", f"no active user {email}")
@@ -144,7 +144,7 @@ def job_limits(
     """Show or set job limits: the members' defaults, or a user's own (a member without limits of
     their own has the defaults; an admin without them has no limit). Options given change those
     limits; the others keep their values."""
-    from alcove.db import session_scope
+    from alcove.db import open_transaction
     from alcove.users import limits
     from alcove.users import repository as users_repo
     from alcove.users.schemas import JobLimitsUpdate
@@ -163,7 +163,7 @@ def job_limits(
         if text is not None
     }
     update = JobLimitsUpdate(**{name: _limit_value(name, text) for name, text in given.items()})
-    with session_scope() as s:
+    with open_transaction() as s:
         if email is None:
             if reset:
                 _fail("--reset", "needs a user's e-mail (the defaults have nothing to reset to)")

@@ -11,7 +11,7 @@ from alcove.campaigns import candidate_queries
 from alcove.campaigns import repository as repo
 from alcove.campaigns.run import candidate_writes
 from alcove.campaigns.suite import family_box, suite_model
-from alcove.db import session_scope
+from alcove.db import open_transaction
 from alcove.jobs.step_contract import StepOutput
 from alcove.science.ocp import acquisition
 from alcove.science.ocp.scenarios import Scenario
@@ -48,7 +48,7 @@ def family_motion(ctx: StepContext) -> StepOutput:
     the family's box scaled to [0, 1], picked at once)."""
     from alcove.science.press_family import PARAMETERS
 
-    with session_scope() as s:
+    with open_transaction() as s:
         c = repo.get_campaign(s, ctx.campaign_id)
         mv = surrogates_repo.version_of(s, c.id, ctx.k)
         if mv is None:

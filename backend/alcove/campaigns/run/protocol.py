@@ -39,7 +39,7 @@ from alcove.campaigns.machine.apply import apply_decision, complete_step
 from alcove.campaigns.machine.state_machine import Decision, Outcome, StepRef
 from alcove.campaigns.run.step_context import StepContext
 from alcove.campaigns.run.steps import STEPS
-from alcove.db import transaction
+from alcove.db import run_transaction
 from alcove.jobs.campaign import StepJob, send_committed, stage
 from alcove.jobs.faults import fault_for
 from alcove.jobs.step_contract import (
@@ -81,7 +81,7 @@ class LeaseKeeper(threading.Thread):
     def run(self) -> None:
         while not self._stop_event.wait(self.interval):
             try:
-                (ours, cancel), pause = transaction(
+                (ours, cancel), pause = run_transaction(
                     lambda s: (
                         repo.extend_lease(s, self.step_id, self.token, self.lease_seconds),
                         repo.pause_requested_of(s, self.step_id),
@@ -139,7 +139,7 @@ def run_step(
     token = uuid.uuid4().hex
     lease = lease_seconds()
 
-    status, step_id, config, jobs = transaction(
+    status, step_id, config, jobs = run_transaction(
         _staging(lambda s: _claim(s, campaign_id, ref, attempt, token, worker_name, lease), durable)
     )
     if status != "claimed":
@@ -199,12 +199,12 @@ def run_step(
             outcome = policy_outcome(config, ref)
         return complete_step(s, c, ref, row, outcome, result=base, error=failure.message, wall_time_s=wall)
 
-    next_jobs = transaction(_staging(complete, durable))
+    next_jobs = run_transaction(_staging(complete, durable))
     if next_jobs is None:
         return {"status": "lost", "step": str(ref), "attempt": attempt}
     _dispatch(next_jobs, send)
     # a campaign that ended frees a place of its owner's running-campaigns limit
-    _dispatch(transaction(_staging(lambda s: admission.admit_owner_of(s, campaign_id), durable)), send)
+    _dispatch(run_transaction(_staging(lambda s: admission.admit_owner_of(s, campaign_id), durable)), send)
     ended = "done" if failure is None else ("cancelled" if failure.outcome is Outcome.cancelled else "failed")
     return {
         "status": ended,

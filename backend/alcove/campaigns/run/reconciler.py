@@ -113,7 +113,7 @@ def _policy(s: Session, c: Campaign, ref: StepRef) -> Outcome:
 def reconcile_and_enqueue(stale_queued_s: float | None = None) -> list[StepJob]:
     """One reconciliation pass in its own transaction (the jobs it makes are recorded in the
     outbox in the same transaction), then send them."""
-    from alcove.db import transaction
+    from alcove.db import run_transaction
     from alcove.jobs.campaign import send_committed, stage
     from alcove.settings import get_settings
 
@@ -124,7 +124,7 @@ def reconcile_and_enqueue(stale_queued_s: float | None = None) -> list[StepJob]:
         jobs = reconcile(s, stale_queued_s=stale, dead_worker_s=settings.worker_dead_seconds)
         return jobs, stage(s, jobs)
 
-    jobs, staged = transaction(work)
+    jobs, staged = run_transaction(work)
     if jobs:
         log.warning(
             "reconciler re-enqueued %d step(s): %s",
@@ -140,10 +140,10 @@ def _reconcile_validation(stale_s: float) -> None:
     """Validation-suite motions whose message was lost or whose worker died: send them again."""
     from datetime import timedelta
 
-    from alcove.db import transaction
+    from alcove.db import run_transaction
     from alcove.oracles.validation import reconcile_motions
 
-    ids = transaction(lambda s: reconcile_motions(s, timedelta(seconds=stale_s)))
+    ids = run_transaction(lambda s: reconcile_motions(s, timedelta(seconds=stale_s)))
     if ids:
         log.warning("reconciler re-sent %d validation motion(s): %s", len(ids), ids)
 
@@ -155,7 +155,7 @@ def release_lost_step(
     and lives on, still beating): expire the step's lease so that the next reconciler pass
     (seconds) gives it to another job. Only while the step is still this attempt's, on this
     worker. Returns whether it did."""
-    from alcove.db import transaction
+    from alcove.db import run_transaction
 
     def work(s: Session) -> bool:
         row = repo.get_step(s, campaign_id, iteration, step, slot)
@@ -166,7 +166,7 @@ def release_lost_step(
         row.lease_until = utcnow()
         return True
 
-    released = transaction(work)
+    released = run_transaction(work)
     if released:
         log.warning("the process of step c%d:%d/%s#%d died on %s", campaign_id, iteration, step, attempt, worker_name)
     return released

@@ -40,7 +40,7 @@ from alcove.campaigns.run import candidate_writes
 from alcove.campaigns.run.step_context import StepContext
 from alcove.campaigns.suite import suite_model as validation_suite_model
 from alcove.campaigns.suite import suite_spec
-from alcove.db import session_scope
+from alcove.db import open_transaction
 from alcove.jobs.step_contract import (
     FailedAttempt,
     IterationRef,
@@ -106,7 +106,7 @@ def _iteration(s: Session, ctx: StepContext) -> tuple[Campaign, Iteration]:
 def preliminary(ctx: StepContext) -> StepOutput:
     ctx.before_compute()
     pre = ctx.config.preliminary
-    with session_scope() as s:
+    with open_transaction() as s:
         c = repo.get_campaign(s, ctx.campaign_id)
         task, seed, oracle_version_id = ctx.task(s, c), c.seed, c.oracle_version_id
     model = task.model
@@ -143,7 +143,7 @@ class _TrainInputs(TypedDict):
 
 def train(ctx: StepContext) -> StepOutput:
     ctx.before_compute()
-    with session_scope() as s:
+    with open_transaction() as s:
         c, it = _iteration(s, ctx)
         cv = s.get(CampaignConfigVersion, it.config_version_id)
         scv = s.get(SurrogateConfigVersion, cv.surrogate_config_version_id) if cv is not None else None
@@ -186,7 +186,7 @@ def ocp(ctx: StepContext) -> StepOutput:
 
         return family_motion(ctx)
     ctx.before_compute()
-    with session_scope() as s:
+    with open_transaction() as s:
         c = repo.get_campaign(s, ctx.campaign_id)
         mv = surrogates_repo.version_of(s, c.id, ctx.k)
         if mv is None:
@@ -226,7 +226,7 @@ def oracle(ctx: StepContext) -> StepOutput:
     started = utcnow()
     oracle_version_id = None
     try:
-        with session_scope() as s:
+        with open_transaction() as s:
             c, it = _iteration(s, ctx)
             oracle_version_id = c.oracle_version_id
             # oracle slot i replays the candidate picked as i (no candidate rows: the one solution)
@@ -278,7 +278,7 @@ def oracle(ctx: StepContext) -> StepOutput:
 
 def evaluate(ctx: StepContext) -> StepOutput:
     ctx.before_compute()
-    with session_scope() as s:
+    with open_transaction() as s:
         c, it = _iteration(s, ctx)
         datasets = pool_repo.oracle_datasets(s, it.id)
         if not datasets:
