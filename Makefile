@@ -24,7 +24,7 @@ FRONTEND_OUT := backend/alcove/static/index.html
 help:
 	@echo "make up     - install, build the UI, migrate and start alcove (API + worker) on the embedded default"
 	@echo "make test   - install and run all tests (PostgreSQL and Redis must be running; see .ci/run)"
-	@echo "make lint   - ruff (lint and format), mypy, and the frontend's type check and linter"
+	@echo "make lint   - ruff (lint and format), mypy, no issue numbers or dates in the code, and the frontend's type check and linter"
 	@echo "make bench  - run the benchmarks"
 
 $(STAMP): pyproject.toml
@@ -91,6 +91,7 @@ lint: install
 	$(VENV)/bin/ruff check $(PY_SOURCES)
 	$(VENV)/bin/ruff format --check $(PY_SOURCES)
 	$(VENV)/bin/mypy
+	$(PY) scripts/check_history_refs.py
 ifneq ($(HAVE_FRONTEND),)
 ifneq ($(HAVE_NPM),)
 	cd frontend && npm run typecheck && npm run lint

@@ -100,7 +100,7 @@ def surrogate_training_ensemble(ctx: Any) -> float:
     quick=False,
     group="surrogate",
     baseline="surrogate training, K = 5 ensemble on 80,000 samples",
-    notes="as the K = 5 figure with dtype float64 (the default before 3 December 2026): the price of the precision",
+    notes="as the K = 5 figure with dtype float64 (float32 is the default): the price of the precision",
 )
 def surrogate_training_ensemble_float64(ctx: Any) -> float:
     from alcove.science.surrogate.config import SurrogateConfig

@@ -1,4 +1,4 @@
-"""Batch acquisition (issue 17): an iteration fans out into q ocp and q oracle jobs and fans back in.
+"""Batch acquisition: an iteration fans out into q ocp and q oracle jobs and fans back in.
 
 * in this process (the real protocol, no broker): the q scenarios are the seeded draws of slots
   0..q-1, each solved and replayed in its own slot; the q datasets are appended as ONE pool

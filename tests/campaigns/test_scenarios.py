@@ -1,4 +1,4 @@
-"""The random-scenarios strategy in a campaign (issue 17, q = 1), through the real protocol.
+"""The random-scenarios strategy in a campaign (q = 1), through the real protocol.
 
 Each iteration's OCP solves the scenario drawn from the campaign seed and its index: the stored
 scenario is that draw, the solved trajectory starts at its initial angle and velocity (the OCP's
