@@ -51,7 +51,7 @@ SCIENCE_FLOORS: dict[str, int] = {
     "json_values": 0,
     "parallel": 0,
     "symbolic": 0,
-    "validation": 0,
+    "spec_checks": 0,
     "geometry": 1,
     "series": 2,
     "multibody": 2,

@@ -92,10 +92,10 @@ try {
     await page.locator("[data-testid=rmse-plot][data-rendered=true]").waitFor();
     await page.locator("[data-testid=force-plot][data-rendered=true]").waitFor();
   });
-  await check("new task", `${baseUrl}/tasks/new`, () => page.locator("[data-testid=validation-state]:not(:has-text('checking'))").waitFor());
-  await check("saved task", `${baseUrl}/tasks/${task.id}`, () => page.locator("[data-testid=validation-state][data-count='0']:not(:has-text('checking'))").waitFor());
-  await check("new oracle", `${baseUrl}/oracles/new`, () => page.locator("[data-testid=validation-state]:not(:has-text('checking'))").waitFor());
-  await check("saved oracle", `${baseUrl}/oracles/${oracle.id}`, () => page.locator("[data-testid=validation-state][data-count='0']:not(:has-text('checking'))").waitFor());
+  await check("new task", `${baseUrl}/tasks/new`, () => page.locator("[data-testid=check-state]:not(:has-text('checking'))").waitFor());
+  await check("saved task", `${baseUrl}/tasks/${task.id}`, () => page.locator("[data-testid=check-state][data-count='0']:not(:has-text('checking'))").waitFor());
+  await check("new oracle", `${baseUrl}/oracles/new`, () => page.locator("[data-testid=check-state]:not(:has-text('checking'))").waitFor());
+  await check("saved oracle", `${baseUrl}/oracles/${oracle.id}`, () => page.locator("[data-testid=check-state][data-count='0']:not(:has-text('checking'))").waitFor());
   await check("new campaign", `${baseUrl}/campaigns/new`, () => page.getByRole("region", { name: "Run settings" }).waitFor());
   const other = await api("POST", "/campaigns", { name: `a11y draft ${stamp}`, task_id: task.id, oracle_id: oracle.id, start: false });
   await check("compare", `${baseUrl}/compare?ids=${campaign.id},${other.id}`, () => page.locator("[data-testid^=compare-][data-rendered=true]").first().waitFor());

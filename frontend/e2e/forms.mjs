@@ -10,7 +10,7 @@
  * is named at its field too. The new-campaign form is checked while typing: a blank name, text
  * in a number field, a value below its bound, a strategy the chosen surrogate's ensemble cannot
  * run and no stopping rule at all are named together before anything is created (the last two
- * by the API's POST /campaigns/validate), each once at its field or section; each fix takes its
+ * by the API's POST /campaigns/check), each once at its field or section; each fix takes its
  * problem away, and the fixed form creates the campaign.
  *
  *   node e2e/forms.mjs --base-url http://127.0.0.1:8765 --email admin@alcove.local --password secret --artifacts ../test-artifacts
@@ -52,7 +52,7 @@ async function typeKeyByKey(field, text, where) {
 
 /** The form's answer to the typed value: the problem named at the field, or none (the form may save it). */
 async function fieldVerdict(field, container, { inline }) {
-  if (inline) await page.locator("[data-testid=validation-state]:not(:has-text('checking'))").waitFor();
+  if (inline) await page.locator("[data-testid=check-state]:not(:has-text('checking'))").waitFor();
   if ((await field.getAttribute("aria-invalid")) === "true") {
     const message = (await container.locator(".field-error").allTextContents()).join(" | ");
     if (!message) throw new Error("a field marked invalid shows no message");
@@ -120,7 +120,7 @@ try {
       step("the task's model becomes the 2-DOF chain preset (saved), for the chain tables");
       await page.getByLabel("preset", { exact: true }).selectOption("head-neck-2dof");
       await page.getByTestId("chain-links").waitFor();
-      await page.locator("[data-testid=validation-state][data-count='0']:not(:has-text('checking'))").waitFor();
+      await page.locator("[data-testid=check-state][data-count='0']:not(:has-text('checking'))").waitFor();
       await page.getByRole("button", { name: "Save", exact: true }).click();
       await waitFor(async () => (await storedTask()).model.preset === "head-neck-2dof", "the chain model to be saved");
     }
@@ -132,7 +132,7 @@ try {
       const verdict = await fieldVerdict(field, cellOf(field), { inline: true });
       let stored = null;
       if (!verdict.refused) {
-        const count = Number(await page.getByTestId("validation-state").getAttribute("data-count"));
+        const count = Number(await page.getByTestId("check-state").getAttribute("data-count"));
         if (count) throw new Error(`${f.form} ${value}: the field is valid but the form has ${count} problems: ${(await page.locator("[data-error-path]").allTextContents()).join(" | ")}`);
         await page.getByRole("button", { name: "Save", exact: true }).click();
         stored = await waitFor(async () => (f.read(await storedTask()) === Number(value) ? String(f.read(await storedTask())) : null), `${f.form}: the server to store ${value}`, 15_000).catch(async (err) => {
@@ -143,7 +143,7 @@ try {
       record(f.form, value, verdict, stored);
     });
     await field.fill(original);
-    await page.locator("[data-testid=validation-state][data-count='0']:not(:has-text('checking'))").waitFor();
+    await page.locator("[data-testid=check-state][data-count='0']:not(:has-text('checking'))").waitFor();
   }
   step("text that is no number is named at its field (phases table), and kept");
   for (const text of ["abc", "1e", "--5"]) await check("phases table (phase 1 w_T)", text, async () => {
@@ -217,19 +217,19 @@ try {
   // ---------------------------------------------------------------- new campaign: checked while typing
   step("new-campaign form: problems of every kind named while typing (no create), all at once, each at its field");
   const single = await api("POST", "/surrogate-configs", { name: `forms single ${stamp}`, spec: { ensemble_size: 1, max_epochs: 60 } });
-  const campaignPosts = { validate: 0, create: 0 };
+  const campaignPosts = { check: 0, create: 0 };
   const countPosts = (r) => {
     const path = new URL(r.url()).pathname;
-    if (r.method() === "POST" && path === "/api/v1/campaigns/validate") campaignPosts.validate += 1;
+    if (r.method() === "POST" && path === "/api/v1/campaigns/check") campaignPosts.check += 1;
     if (r.method() === "POST" && path === "/api/v1/campaigns") campaignPosts.create += 1;
   };
   page.on("request", countPosts);
   try {
     await page.goto(`${baseUrl}/campaigns/new`);
     const region = (name) => page.getByRole("region", { name });
-    const badge = page.getByTestId("validation-state");
+    const badge = page.getByTestId("check-state");
     const settled = async () => {
-      await page.locator("[data-testid=validation-state]:not(:has-text('checking'))").waitFor();
+      await page.locator("[data-testid=check-state]:not(:has-text('checking'))").waitFor();
       return Number(await badge.getAttribute("data-count"));
     };
     const fields = {
@@ -271,7 +271,7 @@ try {
     const broken = shown.filter(([, , title]) => /› :|^: /.test(title ?? ""));
     if (broken.length) throw new Error(`broken labels: ${broken.map(([, , t]) => t).join(" | ")}`);
     if (await page.getByTestId("form-errors").count()) throw new Error(`problems listed above the form: ${await page.getByTestId("form-errors").innerText()}`);
-    if (!campaignPosts.validate || campaignPosts.create) throw new Error(`while typing: ${campaignPosts.validate} validate requests, ${campaignPosts.create} creates`);
+    if (!campaignPosts.check || campaignPosts.create) throw new Error(`while typing: ${campaignPosts.check} check requests, ${campaignPosts.create} creates`);
     step(`  ${count} problems while typing, each at its field: ${where}`);
     // each fix takes exactly its problem away
     const fixes = [
@@ -291,7 +291,7 @@ try {
     await page.waitForURL((u) => /\/campaigns\/\d+$/.test(u.pathname));
     const created = await api("GET", `/campaigns/${/\/campaigns\/(\d+)/.exec(page.url())[1]}`);
     if (created.config.settings.strategy !== "random-scenarios" || created.config.preliminary.samples !== 300) throw new Error(`created with ${JSON.stringify(created.config.settings.strategy)}, ${created.config.preliminary.samples} samples`);
-    step(`  fixed one by one (5, 4, 3, 2, 1, valid) and created; ${campaignPosts.validate} validate requests, 1 create`);
+    step(`  fixed one by one (5, 4, 3, 2, 1, valid) and created; ${campaignPosts.check} check requests, 1 create`);
   } finally {
     page.off("request", countPosts);
   }

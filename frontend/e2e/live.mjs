@@ -236,9 +236,9 @@ try {
   await page.getByRole("button", { name: "Create task" }).click();
   // the refused save's answer: a message at each bad field, then no check still running
   for (const p of ["phases.0.intervals", "phases.0.q_min.1", "model.gravity"]) await page.locator(`[data-error-path='${p}']`).first().waitFor({ timeout: 15_000 });
-  await page.locator("[data-testid=validation-state]:not(:has-text('checking'))").waitFor();
+  await page.locator("[data-testid=check-state]:not(:has-text('checking'))").waitFor();
   const paths = await page.locator("[data-error-path]").evaluateAll((els) => els.map((e) => e.getAttribute("data-error-path")));
-  const count = Number(await page.getByTestId("validation-state").getAttribute("data-count"));
+  const count = Number(await page.getByTestId("check-state").getAttribute("data-count"));
   const texts = await page.locator("[data-error-path]").allTextContents();
   if (new Set(paths).size !== paths.length) throw new Error(`a problem is shown twice: ${paths}`);
   if (count !== paths.length) throw new Error(`the badge counts ${count}, ${paths.length} messages shown: ${texts.join(" | ")}`);

@@ -121,13 +121,13 @@ try {
   const intervalInputs = page.getByLabel(/^phase \d+ intervals$/);
   const nPhases = await intervalInputs.count();
   for (let m = 0; m < nPhases; m++) await intervalInputs.nth(m).fill("10");
-  // an invalid duration shows an inline message from the API's validate endpoint
+  // an invalid duration shows an inline message from the API's check endpoint
   await page.getByLabel("phase 1 duration [s]").fill("-1");
-  await page.getByTestId("validation-state").filter({ hasText: "problem" }).waitFor({ timeout: 15_000 });
+  await page.getByTestId("check-state").filter({ hasText: "problem" }).waitFor({ timeout: 15_000 });
   const durationError = await page.locator("[data-testid=phases-table] .field-error").first().textContent();
   if (!durationError) throw new Error("no inline error for a negative phase duration");
   await page.getByLabel("phase 1 duration [s]").fill("0.2");
-  await page.getByTestId("validation-state").filter({ hasText: "valid" }).waitFor({ timeout: 15_000 });
+  await page.getByTestId("check-state").filter({ hasText: "valid" }).waitFor({ timeout: 15_000 });
   await page.getByRole("button", { name: "Create task" }).click();
   await page.waitForURL(/\/tasks\/\d+$/);
   await page.getByTestId("phases-table").waitFor();
@@ -140,7 +140,7 @@ try {
   await page.getByText(`${invitee} (view)`).waitFor();
 
   step("solve the task once (preview run by the worker)");
-  await page.getByTestId("validation-state").filter({ hasText: "valid" }).waitFor({ timeout: 15_000 });
+  await page.getByTestId("check-state").filter({ hasText: "valid" }).waitFor({ timeout: 15_000 });
   await page.getByRole("button", { name: "Solve once" }).click();
   await page.locator("[data-testid=preview-panel][data-status=succeeded], [data-testid=preview-panel][data-status=failed]").waitFor({ timeout: 120_000 });
   if ((await page.getByTestId("preview-panel").getAttribute("data-status")) !== "succeeded")
@@ -192,7 +192,7 @@ try {
 
   step("scenario ranges: a preview of 5 draws within the range (not saved)");
   await page.getByRole("button", { name: "Add range" }).click();
-  await page.getByTestId("validation-state").filter({ hasText: "valid" }).waitFor({ timeout: 15_000 });
+  await page.getByTestId("check-state").filter({ hasText: "valid" }).waitFor({ timeout: 15_000 });
   await page.getByRole("button", { name: "Preview scenarios" }).click();
   const scenarioRows = page.getByTestId("scenario-preview").locator("tbody tr");
   await waitFor(async () => (await scenarioRows.count()) === 5, "5 previewed scenarios");

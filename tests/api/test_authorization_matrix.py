@@ -190,7 +190,7 @@ SPECS: dict[str, Spec] = {
     "list_model_presets": ("any", lambda o, a: Call(), OK),
     "copy_task_preset": ("any", lambda o, a: Call(path={"key": "head-headrest-2phase"}), CREATED),
     "get_task_schema": ("any", lambda o, a: Call(), OK),
-    "validate_task": ("any", lambda o, a: Call(json={"spec": small_task_spec()}), OK),
+    "check_task": ("any", lambda o, a: Call(json={"spec": small_task_spec()}), OK),
     "get_task": ("owned", lambda o, a: Call(path={"task_id": o.task()}), OK),
     "update_task": ("owned", lambda o, a: Call(path={"task_id": o.task()}, json={"name": "renamed"}), OK),
     "delete_task": ("owned", lambda o, a: Call(path={"task_id": o.task()}), NO_CONTENT),
@@ -204,7 +204,7 @@ SPECS: dict[str, Spec] = {
     "get_oracle_params_schema": ("any", lambda o, a: Call(path={"type_name": "aux-penalty"}), OK),
     "list_oracle_presets": ("any", lambda o, a: Call(), OK),
     "copy_oracle_preset": ("any", lambda o, a: Call(path={"key": "aux-penalty"}), CREATED),
-    "validate_oracle": ("any", lambda o, a: Call(json={"type": "aux-penalty", "params": {}}), OK),
+    "check_oracle": ("any", lambda o, a: Call(json={"type": "aux-penalty", "params": {}}), OK),
     "get_oracle": ("owned", lambda o, a: Call(path={"oracle_id": o.oracle()}), OK),
     "update_oracle": ("owned", lambda o, a: Call(path={"oracle_id": o.oracle()}, json={"params": {"k": 1e5}}), OK),
     "delete_oracle": ("owned", lambda o, a: Call(path={"oracle_id": o.oracle()}), NO_CONTENT),
@@ -234,7 +234,7 @@ SPECS: dict[str, Spec] = {
     "list_surrogate_configs": ("any", lambda o, a: Call(), OK),
     "create_surrogate_config": ("any", lambda o, a: Call(json={"name": "s", "spec": {"max_epochs": 10}}), CREATED),
     "get_surrogate_config_schema": ("any", lambda o, a: Call(), OK),
-    "validate_surrogate_config": ("any", lambda o, a: Call(json={"spec": {"patience": 3}}), OK),
+    "check_surrogate_config": ("any", lambda o, a: Call(json={"spec": {"patience": 3}}), OK),
     "get_surrogate_config": ("owned", lambda o, a: Call(path={"config_id": o.surrogate()}), OK),
     "update_surrogate_config": (
         "owned",
@@ -251,7 +251,7 @@ SPECS: dict[str, Spec] = {
         lambda o, a: Call(json={"name": "c", "task_id": o.task(), "oracle_id": o.oracle()}),
         CREATED,
     ),
-    "validate_campaign": (
+    "check_campaign": (
         "any",
         lambda o, a: Call(json={"name": "c", "task_id": o.task(), "oracle_id": o.oracle()}),
         OK,

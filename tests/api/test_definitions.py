@@ -70,10 +70,10 @@ def test_validate_reports_field_errors_without_saving(client, owner: Account) ->
     spec = small_task_spec()
     spec["phases"][1]["intervals"] = 0
     spec["initial"]["q"] = [1.0]
-    r = client.post(f"{API}/tasks/validate", json={"spec": spec}, headers=owner.headers)
+    r = client.post(f"{API}/tasks/check", json={"spec": spec}, headers=owner.headers)
     assert r.status_code == 200 and not r.json()["valid"]
     assert {e["field"] for e in r.json()["errors"]} >= {"spec.phases.1.intervals"}
-    ok = client.post(f"{API}/tasks/validate", json={"spec": small_task_spec()}, headers=owner.headers).json()
+    ok = client.post(f"{API}/tasks/check", json={"spec": small_task_spec()}, headers=owner.headers).json()
     assert ok["valid"] and ok["errors"] == [] and ok["normalized"]["model"]["mass"] == 5.0
     assert len(client.get(f"{API}/tasks", params={"limit": 1000}, headers=owner.headers).json()) == before
 
@@ -121,7 +121,7 @@ def test_model_presets_are_served_whole_and_each_is_a_valid_task_model(client, o
     base = client.get(f"{API}/tasks/presets", headers=owner.headers).json()[0]["spec"]
     for p in presets:
         report = client.post(
-            f"{API}/tasks/validate",
+            f"{API}/tasks/check",
             json={"name": p["key"], "spec": {**base, "model": p["model"]}},
             headers=owner.headers,
         ).json()
@@ -140,7 +140,7 @@ def test_oracle_params_are_validated_per_type(client, owner: Account) -> None:
     unknown = client.post(f"{API}/oracles", json={"name": "x", "type": "rm -rf /", "params": {}}, headers=owner.headers)
     assert unknown.status_code == 422 and unknown.json()["detail"][0]["field"] == "type"
     extra = client.post(
-        f"{API}/oracles/validate", json={"type": "fe-headrest-2d", "params": {"frction": 0.3}}, headers=owner.headers
+        f"{API}/oracles/check", json={"type": "fe-headrest-2d", "params": {"frction": 0.3}}, headers=owner.headers
     ).json()
     assert not extra["valid"] and extra["errors"][0]["field"] == "params.frction"
     switched = client.put(f"{API}/oracles/{oid}", json={"type": "fe-headrest-2d"}, headers=owner.headers)

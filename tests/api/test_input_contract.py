@@ -97,7 +97,7 @@ def test_a_malformed_multipart_upload_is_a_422_with_the_reason(client, owner) ->
         ("OPTIONS", "/tasks", "GET, POST"),
         ("PATCH", "/tasks/1", "DELETE, GET, PUT"),
         ("PUT", "/tasks/presets", "GET"),  # not /tasks/{task_id}: a task id is a whole number
-        ("DELETE", "/oracles/validate", "POST"),
+        ("DELETE", "/oracles/check", "POST"),
         ("DELETE", "/me", "GET, PATCH"),
         ("GET", "/shares/3", "DELETE"),
     ],
@@ -165,7 +165,7 @@ def test_the_schema_states_the_nul_rule(client) -> None:
 
 def test_a_nul_refusal_names_the_place_without_holding_a_nul(client, owner) -> None:
     body = {"spec": {"a\u0000": {"b": "x\u0000", "c\u0000": 1}}}
-    r = client.post(f"{API}/tasks/validate", json=body, headers=owner.headers)
+    r = client.post(f"{API}/tasks/check", json=body, headers=owner.headers)
     assert r.status_code == 422, r.text
     assert "\u0000" not in r.text.encode().decode("unicode_escape")
     fields = sorted(e["field"] for e in r.json()["detail"])

@@ -82,7 +82,7 @@ def test_an_over_size_campaign_surrogate_config_or_preview_is_refused_naming_fie
     over = {**body, "settings": {"ocp_intervals": 50}}
     r = client.post(f"{API}/campaigns", json=over, headers=h)
     assert sorted(p["field"] for p in r.json()["detail"]) == ["preliminary.samples", "settings.ocp_intervals"]
-    report = client.post(f"{API}/campaigns/validate", json=over, headers=h).json()
+    report = client.post(f"{API}/campaigns/check", json=over, headers=h).json()
     assert report["valid"] is False
     assert {e["field"]: e["msg"] for e in report["errors"]}["settings.ocp_intervals"].startswith(
         "50 is above your limit of 40 (max_ocp_intervals)"

@@ -32,7 +32,7 @@ SCRIPT = textwrap.dedent(
         return r.json() if r.headers.get("content-type", "").startswith("application/json") else None
     call("openapi", "GET", "/openapi.json")
     preset = call("presets", "GET", "/tasks/presets")[0]["spec"]
-    call("validate", "POST", "/tasks/validate", json={"spec": preset})
+    call("check", "POST", "/tasks/check", json={"spec": preset})
     task = call("task", "POST", "/tasks", json={"name": "t", "spec": preset})
     call("types", "GET", "/oracles/types")
     oracle = call("oracle", "POST", "/oracles", json={"name": "o", "type": "aux-penalty"})

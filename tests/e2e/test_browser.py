@@ -71,7 +71,7 @@ def test_forms_keep_typed_numbers_in_the_browser(alcove_server: Server) -> None:
     new-campaign form, fork dialog): the field shows exactly the keys typed after each one, and
     the value is either named at the field or stored by the server exactly; text that is no
     number is named at its field. The new-campaign form names problems of every kind while typing
-    (its own checks and the API's validate route), all at once, each at its field, and each fix
+    (its own checks and the API's check route), all at once, each at its field, and each fix
     takes its problem away (see frontend/e2e/forms.mjs)."""
     run_browser_script(alcove_server, "forms.mjs")
 

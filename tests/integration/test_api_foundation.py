@@ -98,7 +98,7 @@ def test_serves_the_built_frontend_with_spa_fallback(tmp_path: Path, settings: S
     assert client.get("/api/v1/nope").status_code == 404
     # below the API the web UI answers nothing: the API's own 404, and 405 with Allow for a path
     # an API route serves with another method (a non-integer id is no such path)
-    r = client.get("/api/v1/tasks/validate")
+    r = client.get("/api/v1/tasks/check")
     assert r.status_code == 405 and r.headers["allow"] == "POST"
     assert client.put("/api/v1/surrogate-configs/null,null", json={}).status_code == 404
     assert client.post("/api/v1/campaigns/9.81/cancel").status_code == 404

@@ -30,10 +30,10 @@ RULES_BEYOND_THE_SCHEMA: dict[str, str] = {
     "update_surrogate_config": "the spec's rules across fields; job limits",
     "upload_preliminary_dataset": "the file is a CSV of the documented columns",
     "create_share": "the object named must be yours, the e-mail not yours",
-    "validate_task": "a NUL in a key or text below the spec's top level",
-    "validate_oracle": "a NUL in a key or text below the params' top level",
-    "validate_surrogate_config": "a NUL in a key or text below the spec's top level",
-    "validate_campaign": "a NUL in a key or text below the request's top level",
+    "check_task": "a NUL in a key or text below the spec's top level",
+    "check_oracle": "a NUL in a key or text below the params' top level",
+    "check_surrogate_config": "a NUL in a key or text below the spec's top level",
+    "check_campaign": "a NUL in a key or text below the request's top level",
 }
 
 

@@ -4,7 +4,7 @@ task, an oracle and a surrogate configuration the user may see, the user's own u
 datasets) and the rules across them (the strategy against the surrogate's ensemble, the
 validation suite's and the press family's ranges on the task's model).
 
-``POST /campaigns/validate`` answers with these problems while the form is being typed, and
+``POST /campaigns/check`` answers with these problems while the form is being typed, and
 creating a campaign refuses with all of the problems its schema-valid request still has."""
 
 from __future__ import annotations

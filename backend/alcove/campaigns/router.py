@@ -30,7 +30,7 @@ from alcove.jobs.campaign import StepJob, send_committed, stage
 from alcove.models import Campaign, CampaignStatus
 from alcove.users.access import get_for
 from alcove.users.auth import CurrentUser
-from alcove.versioning.schemas import FieldErrorOut, ValidationReport
+from alcove.versioning.schemas import CheckReport, FieldErrorOut
 
 router = APIRouter(prefix="/campaigns", tags=["campaigns"])
 
@@ -96,17 +96,17 @@ def _eta(
     return mean, max(max_iterations - (last_done if last_done is not None else (c.source_iteration or 0)), 0) * mean
 
 
-@router.post("/validate", response_model=ValidationReport, operation_id="validate_campaign")
-def validate_campaign(
+@router.post("/check", response_model=CheckReport, operation_id="check_campaign")
+def check_campaign(
     body: Annotated[dict[str, Any], Body(description="a new campaign's request, as POST /campaigns takes it")],
     user: CurrentUser,
     session: SessionDep,
-) -> ValidationReport:
+) -> CheckReport:
     """Check a new campaign's request without creating it: every problem at once (the schema's,
     the definitions it names, the rules across them), each at its field (paths like
     ``settings.batch``)."""
     parsed, errors = draft.check_request(session, user, body)
-    return ValidationReport(
+    return CheckReport(
         valid=parsed is not None and not errors,
         errors=[FieldErrorOut.of(e) for e in errors],
         normalized=parsed.model_dump(mode="json") if parsed is not None and not errors else None,

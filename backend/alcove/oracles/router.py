@@ -25,7 +25,7 @@ from alcove.oracles.schemas import (
     OracleVersionOut,
 )
 from alcove.users.auth import AdminUser, CurrentUser
-from alcove.versioning.schemas import CopyPreset, FieldErrorOut, ValidationReport
+from alcove.versioning.schemas import CheckReport, CopyPreset, FieldErrorOut
 
 router = APIRouter(prefix="/oracles", tags=["oracles"])
 admin_router = APIRouter(prefix="/admin/command-oracles", tags=["admin"])
@@ -101,11 +101,11 @@ def copy_oracle_preset(key: Key, user: CurrentUser, session: SessionDep, body: C
     return oracle_out(session, definition, version, user, user.email)
 
 
-@router.post("/validate", response_model=ValidationReport, operation_id="validate_oracle")
-def validate_oracle(body: OracleDraft, user: CurrentUser, session: SessionDep) -> ValidationReport:
+@router.post("/check", response_model=CheckReport, operation_id="check_oracle")
+def check_oracle(body: OracleDraft, user: CurrentUser, session: SessionDep) -> CheckReport:
     """Check a type and its parameters without saving (paths like ``params.friction``)."""
     normalized, errors = service.check(session, body.type, body.params)
-    return ValidationReport(
+    return CheckReport(
         valid=normalized is not None, errors=[FieldErrorOut.of(e) for e in errors], normalized=normalized
     )
 

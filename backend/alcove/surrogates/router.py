@@ -26,7 +26,7 @@ from alcove.surrogates.service import artifact_document
 from alcove.users.access import get_for
 from alcove.users.auth import CurrentUser
 from alcove.users.limits import check_sizes, surrogate_sizes
-from alcove.versioning.schemas import DefinitionMeta, FieldErrorOut, ValidationReport, VersionMeta
+from alcove.versioning.schemas import CheckReport, DefinitionMeta, FieldErrorOut, VersionMeta
 
 router = APIRouter(prefix="/surrogate-configs", tags=["surrogate-configs"])
 model_versions = APIRouter(prefix="/campaigns", tags=["campaigns"])
@@ -108,14 +108,14 @@ def get_surrogate_config_schema(user: CurrentUser) -> dict[str, Any]:
     return SurrogateConfig.model_json_schema()
 
 
-@router.post("/validate", response_model=ValidationReport, operation_id="validate_surrogate_config")
-def validate_surrogate_config(body: SurrogateConfigDraft, user: CurrentUser) -> ValidationReport:
+@router.post("/check", response_model=CheckReport, operation_id="check_surrogate_config")
+def check_surrogate_config(body: SurrogateConfigDraft, user: CurrentUser) -> CheckReport:
     try:
         spec = SurrogateConfig.model_validate(body.spec)
     except ValidationError as err:
         errors = field_errors_from_pydantic(err, base=("spec",))
-        return ValidationReport(valid=False, errors=[FieldErrorOut.of(e) for e in errors])
-    return ValidationReport(valid=True, errors=[], normalized=spec.model_dump(mode="json"))
+        return CheckReport(valid=False, errors=[FieldErrorOut.of(e) for e in errors])
+    return CheckReport(valid=True, errors=[], normalized=spec.model_dump(mode="json"))
 
 
 @router.get("/{config_id:integer}", response_model=SurrogateConfigOut, operation_id="get_surrogate_config")

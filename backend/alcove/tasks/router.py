@@ -26,7 +26,7 @@ from alcove.tasks.schemas import (
     TaskVersionOut,
 )
 from alcove.users.auth import CurrentUser
-from alcove.versioning.schemas import CopyPreset, FieldErrorOut, ValidationReport
+from alcove.versioning.schemas import CheckReport, CopyPreset, FieldErrorOut
 
 router = APIRouter(prefix="/tasks", tags=["tasks"])
 PresetKey = Annotated[str, Path(min_length=1, max_length=100)]
@@ -99,11 +99,11 @@ def get_task_schema(user: CurrentUser) -> dict[str, Any]:
     return service.json_schema()
 
 
-@router.post("/validate", response_model=ValidationReport, operation_id="validate_task")
-def validate_task(body: TaskDraft, user: CurrentUser) -> ValidationReport:
+@router.post("/check", response_model=CheckReport, operation_id="check_task")
+def check_task(body: TaskDraft, user: CurrentUser) -> CheckReport:
     """Check a draft without saving: field-level errors (paths like ``spec.phases.1.duration``)."""
-    valid, errors, normalized = service.validate_draft(body.spec)
-    return ValidationReport(valid=valid, errors=[FieldErrorOut.of(e) for e in errors], normalized=normalized)
+    valid, errors, normalized = service.check_draft(body.spec)
+    return CheckReport(valid=valid, errors=[FieldErrorOut.of(e) for e in errors], normalized=normalized)
 
 
 @router.get("/{task_id:integer}", response_model=TaskOut, operation_id="get_task")

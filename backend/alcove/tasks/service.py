@@ -119,7 +119,7 @@ def json_schema() -> dict[str, Any]:
     return TaskSpec.model_json_schema()
 
 
-def validate_draft(spec: Any) -> tuple[bool, list[FieldError], dict[str, Any] | None]:
+def check_draft(spec: Any) -> tuple[bool, list[FieldError], dict[str, Any] | None]:
     parsed, errors = check_spec(spec)
     return parsed is not None, errors, dump(parsed) if parsed is not None else None
 

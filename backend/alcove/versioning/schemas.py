@@ -55,7 +55,7 @@ class FieldErrorOut(BaseModel):
         return cls(**e.as_dict())
 
 
-class ValidationReport(BaseModel):
+class CheckReport(BaseModel):
     valid: bool
     errors: list[FieldErrorOut] = Field(description="field-level problems (paths relative to the request body)")
     normalized: dict[str, Any] | None = Field(

@@ -130,8 +130,8 @@ export function useTaskSchema() {
   return useQuery({ queryKey: keys.taskSchema, queryFn: async () => unwrap(await client.GET("/api/v1/tasks/schema")) as JsonSchema, staleTime: Infinity });
 }
 /** Field-level problems of a draft, without saving (empty list: valid). */
-export function validateTask(body: { name: string; description: string; spec: TaskSpecDraft }): Promise<FieldError[]> {
-  return fieldProblems(async () => unwrap(await client.POST("/api/v1/tasks/validate", { body })));
+export function checkTask(body: { name: string; description: string; spec: TaskSpecDraft }): Promise<FieldError[]> {
+  return fieldProblems(async () => unwrap(await client.POST("/api/v1/tasks/check", { body })));
 }
 /** Scenarios iterations 1..n of a random-scenarios campaign with ``seed`` would solve (a draft spec, or the saved one). */
 export function useScenarioPreview(id: number | null) {
@@ -158,8 +158,8 @@ export function useOracleTypes() {
   return useQuery({ queryKey: keys.oracleTypes, queryFn: async (): Promise<OracleType[]> => unwrap(await client.GET("/api/v1/oracles/types")), staleTime: 60_000 });
 }
 /** Field-level problems of an oracle's type and parameters, without saving. */
-export function validateOracle(body: { type: string; params: Record<string, unknown> }): Promise<FieldError[]> {
-  return fieldProblems(async () => unwrap(await client.POST("/api/v1/oracles/validate", { body })));
+export function checkOracle(body: { type: string; params: Record<string, unknown> }): Promise<FieldError[]> {
+  return fieldProblems(async () => unwrap(await client.POST("/api/v1/oracles/check", { body })));
 }
 export function useSaveOracle(id: number | null) {
   const qc = useQueryClient();

@@ -37,7 +37,7 @@ export function fieldErrors(body: unknown): FieldError[] {
   });
 }
 
-/** The field problems a validate route answers with (a 422 answer is its result too, not a failure). */
+/** The field problems a check route answers with (a 422 answer is its result too, not a failure). */
 export async function fieldProblems(call: () => Promise<unknown>): Promise<FieldError[]> {
   try {
     return fieldErrors(await call());

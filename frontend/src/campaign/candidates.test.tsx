@@ -157,7 +157,7 @@ describe("the new-campaign form's Exploration section", () => {
       "GET /tasks": [{ id: 1, name: "t", version: 1 }],
       "GET /oracles": [{ id: 2, name: "o", type: "aux-penalty", version: 1 }],
       "GET /surrogate-configs": [],
-      "POST /campaigns/validate": { valid: true, errors: [] },
+      "POST /campaigns/check": { valid: true, errors: [] },
     });
     renderPage(<NewCampaignPage />, { route: "/campaigns/new" });
     const section = await screen.findByTestId("exploration");

@@ -195,8 +195,8 @@ export function useForkCampaign(id: number) {
 }
 
 /** Every problem of a new campaign's request, each at its field, without creating it (empty list: valid). */
-export function validateCampaign(body: Record<string, unknown>): Promise<FieldError[]> {
-  return fieldProblems(async () => unwrap(await client.POST("/api/v1/campaigns/validate", { body })));
+export function checkCampaign(body: Record<string, unknown>): Promise<FieldError[]> {
+  return fieldProblems(async () => unwrap(await client.POST("/api/v1/campaigns/check", { body })));
 }
 
 export function useCreateCampaign() {

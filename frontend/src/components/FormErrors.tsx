@@ -38,7 +38,7 @@ export function FormErrors({ view, failure }: { view: ErrorView; failure?: unkno
 export function ErrorCount({ view, checking = false }: { view: ErrorView; checking?: boolean }) {
   const n = view.problems.length;
   return (
-    <span className={n ? "badge bad" : "badge ok"} data-testid="validation-state" data-count={n} aria-live="polite">
+    <span className={n ? "badge bad" : "badge ok"} data-testid="check-state" data-count={n} aria-live="polite">
       {checking ? "checking…" : n ? `${n} problem${n === 1 ? "" : "s"}` : "valid"}
     </span>
   );

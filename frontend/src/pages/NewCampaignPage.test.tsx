@@ -28,12 +28,12 @@ function setup(create: () => unknown = () => jsonResponse({ detail: "stop here" 
       { id: 3, name: "gone", type: "aux-penalty", version: 1 },
     ],
     "GET /surrogate-configs": [],
-    "POST /campaigns/validate": (_u: URL, body: Body) => serverCheck(body),
+    "POST /campaigns/check": (_u: URL, body: Body) => serverCheck(body),
     "POST /campaigns": create,
   });
 }
 
-const badge = () => screen.getByTestId("validation-state");
+const badge = () => screen.getByTestId("check-state");
 const fieldOf = (el: HTMLElement) => el.closest(".field") as HTMLElement;
 
 describe("the new-campaign form", () => {
@@ -51,7 +51,7 @@ describe("the new-campaign form", () => {
     expect(name).toHaveAttribute("aria-invalid", "true");
     expect(fieldOf(name)).toHaveTextContent("must not be empty");
     // the API was asked, and its raw words for the same problem are not shown beside the form's
-    expect(calls.some((c) => c.method === "POST" && c.path === "/campaigns/validate")).toBe(true);
+    expect(calls.some((c) => c.method === "POST" && c.path === "/campaigns/check")).toBe(true);
     expect(document.body.textContent).not.toMatch(/String should/);
   });
 
@@ -74,9 +74,9 @@ describe("the new-campaign form", () => {
 
     // the form's own checks and the API's, all at once: 5 problems, each once at its field
     await waitFor(() => expect(badge()).toHaveTextContent("5 problems"), { timeout: 5000 });
-    const validations = calls.filter((c) => c.method === "POST" && c.path === "/campaigns/validate");
+    const checks = calls.filter((c) => c.method === "POST" && c.path === "/campaigns/check");
     // the values the form names itself are left out, so the API checks all the rest of their section
-    const sent = validations.at(-1)!.body as Body;
+    const sent = checks.at(-1)!.body as Body;
     expect(sent).toMatchObject({ name: "explore", oracle_id: 3, settings: { strategy: "ensemble-disagreement" }, stopping: { max_iterations: null } });
     expect(sent.settings).not.toHaveProperty("replay_dt");
     expect(sent.preliminary).not.toHaveProperty("samples");

@@ -1,6 +1,6 @@
 import { useEffect, useState, type FormEvent } from "react";
 import { Link, useNavigate } from "react-router-dom";
-import { useCreateCampaign, validateCampaign } from "../campaign/queries";
+import { useCreateCampaign, checkCampaign } from "../campaign/queries";
 import { errorMessage, type FieldError } from "../api/errors";
 import { useOpenApi, useOracles, useSurrogateConfigs, useTasks } from "../api/definitions";
 import { ErrorBox, Loading } from "../components/States";
@@ -64,26 +64,26 @@ export function NewCampaignPage() {
   const body = { name: cleanName(name), ...(taskId === "" ? {} : { task_id: taskId }), ...(oracleId === "" ? {} : { oracle_id: oracleId }), surrogate_config_id: surrogateId === "" ? null : surrogateId, seed, start: startNow, ...config };
   const draftKey = JSON.stringify(withoutFields(body, local.map((e) => e.field)));
   // Checked while typing: the API (which knows the definitions and the rules across settings) answers 400 ms after the last edit, with every problem at once.
-  const [validated, setValidated] = useState<{ key: string; errors: FieldError[] } | null>(null);
+  const [checked, setChecked] = useState<{ key: string; errors: FieldError[] } | null>(null);
   const ready = config !== null && !tasks.isPending && !oracles.isPending;
   useEffect(() => {
     if (!ready) return;
     let current = true;
     const timer = setTimeout(() => {
-      validateCampaign(JSON.parse(draftKey) as Record<string, unknown>)
-        .then((errors) => current && setValidated({ key: draftKey, errors }))
-        .catch((err) => current && setValidated({ key: draftKey, errors: [{ field: "", message: errorMessage(err) }] }));
+      checkCampaign(JSON.parse(draftKey) as Record<string, unknown>)
+        .then((errors) => current && setChecked({ key: draftKey, errors }))
+        .catch((err) => current && setChecked({ key: draftKey, errors: [{ field: "", message: errorMessage(err) }] }));
     }, 400);
     return () => {
       current = false;
       clearTimeout(timer);
     };
   }, [draftKey, ready]);
-  const checking = ready && validated?.key !== draftKey;
+  const checking = ready && checked?.key !== draftKey;
   // the request as the last create sent it: the server's refusal applies while the form still shows it
   const [sentKey, setSentKey] = useState<string | null>(null);
   const known = [...Object.keys(own), ...configFieldPaths(openapi.data)];
-  const view = errorView([local, validated?.errors ?? [], sentKey === draftKey ? serverProblems(create.error) : []], known, (p) => own[p] ?? configLabel(openapi.data, p));
+  const view = errorView([local, checked?.errors ?? [], sentKey === draftKey ? serverProblems(create.error) : []], known, (p) => own[p] ?? configLabel(openapi.data, p));
 
   function submit(e: FormEvent) {
     e.preventDefault();

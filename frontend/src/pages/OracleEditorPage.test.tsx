@@ -11,7 +11,7 @@ describe("oracle editor: where a command oracle runs", () => {
         { name: "lsdyna-slurm", kind: "command", description: "LS-DYNA on the cluster", available: true, unavailable_reason: null, launcher, params_schema: { type: "object", properties: {} } },
       ],
       "GET /oracles/2": { id: 2, owner_id: 1, name: "dyna", description: "", type: "lsdyna-slurm", params: {}, version: 1, version_id: 21, created_at: "2026-11-21T22:00:00Z", updated_at: "2026-11-21T22:00:00Z" },
-      "POST /oracles/validate": { valid: true, errors: [] },
+      "POST /oracles/check": { valid: true, errors: [] },
     });
     renderPage(<OracleEditorPage />, { route: "/oracles/2", path: "/oracles/:id" });
     expect(await screen.findByTestId("oracle-launcher")).toHaveTextContent(`Runs as ${launcher} (set by the administrator).`);

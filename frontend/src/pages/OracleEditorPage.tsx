@@ -1,6 +1,6 @@
 import { useEffect, useMemo, useState } from "react";
 import { useNavigate, useParams } from "react-router-dom";
-import { useOracle, useOracleTypes, useSaveOracle, validateOracle } from "../api/definitions";
+import { useOracle, useOracleTypes, useSaveOracle, checkOracle } from "../api/definitions";
 import { isPreviewFinal, useCreateOraclePreview, usePreview } from "../api/previews";
 import { columns, type Oracle, type OraclePreviewResult, type OracleType } from "../api/types";
 import { errorMessage, type FieldError } from "../api/errors";
@@ -78,13 +78,13 @@ function OracleEditor({ existing, types }: { existing: Oracle | undefined; types
   const [description, setDescription] = useState(existing?.description ?? "");
   const [type, setType] = useState(existing?.type ?? first?.name ?? "");
   const [params, setParams] = useState<Record<string, unknown>>(() => existing?.params ?? (first ? schemaDefaults(typeSchema(first)) : {}));
-  const [validated, setValidated] = useState<{ key: string; errors: FieldError[] } | null>(null);
+  const [checked, setChecked] = useState<{ key: string; errors: FieldError[] } | null>(null);
   // the draft the last save sent: its refused problems apply while the form still shows that draft
   const [sentKey, setSentKey] = useState<string | null>(null);
   const typeInfo = types.find((t) => t.name === type);
   const schema = typeSchema(typeInfo);
 
-  // Inline validation by the API, 400 ms after the last edit.
+  // Inline checks by the API, 400 ms after the last edit.
   const draftKey = JSON.stringify([type, params]);
   // the form as loaded or last saved: anything else is an unsaved edit, and leaving the page asks first
   const formKey = JSON.stringify([name, description, type, params]);
@@ -94,9 +94,9 @@ function OracleEditor({ existing, types }: { existing: Oracle | undefined; types
     if (!type) return;
     let current = true;
     const timer = setTimeout(() => {
-      validateOracle({ type, params })
-        .then((errors) => current && setValidated({ key: draftKey, errors }))
-        .catch((err) => current && setValidated({ key: draftKey, errors: [{ field: "", message: errorMessage(err) }] }));
+      checkOracle({ type, params })
+        .then((errors) => current && setChecked({ key: draftKey, errors }))
+        .catch((err) => current && setChecked({ key: draftKey, errors: [{ field: "", message: errorMessage(err) }] }));
     }, 400);
     return () => {
       current = false;
@@ -109,8 +109,8 @@ function OracleEditor({ existing, types }: { existing: Oracle | undefined; types
     const label = (p: string) => (p.startsWith("params.") ? schemaLabel(schema, p.slice(7)) : p[0]?.toUpperCase() + p.slice(1));
     const local = [...nameProblems(name), ...schemaLocalErrors(schema, params, schema, "params")];
     const sent = sentKey === JSON.stringify([name, description, type, params]) ? serverProblems(save.error) : [];
-    return errorView([local, validated?.errors ?? [], sent, serverProblems(test.error)], known, label);
-  }, [name, description, type, schema, params, validated, sentKey, save.error, test.error]);
+    return errorView([local, checked?.errors ?? [], sent, serverProblems(test.error)], known, label);
+  }, [name, description, type, schema, params, checked, sentKey, save.error, test.error]);
 
   function onSave() {
     if (nameProblems(name).length) return; // named at the field; the API would refuse it too
@@ -137,7 +137,7 @@ function OracleEditor({ existing, types }: { existing: Oracle | undefined; types
       description={description}
       setDescription={setDescription}
       errors={view}
-      checking={validated?.key !== draftKey}
+      checking={checked?.key !== draftKey}
       failure={save.error}
       saving={save.isPending}
       onSave={onSave}

@@ -1,6 +1,6 @@
 import { useEffect, useMemo, useState } from "react";
 import { useNavigate, useParams } from "react-router-dom";
-import { useModelPresets, useSaveTask, useScenarioPreview, useTask, useTaskPresets, useTaskSchema, validateTask } from "../api/definitions";
+import { useModelPresets, useSaveTask, useScenarioPreview, useTask, useTaskPresets, useTaskSchema, checkTask } from "../api/definitions";
 import { isPreviewFinal, useCreateTaskPreview, usePreview } from "../api/previews";
 import { columns, type ModelPreset, type Task, type TaskPreset, type TaskPreviewResult, type TaskSpecDraft } from "../api/types";
 import { errorMessage, type FieldError } from "../api/errors";
@@ -137,11 +137,11 @@ function TaskEditor({ existing, presets }: { existing: Task | undefined; presets
   const [name, setName] = useState(existing?.name ?? "");
   const [description, setDescription] = useState(existing?.description ?? "");
   const [spec, setSpec] = useState<TaskSpecDraft>(() => structuredClone((existing?.spec ?? presets[0].spec) as TaskSpecDraft));
-  const [validated, setValidated] = useState<{ key: string; errors: FieldError[] } | null>(null);
+  const [checked, setChecked] = useState<{ key: string; errors: FieldError[] } | null>(null);
   // the draft the last save sent: its refused problems apply while the form still shows that draft
   const [sentKey, setSentKey] = useState<string | null>(null);
 
-  // Inline validation: ask the API (which knows the science rules) 400 ms after the last edit.
+  // Inline checks: ask the API (which knows the science rules) 400 ms after the last edit.
   const draftKey = JSON.stringify([name, description, spec]);
   // the draft as loaded or last saved: anything else is an unsaved edit, and leaving the page asks first
   const [baseline, setBaseline] = useState(draftKey);
@@ -149,16 +149,16 @@ function TaskEditor({ existing, presets }: { existing: Task | undefined; presets
   useEffect(() => {
     let current = true;
     const timer = setTimeout(() => {
-      validateTask({ name: cleanName(name) || "untitled", description, spec })
-        .then((errors) => current && setValidated({ key: draftKey, errors }))
-        .catch((err) => current && setValidated({ key: draftKey, errors: [{ field: "", message: errorMessage(err) }] }));
+      checkTask({ name: cleanName(name) || "untitled", description, spec })
+        .then((errors) => current && setChecked({ key: draftKey, errors }))
+        .catch((err) => current && setChecked({ key: draftKey, errors: [{ field: "", message: errorMessage(err) }] }));
     }, 400);
     return () => {
       current = false;
       clearTimeout(timer);
     };
   }, [draftKey, name, description, spec]);
-  const checking = validated?.key !== draftKey;
+  const checking = checked?.key !== draftKey;
 
   const root = schema.data;
   const fullModelSchema = (root?.$defs?.ModelSpec ?? null) as JsonSchema | null;
@@ -182,11 +182,11 @@ function TaskEditor({ existing, presets }: { existing: Task | undefined; presets
     const known = ["name", "description", "phases", ...(modelSchema && root ? schemaFieldPaths(modelSchema, root, "model") : []), ...(chainSpec ? chainFieldPaths(chainSpec, root) : []), ...phaseFieldPaths(phases), ...BOUNDARY_FIELDS, ...rangeFieldPaths(ranges)];
     const label = (p: string) => (p === "name" ? "Name" : p === "description" ? "Description" : root ? schemaLabel(root, p) : p);
     return errorView(
-      [local, specPaths(validated?.errors ?? []), specPaths(sentKey === draftKey ? serverProblems(save.error) : []), specPaths(serverProblems(solve.error)), specPaths(serverProblems(sample.error))],
+      [local, specPaths(checked?.errors ?? []), specPaths(sentKey === draftKey ? serverProblems(save.error) : []), specPaths(serverProblems(solve.error)), specPaths(serverProblems(sample.error))],
       known,
       label,
     );
-  }, [name, modelSchema, chainSpec, phaseSchema, root, spec, phases, ranges, validated, sentKey, draftKey, save.error, solve.error, sample.error]);
+  }, [name, modelSchema, chainSpec, phaseSchema, root, spec, phases, ranges, checked, sentKey, draftKey, save.error, solve.error, sample.error]);
 
   const drawn = useMemo(() => resolveModel(spec.model), [spec.model]);
   const initialQ = (spec.initial as { q?: unknown } | undefined)?.q;

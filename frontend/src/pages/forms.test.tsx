@@ -47,7 +47,7 @@ describe("task editor form errors", () => {
     mockApi({
       "GET /tasks/presets": [PRESET],
       "GET /tasks/schema": TASK_SCHEMA,
-      "POST /tasks/validate": { valid: true, errors: [] },
+      "POST /tasks/check": { valid: true, errors: [] },
       "POST /tasks": (_url: URL, body: unknown) => {
         saves.push(body);
         return jsonResponse(
@@ -67,7 +67,7 @@ describe("task editor form errors", () => {
     fireEvent.change(await screen.findByLabelText("Name"), { target: { value: "a task" } });
     await screen.findByLabelText("phase 1 duration [s]");
     await userEvent.type(screen.getByLabelText("Name"), "bad task");
-    await waitFor(() => expect(screen.getByTestId("validation-state")).toHaveTextContent("valid"), { timeout: 3000 });
+    await waitFor(() => expect(screen.getByTestId("check-state")).toHaveTextContent("valid"), { timeout: 3000 });
     await userEvent.click(screen.getByRole("button", { name: "Create task" }));
     await waitFor(() => expect(saves).toHaveLength(1));
 
@@ -87,8 +87,8 @@ describe("task editor form errors", () => {
     // each problem exactly once; the badge counts what is shown; no raw paths
     const shown = [...document.querySelectorAll("[data-error-path]")].map((e) => e.getAttribute("data-error-path"));
     expect(shown.sort()).toEqual(["endpoint_cost", "model.gravity", "phases.0.q_min.0"]);
-    expect(screen.getByTestId("validation-state")).toHaveAttribute("data-count", "3");
-    expect(screen.getByTestId("validation-state")).toHaveTextContent("3 problems");
+    expect(screen.getByTestId("check-state")).toHaveAttribute("data-count", "3");
+    expect(screen.getByTestId("check-state")).toHaveTextContent("3 problems");
     expect(document.body.textContent).not.toMatch(/spec\.phases|Input should/);
     await new Promise((r) => setTimeout(r, 50));
     process.off("unhandledRejection", unhandled);
@@ -100,7 +100,7 @@ describe("task editor form errors", () => {
     mockApi({
       "GET /tasks/presets": [PRESET],
       "GET /tasks/schema": TASK_SCHEMA,
-      "POST /tasks/validate": (_u: URL, body: { spec: { phases: { intervals: number }[] } }) => {
+      "POST /tasks/check": (_u: URL, body: { spec: { phases: { intervals: number }[] } }) => {
         bodies.push(body);
         return { valid: true, errors: [] };
       },
@@ -113,13 +113,13 @@ describe("task editor form errors", () => {
     expect(await screen.findByText("must be a whole number")).toBeInTheDocument();
     expect(intervals).toHaveAttribute("aria-invalid", "true");
     await waitFor(() => expect(bodies.at(-1)?.spec.phases[0].intervals).toBe(2.5));
-    expect(screen.getByTestId("validation-state")).toHaveAttribute("data-count", "1");
+    expect(screen.getByTestId("check-state")).toHaveAttribute("data-count", "1");
     // a list item that is no number is marked at its field before the server is asked
     const qmin = screen.getByLabelText("phase 2 q min [rad]");
     fireEvent.blur(qmin, { target: { value: "0.1, abc" } });
     await waitFor(() => expect(qmin).toHaveAttribute("aria-invalid", "true"));
     expect(document.querySelector('[data-error-path="phases.1.q_min.1"]')).toHaveTextContent("joint 2: must be a number");
-    expect(screen.getByTestId("validation-state")).toHaveAttribute("data-count", "2");
+    expect(screen.getByTestId("check-state")).toHaveAttribute("data-count", "2");
   });
 });
 
@@ -169,19 +169,19 @@ describe("names", () => {
     mockApi({
       "GET /tasks/presets": [PRESET],
       "GET /tasks/schema": TASK_SCHEMA,
-      "POST /tasks/validate": { valid: true, errors: [] },
+      "POST /tasks/check": { valid: true, errors: [] },
       "POST /tasks": (_url: URL, body: { name: string }) => (saves.push(body), jsonResponse({ detail: "stop here" }, 409)),
     });
     renderPage(<TaskEditorPage />, { route: "/tasks/new" });
     const name = await screen.findByLabelText("Name");
-    await waitFor(() => expect(screen.getByTestId("validation-state")).toHaveTextContent("1 problem"), { timeout: 3000 });
+    await waitFor(() => expect(screen.getByTestId("check-state")).toHaveTextContent("1 problem"), { timeout: 3000 });
     expect(name).toHaveAttribute("aria-invalid", "true");
     expect(document.querySelector('[data-error-path="name"]')).toHaveTextContent("must not be empty");
     await userEvent.type(name, "   ");
     await userEvent.click(screen.getByRole("button", { name: "Create task" }));
     expect(document.querySelector('[data-error-path="name"]')).toHaveTextContent("must not be empty");
     await userEvent.type(name, "my task  ");
-    await waitFor(() => expect(screen.getByTestId("validation-state")).toHaveTextContent("valid"), { timeout: 3000 });
+    await waitFor(() => expect(screen.getByTestId("check-state")).toHaveTextContent("valid"), { timeout: 3000 });
     await userEvent.click(screen.getByRole("button", { name: "Create task" }));
     await waitFor(() => expect(saves.map((b) => b.name)).toEqual(["my task"]));
   });
@@ -192,27 +192,27 @@ describe("a refused save", () => {
     mockApi({
       "GET /tasks/presets": [PRESET],
       "GET /tasks/schema": TASK_SCHEMA,
-      "POST /tasks/validate": { valid: true, errors: [] },
+      "POST /tasks/check": { valid: true, errors: [] },
       "POST /tasks": () => jsonResponse({ detail: [{ ...loc("spec", "phases", 0, "w_T"), msg: "Value error, the phase's weights do not fit the model" }] }, 422),
     });
     renderPage(<TaskEditorPage />, { route: "/tasks/new" });
     fireEvent.change(await screen.findByLabelText("Name"), { target: { value: "a task" } });
-    await waitFor(() => expect(screen.getByTestId("validation-state")).toHaveTextContent("valid"), { timeout: 3000 });
+    await waitFor(() => expect(screen.getByTestId("check-state")).toHaveTextContent("valid"), { timeout: 3000 });
     await userEvent.click(screen.getByRole("button", { name: "Create task" }));
     expect(await screen.findByText("the phase's weights do not fit the model")).toBeInTheDocument();
-    expect(screen.getByTestId("validation-state")).toHaveTextContent("1 problem");
+    expect(screen.getByTestId("check-state")).toHaveTextContent("1 problem");
     const wT = screen.getByLabelText("phase 1 w_T");
     await userEvent.clear(wT);
     await userEvent.type(wT, "0.5");
     expect(screen.queryByText("the phase's weights do not fit the model")).toBeNull();
     expect(wT).toHaveAttribute("aria-invalid", "false");
-    await waitFor(() => expect(screen.getByTestId("validation-state")).toHaveTextContent("valid"), { timeout: 3000 });
+    await waitFor(() => expect(screen.getByTestId("check-state")).toHaveTextContent("valid"), { timeout: 3000 });
   });
 });
 
 describe("unsaved edits", () => {
   it("a link away from a task editor nobody edited leaves without a question", async () => {
-    mockApi({ "GET /tasks/presets": [PRESET], "GET /tasks/schema": TASK_SCHEMA, "POST /tasks/validate": { valid: true, errors: [] } });
+    mockApi({ "GET /tasks/presets": [PRESET], "GET /tasks/schema": TASK_SCHEMA, "POST /tasks/check": { valid: true, errors: [] } });
     const confirm = vi.spyOn(window, "confirm").mockReturnValue(false);
     try {
       renderPage(
@@ -232,7 +232,7 @@ describe("unsaved edits", () => {
   });
 
   it("an edited task: cancel keeps the page, confirm leaves", async () => {
-    mockApi({ "GET /tasks/presets": [PRESET], "GET /tasks/schema": TASK_SCHEMA, "POST /tasks/validate": { valid: true, errors: [] } });
+    mockApi({ "GET /tasks/presets": [PRESET], "GET /tasks/schema": TASK_SCHEMA, "POST /tasks/check": { valid: true, errors: [] } });
     const confirm = vi.spyOn(window, "confirm").mockReturnValue(false);
     try {
       renderPage(

@@ -111,7 +111,7 @@ describe("task editor", () => {
       "GET /tasks/presets": [PRESET],
       "GET /tasks/schema": TASK_SCHEMA,
       "GET /openapi.json": { paths: {} },
-      "POST /tasks/validate": (_url: URL, body: { spec?: { phases?: { duration: number }[] } }) => {
+      "POST /tasks/check": (_url: URL, body: { spec?: { phases?: { duration: number }[] } }) => {
         const bad = (body.spec?.phases?.[0]?.duration ?? 1) <= 0;
         return { valid: !bad, errors: bad ? [{ loc: ["spec", "phases", 0, "duration"], field: "spec.phases.0.duration", msg: "Input should be greater than 0", type: "greater_than" }] : [] };
       },
@@ -120,11 +120,11 @@ describe("task editor", () => {
     // a new task needs a name (a blank one is a problem the form names)
     fireEvent.change(await screen.findByLabelText("Name"), { target: { value: "a task" } });
     const duration = await screen.findByLabelText("phase 1 duration [s]");
-    await waitFor(() => expect(screen.getByTestId("validation-state")).toHaveTextContent("valid"), { timeout: 3000 });
+    await waitFor(() => expect(screen.getByTestId("check-state")).toHaveTextContent("valid"), { timeout: 3000 });
     fireEvent.change(duration, { target: { value: "-1" } });
     expect(await screen.findByText("must be greater than 0", {}, { timeout: 3000 })).toBeInTheDocument();
     expect(screen.getByLabelText("phase 1 duration [s]")).toHaveAttribute("aria-invalid", "true");
-    expect(screen.getByTestId("validation-state")).toHaveTextContent("1 problem");
+    expect(screen.getByTestId("check-state")).toHaveTextContent("1 problem");
     // "solve once" previews a saved task (and its unsaved edits)
     expect(screen.getByRole("button", { name: "Solve once" })).toBeDisabled();
     expect(screen.getByLabelText(/^mass/)).toHaveValue("5");

@@ -11,7 +11,7 @@ const TASK_ROUTES = {
   "GET /tasks/presets": [],
   "GET /tasks/schema": { type: "object", properties: {}, $defs: {} },
   "GET /tasks/1": TASK,
-  "POST /tasks/validate": { valid: true, errors: [] },
+  "POST /tasks/check": { valid: true, errors: [] },
 };
 
 function preview(status: string, extra: Record<string, unknown> = {}) {
@@ -139,7 +139,7 @@ describe("oracle editor: test on a sample trajectory", () => {
     const { calls } = mockApi({
       "GET /oracles/types": TYPES,
       "GET /oracles/2": ORACLE,
-      "POST /oracles/validate": { valid: true, errors: [] },
+      "POST /oracles/check": { valid: true, errors: [] },
       "POST /oracles/2/previews": () => jsonResponse({ ...preview("pending"), kind: "oracle", task_version_id: null, oracle_version_id: 21 }, 202),
       "GET /previews/5": () =>
         preview("succeeded", {

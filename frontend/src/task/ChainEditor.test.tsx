@@ -44,7 +44,7 @@ function api() {
     "GET /tasks/model-presets": MODEL_PRESETS,
     "GET /openapi.json": { paths: {} },
     // the API's rule: a chain joint's q0 lies within its range
-    "POST /tasks/validate": (_url: URL, body: { spec?: Spec }) => {
+    "POST /tasks/check": (_url: URL, body: { spec?: Spec }) => {
       const errors = (body.spec?.model?.chain?.joints ?? []).flatMap((j, i) =>
         j.q0 < j.q_min || j.q0 > j.q_max ? [{ loc: ["spec", "model", "chain", "joints", i, "q0"], field: `spec.model.chain.joints.${i}.q0`, msg: `Value error, ${j.q0} rad lies outside the joint range [${j.q_min}, ${j.q_max}] rad`, type: "value_error" }] : [],
       );
@@ -98,7 +98,7 @@ describe("task editor: the model as a chain", () => {
     expect(message).toHaveAttribute("data-error-path", "model.chain.joints.1.q0");
     expect(within(joints).getByText(/lies outside the joint range/)).toBe(message);
     expect(screen.getByLabelText("joint 2 q0 (start) [rad]")).toHaveAttribute("aria-invalid", "true");
-    expect(screen.getByTestId("validation-state")).toHaveTextContent("1 problem");
+    expect(screen.getByTestId("check-state")).toHaveTextContent("1 problem");
 
     // a link more: inserted before the head, drawn at once
     fireEvent.click(screen.getByRole("button", { name: "Add link" }));
@@ -117,7 +117,7 @@ describe("task editor: the model as a chain", () => {
     await screen.findByTestId("chain-links");
     expect(screen.getByLabelText("link 1 mass [kg]")).toHaveValue("5");
     expect(drawing()).toHaveAttribute("data-head", before);
-    await waitFor(() => expect(screen.getByTestId("validation-state")).toHaveTextContent("valid"), { timeout: 10_000 });
+    await waitFor(() => expect(screen.getByTestId("check-state")).toHaveTextContent("valid"), { timeout: 10_000 });
   }, SLOW);
 });
 

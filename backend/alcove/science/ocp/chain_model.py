@@ -29,7 +29,7 @@ from pydantic import BaseModel, ConfigDict, Field, model_validator
 
 from alcove.science.arrays import FloatArray
 from alcove.science.geometry import GRAVITY, HeadProfile, rot2
-from alcove.science.validation import quantity
+from alcove.science.spec_checks import quantity
 
 if TYPE_CHECKING:
     from alcove.science.multibody import PlanarChain

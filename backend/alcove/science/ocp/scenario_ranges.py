@@ -10,7 +10,7 @@ from typing import Annotated, Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, SerializerFunctionWrapHandler, model_serializer
 
-from alcove.science.validation import quantity
+from alcove.science.spec_checks import quantity
 
 #: the widest any rangeable parameter may go (the cost weights' bound, MAX_WEIGHT of the task spec);
 #: each end is then checked against its parameter's own range

@@ -41,7 +41,7 @@ from alcove.science.geometry import (
 from alcove.science.ocp.chain_model import CHAIN_PRESETS, ChainSpec, chain_preset
 from alcove.science.ocp.problem import DiscreteProblem, PhaseGrid
 from alcove.science.ocp.scenario_ranges import ParameterRange, check_ranges
-from alcove.science.validation import WholeNumber, error_location, quantity
+from alcove.science.spec_checks import WholeNumber, error_location, quantity
 
 if TYPE_CHECKING:  # CasADi is imported only when a chain is built,
     # so validating a task (e.g. in the API process) stays light.

@@ -29,7 +29,7 @@ from alcove.science.arrays import FloatArray
 from alcove.science.geometry import DEFAULT_PRESET, HeadNeckPreset, RelativeKinematics, kinematics_from_pose
 from alcove.science.oracles.base import CancelCheck, OracleCancelled, OracleParams, OracleResult, posed_trajectory
 from alcove.science.series import ForceSeries, Trajectory
-from alcove.science.validation import quantity
+from alcove.science.spec_checks import quantity
 
 K_PAPER_N_PER_MM2 = 6.0
 D0_PAPER_NS_PER_MM = 0.1

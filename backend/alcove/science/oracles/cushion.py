@@ -14,7 +14,7 @@ from typing import Annotated
 from pydantic import Field, model_validator
 
 from alcove.science.oracles.foam_law import FoamLawParams
-from alcove.science.validation import quantity
+from alcove.science.spec_checks import quantity
 
 CushionHeight = Annotated[float, quantity("height along z_H", "m", ge=-0.3, le=0.4, why="within the cushion")]
 

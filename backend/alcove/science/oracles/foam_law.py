@@ -17,7 +17,7 @@ from typing import Annotated
 from pydantic import Field, model_validator
 
 from alcove.science.oracles.base import OracleParams
-from alcove.science.validation import quantity
+from alcove.science.spec_checks import quantity
 
 FoamModulus = Annotated[float, quantity("hyperfoam modulus mu_i", "Pa", gt=0, le=1e8, why="foams: 1e3 to 1e6 Pa")]
 FoamExponent = Annotated[float, quantity("hyperfoam exponent alpha_i", "-", ge=-50, le=50, why="not 0")]

@@ -24,7 +24,7 @@ from alcove.science.oracles.builtin import (
     OracleTypeUnavailable,
 )
 from alcove.science.oracles.command import CommandOracle, CommandOracleSpec, params_model
-from alcove.science.validation import error_location
+from alcove.science.spec_checks import error_location
 
 
 class _LazyOracleTypes(Mapping[str, OracleType]):

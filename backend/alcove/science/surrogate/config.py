@@ -37,9 +37,9 @@ from typing import Annotated, Any, Literal
 from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, ValidationError
 
 from alcove.science.errors import FieldError
+from alcove.science.spec_checks import WholeNumber, as_whole_number, error_location, quantity, range_text
 from alcove.science.surrogate.features import FEATURE_NAMES
 from alcove.science.surrogate.history import HISTORY_NAMES, HistoryConfig
-from alcove.science.validation import WholeNumber, as_whole_number, error_location, quantity, range_text
 
 Activation = Literal["softplus", "tanh", "sigmoid"]
 Architecture = Literal["paper", "gated"]

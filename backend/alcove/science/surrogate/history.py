@@ -51,8 +51,8 @@ from pydantic import BaseModel, ConfigDict
 from alcove.science.arrays import FloatArray
 from alcove.science.errors import FieldError
 from alcove.science.geometry import HeadNeckPreset, RelativeKinematics
+from alcove.science.spec_checks import quantity
 from alcove.science.surrogate.features import features
-from alcove.science.validation import quantity
 
 if TYPE_CHECKING:
     import casadi as ca

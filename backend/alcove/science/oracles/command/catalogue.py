@@ -12,7 +12,7 @@ from pydantic import ValidationError
 from alcove.science.oracles.builtin import BUILTIN_TYPE_NAMES
 from alcove.science.oracles.command.launcher import LauncherSpec
 from alcove.science.oracles.command.spec import CatalogueError, CommandOracleSpec
-from alcove.science.validation import error_location
+from alcove.science.spec_checks import error_location
 
 #: built-in oracle types that run an external program, which a catalogue's ``launchers`` may dispatch
 EXTERNAL_BUILTIN_TYPES = ("fe-headrest-3d-ccx",)

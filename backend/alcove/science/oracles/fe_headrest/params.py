@@ -10,7 +10,7 @@ from typing import Annotated, Literal
 from pydantic import Field, model_validator
 
 from alcove.science.oracles.cushion import CushionParams
-from alcove.science.validation import WholeNumber, quantity
+from alcove.science.spec_checks import WholeNumber, quantity
 
 MomentPointCoordinate = Annotated[float, quantity("coordinate", "m", ge=-1, le=1, why="within a metre of the head")]
 

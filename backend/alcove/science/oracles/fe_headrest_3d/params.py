@@ -13,7 +13,7 @@ from typing import Annotated, Literal
 from pydantic import Field, model_validator
 
 from alcove.science.oracles.cushion import CushionParams
-from alcove.science.validation import WholeNumber, quantity
+from alcove.science.spec_checks import WholeNumber, quantity
 
 SemiAxis = Annotated[float, quantity("semi-axis", "m", ge=0.03, le=0.2)]
 

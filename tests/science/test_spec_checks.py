@@ -15,8 +15,8 @@ from alcove.science.ocp.task_spec import TaskSpec
 from alcove.science.oracles.aux_penalty import AuxPenaltyParams
 from alcove.science.oracles.command import load_command_catalogue, params_model
 from alcove.science.oracles.fe_headrest import FEHeadrestParams
+from alcove.science.spec_checks import WholeNumber, error_location, quantity, range_text
 from alcove.science.surrogate.config import SurrogateConfig
-from alcove.science.validation import WholeNumber, error_location, quantity, range_text
 
 CATALOGUE = Path(__file__).resolve().parents[2] / "examples" / "command-oracle" / "catalogue.yaml"
 

@@ -1,4 +1,4 @@
-"""A new campaign's request checked whole: ``POST /campaigns/validate`` names every problem at
+"""A new campaign's request checked whole: ``POST /campaigns/check`` names every problem at
 once (the schema's, the definitions it names, the rules across them), each at its field, and
 creating a campaign refuses a schema-valid request with all of its other problems at once."""
 
@@ -26,7 +26,7 @@ def test_a_valid_request_is_valid_and_nothing_is_created(client, owner: Account)
     task, oracle, _ = _definitions(client, owner)
     before = len(client.get(f"{API}/campaigns", headers=owner.headers).json())
     r = client.post(
-        f"{API}/campaigns/validate",
+        f"{API}/campaigns/check",
         json={"name": " c ", "task_id": task, "oracle_id": oracle, "stopping": {"max_iterations": 2}},
         headers=owner.headers,
     )
@@ -49,7 +49,7 @@ def test_every_problem_at_once_schema_references_and_rules_across_them(client, o
         "settings": {"strategy": "ensemble-disagreement", "batch": 2, "candidates": 4, "replay_dt": "abc"},
         "preliminary": {"samples": 1},
     }
-    r = client.post(f"{API}/campaigns/validate", json=body, headers=owner.headers)
+    r = client.post(f"{API}/campaigns/check", json=body, headers=owner.headers)
     assert r.status_code == 200, r.text
     found = _fields(r.json())
     assert r.json()["valid"] is False
@@ -59,7 +59,7 @@ def test_every_problem_at_once_schema_references_and_rules_across_them(client, o
     assert "settings.strategy" not in found
     # with the settings fixed, the strategy's problem with an ensemble of one joins the others
     body["settings"]["replay_dt"] = 0.0025
-    found = _fields(client.post(f"{API}/campaigns/validate", json=body, headers=owner.headers).json())
+    found = _fields(client.post(f"{API}/campaigns/check", json=body, headers=owner.headers).json())
     assert {"name", "preliminary.samples", "oracle_id", "settings.strategy"} == set(found), found
     assert "no disagreement" in found["settings.strategy"]
     # creating it: the schema refuses first; a schema-valid request gets all the other problems at once
@@ -68,19 +68,19 @@ def test_every_problem_at_once_schema_references_and_rules_across_them(client, o
     assert created.status_code == 422, created.text
     assert {e["field"] for e in created.json()["detail"]} == {"oracle_id", "settings.strategy"}
     body["oracle_id"] = oracle
-    assert set(_fields(client.post(f"{API}/campaigns/validate", json=body, headers=owner.headers).json())) == {
+    assert set(_fields(client.post(f"{API}/campaigns/check", json=body, headers=owner.headers).json())) == {
         "settings.strategy"
     }
 
 
 def test_unknown_definitions_and_fields_are_named(client, owner: Account) -> None:
     r = client.post(
-        f"{API}/campaigns/validate",
+        f"{API}/campaigns/check",
         json={"name": "c", "task_id": 2_000_000_000, "oracle_id": "x", "colour": "red"},
         headers=owner.headers,
     )
     assert r.status_code == 200, r.text
     found = _fields(r.json())
     assert set(found) == {"task_id", "oracle_id", "colour"}, found
-    assert client.post(f"{API}/campaigns/validate", json=[1], headers=owner.headers).status_code == 422
-    assert client.post(f"{API}/campaigns/validate", json={"name": "c"}).status_code == 401
+    assert client.post(f"{API}/campaigns/check", json=[1], headers=owner.headers).status_code == 422
+    assert client.post(f"{API}/campaigns/check", json={"name": "c"}).status_code == 401
