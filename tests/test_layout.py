@@ -1,7 +1,8 @@
 """The layout contributors rely on (docs/architecture.md): a domain never imports one above
 it, the web plumbing imports no domain, the science package is layered the same way inside,
 the campaign domain's wings import only what every wing reads and the wings below them (``run``
-and ``views`` never each other), the architecture page's import tables are the measured ones,
+and ``views`` never each other), the architecture page's import tables are the measured ones, the
+domains have the files it names and their routers change rows only through their services,
 and no module outside the science package grows past 400 lines. Read from the code's own imports (every import, also
 those inside functions and under TYPE_CHECKING)."""
 
@@ -239,3 +240,42 @@ def test_no_module_outside_science_over_400_lines() -> None:
         if "science" not in p.relative_to(REPO).parts and (n := len(p.read_text().splitlines())) > MAX_LINES
     ]
     assert not long, "split these where a reader would:\n" + "\n".join(long)
+
+
+#: The domains the API reaches and the files each has (docs/architecture.md, "A domain that the
+#: API reaches"): the four of a domain, or what the previews have instead.
+DOMAIN_FILES: dict[str, set[str]] = {
+    **{
+        d: {"schemas", "service", "repository", "router"}
+        for d in ("users", "tasks", "oracles", "pool", "surrogates", "campaigns")
+    },
+    "previews": {"service", "router", "worker"},
+    "solving": {"repository", "steps"},
+}
+
+
+def test_the_domains_have_the_files_the_architecture_page_names() -> None:
+    missing = [f"{d}/{name}.py" for d, names in DOMAIN_FILES.items() for name in sorted(names)]
+    missing = [m for m in missing if not (PACKAGE / m).is_file()]
+    assert not missing, f"docs/architecture.md names these files: {missing}"
+    assert not (PACKAGE / "previews" / "repository.py").is_file(), "the previews' queries live in their service"
+    assert not (PACKAGE / "solving" / "router.py").is_file(), "solving/ has no route"
+
+
+def test_routers_change_definitions_through_their_service() -> None:
+    """A router parses, calls its service for a change and commits: it never adds, deletes or
+    versions rows itself (``versioning.create``/``update``/``delete``, ``session.add``/``delete``)."""
+    wrong = []
+    for path in sorted(PACKAGE.rglob("*router*.py")):
+        for node in ast.walk(ast.parse(path.read_text())):
+            if (
+                isinstance(node, ast.Call)
+                and isinstance(node.func, ast.Attribute)
+                and isinstance(node.func.value, ast.Name)
+                and (
+                    (node.func.value.id == "versioning" and node.func.attr in {"create", "update", "delete"})
+                    or (node.func.value.id in {"session", "s"} and node.func.attr in {"add", "add_all", "delete"})
+                )
+            ):
+                wrong.append(f"{path.relative_to(REPO)}:{node.lineno}: {node.func.value.id}.{node.func.attr}")
+    assert not wrong, "writes that belong in the service:\n" + "\n".join(wrong)

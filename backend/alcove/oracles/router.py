@@ -135,8 +135,7 @@ def update_oracle(oracle_id: ObjectId, body: OracleUpdate, user: CurrentUser, se
 
 @router.delete("/{oracle_id:integer}", status_code=status.HTTP_204_NO_CONTENT, operation_id="delete_oracle")
 def delete_oracle(oracle_id: ObjectId, user: CurrentUser, session: SessionDep) -> Response:
-    definition = repo.get_oracle(session, oracle_id, user, need="owner")
-    versioning.delete(session, service.KIND, definition)
+    service.delete(session, user, oracle_id)
     session.commit()
     return Response(status_code=status.HTTP_204_NO_CONTENT)
 

@@ -294,6 +294,11 @@ def update(
     return definition, version
 
 
+def delete(session: Session, user: User, oracle_id: int) -> None:
+    """Delete ``user``'s oracle definition; one a campaign used is archived instead. Never commits."""
+    versioning.delete(session, KIND, repo.get_oracle(session, oracle_id, user, need="owner"))
+
+
 def copy_preset(session: Session, owner: User, key: str, name: str | None) -> tuple[OracleDefinition, Any]:
     preset = next((p for p in presets() if p["key"] == key), None)
     if preset is None:

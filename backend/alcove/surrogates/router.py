@@ -128,12 +128,8 @@ def get_surrogate_config(config_id: ObjectId, user: CurrentUser, session: Sessio
 def update_surrogate_config(
     config_id: ObjectId, body: SurrogateConfigUpdate, user: CurrentUser, session: SessionDep
 ) -> SurrogateConfigOut:
-    definition = get_for(session, SurrogateConfigDefinition, config_id, user, need="edit")
-    spec = None if body.spec is None else body.spec.model_dump(mode="json")
-    if spec is not None:
-        check_sizes(session, user.id, surrogate_sizes(spec))
-    version, _ = versioning.update(
-        session, KIND, definition, user, name=body.name, description=body.description, spec=spec, note=body.note
+    definition, version = service.update_config(
+        session, user, config_id, name=body.name, description=body.description, spec=body.spec, note=body.note
     )
     session.commit()
     return config_out(session, definition, version, user)
@@ -141,7 +137,7 @@ def update_surrogate_config(
 
 @router.delete("/{config_id:integer}", status_code=status.HTTP_204_NO_CONTENT, operation_id="delete_surrogate_config")
 def delete_surrogate_config(config_id: ObjectId, user: CurrentUser, session: SessionDep) -> Response:
-    versioning.delete(session, KIND, get_for(session, SurrogateConfigDefinition, config_id, user, need="owner"))
+    service.delete_config(session, user, config_id)
     session.commit()
     return Response(status_code=status.HTTP_204_NO_CONTENT)
 

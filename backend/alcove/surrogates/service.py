@@ -31,6 +31,8 @@ from alcove.errors import NotFound
 from alcove.models import ModelVersion, SurrogateConfigDefinition, SurrogateConfigVersion, User
 from alcove.surrogates import repository as repo
 from alcove.surrogates.schemas import ModelVersionRead
+from alcove.users.access import get_for
+from alcove.users.limits import check_sizes, surrogate_sizes
 
 if TYPE_CHECKING:
     from alcove.science.surrogate.config import SurrogateConfig
@@ -66,6 +68,42 @@ def create_config(
         preset_key=preset_key,
         note=note,
     )
+
+
+def update_config(
+    session: Session,
+    user: User,
+    config_id: int,
+    *,
+    name: str | None,
+    description: str | None,
+    spec: SurrogateConfig | None,
+    note: str,
+) -> tuple[SurrogateConfigDefinition, SurrogateConfigVersion]:
+    """Rename or edit a configuration ``user`` may edit: a changed ``spec`` (within the owner's
+    job limits) edits the latest version while no campaign uses it, and otherwise makes a new
+    version. Never commits."""
+    definition = get_for(session, SurrogateConfigDefinition, config_id, user, need="edit")
+    raw = None if spec is None else spec.model_dump(mode="json")
+    if raw is not None:
+        check_sizes(session, user.id, surrogate_sizes(raw))
+    version, _ = versioning.update(
+        session,
+        versioning.SURROGATE_CONFIGS,
+        definition,
+        user,
+        name=name,
+        description=description,
+        spec=raw,
+        note=note,
+    )
+    return definition, version
+
+
+def delete_config(session: Session, user: User, config_id: int) -> None:
+    """Delete ``user``'s configuration; one a campaign used is archived instead. Never commits."""
+    definition = get_for(session, SurrogateConfigDefinition, config_id, user, need="owner")
+    versioning.delete(session, versioning.SURROGATE_CONFIGS, definition)
 
 
 @lru_cache

@@ -126,8 +126,7 @@ def update_task(task_id: ObjectId, body: TaskUpdate, user: CurrentUser, session:
 @router.delete("/{task_id:integer}", status_code=status.HTTP_204_NO_CONTENT, operation_id="delete_task")
 def delete_task(task_id: ObjectId, user: CurrentUser, session: SessionDep) -> Response:
     """Delete; a task used by a campaign is archived instead (hidden, kept for its campaigns)."""
-    definition = repo.get_task(session, task_id, user, need="owner")
-    versioning.delete(session, service.KIND, definition)
+    service.delete(session, user, task_id)
     session.commit()
     return Response(status_code=status.HTTP_204_NO_CONTENT)
 

@@ -73,6 +73,12 @@ def update(
     return definition, version, created
 
 
+def delete(session: Session, user: User, task_id: int) -> None:
+    """Delete ``user``'s task; a task a campaign used is archived instead (hidden, kept for its
+    campaigns). Never commits."""
+    versioning.delete(session, KIND, repo.get_task(session, task_id, user, need="owner"))
+
+
 MODEL_PRESET_DESCRIPTIONS = {
     "head-neck-1dof": "the paper's model: one joint (C7/T1) and the head, de Leva (1996) 50th percentile male",
     "head-neck-2dof": "neck link and head, joints C7/T1 and C0/C1 (parameters and sources: docs/multibody.md)",
