@@ -6,8 +6,11 @@ none configured (no 5xx; status codes, content types, headers and bodies as docu
 schema-valid requests accepted and schema-violating ones refused; 405 with a correct ``Allow``
 for undeclared methods; deleted resources gone; authentication not ignored). Zero failures.
 
-Bounded: a few examples per operation and a time budget (``MAX_TIME_S``), derandomized by a
-fixed seed. Run as a member with their own task, oracle and campaign (so ids hit real rows).
+Bounded by the work, not the clock: a few examples per operation, derandomized by a fixed seed,
+so every run sends the same requests through every phase (about 7,400; a time budget would cut the
+run where the machine's load puts it, before the stateful phase on a busy machine).
+``ALCOVE_TEST_SCHEMATHESIS_TIME`` sets a budget in seconds for a quick local look (0: none).
+Run as a member with their own task, oracle and campaign (so ids hit real rows).
 A heartbeat row stands in for a worker (readiness answers 200; no job runs: the embedded
 broker's folders keep what the fuzzed starts and previews send). Left out: the routes that
 would end the run's own authentication (logout, revoking tokens, a password change) and the
@@ -45,8 +48,8 @@ from tests.integration.procs import Proc, alcove_env, free_port, http_ok, wait_u
 from .helpers import small_task_spec
 
 MAX_EXAMPLES = 5
-#: longer or other runs: ALCOVE_TEST_SCHEMATHESIS_TIME=600 ALCOVE_TEST_SCHEMATHESIS_SEED=7
-MAX_TIME_S = float(os.environ.get("ALCOVE_TEST_SCHEMATHESIS_TIME", "40"))
+#: another run: ALCOVE_TEST_SCHEMATHESIS_SEED=7; a time budget in seconds: ALCOVE_TEST_SCHEMATHESIS_TIME=30
+MAX_TIME_S = float(os.environ.get("ALCOVE_TEST_SCHEMATHESIS_TIME", "0"))
 SEED = int(os.environ.get("ALCOVE_TEST_SCHEMATHESIS_SEED", "20"))
 #: routes that end the run's own authentication, and the long-lived event streams
 EXCLUDED = ["logout", "revoke_token", "update_me", "stream_campaign_events", "stream_all_campaign_events"]
