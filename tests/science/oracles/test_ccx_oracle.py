@@ -136,8 +136,55 @@ def test_the_first_contact_point_is_a_node_of_the_front_face(h):
     front = block.mesh.nodes[np.isclose(block.mesh.nodes[:, 0], 0.0)]
     assert np.min(np.linalg.norm(front[:, 1:], axis=1)) < 1e-12
     y = np.unique(np.round(front[:, 1], 12))
-    fine = np.diff(y)[np.abs(y[:-1]) < 0.06]
+    fine = np.diff(y)[np.abs(y[:-1]) < CcxHeadrestParams().contact_half_width - 1e-9]
     np.testing.assert_allclose(fine, h, rtol=1e-9)
+
+
+def _uniform_span(axis: np.ndarray, h: float) -> tuple[float, float]:
+    """The run of ``h``-sized intervals of ``axis`` around 0: (low end, high end)."""
+    i = int(np.argmin(np.abs(axis)))
+    lo, hi = i, i
+    while lo > 0 and np.isclose(axis[lo] - axis[lo - 1], h, rtol=1e-9):
+        lo -= 1
+    while hi < len(axis) - 1 and np.isclose(axis[hi + 1] - axis[hi], h, rtol=1e-9):
+        hi += 1
+    return float(axis[lo]), float(axis[hi])
+
+
+def test_the_default_fine_zone_and_head_cap_cover_every_contact_of_the_joint_range():
+    """The foam touches the head only where the undeformed head is inside the undeformed cushion
+    (an elastic foam with beta = 0 does not bulge out), so that footprint, over the preset's joint
+    range from first contact to theta_max (the deepest pose any 1-DOF trajectory reaches), bounds
+    the contact: it lies in the uniform contact zone of the default mesh with at least one element
+    to spare on every side, and inside the head cap."""
+    from alcove.science.geometry import head_pose_in_headrest
+    from alcove.science.oracles.fe_headrest_3d.deck import place
+    from alcove.science.oracles.fe_headrest_3d.oracle import CAP_AZIMUTH, CAP_ELEVATION
+
+    p = CcxHeadrestParams()
+    oracle = CcxHeadrestOracle(p)
+    pr = DEFAULT_PRESET.profile
+    u, v = np.meshgrid(np.linspace(-1.5, 1.5, 301), np.linspace(-1.5, 1.5, 301), indexing="ij")
+    surface = np.stack(
+        [pr.cx - pr.ax * np.cos(u) * np.cos(v), p.head_half_breadth * np.sin(u) * np.cos(v), pr.cz + pr.az * np.sin(v)],
+        -1,
+    ).reshape(-1, 3)
+    on_cap = ((np.abs(u) <= CAP_AZIMUTH) & (v >= CAP_ELEVATION[0]) & (v <= CAP_ELEVATION[1])).ravel()
+    theta = np.linspace(DEFAULT_PRESET.theta_contact, DEFAULT_PRESET.theta_max, 41)
+    r, a = head_pose_in_headrest(DEFAULT_PRESET, theta)
+    touched = np.zeros(len(surface), bool)
+    for ri, ai in zip(r, a, strict=True):
+        touched |= place(surface, tuple(ri), ai)[:, 0] < 0.0
+    assert touched.any() and np.all(on_cap[touched])
+    footprint = np.concatenate([place(surface[touched], tuple(ri), ai) for ri, ai in zip(r, a, strict=True)])
+    footprint = footprint[footprint[:, 0] < 0.0]
+    nodes = oracle.block.mesh.nodes
+    front = nodes[np.isclose(nodes[:, 0], 0.0)]
+    h = p.element_size_contact
+    y_lo, y_hi = _uniform_span(np.unique(np.round(front[:, 1], 12)), h)
+    z_lo, z_hi = _uniform_span(np.unique(np.round(front[:, 2], 12)), h)
+    assert y_lo + h <= footprint[:, 1].min() and footprint[:, 1].max() <= y_hi - h, (y_lo, y_hi)
+    assert z_lo + h <= footprint[:, 2].min() and footprint[:, 2].max() <= z_hi - h, (z_lo, z_hi)
 
 
 def test_the_residual_floor_is_ccx_r_l():

@@ -37,17 +37,20 @@ def graded_sizes(length: float, h_start: float, h_end: float, growth: float = GR
     return scaled
 
 
-def graded_axis(lo: float, hi: float, fine_lo: float, fine_hi: float, h_fine: float, h_far: float) -> FloatArray:
-    """Node coordinates on [lo, hi]: uniform ``h_fine`` on [fine_lo, fine_hi], graded outside."""
+def graded_axis(
+    lo: float, hi: float, fine_lo: float, fine_hi: float, h_fine: float, h_far: float, growth: float = GROWTH
+) -> FloatArray:
+    """Node coordinates on [lo, hi]: uniform ``h_fine`` on [fine_lo, fine_hi], graded outside
+    (neighbouring sizes in the ratio ``growth``, at most ``h_far``)."""
     fine_lo, fine_hi = max(lo, fine_lo), min(hi, fine_hi)
     n_fine = max(1, int(np.ceil((fine_hi - fine_lo) / h_fine - 1e-9)))
     nodes = list(np.linspace(fine_lo, fine_hi, n_fine + 1))
     if fine_lo > lo + 1e-12:
-        below = np.cumsum(graded_sizes(fine_lo - lo, h_fine * GROWTH, h_far))
+        below = np.cumsum(graded_sizes(fine_lo - lo, h_fine * growth, h_far, growth))
         nodes = list(fine_lo - below[::-1]) + nodes
         nodes[0] = lo
     if fine_hi < hi - 1e-12:
-        above = np.cumsum(graded_sizes(hi - fine_hi, h_fine * GROWTH, h_far))
+        above = np.cumsum(graded_sizes(hi - fine_hi, h_fine * growth, h_far, growth))
         nodes = nodes + list(fine_hi + above)
         nodes[-1] = hi
     return np.array(nodes)

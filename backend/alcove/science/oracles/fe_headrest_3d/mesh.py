@@ -3,8 +3,8 @@
 Coordinates are in the headrest frame H (m): the block occupies ``-thickness <= x <= 0``
 (front face x = 0, the undeformed cushion surface), ``|y| <= width / 2`` and
 ``z_bottom <= z <= z_bottom + height``. Elements are ``h_contact`` in the contact zone
-(in y and z) and at the front face, growing geometrically (ratio 1.3, the graded axes of
-``fe-headrest-2d``) toward ``h_far`` at the back face and the block's edges.
+(in y and z) and at the front face, growing geometrically toward ``h_far`` at the back face
+(ratio 1.3, the graded axes of ``fe-headrest-2d``) and toward the block's edges (ratio ``growth``).
 
 The head is the back cap of an ellipsoid (semi-axes ``ax``, ``by``, ``az`` about the
 centre ``(cx, 0, cz)`` of the head frame): one layer of hexahedra whose outer faces are
@@ -21,7 +21,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from alcove.science.arrays import FloatArray, IndexArray
-from alcove.science.oracles.fe_headrest.mesh import graded_axis, graded_sizes
+from alcove.science.oracles.fe_headrest.mesh import GROWTH, graded_axis, graded_sizes
 
 
 @dataclass(frozen=True)
@@ -51,16 +51,18 @@ def block_axes(
     h_far: float,
     contact_half_width: float,
     contact_zone: tuple[float, float],
+    growth: float = GROWTH,
 ) -> tuple[FloatArray, FloatArray, FloatArray]:
-    """Node coordinates along x (graded from the front face), y and z (fine in the contact zone)."""
+    """Node coordinates along x (graded from the front face), y and z (fine in the contact zone,
+    growing by ``growth`` outside it)."""
     x = -np.cumsum(graded_sizes(thickness, h_contact, h_far))[::-1]
     x = np.concatenate([x, [0.0]])
     x[0] = -thickness
     half = 0.5 * width
     y_lo, y_hi = on_lattice(-contact_half_width, contact_half_width, h_contact, -half, half)
-    y = graded_axis(-half, half, y_lo, y_hi, h_contact, h_far)
+    y = graded_axis(-half, half, y_lo, y_hi, h_contact, h_far, growth)
     z_lo, z_hi = on_lattice(contact_zone[0], contact_zone[1], h_contact, z_bottom, z_bottom + height)
-    z = graded_axis(z_bottom, z_bottom + height, z_lo, z_hi, h_contact, h_far)
+    z = graded_axis(z_bottom, z_bottom + height, z_lo, z_hi, h_contact, h_far, growth)
     return x, y, z
 
 

@@ -123,6 +123,7 @@ class CcxHeadrestOracle:
                 p.element_size_far,
                 p.contact_half_width,
                 p.contact_zone,
+                p.element_growth,
             )
         )
         ax, az = self.semi_axes_xz

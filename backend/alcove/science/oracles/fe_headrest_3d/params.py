@@ -12,7 +12,7 @@ from typing import Annotated, Literal
 
 from pydantic import Field, model_validator
 
-from alcove.science.oracles.cushion import CushionParams
+from alcove.science.oracles.cushion import CushionHeight, CushionParams
 from alcove.science.spec_checks import WholeNumber, quantity
 
 SemiAxis = Annotated[float, quantity("semi-axis", "m", ge=0.03, le=0.2)]
@@ -57,9 +57,27 @@ class CcxHeadrestParams(CushionParams):
             why="at least element_size_contact",
         ),
     ] = 0.03
+    # the fine zone covers where the head can touch the foam: the undeformed head's footprint on
+    # the undeformed front face over the preset's whole joint range (|y| <= 31 mm, -42 <= z <= 48 mm)
+    # with about one element to spare; the shared cushion's wider zone is the 2D model's
     contact_half_width: Annotated[
         float, quantity("half width along y_H meshed with element_size_contact", "m", ge=0.01, le=0.25)
-    ] = 0.06
+    ] = 0.04
+    contact_zone: tuple[CushionHeight, CushionHeight] = Field(
+        (-0.05, 0.06),
+        description="z_H range (low, high) meshed with element_size_contact [m], increasing and inside the "
+        "cushion's z extent (cushion_bottom to cushion_bottom + cushion_height)",
+    )
+    element_growth: Annotated[
+        float,
+        quantity(
+            "ratio of neighbouring element sizes along y_H and z_H outside the contact zone",
+            "-",
+            ge=1.1,
+            le=2.5,
+            why="the sizes grow from element_size_contact to at most element_size_far",
+        ),
+    ] = 1.6
     head_element_size: Annotated[
         float, quantity("element size of the head's contact surface", "m", ge=0.002, le=0.03)
     ] = 0.008
