@@ -6,6 +6,8 @@
   is rolled back. The schema is dropped at the end.
 * SQLite: a migrated file in a temporary folder, same per-test rollback.
 * Redis: ``ALCOVE_TEST_REDIS_URL`` or ``redis://127.0.0.1:6379/15`` (flushed per test session).
+* The app over HTTP: ``client`` (the real app in a TestClient on the session's PostgreSQL schema)
+  and three accounts, ``owner``, ``other`` and ``admin``, for every domain's route tests.
 
 When a service is down the tests needing it are skipped locally.
 
@@ -130,13 +132,13 @@ SERIAL_FIXTURES = frozenset({"fresh_pg_url", "redis_url", "alcove_server"})
 #: folders, files and tests in the serial phase, and why (besides the tests the fixtures above catch)
 SERIAL_PATHS = {
     "tests/campaigns/test_workers.py": "starts and kills worker processes on the embedded default",
-    "tests/integration/test_worker_e2e.py": "starts worker and `alcove up` processes on the embedded default",
-    "tests/integration/test_serve_restart.py": "starts and SIGKILLs `alcove serve` on the embedded default",
+    "tests/jobs/test_worker_e2e.py": "starts worker and `alcove up` processes on the embedded default",
+    "tests/api/test_serve_restart.py": "starts and SIGKILLs `alcove serve` on the embedded default",
 }
 
 #: serial tests that run in the third phase, with nothing beside them, and why
 ALONE_PATHS = {
-    "tests/api/test_login_throttle.py::test_enumeration_timing_existing_and_unknown_emails_answer_alike": (
+    "tests/users/test_login_throttle.py::test_enumeration_timing_existing_and_unknown_emails_answer_alike": (
         "compares login times (paired, but a neighbour's load is noise)"
     ),
     "tests/campaigns/test_recovery.py::test_a_killed_workers_step_runs_again_within_seconds": (
@@ -197,7 +199,7 @@ ONE_TEST_PER_UNIT = frozenset(
         "tests/campaigns/test_workers.py",
         "tests/campaigns/test_batch.py",
         "tests/campaigns/test_recovery.py",
-        "tests/integration/test_worker_e2e.py",
+        "tests/jobs/test_worker_e2e.py",
     }
 )
 
@@ -473,3 +475,78 @@ def ghost_case() -> tuple[Any, list[Any]]:
     from tests.ghost_case import ghost_ensemble
 
     return ghost_ensemble(DEFAULT_PRESET)
+
+
+# ----------------------------------------------------------------------------- the app over HTTP
+# The real app (TestClient) on the session's migrated PostgreSQL schema, for every domain's
+# route tests. Three users: ``owner`` and ``other`` (members) and ``admin``, each with a bearer
+# token (``Account.headers``; tests/helpers.py). Data is committed (the API opens its own
+# sessions), so tests use unique names.
+
+
+@pytest.fixture(scope="session")
+def api_settings(pg_url: str, tmp_path_factory: pytest.TempPathFactory) -> Iterator[None]:
+    mp = pytest.MonkeyPatch()
+    mp.setenv("ALCOVE_DATABASE_URL", pg_url)
+    mp.setenv("ALCOVE_DATA_DIR", str(tmp_path_factory.mktemp("alcove-api")))
+    mp.delenv("ALCOVE_BROKER_URL", raising=False)
+    mp.delenv("ALCOVE_COMMAND_ORACLES_FILE", raising=False)
+    from alcove.settings import get_settings
+
+    get_settings.cache_clear()
+    yield
+    mp.undo()
+    get_settings.cache_clear()
+
+
+@pytest.fixture(scope="session")
+def app(api_settings: None, tmp_path_factory: pytest.TempPathFactory) -> Any:
+    from alcove.app import create_app
+    from alcove.settings import get_settings
+
+    settings = get_settings().model_copy(update={"static_dir": tmp_path_factory.mktemp("no-frontend")})
+    return create_app(settings)
+
+
+@pytest.fixture(scope="session")
+def client(app: Any) -> Any:
+    from fastapi.testclient import TestClient
+
+    return TestClient(app)
+
+
+def _without_a_running_campaigns_limit(account: Any) -> Any:
+    """The session's members start campaigns in many tests, and no worker runs them (they stay
+    queued): the running-campaigns limit would make later tests' campaigns wait depending on the
+    order the tests run in. The limits' own tests use fresh accounts."""
+    from alcove.db import open_transaction
+    from alcove.models import User
+    from alcove.users.limits import set_own
+    from alcove.users.schemas import JobLimitsUpdate
+
+    with open_transaction() as s:
+        user = s.get(User, account.id)
+        assert user is not None
+        set_own(s, user, JobLimitsUpdate(max_running_campaigns=None))
+    return account
+
+
+@pytest.fixture(scope="session")
+def owner(api_settings: None) -> Any:
+    from tests.helpers import make_account
+
+    return _without_a_running_campaigns_limit(make_account("member", "owner"))
+
+
+@pytest.fixture(scope="session")
+def other(api_settings: None) -> Any:
+    from tests.helpers import make_account
+
+    return _without_a_running_campaigns_limit(make_account("member", "other"))
+
+
+@pytest.fixture(scope="session")
+def admin(api_settings: None) -> Any:
+    from tests.helpers import make_account
+
+    return make_account("admin", "admin")

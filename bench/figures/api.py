@@ -1,7 +1,7 @@
 """REST API under load (``python -m bench.run --only "api:"``).
 
 Setup (untimed): a private PostgreSQL schema, migrated, holding a 200-iteration campaign
-synthesized through the services/repositories (``tests/api/synthetic.py``: iterations,
+synthesized through the services/repositories (``tests/synthetic.py``: iterations,
 steps, metrics with 401-sample curves, OCP solutions on the preset's grid of 2 x 100
 intervals, pool versions), and the API served the way
 ``alcove serve`` does it: uvicorn with ``API_WORKERS`` processes on loopback.
@@ -97,7 +97,7 @@ def server() -> dict[str, Any]:
     get_settings.cache_clear()
     migrate.upgrade(url)
     sys.path.insert(0, str(REPO))
-    from tests.api.synthetic import synthesize_campaign
+    from tests.synthetic import synthesize_campaign
 
     with open_transaction(url) as s:
         user = User(email="bench@example.org", role="member")

@@ -3,7 +3,7 @@ interactive (RMSE plot drawn by Plotly with all 200 iterations, log-axis toggle 
 in <= 1.5 s, measured in Debian's Chromium driven by playwright-core.
 
 Setup (untimed): `alcove up` (API + worker) on a temporary SQLite data dir serving the built
-UI, a synthetic finished 200-iteration campaign (tests/api/synthetic.py: metrics and curves
+UI, a synthetic finished 200-iteration campaign (tests/synthetic.py: metrics and curves
 of every iteration, through the services), a login token. Each repetition opens a fresh
 browser profile (cold cache) and times from navigation start (performance.now()).
 """
@@ -27,7 +27,7 @@ import sys
 from alcove.db import run_transaction
 from alcove.models import User
 import sqlalchemy as sa
-from tests.api.synthetic import synthesize_campaign
+from tests.synthetic import synthesize_campaign
 
 def work(s):
     owner = s.scalar(sa.select(User.id).where(User.email == sys.argv[1]))

@@ -15,7 +15,7 @@ from typing import Any
 
 import pytest
 
-from .helpers import Account, make_account, small_task_spec
+from tests.helpers import Account, make_account, small_task_spec
 
 API = "/api/v1"
 PUBLIC = {"health", "readiness", "login"}
@@ -86,8 +86,7 @@ class Objects:
             from alcove.models import ModelVersion
             from alcove.surrogates.artifact_zips import ZIP_LAYOUT, cache_dir
             from alcove.surrogates.service import model_artifact_bytes
-
-            from .synthetic import synthesize_campaign
+            from tests.synthetic import synthesize_campaign
 
             with open_transaction() as s:
                 c = synthesize_campaign(s, self.owner.id, iterations=2, model=True, name="matrix")

@@ -16,7 +16,7 @@ from collections.abc import Iterator
 import pytest
 import sqlalchemy as sa
 
-from .helpers import Account, small_task_spec
+from tests.helpers import Account, small_task_spec
 
 API = "/api/v1"
 
@@ -24,8 +24,7 @@ API = "/api/v1"
 @pytest.fixture(scope="module")
 def campaign(owner: Account) -> int:
     from alcove.db import open_transaction
-
-    from .synthetic import synthesize_campaign
+    from tests.synthetic import synthesize_campaign
 
     with open_transaction() as s:
         return synthesize_campaign(

@@ -9,7 +9,7 @@ from __future__ import annotations
 import pytest
 from fastapi.testclient import TestClient
 
-from .helpers import Account, small_task_spec
+from tests.helpers import Account, small_task_spec
 
 API = "/api/v1"
 

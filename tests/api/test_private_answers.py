@@ -10,7 +10,7 @@ from collections.abc import Iterator
 import pytest
 from fastapi.testclient import TestClient
 
-from .helpers import Account
+from tests.helpers import Account
 
 API = "/api/v1"
 DETAILS = {"database", "broker", "workers", "workers_seen", "queues_served"}
@@ -26,8 +26,7 @@ def test_the_login_answer_and_authenticated_json_are_not_stored(client, owner: A
 
 def test_the_answers_of_the_response_cache_are_not_stored_either(client, owner: Account) -> None:
     from alcove.db import open_transaction
-
-    from .synthetic import synthesize_campaign
+    from tests.synthetic import synthesize_campaign
 
     with open_transaction() as s:
         cid = synthesize_campaign(s, owner.id, iterations=1, name="no-store").id

@@ -43,9 +43,8 @@ import httpx
 import pytest
 
 from alcove.api.input_rules import RULES_BEYOND_THE_SCHEMA
-from tests.integration.procs import Proc, alcove_env, free_port, http_ok, wait_until
-
-from .helpers import small_task_spec
+from tests.helpers import small_task_spec
+from tests.procs import Proc, alcove_env, free_port, http_ok, wait_until
 
 MAX_EXAMPLES = 5
 #: another run: ALCOVE_TEST_SCHEMATHESIS_SEED=7; a time budget in seconds: ALCOVE_TEST_SCHEMATHESIS_TIME=30

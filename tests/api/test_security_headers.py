@@ -11,7 +11,7 @@ from pathlib import Path
 import pytest
 from fastapi.testclient import TestClient
 
-from .helpers import Account
+from tests.helpers import Account
 
 REQUIRED_DIRECTIVES = {
     "default-src": {"'self'"},

@@ -131,7 +131,7 @@ def _pg_redis(
     from alcove.jobs import reset_sender
     from alcove.jobs.outbox import reset_broker_client
     from alcove.settings import get_settings
-    from tests.integration.procs import alcove_env
+    from tests.procs import alcove_env
 
     settings = {
         "database_url": pg_url,

@@ -27,8 +27,8 @@ from alcove.db import open_transaction
 from alcove.db.arrays import get_arrays
 from alcove.models import Dataset, OcpSolution
 from alcove.pool import repository as pool_repo
-from tests.integration.procs import PrivateRedis, db_rows, start_worker, stop_all, unique
-from tests.integration.procs import wait_until as wait_for
+from tests.procs import PrivateRedis, db_rows, start_worker, stop_all, unique
+from tests.procs import wait_until as wait_for
 
 TASK = "head-headrest-scenarios"
 Q = 3

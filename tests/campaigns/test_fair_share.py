@@ -11,8 +11,8 @@ from typing import Any
 
 import pytest
 
-from tests.integration.procs import db_rows, run_cli, start_worker
-from tests.integration.procs import wait_until as wait_for
+from tests.procs import db_rows, run_cli, start_worker
+from tests.procs import wait_until as wait_for
 
 pytestmark = [pytest.mark.integration, pytest.mark.slow]
 

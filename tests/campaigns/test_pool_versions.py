@@ -16,7 +16,7 @@ def test_training_pool_from_cached_parent_equals_a_fresh_read(sqlite_campaign_db
     from alcove.models import PoolVersion
     from alcove.pool import repository as pool_repo
     from alcove.pool import service as pool_service
-    from tests.api.synthetic import synthesize_campaign
+    from tests.synthetic import synthesize_campaign
 
     upgrade()
 
@@ -71,7 +71,7 @@ def test_equal_arrays_with_a_moved_headrest_are_different_pool_content(sqlite_ca
     from alcove.db.migrate import upgrade
     from alcove.models import Iteration
     from alcove.pool import service as pool_service
-    from tests.api.synthetic import synthesize_campaign
+    from tests.synthetic import synthesize_campaign
 
     upgrade()
     n = 30

@@ -107,7 +107,7 @@ def test_pool_version_0_can_start_from_oracle_replays_of_the_family_counted_as_o
     from alcove.campaigns.run import protocol
     from alcove.db import open_transaction, run_transaction
     from alcove.models import Dataset, Iteration, ModelVersion, OracleRun, PoolVersion
-    from tests.integration.procs import db_rows
+    from tests.procs import db_rows
 
     cid, jobs = make_campaign(
         seed=6,

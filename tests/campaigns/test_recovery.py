@@ -27,8 +27,8 @@ from typing import Any
 
 import pytest
 
-from tests.integration.procs import PrivateRedis, db_rows, start_worker, stop_all, unique
-from tests.integration.procs import wait_until as wait_for
+from tests.procs import PrivateRedis, db_rows, start_worker, stop_all, unique
+from tests.procs import wait_until as wait_for
 
 pytestmark = [pytest.mark.integration, pytest.mark.slow]
 

@@ -68,7 +68,7 @@ def test_validation_calibration_is_the_share_inside_two_std_and_null_without_spr
 
 
 def _suite_rows(url: str, suite_id: int) -> Any:
-    from tests.integration.procs import db_rows
+    from tests.procs import db_rows
 
     return db_rows(
         url, 'SELECT status, dataset_id FROM validation_motions WHERE suite_id = :s ORDER BY "index"', s=suite_id
@@ -82,7 +82,7 @@ def test_suite_is_shared_replayed_once_never_pooled_and_evaluates_every_model(
     from alcove.models import Campaign
     from alcove.oracles.validation import run_motion
     from alcove.surrogates.validation import evaluate_suite
-    from tests.integration.procs import db_rows
+    from tests.procs import db_rows
 
     settings = {"ocp_intervals": 20, "replay_dt": 0.01, "validation_motions": 3}
     a, jobs = make_campaign(seed=1, settings=settings, stopping={"max_iterations": 2})
@@ -202,7 +202,7 @@ def test_suite_is_shared_replayed_once_never_pooled_and_evaluates_every_model(
 
 def test_no_suite_when_the_campaign_asks_for_none(campaign_db: str, make_campaign: Any) -> None:
     from alcove.campaigns.run import protocol
-    from tests.integration.procs import db_rows
+    from tests.procs import db_rows
 
     c, jobs = make_campaign(seed=3, settings={"ocp_intervals": 20, "replay_dt": 0.01, "validation_motions": 0})
     protocol.drive_inline(c, jobs)
@@ -268,7 +268,7 @@ def test_the_stress_part_is_scored_apart_and_the_suite_figures_cover_the_core_mo
     from alcove.science.surrogate.training import predict_ensemble
     from alcove.surrogates.service import load_model
     from alcove.surrogates.validation import _suite_arrays, evaluate_suite
-    from tests.integration.procs import db_rows
+    from tests.procs import db_rows
 
     settings = {
         "ocp_intervals": 20,
@@ -338,7 +338,7 @@ def test_the_best_possible_line_learns_from_its_reference_replays_alone_and_is_c
     from alcove.science.validation_suite import SuiteSpec, suite_model_from_dict
     from alcove.surrogates.reference_line import compute_reference_line
     from alcove.surrogates.validation import _suite_arrays, evaluate_suite
-    from tests.integration.procs import db_rows
+    from tests.procs import db_rows
 
     settings = {"validation_motions": 2, "validation_seed": 11, "validation_reference_motions": 8}
     a, jobs = make_campaign(seed=4, settings=settings, stopping={"max_iterations": 1})

@@ -12,8 +12,8 @@ from typing import Any
 
 import pytest
 
-from tests.integration.procs import alcove_env, db_rows, start_worker, stop_all
-from tests.integration.procs import wait_until as wait_for
+from tests.procs import alcove_env, db_rows, start_worker, stop_all
+from tests.procs import wait_until as wait_for
 
 pytestmark = [pytest.mark.integration, pytest.mark.slow]
 

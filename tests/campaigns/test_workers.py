@@ -22,7 +22,7 @@ import numpy as np
 import pytest
 import sqlalchemy as sa
 
-from tests.integration.procs import (
+from tests.procs import (
     CLI,
     PrivateRedis,
     Proc,
@@ -35,7 +35,7 @@ from tests.integration.procs import (
     stop_all,
     unique,
 )
-from tests.integration.procs import wait_until as wait_for
+from tests.procs import wait_until as wait_for
 
 pytestmark = [pytest.mark.integration, pytest.mark.slow]
 

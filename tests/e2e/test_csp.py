@@ -22,7 +22,7 @@ def synthesize_campaign_in(server: Server) -> tuple[int, str]:
     """A finished two-iteration campaign of the admin, written into the server's database."""
     from alcove.db import make_engine
     from alcove.models import User
-    from tests.api.synthetic import synthesize_campaign
+    from tests.synthetic import synthesize_campaign
 
     name = f"csp-{uuid.uuid4().hex[:6]}"
     # BEGIN IMMEDIATE: wait for the server's worker rather than fail on a write after a read

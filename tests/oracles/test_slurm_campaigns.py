@@ -23,9 +23,9 @@ from typing import Any
 import pytest
 import yaml
 
-from tests.integration.procs import db_rows, run_cli, start_worker, stop_all, unique
-from tests.integration.procs import wait_until as wait_for
 from tests.oracles.slurm import SOLVER, slurm_is_up
+from tests.procs import db_rows, run_cli, start_worker, stop_all, unique
+from tests.procs import wait_until as wait_for
 
 pytestmark = [pytest.mark.integration, pytest.mark.slow]
 

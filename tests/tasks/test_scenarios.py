@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from .helpers import Account
+from tests.helpers import Account
 
 API = "/api/v1"
 

@@ -6,7 +6,7 @@ from __future__ import annotations
 import pytest
 import sqlalchemy as sa
 
-from .helpers import Account, make_account
+from tests.helpers import Account, make_account
 
 
 def test_login_gives_a_bearer_token_that_authenticates(client, owner: Account) -> None:
@@ -103,8 +103,7 @@ def test_without_redis_a_token_revoked_by_another_process_is_refused_at_once(cli
     (here: straight to the database) is refused at the next request."""
     from alcove.db import open_transaction
     from alcove.models import ApiToken, utcnow
-
-    from .helpers import make_account
+    from tests.helpers import make_account
 
     me = make_account("member", "revoked")
     for _ in range(3):

@@ -1,4 +1,4 @@
-"""Helpers shared by the API tests."""
+"""Helpers shared by the tests that use the app over HTTP (accounts, task specs, downloads)."""
 
 from __future__ import annotations
 

@@ -17,7 +17,7 @@ import numpy as np
 import pytest
 from fastapi.testclient import TestClient
 
-from .helpers import download_when_built, make_account
+from tests.helpers import download_when_built, make_account
 
 pytestmark = [pytest.mark.integration, pytest.mark.slow]
 
@@ -30,7 +30,7 @@ def live(tmp_path: Path, fresh_pg_url: str, redis_url: str, api_settings: None, 
     from alcove.app import create_app
     from alcove.jobs import reset_sender
     from alcove.settings import get_settings
-    from tests.integration.procs import alcove_env, running, unique, wait_until, worker_ready
+    from tests.procs import alcove_env, running, unique, wait_until, worker_ready
 
     prefix = unique("alcove-api") + ":"
     settings = {
@@ -66,7 +66,7 @@ def live(tmp_path: Path, fresh_pg_url: str, redis_url: str, api_settings: None, 
 
 def test_full_campaign_lifecycle_over_http(live) -> None:
     from alcove.settings import get_settings
-    from tests.integration.procs import db_rows
+    from tests.procs import db_rows
 
     client, worker = live
     me = make_account("member", "life")

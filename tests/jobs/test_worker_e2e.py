@@ -13,7 +13,7 @@ from pathlib import Path
 import pytest
 
 from alcove.science.parallel import affinity_cpus
-from tests.integration.procs import (
+from tests.procs import (
     alcove_env,
     db_rows,
     free_port,

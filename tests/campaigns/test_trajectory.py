@@ -9,7 +9,7 @@ import time
 import numpy as np
 import pytest
 
-from .helpers import Account
+from tests.helpers import Account
 
 API = "/api/v1"
 
@@ -17,8 +17,7 @@ API = "/api/v1"
 @pytest.fixture(scope="module")
 def campaign(owner: Account) -> int:
     from alcove.db import open_transaction
-
-    from .synthetic import synthesize_campaign
+    from tests.synthetic import synthesize_campaign
 
     with open_transaction() as s:
         return synthesize_campaign(
@@ -100,8 +99,7 @@ def test_a_new_attempt_changes_the_answer_and_a_failed_solve_is_shown_as_such(
     from alcove.db import open_transaction
     from alcove.db.arrays import put_arrays
     from alcove.models import OcpSolution
-
-    from .synthetic import ocp_arrays
+    from tests.synthetic import ocp_arrays
 
     url = f"{API}/campaigns/{campaign}/iterations/1/trajectory"
     first = client.get(url, headers=owner.headers)
@@ -155,7 +153,7 @@ def test_a_fork_reads_its_source_iterations(client, owner: Account, campaign: in
 def test_a_fork_of_a_fork_serves_the_inherited_iteration_to_whom_the_fork_is_shared(
     client, owner: Account, campaign: int
 ) -> None:
-    from .helpers import make_account
+    from tests.helpers import make_account
 
     r = client.post(f"{API}/campaigns/{campaign}/fork", json={"iteration": 2, "name": "fork-1"}, headers=owner.headers)
     assert r.status_code == 201, r.text
@@ -208,8 +206,7 @@ def test_a_running_iteration_is_a_404_until_its_ocp_solution_is_written(client, 
     from alcove.db import open_transaction
     from alcove.db.arrays import put_arrays
     from alcove.models import Campaign, Iteration, OcpSolution
-
-    from .synthetic import ocp_arrays
+    from tests.synthetic import ocp_arrays
 
     with open_transaction() as s:
         c = s.get(Campaign, campaign)

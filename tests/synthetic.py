@@ -1,6 +1,7 @@
 """A finished campaign's worth of rows, synthesized through the services and repositories
 (no OCP, no oracle, no worker): iterations with steps, metrics with curves, pool versions,
-optionally a trained model version. Used by the API tests and ``bench/figures/api.py``."""
+optionally a trained model version. Used by the route tests of several domains, by
+``tests/e2e`` and by ``bench/figures/``."""
 
 from __future__ import annotations
 

@@ -7,7 +7,7 @@ cause), while the zips already stored are still served unchanged; readiness repo
 build to poll (the same build for the same download), the build holds one of
 ``ALCOVE_ARTIFACT_BUILDS`` slots (a slot of a dead worker's build is taken back), and the
 download answers 200 once it is ready. The job runs in this process here; through a real worker
-process (two builds at once with one slot) it runs in tests/api/test_lifecycle.py."""
+process (two builds at once with one slot) it runs in tests/campaigns/test_lifecycle.py."""
 
 from __future__ import annotations
 
@@ -24,7 +24,7 @@ from typing import Any
 
 import pytest
 
-from .helpers import make_account
+from tests.helpers import make_account
 
 API = "/api/v1"
 #: A fake stored zip: what the folder held before it turned read-only, served byte for byte.
@@ -59,8 +59,7 @@ def campaign(api_settings: None) -> dict[str, Any]:
     from alcove.db.arrays import put_bytes
     from alcove.models import Iteration, ModelVersion
     from alcove.surrogates.artifact_zips import ZIP_LAYOUT, cache_dir
-
-    from .synthetic import synthesize_campaign
+    from tests.synthetic import synthesize_campaign
 
     me = make_account("member", "builds")
     with open_transaction() as s:

@@ -6,7 +6,7 @@ from __future__ import annotations
 import subprocess
 import sys
 
-from .helpers import Account, small_task_spec, unique
+from tests.helpers import Account, small_task_spec, unique
 
 API = "/api/v1"
 

@@ -12,7 +12,8 @@ from collections.abc import Callable, Iterator
 import pytest
 import sqlalchemy as sa
 
-from .helpers import Account, make_account
+from tests.helpers import Account, make_account
+
 from .test_live import add_event, frames
 
 API = "/api/v1"
@@ -23,8 +24,7 @@ def running(owner: Account) -> Callable[[], int]:
     """Makes a synthetic campaign of ``owner`` that is still running."""
     from alcove.db import open_transaction
     from alcove.models import Campaign
-
-    from .synthetic import synthesize_campaign
+    from tests.synthetic import synthesize_campaign
 
     def make() -> int:
         with open_transaction() as s:
@@ -95,8 +95,7 @@ def test_the_list_stream_drops_an_unshared_campaign_and_ends_when_the_token_is_g
     shared = running()
     share(shared, grantee)
     from alcove.db import open_transaction
-
-    from .synthetic import synthesize_campaign
+    from tests.synthetic import synthesize_campaign
 
     with open_transaction() as s:  # the grantee's own campaign: its events keep coming
         mine = synthesize_campaign(s, grantee.id, iterations=1, name="own").id

@@ -18,7 +18,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from .helpers import Account, make_account, small_task_spec, unique
+from tests.helpers import Account, make_account, small_task_spec, unique
 
 API = "/api/v1"
 EXAMPLES = Path(__file__).resolve().parents[2] / "examples" / "command-oracle"
@@ -214,7 +214,7 @@ def test_a_running_preview_whose_worker_died_fails_within_seconds_and_a_slow_one
     from alcove.jobs.heartbeat import beat, mark_stopped
     from alcove.models import Preview, WorkerHeartbeat, utcnow
     from alcove.settings import get_settings
-    from tests.integration.procs import unique
+    from tests.procs import unique
 
     me = make_account("member", "pv-dead")
     task_id, _ = _task_and_oracle(client, me)
@@ -257,8 +257,8 @@ def live(tmp_path: Path, fresh_pg_url: str, redis_url: str, api_settings: None, 
     from alcove.app import create_app
     from alcove.jobs import reset_sender
     from alcove.settings import get_settings
-    from tests.integration.procs import alcove_env, running, wait_until, worker_ready
-    from tests.integration.procs import unique as unique_name
+    from tests.procs import alcove_env, running, wait_until, worker_ready
+    from tests.procs import unique as unique_name
 
     settings = {
         "database_url": fresh_pg_url,  # workers take up every unfinished job in their database
@@ -338,8 +338,8 @@ def test_a_preview_asked_for_while_redis_is_down_runs_when_it_is_back(
     from alcove.jobs import reset_sender
     from alcove.jobs.outbox import reset_broker_client
     from alcove.settings import get_settings
-    from tests.integration.procs import PrivateRedis, alcove_env, db_rows, running, wait_until, worker_ready
-    from tests.integration.procs import unique as unique_name
+    from tests.procs import PrivateRedis, alcove_env, db_rows, running, wait_until, worker_ready
+    from tests.procs import unique as unique_name
 
     redis_server = PrivateRedis(tmp_path)  # not started: the broker is down
     settings = {

@@ -9,14 +9,14 @@ import uuid
 
 from fastapi.testclient import TestClient
 
-from .helpers import Account, make_account
+from tests.helpers import Account, make_account
 
 API = "/api/v1"
 FIELDS = ("created_at", "email", "id", "object_id", "object_type", "permission")
 
 
 def new_task(client: TestClient, owner: Account) -> int:
-    from .helpers import small_task_spec
+    from tests.helpers import small_task_spec
 
     body = {"name": f"shared-{uuid.uuid4().hex[:6]}", "spec": small_task_spec()}
     r = client.post(f"{API}/tasks", json=body, headers=owner.headers)

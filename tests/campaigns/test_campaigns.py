@@ -10,7 +10,7 @@ import time
 import numpy as np
 import pytest
 
-from .helpers import Account, make_account, small_task_spec, unique
+from tests.helpers import Account, make_account, small_task_spec, unique
 
 API = "/api/v1"
 
@@ -18,8 +18,7 @@ API = "/api/v1"
 @pytest.fixture(scope="module")
 def finished(owner: Account) -> int:
     from alcove.db import open_transaction
-
-    from .synthetic import synthesize_campaign
+    from tests.synthetic import synthesize_campaign
 
     with open_transaction() as s:
         return synthesize_campaign(s, owner.id, iterations=3, name="api-campaigns").id
@@ -31,8 +30,7 @@ def add_iteration(cid: int, k: int) -> None:
     from alcove.db import open_transaction
     from alcove.db.arrays import put_arrays
     from alcove.models import Campaign, Iteration, IterationMetrics
-
-    from .synthetic import curve_arrays
+    from tests.synthetic import curve_arrays
 
     with open_transaction() as s:
         c = s.get(Campaign, cid)
@@ -205,8 +203,7 @@ def test_list_items_carry_the_eta_of_the_detail(client, owner: Account) -> None:
     from alcove.campaigns.schemas import CampaignConfigUpdate
     from alcove.db import open_transaction
     from alcove.models import Campaign
-
-    from .synthetic import synthesize_campaign
+    from tests.synthetic import synthesize_campaign
 
     with open_transaction() as s:
         cid = synthesize_campaign(s, owner.id, iterations=3, name="api-eta").id
@@ -260,8 +257,7 @@ def test_curves_carry_the_replayed_torque(client, owner: Account) -> None:
     from alcove.db import open_transaction
     from alcove.db.arrays import put_arrays
     from alcove.models import IterationMetrics, OracleRun
-
-    from .synthetic import synthesize_campaign
+    from tests.synthetic import synthesize_campaign
 
     with open_transaction() as s:
         cid = synthesize_campaign(s, owner.id, iterations=1, name="api-tau", curve_samples=21).id
@@ -293,8 +289,7 @@ def _oracle_version(s, cid: int) -> int:
 
 def test_polls_with_the_etag_get_a_bodiless_304_until_something_changes(client, owner: Account, other: Account) -> None:
     from alcove.db import open_transaction
-
-    from .synthetic import synthesize_campaign
+    from tests.synthetic import synthesize_campaign
 
     with open_transaction() as s:
         cid = synthesize_campaign(s, owner.id, iterations=2, name="api-etag", curve_samples=11).id

@@ -13,7 +13,7 @@ from collections.abc import Callable, Iterator
 import pytest
 import sqlalchemy as sa
 
-from .helpers import Account
+from tests.helpers import Account
 
 API = "/api/v1"
 
@@ -23,8 +23,7 @@ def running(owner: Account) -> Callable[[], int]:
     """Makes a synthetic campaign of ``owner`` that is still running."""
     from alcove.db import open_transaction
     from alcove.models import Campaign
-
-    from .synthetic import synthesize_campaign
+    from tests.synthetic import synthesize_campaign
 
     def make() -> int:
         with open_transaction() as s:

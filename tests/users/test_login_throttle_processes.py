@@ -14,9 +14,8 @@ from pathlib import Path
 import httpx
 import pytest
 
-from tests.integration.procs import Proc, alcove_env, free_port, http_ok, wait_until
-
-from .helpers import make_account
+from tests.helpers import make_account
+from tests.procs import Proc, alcove_env, free_port, http_ok, wait_until
 
 pytestmark = pytest.mark.integration
 

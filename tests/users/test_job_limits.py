@@ -8,7 +8,7 @@ import json
 
 from typer.testing import CliRunner
 
-from .helpers import make_account, small_task_spec
+from tests.helpers import make_account, small_task_spec
 
 API = "/api/v1"
 

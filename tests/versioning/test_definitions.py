@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import sqlalchemy as sa
 
-from .helpers import Account, small_task_spec, unique
+from tests.helpers import Account, small_task_spec, unique
 
 API = "/api/v1"
 

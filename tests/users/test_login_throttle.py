@@ -20,8 +20,7 @@ import pytest
 from fastapi.testclient import TestClient
 
 from alcove.users.ratelimit import DEFAULT_POLICY, LoginPolicy, MemoryLoginThrottle
-
-from .helpers import Account, make_account
+from tests.helpers import Account, make_account
 
 LOGIN = "/api/v1/auth/login"
 _next_address = iter(range(1, 1 << 16))

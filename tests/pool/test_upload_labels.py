@@ -5,7 +5,8 @@ from __future__ import annotations
 
 import io
 
-from .helpers import Account
+from tests.helpers import Account
+
 from .test_upload_ranges import HEADER, upload
 
 

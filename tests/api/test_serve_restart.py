@@ -15,7 +15,7 @@ from pathlib import Path
 import pytest
 import typer
 
-from tests.integration.procs import Proc, alcove_env, free_port, http_ok, wait_until
+from tests.procs import Proc, alcove_env, free_port, http_ok, wait_until
 
 pytestmark = pytest.mark.integration
 

@@ -4,7 +4,7 @@ creating a campaign refuses a schema-valid request with all of its other problem
 
 from __future__ import annotations
 
-from .helpers import Account, small_task_spec
+from tests.helpers import Account, small_task_spec
 
 API = "/api/v1"
 
