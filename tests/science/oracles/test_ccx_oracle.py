@@ -92,7 +92,8 @@ def test_foam_law_is_shared_with_fe_headrest_2d():
         ({"penalty": 1.0}, "params.penalty", "greater than or equal"),
         ({"threads": 2.5}, "params.threads", "whole number"),
         ({"contact_formulation": "mortar"}, "params.contact_formulation", "node-to-surface"),
-        ({"residual_floor": 0.1}, "params.residual_floor", "less than or equal"),
+        ({"residual_floor": 2.0}, "params.residual_floor", "less than or equal"),
+        ({"late_residual": 0.01}, "params.late_residual", "greater than or equal"),
         ({"residual_floor": 0.0}, "params.residual_floor", "greater than or equal"),
         ({"foam_alpha": [0.0, -2.04]}, "params.foam_alpha.0", "must not be 0"),
         ({"contact_zone": [0.05, 0.0]}, "params.contact_zone.1", "must exceed"),
@@ -188,13 +189,15 @@ def test_the_default_fine_zone_and_head_cap_cover_every_contact_of_the_joint_ran
 
 
 def test_the_residual_floor_is_ccx_r_l():
-    """``residual_floor`` [N] reaches ccx as R_l = floor / q_u in ``*CONTROLS, PARAMETERS=FIELD``."""
-    oracle = CcxHeadrestOracle(CcxHeadrestParams(**COARSE, output_dt=0.01, residual_floor=0.002))
-    files, _ = oracle.job_files(short_motion())
+    """``residual_floor`` [N] reaches ccx as R_l = floor / q_u and ``late_residual`` as R_P = late / q_u
+    in ``*CONTROLS, PARAMETERS=FIELD``."""
+    params = CcxHeadrestParams(**COARSE, output_dt=0.01, residual_floor=0.002, late_residual=0.4)
+    files, _ = CcxHeadrestOracle(params).job_files(short_motion())
     lines = files["headrest.inp"].splitlines()
     row = lines[lines.index("*CONTROLS, PARAMETERS=FIELD, FIELD=DISPLACEMENT") + 1].split(",")
-    q_u, r_l = float(row[3]), float(row[7])
+    q_u, r_p, r_l = float(row[3]), float(row[4]), float(row[7])
     assert q_u * r_l == pytest.approx(0.002, rel=1e-12)
+    assert q_u * r_p == pytest.approx(0.4, rel=1e-12)
 
 
 def test_no_contact_means_zero_force_without_solving(tmp_path):

@@ -91,6 +91,7 @@ class StepControl:
     minimum: float
     max_increments: int = 100000
     residual_floor: float = FORCE_SCALE * 1e-8  # N; ccx's default R_l = 1e-8
+    late_residual: float = FORCE_SCALE * 0.02  # N; ccx's default R_P = 0.02 (after I_P = 9 iterations)
     solver: str = "SPOOLES"  # ccx's SOLVER= of *STATIC (Debian's build: SPOOLES, ITERATIVE SCALING/CHOLESKY)
 
 
@@ -207,10 +208,15 @@ def write_deck(
     # ``residual_floor`` is equilibrium whatever the correction; without it, where the head barely
     # moves (a dwell, a turn, a cut-back increment) the correction's round-off and stick-slip
     # noise (~1e-7 m) exceeds 1 % of the increment's displacement and ccx cuts back to its minimum
-    # increment although the residual is ~1e-4 N (docs/fe-oracle.md, "Robust convergence")
+    # increment although the residual is ~1e-4 N (docs/fe-oracle.md, "Robust convergence").
+    # R_P: the residual criterion from the 10th iteration on (``late_residual``); with R_l at least
+    # as large, an increment whose residual keeps alternating between two values of 0.1-0.3 N (a few
+    # nodes flipping between stick and slip) ends there instead of being cut back after 10-17
+    # iterations (docs/fe-oracle.md, "Where the iterations go")
     out.write(
         "*CONTROLS, PARAMETERS=FIELD, FIELD=DISPLACEMENT\n"
-        f"{_number(RESIDUAL_CRITERION)}, 0.01, 0.0, {_number(FORCE_SCALE)}, 0.02, 1e-3, 1e-3, "
+        f"{_number(RESIDUAL_CRITERION)}, 0.01, 0.0, {_number(FORCE_SCALE)}, "
+        f"{_number(control.late_residual / FORCE_SCALE)}, 1e-3, 1e-3, "
         f"{_number(control.residual_floor / FORCE_SCALE)}\n"
     )
     out.write("*BOUNDARY, AMPLITUDE=HX\n" + f"{ref_node}, 1, 1, 1.0\n")

@@ -228,6 +228,7 @@ class CcxHeadrestOracle:
                 dt * p.solve_stride * p.max_increment_fraction,
                 dt * p.min_increment_fraction,
                 residual_floor=p.residual_floor,
+                late_residual=p.late_residual,
             ),
             p.foam_element,
         )

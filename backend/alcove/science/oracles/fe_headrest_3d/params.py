@@ -137,13 +137,24 @@ class CcxHeadrestParams(CushionParams):
         float,
         quantity(
             "largest residual force (any node, any direction) that counts as equilibrium whatever the "
-            "displacement correction (ccx's R_l x q_u)",
+            "displacement correction, once the residual criterion holds (ccx's R_l x q_u)",
             "N",
             ge=1e-7,
-            le=0.05,
-            why="1e-7 N is ccx's own default; at most the residual criterion 0.05 N",
+            le=1.0,
+            why="1e-7 N is ccx's own default; from the residual criterion (0.05 N, late_residual after 9 "
+            "iterations) up, the residual alone decides",
         ),
-    ] = 0.005
+    ] = 0.3
+    late_residual: Annotated[
+        float,
+        quantity(
+            "residual criterion from the 10th Newton iteration of an increment on (ccx's R_P x q_u; 0.05 N before)",
+            "N",
+            ge=0.05,
+            le=1.0,
+            why="0.2 N is ccx's own R_P",
+        ),
+    ] = 0.3
     clearance: Annotated[
         float,
         quantity(
