@@ -97,6 +97,45 @@ def running(args: list[str], env: dict[str, str], log: Path) -> Iterator[Proc]:
         proc.stop()
 
 
+@contextmanager
+def api_processes(
+    settings: dict[str, dict[str, str]], database_url: str, redis_url: str, tmp_path_factory: Any, prefix: str
+) -> Iterator[dict[str, tuple[str, Proc]]]:
+    """``alcove serve`` processes sharing one database and one Redis under the key ``prefix``:
+    one per entry of ``settings`` (its name and extra settings), each as (base URL, process).
+    They start one after the other (each creates the first admin if there is none); on exit
+    they stop and the prefix's Redis keys are deleted."""
+    procs: list[Proc] = []
+    started: dict[str, tuple[str, Proc]] = {}
+    try:
+        for name, extra in settings.items():
+            port = free_port()
+            env = alcove_env(
+                database_url=database_url,
+                broker_url=redis_url,
+                broker_key_prefix=prefix,
+                data_dir=str(tmp_path_factory.mktemp(name)),
+                log_level="WARNING",
+                **extra,
+            )
+            log = Path(tmp_path_factory.mktemp(f"{name}-log")) / "serve.log"
+            proc = Proc(["serve", "--no-migrate", "--workers", "1", "--port", str(port)], env, log)
+            procs.append(proc)
+            url = f"http://127.0.0.1:{port}"
+            started[name] = (url, proc)
+            wait_until(lambda url=url: http_ok(f"{url}/api/v1/health"), 90, f"alcove serve ({name})", proc)
+        yield started
+    finally:
+        stop_all(procs)
+        import redis
+
+        client = redis.Redis.from_url(redis_url)
+        keys = list(client.scan_iter(match=f"{prefix}*"))
+        if keys:
+            client.delete(*keys)
+        client.close()
+
+
 def wait_until(pred, timeout: float, what: str, proc: Proc | None = None, interval: float = 0.1):
     deadline = time.monotonic() + timeout
     while time.monotonic() < deadline:

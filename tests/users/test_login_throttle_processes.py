@@ -9,13 +9,12 @@ from __future__ import annotations
 import uuid
 from collections.abc import Iterator
 from dataclasses import dataclass
-from pathlib import Path
 
 import httpx
 import pytest
 
 from tests.helpers import make_account
-from tests.procs import Proc, alcove_env, free_port, http_ok, wait_until
+from tests.procs import Proc, api_processes
 
 pytestmark = pytest.mark.integration
 
@@ -43,37 +42,9 @@ class Pair:
 @pytest.fixture(scope="module")
 def apis(api_settings: None, pg_url: str, redis_url: str, tmp_path_factory: pytest.TempPathFactory) -> Iterator[Pair]:
     prefix = f"throttle-test-{uuid.uuid4().hex[:8]}:"
-    procs: list[Proc] = []
-    apis: list[Api] = []
-    try:
-        for name, trusted in (("plain", ""), ("behind_proxy", "127.0.0.1")):
-            port = free_port()
-            env = alcove_env(
-                database_url=pg_url,
-                broker_url=redis_url,
-                broker_key_prefix=prefix,
-                data_dir=str(tmp_path_factory.mktemp(name)),
-                trusted_proxies=trusted,
-                log_level="WARNING",
-            )
-            log = Path(tmp_path_factory.mktemp(f"{name}-log")) / "serve.log"
-            proc = Proc(["serve", "--no-migrate", "--workers", "1", "--port", str(port)], env, log)
-            procs.append(proc)
-            api = Api(f"http://127.0.0.1:{port}", proc)
-            apis.append(api)
-            # one after the other: each creates the first admin if there is none
-            wait_until(lambda api=api: http_ok(f"{api.url}/api/v1/health"), 90, "alcove serve", api.proc)
-        yield Pair(apis[0], apis[1], redis_url, prefix)
-    finally:
-        for proc in procs:
-            proc.stop()
-        import redis
-
-        client = redis.Redis.from_url(redis_url)
-        keys = list(client.scan_iter(match=f"{prefix}*"))
-        if keys:
-            client.delete(*keys)
-        client.close()
+    settings = {"plain": {"trusted_proxies": ""}, "behind_proxy": {"trusted_proxies": "127.0.0.1"}}
+    with api_processes(settings, pg_url, redis_url, tmp_path_factory, prefix) as started:
+        yield Pair(Api(*started["plain"]), Api(*started["behind_proxy"]), redis_url, prefix)
 
 
 def test_failures_at_one_process_count_at_the_other(apis: Pair) -> None:

@@ -13,7 +13,7 @@ import httpx
 import pytest
 
 from tests.helpers import make_account
-from tests.procs import Proc, alcove_env, free_port, http_ok, wait_until
+from tests.procs import api_processes
 
 pytestmark = pytest.mark.integration
 
@@ -40,36 +40,8 @@ def apis(
     api_settings: None, pg_url: str, redis_url: str, tmp_path_factory: pytest.TempPathFactory
 ) -> Iterator[tuple[Api, Api]]:
     prefix = f"revocation-test-{uuid.uuid4().hex[:8]}:"
-    procs: list[Proc] = []
-    apis: list[Api] = []
-    try:
-        for name in ("a", "b"):
-            port = free_port()
-            env = alcove_env(
-                database_url=pg_url,
-                broker_url=redis_url,
-                broker_key_prefix=prefix,
-                data_dir=str(tmp_path_factory.mktemp(name)),
-                log_level="WARNING",
-            )
-            log = tmp_path_factory.mktemp(f"{name}-log") / "serve.log"
-            proc = Proc(["serve", "--no-migrate", "--workers", "1", "--port", str(port)], env, log)
-            procs.append(proc)
-            api = Api(f"http://127.0.0.1:{port}")
-            apis.append(api)
-            # one after the other: each creates the first admin if there is none
-            wait_until(lambda api=api: http_ok(f"{api.url}/api/v1/health"), 90, "alcove serve", proc)
-        yield apis[0], apis[1]
-    finally:
-        for proc in procs:
-            proc.stop()
-        import redis
-
-        client = redis.Redis.from_url(redis_url)
-        keys = list(client.scan_iter(match=f"{prefix}*"))
-        if keys:
-            client.delete(*keys)
-        client.close()
+    with api_processes({"a": {}, "b": {}}, pg_url, redis_url, tmp_path_factory, prefix) as started:
+        yield Api(started["a"][0]), Api(started["b"][0])
 
 
 def _verified_by_both(a: Api, b: Api, *tokens: str) -> None:
