@@ -138,6 +138,9 @@ SERIAL_PATHS = {
 
 #: serial tests that run in the third phase, with nothing beside them, and why
 ALONE_PATHS = {
+    "tests/oracles/test_slurm_node_failure.py": (
+        "takes the test cluster's only node down: a Slurm job of another test beside it would fail with it"
+    ),
     "tests/users/test_login_throttle.py::test_enumeration_timing_existing_and_unknown_emails_answer_alike": (
         "compares login times (paired, but a neighbour's load is noise)"
     ),

@@ -149,6 +149,12 @@ def _slurm_executor_class() -> Any:
                 )
             return statuses
 
+        def get_submit_command(self, job: Any, submit_file_path: Path) -> list[str]:
+            # a job whose node fails is not requeued by Slurm (by default it would run again
+            # later in the same folder, unseen by alcove): it ends as NF, its call fails naming
+            # the node failure, and the oracle's retry policy decides (a new job, a new folder)
+            return ["sbatch", "--no-requeue", str(submit_file_path.absolute())]
+
         def get_status_command(self, native_ids: Collection[str]) -> list[str]:
             ids = [i for i in native_ids if SLURM_JOB_ID.match(i)]  # one bad id would fail the query for all
             return ["squeue", "-O", "JobArrayID,StateCompact,Reason", "-t", "all"] + (
