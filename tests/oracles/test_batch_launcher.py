@@ -67,6 +67,48 @@ def test_an_entry_without_launcher_runs_locally_and_a_slurm_entry_keeps_its_reso
     assert there.env == {"SCRATCH": f"{tmp_path.resolve()}/scratch"}
 
 
+@pytest.mark.parametrize(
+    ("scheduler", "expected", "submit"),
+    [
+        (
+            "slurm",
+            ["#SBATCH --cpus-per-task=8", "#SBATCH --ntasks=2", '#SBATCH --partition="short"', "#SBATCH --time=1:0:0"],
+            ["sbatch", "--no-requeue"],
+        ),
+        (
+            "pbs",
+            ["#PBS -l select=1:ncpus=16:mpiprocs=2", "#PBS -q short", "#PBS -A crash-sim", "#PBS -l walltime=1:0:0"],
+            ["qsub", "-r", "n"],
+        ),
+        ("lsf", ["#BSUB -n 16", '#BSUB -R "span[ptile=16]"', '#BSUB -q "short"', "#BSUB -W 1:0"], ["bsub", "-rn"]),
+    ],
+)
+def test_each_scheduler_is_asked_for_the_launchers_cpus_per_process_and_no_rerun(
+    tmp_path: Path, scheduler: str, expected: list[str], submit: list[str]
+):
+    """The submit script PSI/J's executor writes for an entry (no scheduler needed): 2 processes of
+    8 CPUs each on one node are 16 CPUs on every scheduler (PSI/J's own PBS and LSF scripts ask for
+    one CPU per process, which would pin a threaded solver to one core), and the job is submitted as
+    not rerunnable, so a node failure fails the call instead of running the program again unseen."""
+    import io
+
+    from psij import Job
+
+    from alcove.science.oracles.command.batch import _job_spec, executor_for
+
+    launcher = LauncherSpec(
+        scheduler=scheduler, partition="short", account="crash-sim", time_limit_s=3600, tasks=2, cpus_per_task=8
+    )
+    executor = executor_for(launcher, tmp_path / f"{scheduler}-scripts")
+    job = Job(_job_spec(tmp_path, tmp_path / "job.sh", launcher, 3600, "alcove-render"))
+    script = io.StringIO()
+    executor.generate_submit_script(job, executor._create_script_context(job), script)
+    lines = script.getvalue().splitlines()
+    for line in expected:
+        assert any(x.startswith(line) for x in lines), f"{line!r} not in:\n{script.getvalue()}"
+    assert executor.get_submit_command(job, tmp_path / "x.job")[:-1] == submit
+
+
 def test_the_job_script_quotes_every_value_and_records_start_end_and_exit_code(tmp_path: Path):
     launcher = LauncherSpec(scheduler="slurm", cpus_per_task=3, env={"NOTE": "a b; $(rm -rf /)"})
     argv = [sys.executable, "-c", "import os; print(os.environ['NOTE'], os.environ['ALCOVE_JOB_CPUS']); exit(4)"]

@@ -164,6 +164,81 @@ def _slurm_executor_class() -> Any:
     return SlurmExecutor
 
 
+#: PBS Pro's chunk line as PSI/J writes it: one CPU per MPI process
+PBS_SELECT = re.compile(r"^(#PBS -l select=\d+):ncpus=(\d+):mpiprocs=(\d+)", re.MULTILINE)
+#: LSF's slot count as PSI/J writes it: one slot per process
+LSF_SLOTS = re.compile(r"^#BSUB -n (\d+)$", re.MULTILINE)
+
+
+def _cores(job: Any) -> int:
+    resources = job.spec.resources if job.spec is not None else None
+    return int(getattr(resources, "cpu_cores_per_process", None) or 1)
+
+
+def _pbs_executor_class() -> Any:
+    import io
+
+    from psij.executors.batch.pbs import PBSJobExecutor
+
+    class PBSExecutor(PBSJobExecutor):
+        """PSI/J's PBS Pro executor, asking for the launcher's CPUs per process: PSI/J's chunk
+        has ``ncpus`` = processes per node (a threaded solver would get one core), here it is
+        processes per node x ``cpus_per_task``; and jobs are not rerunnable (``-r n``: a job
+        whose node fails fails its call, and the oracle's retry policy decides)."""
+
+        _NAME_ = "pbs"
+        _VERSION_ = psij_version()
+
+        def generate_submit_script(self, job: Any, context: dict[str, object], submit_file: Any) -> None:
+            buffer = io.StringIO()
+            super().generate_submit_script(job, context, buffer)
+            cores = _cores(job)
+
+            def chunk(m: re.Match[str]) -> str:
+                return f"{m.group(1)}:ncpus={int(m.group(3)) * cores}:mpiprocs={m.group(3)}"
+
+            submit_file.write(PBS_SELECT.sub(chunk, buffer.getvalue()))
+
+        def get_submit_command(self, job: Any, submit_file_path: Path) -> list[str]:
+            return ["qsub", "-r", "n", str(submit_file_path.absolute())]
+
+    return PBSExecutor
+
+
+def _lsf_executor_class() -> Any:
+    import io
+
+    from psij.executors.batch.lsf import LsfJobExecutor
+
+    class LsfExecutor(LsfJobExecutor):
+        """PSI/J's LSF executor, asking for the launcher's CPUs per process: PSI/J's ``-n`` is
+        one slot per process, here processes x ``cpus_per_task`` slots, each process's slots on
+        one host (``span[ptile=...]``); and jobs are not rerunnable (``-rn``)."""
+
+        _NAME_ = "lsf"
+        _VERSION_ = psij_version()
+
+        def generate_submit_script(self, job: Any, context: dict[str, object], submit_file: Any) -> None:
+            buffer = io.StringIO()
+            super().generate_submit_script(job, context, buffer)
+            cores = _cores(job)
+            text = buffer.getvalue()
+            if cores > 1:
+                resources = job.spec.resources
+                per_node = max(1, int(resources.computed_processes_per_node or 1))
+
+                def slots(m: re.Match[str]) -> str:
+                    return f'#BSUB -n {int(m.group(1)) * cores}\n#BSUB -R "span[ptile={per_node * cores}]"'
+
+                text = LSF_SLOTS.sub(slots, text)
+            submit_file.write(text)
+
+        def get_submit_command(self, job: Any, submit_file_path: Path) -> list[str]:
+            return ["bsub", "-rn", str(submit_file_path.absolute())]
+
+    return LsfExecutor
+
+
 _executors: dict[tuple[str, float, str], Any] = {}
 _executors_lock = threading.Lock()
 
@@ -174,7 +249,6 @@ def executor_for(launcher: LauncherSpec, script_dir: Path) -> Any:
     with _executors_lock:
         executor = _executors.get(key)
         if executor is None:
-            from psij import JobExecutor
             from psij.executors.batch.batch_scheduler_executor import BatchSchedulerExecutorConfig
 
             config = BatchSchedulerExecutorConfig(
@@ -183,10 +257,8 @@ def executor_for(launcher: LauncherSpec, script_dir: Path) -> Any:
                 initial_queue_polling_delay=min(launcher.poll_s, 1.0),  # type: ignore[arg-type]
                 queue_polling_error_threshold=POLL_ERROR_LIMIT,
             )
-            if launcher.scheduler == "slurm":
-                executor = _slurm_executor_class()(config=config)
-            else:
-                executor = JobExecutor.get_instance(launcher.scheduler, config=config)
+            classes = {"slurm": _slurm_executor_class, "pbs": _pbs_executor_class, "lsf": _lsf_executor_class}
+            executor = classes[launcher.scheduler]()(url=None, config=config)
             _executors[key] = executor
     return executor
 
