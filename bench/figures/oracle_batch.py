@@ -107,6 +107,29 @@ def _run_ok(oracle: Any, trajectory: Any) -> Any:
     return result
 
 
+def _in_sequence(ctx: Any) -> float:
+    """Wall time of the four calls one after the other (one worker)."""
+    oracle, trajectory = ctx
+    return timed(lambda: [_run_ok(oracle, trajectory) for _ in range(CALLS)])
+
+
+def _at_once(ctx: Any) -> tuple[float, list[Any], list[float]]:
+    """The four calls at once (four waiting threads, as four oracle-worker processes): wall time,
+    results, and when each result was back (epoch seconds, in the order they came back)."""
+    oracle, trajectory = ctx
+    returned: list[float] = []
+
+    def one(_: int) -> Any:
+        result = _run_ok(oracle, trajectory)
+        returned.append(time.time())
+        return result
+
+    t0 = time.perf_counter()
+    with ThreadPoolExecutor(CALLS) as pool:
+        results = list(pool.map(one, range(CALLS)))
+    return time.perf_counter() - t0, results, returned
+
+
 @figure(
     "batch oracle: 4 calls in sequence on one worker (local launcher, 3 s CPU each)",
     "s",
@@ -118,8 +141,7 @@ def _run_ok(oracle: Any, trajectory: Any) -> Any:
     quick=False,
 )
 def sequential_four(ctx: Any) -> float:
-    oracle, trajectory = ctx
-    return timed(lambda: [_run_ok(oracle, trajectory) for _ in range(CALLS)])
+    return _in_sequence(ctx)
 
 
 @figure(
@@ -135,18 +157,7 @@ def sequential_four(ctx: Any) -> float:
     notes="target: <= 0.6x the sequential baseline (ratio column)",
 )
 def slurm_four(ctx: Any) -> float:
-    oracle, trajectory = ctx
-    returned: list[float] = []
-
-    def one(_: int) -> Any:
-        result = _run_ok(oracle, trajectory)
-        returned.append(time.time())
-        return result
-
-    t0 = time.perf_counter()
-    with ThreadPoolExecutor(CALLS) as pool:
-        results = list(pool.map(one, range(CALLS)))
-    wall = time.perf_counter() - t0
+    wall, results, returned = _at_once(ctx)
     jobs = [r.diagnostics["batch_job"] for r in results]
     _last["to_start"] = waits_for_start(jobs, cpus=2)
     ends = sorted(j["ended_at"] for j in jobs)
@@ -166,8 +177,7 @@ def slurm_four(ctx: Any) -> float:
     notes="the paper's example motion (1 s, 401 outputs), default mesh",
 )
 def ccx_sequential_four(ctx: Any) -> float:
-    oracle, trajectory = ctx
-    return timed(lambda: [_run_ok(oracle, trajectory) for _ in range(CALLS)])
+    return _in_sequence(ctx)
 
 
 @figure(
@@ -183,11 +193,7 @@ def ccx_sequential_four(ctx: Any) -> float:
     notes="target: <= 0.6x the sequential baseline (ratio column); ccx's threads = the job's CPUs (1)",
 )
 def ccx_slurm_four(ctx: Any) -> float:
-    oracle, trajectory = ctx
-    t0 = time.perf_counter()
-    with ThreadPoolExecutor(CALLS) as pool:
-        results = list(pool.map(lambda _: _run_ok(oracle, trajectory), range(CALLS)))
-    wall = time.perf_counter() - t0
+    wall, results, _ = _at_once(ctx)
     forces = [r.forces.force for r in results]
     # the same motion gives the same forces whichever way it ran: nothing was lost in the batch jobs
     assert all(np.allclose(f, forces[0], rtol=1e-6, atol=1e-6) for f in forces), "batch replays differ"

@@ -35,20 +35,25 @@ def _node_state(node: str) -> str:
     return got.stdout.strip()
 
 
+def _bring_back(node: str, timeout: float = 60) -> None:
+    """Wait until ``node`` is up again (``ReturnToService=2`` brings a node back when its slurmd
+    registers again), resuming it where that has not happened yet."""
+    deadline = time.monotonic() + timeout
+    while _node_state(node) not in ("idle", "mixed", "allocated") and time.monotonic() < deadline:
+        if _node_state(node).startswith("down"):
+            _scontrol("update", f"nodename={node}", "state=resume")
+        time.sleep(0.5)
+
+
 @pytest.fixture
 def node() -> Iterator[str]:
-    """The cluster's node, up again after the test (``ReturnToService=2`` brings a node back
-    when its slurmd registers again; ``resume`` where that has not happened yet)."""
+    """The cluster's node, up again after the test."""
     why = slurm_is_up()
     if why:
         pytest.skip(why)
     name = subprocess.run(["sinfo", "-h", "-o", "%N"], capture_output=True, text=True, timeout=30).stdout.strip()
     yield name
-    deadline = time.monotonic() + 60
-    while _node_state(name) not in ("idle", "mixed", "allocated") and time.monotonic() < deadline:
-        if _node_state(name).startswith("down"):
-            _scontrol("update", f"nodename={name}", "state=resume")
-        time.sleep(0.5)
+    _bring_back(name)
     assert slurm_is_up() is None, f"the test cluster's node {name} did not come back: {_node_state(name)}"
 
 
@@ -83,10 +88,7 @@ def test_a_node_failing_under_a_running_call_fails_the_call_naming_it_and_slurm_
     workdir = Path(job.workdir)
     assert job_times(workdir)[1] is None, f"the program ended normally: {(workdir / JOB_TIMES).read_text()}"
     # Slurm did not requeue it: the job stays ended and the program ran once, also after the node is back
-    deadline = time.monotonic() + 60
-    while _node_state(node).startswith("down") and time.monotonic() < deadline:
-        _scontrol("update", f"nodename={node}", "state=resume")
-        time.sleep(0.5)
+    _bring_back(node)
     time.sleep(3)
     shown = _scontrol("show", "job", job.job_id).stdout
     assert "JobState=NODE_FAIL" in shown and "Restarts=0" in shown, shown
